@@ -1,0 +1,62 @@
+"""The ``gaitmon`` command line. Each subcommand lives in its own module and registers here."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+
+from gaitmon import __version__
+
+
+class UserError(Exception):
+    """A problem the user can fix; printed as one line, never as a traceback."""
+
+
+# name -> (module path, help). Modules define add_arguments(parser) and run(args) -> int.
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "bench": ("gaitmon.bench", "measure pipeline speed and print the figures"),
+}
+
+
+def _load(module_path: str) -> tuple[Callable[[argparse.ArgumentParser], None], Callable]:
+    import importlib
+
+    mod = importlib.import_module(module_path)
+    return mod.add_arguments, mod.run
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="gaitmon",
+        description="Live monitor, recorder and reviewer for a wearable gait-measurement unit.",
+    )
+    parser.add_argument("--version", action="version", version=f"gaitmon {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (module_path, help_text) in SUBCOMMANDS.items():
+        add_arguments, run = _load(module_path)
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        add_arguments(p)
+        p.set_defaults(_run=run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    run = getattr(args, "_run", None)
+    if run is None:
+        parser.print_help()
+        return 0
+    try:
+        return int(run(args) or 0)
+    except UserError as exc:
+        print(f"gaitmon {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"gaitmon {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""Signal processing: numpy and scipy only, never Qt."""

@@ -1,0 +1,44 @@
+"""Angle helpers and the clinical joint-angle convention.
+
+Segment tilts are sagittal-plane rotations, positive counter-clockwise as seen from the subject's
+right side (see ``gaitmon.dsp.channels`` for the mounting that makes atan2(a_z, a_x) follow this):
+thigh and shank tilt is positive when the distal end swings forward, foot tilt is positive toe-up,
+body tilt is positive leaning back. After the standing calibration every tilt is 0 upright and:
+
+* hip flexion +       = thigh - body
+* knee flexion +      = thigh - shank
+* ankle dorsiflexion + = foot - shank
+
+Every difference is wrapped to (-pi, pi].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+TWO_PI = 2.0 * np.pi
+
+# (distal-minus-proximal pairs) index into SEGMENTS = (body, thigh, shank, foot)
+JOINT_PAIRS: tuple[tuple[int, int], ...] = ((1, 0), (1, 2), (3, 2))  # (plus, minus) per joint
+
+
+def wrap_angle(x: np.ndarray | float) -> np.ndarray:
+    """Wrap radians to (-pi, pi]."""
+    return np.pi - np.mod(np.pi - np.asarray(x, dtype=np.float64), TWO_PI)
+
+
+def accel_tilt(ax: np.ndarray, az: np.ndarray) -> np.ndarray:
+    """Tilt (rad) from the accelerometer's x and z axes: atan2(a_z, a_x), in (-pi, pi]."""
+    return np.arctan2(az, ax)
+
+
+def joint_angles(tilt_rad: np.ndarray) -> np.ndarray:
+    """(N, 4) segment tilts (body, thigh, shank, foot) -> (N, 3) hip, knee, ankle in rad.
+
+    Clinical signs: hip flexion +, knee flexion +, ankle dorsiflexion +; wrapped to (-pi, pi].
+    """
+    t = np.asarray(tilt_rad, dtype=np.float64)
+    out = np.empty(t.shape[:-1] + (3,), dtype=np.float64)
+    for j, (plus, minus) in enumerate(JOINT_PAIRS):
+        out[..., j] = wrap_angle(t[..., plus] - t[..., minus])
+    return out
