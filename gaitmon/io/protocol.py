@@ -53,6 +53,7 @@ SEQ_MODULO = 1 << 16
 
 ADC_MAX_COUNTS = 4095  # 12-bit ADC; anything above is a corrupted or bogus sample
 ANGLE_LSB_DEG = 0.01
+ANGLE_CODES_PER_DEG = 100  # divide by the integer, so code/100 is the nearest double to the decimal
 ANGLE_NAN_CODE = -32768  # reserved: "not available"
 ANGLE_MAX_CODE = 32767
 ANGLE_MIN_CODE = -32767  # saturation floor (one above the NaN code)
@@ -177,7 +178,9 @@ def angles_to_codes(angles_deg: np.ndarray) -> np.ndarray:
     """float degrees -> int16 codes (0.01 deg/LSB), saturated; NaN -> the reserved -32768."""
     a = np.asarray(angles_deg, dtype=np.float64)
     nan = np.isnan(a)
-    codes = np.clip(np.rint(np.where(nan, 0.0, a) / ANGLE_LSB_DEG), ANGLE_MIN_CODE, ANGLE_MAX_CODE)
+    codes = np.clip(
+        np.rint(np.where(nan, 0.0, a) * ANGLE_CODES_PER_DEG), ANGLE_MIN_CODE, ANGLE_MAX_CODE
+    )
     codes = codes.astype(np.int16)
     codes[nan] = ANGLE_NAN_CODE
     return codes
@@ -186,7 +189,7 @@ def angles_to_codes(angles_deg: np.ndarray) -> np.ndarray:
 def codes_to_angles(codes: np.ndarray) -> np.ndarray:
     """int16 codes -> float64 degrees, the reserved code -> NaN."""
     c = np.asarray(codes, dtype=np.int16)
-    out = c.astype(np.float64) * ANGLE_LSB_DEG
+    out = c.astype(np.float64) / ANGLE_CODES_PER_DEG
     out[c == ANGLE_NAN_CODE] = np.nan
     return out
 
@@ -227,9 +230,7 @@ class Identity:
 
     def matches_table(self, table: ChannelTable = DEFAULT_TABLE) -> bool:
         """True if the unit's calibration table fingerprint equals this table's."""
-        return self.n_channels == len(table.channels) and self.table_crc == channel_table_crc(
-            table
-        )
+        return self.n_channels == len(table.channels) and self.table_crc == channel_table_crc(table)
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,0 +1,200 @@
+"""PC-side frame decoder: bytes in (any chunking), frames out, health counters kept.
+
+Pure (no I/O, no clock, no threads) and total: `FrameDecoder.feed` never raises, whatever bytes
+it is given. The byte layout is defined in `gaitmon.io.protocol` and `docs/protocol.md`.
+
+How it scans. At the current position it looks for the sync pair 0xA5 0x5A. A candidate is
+accepted only if (1) the kind byte is a known FrameKind, (2) the length byte equals that kind's
+fixed payload length, (3) the CRC-16 over kind..payload matches, and (4) every value is in
+range. If (1) or (2) fails, or the CRC fails, the decoder drops exactly one byte (the 0xA5) and
+scans on, so a real frame hiding inside a false candidate is never lost; the first intact frame
+after garbage is always found (barring a 1-in-65536 CRC collision on a false candidate).
+
+Bounded buffer: between calls at most `BUFFER_BOUND` = MAX_FRAME_LEN - 1 = 38 bytes are kept
+(a partial candidate that starts with the sync pair, or one trailing 0xA5).
+
+Counters (see `DecoderStats`) follow exact accounting rules so a test can check them:
+
+    bytes_received == bytes_in_frames + bytes_skipped + buffered
+
+where bytes_in_frames is the total length of CRC-valid frames (delivered or rejected for
+out-of-range values).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from gaitmon.io.protocol import (
+    CRC_LEN,
+    FRAME_LEN,
+    FRAME_SYNC,
+    HEADER_LEN,
+    MAX_FRAME_LEN,
+    PAYLOAD_LEN,
+    SEQ_MODULO,
+    Frame,
+    crc16,
+    decode_payload,
+)
+
+BUFFER_BOUND = MAX_FRAME_LEN - 1
+"""Most bytes the decoder holds between feed() calls."""
+
+_SYNC0 = FRAME_SYNC[0]
+# kind byte -> payload length, 0 for unknown kinds (a 256-entry list is faster than a dict lookup)
+_PAYLOAD_LEN_BY_BYTE: list[int] = [0] * 256
+for _kind, _plen in PAYLOAD_LEN.items():
+    _PAYLOAD_LEN_BY_BYTE[int(_kind)] = _plen
+_HALF_SEQ = SEQ_MODULO // 2
+
+
+@dataclass(frozen=True)
+class DecoderStats:
+    """A snapshot of the decoder's counters. Every count starts at 0 and only grows.
+
+    bytes_received   every byte passed to feed().
+    frames_ok        frames delivered: header valid, CRC valid, all values in range.
+    crc_failures     candidates with sync, a known kind and the matching length byte, fully
+                     received, whose CRC did not match. A corrupted frame usually counts once,
+                     but a false candidate inside garbage or inside a corrupted frame counts too.
+    bytes_skipped    bytes discarded outside any CRC-valid frame while searching for sync
+                     (garbage, corrupted frames, rejected headers).
+    frames_lost      sequence numbers skipped between consecutive CRC-valid frames (delivered
+                     or rejected for values): for a forward gap g = (seq - last - 1) mod 2**16
+                     below 2**15, g frames are counted lost. Losses before the first CRC-valid
+                     frame, and after the last one, cannot be seen.
+    invalid_values   CRC-valid frames rejected because a value is out of range (ADC > 4095,
+                     gait phase > 3, reserved contact bits set, identity side not L/R, ...).
+                     They are not delivered, but their sequence number is tracked.
+    sequence_resets  CRC-valid frames whose sequence number went backwards or repeated (a
+                     forward gap of 2**15 or more, e.g. a device reboot); no loss is counted.
+    buffered         bytes held for the next feed() (<= BUFFER_BOUND).
+    """
+
+    bytes_received: int = 0
+    frames_ok: int = 0
+    crc_failures: int = 0
+    bytes_skipped: int = 0
+    frames_lost: int = 0
+    invalid_values: int = 0
+    sequence_resets: int = 0
+    buffered: int = 0
+
+    @property
+    def bytes_in_frames(self) -> int:
+        """Bytes consumed by CRC-valid frames (derived from the accounting identity)."""
+        return self.bytes_received - self.bytes_skipped - self.buffered
+
+
+class FrameDecoder:
+    """Streaming decoder for device -> PC frames. Not thread-safe: feed it from one thread."""
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+        self._bytes_received = 0
+        self._frames_ok = 0
+        self._crc_failures = 0
+        self._bytes_skipped = 0
+        self._frames_lost = 0
+        self._invalid_values = 0
+        self._sequence_resets = 0
+        self._last_seq: int | None = None
+
+    @property
+    def stats(self) -> DecoderStats:
+        return DecoderStats(
+            bytes_received=self._bytes_received,
+            frames_ok=self._frames_ok,
+            crc_failures=self._crc_failures,
+            bytes_skipped=self._bytes_skipped,
+            frames_lost=self._frames_lost,
+            invalid_values=self._invalid_values,
+            sequence_resets=self._sequence_resets,
+            buffered=len(self._buf),
+        )
+
+    @property
+    def buffered(self) -> int:
+        return len(self._buf)
+
+    @property
+    def last_seq(self) -> int | None:
+        """Sequence number of the last CRC-valid frame, or None before the first."""
+        return self._last_seq
+
+    def discard_buffer(self) -> None:
+        """Drop held bytes (counted as skipped), e.g. after the link was re-opened, so a partial
+        frame from before a cut is not glued to bytes from after it."""
+        self._bytes_skipped += len(self._buf)
+        self._buf.clear()
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[Frame]:
+        """Consume bytes, return the frames completed by them, in order. Never raises."""
+        if not data:
+            return []
+        buf = self._buf
+        buf += data
+        self._bytes_received += len(data)
+        out: list[Frame] = []
+        pos, n = 0, len(buf)
+        skipped = 0
+        plen_by_byte = _PAYLOAD_LEN_BY_BYTE
+        while True:
+            i = buf.find(FRAME_SYNC, pos)
+            if i < 0:
+                # keep a trailing first sync byte: its partner may be in the next chunk
+                keep = n - 1 if n > pos and buf[n - 1] == _SYNC0 else n
+                skipped += keep - pos
+                pos = keep
+                break
+            skipped += i - pos
+            pos = i
+            if n - pos < HEADER_LEN:
+                break
+            kind = buf[pos + 2]
+            plen = plen_by_byte[kind]
+            if plen == 0 or buf[pos + 3] != plen:
+                skipped += 1
+                pos += 1
+                continue
+            flen = plen + HEADER_LEN + CRC_LEN
+            if n - pos < flen:
+                break
+            end = pos + flen
+            body = bytes(buf[pos + 2 : end - CRC_LEN])
+            if crc16(body) != buf[end - 2] | (buf[end - 1] << 8):
+                self._crc_failures += 1
+                skipped += 1
+                pos += 1
+                continue
+            seq = body[2] | (body[3] << 8)
+            self._track_seq(seq)
+            try:
+                frame = decode_payload(kind, seq, body[4:])
+            except Exception:  # defensive: a decoding bug must not kill the acquisition thread
+                frame = None
+            if frame is None:
+                self._invalid_values += 1
+            else:
+                self._frames_ok += 1
+                out.append(frame)
+            pos = end
+        del buf[:pos]
+        self._bytes_skipped += skipped
+        return out
+
+    def _track_seq(self, seq: int) -> None:
+        last = self._last_seq
+        if last is not None:
+            gap = (seq - last - 1) % SEQ_MODULO
+            if gap < _HALF_SEQ:
+                self._frames_lost += gap
+            else:
+                self._sequence_resets += 1
+        self._last_seq = seq
+
+
+def frame_length(kind: int) -> int:
+    """Total wire length of a frame of this kind (KeyError for unknown kinds)."""
+    return FRAME_LEN[kind]  # type: ignore[index]
