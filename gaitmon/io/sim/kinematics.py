@@ -1,0 +1,434 @@
+"""Sagittal gait kinematics for the simulated unit: joint angles, segment tilts, sensor motion.
+
+This module owns the *true* motion of one leg: the joint-angle curves over the gait cycle, the
+stride-by-stride timing (cadence, variability, a standing period first), the segment tilts that
+follow from the clinical convention of ``gaitmon.dsp.angles``, and the linear acceleration of the
+four sensor points from a simple planar leg linkage. ``sensors.py`` turns this into ADC counts.
+
+Normative curves
+----------------
+Hip, knee and ankle are 6-harmonic Fourier series in the gait-cycle phase q in [0, 1) (0 = heel
+strike, 0.60 = toe off). The coefficients were fitted (periodic cubic spline through the key points
+below, then the first six FFT harmonics; max deviation 0.3 deg hip, 0.5 deg knee, 1.4 deg ankle)
+to values read off the ensemble-average sagittal curves of normal-cadence adults in
+
+    D. A. Winter, *The Biomechanics and Motor Control of Human Gait: Normal, Elderly and
+    Pathological*, 2nd ed., University of Waterloo Press, 1991 (ch. 3), also tabulated in
+    D. A. Winter, *Biomechanics and Motor Control of Human Movement*, 4th ed., Wiley 2009, App. A.
+
+Key points (% cycle: deg), clinical signs (hip flexion +, knee flexion +, ankle dorsiflexion +):
+
+* hip:   0: 30, 10: 27, 20: 20, 30: 10, 40: 0, 50: -8, 55: -10, 60: -5, 65: 5, 70: 15, 75: 23,
+  80: 30, 85: 33, 90: 33, 95: 31
+* knee:  0: 5, 5: 12, 15: 18, 20: 17, 30: 10, 40: 5, 45: 6, 50: 10, 55: 20, 60: 37, 65: 52, 70: 62,
+  73: 64, 75: 63, 80: 55, 85: 40, 90: 22, 95: 8
+* ankle: 0: 0, 5: -5, 8: -6, 15: 0, 25: 5, 35: 8, 45: 10, 50: 7, 55: 0, 60: -12, 63: -17, 65: -16,
+  70: -10, 75: -4, 80: 0, 90: 1
+
+(``NORMATIVE_KEY_POINTS_DEG`` below; a test checks the series against them.) The pelvis (body
+board) gets a small forward lean with a twice-per-stride oscillation of +-1.5 deg.
+
+Timing
+------
+The continuous *normative* phase p(t) (integer part = stride count) is a monotone C1 interpolant
+(scipy PCHIP) through knots at every heel strike (p = k) and toe off (p = k + 0.60). Putting the
+toe-off knot at ``stance_fraction`` of each stride's duration stretches stance and squeezes swing
+(the long-stance pattern) without touching the curves; stride durations are drawn per stride
+with the configured CV. The subject stands still (p constant at mid-stance, all joint angles 0)
+for ``standing_s``, then the angles ramp in over ``ramp_strides`` strides. Every quantity is carried
+with its first and second time derivative (a small forward-mode "jet"), so rates and linear
+accelerations are analytic, not numerical.
+
+Geometry (world frame: F forward, U up; tilts counter-clockwise seen from the subject's right)
+------------------------------------------------------------------------------------------------
+A segment with tilt th has its board x axis (up along the segment) along (-sin th, cos th) and its
+z axis (forward) along (cos th, sin th). Thigh and shank run from their proximal joint down along
+(sin th, -cos th); the foot points forward along (cos th, sin th). Segment lengths are Winter's
+anthropometric fractions of body height (thigh 0.245 H, shank 0.246 H).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+
+DEG = np.pi / 180.0
+TOE_OFF_PHASE = 0.60  # normative toe off, fraction of the cycle
+FOOT_FLAT_PHASE = 0.10  # normative end of loading response (toe FSR starts to load)
+HEEL_OFF_PHASE = 0.35  # normative heel rise (heel FSR unloads)
+START_PHASE = 0.25  # the standing pose is taken as mid-stance (both FSRs loaded)
+
+# Fourier series, degrees: value(q) = a0 + sum_k a_k cos(2 pi k q) + b_k sin(2 pi k q), k = 1..6.
+HIP_COEFFS_DEG = (
+    15.135,
+    (19.656, -4.356, -0.359, -0.106, -0.197, 0.233),
+    (-2.894, -2.640, 1.579, -0.397, 0.499, -0.055),
+)
+KNEE_COEFFS_DEG = (
+    23.973,
+    (-1.363, -15.231, -0.692, -0.897, -0.189, -0.269),
+    (-21.415, 6.658, 3.771, 0.575, 0.814, 0.099),
+)
+ANKLE_COEFFS_DEG = (
+    0.039,
+    (-1.357, 1.174, -2.874, 2.100, 0.145, 0.327),
+    (5.686, -6.795, 0.443, -0.513, -1.081, 0.336),
+)
+
+NORMATIVE_KEY_POINTS_DEG: dict[str, tuple[tuple[float, float], ...]] = {
+    "hip": ((0, 30), (10, 27), (20, 20), (30, 10), (40, 0), (50, -8), (55, -10), (60, -5), (65, 5),
+            (70, 15), (75, 23), (80, 30), (85, 33), (90, 33), (95, 31)),
+    "knee": ((0, 5), (5, 12), (15, 18), (20, 17), (30, 10), (40, 5), (45, 6), (50, 10), (55, 20),
+             (60, 37), (65, 52), (70, 62), (73, 64), (75, 63), (80, 55), (85, 40), (90, 22),
+             (95, 8)),
+    "ankle": ((0, 0), (5, -5), (8, -6), (15, 0), (25, 5), (35, 8), (45, 10), (50, 7), (55, 0),
+              (60, -12), (63, -17), (65, -16), (70, -10), (75, -4), (80, 0), (90, 1)),
+}  # fmt: skip
+
+# Pathological patterns: (stance fraction, swing knee-flexion scale)
+PATTERNS: dict[str, tuple[float, float]] = {
+    "normal": (0.60, 1.0),
+    "stiff-knee": (0.60, 0.45),  # reduced swing knee flexion (e.g. rectus femoris spasticity)
+    "long-stance": (0.70, 1.0),  # prolonged stance, short swing (e.g. antalgic / slow gait)
+}
+
+
+@dataclass(frozen=True)
+class GaitConfig:
+    """Everything that shapes the true motion. ``None`` fields take the pattern's default."""
+
+    fs_hz: float = 100.0
+    cadence_steps_min: float = 110.0
+    stride_cv: float = 0.02  # coefficient of variation of stride duration
+    seed: int = 0
+    pattern: str = "normal"
+    stance_fraction: float | None = None
+    knee_swing_scale: float | None = None
+    standing_s: float = 5.0
+    ramp_strides: float = 1.0
+    height_m: float = 1.70
+    stride_length_m: float | None = None  # default 0.8 * height
+    body_lean_rad: float = -3.0 * DEG  # pelvis leans forward while walking (tilt < 0)
+    body_osc_rad: float = 1.5 * DEG
+    hip_bob_m: float = 0.02  # half the peak-to-peak vertical excursion of the hip
+
+    def __post_init__(self) -> None:
+        if self.pattern not in PATTERNS:
+            raise ValueError(
+                f"unknown gait pattern {self.pattern!r}; use one of {sorted(PATTERNS)}"
+            )
+        if not 20.0 <= self.cadence_steps_min <= 200.0:
+            raise ValueError(f"cadence {self.cadence_steps_min} steps/min is outside 20..200")
+        if not 0.0 <= self.stride_cv <= 0.2:
+            raise ValueError(f"stride CV {self.stride_cv} is outside 0..0.2")
+        if not 0.4 <= self.stance_frac <= 0.85:
+            raise ValueError(f"stance fraction {self.stance_frac} is outside 0.4..0.85")
+        if self.fs_hz <= 0 or self.standing_s < 0 or self.ramp_strides <= 0:
+            raise ValueError("fs_hz and ramp_strides must be > 0 and standing_s >= 0")
+
+    @property
+    def stance_frac(self) -> float:
+        return PATTERNS[self.pattern][0] if self.stance_fraction is None else self.stance_fraction
+
+    @property
+    def knee_scale(self) -> float:
+        return PATTERNS[self.pattern][1] if self.knee_swing_scale is None else self.knee_swing_scale
+
+    @property
+    def stride_s(self) -> float:
+        """Mean stride duration: one stride is two steps."""
+        return 120.0 / self.cadence_steps_min
+
+    @property
+    def stride_len_m(self) -> float:
+        return 0.8 * self.height_m if self.stride_length_m is None else self.stride_length_m
+
+    @property
+    def thigh_m(self) -> float:
+        return 0.245 * self.height_m
+
+    @property
+    def shank_m(self) -> float:
+        return 0.246 * self.height_m
+
+
+class Jet(NamedTuple):
+    """A value with its first and second derivative with respect to time (arrays)."""
+
+    v: np.ndarray
+    d: np.ndarray
+    dd: np.ndarray
+
+    def __add__(self, o: Jet | float) -> Jet:  # type: ignore[override]
+        if isinstance(o, Jet):
+            return Jet(self.v + o.v, self.d + o.d, self.dd + o.dd)
+        return Jet(self.v + o, self.d, self.dd)
+
+    def __sub__(self, o: Jet | float) -> Jet:
+        if isinstance(o, Jet):
+            return Jet(self.v - o.v, self.d - o.d, self.dd - o.dd)
+        return Jet(self.v - o, self.d, self.dd)
+
+    def __mul__(self, o: Jet | float) -> Jet:  # type: ignore[override]
+        if isinstance(o, Jet):
+            return Jet(
+                self.v * o.v,
+                self.d * o.v + self.v * o.d,
+                self.dd * o.v + 2.0 * self.d * o.d + self.v * o.dd,
+            )
+        return Jet(self.v * o, self.d * o, self.dd * o)
+
+    __rmul__ = __mul__  # type: ignore[assignment]
+
+    def compose(self, f: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> Jet:
+        """Chain rule: given f, f', f'' evaluated at self.v, return the jet of f(self)."""
+        return Jet(f, f1 * self.d, f2 * self.d**2 + f1 * self.dd)
+
+    def sin(self) -> Jet:
+        s, c = np.sin(self.v), np.cos(self.v)
+        return self.compose(s, c, -s)
+
+    def cos(self) -> Jet:
+        s, c = np.sin(self.v), np.cos(self.v)
+        return self.compose(c, -s, -c)
+
+
+def fourier_series(
+    coeffs: tuple[float, tuple[float, ...], tuple[float, ...]], q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Value and first two derivatives (w.r.t. q) of a Fourier series with period 1."""
+    a0, a, b = coeffs
+    q = np.asarray(q, dtype=np.float64)
+    z1 = np.exp(2j * np.pi * q)
+    zk = np.ones_like(z1)
+    f = np.full(q.shape, a0, dtype=np.float64)
+    f1 = np.zeros(q.shape)
+    f2 = np.zeros(q.shape)
+    for k, (ak, bk) in enumerate(zip(a, b, strict=True), start=1):
+        zk = zk * z1
+        c, s = zk.real, zk.imag
+        w = 2.0 * np.pi * k
+        f += ak * c + bk * s
+        f1 += w * (-ak * s + bk * c)
+        f2 += -(w**2) * (ak * c + bk * s)
+    return f, f1, f2
+
+
+def normative_joint_deg(q: np.ndarray) -> np.ndarray:
+    """(N,) cycle phase in [0, 1) -> (N, 3) normative hip, knee, ankle in degrees."""
+    return np.stack(
+        [fourier_series(c, q)[0] for c in (HIP_COEFFS_DEG, KNEE_COEFFS_DEG, ANKLE_COEFFS_DEG)],
+        axis=-1,
+    )
+
+
+def _smoothstep(u: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """C1 ramp 0 -> 1 over u in [0, width]: value and derivatives w.r.t. u."""
+    x = np.clip(u / width, 0.0, 1.0)
+    inside = (u > 0) & (u < width)
+    f = x * x * (3.0 - 2.0 * x)
+    f1 = np.where(inside, 6.0 * x * (1.0 - x) / width, 0.0)
+    f2 = np.where(inside, (6.0 - 12.0 * x) / width**2, 0.0)
+    return f, f1, f2
+
+
+def _swing_window(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Raised-cosine window over the swing part of the cycle (q in [0.5, 1.0]), peak at 0.75."""
+    a, b = 0.5, 1.0
+    w = 2.0 * np.pi / (b - a)
+    inside = (q >= a) & (q < b)
+    x = q - a
+    f = np.where(inside, 0.5 * (1.0 - np.cos(w * x)), 0.0)
+    f1 = np.where(inside, 0.5 * w * np.sin(w * x), 0.0)
+    f2 = np.where(inside, 0.5 * w * w * np.cos(w * x), 0.0)
+    return f, f1, f2
+
+
+def _cos_jet(p: Jet, q: np.ndarray, w: float, q0: float) -> Jet:
+    """Jet of cos(w (q - q0)) where q is the cycle phase of the phase jet p."""
+    c, s = np.cos(w * (q - q0)), np.sin(w * (q - q0))
+    return p.compose(c, -w * s, -w * w * c)
+
+
+@dataclass(frozen=True)
+class KinematicsBlock:
+    """True motion for samples ``sample_idx`` (all angles in rad, tilt convention of dsp.angles)."""
+
+    sample_idx: np.ndarray  # (N,) int64
+    t_s: np.ndarray  # (N,) device time
+    phase: np.ndarray  # (N,) continuous normative phase (integer part = stride count)
+    phase_rate_hz: np.ndarray  # (N,) d(phase)/dt, 0 while standing
+    walking: np.ndarray  # (N,) ramp-in envelope, 0 standing .. 1 walking
+    joint_rad: np.ndarray  # (N, 3) hip, knee, ankle (clinical signs)
+    tilt_rad: np.ndarray  # (N, 4) body, thigh, shank, foot
+    rate_rad_s: np.ndarray  # (N, 4) d(tilt)/dt
+    lin_acc_ms2: np.ndarray  # (N, 4, 2) sensor-point acceleration in the world frame (F, U)
+
+
+@dataclass
+class GaitModel:
+    """Deterministic gait for a config: any sample range can be evaluated in any order.
+
+    The stride schedule is drawn lazily from its own seeded generator, always in the same order,
+    so the motion at a given sample never depends on which ranges were asked for before.
+    """
+
+    config: GaitConfig = field(default_factory=GaitConfig)
+
+    def __post_init__(self) -> None:
+        cfg = self.config
+        self._rng = np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(1,)))
+        self._durations_s = np.empty(0)
+        self._interp: PchipInterpolator | None = None
+        self._t_walk_s = cfg.standing_s
+        self._hs_times = np.empty(0)
+        self._to_times = np.empty(0)
+        self._horizon_s = -np.inf
+
+    # ---- stride schedule -------------------------------------------------------------------
+    def _ensure(self, t_max_s: float) -> None:
+        """Make the phase interpolant valid (and final) up to t_max_s."""
+        cfg = self.config
+        # PCHIP slopes at a knot depend on its neighbours only: keep 3 spare strides beyond t_max.
+        need = t_max_s + 3.0 * 1.5 * cfg.stride_s
+        if self._horizon_s >= need:
+            return
+        while self._horizon_s < need:
+            z = self._rng.standard_normal(512)
+            d = cfg.stride_s * np.clip(1.0 + cfg.stride_cv * z, 0.5, 1.5)
+            self._durations_s = np.concatenate([self._durations_s, d])
+            self._rebuild()
+
+    def _rebuild(self) -> None:
+        cfg = self.config
+        s = cfg.stance_frac
+        d = self._durations_s
+        # The first "stride" starts at mid-stance: it covers (1 - START_PHASE) of the cycle.
+        first_to = self._t_walk_s + d[0] * s * (TOE_OFF_PHASE - START_PHASE) / TOE_OFF_PHASE
+        first_hs = first_to + d[0] * (1.0 - s)
+        hs = first_hs + np.concatenate([[0.0], np.cumsum(d[1:])])  # heel strike k = 1, 2, ...
+        to = hs + s * np.concatenate([d[1:], [d[-1]]])  # toe off of stride k
+        self._hs_times = hs
+        self._to_times = np.concatenate([[first_to], to])
+        t_knots = [0.0, self._t_walk_s, first_to] if self._t_walk_s > 0 else [0.0, first_to]
+        p_knots = [START_PHASE] * (len(t_knots) - 1) + [TOE_OFF_PHASE]
+        k = np.arange(1, len(hs) + 1, dtype=np.float64)
+        tk = np.empty(2 * len(hs))
+        pk = np.empty(2 * len(hs))
+        tk[0::2], tk[1::2] = hs, to
+        pk[0::2], pk[1::2] = k, k + TOE_OFF_PHASE
+        t_all = np.concatenate([t_knots, tk])
+        p_all = np.concatenate([p_knots, pk])
+        if self._t_walk_s > 0:
+            # Before t=0 stand still too, so the interpolant is flat on [0, t_walk].
+            t_all = np.concatenate([[-1.0], t_all])
+            p_all = np.concatenate([[START_PHASE], p_all])
+        self._interp = PchipInterpolator(t_all, p_all, extrapolate=True)
+        self._horizon_s = hs[-4]
+
+    def heel_strike_times_s(self, t_max_s: float) -> np.ndarray:
+        """True heel-strike times up to t_max_s (the first is one partial stride after standing)."""
+        self._ensure(t_max_s)
+        return self._hs_times[self._hs_times <= t_max_s]
+
+    def toe_off_times_s(self, t_max_s: float) -> np.ndarray:
+        self._ensure(t_max_s)
+        return self._to_times[self._to_times <= t_max_s]
+
+    def events(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """(heel_strike_idx, toe_off_idx): first sample at or after each event in [start, stop)."""
+        fs = self.config.fs_hz
+        t_max = stop / fs
+        self._ensure(t_max)
+
+        def idx(times: np.ndarray) -> np.ndarray:
+            i = np.ceil(times * fs - 1e-9).astype(np.int64)
+            return i[(i >= start) & (i < stop)]
+
+        return idx(self._hs_times), idx(self._to_times)
+
+    # ---- motion ----------------------------------------------------------------------------
+    def phase_jet(self, t_s: np.ndarray) -> Jet:
+        self._ensure(float(np.max(t_s, initial=0.0)))
+        assert self._interp is not None
+        t = np.asarray(t_s, dtype=np.float64)
+        return Jet(self._interp(t), self._interp(t, 1), self._interp(t, 2))
+
+    def evaluate(self, start: int, stop: int) -> KinematicsBlock:
+        """True motion for samples start .. stop-1 (sample n is at t = n / fs)."""
+        if stop < start:
+            raise ValueError(f"empty or reversed sample range [{start}, {stop})")
+        # Cache-sized pieces: large temporaries cost more in page faults than in arithmetic.
+        step = 16384
+        if stop - start <= step:
+            return self._evaluate(start, stop)
+        parts = [self._evaluate(a, min(a + step, stop)) for a in range(start, stop, step)]
+        return KinematicsBlock(
+            **{
+                name: np.concatenate([getattr(b, name) for b in parts])
+                for name in KinematicsBlock.__dataclass_fields__
+            }
+        )
+
+    def _evaluate(self, start: int, stop: int) -> KinematicsBlock:
+        cfg = self.config
+        idx = np.arange(start, stop, dtype=np.int64)
+        t = idx / cfg.fs_hz
+        p = self.phase_jet(t)
+        q = np.mod(p.v, 1.0)
+        env = p.compose(*_smoothstep(p.v - START_PHASE, cfg.ramp_strides))
+
+        def curve(coeffs: tuple) -> Jet:
+            f, f1, f2 = fourier_series(coeffs, q)
+            return p.compose(f * DEG, f1 * DEG, f2 * DEG)
+
+        hip = curve(HIP_COEFFS_DEG) * env
+        knee_n = curve(KNEE_COEFFS_DEG)
+        if cfg.knee_scale != 1.0:
+            win = p.compose(*_swing_window(q))
+            # Scale only the flexion above the stance level (5 deg) so swing stays continuous.
+            base = 5.0 * DEG
+            knee_n = (knee_n - base) * (win * (cfg.knee_scale - 1.0) + 1.0) + base
+        knee = knee_n * env
+        ankle = curve(ANKLE_COEFFS_DEG) * env
+        w = 4.0 * np.pi
+        osc = _cos_jet(p, q, w, 0.1)
+        body = (osc * cfg.body_osc_rad + cfg.body_lean_rad) * env
+        thigh = body + hip
+        shank = thigh - knee
+        foot = shank + ankle
+
+        # Linkage: hip point moves one stride length per cycle, with a twice-per-stride bob
+        # (highest at mid-stance q = 0.3 and mid-swing q = 0.8).
+        hip_f = (p - START_PHASE) * cfg.stride_len_m
+        bob = _cos_jet(p, q, w, 0.3)
+        hip_u = bob * env * cfg.hip_bob_m + (cfg.thigh_m + cfg.shank_m)
+        st, ct = thigh.sin(), thigh.cos()
+        ss, cs = shank.sin(), shank.cos()
+        sf, cf = foot.sin(), foot.cos()
+        knee_f, knee_u = hip_f + st * cfg.thigh_m, hip_u - ct * cfg.thigh_m
+        ankle_f, ankle_u = knee_f + ss * cfg.shank_m, knee_u - cs * cfg.shank_m
+        half_t, half_s = 0.5 * cfg.thigh_m, 0.5 * cfg.shank_m
+        foot_fwd, foot_up = 0.06, 0.03  # board on the dorsum, ahead of and above the ankle
+        points = (
+            (hip_f, hip_u),
+            (hip_f + st * half_t, hip_u - ct * half_t),
+            (knee_f + ss * half_s, knee_u - cs * half_s),
+            (ankle_f + cf * foot_fwd - sf * foot_up, ankle_u + sf * foot_fwd + cf * foot_up),
+        )
+        lin_acc = np.stack([np.stack([pf.dd, pu.dd], axis=-1) for pf, pu in points], axis=1)
+        tilts = (body, thigh, shank, foot)
+        return KinematicsBlock(
+            sample_idx=idx,
+            t_s=t,
+            phase=p.v,
+            phase_rate_hz=p.d,
+            walking=env.v,
+            joint_rad=np.stack([hip.v, knee.v, ankle.v], axis=-1),
+            tilt_rad=np.stack([j.v for j in tilts], axis=-1),
+            rate_rad_s=np.stack([j.d for j in tilts], axis=-1),
+            lin_acc_ms2=lin_acc,
+        )

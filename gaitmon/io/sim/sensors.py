@@ -1,0 +1,247 @@
+"""Sensor model of the simulated unit: true motion -> the 14 ADC channels in counts.
+
+This module owns everything between the leg's true motion (``kinematics.py``) and the dsPIC's
+12-bit samples: accelerometer specific force in each board's frame, gyro bias and drift, board
+mounting offsets, heel-strike impact transients, heel/toe FSR loading, noise and quantisation
+(through ``DEFAULT_TABLE.to_counts``, which also saturates at 0 and 4095).
+
+Conventions (see ``gaitmon.dsp.channels``): a board on a segment with tilt th, mounted with an
+offset m, has its x axis at angle phi = th + m from the vertical, so
+
+    a_x = -f_F sin(phi) + f_U cos(phi),   a_z = f_F cos(phi) + f_U sin(phi),
+
+with the specific force f = a - g_vec = (a_F, a_U + g). Standing still this gives
+atan2(a_z, a_x) = th + m, and the gyro (about +y, the subject's right) reads d(th)/dt + bias.
+
+FSRs: the heel sensor is loaded from heel strike to heel-off (normative phase 0 .. 0.35), the toe
+sensor from foot flat to toe off (0.10 .. 0.60), each with a ``fsr_edge_s`` ramp at both ends and
+a peak well above the paper's 1000 LSB threshold; in swing they read a small floor plus noise.
+
+Noise comes from one generator drawn row by row, so generating a record in any chunking gives
+identical samples.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gaitmon.dsp.channels import (
+    ACC_X_IDX,
+    ACC_Z_IDX,
+    DEFAULT_TABLE,
+    FSR_IDX,
+    GYRO_IDX,
+    N_CHANNELS,
+    STANDARD_GRAVITY_MS2,
+    ChannelTable,
+)
+from gaitmon.io.sim.kinematics import (
+    DEG,
+    FOOT_FLAT_PHASE,
+    HEEL_OFF_PHASE,
+    TOE_OFF_PHASE,
+    GaitModel,
+    KinematicsBlock,
+)
+
+FSR_THRESHOLD_COUNTS = 1000  # the paper's contact threshold, for reference in tests and docs
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """Sensor imperfections. ``None`` fields are drawn from ``seed`` (reproducibly)."""
+
+    seed: int = 0
+    acc_noise_ms2: float = 0.08
+    gyro_noise_rad_s: float = 0.01
+    gyro_bias_sd_rad_s: float = 0.05  # spread of the per-board constant bias
+    gyro_bias_rad_s: tuple[float, float, float, float] | None = None
+    gyro_drift_amp_rad_s: float = 0.02  # slow sinusoidal drift on top of the constant bias
+    gyro_drift_period_s: float = 900.0
+    mount_offset_sd_rad: float = 3.0 * DEG
+    mount_offset_rad: tuple[float, float, float, float] | None = None
+    # Heel-strike transient along each board's x axis (body, thigh, shank, foot): a damped sine.
+    impact_peak_ms2: tuple[float, float, float, float] = (5.0, 10.0, 30.0, 50.0)
+    impact_freq_hz: float = 20.0
+    impact_decay_s: float = 0.02
+    heel_peak_counts: float = 3000.0
+    toe_peak_counts: float = 2600.0
+    fsr_edge_s: float = 0.03
+    fsr_floor_counts: float = 15.0
+    fsr_noise_counts: float = 8.0
+
+    def __post_init__(self) -> None:
+        for name in ("acc_noise_ms2", "gyro_noise_rad_s", "fsr_noise_counts", "fsr_edge_s"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0")
+        if self.fsr_edge_s <= 0:
+            raise ValueError("fsr_edge_s must be > 0")
+
+
+@dataclass(frozen=True)
+class SensorBlock:
+    """A block of samples with the truth behind it."""
+
+    counts: np.ndarray  # (N, 14) uint16, what the ADC reads
+    physical: np.ndarray  # (N, 14) float64, before quantisation (m/s^2, rad/s, counts)
+    gyro_bias_rad_s: np.ndarray  # (N, 4) true bias (constant + drift)
+    kinematics: KinematicsBlock
+
+    @property
+    def sample_idx(self) -> np.ndarray:
+        return self.kinematics.sample_idx
+
+
+def _ramp(x: np.ndarray) -> np.ndarray:
+    """Smoothstep 0 -> 1 for x in [0, 1]."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def fsr_load_counts(
+    phase: np.ndarray, phase_rate_hz: np.ndarray, config: SensorConfig
+) -> np.ndarray:
+    """(N,) continuous normative phase and its rate -> (N, 2) noise-free heel, toe FSR counts."""
+    q = np.mod(phase, 1.0)
+    out = np.empty((*q.shape, 2))
+    windows = (
+        (0.0, HEEL_OFF_PHASE, config.heel_peak_counts, 1.0, -0.4),  # heel: peaks early
+        (FOOT_FLAT_PHASE, TOE_OFF_PHASE, config.toe_peak_counts, 0.6, 0.4),  # toe: peaks late
+    )
+    # The edge ramps are fsr_edge_s long in time: convert with the current phase rate. Standing
+    # (rate 0) is deep inside both windows, so an infinite ratio (ramp fully on) is right.
+    edge_phase = np.asarray(phase_rate_hz) * config.fsr_edge_s
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for j, (a, b, peak, g0, g1) in enumerate(windows):
+            inside = (q >= a) & (q < b)
+            u = (q - a) / (b - a)
+            ramp_in = np.where(edge_phase > 0, _ramp((q - a) / edge_phase), 1.0)
+            ramp_out = np.where(edge_phase > 0, _ramp((b - q) / edge_phase), 1.0)
+            out[:, j] = np.where(inside, peak * ramp_in * ramp_out * (g0 + g1 * u), 0.0)
+    return out
+
+
+@dataclass
+class SensorModel:
+    """Turns a GaitModel into ADC samples, block after block (``next_block``)."""
+
+    gait: GaitModel
+    config: SensorConfig = field(default_factory=SensorConfig)
+    table: ChannelTable = DEFAULT_TABLE
+
+    def __post_init__(self) -> None:
+        cfg = self.config
+        params = np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(2,)))
+        draws = params.standard_normal(12)
+        self.mount_offset_rad = (
+            np.clip(draws[0:4], -2.0, 2.0) * cfg.mount_offset_sd_rad
+            if cfg.mount_offset_rad is None
+            else np.asarray(cfg.mount_offset_rad, dtype=np.float64)
+        )
+        self.gyro_bias0_rad_s = (
+            np.clip(draws[4:8], -2.5, 2.5) * cfg.gyro_bias_sd_rad_s
+            if cfg.gyro_bias_rad_s is None
+            else np.asarray(cfg.gyro_bias_rad_s, dtype=np.float64)
+        )
+        self._drift_phase = np.mod(draws[8:12], 2.0 * np.pi)
+        self.reset()
+
+    def reset(self) -> None:
+        self._noise = np.random.default_rng(
+            np.random.SeedSequence(self.config.seed, spawn_key=(3,))
+        )
+        self.position = 0  # next sample index
+
+    def gyro_bias(self, t_s: np.ndarray) -> np.ndarray:
+        """(N,) device time -> (N, 4) true gyro bias in rad/s."""
+        cfg = self.config
+        t = np.asarray(t_s, dtype=np.float64)[:, None]
+        drift = cfg.gyro_drift_amp_rad_s * np.sin(
+            2.0 * np.pi * t / cfg.gyro_drift_period_s + self._drift_phase
+        )
+        return self.gyro_bias0_rad_s + drift
+
+    def next_block(self, n: int) -> SensorBlock:
+        """The next n samples (sample indices position .. position + n - 1)."""
+        if n < 0:
+            raise ValueError(f"block length must be >= 0, got {n}")
+        step = 16384  # cache-sized pieces, as in GaitModel.evaluate
+        parts = []
+        for a in range(self.position, self.position + n, step):
+            b = min(a + step, self.position + n)
+            noise = self._noise.standard_normal((b - a, N_CHANNELS))
+            parts.append(self._block(self.gait.evaluate(a, b), noise))
+        self.position += n
+        if len(parts) == 1:
+            return parts[0]
+        if not parts:
+            return self._block(
+                self.gait.evaluate(self.position, self.position), np.empty((0, N_CHANNELS))
+            )
+        kin = KinematicsBlock(
+            **{
+                name: np.concatenate([getattr(p.kinematics, name) for p in parts])
+                for name in KinematicsBlock.__dataclass_fields__
+            }
+        )
+        return SensorBlock(
+            counts=np.concatenate([p.counts for p in parts]),
+            physical=np.concatenate([p.physical for p in parts]),
+            gyro_bias_rad_s=np.concatenate([p.gyro_bias_rad_s for p in parts]),
+            kinematics=kin,
+        )
+
+    def _block(self, kin: KinematicsBlock, noise: np.ndarray) -> SensorBlock:
+        cfg = self.config
+        n = len(kin.t_s)
+        phys = np.empty((n, N_CHANNELS))
+
+        phi = kin.tilt_rad + self.mount_offset_rad
+        f_fwd = kin.lin_acc_ms2[:, :, 0]
+        f_up = kin.lin_acc_ms2[:, :, 1] + STANDARD_GRAVITY_MS2
+        sin_phi, cos_phi = np.sin(phi), np.cos(phi)
+        acc_x = -f_fwd * sin_phi + f_up * cos_phi
+        acc_z = f_fwd * cos_phi + f_up * sin_phi
+        acc_x += self._impacts(kin.t_s)
+        phys[:, ACC_X_IDX] = acc_x + cfg.acc_noise_ms2 * noise[:, ACC_X_IDX]
+        phys[:, ACC_Z_IDX] = acc_z + cfg.acc_noise_ms2 * noise[:, ACC_Z_IDX]
+
+        bias = self.gyro_bias(kin.t_s)
+        phys[:, GYRO_IDX] = kin.rate_rad_s + bias + cfg.gyro_noise_rad_s * noise[:, GYRO_IDX]
+
+        fsr = fsr_load_counts(kin.phase, kin.phase_rate_hz, cfg) + cfg.fsr_floor_counts
+        phys[:, FSR_IDX] = fsr + cfg.fsr_noise_counts * noise[:, FSR_IDX]
+
+        return SensorBlock(
+            counts=self.table.to_counts(phys),
+            physical=phys,
+            gyro_bias_rad_s=bias,
+            kinematics=kin,
+        )
+
+    def _impacts(self, t_s: np.ndarray) -> np.ndarray:
+        """(N, 4) heel-strike transients along each board's x axis."""
+        cfg = self.config
+        out = np.zeros((len(t_s), 4))
+        if len(t_s) == 0:
+            return out
+        hs = self.gait.heel_strike_times_s(float(t_s[-1]))
+        if len(hs) == 0:
+            return out
+        i = np.searchsorted(hs, t_s, side="right") - 1  # latest heel strike at or before t
+        dt = np.where(i >= 0, t_s - hs[np.maximum(i, 0)], np.inf)
+        hit = dt < 8.0 * cfg.impact_decay_s
+        d = dt[hit]
+        burst = np.exp(-d / cfg.impact_decay_s) * np.sin(2.0 * np.pi * cfg.impact_freq_hz * d)
+        out[hit] = burst[:, None] * np.asarray(cfg.impact_peak_ms2)
+        return out
+
+
+def simulate(
+    n_samples: int, gait: GaitModel | None = None, config: SensorConfig | None = None
+) -> SensorBlock:
+    """Convenience: the first n_samples of a fresh sensor model (tests, benchmarks, demos)."""
+    model = SensorModel(gait or GaitModel(), config or SensorConfig())
+    return model.next_block(n_samples)
