@@ -1,0 +1,181 @@
+"""``gaitmon simulate``: run the simulated gait unit on a pseudo-terminal until interrupted."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import signal
+import sys
+import threading
+from types import FrameType
+
+from gaitmon.cli import UserError
+from gaitmon.io.sim.kinematics import PATTERNS, GaitConfig
+from gaitmon.io.sim.pty import PtySimulator
+from gaitmon.io.sim.sensors import SensorConfig
+from gaitmon.io.sim.unit import FaultConfig, SimulatedUnit
+
+DESCRIPTION = """\
+Run a simulated gait unit (one leg: 4 IMUs + heel/toe FSRs sampled at 100 Hz) that speaks the
+real gaitmon wire protocol on a pseudo-terminal, with optional frame loss and corruption.
+"""
+
+EPILOG = """\
+The first line on standard output is the port path (flushed), so a script can read it:
+
+  gaitmon simulate --pty > sim.out &  sleep 1;  port=$(head -n1 sim.out)
+
+Open that path like a Bluetooth serial port (e.g. serial.Serial(port)); the unit speaks the
+gaitmon protocol (docs/protocol.md): it is idle until it receives SELECT_KIND / START_STREAM /
+REQUEST_FRAME / IDENTIFY / ZERO commands. The subject stands still for --standing-s seconds
+(time for ZERO), then walks. Stop with Ctrl-C or SIGTERM; the fault ledger is printed to
+standard error on exit.
+"""
+
+
+def _pct(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not 0.0 <= v <= 100.0:
+        raise argparse.ArgumentTypeError(f"must be within 0..100, got {v}")
+    return v
+
+
+def _positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {v}")
+    return v
+
+
+def _speed(text: str) -> float:
+    if text.lower() in ("max", "inf", "fast"):
+        return math.inf
+    return _positive(text)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.description = DESCRIPTION
+    parser.epilog = EPILOG
+    parser.add_argument(
+        "--pty",
+        action="store_true",
+        help="serve the unit on a pseudo-terminal (the only mode at present; required)",
+    )
+    parser.add_argument(
+        "--link",
+        metavar="PATH",
+        help="stable symlink to the port (default: a new /tmp/gaitmon-sim-XXXX/ttyGAIT0)",
+    )
+    parser.add_argument(
+        "--cadence",
+        type=_positive,
+        default=110.0,
+        metavar="STEPS_PER_MIN",
+        help="walking cadence in steps/min (default: 110)",
+    )
+    parser.add_argument(
+        "--stride-cv",
+        type=float,
+        default=0.02,
+        metavar="CV",
+        help="stride-to-stride variability of stride time (default: 0.02)",
+    )
+    parser.add_argument(
+        "--pattern",
+        choices=sorted(PATTERNS),
+        default="normal",
+        help="gait pattern (default: normal)",
+    )
+    parser.add_argument(
+        "--standing-s",
+        type=float,
+        default=5.0,
+        metavar="S",
+        help="seconds of quiet standing before walking starts (default: 5)",
+    )
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    parser.add_argument(
+        "--side", choices=("L", "R"), default="R", help="leg the unit is worn on (default: R)"
+    )
+    parser.add_argument(
+        "--speed",
+        type=_speed,
+        default=1.0,
+        metavar="FACTOR",
+        help="time factor: 1 = real time, 10 = ten times faster, 'max' = as fast as the "
+        "client reads (default: 1)",
+    )
+    parser.add_argument(
+        "--loss-pct",
+        type=_pct,
+        default=0.0,
+        metavar="PCT",
+        help="percentage of data frames dropped at random (default: 0)",
+    )
+    parser.add_argument(
+        "--corrupt-pct",
+        type=_pct,
+        default=0.0,
+        metavar="PCT",
+        help="percentage of data frames with 1-3 flipped bits (default: 0)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.pty:
+        raise UserError(
+            "nothing to do: pass --pty to serve the simulated unit on a pseudo-terminal"
+        )
+    try:
+        gait = GaitConfig(
+            cadence_steps_min=args.cadence,
+            stride_cv=args.stride_cv,
+            pattern=args.pattern,
+            standing_s=args.standing_s,
+            seed=args.seed,
+        )
+        unit = SimulatedUnit(
+            gait,
+            SensorConfig(seed=args.seed),
+            FaultConfig(seed=args.seed, loss_pct=args.loss_pct, corrupt_pct=args.corrupt_pct),
+            speed=args.speed,
+            side=args.side,
+        )
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    try:
+        sim = PtySimulator(unit, args.link)
+    except OSError as exc:
+        raise UserError(f"cannot create the pseudo-terminal or link: {exc}") from None
+
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        print(sim.link_path, flush=True)
+        print(
+            f"gaitmon simulate: serving {unit.identity.name} on {sim.slave_path} "
+            f"(link {sim.link_path}); Ctrl-C to stop",
+            file=sys.stderr,
+            flush=True,
+        )
+        while not stop.wait(0.2):
+            pass
+    finally:
+        sim.stop()
+        unit.close()
+        for s, h in old.items():
+            signal.signal(s, h)
+    summary = ", ".join(f"{k}={v}" for k, v in unit.ledger.summary().items())
+    print(f"gaitmon simulate: stopped; {summary}", file=sys.stderr, flush=True)
+    return 0

@@ -1,0 +1,534 @@
+"""The simulated dsPIC unit: a byte-level stand-in for the real device, faults and truth included.
+
+This module owns the device's behaviour on the link: it answers the commands of
+``gaitmon.io.protocol`` and emits encoded frames, so every simulated session goes through the
+real frame decoder (and, over ``pty.py``, through pyserial). Behind it sit the gait model
+(``kinematics.py``), the sensor model (``sensors.py``) and the device's own processing
+(``gaitmon.dsp.pipeline.Pipeline`` on its own counts, for TILT and JOINT frames).
+
+Byte interface (what a transport uses)
+--------------------------------------
+``unit.write(data: bytes) -> None``
+    PC -> device bytes, any chunking. Commands are decoded by ``protocol.CommandDecoder`` and
+    take effect at the device time they arrive (everything due before is produced first).
+``unit.read(max_bytes: int | None = None) -> bytes``
+    Device -> PC bytes that are due by now: frames of every sample tick up to
+    floor((clock() - t0) * fs * speed), plus command answers. Never blocks; b"" when nothing is
+    due. At most ``max_bytes`` are returned; the rest stays queued for the next read.
+``unit.seconds_until_next_sample() -> float``
+    For a transport thread to sleep until something can be due (0.0 when running flat out).
+``unit.close()``
+    Stops the unit; read() returns b"" and write() is ignored afterwards.
+
+Pacing
+------
+Sample n belongs to device time n / fs. With ``speed`` = 1 the unit runs in real time on
+``clock`` (default ``time.monotonic``); any other positive factor runs faster or slower; with
+``speed=math.inf`` ("as fast as possible") device time only advances when there is work: each
+read() produces up to ``afap_block`` samples while streaming, or as many ticks as pending
+REQUEST_FRAME / ZERO need. The number of samples ever produced is computed from the clock, never
+by sleeping per sample, so it cannot drift.
+
+Commands (see protocol.Command)
+-------------------------------
+SELECT_KIND (ACK, or NAK BAD_ARGUMENT), REQUEST_FRAME (one frame of the selected kind at the next
+sample tick), START_STREAM / STOP_STREAM (ACK; frames of the selected kind every tick),
+IDENTIFY (IDENTITY frame), ZERO (averages the next ``zero_samples`` samples, calls
+``dsp.calibration.standing_calibration`` and installs it in the device pipeline; ACK when done,
+NAK BUSY if the subject was not still). Unknown codes get NAK UNKNOWN_COMMAND.
+
+Faults and the ledger
+---------------------
+``FaultConfig`` injects, on data frames: independent frame loss, bursts of consecutive losses,
+and corruption (1..max_bit_flips bit flips at random positions); on every frame: scheduled
+silences (nothing leaves the device) and link drops (the link is gone; ``pty.py`` removes the
+port). Every transmitted frame consumes a sequence number, so a lost frame is a gap the decoder
+can count. ``unit.ledger`` records each injected fault with its frame number (unwrapped), wire
+sequence number, sample index and kind. Frames in the device's output queue when a link goes
+down are discarded and counted (``ledger.discarded_bytes``); bytes already inside the OS pty
+buffer at a cut are outside the unit's knowledge.
+
+Ground truth
+------------
+``unit.truth(start, stop)`` gives the true tilts and joint angles (rad, clinical convention, no
+mounting offset), gyro bias, gait phase and heel-strike / toe-off sample indices for a sample
+range; ``unit.frame_log()`` maps every data frame's number and sequence to its sample index.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from array import array
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import NamedTuple
+
+import numpy as np
+
+from gaitmon.dsp.calibration import CalibrationError, standing_calibration
+from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX
+from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
+from gaitmon.io import protocol as P
+from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
+from gaitmon.io.sim.sensors import SensorBlock, SensorConfig, SensorModel
+
+DEVICE_NAME = "gaitmon-sim"
+FIRMWARE_VERSION = "1.0.0"
+_OUT_QUEUE_LIMIT_BYTES = 1 << 20  # a UART/Bluetooth buffer would overflow long before this
+
+
+@dataclass(frozen=True)
+class FaultConfig:
+    """What goes wrong on the link. Percentages are per frame; times are device seconds."""
+
+    seed: int = 0
+    loss_pct: float = 0.0
+    corrupt_pct: float = 0.0
+    max_bit_flips: int = 3
+    burst_pct: float = 0.0  # chance per data frame that a burst of losses starts
+    burst_len_frames: int = 10
+    silences: tuple[tuple[float, float], ...] = ()  # (start_s, duration_s): nothing is sent
+    link_drops: tuple[tuple[float, float], ...] = ()  # (start_s, duration_s): the link is gone
+
+    def __post_init__(self) -> None:
+        for name in ("loss_pct", "corrupt_pct", "burst_pct"):
+            v = getattr(self, name)
+            if not 0.0 <= v <= 100.0:
+                raise ValueError(f"{name} must be within 0..100 %, got {v}")
+        if self.max_bit_flips < 1 or self.burst_len_frames < 1:
+            raise ValueError("max_bit_flips and burst_len_frames must be >= 1")
+        for name in ("silences", "link_drops"):
+            for start, dur in getattr(self, name):
+                if start < 0 or dur <= 0:
+                    raise ValueError(f"{name}: start must be >= 0 and duration > 0 s")
+
+
+class LedgerEntry(NamedTuple):
+    frame_no: int  # unwrapped count of frames the device produced (0 = first)
+    seq: int  # what went on the wire: frame_no mod 2**16
+    sample_idx: int  # data frames: the sample it carries; answers: -1
+    kind: int  # protocol.FrameKind
+    fault: str  # loss | burst | silent | link_down | corrupt
+    bits: tuple[int, ...] = ()  # corrupt: flipped bit positions (byte * 8 + bit)
+
+
+@dataclass
+class FaultLedger:
+    """The exact record of what the unit produced and what it broke."""
+
+    frames_produced: int = 0  # every frame that consumed a sequence number
+    data_frames_produced: int = 0
+    bytes_queued: int = 0  # bytes that entered the output queue (intact or corrupted)
+    dropped: list[LedgerEntry] = field(default_factory=list)
+    corrupted: list[LedgerEntry] = field(default_factory=list)
+    discarded_bytes: int = 0  # queued bytes thrown away when the link went down / overflowed
+
+    def dropped_frame_nos(self, fault: str | None = None) -> list[int]:
+        return [e.frame_no for e in self.dropped if fault is None or e.fault == fault]
+
+    @property
+    def corrupted_frame_nos(self) -> list[int]:
+        return [e.frame_no for e in self.corrupted]
+
+    def summary(self) -> dict[str, int]:
+        by_fault: dict[str, int] = {}
+        for e in self.dropped:
+            by_fault[e.fault] = by_fault.get(e.fault, 0) + 1
+        return {
+            "frames_produced": self.frames_produced,
+            "data_frames_produced": self.data_frames_produced,
+            "dropped": len(self.dropped),
+            "corrupted": len(self.corrupted),
+            "discarded_bytes": self.discarded_bytes,
+            **{f"dropped_{k}": v for k, v in sorted(by_fault.items())},
+        }
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """What really happened over samples start .. stop-1."""
+
+    sample_idx: np.ndarray  # (N,)
+    tilt_rad: np.ndarray  # (N, 4) true segment tilts (what a perfect zeroing would show)
+    joint_rad: np.ndarray  # (N, 3) hip, knee, ankle, clinical signs
+    rate_rad_s: np.ndarray  # (N, 4)
+    gyro_bias_rad_s: np.ndarray  # (N, 4)
+    phase: np.ndarray  # (N,) continuous normative gait phase
+    mount_offset_rad: np.ndarray  # (4,) per-board mounting offset (added to the true tilt)
+    heel_strike_idx: np.ndarray  # first sample at/after each true heel strike in the range
+    toe_off_idx: np.ndarray
+
+
+class SimulatedUnit:
+    """One simulated gait unit. Thread-safe: a transport thread and a test may share it."""
+
+    def __init__(
+        self,
+        gait: GaitConfig | None = None,
+        sensors: SensorConfig | None = None,
+        faults: FaultConfig | None = None,
+        *,
+        speed: float = 1.0,
+        clock: Callable[[], float] = time.monotonic,
+        pipeline_config: PipelineConfig | None = None,
+        serial: int = 1,
+        side: str = "R",
+        afap_block: int = 100,
+        zero_samples: int = 100,
+    ) -> None:
+        if not speed > 0:
+            raise ValueError(f"speed must be > 0 (math.inf = as fast as possible), got {speed}")
+        self.gait_config = gait or GaitConfig()
+        self.sensor_config = sensors or SensorConfig(seed=self.gait_config.seed)
+        self.faults = faults or FaultConfig()
+        self.fs_hz = self.gait_config.fs_hz
+        self.speed = float(speed)
+        self._clock = clock
+        self.identity = P.Identity(
+            name=DEVICE_NAME,
+            firmware=FIRMWARE_VERSION,
+            serial=serial,
+            side=side,
+            sample_rate_hz=round(self.fs_hz),
+        )
+        self.afap_block = afap_block
+        self.zero_samples = zero_samples
+        self.gait = GaitModel(self.gait_config)
+        self.sensors = SensorModel(self.gait, self.sensor_config)
+        self.pipeline = Pipeline(pipeline_config or PipelineConfig(fs_hz=self.fs_hz))
+        self.ledger = FaultLedger()
+        self._lock = threading.RLock()
+        self._commands = P.CommandDecoder()
+        seeds = np.random.SeedSequence(self.faults.seed, spawn_key=(4,)).spawn(2)
+        self._rng = np.random.default_rng(seeds[0])  # which frames are hit
+        self._bits_rng = np.random.default_rng(seeds[1])  # which bits a corruption flips
+        self._out = bytearray()
+        self._kind = P.FrameKind.RAW
+        self._streaming = False
+        self._pending_requests = 0
+        self._zero_left = 0
+        self._zero_acc: list[np.ndarray] = []
+        self._zero_gyro: list[np.ndarray] = []
+        self._burst_left = 0
+        self._frame_no = 0
+        self._manual_link_down = False
+        # compact logs (8 + 8 + 1 bytes per data frame: ~6 MB for an hour of streaming)
+        self._log_frame = array("q")
+        self._log_sample = array("q")
+        self._log_kind = array("B")
+        self._closed = False
+        self._t0 = clock()
+
+    # ---- byte interface ---------------------------------------------------------------------
+    def write(self, data: bytes | bytearray | memoryview) -> None:
+        with self._lock:
+            if self._closed:
+                return
+            self._advance_to_now()
+            if self._link_down():
+                return  # nobody hears commands sent into a dead link
+            for req in self._commands.feed(data):
+                self._handle(req.command, req.arg)
+
+    def read(self, max_bytes: int | None = None) -> bytes:
+        with self._lock:
+            if self._closed:
+                return b""
+            if math.isinf(self.speed):
+                self._advance_afap(max_bytes)
+            else:
+                self._advance_to_now()
+            if self._link_down():
+                self._discard_queue()  # whatever was queued died with the link
+                return b""
+            n = len(self._out) if max_bytes is None else min(max_bytes, len(self._out))
+            data = bytes(self._out[:n])
+            del self._out[:n]
+            return data
+
+    def seconds_until_next_sample(self) -> float:
+        with self._lock:
+            if math.isinf(self.speed):
+                return 0.0
+            t_next = self._t0 + (self.sensors.position + 1) / (self.fs_hz * self.speed)
+            return max(0.0, t_next - self._clock())
+
+    def close(self) -> None:
+        with self._lock:
+            self._closed = True
+            self._out.clear()
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    # ---- state a transport or test may look at ----------------------------------------------
+    @property
+    def samples_produced(self) -> int:
+        return self.sensors.position
+
+    @property
+    def device_time_s(self) -> float:
+        return self.sensors.position / self.fs_hz
+
+    @property
+    def streaming(self) -> bool:
+        return self._streaming
+
+    @property
+    def kind(self) -> P.FrameKind:
+        return self._kind
+
+    @property
+    def queued_bytes(self) -> int:
+        return len(self._out)
+
+    def link_is_down(self) -> bool:
+        """True while a scheduled link drop (or a manual ``set_link_down``) is in effect."""
+        with self._lock:
+            if not self._closed and not math.isinf(self.speed):
+                self._advance_to_now()
+            return self._link_down()
+
+    def set_link_down(self, down: bool) -> None:
+        """Manual link cut (PtySimulator.cut): frames produced meanwhile are dropped and logged."""
+        with self._lock:
+            if not self._closed and not math.isinf(self.speed):
+                self._advance_to_now()
+            self._manual_link_down = bool(down)
+            if down:
+                self._discard_queue()
+
+    def frame_log(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(frame_no, sample_idx, kind) of every data frame produced, delivered or not."""
+        with self._lock:
+            return (
+                np.array(self._log_frame, dtype=np.int64),
+                np.array(self._log_sample, dtype=np.int64),
+                np.array(self._log_kind, dtype=np.uint8),
+            )
+
+    def truth(self, start: int = 0, stop: int | None = None) -> GroundTruth:
+        """True motion for samples start .. stop-1 (default: everything produced so far)."""
+        with self._lock:
+            stop = self.sensors.position if stop is None else stop
+            kin = self.gait.evaluate(start, stop)
+            hs, to = self.gait.events(start, stop)
+            bias = self.sensors.gyro_bias(kin.t_s)
+        return GroundTruth(
+            sample_idx=kin.sample_idx,
+            tilt_rad=kin.tilt_rad,
+            joint_rad=kin.joint_rad,
+            rate_rad_s=kin.rate_rad_s,
+            gyro_bias_rad_s=bias,
+            phase=kin.phase,
+            mount_offset_rad=self.sensors.mount_offset_rad.copy(),
+            heel_strike_idx=hs,
+            toe_off_idx=to,
+        )
+
+    # ---- time -------------------------------------------------------------------------------
+    def _advance_to_now(self) -> None:
+        if math.isinf(self.speed):
+            return
+        due = math.floor((self._clock() - self._t0) * self.fs_hz * self.speed)
+        self._tick(due - self.sensors.position)
+
+    def _advance_afap(self, max_bytes: int | None) -> None:
+        need = max(self._pending_requests, self._zero_left)
+        if need:
+            self._tick(need)
+        if self._streaming:
+            if max_bytes is None:
+                n = self.afap_block
+            else:
+                n = -(-(max_bytes - len(self._out)) // P.FRAME_LEN[self._kind])
+            if n > 0:
+                self._tick(n)
+
+    def _tick(self, n: int) -> None:
+        """Produce n samples: sensors, device pipeline, due frames, fault injection."""
+        while n > 0:
+            # Bounded blocks keep an hour's catch-up from building an hour of frames at once.
+            m = min(n, 4096)
+            n -= m
+            start = self.sensors.position
+            block = self.sensors.next_block(m)
+            pb = self.pipeline.process(block.counts)
+            if self._zero_left:
+                self._collect_zero(block)
+            if not (self._streaming or self._pending_requests):
+                continue
+            if self._streaming:
+                self._pending_requests = 0  # the streamed frame answers any request
+                idx = np.arange(m)
+            else:
+                k = min(self._pending_requests, m)
+                self._pending_requests -= k
+                idx = np.arange(k)
+            self._emit_data(start, block, pb, idx)
+
+    # ---- commands ---------------------------------------------------------------------------
+    def _handle(self, cmd: object, arg: int) -> None:
+        C = P.Command
+        if cmd == C.SELECT_KIND:
+            if arg in {int(k) for k in P.DATA_KINDS}:
+                self._kind = P.FrameKind(arg)
+                self._answer(P.AckFrame(0, C.SELECT_KIND, P.AckStatus.OK, arg))
+            else:
+                self._answer(P.AckFrame(0, C.SELECT_KIND, P.AckStatus.BAD_ARGUMENT, arg))
+        elif cmd == C.REQUEST_FRAME:
+            self._pending_requests += 1
+        elif cmd == C.START_STREAM:
+            self._streaming = True
+            self._answer(P.AckFrame(0, C.START_STREAM, P.AckStatus.OK, arg))
+        elif cmd == C.STOP_STREAM:
+            self._streaming = False
+            self._answer(P.AckFrame(0, C.STOP_STREAM, P.AckStatus.OK, arg))
+        elif cmd == C.IDENTIFY:
+            self._answer(P.IdentityFrame(0, self.identity))
+        elif cmd == C.ZERO:
+            if self._zero_left:
+                self._answer(P.AckFrame(0, C.ZERO, P.AckStatus.BUSY, arg))
+            else:
+                self._zero_left = self.zero_samples
+                self._zero_acc, self._zero_gyro = [], []
+        else:
+            code = int(cmd)  # type: ignore[call-overload]
+            self._answer(P.AckFrame(0, code, P.AckStatus.UNKNOWN_COMMAND, arg))
+
+    def _collect_zero(self, block: SensorBlock) -> None:
+        phys = DEFAULT_TABLE.to_physical(block.counts[: self._zero_left])
+        self._zero_acc.append(np.stack([phys[:, ACC_X_IDX], phys[:, ACC_Z_IDX]], axis=-1))
+        self._zero_gyro.append(phys[:, GYRO_IDX])
+        self._zero_left -= len(phys)
+        if self._zero_left:
+            return
+        acc = np.concatenate(self._zero_acc)
+        gyro = np.concatenate(self._zero_gyro)
+        try:
+            cal = standing_calibration(acc, gyro, fs_hz=self.fs_hz)
+        except CalibrationError:
+            self._answer(P.AckFrame(0, P.Command.ZERO, P.AckStatus.BUSY, 0))
+            return
+        self.pipeline.set_calibration(cal)
+        self._answer(P.AckFrame(0, P.Command.ZERO, P.AckStatus.OK, 0))
+
+    # ---- frames and faults ------------------------------------------------------------------
+    def _link_down_at(self, sample_idx: int) -> bool:
+        if self._manual_link_down:
+            return True
+        t = sample_idx / self.fs_hz
+        return any(s <= t < s + d for s, d in self.faults.link_drops)
+
+    def _silent_at(self, sample_idx: int) -> bool:
+        t = sample_idx / self.fs_hz
+        return any(s <= t < s + d for s, d in self.faults.silences)
+
+    def _link_down(self) -> bool:
+        return self._link_down_at(self.sensors.position)
+
+    def _discard_queue(self) -> None:
+        self.ledger.discarded_bytes += len(self._out)
+        self._out.clear()
+
+    def _next_frame_no(self) -> int:
+        no = self._frame_no
+        self._frame_no += 1
+        self.ledger.frames_produced += 1
+        return no
+
+    def _answer(self, frame: P.Frame) -> None:
+        """Answers (ACK, IDENTITY) suffer only the scheduled outages, never random faults."""
+        no = self._next_frame_no()
+        frame = replace(frame, seq=no)
+        at = self.sensors.position
+        outage = "link_down" if self._link_down_at(at) else "silent" if self._silent_at(at) else ""
+        if outage:
+            self.ledger.dropped.append(
+                LedgerEntry(no, no % P.SEQ_MODULO, -1, int(frame.kind), outage)
+            )
+            return
+        self._queue(P.encode_frame(frame))
+
+    def _emit_data(
+        self, start: int, block: SensorBlock, pb: PipelineBlock, idx: np.ndarray
+    ) -> None:
+        kind = self._kind
+        f = self.faults
+        n = len(idx)
+        frame_nos = np.arange(self._frame_no, self._frame_no + n, dtype=np.int64)
+        self._frame_no += n
+        self.ledger.frames_produced += n
+        self.ledger.data_frames_produced += n
+        self._log_frame.extend(frame_nos.tolist())
+        self._log_sample.extend((start + idx).tolist())
+        self._log_kind.extend([int(kind)] * n)
+        # Three uniforms per data frame, always drawn, so which frames are hit depends on the
+        # seed and the frame number only, not on how the frames were batched.
+        u = self._rng.random((n, 3))
+        for j, i in enumerate(idx):
+            no = int(frame_nos[j])
+            sample = start + int(i)
+            fault = ""
+            if self._link_down_at(sample):
+                fault = "link_down"
+            elif self._silent_at(sample):
+                fault = "silent"
+            elif self._burst_left > 0:
+                self._burst_left -= 1
+                fault = "burst"
+            elif u[j, 0] * 100.0 < f.burst_pct:
+                self._burst_left = f.burst_len_frames - 1
+                fault = "burst"
+            elif u[j, 1] * 100.0 < f.loss_pct:
+                fault = "loss"
+            if fault:
+                self.ledger.dropped.append(
+                    LedgerEntry(no, no % P.SEQ_MODULO, sample, int(kind), fault)
+                )
+                continue
+            wire = P.encode_frame(self._data_frame(kind, no, block, pb, int(i)))
+            if u[j, 2] * 100.0 < f.corrupt_pct:
+                wire, bits = self._corrupt(wire)
+                self.ledger.corrupted.append(
+                    LedgerEntry(no, no % P.SEQ_MODULO, sample, int(kind), "corrupt", bits)
+                )
+            self._queue(wire)
+
+    def _data_frame(
+        self, kind: P.FrameKind, no: int, block: SensorBlock, pb: PipelineBlock, i: int
+    ) -> P.Frame:
+        if kind == P.FrameKind.RAW:
+            return P.RawFrame(no, block.counts[i])
+        if kind == P.FrameKind.TILT:
+            return P.TiltFrame(
+                no, np.rad2deg(pb.tilt_acc_rad[i]), np.rad2deg(pb.tilt_kalman_rad[i])
+            )
+        return P.JointFrame(
+            no,
+            np.rad2deg(pb.joint_acc_rad[i]),
+            np.rad2deg(pb.joint_kalman_rad[i]),
+            heel_loaded=bool(pb.heel_loaded[i]),
+            toe_loaded=bool(pb.toe_loaded[i]),
+            phase=int(pb.phase[i]),
+        )
+
+    def _corrupt(self, wire: bytes) -> tuple[bytes, tuple[int, ...]]:
+        n_bits = int(self._bits_rng.integers(1, self.faults.max_bit_flips + 1))
+        bits = self._bits_rng.choice(len(wire) * 8, size=n_bits, replace=False)
+        b = bytearray(wire)
+        for bit in bits:
+            b[bit // 8] ^= 1 << (bit % 8)
+        return bytes(b), tuple(sorted(int(x) for x in bits))
+
+    def _queue(self, wire: bytes) -> None:
+        self._out += wire
+        self.ledger.bytes_queued += len(wire)
+        excess = len(self._out) - _OUT_QUEUE_LIMIT_BYTES
+        if excess > 0:
+            # Nobody is reading: like a UART FIFO, the oldest bytes are lost.
+            del self._out[:excess]
+            self.ledger.discarded_bytes += excess
