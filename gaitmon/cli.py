@@ -17,6 +17,7 @@ class UserError(Exception):
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("gaitmon.bench", "measure pipeline speed and print the figures"),
     "ports": ("gaitmon.commands.ports", "list serial ports a unit could be on"),
+    "simulate": ("gaitmon.commands.simulate", "run a simulated gait unit on a pseudo-terminal"),
 }
 
 
