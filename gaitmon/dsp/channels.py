@@ -10,6 +10,7 @@ and its rate is +gyro (the gyro measures the rate about y).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -80,7 +81,9 @@ def _build_table() -> tuple[ChannelSpec, ...]:
                     adc_bits=_ADC_BITS,
                     vref_v=_VREF_V,
                     zero_v=_ACC_ZERO_V if is_acc else _GYRO_ZERO_V,
-                    sensitivity_v_per_unit=_ACC_SENS_V_PER_MS2 if is_acc else _GYRO_SENS_V_PER_RAD_S,
+                    sensitivity_v_per_unit=(
+                        _ACC_SENS_V_PER_MS2 if is_acc else _GYRO_SENS_V_PER_RAD_S
+                    ),
                 )
             )
     for seg in ("heel", "toe"):
@@ -120,15 +123,15 @@ class ChannelTable:
 
     channels: tuple[ChannelSpec, ...] = CHANNELS
 
-    @property
+    @cached_property
     def zero_counts(self) -> np.ndarray:
         return np.array([c.zero_counts for c in self.channels])
 
-    @property
+    @cached_property
     def units_per_count(self) -> np.ndarray:
         return np.array([c.units_per_count for c in self.channels])
 
-    @property
+    @cached_property
     def full_scale_counts(self) -> np.ndarray:
         return np.array([c.full_scale_counts for c in self.channels])
 
@@ -139,7 +142,8 @@ class ChannelTable:
 
     def to_counts(self, physical: np.ndarray) -> np.ndarray:
         """(N, 14) physical -> (N, 14) uint16 counts, rounded and saturated to the ADC range."""
-        c = np.rint(np.asarray(physical, dtype=np.float64) / self.units_per_count + self.zero_counts)
+        physical = np.asarray(physical, dtype=np.float64)
+        c = np.rint(physical / self.units_per_count + self.zero_counts)
         return np.clip(c, 0, self.full_scale_counts).astype(np.uint16)
 
 

@@ -1,0 +1,124 @@
+"""Streaming linear filters of paper 000: the Butterworth low-pass and gyro integration.
+
+Both carry their state across blocks through scipy.signal.lfilter's ``zi``, so a record processed
+in any chunking gives bit-for-bit the output of one call on the whole record.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+
+def _as_2d(x: np.ndarray) -> tuple[np.ndarray, bool]:
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 1:
+        return x[:, None], True
+    if x.ndim != 2:
+        raise ValueError(f"expected an array of shape (N,) or (N, channels), got {x.shape}")
+    return x, False
+
+
+class Butterworth:
+    """Order-n Butterworth low-pass designed from (cutoff_hz, fs_hz, order), over any channels.
+
+    The paper's 4 Hz / 100 Hz / order-2 filter is y(k) = A x(k) + B x(k-1) + C x(k-2) + D y(k-1)
+    + E y(k-2), i.e. b = [A, B, C], a = [1, -D, -E] (see ``paper_coefficients``).
+
+    ``initial="first"`` (default) starts the filter in steady state at the first sample, so a
+    record that starts at 1 g does not show a start-up ramp from zero; ``initial="zero"`` is the
+    bare difference equation with zero history, as on the microcontroller.
+    """
+
+    def __init__(
+        self,
+        cutoff_hz: float = 4.0,
+        fs_hz: float = 100.0,
+        order: int = 2,
+        initial: str = "first",
+    ) -> None:
+        if not fs_hz > 0:
+            raise ValueError(f"sample rate must be positive, got {fs_hz} Hz")
+        if not 0 < cutoff_hz < fs_hz / 2:
+            raise ValueError(
+                f"cut-off {cutoff_hz} Hz must be between 0 and the Nyquist frequency {fs_hz / 2} Hz"
+            )
+        if int(order) != order or order < 1 or order > 8:
+            raise ValueError(f"filter order must be a whole number from 1 to 8, got {order}")
+        if initial not in ("first", "zero"):
+            raise ValueError(f"initial must be 'first' or 'zero', got {initial!r}")
+        self.cutoff_hz = float(cutoff_hz)
+        self.fs_hz = float(fs_hz)
+        self.order = int(order)
+        self.initial = initial
+        b, a = signal.butter(self.order, self.cutoff_hz, btype="low", fs=self.fs_hz)
+        self.b: np.ndarray = b
+        self.a: np.ndarray = a
+        self._zi_unit = signal.lfilter_zi(b, a)
+        self._zi: np.ndarray | None = None
+
+    @property
+    def coefficients(self) -> tuple[np.ndarray, np.ndarray]:
+        """(b, a) with a[0] == 1."""
+        return self.b.copy(), self.a.copy()
+
+    @property
+    def paper_coefficients(self) -> dict[str, float]:
+        """A..E in the paper's difference-equation form (order 2 only)."""
+        if self.order != 2:
+            raise ValueError("the paper's A..E form exists for order 2 only")
+        return {
+            "A": float(self.b[0]),
+            "B": float(self.b[1]),
+            "C": float(self.b[2]),
+            "D": float(-self.a[1]),
+            "E": float(-self.a[2]),
+        }
+
+    def reset(self) -> None:
+        self._zi = None
+
+    def process(self, x: np.ndarray) -> np.ndarray:
+        """Filter (N,) or (N, channels) along time; returns the same shape."""
+        x2, was_1d = _as_2d(x)
+        if x2.shape[0] == 0:
+            out = np.empty_like(x2)
+            return out[:, 0] if was_1d else out
+        if self._zi is None:
+            start = x2[0] if self.initial == "first" else np.zeros(x2.shape[1])
+            self._zi = self._zi_unit[:, None] * start[None, :]
+        elif self._zi.shape[1] != x2.shape[1]:
+            raise ValueError(
+                f"this filter carries state for {self._zi.shape[1]} channels, got {x2.shape[1]}"
+            )
+        y, self._zi = signal.lfilter(self.b, self.a, x2, axis=0, zi=self._zi)
+        return y[:, 0] if was_1d else y
+
+
+class GyroIntegrator:
+    """Tilt by integrating the gyro rate: theta(k) = theta(k-1) + omega(k) * dt_s.
+
+    theta(-1) is the initial tilt given with the first block (the accelerometer tilt in the
+    pipeline, as the paper initialises from standing). It drifts with any uncorrected bias.
+    """
+
+    def __init__(self, dt_s: float = 0.01) -> None:
+        if not dt_s > 0:
+            raise ValueError(f"dt_s must be positive, got {dt_s}")
+        self.dt_s = float(dt_s)
+        self._zi: np.ndarray | None = None
+
+    def reset(self) -> None:
+        self._zi = None
+
+    def process(self, rate_rad_s: np.ndarray, initial_rad: np.ndarray | float = 0.0) -> np.ndarray:
+        """(N,) or (N, segments) rate -> integrated tilt (rad). ``initial_rad`` is used once."""
+        x2, was_1d = _as_2d(rate_rad_s)
+        if x2.shape[0] == 0:
+            out = np.empty_like(x2)
+            return out[:, 0] if was_1d else out
+        if self._zi is None:
+            self._zi = np.broadcast_to(np.asarray(initial_rad, dtype=np.float64), (x2.shape[1],))
+            self._zi = self._zi.reshape(1, -1).copy()
+        y, self._zi = signal.lfilter([self.dt_s], [1.0, -1.0], x2, axis=0, zi=self._zi)
+        return y[:, 0] if was_1d else y

@@ -1,0 +1,237 @@
+"""The PC-side signal pipeline of paper 000: raw ADC counts in, every derived series out.
+
+Per block, in the paper's order:
+
+1. counts -> physical units through the channel table (m/s^2, rad/s, FSR counts);
+2. 2nd-order 4 Hz Butterworth on the accelerometer and FSR channels;
+3. gyro rate minus the calibrated bias (the Kalman filter still tracks what is left);
+4. accelerometer tilt atan2(a_z, a_x) per segment;
+5. gyro-integrated tilt, passed through the same Butterworth to put it in phase (paper Fig. 4);
+6. the tilt Kalman filter per segment;
+7. standing offsets removed, tilts wrapped to (-pi, pi], joint angles with clinical signs;
+8. heel/toe contacts, gait phase, heel-strike/toe-off events and strides from the FSRs.
+
+The same object serves live use (10 ms ticks) and offline reprocessing of whole recordings; any
+chunking of the input gives exactly the same output.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from gaitmon.dsp.angles import accel_tilt, joint_angles, wrap_angle
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channels import (
+    ACC_X_IDX,
+    ACC_Z_IDX,
+    DEFAULT_TABLE,
+    FSR_IDX,
+    GYRO_IDX,
+    N_CHANNELS,
+    ChannelTable,
+)
+from gaitmon.dsp.filters import Butterworth, GyroIntegrator
+from gaitmon.dsp.gait import GaitEventDetector, Stride, StrideTracker
+from gaitmon.dsp.kalman import TiltKalman
+
+# long inputs are worked through in sub-blocks that stay in cache (same output, about 2x faster)
+_SUB_BLOCK = 16384
+
+
+@dataclass(frozen=True)
+class PipelineConfig:
+    """Every tunable of the pipeline, with the paper's values as defaults."""
+
+    fs_hz: float = 100.0
+    cutoff_hz: float = 4.0
+    filter_order: int = 2
+    q_angle: float = 0.001
+    q_gyro: float = 0.003
+    r: float = 0.3
+    kalman_form: str = "paper"
+    fsr_threshold: float = 1000.0
+    fsr_hysteresis: float = 50.0
+    min_contact_s: float = 0.03
+
+    def __post_init__(self) -> None:
+        # Constructing the stages validates every value with a message that names it.
+        Pipeline._build_stages(self)
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.fs_hz
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def replace(self, **changes: Any) -> PipelineConfig:
+        return replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class PipelineBlock:
+    """Everything the pipeline derived for one block of N samples (angles in rad)."""
+
+    start_idx: int  # absolute index (since reset) of the first sample
+    acc_ms2: np.ndarray  # (N, 4, 2) low-passed accelerometer x, z per segment
+    gyro_rad_s: np.ndarray  # (N, 4) bias-corrected gyro rate
+    fsr_counts: np.ndarray  # (N, 2) low-passed heel, toe
+    tilt_acc_rad: np.ndarray  # (N, 4) body, thigh, shank, foot
+    tilt_gyro_rad: np.ndarray
+    tilt_kalman_rad: np.ndarray
+    joint_acc_rad: np.ndarray  # (N, 3) hip flexion, knee flexion, ankle dorsiflexion
+    joint_gyro_rad: np.ndarray
+    joint_kalman_rad: np.ndarray
+    heel_loaded: np.ndarray  # (N,) bool
+    toe_loaded: np.ndarray
+    phase: np.ndarray  # (N,) int8 gaitmon.dsp.gait.Phase
+    heel_strike_idx: np.ndarray  # absolute indices confirmed in this block
+    toe_off_idx: np.ndarray
+    strides: tuple[Stride, ...] = field(default=())
+    kalman_bias_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(4))  # after the block
+
+    @property
+    def n(self) -> int:
+        return int(self.tilt_acc_rad.shape[0])
+
+
+_PER_SAMPLE = (
+    ("acc_ms2", (4, 2), np.float64),
+    ("gyro_rad_s", (4,), np.float64),
+    ("fsr_counts", (2,), np.float64),
+    ("tilt_acc_rad", (4,), np.float64),
+    ("tilt_gyro_rad", (4,), np.float64),
+    ("tilt_kalman_rad", (4,), np.float64),
+    ("joint_acc_rad", (3,), np.float64),
+    ("joint_gyro_rad", (3,), np.float64),
+    ("joint_kalman_rad", (3,), np.float64),
+    ("heel_loaded", (), np.bool_),
+    ("toe_loaded", (), np.bool_),
+    ("phase", (), np.int8),
+)
+
+
+class Pipeline:
+    """Raw ADC blocks (N, 14) in, :class:`PipelineBlock` out. Stateful; see the module doc."""
+
+    def __init__(
+        self,
+        config: PipelineConfig | None = None,
+        calibration: Calibration | None = None,
+        table: ChannelTable = DEFAULT_TABLE,
+    ) -> None:
+        self.config = config or PipelineConfig()
+        self.calibration = calibration or Calibration.identity()
+        self.table = table
+        self.reset()
+
+    @staticmethod
+    def _build_stages(cfg: PipelineConfig) -> dict[str, Any]:
+        def lowpass() -> Butterworth:
+            return Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
+
+        return {
+            "acc_lp": lowpass(),
+            "fsr_lp": lowpass(),
+            "gyro_tilt_lp": lowpass(),
+            "integrator": GyroIntegrator(1.0 / cfg.fs_hz),
+            "kalman": TiltKalman(1.0 / cfg.fs_hz, cfg.q_angle, cfg.q_gyro, cfg.r, cfg.kalman_form),
+            "detector": GaitEventDetector(
+                cfg.fsr_threshold, cfg.fsr_hysteresis, cfg.min_contact_s, cfg.fs_hz
+            ),
+            "strides": StrideTracker(cfg.fs_hz),
+        }
+
+    def reset(self) -> None:
+        """Back to the just-constructed state (the calibration is kept)."""
+        st = self._build_stages(self.config)
+        self._acc_lp: Butterworth = st["acc_lp"]
+        self._fsr_lp: Butterworth = st["fsr_lp"]
+        self._gyro_tilt_lp: Butterworth = st["gyro_tilt_lp"]
+        self._integrator: GyroIntegrator = st["integrator"]
+        self._kalman: TiltKalman = st["kalman"]
+        self._detector: GaitEventDetector = st["detector"]
+        self._strides: StrideTracker = st["strides"]
+        self._n_seen = 0
+
+    def set_calibration(self, calibration: Calibration) -> None:
+        """Use new standing offsets and gyro bias from the next sample on."""
+        self.calibration = calibration
+
+    @property
+    def samples_seen(self) -> int:
+        return self._n_seen
+
+    @property
+    def kalman(self) -> TiltKalman:
+        return self._kalman
+
+    def process(self, adc_counts: np.ndarray) -> PipelineBlock:
+        adc = np.asarray(adc_counts)
+        if adc.ndim != 2 or adc.shape[1] != N_CHANNELS:
+            raise ValueError(f"expected raw ADC counts of shape (N, {N_CHANNELS}), got {adc.shape}")
+        n = adc.shape[0]
+        start = self._n_seen
+        out = {name: np.empty((n, *shape), dtype=dt) for name, shape, dt in _PER_SAMPLE}
+        hs: list[np.ndarray] = []
+        to: list[np.ndarray] = []
+        strides: list[Stride] = []
+        for i in range(0, n, _SUB_BLOCK):
+            sl = slice(i, min(n, i + _SUB_BLOCK))
+            self._process_into(adc[sl], out, sl, hs, to, strides)
+        self._n_seen += n
+        empty = np.empty(0, dtype=np.int64)
+        bias = self._kalman.bias_rad_s
+        return PipelineBlock(
+            start_idx=start,
+            heel_strike_idx=np.concatenate(hs) if hs else empty,
+            toe_off_idx=np.concatenate(to) if to else empty,
+            strides=tuple(strides),
+            kalman_bias_rad_s=np.zeros(4) if bias is None else bias,
+            **out,
+        )
+
+    def _process_into(
+        self,
+        adc: np.ndarray,
+        out: dict[str, np.ndarray],
+        sl: slice,
+        hs: list[np.ndarray],
+        to: list[np.ndarray],
+        strides: list[Stride],
+    ) -> None:
+        cal = self.calibration
+        phys = self.table.to_physical(adc)
+        acc = self._acc_lp.process(phys[:, np.concatenate([ACC_X_IDX, ACC_Z_IDX])])
+        ax, az = acc[:, :4], acc[:, 4:]
+        fsr = self._fsr_lp.process(phys[:, FSR_IDX])
+        gyro = phys[:, GYRO_IDX] - cal.gyro_bias_rad_s
+        tilt_acc = accel_tilt(ax, az)
+        tilt_gyro = self._gyro_tilt_lp.process(
+            self._integrator.process(gyro, initial_rad=tilt_acc[0])
+        )
+        tilt_kalman = self._kalman.process(tilt_acc, gyro)
+        offset = cal.tilt_offset_rad
+        o = out
+        o["acc_ms2"][sl, :, 0] = ax
+        o["acc_ms2"][sl, :, 1] = az
+        o["gyro_rad_s"][sl] = gyro
+        o["fsr_counts"][sl] = fsr
+        for name, tilt in (
+            ("acc", tilt_acc),
+            ("gyro", tilt_gyro),
+            ("kalman", tilt_kalman),
+        ):
+            zeroed = wrap_angle(tilt - offset)
+            o[f"tilt_{name}_rad"][sl] = zeroed
+            o[f"joint_{name}_rad"][sl] = joint_angles(zeroed)
+        gait = self._detector.process(fsr)
+        o["heel_loaded"][sl] = gait.heel_loaded
+        o["toe_loaded"][sl] = gait.toe_loaded
+        o["phase"][sl] = gait.phase
+        hs.append(gait.heel_strike_idx)
+        to.append(gait.toe_off_idx)
+        strides.extend(self._strides.process(gait.heel_strike_idx, gait.toe_off_idx))
