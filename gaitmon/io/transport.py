@@ -24,6 +24,7 @@ and re-send its setup.
 
     write(data: bytes) -> None      bytes from the PC to the unit (commands)
     read() -> bytes                 bytes the unit has produced since the last call; non-blocking
+                                    (gaitmon.io.sim.unit.SimulatedUnit follows this)
 
 and may provide ``wait_readable(timeout_s: float) -> bool`` (block until read() would return
 bytes; otherwise the transport polls every `poll_interval_s`) and ``close()``.

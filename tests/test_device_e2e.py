@@ -1,0 +1,214 @@
+"""Device end to end: the simulated unit in process and over a real pty (real pyserial), clean,
+with injected faults (counters equal the simulator's ledger), and across a cut-and-restore."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from gaitmon.io import protocol as p
+from gaitmon.io.device import Device, DeviceError, SampleBlock, SequenceUnwrapper
+from gaitmon.io.sim.pty import PtySimulator
+from gaitmon.io.sim.unit import FaultConfig, SimulatedUnit
+from gaitmon.io.transport import InProcessTransport, LinkState, ReconnectPolicy, SerialTransport
+
+pytestmark = pytest.mark.timeout(60)
+
+
+def collect(dev: Device, n_frames: int, timeout_s: float = 20.0) -> list[SampleBlock]:
+    blocks: list[SampleBlock] = []
+    deadline = time.monotonic() + timeout_s
+    while sum(len(b) for b in blocks) < n_frames and time.monotonic() < deadline:
+        b = dev.read_block(0.2)
+        if b is not None:
+            blocks.append(b)
+    return blocks
+
+
+class SpyTransport(SerialTransport):
+    """Records what the Device sends."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.sent: list[bytes] = []
+
+    def write(self, data: bytes) -> None:
+        super().write(data)
+        self.sent.append(data)
+
+
+def drain(dev: Device) -> list[SampleBlock]:
+    out = []
+    while (b := dev.read_block(0.0)) is not None:
+        out.append(b)
+    return out
+
+
+# --- pieces ------------------------------------------------------------------------------------
+
+
+def test_sequence_unwrapper_by_hand():
+    u = SequenceUnwrapper()
+    assert [u.unwrap(s) for s in (65533, 65535, 0, 3)] == [65533, 65535, 65536, 65539]
+    # backwards = unit restarted at 0: numbering continues, strictly increasing
+    assert u.unwrap(2) == 65539 + 1 + 2
+    # after an outage of ~3 wraps (elapsed x rate), pick the cycle nearest the expectation
+    u = SequenceUnwrapper()
+    u.unwrap(100)
+    assert u.unwrap(50, expected_advance=3 * 65536) == 100 + (50 - 100) % 65536 + 2 * 65536
+
+
+def test_sample_block_from_joint_frames():
+    frames = [
+        p.JointFrame(1, [1.0, 2.0, 3.0], [4.0, 5.0, 6.0], True, False, 1),
+        p.JointFrame(2, [7.0, 8.0, 9.0], [0.5, 0.25, 0.0], True, True, 2),
+    ]
+    b = SampleBlock.from_frames(p.FrameKind.JOINT, frames, [70001, 70002], [5.0, 5.0], 100.0)
+    assert len(b) == 2 and b.seq.dtype == np.int64
+    assert b.acc_joint_deg.tolist() == [[1, 2, 3], [7, 8, 9]]
+    assert b.kalman_joint_deg[1].tolist() == [0.5, 0.25, 0.0]
+    assert b.heel_loaded.tolist() == [True, True] and b.toe_loaded.tolist() == [False, True]
+    assert b.phase.tolist() == [1, 2]
+    assert b.wall_time_s.tolist() == [105.0, 105.0]
+    assert b.adc is None
+
+
+def test_unanswered_command_is_a_clear_error():
+    class Mute:
+        def write(self, data):
+            pass
+
+        def read(self):
+            return b""
+
+    with (
+        Device(InProcessTransport(Mute()), command_timeout_s=0.05) as dev,
+        pytest.raises(DeviceError, match="no answer to IDENTIFY after 3 attempts"),
+    ):
+        dev.identify()
+
+
+# --- simulator in process ----------------------------------------------------------------------
+
+
+def test_in_process_session_identify_stream_poll():
+    unit = SimulatedUnit(speed=math.inf, serial=77, side="L")
+    with Device(InProcessTransport(unit)) as dev:
+        ident = dev.identify()
+        assert ident == unit.identity
+        assert ident.serial == 77 and ident.side == "L" and ident.matches_table()
+        dev.select_kind(p.FrameKind.TILT)
+        polled = dev.request_frame()
+        assert isinstance(polled, p.TiltFrame)
+        assert dev.read_block(0.05) is None  # a polled frame is the answer, not queued
+        dev.start_stream()
+        blocks = collect(dev, 1000)
+        with pytest.raises(DeviceError, match="streaming"):
+            dev.request_frame()
+        dev.stop_stream()
+        blocks += drain(dev)
+        st = dev.stats
+    assert all(b.kind == p.FrameKind.TILT and b.acc_tilt_deg.shape == (len(b), 4) for b in blocks)
+    seq = np.concatenate([b.seq for b in blocks])
+    n = len(seq)
+    assert n == unit.ledger.data_frames_produced - 1  # all but the polled frame went to blocks
+    # data frames are consecutive numbers, apart from the ACK that shares the counter
+    assert np.all(np.diff(seq) == 1)
+    assert st.decoder.frames_lost == 0 and st.decoder.crc_failures == 0
+    assert st.decoder.frames_ok == unit.ledger.frames_produced
+
+
+# --- over a real pty ---------------------------------------------------------------------------
+
+
+def test_pty_clean_link_zero_lost():
+    unit = SimulatedUnit(speed=math.inf)
+    with PtySimulator(unit) as sim, Device(SerialTransport(str(sim.link_path))) as dev:
+        dev.select_kind(p.FrameKind.RAW)
+        dev.start_stream()
+        blocks = collect(dev, 6000)  # 60 s of 100 Hz data, faster than real time
+        dev.stop_stream()
+        blocks += drain(dev)
+        st = dev.stats
+        assert sim.dropped_bytes == 0
+    adc = np.concatenate([b.adc for b in blocks])
+    seq = np.concatenate([b.seq for b in blocks])
+    assert adc.shape[1] == 14 and adc.max() <= 4095
+    assert len(seq) == unit.ledger.data_frames_produced
+    assert np.all(np.diff(seq) == 1)  # crosses no gap at all
+    d = st.decoder
+    assert (d.frames_lost, d.crc_failures, d.bytes_skipped, d.invalid_values) == (0, 0, 0, 0)
+    assert d.frames_ok == unit.ledger.frames_produced
+    assert d.bytes_received == unit.ledger.bytes_queued
+    # the blocks carry what the unit sent: compare with the unit's frame log
+    frame_no, _, _ = unit.frame_log()
+    assert np.array_equal(seq - seq[0], np.asarray(frame_no) - frame_no[0])
+
+
+def test_pty_with_injected_faults_counters_equal_the_ledger():
+    faults = FaultConfig(seed=5, loss_pct=2.0, corrupt_pct=5.0, burst_pct=0.2, burst_len_frames=8)
+    unit = SimulatedUnit(faults=faults, speed=math.inf)
+    with PtySimulator(unit) as sim, Device(SerialTransport(str(sim.link_path))) as dev:
+        dev.select_kind(p.FrameKind.JOINT)
+        dev.start_stream()
+        collect(dev, 5000)
+        dev.stop_stream()  # its ACK comes after every data frame: nothing left in flight
+        blocks = drain(dev)
+        st = dev.stats.decoder
+        assert sim.dropped_bytes == 0
+    led = unit.ledger
+    dropped, corrupted = len(led.dropped), len(led.corrupted)
+    assert dropped > 50 and corrupted > 150  # faults were really injected
+    assert st.frames_lost == dropped + corrupted
+    assert st.frames_ok == led.frames_produced - dropped - corrupted
+    assert st.bytes_received == led.bytes_queued
+    assert st.bytes_skipped == sum(p.FRAME_LEN[e.kind] for e in led.corrupted)
+    assert st.crc_failures >= sum(1 for e in led.corrupted if min(e.bits) >= 32)  # header intact
+    assert st.invalid_values == 0 and st.buffered == 0
+    # the unwrapped sequence numbers of the blocks skip exactly the faulted frames
+    got = np.concatenate([b.seq for b in blocks]) if blocks else np.array([], dtype=np.int64)
+    faulted = {e.frame_no for e in led.dropped} | {e.frame_no for e in led.corrupted}
+    assert len(got) == 0 or not faulted & set(got.tolist())
+
+
+def test_pty_cut_and_restore_detects_loss_and_resumes_by_itself():
+    unit = SimulatedUnit(speed=1.0)
+    with PtySimulator(unit) as sim:
+        transport = SpyTransport(
+            str(sim.link_path), reconnect=ReconnectPolicy(initial_s=0.1, max_s=0.4)
+        )
+        with Device(transport) as dev:
+            dev.select_kind(p.FrameKind.RAW)
+            dev.start_stream()
+            before = collect(dev, 30)
+            assert sum(len(b) for b in before) >= 30
+            n_sent_before = len(transport.sent)
+
+            sim.cut()
+            t_cut = time.monotonic()
+            while transport.status.state == LinkState.CONNECTED and time.monotonic() - t_cut < 5:
+                time.sleep(0.01)
+            detect_s = time.monotonic() - t_cut
+            assert transport.status.state == LinkState.RECONNECTING
+            assert detect_s <= 2.0
+            time.sleep(0.5)
+            drain(dev)
+            sim.restore()
+
+            after = collect(dev, 30, timeout_s=10)
+            st = dev.stats
+    assert sum(len(b) for b in after) >= 30
+    assert st.transport.reconnects == 1 and st.transport.link_losses == 1
+    # the device re-sent its streaming setup after the reconnect, without being asked
+    resent = [p.CommandDecoder().feed(w)[0] for w in transport.sent[n_sent_before:]]
+    assert (p.Command.SELECT_KIND, p.FrameKind.RAW) in resent
+    assert (p.Command.START_STREAM, 0) in resent
+    # numbering continues across the outage; the gap covers the frames lost while cut
+    last_before = before[-1].seq[-1]
+    first_after = after[0].seq[0]
+    link_down = len(unit.ledger.dropped_frame_nos("link_down"))
+    assert first_after - last_before - 1 >= link_down > 0
+    assert st.decoder.frames_lost >= link_down
