@@ -211,3 +211,17 @@ def test_command_decoder_reports_unknown_codes_and_counts_crc_failures():
     assert not isinstance(got[0].command, p.Command)
     assert dec.stats.crc_failures == 1
     assert dec.stats.bytes_skipped == 6
+
+
+def test_protocol_doc_examples_match_the_code():
+    """docs/protocol.md is the firmware's reference: its worked examples must be what we send."""
+    from pathlib import Path
+
+    doc = (Path(__file__).parents[1] / "docs" / "protocol.md").read_text()
+    assert p.encode_command(p.Command.START_STREAM).hex(" ") in doc
+    assert p.encode_command(p.Command.SELECT_KIND, p.FrameKind.RAW).hex(" ") in doc
+    assert p.encode_frame(p.AckFrame(7, p.Command.START_STREAM)).hex(" ") in doc
+    assert f"0x{p.DEFAULT_TABLE_CRC:04X}" in doc
+    for kind in p.DATA_KINDS:
+        assert f"**{p.FRAME_LEN[kind]}**" in doc
+    assert f"**{100 * p.link_load(p.FRAME_LEN[p.FrameKind.RAW], 100):.2f} %**" in doc
