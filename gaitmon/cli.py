@@ -15,7 +15,7 @@ class UserError(Exception):
 
 # name -> (module path, help). Modules define add_arguments(parser) and run(args) -> int.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
-    "bench": ("gaitmon.bench", "measure pipeline speed and print the figures"),
+    "bench": ("gaitmon.commands.bench", "measure pipeline speed and print the figures"),
     "ports": ("gaitmon.commands.ports", "list serial ports a unit could be on"),
     "simulate": ("gaitmon.commands.simulate", "run a simulated gait unit on a pseudo-terminal"),
 }
