@@ -235,6 +235,15 @@ def _smoothstep(u: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray, np
     return f, f1, f2
 
 
+def _ramp_integral(u: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Integral of ``_smoothstep`` from 0 to u, and its first two derivatives (the ramp)."""
+    x = np.clip(u / width, 0.0, 1.0)
+    f = np.where(u >= width, 0.5 * width + (u - width), width * (x**3 - 0.5 * x**4))
+    f = np.where(u <= 0, 0.0, f)
+    ramp, ramp1, _ = _smoothstep(u, width)
+    return f, ramp, ramp1
+
+
 def _swing_window(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Raised-cosine window over the swing part of the cycle (q in [0.5, 1.0]), peak at 0.75."""
     a, b = 0.5, 1.0
@@ -266,6 +275,7 @@ class KinematicsBlock:
     tilt_rad: np.ndarray  # (N, 4) body, thigh, shank, foot
     rate_rad_s: np.ndarray  # (N, 4) d(tilt)/dt
     lin_acc_ms2: np.ndarray  # (N, 4, 2) sensor-point acceleration in the world frame (F, U)
+    position_m: np.ndarray  # (N, 4, 2) sensor-point position (F, U); F grows with walking
 
 
 @dataclass
@@ -401,9 +411,10 @@ class GaitModel:
         shank = thigh - knee
         foot = shank + ankle
 
-        # Linkage: hip point moves one stride length per cycle, with a twice-per-stride bob
+        # Linkage: hip point moves one stride length per cycle once walking (its speed ramps in
+        # with the envelope, so starting off is not a jolt), with a twice-per-stride bob
         # (highest at mid-stance q = 0.3 and mid-swing q = 0.8).
-        hip_f = (p - START_PHASE) * cfg.stride_len_m
+        hip_f = p.compose(*_ramp_integral(p.v - START_PHASE, cfg.ramp_strides)) * cfg.stride_len_m
         bob = _cos_jet(p, q, w, 0.3)
         hip_u = bob * env * cfg.hip_bob_m + (cfg.thigh_m + cfg.shank_m)
         st, ct = thigh.sin(), thigh.cos()
@@ -420,6 +431,7 @@ class GaitModel:
             (ankle_f + cf * foot_fwd - sf * foot_up, ankle_u + sf * foot_fwd + cf * foot_up),
         )
         lin_acc = np.stack([np.stack([pf.dd, pu.dd], axis=-1) for pf, pu in points], axis=1)
+        pos = np.stack([np.stack([pf.v, pu.v], axis=-1) for pf, pu in points], axis=1)
         tilts = (body, thigh, shank, foot)
         return KinematicsBlock(
             sample_idx=idx,
@@ -431,4 +443,5 @@ class GaitModel:
             tilt_rad=np.stack([j.v for j in tilts], axis=-1),
             rate_rad_s=np.stack([j.d for j in tilts], axis=-1),
             lin_acc_ms2=lin_acc,
+            position_m=pos,
         )

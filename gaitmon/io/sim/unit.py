@@ -469,6 +469,11 @@ class SimulatedUnit:
         # Three uniforms per data frame, always drawn, so which frames are hit depends on the
         # seed and the frame number only, not on how the frames were batched.
         u = self._rng.random((n, 3))
+        raw_wire = b""
+        if kind == P.FrameKind.RAW and n:
+            # one call for the whole block (consecutive sequence numbers), sliced per frame
+            raw_wire = P.encode_raw_block(int(frame_nos[0]), block.counts[idx])
+        flen = P.FRAME_LEN[kind]
         for j, i in enumerate(idx):
             no = int(frame_nos[j])
             sample = start + int(i)
@@ -490,7 +495,10 @@ class SimulatedUnit:
                     LedgerEntry(no, no % P.SEQ_MODULO, sample, int(kind), fault)
                 )
                 continue
-            wire = P.encode_frame(self._data_frame(kind, no, block, pb, int(i)))
+            if raw_wire:
+                wire = raw_wire[j * flen : (j + 1) * flen]
+            else:
+                wire = P.encode_frame(self._data_frame(kind, no, block, pb, int(i)))
             if u[j, 2] * 100.0 < f.corrupt_pct:
                 wire, bits = self._corrupt(wire)
                 self.ledger.corrupted.append(
