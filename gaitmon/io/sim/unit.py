@@ -44,9 +44,10 @@ and corruption (1..max_bit_flips bit flips at random positions); on every frame:
 silences (nothing leaves the device) and link drops (the link is gone; ``pty.py`` removes the
 port). Every transmitted frame consumes a sequence number, so a lost frame is a gap the decoder
 can count. ``unit.ledger`` records each injected fault with its frame number (unwrapped), wire
-sequence number, sample index and kind. Frames in the device's output queue when a link goes
-down are discarded and counted (``ledger.discarded_bytes``); bytes already inside the OS pty
-buffer at a cut are outside the unit's knowledge.
+sequence number, sample index and kind. Frames still in the device's output queue when the
+link goes down (even partly read) are discarded and logged as ``link_down`` too, and queue
+overflow (nobody reading 1 MiB) as ``overflow``; so for an in-process transport the ledger is
+exact. Bytes already inside the OS pty buffer at a cut are beyond the unit's knowledge.
 
 Ground truth
 ------------
@@ -61,6 +62,7 @@ import math
 import threading
 import time
 from array import array
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
@@ -110,7 +112,7 @@ class LedgerEntry(NamedTuple):
     seq: int  # what went on the wire: frame_no mod 2**16
     sample_idx: int  # data frames: the sample it carries; answers: -1
     kind: int  # protocol.FrameKind
-    fault: str  # loss | burst | silent | link_down | corrupt
+    fault: str  # loss | burst | silent | link_down | overflow | corrupt
     bits: tuple[int, ...] = ()  # corrupt: flipped bit positions (byte * 8 + bit)
 
 
@@ -205,6 +207,9 @@ class SimulatedUnit:
         self._rng = np.random.default_rng(seeds[0])  # which frames are hit
         self._bits_rng = np.random.default_rng(seeds[1])  # which bits a corruption flips
         self._out = bytearray()
+        # [frame_no, sample_idx, kind, bytes still queued, logged] per frame in _out, oldest first,
+        # so bytes thrown away at a link cut or overflow are logged frame by frame
+        self._out_frames: deque[list[int]] = deque()
         self._kind = P.FrameKind.RAW
         self._streaming = False
         self._pending_requests = 0
@@ -245,7 +250,7 @@ class SimulatedUnit:
                 return b""
             n = len(self._out) if max_bytes is None else min(max_bytes, len(self._out))
             data = bytes(self._out[:n])
-            del self._out[:n]
+            self._pop_bytes(n, fault="")
             return data
 
     def seconds_until_next_sample(self) -> float:
@@ -430,9 +435,29 @@ class SimulatedUnit:
     def _link_down(self) -> bool:
         return self._link_down_at(self.sensors.position)
 
-    def _discard_queue(self) -> None:
-        self.ledger.discarded_bytes += len(self._out)
-        self._out.clear()
+    def _discard_queue(self, fault: str = "link_down") -> None:
+        self._pop_bytes(len(self._out), fault)
+
+    def _pop_bytes(self, n: int, fault: str) -> None:
+        """Remove n bytes from the head of the queue: read (fault "") or thrown away."""
+        del self._out[:n]
+        if fault:
+            self.ledger.discarded_bytes += n
+        frames = self._out_frames
+        while n > 0 and frames:
+            entry = frames[0]  # [frame_no, sample_idx, kind, bytes left, logged]
+            if fault and not entry[4]:
+                # one byte lost is enough: the decoder cannot get that frame any more
+                no = entry[0]
+                self.ledger.dropped.append(
+                    LedgerEntry(no, no % P.SEQ_MODULO, entry[1], entry[2], fault)
+                )
+                entry[4] = True
+            take = min(n, entry[3])
+            entry[3] -= take
+            n -= take
+            if entry[3] == 0:
+                frames.popleft()
 
     def _next_frame_no(self) -> int:
         no = self._frame_no
@@ -451,7 +476,7 @@ class SimulatedUnit:
                 LedgerEntry(no, no % P.SEQ_MODULO, -1, int(frame.kind), outage)
             )
             return
-        self._queue(P.encode_frame(frame))
+        self._queue(P.encode_frame(frame), no, -1, int(frame.kind))
 
     def _emit_data(
         self, start: int, block: SensorBlock, pb: PipelineBlock, idx: np.ndarray
@@ -504,7 +529,7 @@ class SimulatedUnit:
                 self.ledger.corrupted.append(
                     LedgerEntry(no, no % P.SEQ_MODULO, sample, int(kind), "corrupt", bits)
                 )
-            self._queue(wire)
+            self._queue(wire, no, sample, int(kind))
 
     def _data_frame(
         self, kind: P.FrameKind, no: int, block: SensorBlock, pb: PipelineBlock, i: int
@@ -532,11 +557,11 @@ class SimulatedUnit:
             b[bit // 8] ^= 1 << (bit % 8)
         return bytes(b), tuple(sorted(int(x) for x in bits))
 
-    def _queue(self, wire: bytes) -> None:
+    def _queue(self, wire: bytes, frame_no: int, sample_idx: int, kind: int) -> None:
         self._out += wire
+        self._out_frames.append([frame_no, sample_idx, kind, len(wire), False])
         self.ledger.bytes_queued += len(wire)
         excess = len(self._out) - _OUT_QUEUE_LIMIT_BYTES
         if excess > 0:
             # Nobody is reading: like a UART FIFO, the oldest bytes are lost.
-            del self._out[:excess]
-            self.ledger.discarded_bytes += excess
+            self._pop_bytes(excess, "overflow")
