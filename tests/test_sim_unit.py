@@ -252,6 +252,25 @@ def test_silence_and_link_drop_are_logged():
     assert dec.stats.frames_lost == len(silent) + len(link)
 
 
+def test_in_process_transport_streams_from_the_unit():
+    from gaitmon.io.transport import InProcessTransport
+
+    unit = SimulatedUnit(GaitConfig(seed=1))
+    link = InProcessTransport(unit)
+    link.open()
+    dec = FrameDecoder()
+    link.write(cmd(P.Command.START_STREAM))
+    frames: list = []
+    deadline = time.monotonic() + 5.0
+    while len(frames) < 11 and time.monotonic() < deadline:
+        frames += dec.feed(link.read(0.5))
+    link.close()
+    assert unit.closed
+    assert isinstance(frames[0], P.AckFrame)
+    assert [f.seq for f in frames[1:11]] == list(range(1, 11))
+    assert unit.read() == b""
+
+
 def _read_frames(port: serial.Serial, dec: FrameDecoder, seconds: float) -> list:
     out: list = []
     end = time.monotonic() + seconds

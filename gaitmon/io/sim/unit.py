@@ -15,6 +15,8 @@ Byte interface (what a transport uses)
     Device -> PC bytes that are due by now: frames of every sample tick up to
     floor((clock() - t0) * fs * speed), plus command answers. Never blocks; b"" when nothing is
     due. At most ``max_bytes`` are returned; the rest stays queued for the next read.
+``unit.wait_readable(timeout_s: float) -> bool``
+    Sleep (on a condition, woken by write/close) until bytes are due, at most timeout_s.
 ``unit.seconds_until_next_sample() -> float``
     For a transport thread to sleep until something can be due (0.0 when running flat out).
 ``unit.close()``
@@ -202,6 +204,7 @@ class SimulatedUnit:
         self.pipeline = Pipeline(pipeline_config or PipelineConfig(fs_hz=self.fs_hz))
         self.ledger = FaultLedger()
         self._lock = threading.RLock()
+        self._cond = threading.Condition(self._lock)  # wait_readable sleeps on it
         self._commands = P.CommandDecoder()
         seeds = np.random.SeedSequence(self.faults.seed, spawn_key=(4,)).spawn(2)
         self._rng = np.random.default_rng(seeds[0])  # which frames are hit
@@ -236,6 +239,7 @@ class SimulatedUnit:
                 return  # nobody hears commands sent into a dead link
             for req in self._commands.feed(data):
                 self._handle(req.command, req.arg)
+            self._cond.notify_all()
 
     def read(self, max_bytes: int | None = None) -> bytes:
         with self._lock:
@@ -253,6 +257,26 @@ class SimulatedUnit:
             self._pop_bytes(n, fault="")
             return data
 
+    def wait_readable(self, timeout_s: float) -> bool:
+        """Sleep until read() has bytes (or a sample with a frame is due), at most timeout_s.
+
+        For ``InProcessTransport``: it sleeps on a condition (woken by write/close), never
+        polls. Returns whether bytes are ready to read.
+        """
+        with self._cond:
+            if self._closed:
+                return False
+            if math.isinf(self.speed):
+                return bool(self._out or self._streaming or self._pending_requests)
+            self._advance_to_now()
+            if not self._out:
+                busy = self._streaming or self._pending_requests or self._zero_left
+                wait_s = min(timeout_s, self.seconds_until_next_sample()) if busy else timeout_s
+                if wait_s > 0:
+                    self._cond.wait(wait_s)
+                self._advance_to_now()
+            return bool(self._out)
+
     def seconds_until_next_sample(self) -> float:
         with self._lock:
             if math.isinf(self.speed):
@@ -264,6 +288,7 @@ class SimulatedUnit:
         with self._lock:
             self._closed = True
             self._out.clear()
+            self._cond.notify_all()
 
     @property
     def closed(self) -> bool:
