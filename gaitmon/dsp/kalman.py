@@ -188,6 +188,19 @@ class TiltKalman:
     def steady_state_gain(self) -> np.ndarray:
         return np.array([self._sched.k0_ss, self._sched.k1_ss])
 
+    def shift_bias(self, delta_rad_s: np.ndarray | float) -> None:
+        """Add ``delta`` to the bias state (when the gyro input gets a new fixed offset).
+
+        The next samples then run step by step until the linear path can take over again.
+        """
+        if self._bias is None:
+            return
+        self._bias = self._bias + np.asarray(delta_rad_s, dtype=np.float64)
+        if self._lti_zi is not None:
+            self._lti_zi = None
+            self._last_z = self._turns = None
+            self._recovery_left = max(self._recovery_left, 1)
+
     # ------------------------------------------------------------ processing
     def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
         """Filter (N,) or (N, segments) measurements; returns the tilt (rad), same shape."""

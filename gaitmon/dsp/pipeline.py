@@ -175,7 +175,13 @@ class Pipeline:
         self._n_seen = 0
 
     def set_calibration(self, calibration: Calibration) -> None:
-        """Use new standing offsets and gyro bias from the next sample on."""
+        """Use new standing offsets and gyro bias from the next sample on.
+
+        The Kalman filter's bias state moves by the same amount as the subtracted bias, so a
+        filter that had already learnt the bias does not have to unlearn it (no transient).
+        """
+        delta = calibration.gyro_bias_rad_s - self.calibration.gyro_bias_rad_s
+        self._kalman.shift_bias(-delta)
         self.calibration = calibration
 
     @property

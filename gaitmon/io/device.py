@@ -66,6 +66,9 @@ class SampleBlock:
     host_time_s   (N,) float64, time.monotonic() when the bytes were read (frames decoded from
                   one read share a time).
     wall_offset_s wall-clock anchor: time.time() = host_time_s + wall_offset_s.
+    lost_before   (N,) int64, frames the unit sent just before this sample that never arrived
+                  (sequence gap minus the control frames that did arrive, plus any dropped by
+                  this Device's own queue overflow): where a recording puts its gaps.
     The kind's arrays are set, the others are None: RAW -> adc (N, 14) uint16; TILT ->
     acc_tilt_deg, kalman_tilt_deg (N, 4) float64; JOINT -> acc_joint_deg, kalman_joint_deg
     (N, 3) float64, heel_loaded, toe_loaded (N,) bool, phase (N,) uint8.
@@ -75,6 +78,7 @@ class SampleBlock:
     seq: np.ndarray
     host_time_s: np.ndarray
     wall_offset_s: float
+    lost_before: np.ndarray | None = None
     adc: np.ndarray | None = None
     acc_tilt_deg: np.ndarray | None = None
     kalman_tilt_deg: np.ndarray | None = None
@@ -98,6 +102,7 @@ class SampleBlock:
         seq: list[int],
         host_time_s: list[float],
         wall_offset_s: float,
+        lost_before: list[int] | None = None,
     ) -> SampleBlock:
         n = len(frames)
         common = {
@@ -105,6 +110,9 @@ class SampleBlock:
             "seq": np.asarray(seq, dtype=np.int64),
             "host_time_s": np.asarray(host_time_s, dtype=np.float64),
             "wall_offset_s": wall_offset_s,
+            "lost_before": np.asarray(
+                lost_before if lost_before is not None else [0] * n, dtype=np.int64
+            ),
         }
         if kind == FrameKind.RAW:
             adc = np.empty((n, N_CHANNELS), dtype=np.uint16)
@@ -225,7 +233,9 @@ class Device:
         self._decoder = FrameDecoder()
         self._dec_lock = threading.Lock()
         self._unwrapper = SequenceUnwrapper()
-        self._queue: deque[tuple[DataFrame, int, float]] = deque()
+        # (frame, unwrapped seq, host time, frames lost just before it)
+        self._queue: deque[tuple[DataFrame, int, float, int]] = deque()
+        self._last_seq: int | None = None  # last unwrapped seq of any delivered frame
         self._max_queued = max_queued_frames
         self._overflow = 0
         self._cond = threading.Condition()
@@ -354,12 +364,14 @@ class Device:
             frames: list[DataFrame] = []
             seqs: list[int] = []
             times: list[float] = []
+            lost: list[int] = []
             while self._queue and len(frames) < max_frames and self._queue[0][0].kind == kind:
-                f, s, t = self._queue.popleft()
+                f, s, t, n_lost = self._queue.popleft()
                 frames.append(f)
                 seqs.append(s)
                 times.append(t)
-        return SampleBlock.from_frames(kind, frames, seqs, times, self._wall_offset_s)
+                lost.append(n_lost)
+        return SampleBlock.from_frames(kind, frames, seqs, times, self._wall_offset_s, lost)
 
     @property
     def stats(self) -> LinkStats:
@@ -415,6 +427,9 @@ class Device:
             pass  # lost again; the transport retries and we come back here
 
     def _route(self, frame: Frame, seq: int, now: float) -> None:
+        # control frames share the unit's counter: a gap is counted from the last frame of any kind
+        lost = 0 if self._last_seq is None else max(0, seq - self._last_seq - 1)
+        self._last_seq = seq
         with self._cond:
             pending = self._pending
             if isinstance(frame, AckFrame):
@@ -433,9 +448,14 @@ class Device:
                 pending.done.set()
                 return
             if len(self._queue) >= self._max_queued:
-                self._queue.popleft()
+                dropped = self._queue.popleft()
                 self._overflow += 1
-            self._queue.append((frame, seq, now))
+                if self._queue:  # the next frame now has these missing before it
+                    f, s, t, n = self._queue[0]
+                    self._queue[0] = (f, s, t, n + dropped[3] + 1)
+                else:
+                    lost += dropped[3] + 1
+            self._queue.append((frame, seq, now, lost))
             self._cond.notify_all()
 
 
