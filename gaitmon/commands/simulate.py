@@ -73,6 +73,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PATH",
         help="stable symlink to the port (default: a new /tmp/gaitmon-sim-XXXX/ttyGAIT0)",
     )
+    add_simulator_options(parser)
+
+
+def add_simulator_options(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """The simulated unit's options, shared by ``simulate``, ``record`` and the application."""
     parser.add_argument(
         "--cadence",
         type=_positive,
@@ -128,11 +133,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def run(args: argparse.Namespace) -> int:
-    if not args.pty:
-        raise UserError(
-            "nothing to do: pass --pty to serve the simulated unit on a pseudo-terminal"
-        )
+def build_unit(args: argparse.Namespace) -> SimulatedUnit:
+    """A SimulatedUnit from the options of :func:`add_simulator_options` (UserError if bad)."""
     try:
         gait = GaitConfig(
             cadence_steps_min=args.cadence,
@@ -150,6 +152,15 @@ def run(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    return unit
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.pty:
+        raise UserError(
+            "nothing to do: pass --pty to serve the simulated unit on a pseudo-terminal"
+        )
+    unit = build_unit(args)
     try:
         sim = PtySimulator(unit, args.link)
     except OSError as exc:

@@ -1,0 +1,690 @@
+"""The headless engine: a Device through the pipeline into display buffers and a recording.
+
+Data flows one way::
+
+    Device (its own rx thread) -> engine thread: Pipeline (or the unit's own angles)
+        -> ring buffers (the GUI pulls snapshots, ~30 Hz)
+        -> bounded queue -> recorder thread (the only code that touches the session file)
+
+Acquisition never waits for the recorder or a viewer: a full recorder queue is counted
+(``RecordingStatus.dropped_blocks``), never silent, and a write error (full disk) stops the
+recording with a message while acquisition and display carry on. No Qt here: the command line,
+the tests and the desktop window all drive this same object.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import enum
+import queue
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gaitmon.dsp.angles import joint_angles, wrap_angle
+from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
+from gaitmon.dsp.gait import Stride, StrideTracker, normalise_cycles, phase_from_contacts
+from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
+from gaitmon.io.device import Device, DeviceError, LinkStats, SampleBlock
+from gaitmon.io.protocol import FrameKind, Identity
+from gaitmon.io.transport import LinkError, LinkState
+
+
+class Mode(enum.StrEnum):
+    RAW = "raw"  # raw ADC frames, everything computed on the PC
+    TILT = "tilt"  # the unit's own accelerometer and Kalman tilts
+    JOINT = "joint"  # the unit's own joint angles, contacts and gait phase
+
+    @property
+    def frame_kind(self) -> FrameKind:
+        return {Mode.RAW: FrameKind.RAW, Mode.TILT: FrameKind.TILT, Mode.JOINT: FrameKind.JOINT}[
+            self
+        ]
+
+
+class EngineError(Exception):
+    """A one-line, actionable problem (no device data, a refused zeroing, ...)."""
+
+
+# ------------------------------------------------------------------------------------------
+# Display buffers
+# ------------------------------------------------------------------------------------------
+
+# name -> per-sample shape; every series is float64 (bools as 0/1) so a snapshot is uniform
+SERIES: dict[str, tuple[int, ...]] = {
+    "t_s": (),
+    "host_time_s": (),
+    "tilt_acc_deg": (4,),
+    "tilt_gyro_deg": (4,),
+    "tilt_kalman_deg": (4,),
+    "joint_acc_deg": (3,),
+    "joint_gyro_deg": (3,),
+    "joint_kalman_deg": (3,),
+    "acc_ms2": (4, 2),
+    "gyro_rad_s": (4,),
+    "fsr_counts": (2,),
+    "heel_loaded": (),
+    "toe_loaded": (),
+    "phase": (),
+}
+
+
+class RingBuffer:
+    """Fixed-capacity, multi-series ring of the most recent samples (one writer, one reader)."""
+
+    def __init__(self, capacity: int) -> None:
+        self.capacity = int(capacity)
+        self._data = {k: np.full((self.capacity, *s), np.nan) for k, s in SERIES.items()}
+        self._write = 0  # total samples ever written
+        self._lock = threading.Lock()
+
+    @property
+    def total(self) -> int:
+        return self._write
+
+    def append(self, cols: dict[str, np.ndarray]) -> None:
+        n = len(cols["t_s"])
+        if n == 0:
+            return
+        if n > self.capacity:
+            cols = {k: v[-self.capacity :] for k, v in cols.items()}
+            skipped = n - self.capacity
+            n = self.capacity
+        else:
+            skipped = 0
+        with self._lock:
+            start = (self._write + skipped) % self.capacity
+            first = min(n, self.capacity - start)
+            for k, arr in self._data.items():
+                v = cols.get(k)
+                if v is None:
+                    arr[start : start + first] = np.nan
+                    arr[: n - first] = np.nan
+                    continue
+                arr[start : start + first] = v[:first]
+                arr[: n - first] = v[first:]
+            self._write += n + skipped
+
+    def latest(self, n: int) -> dict[str, np.ndarray]:
+        """Copies of the last ``n`` samples (fewer if fewer were written), oldest first."""
+        with self._lock:
+            n = int(min(n, self.capacity, self._write))
+            end = self._write % self.capacity
+            idx = (np.arange(end - n, end)) % self.capacity
+            return {k: arr[idx] for k, arr in self._data.items()}
+
+
+# ------------------------------------------------------------------------------------------
+# Snapshots and status
+# ------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RecordingStatus:
+    active: bool = False
+    path: str = ""
+    started_monotonic_s: float = 0.0
+    elapsed_s: float = 0.0
+    rows: int = 0
+    file_bytes: int = 0
+    dropped_blocks: int = 0  # recorder queue overflows (never expected; never silent)
+    error: str = ""  # why the last recording stopped on its own ("" if it did not)
+
+
+@dataclass(frozen=True)
+class GaitStatus:
+    """The live gait panel: latest strides and the cycle overlay."""
+
+    n_strides: int = 0
+    last_stride_time_s: float = float("nan")
+    last_stance_pct: float = float("nan")
+    cadence_derived_steps_per_min: float = float("nan")
+    cycles_deg: np.ndarray = field(default_factory=lambda: np.empty((0, 101, 3)))  # last N strides
+    current_pct: np.ndarray = field(default_factory=lambda: np.empty(0))  # current stride so far
+    current_deg: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """What a viewer needs, copied out under a short lock. Angles in degrees."""
+
+    series: dict[str, np.ndarray]
+    heel_strike_t_s: np.ndarray
+    toe_off_t_s: np.ndarray
+    markers: tuple[tuple[float, str], ...]
+    samples_total: int
+    frame_rate_hz: float
+    last_data_age_s: float
+    link: LinkStats | None
+    link_state: str
+    link_reason: str
+    seconds_to_reconnect: float | None
+    recording: RecordingStatus
+    gait: GaitStatus
+    mode: Mode
+    calibrated: bool
+
+
+# ------------------------------------------------------------------------------------------
+# Recorder
+# ------------------------------------------------------------------------------------------
+
+
+class _Recorder:
+    """The single thread that owns the session writer."""
+
+    def __init__(self, writer: Any, queue_max: int) -> None:
+        self.writer = writer
+        self.queue: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize=queue_max)
+        self.dropped = 0
+        self.error = ""
+        self.rows = 0
+        self.file_bytes = 0
+        self.thread = threading.Thread(target=self._run, name="gaitmon-recorder", daemon=True)
+        self.started_monotonic_s = time.monotonic()
+        self.thread.start()
+
+    def put(self, item: tuple[str, Any]) -> None:
+        try:
+            self.queue.put_nowait(item)
+        except queue.Full:
+            self.dropped += 1
+
+    def _run(self) -> None:
+        from gaitmon.io.session import SessionError
+
+        w = self.writer
+        stop_reason = "user"
+        failed = False
+        while True:
+            try:
+                kind, payload = self.queue.get(timeout=0.05)
+            except queue.Empty:
+                kind, payload = "tick", None
+            if kind == "stop":
+                stop_reason = payload
+            if failed:
+                if kind == "stop":
+                    return
+                continue
+            try:
+                if kind == "append":
+                    samples, processed, offset = payload
+                    w.append(samples, processed, event_offset=offset)
+                elif kind == "marker":
+                    w.add_marker(payload)
+                elif kind == "config":
+                    w.log_config(payload)
+                elif kind == "calibration":
+                    w.log_calibration(payload)
+                elif kind == "link":
+                    w.update_link(payload)
+                elif kind == "stop":
+                    w.close(stop_reason=stop_reason)
+                    self.rows, self.file_bytes = w.rows, w.bytes_written
+                    return
+                w.maybe_flush()
+                self.rows, self.file_bytes = w.rows, w.bytes_written
+            except (SessionError, OSError) as exc:
+                self.error = str(exc)
+                failed = True
+                with contextlib.suppress(Exception):
+                    w.close(stop_reason=f"error: {exc}")
+
+
+# ------------------------------------------------------------------------------------------
+# Engine
+# ------------------------------------------------------------------------------------------
+
+
+class Engine:
+    """Runs one Device in one mode; see the module doc."""
+
+    def __init__(
+        self,
+        device: Device,
+        mode: Mode | str = Mode.RAW,
+        config: PipelineConfig | None = None,
+        calibration: Calibration | None = None,
+        *,
+        display_seconds: float = 60.0,
+        recorder_queue_blocks: int = 60_000,
+        cycle_strides: int = 10,
+        transport_label: str = "",
+    ) -> None:
+        self.device = device
+        self.mode = Mode(mode)
+        self.config = config or PipelineConfig()
+        self.calibration = calibration or Calibration.identity()
+        self.fs_hz = self.config.fs_hz
+        self.transport_label = transport_label
+        self._pipeline = Pipeline(self.config, self.calibration)
+        self._pipeline_offset = 0  # engine sample index of the current pipeline's sample 0
+        self._ring = RingBuffer(int(display_seconds * self.fs_hz))
+        self._recorder_queue_blocks = recorder_queue_blocks
+        self._lock = threading.Lock()  # guards the small mutable state below
+        self._events_hs: deque[float] = deque(maxlen=512)  # times (t_s) of recent events
+        self._events_to: deque[float] = deque(maxlen=512)
+        self._markers: deque[tuple[float, str]] = deque(maxlen=512)
+        self._rate_times: deque[tuple[float, int]] = deque(maxlen=64)
+        self._strides: deque[Stride] = deque(maxlen=cycle_strides)
+        self._cycles: deque[np.ndarray] = deque(maxlen=cycle_strides)
+        self._device_strides = StrideTracker(self.fs_hz)
+        self._device_contacts: tuple[bool, bool] | None = None  # last heel/toe (JOINT mode)
+        self._n_strides = 0
+        self._last_hs_idx: int | None = None
+        self._seq0: int | None = None
+        self._samples = 0  # samples processed since start (the pipeline's index)
+        self._last_data_s = time.monotonic()
+        self._pending_config: PipelineConfig | None = None
+        self._pending_calibration: Calibration | None = None
+        self._recorder: _Recorder | None = None
+        self._record_offset = 0
+        self._last_recording = RecordingStatus()
+        self._identity: Identity | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._error = ""
+
+    # -- lifecycle ----------------------------------------------------------------------
+
+    @property
+    def identity(self) -> Identity | None:
+        return self._identity
+
+    def start(self) -> None:
+        """Connect (if needed), identify, select the mode's frames and start streaming."""
+        if self._thread is not None:
+            return
+        try:
+            self.device.connect()
+            self._identity = self.device.identify()
+            self.device.select_kind(self.mode.frame_kind)
+            self.device.start_stream()
+        except (DeviceError, LinkError) as exc:
+            with contextlib.suppress(Exception):
+                self.device.close()
+            raise EngineError(str(exc)) from exc
+        self._stop.clear()
+        self._last_data_s = time.monotonic()
+        self._thread = threading.Thread(target=self._run, name="gaitmon-engine", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop recording (the file is completed), streaming and the threads. Idempotent."""
+        self.stop_recording()
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+            self._thread = None
+        with contextlib.suppress(Exception):
+            self.device.close()
+
+    def __enter__(self) -> Engine:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    @property
+    def samples_total(self) -> int:
+        return self._samples
+
+    # -- recording ------------------------------------------------------------------------
+
+    def start_recording(
+        self, path: str | Path, meta: Any = None, *, overwrite: bool = False
+    ) -> None:
+        """Open a session file and record every sample from the next block on."""
+        from gaitmon.io.session import SessionError, SessionHeader, SessionMeta, SessionWriter
+
+        if self._recorder is not None:
+            raise EngineError("already recording; stop the current recording first")
+        ident = self._identity
+        device_info = {
+            "name": ident.name if ident else "",
+            "firmware": ident.firmware if ident else "",
+            "serial": ident.serial if ident else "",
+            "side": ident.side if ident else "",
+            "transport": self.transport_label,
+            "channel_table_id": getattr(ident, "channel_table_id", 0) if ident else 0,
+            "channel_table_crc": getattr(ident, "channel_table_crc", 0) if ident else 0,
+        }
+        with self._lock:
+            header = SessionHeader(
+                mode=self.mode.value,
+                sample_rate_hz=self.fs_hz,
+                meta=meta or SessionMeta(),
+                device=device_info,
+                config=self.config,
+                calibration=self.calibration,
+            )
+            try:
+                writer = SessionWriter(path, header, overwrite=overwrite)
+            except SessionError as exc:
+                raise EngineError(str(exc)) from exc
+            except OSError as exc:
+                raise EngineError(f"cannot create {path}: {exc.strerror or exc}") from exc
+            self._record_offset = self._samples
+            self._recorder = _Recorder(writer, self._recorder_queue_blocks)
+            self._last_recording = RecordingStatus()
+
+    def stop_recording(self, reason: str = "user", timeout_s: float = 30.0) -> RecordingStatus:
+        """Finish the file (complete, journal removed) and return the final status."""
+        with self._lock:
+            rec = self._recorder
+            self._recorder = None
+        if rec is None:
+            return self._last_recording
+        with contextlib.suppress(Exception):
+            rec.put(("link", self.device.stats))
+        # the stop item must get through even if the queue is full: wait for room
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                rec.queue.put(("stop", reason), timeout=0.1)
+                break
+            except queue.Full:
+                if time.monotonic() > deadline:
+                    break
+        rec.thread.join(timeout=max(0.0, deadline - time.monotonic()))
+        status = self._recording_status(rec)
+        self._last_recording = RecordingStatus(**{**status.__dict__, "active": False})
+        return self._last_recording
+
+    def _recording_status(self, rec: _Recorder | None) -> RecordingStatus:
+        if rec is None:
+            return self._last_recording
+        return RecordingStatus(
+            active=not rec.error,
+            path=str(rec.writer.path),
+            started_monotonic_s=rec.started_monotonic_s,
+            elapsed_s=time.monotonic() - rec.started_monotonic_s,
+            rows=rec.rows,
+            file_bytes=rec.file_bytes,
+            dropped_blocks=rec.dropped,
+            error=rec.error,
+        )
+
+    @property
+    def recording(self) -> RecordingStatus:
+        return self._recording_status(self._recorder)
+
+    def add_marker(self, label: str = "") -> None:
+        t = self._latest_t()
+        with self._lock:
+            self._markers.append((t, label))
+            if self._recorder is not None:
+                self._recorder.put(("marker", label))
+
+    # -- settings and calibration --------------------------------------------------------
+
+    def apply_config(self, config: PipelineConfig) -> None:
+        """New filter settings from the next block on; logged in a running recording."""
+        if config.fs_hz != self.fs_hz:
+            raise EngineError("the sample rate is fixed by the unit; it cannot change live")
+        with self._lock:
+            self._pending_config = config
+
+    def zero(self, window_s: float = 1.5) -> Calibration:
+        """Standing calibration from the last ``window_s`` of data; refuses while moving."""
+        if self.mode is not Mode.RAW:
+            try:
+                self.device.zero()
+            except (DeviceError, LinkError) as exc:
+                raise EngineError(f"the unit refused to zero: {exc}") from exc
+            return self.calibration
+        n = int(window_s * self.fs_hz)
+        data = self._ring.latest(n)
+        if len(data["t_s"]) < n or np.isnan(data["acc_ms2"]).any():
+            raise EngineError(
+                f"need {window_s:g} s of data from the unit to zero; wait a moment and retry"
+            )
+        # the ring holds bias-corrected rates: add the bias in force back to see the true rate
+        gyro = data["gyro_rad_s"] + self.calibration.gyro_bias_rad_s
+        try:
+            cal = standing_calibration(data["acc_ms2"], gyro, fs_hz=self.fs_hz)
+        except CalibrationError as exc:
+            raise EngineError(str(exc)) from exc
+        with self._lock:
+            self._pending_calibration = cal
+        return cal
+
+    # -- snapshots ------------------------------------------------------------------------
+
+    def snapshot(self, window_s: float = 10.0) -> Snapshot:
+        n = int(window_s * self.fs_hz)
+        series = self._ring.latest(n)
+        t = series["t_s"]
+        t0 = t[0] if len(t) else 0.0
+        with self._lock:
+            hs = np.array([x for x in self._events_hs if x >= t0])
+            to = np.array([x for x in self._events_to if x >= t0])
+            markers = tuple(m for m in self._markers if m[0] >= t0)
+            rates = list(self._rate_times)
+            gait = self._gait_status(series)
+            rec = self._recording_status(self._recorder)
+        rate = 0.0
+        if len(rates) >= 2 and rates[-1][0] > rates[0][0]:
+            rate = (rates[-1][1] - rates[0][1]) / (rates[-1][0] - rates[0][0])
+        try:
+            link = self.device.stats
+        except Exception:  # a vanished device must not break the viewer
+            link = None
+        status = link.transport if link is not None else None
+        return Snapshot(
+            series=series,
+            heel_strike_t_s=hs,
+            toe_off_t_s=to,
+            markers=markers,
+            samples_total=self._samples,
+            frame_rate_hz=rate,
+            last_data_age_s=time.monotonic() - self._last_data_s,
+            link=link,
+            link_state=status.state.value if status is not None else "closed",
+            link_reason=(status.reason or "") if status is not None else self._error,
+            seconds_to_reconnect=status.seconds_to_next_attempt() if status is not None else None,
+            recording=rec,
+            gait=gait,
+            mode=self.mode,
+            calibrated=bool(np.any(self.calibration.tilt_offset_rad != 0)),
+        )
+
+    def _gait_status(self, series: dict[str, np.ndarray]) -> GaitStatus:
+        if not self._strides:
+            return GaitStatus()
+        last = self._strides[-1]
+        mean_stride = float(np.mean([s.stride_time_s for s in self._strides]))
+        cur_pct = np.empty(0)
+        cur = np.empty((0, 3))
+        if self._last_hs_idx is not None:
+            k = self._samples - self._last_hs_idx
+            if 0 < k <= len(series["t_s"]):
+                cur = series["joint_kalman_deg"][-k:]
+                cur_pct = np.arange(k) / (mean_stride * self.fs_hz) * 100.0
+        return GaitStatus(
+            n_strides=self._n_strides,
+            last_stride_time_s=last.stride_time_s,
+            last_stance_pct=last.stance_pct,
+            cadence_derived_steps_per_min=120.0 / mean_stride,
+            cycles_deg=np.stack(list(self._cycles)) if self._cycles else np.empty((0, 101, 3)),
+            current_pct=cur_pct,
+            current_deg=cur,
+        )
+
+    def _latest_t(self) -> float:
+        last = self._ring.latest(1)["t_s"]
+        return float(last[0]) if len(last) else 0.0
+
+    # -- the engine thread ------------------------------------------------------------------
+
+    def _run(self) -> None:
+        last_link_push = time.monotonic()
+        while not self._stop.is_set():
+            try:
+                block = self.device.read_block(timeout_s=0.05)
+            except Exception as exc:  # the device died under us: keep the reason, keep running
+                self._error = f"device error: {exc}"
+                time.sleep(0.05)
+                continue
+            now = time.monotonic()
+            if block is not None and len(block):
+                self._last_data_s = now
+                self._handle(block)
+            if now - last_link_push >= 1.0:
+                last_link_push = now
+                with self._lock:
+                    if self._recorder is not None:
+                        with contextlib.suppress(Exception):
+                            self._recorder.put(("link", self.device.stats))
+
+    def _handle(self, block: SampleBlock) -> None:
+        with self._lock:
+            cfg, self._pending_config = self._pending_config, None
+            cal, self._pending_calibration = self._pending_calibration, None
+            rec = self._recorder
+        if cfg is not None:
+            self.config = cfg
+            self._pipeline = Pipeline(cfg, self.calibration)
+            self._pipeline_offset = self._samples
+            if rec is not None:
+                rec.put(("config", cfg))
+        if cal is not None:
+            self.calibration = cal
+            self._pipeline.set_calibration(cal)
+            if rec is not None:
+                rec.put(("calibration", cal))
+        if self._seq0 is None:
+            self._seq0 = int(block.seq[0])
+        t_s = (block.seq - self._seq0) / self.fs_hz
+        start_idx = self._samples
+        if block.kind == FrameKind.RAW and block.adc is not None:
+            p = self._pipeline.process(block.adc)
+            offset = self._pipeline_offset
+            cols = _cols_from_pipeline(p, t_s, block.host_time_s)
+            hs_idx = p.heel_strike_idx + offset
+            to_idx = p.toe_off_idx + offset
+            strides = [_shift(s, offset) for s in p.strides]
+            if rec is not None:
+                rec.put(("append", (block, p, self._record_offset - offset)))
+        else:
+            cols = _cols_from_device(block, t_s)
+            hs_idx, to_idx = self._device_events(block, start_idx)
+            strides = self._device_strides.process(hs_idx, to_idx)
+            if rec is not None:
+                rec.put(("append", (block, None, 0)))
+        self._ring.append(cols)
+        self._samples += len(block)
+        with self._lock:
+            self._rate_times.append((float(block.host_time_s[-1]), self._samples))
+            for idx in hs_idx:
+                self._events_hs.append(float(t_s[0] + (idx - start_idx) / self.fs_hz))
+            for idx in to_idx:
+                self._events_to.append(float(t_s[0] + (idx - start_idx) / self.fs_hz))
+            if len(hs_idx):
+                self._last_hs_idx = int(hs_idx[-1])
+            for s in strides:
+                self._add_stride(s)
+
+    def _add_stride(self, s: Stride) -> None:
+        """Normalise a finished stride's joint angles from the ring buffer (lock held)."""
+        self._n_strides += 1
+        self._strides.append(s)
+        length = self._samples - s.start_idx
+        if length > self._ring.capacity or length <= 0:
+            return
+        joints = self._ring.latest(length)["joint_kalman_deg"]
+        k = s.end_idx - s.start_idx
+        seg = joints[: k + 1]
+        if len(seg) == k + 1 and not np.isnan(seg).all():
+            self._cycles.append(normalise_cycles(seg, np.array([0, k]))[0])
+
+    def _device_events(self, block: SampleBlock, start_idx: int) -> tuple[np.ndarray, np.ndarray]:
+        """Heel strikes / toe offs from the unit's contact flags (JOINT mode)."""
+        if block.heel_loaded is None or block.toe_loaded is None:
+            return np.empty(0, np.int64), np.empty(0, np.int64)
+        if self._device_contacts is None:  # the state at start-up is not an event
+            self._device_contacts = (bool(block.heel_loaded[0]), bool(block.toe_loaded[0]))
+        heel = np.concatenate([[self._device_contacts[0]], block.heel_loaded])
+        toe = np.concatenate([[self._device_contacts[1]], block.toe_loaded])
+        self._device_contacts = (bool(heel[-1]), bool(toe[-1]))
+        hs = np.flatnonzero(heel[1:] & ~heel[:-1]) + start_idx
+        to = np.flatnonzero(~toe[1:] & toe[:-1]) + start_idx
+        return hs.astype(np.int64), to.astype(np.int64)
+
+    # -- link ---------------------------------------------------------------------------
+
+    def link_state(self) -> LinkState:
+        return self.device.stats.transport.state
+
+
+def _shift(s: Stride, offset: int) -> Stride:
+    if offset == 0:
+        return s
+    from dataclasses import replace
+
+    return replace(
+        s,
+        start_idx=s.start_idx + offset,
+        end_idx=s.end_idx + offset,
+        toe_off_idx=s.toe_off_idx + offset,
+    )
+
+
+def _cols_from_pipeline(p: PipelineBlock, t_s: np.ndarray, host: np.ndarray) -> dict:
+    deg = np.degrees
+    return {
+        "t_s": t_s,
+        "host_time_s": host,
+        "tilt_acc_deg": deg(p.tilt_acc_rad),
+        "tilt_gyro_deg": deg(p.tilt_gyro_rad),
+        "tilt_kalman_deg": deg(p.tilt_kalman_rad),
+        "joint_acc_deg": deg(p.joint_acc_rad),
+        "joint_gyro_deg": deg(p.joint_gyro_rad),
+        "joint_kalman_deg": deg(p.joint_kalman_rad),
+        "acc_ms2": p.acc_ms2,
+        "gyro_rad_s": p.gyro_rad_s,
+        "fsr_counts": p.fsr_counts,
+        "heel_loaded": p.heel_loaded.astype(np.float64),
+        "toe_loaded": p.toe_loaded.astype(np.float64),
+        "phase": p.phase.astype(np.float64),
+    }
+
+
+def _cols_from_device(b: SampleBlock, t_s: np.ndarray) -> dict:
+    cols: dict[str, np.ndarray] = {"t_s": t_s, "host_time_s": b.host_time_s}
+    if b.kind == FrameKind.TILT and b.acc_tilt_deg is not None and b.kalman_tilt_deg is not None:
+        cols["tilt_acc_deg"] = b.acc_tilt_deg
+        cols["tilt_kalman_deg"] = b.kalman_tilt_deg
+        cols["joint_acc_deg"] = np.degrees(joint_angles(np.radians(b.acc_tilt_deg)))
+        cols["joint_kalman_deg"] = np.degrees(joint_angles(np.radians(b.kalman_tilt_deg)))
+    elif b.kind == FrameKind.JOINT and b.kalman_joint_deg is not None:
+        cols["joint_acc_deg"] = b.acc_joint_deg
+        cols["joint_kalman_deg"] = b.kalman_joint_deg
+        assert b.heel_loaded is not None and b.toe_loaded is not None and b.phase is not None
+        cols["heel_loaded"] = b.heel_loaded.astype(np.float64)
+        cols["toe_loaded"] = b.toe_loaded.astype(np.float64)
+        cols["phase"] = phase_from_contacts(b.heel_loaded, b.toe_loaded).astype(np.float64)
+    return cols
+
+
+__all__ = [
+    "Engine",
+    "EngineError",
+    "GaitStatus",
+    "Mode",
+    "RecordingStatus",
+    "RingBuffer",
+    "Snapshot",
+    "wrap_angle",
+]
