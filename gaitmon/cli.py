@@ -16,6 +16,7 @@ class UserError(Exception):
 # name -> (module path, help). Modules define add_arguments(parser) and run(args) -> int.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("gaitmon.commands.bench", "measure pipeline speed and print the figures"),
+    "export": ("gaitmon.commands.export", "export a recorded session to CSV, MATLAB .mat or C3D"),
     "ports": ("gaitmon.commands.ports", "list serial ports a unit could be on"),
     "simulate": ("gaitmon.commands.simulate", "run a simulated gait unit on a pseudo-terminal"),
 }

@@ -1,0 +1,95 @@
+"""``gaitmon export``: write a recorded session as CSV, MATLAB .mat or C3D."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from gaitmon.cli import UserError
+
+DESCRIPTION = """\
+Export a recorded session (.h5) to CSV (+ a .meta.json side file), a MATLAB v5 .mat file
+(struct `session`, 1-based indices) or C3D (angles as POINTs, raw channels as ANALOGs in
+physical units, Foot Strike / Foot Off events). Layouts: docs/file-format.md, "Export formats".
+"""
+
+EPILOG = """\
+examples:
+  gaitmon export walk.h5 --format csv              # walk.csv + walk.meta.json
+  gaitmon export walk.h5 --format mat -o out/walk.mat
+  gaitmon export walk.h5 --format c3d --deidentify # walk.c3d (walk_part001.c3d ... if > 10 min)
+"""
+
+# Progress is shown only for sessions long enough for the wait to be noticeable.
+PROGRESS_MIN_SAMPLES = 100_000
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.description = DESCRIPTION
+    parser.epilog = EPILOG
+    parser.add_argument("file", metavar="FILE", help="session file (.h5)")
+    parser.add_argument("--format", required=True, choices=("csv", "mat", "c3d"),
+                        help="output format")
+    parser.add_argument("-o", "--output", metavar="OUT",
+                        help="output file (default: FILE with the format's extension)")
+    parser.add_argument("--deidentify", action="store_true",
+                        help="leave out patient id, operator and notes (the data are kept)")
+    parser.add_argument("--force", action="store_true", help="overwrite existing output files")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
+
+
+class _Progress:
+    """Percent on stderr: rewritten in place on a terminal, every 10 % otherwise."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.tty = sys.stderr.isatty()
+        self.last = -1
+        self.shown = False
+
+    def __call__(self, fraction: float) -> None:
+        pct = int(100 * min(max(fraction, 0.0), 1.0))
+        step = 1 if self.tty else 10
+        if pct // step == self.last // step and pct != 100:
+            return
+        if pct == self.last:
+            return
+        self.last = pct
+        self.shown = True
+        if self.tty:
+            sys.stderr.write(f"\r{self.label}: {pct:3d}%")
+            if pct == 100:
+                sys.stderr.write("\n")
+        else:
+            sys.stderr.write(f"{self.label}: {pct}%\n")
+        sys.stderr.flush()
+
+
+def run(args: argparse.Namespace) -> int:
+    from gaitmon.io.export import ExportError, export_session, session_length
+
+    t0 = time.perf_counter()
+    progress = None
+    try:
+        if not args.quiet and session_length(args.file) >= PROGRESS_MIN_SAMPLES:
+            progress = _Progress(f"exporting {args.format}")
+        result = export_session(
+            args.file, args.format, args.output,
+            deidentify=args.deidentify, force=args.force, progress=progress,
+        )
+    except ExportError as exc:
+        if progress is not None and progress.shown and progress.tty:
+            sys.stderr.write("\n")
+        raise UserError(str(exc)) from None
+    for problem in result.problems:
+        print(f"gaitmon export: warning: {args.file}: {problem}", file=sys.stderr)
+    if not args.quiet:
+        names = ", ".join(str(p) for p in result.paths[:3])
+        more = f" (+{len(result.paths) - 3} more)" if len(result.paths) > 3 else ""
+        print(
+            f"exported {result.n_samples:,} samples ({result.mode or 'unknown'} mode) to "
+            f"{names}{more} in {time.perf_counter() - t0:.1f} s"
+        )
+    return 0
