@@ -17,6 +17,7 @@ class UserError(Exception):
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("gaitmon.commands.bench", "measure pipeline speed and print the figures"),
     "export": ("gaitmon.commands.export", "export a recorded session to CSV, MATLAB .mat or C3D"),
+    "lab": ("gaitmon.commands.lab", "reproduce the papers' filter experiments as reports"),
     "ports": ("gaitmon.commands.ports", "list serial ports a unit could be on"),
     "simulate": ("gaitmon.commands.simulate", "run a simulated gait unit on a pseudo-terminal"),
 }

@@ -1,0 +1,47 @@
+"""``gaitmon lab``: reproduce the papers' filter experiments as Markdown reports with PNG plots."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from gaitmon.cli import UserError
+
+CHOICES = ("all", "p000", "p001", "p002", "p003", "p004")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "experiment",
+        nargs="?",
+        default="all",
+        help=f"which experiment: {', '.join(CHOICES)} (default all)",
+    )
+    p.add_argument("-o", "--out", required=True, metavar="DIR", help="directory for the reports")
+    p.add_argument(
+        "--quick", action="store_true", help="shorter records and fewer runs (for a smoke test)"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.experiment not in CHOICES:
+        raise UserError(f"unknown experiment {args.experiment!r}; use one of {', '.join(CHOICES)}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out} exists and is not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".gaitmon-lab-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise UserError(f"cannot write reports to {out}: {exc.strerror or exc}") from None
+    from gaitmon.lab import EXPERIMENTS, run_all
+
+    names = list(EXPERIMENTS) if args.experiment == "all" else [args.experiment]
+    t0 = time.perf_counter()
+    print(f"gaitmon lab: {len(names)} experiment(s) -> {out}", flush=True)
+    run_all(names, out, quick=args.quick, progress=lambda m: print(f"  {m}", flush=True))
+    print(f"gaitmon lab: done in {time.perf_counter() - t0:.1f} s", flush=True)
+    return 0
