@@ -24,6 +24,7 @@ import datetime as _dt
 import json
 import math
 import os
+import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +48,9 @@ MAT_V5_MAX_BYTES = 2**31 - 2**24
 C3D_MAX_PART_S = 600.0
 # EVENT parameters are arrays whose dimensions are single bytes: at most 255 events per file.
 C3D_MAX_EVENTS = 255
+# ezc3d 1.7 keeps about the data size of each file it writes: beyond this many parts, parts
+# are written by a worker process that is replaced after this many.
+C3D_INPROCESS_PARTS = 8
 ANONYMOUS = "anonymous"  # C3D subject name when there is none or it is withheld
 
 REDACTED = "[removed]"
@@ -729,20 +733,54 @@ def _c3d_events(src: _Source, scrub: _Scrubber, side: str) -> list[tuple[int, st
     return out
 
 
-def _c3d_param_int(c: Any, group: str, name: str, values: list[int], desc: str = "") -> None:
-    # ezc3d's add_parameter turns Python int lists into FLOAT parameters; the C3D spec wants
-    # INTEGER for TRIAL fields and EVENT_CONTEXT ids, so build the parameter directly.
+@dataclass
+class _C3dSpec:
+    """One C3D file as plain, picklable data: the parameters to set and the arrays."""
+
+    values: list[tuple[str, str, Any]] = field(default_factory=list)  # set existing param
+    params: list[tuple[str, str, Any, str]] = field(default_factory=list)  # add_parameter
+    int_params: list[tuple[str, str, list[int], str]] = field(default_factory=list)
+    points: np.ndarray = field(default_factory=lambda: np.zeros((4, 0, 0)))
+    residuals: np.ndarray = field(default_factory=lambda: np.zeros((1, 0, 0)))
+    analogs: np.ndarray = field(default_factory=lambda: np.zeros((1, 0, 0)))
+
+    def set_value(self, group: str, name: str, value: Any) -> None:
+        self.values.append((group, name, value))
+
+    def add_parameter(self, group: str, name: str, value: Any, desc: str = "") -> None:
+        self.params.append((group, name, value, desc))
+
+
+def _c3d_write_spec(spec: _C3dSpec, out: str) -> None:
+    """Write one C3D file with ezc3d (in a worker process for long exports: ezc3d 1.7 keeps
+    about the data size of every c3d it writes, so the worker is replaced every few parts)."""
     import ezc3d
 
-    p = ezc3d.ezc3d.Parameter(name, desc)
-    p.set(ezc3d.ezc3d.VecInt([int(v) for v in values]), [len(values)])
-    c._storage["parameters"].add_parameter(group, p)
+    c = ezc3d.c3d()
+    for group, name, value in spec.values:
+        c["parameters"][group][name]["value"] = value
+    c["data"]["points"] = spec.points
+    c["data"]["meta_points"] = {"residuals": spec.residuals}
+    c["data"]["analogs"] = spec.analogs
+    for group, name, value, desc in spec.params:
+        c.add_parameter(group, name, value, desc)
+    for group, name, ints, desc in spec.int_params:
+        # ezc3d's add_parameter turns Python int lists into FLOAT parameters; the C3D spec
+        # wants INTEGER for TRIAL fields, counts and ids, so build the parameter directly.
+        p = ezc3d.ezc3d.Parameter(name, desc)
+        p.set(ezc3d.ezc3d.VecInt([int(v) for v in ints]), [len(ints)])
+        c._storage["parameters"].add_parameter(group, p)
+    c.write(out)
 
 
-def _write_c3d_part(src: _Source, out: Path, plan: C3dPlan, part_no: int, scrub: _Scrubber,
-                    deidentify: bool, events: list[tuple[int, str, str, str, int]]) -> None:
-    import ezc3d
+def _c3d_param_int(c: _C3dSpec, group: str, name: str, values: list[int],
+                   desc: str = "") -> None:
+    c.int_params.append((group, name, [int(v) for v in values], desc))
 
+
+def _c3d_part_spec(src: _Source, plan: C3dPlan, part_no: int, scrub: _Scrubber,
+                   deidentify: bool, events: list[tuple[int, str, str, str, int]]) -> _C3dSpec:
+    """Everything one C3D part holds, as plain data (written by _c3d_write_spec)."""
     f0, f1 = plan.parts[part_no]
     nf = f1 - f0
     fs = src.fs_hz
@@ -750,7 +788,7 @@ def _write_c3d_part(src: _Source, out: Path, plan: C3dPlan, part_no: int, scrub:
     local = plan.frame[r0:r1] - f0
     side = _side(src)
 
-    c = ezc3d.c3d()
+    c = _C3dSpec()
     point_labels: list[str] = []
     point_desc: list[str] = []
     point_blocks: list[np.ndarray] = []
@@ -777,12 +815,11 @@ def _write_c3d_part(src: _Source, out: Path, plan: C3dPlan, part_no: int, scrub:
         # a NaN angle (e.g. the unit's invalid value) is missing too
         residuals[0][np.isnan(pts[0])] = -1.0
         pts[0][np.isnan(pts[0])] = 0.0
-    c["parameters"]["POINT"]["RATE"]["value"] = np.array([fs])
-    c["parameters"]["POINT"]["LABELS"]["value"] = point_labels
-    c["parameters"]["POINT"]["DESCRIPTIONS"]["value"] = point_desc
-    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
-    c["data"]["points"] = pts
-    c["data"]["meta_points"] = {"residuals": residuals}
+    c.set_value("POINT", "RATE", np.array([fs]))
+    c.set_value("POINT", "LABELS", point_labels)
+    c.set_value("POINT", "DESCRIPTIONS", point_desc)
+    c.set_value("POINT", "UNITS", ["mm"])
+    c.points, c.residuals = pts, residuals
     if n_pts:
         c.add_parameter("POINT", "ANGLES", point_labels, "points that are angles")
         c.add_parameter("POINT", "ANGLE_UNITS", "deg", "unit of angle points")
@@ -810,11 +847,11 @@ def _write_c3d_part(src: _Source, out: Path, plan: C3dPlan, part_no: int, scrub:
     an = np.full((1, n_an, nf), np.nan)
     if n_an:
         an[0][:, local] = np.concatenate(analog_blocks, axis=1).T
-    c["parameters"]["ANALOG"]["RATE"]["value"] = np.array([fs])
-    c["parameters"]["ANALOG"]["LABELS"]["value"] = analog_labels
-    c["parameters"]["ANALOG"]["DESCRIPTIONS"]["value"] = analog_desc
-    c["parameters"]["ANALOG"]["UNITS"]["value"] = analog_units
-    c["data"]["analogs"] = an
+    c.set_value("ANALOG", "RATE", np.array([fs]))
+    c.set_value("ANALOG", "LABELS", analog_labels)
+    c.set_value("ANALOG", "DESCRIPTIONS", analog_desc)
+    c.set_value("ANALOG", "UNITS", analog_units)
+    c.analogs = an
     if n_an:
         c.add_parameter("ANALOG", "SCALE", np.ones(n_an), "data stored in physical units")
         _c3d_param_int(c, "ANALOG", "OFFSET", [0] * n_an)
@@ -869,10 +906,109 @@ def _write_c3d_part(src: _Source, out: Path, plan: C3dPlan, part_no: int, scrub:
     if not deidentify:
         for k in _Scrubber.FIELDS:
             _c3d_text(c, "GAITMON", k.upper(), _text(session.get(k, "")))
-    c.write(str(out))
+    return c
 
 
-def _c3d_text(c: Any, group: str, name: str, text: str, width: int = 80) -> None:
+def _write_c3d_parts(specs: Iterator[_C3dSpec], paths: list[Path],
+                     progress: PROGRESS | None) -> None:
+    """Write the parts; beyond a few, in a child process replaced every few files, because
+    ezc3d 1.7 keeps about the data size of every file it writes until the process exits."""
+    worker = _C3dWorker() if len(paths) > C3D_INPROCESS_PARTS else None
+    try:
+        for k, (spec, path) in enumerate(zip(specs, paths, strict=True)):
+            if worker is None:
+                _c3d_write_spec(spec, str(path))
+            else:
+                worker.write(spec, path)
+            if progress is not None:
+                progress((k + 1) / len(paths))
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+class _C3dWorker:
+    """`python -m gaitmon.io.export --c3d-worker`: pickled (spec, path) in, error text out.
+
+    A plain child process (not multiprocessing): nothing of the caller (its __main__, its
+    threads, an open HDF5 file) is re-run or inherited beyond the pipes."""
+
+    def __init__(self) -> None:
+        self.proc: Any = None
+        self.done = 0
+
+    def _start(self) -> None:
+        import subprocess
+
+        env = dict(os.environ)
+        root = str(Path(__file__).resolve().parents[2])  # so the child imports this gaitmon
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "gaitmon.io.export", "--c3d-worker"],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env,
+        )
+        self.done = 0
+
+    def write(self, spec: _C3dSpec, path: Path) -> None:
+        import pickle
+
+        if self.proc is None or self.done >= C3D_INPROCESS_PARTS:
+            self.close()
+            self._start()
+        _send(self.proc.stdin, pickle.dumps((spec, str(path)), protocol=5))
+        reply = _recv(self.proc.stdout)
+        if reply is None:
+            raise ExportError(f"the C3D writer process stopped while writing {path.name}")
+        error = pickle.loads(reply)
+        if error:
+            raise ExportError(f"cannot write {path.name}: {error}")
+        self.done += 1
+
+    def close(self) -> None:
+        if self.proc is None:
+            return
+        with contextlib.suppress(OSError):
+            self.proc.stdin.close()  # EOF: the worker's loop ends
+        try:
+            self.proc.wait(timeout=30)
+        except Exception:
+            self.proc.kill()
+            self.proc.wait()
+        finally:
+            self.proc.stdout.close()
+            self.proc = None
+
+
+def _send(f: Any, payload: bytes) -> None:
+    f.write(len(payload).to_bytes(8, "little"))
+    f.write(payload)
+    f.flush()
+
+
+def _recv(f: Any) -> bytes | None:
+    head = f.read(8)
+    if len(head) < 8:
+        return None
+    n = int.from_bytes(head, "little")
+    data = f.read(n)
+    return data if len(data) == n else None
+
+
+def _c3d_worker_main() -> None:
+    import pickle
+
+    inp, out = sys.stdin.buffer, sys.stdout.buffer
+    while (msg := _recv(inp)) is not None:
+        spec, path = pickle.loads(msg)
+        try:
+            _c3d_write_spec(spec, path)
+            error = ""
+        except Exception as exc:  # reported to the parent as one line
+            error = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        _send(out, pickle.dumps(error))
+
+
+def _c3d_text(c: _C3dSpec, group: str, name: str, text: str, width: int = 80) -> None:
     """A string parameter; C3D dimensions are single bytes, so long text becomes lines."""
     text = text.replace("\r", " ").replace("\n", " ").strip() or "-"
     lines = [text[i : i + width] for i in range(0, len(text), width)][:255]
@@ -916,12 +1052,6 @@ def session_length(src_path: str | os.PathLike[str]) -> int:
     """Rows in a session file (raises ExportError for a bad file)."""
     with _open_source(Path(src_path)) as src:
         return src.n
-
-
-def planned_outputs(src_path: Path, out: Path, fmt: str) -> list[Path]:
-    """The files an export will create (CSV: + side JSON; C3D: one file or numbered parts)."""
-    with _open_source(src_path) as src:
-        return _planned(src, out, fmt)
 
 
 def _planned(src: _Source, out: Path, fmt: str) -> list[Path]:
@@ -977,14 +1107,15 @@ def export_session(
             else:
                 events = _c3d_events(src, scrub, _side(src))
                 plan = _c3d_plan(src, np.array([e[0] for e in events], np.int64))
-                for k, final in enumerate(outputs):
+                tmps = []
+                for final in outputs:
                     # ezc3d appends ".c3d" to names not ending in it; temp names must end in it
                     tmp = atomic.tmp(final)
-                    tmp_c3d = tmp.with_name(tmp.name + ".c3d")
-                    atomic.pairs[-1] = (tmp_c3d, final)
-                    _write_c3d_part(src, tmp_c3d, plan, k, scrub, deidentify, events)
-                    if progress is not None:
-                        progress((k + 1) / len(outputs))
+                    tmps.append(tmp.with_name(tmp.name + ".c3d"))
+                    atomic.pairs[-1] = (tmps[-1], final)
+                specs = (_c3d_part_spec(src, plan, k, scrub, deidentify, events)
+                         for k in range(len(outputs)))
+                _write_c3d_parts(specs, tmps, progress)
             written = atomic.commit()
         except OSError as exc:
             atomic.discard()
@@ -994,3 +1125,7 @@ def export_session(
             atomic.discard()
             raise
         return ExportResult(tuple(written), src.n, src.mode, src.problems)
+
+
+if __name__ == "__main__" and sys.argv[1:] == ["--c3d-worker"]:
+    _c3d_worker_main()
