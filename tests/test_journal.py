@@ -30,6 +30,7 @@ def _raw_rows(seq: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     rows = np.empty(len(seq), dtype=ROW_DTYPES[RecordType.RAW])
     rows["seq"] = seq
     rows["host_time_s"] = 1000.0 + seq / 100.0 + rng.random(len(seq)) * 1e-3
+    rows["lost_before"] = rng.integers(0, 3, size=len(seq))
     rows["adc"] = rng.integers(0, 4096, size=(len(seq), 14))
     return rows
 
@@ -54,16 +55,25 @@ def test_record_layout_matches_the_documented_bytes():
     assert encode_record(7, payload) == by_hand
 
 
+def test_row_sizes_are_the_documented_ones():
+    # docs/file-format.md: seq, host_time_s, lost_before (8+8+4) then raw 14*2, tilt 4*8+4*8,
+    # joint 3*8+3*8+3 bytes
+    sizes = {t: d.itemsize for t, d in ROW_DTYPES.items()}
+    assert sizes == {RecordType.RAW: 48, RecordType.TILT: 84, RecordType.JOINT: 71}
+
+
 def test_block_payload_is_n_wall_offset_then_packed_rows(tmp_path):
     rows = _raw_rows(np.array([5, 6, 9]), np.random.default_rng(0))
     rec = encode_block(RecordType.RAW, 12.5, rows)
     n, wall = struct.unpack_from("<Id", rec, 5)
     assert (n, wall) == (3, 12.5)
-    first = struct.unpack_from("<qd14H", rec, 5 + 12)  # seq, host_time_s, adc[14] of row 0
+    # seq, host_time_s, lost_before, adc[14] of row 0
+    first = struct.unpack_from("<qdI14H", rec, 5 + 12)
     assert first[0] == 5
     assert first[1] == rows["host_time_s"][0]
-    assert list(first[2:]) == rows["adc"][0].tolist()
-    assert len(rec) == 5 + 12 + 3 * (8 + 8 + 28) + 4
+    assert first[2] == rows["lost_before"][0]
+    assert list(first[3:]) == rows["adc"][0].tolist()
+    assert len(rec) == 5 + 12 + 3 * (8 + 8 + 4 + 28) + 4
 
 
 def test_round_trip_of_blocks_and_logs_is_exact(tmp_path):
@@ -92,6 +102,7 @@ def test_round_trip_of_blocks_and_logs_is_exact(tmp_path):
     assert c.rows.dtype == expected.dtype
     assert np.array_equal(c.rows["seq"], expected["seq"])
     assert np.array_equal(c.rows["host_time_s"], expected["host_time_s"])
+    assert np.array_equal(c.rows["lost_before"], expected["lost_before"])
     assert np.array_equal(c.rows["adc"], expected["adc"])
     assert c.wall_offset_s == 1.7e9
     assert c.markers == [{"sample_idx": 3, "label": "start ü"}]
@@ -201,3 +212,37 @@ def test_writer_refuses_to_overwrite_and_counts_bytes(tmp_path):
 def test_journal_path_appends_the_suffix(tmp_path):
     assert journal_path(tmp_path / "a.h5") == tmp_path / "a.h5.journal"
     assert json.loads(encode_json(RecordType.HEADER, {"a": 1})[5:-4]) == {"a": 1}
+
+
+def test_long_runs_of_equal_blocks_interleaved_with_other_records_keep_their_order(tmp_path):
+    # the reader checks runs of same-sized blocks with numpy; breaks in a run must not reorder
+    rng = np.random.default_rng(6)
+    path = tmp_path / "runs.journal"
+    w = JournalWriter(path)
+    w.write_raw(encode_json(RecordType.HEADER, HEADER))
+    expected = []
+    next_seq = 0
+    for run_len, n in ((500, 1), (3, 4), (1, 2), (700, 4), (0, 0), (40000, 1)):
+        for _ in range(run_len):
+            rows = _raw_rows(np.arange(next_seq, next_seq + n), rng)
+            next_seq += n
+            expected.append(rows)
+            w.write_raw(encode_block(RecordType.RAW, 0.0, rows))
+        w.write_raw(encode_json(RecordType.MARKER, {"sample_idx": next_seq, "label": "x"}))
+    w.close()
+    c = read_journal(path)
+    assert c.problem == ""
+    exp = np.concatenate(expected)
+    assert np.array_equal(c.rows["seq"], np.arange(next_seq))
+    assert np.array_equal(c.rows["adc"], exp["adc"])
+    assert [m["sample_idx"] for m in c.markers] == [500, 512, 514, 3314, 3314, 43314]
+    # a bad CRC deep inside a long run stops there
+    data = bytearray(path.read_bytes())
+    rec_len = len(encode_block(RecordType.RAW, 0.0, expected[-1]))
+    marker_len = len(encode_json(RecordType.MARKER, {"sample_idx": 43314, "label": "x"}))
+    bad_at = len(data) - marker_len - 1000 * rec_len + 30  # inside row 42314's record
+    data[bad_at] ^= 1
+    path.write_bytes(bytes(data))
+    c = read_journal(path)
+    assert c.n_rows == 42314
+    assert "CRC" in c.problem

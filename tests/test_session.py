@@ -58,19 +58,23 @@ def _link(crc: int, ok: int) -> LinkStats:
     )
 
 
-def _seq_with_losses(n: int) -> tuple[np.ndarray, dict[int, int]]:
-    """Sequence numbers for n received rows with frames lost before rows 700 (5 lost) and
-    1500 (a unit restart: seq continues +1, the gap's duration carries the real time)."""
+def _seq_with_losses(n: int) -> tuple[np.ndarray, np.ndarray, dict[int, int]]:
+    """Sequence numbers and lost_before for n received rows: an ACK before row 300 (it used
+    a sequence number, no sample is missing), 5 frames lost before row 700, and a unit
+    restart before row 1500 (seq continues +1, the gap's duration carries the real time)."""
     step = np.ones(n, dtype=np.int64)
+    step[300] = 2
     step[700] = 6
     seq = 1000 + np.cumsum(step) - 1
-    return seq, {700: 5, 1500: 0}
+    lost = step - 1
+    lost[300] = 0
+    return seq, lost, {700: 5, 1500: 0}
 
 
 def _record_raw(path, *, config_change_row=None, cal_row=None, close=True, copy_to=None):
     """Drive a SessionWriter as the engine would; returns (writer, what was written)."""
     rng = np.random.default_rng(7)
-    seq, gaps = _seq_with_losses(N)
+    seq, lost, gaps = _seq_with_losses(N)
     host = 50.0 + np.arange(N) / FS
     cfg0 = PipelineConfig()
     cfg1 = cfg0.replace(cutoff_hz=6.0)
@@ -105,7 +109,9 @@ def _record_raw(path, *, config_change_row=None, cal_row=None, close=True, copy_
             w.update_link(_link(crc=3, ok=2000))  # crc unchanged: no new crc log entry
             w.update_link(_link(crc=7, ok=2001))
         adc = COUNTS[i:b]
-        block = SampleBlock(FrameKind.RAW, seq[i:b], host[i:b], 1.7e9, adc=adc)
+        block = SampleBlock(
+            FrameKind.RAW, seq[i:b], host[i:b], 1.7e9, lost_before=lost[i:b], adc=adc
+        )
         w.append(block, pipe.process(adc), event_offset=offset)
         i = b
     w.add_marker("back-dated", sample_idx=50)
@@ -119,9 +125,13 @@ def _record_raw(path, *, config_change_row=None, cal_row=None, close=True, copy_
     return w, seq, host, cfg0, cfg1
 
 
-def _expected_t_s(seq: np.ndarray) -> np.ndarray:
-    t = (seq - seq[0]) / FS
-    # the restart at row 1500: seq says 0.01 s, the gap says 12.5 s lost, so 12.5 + 0.01 s
+def _expected_t_s() -> np.ndarray:
+    # samples at 100 Hz: row i is sample i, plus the 5 lost before row 700; the ACK before
+    # row 300 takes no sample time
+    k = np.arange(N, dtype=np.float64)
+    k[700:] += 5
+    t = k / FS
+    # the restart at row 1500: one step (0.01 s) by the count, the gap says 12.5 s were lost
     t[1500:] += 12.5 + 0.01 - 0.01
     return t
 
@@ -174,7 +184,7 @@ def test_raw_session_round_trip(tmp_path):
         assert np.array_equal(s.read("timeline/seq"), seq)
         assert np.array_equal(s.read("timeline/host_time_s"), host)
         t = s.read("timeline/t_s")
-        assert np.allclose(t, _expected_t_s(seq), rtol=0, atol=1e-9)
+        assert np.allclose(t, _expected_t_s(), rtol=0, atol=1e-9)
         assert s.duration_s == pytest.approx(t[-1] + 0.01)
         assert s.complete and not s.recovered and not s.reprocessed
         assert s.stop_reason == "duration"
@@ -421,7 +431,12 @@ def test_writer_refuses_to_overwrite(tmp_path):
 def test_writer_rejects_misuse(tmp_path):
     w = SessionWriter(tmp_path / "s.h5", SessionHeader("raw"))
     tilt = SampleBlock(
-        FrameKind.TILT, np.arange(1), np.zeros(1), 0.0, np.zeros((1, 4)), np.zeros((1, 4))
+        FrameKind.TILT,
+        np.arange(1),
+        np.zeros(1),
+        0.0,
+        acc_tilt_deg=np.zeros((1, 4)),
+        kalman_tilt_deg=np.zeros((1, 4)),
     )
     with pytest.raises(ValueError, match="raw session"):
         w.append(tilt)
@@ -557,3 +572,22 @@ def test_garbage_journal_without_a_file(tmp_path):
     with pytest.raises(SessionError) as e:
         open_session(p)
     assert "journal" in _one_line(e.value)
+
+
+def test_a_live_recording_is_not_recovered_under_the_writer(tmp_path):
+    # e.g. `gaitmon info` run on the file the application is recording: the journal is locked
+    path = tmp_path / "live.h5"
+    w = SessionWriter(path, SessionHeader("raw"))
+    w.append(
+        SampleBlock(FrameKind.RAW, np.arange(3), np.zeros(3), 0.0, adc=COUNTS[:3]),
+        Pipeline().process(COUNTS[:3]),
+    )
+    w.flush()
+    with pytest.raises(SessionError, match="being recorded right now"):
+        open_session(path)
+    with pytest.raises(SessionError, match="being recorded right now"):
+        recover_session(path)
+    assert journal_path(path).exists()
+    w.close()
+    with open_session(path) as s:
+        assert s.complete and s.n_samples == 3

@@ -22,17 +22,24 @@ in :attr:`JournalContents.problem`.
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import json
 import mmap
 import os
 import struct
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+try:
+    import fcntl
+except ImportError:  # Windows
+    fcntl = None  # type: ignore[assignment]
 
 MAGIC = b"GMJRNL01"
 JOURNAL_SUFFIX = ".journal"
@@ -57,20 +64,17 @@ BLOCK_TYPES: dict[str, RecordType] = {
 }
 
 # One row per sample, little-endian and packed: the block payload after its 12-byte head.
+# lost_before: frames the unit sent just before this sample that never arrived.
+_COMMON = [("seq", "<i8"), ("host_time_s", "<f8"), ("lost_before", "<u4")]
+N_COMMON_FIELDS = len(_COMMON)
 ROW_DTYPES: dict[RecordType, np.dtype] = {
-    RecordType.RAW: np.dtype([("seq", "<i8"), ("host_time_s", "<f8"), ("adc", "<u2", (14,))]),
+    RecordType.RAW: np.dtype([*_COMMON, ("adc", "<u2", (14,))]),
     RecordType.TILT: np.dtype(
-        [
-            ("seq", "<i8"),
-            ("host_time_s", "<f8"),
-            ("acc_tilt_deg", "<f8", (4,)),
-            ("kalman_tilt_deg", "<f8", (4,)),
-        ]
+        [*_COMMON, ("acc_tilt_deg", "<f8", (4,)), ("kalman_tilt_deg", "<f8", (4,))]
     ),
     RecordType.JOINT: np.dtype(
         [
-            ("seq", "<i8"),
-            ("host_time_s", "<f8"),
+            *_COMMON,
             ("acc_joint_deg", "<f8", (3,)),
             ("kalman_joint_deg", "<f8", (3,)),
             ("heel_loaded", "u1"),
@@ -107,6 +111,29 @@ def encode_block(rtype: RecordType, wall_offset_s: float, rows: np.ndarray) -> b
     return encode_record(rtype, _BLOCK_HEAD.pack(len(rows), wall_offset_s) + rows.tobytes())
 
 
+def _lock(fd: int, *, blocking: bool = False) -> bool:
+    """An exclusive advisory lock on the open file; False if someone else holds one. Where
+    ``fcntl`` is missing (Windows) there is no lock and this says True."""
+    if fcntl is None:
+        return True
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
+    except BlockingIOError:
+        return False
+    return True
+
+
+@contextlib.contextmanager
+def journal_lock(path: str | os.PathLike[str]) -> Iterator[bool]:
+    """Hold the journal's lock while the block runs; yields False if a live recorder (this
+    process or another) holds it. The kernel drops the lock when a recorder dies."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
+    try:
+        yield _lock(fd)
+    finally:
+        os.close(fd)
+
+
 class JournalWriter:
     """Appends records to a new journal file; every record is one ``write()`` to the OS.
 
@@ -118,6 +145,7 @@ class JournalWriter:
         self.path = Path(path)
         flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND | getattr(os, "O_CLOEXEC", 0)
         self._fd: int | None = os.open(self.path, flags, 0o644)
+        _lock(self._fd)  # tells other processes the recording is live (see journal_in_use)
         self.bytes_written = 0
         self.write_raw(MAGIC)
 
@@ -186,7 +214,8 @@ def read_journal(path: str | os.PathLike[str]) -> JournalContents:
     try:
         return _parse(mm, size)
     finally:
-        mm.close()
+        with contextlib.suppress(BufferError):  # only if an error left a view alive
+            mm.close()
 
 
 def _parse(mm: mmap.mmap, size: int) -> JournalContents:
@@ -200,10 +229,19 @@ def _parse(mm: mmap.mmap, size: int) -> JournalContents:
     crc32 = zlib.crc32
     block_type: RecordType | None = None
     row_size = 0
-    block_offsets: list[int] = []
-    block_ns: list[int] = []
+    singles: list[tuple[int, int]] = []  # (offset of the rows, n) of blocks read one by one
+    offset_parts: list[np.ndarray] = []  # in journal order, singles flushed between runs
+    n_parts: list[np.ndarray] = []
+
+    def flush_singles() -> None:
+        if singles:
+            offset_parts.append(np.array([a for a, _ in singles], dtype=np.int64))
+            n_parts.append(np.array([n for _, n in singles], dtype=np.int64))
+            singles.clear()
+
     n_rows = 0
     o = len(MAGIC)
+    buf = np.frombuffer(mm, dtype=np.uint8)
     with memoryview(mm) as mv:
         while True:
             if o + _HEAD.size > size:
@@ -244,9 +282,20 @@ def _parse(mm: mmap.mmap, size: int) -> JournalContents:
                     break
                 if out.wall_offset_s is None and n:
                     out.wall_offset_s = wall
-                block_offsets.append(body + _BLOCK_HEAD.size)
-                block_ns.append(n)
+                singles.append((body + _BLOCK_HEAD.size, n))
                 n_rows += n
+                # Fast path: a recording is mostly a long run of blocks of the same size;
+                # check their headers with numpy and only their CRCs one by one.
+                rec_len = end + _TAIL.size - o
+                run = _same_block_run(buf, mv, end + _TAIL.size, rec_len, buf[o : o + 9], size)
+                if run:
+                    flush_singles()
+                    first = end + _TAIL.size
+                    starts = first + rec_len * np.arange(run, dtype=np.int64)
+                    offset_parts.append(starts + _HEAD.size + _BLOCK_HEAD.size)
+                    n_parts.append(np.full(run, n, dtype=np.int64))
+                    n_rows += run * n
+                    end = first + rec_len * run - _TAIL.size
             elif rtype in _JSON_KEYS:
                 obj = _json_or_none(mv[body:end])
                 if not (isinstance(obj, dict) and all(k in obj for k in _JSON_KEYS[rtype])):
@@ -263,12 +312,51 @@ def _parse(mm: mmap.mmap, size: int) -> JournalContents:
             # else: a record type from a later version, CRC-valid: skip it
             o = end + _TAIL.size
         out.valid_bytes = o
+    flush_singles()
     if out.header is None and not out.problem:
         out.problem = "the journal has no header record"
     if out.header is not None and block_type is not None:
-        out.rows = _gather_rows(mm, ROW_DTYPES[block_type], block_offsets, block_ns, n_rows)
-        out.n_blocks = len(block_ns)
+        offsets = np.concatenate(offset_parts) if offset_parts else np.empty(0, np.int64)
+        ns = np.concatenate(n_parts) if n_parts else np.empty(0, np.int64)
+        out.rows = _gather_rows(buf, ROW_DTYPES[block_type], offsets, ns, n_rows)
+        out.n_blocks = len(ns)
+    del buf  # release the buffer export before the map is closed
     return out
+
+
+_RUN_STEP = 1 << 15  # records examined per numpy step of the fast path
+
+
+def _same_block_run(
+    buf: np.ndarray, mv: memoryview, start: int, rec_len: int, head: np.ndarray, size: int
+) -> int:
+    """How many records from ``start`` on are complete, CRC-valid and have exactly the 9 head
+    bytes (type, length, n) of the block before them."""
+    crc32 = zlib.crc32
+    body_len = rec_len - _TAIL.size
+    cols = np.arange(9, dtype=np.int64)
+    tail_cols = np.arange(_TAIL.size, dtype=np.int64) + body_len
+    count = 0
+    while True:
+        avail = (size - start) // rec_len
+        k = min(avail, _RUN_STEP)
+        if k <= 0:
+            return count
+        starts = start + rec_len * np.arange(k, dtype=np.int64)
+        same = np.all(buf[starts[:, None] + cols] == head, axis=1)
+        m = k if same.all() else int(np.argmin(same))
+        if m:
+            stored = buf[starts[:m, None] + tail_cols].copy().view("<u4").ravel()
+            computed = np.fromiter(
+                (crc32(mv[p : p + body_len]) for p in starts[:m].tolist()), np.uint32, m
+            )
+            bad = np.flatnonzero(stored != computed)
+            if len(bad):
+                m = int(bad[0])
+        count += m
+        if m < k:
+            return count
+        start += rec_len * k
 
 
 def _json_or_none(data: memoryview) -> Any:
@@ -279,27 +367,22 @@ def _json_or_none(data: memoryview) -> Any:
 
 
 def _gather_rows(
-    mm: mmap.mmap, dtype: np.dtype, offsets: list[int], ns: list[int], n_rows: int
+    buf: np.ndarray, dtype: np.dtype, offsets: np.ndarray, ns: np.ndarray, n_rows: int
 ) -> np.ndarray:
     """Copy the rows of every block out of the mapped journal into one structured array."""
     rows = np.empty(n_rows, dtype=dtype)
     if n_rows == 0:
         return rows
-    ns_arr = np.asarray(ns, dtype=np.int64)
-    first_row = np.cumsum(ns_arr) - ns_arr
+    first_row = np.cumsum(ns) - ns
     # byte offset of every row: its block's first row + row_size * (row - block's first row)
-    row_block = np.repeat(np.arange(len(ns_arr)), ns_arr)
-    row_offset = np.asarray(offsets, dtype=np.int64)[row_block] + dtype.itemsize * (
+    row_block = np.repeat(np.arange(len(ns)), ns)
+    row_offset = offsets[row_block] + dtype.itemsize * (
         np.arange(n_rows, dtype=np.int64) - first_row[row_block]
     )
     del row_block
-    buf = np.frombuffer(mm, dtype=np.uint8)
-    try:
-        cols = np.arange(dtype.itemsize, dtype=np.int64)
-        flat = rows.view(np.uint8).reshape(n_rows, dtype.itemsize)
-        for a in range(0, n_rows, _GATHER_ROWS):
-            b = min(n_rows, a + _GATHER_ROWS)
-            flat[a:b] = buf[row_offset[a:b, None] + cols]
-    finally:
-        del buf  # release the buffer export before the map is closed
+    cols = np.arange(dtype.itemsize, dtype=np.int64)
+    flat = rows.view(np.uint8).reshape(n_rows, dtype.itemsize)
+    for a in range(0, n_rows, _GATHER_ROWS):
+        b = min(n_rows, a + _GATHER_ROWS)
+        flat[a:b] = buf[row_offset[a:b, None] + cols]
     return rows
