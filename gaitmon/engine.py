@@ -15,7 +15,9 @@ the tests and the desktop window all drive this same object.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import enum
+import itertools
 import queue
 import threading
 import time
@@ -195,6 +197,34 @@ class _Recorder:
         except queue.Full:
             self.dropped += 1
 
+    def _append(
+        self,
+        w: Any,
+        samples: SampleBlock,
+        processed: PipelineBlock | None,
+        offset: int,
+        gap_reason: str,
+    ) -> None:
+        """Write a block, logging a gap at each row where frames were lost before it."""
+        lost = samples.lost_before
+        if lost is not None and w.rows == 0 and lost[0]:
+            lost = lost.copy()  # frames lost before the first recorded row are not in the session
+            lost[0] = 0
+        cuts = [] if lost is None else [int(i) for i in np.flatnonzero(lost)]
+        if not cuts:
+            w.append(samples, processed, event_offset=offset)
+            return
+        assert lost is not None
+        fs = w.header.sample_rate_hz
+        bounds = [0, *cuts, len(samples)] if cuts[0] != 0 else [*cuts, len(samples)]
+        for k, (a, b) in enumerate(itertools.pairwise(bounds)):
+            if a == b:
+                continue
+            if lost[a]:
+                w.add_gap(int(lost[a]), float(lost[a]) / fs, gap_reason or "frames lost")
+            part_p = None if processed is None else _slice_pipeline(processed, a, b, k == 0)
+            w.append(_slice_samples(samples, a, b), part_p, event_offset=offset)
+
     def _run(self) -> None:
         from gaitmon.io.session import SessionError
 
@@ -214,8 +244,7 @@ class _Recorder:
                 continue
             try:
                 if kind == "append":
-                    samples, processed, offset = payload
-                    w.append(samples, processed, event_offset=offset)
+                    self._append(w, *payload)
                 elif kind == "marker":
                     w.add_marker(payload)
                 elif kind == "config":
@@ -279,6 +308,7 @@ class Engine:
         self._n_strides = 0
         self._last_hs_idx: int | None = None
         self._seq0: int | None = None
+        self._reconnects_seen = 0
         self._samples = 0  # samples processed since start (the pipeline's index)
         self._last_data_s = time.monotonic()
         self._pending_config: PipelineConfig | None = None
@@ -566,6 +596,11 @@ class Engine:
                 rec.put(("calibration", cal))
         if self._seq0 is None:
             self._seq0 = int(block.seq[0])
+        reconnects = self.device.stats.transport.reconnects
+        gap_reason = ""
+        if reconnects != self._reconnects_seen:
+            self._reconnects_seen = reconnects
+            gap_reason = "link lost: reconnected"
         t_s = (block.seq - self._seq0) / self.fs_hz
         start_idx = self._samples
         if block.kind == FrameKind.RAW and block.adc is not None:
@@ -576,13 +611,13 @@ class Engine:
             to_idx = p.toe_off_idx + offset
             strides = [_shift(s, offset) for s in p.strides]
             if rec is not None:
-                rec.put(("append", (block, p, self._record_offset - offset)))
+                rec.put(("append", (block, p, self._record_offset - offset, gap_reason)))
         else:
             cols = _cols_from_device(block, t_s)
             hs_idx, to_idx = self._device_events(block, start_idx)
             strides = self._device_strides.process(hs_idx, to_idx)
             if rec is not None:
-                rec.put(("append", (block, None, 0)))
+                rec.put(("append", (block, None, 0, gap_reason)))
         self._ring.append(cols)
         self._samples += len(block)
         with self._lock:
@@ -626,6 +661,29 @@ class Engine:
 
     def link_state(self) -> LinkState:
         return self.device.stats.transport.state
+
+
+def _slice_samples(b: SampleBlock, a: int, z: int) -> SampleBlock:
+    changes = {
+        f.name: getattr(b, f.name)[a:z]
+        for f in dataclasses.fields(b)
+        if isinstance(getattr(b, f.name), np.ndarray)
+    }
+    return dataclasses.replace(b, **changes)
+
+
+def _slice_pipeline(p: PipelineBlock, a: int, z: int, with_events: bool) -> PipelineBlock:
+    """Rows a:z of a pipeline block; its (absolute-index) events go with the first part."""
+    changes: dict[str, Any] = {
+        f.name: getattr(p, f.name)[a:z]
+        for f in dataclasses.fields(p)
+        if isinstance(getattr(p, f.name), np.ndarray)
+        and f.name not in ("heel_strike_idx", "toe_off_idx", "kalman_bias_rad_s")
+    }
+    if not with_events:
+        changes["heel_strike_idx"] = p.heel_strike_idx[:0]
+        changes["toe_off_idx"] = p.toe_off_idx[:0]
+    return dataclasses.replace(p, start_idx=p.start_idx + a, **changes)
 
 
 def _shift(s: Stride, offset: int) -> Stride:

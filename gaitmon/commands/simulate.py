@@ -76,8 +76,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_simulator_options(parser)
 
 
-def add_simulator_options(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
-    """The simulated unit's options, shared by ``simulate``, ``record`` and the application."""
+def add_simulator_options(
+    parser: argparse.ArgumentParser | argparse._ArgumentGroup, *, side: bool = True
+) -> None:
+    """The simulated unit's options, shared by ``simulate``, ``record`` and the application.
+
+    ``side=False`` leaves out ``--side`` for commands that have their own (the session's leg).
+    """
     parser.add_argument(
         "--cadence",
         type=_positive,
@@ -106,9 +111,10 @@ def add_simulator_options(parser: argparse.ArgumentParser | argparse._ArgumentGr
         help="seconds of quiet standing before walking starts (default: 5)",
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    parser.add_argument(
-        "--side", choices=("L", "R"), default="R", help="leg the unit is worn on (default: R)"
-    )
+    if side:
+        parser.add_argument(
+            "--side", choices=("L", "R"), default="R", help="leg the unit is worn on (default: R)"
+        )
     parser.add_argument(
         "--speed",
         type=_speed,
@@ -148,7 +154,7 @@ def build_unit(args: argparse.Namespace) -> SimulatedUnit:
             SensorConfig(seed=args.seed),
             FaultConfig(seed=args.seed, loss_pct=args.loss_pct, corrupt_pct=args.corrupt_pct),
             speed=args.speed,
-            side=args.side,
+            side=getattr(args, "side", "") or "R",
         )
     except ValueError as exc:
         raise UserError(str(exc)) from None

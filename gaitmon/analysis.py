@@ -1,0 +1,117 @@
+"""Session-level gait analysis: strides with exclusions, per-stride joint figures, summary.
+
+Shared by ``gaitmon info``, the review window and the clinical report, so that all three agree.
+A stride is excluded from the statistics (and says why) when it is the first or last of the
+recording (start-up and stopping are not steady walking), when it crosses a gap longer than
+``MAX_GAP_S`` (a link outage: a frame or two lost on a noisy link do not spoil a stride, since
+times come from the true timeline ``t_s``), or when it overlaps a range the user excluded (e.g. a
+turn).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from gaitmon.dsp.gait import (
+    GaitSummary,
+    Stride,
+    gait_summary,
+    normalise_strides,
+    strides_from_events,
+)
+
+MAX_GAP_S = 0.05  # gaps up to 5 frames at 100 Hz leave a stride usable
+
+FIRST = "first stride"
+LAST = "last stride"
+GAP = "crosses a gap"
+USER = "excluded range"
+
+
+@dataclass(frozen=True)
+class StrideRow:
+    stride: Stride
+    excluded: str  # "" when the stride counts in the statistics, else the reason
+    knee_peak_swing_deg: float  # peak knee flexion between toe off and the next heel strike
+    rom_deg: tuple[float, float, float]  # range of motion of hip, knee, ankle over the stride
+
+    @property
+    def included(self) -> bool:
+        return not self.excluded
+
+
+def analyse_strides(
+    heel_strike_idx: np.ndarray,
+    toe_off_idx: np.ndarray,
+    fs_hz: float,
+    joint_deg: np.ndarray | None = None,
+    gaps: Sequence[tuple[int, float]] = (),
+    excluded_ranges: Sequence[tuple[int, int]] = (),
+    t_s: np.ndarray | None = None,
+) -> list[StrideRow]:
+    """One row per stride, in time order.
+
+    ``gaps``: (row where data resumed, gap duration in s); ``excluded_ranges``: (start, stop)
+    row ranges the user excluded; ``t_s``: the true time of each row (stride, stance and swing
+    times are taken from it when given, so lost frames do not shorten a stride).
+    """
+    strides = strides_from_events(heel_strike_idx, toe_off_idx, fs_hz)
+    if t_s is not None:
+        strides = [_retime(s, t_s) for s in strides]
+    long_gaps = np.asarray(
+        sorted(i for i, d in gaps if d > MAX_GAP_S + 1e-9), dtype=np.int64
+    )
+    rows: list[StrideRow] = []
+    for k, s in enumerate(strides):
+        reason = ""
+        if k == 0:
+            reason = FIRST
+        elif k == len(strides) - 1:
+            reason = LAST
+        elif np.any((long_gaps > s.start_idx) & (long_gaps <= s.end_idx)):
+            reason = GAP
+        elif any(a < s.end_idx and b > s.start_idx for a, b in excluded_ranges):
+            reason = USER
+        peak = float("nan")
+        rom = (float("nan"),) * 3
+        if joint_deg is not None and s.end_idx < len(joint_deg):
+            seg = joint_deg[s.start_idx : s.end_idx + 1]
+            peak = float(np.max(joint_deg[s.toe_off_idx : s.end_idx + 1, 1]))
+            rom = tuple(float(v) for v in np.ptp(seg, axis=0))  # type: ignore[assignment]
+        rows.append(StrideRow(s, reason, peak, rom))  # type: ignore[arg-type]
+    return rows
+
+
+def _retime(s: Stride, t_s: np.ndarray) -> Stride:
+    if s.end_idx >= len(t_s):
+        return s
+    stride = float(t_s[s.end_idx] - t_s[s.start_idx])
+    stance = float(t_s[s.toe_off_idx] - t_s[s.start_idx])
+    return replace(
+        s,
+        stride_time_s=stride,
+        stance_time_s=stance,
+        swing_time_s=stride - stance,
+        stance_pct=100.0 * stance / stride,
+        swing_pct=100.0 * (stride - stance) / stride,
+    )
+
+
+def included_strides(rows: Sequence[StrideRow]) -> list[Stride]:
+    return [r.stride for r in rows if r.included]
+
+
+def summary(rows: Sequence[StrideRow]) -> GaitSummary:
+    """Statistics over the included strides only."""
+    return gait_summary(included_strides(rows))
+
+
+def cycles(joint_deg: np.ndarray, rows: Sequence[StrideRow], n_points: int = 101) -> np.ndarray:
+    """(k, n_points, 3) cycle-normalised joint angles of the included strides."""
+    strides = included_strides(rows)
+    if not strides:
+        return np.empty((0, n_points, joint_deg.shape[1]))
+    return normalise_strides(joint_deg, strides, n_points)

@@ -1,0 +1,117 @@
+"""``gaitmon info FILE``: what a session holds; recovers an interrupted recording first."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from gaitmon.cli import UserError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE", help="session file (.h5)")
+
+
+def progress_printer(label: str):
+    """A progress callback printing whole percents to stderr (for long recoveries)."""
+    last = [-1]
+
+    def report(fraction: float) -> None:
+        pct = int(fraction * 100)
+        if pct != last[0] and sys.stderr.isatty():
+            last[0] = pct
+            print(f"\r{label} {pct:3d} %", end="", file=sys.stderr, flush=True)
+        if fraction >= 1.0 and sys.stderr.isatty():
+            print(file=sys.stderr)
+
+    return report
+
+
+def run(args: argparse.Namespace) -> int:
+    from gaitmon.analysis import analyse_strides, summary
+    from gaitmon.io.session import SessionError, journal_path, open_session
+
+    interrupted = journal_path(args.file).exists()
+    try:
+        with open_session(args.file, progress=progress_printer("recovering")) as s:
+            joints = s.read("processed/joint_deg") if s.n_samples else None
+            rows = analyse_strides(
+                s.heel_strike_idx,
+                s.toe_off_idx,
+                s.sample_rate_hz,
+                joints,
+                [(g.sample_idx, g.duration_s) for g in s.gaps],
+                t_s=s.read("timeline/t_s"),
+            )
+            _print(s, rows, summary(rows), interrupted)
+    except SessionError as exc:
+        raise UserError(str(exc)) from None
+    return 0
+
+
+def _print(s, rows, summ, interrupted: bool) -> None:
+    fs = s.sample_rate_hz
+    state = "complete" if s.complete else ("recovered" if s.recovered else "incomplete")
+    if interrupted and s.recovered:
+        state += " (the recording was interrupted; recovered now from its journal)"
+    mode = {"raw": "raw ADC, computed on the PC", "tilt": "the unit's tilts",
+            "joint": "the unit's joint angles"}[s.mode]
+    dev = s.device
+    lost = sum(g.n_lost for g in s.gaps)
+    lines = [
+        f"{s.path.name}: gaitmon session, format {s.attrs.get('format_version')}, {state}",
+        f"  recorded     {s.created_utc}, {s.duration_s:.1f} s, {s.n_samples} frames at "
+        f"{fs:g} Hz, mode {s.mode} ({mode})",
+        f"  patient      {s.meta.patient_id or '-'}   side {s.meta.side or '-'}   "
+        f"operator {s.meta.operator or '-'}",
+    ]
+    if s.meta.notes:
+        lines.append(f"  notes        {s.meta.notes}")
+    lines += [
+        f"  device       {dev.get('name', '?')} firmware {dev.get('firmware', '?')} serial "
+        f"{dev.get('serial', '?')} via {dev.get('transport', '?')}",
+        f"  link         {lost} frames lost in {len(s.gaps)} gaps, "
+        f"{s.link.get('crc_failures', 0)} CRC failures, {s.link.get('reconnects', 0)} reconnects",
+    ]
+    n_all = len(rows)
+    if summ.n_strides:
+        sd = summ.stride_time_sd_s
+        spread = "" if np.isnan(sd) else f" ± {sd:.2f} s (CV {summ.stride_time_cv_pct:.1f} %)"
+        lines.append(
+            f"  gait         {summ.n_strides} strides analysed ({n_all - summ.n_strides} excluded: "
+            f"first/last/gaps), stride time {summ.stride_time_mean_s:.2f} s{spread}, "
+            f"stance {summ.stance_pct_mean:.1f} %, cadence "
+            f"{summ.cadence_derived_steps_per_min:.0f} steps/min (derived)"
+        )
+    else:
+        lines.append(
+            f"  gait         {len(s.heel_strike_idx)} heel strikes, {n_all} strides; "
+            "too few to analyse"
+        )
+    c = s.config
+    lines.append(
+        f"  settings     low-pass {c.cutoff_hz:g} Hz order {c.filter_order}, Kalman Q_angle "
+        f"{c.q_angle:g} Q_gyro {c.q_gyro:g} R {c.r:g} ({c.kalman_form} form), FSR threshold "
+        f"{c.fsr_threshold:g} LSB; {len(s.config_changes)} changes during the recording"
+    )
+    off = np.degrees(s.calibration.tilt_offset_rad)
+    zeroed = bool(np.any(off != 0)) or bool(s.calibration_changes)
+    lines.append(
+        "  calibration  "
+        + (
+            "standing offsets body/thigh/shank/foot "
+            + " / ".join(f"{v:+.1f}" for v in off)
+            + f" deg; {len(s.calibration_changes)} zeroings during the recording"
+            if zeroed
+            else "not zeroed (tilts relative to the sensor axes)"
+        )
+    )
+    if s.markers:
+        shown = ", ".join(f"{m.t_s:.1f} s {m.label!r}" for m in s.markers[:8])
+        more = f" and {len(s.markers) - 8} more" if len(s.markers) > 8 else ""
+        lines.append(f"  markers      {len(s.markers)}: {shown}{more}")
+    for p in s.problems:
+        lines.append(f"  note         {p}")
+    print("\n".join(lines))
