@@ -38,6 +38,16 @@ def build_parser() -> argparse.ArgumentParser:
         description="Live monitor, recorder and reviewer for a wearable gait-measurement unit.",
     )
     parser.add_argument("--version", action="version", version=f"gaitmon {__version__}")
+    # no subcommand: open the live monitor (gaitmon.ui, imported lazily: headless stays Qt-free)
+    parser.epilog = "Without a COMMAND, gaitmon opens the live monitor window."
+    parser.add_argument(
+        "--simulate",
+        action="store_true",
+        help="open the live monitor connected to the simulated unit",
+    )
+    from gaitmon.commands.simulate import add_simulator_options
+
+    add_simulator_options(parser.add_argument_group("simulated unit (with --simulate)"))
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (module_path, help_text) in SUBCOMMANDS.items():
         add_arguments, run = _load(module_path)
@@ -52,15 +62,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     run = getattr(args, "_run", None)
     if run is None:
-        parser.print_help()
-        return 0
+        from gaitmon.ui import run_app
+
+        run = run_app
+    prog = f"gaitmon {args.command}" if args.command else "gaitmon"
     try:
         return int(run(args) or 0)
     except UserError as exc:
-        print(f"gaitmon {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"gaitmon {args.command}: interrupted", file=sys.stderr)
+        print(f"{prog}: interrupted", file=sys.stderr)
         return 130
 
 

@@ -1,0 +1,100 @@
+"""Start the desktop application: QApplication, logging, icon, the main window."""
+
+from __future__ import annotations
+
+import logging
+import signal
+import sys
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+from PySide6.QtCore import QPointF, QSettings, QStandardPaths, Qt, QTimer
+from PySide6.QtGui import QColor, QGuiApplication, QIcon, QPainter, QPainterPath, QPen, QPixmap
+from PySide6.QtWidgets import QApplication
+
+log = logging.getLogger("gaitmon.ui")
+
+
+def app_icon() -> QIcon:
+    """A small drawn icon (a knee-angle trace on a disc); no asset files needed."""
+    icon = QIcon()
+    for size in (16, 32, 64, 128, 256):
+        pm = QPixmap(size, size)
+        pm.fill(Qt.GlobalColor.transparent)
+        p = QPainter(pm)
+        p.setRenderHint(QPainter.RenderHint.Antialiasing)
+        p.setBrush(QColor("#1f5fd6"))
+        p.setPen(Qt.PenStyle.NoPen)
+        p.drawEllipse(0, 0, size, size)
+        path = QPainterPath()
+        pts = [(0.12, 0.62), (0.3, 0.58), (0.42, 0.66), (0.55, 0.3), (0.68, 0.22), (0.88, 0.6)]
+        path.moveTo(QPointF(pts[0][0] * size, pts[0][1] * size))
+        for x, y in pts[1:]:
+            path.lineTo(QPointF(x * size, y * size))
+        p.setPen(QPen(QColor("#3ddc5a"), max(1.5, size / 14)))
+        p.setBrush(Qt.BrushStyle.NoBrush)
+        p.drawPath(path)
+        p.end()
+        icon.addPixmap(pm)
+    return icon
+
+
+def _setup_logging() -> Path | None:
+    folder = QStandardPaths.writableLocation(QStandardPaths.StandardLocation.AppDataLocation)
+    if not folder:
+        return None
+    path = Path(folder) / "gaitmon.log"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handler = logging.FileHandler(path, encoding="utf-8")
+    except OSError:
+        return None
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    root = logging.getLogger("gaitmon")
+    root.addHandler(handler)
+    root.setLevel(logging.INFO)
+    root.propagate = False  # tracebacks go to the log file, not the terminal
+    return path
+
+
+def run(args: Any) -> int:
+    QGuiApplication.setHighDpiScaleFactorRoundingPolicy(
+        Qt.HighDpiScaleFactorRoundingPolicy.PassThrough
+    )
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    assert isinstance(app, QApplication)
+    app.setOrganizationName("gaitmon")
+    app.setApplicationName("gaitmon")
+    app.setApplicationDisplayName("gaitmon")
+    app.setWindowIcon(app_icon())
+    log_path = _setup_logging()
+
+    def excepthook(
+        kind: type[BaseException], exc: BaseException, tb: TracebackType | None
+    ) -> None:
+        # an exception escaping a Qt virtual (paint, event) must not print a traceback
+        log.error("unhandled exception", exc_info=(kind, exc, tb))
+        where = f" (details in {log_path})" if log_path else ""
+        print(f"gaitmon: internal error: {exc}{where}", file=sys.stderr)
+
+    sys.excepthook = excepthook
+
+    from gaitmon.ui.connection import SIMULATED_PORT
+    from gaitmon.ui.main_window import MainWindow
+
+    sim_args = args if hasattr(args, "cadence") else None
+    win = MainWindow(
+        QSettings(),
+        sim_args=sim_args,
+        autoconnect=SIMULATED_PORT if getattr(args, "simulate", False) else None,
+    )
+    win.show()
+    # Ctrl-C / SIGTERM in the terminal close the window cleanly (a recording is completed);
+    # the timer lets the interpreter run its signal handlers while Qt's loop is waiting
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: win.close())
+    wake = QTimer()
+    wake.start(250)
+    wake.timeout.connect(lambda: None)
+    return int(app.exec())

@@ -1,0 +1,120 @@
+"""Link health and link state as the window shows them: pure logic, no widgets.
+
+Health is graded so it stays out of the way when all is well:
+
+* ``ok``     -- no frame lost and no CRC failure within the last ``recent_s`` seconds: quiet grey;
+* ``lossy``  -- frames lost or CRC failures within the last ``recent_s``: amber, with the rate;
+* ``alert``  -- no data for ``no_data_alert_s`` (2 s) while connected, or the link is down: red.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+NO_DATA_ALERT_S = 2.0
+
+
+@dataclass(frozen=True)
+class Health:
+    grade: str  # ok | lossy | alert
+    text: str  # one short line for the status bar
+    tooltip: str
+
+
+@dataclass(frozen=True)
+class LinkView:
+    """What the connection pill and the banner show."""
+
+    state: str  # connected | reconnecting | lost | no data | disconnected
+    pill: str  # short text of the state pill
+    banner: str  # "" when no banner is needed
+    grade: str  # ok | warn | alert (banner colour)
+
+
+class HealthTracker:
+    """Keeps the recent history of the link counters to grade what happened lately."""
+
+    def __init__(self, recent_s: float = 5.0, no_data_alert_s: float = NO_DATA_ALERT_S) -> None:
+        self.recent_s = recent_s
+        self.no_data_alert_s = no_data_alert_s
+        self._hist: deque[tuple[float, int, int, int]] = deque()
+
+    def reset(self) -> None:
+        self._hist.clear()
+
+    def update(
+        self,
+        now_s: float,
+        frames_ok: int,
+        frames_lost: int,
+        crc_failures: int,
+        frame_rate_hz: float,
+        last_data_age_s: float,
+        reconnects: int = 0,
+        link_up: bool = True,
+    ) -> Health:
+        self._hist.append((now_s, frames_ok, frames_lost, crc_failures))
+        while len(self._hist) > 2 and self._hist[1][0] <= now_s - self.recent_s:
+            self._hist.popleft()
+        _, ok0, lost0, crc0 = self._hist[0]
+        d_ok, d_lost, d_crc = frames_ok - ok0, frames_lost - lost0, crc_failures - crc0
+        rate = f"{frame_rate_hz:.0f} fps" if math.isfinite(frame_rate_hz) else "-- fps"
+        totals = f"{frames_lost} lost · {crc_failures} CRC"
+        tip = (
+            f"Link health. Frames received: {frames_ok}; lost (sequence gaps): {frames_lost}; "
+            f"CRC failures (corrupted frames): {crc_failures}; reconnects: {reconnects}. "
+            f"Frame rate in frames per second (the unit sends 100)."
+        )
+        if not link_up or last_data_age_s >= self.no_data_alert_s:
+            return Health("alert", f"no data for {last_data_age_s:.0f} s · {totals}", tip)
+        if d_lost > 0 or d_crc > 0:
+            pct = 100.0 * d_lost / max(d_ok + d_lost, 1)
+            window = f"{self.recent_s:g} s"
+            return Health(
+                "lossy", f"{rate} · {pct:.1f} % lost, {d_crc} CRC in last {window}", tip
+            )
+        return Health("ok", f"{rate} · {totals}", tip)
+
+
+def link_view(
+    link_state: str,
+    link_reason: str,
+    seconds_to_reconnect: float | None,
+    last_data_age_s: float,
+    port: str,
+    no_data_alert_s: float = NO_DATA_ALERT_S,
+) -> LinkView:
+    """The connection pill and banner for one snapshot of the engine."""
+    if link_state == "reconnecting":
+        if seconds_to_reconnect is not None and seconds_to_reconnect > 0.05:
+            when = f"next attempt in {seconds_to_reconnect:.1f} s"
+        else:
+            when = "trying now"
+        reason = f" ({link_reason})" if link_reason else ""
+        return LinkView(
+            "reconnecting",
+            "Reconnecting…",
+            f"Reconnecting to {port}: {when}{reason}. Recording and display resume by themselves.",
+            "warn",
+        )
+    if link_state == "failed":
+        return LinkView(
+            "lost",
+            "Link lost",
+            f"Link lost: {link_reason or 'the unit stopped answering'}. "
+            "Disconnect and connect again.",
+            "alert",
+        )
+    if link_state == "connected":
+        if last_data_age_s >= no_data_alert_s:
+            return LinkView(
+                "no data",
+                "No data",
+                f"No data from the unit for {last_data_age_s:.0f} s. Is it switched on and "
+                "within range?",
+                "alert",
+            )
+        return LinkView("connected", "Connected", "", "ok")
+    return LinkView("disconnected", "Disconnected", "", "ok")
