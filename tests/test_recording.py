@@ -36,14 +36,16 @@ def test_record_command_writes_1000_frames_whose_events_match_the_truth(tmp_path
         seq = s.read("timeline/seq")
         assert np.all(np.diff(seq) == 1)
     with h5py.File(out, "r") as f:  # any HDF5 reader: the ground truth the simulator stored
-        hs_file = f["events/heel_strike"][()]
-        hs_true = f["truth/heel_strike"][()]
-        to_file = f["events/toe_off"][()]
-        to_true = f["truth/toe_off"][()]
-    assert len(hs_true) >= 6
-    assert len(hs_file) == len(hs_true)
-    assert np.max(np.abs(hs_file - hs_true)) <= 2  # 20 ms
-    assert np.max(np.abs(to_file - to_true[: len(to_file)])) <= 2
+        n = f["timeline/seq"].shape[0]
+        for name in ("heel_strike", "toe_off"):
+            found = f[f"events/{name}"][()]
+            true = f[f"truth/{name}"][()]
+            # events in the last 200 ms may not be confirmed yet when the recording stops
+            true = true[true < n - 20]
+            assert len(true) >= 6, name
+            nearest = np.abs(found[:, None] - true[None, :]).min(axis=0)
+            assert np.all(nearest <= 2), (name, nearest)  # every true event found within 20 ms
+            assert len(found) <= len(true) + 1  # and nothing invented
     main(["info", str(out)])
     text = capsys.readouterr().out
     assert "complete" in text and "0 frames lost" in text and "P017" in text
