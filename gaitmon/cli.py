@@ -17,6 +17,7 @@ class UserError(Exception):
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "record": ("gaitmon.commands.record", "record a session from the unit or the simulator"),
     "info": ("gaitmon.commands.info", "summarise a session (recovers an interrupted one)"),
+    "process": ("gaitmon.commands.process", "re-run the pipeline offline with new settings"),
     "bench": ("gaitmon.commands.bench", "measure pipeline speed and print the figures"),
     "export": ("gaitmon.commands.export", "export a recorded session to CSV, MATLAB .mat or C3D"),
     "lab": ("gaitmon.commands.lab", "reproduce the papers' filter experiments as reports"),

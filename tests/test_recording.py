@@ -204,3 +204,31 @@ def test_missing_port_gets_a_one_line_error(tmp_path):
     err = res.stderr.strip()
     assert "/dev/does-not-exist" in err and len(err.splitlines()) == 1 and "Traceback" not in err
     assert not (tmp_path / "x.h5").exists()
+
+
+def test_process_reruns_the_pipeline_from_raw_counts_without_touching_the_original(tmp_path):
+    import hashlib
+
+    from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+
+    src = tmp_path / "orig.h5"
+    assert main(["record", "--simulate", "--duration", "8", "-o", str(src), "--speed", "20",
+                 "--standing-s", "1", "--quiet"]) == 0
+    digest = hashlib.sha256(src.read_bytes()).hexdigest()
+    new = tmp_path / "new.h5"
+    assert main(["process", str(src), "--cutoff-hz", "2.5", "--r", "0.5", "-o", str(new)]) == 0
+    assert hashlib.sha256(src.read_bytes()).hexdigest() == digest  # original untouched
+    with open_session(new) as s:
+        assert s.config.cutoff_hz == 2.5 and s.config.r == 0.5 and s.reprocessed
+        adc = s.read("raw/adc")
+        joint = s.read("processed/joint_deg")
+        hs = s.heel_strike_idx
+    ref = Pipeline(PipelineConfig(cutoff_hz=2.5, r=0.5)).process(adc)
+    np.testing.assert_allclose(joint, np.degrees(ref.joint_kalman_rad), atol=1e-4)  # float32
+    np.testing.assert_array_equal(hs, ref.heel_strike_idx)
+    with open_session(src) as s:
+        assert not np.allclose(s.read("processed/joint_deg"), joint, atol=0.5)
+    # bad settings and refusing to overwrite are one-line errors
+    assert main(["process", str(src), "--cutoff-hz", "80", "-o", str(tmp_path / "x.h5")]) == 2
+    assert main(["process", str(src), "-o", str(new)]) == 2
+    assert main(["process", str(src), "-o", str(src)]) == 2

@@ -4,17 +4,24 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gaitmon.cli import UserError
+
+if TYPE_CHECKING:
+    from gaitmon.analysis import StrideRow
+    from gaitmon.dsp.gait import GaitSummary
+    from gaitmon.io.session import Session
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="FILE", help="session file (.h5)")
 
 
-def progress_printer(label: str):
+def progress_printer(label: str) -> Callable[[float], None]:
     """A progress callback printing whole percents to stderr (for long recoveries)."""
     last = [-1]
 
@@ -51,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print(s, rows, summ, interrupted: bool) -> None:
+def _print(s: Session, rows: list[StrideRow], summ: GaitSummary, interrupted: bool) -> None:
     fs = s.sample_rate_hz
     state = "complete" if s.complete else ("recovered" if s.recovered else "incomplete")
     if interrupted and s.recovered:
