@@ -232,3 +232,39 @@ def test_process_reruns_the_pipeline_from_raw_counts_without_touching_the_origin
     assert main(["process", str(src), "--cutoff-hz", "80", "-o", str(tmp_path / "x.h5")]) == 2
     assert main(["process", str(src), "-o", str(new)]) == 2
     assert main(["process", str(src), "-o", str(src)]) == 2
+
+
+def test_link_outage_continues_the_same_session_with_a_gap(tmp_path):
+    from gaitmon.io.sim.pty import PtySimulator
+    from gaitmon.io.transport import SerialTransport
+
+    unit = SimulatedUnit(GaitConfig(seed=5, standing_s=1.0), speed=1.0)
+    out = tmp_path / "outage.h5"
+    with PtySimulator(unit) as sim:
+        eng = Engine(Device(SerialTransport(str(sim.link_path))), "raw", transport_label="pty")
+        with eng:
+            deadline = time.monotonic() + 30
+            eng.start_recording(out)
+            while eng.recording.rows < 100 and time.monotonic() < deadline:
+                time.sleep(0.02)
+            sim.cut()  # the port vanishes, as an RFCOMM link does
+            time.sleep(1.0)
+            sim.restore()
+            rows_at_restore = eng.recording.rows
+            while eng.recording.rows < rows_at_restore + 100 and time.monotonic() < deadline:
+                time.sleep(0.02)
+            status = eng.stop_recording()
+    assert status.error == ""
+    assert list(tmp_path.glob("*.h5")) == [out]  # one file, never a new one
+    with open_session(out) as s:
+        seq = s.read("timeline/seq")
+        t_s = s.read("timeline/t_s")
+        outage = [g for g in s.gaps if g.n_lost >= 50]
+    assert len(outage) == 1
+    gap = outage[0]
+    assert gap.reason.startswith("link lost")
+    assert 0.8 <= gap.duration_s <= 3.0  # ~1 s cut plus the reconnect backoff
+    i = gap.sample_idx
+    assert seq[i] - seq[i - 1] - 1 == gap.n_lost  # the unit kept counting while unheard
+    assert t_s[i] - t_s[i - 1] == pytest.approx((gap.n_lost + 1) / 100.0)
+    assert len(seq) - i >= 100  # data resumed into the same file
