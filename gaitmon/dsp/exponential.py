@@ -23,14 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-
-def _as_2d(x: np.ndarray) -> tuple[np.ndarray, bool]:
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim == 1:
-        return x[:, None], True
-    if x.ndim != 2:
-        raise ValueError(f"expected an array of shape (N,) or (N, channels), got {x.shape}")
-    return x, False
+from gaitmon.dsp.filters import ChannelFilter, as_2d
 
 
 def exponential_alpha(cutoff_hz: float, fs_hz: float) -> float:
@@ -42,7 +35,7 @@ def exponential_alpha(cutoff_hz: float, fs_hz: float) -> float:
     return 1.0 / (1.0 + 2.0 * np.pi * cutoff_hz / fs_hz)
 
 
-class ExponentialFilter:
+class ExponentialFilter(ChannelFilter):
     """Order-M exponential low-pass (M cascaded paper-004 stages) over any number of channels.
 
     Give either ``alpha`` (0 <= alpha < 1) or ``cutoff_hz`` and ``fs_hz``.
@@ -77,34 +70,25 @@ class ExponentialFilter:
         self.initial = initial
         self._b = np.array([1.0 - self.alpha])
         self._a = np.array([1.0, -self.alpha])
-        self._zi: np.ndarray | None = None  # (order, channels): each stage's lfilter state
+        # state: (order, channels), each stage's lfilter state (see ChannelFilter)
 
     @property
     def cutoff_hz_at(self) -> float:
         """fc / fs implied by alpha (eq. 20 solved for fc at fs = 1)."""
         return (1.0 / self.alpha - 1.0) / (2.0 * np.pi) if self.alpha > 0 else np.inf
 
-    def reset(self) -> None:
-        self._zi = None
+    def _initial_state(self, first: np.ndarray) -> np.ndarray:
+        # lfilter's state for y(-1) = v is alpha * v (y(n) = b x(n) + zi, zi = alpha y(n-1))
+        start = first if self.initial == "first" else np.zeros_like(first)
+        return np.tile(self.alpha * start, (self.order, 1))
 
-    def process(self, x: np.ndarray) -> np.ndarray:
-        x2, was_1d = _as_2d(x)
-        if x2.shape[0] == 0:
-            out = np.empty_like(x2)
-            return out[:, 0] if was_1d else out
-        if self._zi is None:
-            # lfilter's state for y(-1) = v is alpha * v (y(n) = b x(n) + zi, zi = alpha y(n-1))
-            start = x2[0] if self.initial == "first" else np.zeros(x2.shape[1])
-            self._zi = np.tile(self.alpha * start, (self.order, 1))
-        elif self._zi.shape[1] != x2.shape[1]:
-            raise ValueError(
-                f"this filter carries state for {self._zi.shape[1]} channels, got {x2.shape[1]}"
-            )
+    def _filter(self, x2: np.ndarray) -> np.ndarray:
+        assert self._zi is not None
         y = x2
         for m in range(self.order):
             y, zf = signal.lfilter(self._b, self._a, y, axis=0, zi=self._zi[m][None, :])
             self._zi[m] = zf[0]
-        return y[:, 0] if was_1d else y
+        return y
 
 
 class TrapezoidIntegrator:
@@ -126,7 +110,7 @@ class TrapezoidIntegrator:
 
     def process(self, x: np.ndarray, initial: np.ndarray | float = 0.0) -> np.ndarray:
         """Integrate (N,) or (N, channels). ``initial`` is the output at the very first sample."""
-        x2, was_1d = _as_2d(x)
+        x2, was_1d = as_2d(x)
         n, c = x2.shape
         if n == 0:
             out = np.empty_like(x2)

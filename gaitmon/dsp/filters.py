@@ -10,7 +10,7 @@ import numpy as np
 from scipy import signal
 
 
-def _as_2d(x: np.ndarray) -> tuple[np.ndarray, bool]:
+def as_2d(x: np.ndarray) -> tuple[np.ndarray, bool]:
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 1:
         return x[:, None], True
@@ -19,7 +19,44 @@ def _as_2d(x: np.ndarray) -> tuple[np.ndarray, bool]:
     return x, False
 
 
-class Butterworth:
+class ChannelFilter:
+    """Block handling shared by the per-channel linear filters.
+
+    ``process`` takes (N,) or (N, channels) and returns the same shape; the state is created from
+    the first sample and must keep the same channel count afterwards. Subclasses provide
+    ``_initial_state(first_row)`` and ``_filter(x2)`` (which updates ``self._zi``).
+    """
+
+    _zi: np.ndarray | None = None
+    _channels = 0
+
+    def reset(self) -> None:
+        self._zi = None
+
+    def _initial_state(self, first: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _filter(self, x2: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def process(self, x: np.ndarray) -> np.ndarray:
+        """Filter (N,) or (N, channels) along time; returns the same shape."""
+        x2, was_1d = as_2d(x)
+        if x2.shape[0] == 0:
+            y = np.empty_like(x2)
+        else:
+            if self._zi is None:
+                self._zi = self._initial_state(x2[0])
+                self._channels = x2.shape[1]
+            elif self._channels != x2.shape[1]:
+                raise ValueError(
+                    f"this filter carries state for {self._channels} channels, got {x2.shape[1]}"
+                )
+            y = self._filter(x2)
+        return y[:, 0] if was_1d else y
+
+
+class Butterworth(ChannelFilter):
     """Order-n Butterworth low-pass designed from (cutoff_hz, fs_hz, order), over any channels.
 
     The paper's 4 Hz / 100 Hz / order-2 filter is y(k) = A x(k) + B x(k-1) + C x(k-2) + D y(k-1)
@@ -55,7 +92,6 @@ class Butterworth:
         self.b: np.ndarray = b
         self.a: np.ndarray = a
         self._zi_unit = signal.lfilter_zi(b, a)
-        self._zi: np.ndarray | None = None
 
     @property
     def coefficients(self) -> tuple[np.ndarray, np.ndarray]:
@@ -75,24 +111,13 @@ class Butterworth:
             "E": float(-self.a[2]),
         }
 
-    def reset(self) -> None:
-        self._zi = None
+    def _initial_state(self, first: np.ndarray) -> np.ndarray:
+        start = first if self.initial == "first" else np.zeros_like(first)
+        return self._zi_unit[:, None] * start[None, :]
 
-    def process(self, x: np.ndarray) -> np.ndarray:
-        """Filter (N,) or (N, channels) along time; returns the same shape."""
-        x2, was_1d = _as_2d(x)
-        if x2.shape[0] == 0:
-            out = np.empty_like(x2)
-            return out[:, 0] if was_1d else out
-        if self._zi is None:
-            start = x2[0] if self.initial == "first" else np.zeros(x2.shape[1])
-            self._zi = self._zi_unit[:, None] * start[None, :]
-        elif self._zi.shape[1] != x2.shape[1]:
-            raise ValueError(
-                f"this filter carries state for {self._zi.shape[1]} channels, got {x2.shape[1]}"
-            )
+    def _filter(self, x2: np.ndarray) -> np.ndarray:
         y, self._zi = signal.lfilter(self.b, self.a, x2, axis=0, zi=self._zi)
-        return y[:, 0] if was_1d else y
+        return y
 
 
 class GyroIntegrator:
@@ -113,7 +138,7 @@ class GyroIntegrator:
 
     def process(self, rate_rad_s: np.ndarray, initial_rad: np.ndarray | float = 0.0) -> np.ndarray:
         """(N,) or (N, segments) rate -> integrated tilt (rad). ``initial_rad`` is used once."""
-        x2, was_1d = _as_2d(rate_rad_s)
+        x2, was_1d = as_2d(rate_rad_s)
         if x2.shape[0] == 0:
             out = np.empty_like(x2)
             return out[:, 0] if was_1d else out
