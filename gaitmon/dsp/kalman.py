@@ -59,7 +59,9 @@ def _gain_schedule(
     dt_s: float, q_angle: float, q_gyro: float, r: float, form: str
 ) -> _GainSchedule:
     p1 = p2 = p3 = p4 = 0.0
-    k0s, k1s, ps = [], [], []
+    k0s: list[float] = []
+    k1s: list[float] = []
+    ps: list[tuple[float, float, float, float]] = []
     converged = False
     for _ in range(_MAX_GAIN_STEPS):
         if form == "discrete":

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import linalg
 
 # the gain schedule is precomputed this far; a filter whose gain has not settled by then (e.g. an
@@ -59,19 +60,26 @@ class _Schedule:
     converged: bool
 
 
-def _key(a: np.ndarray) -> tuple:
+# a matrix as a hashable (shape, values) pair, so the gain schedule can be cached
+_MatKey = tuple[tuple[int, ...], tuple[float, ...]]
+
+
+def _key(a: np.ndarray) -> _MatKey:
     return (a.shape, tuple(np.asarray(a, dtype=np.float64).ravel().tolist()))
 
 
 @lru_cache(maxsize=64)
-def _schedule_cached(a_k: tuple, h_k: tuple, q_k: tuple, r_k: tuple, p0_k: tuple) -> _Schedule:
-    def arr(k: tuple) -> np.ndarray:
+def _schedule_cached(
+    a_k: _MatKey, h_k: _MatKey, q_k: _MatKey, r_k: _MatKey, p0_k: _MatKey
+) -> _Schedule:
+    def arr(k: _MatKey) -> np.ndarray:
         return np.array(k[1], dtype=np.float64).reshape(k[0])
 
     a, h, q, r, p = arr(a_k), arr(h_k), arr(q_k), arr(r_k), arr(p0_k)
     n = a.shape[0]
     eye = np.eye(n)
-    ks, ps = [], []
+    ks: list[np.ndarray] = []
+    ps: list[np.ndarray] = []
     converged = False
     for _ in range(_MAX_GAIN_STEPS):
         pm = a @ p @ a.T + q
@@ -102,13 +110,13 @@ class LinearKalman:
 
     def __init__(
         self,
-        A: np.ndarray,
-        H: np.ndarray,
-        Q: np.ndarray,
-        R: np.ndarray,
-        B: np.ndarray | None = None,
-        x0: np.ndarray | None = None,
-        P0: np.ndarray | None = None,
+        A: ArrayLike,
+        H: ArrayLike,
+        Q: ArrayLike,
+        R: ArrayLike,
+        B: ArrayLike | None = None,
+        x0: ArrayLike | None = None,
+        P0: ArrayLike | None = None,
         input_lag: int = 0,
     ) -> None:
         self.A = np.atleast_2d(np.asarray(A, dtype=np.float64))
@@ -206,7 +214,8 @@ class LinearKalman:
         for i in range(n_samples):
             xp = a @ x
             if b is not None:
-                assert u3 is not None
+                # both set with B: u3 from u above, u_prev when the state was first made
+                assert u3 is not None and u_prev is not None
                 ui = u3[i] if self.input_lag == 0 else u_prev
                 xp = xp + b @ ui
                 u_prev = u3[i]
@@ -379,7 +388,9 @@ def akurasi_pct(
 
 
 # --------------------------------------------------------------------------- paper 002
-def pva_matrices(ts_s: float = 1e-3, q: float = 1.0, measured: str = "position") -> tuple:
+def pva_matrices(
+    ts_s: float = 1e-3, q: float = 1.0, measured: str = "position"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A, H, Q) of paper 002's position/velocity/acceleration model (see the module doc)."""
     _check_positive(ts_s=ts_s)
     _check_nonneg(q=q)
