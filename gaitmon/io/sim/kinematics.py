@@ -181,7 +181,9 @@ class Jet(NamedTuple):
             )
         return Jet(self.v * o, self.d * o, self.dd * o)
 
-    __rmul__ = __mul__  # type: ignore[assignment]
+    # a method, not ``__rmul__ = __mul__``: NamedTuple bodies may only hold fields and methods
+    def __rmul__(self, o: Jet | float) -> Jet:  # type: ignore[override]  # tuple: repeat by int
+        return self.__mul__(o)
 
     def compose(self, f: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> Jet:
         """Chain rule: given f, f', f'' evaluated at self.v, return the jet of f(self)."""
@@ -196,8 +198,12 @@ class Jet(NamedTuple):
         return self.compose(c, -s, -c)
 
 
+# (a0, (a1 .. an), (b1 .. bn)) of a Fourier series with period 1
+FourierCoeffs = tuple[float, tuple[float, ...], tuple[float, ...]]
+
+
 def fourier_series(
-    coeffs: tuple[float, tuple[float, ...], tuple[float, ...]], q: np.ndarray
+    coeffs: FourierCoeffs, q: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Value and first two derivatives (w.r.t. q) of a Fourier series with period 1."""
     a0, a, b = coeffs
@@ -391,7 +397,7 @@ class GaitModel:
         q = np.mod(p.v, 1.0)
         env = p.compose(*_smoothstep(p.v - START_PHASE, cfg.ramp_strides))
 
-        def curve(coeffs: tuple) -> Jet:
+        def curve(coeffs: FourierCoeffs) -> Jet:
             f, f1, f2 = fourier_series(coeffs, q)
             return p.compose(f * DEG, f1 * DEG, f2 * DEG)
 

@@ -173,7 +173,9 @@ class PtySimulator:
                 del self._pending[:excess]
                 self.dropped_bytes += excess
 
-    def _sleep(self, rlist: list[int], wlist: list[int], timeout_s: float) -> tuple[list, list]:
+    def _sleep(
+        self, rlist: list[int], wlist: list[int], timeout_s: float
+    ) -> tuple[list[int], list[int]]:
         try:
             r, w, _ = select.select([*rlist, self._wake_r], wlist, [], timeout_s)
         except (OSError, ValueError):
