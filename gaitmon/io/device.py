@@ -22,13 +22,14 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 
+from gaitmon.dsp.channels import N_CHANNELS
 from gaitmon.io.decoder import DecoderStats, FrameDecoder
 from gaitmon.io.protocol import (
     DATA_KINDS,
-    N_CHANNELS,
     N_JOINTS,
     N_SEGMENTS,
     SAMPLE_RATE_HZ_DEFAULT,
@@ -55,6 +56,16 @@ class DeviceError(Exception):
 # --------------------------------------------------------------------------------------------
 # Blocks
 # --------------------------------------------------------------------------------------------
+
+
+class _CommonFields(TypedDict):
+    """The SampleBlock fields every frame kind has (from_frames builds them once)."""
+
+    kind: FrameKind
+    seq: np.ndarray
+    host_time_s: np.ndarray
+    wall_offset_s: float
+    lost_before: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,7 +116,7 @@ class SampleBlock:
         lost_before: list[int] | None = None,
     ) -> SampleBlock:
         n = len(frames)
-        common = {
+        common: _CommonFields = {
             "kind": kind,
             "seq": np.asarray(seq, dtype=np.int64),
             "host_time_s": np.asarray(host_time_s, dtype=np.float64),
