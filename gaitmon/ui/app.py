@@ -70,9 +70,7 @@ def run(args: Any) -> int:
     app.setWindowIcon(app_icon())
     log_path = _setup_logging()
 
-    def excepthook(
-        kind: type[BaseException], exc: BaseException, tb: TracebackType | None
-    ) -> None:
+    def excepthook(kind: type[BaseException], exc: BaseException, tb: TracebackType | None) -> None:
         # an exception escaping a Qt virtual (paint, event) must not print a traceback
         log.error("unhandled exception", exc_info=(kind, exc, tb))
         where = f" (details in {log_path})" if log_path else ""

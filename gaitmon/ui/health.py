@@ -72,9 +72,7 @@ class HealthTracker:
         if d_lost > 0 or d_crc > 0:
             pct = 100.0 * d_lost / max(d_ok + d_lost, 1)
             window = f"{self.recent_s:g} s"
-            return Health(
-                "lossy", f"{rate} · {pct:.1f} % lost, {d_crc} CRC in last {window}", tip
-            )
+            return Health("lossy", f"{rate} · {pct:.1f} % lost, {d_crc} CRC in last {window}", tip)
         return Health("ok", f"{rate} · {totals}", tip)
 
 

@@ -239,7 +239,12 @@ class MainWindow(QMainWindow):
             a.setStatusTip(tip)
         a.setCheckable(checkable)
         if slot is not None:
-            a.triggered.connect(slot)
+            # explicit lambdas: PySide decides how many signal arguments to pass from the
+            # callable's own parameters, which `guarded` hides
+            if checkable:
+                a.triggered.connect(lambda checked, s=slot: s(checked))
+            else:
+                a.triggered.connect(lambda *_, s=slot: s())
         self.addAction(a)  # shortcuts work even when the toolbar is hidden
         return a
 
@@ -254,8 +259,7 @@ class MainWindow(QMainWindow):
             "Zero",
             self.zero,
             "Ctrl+0",
-            "Zero the standing pose: the subject stands upright and still, leg straight "
-            "(Ctrl+0)",
+            "Zero the standing pose: the subject stands upright and still, leg straight (Ctrl+0)",
         )
         self.act_record = self._action(
             "Record", self.toggle_recording, "Ctrl+R", "Start / stop recording a session (Ctrl+R)"
@@ -363,7 +367,7 @@ class MainWindow(QMainWindow):
             "Optional label for the next marker; Enter or M (outside this field) drops it"
         )
         self.marker_edit.setMaximumWidth(190)
-        self.marker_edit.returnPressed.connect(self.add_marker)
+        self.marker_edit.returnPressed.connect(lambda: self.add_marker())
         tb2.addWidget(self.marker_edit)
         tb2.addAction(self.act_marker)
         tb2.addSeparator()
@@ -409,7 +413,7 @@ class MainWindow(QMainWindow):
             box = self._legend_box(METHOD_LABELS[key], colour.name(), True)
             assert isinstance(box, QCheckBox)
             box.setToolTip(f"Show or hide the {METHOD_LABELS[key].lower()} traces")
-            box.toggled.connect(functools.partial(self.set_method, key))
+            box.toggled.connect(lambda on, k=key: self.set_method(k, on))
             self.method_boxes[key] = box
             bar.addWidget(box)
         bar.addSpacing(16)
@@ -423,9 +427,16 @@ class MainWindow(QMainWindow):
         self.phase_combo.setToolTip("How the gait phase is shaded on the FSR plot")
         self.phase_combo.currentIndexChanged.connect(self._phase_combo_changed)
         bar.addWidget(self.phase_combo)
-        events = QLabel("lines: heel strike ┃ solid, toe off ┆ dashed")
-        events.setToolTip("Gait events from the foot sensors, on the joint and FSR plots")
+        events = QLabel("┃ heel strike  ┆ toe off")
+        events.setToolTip(
+            "Gait events from the foot sensors, drawn on the joint and FSR plots: heel strike "
+            "solid, toe off dashed"
+        )
         bar.addWidget(events)
+        for label in (self.phase_legend, events):
+            # legends may be clipped on a narrow screen rather than force a wide window
+            label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
+            label.setMinimumWidth(40)
         bar.addStretch(1)
         self.pause_label = QLabel("  ❚❚ Display paused: acquisition and recording continue  ")
         self.pause_label.setStyleSheet(self._banner_style("warn"))
@@ -557,11 +568,9 @@ class MainWindow(QMainWindow):
         self.set_four_phases(p.get("view/four_phases", True, bool))
         self.live.set_fsr_threshold(self.config.fsr_threshold)
         geo = p.s.value("window/geometry")
-        if geo is not None:
-            self.restoreGeometry(geo)
+        self.geometry_restored = bool(geo is not None and self.restoreGeometry(geo))
         state = p.s.value("window/state")
-        if state is not None:
-            self.restoreState(state)
+        self.state_restored = bool(state is not None and self.restoreState(state))
 
     # ------------------------------------------------------------------------------------
     # small helpers

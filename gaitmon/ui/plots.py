@@ -62,8 +62,10 @@ def decimate_peak(x: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.nda
     is needed.
     """
     n = len(x)
-    f = math.ceil(n / (max_points // 2)) if max_points >= 2 else n
-    if f <= 1 or n < 2 * f:
+    if n <= max_points or max_points < 2:
+        return x, y
+    f = math.ceil(n / (max_points // 2))
+    if n < 2 * f:
         return x, y
     m = n // f
     start = n - m * f

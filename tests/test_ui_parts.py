@@ -1,0 +1,138 @@
+"""Pieces of the live monitor that need no running unit: decimation, phase bands, health
+grading, link banners, session file names, settings validation, the command-line entry."""
+
+import datetime as dt
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from gaitmon.ui.health import HealthTracker, link_view
+
+
+def test_peak_decimation_keeps_every_groups_min_and_max():
+    from gaitmon.ui.plots import decimate_peak
+
+    rng = np.random.default_rng(1)
+    n, f = 3003, 5  # 3003 samples into at most 1202 points -> groups of 5, 3 oldest dropped
+    x = np.arange(n) / 100.0
+    y = rng.normal(size=(n, 3))
+    xd, yd = decimate_peak(x, y, 1202)
+    m = (n - 3) // f
+    assert xd.shape == (2 * m,) and yd.shape == (2 * m, 3)
+    groups = y[3:].reshape(m, f, 3)  # brute force, group by group
+    np.testing.assert_array_equal(yd[0::2], groups.min(axis=1))
+    np.testing.assert_array_equal(yd[1::2], groups.max(axis=1))
+    np.testing.assert_array_equal(xd[0::2], x[3::f])
+    # the global extremes survive decimation (short peaks stay visible)
+    assert yd.max() == y[3:].max() and yd.min() == y[3:].min()
+    # short windows are passed through untouched
+    xs, ys = decimate_peak(x[:1000], y[:1000], 1400)
+    assert np.shares_memory(xs, x)
+    assert len(ys) == 1000
+
+
+def test_step_band_is_top_exactly_over_the_runs():
+    from gaitmon.ui.plots import step_band
+
+    x = np.arange(10.0)
+    mask = np.array([0, 0, 1, 1, 1, 0, 0, 1, 1, 0], dtype=bool)
+    bx, by = step_band(x, mask, top=5.0, bottom=-1.0)
+    # runs: [0,2) off, [2,5) on, [5,7) off, [7,9) on, [9] off -> two points per run
+    np.testing.assert_array_equal(bx, [0, 2, 2, 5, 5, 7, 7, 9, 9, 9])
+    np.testing.assert_array_equal(by, [-1, -1, 5, 5, -1, -1, 5, 5, -1, -1])
+    # the filled area equals the time spent "on" (hand count: 3 + 2 samples of width 1)
+    area = np.sum(np.diff(bx)[0::2] * (by[0::2] - -1.0))
+    assert area == pytest.approx(6.0 * (3 + 2))
+
+
+def test_health_is_quiet_then_lossy_then_alert():
+    h = HealthTracker(recent_s=5.0, no_data_alert_s=2.0)
+    ok = h.update(0.0, 1000, 0, 0, 100.0, 0.01)
+    assert ok.grade == "ok" and "0 lost" in ok.text and "0 CRC" in ok.text
+    ok = h.update(1.0, 1100, 0, 0, 100.0, 0.01)
+    assert ok.grade == "ok"
+    # 3 frames lost and 1 CRC failure; over the last 5 s (since t=0): 197 received + 3 lost,
+    # so 3 / 200 = 1.5 %
+    lossy = h.update(2.0, 1197, 3, 1, 97.0, 0.01)
+    assert lossy.grade == "lossy" and "1.5 % lost" in lossy.text and "1 CRC" in lossy.text
+    # more than recent_s later with no new losses: quiet again
+    for t in range(3, 9):
+        quiet = h.update(float(t), 1197 + 100 * (t - 2), 3, 1, 100.0, 0.01)
+    assert quiet.grade == "ok"
+    alert = h.update(9.0, 1797, 3, 1, 0.0, 2.4)
+    assert alert.grade == "alert" and "no data for 2 s" in alert.text
+
+
+def test_link_view_shows_the_countdown_and_the_reason():
+    v = link_view("reconnecting", "link lost: EIO", 1.26, 3.0, "/dev/rfcomm0")
+    assert v.state == "reconnecting" and v.grade == "warn"
+    assert "in 1.3 s" in v.banner and "link lost: EIO" in v.banner and "/dev/rfcomm0" in v.banner
+    lost = link_view("failed", "gave up after 5 attempts: no such port", None, 9.0, "COM3")
+    assert lost.state == "lost" and "gave up after 5 attempts" in lost.banner
+    assert link_view("connected", "", None, 0.05, "x").banner == ""
+    silent = link_view("connected", "", None, 2.5, "x")
+    assert silent.grade == "alert" and "No data from the unit for 2 s" in silent.banner
+
+
+def test_default_file_name_is_safe_and_dated():
+    from gaitmon.ui.dialogs import default_file_name
+
+    when = dt.datetime(2026, 11, 22, 4, 5, 6)
+    assert default_file_name("P017", "R", when) == "P017_R_20261122-040506.h5"
+    assert default_file_name(" a/b c ", "", when) == "a-b-c_20261122-040506.h5"
+    assert default_file_name("", "L", when) == "session_L_20261122-040506.h5"
+
+
+def test_settings_dialog_names_the_bad_field(qtbot):
+    from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.ui.dialogs import SettingsDialog
+
+    dlg = SettingsDialog(None, PipelineConfig())
+    qtbot.addWidget(dlg)
+    dlg.edits["q_gyro"].setText("abc")
+    with pytest.raises(ValueError, match="Kalman Q_gyro: 'abc' is not a number"):
+        dlg.parsed()
+    dlg.edits["q_gyro"].setText("0.003")
+    dlg.edits["fsr_threshold"].setText("5000")
+    with pytest.raises(ValueError, match="between 0 and 4095"):
+        dlg.parsed()
+    dlg.edits["fsr_threshold"].setText("800")
+    dlg.edits["cutoff_hz"].setText("6,5")  # a decimal comma is accepted
+    cfg = dlg.parsed()
+    assert (cfg.cutoff_hz, cfg.fsr_threshold, cfg.q_angle) == (6.5, 800.0, 0.001)
+
+
+def _env_without_display():
+    env = {k: v for k, v in os.environ.items()}
+    for k in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM"):
+        env.pop(k, None)
+    return env
+
+
+def test_gaitmon_without_a_display_says_so_in_one_line():
+    out = subprocess.run(
+        [sys.executable, "-m", "gaitmon"],
+        capture_output=True,
+        text=True,
+        env=_env_without_display(),
+        timeout=60,
+    )
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("gaitmon: error: no display available")
+    assert "Traceback" not in out.stderr
+
+
+def test_gaitmon_help_still_works_and_lists_simulate():
+    out = subprocess.run(
+        [sys.executable, "-m", "gaitmon", "--help"],
+        capture_output=True,
+        text=True,
+        env=_env_without_display(),
+        timeout=60,
+    )
+    assert out.returncode == 0
+    assert "--simulate" in out.stdout and "opens the live monitor" in out.stdout
