@@ -175,6 +175,13 @@ class SessionError(Exception):
 # --------------------------------------------------------------------------------------------
 
 
+def _field_names(dtype: np.dtype) -> tuple[str, ...]:
+    """The field names of a structured dtype (numpy's ``.names`` is None for plain ones)."""
+    names = dtype.names
+    assert names is not None, f"{dtype} is not a structured dtype"
+    return names
+
+
 def _utc_now() -> str:
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 
@@ -459,8 +466,9 @@ class _H5File:
                 ("sensitivity_v_per_unit", "<f8"),
             ]
         )
+        ch_names = _field_names(ch_dtype)
         channels = np.array(
-            [tuple(c[name] for name in ch_dtype.names) for c in h["channels"]], dtype=ch_dtype
+            [tuple(c[name] for name in ch_names) for c in h["channels"]], dtype=ch_dtype
         )
         g.create_dataset("channels", data=channels)
 
@@ -758,11 +766,10 @@ class SessionWriter:
         else:
             if processed is not None:
                 raise ValueError(f"{self.header.mode} mode takes no pipeline block")
-            for name in self._row_dtype.names[N_COMMON_FIELDS:]:
+            kind_fields = _field_names(self._row_dtype)[N_COMMON_FIELDS:]
+            for name in kind_fields:
                 rec[name] = getattr(samples, name)
-            rows = _device_rows(
-                self._kind, {k: rec[k] for k in self._row_dtype.names[N_COMMON_FIELDS:]}
-            )
+            rows = _device_rows(self._kind, {k: rec[k] for k in kind_fields})
         wall = float(samples.wall_offset_s)
         self._write_journal(encode_block(self._rtype, wall, rec))
 
@@ -1268,7 +1275,7 @@ def _device_chunks(
     rows: np.ndarray, kind: FrameKind
 ) -> Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]]:
     edges = _ContactEdges() if kind == FrameKind.JOINT else None
-    names = rows.dtype.names[N_COMMON_FIELDS:]
+    names = _field_names(rows.dtype)[N_COMMON_FIELDS:]
     empty = np.empty(0, np.int64)
     for a in range(0, len(rows), _RECOVERY_CHUNK_ROWS):
         part = rows[a : a + _RECOVERY_CHUNK_ROWS]
