@@ -699,7 +699,9 @@ def _shift(s: Stride, offset: int) -> Stride:
     )
 
 
-def _cols_from_pipeline(p: PipelineBlock, t_s: np.ndarray, host: np.ndarray) -> dict:
+def _cols_from_pipeline(
+    p: PipelineBlock, t_s: np.ndarray, host: np.ndarray
+) -> dict[str, np.ndarray]:
     deg = np.degrees
     return {
         "t_s": t_s,
@@ -719,7 +721,7 @@ def _cols_from_pipeline(p: PipelineBlock, t_s: np.ndarray, host: np.ndarray) -> 
     }
 
 
-def _cols_from_device(b: SampleBlock, t_s: np.ndarray) -> dict:
+def _cols_from_device(b: SampleBlock, t_s: np.ndarray) -> dict[str, np.ndarray]:
     cols: dict[str, np.ndarray] = {"t_s": t_s, "host_time_s": b.host_time_s}
     if b.kind == FrameKind.TILT and b.acc_tilt_deg is not None and b.kalman_tilt_deg is not None:
         cols["tilt_acc_deg"] = b.acc_tilt_deg
@@ -727,9 +729,11 @@ def _cols_from_device(b: SampleBlock, t_s: np.ndarray) -> dict:
         cols["joint_acc_deg"] = np.degrees(joint_angles(np.radians(b.acc_tilt_deg)))
         cols["joint_kalman_deg"] = np.degrees(joint_angles(np.radians(b.kalman_tilt_deg)))
     elif b.kind == FrameKind.JOINT and b.kalman_joint_deg is not None:
+        # SampleBlock.from_frames sets all of a JOINT block's arrays together
+        assert b.acc_joint_deg is not None
+        assert b.heel_loaded is not None and b.toe_loaded is not None and b.phase is not None
         cols["joint_acc_deg"] = b.acc_joint_deg
         cols["joint_kalman_deg"] = b.kalman_joint_deg
-        assert b.heel_loaded is not None and b.toe_loaded is not None and b.phase is not None
         cols["heel_loaded"] = b.heel_loaded.astype(np.float64)
         cols["toe_loaded"] = b.toe_loaded.astype(np.float64)
         cols["phase"] = phase_from_contacts(b.heel_loaded, b.toe_loaded).astype(np.float64)
