@@ -75,13 +75,15 @@ def analyse_strides(
             reason = GAP
         elif any(a < s.end_idx and b > s.start_idx for a, b in excluded_ranges):
             reason = USER
-        peak = float("nan")
-        rom = (float("nan"),) * 3
+        nan = float("nan")
+        peak = nan
+        rom: tuple[float, float, float] = (nan, nan, nan)
         if joint_deg is not None and s.end_idx < len(joint_deg):
             seg = joint_deg[s.start_idx : s.end_idx + 1]
             peak = float(np.max(joint_deg[s.toe_off_idx : s.end_idx + 1, 1]))
-            rom = tuple(float(v) for v in np.ptp(seg, axis=0))  # type: ignore[assignment]
-        rows.append(StrideRow(s, reason, peak, rom))  # type: ignore[arg-type]
+            hip, knee, ankle = (float(v) for v in np.ptp(seg, axis=0))
+            rom = (hip, knee, ankle)
+        rows.append(StrideRow(s, reason, peak, rom))
     return rows
 
 

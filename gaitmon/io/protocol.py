@@ -384,7 +384,7 @@ def _parse_firmware(text: str) -> tuple[int, int, int]:
         nums = ()
     if len(nums) != 3 or not all(0 <= n <= 255 for n in nums):
         raise ValueError(f"firmware version must be 'major.minor.patch' with 0..255, got {text!r}")
-    return nums  # type: ignore[return-value]
+    return nums[0], nums[1], nums[2]
 
 
 def encode_identity_payload(identity: Identity) -> bytes:
