@@ -489,8 +489,8 @@ def _write_csv(src: _Source, out: Path, scrub: _Scrubber, progress: PROGRESS | N
     for g in gaps:
         gap_at[g["sample_idx"]] = gap_at.get(g["sample_idx"], 0) + g["n_lost"]
     marker_at: dict[int, list[str]] = {}
-    for m in markers:
-        marker_at.setdefault(m["sample_idx"], []).append(m["label"])
+    for mk in markers:
+        marker_at.setdefault(mk["sample_idx"], []).append(mk["label"])
     n = src.n
     with open(out, "w", encoding="utf-8", newline="") as f:
         f.write(",".join(header) + "\n")
@@ -866,7 +866,8 @@ def _c3d_part_spec(src: _Source, plan: C3dPlan, part_no: int, scrub: _Scrubber,
     # in one go: ezc3d's add_event rewrites the whole group per event (quadratic).
     subject = (ANONYMOUS if deidentify
                else _text(src.group_attrs("session").get("patient_id", "")) or ANONYMOUS)
-    evs = [(int(plan.frame[row]) - f0, *rest) for row, *rest in events]
+    evs = [(int(plan.frame[row]) - f0, ctx, label, desc, icon)
+           for row, ctx, label, desc, icon in events]
     evs = [e for e in evs if 0 <= e[0] < nf]
     if evs:
         times = np.array([_c3d_time(e[0] / fs) for e in evs]).T  # (2, n)
