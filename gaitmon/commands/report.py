@@ -1,0 +1,88 @@
+"""``gaitmon report FILE -o report.pdf``: the one-page clinical PDF, headless.
+
+The content is :mod:`gaitmon.report` (the same stride analysis as ``gaitmon info`` and the review
+window); the page is drawn by ``gaitmon.ui.review.report_pdf`` with Qt's own PDF writer. No
+window is opened: Qt runs on the offscreen platform when there is no display, with a
+``QGuiApplication`` only (fonts need one). Qt is imported only when the command runs, so the
+rest of the command line stays Qt-free.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from gaitmon.cli import UserError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE", help="session file (.h5)")
+    p.add_argument("-o", "--output", required=True, metavar="PDF", help="report to write (.pdf)")
+    p.add_argument(
+        "--normative",
+        metavar="CSV",
+        help="reference band to draw behind the curves (format: docs/normative-format.md)",
+    )
+    p.add_argument(
+        "--deidentify",
+        action="store_true",
+        help="leave out the patient identifier, operator and file name",
+    )
+    p.add_argument("--png", metavar="PNG", help="also write the page as a PNG image")
+    p.add_argument("--force", action="store_true", help="replace existing output files")
+    p.epilog = "example: gaitmon report walk.h5 -o walk.pdf --normative docs/normative-example.csv"
+
+
+def _check_output(path: Path, force: bool) -> None:
+    if path.exists() and not force:
+        raise UserError(f"{path} exists; use --force to replace it")
+    if path.is_dir():
+        raise UserError(f"{path} is a folder; give a file name")
+    if not path.parent.is_dir():
+        raise UserError(f"folder {path.parent} does not exist")
+
+
+def _use_offscreen_if_headless() -> None:
+    from gaitmon.ui import display_problem
+
+    if display_problem() is not None:  # no display: Qt would abort trying to open one
+        os.environ["QT_QPA_PLATFORM"] = "offscreen"
+
+
+def run(args: argparse.Namespace) -> int:
+    from gaitmon.io.session import SessionError
+    from gaitmon.normative import NormativeError, load_normative
+    from gaitmon.report import report_from_file
+
+    out = Path(args.output)
+    png = Path(args.png) if args.png else None
+    if out.suffix.lower() != ".pdf":
+        raise UserError(f"{out.name}: the report is a PDF; name it .pdf")
+    _check_output(out, args.force)
+    if png is not None:
+        _check_output(png, args.force)
+    normative = None
+    if args.normative:
+        try:
+            normative = load_normative(args.normative)
+        except NormativeError as exc:
+            raise UserError(f"normative band: {exc}") from None
+    try:
+        data = report_from_file(args.file, deidentify=args.deidentify, normative=normative)
+    except SessionError as exc:
+        raise UserError(str(exc)) from None
+
+    _use_offscreen_if_headless()
+    try:
+        from gaitmon.ui.review.report_pdf import write_report_pdf, write_report_png
+    except ImportError as exc:  # PySide6 missing, or a system library Qt needs
+        raise UserError(f"the report needs Qt, which cannot load here: {exc}") from None
+    try:
+        write_report_pdf(data, out)
+        if png is not None:
+            write_report_png(data, png)
+    except OSError as exc:
+        raise UserError(f"cannot write the report: {exc}") from None
+    print(f"gaitmon report: wrote {out}" + (f" and {png}" if png else ""))
+    return 0

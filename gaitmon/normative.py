@@ -1,0 +1,280 @@
+"""Normative bands for the gait-cycle plots: the CSV format of ``docs/normative-format.md``.
+
+A normative band is a reference mean ± SD per joint over the gait cycle (0-100 %, 101 points,
+the same grid as ``gaitmon.analysis.cycles``), drawn behind a patient's curves in the review
+window and the clinical report. gaitmon ships no normative data: published reference curves
+come with their own licences, so the user supplies a file (and its source) explicitly. This
+module only reads and writes the format; it never guesses a missing value.
+
+Qt-free (numpy only), so the report command and the tests use it headless.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import itertools
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+N_POINTS = 101  # 0, 1, ..., 100 % of the gait cycle
+JOINT_KEYS: tuple[str, ...] = ("hip", "knee", "ankle")  # column order of every (101, 3) array
+CYCLE_COLUMN = "cycle_pct"
+REQUIRED_METADATA: tuple[str, ...] = ("source", "licence")
+
+
+class NormativeError(ValueError):
+    """A normative file that cannot be used; the message is one line naming the problem."""
+
+
+@dataclass(frozen=True, eq=False)
+class NormativeBands:
+    """Mean and SD per joint over the cycle; NaN columns for joints the file does not give."""
+
+    cycle_pct: np.ndarray  # (101,) 0..100
+    mean_deg: np.ndarray  # (101, 3) hip flexion, knee flexion, ankle dorsiflexion (clinical signs)
+    sd_deg: np.ndarray  # (101, 3)
+    metadata: Mapping[str, str] = field(default_factory=dict)  # from the '# key: value' lines
+    path: Path | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("cycle_pct", "mean_deg", "sd_deg"):
+            a = np.array(getattr(self, name), dtype=np.float64)
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+        if self.cycle_pct.shape != (N_POINTS,):
+            raise NormativeError(f"cycle_pct must have {N_POINTS} values")
+        for name in ("mean_deg", "sd_deg"):
+            if getattr(self, name).shape != (N_POINTS, len(JOINT_KEYS)):
+                raise NormativeError(f"{name} must have shape ({N_POINTS}, {len(JOINT_KEYS)})")
+        object.__setattr__(self, "metadata", dict(self.metadata))
+
+    @property
+    def joints(self) -> tuple[str, ...]:
+        """The joints this file gives (in ``JOINT_KEYS`` order)."""
+        return tuple(
+            j for k, j in enumerate(JOINT_KEYS) if np.all(np.isfinite(self.mean_deg[:, k]))
+        )
+
+    def has(self, joint: str) -> bool:
+        return joint in self.joints
+
+    @property
+    def source(self) -> str:
+        return self.metadata.get("source", "")
+
+    @property
+    def licence(self) -> str:
+        return self.metadata.get("licence", "")
+
+    @property
+    def label(self) -> str:
+        """A short caption for plots and the report: the name (or file name) and source."""
+        name = self.metadata.get("name") or (self.path.name if self.path else "normative band")
+        return name
+
+
+def _number(text: str, line_no: int, column: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise NormativeError(
+            f"line {line_no}, column {column}: {text.strip()!r} is not a number"
+        ) from None
+    if not math.isfinite(v):
+        raise NormativeError(f"line {line_no}, column {column}: {text.strip()!r} is not finite")
+    return v
+
+
+def parse_normative(text: str, name: str = "normative file") -> NormativeBands:
+    """Parse the CSV text of a normative file (see ``docs/normative-format.md``)."""
+    metadata: dict[str, str] = {}
+    data_lines: list[tuple[int, str]] = []
+    for line_no, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            body = stripped[1:].strip()
+            if ":" in body:
+                key, value = body.split(":", 1)
+                key = key.strip().lower()
+                if key and " " not in key:
+                    # several lines with one key (a long licence text) are joined
+                    metadata[key] = (metadata[key] + " " if key in metadata else "") + value.strip()
+            continue
+        data_lines.append((line_no, line))
+    if not data_lines:
+        raise NormativeError(f"{name}: no header row (expected {CYCLE_COLUMN},hip_mean_deg,...)")
+    missing_meta = [k for k in REQUIRED_METADATA if not metadata.get(k)]
+    if missing_meta:
+        raise NormativeError(
+            f"{name}: missing metadata line '# {missing_meta[0]}: ...' "
+            "(say where the values come from and under which licence)"
+        )
+    header_no, header_line = data_lines[0]
+    header = [h.strip() for h in next(csv.reader([header_line]))]
+    dupes = sorted({h for h in header if header.count(h) > 1})
+    if dupes:
+        raise NormativeError(f"{name}: column {dupes[0]!r} appears twice in the header")
+    if CYCLE_COLUMN not in header:
+        raise NormativeError(
+            f"{name}: missing column {CYCLE_COLUMN!r} in the header (line {header_no})"
+        )
+    given = []
+    for joint in JOINT_KEYS:
+        m, s = f"{joint}_mean_deg", f"{joint}_sd_deg"
+        if (m in header) != (s in header):
+            have, lack = (m, s) if m in header else (s, m)
+            raise NormativeError(f"{name}: column {have!r} has no matching {lack!r}")
+        if m in header:
+            given.append(joint)
+    if not given:
+        raise NormativeError(
+            f"{name}: missing columns: need at least one of hip/knee/ankle as "
+            "<joint>_mean_deg and <joint>_sd_deg"
+        )
+    rows = data_lines[1:]
+    if len(rows) != N_POINTS:
+        raise NormativeError(
+            f"{name}: wrong length: {len(rows)} data rows, expected {N_POINTS} "
+            f"({CYCLE_COLUMN} 0, 1, ..., 100)"
+        )
+    cycle = np.empty(N_POINTS)
+    mean = np.full((N_POINTS, len(JOINT_KEYS)), np.nan)
+    sd = np.full((N_POINTS, len(JOINT_KEYS)), np.nan)
+    col = {h: k for k, h in enumerate(header)}
+    for r, (line_no, line) in enumerate(rows):
+        cells = next(csv.reader([line]))
+        if len(cells) != len(header):
+            raise NormativeError(
+                f"{name}: line {line_no} has {len(cells)} values, the header has {len(header)}"
+            )
+        cycle[r] = _number(cells[col[CYCLE_COLUMN]], line_no, CYCLE_COLUMN)
+        for j, joint in enumerate(JOINT_KEYS):
+            if joint not in given:
+                continue
+            mean[r, j] = _number(cells[col[f"{joint}_mean_deg"]], line_no, f"{joint}_mean_deg")
+            s = _number(cells[col[f"{joint}_sd_deg"]], line_no, f"{joint}_sd_deg")
+            if s < 0:
+                raise NormativeError(f"line {line_no}, column {joint}_sd_deg: SD {s:g} is negative")
+            sd[r, j] = s
+    expected = np.arange(N_POINTS, dtype=np.float64)
+    bad = np.flatnonzero(np.abs(cycle - expected) > 1e-6)
+    if bad.size:
+        k = int(bad[0])
+        raise NormativeError(
+            f"{name}: line {rows[k][0]}: {CYCLE_COLUMN} is {cycle[k]:g}, expected {k} "
+            f"(rows must be 0, 1, ..., 100)"
+        )
+    return NormativeBands(expected, mean, sd, metadata)
+
+
+def load_normative(path: str | os.PathLike[str]) -> NormativeBands:
+    """Read a normative CSV file; raises :class:`NormativeError` with a one-line message."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise NormativeError(f"{p.name} does not exist; check the file name and folder") from None
+    except OSError as e:
+        raise NormativeError(f"cannot read {p.name}: {e.strerror or e}") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise NormativeError(f"{p.name} is not UTF-8 text; save it as UTF-8 CSV") from None
+    bands = parse_normative(text, p.name)
+    return NormativeBands(bands.cycle_pct, bands.mean_deg, bands.sd_deg, bands.metadata, p)
+
+
+def format_normative(bands: NormativeBands, decimals: int = 3, preamble: Sequence[str] = ()) -> str:
+    """The CSV text of ``bands``: ``preamble`` comment lines, metadata lines, then the joints
+    the bands give."""
+    out = io.StringIO()
+    for line in preamble:
+        out.write(f"# {line}\n")
+    for key, value in bands.metadata.items():
+        out.write(f"# {key}: {value}\n")
+    joints = [j for j in JOINT_KEYS if bands.has(j)]
+    header = [CYCLE_COLUMN] + [f"{j}_{w}_deg" for j in joints for w in ("mean", "sd")]
+    out.write(",".join(header) + "\n")
+    for r in range(N_POINTS):
+        cells = [f"{bands.cycle_pct[r]:g}"]
+        for j in joints:
+            k = JOINT_KEYS.index(j)
+            cells += [f"{bands.mean_deg[r, k]:.{decimals}f}", f"{bands.sd_deg[r, k]:.{decimals}f}"]
+        out.write(",".join(cells) + "\n")
+    return out.getvalue()
+
+
+def write_normative(
+    bands: NormativeBands,
+    path: str | os.PathLike[str],
+    decimals: int = 3,
+    preamble: Sequence[str] = (),
+) -> Path:
+    p = Path(path)
+    p.write_text(format_normative(bands, decimals, preamble), encoding="utf-8")
+    return p
+
+
+EXAMPLE_PREAMBLE: tuple[str, ...] = (
+    "EXAMPLE FILE - NOT NORMATIVE DATA. Generated from gaitmon's simulator; regenerate with",
+    'python -c "from gaitmon.normative import *; write_normative(simulated_example(), '
+    "'docs/normative-example.csv', 2, EXAMPLE_PREAMBLE)\"",
+)
+EXAMPLE_METADATA: dict[str, str] = {
+    "name": "EXAMPLE ONLY - simulated, not normative data",
+    "source": "generated by gaitmon's gait simulator (gaitmon.normative.simulated_example, "
+    "gaitmon.io.sim.kinematics): mean and SD across simulated subjects whose cadence, stance "
+    "fraction and knee swing amplitude were drawn at random; the simulator's curves are shaped "
+    "after published adult averages but these numbers describe no real people",
+    "licence": "MIT, as gaitmon (generated data, no third-party values)",
+    "description": "an example of the file format for demonstrations and tests; do NOT use "
+    "it as a clinical reference",
+}
+
+
+def simulated_example(n_subjects: int = 12, seed: int = 0, walk_s: float = 30.0) -> NormativeBands:
+    """An *example* band from gaitmon's simulator (see ``EXAMPLE_METADATA``), never normative.
+
+    Each simulated subject walks ``walk_s`` seconds with cadence, stance fraction and knee
+    swing scale drawn uniformly (95-125 steps/min, 0.57-0.63, 0.85-1.15); its strides after
+    the ramp-in are time-normalised to 101 points and averaged; the band is the mean and
+    sample SD of the subjects' averages (the way reference bands are usually built).
+    """
+    from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
+
+    rng = np.random.default_rng(seed)
+    per_subject = []
+    for k in range(n_subjects):
+        cfg = GaitConfig(
+            cadence_steps_min=float(rng.uniform(95.0, 125.0)),
+            stance_fraction=float(rng.uniform(0.57, 0.63)),
+            knee_swing_scale=float(rng.uniform(0.85, 1.15)),
+            seed=seed * 1000 + k,
+            standing_s=1.0,
+        )
+        model = GaitModel(cfg)
+        n = int(walk_s * cfg.fs_hz)
+        joints = np.degrees(model.evaluate(0, n).joint_rad)
+        hs, _ = model.events(0, n)
+        strides = []
+        for a, b in itertools.pairwise(hs[2:]):  # skip start-up strides
+            t = np.linspace(a, b, N_POINTS)
+            strides.append(
+                np.stack([np.interp(t, np.arange(n), joints[:, j]) for j in range(3)], 1)
+            )
+        per_subject.append(np.mean(strides, axis=0))
+    arr = np.asarray(per_subject)
+    return NormativeBands(
+        np.arange(N_POINTS, dtype=np.float64),
+        arr.mean(axis=0),
+        arr.std(axis=0, ddof=1),
+        dict(EXAMPLE_METADATA),
+    )

@@ -1,0 +1,310 @@
+"""What goes into the one-page clinical report, gathered from a session (Qt-free).
+
+This module owns the *content* of the report: the header (patient identifier, never a name),
+the gait summary, the per-stride statistics, the cycle-normalised mean ± SD curves, the filter
+settings and angle conventions in force, and the gaps, losses and exclusions. The stride
+analysis is ``gaitmon.analysis`` (the same as ``gaitmon info`` and the review window), so the
+three always agree. Drawing it is ``gaitmon.ui.review.report_pdf`` (Qt); ``gaitmon report``
+wires the two together headless.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gaitmon import __version__
+from gaitmon.analysis import FIRST, GAP, LAST, USER, StrideRow, analyse_strides, cycles, summary
+from gaitmon.dsp.channels import SEGMENTS
+from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
+from gaitmon.io.session import ANGLE_CONVENTION, Session, open_session
+from gaitmon.normative import JOINT_KEYS, NormativeBands
+
+N_POINTS = 101
+# axis labels with units and the clinical sign words (positive direction named)
+JOINT_AXIS_LABELS: tuple[str, ...] = (
+    "hip flexion (deg)",
+    "knee flexion (deg)",
+    "ankle dorsiflexion (deg)",
+)
+JOINT_TITLES: tuple[str, ...] = ("Hip", "Knee", "Ankle")
+REDACTED = "[removed]"
+EXCLUSION_ORDER: tuple[str, ...] = (FIRST, LAST, GAP, USER)
+_SIDES = {"L": "left", "R": "right"}
+
+
+@dataclass(frozen=True)
+class ReportHeader:
+    patient_id: str  # identifier only; REDACTED when de-identified, "" when none was entered
+    side: str  # "left", "right" or ""
+    operator: str
+    recorded_utc: str  # "2026-11-22 04:10 UTC" (or "" when unknown)
+    duration_s: float
+    n_samples: int
+    sample_rate_hz: float
+    mode: str  # raw / tilt / joint
+    device: str  # "gaitmon-sim firmware 1.0.0, serial 1"
+    file_name: str  # "" when de-identified
+    state: str  # complete / recovered / incomplete
+    deidentified: bool
+
+
+@dataclass(frozen=True)
+class JointStat:
+    """Mean ± SD over the included strides of one per-stride figure (deg)."""
+
+    name: str
+    mean_deg: float
+    sd_deg: float
+    n: int
+
+
+@dataclass(frozen=True)
+class Losses:
+    frames_lost: int
+    n_gaps: int
+    outages: int  # gaps whose reason is a lost link
+    outage_s: float  # total duration of those
+    longest_gap_s: float
+    crc_failures: int
+    reconnects: int
+    queue_overflow_frames: int
+    invalid_values: int
+    excluded: dict[str, int]  # exclusion reason -> strides (in EXCLUSION_ORDER)
+    excluded_ranges: tuple[tuple[int, int], ...]  # rows the user excluded
+    problems: tuple[str, ...]  # what the session reader noticed
+
+
+@dataclass(frozen=True, eq=False)
+class ReportData:
+    header: ReportHeader
+    summary: GaitSummary
+    rows: tuple[StrideRow, ...]
+    cycles_deg: np.ndarray  # (k, 101, 3) included strides, hip / knee / ankle
+    mean_deg: np.ndarray  # (101, 3)
+    sd_deg: np.ndarray  # (101, 3), NaN with fewer than 2 strides
+    toe_off_pct: float  # mean stance % (NaN without strides)
+    rom: tuple[JointStat, JointStat, JointStat]  # per-stride range of motion
+    peak: tuple[JointStat, JointStat, JointStat]  # per-stride maximum
+    trough: tuple[JointStat, JointStat, JointStat]  # per-stride minimum
+    knee_peak_swing: JointStat  # peak knee flexion between toe off and the next heel strike
+    stance_time: JointStat  # seconds (mean ± SD)
+    swing_time: JointStat
+    settings: tuple[tuple[str, str], ...]  # (label, value) lines
+    conventions: tuple[str, ...]
+    losses: Losses
+    normative: NormativeBands | None = None
+    notes: tuple[str, ...] = field(default=())  # why a section is empty, etc.
+    generated_utc: str = ""
+    software: str = f"gaitmon {__version__}"
+
+    @property
+    def n_included(self) -> int:
+        return int(self.cycles_deg.shape[0])
+
+
+def session_stride_rows(
+    session: Session, excluded_ranges: Sequence[tuple[int, int]] = ()
+) -> list[StrideRow]:
+    """The stride analysis exactly as ``gaitmon info`` and the review window do it."""
+    joints = session.read("processed/joint_deg") if session.n_samples else None
+    return analyse_strides(
+        session.heel_strike_idx,
+        session.toe_off_idx,
+        session.sample_rate_hz,
+        joints,
+        [(g.sample_idx, g.duration_s) for g in session.gaps],
+        excluded_ranges,
+        t_s=session.read("timeline/t_s") if session.n_samples else None,
+    )
+
+
+def _recorded(created_utc: str) -> str:
+    try:
+        t = _dt.datetime.fromisoformat(created_utc.replace("Z", "+00:00"))
+    except ValueError:
+        return created_utc
+    return t.astimezone(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+
+
+def _stat(name: str, values: Sequence[float]) -> JointStat:
+    v = np.asarray([x for x in values if np.isfinite(x)], dtype=np.float64)
+    n = len(v)
+    mean = float(v.mean()) if n else float("nan")
+    sd = float(v.std(ddof=1)) if n > 1 else float("nan")
+    return JointStat(name, mean, sd, n)
+
+
+def _settings(session: Session) -> tuple[tuple[str, str], ...]:
+    c = session.config
+    out: list[tuple[str, str]] = []
+    if session.mode == "raw":
+        out.append(
+            (
+                "Signal chain",
+                f"PC pipeline{' (reprocessed offline)' if session.reprocessed else ''}: "
+                f"Butterworth low-pass {c.cutoff_hz:g} Hz order {c.filter_order} on "
+                f"accelerometers and FSRs; tilt Kalman filter ({c.kalman_form} form) "
+                f"Q_angle {c.q_angle:g}, Q_gyro {c.q_gyro:g}, R {c.r:g}",
+            )
+        )
+        out.append(
+            (
+                "Gait events",
+                f"FSR threshold {c.fsr_threshold:g} LSB (hysteresis {c.fsr_hysteresis:g}), "
+                f"min. contact {1000 * c.min_contact_s:g} ms; events back-dated "
+                f"{session.event_delay_samples} samples for the filter delay"
+                if c.compensate_event_delay
+                else f"FSR threshold {c.fsr_threshold:g} LSB (hysteresis "
+                f"{c.fsr_hysteresis:g}), min. contact {1000 * c.min_contact_s:g} ms; "
+                "events not back-dated",
+            )
+        )
+    else:
+        what = "tilts" if session.mode == "tilt" else "joint angles and gait phase"
+        out.append(("Signal chain", f"the unit's own {what} (mode {session.mode})"))
+    n_changes = len(session.config_changes)
+    if n_changes:
+        out.append(("Setting changes", f"{n_changes} during the recording (the file logs each)"))
+    off = np.degrees(session.calibration.tilt_offset_rad)
+    zeroed = bool(np.any(off != 0)) or bool(session.calibration_changes)
+    if zeroed:
+        cal = (
+            "standing pose zeroed; offsets "
+            + ", ".join(f"{s} {v:+.1f}" for s, v in zip(SEGMENTS, off, strict=True))
+            + " deg"
+        )
+        if session.calibration_changes:
+            cal += f"; {len(session.calibration_changes)} zeroings during the recording"
+    else:
+        cal = "not zeroed: angles are relative to the sensor axes (mounting offsets included)"
+    out.append(("Calibration", cal))
+    return tuple(out)
+
+
+def _losses(
+    session: Session, rows: Sequence[StrideRow], excluded_ranges: Sequence[tuple[int, int]]
+) -> Losses:
+    outages = [g for g in session.gaps if g.reason.startswith("link lost")]
+    counts = Counter(r.excluded for r in rows if r.excluded)
+    link = session.link
+    return Losses(
+        frames_lost=int(sum(g.n_lost for g in session.gaps)),
+        n_gaps=len(session.gaps),
+        outages=len(outages),
+        outage_s=float(sum(g.duration_s for g in outages)),
+        longest_gap_s=float(max((g.duration_s for g in session.gaps), default=0.0)),
+        crc_failures=int(link.get("crc_failures", 0)),
+        reconnects=int(link.get("reconnects", 0)),
+        queue_overflow_frames=int(link.get("queue_overflow_frames", 0)),
+        invalid_values=int(link.get("invalid_values", 0)),
+        excluded={k: counts[k] for k in EXCLUSION_ORDER if counts.get(k)},
+        excluded_ranges=tuple((int(a), int(b)) for a, b in excluded_ranges),
+        problems=tuple(session.problems),
+    )
+
+
+def gather_report(
+    session: Session,
+    *,
+    deidentify: bool = False,
+    normative: NormativeBands | None = None,
+    excluded_ranges: Sequence[tuple[int, int]] = (),
+    now_utc: _dt.datetime | None = None,
+) -> ReportData:
+    """Everything the report shows, from an open session."""
+    rows = session_stride_rows(session, excluded_ranges)
+    summ = summary(rows)
+    joints = session.read("processed/joint_deg") if session.n_samples else None
+    if joints is not None and rows:
+        cyc = cycles(np.asarray(joints, dtype=np.float64), rows, N_POINTS)
+    else:
+        cyc = np.empty((0, N_POINTS, 3))
+    mean, sd = cycle_mean_sd(cyc)
+    included = [r for r in rows if r.included]
+    rom = tuple(_stat(JOINT_TITLES[j], [r.rom_deg[j] for r in included]) for j in range(3))
+    peak = tuple(_stat(JOINT_TITLES[j], cyc[:, :, j].max(axis=1)) for j in range(3))
+    trough = tuple(_stat(JOINT_TITLES[j], cyc[:, :, j].min(axis=1)) for j in range(3))
+    notes: list[str] = []
+    if session.mode == "tilt":
+        notes.append("mode tilt records no gait events: no strides to analyse")
+    elif not included:
+        notes.append(
+            f"{len(session.heel_strike_idx)} heel strikes, {len(rows)} strides: "
+            "too few usable strides to analyse"
+        )
+    meta = session.meta
+    dev = session.device
+    state = "complete" if session.complete else ("recovered" if session.recovered else "incomplete")
+    header = ReportHeader(
+        patient_id=REDACTED if deidentify else meta.patient_id,
+        side=_SIDES.get(meta.side or str(dev.get("side", "")), ""),
+        operator=(REDACTED if meta.operator else "") if deidentify else meta.operator,
+        recorded_utc=_recorded(session.created_utc),
+        duration_s=session.duration_s,
+        n_samples=session.n_samples,
+        sample_rate_hz=session.sample_rate_hz,
+        mode=session.mode,
+        device=f"{dev.get('name', '?')} firmware {dev.get('firmware', '?')}, serial "
+        f"{dev.get('serial', '?')}",
+        file_name="" if deidentify else session.path.name,
+        state=state,
+        deidentified=deidentify,
+    )
+    convention = str(session.attrs.get("angle_convention", "")) or ANGLE_CONVENTION
+    conventions = (
+        convention,
+        "Cycle: 0 % and 100 % are successive heel strikes of the measured leg; strides "
+        "time-normalised to 101 points; SD is the sample SD (n - 1).",
+        "Cadence is derived (120 / mean stride time): one leg is measured.",
+    )
+    now = now_utc or _dt.datetime.now(_dt.UTC)
+    return ReportData(
+        header=header,
+        summary=summ,
+        rows=tuple(rows),
+        cycles_deg=cyc,
+        mean_deg=mean,
+        sd_deg=sd,
+        toe_off_pct=summ.stance_pct_mean,
+        rom=rom,  # type: ignore[arg-type]
+        peak=peak,  # type: ignore[arg-type]
+        trough=trough,  # type: ignore[arg-type]
+        knee_peak_swing=_stat("Knee", [r.knee_peak_swing_deg for r in included]),
+        stance_time=_stat("stance", [r.stride.stance_time_s for r in included]),
+        swing_time=_stat("swing", [r.stride.swing_time_s for r in included]),
+        settings=_settings(session),
+        conventions=conventions,
+        losses=_losses(session, rows, excluded_ranges),
+        normative=normative,
+        notes=tuple(notes),
+        generated_utc=now.strftime("%Y-%m-%d %H:%M UTC"),
+    )
+
+
+def report_from_file(
+    path: str | os.PathLike[str],
+    *,
+    deidentify: bool = False,
+    normative: NormativeBands | None = None,
+    excluded_ranges: Sequence[tuple[int, int]] = (),
+) -> ReportData:
+    """Open (recovering if needed), gather, close. Raises ``SessionError`` for a bad file."""
+    with open_session(path) as s:
+        return gather_report(
+            s, deidentify=deidentify, normative=normative, excluded_ranges=excluded_ranges
+        )
+
+
+def normative_columns(
+    bands: NormativeBands | None, joint: int
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """(mean, sd) of one joint (0 hip, 1 knee, 2 ankle) if the bands give it."""
+    if bands is None or not bands.has(JOINT_KEYS[joint]):
+        return None
+    return bands.mean_deg[:, joint], bands.sd_deg[:, joint]

@@ -1,0 +1,1 @@
+"""The review window: a recorded session browsed, analysed, reported and exported."""
