@@ -1,0 +1,118 @@
+"""User exclusions (e.g. a turn) kept per recording in a side file ``FILE.review.json``.
+
+The recording itself is never modified. The side file holds row ranges (and their times, for a
+human reader), plus the recording's ``created_utc`` and ``n_samples`` so that ranges written for
+another recording of the same name are not applied by mistake. Written atomically (temporary
+file, then ``os.replace``). Qt-free.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+FORMAT = "gaitmon-review"
+VERSION = 1
+
+
+@dataclass(frozen=True)
+class Exclusion:
+    start_idx: int  # first row excluded
+    stop_idx: int  # one past the last row excluded
+    label: str = "excluded range"
+
+
+def side_path(path: str | os.PathLike[str]) -> Path:
+    p = Path(path)
+    return p.with_name(p.name + ".review.json")
+
+
+def merge(ranges: list[Exclusion]) -> list[Exclusion]:
+    """Sorted, with overlapping or touching ranges joined (labels of joined ranges kept once)."""
+    out: list[Exclusion] = []
+    for r in sorted(ranges, key=lambda r: (r.start_idx, r.stop_idx)):
+        if out and r.start_idx <= out[-1].stop_idx:
+            last = out[-1]
+            label = last.label if r.label in last.label.split("; ") else f"{last.label}; {r.label}"
+            out[-1] = Exclusion(last.start_idx, max(last.stop_idx, r.stop_idx), label)
+        else:
+            out.append(r)
+    return out
+
+
+def subtract(ranges: list[Exclusion], start: int, stop: int) -> list[Exclusion]:
+    """The ranges with rows ``[start, stop)`` no longer excluded."""
+    out: list[Exclusion] = []
+    for r in ranges:
+        if r.stop_idx <= start or r.start_idx >= stop:
+            out.append(r)
+            continue
+        if r.start_idx < start:
+            out.append(Exclusion(r.start_idx, start, r.label))
+        if r.stop_idx > stop:
+            out.append(Exclusion(stop, r.stop_idx, r.label))
+    return out
+
+
+def load(
+    path: str | os.PathLike[str], created_utc: str, n_samples: int
+) -> tuple[list[Exclusion], str]:
+    """(exclusions, problem): an absent file is no exclusions and no problem."""
+    sp = side_path(path)
+    try:
+        doc = json.loads(sp.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return [], ""
+    except (OSError, ValueError) as e:
+        return [], f"{sp.name} is unreadable ({e}); exclusions not loaded"
+    try:
+        if doc.get("format") != FORMAT:
+            return [], f"{sp.name} is not a gaitmon review file; exclusions not loaded"
+        rec = doc.get("recording", {})
+        if rec.get("created_utc") != created_utc or int(rec.get("n_samples", -1)) != n_samples:
+            return [], f"{sp.name} belongs to another recording; its exclusions were not applied"
+        out = []
+        for r in doc.get("excluded_ranges", []):
+            a = max(0, int(r["start_idx"]))
+            b = min(n_samples, int(r["stop_idx"]))
+            if b > a:
+                out.append(Exclusion(a, b, str(r.get("label", "excluded range"))))
+        return merge(out), ""
+    except (AttributeError, KeyError, TypeError, ValueError) as e:
+        return [], f"{sp.name} is damaged ({e}); exclusions not loaded"
+
+
+def save(
+    path: str | os.PathLike[str],
+    ranges: list[Exclusion],
+    created_utc: str,
+    n_samples: int,
+    t_s: list[float] | None = None,
+) -> Path:
+    """Write the side file (or delete it when there is nothing to keep). Raises OSError."""
+    sp = side_path(path)
+    if not ranges:
+        with contextlib.suppress(FileNotFoundError):
+            sp.unlink()
+        return sp
+    items = []
+    for r in ranges:
+        item: dict[str, object] = {"start_idx": r.start_idx, "stop_idx": r.stop_idx,
+                                   "label": r.label}  # fmt: skip
+        if t_s is not None and r.stop_idx <= len(t_s):
+            item["start_t_s"] = round(float(t_s[r.start_idx]), 3)
+            item["stop_t_s"] = round(float(t_s[r.stop_idx - 1]), 3)
+        items.append(item)
+    doc = {
+        "format": FORMAT,
+        "version": VERSION,
+        "recording": {"file": Path(path).name, "created_utc": created_utc, "n_samples": n_samples},
+        "excluded_ranges": items,
+    }
+    tmp = sp.with_name(sp.name + ".tmp")
+    tmp.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    os.replace(tmp, sp)
+    return sp
