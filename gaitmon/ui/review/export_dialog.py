@@ -1,0 +1,269 @@
+"""The export dialog: a session to CSV, MATLAB .mat or C3D, in a worker thread with Cancel.
+
+``gaitmon.io.export.export_session`` does the work (the same code as ``gaitmon export``). It
+calls ``progress(fraction)`` as it goes and, if that callback raises, discards every temporary
+output and re-raises, so Cancel works by raising :class:`ExportCancelled` from the callback at
+its next call: nothing is left under the final name. Progress is reported per chunk (16 384
+rows for CSV, per series for MAT, per part for C3D); opening the file (which may first recover
+an interrupted recording) and writing the last MAT/C3D piece cannot be interrupted, so a
+cancel waits for the next progress call. The GUI stays responsive throughout: the worker
+touches no widget and hands progress and the result over through queued signals.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+from PySide6.QtCore import QObject, Qt, Signal, Slot
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QDialog,
+    QDialogButtonBox,
+    QFileDialog,
+    QFormLayout,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QProgressBar,
+    QPushButton,
+    QVBoxLayout,
+    QWidget,
+)
+
+from gaitmon.io.export import EXTENSIONS, ExportError, ExportResult, export_session
+
+FORMAT_LABELS: dict[str, str] = {
+    "csv": "CSV (spreadsheet, pandas, MATLAB readtable) + meta.json",
+    "mat": "MATLAB .mat (struct 'session', 1-based indices)",
+    "c3d": "C3D (Mokka, Nexus, btk; angles as points, events)",
+}
+
+
+class ExportCancelled(Exception):
+    """Raised from the progress callback to stop an export (export_session discards its files)."""
+
+
+class _Bridge(QObject):
+    """Carries the worker's news to the GUI thread (queued: emitted from the worker)."""
+
+    progressed = Signal(float)
+    done = Signal(object, object)  # ExportResult | None, BaseException | None
+
+
+class ExportDialog(QDialog):
+    """Pick a format, an output file and de-identification; Export runs in a worker thread."""
+
+    export_finished = Signal(object)  # ExportResult
+    export_failed = Signal(str)  # one-line message ("cancelled" included)
+
+    def __init__(
+        self,
+        session_path: str | Path,
+        parent: QWidget | None = None,
+        *,
+        export_fn: Callable[..., ExportResult] | None = None,
+    ) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Export session")
+        self.session_path = Path(session_path)
+        # the export function is injectable so tests can slow it down or gate it
+        self._export_fn = export_fn or export_session
+        self._thread: threading.Thread | None = None
+        self._cancel = threading.Event()
+        self._bridge = _Bridge(self)
+        self._bridge.progressed.connect(self._on_progress, Qt.ConnectionType.QueuedConnection)
+        self._bridge.done.connect(self._on_done, Qt.ConnectionType.QueuedConnection)
+        self.result_: ExportResult | None = None
+        self._build()
+        self._on_format_changed()
+
+    # -- layout -------------------------------------------------------------------------------
+
+    def _build(self) -> None:
+        self.source_label = QLabel(str(self.session_path))
+        self.source_label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.format_combo = QComboBox()
+        for fmt, label in FORMAT_LABELS.items():
+            self.format_combo.addItem(label, fmt)
+        self.format_combo.currentIndexChanged.connect(self._on_format_changed)
+        self.output_edit = QLineEdit()
+        self.browse_button = QPushButton("Browse…")
+        self.browse_button.clicked.connect(self._browse)
+        out_row = QHBoxLayout()
+        out_row.addWidget(self.output_edit, 1)
+        out_row.addWidget(self.browse_button)
+        self.deidentify_check = QCheckBox("De-identify (leave out patient ID, operator and notes)")
+        self.overwrite_check = QCheckBox("Replace existing files")
+        form = QFormLayout()
+        form.addRow("Session", self.source_label)
+        form.addRow("Format", self.format_combo)
+        form.addRow("Save as", out_row)
+        form.addRow("", self.deidentify_check)
+        form.addRow("", self.overwrite_check)
+        self.progress_bar = QProgressBar()
+        self.progress_bar.setRange(0, 1000)
+        self.progress_bar.setTextVisible(True)
+        self.progress_bar.setFormat("%p %")
+        self.progress_bar.setValue(0)
+        self.status_label = QLabel("")
+        self.status_label.setWordWrap(True)
+        self.buttons = QDialogButtonBox()
+        self.export_button = self.buttons.addButton(
+            "Export", QDialogButtonBox.ButtonRole.AcceptRole
+        )
+        self.cancel_button = self.buttons.addButton(QDialogButtonBox.StandardButton.Cancel)
+        self.close_button = self.buttons.addButton(QDialogButtonBox.StandardButton.Close)
+        self.export_button.clicked.connect(self.start_export)
+        self.cancel_button.clicked.connect(self.cancel)
+        self.close_button.clicked.connect(self.close)
+        # the box's own accepted/rejected would close the dialog mid-export: not connected
+        layout = QVBoxLayout(self)
+        layout.addLayout(form)
+        layout.addWidget(self.progress_bar)
+        layout.addWidget(self.status_label)
+        layout.addWidget(self.buttons)
+        self._set_running(False)
+
+    @property
+    def fmt(self) -> str:
+        return str(self.format_combo.currentData())
+
+    def set_format(self, fmt: str) -> None:
+        idx = self.format_combo.findData(fmt)
+        if idx < 0:
+            raise ValueError(f"unknown export format {fmt!r}")
+        self.format_combo.setCurrentIndex(idx)
+
+    @Slot()
+    def _on_format_changed(self) -> None:
+        current = self.output_edit.text().strip()
+        base = Path(current) if current else self.session_path
+        self.output_edit.setText(str(base.with_suffix(EXTENSIONS[self.fmt])))
+
+    @Slot()
+    def _browse(self) -> None:
+        ext = EXTENSIONS[self.fmt]
+        path, _ = QFileDialog.getSaveFileName(
+            self, "Export to", self.output_edit.text(), f"{self.fmt.upper()} (*{ext})"
+        )
+        if path:
+            p = Path(path)
+            self.output_edit.setText(str(p if p.suffix.lower() == ext else p.with_suffix(ext)))
+
+    def _set_running(self, running: bool) -> None:
+        for w in (
+            self.format_combo,
+            self.output_edit,
+            self.browse_button,
+            self.deidentify_check,
+            self.overwrite_check,
+            self.export_button,
+            self.close_button,
+        ):
+            w.setEnabled(not running)
+        self.cancel_button.setEnabled(running)
+
+    # -- the worker -----------------------------------------------------------------------------
+
+    @property
+    def is_running(self) -> bool:
+        return self._thread is not None
+
+    @Slot()
+    def start_export(self) -> None:
+        if self.is_running:
+            return
+        out_text = self.output_edit.text().strip()
+        if not out_text:
+            self._fail("choose a file to export to")
+            return
+        # the request: everything the worker needs, captured now (it never reads widgets)
+        src, fmt, out = self.session_path, self.fmt, Path(out_text)
+        deidentify = self.deidentify_check.isChecked()
+        force = self.overwrite_check.isChecked()
+        self._cancel.clear()
+        self.result_ = None
+        self.progress_bar.setValue(0)
+        self.status_label.setText(f"Exporting to {out.name}…")
+        self._set_running(True)
+        bridge, cancel, export_fn = self._bridge, self._cancel, self._export_fn
+
+        def progress(fraction: float) -> None:
+            if cancel.is_set():
+                raise ExportCancelled
+            bridge.progressed.emit(float(fraction))
+
+        def work() -> None:
+            try:
+                result = export_fn(
+                    src, fmt, out, deidentify=deidentify, force=force, progress=progress
+                )
+            except BaseException as exc:  # handed to the GUI thread, which reports it
+                bridge.done.emit(None, exc)
+            else:
+                bridge.done.emit(result, None)
+
+        self._thread = threading.Thread(target=work, name="gaitmon-export", daemon=True)
+        self._thread.start()
+
+    @Slot()
+    def cancel(self) -> None:
+        """Ask the running export to stop at its next progress call."""
+        if self.is_running:
+            self._cancel.set()
+            self.status_label.setText("Cancelling…")
+            self.cancel_button.setEnabled(False)
+
+    def wait(self, timeout_s: float = 30.0) -> bool:
+        """Join the worker (used when closing); True if none is left running."""
+        th = self._thread
+        if th is not None:
+            th.join(timeout_s)
+            return not th.is_alive()
+        return True
+
+    @Slot(float)
+    def _on_progress(self, fraction: float) -> None:
+        self.progress_bar.setValue(round(1000 * min(max(fraction, 0.0), 1.0)))
+
+    @Slot(object, object)
+    def _on_done(self, result: ExportResult | None, exc: BaseException | None) -> None:
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        self._set_running(False)
+        if exc is None and result is not None:
+            self.result_ = result
+            self.progress_bar.setValue(1000)
+            names = ", ".join(p.name for p in result.paths)
+            note = f" (note: {'; '.join(result.problems)})" if result.problems else ""
+            self.status_label.setText(f"Exported {result.n_samples} samples to {names}{note}")
+            self.export_finished.emit(result)
+        elif isinstance(exc, ExportCancelled):
+            self.progress_bar.setValue(0)
+            self._fail("export cancelled; no file was written")
+        elif isinstance(exc, ExportError):
+            self._fail(str(exc))
+        else:
+            # an unexpected failure still reaches the user as one line, never a traceback
+            self._fail(f"export failed: {type(exc).__name__}: {exc}")
+
+    def _fail(self, message: str) -> None:
+        self.status_label.setText(message)
+        self.export_failed.emit(message)
+
+    def closeEvent(self, event) -> None:
+        if self.is_running:
+            self.cancel()
+            event.ignore()  # closes once the worker has stopped; Close is disabled meanwhile
+            return
+        super().closeEvent(event)
+
+    def reject(self) -> None:  # Esc: cancel a running export instead of hiding the dialog
+        if self.is_running:
+            self.cancel()
+            return
+        super().reject()
