@@ -24,6 +24,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "lab": ("gaitmon.commands.lab", "reproduce the papers' filter experiments as reports"),
     "ports": ("gaitmon.commands.ports", "list serial ports a unit could be on"),
     "simulate": ("gaitmon.commands.simulate", "run a simulated gait unit on a pseudo-terminal"),
+    "review": ("gaitmon.commands.review", "open the review window: timeline, strides, gait cycles"),
 }
 
 

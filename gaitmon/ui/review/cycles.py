@@ -1,0 +1,125 @@
+"""Cycle-normalised hip, knee and ankle: mean ± SD band, strides faint, toe off at mean stance.
+
+Every curve has 101 points (0..100 % of the stride, heel strike to heel strike). Individual
+strides are drawn as one path per joint (NaN-separated), at most ``MAX_STRIDES_DRAWN`` of them
+spread evenly over the session, so an 8-hour session stays quick to draw; the mean and SD use
+every included stride. After a reprocessing, the recorded mean is drawn dashed for comparison.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtGui import QColor
+
+from gaitmon.ui.plots import JOINTS
+from gaitmon.ui.review.model import Analysis
+from gaitmon.ui.theme import Colours, pen
+
+MAX_STRIDES_DRAWN = 300
+N_POINTS = 101
+
+
+class CyclePlots(pg.GraphicsLayoutWidget):
+    def __init__(self, colours: Colours, parent=None) -> None:
+        super().__init__(parent)
+        self.colours = colours
+        self.ci.setContentsMargins(2, 2, 8, 2)
+        self.pct = np.linspace(0.0, 100.0, N_POINTS)
+        self.plots: list[pg.PlotItem] = []
+        self.strides: list[pg.PlotCurveItem] = []
+        self.mean: list[pg.PlotCurveItem] = []
+        self.lower: list[pg.PlotCurveItem] = []
+        self.upper: list[pg.PlotCurveItem] = []
+        self.before: list[pg.PlotCurveItem] = []
+        self.toe_off: list[pg.InfiniteLine] = []
+        self.n_strides_drawn = 0
+        faint = QColor(colours.foreground)
+        faint.setAlpha(38)
+        band = QColor(colours.kalman)
+        band.setAlpha(60)
+        before_c = QColor(colours.foreground)
+        before_c.setAlpha(170)
+        self.addLabel("Gait cycle (included strides)", row=0, col=0, size="9pt", bold=True)
+        for j, (key, label, yr) in enumerate(JOINTS):
+            p = self.addPlot(row=j + 1, col=0)
+            p.hideButtons()
+            p.setMenuEnabled(True)
+            p.showGrid(x=True, y=True, alpha=colours.grid_alpha)
+            p.setMouseEnabled(x=False, y=False)
+            p.setXRange(0, 100, padding=0)
+            p.setYRange(*yr, padding=0)
+            p.getAxis("left").setLabel(f"{key} (deg)")
+            p.getAxis("left").setWidth(50)
+            ax = p.getAxis("bottom")
+            if j == len(JOINTS) - 1:
+                ax.setLabel("% of stride (heel strike to heel strike)")
+            p.setToolTip(
+                f"{label} over the gait cycle: green line and band = mean ± SD of the included "
+                "strides, grey = individual strides, dashed = mean toe off (stance %); after a "
+                "reprocessing the recorded mean is drawn dashed."
+            )
+            strides = pg.PlotCurveItem(pen=pen(faint), connect="finite")
+            lower = pg.PlotCurveItem(pen=pen(band))
+            upper = pg.PlotCurveItem(pen=pen(band))
+            fill = pg.FillBetweenItem(lower, upper, brush=band)
+            before = pg.PlotCurveItem(pen=pg.mkPen(before_c, width=1, style=pg.QtCore.Qt.DashLine))
+            mean = pg.PlotCurveItem(pen=pg.mkPen(colours.kalman, width=2))
+            toe = pg.InfiniteLine(pos=60, angle=90, pen=pen(colours.event, dashed=True))
+            toe.setVisible(False)
+            for item in (strides, lower, upper, fill, before, mean, toe):
+                p.addItem(item)
+            self.plots.append(p)
+            self.strides.append(strides)
+            self.lower.append(lower)
+            self.upper.append(upper)
+            self.before.append(before)
+            self.mean.append(mean)
+            self.toe_off.append(toe)
+
+    def clear_data(self) -> None:
+        for items in (self.strides, self.lower, self.upper, self.before, self.mean):
+            for it in items:
+                it.setData([], [])
+        for line in self.toe_off:
+            line.setVisible(False)
+        self.n_strides_drawn = 0
+
+    def set_analysis(self, a: Analysis | None, before: Analysis | None = None) -> None:
+        self.clear_data()
+        if a is None:
+            return
+        cyc = a.cycles_deg
+        k = len(cyc)
+        if k:
+            pick = np.unique(np.linspace(0, k - 1, min(k, MAX_STRIDES_DRAWN)).round().astype(int))
+            self.n_strides_drawn = len(pick)
+            x = np.tile(np.append(self.pct, np.nan), len(pick))
+            for j in range(len(JOINTS)):
+                y = np.concatenate([np.append(cyc[i, :, j], np.nan) for i in pick])
+                self.strides[j].setData(x, y, connect="finite")
+                mean, sd = a.mean_deg[:, j], a.sd_deg[:, j]
+                self.mean[j].setData(self.pct, mean)
+                if np.isfinite(sd).all():
+                    self.lower[j].setData(self.pct, mean - sd)
+                    self.upper[j].setData(self.pct, mean + sd)
+                if before is not None and len(before.cycles_deg):
+                    self.before[j].setData(self.pct, before.mean_deg[:, j])
+                lo = np.nanmin(cyc[pick, :, j])
+                hi = np.nanmax(cyc[pick, :, j])
+                if math.isfinite(lo) and math.isfinite(hi):
+                    pad = 0.1 * max(hi - lo, 5.0)
+                    self.plots[j].setYRange(lo - pad, hi + pad, padding=0)
+        stance = a.stance_pct_mean
+        for line in self.toe_off:
+            ok = math.isfinite(stance)
+            line.setVisible(ok)
+            if ok:
+                line.setValue(stance)
+                line.setToolTip(f"mean toe off: {stance:.1f} % of the stride")
+
+    def mean_points(self, joint: int) -> int:
+        x, _ = self.mean[joint].getData()
+        return 0 if x is None else len(x)

@@ -1,0 +1,207 @@
+"""The stride table (one row per stride, exclusions greyed with their reason) and the summary.
+
+The model serves rows on demand, so an 8-hour session's ~26 000 strides cost nothing until
+scrolled to. Clicking a row emits ``stride_picked(row)``; the window moves the timeline there.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from PySide6.QtCore import QAbstractTableModel, QModelIndex, QPersistentModelIndex, Qt, Signal
+from PySide6.QtGui import QColor, QFont
+from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableView, QWidget
+
+from gaitmon.analysis import StrideRow
+from gaitmon.ui.review.model import Analysis
+from gaitmon.ui.theme import Colours
+
+# (header, tooltip)
+COLUMNS = (
+    ("#", "stride number"),
+    ("start s", "heel strike that starts the stride, seconds from the session start"),
+    ("stride s", "heel strike to the next heel strike of the same foot"),
+    ("stance s", "heel strike to toe off"),
+    ("swing s", "toe off to the next heel strike"),
+    ("stance %", "stance time as % of the stride"),
+    ("swing %", "swing time as % of the stride"),
+    ("knee peak °", "peak knee flexion between toe off and the next heel strike"),
+    ("hip ROM °", "range of motion of the hip over the stride"),
+    ("knee ROM °", "range of motion of the knee over the stride"),
+    ("ankle ROM °", "range of motion of the ankle over the stride"),
+    ("status", "included in the statistics, or why not"),
+)
+
+_Index = QModelIndex | QPersistentModelIndex
+
+
+def _f(x: float, spec: str) -> str:
+    return "–" if not math.isfinite(x) else format(x, spec)
+
+
+class StrideModel(QAbstractTableModel):
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.colours = colours
+        self.rows: list[StrideRow] = []
+        self.start_t_s: list[float] = []
+        grey = QColor(colours.foreground)
+        grey.setAlpha(120)
+        self._grey = grey
+        bg = QColor(colours.foreground)
+        bg.setAlpha(22)
+        self._grey_bg = bg
+        self._italic = QFont()
+        self._italic.setItalic(True)
+
+    def set_rows(self, rows: list[StrideRow], start_t_s: list[float]) -> None:
+        self.beginResetModel()
+        self.rows = list(rows)
+        self.start_t_s = list(start_t_s)
+        self.endResetModel()
+
+    def rowCount(self, parent: _Index = QModelIndex()) -> int:  # noqa: B008
+        return 0 if parent.isValid() else len(self.rows)
+
+    def columnCount(self, parent: _Index = QModelIndex()) -> int:  # noqa: B008
+        return 0 if parent.isValid() else len(COLUMNS)
+
+    def headerData(self, section: int, orientation: Qt.Orientation, role: int = 0) -> Any:
+        if orientation != Qt.Orientation.Horizontal:
+            return None
+        if role == Qt.ItemDataRole.DisplayRole:
+            return COLUMNS[section][0]
+        if role == Qt.ItemDataRole.ToolTipRole:
+            return COLUMNS[section][1]
+        return None
+
+    def text(self, row: int, col: int) -> str:
+        r = self.rows[row]
+        s = r.stride
+        values = (
+            str(row + 1),
+            _f(self.start_t_s[row], ".2f"),
+            _f(s.stride_time_s, ".3f"),
+            _f(s.stance_time_s, ".3f"),
+            _f(s.swing_time_s, ".3f"),
+            _f(s.stance_pct, ".1f"),
+            _f(s.swing_pct, ".1f"),
+            _f(r.knee_peak_swing_deg, ".1f"),
+            *(_f(v, ".1f") for v in r.rom_deg),
+            "included" if r.included else f"excluded: {r.excluded}",
+        )
+        return values[col]
+
+    def data(self, index: _Index, role: int = Qt.ItemDataRole.DisplayRole) -> Any:
+        if not index.isValid():
+            return None
+        row, col = index.row(), index.column()
+        r = self.rows[row]
+        if role == Qt.ItemDataRole.DisplayRole:
+            return self.text(row, col)
+        if role == Qt.ItemDataRole.TextAlignmentRole:
+            align = Qt.AlignmentFlag.AlignLeft if col == len(COLUMNS) - 1 else (
+                Qt.AlignmentFlag.AlignRight)  # fmt: skip
+            return int(align | Qt.AlignmentFlag.AlignVCenter)
+        if not r.included:
+            if role == Qt.ItemDataRole.ForegroundRole:
+                return self._grey
+            if role == Qt.ItemDataRole.BackgroundRole:
+                return self._grey_bg
+            if role == Qt.ItemDataRole.FontRole:
+                return self._italic
+            if role == Qt.ItemDataRole.ToolTipRole:
+                return f"Not in the statistics: {r.excluded}"
+        return None
+
+
+class StrideTable(QTableView):
+    stride_picked = Signal(int)
+
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.model_ = StrideModel(colours, self)
+        self.setModel(self.model_)
+        self.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
+        self.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
+        self.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
+        self.setAlternatingRowColors(False)
+        self.verticalHeader().setVisible(False)
+        self.verticalHeader().setDefaultSectionSize(20)
+        self.verticalHeader().setSectionResizeMode(QHeaderView.ResizeMode.Fixed)
+        hh = self.horizontalHeader()
+        hh.setSectionResizeMode(QHeaderView.ResizeMode.Interactive)
+        hh.setStretchLastSection(True)
+        for col, width in enumerate((40, 60, 62, 62, 58, 62, 58, 76, 70, 76, 80)):
+            self.setColumnWidth(col, width)
+        self.setToolTip("Click a stride to show it on the timeline. Greyed: not in the statistics.")
+        self.clicked.connect(lambda idx: self.stride_picked.emit(idx.row()))
+        self.activated.connect(lambda idx: self.stride_picked.emit(idx.row()))
+
+    def set_rows(self, rows: list[StrideRow], start_t_s: list[float]) -> None:
+        self.model_.set_rows(rows, start_t_s)
+
+    def click_row(self, row: int) -> None:
+        """Select ``row`` and act as a user's click (tests, keyboard)."""
+        idx = self.model_.index(row, 0)
+        self.setCurrentIndex(idx)
+        self.scrollTo(idx)
+        self.stride_picked.emit(row)
+
+
+def summary_html(a: Analysis | None, before: Analysis | None = None, note: str = "") -> str:
+    """The summary panel's text: included strides only (derived cadence labelled as such)."""
+    if a is None:
+        return "<i>No session open.</i>"
+    s = a.summary
+    n_all = len(a.rows)
+
+    def cmp(now: float, was: float | None, spec: str) -> str:
+        if was is None or not math.isfinite(was) or not math.isfinite(now):
+            return _f(now, spec)
+        return f"{_f(now, spec)} <span style='color:gray'>(was {_f(was, spec)})</span>"
+
+    b = before.summary if before is not None else None
+    if s.n_strides == 0:
+        body = (
+            f"<p><b>{n_all}</b> strides found, none usable for statistics"
+            + (f" ({a.n_excluded} excluded)" if n_all else "")
+            + ".</p>"
+        )
+    else:
+        sd = "" if not math.isfinite(s.stride_time_sd_s) else f" ± {s.stride_time_sd_s:.3f}"
+        knee = [r.knee_peak_swing_deg for r in a.rows if r.included]
+        knee_ok = [k for k in knee if math.isfinite(k)]
+        knee_mean = sum(knee_ok) / len(knee_ok) if knee_ok else math.nan
+        rows = [
+            ("Strides analysed", f"<b>{s.n_strides}</b> of {n_all} ({a.n_excluded} excluded)"),
+            ("Stride time", f"{s.stride_time_mean_s:.3f}{sd} s"),
+            ("CV of stride time", cmp(s.stride_time_cv_pct, b and b.stride_time_cv_pct, ".1f")
+             + " %"),
+            ("Stance", cmp(s.stance_pct_mean, b and b.stance_pct_mean, ".1f") + " % of stride"),
+            ("Swing", cmp(s.swing_pct_mean, b and b.swing_pct_mean, ".1f") + " %"),
+            ("Cadence (derived)",
+             cmp(s.cadence_derived_steps_per_min, b and b.cadence_derived_steps_per_min, ".0f")
+             + " steps/min"),
+            ("Knee peak in swing", _f(knee_mean, ".1f") + "°"),
+        ]  # fmt: skip
+        body = "<table cellspacing=2>" + "".join(
+            f"<tr><td>{k}&nbsp;&nbsp;</td><td>{v}</td></tr>" for k, v in rows
+        ) + "</table>"
+    foot = (
+        "<p style='color:gray'>Cadence is derived as 120 / stride time: one unit measures one "
+        "leg, so two equal steps per stride are assumed.</p>"
+    )
+    src = "" if a.source_label == "recorded" else "<p><b>Reprocessed</b> " + note + "</p>"
+    return src + body + foot
+
+
+class SummaryLabel(QLabel):
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setTextFormat(Qt.TextFormat.RichText)
+        self.setWordWrap(True)
+        self.setAlignment(Qt.AlignmentFlag.AlignTop | Qt.AlignmentFlag.AlignLeft)
+        self.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.setText(summary_html(None))

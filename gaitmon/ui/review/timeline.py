@@ -1,0 +1,818 @@
+"""The review timeline: a whole-session overview over x-linked detail lanes, one shared cursor.
+
+Only the visible range is ever read. A change of the detail range (pan, zoom, overview drag,
+a stride picked in the table) becomes a :class:`ViewRequest` for the rows in view; the view
+worker answers it from :class:`gaitmon.io.overview.SessionOverview` (raw rows when few, min/max
+decimated otherwise, at most ~2 points per pixel) and the response is applied on the GUI
+thread, unless a newer request overtook it. Until then the previous data stay drawn (x is time,
+so they pan with the view).
+
+Each lane's traces are drawn by one `TraceSet` (see :mod:`gaitmon.ui.plots`); gaps, user
+exclusions, the selection and the picked stride are shaded by one :class:`ShadeItem` per plot,
+which draws only the spans in view. Gait events are drawn when the view is at most
+``EVENTS_MAX_S`` wide, phase bands when the rows in view are at most ``PHASE_MAX_ROWS``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import QRectF, Qt, QTimer, Signal
+from PySide6.QtGui import QBrush, QColor, QPainter
+from PySide6.QtWidgets import QComboBox, QHBoxLayout, QLabel, QVBoxLayout, QWidget
+
+from gaitmon.dsp.channels import CHANNELS
+from gaitmon.io.overview import Cancelled, PeakWindow
+from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_band
+from gaitmon.ui.plots import vertical_lines as _vlines
+from gaitmon.ui.review.model import JOINT, OVERVIEW_SERIES, Document, Source
+from gaitmon.ui.review.workers import LatestWorker, Ticket
+from gaitmon.ui.theme import Colours, pen
+
+SEGMENTS = ("body", "thigh", "shank", "foot")
+PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")
+EVENTS_MAX_S = 180.0  # wider views would be solid with event lines
+PHASE_MAX_ROWS = 30_000  # phase bands need every row; beyond this they are left out
+MIN_POINTS, MAX_POINTS = 600, 4000
+INITIAL_VIEW_S = 30.0
+AXIS_WIDTH_PX = 58
+RAW_RANGE = (-100.0, 4200.0)
+
+
+class TimeAxis(pg.AxisItem):
+    """Seconds from the session start, written h:mm:ss once the ticks are a minute apart."""
+
+    def tickStrings(self, values, scale, spacing):
+        if spacing < 60:
+            return super().tickStrings(values, scale, spacing)
+        out = []
+        for v in values:
+            s = round(v)
+            h, rem = divmod(abs(s), 3600)
+            m, sec = divmod(rem, 60)
+            sign = "-" if s < 0 else ""
+            out.append(f"{sign}{h}:{m:02d}:{sec:02d}" if h else f"{sign}{m}:{sec:02d}")
+        return out
+
+
+class ShadeItem(pg.GraphicsObject):
+    """Vertical bands (x spans over the full height) in layers; only spans in view are drawn."""
+
+    _BIG = QRectF(-1e9, -1e9, 2e9, 2e9)
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.layers: dict[str, tuple[np.ndarray, QBrush]] = {}
+        self.setZValue(-10)
+
+    def set_layer(self, name: str, spans: np.ndarray, colour: QColor) -> None:
+        spans = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
+        order = np.argsort(spans[:, 0], kind="stable")
+        self.layers[name] = (spans[order], QBrush(colour))
+        self.update()
+
+    def spans(self, name: str) -> np.ndarray:
+        return self.layers.get(name, (np.empty((0, 2)), None))[0]
+
+    def boundingRect(self) -> QRectF:
+        return self._BIG
+
+    def paint(self, p: QPainter, *args: object) -> None:
+        vb = self.getViewBox()
+        if vb is None:
+            return
+        view = vb.viewRect()
+        x0, x1 = view.left(), view.right()
+        # at least one pixel wide, so a one-frame gap stays visible when zoomed out
+        px = view.width() / max(1.0, vb.width())
+        p.setPen(Qt.PenStyle.NoPen)
+        for spans, brush in self.layers.values():
+            if not len(spans):
+                continue
+            lo = int(np.searchsorted(spans[:, 0], x1, side="right"))
+            for a, b in spans[:lo]:
+                if b < x0:
+                    continue
+                w = max(b - a, px)
+                p.fillRect(QRectF(a, view.top(), w, view.height()), brush)
+
+
+class LaneViewBox(pg.ViewBox):
+    """x pan/zoom with the mouse; Shift+drag selects a time range; a click places the cursor."""
+
+    selection_dragged = Signal(float, float, bool)  # t0, t1, finished
+    clicked = Signal(float)
+
+    def mouseDragEvent(self, ev, axis=None):
+        if ev.button() == Qt.MouseButton.LeftButton and (
+            ev.modifiers() & Qt.KeyboardModifier.ShiftModifier
+        ):
+            ev.accept()
+            a = self.mapSceneToView(ev.buttonDownScenePos()).x()
+            b = self.mapSceneToView(ev.scenePos()).x()
+            self.selection_dragged.emit(min(a, b), max(a, b), ev.isFinish())
+            return
+        super().mouseDragEvent(ev, axis)
+
+    def mouseClickEvent(self, ev):
+        if ev.button() == Qt.MouseButton.LeftButton:
+            ev.accept()
+            self.clicked.emit(self.mapSceneToView(ev.scenePos()).x())
+            return
+        super().mouseClickEvent(ev)
+
+
+@dataclass
+class TraceSpec:
+    series: str
+    column: int
+    colour: QColor
+    method: str = ""  # "kalman" / "acc" / "gyro": toggled together; "" always shown
+    before: bool = False  # the recorded series under a reprocessed one (comparison)
+
+
+@dataclass
+class Lane:
+    key: str
+    title: str
+    yrange: tuple[float, float]
+    plot: pg.PlotItem
+    traces: TraceSet
+    specs: list[tuple[TraceSpec, Trace]] = field(default_factory=list)
+    shade: ShadeItem = field(default_factory=ShadeItem)
+    cursor: pg.InfiniteLine | None = None
+    events_hs: Trace | None = None
+    events_to: Trace | None = None
+    markers: Trace | None = None
+    bands: list[tuple[Trace, int]] = field(default_factory=list)
+    missing: pg.TextItem | None = None
+
+
+@dataclass(frozen=True)
+class ViewRequest:
+    start: int
+    stop: int
+    max_points: int
+    series: tuple[tuple[str, str], ...]  # (source label, series name)
+    phase: bool
+
+
+class Timeline(QWidget):
+    """Overview + detail lanes of one document; see the module docstring."""
+
+    range_changed = Signal(float, float)  # detail view, s
+    cursor_moved = Signal(float)
+    selection_changed = Signal(float, float)  # empty selection: (nan, nan)
+    loaded = Signal(int)  # a view response was applied (its request id)
+    progress = Signal(float)  # long loads (pyramid builds), fraction
+    busy_changed = Signal(bool)
+    failed = Signal(str)
+
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.colours = colours
+        self.doc: Document | None = None
+        self.compare = True  # draw the recorded series under a reprocessed one
+        self.methods_on = {"kalman": True, "acc": False, "gyro": False}
+        self.segment = 1  # thigh
+        self.cursor_t_s = math.nan
+        self.selection: tuple[float, float] | None = None
+        self.applied_requests = 0
+        self.last_window: dict[tuple[str, str], PeakWindow] = {}
+        self.request_log: list[tuple[int, float]] = []  # (request id, perf time of the request)
+        self._moving_cursor = False
+        self._syncing = False
+        self._fitted_y = False
+        self._request_id = 0
+        self.loader = LatestWorker("view", self)
+        self.loader.progressed.connect(self.progress)
+        self.loader.busy_changed.connect(self.busy_changed)
+
+        self.readout = QLabel("Open a session: File ▸ Open, or drop a .h5 file here.")
+        self.readout.setTextFormat(Qt.TextFormat.RichText)
+        self.readout.setMinimumHeight(22)
+        self.readout.setToolTip(
+            "Values at the cursor (click a plot or drag the line). Drag to pan, wheel to zoom, "
+            "Shift+drag to select a range (then Analysis ▸ Exclude selected range)."
+        )
+        self.segment_combo = QComboBox()
+        self.segment_combo.addItems([f"{s} tilt" for s in SEGMENTS])
+        self.segment_combo.setCurrentIndex(self.segment)
+        self.segment_combo.setToolTip("Segment shown in the tilt lane")
+        self.segment_combo.currentIndexChanged.connect(self.set_segment)
+        top = QHBoxLayout()
+        top.addWidget(self.readout, 1)
+        top.addWidget(self.segment_combo)
+        self.glw = pg.GraphicsLayoutWidget()
+        self.glw.ci.setContentsMargins(2, 2, 10, 2)
+        self.glw.ci.layout.setVerticalSpacing(2)
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.setSpacing(2)
+        lay.addLayout(top)
+        lay.addWidget(self.glw, 1)
+
+        self.lanes: dict[str, Lane] = {}
+        self._build()
+        self._load_timer = QTimer(self)
+        self._load_timer.setSingleShot(True)
+        self._load_timer.setInterval(0)  # coalesce the range changes of one event-loop pass
+        self._load_timer.timeout.connect(self._request_view)
+
+    # -- construction --------------------------------------------------------------------------
+
+    def _plot(self, row: int, vb: pg.ViewBox | None = None) -> pg.PlotItem:
+        p = pg.PlotItem(viewBox=vb or LaneViewBox(), axisItems={"bottom": TimeAxis("bottom")})
+        self.glw.addItem(p, row=row, col=0)
+        p.hideButtons()
+        p.showGrid(x=True, y=True, alpha=self.colours.grid_alpha)
+        p.setMenuEnabled(True)
+        vb = p.getViewBox()
+        vb.disableAutoRange()
+        vb.setDefaultPadding(0.0)
+        left = p.getAxis("left")
+        left.setWidth(AXIS_WIDTH_PX)
+        left.enableAutoSIPrefix(False)
+        return p
+
+    def _lane(self, key: str, title: str, yrange: tuple[float, float], tip: str) -> Lane:
+        row = len(self.lanes) + 1
+        p = self._plot(row)
+        p.setMouseEnabled(x=True, y=False)
+        p.setYRange(*yrange, padding=0)
+        p.getAxis("left").setLabel(title)
+        p.setToolTip(tip)
+        ts = TraceSet((0.0, 1.0), yrange)
+        lane = Lane(key, title, yrange, p, ts)
+        p.addItem(lane.shade, ignoreBounds=True)
+        p.addItem(ts, ignoreBounds=True)
+        if self.lanes:
+            p.setXLink(next(iter(self.lanes.values())).plot)
+        vb = p.getViewBox()
+        vb.selection_dragged.connect(self._selection_dragged)
+        vb.clicked.connect(self.set_cursor)
+        lane.cursor = self._cursor_line(p)
+        self.lanes[key] = lane
+        return lane
+
+    def _cursor_line(self, p: pg.PlotItem) -> pg.InfiniteLine:
+        line = pg.InfiniteLine(
+            pos=0.0, angle=90, movable=True, pen=pg.mkPen(self.colours.current, width=1)
+        )
+        line.setHoverPen(pg.mkPen(self.colours.marker, width=2))
+        line.setZValue(20)
+        line.setVisible(False)
+        line.sigPositionChanged.connect(lambda ln: self.set_cursor(ln.value()))
+        p.addItem(line, ignoreBounds=True)
+        return line
+
+    def _add(self, lane: Lane, spec: TraceSpec, dashed: bool = False) -> None:
+        colour = QColor(spec.colour)
+        if spec.before:
+            colour = QColor(self.colours.foreground)
+            colour.setAlpha(110)
+        tr = lane.traces.add(Trace(pen(colour, dashed=dashed), series=spec.series,
+                                   column=spec.column, method=spec.method))  # fmt: skip
+        lane.specs.append((spec, tr))
+
+    def _build(self) -> None:
+        c = self.colours
+        # overview: the knee over the whole session, the detail range as a draggable region
+        ov = self._plot(0)
+        ov.setMouseEnabled(x=False, y=False)
+        ov.setMaximumHeight(92)
+        ov.getAxis("left").setLabel("knee (°)")
+        ov.setToolTip(
+            "The whole session (knee flexion, min/max envelope). Drag the highlighted region to "
+            "move the detail view; shaded: gaps (lost data) and excluded ranges."
+        )
+        self.overview = ov
+        self.overview_shade = ShadeItem()
+        ov.addItem(self.overview_shade, ignoreBounds=True)
+        self.overview_curve = pg.PlotCurveItem(pen=pen(c.kalman), skipFiniteCheck=False)
+        ov.addItem(self.overview_curve)
+        self.overview_markers = pg.PlotCurveItem(pen=pen(c.marker), connect="pairs")
+        ov.addItem(self.overview_markers, ignoreBounds=True)
+        brush = QColor(c.band)
+        brush.setAlpha(50)
+        self.region = pg.LinearRegionItem(values=(0, 1), brush=brush, movable=True)
+        self.region.setZValue(10)
+        self.region.sigRegionChanged.connect(self._region_moved)
+        ov.addItem(self.region, ignoreBounds=True)
+        ov.getViewBox().clicked.connect(self._overview_clicked)
+        self.overview_cursor = self._cursor_line(ov)
+
+        for j, (key, _label, yr) in enumerate(JOINTS):
+            sign = "dorsiflexion" if key == "ankle" else "flexion"
+            lane = self._lane(
+                key, f"{key} (°)", yr,
+                f"{key.capitalize()} angle, {sign} positive (clinical convention). Green: Kalman; "
+                "red/blue (View menu): accelerometer / gyro integration. Grey lines: heel strike "
+                "(solid) and toe off (dashed).",
+            )  # fmt: skip
+            lane.events_hs = lane.traces.add(Trace(pen(c.event)))
+            lane.events_to = lane.traces.add(Trace(pen(c.event, dashed=True)))
+            self._add(lane, TraceSpec(JOINT, j, c.kalman, before=True), dashed=True)
+            self._add(lane, TraceSpec("processed/joint_gyro_deg", j, c.gyro, "gyro"))
+            self._add(lane, TraceSpec("processed/joint_acc_deg", j, c.acc, "acc"))
+            self._add(lane, TraceSpec(JOINT, j, c.kalman, "kalman"))
+            lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        lane = self._lane(
+            "tilt", "thigh tilt (°)", TILT_RANGES_DEG["thigh"],
+            "Segment tilt (choose the segment above): red accelerometer, green Kalman filter, "
+            "blue gyro integration (the papers' colours).",
+        )  # fmt: skip
+        self._add(lane, TraceSpec("processed/tilt_deg", 1, c.kalman, before=True), dashed=True)
+        self._add(lane, TraceSpec("processed/tilt_gyro_deg", 1, c.gyro))
+        self._add(lane, TraceSpec("processed/tilt_acc_deg", 1, c.acc))
+        self._add(lane, TraceSpec("processed/tilt_deg", 1, c.kalman))
+        lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        lane = self._lane(
+            "fsr", "FSR (counts)", FSR_RANGE,
+            "Foot sensors (low-passed ADC counts): heel red, toe green. Shading: gait phase "
+            "(loading, foot flat, push-off); lines: heel strike (red) and toe off (green).",
+        )  # fmt: skip
+        for k, colour in enumerate(c.phases, start=1):
+            lane.bands.append((lane.traces.add(Trace(brush=colour, fill_level=FSR_RANGE[0])), k))
+        lane.events_hs = lane.traces.add(Trace(pen(c.heel)))
+        lane.events_to = lane.traces.add(Trace(pen(c.toe, dashed=True)))
+        self._add(lane, TraceSpec("processed/fsr_counts", 0, c.heel, before=True), dashed=True)
+        self._add(lane, TraceSpec("processed/fsr_counts", 1, c.toe, before=True), dashed=True)
+        self._add(lane, TraceSpec("processed/fsr_counts", 0, c.heel))
+        self._add(lane, TraceSpec("processed/fsr_counts", 1, c.toe))
+        lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        self.threshold_line = pg.InfiniteLine(
+            pos=1000.0, angle=0, pen=pen(c.event, dashed=True), movable=False
+        )
+        lane.plot.addItem(self.threshold_line, ignoreBounds=True)
+        lane = self._lane(
+            "raw", "raw (counts)", RAW_RANGE,
+            "Raw ADC counts of the 14 channels (12 bit), coloured by segment; accelerometer x "
+            "solid, z faint, gyro darker; heel red, toe green.",
+        )  # fmt: skip
+        for ch in CHANNELS:
+            if ch.segment in SEGMENTS:
+                col = QColor(c.segments[SEGMENTS.index(ch.segment)])
+                col.setAlpha({"acc_x": 255, "acc_z": 110, "gyro": 190}.get(ch.kind, 255))
+            else:
+                col = c.heel if ch.segment == "heel" else c.toe
+            self._add(lane, TraceSpec("raw/adc", ch.index, col))
+        lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        self.set_lane_visible("raw", False)
+        for lane in self.lanes.values():
+            lane.missing = pg.TextItem("", color=c.foreground, anchor=(0.5, 0.5))
+            lane.missing.setVisible(False)
+            lane.plot.addItem(lane.missing, ignoreBounds=True)
+        self._marker_labels: list[pg.TextItem] = []
+        self.master.sigXRangeChanged.connect(self._detail_range_changed)
+        self._update_bottom_axes()
+
+    @property
+    def master(self) -> pg.PlotItem:
+        return self.lanes["hip"].plot
+
+    def visible_lanes(self) -> list[Lane]:
+        return [ln for ln in self.lanes.values() if ln.plot.isVisible()]
+
+    def _update_bottom_axes(self) -> None:
+        vis = self.visible_lanes()
+        for ln in self.lanes.values():
+            last = bool(vis) and ln is vis[-1]
+            ax = ln.plot.getAxis("bottom")
+            ax.setStyle(showValues=last)
+            ax.setHeight(None if last else 4)
+            ax.setLabel("time from the start of the session" if last else None)
+
+    # -- options -------------------------------------------------------------------------------
+
+    def set_lane_visible(self, key: str, on: bool) -> None:
+        lane = self.lanes[key]
+        lane.plot.setVisible(on)
+        # a hidden PlotItem still takes its row; collapse it
+        self.glw.ci.layout.setRowMaximumHeight(
+            list(self.lanes).index(key) + 1, 100_000 if on else 0
+        )
+        self._update_bottom_axes()
+        self._schedule()
+
+    def set_method(self, method: str, on: bool) -> None:
+        self.methods_on[method] = bool(on)
+        self._schedule()
+
+    def set_segment(self, index: int) -> None:
+        self.segment = int(index)
+        lane = self.lanes["tilt"]
+        for spec, _tr in lane.specs:
+            spec.column = self.segment
+        for tr in lane.traces.traces:
+            if tr.series:
+                tr.column = self.segment
+        seg = SEGMENTS[self.segment]
+        lane.yrange = TILT_RANGES_DEG[seg]
+        lane.plot.getAxis("left").setLabel(f"{seg} tilt (°)")
+        if self.segment_combo.currentIndex() != self.segment:
+            self.segment_combo.setCurrentIndex(self.segment)
+        self._fitted_y = False
+        self._schedule()
+
+    def set_compare(self, on: bool) -> None:
+        self.compare = bool(on)
+        self._schedule()
+
+    def set_fsr_threshold(self, counts: float) -> None:
+        self.threshold_line.setValue(counts)
+        self.threshold_line.setToolTip(f"contact threshold in force: {counts:g} counts")
+
+    # -- document ------------------------------------------------------------------------------
+
+    def clear(self) -> None:
+        self.loader.cancel()
+        self.doc = None
+        self.last_window = {}
+        for lane in self.lanes.values():
+            for tr in lane.traces.traces:
+                tr.clear()
+            lane.traces.commit()
+            lane.shade.layers.clear()
+            lane.shade.update()
+            if lane.cursor is not None:
+                lane.cursor.setVisible(False)
+        self.overview_curve.setData([], [])
+        self.overview_markers.setData([], [])
+        self.overview_shade.layers.clear()
+        self.overview_cursor.setVisible(False)
+        for item in self._marker_labels:
+            self.lanes["hip"].plot.removeItem(item)
+        self._marker_labels = []
+        self.selection = None
+        self.cursor_t_s = math.nan
+        self.readout.setText("Open a session: File ▸ Open, or drop a .h5 file here.")
+
+    def set_document(self, doc: Document) -> None:
+        self.clear()
+        self.doc = doc
+        self._fitted_y = False
+        n = doc.n_rows
+        t0 = float(doc.t_s[0]) if n else 0.0
+        t1 = float(doc.t_s[-1]) if n else 1.0
+        t1 = max(t1, t0 + 1.0)
+        pad = 0.02 * (t1 - t0)
+        for p in [self.overview, *(ln.plot for ln in self.lanes.values())]:
+            p.getViewBox().setLimits(
+                xMin=t0 - pad, xMax=t1 + pad, minXRange=0.2, maxXRange=t1 - t0 + 2 * pad
+            )
+        self.overview.setXRange(t0, t1, padding=0.01)
+        self.region.setBounds((t0 - pad, t1 + pad))
+        src = doc.recorded
+        for lane in self.lanes.values():
+            primary = [s for s, _ in lane.specs if s.method in ("", "kalman") and not s.before]
+            absent = bool(primary) and not any(src.has(s.series) for s in primary)
+            lane.missing.setText(f"not recorded in mode {doc.session.mode!r}" if absent else "")
+            lane.missing.setVisible(absent)
+        self.refresh_overview()
+        self.refresh_shading()
+        self._draw_markers()
+        self.set_cursor(t0)
+        self.set_view(t0, min(t1, t0 + INITIAL_VIEW_S))
+        self._schedule()
+
+    def refresh_overview(self) -> None:
+        doc = self.doc
+        if doc is None or not doc.n_rows:
+            return
+        src = doc.current
+        ov = src.overview if src.overview.has_pyramid(OVERVIEW_SERIES) else None
+        if ov is None:
+            ov = doc.recorded.overview
+        if not ov.has_pyramid(OVERVIEW_SERIES):
+            return
+        w = ov.pyramid(OVERVIEW_SERIES).query(0, doc.n_rows, 2 * max(400, self.glw.width()))
+        x = doc.t_s[np.minimum(w.idx, doc.n_rows - 1)]
+        y = w.y[:, 1].astype(np.float64)
+        self.overview_curve.setData(x, y, connect="finite")
+        fin = y[np.isfinite(y)]
+        if len(fin):
+            lo, hi = float(fin.min()), float(fin.max())
+            pad = 0.08 * max(hi - lo, 1.0)
+            self.overview.setYRange(lo - pad, hi + pad, padding=0)
+
+    def refresh_shading(self) -> None:
+        """Gaps, user exclusions, the selection and the picked stride, in every plot."""
+        doc = self.doc
+        if doc is None:
+            return
+        c = self.colours
+        gap_c = QColor(c.alert)
+        gap_c.setAlpha(70)
+        ex_c = QColor(c.foreground)
+        ex_c.setAlpha(45 if not c.dark else 60)
+        sel_c = QColor(c.marker)
+        sel_c.setAlpha(55)
+        ex = np.array(
+            [(doc.t_s[r.start_idx], doc.t_s[r.stop_idx - 1]) for r in doc.exclusions
+             if 0 <= r.start_idx < r.stop_idx <= doc.n_rows],
+            dtype=np.float64,
+        ).reshape(-1, 2)  # fmt: skip
+        sel = np.array([self.selection] if self.selection else [], dtype=np.float64).reshape(-1, 2)
+        for item in [self.overview_shade, *(ln.shade for ln in self.lanes.values())]:
+            item.set_layer("gaps", doc.gap_spans_s, gap_c)
+            item.set_layer("excluded", ex, ex_c)
+            item.set_layer("selection", sel, sel_c)
+
+    def highlight_span(self, t0: float, t1: float) -> None:
+        c = QColor(self.colours.band)
+        c.setAlpha(40)
+        for ln in self.lanes.values():
+            ln.shade.set_layer("stride", np.array([[t0, t1]]), c)
+
+    def _draw_markers(self) -> None:
+        doc = self.doc
+        if doc is None:
+            return
+        ms = doc.session.markers
+        xs = np.array([m.t_s for m in ms], dtype=np.float64)
+        lo, hi = -1e6, 1e6
+        self.overview_markers.setData(*_vlines(xs, lo, hi), connect="pairs")
+        hip = self.lanes["hip"].plot
+        for m in ms:
+            item = pg.TextItem(m.label or "marker", color=self.colours.marker, anchor=(0, 0))
+            item.setPos(m.t_s, self.lanes["hip"].yrange[1])
+            hip.addItem(item, ignoreBounds=True)
+            self._marker_labels.append(item)
+
+    # -- view range ----------------------------------------------------------------------------
+
+    def view_range(self) -> tuple[float, float]:
+        (x0, x1), _ = self.master.getViewBox().viewRange()
+        return float(x0), float(x1)
+
+    def set_view(self, t0: float, t1: float) -> None:
+        self.master.setXRange(t0, t1, padding=0)
+
+    def centre_on(self, t0: float, t1: float) -> None:
+        """Show ``[t0, t1]`` with half its width either side (e.g. a stride)."""
+        w = max(t1 - t0, 0.2)
+        self.set_view(t0 - 0.5 * w, t1 + 0.5 * w)
+
+    def _detail_range_changed(self, *_args: object) -> None:
+        x0, x1 = self.view_range()
+        if not self._syncing:
+            self._syncing = True
+            try:
+                self.region.setRegion((x0, x1))
+            finally:
+                self._syncing = False
+        self.range_changed.emit(x0, x1)
+        self._schedule()
+
+    def _region_moved(self) -> None:
+        if self._syncing or self.doc is None:
+            return
+        a, b = self.region.getRegion()
+        self._syncing = True
+        try:
+            self.set_view(float(a), float(b))
+        finally:
+            self._syncing = False
+
+    def _overview_clicked(self, t: float) -> None:
+        x0, x1 = self.view_range()
+        w = x1 - x0
+        self.set_view(t - w / 2, t + w / 2)
+        self.set_cursor(t)
+
+    def _schedule(self) -> None:
+        if self.doc is not None:
+            self._load_timer.start()
+
+    # -- loading -------------------------------------------------------------------------------
+
+    def _wanted(self) -> list[tuple[str, str]]:
+        doc = self.doc
+        assert doc is not None
+        cur = doc.current
+        out: list[tuple[str, str]] = []
+        for lane in self.visible_lanes():
+            for spec, tr in lane.specs:
+                if spec.before:
+                    src = doc.recorded if (doc.reprocessed and self.compare) else None
+                else:
+                    src = cur if (spec.method == "" or self.methods_on.get(spec.method)) else None
+                if src is None or not src.has(spec.series):
+                    tr.visible = False
+                    continue
+                tr.visible = True
+                key = (src.label, spec.series)
+                if key not in out:
+                    out.append(key)
+        return out
+
+    def _request_view(self) -> None:
+        doc = self.doc
+        if doc is None or not doc.n_rows:
+            return
+        x0, x1 = self.view_range()
+        start, stop = doc.rows_between(x0, x1)
+        width = max(1, self.master.getViewBox().width())
+        max_points = int(min(MAX_POINTS, max(MIN_POINTS, 2 * width)))
+        cur = doc.current
+        req = ViewRequest(
+            start, stop, max_points, tuple(self._wanted()),
+            self.lanes["fsr"].plot.isVisible() and cur.has("processed/phase")
+            and stop - start <= PHASE_MAX_ROWS,
+        )  # fmt: skip
+        sources = {doc.recorded.label: doc.recorded, cur.label: cur}
+        self._request_id += 1
+        rid = self._request_id
+        self.request_log.append((rid, time.perf_counter()))
+        del self.request_log[:-256]
+
+        def job(ticket: Ticket) -> dict:
+            out: dict = {"id": rid, "req": req, "doc": doc, "windows": {}}
+            for label, name in req.series:
+                if not ticket.wanted:
+                    raise Cancelled
+                out["windows"][(label, name)] = sources[label].overview.window(
+                    name, req.start, req.stop, req.max_points, progress=ticket.progress
+                )
+            if req.phase:
+                out["phase"] = cur.read_rows("processed/phase", req.start, req.stop)[:, 0]
+            return out
+
+        self.loader.submit(job, self._apply)
+
+    def _apply(self, resp: dict | None, exc: BaseException | None) -> None:
+        if exc is not None:
+            if not isinstance(exc, Cancelled):
+                self.failed.emit(f"cannot show this range: {exc}")
+            return
+        doc = self.doc
+        if resp is None or doc is None or resp["doc"] is not doc:
+            return
+        req: ViewRequest = resp["req"]
+        self.last_window = resp["windows"]
+        t_s = doc.t_s
+        cur = doc.current
+        for lane in self.visible_lanes():
+            for spec, tr in lane.specs:
+                if not tr.visible:
+                    continue
+                label = doc.recorded.label if spec.before else cur.label
+                w = self.last_window.get((label, spec.series))
+                if w is None or not len(w.idx):
+                    tr.clear()
+                    continue
+                y = w.y[:, spec.column]
+                fin = bool(np.isfinite(y).all())
+                tr.set(t_s[w.idx], y, finite=fin)
+        self._draw_events(cur, req)
+        fsr = self.lanes["fsr"]
+        phase = resp.get("phase")
+        for tr, k in fsr.bands:
+            if phase is not None and len(phase):
+                x = t_s[req.start : req.stop]
+                tr.set(*step_band(x, phase == k, FSR_RANGE[1], FSR_RANGE[0]))
+            else:
+                tr.clear()
+        for lane in self.lanes.values():
+            if lane.markers is not None:
+                xs = np.array([m.t_s for m in doc.session.markers], dtype=np.float64)
+                lane.markers.set(*_vlines(xs, *lane.yrange), connect="pairs")
+            lane.traces.nominal[0] = self.view_range()
+            lane.traces.commit()
+        if not self._fitted_y:
+            self._fitted_y = True
+            self.fit_y()
+        self.applied_requests += 1
+        self.loaded.emit(resp["id"])
+
+    def _draw_events(self, src: Source, req: ViewRequest) -> None:
+        doc = self.doc
+        assert doc is not None
+        x0, x1 = self.view_range()
+        show = (x1 - x0) <= EVENTS_MAX_S
+        for lane in self.lanes.values():
+            if lane.events_hs is None or lane.events_to is None:
+                continue
+            if not show:
+                lane.events_hs.clear()
+                lane.events_to.clear()
+                continue
+            lo, hi = -1e6, 1e6
+            pairs = ((lane.events_hs, src.heel_strike_idx), (lane.events_to, src.toe_off_idx))
+            for tr, idx in pairs:
+                a, b = np.searchsorted(idx, [req.start, req.stop])
+                sel = idx[a:b]
+                sel = sel[sel < doc.n_rows]
+                tr.set(*_vlines(doc.t_s[sel], lo, hi), connect="pairs")
+
+    def fit_y(self) -> None:
+        """Fit each lane's y range to the data in view (Home)."""
+        for lane in self.visible_lanes():
+            ys = [tr.path for _s, tr in lane.specs if tr.visible and tr.path is not None]
+            if not ys:
+                lane.plot.setYRange(*lane.yrange, padding=0)
+                continue
+            rect = ys[0].boundingRect()
+            for path in ys[1:]:
+                rect = rect.united(path.boundingRect())
+            lo, hi = rect.top(), rect.bottom()
+            if not (math.isfinite(lo) and math.isfinite(hi)) or hi - lo < 1e-6:
+                lane.plot.setYRange(*lane.yrange, padding=0)
+                continue
+            pad = 0.08 * (hi - lo)
+            lane.plot.setYRange(lo - pad, hi + pad, padding=0)
+            if lane.missing is not None:
+                lane.missing.setPos(sum(self.view_range()) / 2, (lo + hi) / 2)
+        for lane in self.lanes.values():
+            if lane.missing is not None and lane.missing.isVisible():
+                (y0, y1) = lane.plot.getViewBox().viewRange()[1]
+                lane.missing.setPos(sum(self.view_range()) / 2, (y0 + y1) / 2)
+
+    # -- cursor and selection ------------------------------------------------------------------
+
+    def set_cursor(self, t_s: float) -> None:
+        if self._moving_cursor or self.doc is None or not self.doc.n_rows:
+            return
+        self._moving_cursor = True
+        try:
+            self.cursor_t_s = float(t_s)
+            for line in [self.overview_cursor, *(ln.cursor for ln in self.lanes.values())]:
+                if line is None:
+                    continue
+                line.setVisible(True)
+                if line.value() != t_s:
+                    line.setValue(t_s)
+        finally:
+            self._moving_cursor = False
+        self.readout.setText(self.readout_text())
+        self.cursor_moved.emit(self.cursor_t_s)
+
+    def readout_text(self) -> str:
+        """The time and the values at the cursor, read from the current series (exact row)."""
+        doc = self.doc
+        if doc is None or not math.isfinite(self.cursor_t_s):
+            return ""
+        i = doc.row_at(self.cursor_t_s)
+        src = doc.current
+        t = float(doc.t_s[i])
+        h, rem = divmod(t, 3600)
+        m, s = divmod(rem, 60)
+        clock = f"{int(h)}:{int(m):02d}:{s:06.3f}" if h else f"{int(m)}:{s:06.3f}"
+        parts = [f"<b>t {t:.2f} s</b> ({clock}, row {i})"]
+        if src.has(JOINT):
+            j = src.read_rows(JOINT, i, i + 1)[0]
+            parts.append(" · ".join(f"{n} {v:+.1f}°" for n, v in zip(("hip", "knee", "ankle"),
+                                                                     j, strict=True)))  # fmt: skip
+        if src.has("processed/tilt_deg"):
+            v = src.read_rows("processed/tilt_deg", i, i + 1)[0, self.segment]
+            parts.append(f"{SEGMENTS[self.segment]} tilt {v:+.1f}°")
+        if src.has("processed/fsr_counts"):
+            f = src.read_rows("processed/fsr_counts", i, i + 1)[0]
+            parts.append(f"heel {f[0]:.0f} · toe {f[1]:.0f}")
+        if src.has("processed/phase"):
+            ph = int(src.read_rows("processed/phase", i, i + 1)[0, 0])
+            if 0 <= ph < len(PHASE_NAMES):
+                parts.append(PHASE_NAMES[ph])
+        if src is not doc.recorded:
+            parts.append("<i>reprocessed</i>")
+        return " &nbsp;|&nbsp; ".join(parts)
+
+    def _selection_dragged(self, t0: float, t1: float, finished: bool) -> None:
+        self.set_selection(t0, t1)
+
+    def set_selection(self, t0: float, t1: float) -> None:
+        if t1 - t0 <= 0:
+            self.selection = None
+            self.selection_changed.emit(math.nan, math.nan)
+        else:
+            self.selection = (float(t0), float(t1))
+            self.selection_changed.emit(float(t0), float(t1))
+        self.refresh_shading()
+
+    def clear_selection(self) -> None:
+        self.set_selection(0.0, 0.0)
+
+    # -- for tests and the benchmark -----------------------------------------------------------
+
+    def trace_points(self, lane: str, series: str, column: int, before: bool = False) -> int:
+        for spec, tr in self.lanes[lane].specs:
+            if spec.series == series and spec.column == column and spec.before == before and (
+                spec.method in ("", "kalman")
+            ):
+                return tr.n_points if tr.visible else 0
+        raise KeyError(f"no trace {series}[{column}] in lane {lane}")
+
+    def overview_points(self) -> int:
+        x, _y = self.overview_curve.getData()
+        return 0 if x is None else len(x)
+
+    def shutdown(self) -> None:
+        self.loader.stop()
+
+
+__all__ = ["ShadeItem", "TimeAxis", "Timeline", "ViewRequest"]

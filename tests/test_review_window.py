@@ -1,0 +1,289 @@
+"""The review window driven like a user would, on a session recorded from the simulator.
+
+The simulator stores its true heel strikes in ``/truth``; the stride table is checked against
+them. Every test gets its own QSettings file, fails if the window caught an unexpected
+exception, and fails if a review worker thread outlives the window.
+"""
+
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import threading
+import time
+
+import h5py
+import numpy as np
+import pytest
+from PySide6.QtCore import QMimeData, QPoint, QPointF, QSettings, Qt, QUrl
+from PySide6.QtGui import QDropEvent
+
+from gaitmon.cli import main as cli_main
+from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.ui.review.window import ReviewWindow
+
+WAIT_MS = 20_000
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    p = tmp_path_factory.mktemp("rec") / "walk.h5"
+    rc = cli_main(["record", "--simulate", "--duration", "40", "-o", str(p), "--speed", "20",
+                   "--standing-s", "2", "--quiet"])  # fmt: skip
+    assert rc == 0
+    return p
+
+
+@pytest.fixture
+def session_file(recorded, tmp_path):
+    p = tmp_path / "walk.h5"
+    shutil.copyfile(recorded, p)
+    return p
+
+
+def _review_threads():
+    return [t for t in threading.enumerate() if t.name.startswith("gaitmon-review")]
+
+
+@pytest.fixture
+def win(qtbot, tmp_path):
+    before = set(_review_threads())
+    settings = QSettings(str(tmp_path / "settings" / "gaitmon.ini"), QSettings.Format.IniFormat)
+    w = ReviewWindow(settings)
+    qtbot.addWidget(w)
+    w.show()
+    yield w
+    w.close()
+    assert w.errors == []
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline:
+        if not [t for t in _review_threads() if t not in before and t.is_alive()]:
+            break
+        time.sleep(0.05)
+    else:
+        pytest.fail("review worker threads left running")
+
+
+def open_and_wait(qtbot, w, path):
+    with qtbot.waitSignal(w.analysis_done, timeout=WAIT_MS):
+        w.open_file(path)
+    qtbot.waitUntil(lambda: w.timeline.applied_requests > 0, timeout=WAIT_MS)
+
+
+def _md5(p):
+    return hashlib.md5(p.read_bytes()).hexdigest()
+
+
+def test_stride_table_matches_the_simulator_truth(qtbot, win, session_file):
+    with h5py.File(session_file) as f:
+        truth_hs = f["truth/heel_strike"][()]
+        t_s = f["timeline/t_s"][()]
+    open_and_wait(qtbot, win, session_file)
+    model = win.table.model()
+    n_truth = len(truth_hs) - 1  # strides between consecutive true heel strikes
+    assert model.rowCount() == n_truth
+    status = [model.index(r, model.columnCount() - 1).data() for r in range(model.rowCount())]
+    assert status[0] == "excluded: first stride" and status[-1] == "excluded: last stride"
+    assert status[1:-1] == ["included"] * (n_truth - 2)
+    # every stride starts within 30 ms of a true heel strike, and its time matches the truth
+    starts = np.array([float(model.index(r, 1).data()) for r in range(model.rowCount())])
+    np.testing.assert_allclose(starts, t_s[truth_hs[:-1]], atol=0.03)
+    stride_s = np.array([float(model.index(r, 2).data()) for r in range(model.rowCount())])
+    np.testing.assert_allclose(stride_s, np.diff(t_s[truth_hs]), atol=0.03)
+    assert f"<b>{n_truth - 2}</b> of {n_truth}" in win.summary.text()
+    assert "Cadence (derived)" in win.summary.text()
+    assert win.windowTitle().endswith("walk.h5")
+
+
+def test_cycle_plots_hold_101_point_curves_of_the_included_strides(qtbot, win, session_file):
+    open_and_wait(qtbot, win, session_file)
+    n_included = win.analysis.summary.n_strides
+    for j in range(3):
+        x, y = win.cycles.mean[j].getData()
+        assert len(x) == 101 and x[0] == 0 and x[-1] == 100
+        sx, _ = win.cycles.strides[j].getData()
+        assert len(sx) == n_included * 102  # 101 points + a NaN break per stride
+    # the mean knee curve is the mean of the strides normalised independently here
+    with h5py.File(session_file) as f:
+        knee = f["processed/joint_deg"][:, 1].astype(float)
+    curves = []
+    for r in win.analysis.rows:
+        if r.included:
+            s = r.stride
+            pos = np.linspace(s.start_idx, s.end_idx, 101)
+            curves.append(np.interp(pos, np.arange(len(knee)), knee))
+    _, y = win.cycles.mean[1].getData()
+    np.testing.assert_allclose(y, np.mean(curves, axis=0), atol=1e-3)
+    assert win.cycles.toe_off[1].isVisible()
+    assert 55 < win.cycles.toe_off[1].value() < 65  # mean stance % of normal walking
+
+
+def test_overview_and_detail_hold_points_and_keep_the_peaks(qtbot, win, session_file):
+    open_and_wait(qtbot, win, session_file)
+    tl = win.timeline
+    assert tl.overview_points() > 100
+    x0, x1 = tl.view_range()
+    with h5py.File(session_file) as f:
+        t = f["timeline/t_s"][()]
+        knee = f["processed/joint_deg"][:, 1]
+    n = tl.trace_points("knee", "processed/joint_deg", 1)
+    assert 100 < n <= 4000
+    in_view = knee[(t >= x0) & (t <= x1)]
+    path = next(tr for s, tr in tl.lanes["knee"].specs if s.method == "kalman").path
+    r = path.boundingRect()
+    # min/max decimation keeps the extremes of the data in view (within a row at the edges)
+    assert r.top() == pytest.approx(float(in_view.min()), abs=0.5)
+    assert r.bottom() == pytest.approx(float(in_view.max()), abs=0.5)
+    # zoom out to the whole session: the view is reloaded and still holds every peak
+    n_applied = tl.applied_requests
+    win.show_whole()
+    qtbot.waitUntil(lambda: tl.applied_requests > n_applied, timeout=WAIT_MS)
+    r = next(tr for s, tr in tl.lanes["knee"].specs if s.method == "kalman").path.boundingRect()
+    assert r.bottom() == pytest.approx(float(knee.max()), abs=1e-3)
+    assert r.top() == pytest.approx(float(knee.min()), abs=1e-3)
+    assert tl.trace_points("fsr", "processed/fsr_counts", 0) > 0
+
+
+def test_clicking_a_stride_moves_the_timeline_and_the_cursor(qtbot, win, session_file):
+    open_and_wait(qtbot, win, session_file)
+    row = 30
+    stride = win.analysis.rows[row].stride
+    t = win.doc.t_s
+    assert t[stride.start_idx] > win.timeline.view_range()[1]  # not in the first view
+    win.table.scrollTo(win.table.model().index(row, 2))
+    rect = win.table.visualRect(win.table.model().index(row, 2))
+    qtbot.mouseClick(win.table.viewport(), Qt.MouseButton.LeftButton, pos=rect.center())
+    x0, x1 = win.timeline.view_range()
+    assert x0 < t[stride.start_idx] < t[stride.end_idx] < x1
+    assert win.timeline.cursor_t_s == pytest.approx(t[stride.start_idx])
+    assert f"row {stride.start_idx}" in win.timeline.readout.text()
+
+
+def test_excluding_a_range_greys_its_strides_and_is_kept_beside_the_file(
+    qtbot, win, session_file
+):
+    digest = _md5(session_file)
+    open_and_wait(qtbot, win, session_file)
+    rows = win.analysis.rows
+    t = win.doc.t_s
+    # a "turn" from the middle of stride 10 to the middle of stride 12
+    t0 = 0.5 * (t[rows[10].stride.start_idx] + t[rows[10].stride.end_idx])
+    t1 = 0.5 * (t[rows[12].stride.start_idx] + t[rows[12].stride.end_idx])
+    win.timeline.set_selection(t0, t1)
+    assert win.act_exclude.isEnabled()
+    with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
+        win.act_exclude.trigger()
+    model = win.table.model()
+    last = model.columnCount() - 1
+    for r in (10, 11, 12):
+        assert model.index(r, last).data() == "excluded: excluded range"
+        assert model.index(r, 2).data(Qt.ItemDataRole.ForegroundRole).alpha() < 255
+    assert model.index(9, last).data() == "included"
+    assert model.index(13, last).data() == "included"
+    assert model.index(9, 2).data(Qt.ItemDataRole.ForegroundRole) is None
+    n_all = model.rowCount()
+    assert win.analysis.summary.n_strides == n_all - 2 - 3
+    shaded = win.timeline.lanes["knee"].shade.spans("excluded")
+    assert len(shaded) == 1 and shaded[0][0] == pytest.approx(t0, abs=0.011)
+    side = session_file.with_name("walk.h5.review.json")
+    assert side.exists()
+    assert _md5(session_file) == digest  # the recording is never written
+    # reopened: the exclusion comes back from the side file
+    win.close_document()
+    open_and_wait(qtbot, win, session_file)
+    assert win.analysis.summary.n_strides == n_all - 5
+    assert model.index(11, last).data() == "excluded: excluded range"
+
+
+@pytest.mark.parametrize("kind", ["garbage", "foreign", "truncated", "missing", "folder"])
+def test_a_bad_file_shows_one_line_and_the_window_survives(
+    qtbot, win, session_file, tmp_path, kind
+):
+    bad = tmp_path / f"bad_{kind}.h5"
+    if kind == "garbage":
+        bad.write_bytes(os.urandom(5000))
+    elif kind == "foreign":
+        with h5py.File(bad, "w") as f:
+            f["x"] = np.arange(3)
+    elif kind == "truncated":
+        data = session_file.read_bytes()
+        bad.write_bytes(data[: len(data) // 3])
+    elif kind == "folder":
+        bad.mkdir()
+    with qtbot.waitSignal(win.open_failed, timeout=WAIT_MS) as sig:
+        win.open_file(bad)
+    msg = sig.args[0]
+    assert "\n" not in msg and bad.name in msg
+    assert win.banner_box.isVisible() and win.banner.text().startswith("Cannot open")
+    assert win.doc is None
+    open_and_wait(qtbot, win, session_file)  # and a good file still opens afterwards
+    assert win.table.model().rowCount() > 0
+    assert not win.banner_box.isVisible()
+
+
+def test_recent_files_and_drag_and_drop(qtbot, win, session_file):
+    drop = QMimeData()
+    drop.setUrls([QUrl.fromLocalFile(str(session_file))])
+    ev = QDropEvent(QPointF(QPoint(50, 50)), Qt.DropAction.CopyAction, drop,
+                    Qt.MouseButton.NoButton, Qt.KeyboardModifier.NoModifier)  # fmt: skip
+    with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
+        win.dropEvent(ev)
+    assert win.recent_files() == [str(session_file.resolve())]
+    win._fill_recent()
+    names = [a.text() for a in win.recent_menu.actions()]
+    assert "walk.h5" in names
+
+
+def test_reprocessing_matches_gaitmon_process_and_leaves_the_recording(
+    qtbot, win, session_file, tmp_path
+):
+    digest = _md5(session_file)
+    open_and_wait(qtbot, win, session_file)
+    n_before = len(win.doc.recorded.heel_strike_idx)
+    cfg = win.doc.recorded.config.replace(cutoff_hz=6.0, fsr_threshold=1400.0)
+    with qtbot.waitSignal(win.analysis_done, timeout=60_000):
+        win.start_reprocess(cfg)
+    assert win.doc.reprocessed is not None and win.before is not None
+    # the independent path: the gaitmon process command on the same file
+    ref = tmp_path / "ref.h5"
+    assert cli_main(["process", str(session_file), "-o", str(ref), "--cutoff-hz", "6",
+                     "--fsr-threshold", "1400"]) == 0  # fmt: skip
+    with h5py.File(ref) as f:
+        np.testing.assert_array_equal(win.doc.reprocessed.heel_strike_idx, f["events/heel_strike"])
+        ref_knee = f["processed/joint_deg"][:, 1]
+    got = win.doc.reprocessed.read_rows("processed/joint_deg", 0, len(ref_knee))[:, 1]
+    np.testing.assert_array_equal(got, ref_knee)
+    assert abs(len(win.doc.reprocessed.heel_strike_idx) - n_before) <= 2
+    qtbot.waitUntil(
+        lambda: win.timeline.trace_points("knee", "processed/joint_deg", 1, before=True) > 0,
+        timeout=WAIT_MS,
+    )
+    assert "was " in win.summary.text()  # before -> after in the summary
+    x, _ = win.cycles.before[1].getData()
+    assert len(x) == 101
+    assert _md5(session_file) == digest
+    win.revert_reprocessing()
+    assert win.doc.reprocessed is None
+
+
+def test_review_command_without_a_display_is_one_line(tmp_path, recorded):
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("QT_QPA_PLATFORM", "DISPLAY", "WAYLAND_DISPLAY")}  # fmt: skip
+    out = subprocess.run([sys.executable, "-m", "gaitmon", "review", str(recorded)], env=env,
+                         capture_output=True, text=True, timeout=60)  # fmt: skip
+    assert out.returncode == 2
+    assert out.stderr.count("\n") == 1 and "no display" in out.stderr
+    out = subprocess.run([sys.executable, "-m", "gaitmon", "review", str(tmp_path / "nope.h5")],
+                         env=env, capture_output=True, text=True, timeout=60)  # fmt: skip
+    assert out.returncode == 2 and "does not exist" in out.stderr
+    assert "PySide6" not in out.stderr
+
+
+def test_pipeline_config_in_the_dialog_is_the_recorded_one(qtbot, win, session_file):
+    open_and_wait(qtbot, win, session_file)
+    assert win.doc.recorded.config == PipelineConfig(**win.doc.session.config.as_dict())
+    win.reprocess_dialog()
+    dlg = win._settings_dialog
+    assert dlg.edits["cutoff_hz"].text() == f"{win.doc.session.config.cutoff_hz:g}"
+    dlg.reject()
