@@ -70,6 +70,41 @@ def _restyle(win: MainWindow, width: int, antialias: bool) -> None:
         info.traces.antialias = antialias
 
 
+def screenshot(path: str) -> int:
+    """The real window after ~14 s of simulated walking: zeroed, recording, one marker."""
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    tmp = tempfile.mkdtemp(prefix="gaitmon-shot-")
+    settings = QSettings(os.path.join(tmp, "shot.ini"), QSettings.Format.IniFormat)
+    settings.setValue("session/folder", tmp)
+    sim = default_sim_args()
+    sim.standing_s = 2.5
+    win = MainWindow(settings, sim_args=sim, autoconnect=SIMULATED_PORT, confirm_close=False)
+    win.resize(1440, 900)
+    win.show()
+    while win.engine is None:
+        _spin(app, 0.1)
+    while win.engine.samples_total < 190:  # standing still: zero the pose
+        _spin(app, 0.05)
+    win.zero()
+    _spin(app, 9.0)
+    win.open_session_dialog()
+    dlg = win.session_dialog
+    dlg.patient.setText("P017")
+    dlg.side.setCurrentIndex(dlg.side.findData("R"))
+    dlg.operator.setText("demo")
+    dlg.accept()
+    _spin(app, 2.5)
+    win.marker_edit.setText("10 m walk: turn")
+    win.add_marker()
+    _spin(app, 2.5)
+    win.statusBar().clearMessage()
+    _spin(app, 0.3)
+    ok = win.grab().save(path)
+    win.close()
+    print(f"saved {path}" if ok else f"could not save {path}")
+    return 0 if ok and not win.errors else 1
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=15.0, help="measured seconds per run")
@@ -78,7 +113,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--raw-dock", action="store_true", help="also show the raw-sensor plots")
     ap.add_argument("--mode", default="raw", choices=("raw", "tilt", "joint"))
     ap.add_argument("--variants", action="store_true", help="also pen width 2, antialiased")
+    ap.add_argument(
+        "--screenshot", metavar="PNG", help="instead: save the window with live data as PNG"
+    )
     args = ap.parse_args(argv)
+    if args.screenshot:
+        return screenshot(args.screenshot)
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
     tmp = tempfile.mkdtemp(prefix="gaitmon-bench-")

@@ -136,3 +136,28 @@ def test_gaitmon_help_still_works_and_lists_simulate():
     )
     assert out.returncode == 0
     assert "--simulate" in out.stdout and "opens the live monitor" in out.stdout
+
+
+def test_an_unloadable_x11_plugin_is_a_one_line_message(tmp_path):
+    from gaitmon.ui import XCB_HINT, xcb_plugin_problem
+
+    broken = tmp_path / "libqxcb.so"
+    broken.write_bytes(b"not a shared library")
+    msg = xcb_plugin_problem(broken)
+    assert msg is not None and "\n" not in msg
+    assert msg.startswith("the Qt X11 platform plugin cannot load") and msg.endswith(XCB_HINT)
+    assert xcb_plugin_problem(tmp_path / "absent.so") is None  # nothing to check
+    assert xcb_plugin_problem() is None  # this machine's real plugin loads
+
+
+def test_an_unreachable_x_display_is_a_one_line_message():
+    env = _env_without_display()
+    env["DISPLAY"] = ":97"  # no X server there
+    out = subprocess.run(
+        [sys.executable, "-m", "gaitmon"], capture_output=True, text=True, env=env, timeout=60
+    )
+    assert out.returncode == 2, out.stderr
+    assert out.stderr.strip() == (
+        "gaitmon: error: cannot connect to the X display ':97': is the desktop session running "
+        "and may this user use it?"
+    )

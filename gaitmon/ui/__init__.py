@@ -6,21 +6,79 @@ window lazily, so the command line keeps working on a headless machine.
 
 from __future__ import annotations
 
+import ctypes
+import importlib.util
 import os
 import sys
+from pathlib import Path
 from typing import Any
+
+XCB_HINT = (
+    "install the X11 client libraries Qt needs, e.g. on Debian/Ubuntu: sudo apt install "
+    "libxcb-cursor0 libxcb-icccm4 libxcb-keysyms1 libxcb-shape0 libxkbcommon-x11-0"
+)
+
+
+def xcb_plugin_problem(plugin: Path | None = None) -> str | None:
+    """Why Qt's X11 plugin would fail to load (one line), or None.
+
+    Qt aborts the process when no platform plugin loads (a missing libxcb-cursor0 is the usual
+    cause on a fresh Linux desktop); loading the plugin ourselves first turns that into a
+    message naming the missing library.
+    """
+    if plugin is None:
+        spec = importlib.util.find_spec("PySide6")  # locate without importing Qt
+        if spec is None or not spec.submodule_search_locations:
+            return None
+        root = Path(next(iter(spec.submodule_search_locations)))
+        plugin = root / "Qt" / "plugins" / "platforms" / "libqxcb.so"
+    if not plugin.exists():
+        return None
+    try:
+        ctypes.CDLL(str(plugin))
+    except OSError as exc:
+        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        return f"the Qt X11 platform plugin cannot load ({why}); {XCB_HINT}"
+    return None
 
 
 def display_problem() -> str | None:
     """Why no window can be shown here (one line), or None when a display looks available."""
-    if os.environ.get("QT_QPA_PLATFORM"):
-        return None  # the user chose a platform (offscreen, xcb, wayland, ...)
-    if sys.platform.startswith("linux") and not (
-        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
-    ):
+    platform = os.environ.get("QT_QPA_PLATFORM", "")
+    if platform and not platform.startswith("xcb"):
+        return None  # the user chose a platform (offscreen, wayland, ...)
+    if not sys.platform.startswith("linux"):
+        return None
+    if not platform and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         return (
             "no display available (DISPLAY and WAYLAND_DISPLAY are not set): run gaitmon on a "
             "desktop session, or use the command-line subcommands (gaitmon --help)"
+        )
+    if platform.startswith("xcb") or not os.environ.get("WAYLAND_DISPLAY"):
+        return xcb_plugin_problem() or x_display_problem()
+    return None
+
+
+def x_display_problem() -> str | None:
+    """Why the X server in $DISPLAY cannot be reached (Qt would abort), or None."""
+    try:
+        xcb = ctypes.CDLL("libxcb.so.1")
+    except OSError:
+        return None  # the plugin check reports missing libraries
+    xcb.xcb_connect.restype = ctypes.c_void_p
+    xcb.xcb_connect.argtypes = [ctypes.c_char_p, ctypes.c_void_p]
+    xcb.xcb_connection_has_error.argtypes = [ctypes.c_void_p]
+    xcb.xcb_disconnect.argtypes = [ctypes.c_void_p]
+    conn = xcb.xcb_connect(None, None)  # None: use $DISPLAY, as Qt will
+    try:
+        failed = xcb.xcb_connection_has_error(conn)
+    finally:
+        xcb.xcb_disconnect(conn)
+    if failed:
+        display = os.environ.get("DISPLAY", "")
+        return (
+            f"cannot connect to the X display {display!r}: is the desktop session running and "
+            "may this user use it?"
         )
     return None
 

@@ -435,8 +435,7 @@ class MainWindow(QMainWindow):
         bar.addWidget(events)
         for label in (self.phase_legend, events):
             # legends may be clipped on a narrow screen rather than force a wide window
-            label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
-            label.setMinimumWidth(40)
+            label.setMinimumWidth(40)  # overrides the text's minimum: shrinks only if needed
         bar.addStretch(1)
         self.pause_label = QLabel("  ❚❚ Display paused: acquisition and recording continue  ")
         self.pause_label.setStyleSheet(self._banner_style("warn"))
@@ -498,6 +497,9 @@ class MainWindow(QMainWindow):
         self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.raw_dock)
         self.raw_dock.hide()
         self.resize(1400, 860)
+        # the live plots get the room; the gait panel a column (a saved layout overrides this)
+        self.resizeDocks([self.gait_dock], [370], Qt.Orientation.Horizontal)
+        self.resizeDocks([self.raw_dock], [260], Qt.Orientation.Vertical)
 
     def _build_menus(self) -> None:
         mb = self.menuBar()

@@ -39,7 +39,7 @@ TILT_RANGES_DEG = {"body": (-25, 25), "thigh": (-45, 50), "shank": (-75, 50), "f
 JOINTS = (
     ("hip", "hip flexion", (-25, 55)),
     ("knee", "knee flexion", (-10, 80)),
-    ("ankle", "ankle dorsifl.", (-35, 35)),
+    ("ankle", "ankle dorsiflexion", (-35, 35)),
 )
 FSR_RANGE = (-150.0, 4250.0)  # 12-bit ADC counts
 # (key, label, tilt series, joint series); drawn in this order, Kalman on top
@@ -566,7 +566,10 @@ class CyclePlots(CountingPlotWidget):
         self.current: list[pg.PlotCurveItem] = []
         self.toe_off_lines: list[pg.InfiniteLine] = []
         self._shown_strides = -1
-        band_pen = pen(colours.band)
+        # the cycles are Kalman joint angles: the paper's Kalman green, band translucent
+        band_colour = QColor(colours.kalman)
+        band_colour.setAlpha(60)
+        band_pen = pen(band_colour)
         cur_pen = pg.mkPen(colours.current, width=2)
         for j, (key, label, yr) in enumerate(JOINTS):
             p = self.addPlot(row=j, col=0)
@@ -584,8 +587,8 @@ class CyclePlots(CountingPlotWidget):
             )
             lower = pg.PlotCurveItem(pen=band_pen)
             upper = pg.PlotCurveItem(pen=band_pen)
-            fill = pg.FillBetweenItem(lower, upper, brush=colours.band)
-            mean = pg.PlotCurveItem(pen=pen(colours.gyro))
+            fill = pg.FillBetweenItem(lower, upper, brush=band_colour)
+            mean = pg.PlotCurveItem(pen=pen(colours.kalman))
             cur = pg.PlotCurveItem(pen=cur_pen)
             toe = pg.InfiniteLine(pos=60, angle=90, pen=pen(colours.event, dashed=True))
             toe.setVisible(False)
