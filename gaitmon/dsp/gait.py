@@ -242,7 +242,7 @@ def _run_starts(mask: np.ndarray) -> np.ndarray:
     """Local indices where a run of True starts (index 0 counts if mask[0] is True)."""
     starts = np.flatnonzero(mask[1:] & ~mask[:-1]) + 1
     if mask[0]:
-        starts = np.concatenate(([0], starts))
+        starts = np.concatenate((np.array([0]), starts))
     return starts.astype(np.int64, copy=False)
 
 
@@ -398,7 +398,7 @@ class StrideTracker:
             )
         if to.size:
             self._last_to = int(to[-1])
-        all_hs = hs if self._open_hs is None else np.concatenate(([self._open_hs], hs))
+        all_hs = hs if self._open_hs is None else np.concatenate((np.array([self._open_hs]), hs))
         all_to = np.concatenate((self._pending_to, to))
         strides = _strides_core(all_hs, all_to, self.fs_hz, self.max_stride_time_s)
         if all_hs.size:
