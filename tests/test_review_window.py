@@ -287,3 +287,36 @@ def test_pipeline_config_in_the_dialog_is_the_recorded_one(qtbot, win, session_f
     dlg = win._settings_dialog
     assert dlg.edits["cutoff_hz"].text() == f"{win.doc.session.config.cutoff_hz:g}"
     dlg.reject()
+
+
+# filters_view.py (another module) fills its table with a deprecated QTableWidgetItem overload
+@pytest.mark.filterwarnings("ignore:Function.*setTextAlignment:DeprecationWarning")
+def test_report_normative_band_plot_export_and_filters_are_wired(
+    qtbot, win, session_file, tmp_path
+):
+    open_and_wait(qtbot, win, session_file)
+    # normative band: the example file drawn behind the cycle plots (101 points per joint)
+    example = os.path.join(os.path.dirname(__file__), "..", "docs", "normative-example.csv")
+    win.load_normative(example)
+    assert win.normative is not None and not win.banner_box.isVisible()
+    x, y = win.cycles.norm_mean[1].getData()
+    assert len(x) == 101
+    np.testing.assert_allclose(y, win.normative.mean_deg[:, 1])
+    # report: a PDF with the exclusions in force
+    pdf = tmp_path / "report.pdf"
+    with qtbot.waitSignal(win.report_written, timeout=60_000):
+        win.write_report(pdf)
+    assert pdf.read_bytes()[:5] == b"%PDF-"
+    # right-click ▸ Save plot as PNG / SVG on every lane
+    for lane in win.timeline.lanes.values():
+        texts = [a.text() for a in lane.plot.getViewBox().menu.actions()]
+        assert any("PNG" in t for t in texts)
+    # menus hold the other parts
+    file_texts = [a.text() for a in win.file_menu.actions()]
+    assert "&Export…" in file_texts and "&Report (PDF)…" in file_texts
+    win.export_dialog()
+    assert win._export_dialog.isVisible()
+    win._export_dialog.reject()
+    win.show_filters()
+    assert win._filters_window is not None and win._filters_window.isVisible()
+    win._filters_window.wait_idle()

@@ -42,7 +42,17 @@ class CyclePlots(pg.GraphicsLayoutWidget):
         band.setAlpha(60)
         before_c = QColor(colours.foreground)
         before_c.setAlpha(170)
-        self.addLabel("Gait cycle (included strides)", row=0, col=0, size="9pt", bold=True)
+        self.norm_lower: list[pg.PlotCurveItem] = []
+        self.norm_upper: list[pg.PlotCurveItem] = []
+        self.norm_mean: list[pg.PlotCurveItem] = []
+        self.normative_label = ""
+        norm_c = QColor(colours.foreground)
+        norm_c.setAlpha(30)
+        norm_line = QColor(colours.foreground)
+        norm_line.setAlpha(120)
+        self.title = self.addLabel(
+            "Gait cycle (included strides)", row=0, col=0, size="9pt", bold=True
+        )
         for j, (key, label, yr) in enumerate(JOINTS):
             p = self.addPlot(row=j + 1, col=0)
             p.hideButtons()
@@ -61,6 +71,14 @@ class CyclePlots(pg.GraphicsLayoutWidget):
                 "strides, grey = individual strides, dashed = mean toe off (stance %); after a "
                 "reprocessing the recorded mean is drawn dashed."
             )
+            n_lo, n_hi = pg.PlotCurveItem(pen=pg.mkPen(None)), pg.PlotCurveItem(pen=pg.mkPen(None))
+            n_fill = pg.FillBetweenItem(n_lo, n_hi, brush=norm_c)
+            n_mean = pg.PlotCurveItem(pen=pen(norm_line, dashed=True))
+            for item in (n_lo, n_hi, n_fill, n_mean):
+                p.addItem(item)
+            self.norm_lower.append(n_lo)
+            self.norm_upper.append(n_hi)
+            self.norm_mean.append(n_mean)
             strides = pg.PlotCurveItem(pen=pen(faint), connect="finite")
             lower = pg.PlotCurveItem(pen=pen(band))
             upper = pg.PlotCurveItem(pen=pen(band))
@@ -78,6 +96,28 @@ class CyclePlots(pg.GraphicsLayoutWidget):
             self.before.append(before)
             self.mean.append(mean)
             self.toe_off.append(toe)
+
+    def set_normative(self, bands) -> None:
+        """Draw a normative mean ± SD band (``gaitmon.normative.NormativeBands``) behind the
+        patient's curves; None removes it. Joints the file does not give stay empty."""
+        for j in range(len(JOINTS)):
+            for it in (self.norm_lower[j], self.norm_upper[j], self.norm_mean[j]):
+                it.setData([], [])
+            if bands is None:
+                continue
+            mean, sd = bands.mean_deg[:, j], bands.sd_deg[:, j]
+            if not np.isfinite(mean).all():
+                continue
+            x = np.asarray(bands.cycle_pct, dtype=np.float64)
+            self.norm_mean[j].setData(x, mean)
+            if np.isfinite(sd).all():
+                self.norm_lower[j].setData(x, mean - sd)
+                self.norm_upper[j].setData(x, mean + sd)
+        self.normative_label = "" if bands is None else bands.label
+        title = "Gait cycle (included strides)"
+        if bands is not None:
+            title += f" — grey: {bands.label}"
+        self.title.setText(title)
 
     def clear_data(self) -> None:
         for items in (self.strides, self.lower, self.upper, self.before, self.mean):

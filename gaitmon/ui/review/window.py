@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import importlib.util
 import inspect
 import json
 import logging
@@ -82,6 +83,13 @@ def guarded(fn: Callable) -> Callable:
     return wrapper
 
 
+def _available(module: str) -> bool:
+    try:
+        return importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError):
+        return False
+
+
 def _one_line(exc: BaseException) -> str:
     text = str(exc).strip()
     return (text.splitlines()[0] if text else "") or type(exc).__name__
@@ -94,6 +102,7 @@ class ReviewWindow(QMainWindow):
     open_failed = Signal(str)
     analysis_done = Signal()
     reprocessed = Signal()
+    report_written = Signal(str)
 
     def __init__(self, settings: QSettings, parent: QWidget | None = None) -> None:
         super().__init__(parent)
@@ -265,6 +274,32 @@ class ReviewWindow(QMainWindow):
         )  # fmt: skip
         self.act_revert = A("Back to the recorded series", self.revert_reprocessing)
         self.act_about = A("About", self.show_about)
+        # the report, export, plot export, normative and filters parts (their own modules)
+        self.doc_actions: list[QAction] = []
+        self.act_export = self.act_report = self.act_filters = None
+        self.act_normative = self.act_no_normative = None
+        self.normative: Any = None
+        if _available("gaitmon.ui.review.export_dialog"):
+            self.act_export = A("&Export…", self.export_dialog, "Ctrl+Shift+E",
+                                "Export the session to CSV, MATLAB .mat or C3D")  # fmt: skip
+            self.doc_actions.append(self.act_export)
+        if _available("gaitmon.ui.review.report_pdf") and _available("gaitmon.report"):
+            self.act_report = A(
+                "&Report (PDF)…", self.report_dialog, "Ctrl+Shift+R",
+                "One-page clinical report of the recorded series, with the exclusions in force",
+            )  # fmt: skip
+            self.doc_actions.append(self.act_report)
+        if _available("gaitmon.ui.review.filters_view"):
+            self.act_filters = A("&Filters…", self.show_filters, "Ctrl+F",
+                                 "Compare tilt filters on the range in view")  # fmt: skip
+            self.doc_actions.append(self.act_filters)
+        if _available("gaitmon.normative"):
+            self.act_normative = A(
+                "Load &normative band…", self.normative_dialog, None,
+                "Draw a reference mean ± SD band behind the cycle plots",
+            )  # fmt: skip
+            self.act_no_normative = A("Remove normative band", lambda: self.set_normative(None))
+        self._filters_window: QWidget | None = None
 
     def _build_menus(self) -> None:
         mb = self.menuBar()
@@ -275,7 +310,9 @@ class ReviewWindow(QMainWindow):
         f.addAction(self.act_close)
         f.addSeparator()
         self.file_menu = f
-        self._export_anchor = f.addSeparator()
+        for a in (self.act_export, self.act_report):
+            if a is not None:
+                f.addAction(a)
         f.addAction(self.act_save_reprocessed)
         f.addSeparator()
         f.addAction(self.act_quit)
@@ -289,6 +326,9 @@ class ReviewWindow(QMainWindow):
         for a in self.method_actions.values():
             v.addAction(a)
         v.addAction(self.act_compare)
+        if self.act_filters is not None:
+            v.addSeparator()
+            v.addAction(self.act_filters)
         self.view_menu = v
         an = mb.addMenu("&Analysis")
         for a in (self.act_exclude, self.act_include, self.act_clear_excl, self.act_clear_sel):
@@ -296,7 +336,12 @@ class ReviewWindow(QMainWindow):
         an.addSeparator()
         an.addAction(self.act_reprocess)
         an.addAction(self.act_revert)
+        if self.act_normative is not None and self.act_no_normative is not None:
+            an.addSeparator()
+            an.addAction(self.act_normative)
+            an.addAction(self.act_no_normative)
         self.analysis_menu = an
+        self._attach_plot_export()
         h = mb.addMenu("&Help")
         h.addAction(self.act_about)
 
@@ -771,6 +816,132 @@ class ReviewWindow(QMainWindow):
 
         self.job.submit(job, done)
 
+    # -- report, export, plot export, filters, normative bands ----------------------------------
+
+    def _attach_plot_export(self) -> None:
+        """Right-click any plot ▸ Save plot as PNG / SVG (the plot as shown)."""
+        if not _available("gaitmon.ui.review.plot_export"):
+            return
+        from gaitmon.ui.review.plot_export import attach_export_action
+
+        tl = self.timeline
+        attach_export_action(tl.overview, self, "overview.png")
+        for key, lane in tl.lanes.items():
+            attach_export_action(lane.plot, self, f"{key}.png")
+        for plot, key in zip(self.cycles.plots, ("hip", "knee", "ankle"), strict=True):
+            attach_export_action(plot, self, f"cycle_{key}.png")
+
+    @guarded
+    def export_dialog(self) -> None:
+        if self.doc is None:
+            return
+        from gaitmon.ui.review.export_dialog import ExportDialog
+
+        dlg = ExportDialog(self.doc.path, self)
+        dlg.export_finished.connect(
+            lambda r: self.statusBar().showMessage(f"Exported {getattr(r, 'paths', r)}", 10_000)
+        )
+        dlg.open()
+        self._export_dialog = dlg
+
+    @guarded
+    def report_dialog(self) -> None:
+        if self.doc is None:
+            return
+        suggestion = self.doc.path.with_suffix(".pdf")
+        path, _ = QFileDialog.getSaveFileName(
+            self, "Save the report as", str(suggestion), "PDF (*.pdf)"
+        )
+        if path:
+            self.write_report(path)
+
+    @guarded
+    def write_report(self, path: str | Path) -> None:
+        """Gather the report in the background (recorded series, exclusions in force,
+        normative band if loaded) and write the PDF on the GUI thread."""
+        doc = self.doc
+        if doc is None:
+            return
+        from gaitmon.report import gather_report
+        from gaitmon.ui.review.report_pdf import write_report_pdf
+
+        ranges = [(r.start_idx, r.stop_idx) for r in doc.exclusions]
+        bands = self.normative
+        self._job_label = "Preparing the report"
+        self._show_progress(self._job_label, 0.0)
+
+        def job(ticket: Ticket) -> Any:
+            return gather_report(doc.session, normative=bands, excluded_ranges=ranges)
+
+        def done(data: Any, exc: BaseException | None) -> None:
+            self._hide_progress()
+            if exc is not None:
+                self.show_problem(f"Cannot make the report: {_one_line(exc)}")
+                return
+            try:
+                out = write_report_pdf(data, path)
+            except OSError as e:
+                self.show_problem(f"Cannot write the report: {_one_line(e)}")
+                return
+            note = " (recorded series; reprocessing is not in the report)" if (
+                doc.reprocessed is not None) else ""  # fmt: skip
+            self.statusBar().showMessage(f"Report written to {out}{note}", 15_000)
+            self.report_written.emit(str(out))
+
+        self.job.submit(job, done)
+
+    @guarded
+    def show_filters(self) -> None:
+        doc = self.doc
+        if doc is None:
+            return
+        from gaitmon.ui.review.filters_view import FiltersView
+
+        if self._filters_window is None:
+            fw = FiltersView(None, self.colours)
+            fw.setWindowFlag(Qt.WindowType.Window, True)
+            fw.setWindowTitle("gaitmon — filters")
+            fw.resize(1100, 650)
+            fw.failed.connect(lambda m: self.statusBar().showMessage(f"Filters: {m}", 10_000))
+            self._filters_window = fw
+            self._filters_path: Path | None = None
+        fw = self._filters_window
+        if getattr(self, "_filters_path", None) != doc.path:
+            fw.load_session(doc.path)
+            self._filters_path = doc.path
+        fw.set_range(*self.timeline.view_range())
+        fw.show()
+        fw.raise_()
+
+    @guarded
+    def normative_dialog(self) -> None:
+        folder = str(self.settings.value("review/normative_folder", str(Path.home())))
+        path, _ = QFileDialog.getOpenFileName(
+            self, "Load a normative band", folder, "Normative bands (*.csv);;All files (*)"
+        )
+        if path:
+            self.load_normative(path)
+
+    @guarded
+    def load_normative(self, path: str | Path) -> None:
+        from gaitmon.normative import NormativeError, load_normative
+
+        try:
+            bands = load_normative(path)
+        except (NormativeError, OSError) as e:
+            self.show_problem(f"Cannot load the normative band: {_one_line(e)}")
+            return
+        self.settings.setValue("review/normative_folder", str(Path(path).parent))
+        self.set_normative(bands)
+
+    def set_normative(self, bands: Any) -> None:
+        self.normative = bands
+        self.cycles.set_normative(bands)
+        if bands is not None:
+            self.statusBar().showMessage(
+                f"Normative band: {bands.label} (source: {bands.source or 'not given'})", 10_000
+            )
+
     # -- misc ------------------------------------------------------------------------------------
 
     def show_about(self) -> None:
@@ -788,6 +959,8 @@ class ReviewWindow(QMainWindow):
         if self._closing:
             return
         self._closing = True
+        if self._filters_window is not None:
+            self._filters_window.close()
         self.job.stop()
         self.analyser.stop()
         self.timeline.shutdown()
