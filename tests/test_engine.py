@@ -101,11 +101,12 @@ def test_lost_frames_are_located_exactly_by_the_device():
         stats = dev.stats
     lost_all = np.concatenate(lost)
     seq = np.concatenate(seqs)
-    injected = len(unit.ledger.dropped) + len(unit.ledger.corrupted)
-    # every frame the unit broke before the last one we received shows up as a gap
-    assert lost_all.sum() == stats.decoder.frames_lost
-    # everything the unit broke lies before its last (intact) frame, which we received
-    assert lost_all.sum() == injected
+    broken = [e.frame_no for e in (*unit.ledger.dropped, *unit.ledger.corrupted)]
+    assert len(broken) > 100  # faults were really injected
+    # every frame the unit broke before our last data frame is counted where it was missing
+    # (one broken just before the STOP acknowledgement has no sample after it to carry it)
+    assert lost_all.sum() == sum(1 for f in broken if f < seq[-1])
+    assert lost_all.sum() <= stats.decoder.frames_lost
     # a data-sequence gap is exactly the missing frames where lost_before says so
     gaps = np.diff(seq) - 1
     np.testing.assert_array_equal(gaps, lost_all[1:])
