@@ -646,7 +646,7 @@ class FiltersView(QWidget):
                 item = QTableWidgetItem(text)
                 if c:
                     item.setTextAlignment(
-                        int(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+                        Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter
                     )
                 self.table.setItem(row, c, item)
 

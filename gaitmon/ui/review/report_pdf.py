@@ -49,7 +49,9 @@ ACCENT = QColor("#1f4e8c")
 GRID = QColor("#e6e9ee")
 MEAN = QColor("#1f5fd6")
 BAND = QColor(31, 95, 214, 60)
-STRIDE = QColor(90, 110, 140, 55)
+# Strokes are opaque on purpose: Qt's PDF engine turns every semi-transparent stroke into a
+# filled outline (to avoid overlap artefacts), which made the page ~30x larger (1.1 MB).
+STRIDE = QColor("#c3ccd9")
 NORM = QColor(120, 120, 120, 60)
 TOE_OFF = QColor("#444a52")
 SHADE = QColor("#f3f5f8")
@@ -124,6 +126,9 @@ class _Page:
         f.setPointSizeF(size_pt)
         f.setBold(bold)
         f.setItalic(italic)
+        # no ligatures: "ﬂexion" would not be found when searching or copying the PDF's text
+        if hasattr(QFont, "Tag"):  # Qt >= 6.6
+            f.setFeature(QFont.Tag("liga"), 0)
         return f
 
     def pen(
@@ -330,8 +335,7 @@ def draw_cycle_plot(
     painter.save()
     painter.translate(p.mm(x + 1.0), p.mm(py + ph / 2))
     painter.rotate(-90)
-    font = p.font(7.0)
-    painter.setFont(font)
+    painter.setFont(p.font(7.0))
     painter.setPen(INK)
     painter.drawText(
         QRectF(-p.mm(ph / 2 + 5), 0, p.mm(ph + 10), p.mm(3.8)),
@@ -349,11 +353,13 @@ def draw_cycle_plot(
         nm, ns = data.normative.mean_deg[:, j], data.normative.sd_deg[:, j]
         nx = data.normative.cycle_pct
         painter.fillPath(_band(nx, nm - ns, nm + ns, to_px), QBrush(NORM))
-        painter.setPen(p.pen(QColor(110, 110, 110, 160), 0.2, Qt.PenStyle.DashLine))
+        painter.setPen(p.pen(QColor("#7a7a7a"), 0.2, Qt.PenStyle.DashLine))
         painter.drawPath(_path(p, nx, nm, to_px))
     painter.setPen(p.pen(STRIDE, 0.12))
+    strides = QPainterPath()  # one path for all strides: one PDF drawing operation, not n
     for k in range(n):
-        painter.drawPath(_path(p, xs, data.cycles_deg[k, :, j], to_px))
+        strides.addPath(_path(p, xs, data.cycles_deg[k, :, j], to_px))
+    painter.drawPath(strides)
     if n:
         mean, sd = data.mean_deg[:, j], data.sd_deg[:, j]
         painter.fillPath(_band(xs, mean - sd, mean + sd, to_px), QBrush(BAND))
@@ -625,7 +631,7 @@ def paint_report(painter: QPainter, device: QPaintDevice, data: ReportData) -> N
     if data.normative is not None:
         nb = data.normative
         p.text(x0 + 1.2, y, 29.0, 4.0, "Reference band", 7.5, colour=MUTED)
-        ref = f"{nb.label}; source: {_cut(nb.source, 320)}; licence: {_cut(nb.licence, 120)}"
+        ref = f"{nb.label}; source: {_cut(nb.source, 420)}; licence: {_cut(nb.licence, 120)}"
         y += max(4.0, p.wrapped(x0 + 30.2, y + 0.35, w - 31.4, ref, 7.5)) + 0.6
 
     # -- footer, and the clinician's comments in the space left above it
