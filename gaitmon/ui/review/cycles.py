@@ -46,8 +46,10 @@ class CyclePlots(pg.GraphicsLayoutWidget):
         self.norm_upper: list[pg.PlotCurveItem] = []
         self.norm_mean: list[pg.PlotCurveItem] = []
         self.normative_label = ""
+        self._bands = None
+        self._analysis: Analysis | None = None
         norm_c = QColor(colours.foreground)
-        norm_c.setAlpha(30)
+        norm_c.setAlpha(50)
         norm_line = QColor(colours.foreground)
         norm_line.setAlpha(120)
         self.title = self.addLabel(
@@ -114,12 +116,16 @@ class CyclePlots(pg.GraphicsLayoutWidget):
                 self.norm_lower[j].setData(x, mean - sd)
                 self.norm_upper[j].setData(x, mean + sd)
         self.normative_label = "" if bands is None else bands.label
-        title = "Gait cycle (included strides)"
-        if bands is not None:
-            title += f" — grey: {bands.label}"
-        self.title.setText(title)
+        self._bands = bands
+        self._fit_y()
+        # the band's own name can be long: it goes in the tooltip, the title stays short
+        self.title.setText("Gait cycle (included strides)" + (" · grey: normative" if bands
+                                                                else ""))  # fmt: skip
+        self.title.setToolTip("" if bands is None else f"Normative band: {bands.label} "
+                              f"(source: {bands.source or 'not given'})")  # fmt: skip
 
     def clear_data(self) -> None:
+        self._analysis = None
         for items in (self.strides, self.lower, self.upper, self.before, self.mean):
             for it in items:
                 it.setData([], [])
@@ -147,11 +153,8 @@ class CyclePlots(pg.GraphicsLayoutWidget):
                     self.upper[j].setData(self.pct, mean + sd)
                 if before is not None and len(before.cycles_deg):
                     self.before[j].setData(self.pct, before.mean_deg[:, j])
-                lo = np.nanmin(cyc[pick, :, j])
-                hi = np.nanmax(cyc[pick, :, j])
-                if math.isfinite(lo) and math.isfinite(hi):
-                    pad = 0.1 * max(hi - lo, 5.0)
-                    self.plots[j].setYRange(lo - pad, hi + pad, padding=0)
+        self._analysis = a
+        self._fit_y()
         stance = a.stance_pct_mean
         for line in self.toe_off:
             ok = math.isfinite(stance)
@@ -159,6 +162,25 @@ class CyclePlots(pg.GraphicsLayoutWidget):
             if ok:
                 line.setValue(stance)
                 line.setToolTip(f"mean toe off: {stance:.1f} % of the stride")
+
+    def _fit_y(self) -> None:
+        """Fit each joint's y range to the strides drawn and the normative band, if any."""
+        a, bands = self._analysis, self._bands
+        for j, (_key, _label, yr) in enumerate(JOINTS):
+            parts = []
+            if a is not None and len(a.cycles_deg):
+                parts.append(a.cycles_deg[:, :, j].ravel())
+            if bands is not None and np.isfinite(bands.mean_deg[:, j]).all():
+                sd = np.nan_to_num(bands.sd_deg[:, j])
+                parts += [bands.mean_deg[:, j] - sd, bands.mean_deg[:, j] + sd]
+            vals = np.concatenate(parts) if parts else np.empty(0)
+            vals = vals[np.isfinite(vals)]
+            if not len(vals):
+                self.plots[j].setYRange(*yr, padding=0)
+                continue
+            lo, hi = float(vals.min()), float(vals.max())
+            pad = 0.1 * max(hi - lo, 5.0)
+            self.plots[j].setYRange(lo - pad, hi + pad, padding=0)
 
     def mean_points(self, joint: int) -> int:
         x, _ = self.mean[joint].getData()

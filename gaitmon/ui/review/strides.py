@@ -133,7 +133,12 @@ class StrideTable(QTableView):
         hh = self.horizontalHeader()
         hh.setSectionResizeMode(QHeaderView.ResizeMode.Interactive)
         hh.setStretchLastSection(True)
-        for col, width in enumerate((40, 60, 62, 62, 58, 62, 58, 76, 70, 76, 80)):
+        # widths from the header text and the widest number (resizeColumnsToContents would
+        # measure every one of an 8-hour session's ~26 000 rows)
+        fm = hh.fontMetrics()
+        for col, (title, _tip) in enumerate(COLUMNS[:-1]):
+            sample = "0000" if col == 0 else "00000.00"
+            width = max(fm.horizontalAdvance(title), fm.horizontalAdvance(sample)) + 18
             self.setColumnWidth(col, width)
         self.setToolTip("Click a stride to show it on the timeline. Greyed: not in the statistics.")
         self.clicked.connect(lambda idx: self.stride_picked.emit(idx.row()))
