@@ -320,3 +320,34 @@ def test_report_normative_band_plot_export_and_filters_are_wired(
     win.show_filters()
     assert win._filters_window is not None and win._filters_window.isVisible()
     win._filters_window.wait_idle()
+
+
+def test_an_interrupted_recording_is_recovered_with_progress(qtbot, win, recorded, tmp_path):
+    from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionWriter, journal_path
+
+    with h5py.File(recorded) as f:
+        adc = f["raw/adc"][()]
+    live, crashed = tmp_path / "live.h5", tmp_path / "crashed.h5"
+    header = SessionHeader("raw", 100.0)
+    w = SessionWriter(live, header)
+    pipe = Pipeline(header.config)
+    for i in range(0, len(adc), 50):
+        block = adc[i : i + 50]
+        seq = np.arange(i, i + len(block))
+        w.append(SampleBlock(FrameKind.RAW, seq, seq / 100.0, 0.0, adc=block), pipe.process(block))
+    w.flush()
+    for src, dst in ((live, crashed), (journal_path(live), journal_path(crashed))):
+        shutil.copyfile(src, dst)  # file + journal as a kill -9 would leave them
+    w.close()
+    fractions = []
+    win.job.progressed.connect(fractions.append)
+    open_and_wait(qtbot, win, crashed)
+    assert not journal_path(crashed).exists()
+    assert win.doc.session.recovered and win.doc.n_rows == len(adc)
+    assert fractions and max(fractions) <= 1.0
+    with h5py.File(recorded) as f:
+        n_truth = len(f["truth/heel_strike"]) - 1
+    assert abs(win.table.model().rowCount() - n_truth) <= 1
