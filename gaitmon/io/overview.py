@@ -132,7 +132,9 @@ class PeakPyramid:
         return sum(a.nbytes + b.nbytes for a, b in self.levels)
 
     @classmethod
-    def from_array(cls, y: np.ndarray, base_step: int = BASE_STEP, factor: int = FACTOR):
+    def from_array(
+        cls, y: np.ndarray, base_step: int = BASE_STEP, factor: int = FACTOR
+    ) -> PeakPyramid:
         y = np.asarray(y)
         return cls.build(lambda a, b: y[a:b], len(y), base_step=base_step, factor=factor)
 
