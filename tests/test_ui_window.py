@@ -218,16 +218,16 @@ def test_settings_reject_a_bad_cutoff_then_apply_and_persist(qtbot, window, ui_s
 def test_zero_is_refused_while_walking_with_the_engines_reason(
     qtbot, ui_settings, no_leaked_threads
 ):
-    win = make_window(qtbot, ui_settings, standing_s=2.5)
+    win = make_window(qtbot, ui_settings, standing_s=4.0)
     try:
         # standing: 1.5 s of still data -> accepted
         qtbot.waitUntil(lambda: samples(win) >= 170, timeout=WAIT_MS)
-        assert samples(win) < 240, "the machine was too slow to zero while standing"
+        assert samples(win) < 380, "the machine was too slow to zero while standing"
         win.act_zero.trigger()
         qtbot.waitUntil(lambda: "zeroed" in win.statusBar().currentMessage(), timeout=WAIT_MS)
         qtbot.waitUntil(lambda: win.cal_label.text() == "zeroed", timeout=WAIT_MS)
         # walking: refused, and the window says why
-        qtbot.waitUntil(lambda: samples(win) >= 500, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: samples(win) >= 650, timeout=WAIT_MS)
         win.act_zero.trigger()
         qtbot.waitUntil(lambda: "Zero refused" in win.statusBar().currentMessage(), timeout=WAIT_MS)
         assert "moving" in win.statusBar().currentMessage()
@@ -374,3 +374,33 @@ def test_keyboard_shortcuts_drive_pause_markers_and_window(qtbot, window):
     for keys, _what in SHORTCUTS:
         for key in keys.split(" / "):
             assert key in bound, key
+
+
+def test_switching_to_a_dark_theme_rebuilds_the_plots_in_dark(qtbot, window):
+    from PySide6.QtGui import QColor, QGuiApplication, QPalette
+    from PySide6.QtWidgets import QApplication
+
+    win = window
+    qtbot.waitUntil(lambda: win.live.curve_points("joint_kalman_deg", 1, "kalman") > 50)
+    assert not win.colours.dark
+    old_live = win.live
+    light = QGuiApplication.palette()
+    dark = QPalette(light)
+    for role, colour in (
+        (QPalette.ColorRole.Window, "#202020"),
+        (QPalette.ColorRole.Base, "#181818"),
+        (QPalette.ColorRole.Text, "#e0e0e0"),
+        (QPalette.ColorRole.WindowText, "#e0e0e0"),
+    ):
+        dark.setColor(role, QColor(colour))
+    try:
+        QApplication.setPalette(dark)
+        qtbot.waitUntil(lambda: win.colours.dark)
+        assert win.live is not old_live
+        assert win.live.backgroundBrush().color().lightness() < 64
+        # the new plots are fed at once, and keep the view options
+        qtbot.waitUntil(lambda: win.live.curve_points("joint_kalman_deg", 1, "kalman") > 50)
+        assert win.live.window_s == win.window_combo.currentData()
+    finally:
+        QApplication.setPalette(light)
+    qtbot.waitUntil(lambda: not win.colours.dark)

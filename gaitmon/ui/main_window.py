@@ -1153,7 +1153,10 @@ class MainWindow(QMainWindow):
 
     def changeEvent(self, ev: QEvent) -> None:
         super().changeEvent(ev)
-        if ev.type() in (QEvent.Type.PaletteChange, QEvent.Type.ThemeChange):
+        if not getattr(self, "_closing", True) and ev.type() in (
+            QEvent.Type.PaletteChange,
+            QEvent.Type.ThemeChange,
+        ):
             try:
                 self._apply_theme()
             except Exception as exc:  # a theme change must never take the window down
