@@ -638,20 +638,6 @@ class CyclePlots(CountingPlotWidget):
         self.mark_new_data(float(time.monotonic()))
 
 
-def style_axis_colours(widget: pg.GraphicsLayoutWidget, colours: Colours) -> None:
-    """Re-apply the theme's background and text colour (after a light/dark switch)."""
-    widget.setBackground(colours.background)
-    for item in widget.ci.items:
-        if isinstance(item, pg.PlotItem):
-            for name in ("left", "bottom"):
-                ax = item.getAxis(name)
-                ax.setPen(pg.mkPen(colours.foreground))
-                ax.setTextPen(pg.mkPen(colours.foreground))
-        elif isinstance(item, pg.LabelItem):
-            item.setAttr("color", colours.foreground.name())
-            item.setText(item.text)
-
-
 __all__ = [
     "CountingPlotWidget",
     "CyclePlots",
