@@ -3,8 +3,11 @@
 Sessions are recorded from the simulator (with lost and corrupted frames, so the losses
 section has something to count). Numbers are checked against hand computations from the
 file's own events and timeline, and against ``gaitmon.analysis`` (which ``gaitmon info`` uses).
-The PDF is checked for its page count (pdfinfo, else the PDF's own page objects), its text
-(pdftotext, skipped if absent) and rendered to PNG with pdftoppm (skipped if absent).
+Tests that draw take pytest-qt's ``qapp`` first: Qt allows one application object per process,
+and ``gaitmon report`` run in-process would otherwise make a QGuiApplication that later widget
+tests cannot use. The PDF is checked for its page count (pdfinfo, else the PDF's own page
+objects), its text (pdftotext, skipped if absent) and rendered to PNG with pdftoppm (skipped if
+absent).
 """
 
 from __future__ import annotations
@@ -215,7 +218,7 @@ def test_user_excluded_range_removes_strides(session: Path) -> None:
 # ---- the PDF --------------------------------------------------------------------------------
 
 
-def test_report_pdf_is_one_page_with_the_patient_id(session: Path, tmp_path: Path) -> None:
+def test_report_pdf_is_one_page_with_the_patient_id(qapp, session: Path, tmp_path: Path) -> None:
     out = tmp_path / "report.pdf"
     png = tmp_path / "page.png"
     assert main(["report", str(session), "-o", str(out), "--png", str(png)]) == 0
@@ -241,7 +244,7 @@ def test_report_pdf_is_one_page_with_the_patient_id(session: Path, tmp_path: Pat
         assert label in text, label
 
 
-def test_deidentified_pdf_has_no_patient_id(session: Path, tmp_path: Path) -> None:
+def test_deidentified_pdf_has_no_patient_id(qapp, session: Path, tmp_path: Path) -> None:
     out = tmp_path / "anon.pdf"
     assert main(["report", str(session), "-o", str(out), "--deidentify"]) == 0
     assert _page_count(out) == 1
@@ -252,7 +255,7 @@ def test_deidentified_pdf_has_no_patient_id(session: Path, tmp_path: Path) -> No
     assert REDACTED in text
 
 
-def test_pdf_renders_and_normative_band_is_named(session: Path, tmp_path: Path) -> None:
+def test_pdf_renders_and_normative_band_is_named(qapp, session: Path, tmp_path: Path) -> None:
     out = tmp_path / "norm.pdf"
     assert main(["report", str(session), "-o", str(out), "--normative", str(EXAMPLE)]) == 0
     assert _page_count(out) == 1
@@ -273,7 +276,7 @@ def test_pdf_renders_and_normative_band_is_named(session: Path, tmp_path: Path) 
     assert np.sum((rgb[:, 2] > 150) & (rgb[:, 0] < 90)) > 200
 
 
-def test_tilt_mode_session_still_gives_one_page(tilt_session: Path, tmp_path: Path) -> None:
+def test_tilt_mode_session_still_gives_one_page(qapp, tilt_session: Path, tmp_path: Path) -> None:
     out = tmp_path / "tilt.pdf"
     assert main(["report", str(tilt_session), "-o", str(out)]) == 0
     assert _page_count(out) == 1
@@ -282,7 +285,7 @@ def test_tilt_mode_session_still_gives_one_page(tilt_session: Path, tmp_path: Pa
     assert any("no gait events" in n for n in data.notes)
 
 
-def test_cli_errors_are_one_line(session: Path, tmp_path: Path, capsys) -> None:
+def test_cli_errors_are_one_line(qapp, session: Path, tmp_path: Path, capsys) -> None:
     out = tmp_path / "r.pdf"
     out.write_bytes(b"keep me")
     assert main(["report", str(session), "-o", str(out)]) == 2
@@ -314,3 +317,29 @@ def test_report_content_modules_are_qt_free() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_report_command_runs_headless_in_a_fresh_process(session: Path, tmp_path: Path) -> None:
+    """No display and no QT_QPA_PLATFORM: the command picks offscreen itself, opens no window."""
+    import os
+
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM")
+    }
+    out = tmp_path / "fresh.pdf"
+    code = (
+        "from gaitmon.cli import main\n"
+        f"rc = main(['report', {str(session)!r}, '-o', {str(out)!r}])\n"
+        "from PySide6.QtGui import QGuiApplication\n"
+        "app = QGuiApplication.instance()\n"
+        "print(rc, type(app).__name__, QGuiApplication.platformName(), "
+        "len(QGuiApplication.topLevelWindows()))\n"
+    )
+    res = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split()[-4:] == ["0", "QGuiApplication", "offscreen", "0"]
+    assert _page_count(out) == 1
