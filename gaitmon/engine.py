@@ -313,6 +313,9 @@ class Engine:
         self._last_data_s = time.monotonic()
         self._pending_config: PipelineConfig | None = None
         self._pending_calibration: Calibration | None = None
+        # what the running recording's header already holds (not logged again as a change)
+        self._header_calibration: Calibration | None = None
+        self._header_config: PipelineConfig | None = None
         self._recorder: _Recorder | None = None
         self._record_offset = 0
         self._last_recording = RecordingStatus()
@@ -391,14 +394,18 @@ class Engine:
             "channel_table_crc": getattr(ident, "channel_table_crc", 0) if ident else 0,
         }
         with self._lock:
+            # a zeroing still waiting for the next block is the calibration the file starts with
+            calibration = self._pending_calibration or self.calibration
+            self._header_calibration = calibration
             header = SessionHeader(
                 mode=self.mode.value,
                 sample_rate_hz=self.fs_hz,
                 meta=meta or SessionMeta(),
                 device=device_info,
-                config=self.config,
-                calibration=self.calibration,
+                config=self._pending_config or self.config,
+                calibration=calibration,
             )
+            self._header_config = header.config
             try:
                 writer = SessionWriter(path, header, overwrite=overwrite)
             except SessionError as exc:
@@ -587,12 +594,12 @@ class Engine:
             self.config = cfg
             self._pipeline = Pipeline(cfg, self.calibration)
             self._pipeline_offset = self._samples
-            if rec is not None:
+            if rec is not None and cfg is not self._header_config:
                 rec.put(("config", cfg))
         if cal is not None:
             self.calibration = cal
             self._pipeline.set_calibration(cal)
-            if rec is not None:
+            if rec is not None and cal is not self._header_calibration:
                 rec.put(("calibration", cal))
         if self._seq0 is None:
             self._seq0 = int(block.seq[0])

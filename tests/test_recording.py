@@ -268,3 +268,18 @@ def test_link_outage_continues_the_same_session_with_a_gap(tmp_path):
     assert seq[i] - seq[i - 1] - 1 == gap.n_lost  # the unit kept counting while unheard
     assert t_s[i] - t_s[i - 1] == pytest.approx((gap.n_lost + 1) / 100.0)
     assert len(seq) - i >= 100  # data resumed into the same file
+
+
+def test_record_with_zero_stores_the_standing_offsets_the_simulator_mounted(tmp_path):
+    out = tmp_path / "zeroed.h5"
+    assert main(["record", "--simulate", "--zero", "--duration", "6", "-o", str(out),
+                 "--speed", "20", "--seed", "4", "--quiet"]) == 0
+    with open_session(out) as s:
+        offsets_deg = np.degrees(s.calibration.tilt_offset_rad)
+        assert s.calibration_changes == []  # zeroed before the first row: it is the header's
+        knee = s.read("processed/joint_deg")[:, 1]
+    with h5py.File(out, "r") as f:
+        mounted_deg = f["truth"].attrs["mount_offset_deg"]
+    assert np.max(np.abs(mounted_deg)) > 1.0  # the simulator really mounted the boards askew
+    np.testing.assert_allclose(offsets_deg, mounted_deg, atol=0.5)
+    assert 40.0 < knee.max() < 80.0  # zeroed knee flexion in swing

@@ -179,7 +179,7 @@ def _zero(engine: object, stop: threading.Event) -> None:
         except EngineError as exc:
             if time.monotonic() > deadline:
                 raise UserError(f"could not zero: {exc}") from None
-            time.sleep(0.25)
+            time.sleep(0.02)  # the simulator may run faster than real time
 
 
 def _progress(out: Path, recorded_s: float, duration_s: float, snap: object) -> None:
