@@ -28,6 +28,7 @@ class Colours:
     event: QColor  # heel-strike / toe-off lines on the angle plots
     marker: QColor  # clinician markers
     current: QColor  # the current stride in the cycle overlay
+    band: QColor  # mean +- SD bands and the review timeline's view region
     segments: tuple[QColor, QColor, QColor, QColor]  # body, thigh, shank, foot (raw traces)
     phases: tuple[QColor, QColor, QColor]  # loading, foot flat, push-off shading
     stance: QColor  # stance shading in the two-phase view
@@ -93,6 +94,7 @@ def current_colours() -> Colours:
             event=_c("#b0b0b0", 150),
             marker=_c("#ffb000"),
             current=_c("#ffffff"),
+            band=_c("#5ca8ff", 70),
             segments=(_c("#c792ea"), _c("#ffb74d"), _c("#4dd0e1"), _c("#a1887f")),
             phases=(_c("#ff8a80", 60), _c("#b0bec5", 55), _c("#80d8ff", 60)),
             stance=_c("#b0bec5", 55),
@@ -110,6 +112,7 @@ def current_colours() -> Colours:
         event=_c("#606060", 140),
         marker=_c("#b35c00"),
         current=_c("#111111"),
+        band=_c("#1f5fd6", 55),
         segments=(_c("#7b3fb5"), _c("#e07b00"), _c("#00838f"), _c("#6d4c41")),
         phases=(_c("#ef9a9a", 95), _c("#b0bec5", 110), _c("#81d4fa", 110)),
         stance=_c("#b0bec5", 110),
