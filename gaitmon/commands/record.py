@@ -70,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.io.session import SessionMeta
     from gaitmon.io.transport import InProcessTransport, LinkError, SerialTransport
 
+    if args.port is not None and not args.port.strip():
+        raise UserError("--port needs a port name; `gaitmon ports` lists the ports")
     if not (math.isfinite(args.duration) and args.duration > 0):
         raise UserError(f"--duration must be a positive number of seconds, got {args.duration}")
     out = Path(args.output)

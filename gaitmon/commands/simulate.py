@@ -23,7 +23,8 @@ real gaitmon wire protocol on a pseudo-terminal, with optional frame loss and co
 EPILOG = """\
 The first line on standard output is the port path (flushed), so a script can read it:
 
-  gaitmon simulate --pty > sim.out &  sleep 1;  port=$(head -n1 sim.out)
+  gaitmon simulate --pty > sim.out &
+  until [ -s sim.out ]; do sleep 0.2; done;  port=$(head -n1 sim.out)
 
 Open that path like a Bluetooth serial port (e.g. serial.Serial(port)); the unit speaks the
 gaitmon protocol (docs/protocol.md): it is idle until it receives SELECT_KIND / START_STREAM /
