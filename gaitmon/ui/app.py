@@ -1,4 +1,8 @@
-"""Start the desktop application: QApplication, logging, icon, the main window."""
+"""Start the desktop application: QApplication, logging, icon, the main window.
+
+The review window (:mod:`gaitmon.ui.review.window`) starts through the same
+:func:`make_application` and :func:`exec_until_closed`.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +15,7 @@ from typing import Any
 
 from PySide6.QtCore import QPointF, QSettings, QStandardPaths, Qt, QTimer
 from PySide6.QtGui import QColor, QGuiApplication, QIcon, QPainter, QPainterPath, QPen, QPixmap
-from PySide6.QtWidgets import QApplication
+from PySide6.QtWidgets import QApplication, QWidget
 
 log = logging.getLogger("gaitmon.ui")
 
@@ -58,7 +62,17 @@ def _setup_logging() -> Path | None:
     return path
 
 
-def run(args: Any) -> int:
+def make_application(
+    program: str, logger: logging.Logger = log, *, display_name: str | None = None
+) -> QApplication:
+    """The QApplication a gaitmon window runs in (the one already made, if any), set up.
+
+    High-DPI pass-through scaling, the organisation and application names (they place
+    ``QSettings``), the drawn icon, the log file, and an excepthook: an exception escaping a Qt
+    virtual (paint, event) is logged to ``logger`` with its traceback and printed as one line,
+    ``PROGRAM: internal error: ...``. ``display_name``, when given, is the application display
+    name (on Linux, Qt appends it to window titles).
+    """
     QGuiApplication.setHighDpiScaleFactorRoundingPolicy(
         Qt.HighDpiScaleFactorRoundingPolicy.PassThrough
     )
@@ -66,17 +80,36 @@ def run(args: Any) -> int:
     assert isinstance(app, QApplication)
     app.setOrganizationName("gaitmon")
     app.setApplicationName("gaitmon")
-    app.setApplicationDisplayName("gaitmon")
+    if display_name is not None:
+        app.setApplicationDisplayName(display_name)
     app.setWindowIcon(app_icon())
     log_path = _setup_logging()
 
     def excepthook(kind: type[BaseException], exc: BaseException, tb: TracebackType | None) -> None:
         # an exception escaping a Qt virtual (paint, event) must not print a traceback
-        log.error("unhandled exception", exc_info=(kind, exc, tb))
+        logger.error("unhandled exception", exc_info=(kind, exc, tb))
         where = f" (details in {log_path})" if log_path else ""
-        print(f"gaitmon: internal error: {exc}{where}", file=sys.stderr)
+        print(f"{program}: internal error: {exc}{where}", file=sys.stderr)
 
     sys.excepthook = excepthook
+    return app
+
+
+def exec_until_closed(app: QApplication, win: QWidget) -> int:
+    """Run the event loop; Ctrl-C / SIGTERM in the terminal close ``win`` cleanly."""
+    # closing (not quitting) lets the window finish its work, e.g. complete a recording;
+    # the timer lets the interpreter run its signal handlers while Qt's loop is waiting
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: win.close())
+    wake = QTimer()
+    wake.start(250)
+    wake.timeout.connect(lambda: None)
+    return int(app.exec())
+
+
+def run(args: Any) -> int:
+    """Open the live monitor (``args.simulate``: connect straight to the simulated unit)."""
+    app = make_application("gaitmon", display_name="gaitmon")
 
     from gaitmon.ui.connection import SIMULATED_PORT
     from gaitmon.ui.main_window import MainWindow
@@ -88,11 +121,4 @@ def run(args: Any) -> int:
         autoconnect=SIMULATED_PORT if getattr(args, "simulate", False) else None,
     )
     win.show()
-    # Ctrl-C / SIGTERM in the terminal close the window cleanly (a recording is completed);
-    # the timer lets the interpreter run its signal handlers while Qt's loop is waiting
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: win.close())
-    wake = QTimer()
-    wake.start(250)
-    wake.timeout.connect(lambda: None)
-    return int(app.exec())
+    return exec_until_closed(app, win)

@@ -975,38 +975,11 @@ class ReviewWindow(QMainWindow):
 
 def run(args: Any) -> int:
     """Open the review window (``args.file``: a session to open at start, or None)."""
-    import signal
-    import sys
+    from gaitmon.ui.app import exec_until_closed, make_application
 
-    from PySide6.QtCore import Qt as _Qt
-    from PySide6.QtGui import QGuiApplication
-    from PySide6.QtWidgets import QApplication
-
-    from gaitmon.ui.app import _setup_logging, app_icon
-
-    QGuiApplication.setHighDpiScaleFactorRoundingPolicy(
-        _Qt.HighDpiScaleFactorRoundingPolicy.PassThrough
-    )
-    app = QApplication.instance() or QApplication(sys.argv[:1])
-    assert isinstance(app, QApplication)
-    app.setOrganizationName("gaitmon")
-    app.setApplicationName("gaitmon")
-    app.setWindowIcon(app_icon())
-    log_path = _setup_logging()
-
-    def excepthook(kind, exc, tb) -> None:
-        log.error("unhandled exception", exc_info=(kind, exc, tb))
-        where = f" (details in {log_path})" if log_path else ""
-        print(f"gaitmon review: internal error: {exc}{where}", file=sys.stderr)
-
-    sys.excepthook = excepthook
+    app = make_application("gaitmon review", log)
     win = ReviewWindow(QSettings())
     win.show()
     if getattr(args, "file", None):
         QTimer.singleShot(0, functools.partial(win.open_file, args.file))
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: win.close())
-    wake = QTimer()
-    wake.start(250)
-    wake.timeout.connect(lambda: None)
-    return int(app.exec())
+    return exec_until_closed(app, win)
