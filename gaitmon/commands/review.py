@@ -14,15 +14,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gaitmon.ui import display_problem
+    from gaitmon.ui import launch
 
     if args.file is not None and not Path(args.file).exists():
         raise UserError(f"{args.file} does not exist; check the file name and folder")
-    problem = display_problem()
-    if problem is not None:
-        raise UserError(problem)
-    try:
-        from gaitmon.ui.review.window import run as run_window
-    except ImportError as exc:  # PySide6 missing, or a system library Qt needs
-        raise UserError(f"the desktop interface cannot start: {exc}") from None
-    return run_window(args)
+    return launch("gaitmon.ui.review.window", args)

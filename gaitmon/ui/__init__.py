@@ -1,12 +1,14 @@
 """Desktop user interface. The only package in gaitmon that imports Qt (PySide6, pyqtgraph).
 
-Importing this package does not import Qt: `run_app` checks for a display first and loads the
-window lazily, so the command line keeps working on a headless machine.
+Importing this package does not import Qt: `launch` (behind `run_app` and `gaitmon review`)
+checks for a display first and loads the window lazily, so the command line keeps working on a
+headless machine.
 """
 
 from __future__ import annotations
 
 import ctypes
+import importlib
 import importlib.util
 import os
 import sys
@@ -83,15 +85,25 @@ def x_display_problem() -> str | None:
     return None
 
 
-def run_app(args: Any) -> int:
-    """Open the live monitor (``args.simulate``: connect straight to the simulated unit)."""
+def launch(module: str, args: Any) -> int:
+    """Run ``module.run(args)`` (a gaitmon.ui module that opens a window) when a window can open.
+
+    No display, or Qt not importable (PySide6 missing, or a system library it needs), is a
+    one-line ``gaitmon.cli.UserError``; the module, and with it Qt, is imported only after the
+    display check, because Qt aborts the process when its platform plugin cannot start.
+    """
     from gaitmon.cli import UserError
 
     problem = display_problem()
     if problem is not None:
         raise UserError(problem)
     try:
-        from gaitmon.ui.app import run
+        window_module = importlib.import_module(module)
     except ImportError as exc:  # PySide6 missing, or a system library Qt needs
         raise UserError(f"the desktop interface cannot start: {exc}") from None
-    return run(args)
+    return int(window_module.run(args))
+
+
+def run_app(args: Any) -> int:
+    """Open the live monitor (``args.simulate``: connect straight to the simulated unit)."""
+    return launch("gaitmon.ui.app", args)
