@@ -21,6 +21,12 @@ XCB_HINT = (
 )
 
 
+def one_line(exc: BaseException) -> str:
+    """The first line of an exception's message (its type's name when the message is empty)."""
+    text = str(exc).strip()
+    return (text.splitlines()[0] if text else "") or type(exc).__name__
+
+
 def xcb_plugin_problem(plugin: Path | None = None) -> str | None:
     """Why Qt's X11 plugin would fail to load (one line), or None.
 
@@ -39,8 +45,7 @@ def xcb_plugin_problem(plugin: Path | None = None) -> str | None:
     try:
         ctypes.CDLL(str(plugin))
     except OSError as exc:
-        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        return f"the Qt X11 platform plugin cannot load ({why}); {XCB_HINT}"
+        return f"the Qt X11 platform plugin cannot load ({one_line(exc)}); {XCB_HINT}"
     return None
 
 

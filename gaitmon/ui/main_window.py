@@ -10,16 +10,14 @@ in the log file), never a crash.
 from __future__ import annotations
 
 import functools
-import inspect
 import logging
 import math
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from PySide6.QtCore import QEvent, QSettings, QSize, QStandardPaths, Qt, QTimer
-from PySide6.QtGui import QAction, QActionGroup, QCloseEvent, QKeySequence
+from PySide6.QtGui import QAction, QActionGroup, QCloseEvent
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
@@ -40,6 +38,8 @@ from PySide6.QtWidgets import (
 from gaitmon import __version__
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import EngineError, Mode, Snapshot
+from gaitmon.ui import one_line
+from gaitmon.ui.actions import guarded, make_action
 from gaitmon.ui.connection import (
     SIMULATED_LABEL,
     SIMULATED_PORT,
@@ -80,35 +80,6 @@ SHORTCUTS = [
     ("F1", "this list"),
     ("Ctrl+Q", "quit"),
 ]
-
-
-def guarded(fn: Callable) -> Callable:
-    """Run a slot; turn any exception into a one-line message (and a logged traceback).
-
-    Qt passes signal arguments the slot may not want (``triggered(bool)``): extra positional
-    arguments are dropped.
-    """
-    params = list(inspect.signature(fn).parameters.values())[1:]
-    if any(p.kind == p.VAR_POSITIONAL for p in params):
-        n_args: int | None = None
-    else:
-        n_args = sum(p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) for p in params)
-
-    @functools.wraps(fn)
-    def wrapper(self: MainWindow, *args: Any) -> Any:
-        try:
-            return fn(self, *(args if n_args is None else args[:n_args]))
-        except Exception as exc:
-            self.report_exception(fn.__name__, exc)
-            return None
-
-    return wrapper
-
-
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    first = text.splitlines()[0] if text else ""
-    return first or type(exc).__name__
 
 
 def _fmt_bytes(n: int) -> str:
@@ -222,31 +193,7 @@ class MainWindow(QMainWindow):
     # construction
     # ------------------------------------------------------------------------------------
 
-    def _action(
-        self,
-        text: str,
-        slot: Callable | None = None,
-        shortcut: str | QKeySequence | None = None,
-        tip: str = "",
-        checkable: bool = False,
-    ) -> QAction:
-        a = QAction(text, self)
-        if shortcut is not None:
-            a.setShortcut(QKeySequence(shortcut))
-            a.setShortcutContext(Qt.ShortcutContext.WindowShortcut)
-        if tip:
-            a.setToolTip(tip)
-            a.setStatusTip(tip)
-        a.setCheckable(checkable)
-        if slot is not None:
-            # explicit lambdas: PySide decides how many signal arguments to pass from the
-            # callable's own parameters, which `guarded` hides
-            if checkable:
-                a.triggered.connect(lambda checked, s=slot: s(checked))
-            else:
-                a.triggered.connect(lambda *_, s=slot: s())
-        self.addAction(a)  # shortcuts work even when the toolbar is hidden
-        return a
+    _action = make_action  # a method: the window owns its actions
 
     def _build_actions(self) -> None:
         self.act_connect = self._action(
@@ -596,7 +543,7 @@ class MainWindow(QMainWindow):
 
     def report_exception(self, where: str, exc: BaseException) -> None:
         log.error("unexpected error in %s", where, exc_info=exc)
-        msg = f"Unexpected error ({where}): {_one_line(exc)}"
+        msg = f"Unexpected error ({where}): {one_line(exc)}"
         self.errors.append(msg)
         self.notify(msg)
 
@@ -698,7 +645,7 @@ class MainWindow(QMainWindow):
         if exc is not None or conn is None:
             self._set_state_pill("Disconnected", "ok")
             self._update_controls()
-            why = _one_line(exc) if exc is not None else "unknown reason"
+            why = one_line(exc) if exc is not None else "unknown reason"
             if exc is not None and not isinstance(exc, EngineError):
                 log.error("connect failed", exc_info=exc)
             self.notify(f"Could not connect: {why}", 30_000)
@@ -1028,7 +975,7 @@ class MainWindow(QMainWindow):
         try:
             conn.engine.start_recording(form.path, meta)
         except EngineError as exc:
-            self.notify(f"Could not start recording: {_one_line(exc)}", 30_000)
+            self.notify(f"Could not start recording: {one_line(exc)}", 30_000)
             return
         p = self.prefs
         p.set("session/folder", str(form.path.parent))
@@ -1090,7 +1037,7 @@ class MainWindow(QMainWindow):
         if exc is None:
             self.notify("Standing pose zeroed: angles now read 0 in this pose.")
         elif isinstance(exc, EngineError):
-            self.notify(f"Zero refused: {_one_line(exc)}", 30_000)
+            self.notify(f"Zero refused: {one_line(exc)}", 30_000)
         else:
             self.report_exception("zero", exc)
 
@@ -1117,7 +1064,7 @@ class MainWindow(QMainWindow):
             try:
                 self.conn.engine.apply_config(cfg)
             except EngineError as exc:
-                self.notify(f"Settings not applied: {_one_line(exc)}", 30_000)
+                self.notify(f"Settings not applied: {one_line(exc)}", 30_000)
                 return
         self.config = cfg
         self.prefs.save_pipeline_config(cfg)

@@ -17,16 +17,14 @@ from __future__ import annotations
 import argparse
 import functools
 import importlib.util
-import inspect
 import json
 import logging
 import math
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from PySide6.QtCore import QSettings, Qt, QTimer, Signal
-from PySide6.QtGui import QAction, QCloseEvent, QDragEnterEvent, QDropEvent, QKeySequence
+from PySide6.QtGui import QAction, QCloseEvent, QDragEnterEvent, QDropEvent
 from PySide6.QtWidgets import (
     QFileDialog,
     QHBoxLayout,
@@ -43,6 +41,8 @@ from PySide6.QtWidgets import (
 from gaitmon import __version__
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.session import SessionError, journal_path
+from gaitmon.ui import one_line
+from gaitmon.ui.actions import guarded, make_action
 from gaitmon.ui.dialogs import ERROR_STYLE, SettingsDialog
 from gaitmon.ui.review import exclusions as excl
 from gaitmon.ui.review.cycles import CyclePlots
@@ -65,34 +65,11 @@ MAX_RECENT = 8
 FILE_FILTER = "gaitmon sessions (*.h5 *.hdf5);;All files (*)"
 
 
-def guarded(fn: Callable) -> Callable:
-    """Run a slot; any exception becomes one line in the banner and a logged traceback."""
-    params = list(inspect.signature(fn).parameters.values())[1:]
-    n_args = sum(p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) for p in params)
-
-    @functools.wraps(fn)
-    def wrapper(self: ReviewWindow, *args: Any) -> Any:
-        try:
-            return fn(self, *args[:n_args])
-        except Exception as exc:
-            log.exception("review: %s failed", fn.__name__)
-            self.errors.append(f"{fn.__name__}: {exc}")
-            self.show_problem(f"Unexpected error in {fn.__name__}: {_one_line(exc)}")
-            return None
-
-    return wrapper
-
-
 def _available(module: str) -> bool:
     try:
         return importlib.util.find_spec(module) is not None
     except (ImportError, ValueError):
         return False
-
-
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return (text.splitlines()[0] if text else "") or type(exc).__name__
 
 
 class ReviewWindow(QMainWindow):
@@ -196,32 +173,7 @@ class ReviewWindow(QMainWindow):
         v.addWidget(split, 1)
         self.setCentralWidget(central)
 
-    def _action(
-        self,
-        text: str,
-        slot: Callable | None = None,
-        shortcut: str | None = None,
-        tip: str = "",
-        checkable: bool = False,
-        checked: bool = False,
-    ) -> QAction:
-        a = QAction(text, self)
-        if shortcut:
-            a.setShortcut(QKeySequence(shortcut))
-            a.setShortcutContext(Qt.ShortcutContext.WindowShortcut)
-        if tip:
-            a.setToolTip(tip)
-            a.setStatusTip(tip)
-        a.setCheckable(checkable)
-        if checkable:
-            a.setChecked(checked)
-        if slot is not None:
-            if checkable:
-                a.triggered.connect(lambda on, s=slot: s(on))
-            else:
-                a.triggered.connect(lambda *_, s=slot: s())
-        self.addAction(a)
-        return a
+    _action = make_action  # a method: the window owns its actions
 
     def _build_actions(self) -> None:
         A = self._action
@@ -363,6 +315,12 @@ class ReviewWindow(QMainWindow):
 
     # -- messages ------------------------------------------------------------------------------
 
+    def report_exception(self, where: str, exc: BaseException) -> None:
+        """An unexpected exception (from a `guarded` slot): one line in the banner, and logged."""
+        log.error("review: %s failed", where, exc_info=exc)
+        self.errors.append(f"{where}: {exc}")
+        self.show_problem(f"Unexpected error in {where}: {one_line(exc)}")
+
     def show_problem(self, text: str) -> None:
         self.last_problem = text
         self.banner.setText(text)
@@ -446,7 +404,7 @@ class ReviewWindow(QMainWindow):
     def _opened(self, path: Path, doc: Document | None, exc: BaseException | None) -> None:
         self._hide_progress()
         if exc is not None or doc is None:
-            why = _one_line(exc) if exc else "unknown error"
+            why = one_line(exc) if exc else "unknown error"
             msg = str(exc) if isinstance(exc, SessionError) else f"cannot open {path.name}: {why}"
             if not isinstance(exc, SessionError) and exc is not None:
                 log.error("opening %s failed", path, exc_info=exc)
@@ -691,7 +649,7 @@ class ReviewWindow(QMainWindow):
         if doc is not self.doc:
             return
         if exc is not None:
-            self.show_problem(f"Stride analysis failed: {_one_line(exc)}")
+            self.show_problem(f"Stride analysis failed: {one_line(exc)}")
             return
         a, b = result
         self.analysis, self.before = a, b
@@ -745,7 +703,7 @@ class ReviewWindow(QMainWindow):
         if doc is not self.doc:
             return
         if exc is not None:
-            self.show_problem(f"Reprocessing failed: {_one_line(exc)}")
+            self.show_problem(f"Reprocessing failed: {one_line(exc)}")
             return
         doc.reprocessed = src
         self.timeline.set_fsr_threshold(src.config.fsr_threshold)
@@ -810,7 +768,7 @@ class ReviewWindow(QMainWindow):
         def done(result: Any, exc: BaseException | None) -> None:
             self._hide_progress()
             if exc is not None:
-                self.show_problem(f"Cannot save: {_one_line(exc)}")
+                self.show_problem(f"Cannot save: {one_line(exc)}")
             else:
                 self.statusBar().showMessage(f"Saved {result}", 10_000)
 
@@ -876,12 +834,12 @@ class ReviewWindow(QMainWindow):
         def done(data: Any, exc: BaseException | None) -> None:
             self._hide_progress()
             if exc is not None:
-                self.show_problem(f"Cannot make the report: {_one_line(exc)}")
+                self.show_problem(f"Cannot make the report: {one_line(exc)}")
                 return
             try:
                 out = write_report_pdf(data, path)
             except OSError as e:
-                self.show_problem(f"Cannot write the report: {_one_line(e)}")
+                self.show_problem(f"Cannot write the report: {one_line(e)}")
                 return
             note = " (recorded series; reprocessing is not in the report)" if (
                 doc.reprocessed is not None) else ""  # fmt: skip
@@ -929,7 +887,7 @@ class ReviewWindow(QMainWindow):
         try:
             bands = load_normative(path)
         except (NormativeError, OSError) as e:
-            self.show_problem(f"Cannot load the normative band: {_one_line(e)}")
+            self.show_problem(f"Cannot load the normative band: {one_line(e)}")
             return
         self.settings.setValue("review/normative_folder", str(Path(path).parent))
         self.set_normative(bands)
