@@ -1,5 +1,6 @@
 import os
 import pathlib
+from collections.abc import Callable
 
 import pytest
 
@@ -14,3 +15,26 @@ def shared_data() -> pathlib.Path:
     if not SHARED_DATA.is_dir():
         pytest.skip("../shared/data is not present")
     return SHARED_DATA
+
+
+@pytest.fixture(scope="session")
+def record_simulated() -> Callable[..., pathlib.Path]:
+    """``record_simulated(path, *options, duration_s=30, standing_s=2)`` records a session from
+    the simulator with ``gaitmon record --simulate`` in-process (quiet, 20x real time) into
+    ``path``, asserts the command succeeded and returns ``path``. ``options`` are further
+    ``gaitmon record`` options (patient, losses, mode...). Session-scoped so module-scoped
+    fixtures can record once per module with it."""
+
+    def record(
+        path: pathlib.Path, *options: str, duration_s: float = 30, standing_s: float = 2
+    ) -> pathlib.Path:
+        from gaitmon.cli import main
+
+        rc = main(
+            ["record", "--simulate", "--duration", f"{duration_s:g}", "-o", str(path),
+             "--speed", "20", "--standing-s", f"{standing_s:g}", "--quiet", *options]
+        )  # fmt: skip
+        assert rc == 0
+        return path
+
+    return record

@@ -36,61 +36,21 @@ OPERATOR = "T. Nurse"
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    p = tmp_path_factory.mktemp("report") / "walk.h5"
-    rc = main(
-        [
-            "record",
-            "--simulate",
-            "--duration",
-            "30",
-            "-o",
-            str(p),
-            "--speed",
-            "20",
-            "--standing-s",
-            "2",
-            "--quiet",
-            "--patient",
-            PATIENT,
-            "--operator",
-            OPERATOR,
-            "--side",
-            "R",
-            "--loss-pct",
-            "1",
-            "--corrupt-pct",
-            "0.5",
-        ]
-    )
-    assert rc == 0
-    return p
+def session(tmp_path_factory: pytest.TempPathFactory, record_simulated) -> Path:
+    return record_simulated(
+        tmp_path_factory.mktemp("report") / "walk.h5",
+        "--patient", PATIENT, "--operator", OPERATOR, "--side", "R",
+        "--loss-pct", "1", "--corrupt-pct", "0.5",
+    )  # fmt: skip
 
 
 @pytest.fixture(scope="module")
-def tilt_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    p = tmp_path_factory.mktemp("report_tilt") / "tilt.h5"
-    rc = main(
-        [
-            "record",
-            "--simulate",
-            "--mode",
-            "tilt",
-            "--duration",
-            "8",
-            "-o",
-            str(p),
-            "--speed",
-            "20",
-            "--standing-s",
-            "1",
-            "--quiet",
-            "--patient",
-            "X9",
-        ]
-    )
-    assert rc == 0
-    return p
+def tilt_session(tmp_path_factory: pytest.TempPathFactory, record_simulated) -> Path:
+    return record_simulated(
+        tmp_path_factory.mktemp("report_tilt") / "tilt.h5",
+        "--mode", "tilt", "--patient", "X9",
+        duration_s=8, standing_s=1,
+    )  # fmt: skip
 
 
 def _page_count(pdf: Path) -> int:

@@ -19,7 +19,6 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QImage
 
-from gaitmon.cli import main
 from gaitmon.dsp.lab_filters import TILT_FILTERS, make_tilt_filter
 from gaitmon.io.export import export_session
 from gaitmon.io.session import open_session
@@ -28,29 +27,10 @@ PATIENT = "P-0042"
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    p = tmp_path_factory.mktemp("widgets") / "walk.h5"
-    rc = main(
-        [
-            "record",
-            "--simulate",
-            "--duration",
-            "30",
-            "-o",
-            str(p),
-            "--speed",
-            "20",
-            "--standing-s",
-            "2",
-            "--quiet",
-            "--patient",
-            PATIENT,
-            "--loss-pct",
-            "0.5",
-        ]
+def session(tmp_path_factory: pytest.TempPathFactory, record_simulated) -> Path:
+    return record_simulated(
+        tmp_path_factory.mktemp("widgets") / "walk.h5", "--patient", PATIENT, "--loss-pct", "0.5"
     )
-    assert rc == 0
-    return p
 
 
 def _rgb(img) -> np.ndarray:

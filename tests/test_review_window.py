@@ -27,12 +27,8 @@ WAIT_MS = 20_000
 
 
 @pytest.fixture(scope="module")
-def recorded(tmp_path_factory):
-    p = tmp_path_factory.mktemp("rec") / "walk.h5"
-    rc = cli_main(["record", "--simulate", "--duration", "40", "-o", str(p), "--speed", "20",
-                   "--standing-s", "2", "--quiet"])  # fmt: skip
-    assert rc == 0
-    return p
+def recorded(tmp_path_factory, record_simulated):
+    return record_simulated(tmp_path_factory.mktemp("rec") / "walk.h5", duration_s=40)
 
 
 @pytest.fixture
