@@ -170,6 +170,10 @@ class Snapshot:
     gait: GaitStatus
     mode: Mode
     calibrated: bool
+    # the last block the engine could not read or process ("" if none) and how many; such a
+    # block is not shown, and a recording gets a gap in its place
+    engine_error: str = ""
+    engine_errors: int = 0
 
 
 # ------------------------------------------------------------------------------------------
@@ -178,24 +182,61 @@ class Snapshot:
 
 
 class _Recorder:
-    """The single thread that owns the session writer."""
+    """The single thread that owns the session writer.
 
-    def __init__(self, writer: Any, queue_max: int) -> None:
+    Only sample blocks are bounded (``queue_max`` of them waiting): a stalled disk drops blocks,
+    never a settings change, a calibration, a marker or the stop. The fields under "engine
+    thread" are the engine's bookkeeping for this recording; only the engine thread uses them.
+    """
+
+    def __init__(
+        self,
+        writer: Any,
+        queue_max: int,
+        header_config: PipelineConfig | None = None,
+        header_calibration: Calibration | None = None,
+    ) -> None:
         self.writer = writer
-        self.queue: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize=queue_max)
+        self.queue: queue.Queue[tuple[str, Any]] = queue.Queue()
+        self.queue_max = queue_max
+        self._blocks_waiting = 0
+        self._count_lock = threading.Lock()
         self.dropped = 0
         self.error = ""
         self.rows = 0
         self.file_bytes = 0
+        self.finished = False  # the thread ended on the stop item (not by a BaseException)
+        # engine thread: engine sample index of row 0 (set at the first block handed over),
+        # frames the unit sent that will not be rows (carried into the next row's lost_before)
+        # and why, the first engine index whose events may still be written, and what the
+        # header already holds (a change pending at the start is not logged again)
+        self.record_offset: int | None = None
+        self.carry_lost = 0
+        self.carry_reason = ""
+        self.events_from = 0
+        self.header_config = header_config
+        self.header_calibration = header_calibration
         self.thread = threading.Thread(target=self._run, name="gaitmon-recorder", daemon=True)
         self.started_monotonic_s = time.monotonic()
         self.thread.start()
 
     def put(self, item: tuple[str, Any]) -> None:
-        try:
-            self.queue.put_nowait(item)
-        except queue.Full:
-            self.dropped += 1
+        """Queue a control item (never refused: they are few and small)."""
+        self.queue.put_nowait(item)
+
+    def put_block(self, item: tuple[str, Any]) -> bool:
+        """Queue a block; False (and counted) if ``queue_max`` blocks are already waiting."""
+        with self._count_lock:
+            if self._blocks_waiting >= self.queue_max:
+                self.dropped += 1
+                return False
+            self._blocks_waiting += 1
+        self.queue.put_nowait(item)
+        return True
+
+    @property
+    def alive(self) -> bool:
+        return self.thread.is_alive()
 
     def _append(
         self,
@@ -204,8 +245,10 @@ class _Recorder:
         processed: PipelineBlock | None,
         offset: int,
         gap_reason: str,
+        first_gap_reason: str = "",
     ) -> None:
-        """Write a block, logging a gap at each row where frames were lost before it."""
+        """Write a block, logging a gap at each row where frames were lost before it
+        (``first_gap_reason``, if given, is the reason of a gap before the block's first row)."""
         lost = samples.lost_before
         if lost is not None and w.rows == 0 and lost[0]:
             lost = lost.copy()  # frames lost before the first recorded row are not in the session
@@ -221,7 +264,8 @@ class _Recorder:
             if a == b:
                 continue
             if lost[a]:
-                w.add_gap(int(lost[a]), float(lost[a]) / fs, gap_reason or "frames lost")
+                why = (first_gap_reason if a == 0 else "") or gap_reason or "frames lost"
+                w.add_gap(int(lost[a]), float(lost[a]) / fs, why)
             part_p = None if processed is None else _slice_pipeline(processed, a, b, k == 0)
             w.append(_slice_samples(samples, a, b), part_p, event_offset=offset)
 
@@ -229,17 +273,18 @@ class _Recorder:
         from gaitmon.io.session import SessionError
 
         w = self.writer
-        stop_reason = "user"
         failed = False
         while True:
             try:
                 kind, payload = self.queue.get(timeout=0.05)
             except queue.Empty:
                 kind, payload = "tick", None
-            if kind == "stop":
-                stop_reason = payload
+            if kind == "append":
+                with self._count_lock:
+                    self._blocks_waiting -= 1
             if failed:
                 if kind == "stop":
+                    self.finished = True
                     return
                 continue
             try:
@@ -254,16 +299,26 @@ class _Recorder:
                 elif kind == "link":
                     w.update_link(payload)
                 elif kind == "stop":
-                    w.close(stop_reason=stop_reason)
+                    w.close(stop_reason=payload)
                     self.rows, self.file_bytes = w.rows, w.bytes_written
+                    self.finished = True
                     return
                 w.maybe_flush()
                 self.rows, self.file_bytes = w.rows, w.bytes_written
-            except (SessionError, OSError) as exc:
-                self.error = str(exc)
+            except Exception as exc:  # any failure must stop the recording visibly
                 failed = True
-                with contextlib.suppress(Exception):
-                    w.close(stop_reason=f"error: {exc}")
+                if isinstance(exc, (SessionError, OSError)):
+                    self.error = str(exc)
+                    with contextlib.suppress(Exception):
+                        w.close(stop_reason=f"error: {exc}")
+                else:
+                    # a bug, not the disk: the writer's state is unknown, so do not finish the
+                    # file; the journal (the truth) stays and the next open recovers every row
+                    self.error = w.abort(exc)
+                self.rows = w.rows
+                if kind == "stop":  # the stop itself failed: it is over all the same
+                    self.finished = True
+                    return
 
 
 # ------------------------------------------------------------------------------------------
@@ -294,6 +349,8 @@ class Engine:
         self.transport_label = transport_label
         self._pipeline = Pipeline(self.config, self.calibration)
         self._pipeline_offset = 0  # engine sample index of the current pipeline's sample 0
+        self._handed_over = False  # _handle: the current block is with the recorder
+        self._block_start = 0  # _handle: engine index of the current block's first sample
         self._ring = RingBuffer(int(display_seconds * self.fs_hz))
         self._recorder_queue_blocks = recorder_queue_blocks
         self._lock = threading.Lock()  # guards the small mutable state below
@@ -313,16 +370,14 @@ class Engine:
         self._last_data_s = time.monotonic()
         self._pending_config: PipelineConfig | None = None
         self._pending_calibration: Calibration | None = None
-        # what the running recording's header already holds (not logged again as a change)
-        self._header_calibration: Calibration | None = None
-        self._header_config: PipelineConfig | None = None
         self._recorder: _Recorder | None = None
-        self._record_offset = 0
         self._last_recording = RecordingStatus()
         self._identity: Identity | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
-        self._error = ""
+        self._error = ""  # the last device or processing error (Snapshot.engine_error)
+        self._errors = 0  # blocks that could not be read or processed (Snapshot.engine_errors)
+        self._foreign_frames = 0  # frames of another kind than the mode's (not used)
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -381,8 +436,6 @@ class Engine:
         """Open a session file and record every sample from the next block on."""
         from gaitmon.io.session import SessionError, SessionHeader, SessionMeta, SessionWriter
 
-        if self._recorder is not None:
-            raise EngineError("already recording; stop the current recording first")
         ident = self._identity
         device_info = {
             "name": ident.name if ident else "",
@@ -394,9 +447,12 @@ class Engine:
             "channel_table_crc": getattr(ident, "channel_table_crc", 0) if ident else 0,
         }
         with self._lock:
+            if self._recorder is not None:
+                raise EngineError("already recording; stop the current recording first")
             # a zeroing still waiting for the next block is the calibration the file starts with
+            # (the engine thread takes pending changes and applies them under this same lock,
+            # so the header is exactly what the first recorded block is processed with)
             calibration = self._pending_calibration or self.calibration
-            self._header_calibration = calibration
             header = SessionHeader(
                 mode=self.mode.value,
                 sample_rate_hz=self.fs_hz,
@@ -405,19 +461,27 @@ class Engine:
                 config=self._pending_config or self.config,
                 calibration=calibration,
             )
-            self._header_config = header.config
             try:
                 writer = SessionWriter(path, header, overwrite=overwrite)
             except SessionError as exc:
                 raise EngineError(str(exc)) from exc
             except OSError as exc:
                 raise EngineError(f"cannot create {path}: {exc.strerror or exc}") from exc
-            self._record_offset = self._samples
-            self._recorder = _Recorder(writer, self._recorder_queue_blocks)
+            # row 0 is the first sample of the next block the engine thread starts on (it
+            # sets the recorder's record_offset then): never half a block, never one too late
+            self._recorder = _Recorder(
+                writer, self._recorder_queue_blocks, header.config, calibration
+            )
             self._last_recording = RecordingStatus()
 
     def stop_recording(self, reason: str = "user", timeout_s: float = 30.0) -> RecordingStatus:
-        """Finish the file (complete, journal removed) and return the final status."""
+        """Finish the file (complete, journal removed) and return the final status.
+
+        Waits up to ``timeout_s`` for the recorder to write what is queued and close the file.
+        If it has not finished by then (a stalled disk), the status says so in ``error``; the
+        recorder carries on in the background, and if the process ends first the journal
+        keeps every row handed over (the next open recovers the file).
+        """
         with self._lock:
             rec = self._recorder
             self._recorder = None
@@ -425,32 +489,37 @@ class Engine:
             return self._last_recording
         with contextlib.suppress(Exception):
             rec.put(("link", self.device.stats))
-        # the stop item must get through even if the queue is full: wait for room
-        deadline = time.monotonic() + timeout_s
-        while True:
-            try:
-                rec.queue.put(("stop", reason), timeout=0.1)
-                break
-            except queue.Full:
-                if time.monotonic() > deadline:
-                    break
-        rec.thread.join(timeout=max(0.0, deadline - time.monotonic()))
+        rec.put(("stop", reason))  # control items are never refused, even by a full queue
+        rec.thread.join(timeout=max(0.0, timeout_s))
         status = self._recording_status(rec)
-        self._last_recording = RecordingStatus(**{**status.__dict__, "active": False})
+        if rec.alive and not status.error:
+            name = Path(status.path).name
+            status = dataclasses.replace(
+                status,
+                error=(
+                    f"the recording to {name} was not finished after {timeout_s:g} s (slow "
+                    "disk?); it finishes in the background, and if gaitmon quits first the "
+                    "file is recovered from its journal when next opened"
+                ),
+            )
+        self._last_recording = dataclasses.replace(status, active=False)
         return self._last_recording
 
     def _recording_status(self, rec: _Recorder | None) -> RecordingStatus:
         if rec is None:
             return self._last_recording
+        error = rec.error
+        if not error and not rec.alive and not rec.finished:
+            error = "the recorder stopped unexpectedly"  # only a BaseException gets here
         return RecordingStatus(
-            active=not rec.error,
+            active=not error,
             path=str(rec.writer.path),
             started_monotonic_s=rec.started_monotonic_s,
             elapsed_s=time.monotonic() - rec.started_monotonic_s,
             rows=rec.rows,
             file_bytes=rec.file_bytes,
             dropped_blocks=rec.dropped,
-            error=rec.error,
+            error=error,
         )
 
     @property
@@ -511,6 +580,7 @@ class Engine:
             rates = list(self._rate_times)
             gait = self._gait_status(series)
             rec = self._recording_status(self._recorder)
+            engine_error, engine_errors = self._error, self._errors
         rate = 0.0
         if len(rates) >= 2 and rates[-1][0] > rates[0][0]:
             rate = (rates[-1][1] - rates[0][1]) / (rates[-1][0] - rates[0][0])
@@ -529,12 +599,14 @@ class Engine:
             last_data_age_s=time.monotonic() - self._last_data_s,
             link=link,
             link_state=status.state.value if status is not None else "closed",
-            link_reason=(status.reason or "") if status is not None else self._error,
+            link_reason=(status.reason or "") if status is not None else engine_error,
             seconds_to_reconnect=status.seconds_to_next_attempt() if status is not None else None,
             recording=rec,
             gait=gait,
             mode=self.mode,
             calibrated=bool(np.any(self.calibration.tilt_offset_rad != 0)),
+            engine_error=engine_error,
+            engine_errors=engine_errors,
         )
 
     def _gait_status(self, series: dict[str, np.ndarray]) -> GaitStatus:
@@ -571,13 +643,19 @@ class Engine:
             try:
                 block = self.device.read_block(timeout_s=0.05)
             except Exception as exc:  # the device died under us: keep the reason, keep running
-                self._error = f"device error: {exc}"
+                self._note_error(f"device error: {exc}")
                 time.sleep(0.05)
                 continue
             now = time.monotonic()
             if block is not None and len(block):
                 self._last_data_s = now
-                self._handle(block)
+                try:
+                    self._handle(block)
+                except Exception as exc:  # never let one block kill acquisition
+                    try:
+                        self._block_failed(block, exc)
+                    except Exception as again:
+                        self._note_error(f"processing error: {type(again).__name__}: {again}")
             if now - last_link_push >= 1.0:
                 last_link_push = now
                 with self._lock:
@@ -585,31 +663,56 @@ class Engine:
                         with contextlib.suppress(Exception):
                             self._recorder.put(("link", self.device.stats))
 
-    def _handle(self, block: SampleBlock) -> None:
+    def _note_error(self, text: str) -> None:
         with self._lock:
+            self._errors += 1
+            self._error = " ".join(text.split())[:300]
+
+    def _handle(self, block: SampleBlock) -> None:
+        self._handed_over = False
+        self._block_start = self._samples
+        with self._lock:
+            # take pending changes and make them current in one step, so a recording started
+            # meanwhile puts exactly what this block is processed with into its header
             cfg, self._pending_config = self._pending_config, None
             cal, self._pending_calibration = self._pending_calibration, None
+            if cfg is not None:
+                self.config = cfg
+            if cal is not None:
+                self.calibration = cal
             rec = self._recorder
+        start_idx = self._samples
+        first = rec is not None and rec.record_offset is None
+        if rec is not None and rec.record_offset is None:
+            rec.record_offset = start_idx  # row 0 = this block's first sample
+            rec.events_from = start_idx
         if cfg is not None:
-            self.config = cfg
             self._pipeline = Pipeline(cfg, self.calibration)
-            self._pipeline_offset = self._samples
-            if rec is not None and cfg is not self._header_config:
+            self._pipeline_offset = start_idx
+            if rec is not None and not (first and cfg is rec.header_config):
                 rec.put(("config", cfg))
         if cal is not None:
-            self.calibration = cal
             self._pipeline.set_calibration(cal)
-            if rec is not None and cal is not self._header_calibration:
+            if rec is not None and not (first and cal is rec.header_calibration):
                 rec.put(("calibration", cal))
         if self._seq0 is None:
             self._seq0 = int(block.seq[0])
+        if block.kind != self.mode.frame_kind:
+            # not this session's frames (a unit that restarted into its default kind before
+            # the setup was sent again): neither shown nor recorded; the file gets a gap
+            self._foreign_frames += len(block)
+            self._note_error(
+                f"the unit sent {FrameKind(block.kind).name} frames in {self.mode.value} mode; "
+                f"{len(block)} frames ignored"
+            )
+            self._not_recorded(rec, block, f"frames lost: {FrameKind(block.kind).name} frames")
+            return
         reconnects = self.device.stats.transport.reconnects
         gap_reason = ""
         if reconnects != self._reconnects_seen:
             self._reconnects_seen = reconnects
             gap_reason = "link lost: reconnected"
         t_s = (block.seq - self._seq0) / self.fs_hz
-        start_idx = self._samples
         if block.kind == FrameKind.RAW and block.adc is not None:
             p = self._pipeline.process(block.adc)
             offset = self._pipeline_offset
@@ -618,13 +721,23 @@ class Engine:
             to_idx = p.toe_off_idx + offset
             strides = [_shift(s, offset) for s in p.strides]
             if rec is not None:
-                rec.put(("append", (block, p, self._record_offset - offset, gap_reason)))
+                assert rec.record_offset is not None
+                # events back-dated into frames the file does not hold are not the file's
+                lo = rec.events_from - offset
+                if (p.heel_strike_idx < lo).any() or (p.toe_off_idx < lo).any():
+                    p = dataclasses.replace(
+                        p,
+                        heel_strike_idx=p.heel_strike_idx[p.heel_strike_idx >= lo],
+                        toe_off_idx=p.toe_off_idx[p.toe_off_idx >= lo],
+                    )
+                self._hand_over(rec, block, p, rec.record_offset - offset, gap_reason)
         else:
             cols = _cols_from_device(block, t_s)
             hs_idx, to_idx = self._device_events(block, start_idx)
             strides = self._device_strides.process(hs_idx, to_idx)
             if rec is not None:
-                rec.put(("append", (block, None, 0, gap_reason)))
+                self._hand_over(rec, block, None, 0, gap_reason)
+        self._handed_over = True
         self._ring.append(cols)
         self._samples += len(block)
         with self._lock:
@@ -637,6 +750,71 @@ class Engine:
                 self._last_hs_idx = int(hs_idx[-1])
             for s in strides:
                 self._add_stride(s)
+
+    def _hand_over(
+        self,
+        rec: _Recorder,
+        block: SampleBlock,
+        p: PipelineBlock | None,
+        event_offset: int,
+        gap_reason: str,
+    ) -> None:
+        """Queue a block for the recorder, with the frames not recorded before it as lost."""
+        first_reason = ""
+        out = block
+        if rec.carry_lost and block.lost_before is not None:
+            lost = block.lost_before.copy()
+            lost[0] += rec.carry_lost
+            out = dataclasses.replace(block, lost_before=lost)
+            first_reason = rec.carry_reason
+        if rec.put_block(("append", (out, p, event_offset, gap_reason, first_reason))):
+            rec.carry_lost, rec.carry_reason = 0, ""
+            return
+        # the queue is full (a stalled disk): these rows will not exist, so later rows move
+        # up by len(block) and the frames become a gap before the next row that is recorded
+        self._samples_dropped_from_file(rec, block, "frames lost: recorder queue full")
+
+    def _samples_dropped_from_file(self, rec: _Recorder, block: SampleBlock, why: str) -> None:
+        """A block the engine processed (its samples have engine indices) but not recorded."""
+        assert rec.record_offset is not None
+        n = len(block)
+        lost = 0 if block.lost_before is None else int(block.lost_before.sum())
+        rec.carry_lost += n + lost
+        rec.carry_reason = rec.carry_reason or why
+        rec.record_offset += n
+        rec.events_from = self._samples + n
+
+    def _not_recorded(self, rec: _Recorder | None, block: SampleBlock, why: str) -> None:
+        """A block that got no engine indices (not processed): its frames become a gap."""
+        if rec is None:
+            return
+        lost = 0 if block.lost_before is None else int(block.lost_before.sum())
+        rec.carry_lost += len(block) + lost
+        rec.carry_reason = rec.carry_reason or why
+
+    def _block_failed(self, block: SampleBlock, exc: Exception) -> None:
+        """``_handle`` raised (a bug, or a block the pipeline cannot take): say so, keep the
+        indices of the display, the pipeline and the recording consistent, carry on."""
+        self._note_error(f"processing error: {type(exc).__name__}: {exc}")
+        with self._lock:
+            rec = self._recorder
+        if rec is not None and rec.record_offset is None:
+            rec = None  # the recording had not started with this block
+        if getattr(self, "_handed_over", False):
+            # the block is in the file: only the display bookkeeping after it failed
+            if self._samples == self._block_start:
+                self._samples += len(block)
+            return
+        # the block is not in the file and may have left the pipeline half-updated: a fresh
+        # pipeline starts with the next block, and the file logs it as a settings change at
+        # that row (so reprocessing restarts there too) after a gap for this block
+        self._samples = self._block_start
+        self._not_recorded(rec, block, "frames lost: processing error")
+        if self.mode is Mode.RAW:
+            self._pipeline = Pipeline(self.config, self.calibration)
+            self._pipeline_offset = self._samples
+            if rec is not None:
+                rec.put(("config", self.config))
 
     def _add_stride(self, s: Stride) -> None:
         """Normalise a finished stride's joint angles from the ring buffer (lock held)."""

@@ -929,6 +929,22 @@ class SessionWriter:
             raise err from e
         self._closed = True
 
+    def abort(self, exc: BaseException) -> str:
+        """Stop after an unexpected error (a bug, not a write failure): release the files
+        without finishing the HDF5 file and keep the journal, so the next open recovers every
+        row handed over. Returns the one-line message (also :attr:`error` from now on)."""
+        if self._error is None:
+            what = " ".join(str(exc).split())[:200] or type(exc).__name__
+            self._error = SessionError(
+                f"recording to {self._path.name} stopped by an internal error "
+                f"({type(exc).__name__}: {what}); everything up to row {self._rows} "
+                f"({self._rows / self._fs:.1f} s) is saved and is recovered when the file is "
+                "next opened"
+            )
+        self._closed = True
+        self._release()
+        return str(self._error)
+
     def __enter__(self) -> SessionWriter:
         return self
 
