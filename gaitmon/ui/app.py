@@ -62,16 +62,14 @@ def _setup_logging() -> Path | None:
     return path
 
 
-def make_application(
-    program: str, logger: logging.Logger = log, *, display_name: str | None = None
-) -> QApplication:
+def make_application(program: str, logger: logging.Logger = log) -> QApplication:
     """The QApplication a gaitmon window runs in (the one already made, if any), set up.
 
     High-DPI pass-through scaling, the organisation and application names (they place
     ``QSettings``), the drawn icon, the log file, and an excepthook: an exception escaping a Qt
     virtual (paint, event) is logged to ``logger`` with its traceback and printed as one line,
-    ``PROGRAM: internal error: ...``. ``display_name``, when given, is the application display
-    name (on Linux, Qt appends it to window titles).
+    ``PROGRAM: internal error: ...``. No application display name is set: Qt would append it
+    to every window title ("gaitmon — live monitor — gaitmon").
     """
     QGuiApplication.setHighDpiScaleFactorRoundingPolicy(
         Qt.HighDpiScaleFactorRoundingPolicy.PassThrough
@@ -80,8 +78,6 @@ def make_application(
     assert isinstance(app, QApplication)
     app.setOrganizationName("gaitmon")
     app.setApplicationName("gaitmon")
-    if display_name is not None:
-        app.setApplicationDisplayName(display_name)
     app.setWindowIcon(app_icon())
     log_path = _setup_logging()
 
@@ -109,7 +105,7 @@ def exec_until_closed(app: QApplication, win: QWidget) -> int:
 
 def run(args: Any) -> int:
     """Open the live monitor (``args.simulate``: connect straight to the simulated unit)."""
-    app = make_application("gaitmon", display_name="gaitmon")
+    app = make_application("gaitmon")
 
     from gaitmon.ui.connection import SIMULATED_PORT
     from gaitmon.ui.main_window import MainWindow
