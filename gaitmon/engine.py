@@ -207,13 +207,17 @@ class _Recorder:
         self.file_bytes = 0
         self.finished = False  # the thread ended on the stop item (not by a BaseException)
         # engine thread: engine sample index of row 0 (set at the first block handed over),
+        # engine index ranges [start, end) processed but dropped from the file (a full queue),
         # frames the unit sent that will not be rows (carried into the next row's lost_before)
-        # and why, the first engine index whose events may still be written, and what the
-        # header already holds (a change pending at the start is not logged again)
+        # and why, event rows waiting for the next block, and what the header already holds
+        # (a change pending at the start is not logged again)
         self.record_offset: int | None = None
+        self.drop_starts: list[int] = []
+        self.drop_ends: list[int] = []
+        self.drop_cum: list[int] = []  # samples dropped up to and including each range
         self.carry_lost = 0
         self.carry_reason = ""
-        self.events_from = 0
+        self.carry_events: dict[str, list[int]] = {"heel_strike_idx": [], "toe_off_idx": []}
         self.header_config = header_config
         self.header_calibration = header_calibration
         self.thread = threading.Thread(target=self._run, name="gaitmon-recorder", daemon=True)
@@ -685,7 +689,6 @@ class Engine:
         first = rec is not None and rec.record_offset is None
         if rec is not None and rec.record_offset is None:
             rec.record_offset = start_idx  # row 0 = this block's first sample
-            rec.events_from = start_idx
         if cfg is not None:
             self._pipeline = Pipeline(cfg, self.calibration)
             self._pipeline_offset = start_idx
@@ -721,22 +724,13 @@ class Engine:
             to_idx = p.toe_off_idx + offset
             strides = [_shift(s, offset) for s in p.strides]
             if rec is not None:
-                assert rec.record_offset is not None
-                # events back-dated into frames the file does not hold are not the file's
-                lo = rec.events_from - offset
-                if (p.heel_strike_idx < lo).any() or (p.toe_off_idx < lo).any():
-                    p = dataclasses.replace(
-                        p,
-                        heel_strike_idx=p.heel_strike_idx[p.heel_strike_idx >= lo],
-                        toe_off_idx=p.toe_off_idx[p.toe_off_idx >= lo],
-                    )
-                self._hand_over(rec, block, p, rec.record_offset - offset, gap_reason)
+                self._hand_over(rec, block, p, gap_reason)
         else:
             cols = _cols_from_device(block, t_s)
             hs_idx, to_idx = self._device_events(block, start_idx)
             strides = self._device_strides.process(hs_idx, to_idx)
             if rec is not None:
-                self._hand_over(rec, block, None, 0, gap_reason)
+                self._hand_over(rec, block, None, gap_reason)
         self._handed_over = True
         self._ring.append(cols)
         self._samples += len(block)
@@ -752,14 +746,12 @@ class Engine:
                 self._add_stride(s)
 
     def _hand_over(
-        self,
-        rec: _Recorder,
-        block: SampleBlock,
-        p: PipelineBlock | None,
-        event_offset: int,
-        gap_reason: str,
+        self, rec: _Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str
     ) -> None:
-        """Queue a block for the recorder, with the frames not recorded before it as lost."""
+        """Queue a block for the recorder, with the frames not recorded before it as lost.
+
+        Raw mode: the pipeline's events are turned into file rows here (the engine alone knows
+        which of its samples the file holds), so the writer gets them with offset 0."""
         first_reason = ""
         out = block
         if rec.carry_lost and block.lost_before is not None:
@@ -767,22 +759,55 @@ class Engine:
             lost[0] += rec.carry_lost
             out = dataclasses.replace(block, lost_before=lost)
             first_reason = rec.carry_reason
-        if rec.put_block(("append", (out, p, event_offset, gap_reason, first_reason))):
+        p_rows = p
+        if p is not None:
+            hs, to = (
+                np.concatenate(
+                    [
+                        np.asarray(rec.carry_events[k], np.int64),
+                        self._event_rows(rec, getattr(p, k) + self._pipeline_offset),
+                    ]
+                )
+                for k in ("heel_strike_idx", "toe_off_idx")
+            )
+            p_rows = dataclasses.replace(p, heel_strike_idx=hs, toe_off_idx=to)
+        if rec.put_block(("append", (out, p_rows, 0, gap_reason, first_reason))):
             rec.carry_lost, rec.carry_reason = 0, ""
+            if p is not None:
+                rec.carry_events = {k: [] for k in rec.carry_events}
             return
-        # the queue is full (a stalled disk): these rows will not exist, so later rows move
-        # up by len(block) and the frames become a gap before the next row that is recorded
-        self._samples_dropped_from_file(rec, block, "frames lost: recorder queue full")
-
-    def _samples_dropped_from_file(self, rec: _Recorder, block: SampleBlock, why: str) -> None:
-        """A block the engine processed (its samples have engine indices) but not recorded."""
+        # the queue is full (a stalled disk): these rows will not exist; the frames become a
+        # gap before the next row that is recorded, and events this block confirmed on rows
+        # already recorded go with the next block
         assert rec.record_offset is not None
+        start = self._samples
+        if p is not None:
+            for k in rec.carry_events:
+                idx = getattr(p, k) + self._pipeline_offset
+                rec.carry_events[k].extend(self._event_rows(rec, idx[idx < start]).tolist())
         n = len(block)
-        lost = 0 if block.lost_before is None else int(block.lost_before.sum())
-        rec.carry_lost += n + lost
-        rec.carry_reason = rec.carry_reason or why
-        rec.record_offset += n
-        rec.events_from = self._samples + n
+        n_lost = 0 if block.lost_before is None else int(block.lost_before.sum())
+        rec.carry_lost += n + n_lost
+        rec.carry_reason = rec.carry_reason or "frames lost: recorder queue full"
+        rec.drop_starts.append(start)
+        rec.drop_ends.append(start + n)
+        rec.drop_cum.append((rec.drop_cum[-1] if rec.drop_cum else 0) + n)
+
+    @staticmethod
+    def _event_rows(rec: _Recorder, idx: np.ndarray) -> np.ndarray:
+        """File rows of events at engine indices ``idx`` (those on samples the file holds)."""
+        assert rec.record_offset is not None
+        idx = np.asarray(idx, np.int64)
+        rows = idx - rec.record_offset
+        keep = rows >= 0
+        if rec.drop_starts:
+            ends = np.asarray(rec.drop_ends)
+            k = np.searchsorted(ends, idx, side="right")  # dropped ranges wholly before idx
+            cum = np.concatenate([[0], np.asarray(rec.drop_cum)])
+            rows = rows - cum[k]
+            starts = np.asarray([*rec.drop_starts, np.iinfo(np.int64).max])
+            keep &= ~(starts[k] <= idx)  # inside a dropped range: not in the file
+        return rows[keep]
 
     def _not_recorded(self, rec: _Recorder | None, block: SampleBlock, why: str) -> None:
         """A block that got no engine indices (not processed): its frames become a gap."""
