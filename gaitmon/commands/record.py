@@ -108,6 +108,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         if args.zero:
             _zero(engine, stop)
+        if stop.is_set():  # Ctrl-C while zeroing: the user wants no recording at all
+            raise UserError("stopped before the recording started; nothing was recorded")
         try:
             engine.start_recording(out, meta, overwrite=args.overwrite)
         except EngineError as exc:

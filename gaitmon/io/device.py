@@ -194,6 +194,8 @@ class LinkStats:
     kind: FrameKind
     queue_overflow_frames: int  # data frames dropped because nobody read blocks fast enough
     queued_frames: int
+    rx_errors: int = 0  # unexpected exceptions the receive thread survived
+    rx_error: str = ""  # the last of them, one line ("" if none)
 
     @property
     def reconnects(self) -> int:
@@ -260,6 +262,8 @@ class Device:
         self._last_rx_s = time.monotonic()
         self._wall_offset_s = time.time() - time.monotonic()
         self._thread_error: BaseException | None = None
+        self._rx_errors = 0
+        self._rx_error = ""
 
     # -- lifecycle ------------------------------------------------------------------------
 
@@ -397,6 +401,8 @@ class Device:
             kind=self._kind,
             queue_overflow_frames=overflow,
             queued_frames=queued,
+            rx_errors=self._rx_errors,
+            rx_error=self._rx_error,
         )
 
     # -- acquisition thread ---------------------------------------------------------------
@@ -404,28 +410,43 @@ class Device:
     def _run(self) -> None:
         try:
             while not self._stop.is_set():
-                data = self.transport.read(self._read_timeout_s)
-                now = time.monotonic()
-                connections = self.transport.status.connections
-                expected_advance = None
-                if connections != self._connections_seen:
-                    self._connections_seen = connections
-                    expected_advance = (now - self._last_rx_s) * self.sample_rate_hz
-                    self._after_reconnect()
-                if not data:
-                    continue
-                with self._dec_lock:
-                    frames = self._decoder.feed(data)
-                for frame in frames:
-                    gap_hint = expected_advance if self._streaming else None
-                    seq = self._unwrapper.unwrap(frame.seq, gap_hint)
-                    expected_advance = None
-                    self._route(frame, seq, now)
-                if frames:
-                    self._last_rx_s = now
+                try:
+                    self._receive()
+                except Exception as exc:
+                    # An unexpected failure (a transport that raised although it should not, a
+                    # decoding bug) must not end acquisition for the rest of the session:
+                    # count it, show it in stats, drop the partial bytes and carry on. The
+                    # frames it cost appear as a sequence gap like any other loss.
+                    self._rx_errors += 1
+                    self._rx_error = f"{type(exc).__name__}: {' '.join(str(exc).split())}"[:300]
+                    with self._dec_lock:
+                        self._decoder.discard_buffer()
+                    self._stop.wait(self._read_timeout_s)  # never spin on a lasting fault
         except BaseException as exc:  # keep the reason; stats and commands report the link down
             self._thread_error = exc
             raise
+
+    def _receive(self) -> None:
+        """One read from the transport, decoded and routed."""
+        data = self.transport.read(self._read_timeout_s)
+        now = time.monotonic()
+        connections = self.transport.status.connections
+        expected_advance = None
+        if connections != self._connections_seen:
+            self._connections_seen = connections
+            expected_advance = (now - self._last_rx_s) * self.sample_rate_hz
+            self._after_reconnect()
+        if not data:
+            return
+        with self._dec_lock:
+            frames = self._decoder.feed(data)
+        for frame in frames:
+            gap_hint = expected_advance if self._streaming else None
+            seq = self._unwrapper.unwrap(frame.seq, gap_hint)
+            expected_advance = None
+            self._route(frame, seq, now)
+        if frames:
+            self._last_rx_s = now
 
     def _after_reconnect(self) -> None:
         with self._dec_lock:

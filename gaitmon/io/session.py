@@ -656,6 +656,19 @@ class SessionWriter:
                     f"{jpath.name} exists: an interrupted recording named {name} waits to be "
                     "recovered; open it first, or choose another file name"
                 )
+        elif jpath.exists():
+            # never overwrite a recording in progress (another window or process): deleting
+            # its journal and file would lose the whole session
+            try:
+                with journal_lock(jpath) as free:
+                    pass
+            except OSError:
+                free = True  # gone meanwhile
+            if not free:
+                raise SessionError(
+                    f"{name} is being recorded right now; stop that recording first, or "
+                    "choose another file name"
+                )
         self._journal: JournalWriter | None = None
         self._h5: _H5File | None = None
         hdr = header.as_dict()
