@@ -343,3 +343,56 @@ def test_in_process_transport_moves_bytes_both_ways():
     assert t.read(0.02) == b""
     t.close()
     assert t.status.state == LinkState.CLOSED
+
+
+def test_status_and_close_do_not_wait_for_a_slow_reopen():
+    """An RFCOMM connect can block for seconds; the window reads status ~30 times a second."""
+    opened = []
+
+    def factory(**kw):
+        opened.append(time.monotonic())
+        if len(opened) == 1:
+            return FlakyPort()
+        time.sleep(1.5)  # the slow connect
+        raise serial.SerialException(2, "could not open port: Host is down")
+
+    t = SerialTransport(
+        "/dev/rfcomm0", reconnect=ReconnectPolicy(initial_s=0.01), serial_factory=factory
+    )
+    t.open()
+    reader = threading.Thread(target=lambda: [t.read(0.05) for _ in range(40)], daemon=True)
+    reader.start()
+    deadline = time.monotonic() + 5
+    while len(opened) < 2 and time.monotonic() < deadline:  # the reopen has begun
+        time.sleep(0.01)
+    time.sleep(0.1)
+    t0 = time.monotonic()
+    st = t.status
+    waited = time.monotonic() - t0
+    assert st.state == LinkState.RECONNECTING
+    assert waited < 0.5, f"status waited {waited:.2f} s for the port to open"
+    t.close()
+    reader.join(5)
+    assert not reader.is_alive()
+    assert t.status.state == LinkState.CLOSED
+
+
+def test_a_flapping_link_backs_off_instead_of_retrying_at_the_initial_rate():
+    opened = []
+
+    def factory(**kw):
+        opened.append(time.monotonic())
+        return FlakyPort()  # opens fine, fails on the first read
+
+    policy = ReconnectPolicy(initial_s=0.02, factor=2.0, max_s=1.0, stable_s=5.0)
+    t = SerialTransport("/dev/flappy", reconnect=policy, serial_factory=factory)
+    t.open()
+    deadline = time.monotonic() + 3
+    while len(opened) < 6 and time.monotonic() < deadline:
+        t.read(0.05)
+    t.close()
+    gaps = np.diff(opened)
+    assert len(gaps) >= 4
+    # each quick drop counts as a failure: the waits grow (0.02, 0.04, 0.08, 0.16, ...)
+    assert gaps[3] > 3 * gaps[0]
+    assert np.all(gaps[1:] >= gaps[:-1] * 0.9)

@@ -167,6 +167,9 @@ class ReconnectPolicy:
     factor: float = 2.0
     max_s: float = 5.0  # cap on the wait between attempts
     max_attempts: int | None = None  # None: keep trying until closed
+    # a connection that drops within this time counts as a failed attempt, so a flapping link
+    # (opens, then fails at once) backs off instead of retrying every initial_s forever
+    stable_s: float = 10.0
 
     def delay_s(self, failed_attempts: int) -> float:
         return min(self.initial_s * self.factor**failed_attempts, self.max_s)
@@ -203,6 +206,9 @@ class SerialTransport:
         self._reason = "not opened"
         self._next_attempt_s: float | None = None
         self._attempt = 0
+        self._flaps = 0  # consecutive connections that dropped within policy.stable_s
+        self._connected_s = 0.0
+        self._opening = False  # a reopen is in progress outside the lock
         self._connections = 0
         self._losses = 0
         self._armed = False
@@ -237,7 +243,7 @@ class SerialTransport:
         self._next_attempt_s = None
         self._attempt = 0
         self._connections += 1
-        self._last_rx_s = time.monotonic()
+        self._last_rx_s = self._connected_s = time.monotonic()
 
     def close(self) -> None:
         with self._lock:
@@ -281,31 +287,48 @@ class SerialTransport:
             if gen != self._gen or self._state != LinkState.CONNECTED:
                 return  # already handled, or the port was reopened meanwhile
             self._close_port()
+            now = time.monotonic()
+            self._flaps = self._flaps + 1 if now - self._connected_s < self.policy.stable_s else 0
             self._losses += 1
             self._loss_reason = f"link lost: {reason}"
             self._state, self._reason = LinkState.RECONNECTING, self._loss_reason
             self._attempt = 0
-            self._next_attempt_s = time.monotonic() + self.policy.delay_s(0)
+            self._next_attempt_s = now + self.policy.delay_s(self._flaps)
 
     def _try_reopen(self) -> None:
+        # Opening can block for seconds (an RFCOMM connect): do it outside the lock, so status
+        # (read by the window ~30 times a second) and close() never wait for it.
         with self._lock:
-            if self._state != LinkState.RECONNECTING:
+            if self._state != LinkState.RECONNECTING or self._opening:
                 return
-            try:
-                ser = self._open_port()
-            except Exception as exc:
-                self._attempt += 1
-                why = describe_open_error(self.port, exc)
-                limit = self.policy.max_attempts
-                if limit is not None and self._attempt >= limit:
-                    self._state = LinkState.FAILED
-                    self._reason = f"gave up after {self._attempt} attempts: {why}"
-                    self._next_attempt_s = None
-                    return
-                self._reason = f"{self._loss_reason}; {why}"
-                self._next_attempt_s = time.monotonic() + self.policy.delay_s(self._attempt)
+            self._opening = True
+        try:
+            ser = self._open_port()
+            error: Exception | None = None
+        except Exception as exc:
+            ser, error = None, exc
+        with self._lock:
+            self._opening = False
+            if self._state != LinkState.RECONNECTING:  # closed meanwhile: drop the new port
+                if ser is not None:
+                    with contextlib.suppress(Exception):
+                        ser.close()
                 return
-            self._connected(ser, f"reconnected to {self.port}")
+            if ser is not None:
+                self._connected(ser, f"reconnected to {self.port}")
+                return
+            assert error is not None
+            self._attempt += 1
+            why = describe_open_error(self.port, error)
+            limit = self.policy.max_attempts
+            if limit is not None and self._attempt >= limit:
+                self._state = LinkState.FAILED
+                self._reason = f"gave up after {self._attempt} attempts: {why}"
+                self._next_attempt_s = None
+                return
+            self._reason = f"{self._loss_reason}; {why}"
+            delay = self.policy.delay_s(self._attempt + self._flaps)
+            self._next_attempt_s = time.monotonic() + delay
 
     # -- I/O --------------------------------------------------------------------------------
 
