@@ -66,6 +66,15 @@ def test_health_is_quiet_then_lossy_then_alert():
     assert alert.grade == "alert" and "no data for 2 s" in alert.text
 
 
+def test_health_shows_engine_and_receive_errors_amber_with_the_reason():
+    h = HealthTracker(recent_s=5.0, no_data_alert_s=2.0)
+    clean = h.update(0.0, 1000, 0, 0, 100.0, 0.01)
+    assert clean.grade == "ok" and "error" not in clean.text
+    err = h.update(1.0, 1100, 0, 0, 100.0, 0.01, errors=2, last_error="processing error: boom")
+    assert err.grade == "lossy" and "2 errors" in err.text
+    assert "processing error: boom" in err.tooltip
+
+
 def test_link_view_shows_the_countdown_and_the_reason():
     v = link_view("reconnecting", "link lost: EIO", 1.26, 3.0, "/dev/rfcomm0")
     assert v.state == "reconnecting" and v.grade == "warn"

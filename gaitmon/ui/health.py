@@ -54,7 +54,11 @@ class HealthTracker:
         last_data_age_s: float,
         reconnects: int = 0,
         link_up: bool = True,
+        errors: int = 0,
+        last_error: str = "",
     ) -> Health:
+        """``errors``: blocks the engine could not read or process plus receive errors the
+        device thread survived (never expected; shown amber with the last one in the tooltip)."""
         self._hist.append((now_s, frames_ok, frames_lost, crc_failures))
         while len(self._hist) > 2 and self._hist[1][0] <= now_s - self.recent_s:
             self._hist.popleft()
@@ -67,13 +71,18 @@ class HealthTracker:
             f"CRC failures (corrupted frames): {crc_failures}; reconnects: {reconnects}. "
             f"Frame rate in frames per second (the unit sends 100)."
         )
+        suffix = ""
+        if errors:
+            suffix = f" · {errors} error{'s' if errors != 1 else ''}"
+            tip += f" Processing/receive errors: {errors}; last: {last_error}"
         if not link_up or last_data_age_s >= self.no_data_alert_s:
-            return Health("alert", f"no data for {last_data_age_s:.0f} s · {totals}", tip)
+            return Health("alert", f"no data for {last_data_age_s:.0f} s · {totals}{suffix}", tip)
         if d_lost > 0 or d_crc > 0:
             pct = 100.0 * d_lost / max(d_ok + d_lost, 1)
             window = f"{self.recent_s:g} s"
-            return Health("lossy", f"{rate} · {pct:.1f} % lost, {d_crc} CRC in last {window}", tip)
-        return Health("ok", f"{rate} · {totals}", tip)
+            text = f"{rate} · {pct:.1f} % lost, {d_crc} CRC in last {window}{suffix}"
+            return Health("lossy", text, tip)
+        return Health("lossy" if errors else "ok", f"{rate} · {totals}{suffix}", tip)
 
 
 def link_view(

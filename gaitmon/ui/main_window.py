@@ -852,6 +852,8 @@ class MainWindow(QMainWindow):
                 snap.last_data_age_s,
                 reconnects=link.reconnects,
                 link_up=snap.link_state == "connected",
+                errors=snap.engine_errors + link.rx_errors,
+                last_error=snap.engine_error or link.rx_error,
             )
             colour = {"ok": "palette(window-text)", "lossy": self.colours.warn}.get(
                 h.grade, self.colours.alert
