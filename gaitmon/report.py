@@ -108,22 +108,6 @@ class ReportData:
         return int(self.cycles_deg.shape[0])
 
 
-def session_stride_rows(
-    session: Session, excluded_ranges: Sequence[tuple[int, int]] = ()
-) -> list[StrideRow]:
-    """The stride analysis exactly as ``gaitmon info`` and the review window do it."""
-    joints = session.read("processed/joint_deg") if session.n_samples else None
-    return analyse_strides(
-        session.heel_strike_idx,
-        session.toe_off_idx,
-        session.sample_rate_hz,
-        joints,
-        [(g.sample_idx, g.duration_s) for g in session.gaps],
-        excluded_ranges,
-        t_s=session.read("timeline/t_s") if session.n_samples else None,
-    )
-
-
 def _recorded(created_utc: str) -> str:
     try:
         t = _dt.datetime.fromisoformat(created_utc.replace("Z", "+00:00"))
@@ -218,11 +202,25 @@ def gather_report(
     now_utc: _dt.datetime | None = None,
 ) -> ReportData:
     """Everything the report shows, from an open session."""
-    rows = session_stride_rows(session, excluded_ranges)
+    # the stride analysis exactly as ``gaitmon info`` and the review window do it; the joint
+    # angles are read once (a whole-session read) and serve the strides and the cycles
+    joints = (
+        np.asarray(session.read("processed/joint_deg"), dtype=np.float64)
+        if session.n_samples
+        else None
+    )
+    rows = analyse_strides(
+        session.heel_strike_idx,
+        session.toe_off_idx,
+        session.sample_rate_hz,
+        joints,
+        [(g.sample_idx, g.duration_s) for g in session.gaps],
+        excluded_ranges,
+        t_s=session.read("timeline/t_s") if session.n_samples else None,
+    )
     summ = summary(rows)
-    joints = session.read("processed/joint_deg") if session.n_samples else None
     if joints is not None and rows:
-        cyc = cycles(np.asarray(joints, dtype=np.float64), rows, N_POINTS)
+        cyc = cycles(joints, rows, N_POINTS)
     else:
         cyc = np.empty((0, N_POINTS, 3))
     mean, sd = cycle_mean_sd(cyc)
