@@ -33,7 +33,14 @@ from typing import Any
 import numpy as np
 
 from gaitmon import __version__
-from gaitmon.dsp.channels import CHANNEL_NAMES, JOINTS, SEGMENTS
+from gaitmon.dsp.channels import (
+    CHANNEL_NAMES,
+    DEFAULT_TABLE,
+    JOINTS,
+    SEGMENTS,
+    ChannelSpec,
+    ChannelTable,
+)
 
 FORMATS: tuple[str, ...] = ("csv", "mat", "c3d")
 EXTENSIONS: dict[str, str] = {"csv": ".csv", "mat": ".mat", "c3d": ".c3d"}
@@ -830,14 +837,11 @@ def _c3d_part_spec(src: _Source, plan: C3dPlan, part_no: int, scrub: _Scrubber,
     analog_desc: list[str] = []
     analog_blocks: list[np.ndarray] = []
     if src.has("raw/adc"):
-        table = _channel_conversion(src)
-        counts = np.asarray(src.read("raw/adc", r0, r1), np.float64)
-        analog_blocks.append(
-            (counts * table["volts_per_count"] - table["zero_v"]) / table["sens"]
-        )
+        table = _channel_table(src)
+        analog_blocks.append(table.to_physical(src.read("raw/adc", r0, r1)))
         analog_labels += list(src.channel_names)
-        analog_units += table["units"]
-        analog_desc += [f"ADC channel {i} in physical units" for i in range(len(table["units"]))]
+        analog_units += [c.unit for c in table.channels]
+        analog_desc += [f"ADC channel {i} in physical units" for i in range(len(table.channels))]
     if src.has("processed/fsr_counts"):
         analog_blocks.append(np.asarray(src.read("processed/fsr_counts", r0, r1), np.float64))
         analog_labels += ["heel_fsr_lp", "toe_fsr_lp"]
@@ -1021,19 +1025,13 @@ def _c3d_time(t_s: float) -> list[float]:
     return [float(minutes), t_s - 60.0 * minutes]
 
 
-def _channel_conversion(src: _Source) -> dict[str, Any]:
-    """Per-channel counts -> physical parameters, from the file's own /device/channels."""
-    from gaitmon.dsp.channels import CHANNELS
-
+def _channel_table(src: _Source) -> ChannelTable:
+    """The file's own counts -> physical conversion (/device/channels), else the default."""
     rows = src.channel_table()
     if len(rows) != len(src.channel_names):
-        rows = [c.as_dict() for c in CHANNELS]
-    return {
-        "volts_per_count": np.array([float(r["vref_v"]) / 2 ** int(r["adc_bits"]) for r in rows]),
-        "zero_v": np.array([float(r["zero_v"]) for r in rows]),
-        "sens": np.array([float(r["sensitivity_v_per_unit"]) for r in rows]),
-        "units": [_text(r["unit"]) for r in rows],
-    }
+        return DEFAULT_TABLE
+    fields = ChannelSpec.__dataclass_fields__
+    return ChannelTable(tuple(ChannelSpec(**{k: r[k] for k in fields}) for r in rows))
 
 
 # ------------------------------------------------------------------------------------------
