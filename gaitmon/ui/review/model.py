@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gaitmon.analysis import StrideRow, analyse_strides, summary
-from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd, normalise_strides
+from gaitmon.analysis import StrideRow, analyse_strides, cycles, summary
+from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.overview import Cancelled, SessionOverview
 from gaitmon.io.session import Session, SessionError, open_session, replay_pipeline
@@ -179,7 +179,10 @@ class Analysis:
     cycles_deg: np.ndarray  # (k, 101, 3) included strides, hip/knee/ankle
     mean_deg: np.ndarray  # (101, 3)
     sd_deg: np.ndarray  # (101, 3)
-    stance_pct_mean: float
+
+    @property
+    def stance_pct_mean(self) -> float:
+        return self.summary.stance_pct_mean
 
     @property
     def n_excluded(self) -> int:
@@ -199,14 +202,12 @@ def analyse(
         [(r.start_idx, r.stop_idx) for r in exclusions],
         t_s=doc.t_s,
     )
-    summ = summary(rows)
-    included = [r.stride for r in rows if r.included]
-    if joint is not None and included:
-        cyc = normalise_strides(joint, included, n_points)
+    if joint is not None:
+        cyc = cycles(joint, rows, n_points)
     else:
         cyc = np.empty((0, n_points, 3))
     mean, sd = cycle_mean_sd(cyc)
-    return Analysis(source.label, rows, summ, cyc, mean, sd, summ.stance_pct_mean)
+    return Analysis(source.label, rows, summary(rows), cyc, mean, sd)
 
 
 def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None = None) -> Source:
