@@ -1053,14 +1053,10 @@ def session_length(src_path: str | os.PathLike[str]) -> int:
         return src.n
 
 
-def _planned(src: _Source, out: Path, fmt: str) -> list[Path]:
+def _planned(out: Path, fmt: str, plan: C3dPlan | None) -> list[Path]:
     if fmt == "csv":
         return [out, csv_meta_path(out)]
-    if fmt == "c3d":
-        events = _c3d_events(src, _Scrubber({}, False), _side(src))
-        plan = _c3d_plan(src, np.array([e[0] for e in events], np.int64))
-        if len(plan.parts) == 1:
-            return [out]
+    if plan is not None and len(plan.parts) > 1:
         return [c3d_part_path(out, k + 1) for k in range(len(plan.parts))]
     return [out]
 
@@ -1088,9 +1084,14 @@ def export_session(
                 "C3D export needs the ezc3d package (pip install ezc3d)"
             ) from None
     with _open_source(src_path) as src:
-        outputs = _planned(src, out_path, fmt)
-        _check_outputs(outputs, src_path, force)
         scrub = _Scrubber(src.group_attrs("session"), deidentify)
+        events: list[tuple[int, str, str, str, int]] = []
+        plan = None
+        if fmt == "c3d":  # the parts (so the output names) depend on the events
+            events = _c3d_events(src, scrub, _side(src))
+            plan = _c3d_plan(src, np.array([e[0] for e in events], np.int64))
+        outputs = _planned(out_path, fmt, plan)
+        _check_outputs(outputs, src_path, force)
         atomic = _AtomicOutputs()
         try:
             if fmt == "csv":
@@ -1104,8 +1105,7 @@ def export_session(
             elif fmt == "mat":
                 _write_mat(src, atomic.tmp(out_path), scrub, deidentify, progress)
             else:
-                events = _c3d_events(src, scrub, _side(src))
-                plan = _c3d_plan(src, np.array([e[0] for e in events], np.int64))
+                assert plan is not None
                 tmps = []
                 for final in outputs:
                     # ezc3d appends ".c3d" to names not ending in it; temp names must end in it
