@@ -28,13 +28,13 @@ from typing import Any
 
 import numpy as np
 
-from gaitmon.dsp.angles import joint_angles, wrap_angle
+from gaitmon.dsp.angles import joint_angles
 from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
 from gaitmon.dsp.gait import Stride, StrideTracker, normalise_cycles, phase_from_contacts
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
 from gaitmon.io.device import Device, DeviceError, LinkStats, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
-from gaitmon.io.transport import LinkError, LinkState
+from gaitmon.io.transport import LinkError
 
 
 class Mode(enum.StrEnum):
@@ -84,10 +84,6 @@ class RingBuffer:
         self._data = {k: np.full((self.capacity, *s), np.nan) for k, s in SERIES.items()}
         self._write = 0  # total samples ever written
         self._lock = threading.Lock()
-
-    @property
-    def total(self) -> int:
-        return self._write
 
     def append(self, cols: dict[str, np.ndarray]) -> None:
         n = len(cols["t_s"])
@@ -381,7 +377,6 @@ class Engine:
         self._stop = threading.Event()
         self._error = ""  # the last device or processing error (Snapshot.engine_error)
         self._errors = 0  # blocks that could not be read or processed (Snapshot.engine_errors)
-        self._foreign_frames = 0  # frames of another kind than the mode's (not used)
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -438,18 +433,14 @@ class Engine:
         self, path: str | Path, meta: Any = None, *, overwrite: bool = False
     ) -> None:
         """Open a session file and record every sample from the next block on."""
-        from gaitmon.io.session import SessionError, SessionHeader, SessionMeta, SessionWriter
+        from gaitmon.io.session import (
+            SessionError,
+            SessionHeader,
+            SessionMeta,
+            SessionWriter,
+            device_info,
+        )
 
-        ident = self._identity
-        device_info = {
-            "name": ident.name if ident else "",
-            "firmware": ident.firmware if ident else "",
-            "serial": ident.serial if ident else "",
-            "side": ident.side if ident else "",
-            "transport": self.transport_label,
-            "channel_table_id": getattr(ident, "channel_table_id", 0) if ident else 0,
-            "channel_table_crc": getattr(ident, "channel_table_crc", 0) if ident else 0,
-        }
         with self._lock:
             if self._recorder is not None:
                 raise EngineError("already recording; stop the current recording first")
@@ -461,7 +452,7 @@ class Engine:
                 mode=self.mode.value,
                 sample_rate_hz=self.fs_hz,
                 meta=meta or SessionMeta(),
-                device=device_info,
+                device=device_info(self._identity, self.transport_label),
                 config=self._pending_config or self.config,
                 calibration=calibration,
             )
@@ -687,7 +678,8 @@ class Engine:
             rec = self._recorder
         start_idx = self._samples
         first = rec is not None and rec.record_offset is None
-        if rec is not None and rec.record_offset is None:
+        if first:
+            assert rec is not None
             rec.record_offset = start_idx  # row 0 = this block's first sample
         if cfg is not None:
             self._pipeline = Pipeline(cfg, self.calibration)
@@ -703,7 +695,6 @@ class Engine:
         if block.kind != self.mode.frame_kind:
             # not this session's frames (a unit that restarted into its default kind before
             # the setup was sent again): neither shown nor recorded; the file gets a gap
-            self._foreign_frames += len(block)
             self._note_error(
                 f"the unit sent {FrameKind(block.kind).name} frames in {self.mode.value} mode; "
                 f"{len(block)} frames ignored"
@@ -825,7 +816,7 @@ class Engine:
             rec = self._recorder
         if rec is not None and rec.record_offset is None:
             rec = None  # the recording had not started with this block
-        if getattr(self, "_handed_over", False):
+        if self._handed_over:
             # the block is in the file: only the display bookkeeping after it failed
             if self._samples == self._block_start:
                 self._samples += len(block)
@@ -867,11 +858,6 @@ class Engine:
         to = np.flatnonzero(~toe[1:] & toe[:-1]) + start_idx
         return hs.astype(np.int64), to.astype(np.int64)
 
-    # -- link ---------------------------------------------------------------------------
-
-    def link_state(self) -> LinkState:
-        return self.device.stats.transport.state
-
 
 def _slice_samples(b: SampleBlock, a: int, z: int) -> SampleBlock:
     changes = {
@@ -899,9 +885,7 @@ def _slice_pipeline(p: PipelineBlock, a: int, z: int, with_events: bool) -> Pipe
 def _shift(s: Stride, offset: int) -> Stride:
     if offset == 0:
         return s
-    from dataclasses import replace
-
-    return replace(
+    return dataclasses.replace(
         s,
         start_idx=s.start_idx + offset,
         end_idx=s.end_idx + offset,
@@ -958,5 +942,4 @@ __all__ = [
     "RecordingStatus",
     "RingBuffer",
     "Snapshot",
-    "wrap_angle",
 ]

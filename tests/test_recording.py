@@ -16,6 +16,7 @@ import pytest
 from gaitmon.cli import main
 from gaitmon.engine import Engine
 from gaitmon.io.device import Device
+from gaitmon.io.protocol import channel_table_crc
 from gaitmon.io.session import open_session
 from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
 from gaitmon.io.transport import InProcessTransport
@@ -33,6 +34,9 @@ def test_record_command_writes_1000_frames_whose_events_match_the_truth(tmp_path
         assert 1000 <= s.n_samples <= 1100  # blocks arrive whole; at least the 10 s asked for
         assert s.gaps == [] and s.link["frames_lost"] == 0 and s.link["crc_failures"] == 0
         assert s.meta.patient_id == "P017"
+        # the unit's identity: which channel table its counts follow (the one gaitmon holds)
+        assert s.device["channel_table_crc"] == channel_table_crc()
+        assert s.device["channel_table_crc"] != 0
         seq = s.read("timeline/seq")
         assert np.all(np.diff(seq) == 1)
     with h5py.File(out, "r") as f:  # any HDF5 reader: the ground truth the simulator stored
