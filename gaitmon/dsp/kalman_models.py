@@ -68,6 +68,17 @@ def _key(a: np.ndarray) -> _MatKey:
     return (a.shape, tuple(np.asarray(a, dtype=np.float64).ravel().tolist()))
 
 
+def _riccati_step(
+    a: np.ndarray, h: np.ndarray, q: np.ndarray, r: np.ndarray, p: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """One predict/update of the covariance: P_{k-1} -> (K_k, P_k)."""
+    pm = a @ p @ a.T + q
+    s = h @ pm @ h.T + r
+    k = np.linalg.solve(s.T, (pm @ h.T).T).T  # pm h^T s^-1
+    p_new = (np.eye(a.shape[0]) - k @ h) @ pm
+    return k, 0.5 * (p_new + p_new.T)  # kept symmetric against rounding drift
+
+
 @lru_cache(maxsize=64)
 def _schedule_cached(
     a_k: _MatKey, h_k: _MatKey, q_k: _MatKey, r_k: _MatKey, p0_k: _MatKey
@@ -76,17 +87,11 @@ def _schedule_cached(
         return np.array(k[1], dtype=np.float64).reshape(k[0])
 
     a, h, q, r, p = arr(a_k), arr(h_k), arr(q_k), arr(r_k), arr(p0_k)
-    n = a.shape[0]
-    eye = np.eye(n)
     ks: list[np.ndarray] = []
     ps: list[np.ndarray] = []
     converged = False
     for _ in range(_MAX_GAIN_STEPS):
-        pm = a @ p @ a.T + q
-        s = h @ pm @ h.T + r
-        k = np.linalg.solve(s.T, (pm @ h.T).T).T  # pm h^T s^-1
-        p_new = (eye - k @ h) @ pm
-        p_new = 0.5 * (p_new + p_new.T)  # keep it symmetric against rounding drift
+        k, p_new = _riccati_step(a, h, q, r, p)
         if (
             ks
             and np.allclose(k, ks[-1], rtol=1e-13, atol=0.0)
@@ -235,11 +240,7 @@ class LinearKalman:
 
     def _live_gain(self) -> np.ndarray:
         p = self._sched.p_ss if self._p_live is None else self._p_live
-        pm = self.A @ p @ self.A.T + self.Q
-        s = self.H @ pm @ self.H.T + self.R
-        k = np.linalg.solve(s.T, (pm @ self.H.T).T).T
-        p_new = (np.eye(self.n_states) - k @ self.H) @ pm
-        self._p_live = 0.5 * (p_new + p_new.T)
+        k, self._p_live = _riccati_step(self.A, self.H, self.Q, self.R, p)
         return k
 
     @staticmethod
