@@ -598,6 +598,15 @@ def _fsync_path(path: Path, directory: bool = False) -> None:
         os.close(fd)
 
 
+def _being_recorded(jpath: Path) -> bool:
+    """Whether a live writer (another window or process) holds this journal's lock."""
+    try:
+        with journal_lock(jpath) as free:
+            return not free
+    except OSError:
+        return False  # gone meanwhile, or unreadable: the caller's next step reports it
+
+
 def _short_error(e: BaseException) -> str:
     """A one-line reason from an OSError or an h5py error (whose text can be very long)."""
     if isinstance(e, OSError) and e.errno:
@@ -656,19 +665,13 @@ class SessionWriter:
                     f"{jpath.name} exists: an interrupted recording named {name} waits to be "
                     "recovered; open it first, or choose another file name"
                 )
-        elif jpath.exists():
+        elif jpath.exists() and _being_recorded(jpath):
             # never overwrite a recording in progress (another window or process): deleting
             # its journal and file would lose the whole session
-            try:
-                with journal_lock(jpath) as free:
-                    pass
-            except OSError:
-                free = True  # gone meanwhile
-            if not free:
-                raise SessionError(
-                    f"{name} is being recorded right now; stop that recording first, or "
-                    "choose another file name"
-                )
+            raise SessionError(
+                f"{name} is being recorded right now; stop that recording first, or "
+                "choose another file name"
+            )
         self._journal: JournalWriter | None = None
         self._h5: _H5File | None = None
         hdr = header.as_dict()
@@ -1546,18 +1549,6 @@ def _read_session(path: Path, problems: Sequence[str] = ()) -> Session:
         raise SessionError(f"{path.name} is damaged ({_short_error(e)})") from e
 
 
-def _refuse_live(path: Path, jpath: Path) -> None:
-    try:
-        with journal_lock(jpath) as free:
-            pass
-    except OSError:
-        return  # gone meanwhile, or unreadable: the caller's next step reports it
-    if not free:
-        raise SessionError(
-            f"{path.name} is being recorded right now; open it after the recording stops"
-        )
-
-
 def open_session(
     path: str | os.PathLike[str],
     *,
@@ -1572,7 +1563,10 @@ def open_session(
     path = Path(path)
     jpath = journal_path(path)
     if jpath.exists() and recover:
-        _refuse_live(path, jpath)
+        if _being_recorded(jpath):
+            raise SessionError(
+                f"{path.name} is being recorded right now; open it after the recording stops"
+            )
         if path.exists():
             # a clean stop or a finished recovery only had the journal's deletion left to do
             done = False
