@@ -145,7 +145,7 @@ class JournalWriter:
         self.path = Path(path)
         flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND | getattr(os, "O_CLOEXEC", 0)
         self._fd: int | None = os.open(self.path, flags, 0o644)
-        _lock(self._fd)  # tells other processes the recording is live (see journal_in_use)
+        _lock(self._fd)  # tells other processes the recording is live (see journal_lock)
         self.bytes_written = 0
         self.write_raw(MAGIC)
 
