@@ -23,7 +23,7 @@ from gaitmon.analysis import FIRST, GAP, LAST, USER, StrideRow, analyse_strides,
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.io.session import ANGLE_CONVENTION, Session, open_session
-from gaitmon.normative import JOINT_KEYS, NormativeBands
+from gaitmon.normative import NormativeBands
 
 N_POINTS = 101
 # axis labels with units and the clinical sign words (positive direction named)
@@ -297,12 +297,3 @@ def report_from_file(
         return gather_report(
             s, deidentify=deidentify, normative=normative, excluded_ranges=excluded_ranges
         )
-
-
-def normative_columns(
-    bands: NormativeBands | None, joint: int
-) -> tuple[np.ndarray, np.ndarray] | None:
-    """(mean, sd) of one joint (0 hip, 1 knee, 2 ankle) if the bands give it."""
-    if bands is None or not bands.has(JOINT_KEYS[joint]):
-        return None
-    return bands.mean_deg[:, joint], bands.sd_deg[:, joint]

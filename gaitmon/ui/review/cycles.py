@@ -181,7 +181,3 @@ class CyclePlots(pg.GraphicsLayoutWidget):
             lo, hi = float(vals.min()), float(vals.max())
             pad = 0.1 * max(hi - lo, 5.0)
             self.plots[j].setYRange(lo - pad, hi + pad, padding=0)
-
-    def mean_points(self, joint: int) -> int:
-        x, _ = self.mean[joint].getData()
-        return 0 if x is None else len(x)

@@ -141,9 +141,6 @@ class _Page:
         pen.setJoinStyle(Qt.PenJoinStyle.RoundJoin)
         return pen
 
-    def text_width_mm(self, text: str, font: QFont) -> float:
-        return QFontMetricsF(font, self.dev).horizontalAdvance(text) / self.k
-
     def text(
         self,
         x: float,

@@ -147,13 +147,6 @@ class StrideTable(QTableView):
     def set_rows(self, rows: list[StrideRow], start_t_s: list[float]) -> None:
         self.model_.set_rows(rows, start_t_s)
 
-    def click_row(self, row: int) -> None:
-        """Select ``row`` and act as a user's click (tests, keyboard)."""
-        idx = self.model_.index(row, 0)
-        self.setCurrentIndex(idx)
-        self.scrollTo(idx)
-        self.stride_picked.emit(row)
-
 
 def summary_html(a: Analysis | None, before: Analysis | None = None, note: str = "") -> str:
     """The summary panel's text: included strides only (derived cadence labelled as such)."""
