@@ -29,10 +29,10 @@ from gaitmon.io.session import (
     SessionHeader,
     SessionMeta,
     SessionWriter,
+    _device_rows,
     device_info,
     open_session,
     recover_session,
-    rows_from_device,
 )
 from gaitmon.io.sim.sensors import simulate
 from gaitmon.io.transport import LinkState, TransportStatus
@@ -319,10 +319,9 @@ def test_joint_mode_rows_and_contact_edge_events(tmp_path):
         assert s.toe_off_idx.tolist() == [60, 160, 260, 360]
 
 
-def test_rows_from_device_rejects_raw_blocks():
-    blk = SampleBlock(FrameKind.RAW, np.arange(2), np.zeros(2), 0.0, adc=COUNTS[:2])
+def test_device_rows_reject_raw_blocks():
     with pytest.raises(ValueError, match="TILT or JOINT"):
-        rows_from_device(blk)
+        _device_rows(FrameKind.RAW, {"adc": COUNTS[:2]})
 
 
 def test_recovery_rebuilds_the_live_file(tmp_path):

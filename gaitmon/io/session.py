@@ -85,7 +85,6 @@ __all__ = [
     "open_session",
     "recover_session",
     "replay_pipeline",
-    "rows_from_device",
     "rows_from_pipeline",
 ]
 
@@ -323,28 +322,7 @@ def _device_rows(kind: FrameKind, cols: Mapping[str, np.ndarray]) -> dict[str, n
             "processed/toe_loaded": np.asarray(cols["toe_loaded"]).astype(np.uint8),
             "processed/phase": np.asarray(cols["phase"]).astype(np.int8),
         }
-    raise ValueError(f"rows_from_device needs a TILT or JOINT block, got {kind!r}")
-
-
-def rows_from_device(block: SampleBlock) -> dict[str, np.ndarray]:
-    """The ``/processed`` rows of a tilt- or joint-mode block (the unit's own angles).
-
-    Tilt mode also gets joint angles, computed here from the unit's wrapped tilts.
-    """
-    kind = FrameKind(block.kind)
-    if kind == FrameKind.TILT:
-        cols = {"kalman_tilt_deg": block.kalman_tilt_deg, "acc_tilt_deg": block.acc_tilt_deg}
-    elif kind == FrameKind.JOINT:
-        cols = {
-            "kalman_joint_deg": block.kalman_joint_deg,
-            "acc_joint_deg": block.acc_joint_deg,
-            "heel_loaded": block.heel_loaded,
-            "toe_loaded": block.toe_loaded,
-            "phase": block.phase,
-        }
-    else:
-        raise ValueError(f"rows_from_device needs a TILT or JOINT block, got {kind.name}")
-    return _device_rows(kind, cols)  # type: ignore[arg-type]
+    raise ValueError(f"device rows need a TILT or JOINT block, got {kind!r}")
 
 
 class _ContactEdges:
