@@ -45,7 +45,6 @@ class CyclePlots(pg.GraphicsLayoutWidget):
         self.norm_lower: list[pg.PlotCurveItem] = []
         self.norm_upper: list[pg.PlotCurveItem] = []
         self.norm_mean: list[pg.PlotCurveItem] = []
-        self.normative_label = ""
         self._bands = None
         self._analysis: Analysis | None = None
         norm_c = QColor(colours.foreground)
@@ -115,7 +114,6 @@ class CyclePlots(pg.GraphicsLayoutWidget):
             if np.isfinite(sd).all():
                 self.norm_lower[j].setData(x, mean - sd)
                 self.norm_upper[j].setData(x, mean + sd)
-        self.normative_label = "" if bands is None else bands.label
         self._bands = bands
         self._fit_y()
         # the band's own name can be long: it goes in the tooltip, the title stays short
