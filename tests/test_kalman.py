@@ -155,3 +155,11 @@ def test_exact_fallback_when_the_accelerometer_flips_by_more_than_pi():
 def test_bad_parameters_are_refused(kwargs):
     with pytest.raises(ValueError):
         TiltKalman(**kwargs)
+
+
+def test_step_by_step_mode_is_the_reference_and_agrees_with_the_fast_path():
+    _, z, w = walking_like(6000, seed=12)
+    ref, *_ = reference(z, w)
+    slow = TiltKalman(fast_path=False).process(z, w)
+    assert np.max(np.abs(slow - ref)) < 1e-12
+    assert np.max(np.abs(TiltKalman().process(z, w) - slow)) < 1e-9

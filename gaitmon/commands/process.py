@@ -13,7 +13,6 @@ import json
 import os
 import shutil
 import sys
-from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -47,7 +46,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gaitmon.commands.info import progress_printer
-    from gaitmon.io.session import SessionError, open_session, replay_pipeline
+    from gaitmon.io.session import SessionError, open_session
 
     src, dst = Path(args.file), Path(args.output)
     if dst.exists() and dst.resolve() == src.resolve():
@@ -76,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     except SessionError as exc:
         raise UserError(str(exc)) from None
     try:
-        _rewrite(tmp, adc, n, s.calibration, config, calibration_log, replay_pipeline)
+        _rewrite(tmp, adc, n, s.calibration, config, calibration_log)
         os.replace(tmp, dst)
     except OSError as exc:
         with contextlib.suppress(OSError):
@@ -97,18 +96,19 @@ def _rewrite(
     calibration: Calibration,
     config: PipelineConfig,
     calibration_log: list[tuple[int, Calibration]],
-    replay: Callable[..., Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]]],
 ) -> None:
     import h5py
 
     from gaitmon.commands.info import progress_printer
+    from gaitmon.io.session import replay_pipeline
 
     report = progress_printer("reprocessing")
     with h5py.File(tmp, "r+") as f:
         proc = f["processed"]
         hs: list[np.ndarray] = []
         to: list[np.ndarray] = []
-        for start, rows, hs_rows, to_rows in replay(adc, config, calibration, calibration_log):
+        replay = replay_pipeline(adc, config, calibration, calibration_log)
+        for start, rows, hs_rows, to_rows in replay:
             stop = start + len(rows["processed/joint_deg"])
             for path, data in rows.items():
                 f[path][start:stop] = data

@@ -10,9 +10,14 @@ import threading
 import time
 from pathlib import Path
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from gaitmon.cli import UserError
 from gaitmon.commands.simulate import add_simulator_options, build_unit
+
+if TYPE_CHECKING:
+    from gaitmon.engine import Engine, RecordingStatus
+    from gaitmon.io.device import LinkStats
 
 EPILOG = """\
 examples:
@@ -123,14 +128,14 @@ def run(args: argparse.Namespace) -> int:
             if stop.wait(0.01):
                 reason = "user"
                 break
-            snap = engine.snapshot(0.01)
-            rec = snap.recording
+            # only counters here: a display snapshot (ring-buffer copies) is not needed
+            rec = engine.recording
+            link = engine.device.stats
             got = engine.samples_total - start_samples
             if args.status_lines and got != last_rows:
                 last_rows = got
                 print(f"ROWS {got} {time.monotonic():.6f}", flush=True)
-            lost = (snap.link.decoder.frames_lost if snap.link else lost0) - lost0
-            recorded_s = (got + lost) / engine.fs_hz
+            recorded_s = (got + link.decoder.frames_lost - lost0) / engine.fs_hz
             if rec.error:
                 print(f"gaitmon record: {rec.error}", file=sys.stderr)
                 reason = "error"
@@ -138,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
             now = time.monotonic()
             if not args.quiet and now - last_print >= 1.0:
                 last_print = now
-                _progress(out, recorded_s, args.duration, snap)
+                _progress(out, recorded_s, args.duration, rec, link)
             if recorded_s >= args.duration:
                 break
             if now > wall_limit:
@@ -149,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
                 reason = "error: no data from the unit"
                 break
     finally:
-        status = engine.stop_recording(reason if reason != "error" else "user")
+        status = engine.stop_recording(reason)  # after a write error the file is closed already
         stats = engine.device.stats
         engine.stop()
         for s, h in old.items():
@@ -170,10 +175,9 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _zero(engine: object, stop: threading.Event) -> None:
-    from gaitmon.engine import Engine, EngineError
+def _zero(engine: Engine, stop: threading.Event) -> None:
+    from gaitmon.engine import EngineError
 
-    assert isinstance(engine, Engine)
     deadline = time.monotonic() + 10.0
     while not stop.is_set():
         try:
@@ -186,16 +190,14 @@ def _zero(engine: object, stop: threading.Event) -> None:
             time.sleep(0.02)  # the simulator may run faster than real time
 
 
-def _progress(out: Path, recorded_s: float, duration_s: float, snap: object) -> None:
-    from gaitmon.engine import Snapshot
-
-    assert isinstance(snap, Snapshot)
-    d = snap.link.decoder if snap.link else None
-    lost = d.frames_lost if d else 0
-    crc = d.crc_failures if d else 0
+def _progress(
+    out: Path, recorded_s: float, duration_s: float, rec: RecordingStatus, link: LinkStats
+) -> None:
+    d = link.decoder
     print(
         f"recording {out.name}: {min(recorded_s, duration_s):6.1f} / {duration_s:g} s, "
-        f"{snap.recording.rows} frames, {lost} lost, {crc} CRC errors, link {snap.link_state}",
+        f"{rec.rows} frames, {d.frames_lost} lost, {d.crc_failures} CRC errors, "
+        f"link {link.transport.state.value}",
         file=sys.stderr,
         flush=True,
     )

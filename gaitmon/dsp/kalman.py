@@ -107,7 +107,9 @@ class TiltKalman:
         r: float = 0.3,
         form: str = "paper",
         initial_bias_rad_s: float = 0.0,
+        fast_path: bool = True,
     ) -> None:
+        """``fast_path=False`` runs every sample step by step (the reference; ~70x slower)."""
         for name, value in (("dt_s", dt_s), ("r", r)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
@@ -122,6 +124,7 @@ class TiltKalman:
         self.r = float(r)
         self.form = form
         self.initial_bias_rad_s = float(initial_bias_rad_s)
+        self._fast_path = bool(fast_path)
         self._sched = _gain_schedule(self.dt_s, self.q_angle, self.q_gyro, self.r, form)
         self._setup_lti()
         self.reset()
@@ -146,7 +149,9 @@ class TiltKalman:
         self._den = den
         self._nums = nums  # theta<-omega, theta<-z
         poles = np.roots(den)
-        self._lti_ok = bool(self._sched.converged and np.all(np.abs(poles) < 1))
+        self._lti_ok = bool(
+            self._fast_path and self._sched.converged and np.all(np.abs(poles) < 1)
+        )
 
     def reset(self) -> None:
         self._theta: np.ndarray | None = None
