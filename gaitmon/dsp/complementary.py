@@ -43,6 +43,7 @@ import numpy as np
 from scipy import signal
 
 from gaitmon.dsp.angles import TWO_PI, wrap_angle
+from gaitmon.dsp.filters import as_2d
 
 # error terms this close to +-pi go through the exact (wrapped) step, not the linear path
 _WRAP_MARGIN_RAD = 1e-9
@@ -107,16 +108,17 @@ class AdaptiveCutoff:
         return fc
 
 
-def _as_pair(z: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
-    z = np.asarray(z, dtype=np.float64)
-    w = np.asarray(w, dtype=np.float64)
-    if z.shape != w.shape:
-        raise ValueError(f"tilt {z.shape} and gyro {w.shape} shapes differ")
-    if z.ndim == 1:
-        return z[:, None], w[:, None], True
-    if z.ndim != 2:
-        raise ValueError(f"expected (N,) or (N, segments), got {z.shape}")
-    return z, w, False
+def as_2d_pair(
+    acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, bool]:
+    """A tilt filter's two inputs as (N, segments) float arrays, and whether they were (N,)."""
+    if np.shape(acc_tilt_rad) != np.shape(gyro_rad_s):
+        raise ValueError(
+            f"tilt {np.shape(acc_tilt_rad)} and gyro {np.shape(gyro_rad_s)} shapes differ"
+        )
+    z, was_1d = as_2d(acc_tilt_rad)
+    w, _ = as_2d(gyro_rad_s)
+    return z, w, was_1d
 
 
 class ComplementaryFilter:
@@ -164,7 +166,7 @@ class ComplementaryFilter:
         return self._step
 
     def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
-        z, w, was_1d = _as_pair(acc_tilt_rad, gyro_rad_s)
+        z, w, was_1d = as_2d_pair(acc_tilt_rad, gyro_rad_s)
         n, c = z.shape
         out = np.empty((n, c))
         if n == 0:

@@ -30,7 +30,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter
+from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter, as_2d_pair
 from gaitmon.dsp.filters import GyroIntegrator
 from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.kalman_models import LinearKalman, constant_rate_kalman
@@ -43,22 +43,12 @@ class TiltFilter(Protocol):
     def reset(self) -> None: ...
 
 
-def _pair(z: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    z = np.asarray(z, dtype=np.float64)
-    w = np.asarray(w, dtype=np.float64)
-    if z.shape != w.shape:
-        raise ValueError(f"tilt {z.shape} and gyro {w.shape} shapes differ")
-    if z.ndim not in (1, 2):
-        raise ValueError(f"expected (N,) or (N, segments), got {z.shape}")
-    return z, w
-
-
 class AccelerometerTilt:
     """The accelerometer tilt passed through unchanged (the 'no filter' reference)."""
 
     def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
-        z, _ = _pair(acc_tilt_rad, gyro_rad_s)
-        return z.copy()
+        z, _, was_1d = as_2d_pair(acc_tilt_rad, gyro_rad_s)
+        return z[:, 0].copy() if was_1d else z.copy()
 
     def reset(self) -> None:
         pass
@@ -72,11 +62,13 @@ class GyroTilt:
         self._started = False
 
     def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
-        z, w = _pair(acc_tilt_rad, gyro_rad_s)
+        z, w, was_1d = as_2d_pair(acc_tilt_rad, gyro_rad_s)
         if not self._started and z.shape[0]:
             self._started = True
-            return self._integrator.process(w, initial_rad=z[0])
-        return self._integrator.process(w)
+            tilt = self._integrator.process(w, initial_rad=z[0])
+        else:
+            tilt = self._integrator.process(w)
+        return tilt[:, 0] if was_1d else tilt
 
     def reset(self) -> None:
         self._integrator.reset()
@@ -91,18 +83,17 @@ class ConstantRateTilt:
         self._kf: LinearKalman | None = None
 
     def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
-        z, w = _pair(acc_tilt_rad, gyro_rad_s)
-        was_1d = z.ndim == 1
-        z2, w2 = (z[:, None], w[:, None]) if was_1d else (z, w)
-        if z2.shape[0] == 0:
-            return z.copy()
-        if self._kf is None:
-            x0 = np.zeros(2 * z2.shape[1])
-            x0[0::2] = z2[0]  # start from the first accelerometer tilt, as paper 000 does
-            self._kf = constant_rate_kalman(
-                self.dt_s, self.r_rad2, self.q, n_axes=z2.shape[1], x0=x0
-            )
-        angles = self._kf.process(z2, w2)[:, 0::2]
+        z, w, was_1d = as_2d_pair(acc_tilt_rad, gyro_rad_s)
+        if z.shape[0] == 0:
+            angles = z.copy()
+        else:
+            if self._kf is None:
+                x0 = np.zeros(2 * z.shape[1])
+                x0[0::2] = z[0]  # start from the first accelerometer tilt, as paper 000 does
+                self._kf = constant_rate_kalman(
+                    self.dt_s, self.r_rad2, self.q, n_axes=z.shape[1], x0=x0
+                )
+            angles = self._kf.process(z, w)[:, 0::2]
         return angles[:, 0] if was_1d else angles
 
     def reset(self) -> None:
