@@ -158,7 +158,7 @@ class TiltKalman:
         self._bias: np.ndarray | None = None
         self._step = 0
         self._recovery_left = 0
-        self._lti_zi: np.ndarray | None = None  # (4, S, 2) lfilter states while running LTI
+        self._lti_zi: np.ndarray | None = None  # (2 filters, S, 2) lfilter states (LTI path)
         self._last_z: np.ndarray | None = None  # (S,) last wrapped measurement (for unwrapping)
         self._turns: np.ndarray | None = None  # (S,) int64 2*pi turns added to the last z
 
