@@ -27,7 +27,6 @@ from dataclasses import dataclass
 
 from gaitmon.io.protocol import (
     CRC_LEN,
-    FRAME_LEN,
     FRAME_SYNC,
     HEADER_LEN,
     MAX_FRAME_LEN,
@@ -193,8 +192,3 @@ class FrameDecoder:
             else:
                 self._sequence_resets += 1
         self._last_seq = seq
-
-
-def frame_length(kind: int) -> int:
-    """Total wire length of a frame of this kind (KeyError for unknown kinds)."""
-    return FRAME_LEN[kind]  # type: ignore[index]

@@ -46,7 +46,7 @@ from gaitmon.io.protocol import (
     TiltFrame,
     encode_command,
 )
-from gaitmon.io.transport import LinkError, LinkState, Transport, TransportStatus
+from gaitmon.io.transport import LinkError, Transport, TransportStatus
 
 
 class DeviceError(Exception):
@@ -489,7 +489,3 @@ class Device:
                     lost += dropped[3] + 1
             self._queue.append((frame, seq, now, lost))
             self._cond.notify_all()
-
-
-def link_is_up(status: TransportStatus) -> bool:
-    return status.state == LinkState.CONNECTED

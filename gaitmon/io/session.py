@@ -375,10 +375,6 @@ class _Timeline:
         return k / self.fs_hz + self.extra_s
 
 
-def _check_change_row(sample_idx: int, rows: int) -> int:
-    return max(0, min(int(sample_idx), rows))
-
-
 # --------------------------------------------------------------------------------------------
 # HDF5 layout (shared by the live writer and the recovery)
 # --------------------------------------------------------------------------------------------
