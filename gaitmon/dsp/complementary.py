@@ -149,21 +149,12 @@ class ComplementaryFilter:
         self._alpha: np.ndarray | None = None
         self._step = 0
         self._hist: np.ndarray | None = None
-        self._refreshed_at = -1
         self.cutoff_history: list[tuple[int, np.ndarray]] = []  # (sample index, fc per segment)
 
     @property
     def cutoff_hz(self) -> np.ndarray | None:
         """The cut-off in use now, per segment (None before the first sample)."""
         return None if self._fc is None else self._fc.copy()
-
-    @property
-    def alpha(self) -> np.ndarray | None:
-        return None if self._alpha is None else self._alpha.copy()
-
-    @property
-    def steps(self) -> int:
-        return self._step
 
     def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
         z, w, was_1d = as_2d_pair(acc_tilt_rad, gyro_rad_s)
@@ -201,9 +192,9 @@ class ComplementaryFilter:
     def _maybe_refresh(self) -> None:
         assert self.adaptive is not None and self._fc is not None and self._hist is not None
         k = self._step
-        if k % self._update_n or k < self._window_n or self._refreshed_at == k:
+        # process() calls this once per update period, always at a new step
+        if k % self._update_n or k < self._window_n:
             return
-        self._refreshed_at = k
         fc = self.adaptive.pick(self._hist, 1.0 / self.dt_s)
         new = np.where(np.isnan(fc), self._fc, fc)
         if not np.array_equal(new, self._fc):

@@ -72,11 +72,6 @@ class ExponentialFilter(ChannelFilter):
         self._a = np.array([1.0, -self.alpha])
         # state: (order, channels), each stage's lfilter state (see ChannelFilter)
 
-    @property
-    def cutoff_hz_at(self) -> float:
-        """fc / fs implied by alpha (eq. 20 solved for fc at fs = 1)."""
-        return (1.0 / self.alpha - 1.0) / (2.0 * np.pi) if self.alpha > 0 else np.inf
-
     def _initial_state(self, first: np.ndarray) -> np.ndarray:
         # lfilter's state for y(-1) = v is alpha * v (y(n) = b x(n) + zi, zi = alpha y(n-1))
         start = first if self.initial == "first" else np.zeros_like(first)

@@ -167,25 +167,9 @@ class LinearKalman:
         """The gain the schedule converged to (n, m)."""
         return self._sched.k_ss.copy()
 
-    @property
-    def gain_converged(self) -> bool:
-        return self._sched.converged
-
-    def gain_at(self, step: int) -> np.ndarray:
-        """K used at step ``step`` (0 = the first sample)."""
-        return (self._sched.k[step] if step < len(self._sched.k) else self._sched.k_ss).copy()
-
     def covariance_at(self, step: int) -> np.ndarray:
         """P after the update at step ``step``."""
         return (self._sched.p[step] if step < len(self._sched.p) else self._sched.p_ss).copy()
-
-    @property
-    def steps(self) -> int:
-        return self._step
-
-    @property
-    def state(self) -> np.ndarray | None:
-        return None if self._x is None else self._x.copy()
 
     def reset(self) -> None:
         self._x: np.ndarray | None = None  # (n, C)
