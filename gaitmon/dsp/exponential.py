@@ -110,18 +110,15 @@ class TrapezoidIntegrator:
         if n == 0:
             out = np.empty_like(x2)
             return out[:, 0] if was_1d else out
+        incr = np.empty_like(x2)
+        incr[1:] = 0.5 * self.dt_s * (x2[1:] + x2[:-1])
         if self._y is None:
-            y0 = np.broadcast_to(np.asarray(initial, dtype=np.float64), (c,)).copy()
-            prev_y = y0
-            incr = np.empty_like(x2)
+            prev_y = np.broadcast_to(np.asarray(initial, dtype=np.float64), (c,)).copy()
             incr[0] = 0.0  # y(0) = initial
-            incr[1:] = 0.5 * self.dt_s * (x2[1:] + x2[:-1])
         else:
             assert self._x is not None
-            prev_x, prev_y = self._x, self._y
-            incr = np.empty_like(x2)
-            incr[0] = 0.5 * self.dt_s * (x2[0] + prev_x)
-            incr[1:] = 0.5 * self.dt_s * (x2[1:] + x2[:-1])
+            prev_y = self._y
+            incr[0] = 0.5 * self.dt_s * (x2[0] + self._x)
         # the running sum through lfilter keeps summation order identical in any chunking
         y, zf = signal.lfilter([1.0], [1.0, -1.0], incr, axis=0, zi=prev_y[None, :])
         self._y = zf[0].copy()
