@@ -28,7 +28,7 @@ import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -41,6 +41,9 @@ from gaitmon.dsp.channels import (
     ChannelSpec,
     ChannelTable,
 )
+
+if TYPE_CHECKING:
+    from gaitmon.io.session import Session
 
 FORMATS: tuple[str, ...] = ("csv", "mat", "c3d")
 EXTENSIONS: dict[str, str] = {"csv": ".csv", "mat": ".mat", "c3d": ".c3d"}
@@ -182,11 +185,13 @@ def _plain(v: Any) -> Any:
 class _Source:
     """What the exporters need from a session file, read lazily (datasets stay on disk)."""
 
-    def __init__(self, h5: Any, path: Path, n_samples: int,
-                 problems: tuple[str, ...] = ()) -> None:
+    def __init__(self, session: Session) -> None:
+        h5 = session.dataset("timeline/t_s").file
+        path = session.path
         self.h5 = h5
         self.path = path
-        self.problems = problems
+        self.problems = tuple(session.problems)
+        self._events = {"heel_strike": session.heel_strike_idx, "toe_off": session.toe_off_idx}
         self.attrs: dict[str, Any] = {k: _plain(v) for k, v in h5.attrs.items()}
         self.mode = str(self.attrs.get("mode", ""))
         self.fs_hz = float(self.attrs.get("sample_rate_hz", 100.0))
@@ -200,7 +205,7 @@ class _Source:
             if s.path in h5
         ]
         # Rows common to every per-sample dataset (the reader's count; ragged ends cut off).
-        self.n = min([n_samples, *(int(h5[s.path].shape[0]) for s in self.series)])
+        self.n = min([session.n_samples, *(int(h5[s.path].shape[0]) for s in self.series)])
         for s in self.series:
             ds = h5[s.path]
             width = int(np.prod(ds.shape[1:], dtype=np.int64)) if ds.ndim > 1 else 1
@@ -235,10 +240,7 @@ class _Source:
 
     def events(self, name: str) -> np.ndarray:
         """Sample indices (0-based) of one event kind, limited to the rows present."""
-        path = f"events/{name}"
-        if path not in self.h5:
-            return np.zeros(0, dtype=np.int64)
-        idx = np.asarray(self.h5[path][()], dtype=np.int64).reshape(-1)
+        idx = self._events[name]
         return idx[(idx >= 0) & (idx < self.n)]
 
     def table(self, path: str) -> list[dict[str, Any]]:
@@ -267,8 +269,7 @@ def _open_source(path: Path) -> Iterator[_Source]:
     except SessionError as exc:
         raise ExportError(str(exc)) from None
     try:
-        h5 = session.dataset("timeline/t_s").file
-        yield _Source(h5, path, session.n_samples, tuple(session.problems))
+        yield _Source(session)
     except (KeyError, ValueError, TypeError, SessionError) as exc:
         raise ExportError(f"{path.name} is damaged ({exc})") from None
     finally:
