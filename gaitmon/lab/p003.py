@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter, complementary_alpha
+from gaitmon.dsp.filters import GyroIntegrator
 from gaitmon.lab.report import COLOURS, Report, new_figure
 
 FS_HZ = 200.0
@@ -63,7 +64,7 @@ def _rest_rmsd(acc_noise_g: float, s: Setup, seed: int) -> tuple[float, float, n
         "t": np.arange(n)[skip:] / FS_HZ,
         "accelerometer": acc_d,
         "complementary": comp_d,
-        "gyro": np.degrees(acc_angle[0] + np.cumsum(gyro) / FS_HZ)[skip:],
+        "gyro": np.degrees(GyroIntegrator(1.0 / FS_HZ).process(gyro, acc_angle[0]))[skip:],
     }
     return float(np.std(acc_d)), float(np.std(comp_d)), comp_d, traces
 

@@ -241,22 +241,10 @@ def _plot(rep: Report, kind: str, unit: str, ex: dict, rms: dict, s: Setup) -> N
         ("exponential fixed fc", COLOURS["exponential"], ":s"),
     ):
         ax[2, 0].loglog(PERIODS_S, rms[name].mean(axis=0), style, color=colour, label=name)
-    ax[2, 0].loglog(
-        PERIODS_S,
-        PAPER[(kind, "kalman")],
-        "--x",
-        color=COLOURS["kalman"],
-        alpha=0.6,
-        label="paper Kalman",
-    )
-    ax[2, 0].loglog(
-        PERIODS_S,
-        PAPER[(kind, "exponential")],
-        "--x",
-        color=COLOURS["exponential"],
-        alpha=0.6,
-        label="paper exponential",
-    )
+    for name, label in (("kalman", "paper Kalman"), ("exponential", "paper exponential")):
+        ax[2, 0].loglog(
+            PERIODS_S, PAPER[(kind, name)], "--x", color=COLOURS[name], alpha=0.6, label=label
+        )
     ax[2, 0].set_xlabel("sampling period T (s)")
     ax[2, 0].set_ylabel(f"RMS error ({unit})")
     ax[2, 0].legend(fontsize=7, ncol=2)
