@@ -360,6 +360,7 @@ class Engine:
         self._rate_times: deque[tuple[float, int]] = deque(maxlen=64)
         self._strides: deque[Stride] = deque(maxlen=cycle_strides)
         self._cycles: deque[np.ndarray] = deque(maxlen=cycle_strides)
+        self._cycles_deg = np.empty((0, 101, 3))  # np.stack(_cycles), rebuilt once per stride
         self._device_strides = StrideTracker(self.fs_hz)
         self._device_contacts: tuple[bool, bool] | None = None  # last heel/toe (JOINT mode)
         self._n_strides = 0
@@ -621,7 +622,7 @@ class Engine:
             last_stride_time_s=last.stride_time_s,
             last_stance_pct=last.stance_pct,
             cadence_derived_steps_per_min=120.0 / mean_stride,
-            cycles_deg=np.stack(list(self._cycles)) if self._cycles else np.empty((0, 101, 3)),
+            cycles_deg=self._cycles_deg,
             current_pct=cur_pct,
             current_deg=cur,
         )
@@ -844,6 +845,7 @@ class Engine:
         seg = joints[: k + 1]
         if len(seg) == k + 1 and not np.isnan(seg).all():
             self._cycles.append(normalise_cycles(seg, np.array([0, k]))[0])
+            self._cycles_deg = np.stack(self._cycles)
 
     def _device_events(self, block: SampleBlock, start_idx: int) -> tuple[np.ndarray, np.ndarray]:
         """Heel strikes / toe offs from the unit's contact flags (JOINT mode)."""

@@ -170,3 +170,31 @@ def test_an_unreachable_x_display_is_a_one_line_message():
         "gaitmon: error: cannot connect to the X display ':97': is the desktop session running "
         "and may this user use it?"
     )
+
+
+def test_live_cycle_band_is_mean_plus_minus_the_sample_sd(qtbot):
+    from gaitmon.engine import GaitStatus, Mode, RecordingStatus, Snapshot
+    from gaitmon.ui.plots import CyclePlots
+    from gaitmon.ui.theme import current_colours
+
+    def snap(cycles):
+        gait = GaitStatus(n_strides=len(cycles), last_stance_pct=60.0, cycles_deg=cycles)
+        return Snapshot(
+            series={}, heel_strike_t_s=np.empty(0), toe_off_t_s=np.empty(0), markers=(),
+            samples_total=0, frame_rate_hz=100.0, last_data_age_s=0.0, link=None,
+            link_state="connected", link_reason="", seconds_to_reconnect=None,
+            recording=RecordingStatus(), gait=gait, mode=Mode.RAW, calibrated=True,
+        )  # fmt: skip
+
+    plots = CyclePlots(current_colours())
+    qtbot.addWidget(plots)
+    rng = np.random.default_rng(3)
+    cycles = rng.normal(20.0, 5.0, size=(4, 101, 3))
+    plots.update_from(snap(cycles))
+    mean, sd = cycles.mean(axis=0), cycles.std(axis=0, ddof=1)
+    for j in range(3):
+        np.testing.assert_allclose(plots.upper[j].yData, mean[:, j] + sd[:, j])
+        np.testing.assert_allclose(plots.lower[j].yData, mean[:, j] - sd[:, j])
+    plots.update_from(snap(cycles[:1]))  # one stride: a mean, but no spread to draw
+    np.testing.assert_allclose(plots.mean_curves[1].yData, cycles[0, :, 1])
+    assert len(plots.upper[1].yData) == 0 and len(plots.lower[1].yData) == 0

@@ -30,6 +30,7 @@ from PySide6.QtCore import QRectF
 from PySide6.QtGui import QBrush, QColor, QFont, QPainter, QPainterPath, QPen
 from PySide6.QtWidgets import QGraphicsItem
 
+from gaitmon.dsp.gait import cycle_mean_sd
 from gaitmon.engine import Snapshot
 from gaitmon.ui.theme import Colours, pen
 
@@ -614,12 +615,16 @@ class CyclePlots(CountingPlotWidget):
             self._shown_strides = g.n_strides
             cyc = g.cycles_deg
             if len(cyc):
-                mean = cyc.mean(axis=0)
-                sd = cyc.std(axis=0)
+                # the sample SD, as in the review window and the report; one stride has none
+                mean, sd = cycle_mean_sd(cyc)
+                band = bool(np.isfinite(sd).all())
                 for j in range(len(JOINTS)):
                     self.mean_curves[j].setData(self.pct, mean[:, j])
-                    self.lower[j].setData(self.pct, mean[:, j] - sd[:, j])
-                    self.upper[j].setData(self.pct, mean[:, j] + sd[:, j])
+                    for curve, y in ((self.lower[j], -sd[:, j]), (self.upper[j], sd[:, j])):
+                        if band:
+                            curve.setData(self.pct, mean[:, j] + y)
+                        else:
+                            curve.setData(np.empty(0), np.empty(0))
             stance = g.last_stance_pct
             for line in self.toe_off_lines:
                 ok = math.isfinite(stance)
