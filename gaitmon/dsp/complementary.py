@@ -43,7 +43,7 @@ import numpy as np
 from scipy import signal
 
 from gaitmon.dsp.angles import TWO_PI, wrap_angle
-from gaitmon.dsp.filters import as_2d
+from gaitmon.dsp.filters import as_2d_pair
 
 # error terms this close to +-pi go through the exact (wrapped) step, not the linear path
 _WRAP_MARGIN_RAD = 1e-9
@@ -106,19 +106,6 @@ class AdaptiveCutoff:
         fc = np.clip(fc, self.min_hz, hi)
         fc[rms < self.rest_rms_rad_s] = np.nan
         return fc
-
-
-def as_2d_pair(
-    acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, bool]:
-    """A tilt filter's two inputs as (N, segments) float arrays, and whether they were (N,)."""
-    if np.shape(acc_tilt_rad) != np.shape(gyro_rad_s):
-        raise ValueError(
-            f"tilt {np.shape(acc_tilt_rad)} and gyro {np.shape(gyro_rad_s)} shapes differ"
-        )
-    z, was_1d = as_2d(acc_tilt_rad)
-    w, _ = as_2d(gyro_rad_s)
-    return z, w, was_1d
 
 
 class ComplementaryFilter:

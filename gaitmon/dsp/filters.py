@@ -19,6 +19,19 @@ def as_2d(x: np.ndarray) -> tuple[np.ndarray, bool]:
     return x, False
 
 
+def as_2d_pair(
+    acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, bool]:
+    """A tilt filter's two inputs as (N, segments) float arrays, and whether they were (N,)."""
+    if np.shape(acc_tilt_rad) != np.shape(gyro_rad_s):
+        raise ValueError(
+            f"tilt {np.shape(acc_tilt_rad)} and gyro {np.shape(gyro_rad_s)} shapes differ"
+        )
+    z, was_1d = as_2d(acc_tilt_rad)
+    w, _ = as_2d(gyro_rad_s)
+    return z, w, was_1d
+
+
 class ChannelFilter:
     """Block handling shared by the per-channel linear filters.
 

@@ -34,6 +34,7 @@ import numpy as np
 from scipy import signal
 
 from gaitmon.dsp.angles import TWO_PI, wrap_angle
+from gaitmon.dsp.filters import as_2d_pair
 
 _MAX_GAIN_STEPS = 50_000
 _RECOVERY_STEPS = 64
@@ -211,15 +212,7 @@ class TiltKalman:
     # ------------------------------------------------------------ processing
     def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
         """Filter (N,) or (N, segments) measurements; returns the tilt (rad), same shape."""
-        z = np.asarray(acc_tilt_rad, dtype=np.float64)
-        w = np.asarray(gyro_rad_s, dtype=np.float64)
-        if z.shape != w.shape:
-            raise ValueError(f"tilt {z.shape} and gyro {w.shape} shapes differ")
-        was_1d = z.ndim == 1
-        if was_1d:
-            z, w = z[:, None], w[:, None]
-        if z.ndim != 2:
-            raise ValueError(f"expected (N,) or (N, segments), got {z.shape}")
+        z, w, was_1d = as_2d_pair(acc_tilt_rad, gyro_rad_s)
         n, s = z.shape
         out = np.empty((n, s))
         if n == 0:

@@ -30,8 +30,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter, as_2d_pair
-from gaitmon.dsp.filters import GyroIntegrator
+from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter
+from gaitmon.dsp.filters import GyroIntegrator, as_2d_pair
 from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.kalman_models import LinearKalman, constant_rate_kalman
 

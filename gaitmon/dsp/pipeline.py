@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from gaitmon.dsp.angles import accel_tilt, joint_angles, wrap_angle
+from gaitmon.dsp.angles import accel_tilt, joint_angles
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import (
     ACC_X_IDX,
@@ -231,13 +231,12 @@ class Pipeline:
         acc = self._acc_lp.process(phys[:, np.concatenate([ACC_X_IDX, ACC_Z_IDX])])
         ax, az = acc[:, :4], acc[:, 4:]
         fsr = self._fsr_lp.process(phys[:, FSR_IDX])
-        gyro = phys[:, GYRO_IDX] - cal.gyro_bias_rad_s
+        gyro = cal.apply_gyro(phys[:, GYRO_IDX])
         tilt_acc = accel_tilt(ax, az)
         tilt_gyro = self._gyro_tilt_lp.process(
             self._integrator.process(gyro, initial_rad=tilt_acc[0])
         )
         tilt_kalman = self._kalman.process(tilt_acc, gyro)
-        offset = cal.tilt_offset_rad
         o = out
         o["acc_ms2"][sl, :, 0] = ax
         o["acc_ms2"][sl, :, 1] = az
@@ -248,7 +247,7 @@ class Pipeline:
             ("gyro", tilt_gyro),
             ("kalman", tilt_kalman),
         ):
-            zeroed = wrap_angle(tilt - offset)
+            zeroed = cal.apply_tilt(tilt)
             o[f"tilt_{name}_rad"][sl] = zeroed
             o[f"joint_{name}_rad"][sl] = joint_angles(zeroed)
         gait = self._detector.process(fsr)
