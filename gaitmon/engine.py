@@ -30,7 +30,13 @@ import numpy as np
 
 from gaitmon.dsp.angles import joint_angles
 from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
-from gaitmon.dsp.gait import Stride, StrideTracker, normalise_cycles, phase_from_contacts
+from gaitmon.dsp.gait import (
+    ContactEdges,
+    Stride,
+    StrideTracker,
+    normalise_cycles,
+    phase_from_contacts,
+)
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
 from gaitmon.io.device import Device, DeviceError, LinkStats, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
@@ -362,7 +368,7 @@ class Engine:
         self._cycles: deque[np.ndarray] = deque(maxlen=cycle_strides)
         self._cycles_deg = np.empty((0, 101, 3))  # np.stack(_cycles), rebuilt once per stride
         self._device_strides = StrideTracker(self.fs_hz)
-        self._device_contacts: tuple[bool, bool] | None = None  # last heel/toe (JOINT mode)
+        self._device_edges = ContactEdges()  # events from the unit's contacts (JOINT mode)
         self._n_strides = 0
         self._last_hs_idx: int | None = None
         self._seq0: int | None = None
@@ -719,7 +725,12 @@ class Engine:
                 self._hand_over(rec, block, p, gap_reason)
         else:
             cols = _cols_from_device(block, t_s)
-            hs_idx, to_idx = self._device_events(block, start_idx)
+            if block.heel_loaded is not None and block.toe_loaded is not None:
+                hs_idx, to_idx = self._device_edges.process(
+                    block.heel_loaded, block.toe_loaded, start_idx
+                )
+            else:
+                hs_idx = to_idx = np.empty(0, np.int64)
             strides = self._device_strides.process(hs_idx, to_idx)
             if rec is not None:
                 self._hand_over(rec, block, None, gap_reason)
@@ -846,19 +857,6 @@ class Engine:
         if len(seg) == k + 1 and not np.isnan(seg).all():
             self._cycles.append(normalise_cycles(seg, np.array([0, k]))[0])
             self._cycles_deg = np.stack(self._cycles)
-
-    def _device_events(self, block: SampleBlock, start_idx: int) -> tuple[np.ndarray, np.ndarray]:
-        """Heel strikes / toe offs from the unit's contact flags (JOINT mode)."""
-        if block.heel_loaded is None or block.toe_loaded is None:
-            return np.empty(0, np.int64), np.empty(0, np.int64)
-        if self._device_contacts is None:  # the state at start-up is not an event
-            self._device_contacts = (bool(block.heel_loaded[0]), bool(block.toe_loaded[0]))
-        heel = np.concatenate([[self._device_contacts[0]], block.heel_loaded])
-        toe = np.concatenate([[self._device_contacts[1]], block.toe_loaded])
-        self._device_contacts = (bool(heel[-1]), bool(toe[-1]))
-        hs = np.flatnonzero(heel[1:] & ~heel[:-1]) + start_idx
-        to = np.flatnonzero(~toe[1:] & toe[:-1]) + start_idx
-        return hs.astype(np.int64), to.astype(np.int64)
 
 
 def _slice_samples(b: SampleBlock, a: int, z: int) -> SampleBlock:

@@ -407,3 +407,18 @@ def test_gait_summary_closed_form():
     assert s.cadence_derived_steps_per_min == pytest.approx(120 / 1.1)
     empty = gait_summary([])
     assert empty.n_strides == 0 and math.isnan(empty.stride_time_mean_s)
+
+
+def test_contact_edges_from_unit_contacts_by_hand_and_in_chunks():
+    from gaitmon.dsp.gait import ContactEdges
+
+    heel = np.array([1, 1, 0, 0, 1, 1, 1, 0, 0, 1], dtype=bool)  # starts loaded: no event at 0
+    toe = np.array([0, 1, 1, 0, 0, 1, 1, 1, 0, 0], dtype=bool)
+    hs, to = ContactEdges().process(heel, toe, 100)
+    np.testing.assert_array_equal(hs, [104, 109])  # heel rises at rows 4 and 9
+    np.testing.assert_array_equal(to, [103, 108])  # toe falls at rows 3 and 8
+    edges = ContactEdges()
+    bounds = ((0, 3), (3, 3), (3, 4), (4, 10))
+    parts = [edges.process(heel[a:b], toe[a:b], 100 + a) for a, b in bounds]
+    np.testing.assert_array_equal(np.concatenate([p[0] for p in parts]), hs)
+    np.testing.assert_array_equal(np.concatenate([p[1] for p in parts]), to)

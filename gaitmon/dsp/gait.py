@@ -519,3 +519,27 @@ def gait_summary(strides: Sequence[Stride]) -> GaitSummary:
         swing_pct_mean=float(np.mean([s.swing_pct for s in strides])),
         cadence_derived_steps_per_min=120.0 / mean_t,
     )
+
+
+class ContactEdges:
+    """Events from contact states the unit reports (JOINT frames): heel strikes = rising
+    edges of the heel contact, toe offs = falling edges of the toe contact. Streaming; no
+    event at the very first sample (its past is unknown)."""
+
+    def __init__(self) -> None:
+        self._heel: bool | None = None
+        self._toe: bool | None = None
+
+    def process(
+        self, heel: np.ndarray, toe: np.ndarray, start_row: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        h = np.asarray(heel, dtype=bool)
+        t = np.asarray(toe, dtype=bool)
+        if len(h) == 0:
+            return np.empty(0, np.int64), np.empty(0, np.int64)
+        h_prev = np.concatenate([[h[0] if self._heel is None else self._heel], h[:-1]])
+        t_prev = np.concatenate([[t[0] if self._toe is None else self._toe], t[:-1]])
+        self._heel, self._toe = bool(h[-1]), bool(t[-1])
+        hs = np.flatnonzero(h & ~h_prev).astype(np.int64) + start_row
+        to = np.flatnonzero(~t & t_prev).astype(np.int64) + start_row
+        return hs, to

@@ -50,6 +50,7 @@ from gaitmon import __version__
 from gaitmon.dsp.angles import joint_angles, wrap_angle
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import CHANNELS, DEFAULT_TABLE, ChannelSpec, ChannelTable
+from gaitmon.dsp.gait import ContactEdges
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
 from gaitmon.io.device import LinkStats, SampleBlock
 from gaitmon.io.journal import (
@@ -323,29 +324,6 @@ def _device_rows(kind: FrameKind, cols: Mapping[str, np.ndarray]) -> dict[str, n
             "processed/phase": np.asarray(cols["phase"]).astype(np.int8),
         }
     raise ValueError(f"device rows need a TILT or JOINT block, got {kind!r}")
-
-
-class _ContactEdges:
-    """Joint mode: heel strikes = rising edges of the unit's heel contact, toe offs = falling
-    edges of its toe contact (no event at the very first row: its past is unknown)."""
-
-    def __init__(self) -> None:
-        self._heel: bool | None = None
-        self._toe: bool | None = None
-
-    def process(
-        self, heel: np.ndarray, toe: np.ndarray, start_row: int
-    ) -> tuple[np.ndarray, np.ndarray]:
-        h = np.asarray(heel, dtype=bool)
-        t = np.asarray(toe, dtype=bool)
-        if len(h) == 0:
-            return np.empty(0, np.int64), np.empty(0, np.int64)
-        h_prev = np.concatenate([[h[0] if self._heel is None else self._heel], h[:-1]])
-        t_prev = np.concatenate([[t[0] if self._toe is None else self._toe], t[:-1]])
-        self._heel, self._toe = bool(h[-1]), bool(t[-1])
-        hs = np.flatnonzero(h & ~h_prev).astype(np.int64) + start_row
-        to = np.flatnonzero(~t & t_prev).astype(np.int64) + start_row
-        return hs, to
 
 
 class _Timeline:
@@ -673,7 +651,7 @@ class SessionWriter:
         self._staged_events: dict[str, list[np.ndarray]] = {"heel_strike": [], "toe_off": []}
         self._staged_tables: dict[str, list[tuple[Any, ...]]] = {k: [] for k in _TABLES}
         self._pending_markers: list[tuple[int, str]] = []
-        self._edges = _ContactEdges() if header.mode == "joint" else None
+        self._edges = ContactEdges() if header.mode == "joint" else None
         self._wall_offset_s: float | None = None
         self._link_totals: dict[str, int] = dict.fromkeys(LINK_TOTALS, 0)
         self._link_dirty = False
@@ -1280,7 +1258,7 @@ def _build_recovered(
 def _device_chunks(
     rows: np.ndarray, kind: FrameKind
 ) -> Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]]:
-    edges = _ContactEdges() if kind == FrameKind.JOINT else None
+    edges = ContactEdges() if kind == FrameKind.JOINT else None
     names = _field_names(rows.dtype)[N_COMMON_FIELDS:]
     empty = np.empty(0, np.int64)
     for a in range(0, len(rows), _RECOVERY_CHUNK_ROWS):
