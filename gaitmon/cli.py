@@ -7,11 +7,7 @@ import sys
 from collections.abc import Callable, Sequence
 
 from gaitmon import __version__
-
-
-class UserError(Exception):
-    """A problem the user can fix; printed as one line, never as a traceback."""
-
+from gaitmon.errors import UserError
 
 # name -> (module path, help). Modules define add_arguments(parser) and run(args) -> int.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from gaitmon.cli import UserError
+from gaitmon.errors import UserError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

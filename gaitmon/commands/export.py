@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from gaitmon.cli import UserError
+from gaitmon.errors import UserError
 
 DESCRIPTION = """\
 Export a recorded session (.h5) to CSV (+ a .meta.json side file), a MATLAB v5 .mat file

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gaitmon.cli import UserError
+from gaitmon.errors import UserError
 
 if TYPE_CHECKING:
     from gaitmon.analysis import StrideRow

@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from gaitmon.cli import UserError
+from gaitmon.errors import UserError
 
 CHOICES = ("all", "p000", "p001", "p002", "p003", "p004")
 

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from gaitmon.cli import UserError
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.errors import UserError
 
 # command-line option -> PipelineConfig field
 SETTINGS = {

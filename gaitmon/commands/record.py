@@ -12,8 +12,8 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from gaitmon.cli import UserError
 from gaitmon.commands.simulate import add_simulator_options, build_unit
+from gaitmon.errors import UserError
 
 if TYPE_CHECKING:
     from gaitmon.engine import Engine, RecordingStatus

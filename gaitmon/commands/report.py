@@ -13,7 +13,7 @@ import argparse
 import os
 from pathlib import Path
 
-from gaitmon.cli import UserError
+from gaitmon.errors import UserError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

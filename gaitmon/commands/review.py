@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gaitmon.cli import UserError
+from gaitmon.errors import UserError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

@@ -9,7 +9,7 @@ import sys
 import threading
 from types import FrameType
 
-from gaitmon.cli import UserError
+from gaitmon.errors import UserError
 from gaitmon.io.sim.kinematics import PATTERNS, GaitConfig
 from gaitmon.io.sim.pty import PtySimulator
 from gaitmon.io.sim.sensors import SensorConfig

@@ -94,10 +94,10 @@ def launch(module: str, args: Any) -> int:
     """Run ``module.run(args)`` (a gaitmon.ui module that opens a window) when a window can open.
 
     No display, or Qt not importable (PySide6 missing, or a system library it needs), is a
-    one-line ``gaitmon.cli.UserError``; the module, and with it Qt, is imported only after the
+    one-line ``gaitmon.errors.UserError``; the module, and with it Qt, is imported only after the
     display check, because Qt aborts the process when its platform plugin cannot start.
     """
-    from gaitmon.cli import UserError
+    from gaitmon.errors import UserError
 
     problem = display_problem()
     if problem is not None:

@@ -69,7 +69,7 @@ def open_connection(
     baudrate: int | None = None,
 ) -> Connection:
     """Connect, identify and start streaming; raises EngineError with a one-line reason."""
-    from gaitmon.cli import UserError
+    from gaitmon.errors import UserError
 
     simulator = unit = None
     if port == SIMULATED_PORT:

@@ -747,8 +747,8 @@ class ReviewWindow(QMainWindow):
         doc = self.doc
         if doc is None or doc.reprocessed is None:
             return
-        from gaitmon.cli import UserError
         from gaitmon.commands import process
+        from gaitmon.errors import UserError
 
         cfg = doc.reprocessed.config
         ns = argparse.Namespace(
