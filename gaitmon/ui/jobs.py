@@ -1,0 +1,82 @@
+"""The Qt delivery layer of :mod:`gaitmon.jobs`: responses and progress arrive on the GUI thread.
+
+:class:`QtWorker` is a :class:`gaitmon.jobs.Worker` whose ``post`` queues the callable and wakes
+the GUI thread with a queued signal, so ``on_done``, ``progressed`` and ``busy_changed`` always
+run on the GUI thread and the worker thread never touches a widget. :meth:`QtWorker.stop` runs
+what is still queued before it returns, so a connection or file opened for a request nobody
+wants any more is disposed of (``on_stale``) before the window goes away.
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+from collections.abc import Callable
+from typing import TypeVar
+
+from PySide6.QtCore import QObject, Qt, Signal, Slot
+
+from gaitmon.jobs import Response, Ticket, Worker
+
+T = TypeVar("T")
+
+
+class QtWorker(QObject):
+    """One worker thread whose responses are delivered on the GUI thread."""
+
+    progressed = Signal(float)  # fraction of the current request
+    busy_changed = Signal(bool)
+    _posted = Signal()
+
+    def __init__(self, name: str, *, latest: bool = True, parent: QObject | None = None) -> None:
+        super().__init__(parent)
+        self._pending: collections.deque[Callable[[], None]] = collections.deque()
+        self._lock = threading.Lock()
+        self._posted.connect(self._drain, Qt.ConnectionType.QueuedConnection)
+        self.core = Worker(
+            name,
+            latest=latest,
+            post=self._post,
+            on_progress=self.progressed.emit,
+            on_busy=self.busy_changed.emit,
+        )
+
+    def submit(
+        self,
+        fn: Callable[[Ticket], T],
+        on_done: Callable[[Response[T]], None],
+        on_stale: Callable[[T], None] | None = None,
+    ) -> int:
+        return self.core.submit(fn, on_done, on_stale)
+
+    def cancel(self) -> None:
+        self.core.cancel()
+
+    @property
+    def busy(self) -> bool:
+        return self.core.busy
+
+    def wait_idle(self, timeout_s: float = 10.0) -> bool:
+        """Block until the worker is idle, then deliver what it produced (for closing, tests)."""
+        idle = self.core.wait_idle(timeout_s)
+        self._drain()
+        return idle
+
+    def stop(self, timeout_s: float = 10.0) -> bool:
+        stopped = self.core.stop(timeout_s)
+        self._drain()
+        return stopped
+
+    def _post(self, fn: Callable[[], None]) -> None:
+        with self._lock:
+            self._pending.append(fn)
+        self._posted.emit()
+
+    @Slot()
+    def _drain(self) -> None:
+        while True:
+            with self._lock:
+                if not self._pending:
+                    return
+                fn = self._pending.popleft()
+            fn()
