@@ -128,11 +128,11 @@ def parse_normative(text: str, name: str = "normative file") -> NormativeBands:
         )
     given = []
     for joint in JOINT_KEYS:
-        m, s = f"{joint}_mean_deg", f"{joint}_sd_deg"
-        if (m in header) != (s in header):
-            have, lack = (m, s) if m in header else (s, m)
+        mean_col, sd_col = f"{joint}_mean_deg", f"{joint}_sd_deg"
+        if (mean_col in header) != (sd_col in header):
+            have, lack = (mean_col, sd_col) if mean_col in header else (sd_col, mean_col)
             raise NormativeError(f"{name}: column {have!r} has no matching {lack!r}")
-        if m in header:
+        if mean_col in header:
             given.append(joint)
     if not given:
         raise NormativeError(

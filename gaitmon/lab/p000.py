@@ -10,12 +10,16 @@ the same calibrated accelerometer tilt and bias-corrected gyro. Errors skip the 
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TypedDict
+
 import numpy as np
 
 from gaitmon.dsp.angles import joint_angles, wrap_angle
 from gaitmon.dsp.calibration import standing_calibration
 from gaitmon.dsp.channels import JOINTS, SEGMENTS
-from gaitmon.dsp.lab_filters import make_tilt_filter
+from gaitmon.dsp.complementary import ComplementaryFilter
+from gaitmon.dsp.lab_filters import TiltFilter, make_tilt_filter
 from gaitmon.dsp.pipeline import Pipeline
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
@@ -30,7 +34,18 @@ def _rmse_deg(est: np.ndarray, truth: np.ndarray) -> np.ndarray:
     return np.sqrt(np.mean(e**2, axis=0))
 
 
-def _event_errors(found: np.ndarray, true: np.ndarray, tol: int = 10) -> dict:
+class EventErrors(TypedDict):
+    """Detected vs true gait events: counts, and timing errors of the matched ones (ms)."""
+
+    true: int
+    found: int
+    matched: int
+    mean_ms: float
+    median_abs_ms: float
+    max_abs_ms: float
+
+
+def _event_errors(found: np.ndarray, true: np.ndarray, tol: int = 10) -> EventErrors:
     """Match every true event to the nearest detected one within tol samples."""
     found = np.sort(found)
     errs, matched = [], set()
@@ -52,7 +67,7 @@ def _event_errors(found: np.ndarray, true: np.ndarray, tol: int = 10) -> dict:
     }
 
 
-def run(out_dir, quick: bool = False) -> Report:
+def run(out_dir: Path, quick: bool = False) -> Report:
     n = 3000 if quick else 6000
     gait = GaitModel(GaitConfig(seed=7, cadence_steps_min=105.0))
     sb = simulate(n, gait, SensorConfig(seed=7))
@@ -66,18 +81,26 @@ def run(out_dir, quick: bool = False) -> Report:
         "kalman (paper 000)": b.tilt_kalman_rad,
     }
     dt = 1.0 / FS_HZ
+    filters: dict[str, TiltFilter] = {}
     for name in (
         "gyro",
         "complementary",
         "complementary (adaptive)",
         "kalman constant-rate (paper 001)",
     ):
-        f = make_tilt_filter(name, dt)
+        f = filters[name] = make_tilt_filter(name, dt)
         tilts[name if name != "gyro" else "gyro (raw integration)"] = wrap_angle(
             f.process(b.tilt_acc_rad, b.gyro_rad_s)
         )
-        if name == "complementary (adaptive)":
-            adaptive_fc = f.cutoff_hz
+    # The TiltFilter protocol has no cut-off (most filters have none): the cut-off the adaptive
+    # filter ended with is a property of the concrete ComplementaryFilter the registry builds.
+    adaptive = filters["complementary (adaptive)"]
+    if not isinstance(adaptive, ComplementaryFilter) or adaptive.cutoff_hz is None:
+        raise TypeError(
+            "the 'complementary (adaptive)' tilt filter should be a ComplementaryFilter that has "
+            f"run, got {adaptive!r}"
+        )
+    adaptive_fc_hz = adaptive.cutoff_hz
     rep = Report("Paper 000 -- tilt filters on the simulated walking unit", out_dir, "p000")
     rep.para(__doc__.split("\n\n", 1)[1].strip() if __doc__ else "")
     rep.para(
@@ -127,7 +150,7 @@ def run(out_dir, quick: bool = False) -> Report:
         "the accelerometer far more than paper 000's Kalman filter (alpha = 0.84 at 100 Hz vs "
         "the Kalman's steady-state 0.985), so heel-strike impacts and swing accelerations pass "
         "into it. The adaptive version ends with fc = "
-        + ", ".join(f"{x:.2f}" for x in adaptive_fc)
+        + ", ".join(f"{x:.2f}" for x in adaptive_fc_hz)
         + " Hz (body..foot): the stride frequency or its second harmonic, below 3 Hz, so it "
         "does better than the "
         "fixed one but stays far behind. Paper 001's constant-rate model with R = 0.3 rad^2 and "
@@ -176,6 +199,6 @@ def run(out_dir, quick: bool = False) -> Report:
         "tilt_rmse_deg": {k: v.tolist() for k, v in tilt_rmse.items()},
         "joint_rmse_deg": {k: v.tolist() for k, v in joint_rmse.items()},
         "events": ev,
-        "adaptive_fc_hz": np.asarray(adaptive_fc).tolist(),
+        "adaptive_fc_hz": adaptive_fc_hz.tolist(),
     }
     return rep

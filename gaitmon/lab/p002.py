@@ -10,7 +10,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TypedDict
+
 import numpy as np
+import numpy.typing as npt
 
 from gaitmon.dsp.kalman_models import (
     gravity_compensate,
@@ -33,6 +37,24 @@ PUBLISHED = {  # q -> (gain, poles as printed)
 PAPER_VERDICT = {1e-5: "stable, near the boundary", 1.0: "stable", 1000.0: "unstable"}
 
 
+class PublishedCheck(TypedDict):
+    """What a published gain gives through eig(A - K H) and through the filter-form dynamics."""
+
+    poles_paper_form: list[complex]
+    agree: bool
+    max_abs: float
+    verdict: str
+    verdict_filter_form: str
+
+
+class SweepGain(TypedDict):
+    """gaitmon's own steady-state (DARE) gain for one q and the stability of both forms."""
+
+    gain: list[float]
+    verdict_paper_form: str
+    verdict_filter_form: str
+
+
 def _sorted(p: np.ndarray) -> list[complex]:
     """Upper complex pole, real pole(s), lower complex pole."""
 
@@ -42,15 +64,15 @@ def _sorted(p: np.ndarray) -> list[complex]:
     return sorted((complex(z) for z in p), key=key)
 
 
-def _real_pole(p) -> float:
+def _real_pole(p: npt.ArrayLike) -> float:
     return float(min(np.asarray(p), key=lambda z: abs(z.imag)).real)
 
 
-def _poles_str(p) -> str:
+def _poles_str(p: npt.ArrayLike) -> str:
     return ", ".join(fmt(z, 4) for z in _sorted(np.asarray(p)))
 
 
-def run(out_dir, quick: bool = False) -> Report:
+def run(out_dir: Path, quick: bool = False) -> Report:
     a, h, _ = pva_matrices(TS_S, 1.0)
     rep = Report(
         "Paper 002 -- 3-state position/velocity/acceleration Kalman filter", out_dir, "p002"
@@ -62,8 +84,8 @@ def run(out_dir, quick: bool = False) -> Report:
         "is the filter-form gain of its eq. 12; eig(A - K H) belongs to a predictor-form observer)."
     )
     rep.heading("The published gains and their poles")
-    rows = []
-    published = {}
+    rows: list[list[str]] = []
+    published: dict[float, PublishedCheck] = {}
     for q, (k, printed) in PUBLISHED.items():
         kk = np.array(k)
         p_paper = observer_poles(a, kk, h, form="paper")
@@ -132,16 +154,16 @@ def run(out_dir, quick: bool = False) -> Report:
 
     rep.heading("gaitmon's own gains: q sweep (DARE, Q = diag(0, 0, q))")
     rows = []
-    sweep = {}
+    sweep: dict[float, SweepGain] = {}
     for q in Q_SWEEP:
         _, _, qm = pva_matrices(TS_S, q)
-        k = steady_state_gain(a, h, qm, [[R]])
-        pp = observer_poles(a, k, h, form="paper")
-        pf = observer_poles(a, k, h, form="filter")
+        k_dare = steady_state_gain(a, h, qm, np.array([[R]]))
+        pp = observer_poles(a, k_dare, h, form="paper")
+        pf = observer_poles(a, k_dare, h, form="filter")
         rows.append(
             [
                 fmt(q),
-                ", ".join(fmt(x, 5) for x in k.ravel()),
+                ", ".join(fmt(x, 5) for x in k_dare.ravel()),
                 _poles_str(pp),
                 stability_verdict(pp),
                 _poles_str(pf),
@@ -149,7 +171,7 @@ def run(out_dir, quick: bool = False) -> Report:
             ]
         )
         sweep[q] = {
-            "gain": k.ravel().tolist(),
+            "gain": k_dare.ravel().tolist(),
             "verdict_paper_form": stability_verdict(pp),
             "verdict_filter_form": stability_verdict(pf),
         }
@@ -197,7 +219,7 @@ def run(out_dir, quick: bool = False) -> Report:
         f"{comp_rms:.1f} of {true_rms:.1f} cm/s^2 RMS survives). Only a tilt from another source "
         "(gyro, or a filtered/quasi-static accelerometer) can separate the two."
     )
-    kf_demo = {}
+    kf_demo: dict[float, float] = {}
     fig, ax = new_figure(2, 1, height_in=2.8)
     ax[0, 0].plot(t, acc[:, 0] * 980.0, color=COLOURS["accelerometer"], lw=0.6, label="raw Ax")
     ax[0, 0].plot(t, comp[:, 0], color=COLOURS["kalman"], lw=0.8, label="compensated")
