@@ -19,6 +19,8 @@ Simulation (the paper used real phone data against the phone's own orientation o
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TypedDict
 
 import numpy as np
 
@@ -51,7 +53,24 @@ def _min_jerk(t: np.ndarray, t0: float, t1: float) -> tuple[np.ndarray, np.ndarr
     return pos, vel
 
 
-def simulate_axis(axis: int, angle_deg: float, duration_s: float, s: Setup):
+class AxisResult(TypedDict):
+    """One rotation's final angles (deg), the paper's metrics before/after filtering (%), RMSEs."""
+
+    reference_deg: float
+    before_deg: float
+    after_deg: float
+    galat_before: float
+    galat_after: float
+    akurasi_before: float
+    akurasi_after: float
+    rmse_before_deg: float
+    rmse_after_deg: float
+    off_axis_galat: list[float]
+
+
+def simulate_axis(
+    axis: int, angle_deg: float, duration_s: float, s: Setup
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(t, true NED angles (N, 3) rad, NED gyro (N, 3) rad/s after the ENU mapping, Z (N, 3))."""
     dt = 1.0 / FS_HZ
     t = np.arange(round(duration_s * FS_HZ)) * dt
@@ -80,7 +99,7 @@ def _before(gyro: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
-def run(out_dir, quick: bool = False) -> Report:
+def run(out_dir: Path, quick: bool = False) -> Report:
     s = Setup()
     dt = 1.0 / FS_HZ
     rep = Report(
@@ -91,7 +110,8 @@ def run(out_dir, quick: bool = False) -> Report:
         f"Values chosen here: gyro bias (ENU) {s.gyro_bias_deg_s} deg/s, gyro noise "
         f"{s.gyro_noise_deg_s} deg/s, angle-measurement noise {s.angle_noise_deg} deg, q = {s.q}."
     )
-    rows, numbers = [], {}
+    rows: list[list[str | float]] = []
+    numbers: dict[str, AxisResult] = {}
     fig, ax = new_figure(3, 1, height_in=2.4)
     for i, (name, label, angle_deg, dur) in enumerate(AXES):
         t, angle, gyro, z = simulate_axis(i, angle_deg, dur, s)

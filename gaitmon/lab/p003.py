@@ -11,6 +11,7 @@ RMSD = RMS deviation of the angle about its mean while the sensor is held still.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -41,7 +42,14 @@ def _quantise(x: np.ndarray, lsb: float) -> np.ndarray:
     return np.round(x / lsb) * lsb
 
 
-def _sensors(angle_rad, rate_rad_s, acc_lin_g, acc_noise_g, s: Setup, rng):
+def _sensors(
+    angle_rad: np.ndarray,
+    rate_rad_s: np.ndarray,
+    acc_lin_g: np.ndarray | float,
+    acc_noise_g: float,
+    s: Setup,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
     """Accelerometer angle atan(Ay/Az) and gyro rate (deg/s) through the paper's ADC."""
     n = len(angle_rad)
     ay = np.sin(angle_rad) + acc_lin_g + acc_noise_g * rng.standard_normal(n)
@@ -52,7 +60,9 @@ def _sensors(angle_rad, rate_rad_s, acc_lin_g, acc_noise_g, s: Setup, rng):
     return np.arctan2(ay, az), np.radians(gyro)
 
 
-def _rest_rmsd(acc_noise_g: float, s: Setup, seed: int) -> tuple[float, float, np.ndarray, dict]:
+def _rest_rmsd(
+    acc_noise_g: float, s: Setup, seed: int
+) -> tuple[float, float, np.ndarray, dict[str, np.ndarray]]:
     n = round(s.rest_s * FS_HZ)
     rng = np.random.default_rng(seed)
     angle = np.full(n, np.radians(s.tilt_deg))
@@ -81,8 +91,16 @@ def _calibrate_acc_noise(s: Setup, seed: int) -> float:
     return 0.5 * (lo + hi)
 
 
-def _motion(s: Setup, seed: int, freqs=(1.0, 3.0, 0.5), amps_deg=(20.0, 6.0, 30.0)):
-    """Rotation about X at changing frequencies, with the lever-arm acceleration it causes."""
+def _motion(
+    s: Setup,
+    seed: int,
+    freqs: tuple[float, ...] = (1.0, 3.0, 0.5),
+    amps_deg: tuple[float, ...] = (20.0, 6.0, 30.0),
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.random.Generator]:
+    """Rotation about X at changing frequencies, with the lever-arm acceleration it causes.
+
+    (t, angle rad, rate rad/s, tangential acceleration g, motion frequency Hz, the noise rng).
+    """
     dt = 1.0 / FS_HZ
     n_seg = round(s.motion_s * FS_HZ)
     f_true = np.repeat(freqs, n_seg)
@@ -101,7 +119,7 @@ def _motion(s: Setup, seed: int, freqs=(1.0, 3.0, 0.5), amps_deg=(20.0, 6.0, 30.
     return np.arange(len(angle)) * dt, angle, rate, lin_g, f_true, rng
 
 
-def run(out_dir, quick: bool = False) -> Report:
+def run(out_dir: Path, quick: bool = False) -> Report:
     s = Setup(rest_s=10.0, motion_s=12.0) if quick else Setup()
     seed = 3
     dt = 1.0 / FS_HZ

@@ -21,7 +21,10 @@ on that choice.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TypedDict
 
 import numpy as np
 
@@ -55,6 +58,17 @@ class Setup:
     exp_fixed_fc_hz: float = 2.0
 
 
+class Results(TypedDict):
+    """What ``compute`` returns."""
+
+    rms: dict[str, dict[str, np.ndarray]]  # [kind][filter] -> (runs, len(PERIODS_S))
+    example: dict[str, dict[str, np.ndarray]]  # [kind] -> run 1 at the smallest T (_run_case)
+
+
+# a fresh exponential filter for a sampling period (s)
+ExpFilterFactory = Callable[[float], ExponentialFilter]
+
+
 def _truth(kind: str, t: np.ndarray, s: Setup) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(x, dx/dt, d2x/dt2) of the sinusoid at times t."""
     w = 2.0 * np.pi * s.f0_hz
@@ -62,7 +76,9 @@ def _truth(kind: str, t: np.ndarray, s: Setup) -> tuple[np.ndarray, np.ndarray, 
     return amp * np.sin(w * t), amp * w * np.cos(w * t), -amp * w * w * np.sin(w * t)
 
 
-def _run_case(kind: str, period_s: float, s: Setup, seed: int, exp_filters: dict) -> dict:
+def _run_case(
+    kind: str, period_s: float, s: Setup, seed: int, exp_filters: Mapping[str, ExpFilterFactory]
+) -> dict[str, np.ndarray]:
     """One seeded run: truth, Kalman estimate and every exponential-path estimate."""
     n = round(s.duration_s / period_s) + 1
     t = np.arange(n) * period_s
@@ -99,13 +115,13 @@ def _rms(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a - b) ** 2)))
 
 
-def compute(s: Setup) -> dict:
+def compute(s: Setup) -> Results:
     """RMS errors [kind][filter] -> (runs, len(PERIODS_S)), plus run 1 at the smallest T."""
 
-    def fixed_alpha(order: int):
+    def fixed_alpha(order: int) -> ExpFilterFactory:
         return lambda period_s: ExponentialFilter(s.exp_alpha, order=order, initial="first")
 
-    def fixed_fc(order: int):
+    def fixed_fc(order: int) -> ExpFilterFactory:
         return lambda period_s: ExponentialFilter(
             cutoff_hz=s.exp_fixed_fc_hz, fs_hz=1.0 / period_s, order=order, initial="first"
         )
@@ -118,7 +134,7 @@ def compute(s: Setup) -> dict:
     }
     names = ["kalman", *exp_filters]
     rms: dict[str, dict[str, np.ndarray]] = {}
-    example: dict[str, dict] = {}
+    example: dict[str, dict[str, np.ndarray]] = {}
     for kind in ("accelerometer", "gyroscope"):
         rms[kind] = {name: np.empty((s.runs, len(PERIODS_S))) for name in names}
         for j, period in enumerate(PERIODS_S):
@@ -138,7 +154,7 @@ def _finding(rms_k: np.ndarray, rms_e: np.ndarray) -> tuple[bool, bool]:
     return bool(np.all(k < e)), bool(np.all(np.diff(k) < 0) and np.all(np.diff(e) < 0))
 
 
-def run(out_dir, quick: bool = False) -> Report:
+def run(out_dir: Path, quick: bool = False) -> Report:
     s = Setup(runs=3, duration_s=4.0) if quick else Setup()
     res = compute(s)
     rms = res["rms"]
@@ -175,7 +191,7 @@ def run(out_dir, quick: bool = False) -> Report:
         "the exponential path never sees. That, not the filter structure, is why it wins by so "
         "much in the accelerometer case, where the exponential path double-integrates noise."
     )
-    numbers: dict = {}
+    numbers: dict[str, dict[str, list[float] | bool]] = {}
     for kind, table_no in (("accelerometer", 1), ("gyroscope", 2)):
         unit = "cm" if kind == "accelerometer" else "deg"
         k, e = rms[kind]["kalman"], rms[kind]["exponential"]
@@ -223,7 +239,14 @@ def run(out_dir, quick: bool = False) -> Report:
     return rep
 
 
-def _plot(rep: Report, kind: str, unit: str, ex: dict, rms: dict, s: Setup) -> None:
+def _plot(
+    rep: Report,
+    kind: str,
+    unit: str,
+    ex: dict[str, np.ndarray],
+    rms: dict[str, np.ndarray],
+    s: Setup,
+) -> None:
     fig, ax = new_figure(3, 1, height_in=2.6)
     t = ex["t"]
     ax[0, 0].plot(t, ex["truth"], color=COLOURS["truth"], lw=1.2, label="truth")

@@ -9,9 +9,12 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:  # matplotlib is imported lazily, only when a figure is drawn
+    from matplotlib.figure import Figure
 
 # paper 000's colour convention: red = accelerometer, green = Kalman, blue = gyro integration
 COLOURS = {
@@ -79,7 +82,7 @@ class Report:
             self.lines.append("| " + " | ".join(fmt(c, digits) for c in row) + " |")
         self.lines.append("")
 
-    def figure(self, fig: Any, name: str, caption: str) -> Path:
+    def figure(self, fig: Figure, name: str, caption: str) -> Path:
         path = self.out_dir / f"{self.stem}_{name}.png"
         fig.savefig(path, dpi=100)
         self.figures.append(path)
@@ -93,8 +96,10 @@ class Report:
         return path
 
 
-def new_figure(rows: int = 1, cols: int = 1, height_in: float = 3.2, width_in: float = 9.0):
-    """(figure, axes array) on the Agg canvas."""
+def new_figure(
+    rows: int = 1, cols: int = 1, height_in: float = 3.2, width_in: float = 9.0
+) -> tuple[Figure, np.ndarray]:
+    """(figure, (rows, cols) object array of Axes) on the Agg canvas."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
