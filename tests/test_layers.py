@@ -41,7 +41,7 @@ def module_names() -> dict[str, Path]:
 
 
 def imports_of(name: str, path: Path, known: Iterable[str]) -> set[str]:
-    """Every module ``name`` imports (gaitmon modules resolved to the module, others by top name)."""
+    """The modules ``name`` imports: gaitmon ones resolved to the module, others by top name."""
     known = set(known)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     out: set[str] = set()
