@@ -19,6 +19,8 @@ import pytest
 from gaitmon.cli import main
 from gaitmon.dsp.channels import CHANNELS
 from gaitmon.io import export as ex
+from gaitmon.io.export import c3d as ex_c3d
+from gaitmon.io.export import mat as ex_mat
 
 PATIENT = "PT-4711-XQZ"
 OPERATOR = "Dr. Quillfeather"
@@ -308,7 +310,7 @@ def test_mat_round_trip(session, tmp_path):
 def test_mat_refuses_a_session_over_the_v5_limit(tmp_path, monkeypatch):
     src = tmp_path / "s.h5"
     write_session(src, "raw", n=200)
-    monkeypatch.setattr(ex, "MAT_V5_MAX_BYTES", 10_000)
+    monkeypatch.setattr(ex_mat, "MAT_V5_MAX_BYTES", 10_000)
     with pytest.raises(ex.ExportError, match="2 GB MATLAB limit"):
         ex.export_session(src, "mat")
     assert not (tmp_path / "s.mat").exists()
@@ -393,8 +395,8 @@ def test_c3d_long_session_is_split_into_parts(tmp_path, monkeypatch, in_process)
     ezc3d = pytest.importorskip("ezc3d")
     src = tmp_path / "long.h5"
     truth = write_session(src, "raw", n=600, side="L")
-    monkeypatch.setattr(ex, "C3D_MAX_PART_S", 2.5)  # 250-frame parts: 605 frames -> 3 parts
-    monkeypatch.setattr(ex, "C3D_INPROCESS_PARTS", in_process)
+    monkeypatch.setattr(ex_c3d, "C3D_MAX_PART_S", 2.5)  # 250-frame parts: 605 frames -> 3 parts
+    monkeypatch.setattr(ex_c3d, "C3D_INPROCESS_PARTS", in_process)
     res = ex.export_session(src, "c3d")
     assert [p.name for p in res.paths] == [f"long_part00{k}.c3d" for k in (1, 2, 3)]
     parts = [ezc3d.c3d(str(p)) for p in res.paths]
