@@ -10,6 +10,8 @@ from __future__ import annotations
 import csv
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import h5py
@@ -647,3 +649,55 @@ def test_export_of_a_recorded_session(tmp_path, crash):
     assert meta["root"]["recovered"] is crash
     assert [m["label"] for m in meta["markers"]] == ["half way"]
     assert b"PT-REC-77" not in res.paths[0].read_bytes() + res.paths[1].read_bytes()
+
+
+# ---------------------------------------------------------------------------------------------
+# The format registry, cancel
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("fmt", list(ex.FORMATS))
+def test_every_registered_format_writes_its_own_suffix(tmp_path, fmt):
+    if ex.FORMATS[fmt].requires:
+        pytest.importorskip(ex.FORMATS[fmt].requires)
+    src = tmp_path / "s.h5"
+    write_session(src, "joint", n=200)
+    res = ex.export_session(src, fmt)
+    assert res.paths[0] == src.with_suffix(ex.FORMATS[fmt].suffix)
+    assert res.paths[0].stat().st_size > 0
+
+
+@pytest.mark.parametrize("fmt", list(ex.FORMATS))
+def test_cancel_stops_at_the_first_progress_point_and_leaves_no_file(tmp_path, fmt):
+    if ex.FORMATS[fmt].requires:
+        pytest.importorskip(ex.FORMATS[fmt].requires)
+    src = tmp_path / "s.h5"
+    write_session(src, "raw", n=600)
+    seen: list[float] = []
+    with pytest.raises(ex.ExportCancelled, match="cancelled"):
+        ex.export_session(src, fmt, tmp_path / "out", progress=seen.append,
+                          cancel=lambda: True, chunk_rows=100)
+    assert seen == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]
+    assert issubclass(ex.ExportCancelled, ex.ExportError)  # the CLI reports it in one line
+
+
+def test_cancel_that_never_fires_changes_nothing(tmp_path):
+    src = tmp_path / "s.h5"
+    write_session(src, "raw", n=400)
+    asked: list[int] = []
+    ex.export_session(src, "csv", tmp_path / "a.csv", chunk_rows=100,
+                      cancel=lambda: bool(asked.append(1)))
+    ex.export_session(src, "csv", tmp_path / "b.csv", chunk_rows=100)
+    assert len(asked) == 4  # once per chunk
+    assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
+
+
+def test_listing_the_formats_loads_no_format_module():
+    """The command-line parser reads FORMATS; that must not import numpy or a writer."""
+    code = ("import sys, gaitmon.io.export as e; assert list(e.FORMATS) == ['csv', 'mat', 'c3d'];"
+            "print(sorted(m for m in sys.modules if m == 'numpy' or m.startswith('h5py')"
+            " or m.startswith('gaitmon.io.export.') and m.rsplit('.', 1)[1] in e.FORMATS))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=60)
+    assert out.stdout.strip() == "[]"
