@@ -656,12 +656,18 @@ def test_export_of_a_recorded_session(tmp_path, crash):
 # ---------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("fmt", list(ex.FORMATS))
-def test_every_registered_format_writes_its_own_suffix(tmp_path, fmt):
+def _registered_session(tmp_path: Path, fmt: str, mode: str, n: int) -> Path:
+    """A fixture session for a registered format (skipped if its optional package is absent)."""
     if ex.FORMATS[fmt].requires:
         pytest.importorskip(ex.FORMATS[fmt].requires)
     src = tmp_path / "s.h5"
-    write_session(src, "joint", n=200)
+    write_session(src, mode, n=n)
+    return src
+
+
+@pytest.mark.parametrize("fmt", list(ex.FORMATS))
+def test_every_registered_format_writes_its_own_suffix(tmp_path, fmt):
+    src = _registered_session(tmp_path, fmt, "joint", 200)
     res = ex.export_session(src, fmt)
     assert res.paths[0] == src.with_suffix(ex.FORMATS[fmt].suffix)
     assert res.paths[0].stat().st_size > 0
@@ -669,10 +675,7 @@ def test_every_registered_format_writes_its_own_suffix(tmp_path, fmt):
 
 @pytest.mark.parametrize("fmt", list(ex.FORMATS))
 def test_cancel_stops_at_the_first_progress_point_and_leaves_no_file(tmp_path, fmt):
-    if ex.FORMATS[fmt].requires:
-        pytest.importorskip(ex.FORMATS[fmt].requires)
-    src = tmp_path / "s.h5"
-    write_session(src, "raw", n=600)
+    src = _registered_session(tmp_path, fmt, "raw", 600)
     seen: list[float] = []
     with pytest.raises(ex.ExportCancelled, match="cancelled"):
         ex.export_session(src, fmt, tmp_path / "out", progress=seen.append,

@@ -51,6 +51,8 @@ __all__ = [
 
 @dataclass(frozen=True)
 class ExportResult:
+    """What an export wrote: the final paths, in the order the format plans them."""
+
     paths: tuple[Path, ...]
     n_samples: int
     mode: str
