@@ -10,6 +10,8 @@ from __future__ import annotations
 import csv
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import h5py
@@ -19,6 +21,8 @@ import pytest
 from gaitmon.cli import main
 from gaitmon.dsp.channels import CHANNELS
 from gaitmon.io import export as ex
+from gaitmon.io.export import c3d as ex_c3d
+from gaitmon.io.export import mat as ex_mat
 
 PATIENT = "PT-4711-XQZ"
 OPERATOR = "Dr. Quillfeather"
@@ -308,7 +312,7 @@ def test_mat_round_trip(session, tmp_path):
 def test_mat_refuses_a_session_over_the_v5_limit(tmp_path, monkeypatch):
     src = tmp_path / "s.h5"
     write_session(src, "raw", n=200)
-    monkeypatch.setattr(ex, "MAT_V5_MAX_BYTES", 10_000)
+    monkeypatch.setattr(ex_mat, "MAT_V5_MAX_BYTES", 10_000)
     with pytest.raises(ex.ExportError, match="2 GB MATLAB limit"):
         ex.export_session(src, "mat")
     assert not (tmp_path / "s.mat").exists()
@@ -393,8 +397,8 @@ def test_c3d_long_session_is_split_into_parts(tmp_path, monkeypatch, in_process)
     ezc3d = pytest.importorskip("ezc3d")
     src = tmp_path / "long.h5"
     truth = write_session(src, "raw", n=600, side="L")
-    monkeypatch.setattr(ex, "C3D_MAX_PART_S", 2.5)  # 250-frame parts: 605 frames -> 3 parts
-    monkeypatch.setattr(ex, "C3D_INPROCESS_PARTS", in_process)
+    monkeypatch.setattr(ex_c3d, "C3D_MAX_PART_S", 2.5)  # 250-frame parts: 605 frames -> 3 parts
+    monkeypatch.setattr(ex_c3d, "C3D_INPROCESS_PARTS", in_process)
     res = ex.export_session(src, "c3d")
     assert [p.name for p in res.paths] == [f"long_part00{k}.c3d" for k in (1, 2, 3)]
     parts = [ezc3d.c3d(str(p)) for p in res.paths]
@@ -645,3 +649,58 @@ def test_export_of_a_recorded_session(tmp_path, crash):
     assert meta["root"]["recovered"] is crash
     assert [m["label"] for m in meta["markers"]] == ["half way"]
     assert b"PT-REC-77" not in res.paths[0].read_bytes() + res.paths[1].read_bytes()
+
+
+# ---------------------------------------------------------------------------------------------
+# The format registry, cancel
+# ---------------------------------------------------------------------------------------------
+
+
+def _registered_session(tmp_path: Path, fmt: str, mode: str, n: int) -> Path:
+    """A fixture session for a registered format (skipped if its optional package is absent)."""
+    if ex.FORMATS[fmt].requires:
+        pytest.importorskip(ex.FORMATS[fmt].requires)
+    src = tmp_path / "s.h5"
+    write_session(src, mode, n=n)
+    return src
+
+
+@pytest.mark.parametrize("fmt", list(ex.FORMATS))
+def test_every_registered_format_writes_its_own_suffix(tmp_path, fmt):
+    src = _registered_session(tmp_path, fmt, "joint", 200)
+    res = ex.export_session(src, fmt)
+    assert res.paths[0] == src.with_suffix(ex.FORMATS[fmt].suffix)
+    assert res.paths[0].stat().st_size > 0
+
+
+@pytest.mark.parametrize("fmt", list(ex.FORMATS))
+def test_cancel_stops_at_the_first_progress_point_and_leaves_no_file(tmp_path, fmt):
+    src = _registered_session(tmp_path, fmt, "raw", 600)
+    seen: list[float] = []
+    with pytest.raises(ex.ExportCancelled, match="cancelled"):
+        ex.export_session(src, fmt, tmp_path / "out", progress=seen.append,
+                          cancel=lambda: True, chunk_rows=100)
+    assert seen == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]
+    assert issubclass(ex.ExportCancelled, ex.ExportError)  # the CLI reports it in one line
+
+
+def test_cancel_that_never_fires_changes_nothing(tmp_path):
+    src = tmp_path / "s.h5"
+    write_session(src, "raw", n=400)
+    asked: list[int] = []
+    ex.export_session(src, "csv", tmp_path / "a.csv", chunk_rows=100,
+                      cancel=lambda: bool(asked.append(1)))
+    ex.export_session(src, "csv", tmp_path / "b.csv", chunk_rows=100)
+    assert len(asked) == 4  # once per chunk
+    assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
+
+
+def test_listing_the_formats_loads_no_format_module():
+    """The command-line parser reads FORMATS; that must not import numpy or a writer."""
+    code = ("import sys, gaitmon.io.export as e; assert list(e.FORMATS) == ['csv', 'mat', 'c3d'];"
+            "print(sorted(m for m in sys.modules if m == 'numpy' or m.startswith('h5py')"
+            " or m.startswith('gaitmon.io.export.') and m.rsplit('.', 1)[1] in e.FORMATS))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=60)
+    assert out.stdout.strip() == "[]"

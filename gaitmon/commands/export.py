@@ -7,6 +7,7 @@ import sys
 import time
 
 from gaitmon.errors import UserError
+from gaitmon.io.export.registry import FORMATS
 
 DESCRIPTION = """\
 Export a recorded session (.h5) to CSV (+ a .meta.json side file), a MATLAB v5 .mat file
@@ -30,8 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = DESCRIPTION
     parser.epilog = EPILOG
     parser.add_argument("file", metavar="FILE", help="session file (.h5)")
-    parser.add_argument("--format", required=True, choices=("csv", "mat", "c3d"),
-                        help="output format")
+    parser.add_argument("--format", required=True, choices=tuple(FORMATS),
+                        help="output format: " + "; ".join(
+                            f"{f.name}: {f.description}" for f in FORMATS.values()))
     parser.add_argument("-o", "--output", metavar="OUT",
                         help="output file (default: FILE with the format's extension)")
     parser.add_argument("--deidentify", action="store_true",

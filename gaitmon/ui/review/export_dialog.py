@@ -33,13 +33,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gaitmon.io.export import EXTENSIONS, ExportError, ExportResult, export_session
-
-FORMAT_LABELS: dict[str, str] = {
-    "csv": "CSV (spreadsheet, pandas, MATLAB readtable) + meta.json",
-    "mat": "MATLAB .mat (struct 'session', 1-based indices)",
-    "c3d": "C3D (Mokka, Nexus, btk; angles as points, events)",
-}
+from gaitmon.io.export import FORMATS, ExportError, ExportResult, export_session
 
 
 class ExportCancelled(Exception):
@@ -86,8 +80,8 @@ class ExportDialog(QDialog):
         self.source_label = QLabel(str(self.session_path))
         self.source_label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
         self.format_combo = QComboBox()
-        for fmt, label in FORMAT_LABELS.items():
-            self.format_combo.addItem(label, fmt)
+        for f in FORMATS.values():
+            self.format_combo.addItem(f.description, f.name)
         self.format_combo.currentIndexChanged.connect(self._on_format_changed)
         self.output_edit = QLineEdit()
         self.browse_button = QPushButton("Browse…")
@@ -141,11 +135,11 @@ class ExportDialog(QDialog):
     def _on_format_changed(self) -> None:
         current = self.output_edit.text().strip()
         base = Path(current) if current else self.session_path
-        self.output_edit.setText(str(base.with_suffix(EXTENSIONS[self.fmt])))
+        self.output_edit.setText(str(base.with_suffix(FORMATS[self.fmt].suffix)))
 
     @Slot()
     def _browse(self) -> None:
-        ext = EXTENSIONS[self.fmt]
+        ext = FORMATS[self.fmt].suffix
         path, _ = QFileDialog.getSaveFileName(
             self, "Export to", self.output_edit.text(), f"{self.fmt.upper()} (*{ext})"
         )

@@ -1,0 +1,114 @@
+"""Export of recorded sessions (HDF5, docs/file-format.md) to CSV, MATLAB .mat and C3D.
+
+The package owns the exported layouts (column names, MAT struct fields, C3D groups), the
+precision each format keeps, and de-identification of what is exported. The layouts are
+documented in docs/file-format.md, section "Export formats"; keep the two in step.
+
+A format is a plugin (:mod:`.registry`): one module per format (:mod:`.csv`, :mod:`.mat`,
+:mod:`.c3d`) writes a :class:`~.source.Source` (the read side, :mod:`.source`) to temporary
+files that :mod:`.outputs` renames into place only when everything was written, so an error,
+a cancel or Ctrl-C never leaves a half-written file under the final name.
+
+:func:`export_session` is the one entry point, for ``gaitmon export`` and the review window's
+export dialog alike. Importing this package is cheap (no numpy): the format modules are loaded
+when an export runs, so the command-line parser can list :data:`FORMATS`.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from gaitmon.io.export.deidentify import ANONYMOUS, REDACTED
+from gaitmon.io.export.outputs import c3d_part_path, csv_meta_path, default_output
+from gaitmon.io.export.registry import (
+    FORMATS,
+    Cancel,
+    ExportCancelled,
+    ExportError,
+    Format,
+    Progress,
+)
+
+__all__ = [
+    "ANONYMOUS",
+    "FORMATS",
+    "REDACTED",
+    "Cancel",
+    "ExportCancelled",
+    "ExportError",
+    "ExportResult",
+    "Format",
+    "Progress",
+    "c3d_part_path",
+    "csv_meta_path",
+    "default_output",
+    "export_session",
+    "session_length",
+]
+
+
+@dataclass(frozen=True)
+class ExportResult:
+    """What an export wrote: the final paths, in the order the format plans them."""
+
+    paths: tuple[Path, ...]
+    n_samples: int
+    mode: str
+    problems: tuple[str, ...] = ()  # what the session reader noticed (e.g. not stopped cleanly)
+
+
+def session_length(src_path: str | os.PathLike[str]) -> int:
+    """Rows in a session file (raises ExportError for a bad file)."""
+    from gaitmon.io.export.source import open_source
+
+    with open_source(Path(src_path)) as src:
+        return src.n
+
+
+def export_session(
+    src_path: str | os.PathLike[str],
+    fmt: str,
+    out: str | os.PathLike[str] | None = None,
+    *,
+    deidentify: bool = False,
+    force: bool = False,
+    progress: Progress | None = None,
+    cancel: Cancel | None = None,
+    chunk_rows: int | None = None,
+) -> ExportResult:
+    """Export one session file; returns the files written. Raises ExportError (one line).
+
+    ``progress(fraction)`` is called as the export goes; ``cancel()`` is asked at the same
+    points and, once it returns True, the export stops with :class:`ExportCancelled`. If
+    either raises, every temporary output is removed and the exception propagates.
+    ``chunk_rows``: rows per read for the streaming formats (CSV); None for their default.
+    """
+    from gaitmon.io.export.deidentify import Scrubber
+    from gaitmon.io.export.outputs import AtomicOutputs, check_outputs
+    from gaitmon.io.export.source import open_source
+
+    if fmt not in FORMATS:
+        raise ExportError(f"unknown format {fmt!r} (choose from {', '.join(FORMATS)})")
+    form = FORMATS[fmt]
+    src_path = Path(src_path)
+    out_path = Path(out) if out is not None else default_output(src_path, fmt)
+    form.check_available()
+    with open_source(src_path) as src:
+        scrub = Scrubber(src.group_attrs("session"), deidentify)
+        outputs = form.planned_outputs(src, scrub, out_path)
+        check_outputs(outputs, src_path, force)
+        atomic = AtomicOutputs()
+        try:
+            tmps = [atomic.tmp(final, form.temp_suffix) for final in outputs]
+            form.write(src, tmps, scrub, deidentify, progress, cancel, chunk_rows)
+            written = atomic.commit()
+        except OSError as exc:
+            atomic.discard()
+            where = exc.filename or out_path
+            raise ExportError(f"cannot write {where}: {exc.strerror or exc}") from None
+        except BaseException:
+            atomic.discard()
+            raise
+        return ExportResult(tuple(written), src.n, src.mode, src.problems)

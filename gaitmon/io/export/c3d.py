@@ -1,0 +1,285 @@
+"""C3D export through ezc3d: angles as POINTs, raw channels as ANALOGs, gait events as EVENTs.
+
+Joint angles (and segment tilts) are POINTs of type angle, the 14 ADC channels in physical
+units are ANALOGs, gait events and markers go in the EVENT group. Rows are placed on a uniform
+1/fs frame grid (lost frames become invalid points). Sessions longer than one C3D trial, or
+with more events than one EVENT group holds, are split into parts (``<stem>_part001.c3d``…).
+The files themselves are written by gaitmon.io.export.c3d_worker. Layout: docs/file-format.md,
+"Export formats".
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gaitmon import __version__
+from gaitmon.dsp.channels import DEFAULT_TABLE, SEGMENTS, ChannelSpec, ChannelTable
+from gaitmon.io.export.c3d_worker import C3dSpec, C3dWorker, write_spec
+from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
+from gaitmon.io.export.outputs import c3d_part_path
+from gaitmon.io.export.registry import Cancel, ExportError, Progress, step
+from gaitmon.io.export.source import JOINT_LABELS, Source, as_text, markers, session_side
+
+# A C3D trial counts frames in 16-bit words (header and POINT:FRAMES); past 65535 frames
+# readers disagree (ezc3d 1.7 reads back only the first 65535), so long sessions are split.
+C3D_MAX_PART_S = 600.0
+# EVENT parameters are arrays whose dimensions are single bytes: at most 255 events per file.
+C3D_MAX_EVENTS = 255
+# ezc3d 1.7 keeps about the data size of each file it writes: beyond this many parts, parts
+# are written by a worker process that is replaced after this many.
+C3D_INPROCESS_PARTS = 8
+
+# C3D angle points named as in Vicon Plug-in Gait (X = sagittal component).
+C3D_JOINT_POINTS: tuple[str, ...] = ("HipAngles", "KneeAngles", "AnkleAngles")
+C3D_TILT_POINTS: tuple[str, ...] = ("BodyTilt", "ThighTilt", "ShankTilt", "FootTilt")
+
+# (row, context, label, description, icon id) of one C3D event
+C3dEvent = tuple[int, str, str, str, int]
+
+
+def planned_outputs(src: Source, scrub: Scrubber, out: Path) -> list[Path]:
+    """One file, or one per part when the session is split (the parts depend on the events)."""
+    plan = _c3d_plan(src, _event_rows(_c3d_events(src, scrub, session_side(src))))
+    if len(plan.parts) > 1:
+        return [c3d_part_path(out, k + 1) for k in range(len(plan.parts))]
+    return [out]
+
+
+def write(src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
+          progress: Progress | None, cancel: Cancel | None, chunk_rows: int | None) -> None:
+    events = _c3d_events(src, scrub, session_side(src))
+    plan = _c3d_plan(src, _event_rows(events))
+    if len(plan.parts) != len(outputs):
+        raise ExportError(f"{src.path.name}: C3D parts changed while exporting")
+    specs = (_c3d_part_spec(src, plan, k, scrub, deidentify, events)
+             for k in range(len(outputs)))
+    _write_c3d_parts(specs, outputs, progress, cancel)
+
+
+def _event_rows(events: list[C3dEvent]) -> np.ndarray:
+    return np.array([e[0] for e in events], np.int64)
+
+
+@dataclass(frozen=True)
+class C3dPlan:
+    """How rows map onto C3D frames: a uniform 1/fs grid from the first sample, split in parts."""
+
+    frame: np.ndarray  # (N,) int64 frame of each row on the uniform grid
+    n_frames: int
+    part_frames: int
+    parts: tuple[tuple[int, int], ...] = field(default=())  # [first, stop) frames per part
+
+
+def _c3d_plan(src: Source, events: np.ndarray | None = None,
+              max_part_s: float | None = None) -> C3dPlan:
+    """Frames on the uniform grid, cut into parts of at most C3D_MAX_PART_S seconds and at
+    most C3D_MAX_EVENTS events (``events``: the sorted row indices of every C3D event)."""
+    max_part_s = C3D_MAX_PART_S if max_part_s is None else max_part_s
+    t = src.read("timeline/t_s").astype(np.float64) if src.n else np.zeros(0)
+    if src.n == 0:
+        return C3dPlan(np.zeros(0, np.int64), 0, 1, ((0, 0),))
+    frame = np.rint((t - t[0]) * src.fs_hz).astype(np.int64)
+    if np.any(np.diff(frame) <= 0):
+        raise ExportError(
+            f"{src.path.name}: sample times are not increasing on the {src.fs_hz:g} Hz grid; "
+            "cannot place them in C3D frames"
+        )
+    n_frames = int(frame[-1]) + 1
+    part = max(1, min(65_535, round(max_part_s * src.fs_hz)))
+    ev = np.sort(frame[events]) if events is not None and len(events) else np.zeros(0, np.int64)
+    parts = []
+    a = 0
+    while a < n_frames:
+        b = min(n_frames, a + part)
+        i0 = int(np.searchsorted(ev, a))
+        if int(np.searchsorted(ev, b)) - i0 > C3D_MAX_EVENTS:
+            b = max(a + 1, int(ev[i0 + C3D_MAX_EVENTS]))  # the 256th event starts the next part
+        parts.append((a, b))
+        a = b
+    return C3dPlan(frame, n_frames, part, tuple(parts))
+
+
+def _c3d_events(src: Source, scrub: Scrubber, side: str) -> list[C3dEvent]:
+    """(row, context, label, description, icon id) of every C3D event, in row order."""
+    ctx = {"L": "Left", "R": "Right"}.get(side, "General")
+    out = []
+    for name, label, desc, icon in (("heel_strike", "Foot Strike", "heel strike", 1),
+                                    ("toe_off", "Foot Off", "toe off", 2)):
+        out += [(int(k), ctx, label, desc, icon) for k in src.events(name)]
+    out += [(m["sample_idx"], "General", m["label"][:64] or "Marker", "clinician marker", 0)
+            for m in markers(src, scrub)]
+    out.sort(key=lambda e: e[0])  # stable: strikes before offs before markers on one row
+    return out
+
+
+def _c3d_part_spec(src: Source, plan: C3dPlan, part_no: int, scrub: Scrubber,
+                   deidentify: bool, events: list[C3dEvent]) -> C3dSpec:
+    """Everything one C3D part holds, as plain data (written by c3d_worker.write_spec)."""
+    f0, f1 = plan.parts[part_no]
+    nf = f1 - f0
+    fs = src.fs_hz
+    r0, r1 = np.searchsorted(plan.frame, [f0, f1])
+    local = plan.frame[r0:r1] - f0
+    side = session_side(src)
+
+    c = C3dSpec()
+    point_labels: list[str] = []
+    point_desc: list[str] = []
+    point_blocks: list[np.ndarray] = []
+    if src.has("processed/joint_deg"):
+        point_labels += [side + p for p in C3D_JOINT_POINTS]
+        point_desc += [f"{j} (X sagittal; Y, Z not measured = 0), deg" for j in JOINT_LABELS]
+        point_blocks.append(np.asarray(src.read("processed/joint_deg", r0, r1), np.float64))
+    if src.has("processed/tilt_deg"):
+        point_labels += [
+            ("" if p == "BodyTilt" else side) + p for p in C3D_TILT_POINTS
+        ]
+        point_desc += [f"{s} tilt from vertical (X sagittal), deg" for s in SEGMENTS]
+        point_blocks.append(np.asarray(src.read("processed/tilt_deg", r0, r1), np.float64))
+    n_pts = len(point_labels)
+    # Frames with no received sample (lost frames) are invalid points: residual -1, as the
+    # C3D spec marks them (readers then show gaps; ezc3d returns NaN).
+    pts = np.zeros((4, n_pts, nf))
+    pts[3] = 1.0
+    residuals = np.full((1, n_pts, nf), -1.0)
+    if n_pts:
+        vals = np.concatenate(point_blocks, axis=1)  # (rows, n_pts)
+        pts[0][:, local] = vals.T
+        residuals[0][:, local] = 0.0
+        # a NaN angle (e.g. the unit's invalid value) is missing too
+        residuals[0][np.isnan(pts[0])] = -1.0
+        pts[0][np.isnan(pts[0])] = 0.0
+    c.set_value("POINT", "RATE", np.array([fs]))
+    c.set_value("POINT", "LABELS", point_labels)
+    c.set_value("POINT", "DESCRIPTIONS", point_desc)
+    c.set_value("POINT", "UNITS", ["mm"])
+    c.points, c.residuals = pts, residuals
+    if n_pts:
+        c.add_parameter("POINT", "ANGLES", point_labels, "points that are angles")
+        c.add_parameter("POINT", "ANGLE_UNITS", "deg", "unit of angle points")
+        c.add_parameter("POINT", "TYPE_GROUPS", ["ANGLES"], "point type groups")
+
+    analog_labels: list[str] = []
+    analog_units: list[str] = []
+    analog_desc: list[str] = []
+    analog_blocks: list[np.ndarray] = []
+    if src.has("raw/adc"):
+        table = _physical_table(src)
+        analog_blocks.append(table.to_physical(src.read("raw/adc", r0, r1)))
+        analog_labels += list(src.channel_names)
+        analog_units += [c.unit for c in table.channels]
+        analog_desc += [f"ADC channel {i} in physical units" for i in range(len(table.channels))]
+    if src.has("processed/fsr_counts"):
+        analog_blocks.append(np.asarray(src.read("processed/fsr_counts", r0, r1), np.float64))
+        analog_labels += ["heel_fsr_lp", "toe_fsr_lp"]
+        analog_units += ["count", "count"]
+        analog_desc += ["low-passed heel FSR", "low-passed toe FSR"]
+    n_an = len(analog_labels)
+    an = np.full((1, n_an, nf), np.nan)
+    if n_an:
+        an[0][:, local] = np.concatenate(analog_blocks, axis=1).T
+    c.set_value("ANALOG", "RATE", np.array([fs]))
+    c.set_value("ANALOG", "LABELS", analog_labels)
+    c.set_value("ANALOG", "DESCRIPTIONS", analog_desc)
+    c.set_value("ANALOG", "UNITS", analog_units)
+    c.analogs = an
+    if n_an:
+        c.add_parameter("ANALOG", "SCALE", np.ones(n_an), "data stored in physical units")
+        c.add_int_parameter("ANALOG", "OFFSET", [0] * n_an)
+    if n_pts == 0 and n_an == 0:
+        raise ExportError(f"{src.path.name}: nothing to put in a C3D file (no angles, no raw)")
+
+    c.add_int_parameter("TRIAL", "ACTUAL_START_FIELD", [1, 0], "first frame")
+    c.add_int_parameter("TRIAL", "ACTUAL_END_FIELD", [nf & 0xFFFF, nf >> 16], "last frame")
+    t_part0 = f0 / fs
+
+    # Events: time from frame 1 (time 0.0) of this part, as (whole minutes, seconds). Built
+    # in one go: ezc3d's add_event rewrites the whole group per event (quadratic).
+    subject = (ANONYMOUS if deidentify
+               else as_text(src.group_attrs("session").get("patient_id", "")) or ANONYMOUS)
+    evs = [(int(plan.frame[row]) - f0, ctx, label, desc, icon)
+           for row, ctx, label, desc, icon in events]
+    evs = [e for e in evs if 0 <= e[0] < nf]
+    if evs:
+        times = np.array([_c3d_time(e[0] / fs) for e in evs]).T  # (2, n)
+        c.add_int_parameter("EVENT", "USED", [len(evs)])
+        c.add_parameter("EVENT", "TIMES", times)
+        c.add_parameter("EVENT", "CONTEXTS", [e[1] for e in evs])
+        c.add_parameter("EVENT", "LABELS", [e[2] for e in evs])
+        c.add_parameter("EVENT", "DESCRIPTIONS", [e[3] for e in evs])
+        c.add_parameter("EVENT", "SUBJECTS", [subject] * len(evs))
+        c.add_int_parameter("EVENT", "ICON_IDS", [e[4] for e in evs])
+        c.add_int_parameter("EVENT", "GENERIC_FLAGS", [0] * len(evs))
+    c.add_parameter("EVENT_CONTEXT", "LABELS", ["Left", "Right", "General"])
+    c.add_parameter("EVENT_CONTEXT", "DESCRIPTIONS", ["Left side", "Right side", "For all"])
+    c.add_int_parameter("EVENT_CONTEXT", "USED", [3])
+    c.add_int_parameter("EVENT_CONTEXT", "ICON_IDS", [0, 1, 2])
+
+    c.add_int_parameter("SUBJECTS", "USED", [1])
+    c.add_parameter("SUBJECTS", "NAMES", [subject])
+    c.add_parameter("MANUFACTURER", "COMPANY", "gaitmon")
+    c.add_parameter("MANUFACTURER", "SOFTWARE", "gaitmon export")
+    c.add_parameter("MANUFACTURER", "VERSION_LABEL", str(__version__))
+
+    session = scrub.session({**{k: "" for k in IDENTIFYING_FIELDS},
+                             **src.group_attrs("session")})
+    device = scrub.value(src.group_attrs("device")) if deidentify else src.group_attrs("device")
+    _c3d_text(c, "GAITMON", "MODE", src.mode or "unknown")
+    _c3d_text(c, "GAITMON", "SIDE", side or "unknown")
+    _c3d_text(c, "GAITMON", "CREATED_UTC", as_text(src.attrs.get("created_utc", "")))
+    _c3d_text(c, "GAITMON", "DEVICE", " ".join(
+        f"{k}={as_text(device.get(k, ''))}" for k in ("name", "serial", "firmware")))
+    c.add_parameter("GAITMON", "PART", float(part_no + 1), "1-based part of the session")
+    c.add_parameter("GAITMON", "N_PARTS", float(len(plan.parts)))
+    c.add_parameter("GAITMON", "PART_START_S", float(t_part0),
+                    "session time of this part's frame 1")
+    c.add_parameter("GAITMON", "DEIDENTIFIED", float(bool(deidentify)))
+    _c3d_text(c, "GAITMON", "ANGLE_CONVENTION", as_text(src.attrs.get("angle_convention", "")))
+    if not deidentify:
+        for k in IDENTIFYING_FIELDS:
+            _c3d_text(c, "GAITMON", k.upper(), as_text(session.get(k, "")))
+    return c
+
+
+def _write_c3d_parts(specs: Iterator[C3dSpec], paths: list[Path],
+                     progress: Progress | None, cancel: Cancel | None) -> None:
+    """Write the parts; beyond a few, in a child process replaced every few files, because
+    ezc3d 1.7 keeps about the data size of every file it writes until the process exits."""
+    worker = C3dWorker(C3D_INPROCESS_PARTS) if len(paths) > C3D_INPROCESS_PARTS else None
+    try:
+        for k, (spec, path) in enumerate(zip(specs, paths, strict=True)):
+            if worker is None:
+                write_spec(spec, str(path))
+            else:
+                worker.write(spec, path)
+            step(progress, cancel, (k + 1) / len(paths))
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _c3d_text(c: C3dSpec, group: str, name: str, text: str, width: int = 80) -> None:
+    """A string parameter; C3D dimensions are single bytes, so long text becomes lines."""
+    text = text.replace("\r", " ").replace("\n", " ").strip() or "-"
+    lines = [text[i : i + width] for i in range(0, len(text), width)][:255]
+    c.add_parameter(group, name, lines if len(lines) > 1 else lines[0])
+
+
+def _c3d_time(t_s: float) -> list[float]:
+    minutes = math.floor(t_s / 60.0)
+    return [float(minutes), t_s - 60.0 * minutes]
+
+
+def _physical_table(src: Source) -> ChannelTable:
+    """The file's own counts -> physical conversion (/device/channels), else the default."""
+    rows = src.channel_table()
+    if len(rows) != len(src.channel_names):
+        return DEFAULT_TABLE
+    fields = ChannelSpec.__dataclass_fields__
+    return ChannelTable(tuple(ChannelSpec(**{k: r[k] for k in fields}) for r in rows))
+

@@ -1,0 +1,68 @@
+"""Where an export writes: default and derived output names, checks, and atomic writes.
+
+Every output is written to a temporary name beside it and renamed into place at the end, so an
+error, a cancel or Ctrl-C never leaves a half-written file under the final name.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from pathlib import Path
+
+from gaitmon.io.export.registry import FORMATS, ExportError
+
+
+def default_output(src_path: str | os.PathLike[str], fmt: str) -> Path:
+    """FILE with the format's extension (session.h5 -> session.csv)."""
+    return Path(src_path).with_suffix(FORMATS[fmt].suffix)
+
+
+def csv_meta_path(csv_path: Path) -> Path:
+    """The JSON side file written beside a CSV export: <stem>.meta.json."""
+    return csv_path.with_name(csv_path.stem + ".meta.json")
+
+
+def c3d_part_path(c3d_path: Path, part: int) -> Path:
+    """Part k (1-based) of a split C3D export: <stem>_part001.c3d, ..."""
+    return c3d_path.with_name(f"{c3d_path.stem}_part{part:03d}{c3d_path.suffix}")
+
+
+def _tmp_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}.partial")
+
+
+class AtomicOutputs:
+    """Collects temp files; renames them into place on success, deletes them on failure."""
+
+    def __init__(self) -> None:
+        self.pairs: list[tuple[Path, Path]] = []
+
+    def tmp(self, final: Path, suffix: str = "") -> Path:
+        """The temporary name for ``final`` (``suffix`` appended, for writers that insist)."""
+        t = _tmp_path(final)
+        t = t.with_name(t.name + suffix)
+        self.pairs.append((t, final))
+        return t
+
+    def commit(self) -> list[Path]:
+        for t, final in self.pairs:
+            os.replace(t, final)
+        return [final for _, final in self.pairs]
+
+    def discard(self) -> None:
+        for t, _ in self.pairs:
+            with contextlib.suppress(FileNotFoundError):
+                t.unlink()
+
+
+def check_outputs(paths: list[Path], src_path: Path, force: bool) -> None:
+    for p in paths:
+        if p.resolve() == src_path.resolve():
+            raise ExportError(f"refusing to overwrite the session file itself: {p}")
+        if p.is_dir():
+            raise ExportError(f"output {p} is a directory")
+        if p.exists() and not force:
+            raise ExportError(f"{p} already exists (use --force to overwrite)")
+        if not p.parent.is_dir():
+            raise ExportError(f"output folder does not exist: {p.parent}")

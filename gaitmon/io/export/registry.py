@@ -1,0 +1,114 @@
+"""The export formats as plugins: what a format is, the registry of them, and their contract.
+
+A format is a row of data (name, file suffix, one-line description) plus the module that
+implements it. The command line (``gaitmon export --format``) and the review window's export
+dialog list :data:`FORMATS` instead of their own lists, so a new format is one module and one
+entry here.
+
+The implementing module is imported on first use: building the command-line parser only needs
+the names, and must not pay for numpy, scipy or ezc3d. This module itself imports none of them.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Protocol, cast
+
+if TYPE_CHECKING:
+    from gaitmon.io.export.deidentify import Scrubber
+    from gaitmon.io.export.source import Source
+
+Progress = Callable[[float], None]  # called with the fraction done, 0..1
+Cancel = Callable[[], bool]  # True once the caller wants the export stopped
+
+
+class ExportError(Exception):
+    """A problem with the input, the output path or the format; the message is one line."""
+
+
+class ExportCancelled(ExportError):
+    """The caller's ``cancel()`` returned True; every temporary output has been removed."""
+
+    def __init__(self, message: str = "export cancelled; no file was written") -> None:
+        super().__init__(message)
+
+
+def step(progress: Progress | None, cancel: Cancel | None, fraction: float) -> None:
+    """Report progress; the progress points are also the only points an export stops at."""
+    if cancel is not None and cancel():
+        raise ExportCancelled
+    if progress is not None:
+        progress(fraction)
+
+
+class FormatWriter(Protocol):
+    """What a format module provides (checked by mypy against csv, mat and c3d below)."""
+
+    def planned_outputs(self, src: Source, scrub: Scrubber, out: Path) -> list[Path]:
+        """The final paths this export will write for the output name ``out``."""
+        ...
+
+    def write(self, src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
+              progress: Progress | None, cancel: Cancel | None, chunk_rows: int | None) -> None:
+        """Write the files; ``outputs`` are the temporary names of ``planned_outputs``, in
+        the same order. ``chunk_rows`` is the read chunk of streaming formats (None:
+        their default); formats that read whole series ignore it."""
+        ...
+
+
+@dataclass(frozen=True)
+class Format:
+    """One export format: how it is named and listed, and where its writer lives."""
+
+    name: str
+    suffix: str  # the output file's extension, with the dot
+    description: str  # one line for the export dialog and --help
+    module: str  # the implementing module (a FormatWriter), imported on first use
+    requires: str | None = None  # an optional package the writer imports
+    # appended to temporary output names: ezc3d adds ".c3d" to a name not ending in it
+    temp_suffix: str = ""
+
+    def writer(self) -> FormatWriter:
+        return cast("FormatWriter", importlib.import_module(self.module))
+
+    def check_available(self) -> None:
+        """Raise ExportError if the optional package this format needs is not installed."""
+        if self.requires is None:
+            return
+        try:
+            importlib.import_module(self.requires)
+        except ImportError:
+            raise ExportError(
+                f"{self.name.upper()} export needs the {self.requires} package "
+                f"(pip install {self.requires})"
+            ) from None
+
+    def planned_outputs(self, src: Source, scrub: Scrubber, out: Path) -> list[Path]:
+        return self.writer().planned_outputs(src, scrub, out)
+
+    def write(self, src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
+              progress: Progress | None, cancel: Cancel | None,
+              chunk_rows: int | None = None) -> None:
+        self.writer().write(src, outputs, scrub, deidentify, progress, cancel, chunk_rows)
+
+
+FORMATS: dict[str, Format] = {
+    f.name: f
+    for f in (
+        Format("csv", ".csv", "CSV (spreadsheet, pandas, MATLAB readtable) + meta.json",
+               "gaitmon.io.export.csv"),
+        Format("mat", ".mat", "MATLAB .mat (struct 'session', 1-based indices)",
+               "gaitmon.io.export.mat"),
+        Format("c3d", ".c3d", "C3D (Mokka, Nexus, btk; angles as points, events)",
+               "gaitmon.io.export.c3d", requires="ezc3d", temp_suffix=".c3d"),
+    )
+}
+
+if TYPE_CHECKING:
+    # mypy checks each registered module against the FormatWriter contract.
+    from gaitmon.io.export import c3d, csv, mat
+
+    _WRITERS: tuple[FormatWriter, ...] = (csv, mat, c3d)

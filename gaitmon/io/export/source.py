@@ -1,0 +1,336 @@
+"""The read side of export: a session file seen as the series, tables and metadata to export.
+
+Owns the exported series (HDF5 dataset -> CSV columns, MAT field, units, printf precision),
+:class:`Source` (a lazy view over an opened session: datasets stay on disk), and the builders
+every format shares: metadata, markers, gaps, the export header, side. De-identification is
+applied here through a :class:`~gaitmon.io.export.deidentify.Scrubber`.
+
+Metadata is assembled from :data:`METADATA_SECTIONS`, one builder per key, so a new piece of
+session state (e.g. review exclusions) is one builder function and one entry there; the MAT
+writer turns every ``*_idx`` in its tables 1-based on its own.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from gaitmon import __version__
+from gaitmon.dsp.channels import CHANNEL_NAMES, JOINTS, SEGMENTS
+from gaitmon.io.export.deidentify import Scrubber
+from gaitmon.io.export.registry import ExportError
+
+if TYPE_CHECKING:
+    from gaitmon.io.session import Session
+
+EXPORT_VERSION = 1
+
+JOINT_LABELS: tuple[str, ...] = ("hip_flexion", "knee_flexion", "ankle_dorsiflexion")
+
+assert len(JOINTS) == len(JOINT_LABELS) == 3 and len(SEGMENTS) == 4
+
+
+@dataclass(frozen=True)
+class Series:
+    """One per-sample dataset and its exported names.
+
+    ``path`` is the HDF5 dataset; ``key`` the MAT field name; ``columns`` the CSV column names
+    (one per flattened column, units in the name); ``fmt`` the CSV printf format of one value;
+    ``labels`` what each column of the MAT array is (MAT ``session.labels.<key>``).
+    """
+
+    path: str
+    key: str
+    columns: tuple[str, ...]
+    fmt: str
+    labels: tuple[str, ...]
+    unit: str
+    description: str
+
+
+def _seg_cols(suffix: str) -> tuple[str, ...]:
+    return tuple(f"{s}_{suffix}" for s in SEGMENTS)
+
+
+def _joint_cols(suffix: str) -> tuple[str, ...]:
+    return tuple(f"{j}_{suffix}" for j in JOINT_LABELS)
+
+
+# Fixed decimals per unit: well below the sensor resolution, and float32 (~7 significant
+# digits) already limits angles near 180 deg to ~1e-5 deg.
+_DEG, _MS2, _RADS, _CNT = "%.4f", "%.5f", "%.6f", "%.3f"
+
+PROCESSED_SERIES: tuple[Series, ...] = (
+    Series("processed/joint_deg", "joint_deg", _joint_cols("deg"), _DEG, JOINT_LABELS, "deg",
+           "Kalman joint angles (clinical signs)"),
+    Series("processed/joint_acc_deg", "joint_acc_deg", _joint_cols("acc_deg"), _DEG,
+           JOINT_LABELS, "deg", "joint angles from accelerometer tilts"),
+    Series("processed/joint_gyro_deg", "joint_gyro_deg", _joint_cols("gyro_deg"), _DEG,
+           JOINT_LABELS, "deg", "joint angles from gyro-integrated tilts"),
+    Series("processed/tilt_deg", "tilt_deg", _seg_cols("tilt_deg"), _DEG, SEGMENTS, "deg",
+           "Kalman segment tilts"),
+    Series("processed/tilt_acc_deg", "tilt_acc_deg", _seg_cols("tilt_acc_deg"), _DEG, SEGMENTS,
+           "deg", "accelerometer segment tilts"),
+    Series("processed/tilt_gyro_deg", "tilt_gyro_deg", _seg_cols("tilt_gyro_deg"), _DEG,
+           SEGMENTS, "deg", "gyro-integrated segment tilts"),
+    Series("processed/acc_ms2", "acc_ms2",
+           tuple(f"{s}_acc_{a}_ms2" for s in SEGMENTS for a in ("x", "z")), _MS2,
+           tuple(f"{s}_{a}" for s in SEGMENTS for a in ("x", "z")), "m/s^2",
+           "low-passed accelerometer x, z per segment"),
+    Series("processed/gyro_rad_s", "gyro_rad_s", _seg_cols("gyro_rad_s"), _RADS, SEGMENTS,
+           "rad/s", "gyro rate, calibrated bias removed"),
+    Series("processed/fsr_counts", "fsr_counts", ("heel_fsr_lp_count", "toe_fsr_lp_count"),
+           _CNT, ("heel", "toe"), "count", "low-passed heel, toe force sensors"),
+    Series("processed/heel_loaded", "heel_loaded", ("heel_loaded",), "%d", ("heel_loaded",),
+           "0/1", "heel contact state"),
+    Series("processed/toe_loaded", "toe_loaded", ("toe_loaded",), "%d", ("toe_loaded",), "0/1",
+           "toe contact state"),
+    Series("processed/phase", "phase", ("phase",), "%d", ("phase",), "0-3",
+           "0 swing, 1 loading, 2 foot flat, 3 push-off"),
+)
+
+
+def raw_series(channel_names: tuple[str, ...]) -> Series:
+    return Series("raw/adc", "adc_count", tuple(f"{c}_count" for c in channel_names), "%d",
+                  channel_names, "count", "raw ADC counts in channel order")
+
+
+TIMELINE_SERIES: tuple[Series, ...] = (
+    Series("timeline/t_s", "t_s", ("t_s",), "%.6f", ("t_s",), "s",
+           "true sample time from the session start"),
+    Series("timeline/seq", "seq", ("seq",), "%d", ("seq",), "1",
+           "the unit's sequence number, unwrapped"),
+    Series("timeline/host_time_s", "host_time_s", ("host_time_s",), "%.6f", ("host_time_s",),
+           "s", "host monotonic clock at arrival (wall clock = + wall_offset_s)"),
+)
+
+# ---- reading: a thin view over the session file ----
+
+
+def as_text(v: Any) -> str:
+    if isinstance(v, bytes):
+        return v.decode("utf-8", errors="replace")
+    return str(v)
+
+
+def plain(v: Any) -> Any:
+    """HDF5 attribute value -> JSON-able Python value."""
+    if isinstance(v, bytes):
+        return as_text(v)
+    if isinstance(v, np.ndarray):
+        return [plain(x) for x in v.tolist()] if v.dtype.kind in "OSU" else v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, list | tuple):
+        return [plain(x) for x in v]
+    return v
+
+
+class Source:
+    """What the exporters need from a session file, read lazily (datasets stay on disk)."""
+
+    def __init__(self, session: Session) -> None:
+        h5 = session.dataset("timeline/t_s").file
+        path = session.path
+        # kept for analysis state the file's reader owns (e.g. review exclusions)
+        self.session = session
+        self.h5 = h5
+        self.path = path
+        self.problems = tuple(session.problems)
+        self._events = {"heel_strike": session.heel_strike_idx, "toe_off": session.toe_off_idx}
+        self.attrs: dict[str, Any] = {k: plain(v) for k, v in h5.attrs.items()}
+        self.mode = str(self.attrs.get("mode", ""))
+        self.fs_hz = float(self.attrs.get("sample_rate_hz", 100.0))
+        if not self.fs_hz > 0 or not math.isfinite(self.fs_hz):
+            raise ExportError(f"{path.name}: bad sample_rate_hz {self.fs_hz!r}")
+        if "timeline/t_s" not in h5:
+            raise ExportError(f"{path.name}: not a usable session (no /timeline/t_s)")
+        self.channel_names = self._channel_names()
+        self.series: list[Series] = [
+            s for s in (*TIMELINE_SERIES, *PROCESSED_SERIES, raw_series(self.channel_names))
+            if s.path in h5
+        ]
+        # Rows common to every per-sample dataset (the reader's count; ragged ends cut off).
+        self.n = min([session.n_samples, *(int(h5[s.path].shape[0]) for s in self.series)])
+        for s in self.series:
+            ds = h5[s.path]
+            width = int(np.prod(ds.shape[1:], dtype=np.int64)) if ds.ndim > 1 else 1
+            if width != len(s.columns):
+                raise ExportError(
+                    f"{path.name}: /{s.path} has shape {ds.shape}, expected {len(s.columns)} "
+                    "columns per row"
+                )
+
+    def _channel_names(self) -> tuple[str, ...]:
+        if "device/channels" in self.h5:
+            rows = self.h5["device/channels"][()]
+            try:
+                names = tuple(as_text(x) for x in rows["name"])
+            except (KeyError, ValueError):
+                names = ()
+            if len(names) == len(CHANNEL_NAMES):
+                return names
+        return CHANNEL_NAMES
+
+    def group_attrs(self, name: str) -> dict[str, Any]:
+        if name not in self.h5:
+            return {}
+        return {k: plain(v) for k, v in self.h5[name].attrs.items()}
+
+    def has(self, path: str) -> bool:
+        return path in self.h5
+
+    def read(self, path: str, start: int = 0, stop: int | None = None) -> np.ndarray:
+        stop = self.n if stop is None else stop
+        return self.h5[path][start:stop]
+
+    def events(self, name: str) -> np.ndarray:
+        """Sample indices (0-based) of one event kind, limited to the rows present."""
+        idx = self._events[name]
+        return idx[(idx >= 0) & (idx < self.n)]
+
+    def table(self, path: str) -> list[dict[str, Any]]:
+        """A compound dataset as a list of plain dicts (markers, gaps, changes)."""
+        if path not in self.h5:
+            return []
+        arr = self.h5[path][()]
+        if arr.dtype.names is None:
+            return []
+        return [{k: plain(row[k]) for k in arr.dtype.names} for row in arr]
+
+    def channel_table(self) -> list[dict[str, Any]]:
+        return self.table("device/channels")
+
+
+@contextlib.contextmanager
+def open_source(path: Path) -> Iterator[Source]:
+    """Open through gaitmon.io.session, which validates the file and first recovers an
+    interrupted recording from its journal, so bad files are judged in one place."""
+    from gaitmon.io.session import SessionError, open_session
+
+    if path.is_dir():
+        raise ExportError(f"{path} is a directory, not a session file")
+    try:
+        session = open_session(path)
+    except SessionError as exc:
+        raise ExportError(str(exc)) from None
+    try:
+        yield Source(session)
+    except (KeyError, ValueError, TypeError, SessionError) as exc:
+        raise ExportError(f"{path.name} is damaged ({exc})") from None
+    finally:
+        session.close()
+
+# ---- metadata and the tables every format exports ----
+
+
+def _session_fields(src: Source, scrub: Scrubber) -> dict[str, Any]:
+    session = {k: "" for k in ("patient_id", "side", "operator", "notes")}
+    session.update(src.group_attrs("session"))
+    return scrub.session(session)
+
+
+def _wall_offset_s(src: Source, scrub: Scrubber) -> Any:
+    if not src.has("timeline/host_time_s"):
+        return None
+    return plain(src.h5["timeline/host_time_s"].attrs.get("wall_offset_s", None))
+
+
+# Key -> builder of every metadata section, in output order (JSON side file, MAT session.meta).
+# A builder returns plain values; tables are lists of row dicts whose ``*_idx`` fields are
+# 0-based session rows (the MAT writer makes them 1-based). Scrubbing is applied to the whole.
+METADATA_SECTIONS: tuple[tuple[str, Callable[[Source, Scrubber], Any]], ...] = (
+    ("root", lambda src, scrub: src.attrs),
+    ("session", _session_fields),
+    ("device", lambda src, scrub: {**src.group_attrs("device"),
+                                   "channels": src.channel_table()}),
+    ("processed", lambda src, scrub: src.group_attrs("processed")),
+    ("config", lambda src, scrub: src.group_attrs("config")),
+    ("config_changes", lambda src, scrub: src.table("config/changes")),
+    ("calibration", lambda src, scrub: src.group_attrs("calibration")),
+    ("calibration_changes", lambda src, scrub: src.table("calibration/changes")),
+    ("link", lambda src, scrub: {**src.group_attrs("link"),
+                                 "crc_failures": src.table("link/crc_failures")}),
+    ("wall_offset_s", _wall_offset_s),
+)
+
+
+def metadata(src: Source, scrub: Scrubber) -> dict[str, Any]:
+    """Everything but the per-sample series, as plain values (the JSON side file / MAT meta)."""
+    meta: dict[str, Any] = {key: build(src, scrub) for key, build in METADATA_SECTIONS}
+    return scrub.value(meta) if scrub.enabled else meta
+
+
+def session_side(src: Source) -> str:
+    """'L', 'R' or '' from /session side, else /device side."""
+    for group in ("session", "device"):
+        s = as_text(src.group_attrs(group).get("side", "")).strip().upper()
+        if s in ("L", "R"):
+            return s
+    return ""
+
+
+def markers(src: Source, scrub: Scrubber) -> list[dict[str, Any]]:
+    out = []
+    for m in src.table("markers"):
+        idx = int(m.get("sample_idx", -1))
+        if 0 <= idx < src.n:
+            out.append({"sample_idx": idx, "t_s": float(m.get("t_s", math.nan)),
+                        "label": scrub.text(as_text(m.get("label", "")))})
+    return out
+
+
+def gaps(src: Source, scrub: Scrubber) -> list[dict[str, Any]]:
+    out = []
+    for g in src.table("gaps"):
+        idx = int(g.get("sample_idx", -1))
+        if 0 <= idx <= src.n:
+            out.append({"sample_idx": idx, "n_lost": int(g.get("n_lost", 0)),
+                        "duration_s": float(g.get("duration_s", math.nan)),
+                        "reason": scrub.text(as_text(g.get("reason", "")))})
+    return out
+
+
+def json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, bytes):
+        return as_text(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def json_safe(v: Any) -> Any:
+    """NaN/inf are not JSON; write them as null."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, list):
+        return [json_safe(x) for x in v]
+    if isinstance(v, dict):
+        return {k: json_safe(x) for k, x in v.items()}
+    return v
+
+
+def export_header(src: Source, fmt: str, deidentify: bool) -> dict[str, Any]:
+    head: dict[str, Any] = {
+        "format": f"gaitmon-export-{fmt}",
+        "export_version": EXPORT_VERSION,
+        "exported_by": f"gaitmon {__version__}",
+        "exported_utc": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "deidentified": bool(deidentify),
+        "mode": src.mode,
+        "sample_rate_hz": src.fs_hz,
+        "n_samples": src.n,
+    }
+    if not deidentify:  # a file name often carries a patient code
+        head["source_file"] = src.path.name
+    return head
+
