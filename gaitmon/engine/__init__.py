@@ -1,14 +1,13 @@
-"""The headless engine: a Device through the pipeline into display buffers and a recording."""
+"""The headless engine: a Device through the pipeline into display buffers and a recording.
 
-from gaitmon.engine.core import (
-    Engine,
-    EngineError,
-    GaitStatus,
-    Mode,
-    RecordingStatus,
-    RingBuffer,
-    Snapshot,
-)
+``Engine`` (``core``) wires the parts: display ring buffers (``buffers``), the frozen values a
+viewer pulls (``snapshot``), the single recorder thread (``recorder``), the engine thread's map
+of its samples to file rows (``rows``) and the live gait panel (``live_gait``).
+"""
+
+from gaitmon.engine.buffers import RingBuffer
+from gaitmon.engine.core import Engine, EngineError
+from gaitmon.engine.snapshot import GaitStatus, Mode, RecordingStatus, Snapshot
 
 __all__ = [
     "Engine",
