@@ -247,17 +247,20 @@ class Engine:
     def _recording_status(self, rec: Recorder | None) -> RecordingStatus:
         if rec is None:
             return self._last_recording
-        error = rec.error
-        if not error and not rec.alive and not rec.finished:
+        # alive before progress: a thread that ended normally published finished=True first
+        alive = rec.alive
+        progress = rec.progress
+        error = progress.error
+        if not error and not alive and not progress.finished:
             error = "the recorder stopped unexpectedly"  # only a BaseException gets here
         return RecordingStatus(
             active=not error,
             path=str(rec.writer.path),
             started_monotonic_s=rec.started_monotonic_s,
             elapsed_s=time.monotonic() - rec.started_monotonic_s,
-            rows=rec.rows,
-            file_bytes=rec.file_bytes,
-            dropped_blocks=rec.dropped,
+            rows=progress.rows,
+            file_bytes=progress.file_bytes,
+            dropped_blocks=rec.dropped_blocks,
             error=error,
         )
 

@@ -8,10 +8,12 @@ link statistics, stop) never are.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import itertools
 import queue
 import threading
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -22,13 +24,30 @@ from gaitmon.engine.rows import RowMap, slice_pipeline, slice_samples
 from gaitmon.io.device import SampleBlock
 
 
-class Recorder:
-    """The single thread that owns the session writer.
+@dataclass(frozen=True)
+class RecorderProgress:
+    """What the recorder thread reports: one consistent copy, replaced after every item."""
 
-    Only sample blocks are bounded (``queue_max`` of them waiting): a stalled disk drops blocks,
-    never a settings change, a calibration, a marker or the stop. ``row_map`` and what the
-    header already holds (a change pending at the start is not logged again) are the engine's
-    bookkeeping for this recording; only the engine thread uses them.
+    rows: int = 0
+    file_bytes: int = 0
+    error: str = ""  # why the recording stopped on its own ("" if it did not)
+    finished: bool = False  # the thread ended on the stop item (not by a BaseException)
+
+
+class Recorder:
+    """The thread that owns the session writer, and what it shares with the engine thread.
+
+    Who writes what:
+
+    - Set here and never changed: ``writer``, ``queue``, ``queue_max``, ``thread``,
+      ``started_monotonic_s`` and what the header already holds (``header_config``,
+      ``header_calibration``: a change pending at the start is not logged again).
+    - Engine thread only: ``row_map`` (which of its samples are rows; the recorder thread
+      never reads it).
+    - Under ``_lock``, and nothing else under it: ``_blocks_waiting`` (the engine thread adds
+      a block, the recorder thread takes it), ``_dropped_blocks`` (engine thread, a full
+      queue) and ``_progress`` (recorder thread). Others read them through ``progress`` and
+      ``dropped_blocks``.
     """
 
     def __init__(
@@ -44,13 +63,10 @@ class Recorder:
         self.header_config = header_config
         self.header_calibration = header_calibration
         self.row_map = RowMap()
+        self._lock = threading.Lock()
         self._blocks_waiting = 0
-        self._count_lock = threading.Lock()
-        self.dropped = 0
-        self.error = ""
-        self.rows = 0
-        self.file_bytes = 0
-        self.finished = False  # the thread ended on the stop item (not by a BaseException)
+        self._dropped_blocks = 0
+        self._progress = RecorderProgress()
         self.thread = threading.Thread(target=self._run, name="gaitmon-recorder", daemon=True)
         self.started_monotonic_s = time.monotonic()
         self.thread.start()
@@ -61,6 +77,17 @@ class Recorder:
     def alive(self) -> bool:
         return self.thread.is_alive()
 
+    @property
+    def progress(self) -> RecorderProgress:
+        with self._lock:
+            return self._progress
+
+    @property
+    def dropped_blocks(self) -> int:
+        """Blocks refused because ``queue_max`` were waiting (never expected; never silent)."""
+        with self._lock:
+            return self._dropped_blocks
+
     # -- the engine thread (and the caller's, for control items) -------------------------
 
     def put(self, item: tuple[str, Any]) -> None:
@@ -69,15 +96,19 @@ class Recorder:
 
     def put_block(self, item: tuple[str, Any]) -> bool:
         """Queue a block; False (and counted) if ``queue_max`` blocks are already waiting."""
-        with self._count_lock:
+        with self._lock:
             if self._blocks_waiting >= self.queue_max:
-                self.dropped += 1
+                self._dropped_blocks += 1
                 return False
             self._blocks_waiting += 1
         self.queue.put_nowait(item)
         return True
 
     # -- the recorder thread --------------------------------------------------------------
+
+    def _publish(self, **changes: Any) -> None:
+        with self._lock:
+            self._progress = dataclasses.replace(self._progress, **changes)
 
     def _append(
         self,
@@ -121,11 +152,11 @@ class Recorder:
             except queue.Empty:
                 kind, payload = "tick", None
             if kind == "append":
-                with self._count_lock:
+                with self._lock:
                     self._blocks_waiting -= 1
             if failed:
                 if kind == "stop":
-                    self.finished = True
+                    self._publish(finished=True)
                     return
                 continue
             try:
@@ -141,22 +172,21 @@ class Recorder:
                     w.update_link(payload)
                 elif kind == "stop":
                     w.close(stop_reason=payload)
-                    self.rows, self.file_bytes = w.rows, w.bytes_written
-                    self.finished = True
+                    self._publish(rows=w.rows, file_bytes=w.bytes_written, finished=True)
                     return
                 w.maybe_flush()
-                self.rows, self.file_bytes = w.rows, w.bytes_written
+                self._publish(rows=w.rows, file_bytes=w.bytes_written)
             except Exception as exc:  # any failure must stop the recording visibly
                 failed = True
                 if isinstance(exc, (SessionError, OSError)):
-                    self.error = str(exc)
+                    self._publish(error=str(exc))
                     with contextlib.suppress(Exception):
                         w.close(stop_reason=f"error: {exc}")
                 else:
                     # a bug, not the disk: the writer's state is unknown, so do not finish the
                     # file; the journal (the truth) stays and the next open recovers every row
-                    self.error = w.abort(exc)
-                self.rows = w.rows
+                    self._publish(error=w.abort(exc))
                 if kind == "stop":  # the stop itself failed: it is over all the same
-                    self.finished = True
+                    self._publish(rows=w.rows, finished=True)
                     return
+                self._publish(rows=w.rows)
