@@ -27,7 +27,7 @@ def test_the_configuration_names_the_checked_packages() -> None:
     # An empty or missing `files` would make mypy check nothing (or fail to start) and the test
     # below would prove little; the style guide asks for dsp and io at least.
     files = _mypy_config().get("files", [])
-    for required in ("gaitmon/dsp", "gaitmon/io", "gaitmon/engine.py", "gaitmon/analysis.py"):
+    for required in ("gaitmon/dsp", "gaitmon/io", "gaitmon/engine", "gaitmon/analysis.py"):
         assert required in files, f"[tool.mypy] files no longer lists {required}"
         assert (ROOT / required).exists(), f"[tool.mypy] lists {required}, which does not exist"
 

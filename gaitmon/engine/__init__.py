@@ -1,0 +1,20 @@
+"""The headless engine: a Device through the pipeline into display buffers and a recording.
+
+``Engine`` (``core``) wires the parts: display ring buffers (``buffers``), the frozen values a
+viewer pulls (``snapshot``), the single recorder thread (``recorder``), the engine thread's map
+of its samples to file rows (``rows``) and the live gait panel (``live_gait``).
+"""
+
+from gaitmon.engine.buffers import RingBuffer
+from gaitmon.engine.core import Engine, EngineError
+from gaitmon.engine.snapshot import GaitStatus, Mode, RecordingStatus, Snapshot
+
+__all__ = [
+    "Engine",
+    "EngineError",
+    "GaitStatus",
+    "Mode",
+    "RecordingStatus",
+    "RingBuffer",
+    "Snapshot",
+]

@@ -1,0 +1,118 @@
+"""The display ring buffers: which series a viewer gets, and how engine blocks become them.
+
+``SERIES`` is the one list of display columns. ``cols_from_pipeline`` (raw mode, everything
+computed on the PC) and ``cols_from_device`` (the unit's own angles) turn a block into those
+columns; a series a block does not carry is shown as NaN.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from gaitmon.dsp.angles import joint_angles
+from gaitmon.dsp.gait import phase_from_contacts
+from gaitmon.dsp.pipeline import PipelineBlock
+from gaitmon.io.device import SampleBlock
+from gaitmon.io.protocol import FrameKind
+
+# name -> per-sample shape; every series is float64 (bools as 0/1) so a snapshot is uniform
+SERIES: dict[str, tuple[int, ...]] = {
+    "t_s": (),
+    "host_time_s": (),
+    "tilt_acc_deg": (4,),
+    "tilt_gyro_deg": (4,),
+    "tilt_kalman_deg": (4,),
+    "joint_acc_deg": (3,),
+    "joint_gyro_deg": (3,),
+    "joint_kalman_deg": (3,),
+    "acc_ms2": (4, 2),
+    "gyro_rad_s": (4,),
+    "fsr_counts": (2,),
+    "heel_loaded": (),
+    "toe_loaded": (),
+    "phase": (),
+}
+
+
+class RingBuffer:
+    """Fixed-capacity, multi-series ring of the most recent samples (one writer, one reader)."""
+
+    def __init__(self, capacity: int) -> None:
+        self.capacity = int(capacity)
+        self._data = {k: np.full((self.capacity, *s), np.nan) for k, s in SERIES.items()}
+        self._write = 0  # total samples ever written
+        self._lock = threading.Lock()
+
+    def append(self, cols: dict[str, np.ndarray]) -> None:
+        n = len(cols["t_s"])
+        if n == 0:
+            return
+        if n > self.capacity:
+            cols = {k: v[-self.capacity :] for k, v in cols.items()}
+            skipped = n - self.capacity
+            n = self.capacity
+        else:
+            skipped = 0
+        with self._lock:
+            start = (self._write + skipped) % self.capacity
+            first = min(n, self.capacity - start)
+            for k, arr in self._data.items():
+                v = cols.get(k)
+                if v is None:
+                    arr[start : start + first] = np.nan
+                    arr[: n - first] = np.nan
+                    continue
+                arr[start : start + first] = v[:first]
+                arr[: n - first] = v[first:]
+            self._write += n + skipped
+
+    def latest(self, n: int) -> dict[str, np.ndarray]:
+        """Copies of the last ``n`` samples (fewer if fewer were written), oldest first."""
+        with self._lock:
+            n = int(min(n, self.capacity, self._write))
+            end = self._write % self.capacity
+            idx = (np.arange(end - n, end)) % self.capacity
+            return {k: arr[idx] for k, arr in self._data.items()}
+
+
+def cols_from_pipeline(
+    p: PipelineBlock, t_s: np.ndarray, host: np.ndarray
+) -> dict[str, np.ndarray]:
+    deg = np.degrees
+    return {
+        "t_s": t_s,
+        "host_time_s": host,
+        "tilt_acc_deg": deg(p.tilt_acc_rad),
+        "tilt_gyro_deg": deg(p.tilt_gyro_rad),
+        "tilt_kalman_deg": deg(p.tilt_kalman_rad),
+        "joint_acc_deg": deg(p.joint_acc_rad),
+        "joint_gyro_deg": deg(p.joint_gyro_rad),
+        "joint_kalman_deg": deg(p.joint_kalman_rad),
+        "acc_ms2": p.acc_ms2,
+        "gyro_rad_s": p.gyro_rad_s,
+        "fsr_counts": p.fsr_counts,
+        "heel_loaded": p.heel_loaded.astype(np.float64),
+        "toe_loaded": p.toe_loaded.astype(np.float64),
+        "phase": p.phase.astype(np.float64),
+    }
+
+
+def cols_from_device(b: SampleBlock, t_s: np.ndarray) -> dict[str, np.ndarray]:
+    cols: dict[str, np.ndarray] = {"t_s": t_s, "host_time_s": b.host_time_s}
+    if b.kind == FrameKind.TILT and b.acc_tilt_deg is not None and b.kalman_tilt_deg is not None:
+        cols["tilt_acc_deg"] = b.acc_tilt_deg
+        cols["tilt_kalman_deg"] = b.kalman_tilt_deg
+        cols["joint_acc_deg"] = np.degrees(joint_angles(np.radians(b.acc_tilt_deg)))
+        cols["joint_kalman_deg"] = np.degrees(joint_angles(np.radians(b.kalman_tilt_deg)))
+    elif b.kind == FrameKind.JOINT and b.kalman_joint_deg is not None:
+        # SampleBlock.from_frames sets all of a JOINT block's arrays together
+        assert b.acc_joint_deg is not None
+        assert b.heel_loaded is not None and b.toe_loaded is not None and b.phase is not None
+        cols["joint_acc_deg"] = b.acc_joint_deg
+        cols["joint_kalman_deg"] = b.kalman_joint_deg
+        cols["heel_loaded"] = b.heel_loaded.astype(np.float64)
+        cols["toe_loaded"] = b.toe_loaded.astype(np.float64)
+        cols["phase"] = phase_from_contacts(b.heel_loaded, b.toe_loaded).astype(np.float64)
+    return cols

@@ -1,0 +1,493 @@
+"""The headless engine: a Device through the pipeline into display buffers and a recording.
+
+Data flows one way::
+
+    Device (its own rx thread) -> engine thread: Pipeline (or the unit's own angles)
+        -> ring buffers (the GUI pulls snapshots, ~30 Hz)
+        -> bounded queue -> recorder thread (the only code that touches the session file)
+
+Acquisition never waits for the recorder or a viewer: a full recorder queue is counted
+(``RecordingStatus.dropped_blocks``), never silent, and a write error (full disk) stops the
+recording with a message while acquisition and display carry on. No Qt here: the command line,
+the tests and the desktop window all drive this same object.
+
+This module owns the lifecycle (start, stop, the engine thread's loop), recording start and
+stop, zeroing, settings and snapshots. The parts it wires together live beside it: display
+buffers (``buffers``), snapshot types (``snapshot``), the recorder thread (``recorder``), the
+map of engine samples to file rows (``rows``) and the live gait panel (``live_gait``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
+from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
+from gaitmon.engine.buffers import RingBuffer, cols_from_device, cols_from_pipeline
+from gaitmon.engine.live_gait import LiveGait, UnitGaitEvents, shift_stride
+from gaitmon.engine.recorder import Recorder
+from gaitmon.engine.snapshot import Mode, RecordingStatus, Snapshot
+from gaitmon.io.device import Device, DeviceError, SampleBlock
+from gaitmon.io.protocol import FrameKind, Identity
+from gaitmon.io.transport import LinkError
+
+
+class EngineError(Exception):
+    """A one-line, actionable problem (no device data, a refused zeroing, ...)."""
+
+
+@dataclass
+class _Stream:
+    """The engine thread's place in the stream. Only the engine thread writes these (``start``
+    sets ``last_data_s`` before the thread runs); other threads read ``samples`` and
+    ``last_data_s``, each a single value, without a lock."""
+
+    samples: int = 0  # samples processed since start (the pipeline's index)
+    last_data_s: float = field(default_factory=time.monotonic)
+    pipeline_offset: int = 0  # engine sample index of the current pipeline's sample 0
+    block_start: int = 0  # _handle: engine index of the current block's first sample
+    handed_over: bool = False  # _handle: the current block is with the recorder
+    seq0: int | None = None  # the first sequence number seen (t_s = 0)
+    reconnects_seen: int = 0
+
+
+@dataclass
+class _Health:
+    """What the engine thread counts for a viewer (under the engine's lock)."""
+
+    error: str = ""  # the last device or processing error (Snapshot.engine_error)
+    errors: int = 0  # blocks that could not be read or processed (Snapshot.engine_errors)
+    # (host time of a block's last sample, samples so far) of recent blocks: the frame rate
+    rate_times: deque[tuple[float, int]] = field(default_factory=lambda: deque(maxlen=64))
+
+
+@dataclass
+class _Pending:
+    """Changes a caller asked for; the engine thread takes them at its next block (under the
+    engine's lock), so a recording started meanwhile gets them in its header."""
+
+    config: PipelineConfig | None = None
+    calibration: Calibration | None = None
+
+
+class Engine:
+    """Runs one Device in one mode; see the module doc.
+
+    Ownership: ``_lock`` guards ``_pending``, ``_recorder``, ``_markers``, ``_health`` and
+    ``_gait``, and the engine thread's writes of ``config`` and ``calibration``; only the engine
+    thread writes ``_stream``, ``_pipeline`` and ``_unit_events`` (no lock); the caller's thread
+    writes ``_last_recording``, ``_identity`` and ``_thread``.
+    """
+
+    def __init__(
+        self,
+        device: Device,
+        mode: Mode | str = Mode.RAW,
+        config: PipelineConfig | None = None,
+        calibration: Calibration | None = None,
+        *,
+        display_seconds: float = 60.0,
+        recorder_queue_blocks: int = 60_000,
+        cycle_strides: int = 10,
+        transport_label: str = "",
+    ) -> None:
+        self.device = device
+        self.mode = Mode(mode)
+        self.config = config or PipelineConfig()
+        self.calibration = calibration or Calibration.identity()
+        self.fs_hz = self.config.fs_hz
+        self.transport_label = transport_label
+        self._pipeline = Pipeline(self.config, self.calibration)
+        self._stream = _Stream()
+        self._ring = RingBuffer(int(display_seconds * self.fs_hz))
+        self._unit_events = UnitGaitEvents(self.fs_hz)  # events from the unit's contacts
+        self._recorder_queue_blocks = recorder_queue_blocks
+        self._lock = threading.Lock()  # guards the small mutable state below
+        self._markers: deque[tuple[float, str]] = deque(maxlen=512)
+        self._gait = LiveGait(self.fs_hz, cycle_strides)
+        self._health = _Health()
+        self._pending = _Pending()
+        self._recorder: Recorder | None = None
+        self._last_recording = RecordingStatus()
+        self._identity: Identity | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+
+    # -- lifecycle ----------------------------------------------------------------------
+
+    @property
+    def identity(self) -> Identity | None:
+        return self._identity
+
+    def start(self) -> None:
+        """Connect (if needed), identify, select the mode's frames and start streaming."""
+        if self._thread is not None:
+            return
+        try:
+            self.device.connect()
+            self._identity = self.device.identify()
+            self.device.select_kind(self.mode.frame_kind)
+            self.device.start_stream()
+        except (DeviceError, LinkError) as exc:
+            with contextlib.suppress(Exception):
+                self.device.close()
+            raise EngineError(str(exc)) from exc
+        self._stop.clear()
+        self._stream.last_data_s = time.monotonic()
+        self._thread = threading.Thread(target=self._run, name="gaitmon-engine", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop recording (the file is completed), streaming and the threads. Idempotent."""
+        self.stop_recording()
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+            self._thread = None
+        with contextlib.suppress(Exception):
+            self.device.close()
+
+    def __enter__(self) -> Engine:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    @property
+    def samples_total(self) -> int:
+        return self._stream.samples
+
+    # -- recording ------------------------------------------------------------------------
+
+    def start_recording(
+        self, path: str | Path, meta: Any = None, *, overwrite: bool = False
+    ) -> None:
+        """Open a session file and record every sample from the next block on."""
+        from gaitmon.io.session import (
+            SessionError,
+            SessionHeader,
+            SessionMeta,
+            SessionWriter,
+            device_info,
+        )
+
+        with self._lock:
+            if self._recorder is not None:
+                raise EngineError("already recording; stop the current recording first")
+            # a zeroing still waiting for the next block is the calibration the file starts with
+            # (the engine thread takes pending changes and applies them under this same lock,
+            # so the header is exactly what the first recorded block is processed with)
+            calibration = self._pending.calibration or self.calibration
+            header = SessionHeader(
+                mode=self.mode.value,
+                sample_rate_hz=self.fs_hz,
+                meta=meta or SessionMeta(),
+                device=device_info(self._identity, self.transport_label),
+                config=self._pending.config or self.config,
+                calibration=calibration,
+            )
+            try:
+                writer = SessionWriter(path, header, overwrite=overwrite)
+            except SessionError as exc:
+                raise EngineError(str(exc)) from exc
+            except OSError as exc:
+                raise EngineError(f"cannot create {path}: {exc.strerror or exc}") from exc
+            # row 0 is the first sample of the next block the engine thread starts on (it
+            # sets the row map's record_offset then): never half a block, never one too late
+            self._recorder = Recorder(
+                writer, self._recorder_queue_blocks, header.config, calibration
+            )
+            self._last_recording = RecordingStatus()
+
+    def stop_recording(self, reason: str = "user", timeout_s: float = 30.0) -> RecordingStatus:
+        """Finish the file (complete, journal removed) and return the final status.
+
+        Waits up to ``timeout_s`` for the recorder to write what is queued and close the file.
+        If it has not finished by then (a stalled disk), the status says so in ``error``; the
+        recorder carries on in the background, and if the process ends first the journal
+        keeps every row handed over (the next open recovers the file).
+        """
+        with self._lock:
+            rec = self._recorder
+            self._recorder = None
+        if rec is None:
+            return self._last_recording
+        with contextlib.suppress(Exception):
+            rec.put(("link", self.device.stats))
+        rec.put(("stop", reason))  # control items are never refused, even by a full queue
+        rec.thread.join(timeout=max(0.0, timeout_s))
+        status = self._recording_status(rec)
+        if rec.alive and not status.error:
+            name = Path(status.path).name
+            status = dataclasses.replace(
+                status,
+                error=(
+                    f"the recording to {name} was not finished after {timeout_s:g} s (slow "
+                    "disk?); it finishes in the background, and if gaitmon quits first the "
+                    "file is recovered from its journal when next opened"
+                ),
+            )
+        self._last_recording = dataclasses.replace(status, active=False)
+        return self._last_recording
+
+    def _recording_status(self, rec: Recorder | None) -> RecordingStatus:
+        if rec is None:
+            return self._last_recording
+        # alive before progress: a thread that ended normally published finished=True first
+        alive = rec.alive
+        progress = rec.progress
+        error = progress.error
+        if not error and not alive and not progress.finished:
+            error = "the recorder stopped unexpectedly"  # only a BaseException gets here
+        return RecordingStatus(
+            active=not error,
+            path=str(rec.writer.path),
+            started_monotonic_s=rec.started_monotonic_s,
+            elapsed_s=time.monotonic() - rec.started_monotonic_s,
+            rows=progress.rows,
+            file_bytes=progress.file_bytes,
+            dropped_blocks=rec.dropped_blocks,
+            error=error,
+        )
+
+    @property
+    def recording(self) -> RecordingStatus:
+        return self._recording_status(self._recorder)
+
+    def add_marker(self, label: str = "") -> None:
+        t = self._latest_t()
+        with self._lock:
+            self._markers.append((t, label))
+            if self._recorder is not None:
+                self._recorder.put(("marker", label))
+
+    # -- settings and calibration --------------------------------------------------------
+
+    def apply_config(self, config: PipelineConfig) -> None:
+        """New filter settings from the next block on; logged in a running recording."""
+        if config.fs_hz != self.fs_hz:
+            raise EngineError("the sample rate is fixed by the unit; it cannot change live")
+        with self._lock:
+            self._pending.config = config
+
+    def zero(self, window_s: float = 1.5) -> Calibration:
+        """Standing calibration from the last ``window_s`` of data; refuses while moving."""
+        if self.mode is not Mode.RAW:
+            try:
+                self.device.zero()
+            except (DeviceError, LinkError) as exc:
+                raise EngineError(f"the unit refused to zero: {exc}") from exc
+            return self.calibration
+        n = int(window_s * self.fs_hz)
+        data = self._ring.latest(n)
+        if len(data["t_s"]) < n or np.isnan(data["acc_ms2"]).any():
+            raise EngineError(
+                f"need {window_s:g} s of data from the unit to zero; wait a moment and retry"
+            )
+        # the ring holds bias-corrected rates: add the bias in force back to see the true rate
+        gyro = data["gyro_rad_s"] + self.calibration.gyro_bias_rad_s
+        try:
+            cal = standing_calibration(data["acc_ms2"], gyro, fs_hz=self.fs_hz)
+        except CalibrationError as exc:
+            raise EngineError(str(exc)) from exc
+        with self._lock:
+            self._pending.calibration = cal
+        return cal
+
+    # -- snapshots ------------------------------------------------------------------------
+
+    def snapshot(self, window_s: float = 10.0) -> Snapshot:
+        n = int(window_s * self.fs_hz)
+        series = self._ring.latest(n)
+        t = series["t_s"]
+        t0 = t[0] if len(t) else 0.0
+        with self._lock:
+            hs, to = self._gait.events_since(t0)
+            markers = tuple(m for m in self._markers if m[0] >= t0)
+            rates = list(self._health.rate_times)
+            gait = self._gait.status(series, self._stream.samples)
+            rec = self._recording_status(self._recorder)
+            engine_error, engine_errors = self._health.error, self._health.errors
+        rate = 0.0
+        if len(rates) >= 2 and rates[-1][0] > rates[0][0]:
+            rate = (rates[-1][1] - rates[0][1]) / (rates[-1][0] - rates[0][0])
+        try:
+            link = self.device.stats
+        except Exception:  # a vanished device must not break the viewer
+            link = None
+        status = link.transport if link is not None else None
+        return Snapshot(
+            series=series,
+            heel_strike_t_s=hs,
+            toe_off_t_s=to,
+            markers=markers,
+            samples_total=self._stream.samples,
+            frame_rate_hz=rate,
+            last_data_age_s=time.monotonic() - self._stream.last_data_s,
+            link=link,
+            link_state=status.state.value if status is not None else "closed",
+            link_reason=(status.reason or "") if status is not None else engine_error,
+            seconds_to_reconnect=status.seconds_to_next_attempt() if status is not None else None,
+            recording=rec,
+            gait=gait,
+            mode=self.mode,
+            calibrated=bool(np.any(self.calibration.tilt_offset_rad != 0)),
+            engine_error=engine_error,
+            engine_errors=engine_errors,
+        )
+
+    def _latest_t(self) -> float:
+        last = self._ring.latest(1)["t_s"]
+        return float(last[0]) if len(last) else 0.0
+
+    # -- the engine thread ------------------------------------------------------------------
+
+    def _run(self) -> None:
+        last_link_push = time.monotonic()
+        while not self._stop.is_set():
+            try:
+                block = self.device.read_block(timeout_s=0.05)
+            except Exception as exc:  # the device died under us: keep the reason, keep running
+                self._note_error(f"device error: {exc}")
+                time.sleep(0.05)
+                continue
+            now = time.monotonic()
+            if block is not None and len(block):
+                self._stream.last_data_s = now
+                try:
+                    self._handle(block)
+                except Exception as exc:  # never let one block kill acquisition
+                    try:
+                        self._block_failed(block, exc)
+                    except Exception as again:
+                        self._note_error(f"processing error: {type(again).__name__}: {again}")
+            if now - last_link_push >= 1.0:
+                last_link_push = now
+                with self._lock:
+                    if self._recorder is not None:
+                        with contextlib.suppress(Exception):
+                            self._recorder.put(("link", self.device.stats))
+
+    def _note_error(self, text: str) -> None:
+        with self._lock:
+            self._health.errors += 1
+            self._health.error = " ".join(text.split())[:300]
+
+    def _handle(self, block: SampleBlock) -> None:
+        st = self._stream
+        st.handed_over = False
+        st.block_start = st.samples
+        with self._lock:
+            # take pending changes and make them current in one step, so a recording started
+            # meanwhile puts exactly what this block is processed with into its header
+            cfg, self._pending.config = self._pending.config, None
+            cal, self._pending.calibration = self._pending.calibration, None
+            if cfg is not None:
+                self.config = cfg
+            if cal is not None:
+                self.calibration = cal
+            rec = self._recorder
+        start_idx = st.samples
+        first = rec is not None and rec.row_map.record_offset is None
+        if first:
+            assert rec is not None
+            rec.row_map.record_offset = start_idx  # row 0 = this block's first sample
+        if cfg is not None:
+            self._pipeline = Pipeline(cfg, self.calibration)
+            st.pipeline_offset = start_idx
+            if rec is not None and not (first and cfg is rec.header_config):
+                rec.put(("config", cfg))
+        if cal is not None:
+            self._pipeline.set_calibration(cal)
+            if rec is not None and not (first and cal is rec.header_calibration):
+                rec.put(("calibration", cal))
+        if st.seq0 is None:
+            st.seq0 = int(block.seq[0])
+        if block.kind != self.mode.frame_kind:
+            # not this session's frames (a unit that restarted into its default kind before
+            # the setup was sent again): neither shown nor recorded; the file gets a gap
+            self._note_error(
+                f"the unit sent {FrameKind(block.kind).name} frames in {self.mode.value} mode; "
+                f"{len(block)} frames ignored"
+            )
+            if rec is not None:
+                rec.row_map.not_recorded(block, f"frames lost: {FrameKind(block.kind).name} frames")
+            return
+        reconnects = self.device.stats.transport.reconnects
+        gap_reason = ""
+        if reconnects != st.reconnects_seen:
+            st.reconnects_seen = reconnects
+            gap_reason = "link lost: reconnected"
+        t_s = (block.seq - st.seq0) / self.fs_hz
+        if block.kind == FrameKind.RAW and block.adc is not None:
+            p = self._pipeline.process(block.adc)
+            offset = st.pipeline_offset
+            cols = cols_from_pipeline(p, t_s, block.host_time_s)
+            hs_idx = p.heel_strike_idx + offset
+            to_idx = p.toe_off_idx + offset
+            strides = [shift_stride(s, offset) for s in p.strides]
+            if rec is not None:
+                self._hand_over(rec, block, p, gap_reason)
+        else:
+            cols = cols_from_device(block, t_s)
+            hs_idx, to_idx, strides = self._unit_events.process(block, start_idx)
+            if rec is not None:
+                self._hand_over(rec, block, None, gap_reason)
+        st.handed_over = True
+        self._ring.append(cols)
+        st.samples += len(block)
+        with self._lock:
+            self._health.rate_times.append((float(block.host_time_s[-1]), st.samples))
+            self._gait.add(hs_idx, to_idx, strides, t_s[0], start_idx, self._ring, st.samples)
+
+    def _hand_over(
+        self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str
+    ) -> None:
+        """Queue a block for the recorder, with the frames not recorded before it as lost
+        (see ``RowMap.outgoing``); if the queue is full, the row map notes the drop."""
+        out, p_rows, first_reason = rec.row_map.outgoing(block, p, self._stream.pipeline_offset)
+        if rec.put_block(("append", (out, p_rows, 0, gap_reason, first_reason))):
+            rec.row_map.handed_over(with_events=p is not None)
+            return
+        # the queue is full (a stalled disk)
+        rec.row_map.dropped(block, p, self._stream.pipeline_offset, self._stream.samples)
+
+    def _block_failed(self, block: SampleBlock, exc: Exception) -> None:
+        """``_handle`` raised (a bug, or a block the pipeline cannot take): say so, keep the
+        indices of the display, the pipeline and the recording consistent, carry on."""
+        self._note_error(f"processing error: {type(exc).__name__}: {exc}")
+        with self._lock:
+            rec = self._recorder
+        if rec is not None and rec.row_map.record_offset is None:
+            rec = None  # the recording had not started with this block
+        st = self._stream
+        if st.handed_over:
+            # the block is in the file: only the display bookkeeping after it failed
+            if st.samples == st.block_start:
+                st.samples += len(block)
+            return
+        # the block is not in the file and may have left the pipeline half-updated: a fresh
+        # pipeline starts with the next block, and the file logs it as a settings change at
+        # that row (so reprocessing restarts there too) after a gap for this block
+        st.samples = st.block_start
+        if rec is not None:
+            rec.row_map.not_recorded(block, "frames lost: processing error")
+        if self.mode is Mode.RAW:
+            self._pipeline = Pipeline(self.config, self.calibration)
+            st.pipeline_offset = st.samples
+            if rec is not None:
+                rec.put(("config", self.config))

@@ -1,0 +1,78 @@
+"""The frozen values a viewer gets from the engine: the mode, and the snapshot a GUI pulls
+(~30 Hz) with its recording and live gait status. Nothing here is mutable or shared.
+
+``Mode`` lives here rather than beside ``Engine`` because a ``Snapshot`` carries it and the
+engine imports this module (so no import circle).
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gaitmon.io.device import LinkStats
+from gaitmon.io.protocol import FrameKind
+
+
+class Mode(enum.StrEnum):
+    RAW = "raw"  # raw ADC frames, everything computed on the PC
+    TILT = "tilt"  # the unit's own accelerometer and Kalman tilts
+    JOINT = "joint"  # the unit's own joint angles, contacts and gait phase
+
+    @property
+    def frame_kind(self) -> FrameKind:
+        return {Mode.RAW: FrameKind.RAW, Mode.TILT: FrameKind.TILT, Mode.JOINT: FrameKind.JOINT}[
+            self
+        ]
+
+
+@dataclass(frozen=True)
+class RecordingStatus:
+    active: bool = False
+    path: str = ""
+    started_monotonic_s: float = 0.0
+    elapsed_s: float = 0.0
+    rows: int = 0
+    file_bytes: int = 0
+    dropped_blocks: int = 0  # recorder queue overflows (never expected; never silent)
+    error: str = ""  # why the last recording stopped on its own ("" if it did not)
+
+
+@dataclass(frozen=True)
+class GaitStatus:
+    """The live gait panel: latest strides and the cycle overlay."""
+
+    n_strides: int = 0
+    last_stride_time_s: float = float("nan")
+    last_stance_pct: float = float("nan")
+    cadence_derived_steps_per_min: float = float("nan")
+    cycles_deg: np.ndarray = field(default_factory=lambda: np.empty((0, 101, 3)))  # last N strides
+    current_pct: np.ndarray = field(default_factory=lambda: np.empty(0))  # current stride so far
+    current_deg: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """What a viewer needs, copied out under a short lock. Angles in degrees."""
+
+    series: dict[str, np.ndarray]
+    heel_strike_t_s: np.ndarray
+    toe_off_t_s: np.ndarray
+    markers: tuple[tuple[float, str], ...]
+    samples_total: int
+    frame_rate_hz: float
+    last_data_age_s: float
+    link: LinkStats | None
+    link_state: str
+    link_reason: str
+    seconds_to_reconnect: float | None
+    recording: RecordingStatus
+    gait: GaitStatus
+    mode: Mode
+    calibrated: bool
+    # the last block the engine could not read or process ("" if none) and how many; such a
+    # block is not shown, and a recording gets a gap in its place
+    engine_error: str = ""
+    engine_errors: int = 0
