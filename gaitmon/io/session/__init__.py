@@ -10,10 +10,15 @@ package:
 * :mod:`.h5file` - the low-level HDF5 layout writer and fsync helpers;
 * :mod:`.writer` - :class:`SessionWriter`, crash-safe recording (HDF5 + journal);
 * :mod:`.recovery` - :func:`replay_pipeline` and :func:`recover_session`;
-* :mod:`.reader` - :func:`open_session` / :class:`Session`, :class:`Marker`, :class:`Gap`.
+* :mod:`.reader` - :func:`open_session` / :class:`Session`, :class:`Marker`, :class:`Gap`;
+* :mod:`.reprocess` - :func:`rewrite_processed`, a raw session re-run into a new file;
+* :mod:`.truth` - the ``/truth`` group of simulated sessions;
+* :mod:`.exclusions` - the user's excluded ranges, kept beside the recording in
+  ``FILE.review.json`` (analysis state: the recording itself is never modified).
 """
 
 from gaitmon.io.journal import journal_path
+from gaitmon.io.session.exclusions import Exclusion
 from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta, device_info
 from gaitmon.io.session.layout import (
     ANGLE_CONVENTION,
@@ -26,7 +31,9 @@ from gaitmon.io.session.layout import (
 )
 from gaitmon.io.session.reader import Gap, Marker, Session, open_session
 from gaitmon.io.session.recovery import recover_session, replay_pipeline
+from gaitmon.io.session.reprocess import RewriteResult, rewrite_processed
 from gaitmon.io.session.rows import rows_from_pipeline
+from gaitmon.io.session.truth import read_truth
 from gaitmon.io.session.writer import SessionWriter
 
 __all__ = [
@@ -36,8 +43,10 @@ __all__ = [
     "FORMAT_VERSION",
     "LINK_TOTALS",
     "MODES",
+    "Exclusion",
     "Gap",
     "Marker",
+    "RewriteResult",
     "Session",
     "SessionError",
     "SessionHeader",
@@ -47,7 +56,9 @@ __all__ = [
     "journal_path",
     "open_session",
     "per_sample_datasets",
+    "read_truth",
     "recover_session",
     "replay_pipeline",
+    "rewrite_processed",
     "rows_from_pipeline",
 ]

@@ -17,10 +17,13 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import CHANNELS, ChannelSpec
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.journal import journal_path
+from gaitmon.io.session.exclusions import Exclusion
+from gaitmon.io.session.exclusions import load as load_exclusions
 from gaitmon.io.session.h5file import _being_recorded, _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta
 from gaitmon.io.session.layout import FORMAT, FORMAT_VERSION, MODES, per_sample_datasets
 from gaitmon.io.session.recovery import recover_session
+from gaitmon.io.session.truth import Truth, truth_from_file
 
 
 class Marker(NamedTuple):
@@ -213,6 +216,21 @@ class Session:
                     f"({_short_error(e)})"
                 ) from e
         return out
+
+    def exclusions(self) -> tuple[list[Exclusion], str]:
+        """(ranges, problem): the row ranges the user excluded in review (stored beside the
+        recording, see :mod:`gaitmon.io.session.exclusions`), merged and clipped to the data.
+        ``problem`` is a one-line reason when the side file could not be used, else ""."""
+        return load_exclusions(self.path, self.created_utc, self.n_samples)
+
+    def truth(self, start: int, stop: int) -> Truth:
+        """The simulator's ground truth of rows ``start:stop`` (see
+        :mod:`gaitmon.io.session.truth`): (true tilts in rad, mounting offsets in rad), or
+        (None, None) for a session recorded from a real unit."""
+        try:
+            return truth_from_file(self._f, start, stop)
+        except (OSError, KeyError, ValueError) as e:
+            raise SessionError(f"{self.path.name}: cannot read /truth ({e})") from e
 
     def close(self) -> None:
         with contextlib.suppress(Exception):
