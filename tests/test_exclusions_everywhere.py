@@ -1,11 +1,12 @@
 """Exclusions made in review are the session's analysis state: ``gaitmon info`` and the report
-leave out the same strides as an independent analysis with those ranges; and reprocessing a
-file (``rewrite_processed``) reports progress, can be cancelled, and writes what
-``gaitmon process`` writes."""
+leave out the same strides as an independent analysis with those ranges, and the export carries
+them; and reprocessing a file (``rewrite_processed``) reports progress, can be cancelled, and
+writes what ``gaitmon process`` writes."""
 
 from __future__ import annotations
 
 import itertools
+import json
 
 import h5py
 import numpy as np
@@ -45,7 +46,7 @@ def _info(capsys, path):
     return capsys.readouterr().out
 
 
-def test_info_and_report_honour_the_exclusions_made_in_review(walk, capsys):
+def test_info_report_and_export_honour_the_exclusions_made_in_review(walk, capsys, tmp_path):
     with open_session(walk) as s:
         created, n = s.created_utc, s.n_samples
         t_s = s.read("timeline/t_s")
@@ -71,6 +72,12 @@ def test_info_and_report_honour_the_exclusions_made_in_review(walk, capsys):
         assert data.summary.n_strides == want
         assert sum(r.included for r in data.rows) == want
         assert len(data.losses.excluded_ranges) == 2
+        # the export carries them in its metadata
+        csv = tmp_path / "walk.csv"
+        assert main(["export", str(walk), "--format", "csv", "-o", str(csv), "-q"]) == 0
+        meta = json.loads(csv.with_name("walk.meta.json").read_text(encoding="utf-8"))
+        got = [(r["start_idx"], r["stop_idx"], r["label"]) for r in meta["excluded_ranges"]]
+        assert got == [(r.start_idx, r.stop_idx, r.label) for r in exclusions.merge(ranges)]
         # a damaged side file: one line, no traceback, nothing excluded
         sp.write_text("{not json", encoding="utf-8")
         text = _info(capsys, walk)
