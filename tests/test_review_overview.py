@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gaitmon.io.overview import Cancelled, PeakPyramid, SessionOverview, peak_decimate
-from gaitmon.ui.review import exclusions as excl
+from gaitmon.io.session import exclusions as excl
 
 
 def _brute_bins(y: np.ndarray, start: int, step: int, n_bins: int):

@@ -237,6 +237,12 @@ def _session_fields(src: Source, scrub: Scrubber) -> dict[str, Any]:
     return scrub.session(session)
 
 
+def _excluded_ranges(src: Source, scrub: Scrubber) -> list[dict[str, Any]]:
+    # the ranges excluded in review are the session's analysis state: exported with it
+    ranges, _ = src.session.exclusions()
+    return [{"start_idx": r.start_idx, "stop_idx": r.stop_idx, "label": r.label} for r in ranges]
+
+
 def _wall_offset_s(src: Source, scrub: Scrubber) -> Any:
     if not src.has("timeline/host_time_s"):
         return None
@@ -259,6 +265,7 @@ METADATA_SECTIONS: tuple[tuple[str, Callable[[Source, Scrubber], Any]], ...] = (
     ("link", lambda src, scrub: {**src.group_attrs("link"),
                                  "crc_failures": src.table("link/crc_failures")}),
     ("wall_offset_s", _wall_offset_s),
+    ("excluded_ranges", _excluded_ranges),
 )
 
 

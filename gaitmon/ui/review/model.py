@@ -24,7 +24,7 @@ from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.overview import Cancelled, SessionOverview
 from gaitmon.io.session import Session, SessionError, open_session, replay_pipeline
-from gaitmon.ui.review import exclusions as excl
+from gaitmon.io.session import exclusions as excl
 
 Progress = Callable[[float], bool | None]
 

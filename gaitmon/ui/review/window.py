@@ -8,7 +8,7 @@ saving. Progress and a Cancel button live in the status bar. Every slot is guard
 unexpected exception becomes one line in the banner (and a logged traceback), never a crash.
 
 User exclusions are kept beside the recording in ``FILE.review.json`` (see
-:mod:`gaitmon.ui.review.exclusions`); when that folder is read-only they are kept in the
+:mod:`gaitmon.io.session.exclusions`); when that folder is read-only they are kept in the
 application settings instead. The recording itself is never written.
 """
 
@@ -41,10 +41,10 @@ from PySide6.QtWidgets import (
 from gaitmon import __version__
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.session import SessionError, journal_path
+from gaitmon.io.session import exclusions as excl
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded, make_action
 from gaitmon.ui.dialogs import ERROR_STYLE, SettingsDialog
-from gaitmon.ui.review import exclusions as excl
 from gaitmon.ui.review.cycles import CyclePlots
 from gaitmon.ui.review.model import (
     Analysis,
