@@ -15,7 +15,7 @@ import pyqtgraph as pg
 from PySide6.QtGui import QColor
 
 from gaitmon.ui.plots import JOINTS
-from gaitmon.ui.review.model import Analysis
+from gaitmon.review.model import Analysis
 from gaitmon.ui.theme import Colours, pen
 
 MAX_STRIDES_DRAWN = 300

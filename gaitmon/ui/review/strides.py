@@ -14,7 +14,7 @@ from PySide6.QtGui import QColor, QFont
 from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableView, QWidget
 
 from gaitmon.analysis import StrideRow
-from gaitmon.ui.review.model import Analysis
+from gaitmon.review.model import Analysis
 from gaitmon.ui.theme import Colours
 
 # (header, tooltip)

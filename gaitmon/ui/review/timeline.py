@@ -36,7 +36,7 @@ from gaitmon.dsp.channels import CHANNELS
 from gaitmon.io.overview import Cancelled, PeakWindow
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_band
 from gaitmon.ui.plots import vertical_lines as _vlines
-from gaitmon.ui.review.model import JOINT, OVERVIEW_SERIES, Document, Source
+from gaitmon.review.model import JOINT, OVERVIEW_SERIES, Document, Source
 from gaitmon.ui.review.workers import LatestWorker, Ticket
 from gaitmon.ui.theme import Colours, pen
 

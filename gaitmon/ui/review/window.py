@@ -46,7 +46,7 @@ from gaitmon.ui.actions import guarded, make_action
 from gaitmon.ui.dialogs import ERROR_STYLE, SettingsDialog
 from gaitmon.ui.review import exclusions as excl
 from gaitmon.ui.review.cycles import CyclePlots
-from gaitmon.ui.review.model import (
+from gaitmon.review.model import (
     Analysis,
     Document,
     analyse,
@@ -235,7 +235,7 @@ class ReviewWindow(QMainWindow):
             self.act_export = A("&Export…", self.export_dialog, "Ctrl+Shift+E",
                                 "Export the session to CSV, MATLAB .mat or C3D")  # fmt: skip
             self.doc_actions.append(self.act_export)
-        if _available("gaitmon.ui.review.report_pdf") and _available("gaitmon.report"):
+        if _available("gaitmon.ui.report_pdf") and _available("gaitmon.report"):
             self.act_report = A(
                 "&Report (PDF)…", self.report_dialog, "Ctrl+Shift+R",
                 "One-page clinical report of the recorded series, with the exclusions in force",
@@ -821,7 +821,7 @@ class ReviewWindow(QMainWindow):
         if doc is None:
             return
         from gaitmon.report import gather_report
-        from gaitmon.ui.review.report_pdf import write_report_pdf
+        from gaitmon.ui.report_pdf import write_report_pdf
 
         ranges = [(r.start_idx, r.stop_idx) for r in doc.exclusions]
         bands = self.normative

@@ -22,7 +22,8 @@ import numpy as np
 from gaitmon.analysis import StrideRow, analyse_strides, cycles, summary
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.overview import Cancelled, SessionOverview
+from gaitmon.errors import Cancelled
+from gaitmon.io.overview import SessionOverview
 from gaitmon.io.session import Session, SessionError, open_session, replay_pipeline
 from gaitmon.ui.review import exclusions as excl
 
