@@ -14,8 +14,8 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtGui import QColor
 
-from gaitmon.ui.plots import JOINTS
 from gaitmon.review.model import Analysis
+from gaitmon.ui.plots import JOINTS
 from gaitmon.ui.theme import Colours, pen
 
 MAX_STRIDES_DRAWN = 300

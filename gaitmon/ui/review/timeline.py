@@ -1,28 +1,29 @@
 """The review timeline: a whole-session overview over x-linked detail lanes, one shared cursor.
 
 Only the visible range is ever read. A change of the detail range (pan, zoom, overview drag,
-a stride picked in the table) becomes a :class:`ViewRequest` for the rows in view; the view
-worker answers it from :class:`gaitmon.io.overview.SessionOverview` (raw rows when few, min/max
-decimated otherwise, at most ~2 points per pixel) and the response is applied on the GUI
-thread, unless a newer request overtook it. Until then the previous data stay drawn (x is time,
-so they pan with the view).
+a stride picked in the table) becomes a :class:`~gaitmon.review.view.ViewRequest` for the rows
+in view; the view worker answers it (:func:`gaitmon.review.view.load_view`, from
+:class:`gaitmon.io.overview.SessionOverview`: raw rows when few, min/max decimated otherwise, at
+most ~2 points per pixel) and the response is applied on the GUI thread, unless a newer request
+overtook it. Until then the previous data stay drawn (x is time, so they pan with the view).
 
 Each lane's traces are drawn by one `TraceSet` (see :mod:`gaitmon.ui.plots`); gaps, user
-exclusions, the selection and the picked stride are shaded by one :class:`ShadeItem` per plot,
+exclusions, the selection and the picked stride are shaded by one
+:class:`~gaitmon.ui.review.lanes.ShadeItem` per plot,
 which draws only the spans in view. Gait events are drawn when the view is at most
 ``EVENTS_MAX_S`` wide, phase bands when the rows in view are at most ``PHASE_MAX_ROWS``.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import QRectF, Qt, QTimer, Signal
-from PySide6.QtGui import QBrush, QColor, QPainter
+from PySide6.QtCore import Qt, QTimer, Signal
+from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
     QComboBox,
     QGraphicsItem,
@@ -33,139 +34,23 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.dsp.channels import CHANNELS
-from gaitmon.io.overview import Cancelled, PeakWindow
+from gaitmon.errors import Cancelled
+from gaitmon.io.overview import PeakWindow
+from gaitmon.jobs import Response
+from gaitmon.review.model import JOINT, OVERVIEW_SERIES, Document, Source
+from gaitmon.review.view import SEGMENTS, ViewData, ViewRequest, load_view, readout_html
+from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_band
 from gaitmon.ui.plots import vertical_lines as _vlines
-from gaitmon.review.model import JOINT, OVERVIEW_SERIES, Document, Source
-from gaitmon.ui.review.workers import LatestWorker, Ticket
+from gaitmon.ui.review.lanes import Lane, LaneViewBox, ShadeItem, TimeAxis, TraceSpec
 from gaitmon.ui.theme import Colours, pen
 
-SEGMENTS = ("body", "thigh", "shank", "foot")
-PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")
 EVENTS_MAX_S = 180.0  # wider views would be solid with event lines
 PHASE_MAX_ROWS = 30_000  # phase bands need every row; beyond this they are left out
 MIN_POINTS, MAX_POINTS = 600, 4000
 INITIAL_VIEW_S = 30.0
 AXIS_WIDTH_PX = 58
 RAW_RANGE = (-100.0, 4200.0)
-
-
-class TimeAxis(pg.AxisItem):
-    """Seconds from the session start, written h:mm:ss once the ticks are a minute apart."""
-
-    def tickStrings(self, values, scale, spacing):
-        if spacing < 60:
-            return super().tickStrings(values, scale, spacing)
-        out = []
-        for v in values:
-            s = round(v)
-            h, rem = divmod(abs(s), 3600)
-            m, sec = divmod(rem, 60)
-            sign = "-" if s < 0 else ""
-            out.append(f"{sign}{h}:{m:02d}:{sec:02d}" if h else f"{sign}{m}:{sec:02d}")
-        return out
-
-
-class ShadeItem(pg.GraphicsObject):
-    """Vertical bands (x spans over the full height) in layers; only spans in view are drawn."""
-
-    _BIG = QRectF(-1e9, -1e9, 2e9, 2e9)
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.layers: dict[str, tuple[np.ndarray, QBrush]] = {}
-        self.setZValue(-10)
-
-    def set_layer(self, name: str, spans: np.ndarray, colour: QColor) -> None:
-        spans = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
-        order = np.argsort(spans[:, 0], kind="stable")
-        self.layers[name] = (spans[order], QBrush(colour))
-        self.update()
-
-    def spans(self, name: str) -> np.ndarray:
-        return self.layers.get(name, (np.empty((0, 2)), None))[0]
-
-    def boundingRect(self) -> QRectF:
-        return self._BIG
-
-    def paint(self, p: QPainter, *args: object) -> None:
-        vb = self.getViewBox()
-        if vb is None:
-            return
-        view = vb.viewRect()
-        x0, x1 = view.left(), view.right()
-        # at least one pixel wide, so a one-frame gap stays visible when zoomed out
-        px = view.width() / max(1.0, vb.width())
-        p.setPen(Qt.PenStyle.NoPen)
-        for spans, brush in self.layers.values():
-            if not len(spans):
-                continue
-            lo = int(np.searchsorted(spans[:, 0], x1, side="right"))
-            for a, b in spans[:lo]:
-                if b < x0:
-                    continue
-                w = max(b - a, px)
-                p.fillRect(QRectF(a, view.top(), w, view.height()), brush)
-
-
-class LaneViewBox(pg.ViewBox):
-    """x pan/zoom with the mouse; Shift+drag selects a time range; a click places the cursor."""
-
-    selection_dragged = Signal(float, float, bool)  # t0, t1, finished
-    clicked = Signal(float)
-
-    def mouseDragEvent(self, ev, axis=None):
-        if ev.button() == Qt.MouseButton.LeftButton and (
-            ev.modifiers() & Qt.KeyboardModifier.ShiftModifier
-        ):
-            ev.accept()
-            a = self.mapSceneToView(ev.buttonDownScenePos()).x()
-            b = self.mapSceneToView(ev.scenePos()).x()
-            self.selection_dragged.emit(min(a, b), max(a, b), ev.isFinish())
-            return
-        super().mouseDragEvent(ev, axis)
-
-    def mouseClickEvent(self, ev):
-        if ev.button() == Qt.MouseButton.LeftButton:
-            ev.accept()
-            self.clicked.emit(self.mapSceneToView(ev.scenePos()).x())
-            return
-        super().mouseClickEvent(ev)
-
-
-@dataclass
-class TraceSpec:
-    series: str
-    column: int
-    colour: QColor
-    method: str = ""  # "kalman" / "acc" / "gyro": toggled together; "" always shown
-    before: bool = False  # the recorded series under a reprocessed one (comparison)
-
-
-@dataclass
-class Lane:
-    key: str
-    title: str
-    yrange: tuple[float, float]
-    plot: pg.PlotItem
-    traces: TraceSet
-    specs: list[tuple[TraceSpec, Trace]] = field(default_factory=list)
-    shade: ShadeItem = field(default_factory=ShadeItem)
-    cursor: pg.InfiniteLine | None = None
-    events_hs: Trace | None = None
-    events_to: Trace | None = None
-    markers: Trace | None = None
-    bands: list[tuple[Trace, int]] = field(default_factory=list)
-    missing: pg.TextItem | None = None
-
-
-@dataclass(frozen=True)
-class ViewRequest:
-    start: int
-    stop: int
-    max_points: int
-    series: tuple[tuple[str, str], ...]  # (source label, series name)
-    phase: bool
 
 
 class Timeline(QWidget):
@@ -195,7 +80,7 @@ class Timeline(QWidget):
         self._syncing = False
         self._fitted_y = False
         self._request_id = 0
-        self.loader = LatestWorker("view", self)
+        self.loader = QtWorker("review-view", latest=True, parent=self)
         self.loader.progressed.connect(self.progress)
         self.loader.busy_changed.connect(self.busy_changed)
 
@@ -644,30 +529,21 @@ class Timeline(QWidget):
         self.request_log.append((rid, time.perf_counter()))
         del self.request_log[:-256]
 
-        def job(ticket: Ticket) -> dict:
-            out: dict = {"id": rid, "req": req, "doc": doc, "windows": {}}
-            for label, name in req.series:
-                if not ticket.wanted:
-                    raise Cancelled
-                out["windows"][(label, name)] = sources[label].overview.window(
-                    name, req.start, req.stop, req.max_points, progress=ticket.progress
-                )
-            if req.phase:
-                out["phase"] = cur.read_rows("processed/phase", req.start, req.stop)[:, 0]
-            return out
-
+        job = functools.partial(load_view, rid, req, doc, sources, cur)
         self.loader.submit(job, self._apply)
 
-    def _apply(self, resp: dict | None, exc: BaseException | None) -> None:
+    def _apply(self, response: Response[ViewData]) -> None:
+        exc = response.error
         if exc is not None:
             if not isinstance(exc, Cancelled):
                 self.failed.emit(f"cannot show this range: {exc}")
             return
         doc = self.doc
-        if resp is None or doc is None or resp["doc"] is not doc:
+        resp = response.value
+        if resp is None or doc is None or resp.doc is not doc:
             return
-        req: ViewRequest = resp["req"]
-        self.last_window = resp["windows"]
+        req = resp.request
+        self.last_window = resp.windows
         t_s = doc.t_s
         cur = doc.current
         for lane in self.visible_lanes():
@@ -684,7 +560,7 @@ class Timeline(QWidget):
                 tr.set(t_s[w.idx], y, finite=fin)
         self._draw_events(cur, req)
         fsr = self.lanes["fsr"]
-        phase = resp.get("phase")
+        phase = resp.phase
         for tr, k in fsr.bands:
             if phase is not None and len(phase):
                 x = t_s[req.start : req.stop]
@@ -701,7 +577,7 @@ class Timeline(QWidget):
             self._fitted_y = True
             self.fit_y()
         self.applied_requests += 1
-        self.loaded.emit(resp["id"])
+        self.loaded.emit(resp.request_id)
 
     def _draw_events(self, src: Source, req: ViewRequest) -> None:
         doc = self.doc
@@ -767,33 +643,9 @@ class Timeline(QWidget):
 
     def readout_text(self) -> str:
         """The time and the values at the cursor, read from the current series (exact row)."""
-        doc = self.doc
-        if doc is None or not math.isfinite(self.cursor_t_s):
+        if self.doc is None:
             return ""
-        i = doc.row_at(self.cursor_t_s)
-        src = doc.current
-        t = float(doc.t_s[i])
-        h, rem = divmod(t, 3600)
-        m, s = divmod(rem, 60)
-        clock = f"{int(h)}:{int(m):02d}:{s:06.3f}" if h else f"{int(m)}:{s:06.3f}"
-        parts = [f"<b>t {t:.2f} s</b> ({clock}, row {i})"]
-        if src.has(JOINT):
-            j = src.read_rows(JOINT, i, i + 1)[0]
-            parts.append(" · ".join(f"{n} {v:+.1f}°" for n, v in zip(("hip", "knee", "ankle"),
-                                                                     j, strict=True)))  # fmt: skip
-        if src.has("processed/tilt_deg"):
-            v = src.read_rows("processed/tilt_deg", i, i + 1)[0, self.segment]
-            parts.append(f"{SEGMENTS[self.segment]} tilt {v:+.1f}°")
-        if src.has("processed/fsr_counts"):
-            f = src.read_rows("processed/fsr_counts", i, i + 1)[0]
-            parts.append(f"heel {f[0]:.0f} · toe {f[1]:.0f}")
-        if src.has("processed/phase"):
-            ph = int(src.read_rows("processed/phase", i, i + 1)[0, 0])
-            if 0 <= ph < len(PHASE_NAMES):
-                parts.append(PHASE_NAMES[ph])
-        if src is not doc.recorded:
-            parts.append("<i>reprocessed</i>")
-        return " &nbsp;|&nbsp; ".join(parts)
+        return readout_html(self.doc, self.cursor_t_s, self.segment)
 
     def _selection_dragged(self, t0: float, t1: float, finished: bool) -> None:
         self.set_selection(t0, t1)
@@ -828,4 +680,4 @@ class Timeline(QWidget):
         self.loader.stop()
 
 
-__all__ = ["ShadeItem", "TimeAxis", "Timeline", "ViewRequest"]
+__all__ = ["Timeline"]
