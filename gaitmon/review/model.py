@@ -243,7 +243,9 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
     def read(name: str, a: int, b: int) -> np.ndarray:
         return out[name][a:b]
 
-    cat = lambda p: np.concatenate(p) if p else np.empty(0, np.int64)  # noqa: E731
+    def cat(parts: list[np.ndarray]) -> np.ndarray:
+        return np.concatenate(parts) if parts else np.empty(0, np.int64)
+
     return Source("reprocessed", read, tuple(out), n, cat(hs), cat(to), config)
 
 

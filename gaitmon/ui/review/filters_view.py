@@ -433,10 +433,12 @@ class FiltersView(QWidget):
 
     def table_values(self) -> dict[str, str]:
         """filter name -> the RMSE cell as shown (for tests and the window's status)."""
-        return {
-            self.table.item(r, 0).text(): self.table.item(r, 1).text()
-            for r in range(self.table.rowCount())
-        }
+        out: dict[str, str] = {}
+        for r in range(self.table.rowCount()):
+            name, rmse = self.table.item(r, 0), self.table.item(r, 1)
+            if name is not None and rmse is not None:
+                out[name.text()] = rmse.text()
+        return out
 
     def closeEvent(self, event: QCloseEvent) -> None:
         self._debounce.stop()

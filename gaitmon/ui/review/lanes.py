@@ -16,12 +16,20 @@ from typing import Any
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import QRectF, Qt, Signal
-from PySide6.QtGui import QBrush, QColor, QPainter
+from PySide6.QtGui import QBrush, QColor, QPainter, QPen
 
 from gaitmon.ui.plots import Trace, TraceSet
+from gaitmon.ui.theme import pen
 
 
-class TimeAxis(pg.AxisItem):
+def line_pen(colour: QColor, *, dashed: bool = False) -> QPen:
+    """The theme's cosmetic pen, typed (``gaitmon.ui.theme.pen`` is declared as ``object``)."""
+    p = pen(colour, dashed=dashed)
+    assert isinstance(p, QPen)
+    return p
+
+
+class TimeAxis(pg.AxisItem):  # type: ignore[misc]  # pyqtgraph is untyped
     """Seconds from the session start, written h:mm:ss once the ticks are a minute apart."""
 
     def tickStrings(self, values: list[float], scale: float, spacing: float) -> list[str]:
@@ -37,7 +45,7 @@ class TimeAxis(pg.AxisItem):
         return out
 
 
-class ShadeItem(pg.GraphicsObject):
+class ShadeItem(pg.GraphicsObject):  # type: ignore[misc]
     """Vertical bands (x spans over the full height) in layers; only spans in view are drawn."""
 
     _BIG = QRectF(-1e9, -1e9, 2e9, 2e9)
@@ -79,7 +87,7 @@ class ShadeItem(pg.GraphicsObject):
                 p.fillRect(QRectF(a, view.top(), w, view.height()), brush)
 
 
-class LaneViewBox(pg.ViewBox):
+class LaneViewBox(pg.ViewBox):  # type: ignore[misc]
     """x pan/zoom with the mouse; Shift+drag selects a time range; a click places the cursor."""
 
     selection_dragged = Signal(float, float, bool)  # t0, t1, finished

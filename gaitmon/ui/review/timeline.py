@@ -42,7 +42,7 @@ from gaitmon.review.view import SEGMENTS, ViewData, ViewRequest, load_view, read
 from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_band
 from gaitmon.ui.plots import vertical_lines as _vlines
-from gaitmon.ui.review.lanes import Lane, LaneViewBox, ShadeItem, TimeAxis, TraceSpec
+from gaitmon.ui.review.lanes import Lane, LaneViewBox, ShadeItem, TimeAxis, TraceSpec, line_pen
 from gaitmon.ui.theme import Colours, pen
 
 EVENTS_MAX_S = 180.0  # wider views would be solid with event lines
@@ -173,7 +173,7 @@ class Timeline(QWidget):
         if spec.before:
             colour = QColor(self.colours.foreground)
             colour.setAlpha(110)
-        tr = lane.traces.add(Trace(pen(colour, dashed=dashed), series=spec.series,
+        tr = lane.traces.add(Trace(line_pen(colour, dashed=dashed), series=spec.series,
                                    column=spec.column, method=spec.method))  # fmt: skip
         lane.specs.append((spec, tr))
 
@@ -212,13 +212,13 @@ class Timeline(QWidget):
                 "red/blue (View menu): accelerometer / gyro integration. Grey lines: heel strike "
                 "(solid) and toe off (dashed).",
             )  # fmt: skip
-            lane.events_hs = lane.traces.add(Trace(pen(c.event)))
-            lane.events_to = lane.traces.add(Trace(pen(c.event, dashed=True)))
+            lane.events_hs = lane.traces.add(Trace(line_pen(c.event)))
+            lane.events_to = lane.traces.add(Trace(line_pen(c.event, dashed=True)))
             self._add(lane, TraceSpec(JOINT, j, c.kalman, before=True), dashed=True)
             self._add(lane, TraceSpec("processed/joint_gyro_deg", j, c.gyro, "gyro"))
             self._add(lane, TraceSpec("processed/joint_acc_deg", j, c.acc, "acc"))
             self._add(lane, TraceSpec(JOINT, j, c.kalman, "kalman"))
-            lane.markers = lane.traces.add(Trace(pen(c.marker)))
+            lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
         lane = self._lane(
             "tilt", "thigh tilt (°)", TILT_RANGES_DEG["thigh"],
             "Segment tilt (choose the segment above): red accelerometer, green Kalman filter, "
@@ -228,7 +228,7 @@ class Timeline(QWidget):
         self._add(lane, TraceSpec("processed/tilt_gyro_deg", 1, c.gyro))
         self._add(lane, TraceSpec("processed/tilt_acc_deg", 1, c.acc))
         self._add(lane, TraceSpec("processed/tilt_deg", 1, c.kalman))
-        lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
         lane = self._lane(
             "fsr", "FSR (counts)", FSR_RANGE,
             "Foot sensors (low-passed ADC counts): heel red, toe green. Shading: gait phase "
@@ -236,13 +236,13 @@ class Timeline(QWidget):
         )  # fmt: skip
         for k, colour in enumerate(c.phases, start=1):
             lane.bands.append((lane.traces.add(Trace(brush=colour, fill_level=FSR_RANGE[0])), k))
-        lane.events_hs = lane.traces.add(Trace(pen(c.heel)))
-        lane.events_to = lane.traces.add(Trace(pen(c.toe, dashed=True)))
+        lane.events_hs = lane.traces.add(Trace(line_pen(c.heel)))
+        lane.events_to = lane.traces.add(Trace(line_pen(c.toe, dashed=True)))
         self._add(lane, TraceSpec("processed/fsr_counts", 0, c.heel, before=True), dashed=True)
         self._add(lane, TraceSpec("processed/fsr_counts", 1, c.toe, before=True), dashed=True)
         self._add(lane, TraceSpec("processed/fsr_counts", 0, c.heel))
         self._add(lane, TraceSpec("processed/fsr_counts", 1, c.toe))
-        lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
         self.threshold_line = pg.InfiniteLine(
             pos=1000.0, angle=0, pen=pen(c.event, dashed=True), movable=False
         )
@@ -259,7 +259,7 @@ class Timeline(QWidget):
             else:
                 col = c.heel if ch.segment == "heel" else c.toe
             self._add(lane, TraceSpec("raw/adc", ch.index, col))
-        lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
         self.set_lane_visible("raw", False)
         for lane in self.lanes.values():
             lane.missing = pg.TextItem("", color=c.foreground, anchor=(0.5, 0.5))
@@ -369,8 +369,9 @@ class Timeline(QWidget):
         for lane in self.lanes.values():
             primary = [s for s, _ in lane.specs if s.method in ("", "kalman") and not s.before]
             absent = bool(primary) and not any(src.has(s.series) for s in primary)
-            lane.missing.setText(f"not recorded in mode {doc.session.mode!r}" if absent else "")
-            lane.missing.setVisible(absent)
+            if lane.missing is not None:
+                lane.missing.setText(f"not recorded in mode {doc.session.mode!r}" if absent else "")
+                lane.missing.setVisible(absent)
         self.refresh_overview()
         self.refresh_shading()
         self._draw_markers()

@@ -233,8 +233,8 @@ class ReviewWindow(ReviewJobs):
     def recent_files(self) -> list[str]:
         value = self.settings.value("review/recent", [])
         if isinstance(value, str):
-            value = [value]
-        return [str(v) for v in (value or [])]
+            return [value]
+        return [str(v) for v in value] if isinstance(value, list) else []
 
     def _add_recent(self, path: Path) -> None:
         p = str(path.resolve())
