@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-import gaitmon.io.session as session
+import gaitmon.io.session.h5file as session_h5
 from gaitmon.dsp.pipeline import Pipeline
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.journal import MAGIC, ROW_DTYPES, RecordType, encode_json, journal_path
@@ -62,7 +62,7 @@ def recorder_cost(directory: Path, block_rows: int, n_blocks: int, cache_bytes: 
         blocks.append((blk, pipe.process(counts[a:b])))
     path = directory / "bench_rec.h5"
     _remove(path)
-    session.WRITER_CHUNK_CACHE_BYTES = cache_bytes
+    session_h5.WRITER_CHUNK_CACHE_BYTES = cache_bytes
     w0 = _wchar()
     c0 = time.process_time()
     w = SessionWriter(path, SessionHeader("raw"), flush_interval_s=1e9)
@@ -80,7 +80,7 @@ def recorder_cost(directory: Path, block_rows: int, n_blocks: int, cache_bytes: 
     w.close()
     cpu = time.process_time() - c0
     w1 = _wchar()
-    session.WRITER_CHUNK_CACHE_BYTES = 0
+    session_h5.WRITER_CHUNK_CACHE_BYTES = 0
     size = path.stat().st_size
     append_us = t_append / n_blocks * 1e6
     flush_ms = t_flush / n_flush * 1e3

@@ -1,6 +1,8 @@
 """Session-level gait analysis: strides with exclusions, per-stride joint figures, summary.
 
-Shared by ``gaitmon info``, the review window and the clinical report, so that all three agree.
+Shared by ``gaitmon info``, the review window and the clinical report, so that all three agree:
+:func:`analyse_session` is the one path from an open session (its events, gaps, true timeline,
+joint angles and the exclusions stored beside it) to the stride rows.
 A stride is excluded from the statistics (and says why) when it is the first or last of the
 recording (start-up and stopping are not steady walking), when it crosses a gap longer than
 ``MAX_GAP_S`` (a link outage: a frame or two lost on a noisy link do not spoil a stride, since
@@ -12,6 +14,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +26,9 @@ from gaitmon.dsp.gait import (
     normalise_strides,
     strides_from_events,
 )
+
+if TYPE_CHECKING:
+    from gaitmon.io.session import Exclusion, Session
 
 MAX_GAP_S = 0.05  # gaps up to 5 frames at 100 Hz leave a stride usable
 
@@ -117,3 +124,75 @@ def cycles(joint_deg: np.ndarray, rows: Sequence[StrideRow], n_points: int = 101
     if not strides:
         return np.empty((0, n_points, joint_deg.shape[1]))
     return normalise_strides(joint_deg, strides, n_points)
+
+
+@dataclass(frozen=True)
+class SessionAnalysis:
+    """The strides of one session with the exclusions in force, and where those came from."""
+
+    rows: list[StrideRow]
+    joints_deg: np.ndarray | None  # (n, 3) float64 hip/knee/ankle, None for an empty session
+    exclusions: tuple[Exclusion, ...]  # the user's ranges applied
+    stored: bool  # the ranges are the ones stored beside the recording (not given by the caller)
+    side_file: Path  # where stored exclusions live (FILE.review.json)
+    problem: str = ""  # one line when the stored exclusions could not be used, else ""
+
+    @property
+    def n_included(self) -> int:
+        return sum(1 for r in self.rows if r.included)
+
+    @property
+    def n_excluded(self) -> int:
+        return len(self.rows) - self.n_included
+
+    @property
+    def n_user_excluded(self) -> int:
+        """Strides left out only because they overlap a range the user excluded."""
+        return sum(1 for r in self.rows if r.excluded == USER)
+
+    @property
+    def excluded_ranges(self) -> tuple[tuple[int, int], ...]:
+        return tuple((r.start_idx, r.stop_idx) for r in self.exclusions)
+
+    def summary(self) -> GaitSummary:
+        return summary(self.rows)
+
+
+def analyse_session(
+    session: Session,
+    *,
+    exclusions: Sequence[Exclusion] | None = None,
+    joints: np.ndarray | None = None,
+    events: tuple[np.ndarray, np.ndarray] | None = None,
+    t_s: np.ndarray | None = None,
+) -> SessionAnalysis:
+    """The stride analysis of ``session`` as ``gaitmon info``, the report and review show it.
+
+    ``exclusions=None`` means the ranges stored for this session (the review window's side
+    file; an unusable side file applies none and says why in ``problem``). ``joints``,
+    ``events`` (heel strike, toe off rows) and ``t_s`` default to the recorded ones; review
+    passes a reprocessed source's joints and events instead.
+    """
+    from gaitmon.io.session.exclusions import side_path
+
+    problem = ""
+    stored = exclusions is None
+    if exclusions is None:
+        found, problem = session.exclusions()
+        exclusions = found
+    if joints is None and session.n_samples:
+        joints = np.asarray(session.read("processed/joint_deg"), dtype=np.float64)
+    if t_s is None and session.n_samples:
+        t_s = session.read("timeline/t_s")
+    hs, to = events if events is not None else (session.heel_strike_idx, session.toe_off_idx)
+    ranges = tuple(exclusions)
+    rows = analyse_strides(
+        hs,
+        to,
+        session.sample_rate_hz,
+        joints,
+        [(g.sample_idx, g.duration_s) for g in session.gaps],
+        [(r.start_idx, r.stop_idx) for r in ranges],
+        t_s=t_s,
+    )
+    return SessionAnalysis(rows, joints, ranges, stored, side_path(session.path), problem)

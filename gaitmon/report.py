@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gaitmon import __version__
-from gaitmon.analysis import FIRST, GAP, LAST, USER, StrideRow, analyse_strides, cycles, summary
+from gaitmon.analysis import FIRST, GAP, LAST, USER, StrideRow, analyse_session, cycles, summary
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
-from gaitmon.io.session import ANGLE_CONVENTION, Session, open_session
+from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
 from gaitmon.normative import NormativeBands
 
 N_POINTS = 101
@@ -198,26 +198,23 @@ def gather_report(
     *,
     deidentify: bool = False,
     normative: NormativeBands | None = None,
-    excluded_ranges: Sequence[tuple[int, int]] = (),
+    excluded_ranges: Sequence[tuple[int, int]] | None = None,
     now_utc: _dt.datetime | None = None,
 ) -> ReportData:
-    """Everything the report shows, from an open session."""
+    """Everything the report shows, from an open session.
+
+    ``excluded_ranges=None`` applies the exclusions stored for the session (made in review);
+    the review window passes the ranges in force there.
+    """
     # the stride analysis exactly as ``gaitmon info`` and the review window do it; the joint
     # angles are read once (a whole-session read) and serve the strides and the cycles
-    joints = (
-        np.asarray(session.read("processed/joint_deg"), dtype=np.float64)
-        if session.n_samples
-        else None
+    given = (
+        None
+        if excluded_ranges is None
+        else [Exclusion(int(a), int(b)) for a, b in excluded_ranges]
     )
-    rows = analyse_strides(
-        session.heel_strike_idx,
-        session.toe_off_idx,
-        session.sample_rate_hz,
-        joints,
-        [(g.sample_idx, g.duration_s) for g in session.gaps],
-        excluded_ranges,
-        t_s=session.read("timeline/t_s") if session.n_samples else None,
-    )
+    an = analyse_session(session, exclusions=given)
+    rows, joints = an.rows, an.joints_deg
     summ = summary(rows)
     if joints is not None and rows:
         cyc = cycles(joints, rows, N_POINTS)
@@ -229,6 +226,8 @@ def gather_report(
     peak = tuple(_stat(JOINT_TITLES[j], cyc[:, :, j].max(axis=1)) for j in range(3))
     trough = tuple(_stat(JOINT_TITLES[j], cyc[:, :, j].min(axis=1)) for j in range(3))
     notes: list[str] = []
+    if an.problem:
+        notes.append(an.problem)
     if session.mode == "tilt":
         notes.append("mode tilt records no gait events: no strides to analyse")
     elif not included:
@@ -278,7 +277,7 @@ def gather_report(
         swing_time=_stat("swing", [r.stride.swing_time_s for r in included]),
         settings=_settings(session),
         conventions=conventions,
-        losses=_losses(session, rows, excluded_ranges),
+        losses=_losses(session, rows, an.excluded_ranges),
         normative=normative,
         notes=tuple(notes),
         generated_utc=now.strftime("%Y-%m-%d %H:%M UTC"),
@@ -290,9 +289,11 @@ def report_from_file(
     *,
     deidentify: bool = False,
     normative: NormativeBands | None = None,
-    excluded_ranges: Sequence[tuple[int, int]] = (),
+    excluded_ranges: Sequence[tuple[int, int]] | None = None,
 ) -> ReportData:
-    """Open (recovering if needed), gather, close. Raises ``SessionError`` for a bad file."""
+    """Open (recovering if needed), gather, close. Raises ``SessionError`` for a bad file.
+
+    ``excluded_ranges=None``: the exclusions stored for the session (as ``gaitmon report``)."""
     with open_session(path) as s:
         return gather_report(
             s, deidentify=deidentify, normative=normative, excluded_ranges=excluded_ranges

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakPyramid, SessionOverview, peak_decimate
-from gaitmon.ui.review import exclusions as excl
+from gaitmon.io.session import exclusions as excl
 
 
 def _brute_bins(y: np.ndarray, start: int, step: int, n_bins: int):

@@ -29,11 +29,11 @@ from gaitmon.io.session import (
     SessionHeader,
     SessionMeta,
     SessionWriter,
-    _device_rows,
     device_info,
     open_session,
     recover_session,
 )
+from gaitmon.io.session.rows import _device_rows
 from gaitmon.io.sim.sensors import simulate
 from gaitmon.io.transport import LinkState, TransportStatus
 

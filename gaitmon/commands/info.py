@@ -12,8 +12,7 @@ import numpy as np
 from gaitmon.errors import UserError
 
 if TYPE_CHECKING:
-    from gaitmon.analysis import StrideRow
-    from gaitmon.dsp.gait import GaitSummary
+    from gaitmon.analysis import SessionAnalysis
     from gaitmon.io.session import Session
 
 
@@ -37,29 +36,22 @@ def progress_printer(label: str) -> Callable[[float], None]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gaitmon.analysis import analyse_strides, summary
+    from gaitmon.analysis import analyse_session
     from gaitmon.io.session import SessionError, journal_path, open_session
 
     interrupted = journal_path(args.file).exists()
     try:
         with open_session(args.file, progress=progress_printer("recovering")) as s:
-            joints = s.read("processed/joint_deg") if s.n_samples else None
-            rows = analyse_strides(
-                s.heel_strike_idx,
-                s.toe_off_idx,
-                s.sample_rate_hz,
-                joints,
-                [(g.sample_idx, g.duration_s) for g in s.gaps],
-                t_s=s.read("timeline/t_s"),
-            )
-            _print(s, rows, summary(rows), interrupted)
+            _print(s, analyse_session(s), interrupted)
     except SessionError as exc:
         raise UserError(str(exc)) from None
     return 0
 
 
-def _print(s: Session, rows: list[StrideRow], summ: GaitSummary, interrupted: bool) -> None:
+def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
     fs = s.sample_rate_hz
+    rows = an.rows
+    summ = an.summary()
     state = "complete" if s.complete else ("recovered" if s.recovered else "incomplete")
     if interrupted and s.recovered:
         state += " (the recording was interrupted; recovered now from its journal)"
@@ -86,9 +78,10 @@ def _print(s: Session, rows: list[StrideRow], summ: GaitSummary, interrupted: bo
     if summ.n_strides:
         sd = summ.stride_time_sd_s
         spread = "" if np.isnan(sd) else f" ± {sd:.2f} s (CV {summ.stride_time_cv_pct:.1f} %)"
+        why = "first/last/gaps" + ("/user-excluded ranges" if an.n_user_excluded else "")
         lines.append(
             f"  gait         {summ.n_strides} strides analysed ({n_all - summ.n_strides} excluded: "
-            f"first/last/gaps), stride time {summ.stride_time_mean_s:.2f} s{spread}, "
+            f"{why}), stride time {summ.stride_time_mean_s:.2f} s{spread}, "
             f"stance {summ.stance_pct_mean:.1f} %, cadence "
             f"{summ.cadence_derived_steps_per_min:.0f} steps/min (derived)"
         )
@@ -97,6 +90,15 @@ def _print(s: Session, rows: list[StrideRow], summ: GaitSummary, interrupted: bo
             f"  gait         {len(s.heel_strike_idx)} heel strikes, {n_all} strides; "
             "too few to analyse"
         )
+    lines.append(f"  strides      {an.n_included} included, {an.n_excluded} excluded")
+    if an.exclusions:
+        k = len(an.exclusions)
+        lines.append(
+            f"  exclusions   {k} user-excluded range{'s' if k != 1 else ''} from "
+            f"{an.side_file.name} ({an.n_user_excluded} strides left out)"
+        )
+    if an.problem:
+        lines.append(f"  exclusions   {an.problem}")
     c = s.config
     lines.append(
         f"  settings     low-pass {c.cutoff_hz:g} Hz order {c.filter_order}, Kalman Q_angle "

@@ -40,7 +40,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.filters import as_2d_pair
@@ -191,6 +190,7 @@ class ComplementaryFilter:
 
     # ------------------------------------------------------------------ one segment
     def _run_channel(self, ch: int, z: np.ndarray, w: np.ndarray) -> np.ndarray:
+        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         assert self._theta is not None and self._alpha is not None
         alpha = float(self._alpha[ch])
         dt = self.dt_s

@@ -21,7 +21,6 @@ blocks (``scipy.signal.lfilter`` with ``zi``), ``reset()``; any chunking gives t
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 from gaitmon.dsp.filters import ChannelFilter, as_2d
 
@@ -78,6 +77,7 @@ class ExponentialFilter(ChannelFilter):
         return np.tile(self.alpha * start, (self.order, 1))
 
     def _filter(self, x2: np.ndarray) -> np.ndarray:
+        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         assert self._zi is not None
         y = x2
         for m in range(self.order):
@@ -105,6 +105,7 @@ class TrapezoidIntegrator:
 
     def process(self, x: np.ndarray, initial: np.ndarray | float = 0.0) -> np.ndarray:
         """Integrate (N,) or (N, channels). ``initial`` is the output at the very first sample."""
+        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         x2, was_1d = as_2d(x)
         n, c = x2.shape
         if n == 0:

@@ -7,7 +7,6 @@ in any chunking gives bit-for-bit the output of one call on the whole record.
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 
 def as_2d(x: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -87,6 +86,7 @@ class Butterworth(ChannelFilter):
         order: int = 2,
         initial: str = "first",
     ) -> None:
+        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         if not fs_hz > 0:
             raise ValueError(f"sample rate must be positive, got {fs_hz} Hz")
         if not 0 < cutoff_hz < fs_hz / 2:
@@ -129,6 +129,7 @@ class Butterworth(ChannelFilter):
         return self._zi_unit[:, None] * start[None, :]
 
     def _filter(self, x2: np.ndarray) -> np.ndarray:
+        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         y, self._zi = signal.lfilter(self.b, self.a, x2, axis=0, zi=self._zi)
         return y
 
@@ -151,6 +152,7 @@ class GyroIntegrator:
 
     def process(self, rate_rad_s: np.ndarray, initial_rad: np.ndarray | float = 0.0) -> np.ndarray:
         """(N,) or (N, segments) rate -> integrated tilt (rad). ``initial_rad`` is used once."""
+        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         x2, was_1d = as_2d(rate_rad_s)
         if x2.shape[0] == 0:
             out = np.empty_like(x2)

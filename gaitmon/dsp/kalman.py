@@ -31,7 +31,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy import signal
 
 from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.filters import as_2d_pair
@@ -137,6 +136,7 @@ class TiltKalman:
         x_k = F x_{k-1} + G u_k with x = [theta, b], u = [omega, z]; as a standard state-space
         model with s_k = x_{k-1}: s_{k+1} = F s_k + G u_k, y_k = F s_k + G u_k.
         """
+        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         k0, k1, dt = self._sched.k0_ss, self._sched.k1_ss, self.dt_s
         f = np.array([[1 - k0, -(1 - k0) * dt], [-k1, 1 + k1 * dt]])
         g = np.array([[(1 - k0) * dt, k0], [-k1 * dt, k1]])
@@ -283,6 +283,7 @@ class TiltKalman:
         return bias_prev + k1 * (z_unw - pred)
 
     def _run_lti(self, z: np.ndarray, w: np.ndarray, out: np.ndarray, i: int) -> int:
+        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         assert self._lti_zi is not None and self._theta is not None and self._bias is not None
         zc, wc = z[i : i + _LTI_BLOCK], w[i : i + _LTI_BLOCK]
         n = zc.shape[0]

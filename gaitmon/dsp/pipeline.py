@@ -26,7 +26,6 @@ from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from gaitmon.dsp.angles import accel_tilt, joint_angles
 from gaitmon.dsp.calibration import Calibration
@@ -74,6 +73,7 @@ class PipelineConfig:
     @property
     def event_delay_samples(self) -> int:
         """Samples subtracted from event indices (the low-pass's DC group delay, rounded)."""
+        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         if not self.compensate_event_delay:
             return 0
         b, a = signal.butter(self.filter_order, self.cutoff_hz, fs=self.fs_hz)

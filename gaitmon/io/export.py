@@ -318,6 +318,10 @@ class _Scrubber:
 
 def _metadata(src: _Source, scrub: _Scrubber) -> dict[str, Any]:
     """Everything but the per-sample series, as plain values (the JSON side file / MAT meta)."""
+    from gaitmon.io.session import exclusions
+
+    # the ranges excluded in review are the session's analysis state: exported with it
+    ranges, _ = exclusions.load(src.path, str(src.attrs.get("created_utc", "")), src.n)
     session = {k: "" for k in ("patient_id", "side", "operator", "notes")}
     session.update(src.group_attrs("session"))
     meta: dict[str, Any] = {
@@ -332,6 +336,9 @@ def _metadata(src: _Source, scrub: _Scrubber) -> dict[str, Any]:
         "link": {**src.group_attrs("link"), "crc_failures": src.table("link/crc_failures")},
         "wall_offset_s": _plain(src.h5["timeline/host_time_s"].attrs.get("wall_offset_s", None))
         if src.has("timeline/host_time_s") else None,
+        "excluded_ranges": [
+            {"start_idx": r.start_idx, "stop_idx": r.stop_idx, "label": r.label} for r in ranges
+        ],
     }
     return scrub.value(meta) if scrub.enabled else meta
 

@@ -30,7 +30,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from gaitmon.dsp.angles import accel_tilt, joint_angles, wrap_angle
@@ -39,6 +38,7 @@ from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter
 from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.lab_filters import ConstantRateTilt, TiltFilter, make_tilt_filter
 from gaitmon.io.session import SessionError, open_session
+from gaitmon.io.session.truth import read_truth
 
 WARMUP_S = 10.0
 MAX_RANGE_S = 600.0  # ten minutes per view: ~60 000 rows x filters, a second or two
@@ -148,25 +148,6 @@ def _wrapped_mean(x: np.ndarray) -> np.ndarray:
     """Column means of angles (rad) that may straddle +-pi."""
     ref = x[0]
     return wrap_angle(ref + np.mean(wrap_angle(x - ref), axis=0))
-
-
-def read_truth(path: Path, start: int, stop: int) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """(true tilts in rad for rows start:stop, mounting offsets in rad) of a simulated session.
-
-    ``/truth`` is written beside the format's datasets by ``gaitmon record --simulate``
-    (``gaitmon.io.sim.truth``); (None, None) for any other file. Rows the simulator could not
-    map are NaN.
-    """
-    try:
-        with h5py.File(path, "r") as f:
-            if "truth" not in f or "tilt_deg" not in f["truth"]:
-                return None, None
-            g = f["truth"]
-            tilt = np.radians(np.asarray(g["tilt_deg"][start:stop], dtype=np.float64))
-            mount = g.attrs.get("mount_offset_deg")
-            return tilt, None if mount is None else np.radians(np.asarray(mount, np.float64))
-    except (OSError, KeyError, ValueError) as e:
-        raise SessionError(f"{path.name}: cannot read /truth ({e})") from e
 
 
 def compute_filters(req: FiltersRequest) -> FiltersResult:

@@ -3,16 +3,17 @@
 Only sessions recorded from the simulated unit have it. Every row of the session is mapped back
 to the sample the unit generated (through the unit's frame log: the file's unwrapped sequence
 number is the unit's frame number), so researchers can score any filter against what really
-happened.
+happened. The ``/truth`` layout and the writing belong to :mod:`gaitmon.io.session.truth`.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import h5py
 import numpy as np
 
+from gaitmon.io.session.reader import open_session
+from gaitmon.io.session.truth import write_truth
 from gaitmon.io.sim.unit import SimulatedUnit
 
 
@@ -29,38 +30,29 @@ def row_samples(seq: np.ndarray, unit: SimulatedUnit) -> np.ndarray:
 
 def attach_ground_truth(path: str | Path, unit: SimulatedUnit) -> int:
     """Write ``/truth`` into a finished session file; returns the number of rows mapped."""
-    with h5py.File(path, "r+") as f:
-        seq = f["timeline/seq"][()]
-        samples = row_samples(seq, unit)
-        valid = samples >= 0
-        if not valid.any():
-            return 0
-        lo, hi = int(samples[valid].min()), int(samples[valid].max()) + 1
-        truth = unit.truth(lo, hi)
-        idx = np.clip(samples - lo, 0, hi - lo - 1)
-        g = f.require_group("truth")
-        g.attrs["description"] = (
-            "simulator ground truth per row: segment tilts and joint angles in degrees "
-            "(clinical signs, no mounting offset); events as row indices"
-        )
-        g.attrs["mount_offset_deg"] = np.degrees(truth.mount_offset_rad)
-        per_row = {
-            "tilt_deg": np.degrees(truth.tilt_rad)[idx],
-            "joint_deg": np.degrees(truth.joint_rad)[idx],
-            "gyro_bias_rad_s": truth.gyro_bias_rad_s[idx],
-        }
-        valid_rows = np.flatnonzero(valid)
-        datasets: dict[str, np.ndarray] = {"sample_idx": samples}
-        for name, arr in per_row.items():
-            arr = arr.astype(np.float32)
-            arr[~valid] = np.nan
-            datasets[name] = arr
-        true_events = {"heel_strike": truth.heel_strike_idx, "toe_off": truth.toe_off_idx}
-        for name, events in true_events.items():
-            k = np.searchsorted(samples[valid], events)  # first recorded row at/after each event
-            datasets[name] = valid_rows[k[k < len(valid_rows)]].astype(np.int64)
-        for name, data in datasets.items():
-            if name in g:
-                del g[name]
-            g.create_dataset(name, data=data)
+    with open_session(path, recover=False) as s:
+        seq = s.read("timeline/seq")
+    samples = row_samples(seq, unit)
+    valid = samples >= 0
+    if not valid.any():
+        return 0
+    lo, hi = int(samples[valid].min()), int(samples[valid].max()) + 1
+    truth = unit.truth(lo, hi)
+    idx = np.clip(samples - lo, 0, hi - lo - 1)
+    per_row = {
+        "tilt_deg": np.degrees(truth.tilt_rad)[idx],
+        "joint_deg": np.degrees(truth.joint_rad)[idx],
+        "gyro_bias_rad_s": truth.gyro_bias_rad_s[idx],
+    }
+    valid_rows = np.flatnonzero(valid)
+    datasets: dict[str, np.ndarray] = {"sample_idx": samples}
+    for name, arr in per_row.items():
+        arr = arr.astype(np.float32)
+        arr[~valid] = np.nan
+        datasets[name] = arr
+    true_events = {"heel_strike": truth.heel_strike_idx, "toe_off": truth.toe_off_idx}
+    for name, events in true_events.items():
+        k = np.searchsorted(samples[valid], events)  # first recorded row at/after each event
+        datasets[name] = valid_rows[k[k < len(valid_rows)]].astype(np.int64)
+    write_truth(path, datasets, np.degrees(truth.mount_offset_rad))
     return int(valid.sum())

@@ -37,6 +37,7 @@ from PySide6.QtWidgets import (
 
 from gaitmon.dsp.lab_filters import TILT_FILTERS
 from gaitmon.io.session import SessionError, open_session
+from gaitmon.io.session.truth import read_truth
 from gaitmon.jobs import Response, Ticket
 from gaitmon.review.filters import (
     ALIGN_MOUNT,
@@ -52,7 +53,6 @@ from gaitmon.review.filters import (
     FiltersResult,
     compute_filters,
     default_params,
-    read_truth,
 )
 from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.theme import Colours, current_colours

@@ -22,7 +22,7 @@ from PySide6.QtGui import QAction
 from PySide6.QtWidgets import QMainWindow
 
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.session import SessionError, journal_path
+from gaitmon.io.session import SessionError, journal_path, rewrite_processed
 from gaitmon.jobs import Response, Ticket
 from gaitmon.review.model import (
     Analysis,
@@ -76,7 +76,7 @@ class Reprocessed:
 @dataclass(frozen=True)
 class Saved:
     path: Path
-    n_rows: int
+    n_frames: int
 
 
 @dataclass(frozen=True)
@@ -120,17 +120,17 @@ def reprocess_request(doc: Document, config: PipelineConfig) -> Callable[[Ticket
 
 
 def save_request(src: Path, dst: Path, config: PipelineConfig) -> Callable[[Ticket], Saved]:
-    """A new session file: the recording's raw counts reprocessed with ``config`` (the same
-    code as ``gaitmon process``); progress on the bar, and Cancel removes the partial file."""
+    """A new session file: the recording's raw counts reprocessed with ``config``
+    (:func:`gaitmon.io.session.rewrite_processed`, as ``gaitmon process``); its progress goes to
+    the window's bar, and Cancel (the request no longer wanted) makes it delete the partial
+    file and raise :class:`gaitmon.errors.Cancelled`."""
 
     def job(ticket: Ticket) -> Saved:
-        from gaitmon.io.session import rewrite_processed
-
         result = rewrite_processed(
             src, dst, config, progress=ticket.progress, cancel=lambda: not ticket.wanted,
             overwrite=True,
         )  # fmt: skip
-        return Saved(dst, result.n_rows)
+        return Saved(result.path, result.n_frames)
 
     return job
 

@@ -10,7 +10,7 @@ optional parts (export, report, filters, normative band). The actions and menus 
 in the banner (and a logged traceback), never a crash.
 
 User exclusions are kept beside the recording in ``FILE.review.json`` (see
-:mod:`gaitmon.ui.review.exclusions`); when that folder is read-only they are kept in the
+:mod:`gaitmon.io.session.exclusions`); when that folder is read-only they are kept in the
 application settings instead. The recording itself is never written.
 """
 
@@ -21,7 +21,7 @@ import json
 import logging
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from PySide6.QtCore import QSettings, Qt, QTimer
@@ -29,12 +29,12 @@ from PySide6.QtGui import QAction, QCloseEvent, QDragEnterEvent, QDropEvent
 from PySide6.QtWidgets import QFileDialog, QLabel, QSplitter, QVBoxLayout, QWidget
 
 from gaitmon import __version__
+from gaitmon.io.session import exclusions as excl
 from gaitmon.review.model import Document
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SettingsDialog
 from gaitmon.ui.jobs import QtWorker
-from gaitmon.ui.review import exclusions as excl
 from gaitmon.ui.review.actions import RECENT, available, build_actions, build_menus, update_enabled
 from gaitmon.ui.review.cycles import CyclePlots
 from gaitmon.ui.review.jobs import ReviewJobs
@@ -375,8 +375,9 @@ class ReviewWindow(ReviewJobs):
         doc = self.doc
         assert doc is not None
         try:
-            sp = excl.save(doc.path, doc.exclusions, doc.session.created_utc, doc.n_rows,
-                           doc.t_s)  # fmt: skip
+            # save only indexes t_s; its annotation (list) is narrower than what it takes
+            t_s = cast("list[float]", doc.t_s)
+            sp = excl.save(doc.path, doc.exclusions, doc.session.created_utc, doc.n_rows, t_s)
             self.settings.remove(self._settings_key(doc))
             where = f"kept in {sp.name}"
         except OSError as e:

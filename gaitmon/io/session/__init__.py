@@ -1,0 +1,64 @@
+"""Session files: the one owner of the session file format of ``docs/file-format.md``.
+
+Every read and write of a session file (and of its analysis state beside it) goes through this
+package:
+
+* :mod:`.layout` - format name and version, modes, dataset paths, dtypes, chunking;
+* :mod:`.header` - :class:`SessionMeta`, :class:`SessionHeader`, :func:`device_info`,
+  :class:`SessionError`;
+* :mod:`.rows` - blocks to rows (pipeline and device blocks, the timeline);
+* :mod:`.h5file` - the low-level HDF5 layout writer and fsync helpers;
+* :mod:`.writer` - :class:`SessionWriter`, crash-safe recording (HDF5 + journal);
+* :mod:`.recovery` - :func:`replay_pipeline` and :func:`recover_session`;
+* :mod:`.reader` - :func:`open_session` / :class:`Session`, :class:`Marker`, :class:`Gap`;
+* :mod:`.reprocess` - :func:`rewrite_processed`, a raw session re-run into a new file;
+* :mod:`.truth` - the ``/truth`` group of simulated sessions;
+* :mod:`.exclusions` - the user's excluded ranges, kept beside the recording in
+  ``FILE.review.json`` (analysis state: the recording itself is never modified).
+"""
+
+from gaitmon.io.journal import journal_path
+from gaitmon.io.session.exclusions import Exclusion
+from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta, device_info
+from gaitmon.io.session.layout import (
+    ANGLE_CONVENTION,
+    CHUNK_ROWS,
+    FORMAT,
+    FORMAT_VERSION,
+    LINK_TOTALS,
+    MODES,
+    per_sample_datasets,
+)
+from gaitmon.io.session.reader import Gap, Marker, Session, open_session
+from gaitmon.io.session.recovery import recover_session, replay_pipeline
+from gaitmon.io.session.reprocess import RewriteResult, rewrite_processed
+from gaitmon.io.session.rows import rows_from_pipeline
+from gaitmon.io.session.truth import read_truth
+from gaitmon.io.session.writer import SessionWriter
+
+__all__ = [
+    "ANGLE_CONVENTION",
+    "CHUNK_ROWS",
+    "FORMAT",
+    "FORMAT_VERSION",
+    "LINK_TOTALS",
+    "MODES",
+    "Exclusion",
+    "Gap",
+    "Marker",
+    "RewriteResult",
+    "Session",
+    "SessionError",
+    "SessionHeader",
+    "SessionMeta",
+    "SessionWriter",
+    "device_info",
+    "journal_path",
+    "open_session",
+    "per_sample_datasets",
+    "read_truth",
+    "recover_session",
+    "replay_pipeline",
+    "rewrite_processed",
+    "rows_from_pipeline",
+]

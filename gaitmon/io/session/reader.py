@@ -1,0 +1,303 @@
+"""Reading a session: :func:`open_session` (recovering an interrupted recording first) and
+:class:`Session` (metadata at open, per-sample data lazily)."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import h5py
+import numpy as np
+
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channels import CHANNELS, ChannelSpec
+from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.io.journal import journal_path
+from gaitmon.io.session.exclusions import Exclusion
+from gaitmon.io.session.exclusions import load as load_exclusions
+from gaitmon.io.session.h5file import _being_recorded, _short_error
+from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta
+from gaitmon.io.session.layout import FORMAT, FORMAT_VERSION, MODES, per_sample_datasets
+from gaitmon.io.session.recovery import recover_session
+from gaitmon.io.session.truth import Truth, truth_from_file
+
+
+class Marker(NamedTuple):
+    sample_idx: int
+    t_s: float
+    label: str
+
+
+class Gap(NamedTuple):
+    sample_idx: int
+    n_lost: int
+    duration_s: float
+    reason: str
+
+
+def _s(x: Any) -> str:
+    if isinstance(x, bytes):
+        return x.decode("utf-8", errors="replace")
+    if isinstance(x, np.ndarray) and x.shape == ():
+        return _s(x[()])
+    return str(x)
+
+
+def _py(x: Any) -> Any:
+    """An HDF5 attribute value as plain Python."""
+    if isinstance(x, bytes):
+        return x.decode("utf-8", errors="replace")
+    if isinstance(x, np.ndarray):
+        return x.tolist() if x.shape else _py(x[()])
+    if isinstance(x, np.bool_):
+        return bool(x)
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.floating):
+        return float(x)
+    return x
+
+
+class Session:
+    """A session file opened for reading. Metadata is read at open; per-sample data lazily.
+
+    Use as a context manager, or call :meth:`close`. Every failure to read raises
+    :class:`SessionError`.
+    """
+
+    def __init__(self, path: Path, f: h5py.File, problems: Sequence[str] = ()) -> None:
+        self.path = path
+        self._f = f
+        self.problems: list[str] = list(problems)
+        name = path.name
+        a = f.attrs
+        if "format" not in a:
+            raise SessionError(
+                f"{name} is not a gaitmon session (no 'format' attribute); "
+                "pick a file recorded by gaitmon"
+            )
+        if _s(a["format"]) != FORMAT:
+            raise SessionError(
+                f"{name} is not a gaitmon session (format is {_s(a['format'])!r}); "
+                "pick a file recorded by gaitmon"
+            )
+        version = int(a.get("format_version", 0))
+        if version > FORMAT_VERSION:
+            raise SessionError(
+                f"{name} was written by a newer gaitmon (format version {version}); "
+                "update gaitmon to open it"
+            )
+        self.attrs: dict[str, Any] = {k: _py(v) for k, v in a.items()}
+        self.mode: str = str(self.attrs.get("mode", ""))
+        if self.mode not in MODES:
+            raise SessionError(f"{name} is damaged: unknown mode {self.mode!r}")
+        self.sample_rate_hz = float(self.attrs["sample_rate_hz"])
+        self.created_utc = str(self.attrs.get("created_utc", ""))
+        self.complete = bool(self.attrs.get("complete", False))
+        self.recovered = bool(self.attrs.get("recovered", False))
+        self.stop_reason = str(self.attrs.get("stop_reason", ""))
+        self.software_version = str(self.attrs.get("software_version", ""))
+
+        sess = {k: _s(v) for k, v in f["session"].attrs.items()}
+        self.meta = SessionMeta(
+            **{k: sess.get(k, "") for k in ("patient_id", "side", "operator", "notes")}
+        )
+        self.device: dict[str, Any] = {k: _py(v) for k, v in f["device"].attrs.items()}
+        ch = f["device/channels"][()]
+        self.channels: list[dict[str, Any]] = [
+            {k: _py(row[k]) for k in ch.dtype.names} for row in ch
+        ]
+
+        cfg_attrs = {k: _py(v) for k, v in f["config"].attrs.items()}
+        self.event_delay_samples = int(cfg_attrs.pop("event_delay_samples", 0))
+        fields = PipelineConfig.__dataclass_fields__
+        self.config = PipelineConfig(**{k: v for k, v in cfg_attrs.items() if k in fields})
+        self.config_changes: list[tuple[int, PipelineConfig]] = [
+            (int(r["sample_idx"]), PipelineConfig(**json.loads(_s(r["json"]))))
+            for r in f["config/changes"][()]
+        ]
+        cal = f["calibration"].attrs
+        self.calibration = Calibration(
+            np.asarray(cal["tilt_offset_rad"]), np.asarray(cal["gyro_bias_rad_s"])
+        )
+        self.calibration_changes: list[tuple[int, Calibration]] = [
+            (int(r["sample_idx"]), Calibration.from_dict(json.loads(_s(r["json"]))))
+            for r in f["calibration/changes"][()]
+        ]
+        self.heel_strike_idx: np.ndarray = np.asarray(f["events/heel_strike"][()], np.int64)
+        self.toe_off_idx: np.ndarray = np.asarray(f["events/toe_off"][()], np.int64)
+        self.markers: list[Marker] = [
+            Marker(int(r["sample_idx"]), float(r["t_s"]), _s(r["label"])) for r in f["markers"][()]
+        ]
+        self.gaps: list[Gap] = [
+            Gap(int(r["sample_idx"]), int(r["n_lost"]), float(r["duration_s"]), _s(r["reason"]))
+            for r in f["gaps"][()]
+        ]
+        self.link: dict[str, int] = {k: int(v) for k, v in f["link"].attrs.items()}
+        self.crc_failures: list[tuple[int, int]] = [
+            (int(r["sample_idx"]), int(r["count"])) for r in f["link/crc_failures"][()]
+        ]
+        proc = f["processed"].attrs
+        self.processed_source = _s(proc.get("source", ""))
+        self.reprocessed = bool(proc.get("reprocessed", False))
+        self.wall_offset_s = float(f["timeline/host_time_s"].attrs.get("wall_offset_s", 0.0))
+
+        self.dataset_names: tuple[str, ...] = tuple(
+            p for p in per_sample_datasets(self.mode) if p in f
+        )
+        missing = set(per_sample_datasets(self.mode)) - set(self.dataset_names)
+        if missing:
+            raise SessionError(f"{name} is damaged: missing {sorted(missing)[0]}")
+        lengths = {p: f[p].shape[0] for p in self.dataset_names}
+        self.n_samples = min(lengths.values())
+        if len(set(lengths.values())) > 1:
+            self.problems.append(
+                f"datasets have different lengths; using the first {self.n_samples} rows"
+            )
+        if self.complete and int(self.attrs.get("n_samples", -1)) != self.n_samples:
+            self.problems.append("n_samples attribute does not match the data")
+        self.duration_s = float(self.attrs.get("duration_s", 0.0))
+        if not self.complete and not self.recovered:
+            self.problems.append("the recording was not stopped cleanly")
+
+    # -- access ----------------------------------------------------------------------------------
+
+    @property
+    def header(self) -> SessionHeader:
+        known = {c.name for c in CHANNELS}
+        channels = (
+            tuple(ChannelSpec(**c) for c in self.channels)
+            if all(c.get("name") in known for c in self.channels)
+            else CHANNELS
+        )
+        return SessionHeader(
+            mode=self.mode,
+            sample_rate_hz=self.sample_rate_hz,
+            meta=self.meta,
+            device=self.device,
+            config=self.config,
+            calibration=self.calibration,
+            created_utc=self.created_utc,
+            channels=channels,
+        )
+
+    def dataset(self, name: str) -> h5py.Dataset:
+        """The h5py dataset, e.g. ``'raw/adc'`` or ``'processed/joint_deg'`` (lazy)."""
+        if name not in self.dataset_names:
+            raise SessionError(
+                f"{self.path.name} has no per-sample dataset {name!r} "
+                f"(it has {', '.join(self.dataset_names)})"
+            )
+        return self._f[name]
+
+    def read(self, name: str) -> np.ndarray:
+        """A whole per-sample dataset as a numpy array (its first ``n_samples`` rows)."""
+        return self.read_range(0, self.n_samples, [name])[name]
+
+    def read_range(
+        self, start: int, stop: int, names: Sequence[str] | None = None
+    ) -> dict[str, np.ndarray]:
+        """Rows ``start:stop`` (clipped to the data) of the named per-sample datasets (all if
+        None): read only what a long file's visible window needs."""
+        start = max(0, min(int(start), self.n_samples))
+        stop = max(start, min(int(stop), self.n_samples))
+        out = {}
+        for name in names or self.dataset_names:
+            ds = self.dataset(name)
+            try:
+                out[name] = ds[start:stop]
+            except (OSError, RuntimeError, ValueError, KeyError) as e:
+                raise SessionError(
+                    f"{self.path.name} is damaged: cannot read {name} rows {start}-{stop} "
+                    f"({_short_error(e)})"
+                ) from e
+        return out
+
+    def exclusions(self) -> tuple[list[Exclusion], str]:
+        """(ranges, problem): the row ranges the user excluded in review (stored beside the
+        recording, see :mod:`gaitmon.io.session.exclusions`), merged and clipped to the data.
+        ``problem`` is a one-line reason when the side file could not be used, else ""."""
+        return load_exclusions(self.path, self.created_utc, self.n_samples)
+
+    def truth(self, start: int, stop: int) -> Truth:
+        """The simulator's ground truth of rows ``start:stop`` (see
+        :mod:`gaitmon.io.session.truth`): (true tilts in rad, mounting offsets in rad), or
+        (None, None) for a session recorded from a real unit."""
+        try:
+            return truth_from_file(self._f, start, stop)
+        except (OSError, KeyError, ValueError) as e:
+            raise SessionError(f"{self.path.name}: cannot read /truth ({e})") from e
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            self._f.close()
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _open_h5(path: Path) -> h5py.File:
+    try:
+        return h5py.File(path, "r")
+    except (OSError, RuntimeError, ValueError) as e:
+        raise SessionError(
+            f"{path.name} is not an HDF5 file or is damaged ({_short_error(e)}); "
+            "pick a session file recorded by gaitmon"
+        ) from e
+
+
+def _read_session(path: Path, problems: Sequence[str] = ()) -> Session:
+    f = _open_h5(path)
+    try:
+        return Session(path, f, problems)
+    except SessionError:
+        f.close()
+        raise
+    except Exception as e:  # damaged metadata can fail in many ways inside h5py/numpy
+        with contextlib.suppress(Exception):
+            f.close()
+        raise SessionError(f"{path.name} is damaged ({_short_error(e)})") from e
+
+
+def open_session(
+    path: str | os.PathLike[str],
+    *,
+    recover: bool = True,
+    progress: Callable[[float], bool | None] | None = None,
+) -> Session:
+    """Open a session for reading, first recovering it if a journal says it was interrupted.
+
+    If the journal itself is unusable, the HDF5 file is opened as it is (flushed every 100 ms
+    while recording) and :attr:`Session.problems` says so.
+    """
+    path = Path(path)
+    jpath = journal_path(path)
+    if jpath.exists() and recover:
+        if _being_recorded(jpath):
+            raise SessionError(
+                f"{path.name} is being recorded right now; open it after the recording stops"
+            )
+        if path.exists():
+            # a clean stop or a finished recovery only had the journal's deletion left to do
+            done = False
+            with contextlib.suppress(SessionError), _read_session(path) as s:
+                done = s.complete or s.recovered
+            if done:
+                jpath.unlink()
+        if jpath.exists():
+            try:
+                recover_session(path, progress)
+            except SessionError as e:
+                if not path.exists():
+                    raise
+                return _read_session(path, [f"not recovered: {e}"])
+    elif not path.exists():
+        raise SessionError(f"{path.name} does not exist; check the file name and folder")
+    return _read_session(path)

@@ -1,0 +1,288 @@
+"""Replaying the pipeline over raw counts, and rebuilding an interrupted file from its journal.
+
+:func:`recover_session` rebuilds the whole file from the journal (the raw counts are the truth;
+processed series are recomputed from row 0 with the logged settings, as ``gaitmon process``
+would) and replaces the file atomically.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import json
+import os
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channels import DEFAULT_TABLE, ChannelTable
+from gaitmon.dsp.gait import ContactEdges
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.io.journal import (
+    N_COMMON_FIELDS,
+    JournalContents,
+    RecordType,
+    journal_lock,
+    journal_path,
+    read_journal,
+)
+from gaitmon.io.protocol import FrameKind
+from gaitmon.io.session.h5file import _fsync_path, _H5File, _short_error
+from gaitmon.io.session.header import SessionError, SessionHeader
+from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _field_names
+from gaitmon.io.session.rows import _device_rows, _extrapolated_t, _Timeline, rows_from_pipeline
+
+
+def replay_pipeline(
+    adc: np.ndarray,
+    config: PipelineConfig,
+    calibration: Calibration,
+    changes: Sequence[tuple[int, PipelineConfig | Calibration]] = (),
+    *,
+    table: ChannelTable = DEFAULT_TABLE,
+    chunk_rows: int = _RECOVERY_CHUNK_ROWS,
+) -> Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]]:
+    """Run the pipeline over a whole recording from row 0, applying logged changes at their rows.
+
+    Yields ``(start_row, processed rows, heel_strike rows, toe_off rows)`` per chunk. A new
+    calibration is applied with ``Pipeline.set_calibration`` (filter state kept); new settings
+    start a fresh ``Pipeline(new_config, calibration in force)`` at that row (the stages are
+    rebuilt, as they must be when the filter design changes). Changes at the same row apply in
+    the given order. Use it for recovery and for ``gaitmon process``.
+    """
+    n = len(adc)
+    ordered = sorted(
+        ((max(0, int(i)), k, c) for k, (i, c) in enumerate(changes)), key=lambda x: x[:2]
+    )
+    cuts = {0, n}
+    cuts.update(range(0, n, chunk_rows))
+    cuts.update(i for i, _, _ in ordered if i < n)
+    bounds = sorted(cuts)
+    pipeline = Pipeline(config, calibration, table)
+    base = 0
+    k = 0
+    for a, b in itertools.pairwise(bounds):
+        while k < len(ordered) and ordered[k][0] <= a:
+            change = ordered[k][2]
+            if isinstance(change, Calibration):
+                pipeline.set_calibration(change)
+            else:
+                pipeline = Pipeline(change, pipeline.calibration, table)
+                base = a
+            k += 1
+        blk = pipeline.process(adc[a:b])
+        yield a, rows_from_pipeline(blk), blk.heel_strike_idx + base, blk.toe_off_idx + base
+
+
+def _journal_changes(
+    contents: JournalContents,
+) -> list[tuple[int, PipelineConfig | Calibration]]:
+    out: list[tuple[int, PipelineConfig | Calibration]] = []
+    for rtype, obj in contents.changes:
+        idx = int(obj["sample_idx"])
+        if rtype == RecordType.CONFIG:
+            out.append((idx, PipelineConfig(**obj["config"])))
+        else:
+            out.append((idx, Calibration.from_dict(obj["calibration"])))
+    return out
+
+
+def _timeline_from_rows(
+    lost_before: np.ndarray, gaps: Sequence[Mapping[str, Any]], fs: float
+) -> np.ndarray:
+    """The live writer's t_s, computed for all rows at once (see :class:`_Timeline`)."""
+    n = len(lost_before)
+    if n == 0:
+        return np.empty(0)
+    per_row: dict[int, float] = {}
+    for g in gaps:  # gaps at the same row add up, in journal order, as the writer does
+        idx = int(g["sample_idx"])
+        per_row[idx] = per_row.get(idx, 0.0) + float(g["duration_s"])
+    t = np.empty(n)
+    tl = _Timeline(fs)
+    starts = sorted(i for i in per_row if 0 < i < n)
+    bounds = [0, *starts, n]
+    for a, b in itertools.pairwise(bounds):
+        if a == b:
+            continue
+        t[a:b] = tl.times(lost_before[a:b], per_row.get(a) if a else None)
+    return t
+
+
+def recover_session(
+    path: str | os.PathLike[str],
+    progress: Callable[[float], bool | None] | None = None,
+) -> Path:
+    """Rebuild ``path`` from its journal; returns the path. Raises :class:`SessionError`.
+
+    The new file is written beside the old one and moved over it atomically, so a crash during
+    recovery loses nothing (the journal is deleted last). ``progress(fraction)`` is called as
+    the work advances; returning ``False`` cancels (the journal is kept).
+    """
+    path = Path(path)
+    jpath = journal_path(path)
+    name = path.name
+    if not jpath.exists():
+        raise SessionError(f"{name} has no journal ({jpath.name}) to recover from")
+    try:
+        with journal_lock(jpath) as free:
+            if not free:
+                raise SessionError(
+                    f"{name} is being recorded right now; open it after the recording stops"
+                )
+            return _recover_locked(path, jpath, progress)
+    except OSError as e:
+        raise SessionError(f"cannot read {jpath.name}: {_short_error(e)}") from e
+
+
+def _recover_locked(
+    path: Path, jpath: Path, progress: Callable[[float], bool | None] | None
+) -> Path:
+    name = path.name
+    try:
+        contents = read_journal(jpath)
+    except OSError as e:
+        raise SessionError(f"cannot read {jpath.name}: {_short_error(e)}") from e
+    if contents.header is None or contents.rows is None:
+        raise SessionError(
+            f"cannot recover {name}: its journal {jpath.name} is unusable ({contents.problem})"
+        )
+    try:
+        header = SessionHeader.from_dict(contents.header)
+        changes = _journal_changes(contents)
+    except (KeyError, TypeError, ValueError) as e:
+        raise SessionError(f"cannot recover {name}: bad settings in its journal ({e})") from e
+
+    tmp = path.with_name(path.name + ".recovering")
+    with contextlib.suppress(FileNotFoundError):
+        tmp.unlink()  # left by a recovery that was itself interrupted
+    try:
+        _build_recovered(tmp, header, contents, changes, progress)
+        _fsync_path(tmp)
+        os.replace(tmp, path)
+        _fsync_path(path.parent, directory=True)
+        jpath.unlink()
+    except _Cancelled:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise SessionError(
+            f"recovery of {name} cancelled; the journal is kept, open the file again to recover"
+        ) from None
+    except (OSError, RuntimeError) as e:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise SessionError(
+            f"cannot recover {name}: {_short_error(e)}; free some disk space and open it again "
+            "(the journal is kept)"
+        ) from e
+    return path
+
+
+class _Cancelled(Exception):
+    pass
+
+
+def _build_recovered(
+    tmp: Path,
+    header: SessionHeader,
+    contents: JournalContents,
+    changes: list[tuple[int, PipelineConfig | Calibration]],
+    progress: Callable[[float], bool | None] | None,
+) -> None:
+    hdr = contents.header
+    assert hdr is not None and contents.rows is not None
+    rows = contents.rows
+    n = len(rows)
+    fs = header.sample_rate_hz
+    mode = header.mode
+    h5 = _H5File(tmp, hdr, mode="w", reprocessed=mode == "raw")
+    try:
+        if contents.wall_offset_s is not None:
+            h5.set_wall_offset(contents.wall_offset_s)
+        seq = np.ascontiguousarray(rows["seq"])
+        host = np.ascontiguousarray(rows["host_time_s"])
+        t_s = _timeline_from_rows(rows["lost_before"], contents.gaps, fs)
+
+        def report(done: int) -> None:
+            if progress is not None and progress(done / n if n else 1.0) is False:
+                raise _Cancelled
+
+        if mode == "raw":
+            adc = np.ascontiguousarray(rows["adc"])
+            chunks: Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]] = (
+                replay_pipeline(adc, header.config, header.calibration, changes, table=header.table)
+            )
+        else:
+            chunks = _device_chunks(rows, FrameKind.TILT if mode == "tilt" else FrameKind.JOINT)
+        for a, proc, hs, to in chunks:
+            b = a + len(proc["processed/joint_deg"])
+            cols = {
+                "timeline/seq": seq[a:b],
+                "timeline/host_time_s": host[a:b],
+                "timeline/t_s": t_s[a:b],
+                **proc,
+            }
+            if mode == "raw":
+                cols["raw/adc"] = adc[a:b]
+            h5.append_rows(cols, b - a)
+            h5.append_events("heel_strike", hs)
+            h5.append_events("toe_off", to)
+            report(b)
+
+        h5.append_table(
+            "gaps",
+            [
+                (int(g["sample_idx"]), int(g["n_lost"]), float(g["duration_s"]), str(g["reason"]))
+                for g in contents.gaps
+            ],
+        )
+        markers = []
+        for m in contents.markers:
+            idx = int(m["sample_idx"])
+            t = (
+                float(t_s[idx])
+                if idx < n
+                else _extrapolated_t(float(t_s[-1]) if n else None, idx, n, fs)
+            )
+            markers.append((idx, t, str(m["label"])))
+        h5.append_table("markers", markers)
+        cfg_log = [
+            (i, json.dumps(c.as_dict())) for i, c in changes if isinstance(c, PipelineConfig)
+        ]
+        cal_log = [(i, json.dumps(c.as_dict())) for i, c in changes if isinstance(c, Calibration)]
+        h5.append_table("config/changes", cfg_log)
+        h5.append_table("calibration/changes", cal_log)
+        crc_log: list[tuple[Any, ...]] = []
+        last_crc = 0
+        totals: Mapping[str, Any] = {}
+        for rec in contents.links:
+            totals = rec["totals"]
+            crc = int(totals.get("crc_failures", 0))
+            if crc > last_crc:
+                crc_log.append((int(rec["sample_idx"]), crc))
+                last_crc = crc
+        h5.append_table("link/crc_failures", crc_log)
+        h5.set_link_totals(totals)
+        h5.finish(complete=False, recovered=True, stop_reason="recovered", fs_hz=fs)
+        report(n)
+    finally:
+        h5.close()
+
+
+def _device_chunks(
+    rows: np.ndarray, kind: FrameKind
+) -> Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]]:
+    edges = ContactEdges() if kind == FrameKind.JOINT else None
+    names = _field_names(rows.dtype)[N_COMMON_FIELDS:]
+    empty = np.empty(0, np.int64)
+    for a in range(0, len(rows), _RECOVERY_CHUNK_ROWS):
+        part = rows[a : a + _RECOVERY_CHUNK_ROWS]
+        proc = _device_rows(kind, {k: part[k] for k in names})
+        if edges is not None:
+            hs, to = edges.process(part["heel_loaded"], part["toe_loaded"], a)
+        else:
+            hs, to = empty, empty
+        yield a, proc, hs, to

@@ -1,0 +1,203 @@
+"""Reprocessing a raw session into a new file: the pipeline re-run from the raw counts.
+
+The original is never modified: the new file is a copy (written as ``NEW.partial`` and moved
+into place atomically) whose ``/processed`` series, ``/events`` and ``/config`` come from the
+new settings; standing calibrations logged during the recording are replayed at their rows.
+``gaitmon process`` and the review window's "Save reprocessed as…" both call
+:func:`rewrite_processed`, so they report progress and honour Cancel the same way.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.errors import Cancelled
+from gaitmon.io.session.header import SessionError
+from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
+from gaitmon.io.session.reader import Session, open_session
+from gaitmon.io.session.recovery import replay_pipeline
+
+# the copy is this share of the progress bar, the replay the rest (both are I/O bound)
+COPY_SHARE = 0.25
+COPY_CHUNK_BYTES = 4 << 20  # an 8-hour session (~400 MB) is ~100 cancel points
+REPLAY_CHUNK_ROWS = _RECOVERY_CHUNK_ROWS  # 65536 rows = 11 min at 100 Hz per cancel point
+
+Progress = Callable[[float], object]
+Cancel = Callable[[], bool]
+
+
+@dataclass(frozen=True)
+class RewriteResult:
+    path: Path  # the new session file
+    n_frames: int  # rows reprocessed
+    config: PipelineConfig  # the settings now in the file
+
+
+def partial_path(dst: str | os.PathLike[str]) -> Path:
+    """Where the new file is built before it is moved into place."""
+    p = Path(dst)
+    return p.with_name(p.name + ".partial")
+
+
+def _check_raw(s: Session) -> None:
+    if s.mode != "raw":
+        raise SessionError(
+            f"{s.path.name} holds the unit's own {s.mode} angles, not raw counts; only "
+            "raw-mode sessions can be reprocessed"
+        )
+
+
+def recorded_config(
+    src: str | os.PathLike[str], *, progress: Callable[[float], bool | None] | None = None
+) -> PipelineConfig:
+    """The settings a raw session was recorded with: what a reprocessing starts from.
+
+    Opens (recovering an interrupted recording first, reporting ``progress``); raises
+    :class:`SessionError` for a bad file or a session that holds no raw counts.
+    """
+    with open_session(src, progress=progress) as s:
+        _check_raw(s)
+        return s.config
+
+
+def rewrite_processed(
+    src: Path,
+    dst: Path,
+    config: PipelineConfig,
+    *,
+    progress: Progress | None = None,
+    cancel: Cancel | None = None,
+    overwrite: bool = False,
+) -> RewriteResult:
+    """Write ``dst``: a copy of the raw session ``src`` reprocessed with ``config``.
+
+    ``progress(fraction)`` goes from 0 to 1 (the copy, then the replay); ``cancel()`` is asked
+    between chunks, and when it answers True the partial file is deleted and
+    :class:`gaitmon.errors.Cancelled` raised. Every other failure raises :class:`SessionError`
+    with a one-line message. ``src`` is never modified.
+    """
+    src, dst = Path(src), Path(dst)
+    if dst.exists() and dst.resolve() == src.resolve():
+        raise SessionError(
+            f"{dst.name} is the recording itself: write the reprocessed session to another "
+            "file (the original recording is never modified)"
+        )
+    if dst.exists() and not overwrite:
+        raise SessionError(f"{dst} already exists; choose another name")
+    if not dst.parent.is_dir():
+        raise SessionError(f"folder {dst.parent} does not exist")
+
+    def report(fraction: float) -> None:
+        if progress is not None:
+            progress(min(1.0, max(0.0, fraction)))
+
+    def check_cancel() -> None:
+        if cancel is not None and cancel():
+            raise Cancelled
+
+    report(0.0)
+    tmp = partial_path(dst)
+    try:
+        with open_session(src) as s:
+            _check_raw(s)
+            calibration_log: list[tuple[int, Calibration]] = list(s.calibration_changes)
+            calibration = s.calibration
+            adc = s.read("raw/adc")
+            n = s.n_samples
+            _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
+        _rewrite(
+            tmp,
+            adc,
+            n,
+            calibration,
+            config,
+            calibration_log,
+            lambda f: report(COPY_SHARE + (1.0 - COPY_SHARE) * f),
+            check_cancel,
+        )
+        check_cancel()
+        os.replace(tmp, dst)
+    except Cancelled:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    except SessionError:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    except (OSError, RuntimeError) as exc:  # h5py reports some write failures as RuntimeError
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise SessionError(f"cannot write {dst}: {getattr(exc, 'strerror', None) or exc}") from None
+    report(1.0)
+    return RewriteResult(dst, n, config)
+
+
+def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], None]) -> None:
+    """``shutil.copyfile`` in chunks, so a long copy reports progress and can be cancelled."""
+    total = max(1, src.stat().st_size)
+    done = 0
+    with open(src, "rb") as fin, open(tmp, "wb") as fout:
+        while chunk := fin.read(COPY_CHUNK_BYTES):
+            fout.write(chunk)
+            done += len(chunk)
+            report(done / total)
+            check_cancel()
+
+
+def _rewrite(
+    tmp: Path,
+    adc: np.ndarray,
+    n: int,
+    calibration: Calibration,
+    config: PipelineConfig,
+    calibration_log: list[tuple[int, Calibration]],
+    report: Progress,
+    check_cancel: Callable[[], None],
+) -> None:
+    with h5py.File(tmp, "r+") as f:
+        proc = f["processed"]
+        hs: list[np.ndarray] = []
+        to: list[np.ndarray] = []
+        replay = replay_pipeline(
+            adc, config, calibration, calibration_log, chunk_rows=REPLAY_CHUNK_ROWS
+        )
+        for start, rows, hs_rows, to_rows in replay:
+            stop = start + len(rows["processed/joint_deg"])
+            for path, data in rows.items():
+                f[path][start:stop] = data
+            hs.append(hs_rows)
+            to.append(to_rows)
+            report(stop / max(n, 1))
+            check_cancel()
+        proc.attrs["reprocessed"] = True
+        proc.attrs["source"] = "pc"
+        ev = f["events"]
+        for name, parts in (("heel_strike", hs), ("toe_off", to)):
+            data = np.concatenate(parts) if parts else np.empty(0, np.int64)
+            del ev[name]
+            ev.create_dataset(name, data=data.astype(np.int64), maxshape=(None,), chunks=True)
+        cfg = f["config"]
+        for key, value in config.as_dict().items():
+            cfg.attrs[key] = value
+        cfg.attrs["event_delay_samples"] = config.event_delay_samples
+        # the new settings hold for the whole file: no changes during the recording
+        del cfg["changes"]
+        cfg.create_dataset(
+            "changes",
+            data=np.array([], dtype=_TABLES["config/changes"]),
+            maxshape=(None,),
+            chunks=(_TABLE_CHUNK_ROWS,),
+        )
+        cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
+    report(1.0)

@@ -1,0 +1,65 @@
+"""The ``/truth`` group of a simulated session: the simulator's ground truth per row.
+
+Only sessions recorded from the simulated unit have it; :mod:`gaitmon.io.sim.truth` computes
+what it holds (mapping every row back to the sample the unit generated) and writes it with
+:func:`write_truth` into the finished file. Readers get the true tilts with :func:`read_truth`
+or :meth:`gaitmon.io.session.Session.truth`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from gaitmon.io.session.header import SessionError
+
+GROUP = "truth"
+DESCRIPTION = (
+    "simulator ground truth per row: segment tilts and joint angles in degrees "
+    "(clinical signs, no mounting offset); events as row indices"
+)
+# per-row: sample_idx (int64, -1 where unmapped), tilt_deg (n, 4), joint_deg (n, 3),
+# gyro_bias_rad_s (n, 4) as float32 with NaN on unmapped rows; events: heel_strike, toe_off
+# (int64 row indices); attribute mount_offset_deg (4,)
+DATASETS = ("sample_idx", "tilt_deg", "joint_deg", "gyro_bias_rad_s", "heel_strike", "toe_off")
+
+Truth = tuple[np.ndarray | None, np.ndarray | None]
+
+
+def write_truth(
+    path: str | os.PathLike[str], datasets: Mapping[str, np.ndarray], mount_offset_deg: np.ndarray
+) -> None:
+    """Write (or replace) ``/truth`` in a finished session file. Raises OSError."""
+    with h5py.File(path, "r+") as f:
+        g = f.require_group(GROUP)
+        g.attrs["description"] = DESCRIPTION
+        g.attrs["mount_offset_deg"] = mount_offset_deg
+        for name, data in datasets.items():
+            if name in g:
+                del g[name]
+            g.create_dataset(name, data=data)
+
+
+def truth_from_file(f: h5py.File, start: int, stop: int) -> Truth:
+    """(true tilts in rad for rows start:stop, mounting offsets in rad) from an open file;
+    (None, None) when it has no ``/truth``. Rows the simulator could not map are NaN."""
+    if GROUP not in f or "tilt_deg" not in f[GROUP]:
+        return None, None
+    g = f[GROUP]
+    tilt = np.radians(np.asarray(g["tilt_deg"][start:stop], dtype=np.float64))
+    mount = g.attrs.get("mount_offset_deg")
+    return tilt, None if mount is None else np.radians(np.asarray(mount, np.float64))
+
+
+def read_truth(path: str | os.PathLike[str], start: int, stop: int) -> Truth:
+    """:func:`truth_from_file` of the session at ``path``; raises :class:`SessionError`."""
+    path = Path(path)
+    try:
+        with h5py.File(path, "r") as f:
+            return truth_from_file(f, start, stop)
+    except (OSError, KeyError, ValueError) as e:
+        raise SessionError(f"{path.name}: cannot read /truth ({e})") from e

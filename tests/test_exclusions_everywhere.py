@@ -1,0 +1,153 @@
+"""Exclusions made in review are the session's analysis state: ``gaitmon info`` and the report
+leave out the same strides as an independent analysis with those ranges, and the export carries
+them; and reprocessing a file (``rewrite_processed``) reports progress, can be cancelled, and
+writes what ``gaitmon process`` writes."""
+
+from __future__ import annotations
+
+import itertools
+import json
+
+import h5py
+import numpy as np
+import pytest
+
+from gaitmon.analysis import analyse_strides
+from gaitmon.cli import main
+from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.errors import Cancelled
+from gaitmon.io.session import SessionError, exclusions, open_session, replay_pipeline
+from gaitmon.io.session.reprocess import partial_path, rewrite_processed
+from gaitmon.report import gather_report
+
+pytestmark = pytest.mark.timeout(120)
+
+
+@pytest.fixture(scope="module")
+def walk(tmp_path_factory, record_simulated):
+    return record_simulated(tmp_path_factory.mktemp("excl") / "walk.h5", duration_s=20)
+
+
+def _included(path, ranges):
+    """The included-stride count computed here, from the file's datasets and the ranges."""
+    with h5py.File(path, "r") as f:
+        hs = f["events/heel_strike"][()]
+        to = f["events/toe_off"][()]
+        t_s = f["timeline/t_s"][()]
+        joints = f["processed/joint_deg"][()].astype(np.float64)
+        gaps = [(int(g["sample_idx"]), float(g["duration_s"])) for g in f["gaps"][()]]
+        fs = float(f.attrs["sample_rate_hz"])
+    rows = analyse_strides(hs, to, fs, joints, gaps, ranges, t_s=t_s)
+    return sum(r.included for r in rows)
+
+
+def _info(capsys, path):
+    assert main(["info", str(path)]) == 0
+    return capsys.readouterr().out
+
+
+def test_info_report_and_export_honour_the_exclusions_made_in_review(walk, capsys, tmp_path):
+    with open_session(walk) as s:
+        created, n = s.created_utc, s.n_samples
+        t_s = s.read("timeline/t_s")
+        hs = s.heel_strike_idx
+        before = gather_report(s).summary.n_strides
+    assert _included(walk, []) == before
+    assert f"  strides      {before} included" in _info(capsys, walk)
+    # as the review window does: two ranges (a turn, a stumble) saved beside the recording
+    mid = len(hs) // 2
+    ranges = [
+        exclusions.Exclusion(int(hs[mid]) + 5, int(hs[mid + 1]) + 5, "turn"),
+        exclusions.Exclusion(int(hs[3]) + 1, int(hs[3]) + 2, "stumble"),
+    ]
+    sp = exclusions.save(walk, ranges, created, n, t_s)
+    try:
+        want = _included(walk, [(r.start_idx, r.stop_idx) for r in ranges])
+        assert want < before  # the ranges do leave strides out
+        text = _info(capsys, walk)
+        assert f"  strides      {want} included, " in text
+        assert f"2 user-excluded ranges from {sp.name}" in text
+        with open_session(walk) as s:
+            data = gather_report(s)
+        assert data.summary.n_strides == want
+        assert sum(r.included for r in data.rows) == want
+        assert len(data.losses.excluded_ranges) == 2
+        # the export carries them in its metadata
+        csv = tmp_path / "walk.csv"
+        assert main(["export", str(walk), "--format", "csv", "-o", str(csv), "-q"]) == 0
+        meta = json.loads(csv.with_name("walk.meta.json").read_text(encoding="utf-8"))
+        got = [(r["start_idx"], r["stop_idx"], r["label"]) for r in meta["excluded_ranges"]]
+        assert got == [(r.start_idx, r.stop_idx, r.label) for r in exclusions.merge(ranges)]
+        # a damaged side file: one line, no traceback, nothing excluded
+        sp.write_text("{not json", encoding="utf-8")
+        text = _info(capsys, walk)
+        assert f"  strides      {before} included" in text and "unreadable" in text
+    finally:
+        sp.unlink(missing_ok=True)
+
+
+def test_rewrite_processed_reports_progress_and_writes_what_the_command_writes(
+    walk, tmp_path, monkeypatch
+):
+    import gaitmon.io.session.reprocess as rp
+
+    monkeypatch.setattr(rp, "COPY_CHUNK_BYTES", 64 << 10)  # several chunks for a short file
+    monkeypatch.setattr(rp, "REPLAY_CHUNK_ROWS", 500)
+    with open_session(walk) as s:
+        config = s.config.replace(cutoff_hz=3.0)
+        adc = s.read("raw/adc")
+        cal, cal_log = s.calibration, list(s.calibration_changes)
+    seen: list[float] = []
+    out = tmp_path / "new.h5"
+    res = rewrite_processed(walk, out, config, progress=seen.append)
+    assert res.path == out and res.n_frames == len(adc) and res.config == config
+    assert seen[-1] == 1.0 and all(b >= a for a, b in itertools.pairwise(seen))
+    assert len(seen) > 5 and not partial_path(out).exists()
+    # the same as a replay computed here
+    joint = np.concatenate(
+        [r["processed/joint_deg"] for _, r, _, _ in replay_pipeline(adc, config, cal, cal_log)]
+    )
+    with open_session(out) as s:
+        np.testing.assert_array_equal(s.read("processed/joint_deg"), joint)
+        assert s.config == config and s.reprocessed and not s.config_changes
+    # and the same as the command line writes
+    ref = tmp_path / "ref.h5"
+    assert main(["process", str(walk), "-o", str(ref), "--cutoff-hz", "3"]) == 0
+    with h5py.File(out, "r") as a, h5py.File(ref, "r") as b:
+        for name in ("processed/joint_deg", "processed/tilt_deg", "events/heel_strike",
+                     "events/toe_off", "raw/adc", "timeline/t_s"):  # fmt: skip
+            np.testing.assert_array_equal(a[name][()], b[name][()], err_msg=name)
+        assert dict(a["config"].attrs) == dict(b["config"].attrs)
+
+
+def test_rewrite_processed_cancelled_midway_keeps_nothing(walk, tmp_path, monkeypatch):
+    import gaitmon.io.session.reprocess as rp
+
+    monkeypatch.setattr(rp, "COPY_CHUNK_BYTES", 64 << 10)
+    monkeypatch.setattr(rp, "REPLAY_CHUNK_ROWS", 500)
+    with open_session(walk) as s:
+        config = s.config
+    out = tmp_path / "cancelled.h5"
+    seen: list[float] = []
+    with pytest.raises(Cancelled):
+        rewrite_processed(
+            walk, out, config, progress=seen.append, cancel=lambda: bool(seen) and seen[-1] > 0.5
+        )
+    assert 0.5 < seen[-1] < 1.0  # it was midway
+    assert not out.exists() and not partial_path(out).exists()
+
+
+def test_rewrite_processed_errors_are_one_line_session_errors(walk, tmp_path, record_simulated):
+    with open_session(walk) as s:
+        config = s.config
+    with pytest.raises(SessionError, match="another"):
+        rewrite_processed(walk, walk, config, overwrite=True)
+    with pytest.raises(SessionError, match="does not exist"):
+        rewrite_processed(walk, tmp_path / "no" / "x.h5", config)
+    with pytest.raises(SessionError, match="does not exist"):
+        rewrite_processed(tmp_path / "missing.h5", tmp_path / "x.h5", config)
+    joint = record_simulated(tmp_path / "joint.h5", "--mode", "joint", duration_s=3)
+    with pytest.raises(SessionError, match="only raw-mode"):
+        rewrite_processed(joint, tmp_path / "y.h5", PipelineConfig())
+    assert not (tmp_path / "y.h5").exists() and not partial_path(tmp_path / "y.h5").exists()
+
