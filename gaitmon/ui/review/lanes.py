@@ -5,11 +5,13 @@ mouse handling, and what a lane holds.
 * :class:`ShadeItem` - vertical bands in named layers (gaps, exclusions, selection, the picked
   stride), drawing only the spans in view;
 * :class:`LaneViewBox` - x pan/zoom, Shift+drag selects a range, a click places the cursor;
-* :class:`TraceSpec`, :class:`Lane` - which series a lane draws and the items that draw them.
+* :class:`TraceSpec`, :class:`Lane` - which series a lane draws, the items that draw them, and
+  what is done to one lane (fit y, events, points drawn); :func:`lane_plot` makes its plot.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -17,9 +19,12 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import QRectF, Qt, Signal
 from PySide6.QtGui import QBrush, QColor, QPainter, QPen
+from PySide6.QtWidgets import QGraphicsItem
 
-from gaitmon.ui.plots import Trace, TraceSet
-from gaitmon.ui.theme import pen
+from gaitmon.ui.plots import Trace, TraceSet, vertical_lines
+from gaitmon.ui.theme import Colours, pen
+
+AXIS_WIDTH_PX = 58  # every plot's y axis: the lanes' time axes line up
 
 
 def line_pen(colour: QColor, *, dashed: bool = False) -> QPen:
@@ -136,3 +141,74 @@ class Lane:
     markers: Trace | None = None
     bands: list[tuple[Trace, int]] = field(default_factory=list)
     missing: pg.TextItem | None = None
+
+    def fit_y(self, mid_t_s: float) -> None:
+        """Fit the y range to the traces drawn (the nominal range when there are none)."""
+        ys = [tr.path for _s, tr in self.specs if tr.visible and tr.path is not None]
+        if not ys:
+            self.plot.setYRange(*self.yrange, padding=0)
+            return
+        rect = ys[0].boundingRect()
+        for path in ys[1:]:
+            rect = rect.united(path.boundingRect())
+        lo, hi = rect.top(), rect.bottom()
+        if not (math.isfinite(lo) and math.isfinite(hi)) or hi - lo < 1e-6:
+            self.plot.setYRange(*self.yrange, padding=0)
+            return
+        pad = 0.08 * (hi - lo)
+        self.plot.setYRange(lo - pad, hi + pad, padding=0)
+        if self.missing is not None:
+            self.missing.setPos(mid_t_s, (lo + hi) / 2)
+
+    def centre_missing(self, mid_t_s: float) -> None:
+        """Keep the "not recorded" note in the middle of the view."""
+        if self.missing is not None and self.missing.isVisible():
+            (y0, y1) = self.plot.getViewBox().viewRange()[1]
+            self.missing.setPos(mid_t_s, (y0 + y1) / 2)
+
+    def set_events(self, t_s: np.ndarray, heel_strike_idx: np.ndarray, toe_off_idx: np.ndarray,
+                   start: int, stop: int) -> None:  # fmt: skip
+        """Heel strike and toe off lines of rows ``start:stop`` (rows past ``t_s`` dropped)."""
+        pairs = ((self.events_hs, heel_strike_idx), (self.events_to, toe_off_idx))
+        for tr, idx in pairs:
+            if tr is None:
+                continue
+            a, b = np.searchsorted(idx, [start, stop])
+            sel = idx[a:b]
+            sel = sel[sel < len(t_s)]
+            tr.set(*vertical_lines(t_s[sel], -1e6, 1e6), connect="pairs")
+
+    def clear_events(self) -> None:
+        for tr in (self.events_hs, self.events_to):
+            if tr is not None:
+                tr.clear()
+
+    def points(self, series: str, column: int, before: bool = False) -> int | None:
+        """Points drawn of the primary trace of ``series[column]``; None if the lane has none."""
+        for spec, tr in self.specs:
+            if spec.series == series and spec.column == column and spec.before == before and (
+                spec.method in ("", "kalman")
+            ):
+                return tr.n_points if tr.visible else 0
+        return None
+
+
+def lane_plot(colours: Colours, vb: pg.ViewBox | None = None) -> pg.PlotItem:
+    """A plot of the timeline: time axis, grid, no auto range, fixed-width y axis."""
+    p = pg.PlotItem(viewBox=vb or LaneViewBox(), axisItems={"bottom": TimeAxis("bottom")})
+    p.hideButtons()
+    p.showGrid(x=True, y=True, alpha=colours.grid_alpha)
+    p.setMenuEnabled(True)
+    vb = p.getViewBox()
+    vb.disableAutoRange()
+    vb.setDefaultPadding(0.0)
+    left = p.getAxis("left")
+    left.setWidth(AXIS_WIDTH_PX)
+    left.enableAutoSIPrefix(False)
+    # The axes draw the grid, and replaying their pictures was ~85 % of a pan frame
+    # (measured: 3 ms per axis per paint): major ticks only, and the y axes (which do not
+    # change while panning) cached as pixmaps, as the live window does.
+    for name in ("left", "bottom"):
+        p.getAxis(name).setStyle(maxTickLevel=0)
+    left.setCacheMode(QGraphicsItem.CacheMode.DeviceCoordinateCache)
+    return p

@@ -26,7 +26,6 @@ from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
     QComboBox,
-    QGraphicsItem,
     QHBoxLayout,
     QLabel,
     QVBoxLayout,
@@ -37,19 +36,19 @@ from gaitmon.dsp.channels import CHANNELS
 from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Response
-from gaitmon.review.model import JOINT, OVERVIEW_SERIES, Document, Source
+from gaitmon.review.model import JOINT, Document, Source
 from gaitmon.review.view import SEGMENTS, ViewData, ViewRequest, load_view, readout_html
 from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_band
 from gaitmon.ui.plots import vertical_lines as _vlines
-from gaitmon.ui.review.lanes import Lane, LaneViewBox, ShadeItem, TimeAxis, TraceSpec, line_pen
+from gaitmon.ui.review.lanes import Lane, TraceSpec, lane_plot, line_pen
+from gaitmon.ui.review.overview_plot import OverviewPlot
 from gaitmon.ui.theme import Colours, pen
 
 EVENTS_MAX_S = 180.0  # wider views would be solid with event lines
 PHASE_MAX_ROWS = 30_000  # phase bands need every row; beyond this they are left out
 MIN_POINTS, MAX_POINTS = 600, 4000
 INITIAL_VIEW_S = 30.0
-AXIS_WIDTH_PX = 58
 RAW_RANGE = (-100.0, 4200.0)
 
 
@@ -117,24 +116,9 @@ class Timeline(QWidget):
 
     # -- construction --------------------------------------------------------------------------
 
-    def _plot(self, row: int, vb: pg.ViewBox | None = None) -> pg.PlotItem:
-        p = pg.PlotItem(viewBox=vb or LaneViewBox(), axisItems={"bottom": TimeAxis("bottom")})
+    def _plot(self, row: int) -> pg.PlotItem:
+        p = lane_plot(self.colours)
         self.glw.addItem(p, row=row, col=0)
-        p.hideButtons()
-        p.showGrid(x=True, y=True, alpha=self.colours.grid_alpha)
-        p.setMenuEnabled(True)
-        vb = p.getViewBox()
-        vb.disableAutoRange()
-        vb.setDefaultPadding(0.0)
-        left = p.getAxis("left")
-        left.setWidth(AXIS_WIDTH_PX)
-        left.enableAutoSIPrefix(False)
-        # The axes draw the grid, and replaying their pictures was ~85 % of a pan frame
-        # (measured: 3 ms per axis per paint): major ticks only, and the y axes (which do not
-        # change while panning) cached as pixmaps, as the live window does.
-        for name in ("left", "bottom"):
-            p.getAxis(name).setStyle(maxTickLevel=0)
-        left.setCacheMode(QGraphicsItem.CacheMode.DeviceCoordinateCache)
         return p
 
     def _lane(self, key: str, title: str, yrange: tuple[float, float], tip: str) -> Lane:
@@ -180,29 +164,12 @@ class Timeline(QWidget):
     def _build(self) -> None:
         c = self.colours
         # overview: the knee over the whole session, the detail range as a draggable region
-        ov = self._plot(0)
-        ov.setMouseEnabled(x=False, y=False)
-        ov.setMaximumHeight(92)
-        ov.getAxis("left").setLabel("knee (°)")
-        ov.setToolTip(
-            "The whole session (knee flexion, min/max envelope). Drag the highlighted region to "
-            "move the detail view; shaded: gaps (lost data) and excluded ranges."
-        )
-        self.overview = ov
-        self.overview_shade = ShadeItem()
-        ov.addItem(self.overview_shade, ignoreBounds=True)
-        self.overview_curve = pg.PlotCurveItem(pen=pen(c.kalman), skipFiniteCheck=False)
-        ov.addItem(self.overview_curve)
-        self.overview_markers = pg.PlotCurveItem(pen=pen(c.marker), connect="pairs")
-        ov.addItem(self.overview_markers, ignoreBounds=True)
-        brush = QColor(c.band)
-        brush.setAlpha(50)
-        self.region = pg.LinearRegionItem(values=(0, 1), brush=brush, movable=True)
-        self.region.setZValue(10)
+        self.strip = OverviewPlot(self._plot(0), c)
+        self.overview = self.strip.plot
+        self.region = self.strip.region
         self.region.sigRegionChanged.connect(self._region_moved)
-        ov.addItem(self.region, ignoreBounds=True)
-        ov.getViewBox().clicked.connect(self._overview_clicked)
-        self.overview_cursor = self._cursor_line(ov)
+        self.overview.getViewBox().clicked.connect(self._overview_clicked)
+        self.overview_cursor = self._cursor_line(self.overview)
 
         for j, (key, _label, yr) in enumerate(JOINTS):
             sign = "dorsiflexion" if key == "ankle" else "flexion"
@@ -339,9 +306,7 @@ class Timeline(QWidget):
             lane.shade.update()
             if lane.cursor is not None:
                 lane.cursor.setVisible(False)
-        self.overview_curve.setData([], [])
-        self.overview_markers.setData([], [])
-        self.overview_shade.layers.clear()
+        self.strip.clear()
         self.overview_cursor.setVisible(False)
         for item in self._marker_labels:
             self.lanes["hip"].plot.removeItem(item)
@@ -363,8 +328,7 @@ class Timeline(QWidget):
             p.getViewBox().setLimits(
                 xMin=t0 - pad, xMax=t1 + pad, minXRange=0.2, maxXRange=t1 - t0 + 2 * pad
             )
-        self.overview.setXRange(t0, t1, padding=0.01)
-        self.region.setBounds((t0 - pad, t1 + pad))
+        self.strip.set_extent(t0, t1, pad)
         src = doc.recorded
         for lane in self.lanes.values():
             primary = [s for s, _ in lane.specs if s.method in ("", "kalman") and not s.before]
@@ -380,24 +344,8 @@ class Timeline(QWidget):
         self._schedule()
 
     def refresh_overview(self) -> None:
-        doc = self.doc
-        if doc is None or not doc.n_rows:
-            return
-        src = doc.current
-        ov = src.overview if src.overview.has_pyramid(OVERVIEW_SERIES) else None
-        if ov is None:
-            ov = doc.recorded.overview
-        if not ov.has_pyramid(OVERVIEW_SERIES):
-            return
-        w = ov.pyramid(OVERVIEW_SERIES).query(0, doc.n_rows, 2 * max(400, self.glw.width()))
-        x = doc.t_s[np.minimum(w.idx, doc.n_rows - 1)]
-        y = w.y[:, 1].astype(np.float64)
-        self.overview_curve.setData(x, y, connect="finite")
-        fin = y[np.isfinite(y)]
-        if len(fin):
-            lo, hi = float(fin.min()), float(fin.max())
-            pad = 0.08 * max(hi - lo, 1.0)
-            self.overview.setYRange(lo - pad, hi + pad, padding=0)
+        if self.doc is not None:
+            self.strip.draw(self.doc, self.glw.width())
 
     def refresh_shading(self) -> None:
         """Gaps, user exclusions, the selection and the picked stride, in every plot."""
@@ -417,7 +365,7 @@ class Timeline(QWidget):
             dtype=np.float64,
         ).reshape(-1, 2)  # fmt: skip
         sel = np.array([self.selection] if self.selection else [], dtype=np.float64).reshape(-1, 2)
-        for item in [self.overview_shade, *(ln.shade for ln in self.lanes.values())]:
+        for item in [self.strip.shade, *(ln.shade for ln in self.lanes.values())]:
             item.set_layer("gaps", doc.gap_spans_s, gap_c)
             item.set_layer("excluded", ex, ex_c)
             item.set_layer("selection", sel, sel_c)
@@ -434,8 +382,7 @@ class Timeline(QWidget):
             return
         ms = doc.session.markers
         xs = np.array([m.t_s for m in ms], dtype=np.float64)
-        lo, hi = -1e6, 1e6
-        self.overview_markers.setData(*_vlines(xs, lo, hi), connect="pairs")
+        self.strip.set_markers(xs)
         hip = self.lanes["hip"].plot
         for m in ms:
             item = pg.TextItem(m.label or "marker", color=self.colours.marker, anchor=(0, 0))
@@ -586,42 +533,19 @@ class Timeline(QWidget):
         x0, x1 = self.view_range()
         show = (x1 - x0) <= EVENTS_MAX_S
         for lane in self.lanes.values():
-            if lane.events_hs is None or lane.events_to is None:
-                continue
-            if not show:
-                lane.events_hs.clear()
-                lane.events_to.clear()
-                continue
-            lo, hi = -1e6, 1e6
-            pairs = ((lane.events_hs, src.heel_strike_idx), (lane.events_to, src.toe_off_idx))
-            for tr, idx in pairs:
-                a, b = np.searchsorted(idx, [req.start, req.stop])
-                sel = idx[a:b]
-                sel = sel[sel < doc.n_rows]
-                tr.set(*_vlines(doc.t_s[sel], lo, hi), connect="pairs")
+            if show:
+                lane.set_events(doc.t_s, src.heel_strike_idx, src.toe_off_idx, req.start,
+                                req.stop)  # fmt: skip
+            else:
+                lane.clear_events()
 
     def fit_y(self) -> None:
         """Fit each lane's y range to the data in view (Home)."""
+        mid_t_s = sum(self.view_range()) / 2
         for lane in self.visible_lanes():
-            ys = [tr.path for _s, tr in lane.specs if tr.visible and tr.path is not None]
-            if not ys:
-                lane.plot.setYRange(*lane.yrange, padding=0)
-                continue
-            rect = ys[0].boundingRect()
-            for path in ys[1:]:
-                rect = rect.united(path.boundingRect())
-            lo, hi = rect.top(), rect.bottom()
-            if not (math.isfinite(lo) and math.isfinite(hi)) or hi - lo < 1e-6:
-                lane.plot.setYRange(*lane.yrange, padding=0)
-                continue
-            pad = 0.08 * (hi - lo)
-            lane.plot.setYRange(lo - pad, hi + pad, padding=0)
-            if lane.missing is not None:
-                lane.missing.setPos(sum(self.view_range()) / 2, (lo + hi) / 2)
+            lane.fit_y(mid_t_s)
         for lane in self.lanes.values():
-            if lane.missing is not None and lane.missing.isVisible():
-                (y0, y1) = lane.plot.getViewBox().viewRange()[1]
-                lane.missing.setPos(sum(self.view_range()) / 2, (y0 + y1) / 2)
+            lane.centre_missing(mid_t_s)
 
     # -- cursor and selection ------------------------------------------------------------------
 
@@ -666,16 +590,13 @@ class Timeline(QWidget):
     # -- for tests and the benchmark -----------------------------------------------------------
 
     def trace_points(self, lane: str, series: str, column: int, before: bool = False) -> int:
-        for spec, tr in self.lanes[lane].specs:
-            if spec.series == series and spec.column == column and spec.before == before and (
-                spec.method in ("", "kalman")
-            ):
-                return tr.n_points if tr.visible else 0
+        n = self.lanes[lane].points(series, column, before)
+        if n is not None:
+            return n
         raise KeyError(f"no trace {series}[{column}] in lane {lane}")
 
     def overview_points(self) -> int:
-        x, _y = self.overview_curve.getData()
-        return 0 if x is None else len(x)
+        return self.strip.points()
 
     def shutdown(self) -> None:
         self.loader.stop()
