@@ -4,7 +4,7 @@ This module owns the *content* of the report: the header (patient identifier, ne
 the gait summary, the per-stride statistics, the cycle-normalised mean ± SD curves, the filter
 settings and angle conventions in force, and the gaps, losses and exclusions. The stride
 analysis is ``gaitmon.analysis`` (the same as ``gaitmon info`` and the review window), so the
-three always agree. Drawing it is ``gaitmon.ui.review.report_pdf`` (Qt); ``gaitmon report``
+three always agree. Drawing it is ``gaitmon.ui.report_pdf`` (Qt); ``gaitmon report``
 wires the two together headless.
 """
 

@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gaitmon.io.overview import Cancelled, PeakPyramid, SessionOverview, peak_decimate
+from gaitmon.errors import Cancelled
+from gaitmon.io.overview import PeakPyramid, SessionOverview, peak_decimate
 from gaitmon.io.session import exclusions as excl
 
 

@@ -265,7 +265,7 @@ def test_filters_view_lists_registry_and_rmse_matches_hand_computation(qtbot, se
 
 
 def test_filters_view_parameters_change_the_result(qtbot, session) -> None:
-    from gaitmon.ui.review.filters_view import build_filter
+    from gaitmon.review.filters import build_filter
 
     rng = np.random.default_rng(0)
     z = np.cumsum(rng.normal(0, 0.01, (300, 4)), axis=0)

@@ -347,3 +347,66 @@ def test_an_interrupted_recording_is_recovered_with_progress(qtbot, win, recorde
     with h5py.File(recorded) as f:
         n_truth = len(f["truth/heel_strike"]) - 1
     assert abs(win.table.model().rowCount() - n_truth) <= 1
+
+
+def _reprocessed(qtbot, win, session_file):
+    open_and_wait(qtbot, win, session_file)
+    cfg = win.doc.recorded.config.replace(cutoff_hz=6.0, fsr_threshold=1400.0)
+    with qtbot.waitSignal(win.analysis_done, timeout=60_000):
+        win.start_reprocess(cfg)
+    assert win.doc.reprocessed is not None
+
+
+def test_save_reprocessed_shows_its_progress_on_the_bar(qtbot, win, session_file, tmp_path):
+    _reprocessed(qtbot, win, session_file)
+    out = tmp_path / "saved.h5"
+    bar = win.status.progress
+    seen: list[tuple[int, bool]] = []  # (bar value, bar shown) at each progress report
+    finished: list[str] = []
+    # connected after the window's own slot: sees the bar as that slot left it
+    win.job.progressed.connect(lambda f: seen.append((bar.value(), bar.isVisible())))
+    win.saved.connect(finished.append)
+    with qtbot.waitSignal(win.saved, timeout=60_000):
+        win.save_reprocessed(out)
+    assert finished == [str(out)]
+    assert any(value > 0 and shown for value, shown in seen)  # it moved while it ran
+    assert not bar.isVisible() and f"Saved {out}" in win.statusBar().currentMessage()
+    with h5py.File(out) as f:
+        np.testing.assert_array_equal(f["events/heel_strike"], win.doc.reprocessed.heel_strike_idx)
+
+
+def test_cancel_while_saving_reprocessed_leaves_no_file(
+    qtbot, win, session_file, tmp_path, monkeypatch
+):
+    from gaitmon.io.session.reprocess import partial_path
+    from gaitmon.ui.review import jobs
+
+    reached, release = threading.Event(), threading.Event()
+    real = jobs.rewrite_processed
+
+    def gated(src, dst, config, **kw):
+        progress = kw.pop("progress")
+
+        def slow_progress(fraction: float) -> object:
+            if fraction > 0 and not reached.is_set():
+                reached.set()
+                release.wait(30)  # the user clicks Cancel meanwhile
+            return progress(fraction)
+
+        return real(src, dst, config, progress=slow_progress, **kw)
+
+    monkeypatch.setattr(jobs, "rewrite_processed", gated)
+    _reprocessed(qtbot, win, session_file)
+    out = tmp_path / "cancelled.h5"
+    win.save_reprocessed(out)
+    qtbot.waitUntil(reached.is_set, timeout=30_000)
+    assert partial_path(out).exists()  # midway: the copy is being written
+    assert win.status.cancel_button.isVisible()
+    qtbot.mouseClick(win.status.cancel_button, Qt.MouseButton.LeftButton)  # GUI thread is free
+    release.set()
+    assert win.job.wait_idle(30)
+    assert not out.exists() and not partial_path(out).exists()
+    assert sorted(p.name for p in tmp_path.iterdir() if "cancelled" in p.name) == []
+    assert not win.status.progress.isVisible()
+    assert "cancelled" in win.statusBar().currentMessage()
+    assert not win.banner_box.isVisible()

@@ -1,7 +1,7 @@
 """``gaitmon report FILE -o report.pdf``: the one-page clinical PDF, headless.
 
 The content is :mod:`gaitmon.report` (the same stride analysis as ``gaitmon info`` and the review
-window); the page is drawn by ``gaitmon.ui.review.report_pdf`` with Qt's own PDF writer. No
+window); the page is drawn by ``gaitmon.ui.report_pdf`` with Qt's own PDF writer. No
 window is opened: Qt runs on the offscreen platform when there is no display, with a
 ``QGuiApplication`` only (fonts need one). Qt is imported only when the command runs, so the
 rest of the command line stays Qt-free.
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
 
     _use_offscreen_if_headless()
     try:
-        from gaitmon.ui.review.report_pdf import write_report_pdf, write_report_png
+        from gaitmon.ui.report_pdf import write_report_pdf, write_report_png
     except ImportError as exc:  # PySide6 missing, or a system library Qt needs
         raise UserError(f"the report needs Qt, which cannot load here: {exc}") from None
     try:

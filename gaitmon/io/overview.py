@@ -28,7 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Cancelled", "PeakPyramid", "PeakWindow", "SessionOverview", "peak_decimate"]
+from gaitmon.errors import Cancelled
+
+__all__ = ["PeakPyramid", "PeakWindow", "SessionOverview", "peak_decimate"]
 
 Reader = Callable[[str, int, int], np.ndarray]  # (series name, start row, stop row) -> rows
 Progress = Callable[[float], bool | None]  # fraction done -> False to cancel
@@ -37,10 +39,6 @@ BASE_STEP = 16  # rows per bin of the finest pyramid level (0.16 s at 100 Hz)
 FACTOR = 4  # each level's bins hold FACTOR bins of the level below
 CHUNK_ROWS = 1 << 16  # rows read per step while building (rounded to whole base bins)
 DIRECT_FACTOR = 48  # ranges up to this many rows per point are read and decimated directly
-
-
-class Cancelled(Exception):
-    """A build was cancelled through its progress callback."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, cast
 
+from gaitmon.errors import Cancelled
+
 if TYPE_CHECKING:
     from gaitmon.io.export.deidentify import Scrubber
     from gaitmon.io.export.source import Source
@@ -29,7 +31,7 @@ class ExportError(Exception):
     """A problem with the input, the output path or the format; the message is one line."""
 
 
-class ExportCancelled(ExportError):
+class ExportCancelled(ExportError, Cancelled):
     """The caller's ``cancel()`` returned True; every temporary output has been removed."""
 
     def __init__(self, message: str = "export cancelled; no file was written") -> None:

@@ -1,9 +1,9 @@
-"""The review window: a recorded session browsed, analysed, reported and exported.
+"""The review window: a recorded session browsed, analysed, reported and exported (the widgets).
 
-Modules: ``window`` (the main window), ``timeline`` (overview + detail lanes, shared cursor),
-``strides`` (stride table, summary), ``cycles`` (cycle-normalised plots), ``model`` (Qt-free:
-opening, analysis, reprocessing), ``exclusions`` (the ``FILE.review.json`` side file),
-``workers`` (request -> worker -> response); the PDF report, export dialog, plot export,
-normative bands and filter comparison live in their own modules. Importing this package does
-not import Qt.
+Modules: ``window`` (the window's shell), ``actions`` (its actions and menus as data),
+``status`` (banner, notes, progress bar), ``jobs`` (its background requests and typed
+responses), ``timeline`` (overview + detail lanes, shared cursor) drawn with ``lanes``,
+``strides`` (stride table, summary), ``cycles`` (cycle-normalised plots); the export dialog,
+plot export and filter comparison live in their own modules. What the window shows is computed
+without Qt in :mod:`gaitmon.review`. Importing this package does not import Qt.
 """

@@ -9,21 +9,26 @@ every included stride. After a reprocessing, the recorded mean is drawn dashed f
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtGui import QColor
+from PySide6.QtWidgets import QWidget
 
+from gaitmon.review.model import Analysis
 from gaitmon.ui.plots import JOINTS
-from gaitmon.ui.review.model import Analysis
 from gaitmon.ui.theme import Colours, pen
+
+if TYPE_CHECKING:
+    from gaitmon.normative import NormativeBands
 
 MAX_STRIDES_DRAWN = 300
 N_POINTS = 101
 
 
-class CyclePlots(pg.GraphicsLayoutWidget):
-    def __init__(self, colours: Colours, parent=None) -> None:
+class CyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgraph is untyped
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.colours = colours
         self.ci.setContentsMargins(2, 2, 8, 2)
@@ -45,7 +50,7 @@ class CyclePlots(pg.GraphicsLayoutWidget):
         self.norm_lower: list[pg.PlotCurveItem] = []
         self.norm_upper: list[pg.PlotCurveItem] = []
         self.norm_mean: list[pg.PlotCurveItem] = []
-        self._bands = None
+        self._bands: NormativeBands | None = None
         self._analysis: Analysis | None = None
         norm_c = QColor(colours.foreground)
         norm_c.setAlpha(50)
@@ -98,7 +103,7 @@ class CyclePlots(pg.GraphicsLayoutWidget):
             self.mean.append(mean)
             self.toe_off.append(toe)
 
-    def set_normative(self, bands) -> None:
+    def set_normative(self, bands: NormativeBands | None) -> None:
         """Draw a normative mean ± SD band (``gaitmon.normative.NormativeBands``) behind the
         patient's curves; None removes it. Joints the file does not give stay empty."""
         for j in range(len(JOINTS)):

@@ -1,13 +1,16 @@
-"""The export dialog: a session to CSV, MATLAB .mat or C3D, in a worker thread with Cancel.
+"""The export dialog: a session to CSV, MATLAB .mat or C3D, on a worker with Cancel.
 
-``gaitmon.io.export.export_session`` does the work (the same code as ``gaitmon export``). It
-calls ``progress(fraction)`` as it goes and, if that callback raises, discards every temporary
-output and re-raises, so Cancel works by raising :class:`ExportCancelled` from the callback at
-its next call: nothing is left under the final name. Progress is reported per chunk (16 384
+``gaitmon.io.export.export_session`` does the work (the same code as ``gaitmon export``) on a
+:class:`gaitmon.ui.jobs.QtWorker`. It reports ``progress(fraction)`` as it goes and asks
+``cancel()`` at the same points; once Cancel was clicked it discards every temporary output and
+raises ``ExportCancelled`` (a :class:`gaitmon.errors.Cancelled`): nothing is left under the
+final name. Progress is reported per chunk (16 384
 rows for CSV, per series for MAT, per part for C3D); opening the file (which may first recover
 an interrupted recording) and writing the last MAT/C3D piece cannot be interrupted, so a
-cancel waits for the next progress call. The GUI stays responsive throughout: the worker
-touches no widget and hands progress and the result over through queued signals.
+cancel waits for the next progress call. The cancelled request is still the one the dialog
+waits for (Cancel is a flag the request reads, not :meth:`QtWorker.cancel`), so its
+``Cancelled`` response arrives and the dialog says so. The GUI stays responsive throughout: the
+worker touches no widget. One worker per export; it ends when the export's response arrives.
 """
 
 from __future__ import annotations
@@ -16,7 +19,8 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
-from PySide6.QtCore import QObject, Qt, Signal, Slot
+from PySide6.QtCore import Qt, Signal, Slot
+from PySide6.QtGui import QCloseEvent
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
@@ -33,18 +37,10 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from gaitmon.errors import Cancelled
 from gaitmon.io.export import FORMATS, ExportError, ExportResult, export_session
-
-
-class ExportCancelled(Exception):
-    """Raised from the progress callback to stop an export (export_session discards its files)."""
-
-
-class _Bridge(QObject):
-    """Carries the worker's news to the GUI thread (queued: emitted from the worker)."""
-
-    progressed = Signal(float)
-    done = Signal(object, object)  # ExportResult | None, BaseException | None
+from gaitmon.jobs import Response, Ticket
+from gaitmon.ui.jobs import QtWorker
 
 
 class ExportDialog(QDialog):
@@ -65,11 +61,8 @@ class ExportDialog(QDialog):
         self.session_path = Path(session_path)
         # the export function is injectable so tests can slow it down or gate it
         self._export_fn = export_fn or export_session
-        self._thread: threading.Thread | None = None
+        self._worker: QtWorker | None = None  # while an export runs
         self._cancel = threading.Event()
-        self._bridge = _Bridge(self)
-        self._bridge.progressed.connect(self._on_progress, Qt.ConnectionType.QueuedConnection)
-        self._bridge.done.connect(self._on_done, Qt.ConnectionType.QueuedConnection)
         self.result_: ExportResult | None = None
         self._build()
         self._on_format_changed()
@@ -164,7 +157,7 @@ class ExportDialog(QDialog):
 
     @property
     def is_running(self) -> bool:
-        return self._thread is not None
+        return self._worker is not None
 
     @Slot()
     def start_export(self) -> None:
@@ -183,25 +176,15 @@ class ExportDialog(QDialog):
         self.progress_bar.setValue(0)
         self.status_label.setText(f"Exporting to {out.name}…")
         self._set_running(True)
-        bridge, cancel, export_fn = self._bridge, self._cancel, self._export_fn
+        cancel, export_fn = self._cancel, self._export_fn
 
-        def progress(fraction: float) -> None:
-            if cancel.is_set():
-                raise ExportCancelled
-            bridge.progressed.emit(float(fraction))
+        def job(ticket: Ticket) -> ExportResult:
+            return export_fn(src, fmt, out, deidentify=deidentify, force=force,
+                             progress=ticket.progress, cancel=cancel.is_set)  # fmt: skip
 
-        def work() -> None:
-            try:
-                result = export_fn(
-                    src, fmt, out, deidentify=deidentify, force=force, progress=progress
-                )
-            except BaseException as exc:  # handed to the GUI thread, which reports it
-                bridge.done.emit(None, exc)
-            else:
-                bridge.done.emit(result, None)
-
-        self._thread = threading.Thread(target=work, name="gaitmon-export", daemon=True)
-        self._thread.start()
+        self._worker = QtWorker("export", latest=False, parent=self)
+        self._worker.progressed.connect(self._on_progress)
+        self._worker.submit(job, self._on_done)
 
     @Slot()
     def cancel(self) -> None:
@@ -212,23 +195,23 @@ class ExportDialog(QDialog):
             self.cancel_button.setEnabled(False)
 
     def wait(self, timeout_s: float = 30.0) -> bool:
-        """Join the worker (used when closing); True if none is left running."""
-        th = self._thread
-        if th is not None:
-            th.join(timeout_s)
-            return not th.is_alive()
+        """Wait for the running export (used when closing); True if none is left running."""
+        worker = self._worker
+        if worker is not None:
+            return worker.wait_idle(timeout_s)
         return True
 
     @Slot(float)
     def _on_progress(self, fraction: float) -> None:
         self.progress_bar.setValue(round(1000 * min(max(fraction, 0.0), 1.0)))
 
-    @Slot(object, object)
-    def _on_done(self, result: ExportResult | None, exc: BaseException | None) -> None:
-        if self._thread is not None:
-            self._thread.join()
-            self._thread = None
+    def _on_done(self, response: Response[ExportResult]) -> None:
+        worker, self._worker = self._worker, None
+        if worker is not None:
+            worker.stop()  # idle: the request has answered; this ends its thread
         self._set_running(False)
+        exc = response.error
+        result = response.value
         if exc is None and result is not None:
             self.result_ = result
             self.progress_bar.setValue(1000)
@@ -236,7 +219,7 @@ class ExportDialog(QDialog):
             note = f" (note: {'; '.join(result.problems)})" if result.problems else ""
             self.status_label.setText(f"Exported {result.n_samples} samples to {names}{note}")
             self.export_finished.emit(result)
-        elif isinstance(exc, ExportCancelled):
+        elif isinstance(exc, Cancelled):
             self.progress_bar.setValue(0)
             self._fail("export cancelled; no file was written")
         elif isinstance(exc, ExportError):
@@ -249,7 +232,7 @@ class ExportDialog(QDialog):
         self.status_label.setText(message)
         self.export_failed.emit(message)
 
-    def closeEvent(self, event) -> None:
+    def closeEvent(self, event: QCloseEvent) -> None:
         if self.is_running:
             self.cancel()
             event.ignore()  # closes once the worker has stopped; Close is disabled meanwhile

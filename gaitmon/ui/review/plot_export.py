@@ -12,6 +12,7 @@ import importlib
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pyqtgraph as pg
 import pyqtgraph.exporters as pg_exporters
@@ -52,12 +53,12 @@ def _patch_svg_exporter() -> None:
     if original is None or getattr(original, "_gaitmon_patched", False):
         return
 
-    def correct_coordinates(node, defs, item, options=None):
+    def correct_coordinates(node: Any, defs: Any, item: Any, options: Any = None) -> Any:
         _close_paths_explicitly(node)
         return original(node, defs, item, options)
 
     correct_coordinates._gaitmon_patched = True  # type: ignore[attr-defined]
-    module.correctCoordinates = correct_coordinates
+    module.__dict__["correctCoordinates"] = correct_coordinates
 
 
 class PlotExportError(Exception):

@@ -14,7 +14,7 @@ from PySide6.QtGui import QColor, QFont
 from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableView, QWidget
 
 from gaitmon.analysis import StrideRow
-from gaitmon.ui.review.model import Analysis
+from gaitmon.review.model import Analysis
 from gaitmon.ui.theme import Colours
 
 # (header, tooltip)
@@ -175,13 +175,14 @@ def summary_html(a: Analysis | None, before: Analysis | None = None, note: str =
         rows = [
             ("Strides analysed", f"<b>{s.n_strides}</b> of {n_all} ({a.n_excluded} excluded)"),
             ("Stride time", f"{s.stride_time_mean_s:.3f}{sd} s"),
-            ("CV of stride time", cmp(s.stride_time_cv_pct, b and b.stride_time_cv_pct, ".1f")
-             + " %"),
-            ("Stance", cmp(s.stance_pct_mean, b and b.stance_pct_mean, ".1f") + " % of stride"),
-            ("Swing", cmp(s.swing_pct_mean, b and b.swing_pct_mean, ".1f") + " %"),
+            ("CV of stride time",
+             cmp(s.stride_time_cv_pct, b.stride_time_cv_pct if b else None, ".1f") + " %"),
+            ("Stance",
+             cmp(s.stance_pct_mean, b.stance_pct_mean if b else None, ".1f") + " % of stride"),
+            ("Swing", cmp(s.swing_pct_mean, b.swing_pct_mean if b else None, ".1f") + " %"),
             ("Cadence (derived)",
-             cmp(s.cadence_derived_steps_per_min, b and b.cadence_derived_steps_per_min, ".0f")
-             + " steps/min"),
+             cmp(s.cadence_derived_steps_per_min,
+                 b.cadence_derived_steps_per_min if b else None, ".0f") + " steps/min"),
             ("Knee peak in swing", _f(knee_mean, ".1f") + "°"),
         ]  # fmt: skip
         body = "<table cellspacing=2>" + "".join(

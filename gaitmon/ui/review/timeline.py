@@ -1,31 +1,31 @@
 """The review timeline: a whole-session overview over x-linked detail lanes, one shared cursor.
 
 Only the visible range is ever read. A change of the detail range (pan, zoom, overview drag,
-a stride picked in the table) becomes a :class:`ViewRequest` for the rows in view; the view
-worker answers it from :class:`gaitmon.io.overview.SessionOverview` (raw rows when few, min/max
-decimated otherwise, at most ~2 points per pixel) and the response is applied on the GUI
-thread, unless a newer request overtook it. Until then the previous data stay drawn (x is time,
-so they pan with the view).
+a stride picked in the table) becomes a :class:`~gaitmon.review.view.ViewRequest` for the rows
+in view; the view worker answers it (:func:`gaitmon.review.view.load_view`, from
+:class:`gaitmon.io.overview.SessionOverview`: raw rows when few, min/max decimated otherwise, at
+most ~2 points per pixel) and the response is applied on the GUI thread, unless a newer request
+overtook it. Until then the previous data stay drawn (x is time, so they pan with the view).
 
 Each lane's traces are drawn by one `TraceSet` (see :mod:`gaitmon.ui.plots`); gaps, user
-exclusions, the selection and the picked stride are shaded by one :class:`ShadeItem` per plot,
+exclusions, the selection and the picked stride are shaded by one
+:class:`~gaitmon.ui.review.lanes.ShadeItem` per plot,
 which draws only the spans in view. Gait events are drawn when the view is at most
 ``EVENTS_MAX_S`` wide, phase bands when the rows in view are at most ``PHASE_MAX_ROWS``.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import QRectF, Qt, QTimer, Signal
-from PySide6.QtGui import QBrush, QColor, QPainter
+from PySide6.QtCore import Qt, QTimer, Signal
+from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
     QComboBox,
-    QGraphicsItem,
     QHBoxLayout,
     QLabel,
     QVBoxLayout,
@@ -33,139 +33,23 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.dsp.channels import CHANNELS
-from gaitmon.io.overview import Cancelled, PeakWindow
+from gaitmon.errors import Cancelled
+from gaitmon.io.overview import PeakWindow
+from gaitmon.jobs import Response
+from gaitmon.review.model import JOINT, Document, Source
+from gaitmon.review.view import SEGMENTS, ViewData, ViewRequest, load_view, readout_html
+from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_band
 from gaitmon.ui.plots import vertical_lines as _vlines
-from gaitmon.ui.review.model import JOINT, OVERVIEW_SERIES, Document, Source
-from gaitmon.ui.review.workers import LatestWorker, Ticket
+from gaitmon.ui.review.lanes import Lane, TraceSpec, lane_plot, line_pen
+from gaitmon.ui.review.overview_plot import OverviewPlot
 from gaitmon.ui.theme import Colours, pen
 
-SEGMENTS = ("body", "thigh", "shank", "foot")
-PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")
 EVENTS_MAX_S = 180.0  # wider views would be solid with event lines
 PHASE_MAX_ROWS = 30_000  # phase bands need every row; beyond this they are left out
 MIN_POINTS, MAX_POINTS = 600, 4000
 INITIAL_VIEW_S = 30.0
-AXIS_WIDTH_PX = 58
 RAW_RANGE = (-100.0, 4200.0)
-
-
-class TimeAxis(pg.AxisItem):
-    """Seconds from the session start, written h:mm:ss once the ticks are a minute apart."""
-
-    def tickStrings(self, values, scale, spacing):
-        if spacing < 60:
-            return super().tickStrings(values, scale, spacing)
-        out = []
-        for v in values:
-            s = round(v)
-            h, rem = divmod(abs(s), 3600)
-            m, sec = divmod(rem, 60)
-            sign = "-" if s < 0 else ""
-            out.append(f"{sign}{h}:{m:02d}:{sec:02d}" if h else f"{sign}{m}:{sec:02d}")
-        return out
-
-
-class ShadeItem(pg.GraphicsObject):
-    """Vertical bands (x spans over the full height) in layers; only spans in view are drawn."""
-
-    _BIG = QRectF(-1e9, -1e9, 2e9, 2e9)
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.layers: dict[str, tuple[np.ndarray, QBrush]] = {}
-        self.setZValue(-10)
-
-    def set_layer(self, name: str, spans: np.ndarray, colour: QColor) -> None:
-        spans = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
-        order = np.argsort(spans[:, 0], kind="stable")
-        self.layers[name] = (spans[order], QBrush(colour))
-        self.update()
-
-    def spans(self, name: str) -> np.ndarray:
-        return self.layers.get(name, (np.empty((0, 2)), None))[0]
-
-    def boundingRect(self) -> QRectF:
-        return self._BIG
-
-    def paint(self, p: QPainter, *args: object) -> None:
-        vb = self.getViewBox()
-        if vb is None:
-            return
-        view = vb.viewRect()
-        x0, x1 = view.left(), view.right()
-        # at least one pixel wide, so a one-frame gap stays visible when zoomed out
-        px = view.width() / max(1.0, vb.width())
-        p.setPen(Qt.PenStyle.NoPen)
-        for spans, brush in self.layers.values():
-            if not len(spans):
-                continue
-            lo = int(np.searchsorted(spans[:, 0], x1, side="right"))
-            for a, b in spans[:lo]:
-                if b < x0:
-                    continue
-                w = max(b - a, px)
-                p.fillRect(QRectF(a, view.top(), w, view.height()), brush)
-
-
-class LaneViewBox(pg.ViewBox):
-    """x pan/zoom with the mouse; Shift+drag selects a time range; a click places the cursor."""
-
-    selection_dragged = Signal(float, float, bool)  # t0, t1, finished
-    clicked = Signal(float)
-
-    def mouseDragEvent(self, ev, axis=None):
-        if ev.button() == Qt.MouseButton.LeftButton and (
-            ev.modifiers() & Qt.KeyboardModifier.ShiftModifier
-        ):
-            ev.accept()
-            a = self.mapSceneToView(ev.buttonDownScenePos()).x()
-            b = self.mapSceneToView(ev.scenePos()).x()
-            self.selection_dragged.emit(min(a, b), max(a, b), ev.isFinish())
-            return
-        super().mouseDragEvent(ev, axis)
-
-    def mouseClickEvent(self, ev):
-        if ev.button() == Qt.MouseButton.LeftButton:
-            ev.accept()
-            self.clicked.emit(self.mapSceneToView(ev.scenePos()).x())
-            return
-        super().mouseClickEvent(ev)
-
-
-@dataclass
-class TraceSpec:
-    series: str
-    column: int
-    colour: QColor
-    method: str = ""  # "kalman" / "acc" / "gyro": toggled together; "" always shown
-    before: bool = False  # the recorded series under a reprocessed one (comparison)
-
-
-@dataclass
-class Lane:
-    key: str
-    title: str
-    yrange: tuple[float, float]
-    plot: pg.PlotItem
-    traces: TraceSet
-    specs: list[tuple[TraceSpec, Trace]] = field(default_factory=list)
-    shade: ShadeItem = field(default_factory=ShadeItem)
-    cursor: pg.InfiniteLine | None = None
-    events_hs: Trace | None = None
-    events_to: Trace | None = None
-    markers: Trace | None = None
-    bands: list[tuple[Trace, int]] = field(default_factory=list)
-    missing: pg.TextItem | None = None
-
-
-@dataclass(frozen=True)
-class ViewRequest:
-    start: int
-    stop: int
-    max_points: int
-    series: tuple[tuple[str, str], ...]  # (source label, series name)
-    phase: bool
 
 
 class Timeline(QWidget):
@@ -195,7 +79,7 @@ class Timeline(QWidget):
         self._syncing = False
         self._fitted_y = False
         self._request_id = 0
-        self.loader = LatestWorker("view", self)
+        self.loader = QtWorker("review-view", latest=True, parent=self)
         self.loader.progressed.connect(self.progress)
         self.loader.busy_changed.connect(self.busy_changed)
 
@@ -232,24 +116,9 @@ class Timeline(QWidget):
 
     # -- construction --------------------------------------------------------------------------
 
-    def _plot(self, row: int, vb: pg.ViewBox | None = None) -> pg.PlotItem:
-        p = pg.PlotItem(viewBox=vb or LaneViewBox(), axisItems={"bottom": TimeAxis("bottom")})
+    def _plot(self, row: int) -> pg.PlotItem:
+        p = lane_plot(self.colours)
         self.glw.addItem(p, row=row, col=0)
-        p.hideButtons()
-        p.showGrid(x=True, y=True, alpha=self.colours.grid_alpha)
-        p.setMenuEnabled(True)
-        vb = p.getViewBox()
-        vb.disableAutoRange()
-        vb.setDefaultPadding(0.0)
-        left = p.getAxis("left")
-        left.setWidth(AXIS_WIDTH_PX)
-        left.enableAutoSIPrefix(False)
-        # The axes draw the grid, and replaying their pictures was ~85 % of a pan frame
-        # (measured: 3 ms per axis per paint): major ticks only, and the y axes (which do not
-        # change while panning) cached as pixmaps, as the live window does.
-        for name in ("left", "bottom"):
-            p.getAxis(name).setStyle(maxTickLevel=0)
-        left.setCacheMode(QGraphicsItem.CacheMode.DeviceCoordinateCache)
         return p
 
     def _lane(self, key: str, title: str, yrange: tuple[float, float], tip: str) -> Lane:
@@ -288,36 +157,19 @@ class Timeline(QWidget):
         if spec.before:
             colour = QColor(self.colours.foreground)
             colour.setAlpha(110)
-        tr = lane.traces.add(Trace(pen(colour, dashed=dashed), series=spec.series,
+        tr = lane.traces.add(Trace(line_pen(colour, dashed=dashed), series=spec.series,
                                    column=spec.column, method=spec.method))  # fmt: skip
         lane.specs.append((spec, tr))
 
     def _build(self) -> None:
         c = self.colours
         # overview: the knee over the whole session, the detail range as a draggable region
-        ov = self._plot(0)
-        ov.setMouseEnabled(x=False, y=False)
-        ov.setMaximumHeight(92)
-        ov.getAxis("left").setLabel("knee (°)")
-        ov.setToolTip(
-            "The whole session (knee flexion, min/max envelope). Drag the highlighted region to "
-            "move the detail view; shaded: gaps (lost data) and excluded ranges."
-        )
-        self.overview = ov
-        self.overview_shade = ShadeItem()
-        ov.addItem(self.overview_shade, ignoreBounds=True)
-        self.overview_curve = pg.PlotCurveItem(pen=pen(c.kalman), skipFiniteCheck=False)
-        ov.addItem(self.overview_curve)
-        self.overview_markers = pg.PlotCurveItem(pen=pen(c.marker), connect="pairs")
-        ov.addItem(self.overview_markers, ignoreBounds=True)
-        brush = QColor(c.band)
-        brush.setAlpha(50)
-        self.region = pg.LinearRegionItem(values=(0, 1), brush=brush, movable=True)
-        self.region.setZValue(10)
+        self.strip = OverviewPlot(self._plot(0), c)
+        self.overview = self.strip.plot
+        self.region = self.strip.region
         self.region.sigRegionChanged.connect(self._region_moved)
-        ov.addItem(self.region, ignoreBounds=True)
-        ov.getViewBox().clicked.connect(self._overview_clicked)
-        self.overview_cursor = self._cursor_line(ov)
+        self.overview.getViewBox().clicked.connect(self._overview_clicked)
+        self.overview_cursor = self._cursor_line(self.overview)
 
         for j, (key, _label, yr) in enumerate(JOINTS):
             sign = "dorsiflexion" if key == "ankle" else "flexion"
@@ -327,13 +179,13 @@ class Timeline(QWidget):
                 "red/blue (View menu): accelerometer / gyro integration. Grey lines: heel strike "
                 "(solid) and toe off (dashed).",
             )  # fmt: skip
-            lane.events_hs = lane.traces.add(Trace(pen(c.event)))
-            lane.events_to = lane.traces.add(Trace(pen(c.event, dashed=True)))
+            lane.events_hs = lane.traces.add(Trace(line_pen(c.event)))
+            lane.events_to = lane.traces.add(Trace(line_pen(c.event, dashed=True)))
             self._add(lane, TraceSpec(JOINT, j, c.kalman, before=True), dashed=True)
             self._add(lane, TraceSpec("processed/joint_gyro_deg", j, c.gyro, "gyro"))
             self._add(lane, TraceSpec("processed/joint_acc_deg", j, c.acc, "acc"))
             self._add(lane, TraceSpec(JOINT, j, c.kalman, "kalman"))
-            lane.markers = lane.traces.add(Trace(pen(c.marker)))
+            lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
         lane = self._lane(
             "tilt", "thigh tilt (°)", TILT_RANGES_DEG["thigh"],
             "Segment tilt (choose the segment above): red accelerometer, green Kalman filter, "
@@ -343,7 +195,7 @@ class Timeline(QWidget):
         self._add(lane, TraceSpec("processed/tilt_gyro_deg", 1, c.gyro))
         self._add(lane, TraceSpec("processed/tilt_acc_deg", 1, c.acc))
         self._add(lane, TraceSpec("processed/tilt_deg", 1, c.kalman))
-        lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
         lane = self._lane(
             "fsr", "FSR (counts)", FSR_RANGE,
             "Foot sensors (low-passed ADC counts): heel red, toe green. Shading: gait phase "
@@ -351,13 +203,13 @@ class Timeline(QWidget):
         )  # fmt: skip
         for k, colour in enumerate(c.phases, start=1):
             lane.bands.append((lane.traces.add(Trace(brush=colour, fill_level=FSR_RANGE[0])), k))
-        lane.events_hs = lane.traces.add(Trace(pen(c.heel)))
-        lane.events_to = lane.traces.add(Trace(pen(c.toe, dashed=True)))
+        lane.events_hs = lane.traces.add(Trace(line_pen(c.heel)))
+        lane.events_to = lane.traces.add(Trace(line_pen(c.toe, dashed=True)))
         self._add(lane, TraceSpec("processed/fsr_counts", 0, c.heel, before=True), dashed=True)
         self._add(lane, TraceSpec("processed/fsr_counts", 1, c.toe, before=True), dashed=True)
         self._add(lane, TraceSpec("processed/fsr_counts", 0, c.heel))
         self._add(lane, TraceSpec("processed/fsr_counts", 1, c.toe))
-        lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
         self.threshold_line = pg.InfiniteLine(
             pos=1000.0, angle=0, pen=pen(c.event, dashed=True), movable=False
         )
@@ -374,7 +226,7 @@ class Timeline(QWidget):
             else:
                 col = c.heel if ch.segment == "heel" else c.toe
             self._add(lane, TraceSpec("raw/adc", ch.index, col))
-        lane.markers = lane.traces.add(Trace(pen(c.marker)))
+        lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
         self.set_lane_visible("raw", False)
         for lane in self.lanes.values():
             lane.missing = pg.TextItem("", color=c.foreground, anchor=(0.5, 0.5))
@@ -454,9 +306,7 @@ class Timeline(QWidget):
             lane.shade.update()
             if lane.cursor is not None:
                 lane.cursor.setVisible(False)
-        self.overview_curve.setData([], [])
-        self.overview_markers.setData([], [])
-        self.overview_shade.layers.clear()
+        self.strip.clear()
         self.overview_cursor.setVisible(False)
         for item in self._marker_labels:
             self.lanes["hip"].plot.removeItem(item)
@@ -478,14 +328,14 @@ class Timeline(QWidget):
             p.getViewBox().setLimits(
                 xMin=t0 - pad, xMax=t1 + pad, minXRange=0.2, maxXRange=t1 - t0 + 2 * pad
             )
-        self.overview.setXRange(t0, t1, padding=0.01)
-        self.region.setBounds((t0 - pad, t1 + pad))
+        self.strip.set_extent(t0, t1, pad)
         src = doc.recorded
         for lane in self.lanes.values():
             primary = [s for s, _ in lane.specs if s.method in ("", "kalman") and not s.before]
             absent = bool(primary) and not any(src.has(s.series) for s in primary)
-            lane.missing.setText(f"not recorded in mode {doc.session.mode!r}" if absent else "")
-            lane.missing.setVisible(absent)
+            if lane.missing is not None:
+                lane.missing.setText(f"not recorded in mode {doc.session.mode!r}" if absent else "")
+                lane.missing.setVisible(absent)
         self.refresh_overview()
         self.refresh_shading()
         self._draw_markers()
@@ -494,24 +344,8 @@ class Timeline(QWidget):
         self._schedule()
 
     def refresh_overview(self) -> None:
-        doc = self.doc
-        if doc is None or not doc.n_rows:
-            return
-        src = doc.current
-        ov = src.overview if src.overview.has_pyramid(OVERVIEW_SERIES) else None
-        if ov is None:
-            ov = doc.recorded.overview
-        if not ov.has_pyramid(OVERVIEW_SERIES):
-            return
-        w = ov.pyramid(OVERVIEW_SERIES).query(0, doc.n_rows, 2 * max(400, self.glw.width()))
-        x = doc.t_s[np.minimum(w.idx, doc.n_rows - 1)]
-        y = w.y[:, 1].astype(np.float64)
-        self.overview_curve.setData(x, y, connect="finite")
-        fin = y[np.isfinite(y)]
-        if len(fin):
-            lo, hi = float(fin.min()), float(fin.max())
-            pad = 0.08 * max(hi - lo, 1.0)
-            self.overview.setYRange(lo - pad, hi + pad, padding=0)
+        if self.doc is not None:
+            self.strip.draw(self.doc, self.glw.width())
 
     def refresh_shading(self) -> None:
         """Gaps, user exclusions, the selection and the picked stride, in every plot."""
@@ -531,7 +365,7 @@ class Timeline(QWidget):
             dtype=np.float64,
         ).reshape(-1, 2)  # fmt: skip
         sel = np.array([self.selection] if self.selection else [], dtype=np.float64).reshape(-1, 2)
-        for item in [self.overview_shade, *(ln.shade for ln in self.lanes.values())]:
+        for item in [self.strip.shade, *(ln.shade for ln in self.lanes.values())]:
             item.set_layer("gaps", doc.gap_spans_s, gap_c)
             item.set_layer("excluded", ex, ex_c)
             item.set_layer("selection", sel, sel_c)
@@ -548,8 +382,7 @@ class Timeline(QWidget):
             return
         ms = doc.session.markers
         xs = np.array([m.t_s for m in ms], dtype=np.float64)
-        lo, hi = -1e6, 1e6
-        self.overview_markers.setData(*_vlines(xs, lo, hi), connect="pairs")
+        self.strip.set_markers(xs)
         hip = self.lanes["hip"].plot
         for m in ms:
             item = pg.TextItem(m.label or "marker", color=self.colours.marker, anchor=(0, 0))
@@ -644,30 +477,21 @@ class Timeline(QWidget):
         self.request_log.append((rid, time.perf_counter()))
         del self.request_log[:-256]
 
-        def job(ticket: Ticket) -> dict:
-            out: dict = {"id": rid, "req": req, "doc": doc, "windows": {}}
-            for label, name in req.series:
-                if not ticket.wanted:
-                    raise Cancelled
-                out["windows"][(label, name)] = sources[label].overview.window(
-                    name, req.start, req.stop, req.max_points, progress=ticket.progress
-                )
-            if req.phase:
-                out["phase"] = cur.read_rows("processed/phase", req.start, req.stop)[:, 0]
-            return out
-
+        job = functools.partial(load_view, rid, req, doc, sources, cur)
         self.loader.submit(job, self._apply)
 
-    def _apply(self, resp: dict | None, exc: BaseException | None) -> None:
+    def _apply(self, response: Response[ViewData]) -> None:
+        exc = response.error
         if exc is not None:
             if not isinstance(exc, Cancelled):
                 self.failed.emit(f"cannot show this range: {exc}")
             return
         doc = self.doc
-        if resp is None or doc is None or resp["doc"] is not doc:
+        resp = response.value
+        if resp is None or doc is None or resp.doc is not doc:
             return
-        req: ViewRequest = resp["req"]
-        self.last_window = resp["windows"]
+        req = resp.request
+        self.last_window = resp.windows
         t_s = doc.t_s
         cur = doc.current
         for lane in self.visible_lanes():
@@ -684,7 +508,7 @@ class Timeline(QWidget):
                 tr.set(t_s[w.idx], y, finite=fin)
         self._draw_events(cur, req)
         fsr = self.lanes["fsr"]
-        phase = resp.get("phase")
+        phase = resp.phase
         for tr, k in fsr.bands:
             if phase is not None and len(phase):
                 x = t_s[req.start : req.stop]
@@ -701,7 +525,7 @@ class Timeline(QWidget):
             self._fitted_y = True
             self.fit_y()
         self.applied_requests += 1
-        self.loaded.emit(resp["id"])
+        self.loaded.emit(resp.request_id)
 
     def _draw_events(self, src: Source, req: ViewRequest) -> None:
         doc = self.doc
@@ -709,42 +533,19 @@ class Timeline(QWidget):
         x0, x1 = self.view_range()
         show = (x1 - x0) <= EVENTS_MAX_S
         for lane in self.lanes.values():
-            if lane.events_hs is None or lane.events_to is None:
-                continue
-            if not show:
-                lane.events_hs.clear()
-                lane.events_to.clear()
-                continue
-            lo, hi = -1e6, 1e6
-            pairs = ((lane.events_hs, src.heel_strike_idx), (lane.events_to, src.toe_off_idx))
-            for tr, idx in pairs:
-                a, b = np.searchsorted(idx, [req.start, req.stop])
-                sel = idx[a:b]
-                sel = sel[sel < doc.n_rows]
-                tr.set(*_vlines(doc.t_s[sel], lo, hi), connect="pairs")
+            if show:
+                lane.set_events(doc.t_s, src.heel_strike_idx, src.toe_off_idx, req.start,
+                                req.stop)  # fmt: skip
+            else:
+                lane.clear_events()
 
     def fit_y(self) -> None:
         """Fit each lane's y range to the data in view (Home)."""
+        mid_t_s = sum(self.view_range()) / 2
         for lane in self.visible_lanes():
-            ys = [tr.path for _s, tr in lane.specs if tr.visible and tr.path is not None]
-            if not ys:
-                lane.plot.setYRange(*lane.yrange, padding=0)
-                continue
-            rect = ys[0].boundingRect()
-            for path in ys[1:]:
-                rect = rect.united(path.boundingRect())
-            lo, hi = rect.top(), rect.bottom()
-            if not (math.isfinite(lo) and math.isfinite(hi)) or hi - lo < 1e-6:
-                lane.plot.setYRange(*lane.yrange, padding=0)
-                continue
-            pad = 0.08 * (hi - lo)
-            lane.plot.setYRange(lo - pad, hi + pad, padding=0)
-            if lane.missing is not None:
-                lane.missing.setPos(sum(self.view_range()) / 2, (lo + hi) / 2)
+            lane.fit_y(mid_t_s)
         for lane in self.lanes.values():
-            if lane.missing is not None and lane.missing.isVisible():
-                (y0, y1) = lane.plot.getViewBox().viewRange()[1]
-                lane.missing.setPos(sum(self.view_range()) / 2, (y0 + y1) / 2)
+            lane.centre_missing(mid_t_s)
 
     # -- cursor and selection ------------------------------------------------------------------
 
@@ -767,33 +568,9 @@ class Timeline(QWidget):
 
     def readout_text(self) -> str:
         """The time and the values at the cursor, read from the current series (exact row)."""
-        doc = self.doc
-        if doc is None or not math.isfinite(self.cursor_t_s):
+        if self.doc is None:
             return ""
-        i = doc.row_at(self.cursor_t_s)
-        src = doc.current
-        t = float(doc.t_s[i])
-        h, rem = divmod(t, 3600)
-        m, s = divmod(rem, 60)
-        clock = f"{int(h)}:{int(m):02d}:{s:06.3f}" if h else f"{int(m)}:{s:06.3f}"
-        parts = [f"<b>t {t:.2f} s</b> ({clock}, row {i})"]
-        if src.has(JOINT):
-            j = src.read_rows(JOINT, i, i + 1)[0]
-            parts.append(" · ".join(f"{n} {v:+.1f}°" for n, v in zip(("hip", "knee", "ankle"),
-                                                                     j, strict=True)))  # fmt: skip
-        if src.has("processed/tilt_deg"):
-            v = src.read_rows("processed/tilt_deg", i, i + 1)[0, self.segment]
-            parts.append(f"{SEGMENTS[self.segment]} tilt {v:+.1f}°")
-        if src.has("processed/fsr_counts"):
-            f = src.read_rows("processed/fsr_counts", i, i + 1)[0]
-            parts.append(f"heel {f[0]:.0f} · toe {f[1]:.0f}")
-        if src.has("processed/phase"):
-            ph = int(src.read_rows("processed/phase", i, i + 1)[0, 0])
-            if 0 <= ph < len(PHASE_NAMES):
-                parts.append(PHASE_NAMES[ph])
-        if src is not doc.recorded:
-            parts.append("<i>reprocessed</i>")
-        return " &nbsp;|&nbsp; ".join(parts)
+        return readout_html(self.doc, self.cursor_t_s, self.segment)
 
     def _selection_dragged(self, t0: float, t1: float, finished: bool) -> None:
         self.set_selection(t0, t1)
@@ -813,19 +590,16 @@ class Timeline(QWidget):
     # -- for tests and the benchmark -----------------------------------------------------------
 
     def trace_points(self, lane: str, series: str, column: int, before: bool = False) -> int:
-        for spec, tr in self.lanes[lane].specs:
-            if spec.series == series and spec.column == column and spec.before == before and (
-                spec.method in ("", "kalman")
-            ):
-                return tr.n_points if tr.visible else 0
+        n = self.lanes[lane].points(series, column, before)
+        if n is not None:
+            return n
         raise KeyError(f"no trace {series}[{column}] in lane {lane}")
 
     def overview_points(self) -> int:
-        x, _y = self.overview_curve.getData()
-        return 0 if x is None else len(x)
+        return self.strip.points()
 
     def shutdown(self) -> None:
         self.loader.stop()
 
 
-__all__ = ["ShadeItem", "TimeAxis", "Timeline", "ViewRequest"]
+__all__ = ["Timeline"]

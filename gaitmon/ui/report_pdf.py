@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +26,7 @@ from PySide6.QtGui import (
     QFontMetricsF,
     QGuiApplication,
     QImage,
+    QImageWriter,
     QPageLayout,
     QPageSize,
     QPaintDevice,
@@ -37,6 +38,8 @@ from PySide6.QtGui import (
 
 from gaitmon.analysis import FIRST, GAP, LAST, USER
 from gaitmon.report import JOINT_AXIS_LABELS, JOINT_TITLES, JointStat, ReportData
+
+ToPixels = Callable[[float, float], QPointF]  # plot coordinates -> page point
 
 PAGE_W_MM, PAGE_H_MM = 210.0, 297.0
 MARGIN_MM = 14.0
@@ -210,7 +213,7 @@ class _Page:
 # the cycle plot
 
 
-def _path(p: _Page, xs: np.ndarray, ys: np.ndarray, to_px) -> QPainterPath:
+def _path(p: _Page, xs: np.ndarray, ys: np.ndarray, to_px: ToPixels) -> QPainterPath:
     path = QPainterPath()
     started = False
     for x, y in zip(xs, ys, strict=True):
@@ -226,7 +229,7 @@ def _path(p: _Page, xs: np.ndarray, ys: np.ndarray, to_px) -> QPainterPath:
     return path
 
 
-def _band(xs: np.ndarray, lo: np.ndarray, hi: np.ndarray, to_px) -> QPainterPath:
+def _band(xs: np.ndarray, lo: np.ndarray, hi: np.ndarray, to_px: ToPixels) -> QPainterPath:
     ok = np.isfinite(lo) & np.isfinite(hi)
     path = QPainterPath()
     if ok.sum() < 2:
@@ -741,7 +744,8 @@ def render_report_image(data: ReportData, dpi: float = 150.0) -> QImage:
 def write_report_png(data: ReportData, path: str | os.PathLike[str], *, dpi: float = 150.0) -> Path:
     path = Path(path)
     tmp = _tmp_path(path)
-    if not render_report_image(data, dpi).save(str(tmp), "PNG"):
+    # QImageWriter: QImage.save's format argument is typed as bytes but only takes a str
+    if not QImageWriter(str(tmp), b"PNG").write(render_report_image(data, dpi)):
         tmp.unlink(missing_ok=True)
         raise OSError(f"cannot write {path}")
     os.replace(tmp, path)

@@ -5,7 +5,7 @@
 * :class:`Source` - a set of per-sample series with their events: the recorded series, or a
   reprocessed set held in memory (the recording is never modified);
 * :func:`analyse` - strides with exclusions, summary and cycle-normalised curves for a source
-  (through :mod:`gaitmon.analysis`, as ``gaitmon info`` and the report use);
+  (:func:`gaitmon.analysis.analyse_session`, as ``gaitmon info`` and the report use);
 * :func:`reprocess` - the pipeline replayed over ``raw/adc`` with new settings
   (:func:`gaitmon.io.session.replay_pipeline`, as ``gaitmon process`` does).
 """
@@ -19,10 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from gaitmon.analysis import StrideRow, analyse_strides, cycles, summary
+from gaitmon.analysis import StrideRow, analyse_session, cycles, summary
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.overview import Cancelled, SessionOverview
+from gaitmon.errors import Cancelled
+from gaitmon.io.overview import SessionOverview
 from gaitmon.io.session import Session, SessionError, open_session, replay_pipeline
 from gaitmon.io.session import exclusions as excl
 
@@ -146,7 +147,7 @@ def open_document(path: str | Path, progress: Progress | None = None) -> Documen
         recorded = Source("recorded", read, names, n, s.heel_strike_idx, s.toe_off_idx, s.config)
         if n and recorded.has(OVERVIEW_SERIES):
             recorded.overview.pyramid(OVERVIEW_SERIES, progress=part(0.72, 1.0))
-        ranges, problem = excl.load(path, s.created_utc, n)
+        ranges, problem = s.exclusions()
         if problem:
             notes.append(problem)
         spans = []
@@ -193,15 +194,14 @@ def analyse(
     doc: Document, source: Source, exclusions: Sequence[excl.Exclusion], n_points: int = 101
 ) -> Analysis:
     joint = source.read_rows(JOINT, 0, source.n_rows) if source.has(JOINT) else None
-    rows = analyse_strides(
-        source.heel_strike_idx,
-        source.toe_off_idx,
-        doc.fs_hz,
-        joint,
-        [(g.sample_idx, g.duration_s) for g in doc.session.gaps],
-        [(r.start_idx, r.stop_idx) for r in exclusions],
+    # the same analysis as gaitmon info and the report, on this source's series and events
+    rows = analyse_session(
+        doc.session,
+        exclusions=list(exclusions),
+        joints=joint,
+        events=(source.heel_strike_idx, source.toe_off_idx),
         t_s=doc.t_s,
-    )
+    ).rows
     if joint is not None:
         cyc = cycles(joint, rows, n_points)
     else:
@@ -242,7 +242,9 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
     def read(name: str, a: int, b: int) -> np.ndarray:
         return out[name][a:b]
 
-    cat = lambda p: np.concatenate(p) if p else np.empty(0, np.int64)  # noqa: E731
+    def cat(parts: list[np.ndarray]) -> np.ndarray:
+        return np.concatenate(parts) if parts else np.empty(0, np.int64)
+
     return Source("reprocessed", read, tuple(out), n, cat(hs), cat(to), config)
 
 

@@ -1,0 +1,94 @@
+"""What the review timeline reads for the rows in view, and the readout at its cursor (Qt-free).
+
+A change of the detail range becomes a :class:`ViewRequest`; :func:`load_view` answers it on the
+timeline's worker from each source's :class:`gaitmon.io.overview.SessionOverview` (raw rows when
+few, min/max decimated otherwise) as a :class:`ViewData`. :func:`readout_html` is the line of
+values at the cursor, read from the current series at the exact row.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from gaitmon.errors import Cancelled
+from gaitmon.io.overview import PeakWindow
+from gaitmon.jobs import Ticket
+from gaitmon.review.model import JOINT, Document, Source
+
+SEGMENTS = ("body", "thigh", "shank", "foot")
+PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")
+PHASE = "processed/phase"
+
+
+@dataclass(frozen=True)
+class ViewRequest:
+    start: int
+    stop: int
+    max_points: int
+    series: tuple[tuple[str, str], ...]  # (source label, series name)
+    phase: bool
+
+
+@dataclass(frozen=True, eq=False)
+class ViewData:
+    """The answer to one :class:`ViewRequest` of one document."""
+
+    request_id: int
+    request: ViewRequest
+    doc: Document
+    windows: dict[tuple[str, str], PeakWindow]  # (source label, series name) -> rows drawn
+    phase: np.ndarray | None  # gait phase of every row in view (when asked for)
+
+
+def load_view(
+    request_id: int,
+    req: ViewRequest,
+    doc: Document,
+    sources: Mapping[str, Source],
+    current: Source,
+    ticket: Ticket,
+) -> ViewData:
+    """Read the request's series (raises :class:`Cancelled` once the request is overtaken)."""
+    windows: dict[tuple[str, str], PeakWindow] = {}
+    for label, name in req.series:
+        if not ticket.wanted:
+            raise Cancelled("overtaken by a newer view")
+        windows[(label, name)] = sources[label].overview.window(
+            name, req.start, req.stop, req.max_points, progress=ticket.progress
+        )
+    phase = current.read_rows(PHASE, req.start, req.stop)[:, 0] if req.phase else None
+    return ViewData(request_id, req, doc, windows, phase)
+
+
+def readout_html(doc: Document, cursor_t_s: float, segment: int) -> str:
+    """The time and the values at the cursor, read from the current series (exact row)."""
+    if not math.isfinite(cursor_t_s):
+        return ""
+    i = doc.row_at(cursor_t_s)
+    src = doc.current
+    t = float(doc.t_s[i])
+    h, rem = divmod(t, 3600)
+    m, s = divmod(rem, 60)
+    clock = f"{int(h)}:{int(m):02d}:{s:06.3f}" if h else f"{int(m)}:{s:06.3f}"
+    parts = [f"<b>t {t:.2f} s</b> ({clock}, row {i})"]
+    if src.has(JOINT):
+        j = src.read_rows(JOINT, i, i + 1)[0]
+        parts.append(" · ".join(f"{n} {v:+.1f}°" for n, v in zip(("hip", "knee", "ankle"),
+                                                                 j, strict=True)))  # fmt: skip
+    if src.has("processed/tilt_deg"):
+        v = src.read_rows("processed/tilt_deg", i, i + 1)[0, segment]
+        parts.append(f"{SEGMENTS[segment]} tilt {v:+.1f}°")
+    if src.has("processed/fsr_counts"):
+        f = src.read_rows("processed/fsr_counts", i, i + 1)[0]
+        parts.append(f"heel {f[0]:.0f} · toe {f[1]:.0f}")
+    if src.has(PHASE):
+        ph = int(src.read_rows(PHASE, i, i + 1)[0, 0])
+        if 0 <= ph < len(PHASE_NAMES):
+            parts.append(PHASE_NAMES[ph])
+    if src is not doc.recorded:
+        parts.append("<i>reprocessed</i>")
+    return " &nbsp;|&nbsp; ".join(parts)

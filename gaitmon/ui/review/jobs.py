@@ -1,0 +1,362 @@
+"""The review window's background requests: open, analyse, reprocess, save reprocessed, report.
+
+Each request is built on the GUI thread from everything it needs (a request never reads the
+window) and runs on one of the window's :class:`gaitmon.ui.jobs.QtWorker` s, newest wins:
+``job`` (open, reprocess, save, report: one at a time, with the status bar's progress bar and
+Cancel) and ``analyser`` (the stride analysis, redone on every exclusion). Each returns a frozen
+response (:class:`Opened`, :class:`Analysed`, ...) that :class:`ReviewJobs` applies on the GUI
+thread; a response overtaken by a newer request or a Cancel never arrives.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from PySide6.QtCore import QSettings, Signal
+from PySide6.QtGui import QAction
+from PySide6.QtWidgets import QMainWindow
+
+from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.io.session import SessionError, journal_path, rewrite_processed
+from gaitmon.jobs import Response, Ticket
+from gaitmon.review.model import (
+    Analysis,
+    Document,
+    Source,
+    analyse,
+    changed_settings,
+    open_document,
+    reprocess,
+)
+from gaitmon.ui import one_line
+from gaitmon.ui.actions import guarded
+from gaitmon.ui.jobs import QtWorker
+from gaitmon.ui.review.cycles import CyclePlots
+from gaitmon.ui.review.status import StatusArea
+from gaitmon.ui.review.strides import StrideTable, SummaryLabel, summary_html
+from gaitmon.ui.review.timeline import Timeline
+
+if TYPE_CHECKING:
+    from gaitmon.normative import NormativeBands
+    from gaitmon.report import ReportData
+
+log = logging.getLogger("gaitmon.ui.review")
+
+REPROCESS_SHARE = 0.9  # of a reprocessing's progress bar; the rest builds the overview
+
+
+# -- responses -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Opened:
+    path: Path
+    doc: Document
+
+    def close(self) -> None:
+        self.doc.close()
+
+
+@dataclass(frozen=True)
+class Analysed:
+    analysis: Analysis  # the current series (reprocessed if there is one)
+    before: Analysis | None  # the recorded series after a reprocessing
+
+
+@dataclass(frozen=True)
+class Reprocessed:
+    source: Source
+
+
+@dataclass(frozen=True)
+class Saved:
+    path: Path
+    n_frames: int
+
+
+@dataclass(frozen=True)
+class ReportReady:
+    doc: Document
+    data: ReportData
+
+
+# -- requests (run on a worker thread) ----------------------------------------------------------
+
+
+def open_request(path: Path) -> Callable[[Ticket], Opened]:
+    def job(ticket: Ticket) -> Opened:
+        return Opened(path, open_document(path, progress=ticket.progress))
+
+    return job
+
+
+def analyse_request(doc: Document) -> Callable[[Ticket], Analysed]:
+    ranges = list(doc.exclusions)
+    cur, rec = doc.current, doc.recorded
+
+    def job(ticket: Ticket) -> Analysed:
+        a = analyse(doc, cur, ranges)
+        b = analyse(doc, rec, ranges) if cur is not rec else None
+        return Analysed(a, b)
+
+    return job
+
+
+def reprocess_request(doc: Document, config: PipelineConfig) -> Callable[[Ticket], Reprocessed]:
+    def job(ticket: Ticket) -> Reprocessed:
+        src = reprocess(doc, config, progress=lambda f: ticket.progress(REPROCESS_SHARE * f))
+        rest = 1.0 - REPROCESS_SHARE
+        src.overview.pyramid(
+            "processed/joint_deg", lambda f: ticket.progress(REPROCESS_SHARE + rest * f)
+        )
+        return Reprocessed(src)
+
+    return job
+
+
+def save_request(src: Path, dst: Path, config: PipelineConfig) -> Callable[[Ticket], Saved]:
+    """A new session file: the recording's raw counts reprocessed with ``config``
+    (:func:`gaitmon.io.session.rewrite_processed`, as ``gaitmon process``); its progress goes to
+    the window's bar, and Cancel (the request no longer wanted) makes it delete the partial
+    file and raise :class:`gaitmon.errors.Cancelled`."""
+
+    def job(ticket: Ticket) -> Saved:
+        result = rewrite_processed(
+            src, dst, config, progress=ticket.progress, cancel=lambda: not ticket.wanted,
+            overwrite=True,
+        )  # fmt: skip
+        return Saved(result.path, result.n_frames)
+
+    return job
+
+
+def report_request(doc: Document, bands: NormativeBands | None) -> Callable[[Ticket], ReportReady]:
+    from gaitmon.report import gather_report
+
+    ranges = [(r.start_idx, r.stop_idx) for r in doc.exclusions]
+
+    def job(ticket: Ticket) -> ReportReady:
+        return ReportReady(doc, gather_report(doc.session, normative=bands, excluded_ranges=ranges))
+
+    return job
+
+
+# -- the window's side ---------------------------------------------------------------------------
+
+
+class ReviewJobs(QMainWindow):
+    """The review window's requests and how their responses change it (see the module
+    docstring); :class:`gaitmon.ui.review.window.ReviewWindow` builds the widgets."""
+
+    document_opened = Signal(str)
+    open_failed = Signal(str)
+    analysis_done = Signal()
+    reprocessed = Signal()
+    report_written = Signal(str)
+    saved = Signal(str)
+
+    # built by the window
+    settings: QSettings
+    doc: Document | None
+    analysis: Analysis | None
+    before: Analysis | None
+    normative: NormativeBands | None
+    job: QtWorker
+    analyser: QtWorker
+    status: StatusArea
+    timeline: Timeline
+    table: StrideTable
+    summary: SummaryLabel
+    cycles: CyclePlots
+    act: dict[str, QAction]
+    _job_label: str
+
+    # -- hooks the window provides ---------------------------------------------------------------
+
+    def report_exception(self, where: str, exc: BaseException) -> None:
+        raise NotImplementedError
+
+    def _set_document(self, doc: Document) -> None:
+        raise NotImplementedError
+
+    def _add_recent(self, path: Path) -> None:
+        raise NotImplementedError
+
+    def _update_actions(self) -> None:
+        raise NotImplementedError
+
+    # -- progress --------------------------------------------------------------------------------
+
+    def _start_job(self, label: str) -> None:
+        self._job_label = label
+        self.status.show_progress(label, 0.0)
+
+    def _job_progress(self, fraction: float) -> None:
+        self.status.show_progress(self._job_label, fraction)
+
+    def _hide_progress(self) -> None:
+        if not self.job.busy:
+            self.status.hide_progress()
+
+    def cancel_job(self) -> None:
+        was = self._job_label
+        self.job.cancel()
+        self.timeline.loader.cancel()
+        self.status.hide_progress()
+        if was.startswith("Recovering"):
+            self.status.show_problem("Recovery cancelled; the journal is kept: open the file "
+                                     "again to recover it.")  # fmt: skip
+        else:
+            self.status.message(f"{was or 'Loading'} cancelled", 8000)
+
+    # -- opening ---------------------------------------------------------------------------------
+
+    @guarded
+    def open_file(self, path: str | Path) -> None:
+        """Open ``path`` in the background (recovering it first if it was interrupted)."""
+        path = Path(path)
+        self.status.hide_problem()
+        self.timeline.loader.cancel()
+        recovering = journal_path(path).exists()
+        label = f"Recovering {path.name}" if recovering else f"Opening {path.name}"
+        self._start_job(label)
+        self.status.message(
+            f"{label}…" + (" (the recording was interrupted; rebuilding it from its journal)"
+                           if recovering else ""),
+        )  # fmt: skip
+        self.job.submit(open_request(path), functools.partial(self._opened, path), Opened.close)
+
+    @guarded
+    def _opened(self, path: Path, response: Response[Opened]) -> None:
+        self._hide_progress()
+        exc = response.error
+        if exc is not None or response.value is None:
+            why = one_line(exc) if exc else "unknown error"
+            msg = str(exc) if isinstance(exc, SessionError) else f"cannot open {path.name}: {why}"
+            if not isinstance(exc, SessionError) and exc is not None:
+                log.error("opening %s failed", path, exc_info=exc)
+            self.status.show_problem(f"Cannot open: {msg}")
+            self.status.message(msg, 15_000)
+            self.open_failed.emit(msg)
+            return
+        self._set_document(response.value.doc)
+        self._add_recent(path)
+        self.settings.setValue("review/last_folder", str(path.parent))
+        self.document_opened.emit(str(path))
+
+    # -- analysis --------------------------------------------------------------------------------
+
+    def run_analysis(self) -> None:
+        if self.doc is not None:
+            doc = self.doc
+            self.analyser.submit(analyse_request(doc), functools.partial(self._analysed, doc))
+
+    @guarded
+    def _analysed(self, doc: Document, response: Response[Analysed]) -> None:
+        if doc is not self.doc:
+            return
+        if response.error is not None:
+            self.status.show_problem(f"Stride analysis failed: {one_line(response.error)}")
+            return
+        r = response.result()
+        a, b = r.analysis, r.before
+        self.analysis, self.before = a, b
+        t = doc.t_s
+        starts = [float(t[min(row.stride.start_idx, len(t) - 1)]) for row in a.rows]
+        self.table.set_rows(a.rows, starts)
+        note = ""
+        if doc.reprocessed is not None:
+            note = changed_settings(doc.recorded.config, doc.reprocessed.config)
+        self.summary.setText(summary_html(a, b, note))
+        self.cycles.set_analysis(a, b if self.act["compare"].isChecked() else None)
+        self.analysis_done.emit()
+
+    # -- reprocessing ----------------------------------------------------------------------------
+
+    @guarded
+    def start_reprocess(self, config: PipelineConfig) -> None:
+        doc = self.doc
+        if doc is None:
+            return
+        self._start_job("Reprocessing")
+        self.job.submit(reprocess_request(doc, config), functools.partial(self._reprocessed, doc))
+
+    @guarded
+    def _reprocessed(self, doc: Document, response: Response[Reprocessed]) -> None:
+        self._hide_progress()
+        if doc is not self.doc:
+            return
+        if response.error is not None:
+            self.status.show_problem(f"Reprocessing failed: {one_line(response.error)}")
+            return
+        src = response.result().source
+        doc.reprocessed = src
+        self.timeline.set_fsr_threshold(src.config.fsr_threshold)
+        self.timeline.refresh_overview()
+        self.timeline.set_compare(self.act["compare"].isChecked())
+        self.status.message(
+            f"Reprocessed with {changed_settings(doc.recorded.config, src.config)}; "
+            f"{len(src.heel_strike_idx)} heel strikes (recorded: "
+            f"{len(doc.recorded.heel_strike_idx)})", 15_000,
+        )  # fmt: skip
+        self._update_actions()
+        self.run_analysis()
+        self.reprocessed.emit()
+
+    @guarded
+    def save_reprocessed(self, path: str | Path) -> None:
+        """Write a new session file with the reprocessed settings, with progress and Cancel."""
+        doc = self.doc
+        if doc is None or doc.reprocessed is None:
+            return
+        dst = Path(path)
+        self._start_job(f"Saving {dst.name}")
+        self.job.submit(save_request(doc.path, dst, doc.reprocessed.config), self._saved)
+
+    @guarded
+    def _saved(self, response: Response[Saved]) -> None:
+        self._hide_progress()
+        if response.error is not None:
+            self.status.show_problem(f"Cannot save: {one_line(response.error)}")
+            return
+        saved = response.result()
+        self.status.message(f"Saved {saved.path}", 10_000)
+        self.saved.emit(str(saved.path))
+
+    # -- report ----------------------------------------------------------------------------------
+
+    @guarded
+    def write_report(self, path: str | Path) -> None:
+        """Gather the report in the background (recorded series, exclusions in force,
+        normative band if loaded) and write the PDF on the GUI thread."""
+        if self.doc is None:
+            return
+        self._start_job("Preparing the report")
+        self.job.submit(
+            report_request(self.doc, self.normative),
+            functools.partial(self._report_ready, Path(path)),
+        )
+
+    @guarded
+    def _report_ready(self, path: Path, response: Response[ReportReady]) -> None:
+        from gaitmon.ui.report_pdf import write_report_pdf
+
+        self._hide_progress()
+        if response.error is not None:
+            self.status.show_problem(f"Cannot make the report: {one_line(response.error)}")
+            return
+        r = response.result()
+        try:
+            out = write_report_pdf(r.data, path)
+        except OSError as e:
+            self.status.show_problem(f"Cannot write the report: {one_line(e)}")
+            return
+        note = " (recorded series; reprocessing is not in the report)" if (
+            r.doc.reprocessed is not None) else ""  # fmt: skip
+        self.status.message(f"Report written to {out}{note}", 15_000)
+        self.report_written.emit(str(out))
