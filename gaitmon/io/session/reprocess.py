@@ -127,11 +127,7 @@ def rewrite_processed(
         )
         check_cancel()
         os.replace(tmp, dst)
-    except Cancelled:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
-    except SessionError:
+    except (Cancelled, SessionError):
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
