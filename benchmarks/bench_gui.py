@@ -31,7 +31,7 @@ import pyqtgraph as pg
 from PySide6.QtCore import QEventLoop, QSettings, QTimer
 from PySide6.QtWidgets import QApplication
 
-from gaitmon.ui.connection import SIMULATED_PORT, default_sim_args
+from gaitmon.live.connection import SIMULATED_PORT, default_sim_args
 from gaitmon.ui.main_window import MainWindow
 
 

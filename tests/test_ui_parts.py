@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from gaitmon.ui.health import HealthTracker, link_view
+from gaitmon.live.health import HealthTracker, link_view
 
 
 def test_peak_decimation_keeps_every_groups_min_and_max():

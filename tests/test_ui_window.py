@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings, Qt
 
-from gaitmon.ui.connection import SIMULATED_PORT, default_sim_args
+from gaitmon.live.connection import SIMULATED_PORT, default_sim_args
 from gaitmon.ui.main_window import MainWindow
 
 WAIT_MS = 15_000

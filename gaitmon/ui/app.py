@@ -107,7 +107,7 @@ def run(args: Any) -> int:
     """Open the live monitor (``args.simulate``: connect straight to the simulated unit)."""
     app = make_application("gaitmon")
 
-    from gaitmon.ui.connection import SIMULATED_PORT
+    from gaitmon.live.connection import SIMULATED_PORT
     from gaitmon.ui.main_window import MainWindow
 
     sim_args = args if hasattr(args, "cadence") else None

@@ -40,7 +40,7 @@ from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import EngineError, Mode, Snapshot
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded, make_action
-from gaitmon.ui.connection import (
+from gaitmon.live.connection import (
     SIMULATED_LABEL,
     SIMULATED_PORT,
     Connection,
@@ -48,7 +48,7 @@ from gaitmon.ui.connection import (
     open_connection,
 )
 from gaitmon.ui.dialogs import SETTINGS_FIELDS, SessionDialog, SettingsDialog, shortcuts_dialog
-from gaitmon.ui.health import HealthTracker, link_view
+from gaitmon.live.health import HealthTracker, link_view
 from gaitmon.ui.plots import METHOD_LABELS, CyclePlots, LivePlots, RawPlots
 from gaitmon.ui.tasks import TaskRunner
 from gaitmon.ui.theme import Colours, configure_pyqtgraph, current_colours
