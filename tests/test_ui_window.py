@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings, Qt
 
-from gaitmon.live.connection import SIMULATED_PORT, default_sim_args
+from gaitmon.io.sim.config import SimConfig
+from gaitmon.live.connection import SIMULATED_PORT
 from gaitmon.ui.main_window import MainWindow
 
 WAIT_MS = 15_000
@@ -45,11 +46,10 @@ def ui_settings(tmp_path):
 
 
 def make_window(qtbot, settings, *, standing_s=1.0, mode="raw", autoconnect=True):
-    sim = default_sim_args()
-    sim.standing_s = standing_s
+    sim = SimConfig(standing_s=standing_s)
     win = MainWindow(
         settings,
-        sim_args=sim,
+        sim=sim,
         autoconnect=SIMULATED_PORT if autoconnect else None,
         mode=mode,
         confirm_close=False,

@@ -11,11 +11,14 @@ import signal
 import sys
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING
 
 from PySide6.QtCore import QPointF, QSettings, QStandardPaths, Qt, QTimer
 from PySide6.QtGui import QColor, QGuiApplication, QIcon, QPainter, QPainterPath, QPen, QPixmap
 from PySide6.QtWidgets import QApplication, QWidget
+
+if TYPE_CHECKING:
+    from gaitmon.io.sim.config import SimConfig
 
 log = logging.getLogger("gaitmon.ui")
 
@@ -103,18 +106,17 @@ def exec_until_closed(app: QApplication, win: QWidget) -> int:
     return int(app.exec())
 
 
-def run(args: Any) -> int:
-    """Open the live monitor (``args.simulate``: connect straight to the simulated unit)."""
+def run(sim: SimConfig | None = None, *, connect_simulated: bool = False) -> int:
+    """Open the live monitor (``connect_simulated``: connect straight to the simulated unit)."""
     app = make_application("gaitmon")
 
     from gaitmon.live.connection import SIMULATED_PORT
     from gaitmon.ui.main_window import MainWindow
 
-    sim_args = args if hasattr(args, "cadence") else None
     win = MainWindow(
         QSettings(),
-        sim_args=sim_args,
-        autoconnect=SIMULATED_PORT if getattr(args, "simulate", False) else None,
+        sim=sim,
+        autoconnect=SIMULATED_PORT if connect_simulated else None,
     )
     win.show()
     return exec_until_closed(app, win)

@@ -38,8 +38,7 @@ from PySide6.QtWidgets import (
 from gaitmon import __version__
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import EngineError, Mode, Snapshot
-from gaitmon.ui import one_line
-from gaitmon.ui.actions import guarded, make_action
+from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import (
     SIMULATED_LABEL,
     SIMULATED_PORT,
@@ -47,8 +46,10 @@ from gaitmon.live.connection import (
     available_ports,
     open_connection,
 )
-from gaitmon.ui.dialogs import SETTINGS_FIELDS, SessionDialog, SettingsDialog, shortcuts_dialog
 from gaitmon.live.health import HealthTracker, link_view
+from gaitmon.ui import one_line
+from gaitmon.ui.actions import guarded, make_action
+from gaitmon.ui.dialogs import SETTINGS_FIELDS, SessionDialog, SettingsDialog, shortcuts_dialog
 from gaitmon.ui.plots import METHOD_LABELS, CyclePlots, LivePlots, RawPlots
 from gaitmon.ui.tasks import TaskRunner
 from gaitmon.ui.theme import Colours, configure_pyqtgraph, current_colours
@@ -145,14 +146,14 @@ class MainWindow(QMainWindow):
         self,
         settings: QSettings,
         *,
-        sim_args: Any = None,
+        sim: SimConfig | None = None,
         autoconnect: str | None = None,
         mode: Mode | str | None = None,
         confirm_close: bool = True,
     ) -> None:
         super().__init__()
         self.prefs = Prefs(settings)
-        self.sim_args = sim_args
+        self.sim = sim
         self.confirm_close = confirm_close
         self.conn: Connection | None = None
         self.errors: list[str] = []  # unexpected exceptions caught by `guarded` (tests check)
@@ -628,13 +629,13 @@ class MainWindow(QMainWindow):
             return
         mode = Mode(self.mode_combo.currentData())
         cfg = self.config
-        sim_args = self.sim_args
+        sim = self.sim
         self._connecting = True
         self._set_state_pill("Connecting…", "warn")
         self._update_controls()
         self.notify(f"Connecting to {self.port_combo.currentText()}…", 0)
         self.tasks.submit(
-            lambda: open_connection(port, mode, cfg, sim_args=sim_args),
+            lambda: open_connection(port, mode, cfg, sim=sim),
             self._connected,
             name="connect",
         )
