@@ -33,7 +33,7 @@ from PySide6.QtWidgets import QApplication
 
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import SIMULATED_PORT
-from gaitmon.ui.main_window import MainWindow
+from gaitmon.ui.live import MainWindow
 
 
 def _spin(app: QApplication, seconds: float) -> None:

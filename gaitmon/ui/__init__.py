@@ -116,4 +116,4 @@ def launch(module: str, *args: object, **kwargs: object) -> int:
 def run_app(sim: SimConfig | None = None, *, connect_simulated: bool = False) -> int:
     """Open the live monitor; ``sim``: the simulated device's settings (default: SimConfig()),
     ``connect_simulated``: connect to it at once."""
-    return launch("gaitmon.ui.app", sim, connect_simulated=connect_simulated)
+    return launch("gaitmon.ui.live", sim, connect_simulated=connect_simulated)

@@ -23,12 +23,13 @@ import time
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import QRectF
-from PySide6.QtGui import QBrush, QColor, QFont, QPainter, QPainterPath, QPen
-from PySide6.QtWidgets import QGraphicsItem
+from PySide6.QtGui import QBrush, QColor, QFont, QPainter, QPainterPath, QPaintEvent, QPen
+from PySide6.QtWidgets import QGraphicsItem, QGraphicsObject, QGraphicsView, QWidget
 
 from gaitmon.dsp.gait import cycle_mean_sd
 from gaitmon.engine import Snapshot
@@ -53,6 +54,18 @@ METHOD_LABELS = {k: label for k, label, _, _ in METHODS}
 PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")
 MAX_POINTS = 1400  # per trace; beyond this a window is min/max decimated
 AXIS_WIDTH_PX = 58
+
+if TYPE_CHECKING:
+    # pyqtgraph has no type information. Its bases are typed here as the Qt classes they
+    # derive from; what pyqtgraph adds to a layout widget (addPlot, ci, ...) is Any.
+    _GraphicsObject = QGraphicsObject
+
+    class _GraphicsLayoutWidget(QGraphicsView):
+        def __getattr__(self, name: str) -> Any: ...
+
+else:
+    _GraphicsObject = pg.GraphicsObject
+    _GraphicsLayoutWidget = pg.GraphicsLayoutWidget
 
 
 def decimate_peak(x: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
@@ -81,7 +94,9 @@ def decimate_peak(x: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.nda
     return out_x, out_y
 
 
-def step_band(x: np.ndarray, mask: np.ndarray, top: float, bottom: float) -> tuple:
+def step_band(
+    x: np.ndarray, mask: np.ndarray, top: float, bottom: float
+) -> tuple[np.ndarray, np.ndarray]:
     """A step outline that is ``top`` where ``mask`` holds and ``bottom`` elsewhere.
 
     Only the runs' ends become points, so a 10 s window of phases is a few dozen points.
@@ -151,7 +166,7 @@ class Trace:
         self.n_points = 0
 
 
-class TraceSet(pg.GraphicsObject):
+class TraceSet(_GraphicsObject):
     """All the traces of one plot, drawn by a single item in list order.
 
     One ``paint`` per plot instead of one per curve: with ~50 PlotCurveItems the per-item
@@ -179,7 +194,9 @@ class TraceSet(pg.GraphicsObject):
     def boundingRect(self) -> QRectF:
         return self._BIG
 
-    def dataBounds(self, ax: int, frac: float = 1.0, orthoRange=None) -> tuple[float, float]:
+    def dataBounds(
+        self, ax: int, frac: float = 1.0, orthoRange: object = None
+    ) -> tuple[float, float]:
         return self.nominal[ax]
 
     def paint(self, p: QPainter, *args: object) -> None:
@@ -194,14 +211,14 @@ class TraceSet(pg.GraphicsObject):
                 p.drawPath(tr.path)
 
 
-class CountingPlotWidget(pg.GraphicsLayoutWidget):
+class CountingPlotWidget(_GraphicsLayoutWidget):
     """A GraphicsLayoutWidget that counts its repaints and the latency of the data it shows.
 
     Latency = time the paint finished - host receive time of the newest sample drawn; measured
     on the first paint after new data (what `benchmarks/bench_gui.py` reports).
     """
 
-    def __init__(self, parent=None) -> None:
+    def __init__(self, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.paints = 0
         self.latencies_s: deque[float] = deque(maxlen=4096)
@@ -210,7 +227,7 @@ class CountingPlotWidget(pg.GraphicsLayoutWidget):
     def mark_new_data(self, newest_host_time_s: float) -> None:
         self._shown_host_time_s = newest_host_time_s
 
-    def paintEvent(self, ev) -> None:
+    def paintEvent(self, ev: QPaintEvent) -> None:
         super().paintEvent(ev)
         self.paints += 1
         if self._shown_host_time_s is not None:
@@ -263,7 +280,7 @@ class _PlotInfo:
 class LivePlots(CountingPlotWidget):
     """Tilt of body/thigh/shank/foot (left), hip/knee/ankle and FSR + gait phase (right)."""
 
-    def __init__(self, colours: Colours, parent=None) -> None:
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.colours = colours
         self.window_s = 10.0
@@ -283,7 +300,16 @@ class LivePlots(CountingPlotWidget):
 
     # -- construction ----------------------------------------------------------------------
 
-    def _new_plot(self, name: str, row: int, col: int, ylabel: str, yr, bottom: bool, tip: str):
+    def _new_plot(
+        self,
+        name: str,
+        row: int,
+        col: int,
+        ylabel: str,
+        yr: tuple[float, float],
+        bottom: bool,
+        tip: str,
+    ) -> _PlotInfo:
         p = self.addPlot(row=row, col=col)
         _style_plot(p, self.colours, ylabel, yr, bottom=bottom)
         p.setToolTip(tip)
@@ -487,7 +513,7 @@ class LivePlots(CountingPlotWidget):
 class RawPlots(CountingPlotWidget):
     """Optional: low-passed accelerometer x/z and gyro rate per segment."""
 
-    def __init__(self, colours: Colours, parent=None) -> None:
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.colours = colours
         self.curves: list[Trace] = []
@@ -556,14 +582,15 @@ class RawPlots(CountingPlotWidget):
 class CyclePlots(CountingPlotWidget):
     """Hip, knee and ankle over the gait cycle: mean ± SD of the last strides + current stride."""
 
-    def __init__(self, colours: Colours, parent=None) -> None:
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.colours = colours
         self.ci.setContentsMargins(2, 2, 8, 2)
         self.pct = np.linspace(0.0, 100.0, 101)
         self.mean_curves: list[pg.PlotCurveItem] = []
         self.upper: list[pg.PlotCurveItem] = []
-        self.lower: list[pg.PlotCurveItem] = []
+        # hides QWidget.lower() (window stacking), which nothing calls on a plot widget
+        self.lower: list[pg.PlotCurveItem] = []  # type: ignore[assignment]
         self.current: list[pg.PlotCurveItem] = []
         self.toe_off_lines: list[pg.InfiniteLine] = []
         self._shown_strides = -1
