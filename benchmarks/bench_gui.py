@@ -31,8 +31,9 @@ import pyqtgraph as pg
 from PySide6.QtCore import QEventLoop, QSettings, QTimer
 from PySide6.QtWidgets import QApplication
 
-from gaitmon.ui.connection import SIMULATED_PORT, default_sim_args
-from gaitmon.ui.main_window import MainWindow
+from gaitmon.io.sim.config import SimConfig
+from gaitmon.live.connection import SIMULATED_PORT
+from gaitmon.ui.live import MainWindow
 
 
 def _spin(app: QApplication, seconds: float) -> None:
@@ -76,9 +77,8 @@ def screenshot(path: str) -> int:
     tmp = tempfile.mkdtemp(prefix="gaitmon-shot-")
     settings = QSettings(os.path.join(tmp, "shot.ini"), QSettings.Format.IniFormat)
     settings.setValue("session/folder", tmp)
-    sim = default_sim_args()
-    sim.standing_s = 2.5
-    win = MainWindow(settings, sim_args=sim, autoconnect=SIMULATED_PORT, confirm_close=False)
+    sim = SimConfig(standing_s=2.5)
+    win = MainWindow(settings, sim=sim, autoconnect=SIMULATED_PORT, confirm_close=False)
     win.resize(1440, 900)
     win.show()
     while win.engine is None:
@@ -123,10 +123,9 @@ def main(argv: list[str] | None = None) -> int:
     app = QApplication.instance() or QApplication(sys.argv[:1])
     tmp = tempfile.mkdtemp(prefix="gaitmon-bench-")
     settings = QSettings(os.path.join(tmp, "bench.ini"), QSettings.Format.IniFormat)
-    sim = default_sim_args()
-    sim.standing_s = 1.0
+    sim = SimConfig(standing_s=1.0)
     win = MainWindow(
-        settings, sim_args=sim, autoconnect=SIMULATED_PORT, mode=args.mode, confirm_close=False
+        settings, sim=sim, autoconnect=SIMULATED_PORT, mode=args.mode, confirm_close=False
     )
     win.resize(1400, 860)
     win.show()

@@ -24,11 +24,26 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
-def _load(module_path: str) -> tuple[Callable[[argparse.ArgumentParser], None], Callable]:
+Run = Callable[[argparse.Namespace], int]
+
+
+def _load(module_path: str) -> tuple[Callable[[argparse.ArgumentParser], None], Run]:
     import importlib
 
     mod = importlib.import_module(module_path)
     return mod.add_arguments, mod.run
+
+
+def open_live_monitor(args: argparse.Namespace) -> int:
+    """No subcommand: the live monitor window (``--simulate``: connected to the simulator).
+
+    The simulator options given here also apply when the simulated device is picked in the
+    window; they become a SimConfig at this edge, never an argparse namespace inside the UI.
+    """
+    from gaitmon.commands.simulate import sim_config_from_args
+    from gaitmon.ui import run_app  # imports no Qt until a display is known to be there
+
+    return run_app(sim_config_from_args(args), connect_simulated=bool(args.simulate))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -59,11 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    run = getattr(args, "_run", None)
-    if run is None:
-        from gaitmon.ui import run_app
-
-        run = run_app
+    run: Run = getattr(args, "_run", None) or open_live_monitor
     prog = f"gaitmon {args.command}" if args.command else "gaitmon"
     try:
         return int(run(args) or 0)

@@ -380,3 +380,38 @@ def test_cli_refuses_bad_arguments():
     )
     assert out.returncode == 2 and "--pty" in out.stderr and "Traceback" not in out.stderr
     assert os.environ.get("GAITMON_NEVER_SET") is None
+
+
+def test_sim_config_holds_the_command_line_defaults_and_rejects_bad_values():
+    import argparse
+    import dataclasses
+
+    from gaitmon.commands.simulate import add_simulator_options, sim_config_from_args
+    from gaitmon.errors import UserError
+    from gaitmon.io.sim.config import SimConfig, build_unit
+
+    p = argparse.ArgumentParser()
+    add_simulator_options(p)
+    assert sim_config_from_args(p.parse_args([])) == SimConfig()
+    args = p.parse_args(["--pattern", "stiff-knee", "--speed", "max", "--loss-pct", "2"])
+    cfg = sim_config_from_args(args)
+    assert cfg == SimConfig(pattern="stiff-knee", speed=math.inf, loss_pct=2.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        cfg.seed = 1  # type: ignore[misc]
+    # the unit built from it carries the settings
+    unit = build_unit(SimConfig(side="L", cadence_steps_min=90.0, seed=3))
+    try:
+        assert unit.identity.side == "L" and unit.gait_config.cadence_steps_min == 90.0
+        assert unit.faults.seed == 3
+    finally:
+        unit.close()
+    # bad values: ValueError in the dataclass, the user's error at the argparse edge
+    with pytest.raises(ValueError, match="cadence 300"):
+        SimConfig(cadence_steps_min=300.0)
+    with pytest.raises(ValueError, match="side must be L or R"):
+        SimConfig(side="X")
+    with pytest.raises(UserError, match=r"stride CV 0\.5 is outside"):
+        sim_config_from_args(p.parse_args(["--stride-cv", "0.5"]))
+    # `record` has no unit --side of its own: the session's leg, or the right one
+    rec = argparse.Namespace(**{**vars(p.parse_args([])), "side": ""})
+    assert sim_config_from_args(rec).side == "R"

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from gaitmon.ui.health import HealthTracker, link_view
+from gaitmon.live.health import HealthTracker, link_view
 
 
 def test_peak_decimation_keeps_every_groups_min_and_max():
@@ -198,3 +198,15 @@ def test_live_cycle_band_is_mean_plus_minus_the_sample_sd(qtbot):
     plots.update_from(snap(cycles[:1]))  # one stride: a mean, but no spread to draw
     np.testing.assert_allclose(plots.mean_curves[1].yData, cycles[0, :, 1])
     assert len(plots.upper[1].yData) == 0 and len(plots.lower[1].yData) == 0
+
+
+def test_every_live_action_row_names_a_window_slot_once():
+    from gaitmon.ui.live import MainWindow
+    from gaitmon.ui.live.actions import ACTIONS
+
+    names = [spec.name for spec in ACTIONS]
+    assert len(names) == len(set(names))
+    shortcuts = [spec.shortcut for spec in ACTIONS if spec.shortcut]
+    assert len(shortcuts) == len(set(shortcuts))  # no key does two things
+    for spec in ACTIONS:
+        assert callable(getattr(MainWindow, spec.slot, None)), spec.slot

@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings, Qt
 
-from gaitmon.ui.connection import SIMULATED_PORT, default_sim_args
-from gaitmon.ui.main_window import MainWindow
+from gaitmon.io.sim.config import SimConfig
+from gaitmon.live.connection import SIMULATED_PORT
+from gaitmon.ui.live import MainWindow
 
 WAIT_MS = 15_000
 
@@ -45,11 +46,10 @@ def ui_settings(tmp_path):
 
 
 def make_window(qtbot, settings, *, standing_s=1.0, mode="raw", autoconnect=True):
-    sim = default_sim_args()
-    sim.standing_s = standing_s
+    sim = SimConfig(standing_s=standing_s)
     win = MainWindow(
         settings,
-        sim_args=sim,
+        sim=sim,
         autoconnect=SIMULATED_PORT if autoconnect else None,
         mode=mode,
         confirm_close=False,
@@ -368,7 +368,7 @@ def test_keyboard_shortcuts_drive_pause_markers_and_window(qtbot, window):
     qtbot.keyClick(win.marker_edit, Qt.Key.Key_Return)  # Enter drops it with the label
     assert win.engine.snapshot(60).markers[-1][1] == "mm"
     # every shortcut in the Help list is a real action shortcut
-    from gaitmon.ui.main_window import SHORTCUTS
+    from gaitmon.ui.live import SHORTCUTS
 
     bound = {a.shortcut().toString() for a in win.actions() if not a.shortcut().isEmpty()}
     for keys, _what in SHORTCUTS:
@@ -404,3 +404,29 @@ def test_switching_to_a_dark_theme_rebuilds_the_plots_in_dark(qtbot, window):
     finally:
         QApplication.setPalette(light)
     qtbot.waitUntil(lambda: not win.colours.dark)
+
+
+def test_a_connect_finishing_after_the_window_closed_is_closed_not_leaked(
+    qtbot, ui_settings, no_leaked_threads, monkeypatch
+):
+    from gaitmon.live import connection
+
+    real_open = connection.open_connection
+    release = threading.Event()
+    opened = []
+
+    def slow_open(*args, **kwargs):
+        release.wait(10.0)
+        conn = real_open(*args, **kwargs)
+        opened.append(conn)
+        return conn
+
+    monkeypatch.setattr(connection, "open_connection", slow_open)
+    win = make_window(qtbot, ui_settings, autoconnect=False)
+    win.connect_device(SIMULATED_PORT)
+    assert win.jobs.busy and win.state_text == "Connecting…"
+    threading.Timer(0.3, release.set).start()  # the unit answers only once closing began
+    win.close()
+    # the connection was opened after the close and closed again; no thread outlives it
+    assert len(opened) == 1 and not opened[0].engine.running
+    assert win.conn is None and win.errors == []

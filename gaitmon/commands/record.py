@@ -12,7 +12,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from gaitmon.commands.simulate import add_simulator_options, build_unit
+from gaitmon.commands.simulate import add_simulator_options, sim_config_from_args
 from gaitmon.errors import UserError
 
 if TYPE_CHECKING:
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.engine import Engine, EngineError
     from gaitmon.io.device import Device
     from gaitmon.io.session import SessionMeta
-    from gaitmon.io.transport import InProcessTransport, LinkError, SerialTransport
+    from gaitmon.io.transport import InProcessTransport, LinkError, SerialTransport, Transport
 
     if args.port is not None and not args.port.strip():
         raise UserError("--port needs a port name; `gaitmon ports` lists the ports")
@@ -88,11 +88,15 @@ def run(args: argparse.Namespace) -> int:
         patient_id=args.patient, side=args.side, operator=args.operator, notes=args.notes
     )
     unit = None
+    transport: Transport
     if args.simulate:
-        unit = build_unit(args)
+        from gaitmon.io.sim.config import build_unit
+
+        sim = sim_config_from_args(args)
+        unit = build_unit(sim)
         transport = InProcessTransport(unit)
         label = "simulated"
-        speed = args.speed
+        speed = sim.speed
     else:
         transport = SerialTransport(args.port, baudrate=args.baud)
         label = args.port

@@ -1,4 +1,9 @@
-"""``gaitmon simulate``: run the simulated gait unit on a pseudo-terminal until interrupted."""
+"""``gaitmon simulate``: run the simulated gait unit on a pseudo-terminal until interrupted.
+
+Also the simulator's command-line options, shared with ``gaitmon record --simulate`` and
+``gaitmon --simulate``, and :func:`sim_config_from_args`, which turns them into a
+:class:`gaitmon.io.sim.config.SimConfig` (the only place an argparse namespace becomes one).
+"""
 
 from __future__ import annotations
 
@@ -10,10 +15,8 @@ import threading
 from types import FrameType
 
 from gaitmon.errors import UserError
-from gaitmon.io.sim.kinematics import PATTERNS, GaitConfig
-from gaitmon.io.sim.pty import PtySimulator
-from gaitmon.io.sim.sensors import SensorConfig
-from gaitmon.io.sim.unit import FaultConfig, SimulatedUnit
+from gaitmon.io.sim.config import SimConfig, serve_on_pty
+from gaitmon.io.sim.kinematics import PATTERNS
 
 DESCRIPTION = """\
 Run a simulated gait unit (one leg: 4 IMUs + heel/toe FSRs sampled at 100 Hz) that speaks the
@@ -140,26 +143,26 @@ def add_simulator_options(
     )
 
 
-def build_unit(args: argparse.Namespace) -> SimulatedUnit:
-    """A SimulatedUnit from the options of :func:`add_simulator_options` (UserError if bad)."""
+def sim_config_from_args(args: argparse.Namespace) -> SimConfig:
+    """The options of :func:`add_simulator_options` as a SimConfig (UserError if one is bad).
+
+    Without ``--side`` (``record`` has its own, the session's leg, which may be empty) the unit
+    is worn on that side, or on the right.
+    """
     try:
-        gait = GaitConfig(
+        return SimConfig(
             cadence_steps_min=args.cadence,
             stride_cv=args.stride_cv,
             pattern=args.pattern,
             standing_s=args.standing_s,
             seed=args.seed,
-        )
-        unit = SimulatedUnit(
-            gait,
-            SensorConfig(seed=args.seed),
-            FaultConfig(seed=args.seed, loss_pct=args.loss_pct, corrupt_pct=args.corrupt_pct),
-            speed=args.speed,
             side=getattr(args, "side", "") or "R",
+            speed=args.speed,
+            loss_pct=args.loss_pct,
+            corrupt_pct=args.corrupt_pct,
         )
     except ValueError as exc:
         raise UserError(str(exc)) from None
-    return unit
 
 
 def run(args: argparse.Namespace) -> int:
@@ -167,11 +170,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(
             "nothing to do: pass --pty to serve the simulated unit on a pseudo-terminal"
         )
-    unit = build_unit(args)
+    config = sim_config_from_args(args)
     try:
-        sim = PtySimulator(unit, args.link)
+        sim = serve_on_pty(config, args.link)
     except OSError as exc:
         raise UserError(f"cannot create the pseudo-terminal or link: {exc}") from None
+    unit = sim.unit
 
     stop = threading.Event()
 

@@ -13,7 +13,10 @@ import importlib.util
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from gaitmon.io.sim.config import SimConfig
 
 XCB_HINT = (
     "install the X11 client libraries Qt needs, e.g. on Debian/Ubuntu: sudo apt install "
@@ -90,8 +93,9 @@ def x_display_problem() -> str | None:
     return None
 
 
-def launch(module: str, args: Any) -> int:
-    """Run ``module.run(args)`` (a gaitmon.ui module that opens a window) when a window can open.
+def launch(module: str, *args: object, **kwargs: object) -> int:
+    """Run ``module.run(*args, **kwargs)`` (a gaitmon.ui module that opens a window) when a
+    window can open.
 
     No display, or Qt not importable (PySide6 missing, or a system library it needs), is a
     one-line ``gaitmon.errors.UserError``; the module, and with it Qt, is imported only after the
@@ -106,9 +110,10 @@ def launch(module: str, args: Any) -> int:
         window_module = importlib.import_module(module)
     except ImportError as exc:  # PySide6 missing, or a system library Qt needs
         raise UserError(f"the desktop interface cannot start: {exc}") from None
-    return int(window_module.run(args))
+    return int(window_module.run(*args, **kwargs))
 
 
-def run_app(args: Any) -> int:
-    """Open the live monitor (``args.simulate``: connect straight to the simulated unit)."""
-    return launch("gaitmon.ui.app", args)
+def run_app(sim: SimConfig | None = None, *, connect_simulated: bool = False) -> int:
+    """Open the live monitor; ``sim``: the simulated device's settings (default: SimConfig()),
+    ``connect_simulated``: connect to it at once."""
+    return launch("gaitmon.ui.live", sim, connect_simulated=connect_simulated)

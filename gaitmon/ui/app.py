@@ -1,7 +1,8 @@
-"""Start the desktop application: QApplication, logging, icon, the main window.
+"""The desktop application both windows run in: QApplication, logging, icon, event loop.
 
-The review window (:mod:`gaitmon.ui.review.window`) starts through the same
-:func:`make_application` and :func:`exec_until_closed`.
+The live monitor (:func:`gaitmon.ui.live.run`) and the review window
+(:mod:`gaitmon.ui.review.window`) start through :func:`make_application` and
+:func:`exec_until_closed`; each window's ``run`` lives with the window.
 """
 
 from __future__ import annotations
@@ -11,9 +12,8 @@ import signal
 import sys
 from pathlib import Path
 from types import TracebackType
-from typing import Any
 
-from PySide6.QtCore import QPointF, QSettings, QStandardPaths, Qt, QTimer
+from PySide6.QtCore import QPointF, QStandardPaths, Qt, QTimer
 from PySide6.QtGui import QColor, QGuiApplication, QIcon, QPainter, QPainterPath, QPen, QPixmap
 from PySide6.QtWidgets import QApplication, QWidget
 
@@ -101,20 +101,3 @@ def exec_until_closed(app: QApplication, win: QWidget) -> int:
     wake.start(250)
     wake.timeout.connect(lambda: None)
     return int(app.exec())
-
-
-def run(args: Any) -> int:
-    """Open the live monitor (``args.simulate``: connect straight to the simulated unit)."""
-    app = make_application("gaitmon")
-
-    from gaitmon.ui.connection import SIMULATED_PORT
-    from gaitmon.ui.main_window import MainWindow
-
-    sim_args = args if hasattr(args, "cadence") else None
-    win = MainWindow(
-        QSettings(),
-        sim_args=sim_args,
-        autoconnect=SIMULATED_PORT if getattr(args, "simulate", False) else None,
-    )
-    win.show()
-    return exec_until_closed(app, win)

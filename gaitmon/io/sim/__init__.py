@@ -5,9 +5,12 @@
   bias/drift, mounting offsets, FSR loading, noise, 12-bit quantisation);
 * ``unit``       -- ``SimulatedUnit``: speaks ``gaitmon.io.protocol`` through ``write``/``read``,
   paced by a clock, with fault injection, a fault ledger and ground truth;
-* ``pty``        -- ``PtySimulator``: the unit behind a pseudo-terminal for pyserial clients.
+* ``pty``        -- ``PtySimulator``: the unit behind a pseudo-terminal for pyserial clients;
+* ``config``     -- ``SimConfig``: what a user chooses about the simulator, as one frozen value,
+  and ``build_unit`` / ``serve_on_pty`` that make the unit from it.
 """
 
+from gaitmon.io.sim.config import SimConfig, build_unit, serve_on_pty
 from gaitmon.io.sim.kinematics import PATTERNS, GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import SensorConfig, SensorModel
 from gaitmon.io.sim.unit import FaultConfig, FaultLedger, GroundTruth, SimulatedUnit
@@ -21,5 +24,8 @@ __all__ = [
     "GroundTruth",
     "SensorConfig",
     "SensorModel",
+    "SimConfig",
     "SimulatedUnit",
+    "build_unit",
+    "serve_on_pty",
 ]

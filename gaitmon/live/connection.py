@@ -8,7 +8,6 @@ reconnects and the decoder behave exactly as with a Bluetooth port.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 from dataclasses import dataclass
 
@@ -16,21 +15,13 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import Engine, EngineError, Mode
 from gaitmon.io.device import Device
+from gaitmon.io.sim.config import SimConfig, serve_on_pty
 from gaitmon.io.sim.pty import PtySimulator
 from gaitmon.io.sim.unit import SimulatedUnit
 from gaitmon.io.transport import LinkError, PortInfo, SerialTransport, list_ports
 
 SIMULATED_PORT = "simulated"
 SIMULATED_LABEL = "Simulated device"
-
-
-def default_sim_args() -> argparse.Namespace:
-    """The simulated unit's options at their command-line defaults."""
-    from gaitmon.commands.simulate import add_simulator_options
-
-    p = argparse.ArgumentParser(add_help=False)
-    add_simulator_options(p)
-    return p.parse_args([])
 
 
 @dataclass
@@ -64,33 +55,31 @@ def open_connection(
     mode: Mode | str,
     config: PipelineConfig,
     *,
-    sim_args: argparse.Namespace | None = None,
+    sim: SimConfig | None = None,
     calibration: Calibration | None = None,
     baudrate: int | None = None,
 ) -> Connection:
-    """Connect, identify and start streaming; raises EngineError with a one-line reason."""
-    from gaitmon.errors import UserError
+    """Connect, identify and start streaming; raises EngineError with a one-line reason.
 
-    simulator = unit = None
+    ``sim``: the simulated unit's settings for ``SIMULATED_PORT`` (default: SimConfig()).
+    """
+    simulator: PtySimulator | None = None
+    unit: SimulatedUnit | None = None
     if port == SIMULATED_PORT:
-        from gaitmon.commands.simulate import build_unit
-
         try:
-            unit = build_unit(sim_args if sim_args is not None else default_sim_args())
-        except UserError as exc:
-            raise EngineError(f"simulated unit: {exc}") from None
-        try:
-            simulator = PtySimulator(unit)
+            simulator = serve_on_pty(sim if sim is not None else SimConfig())
         except OSError as exc:
-            unit.close()
             raise EngineError(f"cannot create the simulator's pseudo-terminal: {exc}") from None
+        unit = simulator.unit
         path = str(simulator.link_path)
         label = "simulated unit"
     else:
         path = port
         label = port
-    kwargs = {} if baudrate is None else {"baudrate": baudrate}
-    transport = SerialTransport(path, **kwargs)
+    if baudrate is None:
+        transport = SerialTransport(path)
+    else:
+        transport = SerialTransport(path, baudrate=baudrate)
     engine = Engine(
         Device(transport),
         mode,

@@ -1,0 +1,18 @@
+"""The live monitor window: connect to a unit, watch the gait live, record sessions.
+
+* ``window``    -- :class:`MainWindow`, the shell: layout, toolbars, docks, the 30 Hz update;
+* ``actions``   -- the actions as a table (name, text, shortcut, slot, menu) and the key list;
+* ``device``    -- ports, connect / disconnect, zero, the simulator's link (slots);
+* ``recording`` -- start / stop a recording, markers (slots);
+* ``jobs``      -- connect and zero off the GUI thread (one in-order ``QtWorker``);
+* ``status``    -- status bar, banners and gait panel: what a snapshot says, shown;
+* ``prefs``     -- what the window remembers (QSettings);
+* ``base``      -- the state the slot groups share.
+
+The Qt-free model (connecting, link health) is :mod:`gaitmon.live`.
+"""
+
+from gaitmon.ui.live.actions import SHORTCUTS
+from gaitmon.ui.live.window import MainWindow, run
+
+__all__ = ["SHORTCUTS", "MainWindow", "run"]

@@ -1,0 +1,150 @@
+"""The live monitor's actions declared as data: one row per action, the window builds from it.
+
+Each :class:`ActionSpec` names the window slot it calls, its shortcut, tooltip and the menu it
+sits in (table order is menu order). :func:`build_actions` makes the ``QAction`` objects with the
+shared :func:`gaitmon.ui.actions.make_action`; :func:`build_menus` lays out the menu bar. The
+keyboard help (F1) is the :data:`SHORTCUTS` list; a test checks each key in it is bound.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+from PySide6.QtGui import QAction
+from PySide6.QtWidgets import QMainWindow, QMenu
+
+from gaitmon.engine import Mode
+from gaitmon.ui.actions import make_action
+from gaitmon.ui.plots import METHOD_LABELS
+
+WINDOWS_S = (5.0, 10.0, 30.0)  # the time windows the display offers
+METHOD_COLOURS = (("acc", "red"), ("kalman", "green"), ("gyro", "blue"))
+MODES = (
+    (Mode.RAW, "PC computes (raw frames)", "The unit sends raw ADC frames; gaitmon runs the "
+     "paper's filters, Kalman filter and gait detection on the PC (all three methods)."),
+    (Mode.TILT, "Unit's tilt angles", "The unit sends its own accelerometer and Kalman tilts "
+     "(no gyro integration, no foot contacts)."),
+    (Mode.JOINT, "Unit's joint angles", "The unit sends its own joint angles, foot contacts and "
+     "gait phase."),
+)  # fmt: skip
+SHORTCUTS = [
+    ("Space", "pause / resume the display (acquisition and recording continue)"),
+    ("M", "drop a marker (with the label typed in the marker field, if any)"),
+    ("Ctrl+R", "start / stop recording"),
+    ("Ctrl+K", "connect / disconnect"),
+    ("F5", "refresh the list of ports"),
+    ("Ctrl+0", "zero: standing pose (the subject stands upright, still, leg straight)"),
+    ("1 / 2 / 3", "show the last 5 / 10 / 30 s"),
+    ("Home", "reset the y ranges"),
+    ("Ctrl+,", "processing settings"),
+    ("Ctrl+Shift+X", "simulated unit: cut the link for 3 s"),
+    ("F1", "this list"),
+    ("Ctrl+Q", "quit"),
+]
+
+# menu paths ("A/B": submenu B of menu A)
+DEVICE, SIMULATOR = "&Device", "&Device/Simulator"
+SESSION, VIEW, HELP = "&Session", "&View", "&Help"
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    """One window action. ``slot`` is the name of a window method, called with ``args`` first
+    (and, when ``checkable``, the new state last)."""
+
+    name: str
+    text: str
+    slot: str
+    shortcut: str | None = None
+    tooltip: str = ""
+    checkable: bool = False
+    menu: str = ""  # "" = in no menu; "A/B" = submenu B of menu A
+    separator_before: bool = False  # in its menu
+    args: tuple[object, ...] = ()
+
+
+ACTIONS: tuple[ActionSpec, ...] = (
+    ActionSpec("connect", "Connect", "toggle_connect", "Ctrl+K",
+               "Connect to the selected unit (Ctrl+K)", menu=DEVICE),
+    ActionSpec("refresh", "Refresh ports", "refresh_ports", "F5",
+               "Look for serial ports again (F5)", menu=DEVICE),
+    ActionSpec("zero", "Zero", "zero", "Ctrl+0",
+               "Zero the standing pose: the subject stands upright and still, leg straight "
+               "(Ctrl+0)", menu=DEVICE, separator_before=True),
+    ActionSpec("settings", "Settings…", "open_settings", "Ctrl+,",
+               "Filter, Kalman and FSR settings", menu=DEVICE),
+    ActionSpec("cut", "Cut link for 3 s", "cut_simulated_link", "Ctrl+Shift+X",
+               "Simulate a Bluetooth drop-out: the simulated unit's port vanishes for 3 s",
+               menu=SIMULATOR, separator_before=True, args=(3.0,)),
+    ActionSpec("restore", "Restore link now", "restore_simulated_link", None,
+               "End a simulated drop-out", menu=SIMULATOR),
+    ActionSpec("quit", "Quit", "close", "Ctrl+Q", menu=DEVICE, separator_before=True),
+    ActionSpec("record", "Record", "toggle_recording", "Ctrl+R",
+               "Start / stop recording a session (Ctrl+R)", menu=SESSION),
+    ActionSpec("marker", "Marker", "add_marker", "M",
+               "Drop a marker now, with the label typed beside (M)", menu=SESSION),
+    ActionSpec("pause", "Pause", "set_paused", "Space",
+               "Freeze the display; acquisition and recording continue (Space)",
+               checkable=True, menu=VIEW),
+    *(
+        ActionSpec(f"window_{w:g}", f"Last {w:g} s", "set_window", str(i),
+                   f"Show the last {w:g} seconds ({i})", checkable=True, menu=VIEW,
+                   separator_before=i == 1, args=(w,))
+        for i, w in enumerate(WINDOWS_S, start=1)
+    ),
+    *(
+        ActionSpec(f"method_{key}", f"{METHOD_LABELS[key]} ({colour})", "set_method", None,
+                   f"Show the {METHOD_LABELS[key].lower()} traces", checkable=True, menu=VIEW,
+                   separator_before=key == "acc", args=(key,))
+        for key, colour in METHOD_COLOURS
+    ),
+    ActionSpec("four_phases", "Four gait sub-phases", "set_four_phases", None,
+               "Shade loading / foot flat / push-off (off: stance vs swing)", checkable=True,
+               menu=VIEW),
+    ActionSpec("reset_y", "Reset y ranges", "reset_y_ranges", "Home",
+               "Back to the clinical y ranges", menu=VIEW),
+    ActionSpec("help", "Keyboard shortcuts", "show_shortcuts", "F1", menu=HELP),
+    ActionSpec("about", "About gaitmon", "show_about", menu=HELP),
+)  # fmt: skip
+
+
+def build_actions(
+    window: QMainWindow, specs: tuple[ActionSpec, ...] = ACTIONS
+) -> dict[str, QAction]:
+    """The window's actions by name, each calling ``window.<slot>(*args)``."""
+    actions: dict[str, QAction] = {}
+    for spec in specs:
+        slot = getattr(window, spec.slot)
+        if spec.args:
+            slot = functools.partial(slot, *spec.args)
+        actions[spec.name] = make_action(
+            window, spec.text, slot, spec.shortcut, spec.tooltip, checkable=spec.checkable
+        )
+    return actions
+
+
+def build_menus(
+    window: QMainWindow, actions: dict[str, QAction], specs: tuple[ActionSpec, ...] = ACTIONS
+) -> dict[str, QMenu]:
+    """The menu bar in table order; returns the menus by path (``"&Device/Simulator"``)."""
+    menus: dict[str, QMenu] = {}
+    bar = window.menuBar()
+
+    def menu(path: str) -> QMenu:
+        if path not in menus:
+            parent, _, title = path.rpartition("/")
+            menus[path] = menu(parent).addMenu(title) if parent else bar.addMenu(title)
+        return menus[path]
+
+    for spec in specs:
+        if not spec.menu:
+            continue
+        parent = spec.menu.rpartition("/")[0]
+        if spec.separator_before and spec.menu not in menus:
+            # the first action of a submenu: the separator goes before the submenu itself
+            menu(parent or spec.menu).addSeparator()
+        elif spec.separator_before:
+            menus[spec.menu].addSeparator()
+        menu(spec.menu).addAction(actions[spec.name])
+    return menus

@@ -1,0 +1,242 @@
+"""What one snapshot says, shown: the status bar, the link banner, recording status, gait panel.
+
+:class:`StatusView` owns the status bar's permanent labels (link state pill, link health,
+recording, zeroing, samples) and the two banners above the plots (link, recorder); the grading
+itself is Qt-free in :mod:`gaitmon.live.health`. :class:`GaitPanel` is the gait dock's content:
+cadence, stride, stance, stride count and the gait-cycle plots. Both only display; what to do
+about a snapshot (stop a recording the recorder gave up on) is the window's business.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QGridLayout, QLabel, QSizePolicy, QStatusBar, QVBoxLayout, QWidget
+
+from gaitmon.engine import Mode, RecordingStatus, Snapshot
+from gaitmon.live.health import HealthTracker, link_view
+from gaitmon.ui.plots import CyclePlots
+from gaitmon.ui.theme import Colours
+
+
+def fmt_bytes(n: int) -> str:
+    if n < 1_000_000:
+        return f"{n / 1000:.0f} kB"
+    if n < 1_000_000_000:
+        return f"{n / 1e6:.1f} MB"
+    return f"{n / 1e9:.2f} GB"
+
+
+def fmt_elapsed(s: float) -> str:
+    s = max(0, int(s))
+    h, rem = divmod(s, 3600)
+    m, sec = divmod(rem, 60)
+    return f"{h}:{m:02d}:{sec:02d}" if h else f"{m:02d}:{sec:02d}"
+
+
+def banner_style(colours: Colours, grade: str) -> str:
+    colour = {"ok": colours.ok, "warn": colours.warn}.get(grade, colours.alert)
+    return f"background: {colour}; color: white; padding: 4px 8px; border-radius: 3px;"
+
+
+class StatusView:
+    """The status bar's labels and the banners; ``colours`` follows the theme."""
+
+    def __init__(self, status_bar: QStatusBar, colours: Colours) -> None:
+        self.colours = colours
+        self.health = HealthTracker()
+        self.link_banner = QLabel()
+        self.link_banner.setWordWrap(True)
+        self.link_banner.setVisible(False)
+        self.link_banner.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.record_banner = QLabel()
+        self.record_banner.setWordWrap(True)
+        self.record_banner.setVisible(False)
+        self.record_banner.setStyleSheet(banner_style(colours, "alert"))
+
+        self.state_label = QLabel()
+        self.state_label.setToolTip("Link state")
+        self.health_label = QLabel()
+        self.rec_label = QLabel()
+        self.rec_label.setToolTip("Recording: elapsed time, file size, file name")
+        self.cal_label = QLabel()
+        self.cal_label.setToolTip("Standing-pose zeroing (Zero, Ctrl+0)")
+        self.samples_label = QLabel()
+        self.samples_label.setToolTip("Samples received since connecting")
+        for w in (self.rec_label, self.cal_label, self.health_label, self.samples_label):
+            w.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Preferred)
+            status_bar.addPermanentWidget(w)
+        status_bar.addPermanentWidget(self.state_label)
+        self.set_state_pill("Disconnected", "ok")
+
+    @property
+    def state_text(self) -> str:
+        return str(self.state_label.property("state_text") or "")
+
+    def set_state_pill(self, text: str, grade: str) -> None:
+        c = self.colours
+        colour = {"ok": c.ok, "warn": c.warn}.get(grade, c.alert)
+        if text == "Disconnected":
+            colour = "gray"
+        self.state_label.setText(f"<span style='color:{colour}'>●</span> {text}")
+        self.state_label.setProperty("state_text", text)
+
+    def connected(self) -> None:
+        """A new connection: link health starts from scratch."""
+        self.health.reset()
+
+    def disconnected(self) -> None:
+        self.link_banner.setVisible(False)
+        self.set_state_pill("Disconnected", "ok")
+        self.health_label.setText("")
+        self.rec_label.setText("")
+
+    def show_link(self, snap: Snapshot, port: str) -> None:
+        """Link state, health, sample count and zeroing of one snapshot (``port``: as named in
+        the banner)."""
+        view = link_view(
+            snap.link_state,
+            snap.link_reason,
+            snap.seconds_to_reconnect,
+            snap.last_data_age_s,
+            port,
+        )
+        if view.banner:
+            self.link_banner.setText(view.banner)
+            if self.link_banner.property("grade") != view.grade:
+                self.link_banner.setStyleSheet(banner_style(self.colours, view.grade))
+                self.link_banner.setProperty("grade", view.grade)
+            self.link_banner.setVisible(True)
+        elif self.link_banner.isVisible():
+            self.link_banner.setVisible(False)
+        pill = view.pill
+        if view.state == "reconnecting" and snap.seconds_to_reconnect is not None:
+            pill = f"Reconnecting ({snap.seconds_to_reconnect:.1f} s)"
+        self.set_state_pill(pill, view.grade)
+
+        link = snap.link
+        if link is not None:
+            d = link.decoder
+            h = self.health.update(
+                time.monotonic(),
+                d.frames_ok,
+                d.frames_lost,
+                d.crc_failures,
+                snap.frame_rate_hz,
+                snap.last_data_age_s,
+                reconnects=link.reconnects,
+                link_up=snap.link_state == "connected",
+                errors=snap.engine_errors + link.rx_errors,
+                last_error=snap.engine_error or link.rx_error,
+            )
+            colour = {"ok": "palette(window-text)", "lossy": self.colours.warn}.get(
+                h.grade, self.colours.alert
+            )
+            weight = "normal" if h.grade == "ok" else "bold"
+            self.health_label.setText(h.text)
+            if self.health_label.property("grade") != h.grade:  # re-styling is not free
+                self.health_label.setStyleSheet(f"color: {colour}; font-weight: {weight}")
+                self.health_label.setProperty("grade", h.grade)
+            self.health_label.setToolTip(h.tooltip)
+        self.samples_label.setText(f"{snap.samples_total:,} samples")
+        self.samples_label.setProperty("samples", snap.samples_total)
+        if snap.mode is Mode.RAW:
+            cal = "zeroed" if snap.calibrated else "not zeroed"
+        else:
+            cal = "unit zeroes itself"
+        self.cal_label.setText(cal)
+
+    def show_recording(self, rec: RecordingStatus) -> None:
+        """The running recording: elapsed time, size, file, blocks the recorder could not keep."""
+        text = (
+            f"<span style='color:{self.colours.alert}'>●</span> REC "
+            f"{fmt_elapsed(rec.elapsed_s)} · {fmt_bytes(rec.file_bytes)} · {Path(rec.path).name}"
+        )
+        if rec.dropped_blocks:
+            text += f" · {rec.dropped_blocks} blocks NOT saved"
+        self.rec_label.setText(text)
+
+    def show_recorder_stopped(self, message: str) -> None:
+        self.record_banner.setText(message)
+        self.record_banner.setVisible(True)
+        self.rec_label.setText("")
+
+
+GAIT_ROWS = (
+    ("cadence", "Cadence (derived)", "steps/min: 120 / mean stride time of the last "
+     "strides. Derived: one unit measures one leg."),
+    ("stride", "Last stride", "time from one heel strike to the next (s)"),
+    ("stance", "Stance", "stance time as % of the last stride (normal ≈ 60 %)"),
+    ("strides", "Strides", "strides completed since connecting"),
+)  # fmt: skip
+
+
+class GaitPanel(QWidget):
+    """The gait dock: the latest stride's figures and the mean ± SD gait cycle."""
+
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        g = QVBoxLayout(self)
+        g.setContentsMargins(4, 4, 4, 4)
+        grid = QGridLayout()
+        grid.setHorizontalSpacing(10)
+        self.values: dict[str, QLabel] = {}
+        big = self.font()
+        big.setPointSizeF(big.pointSizeF() * 1.5)
+        big.setBold(True)
+        for r, (key, label, tip) in enumerate(GAIT_ROWS):
+            name = QLabel(label)
+            name.setToolTip(tip)
+            value = QLabel("—")
+            value.setFont(big)
+            value.setToolTip(tip)
+            value.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+            grid.addWidget(name, r, 0)
+            grid.addWidget(value, r, 1)
+            self.values[key] = value
+        g.addLayout(grid)
+        self.cycle_title = QLabel("Gait cycle: mean ± SD of the last strides, current stride")
+        self.cycle_title.setWordWrap(True)
+        g.addWidget(self.cycle_title)
+        self.cycles = CyclePlots(colours)
+        self.cycles.setMinimumHeight(300)
+        g.addWidget(self.cycles, 1)
+        self._layout = g
+        self._shown_strides = -1
+
+    def clear(self) -> None:
+        self._shown_strides = -1
+        self.cycles.clear_data()
+
+    def set_colours(self, colours: Colours) -> None:
+        """Curves are created once per theme: a new plot widget with the new shades."""
+        old = self.cycles
+        self.cycles = CyclePlots(colours)
+        self.cycles.setMinimumHeight(300)
+        self._layout.replaceWidget(old, self.cycles)
+        old.deleteLater()
+        self._shown_strides = -1
+
+    def show_snapshot(self, snap: Snapshot) -> None:
+        g = snap.gait
+        v = self.values
+
+        def fmt(x: float, spec: str, unit: str) -> str:
+            return f"{x:{spec}} {unit}" if math.isfinite(x) else "—"
+
+        v["cadence"].setText(fmt(g.cadence_derived_steps_per_min, ".0f", "steps/min"))
+        v["stride"].setText(fmt(g.last_stride_time_s, ".2f", "s"))
+        v["stance"].setText(fmt(g.last_stance_pct, ".0f", "%"))
+        v["strides"].setText(str(g.n_strides))
+        if g.n_strides != self._shown_strides:
+            self._shown_strides = g.n_strides
+            k = len(g.cycles_deg)
+            self.cycle_title.setText(
+                f"Gait cycle: mean ± SD of the last {k} strides (band), current stride (line)"
+                if k
+                else "Gait cycle: waiting for complete strides…"
+            )
+        self.cycles.update_from(snap)

@@ -1,0 +1,107 @@
+"""The gait-cycle overlay of the live monitor: hip, knee and ankle over the last strides."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtGui import QColor
+from PySide6.QtWidgets import QWidget
+
+from gaitmon.dsp.gait import cycle_mean_sd
+from gaitmon.engine import Snapshot
+from gaitmon.ui.plots.traces import JOINTS, CountingPlotWidget, style_plot
+from gaitmon.ui.theme import Colours, pen
+
+
+class CyclePlots(CountingPlotWidget):
+    """Hip, knee and ankle over the gait cycle: mean ± SD of the last strides + current stride."""
+
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.colours = colours
+        self.ci.setContentsMargins(2, 2, 8, 2)
+        self.pct = np.linspace(0.0, 100.0, 101)
+        self.mean_curves: list[pg.PlotCurveItem] = []
+        self.upper: list[pg.PlotCurveItem] = []
+        # hides QWidget.lower() (window stacking), which nothing calls on a plot widget
+        self.lower: list[pg.PlotCurveItem] = []  # type: ignore[assignment]
+        self.current: list[pg.PlotCurveItem] = []
+        self.toe_off_lines: list[pg.InfiniteLine] = []
+        self._shown_strides = -1
+        # the cycles are Kalman joint angles: the paper's Kalman green, band translucent
+        band_colour = QColor(colours.kalman)
+        band_colour.setAlpha(60)
+        band_pen = pen(band_colour)
+        cur_pen = pg.mkPen(colours.current, width=2)
+        for j, (key, label, yr) in enumerate(JOINTS):
+            p = self.addPlot(row=j, col=0)
+            style_plot(p, colours, f"{label} (deg)", yr, bottom=False)
+            p.setMouseEnabled(x=False, y=False)
+            p.setXRange(0, 100, padding=0)
+            ax = p.getAxis("bottom")
+            if j == len(JOINTS) - 1:
+                ax.setStyle(showValues=True)
+                ax.setHeight(None)
+                ax.setLabel("gait cycle (% of stride, from heel strike)")
+            p.setToolTip(
+                f"{key.capitalize()} over the gait cycle in degrees: band = mean ± SD of the last "
+                "strides, line = the current stride so far, dashed = mean toe off."
+            )
+            lower = pg.PlotCurveItem(pen=band_pen)
+            upper = pg.PlotCurveItem(pen=band_pen)
+            fill = pg.FillBetweenItem(lower, upper, brush=band_colour)
+            mean = pg.PlotCurveItem(pen=pen(colours.kalman))
+            cur = pg.PlotCurveItem(pen=cur_pen)
+            toe = pg.InfiniteLine(pos=60, angle=90, pen=pen(colours.event, dashed=True))
+            toe.setVisible(False)
+            for item in (lower, upper, fill, mean, toe, cur):
+                p.addItem(item)
+            self.lower.append(lower)
+            self.upper.append(upper)
+            self.mean_curves.append(mean)
+            self.current.append(cur)
+            self.toe_off_lines.append(toe)
+
+    def clear_data(self) -> None:
+        self._shown_strides = -1
+        for items in (self.lower, self.upper, self.mean_curves, self.current):
+            for it in items:
+                it.setData(np.empty(0), np.empty(0))
+        for line in self.toe_off_lines:
+            line.setVisible(False)
+
+    def update_from(self, snap: Snapshot) -> None:
+        g = snap.gait
+        if g.n_strides != self._shown_strides:
+            self._shown_strides = g.n_strides
+            cyc = g.cycles_deg
+            if len(cyc):
+                # the sample SD, as in the review window and the report; one stride has none
+                mean, sd = cycle_mean_sd(cyc)
+                band = bool(np.isfinite(sd).all())
+                for j in range(len(JOINTS)):
+                    self.mean_curves[j].setData(self.pct, mean[:, j])
+                    for curve, y in ((self.lower[j], -sd[:, j]), (self.upper[j], sd[:, j])):
+                        if band:
+                            curve.setData(self.pct, mean[:, j] + y)
+                        else:
+                            curve.setData(np.empty(0), np.empty(0))
+            stance = g.last_stance_pct
+            for line in self.toe_off_lines:
+                ok = math.isfinite(stance)
+                line.setVisible(ok)
+                if ok:
+                    line.setValue(stance)
+        pct = g.current_pct
+        if len(pct):
+            keep = pct <= 100.0
+            for j in range(len(JOINTS)):
+                y = g.current_deg[keep, j]
+                if np.isfinite(y).all():
+                    self.current[j].setData(pct[keep], y, skipFiniteCheck=True)
+                else:
+                    self.current[j].setData(pct[keep], y, connect="finite")
+        self.mark_new_data(float(time.monotonic()))

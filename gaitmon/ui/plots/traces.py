@@ -1,0 +1,263 @@
+"""Drawing primitives the live and review plots share, and the clinical ranges they show.
+
+Everything here is built once and then fed numpy arrays ~30 times a second. What keeps that
+cheap (budget: < 30 % of one core for the GUI thread):
+
+* each plot's traces drawn by one `TraceSet` item (one paint call per plot, paths built by
+  ``pg.arrayToQPath``), pen width 1, no antialiasing, fixed axis ranges (no autorange pass);
+* axes (which draw the grid) cached as pixmaps, major grid lines only (:func:`style_plot`);
+* the x axis is "seconds before now" with a fixed range, so the axes never re-render while the
+  traces scroll;
+* series known to be finite skip pyqtgraph's finite check; series with gaps (device modes leave
+  some series NaN) are drawn with ``connect='finite'`` and all-NaN ones are hidden;
+* windows longer than ``MAX_POINTS`` are min/max decimated once per series (all columns in one
+  numpy call) instead of per curve, so peaks stay visible (:func:`decimate_peak`);
+* gait phases are drawn as step polygons through the phase changes only (:func:`step_band`),
+  and events / markers as one ``connect='pairs'`` path per plot (:func:`vertical_lines`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import QRectF
+from PySide6.QtGui import QBrush, QColor, QFont, QPainter, QPainterPath, QPaintEvent, QPen
+from PySide6.QtWidgets import QGraphicsItem, QGraphicsObject, QGraphicsView, QWidget
+
+from gaitmon.ui.theme import Colours
+
+SEGMENTS = ("body", "thigh", "shank", "foot")
+# y ranges cover normal and pathological walking with a calibrated (zeroed) unit
+TILT_RANGES_DEG = {"body": (-25, 25), "thigh": (-45, 50), "shank": (-75, 50), "foot": (-80, 60)}
+JOINTS = (
+    ("hip", "hip flexion", (-25, 55)),
+    ("knee", "knee flexion", (-10, 80)),
+    ("ankle", "ankle dorsiflexion", (-35, 35)),
+)
+FSR_RANGE = (-150.0, 4250.0)  # 12-bit ADC counts
+# (key, label, tilt series, joint series); drawn in this order, Kalman on top
+METHODS = (
+    ("gyro", "Gyro integration", "tilt_gyro_deg", "joint_gyro_deg"),
+    ("acc", "Accelerometer", "tilt_acc_deg", "joint_acc_deg"),
+    ("kalman", "Kalman filter", "tilt_kalman_deg", "joint_kalman_deg"),
+)
+METHOD_LABELS = {k: label for k, label, _, _ in METHODS}
+PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")
+MAX_POINTS = 1400  # per trace; beyond this a window is min/max decimated
+AXIS_WIDTH_PX = 58
+
+if TYPE_CHECKING:
+    # pyqtgraph has no type information. Its bases are typed here as the Qt classes they
+    # derive from; what pyqtgraph adds to a layout widget (addPlot, ci, ...) is Any.
+    _GraphicsObject = QGraphicsObject
+
+    class _GraphicsLayoutWidget(QGraphicsView):
+        def __getattr__(self, name: str) -> Any: ...
+
+else:
+    _GraphicsObject = pg.GraphicsObject
+    _GraphicsLayoutWidget = pg.GraphicsLayoutWidget
+
+
+def decimate_peak(x: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Min/max decimation of (N,) x and (N, ...) y to at most ``max_points`` rows.
+
+    Each group of f consecutive samples becomes two rows (its min and max), so short peaks
+    survive; the oldest N mod f samples are dropped. Returns the inputs when no decimation
+    is needed.
+    """
+    n = len(x)
+    if n <= max_points or max_points < 2:
+        return x, y
+    f = math.ceil(n / (max_points // 2))
+    if n < 2 * f:
+        return x, y
+    m = n // f
+    start = n - m * f
+    xs = x[start:].reshape(m, f)
+    ys = y[start:].reshape(m, f, *y.shape[1:])
+    out_x = np.empty(2 * m)
+    out_x[0::2] = xs[:, 0]
+    out_x[1::2] = xs[:, -1]
+    out_y = np.empty((2 * m, *y.shape[1:]))
+    out_y[0::2] = ys.min(axis=1)
+    out_y[1::2] = ys.max(axis=1)
+    return out_x, out_y
+
+
+def step_band(
+    x: np.ndarray, mask: np.ndarray, top: float, bottom: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """A step outline that is ``top`` where ``mask`` holds and ``bottom`` elsewhere.
+
+    Only the runs' ends become points, so a 10 s window of phases is a few dozen points.
+    """
+    if len(x) == 0:
+        return np.empty(0), np.empty(0)
+    m = np.asarray(mask, dtype=np.int8)
+    change = np.flatnonzero(np.diff(m)) + 1
+    starts = np.concatenate([[0], change])
+    ends_x = np.concatenate([x[change], x[-1:]])
+    out_x = np.empty(2 * len(starts))
+    out_x[0::2] = x[starts]
+    out_x[1::2] = ends_x
+    out_y = np.repeat(np.where(m[starts] > 0, top, bottom), 2)
+    return out_x, out_y
+
+
+def vertical_lines(xs: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points for a ``connect='pairs'`` curve drawing one vertical line per x."""
+    return np.repeat(xs, 2), np.tile(np.array([lo, hi]), len(xs))
+
+
+class Trace:
+    """One line (or filled band) inside a `TraceSet`: its path, style and what it shows."""
+
+    __slots__ = ("brush", "column", "fill_level", "method", "n_points", "path", "pen", "series",
+                 "visible")  # fmt: skip
+
+    def __init__(
+        self,
+        pen: QPen | None = None,
+        brush: QColor | None = None,
+        fill_level: float | None = None,
+        series: str = "",
+        column: int = -1,
+        method: str = "",
+    ) -> None:
+        self.pen = pen
+        self.brush = QBrush(brush) if brush is not None else None
+        self.fill_level = fill_level
+        self.series = series
+        self.column = column
+        self.method = method
+        self.path: QPainterPath | None = None
+        self.n_points = 0
+        self.visible = True
+
+    def set(self, x: np.ndarray, y: np.ndarray, finite: bool = True, connect: str = "") -> None:
+        """New points; ``finite=False`` breaks the line at NaNs (device modes have gaps)."""
+        if len(x) == 0:
+            self.clear()
+            return
+        if self.fill_level is not None:  # close the outline down to the fill level
+            x = np.concatenate([x[:1], x, x[-1:]])
+            y = np.concatenate([[self.fill_level], y, [self.fill_level]])
+        mode = connect or ("all" if finite else "finite")
+        self.path = pg.arrayToQPath(
+            np.ascontiguousarray(x, dtype=np.float64),
+            np.ascontiguousarray(y, dtype=np.float64),
+            connect=mode,
+            finiteCheck=not finite,
+        )
+        self.n_points = len(x)
+
+    def clear(self) -> None:
+        self.path = None
+        self.n_points = 0
+
+
+class TraceSet(_GraphicsObject):
+    """All the traces of one plot, drawn by a single item in list order.
+
+    One ``paint`` per plot instead of one per curve: with ~50 PlotCurveItems the per-item
+    overhead (Python paint logic, bounds, scene bookkeeping) cost ~130 us each per frame. The
+    bounding rect is a constant (the plot clips to its view), so no per-frame bounds pass.
+    ``dataBounds`` reports the plot's nominal range, so "View all" in the menu stays sane.
+    """
+
+    _BIG = QRectF(-1e5, -1e7, 2e5, 2e7)
+
+    def __init__(self, nominal_x: tuple[float, float], nominal_y: tuple[float, float]) -> None:
+        super().__init__()
+        self.traces: list[Trace] = []
+        self.nominal = [nominal_x, nominal_y]
+        self.antialias = False  # measured: antialiased live traces redraw far slower
+
+    def add(self, trace: Trace) -> Trace:
+        self.traces.append(trace)
+        return trace
+
+    def commit(self) -> None:
+        """Schedule a repaint after the traces changed."""
+        self.update()
+
+    def boundingRect(self) -> QRectF:
+        return self._BIG
+
+    def dataBounds(
+        self, ax: int, frac: float = 1.0, orthoRange: object = None
+    ) -> tuple[float, float]:
+        return self.nominal[ax]
+
+    def paint(self, p: QPainter, *args: object) -> None:
+        p.setRenderHint(QPainter.RenderHint.Antialiasing, self.antialias)
+        for tr in self.traces:
+            if tr.path is None or not tr.visible:
+                continue
+            if tr.brush is not None:
+                p.fillPath(tr.path, tr.brush)
+            else:
+                p.setPen(tr.pen)
+                p.drawPath(tr.path)
+
+
+class CountingPlotWidget(_GraphicsLayoutWidget):
+    """A GraphicsLayoutWidget that counts its repaints and the latency of the data it shows.
+
+    Latency = time the paint finished - host receive time of the newest sample drawn; measured
+    on the first paint after new data (what `benchmarks/bench_gui.py` reports).
+    """
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.paints = 0
+        self.latencies_s: deque[float] = deque(maxlen=4096)
+        self._shown_host_time_s: float | None = None
+
+    def mark_new_data(self, newest_host_time_s: float) -> None:
+        self._shown_host_time_s = newest_host_time_s
+
+    def paintEvent(self, ev: QPaintEvent) -> None:
+        super().paintEvent(ev)
+        self.paints += 1
+        if self._shown_host_time_s is not None:
+            self.latencies_s.append(time.monotonic() - self._shown_host_time_s)
+            self._shown_host_time_s = None
+
+
+def style_plot(
+    plot: pg.PlotItem, colours: Colours, ylabel: str, yrange: tuple[float, float], bottom: bool
+) -> None:
+    plot.setMenuEnabled(True)
+    plot.setMouseEnabled(x=False, y=True)  # y zoom to inspect; x follows the clock
+    plot.hideButtons()
+    plot.showGrid(x=True, y=True, alpha=colours.grid_alpha)
+    vb = plot.getViewBox()
+    vb.disableAutoRange()
+    vb.setDefaultPadding(0.0)
+    plot.setYRange(*yrange, padding=0)
+    left = plot.getAxis("left")
+    left.setWidth(AXIS_WIDTH_PX)
+    left.setLabel(ylabel)
+    left.enableAutoSIPrefix(False)
+    ax = plot.getAxis("bottom")
+    if bottom:
+        ax.setLabel("time before now (s)")
+    else:
+        ax.setStyle(showValues=False)
+        ax.setHeight(6)
+    font = QFont()
+    font.setPointSizeF(8.0)
+    for a in (left, ax):
+        a.setTickFont(font)
+        # The axes draw the grid; replaying it on every frame was ~80 % of the paint time
+        # (17 ms -> 3 ms per frame measured): keep major ticks only and cache the axes as
+        # pixmaps (they only change when the y range or the window size does).
+        a.setStyle(maxTickLevel=0)
+        a.setCacheMode(QGraphicsItem.CacheMode.DeviceCoordinateCache)
