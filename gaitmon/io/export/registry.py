@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from gaitmon.io.export.deidentify import Scrubber
     from gaitmon.io.export.source import Source
 
-Progress = Callable[[float], None]  # called with the fraction done, 0..1
+Progress = Callable[[float], object]  # called with the fraction done, 0..1; its result is ignored
 Cancel = Callable[[], bool]  # True once the caller wants the export stopped
 
 
