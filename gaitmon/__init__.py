@@ -1,8 +1,5 @@
 """gaitmon: live monitor, recorder and reviewer for a wearable lower-limb gait-measurement unit."""
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("gaitmon")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0+unknown"
+# The one place the version is written (pyproject.toml reads it): a constant, so every command
+# knows it without the ~0.1 s that importlib.metadata costs at start-up.
+__version__ = "0.1.0"

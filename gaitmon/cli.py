@@ -1,4 +1,8 @@
-"""The ``gaitmon`` command line. Each subcommand lives in its own module and registers here."""
+"""The ``gaitmon`` command line. Each subcommand lives in its own module and registers here.
+
+Only the module of the subcommand being run is imported (``gaitmon --help`` lists them from
+:data:`SUBCOMMANDS` alone), so a command pays for what it uses and nothing else.
+"""
 
 from __future__ import annotations
 
@@ -46,7 +50,9 @@ def open_live_monitor(args: argparse.Namespace) -> int:
     return run_app(sim_config_from_args(args), connect_simulated=bool(args.simulate))
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser. Only ``command``'s module is loaded and its options known; every other
+    subcommand is listed by name and help alone (so ``gaitmon --help`` loads none)."""
     parser = argparse.ArgumentParser(
         prog="gaitmon",
         description="Live monitor, recorder and reviewer for a wearable gait-measurement unit.",
@@ -59,24 +65,28 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="open the live monitor connected to the simulated unit",
     )
-    from gaitmon.commands.simulate import add_simulator_options
+    if command is None:  # the window's simulator options; a subcommand has its own
+        from gaitmon.commands.simulate import add_simulator_options
 
-    add_simulator_options(parser.add_argument_group("simulated unit (with --simulate)"))
+        add_simulator_options(parser.add_argument_group("simulated unit (with --simulate)"))
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (module_path, help_text) in SUBCOMMANDS.items():
-        add_arguments, run = _load(module_path)
         p = sub.add_parser(name, help=help_text, description=help_text)
-        add_arguments(p)
-        p.set_defaults(_run=run)
+        if name == command:
+            add_arguments, run = _load(module_path)
+            add_arguments(p)
+            p.set_defaults(_run=run)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    run: Run = getattr(args, "_run", None) or open_live_monitor
-    prog = f"gaitmon {args.command}" if args.command else "gaitmon"
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # the first word that names a subcommand is the subcommand (no option takes one as value)
+    command = next((a for a in argv if a in SUBCOMMANDS), None)
+    prog = f"gaitmon {command}" if command else "gaitmon"
     try:
+        args = build_parser(command).parse_args(argv)
+        run: Run = getattr(args, "_run", None) or open_live_monitor
         return int(run(args) or 0)
     except UserError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)

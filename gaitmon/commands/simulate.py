@@ -16,7 +16,7 @@ from types import FrameType
 
 from gaitmon.errors import UserError
 from gaitmon.io.sim.config import SimConfig, serve_on_pty
-from gaitmon.io.sim.kinematics import PATTERNS
+from gaitmon.io.sim.patterns import PATTERNS
 
 DESCRIPTION = """\
 Run a simulated gait unit (one leg: 4 IMUs + heel/toe FSRs sampled at 100 Hz) that speaks the

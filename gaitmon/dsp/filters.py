@@ -87,6 +87,20 @@ class Butterworth(ChannelFilter):
         initial: str = "first",
     ) -> None:
         from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
+
+        self.check(cutoff_hz, fs_hz, order, initial)
+        self.cutoff_hz = float(cutoff_hz)
+        self.fs_hz = float(fs_hz)
+        self.order = int(order)
+        self.initial = initial
+        b, a = signal.butter(self.order, self.cutoff_hz, btype="low", fs=self.fs_hz)
+        self.b: np.ndarray = b
+        self.a: np.ndarray = a
+        self._zi_unit = signal.lfilter_zi(b, a)
+
+    @staticmethod
+    def check(cutoff_hz: float, fs_hz: float, order: int, initial: str = "first") -> None:
+        """Raise ValueError naming the first bad setting (no filter is designed)."""
         if not fs_hz > 0:
             raise ValueError(f"sample rate must be positive, got {fs_hz} Hz")
         if not 0 < cutoff_hz < fs_hz / 2:
@@ -97,14 +111,6 @@ class Butterworth(ChannelFilter):
             raise ValueError(f"filter order must be a whole number from 1 to 8, got {order}")
         if initial not in ("first", "zero"):
             raise ValueError(f"initial must be 'first' or 'zero', got {initial!r}")
-        self.cutoff_hz = float(cutoff_hz)
-        self.fs_hz = float(fs_hz)
-        self.order = int(order)
-        self.initial = initial
-        b, a = signal.butter(self.order, self.cutoff_hz, btype="low", fs=self.fs_hz)
-        self.b: np.ndarray = b
-        self.a: np.ndarray = a
-        self._zi_unit = signal.lfilter_zi(b, a)
 
     @property
     def coefficients(self) -> tuple[np.ndarray, np.ndarray]:

@@ -110,14 +110,7 @@ class TiltKalman:
         fast_path: bool = True,
     ) -> None:
         """``fast_path=False`` runs every sample step by step (the reference; ~70x slower)."""
-        for name, value in (("dt_s", dt_s), ("r", r)):
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value}")
-        for name, value in (("q_angle", q_angle), ("q_gyro", q_gyro)):
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be zero or positive, got {value}")
-        if form not in ("paper", "discrete"):
-            raise ValueError(f"form must be 'paper' or 'discrete', got {form!r}")
+        self.check(dt_s, q_angle, q_gyro, r, form)
         self.dt_s = float(dt_s)
         self.q_angle = float(q_angle)
         self.q_gyro = float(q_gyro)
@@ -128,6 +121,18 @@ class TiltKalman:
         self._sched = _gain_schedule(self.dt_s, self.q_angle, self.q_gyro, self.r, form)
         self._setup_lti()
         self.reset()
+
+    @staticmethod
+    def check(dt_s: float, q_angle: float, q_gyro: float, r: float, form: str) -> None:
+        """Raise ValueError naming the first bad setting (nothing is computed)."""
+        for name, value in (("dt_s", dt_s), ("r", r)):
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value}")
+        for name, value in (("q_angle", q_angle), ("q_gyro", q_gyro)):
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be zero or positive, got {value}")
+        if form not in ("paper", "discrete"):
+            raise ValueError(f"form must be 'paper' or 'discrete', got {form!r}")
 
     # ------------------------------------------------------------------ set-up
     def _setup_lti(self) -> None:

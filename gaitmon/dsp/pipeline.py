@@ -63,8 +63,11 @@ class PipelineConfig:
     compensate_event_delay: bool = True
 
     def __post_init__(self) -> None:
-        # Constructing the stages validates every value with a message that names it.
-        Pipeline._build_stages(self)
+        # Every value is checked with a message that names it, as the stages check them, but
+        # without designing the filters: a file's recorded settings are read without scipy.
+        Butterworth.check(self.cutoff_hz, self.fs_hz, self.filter_order)
+        TiltKalman.check(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
+        GaitEventDetector(self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz)
 
     @property
     def dt_s(self) -> float:

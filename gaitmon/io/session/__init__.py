@@ -15,26 +15,61 @@ package:
 * :mod:`.truth` - the ``/truth`` group of simulated sessions;
 * :mod:`.exclusions` - the user's excluded ranges, kept beside the recording in
   ``FILE.review.json`` (analysis state: the recording itself is never modified).
+
+Importing the package imports none of them (:mod:`gaitmon.lazy`): ``gaitmon info`` reads a file
+without loading the writer, the device link or reprocessing.
 """
 
-from gaitmon.io.journal import journal_path
-from gaitmon.io.session.exclusions import Exclusion
-from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta, device_info
-from gaitmon.io.session.layout import (
-    ANGLE_CONVENTION,
-    CHUNK_ROWS,
-    FORMAT,
-    FORMAT_VERSION,
-    LINK_TOTALS,
-    MODES,
-    per_sample_datasets,
-)
-from gaitmon.io.session.reader import Gap, Marker, Session, open_session
-from gaitmon.io.session.recovery import recover_session, replay_pipeline
-from gaitmon.io.session.reprocess import RewriteResult, rewrite_processed
-from gaitmon.io.session.rows import rows_from_pipeline
-from gaitmon.io.session.truth import read_truth
-from gaitmon.io.session.writer import SessionWriter
+from typing import TYPE_CHECKING
+
+from gaitmon.lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from gaitmon.io.journal import journal_path
+    from gaitmon.io.session.exclusions import Exclusion
+    from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta, device_info
+    from gaitmon.io.session.layout import (
+        ANGLE_CONVENTION,
+        CHUNK_ROWS,
+        FORMAT,
+        FORMAT_VERSION,
+        LINK_TOTALS,
+        MODES,
+        per_sample_datasets,
+    )
+    from gaitmon.io.session.reader import Gap, Marker, Session, open_session
+    from gaitmon.io.session.recovery import recover_session, replay_pipeline
+    from gaitmon.io.session.reprocess import RewriteResult, rewrite_processed
+    from gaitmon.io.session.rows import rows_from_pipeline
+    from gaitmon.io.session.truth import read_truth
+    from gaitmon.io.session.writer import SessionWriter
+
+__getattr__ = lazy_exports(__name__, {
+    "journal_path": "gaitmon.io.journal",
+    "Exclusion": "exclusions",
+    "SessionError": "header",
+    "SessionHeader": "header",
+    "SessionMeta": "header",
+    "device_info": "header",
+    "ANGLE_CONVENTION": "layout",
+    "CHUNK_ROWS": "layout",
+    "FORMAT": "layout",
+    "FORMAT_VERSION": "layout",
+    "LINK_TOTALS": "layout",
+    "MODES": "layout",
+    "per_sample_datasets": "layout",
+    "Gap": "reader",
+    "Marker": "reader",
+    "Session": "reader",
+    "open_session": "reader",
+    "recover_session": "recovery",
+    "replay_pipeline": "recovery",
+    "RewriteResult": "reprocess",
+    "rewrite_processed": "reprocess",
+    "rows_from_pipeline": "rows",
+    "read_truth": "truth",
+    "SessionWriter": "writer",
+})  # fmt: skip
 
 __all__ = [
     "ANGLE_CONVENTION",

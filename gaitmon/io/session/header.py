@@ -9,14 +9,16 @@ import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from gaitmon import __version__
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import CHANNELS, DEFAULT_TABLE, ChannelSpec, ChannelTable
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.protocol import Identity
 from gaitmon.io.session.layout import _DEVICE_KEYS, FORMAT, FORMAT_VERSION, MODES
+
+if TYPE_CHECKING:  # the wire protocol is not needed to read a file
+    from gaitmon.io.protocol import Identity
 
 
 class SessionError(Exception):

@@ -22,7 +22,6 @@ from gaitmon.io.session.exclusions import load as load_exclusions
 from gaitmon.io.session.h5file import _being_recorded, _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta
 from gaitmon.io.session.layout import FORMAT, FORMAT_VERSION, MODES, per_sample_datasets
-from gaitmon.io.session.recovery import recover_session
 from gaitmon.io.session.truth import Truth, truth_from_file
 
 
@@ -293,6 +292,8 @@ def open_session(
                 jpath.unlink()
         if jpath.exists():
             try:
+                from gaitmon.io.session.recovery import recover_session  # only when needed
+
                 recover_session(path, progress)
             except SessionError as e:
                 if not path.exists():

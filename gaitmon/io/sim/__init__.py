@@ -7,13 +7,34 @@
   paced by a clock, with fault injection, a fault ledger and ground truth;
 * ``pty``        -- ``PtySimulator``: the unit behind a pseudo-terminal for pyserial clients;
 * ``config``     -- ``SimConfig``: what a user chooses about the simulator, as one frozen value,
-  and ``build_unit`` / ``serve_on_pty`` that make the unit from it.
+  and ``build_unit`` / ``serve_on_pty`` that make the unit from it;
+* ``patterns``   -- the gait patterns by name.
+
+Importing the package imports none of them: a name is loaded from its module on first use
+(PEP 562), so the command line can name the simulator's options without paying for numpy and
+scipy.
 """
 
-from gaitmon.io.sim.config import SimConfig, build_unit, serve_on_pty
-from gaitmon.io.sim.kinematics import PATTERNS, GaitConfig, GaitModel
-from gaitmon.io.sim.sensors import SensorConfig, SensorModel
-from gaitmon.io.sim.unit import FaultConfig, FaultLedger, GroundTruth, SimulatedUnit
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from gaitmon.lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from gaitmon.io.sim.config import SimConfig, build_unit, serve_on_pty
+    from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
+    from gaitmon.io.sim.patterns import PATTERNS
+    from gaitmon.io.sim.sensors import SensorConfig, SensorModel
+    from gaitmon.io.sim.unit import FaultConfig, FaultLedger, GroundTruth, SimulatedUnit
+
+__getattr__ = lazy_exports(__name__, {
+    "SimConfig": "config", "build_unit": "config", "serve_on_pty": "config",
+    "GaitConfig": "kinematics", "GaitModel": "kinematics", "PATTERNS": "patterns",
+    "SensorConfig": "sensors", "SensorModel": "sensors",
+    "FaultConfig": "unit", "FaultLedger": "unit", "GroundTruth": "unit", "SimulatedUnit": "unit",
+})  # fmt: skip
+
 
 __all__ = [
     "PATTERNS",

@@ -28,7 +28,7 @@ class SimConfig:
 
     cadence_steps_min: float = 110.0
     stride_cv: float = 0.02  # stride-to-stride coefficient of variation of stride time
-    pattern: str = "normal"  # a key of gaitmon.io.sim.kinematics.PATTERNS
+    pattern: str = "normal"  # a key of gaitmon.io.sim.patterns.PATTERNS
     standing_s: float = 5.0  # quiet standing before walking starts (time to zero)
     seed: int = 0
     side: str = "R"  # leg the unit is worn on

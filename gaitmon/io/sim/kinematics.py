@@ -50,10 +50,14 @@ anthropometric fractions of body height (thigh 0.245 H, shank 0.246 H).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
+
+from gaitmon.io.sim.patterns import PATTERNS
+
+if TYPE_CHECKING:
+    from scipy.interpolate import PchipInterpolator
 
 DEG = np.pi / 180.0
 TOE_OFF_PHASE = 0.60  # normative toe off, fraction of the cycle
@@ -88,12 +92,6 @@ NORMATIVE_KEY_POINTS_DEG: dict[str, tuple[tuple[float, float], ...]] = {
               (60, -12), (63, -17), (65, -16), (70, -10), (75, -4), (80, 0), (90, 1)),
 }  # fmt: skip
 
-# Pathological patterns: (stance fraction, swing knee-flexion scale)
-PATTERNS: dict[str, tuple[float, float]] = {
-    "normal": (0.60, 1.0),
-    "stiff-knee": (0.60, 0.45),  # reduced swing knee flexion (e.g. rectus femoris spasticity)
-    "long-stance": (0.70, 1.0),  # prolonged stance, short swing (e.g. antalgic / slow gait)
-}
 
 
 @dataclass(frozen=True)
@@ -298,7 +296,7 @@ class GaitModel:
         cfg = self.config
         self._rng = np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(1,)))
         self._durations_s = np.empty(0)
-        self._interp: PchipInterpolator | None = None
+        self._interp: PchipInterpolator | None = None  # built on first use
         self._t_walk_s = cfg.standing_s
         self._hs_times = np.empty(0)
         self._to_times = np.empty(0)
@@ -342,6 +340,8 @@ class GaitModel:
             # Before t=0 stand still too, so the interpolant is flat on [0, t_walk].
             t_all = np.concatenate([[-1.0], t_all])
             p_all = np.concatenate([[START_PHASE], p_all])
+        from scipy.interpolate import PchipInterpolator  # lazy: ~1 s to import
+
         self._interp = PchipInterpolator(t_all, p_all, extrapolate=True)
         self._horizon_s = hs[-4]
 
