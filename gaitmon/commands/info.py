@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections import Counter
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -74,23 +75,26 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
         f"  link         {lost} frames lost in {len(s.gaps)} gaps, "
         f"{s.link.get('crc_failures', 0)} CRC failures, {s.link.get('reconnects', 0)} reconnects",
     ]
-    n_all = len(rows)
+    reasons = Counter(r.excluded for r in rows if r.excluded)
+    why = ", ".join(f"{n} {reason}" for reason, n in reasons.items())
+    lines.append(
+        f"  strides      {an.n_included} included, {an.n_excluded} excluded"
+        + (f" ({why})" if why else "")
+    )
     if summ.n_strides:
         sd = summ.stride_time_sd_s
         spread = "" if np.isnan(sd) else f" ± {sd:.2f} s (CV {summ.stride_time_cv_pct:.1f} %)"
-        why = "first/last/gaps" + ("/user-excluded ranges" if an.n_user_excluded else "")
         lines.append(
-            f"  gait         {summ.n_strides} strides analysed ({n_all - summ.n_strides} excluded: "
-            f"{why}), stride time {summ.stride_time_mean_s:.2f} s{spread}, "
+            f"  gait         stride time {summ.stride_time_mean_s:.2f} s{spread}, "
             f"stance {summ.stance_pct_mean:.1f} %, cadence "
-            f"{summ.cadence_derived_steps_per_min:.0f} steps/min (derived)"
+            f"{summ.cadence_derived_steps_per_min:.0f} steps/min (derived), over the included "
+            "strides"
         )
     else:
         lines.append(
-            f"  gait         {len(s.heel_strike_idx)} heel strikes, {n_all} strides; "
+            f"  gait         {len(s.heel_strike_idx)} heel strikes, {len(rows)} strides; "
             "too few to analyse"
         )
-    lines.append(f"  strides      {an.n_included} included, {an.n_excluded} excluded")
     if an.exclusions:
         k = len(an.exclusions)
         lines.append(
