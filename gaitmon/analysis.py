@@ -134,7 +134,7 @@ class SessionAnalysis:
     joints_deg: np.ndarray | None  # (n, 3) float64 hip/knee/ankle, None for an empty session
     exclusions: tuple[Exclusion, ...]  # the user's ranges applied
     stored: bool  # the ranges are the ones stored beside the recording (not given by the caller)
-    side_file: Path  # where stored exclusions live (FILE.review.json)
+    side_file: Path  # where stored exclusions live (FILE.review.json, or the user store)
     problem: str = ""  # one line when the stored exclusions could not be used, else ""
 
     @property
@@ -173,7 +173,7 @@ def analyse_session(
     ``events`` (heel strike, toe off rows) and ``t_s`` default to the recorded ones; review
     passes a reprocessed source's joints and events instead.
     """
-    from gaitmon.io.session.exclusions import side_path
+    from gaitmon.io.session.exclusions import stored_path
 
     problem = ""
     stored = exclusions is None
@@ -195,4 +195,4 @@ def analyse_session(
         [(r.start_idx, r.stop_idx) for r in ranges],
         t_s=t_s,
     )
-    return SessionAnalysis(rows, joints, ranges, stored, side_path(session.path), problem)
+    return SessionAnalysis(rows, joints, ranges, stored, stored_path(session.path), problem)

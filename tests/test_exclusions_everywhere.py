@@ -86,6 +86,37 @@ def test_info_report_and_export_honour_the_exclusions_made_in_review(walk, capsy
         sp.unlink(missing_ok=True)
 
 
+def test_a_read_only_folder_keeps_them_in_the_user_store_where_info_sees_them(
+    walk, capsys, tmp_path, user_data_dir
+):
+    import shutil
+
+    copy = tmp_path / "walk.h5"
+    shutil.copyfile(walk, copy)
+    with open_session(copy) as s:
+        created, n = s.created_utc, s.n_samples
+        hs = s.heel_strike_idx
+    ranges = [exclusions.Exclusion(int(hs[4]) + 3, int(hs[6]) + 3, "turn")]
+    want = _included(copy, [(r.start_idx, r.stop_idx) for r in ranges])
+    assert want < _included(copy, [])
+    # the side file cannot be written (its temporary file's name is taken by a folder; root
+    # ignores permission bits, so a read-only folder is made this way)
+    blocker = exclusions.side_path(copy).with_name(copy.name + ".review.json.tmp")
+    blocker.mkdir()
+    kept = exclusions.save(copy, ranges, created, n)
+    assert kept.is_file() and user_data_dir in kept.parents
+    assert not exclusions.side_path(copy).exists()
+    text = _info(capsys, copy)
+    assert f"  strides      {want} included, " in text and kept.name in text
+    with open_session(copy) as s:
+        assert gather_report(s).summary.n_strides == want
+    # once the folder can be written again, the side file takes over and the copy goes
+    blocker.rmdir()
+    side = exclusions.save(copy, ranges, created, n)
+    assert side == exclusions.side_path(copy) and side.is_file() and not kept.exists()
+    assert f"  strides      {want} included, " in _info(capsys, copy)
+
+
 def test_rewrite_processed_reports_progress_and_writes_what_the_command_writes(
     walk, tmp_path, monkeypatch
 ):

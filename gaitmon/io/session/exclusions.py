@@ -6,15 +6,27 @@ leaves out the same strides. The recording itself is never modified. The side fi
 ranges (and their times, for a human reader), plus the recording's ``created_utc`` and
 ``n_samples`` so that ranges written for another recording of the same name are not applied by
 mistake. Written atomically (temporary file, then ``os.replace``).
+
+When the recording's folder cannot be written (a read-only share, a write-protected card), the
+same file goes to the user's gaitmon data folder instead (``$XDG_DATA_HOME/gaitmon/exclusions``,
+by default ``~/.local/share/gaitmon/exclusions``), named after the recording and a hash of its
+full path; every reader looks there when there is no side file, so the command line still sees
+what the review window kept.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
 
 FORMAT = "gaitmon-review"
 VERSION = 1
@@ -59,11 +71,30 @@ def subtract(ranges: list[Exclusion], start: int, stop: int) -> list[Exclusion]:
     return out
 
 
+def user_store_path(path: str | os.PathLike[str]) -> Path:
+    """Where the exclusions go when the recording's folder cannot be written."""
+    p = Path(path)
+    base = Path(os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share")
+    key = hashlib.sha256(str(p.resolve()).encode("utf-8")).hexdigest()[:16]
+    return base / "gaitmon" / "exclusions" / f"{p.name}.{key}.review.json"
+
+
+def stored_path(path: str | os.PathLike[str]) -> Path:
+    """The file the recording's exclusions are read from: the side file, else the user store
+    when only that exists (the side file's path when neither does)."""
+    sp = side_path(path)
+    if not sp.exists():
+        up = user_store_path(path)
+        if up.exists():
+            return up
+    return sp
+
+
 def load(
     path: str | os.PathLike[str], created_utc: str, n_samples: int
 ) -> tuple[list[Exclusion], str]:
-    """(exclusions, problem): an absent file is no exclusions and no problem."""
-    sp = side_path(path)
+    """(exclusions, problem): none stored is no exclusions and no problem."""
+    sp = stored_path(path)
     try:
         doc = json.loads(sp.read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -89,17 +120,15 @@ def load(
 
 def save(
     path: str | os.PathLike[str],
-    ranges: list[Exclusion],
+    ranges: Sequence[Exclusion],
     created_utc: str,
     n_samples: int,
-    t_s: list[float] | None = None,
+    t_s: Sequence[float] | np.ndarray | None = None,
 ) -> Path:
-    """Write the side file (or delete it when there is nothing to keep). Raises OSError."""
-    sp = side_path(path)
-    if not ranges:
-        with contextlib.suppress(FileNotFoundError):
-            sp.unlink()
-        return sp
+    """Keep the ranges (or forget them, when there are none); returns the file written.
+
+    Beside the recording when its folder can be written, else in the user store. Raises
+    OSError only when neither can be written."""
     items = []
     for r in ranges:
         item: dict[str, object] = {"start_idx": r.start_idx, "stop_idx": r.stop_idx,
@@ -114,7 +143,25 @@ def save(
         "recording": {"file": Path(path).name, "created_utc": created_utc, "n_samples": n_samples},
         "excluded_ranges": items,
     }
-    tmp = sp.with_name(sp.name + ".tmp")
-    tmp.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
-    os.replace(tmp, sp)
+    text = json.dumps(doc, indent=1) + "\n"
+    sp, up = side_path(path), user_store_path(path)
+    try:
+        _write(sp, text if ranges else None)
+    except OSError:
+        up.parent.mkdir(parents=True, exist_ok=True)
+        _write(up, text if ranges else None)
+        return up
+    with contextlib.suppress(OSError):  # the side file is the truth now
+        up.unlink()
     return sp
+
+
+def _write(target: Path, text: str | None) -> None:
+    """Atomically replace ``target`` with ``text``; ``None`` removes it."""
+    if text is None:
+        with contextlib.suppress(FileNotFoundError):
+            target.unlink()
+        return
+    tmp = target.with_name(target.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, target)

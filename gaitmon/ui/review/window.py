@@ -9,19 +9,19 @@ optional parts (export, report, filters, normative band). The actions and menus 
 :mod:`~gaitmon.ui.review.jobs`. Every slot is guarded: an unexpected exception becomes one line
 in the banner (and a logged traceback), never a crash.
 
-User exclusions are kept beside the recording in ``FILE.review.json`` (see
-:mod:`gaitmon.io.session.exclusions`); when that folder is read-only they are kept in the
-application settings instead. The recording itself is never written.
+User exclusions are kept beside the recording in ``FILE.review.json``, or in the user's gaitmon
+data folder when the recording's folder is read-only (both owned by
+:mod:`gaitmon.io.session.exclusions`, so ``gaitmon info`` and the report see them too). The
+recording itself is never written.
 """
 
 from __future__ import annotations
 
 import functools
-import json
 import logging
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from PySide6.QtCore import QSettings, Qt, QTimer
@@ -185,8 +185,6 @@ class ReviewWindow(ReviewJobs):
     def _set_document(self, doc: Document) -> None:
         self._drop_document()
         self.doc = doc
-        if not doc.exclusions:
-            doc.exclusions = self._fallback_exclusions(doc)
         s = doc.session
         who = s.meta.patient_id or "no patient id"
         state = "complete" if s.complete else ("recovered" if s.recovered else "incomplete")
@@ -355,37 +353,16 @@ class ReviewWindow(ReviewJobs):
             self.doc.exclusions = []
             self._exclusions_changed()
 
-    def _settings_key(self, doc: Document) -> str:
-        return "review/exclusions/" + str(doc.path.resolve()).replace("/", "|")
-
-    def _fallback_exclusions(self, doc: Document) -> list[excl.Exclusion]:
-        raw = self.settings.value(self._settings_key(doc), "")
-        if not raw:
-            return []
-        try:
-            d = json.loads(str(raw))
-            if d.get("created_utc") != doc.session.created_utc:
-                return []
-            return excl.merge([excl.Exclusion(int(a), int(b), str(lbl))
-                               for a, b, lbl in d["ranges"]])  # fmt: skip
-        except (ValueError, KeyError, TypeError):
-            return []
-
     def _exclusions_changed(self) -> None:
         doc = self.doc
         assert doc is not None
         try:
-            # save only indexes t_s; its annotation (list) is narrower than what it takes
-            t_s = cast("list[float]", doc.t_s)
-            sp = excl.save(doc.path, doc.exclusions, doc.session.created_utc, doc.n_rows, t_s)
-            self.settings.remove(self._settings_key(doc))
-            where = f"kept in {sp.name}"
+            sp = excl.save(doc.path, doc.exclusions, doc.session.created_utc, doc.n_rows,
+                           doc.t_s)  # fmt: skip
+            where = (f"kept in {sp.name}" if sp.parent == doc.path.parent
+                     else f"kept in {sp} (the recording's folder is read-only)")  # fmt: skip
         except OSError as e:
-            value = json.dumps({"created_utc": doc.session.created_utc, "ranges": [
-                (r.start_idx, r.stop_idx, r.label) for r in doc.exclusions]})  # fmt: skip
-            self.settings.setValue(self._settings_key(doc), value)
-            where = f"kept in the application settings ({excl.side_path(doc.path).name}: " \
-                    f"{e.strerror or e})"
+            where = f"not kept: {e.strerror or e}; they apply until the file is closed"
         n = len(doc.exclusions)
         self.status.message(f"{n} excluded range{'s' if n != 1 else ''}, {where}", 8000)
         self.timeline.refresh_shading()
