@@ -111,8 +111,13 @@ def test_frames_of_another_kind_mid_recording_leave_a_gap_not_a_dead_recorder(tm
         unit.write(encode_command(Command.SELECT_KIND, int(FrameKind.TILT)))
         wait_for(lambda: (unit.frame_log()[2] == FrameKind.TILT).sum() >= 100, what="tilt")
         unit.write(encode_command(Command.SELECT_KIND, int(FrameKind.RAW)))
+        raw_before = int((unit.frame_log()[2] == FrameKind.RAW).sum())
         rows = eng.recording.rows
         wait_for(lambda: eng.recording.rows >= rows + 800, what="rows after")
+        # rows are written behind the unit: after a stall (a GC pause, a busy machine) those 800
+        # rows may all be frames from before the tilt ones; the rows after them are in the file
+        # once the engine has taken (and handed to the recorder) 800 frames sent after them
+        wait_for(lambda: eng.samples_total >= raw_before + 800, what="frames after")
         status = eng.stop_recording()
     assert status.error == ""
     samples = check_against_truth(out, unit)
