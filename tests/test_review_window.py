@@ -192,6 +192,34 @@ def test_excluding_a_range_greys_its_strides_and_is_kept_beside_the_file(
     assert model.index(11, last).data() == "excluded: excluded range"
 
 
+def test_info_and_report_count_the_strides_the_review_window_counts(
+    qtbot, win, session_file, capsys
+):
+    """Exclusions made in the window (two ranges, by its own action) reach the command line:
+    ``gaitmon info`` and ``gaitmon report`` include exactly the strides the window does."""
+    from gaitmon.io.session import open_session
+    from gaitmon.report import gather_report
+
+    open_and_wait(qtbot, win, session_file)
+    rows = win.analysis.rows
+    t = win.doc.t_s
+    for a, b in ((5, 6), (14, 17)):
+        t0 = 0.5 * (t[rows[a].stride.start_idx] + t[rows[a].stride.end_idx])
+        t1 = 0.5 * (t[rows[b].stride.start_idx] + t[rows[b].stride.end_idx])
+        win.timeline.set_selection(t0, t1)
+        with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
+            win.act_exclude.trigger()
+    in_window = win.analysis.summary.n_strides
+    assert in_window == len(rows) - 2 - 2 - 4  # first/last, and the strides of both ranges
+    capsys.readouterr()
+    assert cli_main(["info", str(session_file)]) == 0
+    assert f"  strides      {in_window} included, " in capsys.readouterr().out
+    with open_session(session_file) as s:
+        assert gather_report(s).summary.n_strides == in_window
+    pdf = session_file.with_suffix(".pdf")
+    assert cli_main(["report", str(session_file), "-o", str(pdf)]) == 0 and pdf.stat().st_size
+
+
 @pytest.mark.parametrize("kind", ["garbage", "foreign", "truncated", "missing", "folder"])
 def test_a_bad_file_shows_one_line_and_the_window_survives(
     qtbot, win, session_file, tmp_path, kind
