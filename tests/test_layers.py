@@ -4,9 +4,9 @@
         <- report / live / review / lab <- ui <- commands / cli
 
 A module may import its own layer and the layers below it, never one above. Every import
-counts, also one inside a function (a lazy import is still an arrow) or under ``TYPE_CHECKING``.
-Only ``gaitmon.ui`` imports Qt. Circles are looked for between modules, whatever their layers,
-among the imports that run (an import only for the type checker closes no circle).
+counts, also one inside a function (a lazy import is still an arrow) or under ``TYPE_CHECKING``
+(a type is a dependency too). Only ``gaitmon.ui`` imports Qt. Circles are looked for between
+modules, whatever their layers.
 """
 
 from __future__ import annotations
@@ -41,28 +41,12 @@ def module_names() -> dict[str, Path]:
     return out
 
 
-def _type_checking_nodes(tree: ast.AST) -> set[int]:
-    """ids of the nodes under ``if TYPE_CHECKING:``."""
-    out: set[int] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            for child in node.body:
-                out.update(id(n) for n in ast.walk(child))
-    return out
-
-
-def imports_of(
-    name: str, path: Path, known: Iterable[str], *, runtime_only: bool = False
-) -> set[str]:
+def imports_of(name: str, path: Path, known: Iterable[str]) -> set[str]:
     """The modules ``name`` imports: gaitmon ones resolved to the module, others by top name."""
     known = set(known)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     out: set[str] = set()
-    tree = ast.parse(path.read_text(encoding="utf-8"))
-    skip = _type_checking_nodes(tree) if runtime_only else set()
-    for node in ast.walk(tree):
-        if id(node) in skip:
-            continue
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.Import):
             out.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -87,12 +71,9 @@ def imports_of(
     return resolved
 
 
-def import_graph(*, runtime_only: bool = False) -> dict[str, set[str]]:
+def import_graph() -> dict[str, set[str]]:
     mods = module_names()
-    return {
-        name: imports_of(name, path, mods, runtime_only=runtime_only)
-        for name, path in mods.items()
-    }
+    return {name: imports_of(name, path, mods) for name, path in mods.items()}
 
 
 def layer_of(module: str) -> int | None:
@@ -143,10 +124,7 @@ def cycles(graph: Mapping[str, set[str]]) -> list[list[str]]:
     return out
 
 
-def violations(
-    graph: Mapping[str, set[str]], runtime: Mapping[str, set[str]] | None = None
-) -> list[str]:
-    """Upward arrows and Qt below ui in ``graph``; circles in ``runtime`` (default: ``graph``)."""
+def violations(graph: Mapping[str, set[str]]) -> list[str]:
     problems = []
     for mod, deps in sorted(graph.items()):
         mine = layer_of(mod)
@@ -160,16 +138,14 @@ def violations(
                     problems.append(f"{mod} imports {dep}, a higher layer")
             elif dep in QT and not (mod == QT_LAYER or mod.startswith(QT_LAYER + ".")):
                 problems.append(f"{mod} imports {dep}; only {QT_LAYER} may import Qt")
-    problems.extend(
-        "import circle: " + " <-> ".join(c) for c in cycles(graph if runtime is None else runtime)
-    )
+    problems.extend("import circle: " + " <-> ".join(c) for c in cycles(graph))
     return problems
 
 
 def test_arrows_only_point_down_and_there_is_no_circle() -> None:
     graph = import_graph()
     assert len(graph) > 50 and "gaitmon.ui" in graph and "gaitmon.dsp.kalman" in graph
-    assert violations(graph, import_graph(runtime_only=True)) == []
+    assert violations(graph) == []
 
 
 def test_the_contract_catches_an_upward_arrow_qt_below_ui_and_a_circle() -> None:
@@ -197,4 +173,3 @@ def test_the_import_reader_resolves_relative_and_from_imports(tmp_path: Path) ->
     got = imports_of("gaitmon.dsp.m", src, known)
     assert got == {"gaitmon.dsp.kalman", "gaitmon.io.session", "gaitmon.dsp.angles", "PySide6",
                    "gaitmon.engine"}  # fmt: skip
-    assert imports_of("gaitmon.dsp.m", src, known, runtime_only=True) == got - {"gaitmon.engine"}

@@ -19,17 +19,20 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gaitmon.io.export.deidentify import ANONYMOUS, REDACTED
+from gaitmon.io.export.errors import Cancel, ExportCancelled, ExportError, Progress
 from gaitmon.io.export.outputs import c3d_part_path, csv_meta_path, default_output
-from gaitmon.io.export.registry import (
-    FORMATS,
-    Cancel,
-    ExportCancelled,
-    ExportError,
-    Format,
-    Progress,
-)
+from gaitmon.io.export.registry import FORMATS, Format
+
+if TYPE_CHECKING:
+    # mypy checks each registered module against the FormatWriter contract (here, above the
+    # writers, so that the registry they are listed in imports none of them)
+    from gaitmon.io.export import c3d, csv, mat
+    from gaitmon.io.export.registry import FormatWriter
+
+    _WRITERS: tuple[FormatWriter, ...] = (csv, mat, c3d)
 
 __all__ = [
     "ANONYMOUS",

@@ -21,8 +21,8 @@ from gaitmon import __version__
 from gaitmon.dsp.channels import DEFAULT_TABLE, SEGMENTS, ChannelSpec, ChannelTable
 from gaitmon.io.export.c3d_worker import C3dSpec, C3dWorker, write_spec
 from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
+from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
 from gaitmon.io.export.outputs import c3d_part_path
-from gaitmon.io.export.registry import Cancel, ExportError, Progress, step
 from gaitmon.io.export.source import JOINT_LABELS, Source, as_text, markers, session_side
 
 # A C3D trial counts frames in 16-bit words (header and POINT:FRAMES); past 65535 frames

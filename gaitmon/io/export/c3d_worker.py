@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from gaitmon.io.export.registry import ExportError
+from gaitmon.io.export.errors import ExportError
 
 
 @dataclass

@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from gaitmon.io.export.deidentify import Scrubber
+from gaitmon.io.export.errors import Cancel, Progress, step
 from gaitmon.io.export.outputs import csv_meta_path
-from gaitmon.io.export.registry import Cancel, Progress, step
 from gaitmon.io.export.source import (
     PROCESSED_SERIES,
     Series,

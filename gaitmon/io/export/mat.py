@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from gaitmon.io.export.deidentify import Scrubber
-from gaitmon.io.export.registry import Cancel, ExportError, Progress, step
+from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
 from gaitmon.io.export.source import (
     Source,
     export_header,

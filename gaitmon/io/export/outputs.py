@@ -10,7 +10,8 @@ import contextlib
 import os
 from pathlib import Path
 
-from gaitmon.io.export.registry import FORMATS, ExportError
+from gaitmon.io.export.errors import ExportError
+from gaitmon.io.export.registry import FORMATS
 
 
 def default_output(src_path: str | os.PathLike[str], fmt: str) -> Path:

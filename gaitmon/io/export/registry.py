@@ -12,42 +12,19 @@ the names, and must not pay for numpy, scipy or ezc3d. This module itself import
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, cast
 
-from gaitmon.errors import Cancelled
+from gaitmon.io.export.errors import Cancel, ExportError, Progress
 
 if TYPE_CHECKING:
     from gaitmon.io.export.deidentify import Scrubber
     from gaitmon.io.export.source import Source
 
-Progress = Callable[[float], object]  # called with the fraction done, 0..1; its result is ignored
-Cancel = Callable[[], bool]  # True once the caller wants the export stopped
-
-
-class ExportError(Exception):
-    """A problem with the input, the output path or the format; the message is one line."""
-
-
-class ExportCancelled(ExportError, Cancelled):
-    """The caller's ``cancel()`` returned True; every temporary output has been removed."""
-
-    def __init__(self, message: str = "export cancelled; no file was written") -> None:
-        super().__init__(message)
-
-
-def step(progress: Progress | None, cancel: Cancel | None, fraction: float) -> None:
-    """Report progress; the progress points are also the only points an export stops at."""
-    if cancel is not None and cancel():
-        raise ExportCancelled
-    if progress is not None:
-        progress(fraction)
-
-
 class FormatWriter(Protocol):
-    """What a format module provides (checked by mypy against csv, mat and c3d below)."""
+    """What a format module provides (mypy checks csv, mat and c3d against it in the package's
+    ``__init__``, so this module imports none of them)."""
 
     def planned_outputs(self, src: Source, scrub: Scrubber, out: Path) -> list[Path]:
         """The final paths this export will write for the output name ``out``."""
@@ -108,9 +85,3 @@ FORMATS: dict[str, Format] = {
                "gaitmon.io.export.c3d", requires="ezc3d", temp_suffix=".c3d"),
     )
 }
-
-if TYPE_CHECKING:
-    # mypy checks each registered module against the FormatWriter contract.
-    from gaitmon.io.export import c3d, csv, mat
-
-    _WRITERS: tuple[FormatWriter, ...] = (csv, mat, c3d)

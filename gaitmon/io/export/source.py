@@ -25,7 +25,7 @@ import numpy as np
 from gaitmon import __version__
 from gaitmon.dsp.channels import CHANNEL_NAMES, JOINTS, SEGMENTS
 from gaitmon.io.export.deidentify import Scrubber
-from gaitmon.io.export.registry import ExportError
+from gaitmon.io.export.errors import ExportError
 
 if TYPE_CHECKING:
     from gaitmon.io.session import Session
