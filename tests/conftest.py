@@ -6,6 +6,32 @@ import pytest
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
+QT_FIXTURES = {"qtbot", "qapp"}
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    """After a test that used Qt (its widgets closed, its fixtures dropped): delete what waits
+    for deleteLater and collect the garbage cycles holding Qt objects here, on the GUI thread.
+
+    Left for later, the next collection runs on whatever thread allocates - in the next
+    test, an engine, device or recorder thread - and PySide destroys the QObjects there,
+    handing some of them to the main thread; the two destructors deadlocked on a Qt mutex
+    and the GIL (the main thread holding the GIL, so no timeout could end the run)."""
+    yield
+    if QT_FIXTURES.isdisjoint(item.fixturenames):
+        return
+    import gc
+
+    from PySide6.QtCore import QCoreApplication, QEvent
+
+    app = QCoreApplication.instance()
+    if app is not None:
+        QCoreApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
+    gc.collect()
+    if app is not None:  # what the collection handed to deleteLater
+        QCoreApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
+
 
 @pytest.fixture(autouse=True)
 def user_data_dir(tmp_path_factory, monkeypatch) -> pathlib.Path:
