@@ -158,3 +158,29 @@ def test_stop_disposes_of_a_result_that_arrives_afterwards() -> None:
     assert stale == ["connection"]
     with pytest.raises(RuntimeError, match="stopped"):
         w.submit(job, lambda r: None)
+
+
+def test_a_qt_worker_is_freed_by_its_last_reference_not_by_a_garbage_collection(qapp) -> None:
+    """No reference cycle through the core: a QtWorker in a cycle would be freed by whichever
+    thread runs the next collection, where PySide's destructor can deadlock with the GUI's."""
+    import gc
+    import weakref
+
+    from gaitmon.ui.jobs import QtWorker
+
+    w = QtWorker("freed")
+    done: list[Response[int]] = []
+    w.submit(lambda t: 7, done.append)
+    idle = w.wait_idle(5.0)  # (not inside an assert: pytest keeps what an assert touched)
+    assert idle and [r.value for r in done] == [7]
+    thread = w.core._thread
+    qapp.processEvents()  # the queued wake-ups the window's event loop would have run
+    ref = weakref.ref(w)
+    gc.disable()
+    try:
+        del w
+        assert ref() is None
+    finally:
+        gc.enable()
+    thread.join(5.0)
+    assert not thread.is_alive()  # dropped without stop(): its thread ended too

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 from types import TracebackType
 
+from pyqtgraph.util.garbage_collector import GarbageCollector
 from PySide6.QtCore import QPointF, QStandardPaths, Qt, QTimer
 from PySide6.QtGui import QColor, QGuiApplication, QIcon, QPainter, QPainterPath, QPen, QPixmap
 from PySide6.QtWidgets import QApplication, QWidget
@@ -62,6 +63,9 @@ def _setup_logging() -> Path | None:
     return path
 
 
+_gc: GarbageCollector | None = None  # one per process, made with the application
+
+
 def make_application(program: str, logger: logging.Logger = log) -> QApplication:
     """The QApplication a gaitmon window runs in (the one already made, if any), set up.
 
@@ -88,6 +92,14 @@ def make_application(program: str, logger: logging.Logger = log) -> QApplication
         print(f"{program}: internal error: {exc}{where}", file=sys.stderr)
 
     sys.excepthook = excepthook
+    # Garbage is collected on the GUI thread only (a timer, pyqtgraph's GarbageCollector):
+    # left to Python, a collection runs on whichever thread allocates (engine, device,
+    # recorder, workers), and PySide destroying QObjects of a cycle there can deadlock against
+    # the GUI thread's destructors (seen in the test suite: both waiting on a Qt mutex and the
+    # GIL, the whole process frozen).
+    global _gc
+    if _gc is None:
+        _gc = GarbageCollector(interval=1.0)
     return app
 
 

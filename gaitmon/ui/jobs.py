@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import collections
 import threading
+import weakref
 from collections.abc import Callable
 from typing import TypeVar
 
@@ -33,13 +34,29 @@ class QtWorker(QObject):
         self._pending: collections.deque[Callable[[], None]] = collections.deque()
         self._lock = threading.Lock()
         self._posted.connect(self._drain, Qt.ConnectionType.QueuedConnection)
+        # The core and its thread reach this QObject only through a weak reference: a strong one
+        # would make a reference cycle, and a QObject in a cycle is freed by whichever thread
+        # runs the next garbage collection (an engine or worker thread), where PySide's
+        # destructor can deadlock against the GUI thread's. Without the cycle it is freed here.
+        me = weakref.ref(self)
+
+        def post(fn: Callable[[], None]) -> None:
+            if (w := me()) is not None:
+                w._post(fn)
+
+        def progressed(fraction: float) -> None:
+            if (w := me()) is not None:
+                w.progressed.emit(fraction)
+
+        def busy_changed(busy: bool) -> None:
+            if (w := me()) is not None:
+                w.busy_changed.emit(busy)
+
         self.core = Worker(
-            name,
-            latest=latest,
-            post=self._post,
-            on_progress=self.progressed.emit,
-            on_busy=self.busy_changed.emit,
+            name, latest=latest, post=post, on_progress=progressed, on_busy=busy_changed
         )
+        # dropped without stop(): its thread is told to end (not waited for)
+        weakref.finalize(self, self.core.stop, 0.0)
 
     def submit(
         self,
