@@ -412,10 +412,11 @@ def test_a_connect_finishing_after_the_window_closed_is_closed_not_leaked(
     from gaitmon.live import connection
 
     real_open = connection.open_connection
-    release = threading.Event()
+    started, release = threading.Event(), threading.Event()
     opened = []
 
     def slow_open(*args, **kwargs):
+        started.set()
         release.wait(10.0)
         conn = real_open(*args, **kwargs)
         opened.append(conn)
@@ -425,6 +426,9 @@ def test_a_connect_finishing_after_the_window_closed_is_closed_not_leaked(
     win = make_window(qtbot, ui_settings, autoconnect=False)
     win.connect_device(SIMULATED_PORT)
     assert win.jobs.busy and win.state_text == "Connecting…"
+    # closing before the worker has even started the connect would simply drop it (nothing to
+    # close): this test is about a connect that is already under way
+    assert started.wait(10.0)
     threading.Timer(0.3, release.set).start()  # the unit answers only once closing began
     win.close()
     # the connection was opened after the close and closed again; no thread outlives it
