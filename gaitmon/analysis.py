@@ -133,7 +133,6 @@ class SessionAnalysis:
     rows: list[StrideRow]
     joints_deg: np.ndarray | None  # (n, 3) float64 hip/knee/ankle, None for an empty session
     exclusions: tuple[Exclusion, ...]  # the user's ranges applied
-    stored: bool  # the ranges are the ones stored beside the recording (not given by the caller)
     side_file: Path  # where stored exclusions live (FILE.review.json, or the user store)
     problem: str = ""  # one line when the stored exclusions could not be used, else ""
 
@@ -176,7 +175,6 @@ def analyse_session(
     from gaitmon.io.session.exclusions import stored_path
 
     problem = ""
-    stored = exclusions is None
     if exclusions is None:
         found, problem = session.exclusions()
         exclusions = found
@@ -195,4 +193,4 @@ def analyse_session(
         [(r.start_idx, r.stop_idx) for r in ranges],
         t_s=t_s,
     )
-    return SessionAnalysis(rows, joints, ranges, stored, stored_path(session.path), problem)
+    return SessionAnalysis(rows, joints, ranges, stored_path(session.path), problem)
