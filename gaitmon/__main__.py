@@ -1,11 +1,5 @@
 """``python -m gaitmon``: the command line."""
 
-import sys
-
-try:
-    from gaitmon.cli import main
-except KeyboardInterrupt:  # Ctrl-C while starting up: nothing has happened yet
-    print("gaitmon: interrupted", file=sys.stderr)
-    raise SystemExit(130) from None
+from gaitmon.cli import main
 
 raise SystemExit(main())

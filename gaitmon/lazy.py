@@ -9,6 +9,7 @@ until a name is used; its ``TYPE_CHECKING`` imports keep the names typed for myp
 from __future__ import annotations
 
 import importlib
+import sys
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -22,6 +23,8 @@ def lazy_exports(package: str, homes: Mapping[str, str]) -> Callable[[str], Any]
         if module is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
         path = module if module.startswith("gaitmon.") else f"{package}.{module}"
-        return getattr(importlib.import_module(path), name)
+        value = getattr(importlib.import_module(path), name)
+        setattr(sys.modules[package], name, value)  # found once; later lookups are plain
+        return value
 
     return __getattr__
