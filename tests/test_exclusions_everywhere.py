@@ -110,6 +110,16 @@ def test_a_read_only_folder_keeps_them_in_the_user_store_where_info_sees_them(
     assert f"  strides      {want} included, " in text and kept.name in text
     with open_session(copy) as s:
         assert gather_report(s).summary.n_strides == want
+    # an older side file that cannot be changed any more does not hide newer ranges, nor
+    # their removal
+    blocker.rmdir()
+    exclusions.save(copy, [exclusions.Exclusion(10, 20, "old")], created, n)
+    blocker.mkdir()
+    assert exclusions.save(copy, ranges, created, n) == kept
+    assert exclusions.load(copy, created, n) == (ranges, "")
+    exclusions.save(copy, [], created, n)
+    assert exclusions.load(copy, created, n) == ([], "")
+    exclusions.save(copy, ranges, created, n)
     # once the folder can be written again, the side file takes over and the copy goes
     blocker.rmdir()
     side = exclusions.save(copy, ranges, created, n)

@@ -80,14 +80,11 @@ def user_store_path(path: str | os.PathLike[str]) -> Path:
 
 
 def stored_path(path: str | os.PathLike[str]) -> Path:
-    """The file the recording's exclusions are read from: the side file, else the user store
-    when only that exists (the side file's path when neither does)."""
-    sp = side_path(path)
-    if not sp.exists():
-        up = user_store_path(path)
-        if up.exists():
-            return up
-    return sp
+    """The file the recording's exclusions are read from: the user store when it holds them
+    (it exists only while it is newer than the side file: writing the side file removes it),
+    else the side file."""
+    up = user_store_path(path)
+    return up if up.exists() else side_path(path)
 
 
 def load(
@@ -148,8 +145,9 @@ def save(
     try:
         _write(sp, text if ranges else None)
     except OSError:
+        # kept even when empty: "no ranges" must override a side file that cannot be changed
         up.parent.mkdir(parents=True, exist_ok=True)
-        _write(up, text if ranges else None)
+        _write(up, text)
         return up
     with contextlib.suppress(OSError):  # the side file is the truth now
         up.unlink()
