@@ -161,6 +161,28 @@ def test_rewrite_processed_reports_progress_and_writes_what_the_command_writes(
         assert dict(a["config"].attrs) == dict(b["config"].attrs)
 
 
+def test_rewrite_processed_converts_with_the_recordings_own_channel_table(walk, tmp_path):
+    """A unit whose channel table differs from the default: the reprocessed file converts its
+    counts with the recording's table (as recovery and the review window do)."""
+    import shutil
+
+    src = tmp_path / "own_table.h5"
+    shutil.copyfile(walk, src)
+    with h5py.File(src, "r+") as f:
+        ch = f["device/channels"][()]
+        ch["sensitivity_v_per_unit"][0] *= 1.25  # body acc x reads 20 % lower
+        f["device/channels"][...] = ch
+    with open_session(src) as s:
+        table, adc, cfg, cal = s.header.table, s.read("raw/adc"), s.config, s.calibration
+        changes = list(s.calibration_changes)
+    want = np.concatenate([rows["processed/acc_ms2"] for _, rows, _, _ in
+                           replay_pipeline(adc, cfg, cal, changes, table=table)])  # fmt: skip
+    out = rewrite_processed(src, tmp_path / "out.h5", cfg)
+    with h5py.File(out.path, "r") as f:
+        got = f["processed/acc_ms2"][()]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-4)
+
+
 def test_rewrite_processed_cancelled_midway_keeps_nothing(walk, tmp_path, monkeypatch):
     import gaitmon.io.session.reprocess as rp
 

@@ -20,6 +20,7 @@ import h5py
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channels import ChannelTable
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
 from gaitmon.io.session.header import SessionError
@@ -112,6 +113,7 @@ def rewrite_processed(
             _check_raw(s)
             calibration_log: list[tuple[int, Calibration]] = list(s.calibration_changes)
             calibration = s.calibration
+            table = s.header.table  # the unit's own conversion, as recovery and review use
             adc = s.read("raw/adc")
             n = s.n_samples
             _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
@@ -122,6 +124,7 @@ def rewrite_processed(
             calibration,
             config,
             calibration_log,
+            table,
             lambda f: report(COPY_SHARE + (1.0 - COPY_SHARE) * f),
             check_cancel,
         )
@@ -158,6 +161,7 @@ def _rewrite(
     calibration: Calibration,
     config: PipelineConfig,
     calibration_log: list[tuple[int, Calibration]],
+    table: ChannelTable,
     report: Progress,
     check_cancel: Callable[[], None],
 ) -> None:
@@ -166,7 +170,7 @@ def _rewrite(
         hs: list[np.ndarray] = []
         to: list[np.ndarray] = []
         replay = replay_pipeline(
-            adc, config, calibration, calibration_log, chunk_rows=REPLAY_CHUNK_ROWS
+            adc, config, calibration, calibration_log, table=table, chunk_rows=REPLAY_CHUNK_ROWS
         )
         for start, rows, hs_rows, to_rows in replay:
             stop = start + len(rows["processed/joint_deg"])
