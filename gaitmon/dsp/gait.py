@@ -48,6 +48,9 @@ class Phase(IntEnum):
     PUSH_OFF = 3  # toe only (heel off)
 
 
+PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")  # indexed by Phase
+
+
 def phase_from_contacts(heel_loaded: np.ndarray, toe_loaded: np.ndarray) -> np.ndarray:
     """(N,) bool heel, (N,) bool toe -> (N,) int8 :class:`Phase` values."""
     heel = np.asarray(heel_loaded, dtype=bool).view(np.int8)

@@ -14,13 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gaitmon.dsp.channels import SEGMENTS
+from gaitmon.dsp.gait import PHASE_NAMES
 from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Ticket
 from gaitmon.review.model import JOINT, Document, Source
 
-SEGMENTS = ("body", "thigh", "shank", "foot")
-PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")
 PHASE = "processed/phase"
 
 

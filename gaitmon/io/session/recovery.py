@@ -21,6 +21,7 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE, ChannelTable
 from gaitmon.dsp.gait import ContactEdges
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.errors import Cancelled
 from gaitmon.io.journal import (
     N_COMMON_FIELDS,
     JournalContents,
@@ -165,7 +166,7 @@ def _recover_locked(
         os.replace(tmp, path)
         _fsync_path(path.parent, directory=True)
         jpath.unlink()
-    except _Cancelled:
+    except Cancelled:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise SessionError(
@@ -179,10 +180,6 @@ def _recover_locked(
             "(the journal is kept)"
         ) from e
     return path
-
-
-class _Cancelled(Exception):
-    pass
 
 
 def _build_recovered(
@@ -208,7 +205,7 @@ def _build_recovered(
 
         def report(done: int) -> None:
             if progress is not None and progress(done / n if n else 1.0) is False:
-                raise _Cancelled
+                raise Cancelled("recovery cancelled")
 
         if mode == "raw":
             adc = np.ascontiguousarray(rows["adc"])

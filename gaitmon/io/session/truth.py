@@ -25,7 +25,6 @@ DESCRIPTION = (
 # per-row: sample_idx (int64, -1 where unmapped), tilt_deg (n, 4), joint_deg (n, 3),
 # gyro_bias_rad_s (n, 4) as float32 with NaN on unmapped rows; events: heel_strike, toe_off
 # (int64 row indices); attribute mount_offset_deg (4,)
-DATASETS = ("sample_idx", "tilt_deg", "joint_deg", "gyro_bias_rad_s", "heel_strike", "toe_off")
 
 Truth = tuple[np.ndarray | None, np.ndarray | None]
 

@@ -148,10 +148,6 @@ class SessionWriter:
         return self._bytes
 
     @property
-    def journal_bytes(self) -> int:
-        return 0 if self._journal is None else self._journal.bytes_written
-
-    @property
     def error(self) -> SessionError | None:
         """The write error that stopped this recording, if any."""
         return self._error

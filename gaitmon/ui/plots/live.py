@@ -13,13 +13,13 @@ import pyqtgraph as pg
 from PySide6.QtGui import QColor, QPainterPath
 from PySide6.QtWidgets import QWidget
 
+from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.engine import Snapshot
 from gaitmon.ui.plots.traces import (
     FSR_RANGE,
     JOINTS,
     MAX_POINTS,
     METHODS,
-    SEGMENTS,
     TILT_RANGES_DEG,
     CountingPlotWidget,
     Trace,

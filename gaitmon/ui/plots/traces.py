@@ -31,7 +31,6 @@ from PySide6.QtWidgets import QGraphicsItem, QGraphicsObject, QGraphicsView, QWi
 
 from gaitmon.ui.theme import Colours
 
-SEGMENTS = ("body", "thigh", "shank", "foot")
 # y ranges cover normal and pathological walking with a calibrated (zeroed) unit
 TILT_RANGES_DEG = {"body": (-25, 25), "thigh": (-45, 50), "shank": (-75, 50), "foot": (-80, 60)}
 JOINTS = (
@@ -47,7 +46,6 @@ METHODS = (
     ("kalman", "Kalman filter", "tilt_kalman_deg", "joint_kalman_deg"),
 )
 METHOD_LABELS = {k: label for k, label, _, _ in METHODS}
-PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")
 MAX_POINTS = 1400  # per trace; beyond this a window is min/max decimated
 AXIS_WIDTH_PX = 58
 

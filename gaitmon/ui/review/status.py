@@ -101,7 +101,3 @@ class StatusArea:
     def hide_progress(self) -> None:
         for w in self._progress_widgets:
             w.setVisible(False)
-
-    @property
-    def progress_shown(self) -> bool:
-        return self.progress.isVisibleTo(self._window)

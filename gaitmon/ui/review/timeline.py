@@ -32,12 +32,12 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gaitmon.dsp.channels import CHANNELS
+from gaitmon.dsp.channels import CHANNELS, SEGMENTS
 from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Response
 from gaitmon.review.model import JOINT, Document, Source
-from gaitmon.review.view import SEGMENTS, ViewData, ViewRequest, load_view, readout_html
+from gaitmon.review.view import ViewData, ViewRequest, load_view, readout_html
 from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_band
 from gaitmon.ui.plots import vertical_lines as _vlines
