@@ -139,11 +139,12 @@ class Source:
     def __init__(self, session: Session) -> None:
         h5 = session.dataset("timeline/t_s").file
         path = session.path
-        # kept for analysis state the file's reader owns (e.g. review exclusions)
-        self.session = session
         self.h5 = h5
         self.path = path
-        self.problems = tuple(session.problems)
+        # the ranges excluded in review are the session's analysis state: exported with it, and
+        # a side file that could not be used is said, as info and the report say it
+        self.exclusions, problem = session.exclusions()
+        self.problems = (*session.problems, *([problem] if problem else []))
         self._events = {"heel_strike": session.heel_strike_idx, "toe_off": session.toe_off_idx}
         self.attrs: dict[str, Any] = {k: plain(v) for k, v in h5.attrs.items()}
         self.mode = str(self.attrs.get("mode", ""))
@@ -238,9 +239,8 @@ def _session_fields(src: Source, scrub: Scrubber) -> dict[str, Any]:
 
 
 def _excluded_ranges(src: Source, scrub: Scrubber) -> list[dict[str, Any]]:
-    # the ranges excluded in review are the session's analysis state: exported with it
-    ranges, _ = src.session.exclusions()
-    return [{"start_idx": r.start_idx, "stop_idx": r.stop_idx, "label": r.label} for r in ranges]
+    return [{"start_idx": r.start_idx, "stop_idx": r.stop_idx, "label": r.label}
+            for r in src.exclusions]  # fmt: skip
 
 
 def _wall_offset_s(src: Source, scrub: Scrubber) -> Any:
