@@ -296,17 +296,23 @@ class ReviewJobs(QMainWindow):
             return
         src = response.result().source
         doc.reprocessed = src
-        self.timeline.set_fsr_threshold(src.config.fsr_threshold)
-        self.timeline.refresh_overview()
-        self.timeline.set_compare(self.act["compare"].isChecked())
         self.status.message(
             f"Reprocessed with {changed_settings(doc.recorded.config, src.config)}; "
             f"{len(src.heel_strike_idx)} heel strikes (recorded: "
             f"{len(doc.recorded.heel_strike_idx)})", 15_000,
         )  # fmt: skip
+        self._source_changed()
+        self.reprocessed.emit()
+
+    def _source_changed(self) -> None:
+        """The document's current series (recorded or reprocessed) changed: redraw, re-analyse."""
+        doc = self.doc
+        assert doc is not None
+        self.timeline.set_fsr_threshold(doc.current.config.fsr_threshold)
+        self.timeline.refresh_overview()
+        self.timeline.set_compare(self.act["compare"].isChecked())
         self._update_actions()
         self.run_analysis()
-        self.reprocessed.emit()
 
     @guarded
     def save_reprocessed(self, path: str | Path) -> None:

@@ -85,7 +85,7 @@ class ReviewWindow(ReviewJobs):
         self.banner, self.banner_box = self.status.banner, self.status.banner_box
         self._build_central()
         self.act: dict[str, QAction] = build_actions(self)
-        self.act_exclude, self.act_compare = self.act["exclude"], self.act["compare"]
+        self.act_exclude = self.act["exclude"]
         menus = build_menus(self, self.act)
         self.file_menu, self.view_menu = menus["&File"], menus["&View"]
         self.analysis_menu = menus["&Analysis"]
@@ -396,11 +396,7 @@ class ReviewWindow(ReviewJobs):
         if self.doc is None or self.doc.reprocessed is None:
             return
         self.doc.reprocessed = None
-        self.timeline.set_fsr_threshold(self.doc.recorded.config.fsr_threshold)
-        self.timeline.refresh_overview()
-        self.timeline.set_compare(self.act_compare.isChecked())
-        self._update_actions()
-        self.run_analysis()
+        self._source_changed()
 
     @guarded
     def save_reprocessed_dialog(self) -> None:
