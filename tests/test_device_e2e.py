@@ -212,3 +212,76 @@ def test_pty_cut_and_restore_detects_loss_and_resumes_by_itself():
     link_down = len(unit.ledger.dropped_frame_nos("link_down"))
     assert first_after - last_before - 1 >= link_down > 0
     assert st.decoder.frames_lost >= link_down
+
+
+# --- outage length against data lost (issue 12, defect 2) ---------------------------------------
+
+
+def _last_seq(blocks: list[SampleBlock]) -> int:
+    return int(blocks[-1].seq[-1])
+
+
+@pytest.mark.parametrize("outage_s", [1.0, 3.0, 8.0])
+def test_pty_cut_loses_at_most_half_a_second_beyond_the_outage(outage_s):
+    """The unit streams on while the link is down; the frames lost beyond those the unit sent
+    into the dead link (its ledger) are what the PC lost by reconnecting late: <= 50 (0.5 s)."""
+    unit = SimulatedUnit(speed=1.0)
+    with PtySimulator(unit) as sim:
+        transport = SerialTransport(str(sim.link_path))  # the default reconnect policy
+        with Device(transport) as dev:
+            dev.select_kind(p.FrameKind.RAW)
+            dev.start_stream()
+            before = collect(dev, 50)
+            unit.link_is_down()  # brings the unit's clock up to now
+            produced_at_cut = unit.samples_produced
+            sim.cut()
+            while transport.status.state == LinkState.CONNECTED:
+                time.sleep(0.002)
+            unit.link_is_down()
+            detect_frames = unit.samples_produced - produced_at_cut
+            before += drain(dev)
+            time.sleep(outage_s)
+            sim.restore()
+            after = collect(dev, 50, timeout_s=10)
+            st = dev.stats
+    link_down = len(unit.ledger.dropped_frame_nos("link_down"))
+    gap = int(after[0].seq[0]) - _last_seq(before) - 1
+    beyond = gap - link_down
+    print(
+        f"\ncut {outage_s:g} s: detected after {detect_frames} frames (goal <= 10), "
+        f"{link_down} frames sent into the dead link, {beyond} more lost after it came back "
+        f"(goal <= 50)"
+    )
+    assert link_down >= 0.8 * outage_s * unit.fs_hz  # the outage really happened
+    assert detect_frames <= 10  # <= 0.1 s of the unit's clock
+    assert 0 <= beyond <= 50
+    assert st.transport.reconnects == 1 and st.transport.link_losses == 1
+
+
+def test_pty_flapping_link_backs_off():
+    """A link that drops right after every reopen waits longer each time, although the port's
+    node is back at once: 0.5, 1, 2 s (the default policy)."""
+    unit = SimulatedUnit(speed=1.0)
+    waits: list[float] = []
+    with PtySimulator(unit) as sim:
+        transport = SerialTransport(str(sim.link_path))
+        transport.open()
+        try:
+            for n in range(1, 4):
+                sim.cut()
+                deadline = time.monotonic() + 5
+                while transport.status.link_losses < n and time.monotonic() < deadline:
+                    transport.read(0.01)
+                st = transport.status
+                assert st.state == LinkState.RECONNECTING and st.next_attempt_s is not None
+                waits.append(st.next_attempt_s - time.monotonic())
+                sim.restore()
+                deadline = time.monotonic() + 10
+                while transport.status.connections < n + 1 and time.monotonic() < deadline:
+                    transport.read(0.01)
+                assert transport.status.connections == n + 1
+        finally:
+            transport.close()
+    pol = ReconnectPolicy()
+    # the first drop came within stable_s of the first open: every one of them is a flap
+    assert [round(w + 1e-3, 1) for w in waits] == [pol.delay_s(k) for k in (1, 2, 3)]

@@ -396,3 +396,40 @@ def test_a_flapping_link_backs_off_instead_of_retrying_at_the_initial_rate():
     # each quick drop counts as a failure: the waits grow (0.02, 0.04, 0.08, 0.16, ...)
     assert gaps[3] > 3 * gaps[0]
     assert np.all(gaps[1:] >= gaps[:-1] * 0.9)
+
+
+def test_a_present_port_is_retried_often_and_a_missing_one_backs_off(tmp_path):
+    """While the port's node exists a failed reopen is retried <= present_max_s later (the
+    unit is back or about to be); while it is missing the backoff grows (no spin)."""
+    node = tmp_path / "rfcomm0"
+    node.touch()
+    calls: list[float] = []
+
+    def factory(**kw):
+        calls.append(time.monotonic())
+        if len(calls) == 1:
+            return FlakyPort()
+        raise serial.SerialException(16, "could not open port: Device or resource busy")
+
+    policy = ReconnectPolicy(initial_s=0.01, factor=2.0, max_s=5.0, present_max_s=0.05,
+                             stable_s=0.0)  # fmt: skip
+    t = SerialTransport(str(node), reconnect=policy, serial_factory=factory)
+    t.open()
+    scheduled: list[float] = []
+    deadline = time.monotonic() + 5
+    while len(calls) < 10 and time.monotonic() < deadline:
+        t.read(0.01)
+        st = t.status
+        if st.next_attempt_s is not None and st.attempt > len(scheduled):
+            scheduled.append(st.next_attempt_s - time.monotonic())
+    assert len(calls) == 10 and t.status.state == LinkState.RECONNECTING
+    assert "port busy" in t.status.reason
+    assert max(scheduled) <= 0.05  # backoff alone would be 0.01 * 2**8 = 2.56 s by now
+    node.unlink()  # the node goes: the next waits follow the backoff again
+    n = len(calls)
+    while len(calls) < n + 1 and time.monotonic() < deadline + 5:
+        t.read(0.01)
+    st = t.status
+    assert st.next_attempt_s is not None
+    assert st.next_attempt_s - time.monotonic() > 1.0
+    t.close()

@@ -15,10 +15,14 @@ The `Transport` interface (duck-typed, `typing.Protocol`)::
                         (arm it while the unit is streaming; a polled or idle unit is silent)
 
 `SerialTransport` (pyserial) detects a lost link by an exception (port vanished: SerialException,
-OSError EIO, path gone) or by silence while armed, then closes the port and reopens it with
-exponential backoff (initial, x factor, capped), sleeping between attempts so a vanished port
-never makes it spin. `status.connections` counts link-ups, so a caller can notice a reconnect
-and re-send its setup.
+OSError EIO, path gone) or by silence while armed, then closes the port and reopens it, sleeping
+between attempts so a vanished port never makes it spin. The unit keeps sending while the link
+is down, so every second spent waiting after it returns is data lost: while the port's device
+node is missing the transport looks for it every `presence_poll_s` (an `os.path.exists`, cheap)
+and tries at once when it reappears; while the node exists, failed attempts are retried at most
+`present_max_s` apart. Only a flapping link (it drops again within `stable_s` of opening) gets
+the plain exponential backoff (initial, x factor, capped at `max_s`), whatever the node does.
+`status.connections` counts link-ups, so a caller can notice a reconnect and re-send its setup.
 
 `InProcessTransport` wraps a simulated unit object in the same process. The unit must provide::
 
@@ -149,6 +153,14 @@ def describe_open_error(port: str, exc: BaseException) -> str:
     return f"cannot open {port}: {first}"
 
 
+def port_present(port: str) -> bool | None:
+    """Whether a port's device node exists right now; None when that cannot be told cheaply (a
+    Windows COM name). A dangling symlink (a pty or RFCOMM node that went away) is missing."""
+    if port.startswith("/"):
+        return os.path.exists(port)
+    return None
+
+
 def _one_line(exc: BaseException) -> str:
     s = str(exc).strip()
     return s.splitlines()[0] if s else type(exc).__name__
@@ -168,8 +180,13 @@ class ReconnectPolicy:
     max_s: float = 5.0  # cap on the wait between attempts
     max_attempts: int | None = None  # None: keep trying until closed
     # a connection that drops within this time counts as a failed attempt, so a flapping link
-    # (opens, then fails at once) backs off instead of retrying every initial_s forever
-    stable_s: float = 10.0
+    # (opens, then fails at once, or stays silent for the watchdog's 2 s) backs off instead of
+    # retrying every initial_s forever
+    stable_s: float = 3.0
+    # while the port's node exists (and the link is not flapping) retry at least this often: the
+    # unit is back or about to be, and it streams into the void until we reopen
+    present_max_s: float = 0.5
+    presence_poll_s: float = 0.05  # how often a missing port's node is looked for
 
     def delay_s(self, failed_attempts: int) -> float:
         return min(self.initial_s * self.factor**failed_attempts, self.max_s)
@@ -207,6 +224,8 @@ class SerialTransport:
         self._next_attempt_s: float | None = None
         self._attempt = 0
         self._flaps = 0  # consecutive connections that dropped within policy.stable_s
+        self._absent = False  # the port's node was missing when the next attempt was scheduled
+        self._hold_until_s = 0.0  # no attempt before this, even if the node reappears
         self._connected_s = 0.0
         self._opening = False  # a reopen is in progress outside the lock
         self._connections = 0
@@ -293,7 +312,24 @@ class SerialTransport:
             self._loss_reason = f"link lost: {reason}"
             self._state, self._reason = LinkState.RECONNECTING, self._loss_reason
             self._attempt = 0
-            self._next_attempt_s = now + self.policy.delay_s(self._flaps)
+            # a flapping link waits out its backoff even if the node comes back sooner
+            self._hold_until_s = now + (self.policy.delay_s(self._flaps) if self._flaps else 0.0)
+            self._schedule(now, self._flaps)
+
+    def _present(self) -> bool | None:
+        """Whether the port could be there (None: cannot tell cheaply); see `port_present`."""
+        return port_present(self.port)
+
+    def _schedule(self, now: float, failures: int) -> None:
+        """Set the next reopen attempt after `failures` failed attempts (lock held)."""
+        delay = self.policy.delay_s(failures)
+        present = self._present()
+        # read() looks for a missing node and tries as soon as it appears (after a flapping
+        # link's hold): a node coming back is the one sign worth reacting to at once
+        self._absent = present is False
+        if present is not False and self._flaps == 0:
+            delay = min(delay, self.policy.present_max_s)
+        self._next_attempt_s = now + delay
 
     def _try_reopen(self) -> None:
         # Opening can block for seconds (an RFCOMM connect): do it outside the lock, so status
@@ -327,8 +363,7 @@ class SerialTransport:
                 self._next_attempt_s = None
                 return
             self._reason = f"{self._loss_reason}; {why}"
-            delay = self.policy.delay_s(self._attempt + self._flaps)
-            self._next_attempt_s = time.monotonic() + delay
+            self._schedule(time.monotonic(), self._attempt + self._flaps)
 
     # -- I/O --------------------------------------------------------------------------------
 
@@ -337,7 +372,7 @@ class SerialTransport:
         while True:
             with self._lock:
                 state, ser, gen = self._state, self._ser, self._gen
-                next_attempt = self._next_attempt_s
+                next_attempt, absent = self._next_attempt_s, self._absent
             now = time.monotonic()
             if state == LinkState.CLOSED:
                 return b""
@@ -350,9 +385,18 @@ class SerialTransport:
                 if now >= next_attempt:
                     self._try_reopen()
                     continue
+                if absent and now >= self._hold_until_s and self._present():
+                    with self._lock:  # the node is back: try now instead of at the backoff time
+                        if self._state == LinkState.RECONNECTING and self._gen == gen:
+                            self._absent = False
+                            self._next_attempt_s = now
+                    continue
                 if now >= deadline:
                     return b""
-                self._wake.wait(min(next_attempt, deadline) - now)
+                wake_at = min(next_attempt, deadline)
+                if absent:
+                    wake_at = min(wake_at, now + self.policy.presence_poll_s)
+                self._wake.wait(wake_at - now)
                 continue
             try:
                 waiting = ser.in_waiting
