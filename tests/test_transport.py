@@ -19,11 +19,11 @@ import serial
 from gaitmon.commands import ports as ports_cmd
 from gaitmon.io import protocol as p
 from gaitmon.io.decoder import FrameDecoder
+from gaitmon.io.ports import PortInfo
 from gaitmon.io.transport import (
     InProcessTransport,
     LinkError,
     LinkState,
-    PortInfo,
     PortOpenError,
     ReconnectPolicy,
     SerialTransport,

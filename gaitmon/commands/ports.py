@@ -4,20 +4,24 @@ from __future__ import annotations
 
 import argparse
 
-from gaitmon.io.transport import list_ports
+from gaitmon.io.ports import list_ports
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.epilog = (
-        "A Bluetooth unit appears once paired and bound to a serial port "
-        "(Linux: `rfcomm bind`; Windows: an outgoing COM port)."
+        "Bluetooth ports are listed first, named as each system shows a paired unit: Linux "
+        "/dev/rfcommN (or connect by address without a port: --port bt://AA:BB:CC:DD:EE:FF), "
+        "macOS /dev/cu.NAME, Windows the outgoing COM port. The README has the pairing steps."
     )
 
 
 def run(args: argparse.Namespace) -> int:
     ports = list_ports()
     if not ports:
-        print("no serial ports found (is the unit switched on, paired and bound to a port?)")
+        print(
+            "no serial ports found (is the unit switched on and paired? On Linux connect by "
+            "address: --port bt://AA:BB:CC:DD:EE:FF)"
+        )
         return 0
     for port in ports:
         print(port.friendly())

@@ -34,7 +34,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.epilog = EPILOG
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--simulate", action="store_true", help="record from the simulated unit")
-    src.add_argument("--port", metavar="PORT", help="serial port of the unit (see gaitmon ports)")
+    src.add_argument(
+        "--port",
+        metavar="PORT",
+        help="serial port of the unit (see gaitmon ports), or on Linux a paired unit's "
+        "address: bt://AA:BB:CC:DD:EE:FF[/CHANNEL]",
+    )
     p.add_argument("--baud", type=int, default=115200, help="serial baud rate (default 115200)")
     p.add_argument(
         "--mode",
@@ -72,8 +77,9 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.dsp.pipeline import PipelineConfig
     from gaitmon.engine import Engine, EngineError
     from gaitmon.io.device import Device
+    from gaitmon.io.ports import make_transport
     from gaitmon.io.session import SessionMeta
-    from gaitmon.io.transport import InProcessTransport, LinkError, SerialTransport, Transport
+    from gaitmon.io.transport import InProcessTransport, LinkError, Transport
 
     if args.port is not None and not args.port.strip():
         raise UserError("--port needs a port name; `gaitmon ports` lists the ports")
@@ -98,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
         label = "simulated"
         speed = sim.speed
     else:
-        transport = SerialTransport(args.port, baudrate=args.baud)
+        transport = make_transport(args.port, args.baud)  # serial, or bt://ADDRESS
         label = args.port
         speed = 1.0
     engine = Engine(Device(transport), args.mode, PipelineConfig(), transport_label=label)

@@ -107,30 +107,8 @@ class Transport(Protocol):
 
 
 # --------------------------------------------------------------------------------------------
-# Ports
+# Errors
 # --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class PortInfo:
-    device: str
-    description: str
-    hwid: str
-
-    def friendly(self) -> str:
-        desc = self.description if self.description and self.description != "n/a" else ""
-        if not desc and "rfcomm" in self.device:
-            desc = "Bluetooth serial (RFCOMM)"
-        hw = self.hwid if self.hwid and self.hwid != "n/a" else ""
-        return " - ".join(x for x in (self.device, desc, hw) if x)
-
-
-def list_ports() -> list[PortInfo]:
-    """Serial ports on this machine, sorted by device name."""
-    from serial.tools import list_ports as lp
-
-    ports = [PortInfo(p.device, p.description or "", p.hwid or "") for p in lp.comports()]
-    return sorted(ports, key=lambda p: p.device)
 
 
 def describe_open_error(port: str, exc: BaseException) -> str:
@@ -250,10 +228,16 @@ class SerialTransport:
             try:
                 ser = self._open_port()
             except Exception as exc:
-                msg = describe_open_error(self.port, exc)
+                msg = self._describe_open_error(exc)
                 self._state, self._reason = LinkState.FAILED, msg
                 raise PortOpenError(msg) from None
-            self._connected(ser, f"connected to {self.port} at {self.baudrate} baud")
+            self._connected(ser, self._connected_text())
+
+    def _describe_open_error(self, exc: BaseException) -> str:
+        return describe_open_error(self.port, exc)
+
+    def _connected_text(self) -> str:
+        return f"connected to {self.port} at {self.baudrate} baud"
 
     def _connected(self, ser: Any, reason: str) -> None:
         self._ser = ser
@@ -355,7 +339,7 @@ class SerialTransport:
                 return
             assert error is not None
             self._attempt += 1
-            why = describe_open_error(self.port, error)
+            why = self._describe_open_error(error)
             limit = self.policy.max_attempts
             if limit is not None and self._attempt >= limit:
                 self._state = LinkState.FAILED

@@ -1,4 +1,5 @@
-"""Opening a unit for the window: a serial port, or the simulated unit on a pseudo-terminal.
+"""Opening a unit for the window: a serial port, a paired unit by Bluetooth address
+(``bt://…``), or the simulated unit on a pseudo-terminal.
 
 No Qt here: `open_connection` runs in a worker thread (it blocks while the unit identifies
 itself) and hands back a started :class:`Connection`. The simulated unit runs in this process
@@ -15,10 +16,11 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import Engine, EngineError, Mode
 from gaitmon.io.device import Device
+from gaitmon.io.ports import PortInfo, list_ports, make_transport
 from gaitmon.io.sim.config import SimConfig, serve_on_pty
 from gaitmon.io.sim.pty import PtySimulator
 from gaitmon.io.sim.unit import SimulatedUnit
-from gaitmon.io.transport import LinkError, PortInfo, SerialTransport, list_ports
+from gaitmon.io.transport import LinkError
 
 SIMULATED_PORT = "simulated"
 SIMULATED_LABEL = "Simulated device"
@@ -76,10 +78,7 @@ def open_connection(
     else:
         path = port
         label = port
-    if baudrate is None:
-        transport = SerialTransport(path)
-    else:
-        transport = SerialTransport(path, baudrate=baudrate)
+    transport = make_transport(path, baudrate)  # a serial port, or bt://ADDRESS over RFCOMM
     engine = Engine(
         Device(transport),
         mode,
