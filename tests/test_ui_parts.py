@@ -76,11 +76,18 @@ def test_health_shows_engine_and_receive_errors_amber_with_the_reason():
 
 
 def test_link_view_shows_the_countdown_and_the_reason():
-    v = link_view("reconnecting", "link lost: EIO", 1.26, 3.0, "/dev/rfcomm0")
+    # plain words and whole seconds in the banner; the library's reason in the tooltip
+    v = link_view("reconnecting", "link lost: EIO", 1.26, 3.0, "/dev/rfcomm0", attempt=3)
     assert v.state == "reconnecting" and v.grade == "warn"
-    assert "in 1.3 s" in v.banner and "link lost: EIO" in v.banner and "/dev/rfcomm0" in v.banner
+    assert v.banner.startswith(
+        "Connection to the unit lost — reconnecting (attempt 3, next in 2 s)"
+    )
+    assert "EIO" not in v.banner and v.tooltip == "/dev/rfcomm0: link lost: EIO"
+    assert v.pill == "Reconnecting (2 s)"
+    assert "(attempt 1, trying now)" in link_view("reconnecting", "x", 0.0, 3.0, "p").banner
     lost = link_view("failed", "gave up after 5 attempts: no such port", None, 9.0, "COM3")
-    assert lost.state == "lost" and "gave up after 5 attempts" in lost.banner
+    assert lost.state == "lost" and "gave up reconnecting" in lost.banner
+    assert "gave up after 5 attempts: no such port" in lost.tooltip
     assert link_view("connected", "", None, 0.05, "x").banner == ""
     silent = link_view("connected", "", None, 2.5, "x")
     assert silent.grade == "alert" and "No data from the unit for 2 s" in silent.banner

@@ -162,7 +162,7 @@ def test_cut_link_shows_reconnecting_then_recovers(qtbot, window):
     win.cut_simulated_link(1.0)
     qtbot.waitUntil(lambda: win.state_text.startswith("Reconnecting"), timeout=WAIT_MS)
     assert win.link_banner.isVisible()
-    assert "Reconnecting to the simulated unit" in win.link_banner.text()
+    assert "Connection to the unit lost — reconnecting" in win.link_banner.text()
     at_cut = samples(win)
     qtbot.waitUntil(lambda: win.state_text == "Connected", timeout=WAIT_MS)
     qtbot.waitUntil(lambda: samples(win) >= at_cut + 100, timeout=WAIT_MS)

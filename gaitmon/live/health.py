@@ -29,8 +29,17 @@ class LinkView:
 
     state: str  # connected | reconnecting | lost | no data | disconnected
     pill: str  # short text of the state pill
-    banner: str  # "" when no banner is needed
+    banner: str  # "" when no banner is needed; words a clinician reads, no library text
     grade: str  # ok | warn | alert (banner colour)
+    tooltip: str = ""  # the technical reason, for whoever has to fix the link
+
+
+def countdown_s(seconds: float | None) -> int | None:
+    """Whole seconds to show for a wait (rounded up: "next in 1 s" until it happens), or None
+    when the attempt is due or under way."""
+    if seconds is None or seconds <= 0.05:
+        return None
+    return max(1, math.ceil(seconds - 1e-9))
 
 
 class HealthTracker:
@@ -92,27 +101,39 @@ def link_view(
     last_data_age_s: float,
     port: str,
     no_data_alert_s: float = NO_DATA_ALERT_S,
+    *,
+    attempt: int = 1,
+    device: str = "",
 ) -> LinkView:
-    """The connection pill and banner for one snapshot of the engine."""
+    """The connection pill and banner for one snapshot of the engine.
+
+    ``seconds_to_reconnect`` comes from the transport's next-attempt time at the moment of the
+    snapshot, so the countdown is right at each refresh; ``attempt`` is the number of the
+    attempt that countdown leads to (1 = the first after the loss). ``link_reason`` (the
+    transport's one-line technical reason) goes to the tooltip only, after ``device`` (the
+    port's real name, e.g. the simulator's pty path; default ``port``).
+    """
+    where = device or port
+    tip = f"{where}: {link_reason}" if link_reason else where
     if link_state == "reconnecting":
-        if seconds_to_reconnect is not None and seconds_to_reconnect > 0.05:
-            when = f"next attempt in {seconds_to_reconnect:.1f} s"
-        else:
-            when = "trying now"
-        reason = f" ({link_reason})" if link_reason else ""
+        wait = countdown_s(seconds_to_reconnect)
+        when = f"next in {wait} s" if wait is not None else "trying now"
         return LinkView(
             "reconnecting",
-            "Reconnecting…",
-            f"Reconnecting to {port}: {when}{reason}. Recording and display resume by themselves.",
+            f"Reconnecting ({wait} s)" if wait is not None else "Reconnecting…",
+            f"Connection to the unit lost — reconnecting (attempt {max(attempt, 1)}, {when}). "
+            "Recording and display resume by themselves.",
             "warn",
+            tip,
         )
     if link_state == "failed":
         return LinkView(
             "lost",
             "Link lost",
-            f"Link lost: {link_reason or 'the unit stopped answering'}. "
-            "Disconnect and connect again.",
+            "Connection to the unit lost — gave up reconnecting. Check that the unit is on and "
+            "within range, then connect again.",
             "alert",
+            tip,
         )
     if link_state == "connected":
         if last_data_age_s >= no_data_alert_s:
@@ -122,6 +143,7 @@ def link_view(
                 f"No data from the unit for {last_data_age_s:.0f} s. Is it switched on and "
                 "within range?",
                 "alert",
+                tip,
             )
         return LinkView("connected", "Connected", "", "ok")
     return LinkView("disconnected", "Disconnected", "", "ok")

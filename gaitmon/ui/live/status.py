@@ -97,27 +97,28 @@ class StatusView:
     def show_link(self, snap: Snapshot, port: str) -> None:
         """Link state, health, sample count and zeroing of one snapshot (``port``: as named in
         the banner)."""
+        link = snap.link
         view = link_view(
             snap.link_state,
             snap.link_reason,
             snap.seconds_to_reconnect,
             snap.last_data_age_s,
             port,
+            attempt=link.transport.attempt + 1 if link is not None else 1,
+            device=link.transport.port if link is not None else "",
         )
         if view.banner:
             self.link_banner.setText(view.banner)
+            self.link_banner.setToolTip(view.tooltip)
             if self.link_banner.property("grade") != view.grade:
                 self.link_banner.setStyleSheet(banner_style(self.colours, view.grade))
                 self.link_banner.setProperty("grade", view.grade)
             self.link_banner.setVisible(True)
         elif self.link_banner.isVisible():
             self.link_banner.setVisible(False)
-        pill = view.pill
-        if view.state == "reconnecting" and snap.seconds_to_reconnect is not None:
-            pill = f"Reconnecting ({snap.seconds_to_reconnect:.1f} s)"
-        self.set_state_pill(pill, view.grade)
+        self.set_state_pill(view.pill, view.grade)
+        self.state_label.setToolTip(view.tooltip or "Link state")
 
-        link = snap.link
         if link is not None:
             d = link.decoder
             h = self.health.update(
