@@ -32,8 +32,12 @@ The first line on standard output is the port path (flushed), so a script can re
 Open that path like a Bluetooth serial port (e.g. serial.Serial(port)); the unit speaks the
 gaitmon protocol (docs/protocol.md): it is idle until it receives SELECT_KIND / START_STREAM /
 REQUEST_FRAME / IDENTIFY / ZERO commands. The subject stands still for --standing-s seconds
-(time for ZERO), then walks. Stop with Ctrl-C or SIGTERM; the fault ledger is printed to
-standard error on exit.
+(time for ZERO), then walks; with --stand they stand until told to walk. While it runs:
+
+  kill -USR1 <pid>   the subject stops at the next step and stands still (zero now)
+  kill -USR2 <pid>   the subject walks again
+
+Stop with Ctrl-C or SIGTERM; the fault ledger is printed to standard error on exit.
 """
 
 
@@ -114,6 +118,12 @@ def add_simulator_options(
         metavar="S",
         help="seconds of quiet standing before walking starts (default: 5)",
     )
+    parser.add_argument(
+        "--stand",
+        action="store_true",
+        help="the subject stands still from the start until told to walk (the window's Device "
+        "▸ Simulator ▸ Walk again, or SIGUSR2 to `gaitmon simulate`)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     if side:
         parser.add_argument(
@@ -154,7 +164,7 @@ def sim_config_from_args(args: argparse.Namespace) -> SimConfig:
             cadence_steps_min=args.cadence,
             stride_cv=args.stride_cv,
             pattern=args.pattern,
-            standing_s=args.standing_s,
+            standing_s=math.inf if getattr(args, "stand", False) else args.standing_s,
             seed=args.seed,
             side=getattr(args, "side", "") or "R",
             speed=args.speed,
@@ -182,7 +192,17 @@ def run(args: argparse.Namespace) -> int:
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
-    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    def on_stand(signum: int, frame: FrameType | None) -> None:
+        unit.stand_still()
+
+    def on_walk(signum: int, frame: FrameType | None) -> None:
+        unit.walk()
+
+    handlers = {signal.SIGINT: on_signal, signal.SIGTERM: on_signal}
+    if hasattr(signal, "SIGUSR1"):  # POSIX, as the pty itself
+        handlers[signal.SIGUSR1] = on_stand
+        handlers[signal.SIGUSR2] = on_walk
+    old = {s: signal.signal(s, h) for s, h in handlers.items()}
     try:
         print(sim.link_path, flush=True)
         print(

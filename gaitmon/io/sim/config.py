@@ -29,7 +29,8 @@ class SimConfig:
     cadence_steps_min: float = 110.0
     stride_cv: float = 0.02  # stride-to-stride coefficient of variation of stride time
     pattern: str = "normal"  # a key of gaitmon.io.sim.patterns.PATTERNS
-    standing_s: float = 5.0  # quiet standing before walking starts (time to zero)
+    standing_s: float = 5.0  # quiet standing before walking starts (time to zero); inf: until
+    # the unit is told to walk (SimulatedUnit.walk)
     seed: int = 0
     side: str = "R"  # leg the unit is worn on
     speed: float = 1.0  # time factor: 1 = real time; math.inf = as fast as the client reads

@@ -39,6 +39,14 @@ for ``standing_s``, then the angles ramp in over ``ramp_strides`` strides. Every
 with its first and second time derivative (a small forward-mode "jet"), so rates and linear
 accelerations are analytic, not numerical.
 
+Standing still on request (``GaitModel.stand`` / ``walk``, the simulator's stand-still command):
+the subject slows over one stride (the angles ramp out as they ramped in) and stops at the next
+mid-stance far enough ahead (p = k + START_PHASE, at least 1.5 strides after the last sample
+produced, so no produced sample changes), in the standing pose: all angles 0, both FSRs loaded.
+The phase stays there (two equal knots: PCHIP keeps it flat, C1) until ``walk``, then the knots
+that follow are shifted by the time stood and the angles ramp in again. A request while the
+first standing period lasts extends or ends it instead.
+
 Geometry (world frame: F forward, U up; tilts counter-clockwise seen from the subject's right)
 ------------------------------------------------------------------------------------------------
 A segment with tilt th has its board x axis (up along the segment) along (-sin th, cos th) and its
@@ -49,6 +57,7 @@ anthropometric fractions of body height (thigh 0.245 H, shank 0.246 H).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -64,6 +73,9 @@ TOE_OFF_PHASE = 0.60  # normative toe off, fraction of the cycle
 FOOT_FLAT_PHASE = 0.10  # normative end of loading response (toe FSR starts to load)
 HEEL_OFF_PHASE = 0.35  # normative heel rise (heel FSR unloads)
 START_PHASE = 0.25  # the standing pose is taken as mid-stance (both FSRs loaded)
+OPEN_STAND_S = 1e7  # the length of a stand nobody has ended yet (about four months)
+STOP_AHEAD_STRIDES = 0.1  # margin between the last sample produced and a stop's influence
+MIN_STAND_S = 0.5  # a stop that has begun to take effect lasts at least this long
 
 # Fourier series, degrees: value(q) = a0 + sum_k a_k cos(2 pi k q) + b_k sin(2 pi k q), k = 1..6.
 HIP_COEFFS_DEG = (
@@ -248,6 +260,21 @@ def _ramp_integral(u: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray,
     return f, ramp, ramp1
 
 
+def _stop_bump(
+    u: np.ndarray, width: float
+) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """A stop at u = 0 (u: phase from the stop): the walking envelope loses
+    1 - smoothstep(|u|) (ramp out before, ramp in after), and the distance walked loses that
+    bump's integral from -inf (0 before, width after). Values and derivatives w.r.t. u."""
+    a = np.abs(u)
+    sign = np.where(u < 0, -1.0, 1.0)
+    f, f1, f2 = _smoothstep(a, width)
+    r, _, _ = _ramp_integral(a, width)
+    bump = (1.0 - f, -f1 * sign, -f2)
+    dist = (0.5 * width + u - sign * r, 1.0 - f, -f1 * sign)
+    return bump, dist
+
+
 def _swing_window(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Raised-cosine window over the swing part of the cycle (q in [0.5, 1.0]), peak at 0.75."""
     a, b = 0.5, 1.0
@@ -297,10 +324,15 @@ class GaitModel:
         self._rng = np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(1,)))
         self._durations_s = np.empty(0)
         self._interp: PchipInterpolator | None = None  # built on first use
-        self._t_walk_s = cfg.standing_s
+        self._t_walk_s = min(cfg.standing_s, OPEN_STAND_S)  # inf: stand until walk()
         self._hs_times = np.empty(0)
         self._to_times = np.empty(0)
         self._horizon_s = -np.inf
+        # stops on request after the first walk: [phase, seconds stood], in phase order; the
+        # device times each one starts and ends are in _stop_t_s (filled by _rebuild)
+        self._stops: list[list[float]] = []
+        self._stop_t_s: list[tuple[float, float]] = []
+        self._stand_requested = False
 
     # ---- stride schedule -------------------------------------------------------------------
     def _ensure(self, t_max_s: float) -> None:
@@ -340,10 +372,90 @@ class GaitModel:
             # Before t=0 stand still too, so the interpolant is flat on [0, t_walk].
             t_all = np.concatenate([[-1.0], t_all])
             p_all = np.concatenate([[START_PHASE], p_all])
+        self._stop_t_s = []
+        if self._stops:
+            t_all, p_all = self._insert_stops(t_all, p_all)
+            self._hs_times = np.interp(np.arange(1, len(hs) + 1), p_all, t_all)
+            self._to_times = np.interp(np.arange(len(hs) + 1) + TOE_OFF_PHASE, p_all, t_all)
+            hs = self._hs_times
         from scipy.interpolate import PchipInterpolator  # lazy: ~1 s to import
 
         self._interp = PchipInterpolator(t_all, p_all, extrapolate=True)
         self._horizon_s = hs[-4]
+
+    def _insert_stops(self, t_all: np.ndarray, p_all: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Knots with each requested stop: the phase reaches it (on the time line without this
+        stop), stays for its length, and every later knot moves later by that length."""
+        t_out, p_out = t_all.copy(), p_all.copy()
+        for p_stop, stood_s in self._stops:
+            t_a = float(np.interp(p_stop, p_out, t_out))
+            later = p_out > p_stop
+            t_out = np.where(later, t_out + stood_s, t_out)
+            k = int(np.searchsorted(p_out, p_stop))
+            t_out = np.insert(t_out, k, [t_a, t_a + stood_s])
+            p_out = np.insert(p_out, k, [p_stop, p_stop])
+            self._stop_t_s.append((t_a, t_a + stood_s))
+        return t_out, p_out
+
+    # ---- standing still on request ----------------------------------------------------------
+    def phase_at(self, t_s: float) -> float:
+        return float(self.phase_jet(np.array([t_s])).v[0])
+
+    @property
+    def walk_start_s(self) -> float:
+        """When the first standing period ends (OPEN_STAND_S or more: not before ``walk``)."""
+        return self._t_walk_s
+
+    def standing_at(self, t_s: float) -> bool:
+        """Whether the subject stands (or is about to) at ``t_s``: in the first standing period,
+        or told to stand and not told to walk since."""
+        return t_s < self._t_walk_s or self._stand_requested
+
+    def stand(self, after_t_s: float) -> float:
+        """Stand still until ``walk``, changing nothing before ``after_t_s`` (the time of the
+        next sample to produce). Returns when the subject will be standing."""
+        self._ensure(after_t_s)
+        self._stand_requested = True
+        if after_t_s < self._t_walk_s:  # still in the first standing period: extend it
+            self._t_walk_s = OPEN_STAND_S
+            self._rebuild()
+            return 0.0
+        if self._stop_t_s and after_t_s < self._stop_t_s[-1][1]:  # stopping or standing
+            self._stops[-1][1] = OPEN_STAND_S
+            self._rebuild()
+            return self._stop_t_s[-1][0]
+        ramp = self.config.ramp_strides
+        earliest = max(
+            self.phase_at(after_t_s) + self._reach() + STOP_AHEAD_STRIDES,
+            (self._stops[-1][0] if self._stops else START_PHASE) + 2.0 * ramp,
+        )
+        p_stop = math.ceil(earliest - START_PHASE) + START_PHASE
+        self._stops.append([p_stop, OPEN_STAND_S])
+        self._rebuild()
+        return self._stop_t_s[-1][0]
+
+    def _reach(self) -> float:
+        """How far back in phase a stop changes the motion: its ramp-out, and the PCHIP slope
+        at the heel strike before it (0.25 before; the interval from the toe off before that,
+        0.65 before)."""
+        return max(self.config.ramp_strides, START_PHASE + (1.0 - TOE_OFF_PHASE))
+
+    def walk(self, after_t_s: float) -> None:
+        """Walk again (no-op while walking), changing nothing before ``after_t_s``."""
+        self._ensure(after_t_s)
+        self._stand_requested = False
+        if after_t_s < self._t_walk_s:
+            self._t_walk_s = after_t_s + 0.01
+        elif self._stop_t_s and after_t_s < self._stop_t_s[-1][1]:
+            p_stop = self._stops[-1][0]
+            t_a = self._stop_t_s[-1][0]
+            if self.phase_at(after_t_s) <= p_stop - self._reach() - STOP_AHEAD_STRIDES:
+                self._stops.pop()  # it has not begun to show: as if never asked
+            else:
+                self._stops[-1][1] = max(after_t_s + 0.01, t_a + MIN_STAND_S) - t_a
+        else:
+            return
+        self._rebuild()
 
     def heel_strike_times_s(self, t_max_s: float) -> np.ndarray:
         """True heel-strike times up to t_max_s (the first is one partial stride after standing)."""
@@ -396,6 +508,14 @@ class GaitModel:
         p = self.phase_jet(t)
         q = np.mod(p.v, 1.0)
         env = p.compose(*_smoothstep(p.v - START_PHASE, cfg.ramp_strides))
+        hip_f = p.compose(*_ramp_integral(p.v - START_PHASE, cfg.ramp_strides)) * cfg.stride_len_m
+        for p_stop, _ in self._stops:
+            # ramp out into the stop and in again after it; the distance walked follows
+            u = p.v - p_stop
+            if np.any(u > -cfg.ramp_strides):
+                bump, dist = _stop_bump(u, cfg.ramp_strides)
+                env = env - p.compose(*bump)
+                hip_f = hip_f - p.compose(*dist) * cfg.stride_len_m
 
         def curve(coeffs: FourierCoeffs) -> Jet:
             f, f1, f2 = fourier_series(coeffs, q)
@@ -420,7 +540,6 @@ class GaitModel:
         # Linkage: hip point moves one stride length per cycle once walking (its speed ramps in
         # with the envelope, so starting off is not a jolt), with a twice-per-stride bob
         # (highest at mid-stance q = 0.3 and mid-swing q = 0.8).
-        hip_f = p.compose(*_ramp_integral(p.v - START_PHASE, cfg.ramp_strides)) * cfg.stride_len_m
         bob = _cos_jet(p, q, w, 0.3)
         hip_u = bob * env * cfg.hip_bob_m + (cfg.thigh_m + cfg.shank_m)
         st, ct = thigh.sin(), thigh.cos()

@@ -39,6 +39,13 @@ IDENTIFY (IDENTITY frame), ZERO (averages the next ``zero_samples`` samples, cal
 ``dsp.calibration.standing_calibration`` and installs it in the device pipeline; ACK when done,
 NAK BUSY if the subject was not still). Unknown codes get NAK UNKNOWN_COMMAND.
 
+The subject (not part of the protocol: the operator's remote control of the simulation)
+-----------------------------------------------------------------------------------------
+``unit.stand_still()`` makes the simulated subject stop at the next mid-stance (slowing over
+one stride) and stand upright and still, so the standing pose can be zeroed, until
+``unit.walk()``; ``unit.walk()`` during the first ``standing_s`` starts walking at once. Both
+take effect at the unit's current device time, in process or behind the pty alike.
+
 Faults and the ledger
 ---------------------
 ``FaultConfig`` injects, on data frames: independent frame loss, bursts of consecutive losses,
@@ -293,6 +300,30 @@ class SimulatedUnit:
     @property
     def closed(self) -> bool:
         return self._closed
+
+    # ---- the subject --------------------------------------------------------------------------
+    def stand_still(self) -> float:
+        """The subject stops at the next mid-stance and stands still until ``walk()``.
+
+        Returns the device time (s) from which they stand. Samples already produced never change.
+        """
+        with self._lock:
+            if not self._closed and not math.isinf(self.speed):
+                self._advance_to_now()
+            return self.gait.stand(self.sensors.position / self.fs_hz)
+
+    def walk(self) -> None:
+        """The subject walks again (at once if standing; no effect while walking)."""
+        with self._lock:
+            if not self._closed and not math.isinf(self.speed):
+                self._advance_to_now()
+            self.gait.walk(self.sensors.position / self.fs_hz)
+
+    @property
+    def standing(self) -> bool:
+        """Whether the subject stands still now, or is stopping to."""
+        with self._lock:
+            return self.gait.standing_at(self.sensors.position / self.fs_hz)
 
     # ---- state a transport or test may look at ----------------------------------------------
     @property

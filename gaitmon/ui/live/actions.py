@@ -79,6 +79,12 @@ ACTIONS: tuple[ActionSpec, ...] = (
                menu=SIMULATOR, separator_before=True, args=(3.0,)),
     ActionSpec("restore", "Restore link now", "restore_simulated_link", None,
                "End a simulated drop-out", menu=SIMULATOR),
+    ActionSpec("sim_stand", "Stand still", "set_simulated_standing", None,
+               "The simulated subject stops at the next step and stands upright and still "
+               "until Walk again: time to zero", menu=SIMULATOR, separator_before=True,
+               args=(True,)),
+    ActionSpec("sim_walk", "Walk again", "set_simulated_standing", None,
+               "The simulated subject starts walking again", menu=SIMULATOR, args=(False,)),
     ActionSpec("quit", "Quit", "close", "Ctrl+Q", menu=DEVICE, separator_before=True),
     ActionSpec("record", "Record", "toggle_recording", "Ctrl+R",
                "Start / stop recording a session (Ctrl+R)", menu=SESSION),

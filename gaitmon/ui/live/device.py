@@ -1,4 +1,5 @@
-"""The live monitor's device slots: ports, connect / disconnect, zero, the simulator's link.
+"""The live monitor's device slots: ports, connect / disconnect, zero, the simulator's link and
+its subject (stand still / walk again).
 
 Connecting and zeroing block (the unit identifies itself, the engine checks the pose), so they
 are requests to :class:`~gaitmon.ui.live.jobs.DeviceJobs` whose typed responses arrive here on
@@ -8,6 +9,7 @@ the GUI thread.
 from __future__ import annotations
 
 import logging
+import math
 
 from PySide6.QtCore import Qt, QTimer
 
@@ -44,7 +46,7 @@ class DeviceSlots(LiveWindowBase):
         self.port_combo.setItemData(
             self.port_combo.count() - 1,
             "A simulated unit on a pseudo-terminal in this program: a subject stands, then "
-            "walks. Device ▸ Simulator cuts its link.",
+            "walks. Device ▸ Simulator cuts its link and makes the subject stand still.",
             Qt.ItemDataRole.ToolTipRole,
         )
         idx = self.port_combo.findData(current) if current else -1
@@ -176,3 +178,22 @@ class DeviceSlots(LiveWindowBase):
             return
         conn.simulator.restore()
         self.notify("Simulated link restored; the window reconnects by itself.")
+
+    @guarded
+    def set_simulated_standing(self, standing: bool) -> None:
+        """Device ▸ Simulator ▸ Stand still / Walk again (the simulated subject, in process)."""
+        conn = self.conn
+        unit = conn.unit if conn is not None else None
+        if unit is None:
+            self.notify("Only the simulated subject can be told to stand still or walk.")
+            return
+        if standing:
+            stands_at_s = unit.stand_still()
+            wait_s = max(0.0, stands_at_s - unit.device_time_s) / unit.speed
+            self.notify(
+                f"The simulated subject stops within {math.ceil(wait_s)} s and stands still "
+                "until Device ▸ Simulator ▸ Walk again: zero then."
+            )
+        else:
+            unit.walk()
+            self.notify("The simulated subject walks again.")
