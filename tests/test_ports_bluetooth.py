@@ -287,3 +287,26 @@ def test_bt_transport_reconnects_like_the_serial_one():
     link_down = len(unit.ledger.dropped_frame_nos("link_down"))
     gap = int(after[0].seq[0]) - int(before[-1].seq[-1]) - 1
     assert link_down > 0 and 0 <= gap - link_down <= 50  # the setup was re-sent at once
+
+
+def test_linux_lists_paired_serial_units_by_address():
+    """BlueZ's answers (bluetoothctl) -> bt:// entries for devices with the serial profile."""
+    from gaitmon.io.ports import paired_serial_units
+
+    answers = {
+        ("devices", "Paired"): "Device 00:11:22:AA:BB:CC GaitUnit 7\n"
+        "Device 11:22:33:44:55:66 Headphones\n[bluetooth]# \n",
+        ("info", ADDR): "Device 00:11:22:AA:BB:CC (public)\n\tName: GaitUnit 7\n\tPaired: yes\n"
+        "\tUUID: Serial Port               (00001101-0000-1000-8000-00805f9b34fb)\n",
+        ("info", "11:22:33:44:55:66"): "\tUUID: Audio Sink (0000110b-0000-1000-8000-...)\n",
+    }
+    units = paired_serial_units(lambda argv: answers[tuple(argv[1:])])
+    assert [(u.device, u.friendly()) for u in units] == [
+        (f"bt://{ADDR}", f"bt://{ADDR} - GaitUnit 7 (paired)")
+    ]
+    assert units[0].bluetooth
+
+    def broken(argv):
+        raise OSError("bluetoothd is not running")
+
+    assert paired_serial_units(broken) == []

@@ -4,7 +4,8 @@ This module owns naming ports for people. The unit is a Bluetooth serial (SPP) d
 system shows a paired one differently:
 
 * **Linux**: ``/dev/rfcommN`` once bound (``rfcomm bind``), or no port at all: gaitmon connects
-  to a paired unit by address with ``bt://AA:BB:CC:DD:EE:FF`` (``gaitmon.io.bluetooth``).
+  to a paired unit by address with ``bt://AA:BB:CC:DD:EE:FF`` (``gaitmon.io.bluetooth``), and
+  lists the paired devices that offer a serial port that way (:func:`paired_serial_units`).
 * **macOS**: two nodes per paired device, ``/dev/tty.NAME`` (waits for carrier on open) and
   ``/dev/cu.NAME`` (the one to use for an outgoing connection); plus
   ``Bluetooth-Incoming-Port`` (for devices that connect to the Mac) and ``debug-console``, which
@@ -22,8 +23,10 @@ socket, anything else a serial port.
 from __future__ import annotations
 
 import re
+import shutil
+import subprocess
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -104,11 +107,56 @@ def _natural(name: str) -> list[Any]:
     return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", name)]
 
 
+_BLUEZ_DEVICE = re.compile(r"^Device ([0-9A-F]{2}(?::[0-9A-F]{2}){5}) (.*)$", re.IGNORECASE)
+SPP_UUID = "00001101-0000-1000-8000-00805f9b34fb"  # the Serial Port Profile
+
+
+def parse_bluez_devices(text: str) -> list[tuple[str, str]]:
+    """``bluetoothctl devices`` output -> [(address, name)]."""
+    out = []
+    for line in text.splitlines():
+        m = _BLUEZ_DEVICE.match(line.strip())
+        if m:
+            out.append((m.group(1).upper(), m.group(2).strip()))
+    return out
+
+
+def paired_serial_units(
+    run: Callable[[list[str]], str] | None = None,
+) -> list[PortInfo]:
+    """Linux: paired Bluetooth devices offering a serial port, as ``bt://ADDRESS`` entries, so
+    the unit can be picked without ``rfcomm bind``. Asks BlueZ's ``bluetoothctl``; none when it
+    is missing, slow or fails. ``run(argv) -> stdout`` is injectable for tests."""
+    if run is None:
+        if shutil.which("bluetoothctl") is None:
+            return []
+        run = _bluetoothctl
+    try:
+        paired = parse_bluez_devices(run(["bluetoothctl", "devices", "Paired"]))
+        units = []
+        for address, name in paired:
+            if SPP_UUID in run(["bluetoothctl", "info", address]).lower():
+                units.append(PortInfo(f"bt://{address}", f"{name} (paired)", "", bluetooth=True))
+        return units
+    except (OSError, subprocess.SubprocessError):
+        return []
+
+
+def _bluetoothctl(argv: list[str]) -> str:
+    done = subprocess.run(argv, capture_output=True, text=True, timeout=2.0, check=False)
+    return done.stdout
+
+
 def list_ports(platform: str | None = None) -> list[PortInfo]:
-    """The serial ports on this machine a unit could be on, named as this system shows them."""
+    """The serial ports on this machine a unit could be on, named as this system shows them;
+    on Linux also the paired Bluetooth serial devices to connect to by address."""
     from serial.tools import list_ports as lp
 
-    return classify_ports(lp.comports(), sys.platform if platform is None else platform)
+    platform = sys.platform if platform is None else platform
+    ports = classify_ports(lp.comports(), platform)
+    if platform.startswith("linux"):
+        ports = paired_serial_units() + ports
+    return ports
 
 
 def make_transport(port: str, baudrate: int | None = None) -> SerialTransport:
