@@ -50,7 +50,7 @@ def test_reconnect_banner_counts_down_in_plain_words(qtbot, window):
     # Refresh as the window's timer does and compare with the transport at that moment:
     # (attempt, whole seconds shown, seconds really left) for each refresh.
     seen: list[tuple[int, int | None, float, float]] = []
-    t_end = time.monotonic() + 6.0  # spans the 2 s and 4 s waits of the backoff
+    t_end = time.monotonic() + 7.5  # spans the 2 s and 4 s waits of the backoff
     while time.monotonic() < t_end:
         before = transport.status
         win._tick()
