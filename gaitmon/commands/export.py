@@ -6,6 +6,7 @@ import argparse
 import sys
 import time
 
+from gaitmon.commands import add_force, add_quiet
 from gaitmon.errors import UserError
 from gaitmon.io.export.registry import FORMATS
 
@@ -38,8 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output file (default: FILE with the format's extension)")
     parser.add_argument("--deidentify", action="store_true",
                         help="leave out patient id, operator and notes (the data are kept)")
-    parser.add_argument("--force", action="store_true", help="overwrite existing output files")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
+    add_force(parser, "existing output files")
+    add_quiet(parser)
 
 
 class _Progress:

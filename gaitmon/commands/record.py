@@ -12,6 +12,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
+from gaitmon.commands import add_force, add_quiet
 from gaitmon.commands.simulate import add_simulator_options, sim_config_from_args
 from gaitmon.errors import UserError
 
@@ -46,19 +47,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--duration", type=float, required=True, metavar="S", help="seconds of data to record"
     )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="session file (.h5)")
-    p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
+    add_force(p, "FILE")
     p.add_argument("--patient", default="", metavar="ID", help="patient identifier (no names)")
     p.add_argument("--operator", default="", help="who ran the session")
-    p.add_argument("--side", choices=("L", "R", ""), default="", help="leg side of the unit")
+    p.add_argument(
+        "--side", choices=("L", "R"), default="", help="leg side of the unit (default: not given)"
+    )
     p.add_argument("--notes", default="", metavar="TEXT", help="free-text notes")
     p.add_argument(
         "--zero",
         action="store_true",
         help="zero the standing pose first (the subject must stand still for 1.5 s)",
     )
-    p.add_argument(
-        "--quiet", action="store_true", help="no progress lines on standard error"
-    )
+    add_quiet(p, "no progress lines on standard error")
     p.add_argument(
         "--status-lines",
         action="store_true",
@@ -80,8 +81,8 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.duration) and args.duration > 0):
         raise UserError(f"--duration must be a positive number of seconds, got {args.duration}")
     out = Path(args.output)
-    if out.exists() and not args.overwrite:
-        raise UserError(f"{out} already exists; choose another name or pass --overwrite")
+    if out.exists() and not args.force:
+        raise UserError(f"{out} already exists; choose another name or pass --force")
     if not out.parent.is_dir():
         raise UserError(f"folder {out.parent} does not exist")
     meta = SessionMeta(
@@ -120,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         if stop.is_set():  # Ctrl-C while zeroing: the user wants no recording at all
             raise UserError("stopped before the recording started; nothing was recorded")
         try:
-            engine.start_recording(out, meta, overwrite=args.overwrite)
+            engine.start_recording(out, meta, overwrite=args.force)
         except EngineError as exc:
             raise UserError(str(exc)) from None
         start_samples = engine.samples_total

@@ -13,6 +13,7 @@ import argparse
 import os
 from pathlib import Path
 
+from gaitmon.commands import add_force, add_quiet
 from gaitmon.errors import UserError
 
 
@@ -30,7 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="leave out the patient identifier, operator and file name",
     )
     p.add_argument("--png", metavar="PNG", help="also write the page as a PNG image")
-    p.add_argument("--force", action="store_true", help="replace existing output files")
+    add_force(p, "existing output files")
+    add_quiet(p, "no summary line")
     p.epilog = "example: gaitmon report walk.h5 -o walk.pdf --normative docs/normative-example.csv"
 
 
@@ -84,5 +86,6 @@ def run(args: argparse.Namespace) -> int:
             write_report_png(data, png)
     except OSError as exc:
         raise UserError(f"cannot write the report: {exc}") from None
-    print(f"gaitmon report: wrote {out}" + (f" and {png}" if png else ""))
+    if not args.quiet:
+        print(f"gaitmon report: wrote {out}" + (f" and {png}" if png else ""))
     return 0

@@ -246,9 +246,21 @@ def _open_h5(path: Path) -> h5py.File:
     try:
         return h5py.File(path, "r")
     except (OSError, RuntimeError, ValueError) as e:
+        why = _short_error(e)
+        if path.is_dir():
+            why = "a folder"
+        elif path.exists() and path.stat().st_size == 0:
+            why = "an empty file"
+        elif why == "not an HDF5 file":
+            pass
+        else:
+            raise SessionError(
+                f"{path.name} is damaged and cannot be opened ({why}); "
+                "pick another session file recorded by gaitmon"
+            ) from e
         raise SessionError(
-            f"{path.name} is not an HDF5 file or is damaged ({_short_error(e)}); "
-            "pick a session file recorded by gaitmon"
+            f"{path.name} is not a gaitmon session ({why}); pick a session file recorded by "
+            "gaitmon"
         ) from e
 
 
