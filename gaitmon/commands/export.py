@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from gaitmon.commands import add_force, add_quiet
+from gaitmon.commands import add_force, add_quiet, damaged_file_guard
 from gaitmon.errors import UserError
 from gaitmon.io.export.registry import FORMATS
 
@@ -76,13 +76,14 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     progress = None
     try:
-        if not args.quiet and session_length(args.file) >= PROGRESS_MIN_SAMPLES:
-            progress = _Progress(f"exporting {args.format}")
-        result = export_session(
-            args.file, args.format, args.output,
-            deidentify=args.deidentify, force=args.force, progress=progress,
-        )
-    except ExportError as exc:
+        with damaged_file_guard(args.file):
+            if not args.quiet and session_length(args.file) >= PROGRESS_MIN_SAMPLES:
+                progress = _Progress(f"exporting {args.format}")
+            result = export_session(
+                args.file, args.format, args.output,
+                deidentify=args.deidentify, force=args.force, progress=progress,
+            )
+    except (ExportError, UserError) as exc:
         if progress is not None and progress.shown and progress.tty:
             sys.stderr.write("\n")
         raise UserError(str(exc)) from None

@@ -13,7 +13,7 @@ import argparse
 import os
 from pathlib import Path
 
-from gaitmon.commands import add_force, add_quiet
+from gaitmon.commands import add_force, add_quiet, damaged_file_guard
 from gaitmon.errors import UserError
 
 
@@ -71,7 +71,8 @@ def run(args: argparse.Namespace) -> int:
         except NormativeError as exc:
             raise UserError(f"normative band: {exc}") from None
     try:
-        data = report_from_file(args.file, deidentify=args.deidentify, normative=normative)
+        with damaged_file_guard(args.file):
+            data = report_from_file(args.file, deidentify=args.deidentify, normative=normative)
     except SessionError as exc:
         raise UserError(str(exc)) from None
 

@@ -83,7 +83,10 @@ def _c3d_plan(src: Source, events: np.ndarray | None = None,
     t = src.read("timeline/t_s").astype(np.float64) if src.n else np.zeros(0)
     if src.n == 0:
         return C3dPlan(np.zeros(0, np.int64), 0, 1, ((0, 0),))
-    frame = np.rint((t - t[0]) * src.fs_hz).astype(np.int64)
+    grid = (t - t[0]) * src.fs_hz
+    if not np.all(np.abs(grid) < 2.0**53):  # NaN or absurd times: no frame number to cast to
+        raise ExportError(f"{src.path.name} is damaged: some sample times are not valid")
+    frame = np.rint(grid).astype(np.int64)
     if np.any(np.diff(frame) <= 0):
         raise ExportError(
             f"{src.path.name}: sample times are not increasing on the {src.fs_hz:g} Hz grid; "

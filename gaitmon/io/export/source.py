@@ -190,7 +190,16 @@ class Source:
 
     def read(self, path: str, start: int = 0, stop: int | None = None) -> np.ndarray:
         stop = self.n if stop is None else stop
-        return self.h5[path][start:stop]
+        try:
+            return self.h5[path][start:stop]
+        except (OSError, RuntimeError, KeyError, ValueError) as e:
+            # a damaged chunk surfaces only when read: say so, not "cannot write"
+            from gaitmon.io.session.h5file import _short_error
+
+            raise ExportError(
+                f"{self.path.name} is damaged: cannot read /{path} rows {start}-{stop} "
+                f"({_short_error(e)})"
+            ) from None
 
     def events(self, name: str) -> np.ndarray:
         """Sample indices (0-based) of one event kind, limited to the rows present."""
