@@ -47,6 +47,8 @@ def damaged_file_guard(path: str | os.PathLike[str]) -> Iterator[None]:
 
     try:
         yield
+    except BrokenPipeError:  # the reader of our output went away: not the file's fault
+        raise
     except DAMAGE_ERRORS as exc:
         if os.environ.get(DEBUG_ENV):
             raise

@@ -30,6 +30,11 @@ Ctrl-C stops early and still leaves a complete file.
 """
 
 
+# Seconds without a single new frame after which the unit is taken to have stopped sending
+# (a dropped link that comes back sooner is a gap in the same recording).
+STALL_S = 10.0
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.epilog = EPILOG
@@ -97,11 +102,9 @@ def run(args: argparse.Namespace) -> int:
         unit = build_unit(sim)
         transport = InProcessTransport(unit)
         label = "simulated"
-        speed = sim.speed
     else:
         transport = SerialTransport(args.port, baudrate=args.baud)
         label = args.port
-        speed = 1.0
     engine = Engine(Device(transport), args.mode, PipelineConfig(), transport_label=label)
     try:
         engine.start()
@@ -115,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
 
     old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     reason = "duration"
+    stalled_at_s: float | None = None
     try:
         if args.zero:
             _zero(engine, stop)
@@ -126,7 +130,11 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(str(exc)) from None
         start_samples = engine.samples_total
         lost0 = engine.device.stats.decoder.frames_lost
-        wall_limit = time.monotonic() + args.duration / min(speed, 1e6) + 10.0
+        # The watchdog measures silence, not the whole recording: a total wall-time budget
+        # (duration / speed + 10 s) ended `--speed max` after ~10 s, since "max" is only as
+        # fast as this machine can decode and record, not infinitely fast.
+        last_data = time.monotonic()
+        last_seen = -1.0
         last_print = 0.0
         last_rows = -1
         while True:
@@ -141,22 +149,20 @@ def run(args: argparse.Namespace) -> int:
                 last_rows = got
                 print(f"ROWS {got} {time.monotonic():.6f}", flush=True)
             recorded_s = (got + link.decoder.frames_lost - lost0) / engine.fs_hz
-            if rec.error:
-                print(f"gaitmon record: {rec.error}", file=sys.stderr)
+            now = time.monotonic()
+            if recorded_s != last_seen:
+                last_seen, last_data = recorded_s, now
+            if rec.error:  # said once, below, as the command's error
                 reason = "error"
                 break
-            now = time.monotonic()
             if not args.quiet and now - last_print >= 1.0:
                 last_print = now
                 _progress(out, recorded_s, args.duration, rec, link)
             if recorded_s >= args.duration:
                 break
-            if now > wall_limit:
-                print(
-                    "gaitmon record: the unit stopped sending data; stopping early",
-                    file=sys.stderr,
-                )
+            if now - last_data > STALL_S:
                 reason = "error: no data from the unit"
+                stalled_at_s = recorded_s
                 break
     finally:
         status = engine.stop_recording(reason)  # after a write error the file is closed already
@@ -168,6 +174,14 @@ def run(args: argparse.Namespace) -> int:
         from gaitmon.io.sim.truth import attach_ground_truth
 
         attach_ground_truth(out, unit)
+    if status.error:  # one message: the writer's, which states the rows a reader gets
+        raise UserError(status.error)
+    if stalled_at_s is not None:  # the request was not completed: say so, and exit non-zero
+        raise UserError(
+            f"the unit sent no data for {STALL_S:g} s, so the recording stopped after "
+            f"{stalled_at_s:.1f} of {args.duration:g} s; {out} holds what was received "
+            "(check the unit's power and link)"
+        )
     d = stats.decoder
     print(
         f"gaitmon record: wrote {status.rows} frames to {out} "
@@ -175,8 +189,6 @@ def run(args: argparse.Namespace) -> int:
         f"{d.crc_failures} CRC failures, {stats.reconnects} reconnects",
         file=sys.stderr,
     )
-    if status.error:
-        raise UserError(status.error)
     return 0
 
 

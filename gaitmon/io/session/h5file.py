@@ -40,10 +40,13 @@ class _H5File:
     """Creates the session layout and appends to it; knows nothing about journals."""
 
     def __init__(
-        self, path: Path, header: Mapping[str, Any], *, mode: str, reprocessed: bool
+        self, path: Path, header: Mapping[str, Any], *, mode: str, reprocessed: bool,
+        in_memory: bool = False,
     ) -> None:
         # no chunk cache: writes go straight to the file (see gaitmon.io.session.layout, "Chunking")
-        self.f = h5py.File(path, mode, rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES)
+        # in_memory: a file that never touches the disk (recovery while the disk is full)
+        where: dict[str, Any] = {"driver": "core", "backing_store": False} if in_memory else {}
+        self.f = h5py.File(path, mode, rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES, **where)
         try:
             self._create(header, reprocessed)
         except BaseException:

@@ -169,6 +169,12 @@ class Session:
         if self.complete and int(self.attrs.get("n_samples", -1)) != self.n_samples:
             self.problems.append("n_samples attribute does not match the data")
         self.duration_s = float(self.attrs.get("duration_s", 0.0))
+        if not (self.complete or self.recovered) and self.n_samples:
+            # an unfinished file's attribute still says 0: its last row's time says how long
+            with contextlib.suppress(OSError, RuntimeError, ValueError, TypeError):
+                t_last = float(f["timeline/t_s"][self.n_samples - 1])
+                if math.isfinite(t_last):
+                    self.duration_s = t_last + 1.0 / self.sample_rate_hz
         if not self.complete and not self.recovered:
             self.problems.append("the recording was not stopped cleanly")
 
@@ -323,7 +329,10 @@ def _open_h5(path: Path) -> h5py.File:
 
 
 def _read_session(path: Path, problems: Sequence[str] = ()) -> Session:
-    f = _open_h5(path)
+    return _session_of(path, _open_h5(path), problems)
+
+
+def _session_of(path: Path, f: h5py.File, problems: Sequence[str] = ()) -> Session:
     try:
         return Session(path, f, problems)
     except SessionError:
@@ -361,11 +370,20 @@ def open_session(
             if done:
                 jpath.unlink()
         if jpath.exists():
-            try:
-                from gaitmon.io.session.recovery import recover_session  # only when needed
+            from gaitmon.io.session.recovery import (  # only when needed
+                recover_in_memory,
+                recover_session,
+            )
 
+            try:
                 recover_session(path, progress)
             except SessionError as e:
+                # e.g. a full disk: read what the journal holds from memory, so a reader gets
+                # every row the recorder said was saved, right away (the file's own rows can
+                # stop short of them, in datasets of different lengths)
+                with contextlib.suppress(SessionError):
+                    f = recover_in_memory(path)
+                    return _session_of(path, f, [f"recovered in memory only: {e}"])
                 if not path.exists():
                     raise
                 return _read_session(path, [f"not recovered: {e}"])

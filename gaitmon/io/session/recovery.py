@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import h5py
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
@@ -139,6 +140,41 @@ def recover_session(
         raise SessionError(f"cannot read {jpath.name}: {_short_error(e)}") from e
 
 
+# Above this journal size a recovery in memory is not attempted (an 8-hour raw journal is
+# ~150 MB and its session ~600 MB in memory).
+IN_MEMORY_MAX_JOURNAL_BYTES = 256 * 2**20
+
+
+def recover_in_memory(path: str | os.PathLike[str]) -> h5py.File:
+    """The session ``path`` as its journal holds it, rebuilt in memory only (nothing is
+    written, the journal stays): what a reader gets while a full disk prevents
+    :func:`recover_session`, so that it sees every row the recorder reported as saved.
+    Raises :class:`SessionError`."""
+    path = Path(path)
+    jpath = journal_path(path)
+    try:
+        if jpath.stat().st_size > IN_MEMORY_MAX_JOURNAL_BYTES:
+            raise SessionError(f"{jpath.name} is too large to recover in memory")
+        with journal_lock(jpath) as free:
+            if not free:
+                raise SessionError(f"{path.name} is being recorded right now")
+            contents = read_journal(jpath)
+    except OSError as e:
+        raise SessionError(f"cannot read {jpath.name}: {_short_error(e)}") from e
+    if contents.header is None or contents.rows is None:
+        raise SessionError(f"its journal is unusable ({contents.problem})")
+    try:
+        header = SessionHeader.from_dict(contents.header)
+        changes = _journal_changes(contents)
+        # a name of its own: the core driver without a backing store never touches it
+        memory_name = path.with_name(path.name + ".in-memory")
+        f = _build_recovered(memory_name, header, contents, changes, None, in_memory=True)
+    except (KeyError, TypeError, ValueError, OSError, RuntimeError) as e:
+        raise SessionError(f"cannot recover {path.name} in memory ({_short_error(e)})") from e
+    assert f is not None
+    return f
+
+
 def _recover_locked(
     path: Path, jpath: Path, progress: Callable[[float], bool | None] | None
 ) -> Path:
@@ -188,14 +224,19 @@ def _build_recovered(
     contents: JournalContents,
     changes: list[tuple[int, PipelineConfig | Calibration]],
     progress: Callable[[float], bool | None] | None,
-) -> None:
+    *,
+    in_memory: bool = False,
+) -> h5py.File | None:
+    """Write the recovered session to ``tmp``; ``in_memory``: build it in memory instead and
+    return the open file (the caller closes it), for reading while the disk is full."""
     hdr = contents.header
     assert hdr is not None and contents.rows is not None
     rows = contents.rows
     n = len(rows)
     fs = header.sample_rate_hz
     mode = header.mode
-    h5 = _H5File(tmp, hdr, mode="w", reprocessed=mode == "raw")
+    h5 = _H5File(tmp, hdr, mode="w", reprocessed=mode == "raw", in_memory=in_memory)
+    ok = False
     try:
         if contents.wall_offset_s is not None:
             h5.set_wall_offset(contents.wall_offset_s)
@@ -265,8 +306,11 @@ def _build_recovered(
         h5.set_link_totals(totals)
         h5.finish(complete=False, recovered=True, stop_reason="recovered", fs_hz=fs)
         report(n)
+        ok = True
     finally:
-        h5.close()
+        if not (ok and in_memory):
+            h5.close()
+    return h5.f if in_memory else None
 
 
 def _device_chunks(
