@@ -231,12 +231,12 @@ def _c3d_part_spec(src: Source, plan: C3dPlan, part_no: int, scrub: Scrubber,
 
     session = scrub.session({**{k: "" for k in IDENTIFYING_FIELDS},
                              **src.group_attrs("session")})
-    device = scrub.value(src.group_attrs("device")) if deidentify else src.group_attrs("device")
+    device = scrub.device(src.group_attrs("device"))
     _c3d_text(c, "GAITMON", "MODE", src.mode or "unknown")
     _c3d_text(c, "GAITMON", "SIDE", side or "unknown")
-    _c3d_text(c, "GAITMON", "CREATED_UTC", as_text(src.attrs.get("created_utc", "")))
+    _c3d_text(c, "GAITMON", "CREATED_UTC", as_text(scrub.root(src.attrs).get("created_utc", "")))
     _c3d_text(c, "GAITMON", "DEVICE", " ".join(
-        f"{k}={as_text(device.get(k, ''))}" for k in ("name", "serial", "firmware")))
+        f"{k}={as_text(device[k])}" for k in ("name", "serial", "firmware") if k in device))
     c.add_parameter("GAITMON", "PART", float(part_no + 1), "1-based part of the session")
     c.add_parameter("GAITMON", "N_PARTS", float(len(plan.parts)))
     c.add_parameter("GAITMON", "PART_START_S", float(t_part0),

@@ -24,6 +24,8 @@ from gaitmon.dsp.gait import ContactEdges
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.errors import Cancelled
 from gaitmon.io.journal import (
+    IDENTITY_FIELDS,
+    IDENTITY_IN_FILE,
     N_COMMON_FIELDS,
     JournalContents,
     RecordType,
@@ -140,6 +142,30 @@ def recover_session(
         raise SessionError(f"cannot read {jpath.name}: {_short_error(e)}") from e
 
 
+IDENTITY_LOST = (
+    "the patient id, operator and notes were lost with the file's damaged header (the journal "
+    "never holds them)"
+)
+
+
+def _with_identity(path: Path, header: dict[str, Any]) -> dict[str, Any]:
+    """The journal's header with the identity fields the HDF5 file holds (the journal keeps
+    them blank, see gaitmon.io.journal.IDENTITY_FIELDS). A journal from before that rule
+    has them itself; a file whose header cannot be read leaves them blank and says so."""
+    if not header.get(IDENTITY_IN_FILE):
+        return header
+    session = dict(header.get("session", {}))
+    try:
+        with h5py.File(path, "r") as f:
+            attrs = f["session"].attrs
+            for k in IDENTITY_FIELDS:
+                v = attrs.get(k, "")
+                session[k] = v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+    except Exception:  # any damage (h5py raises many kinds): recover the data without them
+        session["notes"] = IDENTITY_LOST
+    return {k: v for k, v in header.items() if k != IDENTITY_IN_FILE} | {"session": session}
+
+
 # Above this journal size a recovery in memory is not attempted (an 8-hour raw journal is
 # ~150 MB and its session ~600 MB in memory).
 IN_MEMORY_MAX_JOURNAL_BYTES = 256 * 2**20
@@ -163,6 +189,7 @@ def recover_in_memory(path: str | os.PathLike[str]) -> h5py.File:
         raise SessionError(f"cannot read {jpath.name}: {_short_error(e)}") from e
     if contents.header is None or contents.rows is None:
         raise SessionError(f"its journal is unusable ({contents.problem})")
+    contents.header = _with_identity(path, contents.header)
     try:
         header = SessionHeader.from_dict(contents.header)
         changes = _journal_changes(contents)
@@ -187,6 +214,7 @@ def _recover_locked(
         raise SessionError(
             f"cannot recover {name}: its journal {jpath.name} is unusable ({contents.problem})"
         )
+    contents.header = _with_identity(path, contents.header)
     try:
         header = SessionHeader.from_dict(contents.header)
         changes = _journal_changes(contents)
