@@ -243,3 +243,39 @@ def test_an_unfinished_file_reports_its_duration(rec, tmp_path):
         h.attrs["duration_s"] = 0.0
     with open_session(f) as s:
         assert s.duration_s == pytest.approx(s.n_samples / 100, abs=0.05)
+
+
+# -- defect 7: the file exists before the first frame is requested -----------------------------
+
+
+def test_the_file_and_journal_exist_before_the_first_frame_is_requested(tmp_path, monkeypatch):
+    from gaitmon.io.device import Device
+
+    out = tmp_path / "early.h5"
+    seen = []
+    real = Device.start_stream
+
+    def start_stream(self, *a, **k):
+        seen.append((out.exists(), journal_path(out).exists()))
+        return real(self, *a, **k)
+
+    monkeypatch.setattr(Device, "start_stream", start_stream)
+    assert main(["record", "--simulate", "--speed", "20", "--duration", "2", "-o", str(out),
+                 "-q"]) == 0  # fmt: skip
+    assert seen == [(True, True)]
+    with open_session(out) as s:  # and it holds every frame the engine received
+        assert s.n_samples >= 200 and s.complete
+
+
+def test_a_start_that_fails_after_the_file_was_created_leaves_no_file(tmp_path, monkeypatch,
+                                                                      capsys):
+    from gaitmon.io.device import Device, DeviceError
+
+    def start_stream(self, *a, **k):
+        raise DeviceError("the unit refused to stream")
+
+    monkeypatch.setattr(Device, "start_stream", start_stream)
+    out = tmp_path / "never.h5"
+    assert main(["record", "--simulate", "--duration", "2", "-o", str(out), "-q"]) == 2
+    assert "refused to stream" in capsys.readouterr().err
+    assert not out.exists() and not journal_path(out).exists()

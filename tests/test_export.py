@@ -95,7 +95,8 @@ def write_session(path: Path, mode: str = "raw", n: int = 600, seed: int = 0,
         h["timeline/host_time_s"].attrs["wall_offset_s"] = 1.7e9
         h["processed"].attrs.update({"source": "pc" if mode == "raw" else "device",
                                      "reprocessed": False})
-        h.create_dataset("events/heel_strike", data=np.array([0, 110, 210, 310, n - 1]))
+        # sorted: a short session (n < 310) must not get events out of order (a damaged file)
+        h.create_dataset("events/heel_strike", data=np.unique([0, 110, 210, 310, n - 1]))
         h.create_dataset("events/toe_off", data=np.array([70, 170, 299, 300]))
         mk_dt = np.dtype([("sample_idx", "<i8"), ("t_s", "<f8"), ("label", STR)])
         h.create_dataset("markers", data=np.array([

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import signal
 import sys
@@ -78,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.dsp.pipeline import PipelineConfig
     from gaitmon.engine import Engine, EngineError
     from gaitmon.io.device import Device
-    from gaitmon.io.session import SessionMeta
+    from gaitmon.io.session import SessionMeta, journal_path
     from gaitmon.io.transport import InProcessTransport, LinkError, SerialTransport, Transport
 
     if args.port is not None and not args.port.strip():
@@ -106,9 +107,24 @@ def run(args: argparse.Namespace) -> int:
         transport = SerialTransport(args.port, baudrate=args.baud)
         label = args.port
     engine = Engine(Device(transport), args.mode, PipelineConfig(), transport_label=label)
+    # The file and its journal are created once the unit is identified and before the first
+    # frame is requested, so nothing received is ever outside the file (a crash during start-up
+    # lost everything received until the file existed: seconds on a loaded machine). With
+    # --zero the stream must run first (zeroing needs data); the recording starts after it.
+    started_early = False
+
+    def record_from_the_first_frame() -> None:
+        nonlocal started_early
+        engine.start_recording(out, meta, overwrite=args.force)
+        started_early = True
+
     try:
-        engine.start()
+        engine.start(before_stream=None if args.zero else record_from_the_first_frame)
     except (EngineError, LinkError) as exc:
+        if started_early:  # an empty file of a recording that never began
+            for p in (out, journal_path(out)):
+                with contextlib.suppress(OSError):
+                    p.unlink()
         raise UserError(str(exc)) from None
 
     stop = threading.Event()
@@ -124,10 +140,11 @@ def run(args: argparse.Namespace) -> int:
             _zero(engine, stop)
         if stop.is_set():  # Ctrl-C while zeroing: the user wants no recording at all
             raise UserError("stopped before the recording started; nothing was recorded")
-        try:
-            engine.start_recording(out, meta, overwrite=args.force)
-        except EngineError as exc:
-            raise UserError(str(exc)) from None
+        if not started_early:
+            try:
+                engine.start_recording(out, meta, overwrite=args.force)
+            except EngineError as exc:
+                raise UserError(str(exc)) from None
         start_samples = engine.samples_total
         lost0 = engine.device.stats.decoder.frames_lost
         # The watchdog measures silence, not the whole recording: a total wall-time budget
