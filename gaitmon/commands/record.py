@@ -32,8 +32,10 @@ Ctrl-C stops early and still leaves a complete file.
 
 
 # Seconds without a single new frame after which the unit is taken to have stopped sending
-# (a dropped link that comes back sooner is a gap in the same recording).
+# (a dropped link that comes back sooner is a gap in the same recording). A real unit's
+# Bluetooth link gets longer to come back than the simulator, which never drops on its own.
 STALL_S = 10.0
+STALL_PORT_S = 30.0
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -134,6 +136,7 @@ def run(args: argparse.Namespace) -> int:
 
     old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     reason = "duration"
+    stall_s = STALL_S if args.simulate else STALL_PORT_S
     stalled_at_s: float | None = None
     try:
         if args.zero:
@@ -177,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
                 _progress(out, recorded_s, args.duration, rec, link)
             if recorded_s >= args.duration:
                 break
-            if now - last_data > STALL_S:
+            if now - last_data > stall_s:
                 reason = "error: no data from the unit"
                 stalled_at_s = recorded_s
                 break
@@ -195,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(status.error)
     if stalled_at_s is not None:  # the request was not completed: say so, and exit non-zero
         raise UserError(
-            f"the unit sent no data for {STALL_S:g} s, so the recording stopped after "
+            f"the unit sent no data for {stall_s:g} s, so the recording stopped after "
             f"{stalled_at_s:.1f} of {args.duration:g} s; {out} holds what was received "
             "(check the unit's power and link)"
         )
