@@ -77,8 +77,10 @@ WRITERS = (*(f"export-{f}" for f in FORMATS), "report")
 
 @pytest.mark.parametrize("command", ["info", *WRITERS])
 def test_every_variant_gives_a_result_or_one_line(corpus, command, tmp_path, capsys,
-                                                  monkeypatch):
+                                                  monkeypatch, request):
     monkeypatch.setenv("GAITMON_DEBUG", "1")  # no last resort: the reader must judge the file
+    if command == "report":  # the report draws with Qt: pytest-qt's QApplication, not its own
+        request.getfixturevalue("qapp")
     outcomes = {0: 0, 2: 0}
     for i, (path, description) in enumerate(corpus):
         if command != "info" and WRITERS[i % len(WRITERS)] != command:

@@ -100,7 +100,8 @@ def test_deidentified_times_count_from_the_recordings_start(session, tmp_path):
     assert float(first.split(",")[col]) == 0.0  # shifted: the host clock says nothing either
 
 
-def test_a_deidentified_report_holds_no_identifier(session, tmp_path):
+def test_a_deidentified_report_holds_no_identifier(session, tmp_path, qapp):
+    # qapp: the report draws with Qt; pytest-qt's QApplication, so later Qt tests find one
     pdf = tmp_path / "r.pdf"
     assert main(["report", str(session), "-o", str(pdf), "--deidentify", "-q"]) == 0
     assert _traces(pdf.read_bytes()) == []
