@@ -7,6 +7,8 @@ Only the module of the subcommand being run is imported (``gaitmon --help`` list
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 from collections.abc import Callable, Sequence
 
@@ -79,6 +81,22 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+# Exit status when the reader of our standard output went away (``gaitmon info F | head -1``):
+# what a shell reports for a program ended by SIGPIPE (128 + 13), as ``cat`` or ``grep`` give.
+EXIT_BROKEN_PIPE = 141
+
+
+def _quiet_broken_pipe() -> int:
+    """The reader of standard output has gone: say nothing more there (Python's documented
+    recipe: point stdout at devnull so the interpreter's final flush cannot fail again)."""
+    # stdout without a file descriptor (a test's capture) has nothing to redirect
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    return EXIT_BROKEN_PIPE
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # the first word that names a subcommand is the subcommand (no option takes one as value)
@@ -87,13 +105,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = build_parser(command).parse_args(argv)
         run: Run = getattr(args, "_run", None) or open_live_monitor
-        return int(run(args) or 0)
+        rc = int(run(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return rc
+    except BrokenPipeError:
+        return _quiet_broken_pipe()
     except UserError as exc:
-        print(f"{prog}: error: {exc}", file=sys.stderr)
+        _stderr_line(f"{prog}: error: {exc}")
         return 2
     except KeyboardInterrupt:
-        print(f"{prog}: interrupted", file=sys.stderr)
+        _stderr_line(f"{prog}: interrupted")
         return 130
+
+
+def _stderr_line(text: str) -> None:
+    """One line on stderr (a message with line breaks is joined: one problem, one line); a
+    line that cannot be written (stderr closed too) is dropped."""
+    with contextlib.suppress(OSError, ValueError):
+        print(" ".join(text.split()), file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -242,13 +242,14 @@ def gather_report(
         patient_id=REDACTED if deidentify else meta.patient_id,
         side=_SIDES.get(meta.side or str(dev.get("side", "")), ""),
         operator=(REDACTED if meta.operator else "") if deidentify else meta.operator,
-        recorded_utc=_recorded(session.created_utc),
+        # de-identified: no date (the report counts from the recording's start, as exports do)
+        recorded_utc=REDACTED if deidentify else _recorded(session.created_utc),
         duration_s=session.duration_s,
         n_samples=session.n_samples,
         sample_rate_hz=session.sample_rate_hz,
         mode=session.mode,
-        device=f"{dev.get('name', '?')} firmware {dev.get('firmware', '?')}, serial "
-        f"{dev.get('serial', '?')}",
+        device=f"{dev.get('name', '?')} firmware {dev.get('firmware', '?')}"
+        + ("" if deidentify else f", serial {dev.get('serial', '?')}"),
         file_name="" if deidentify else session.path.name,
         state=state,
         deidentified=deidentify,

@@ -95,7 +95,8 @@ def write_session(path: Path, mode: str = "raw", n: int = 600, seed: int = 0,
         h["timeline/host_time_s"].attrs["wall_offset_s"] = 1.7e9
         h["processed"].attrs.update({"source": "pc" if mode == "raw" else "device",
                                      "reprocessed": False})
-        h.create_dataset("events/heel_strike", data=np.array([0, 110, 210, 310, n - 1]))
+        # sorted: a short session (n < 310) must not get events out of order (a damaged file)
+        h.create_dataset("events/heel_strike", data=np.unique([0, 110, 210, 310, n - 1]))
         h.create_dataset("events/toe_off", data=np.array([70, 170, 299, 300]))
         mk_dt = np.dtype([("sample_idx", "<i8"), ("t_s", "<f8"), ("label", STR)])
         h.create_dataset("markers", data=np.array([
@@ -469,10 +470,16 @@ def test_deidentify_removes_the_identifiers_and_keeps_the_data(tmp_path, fmt):
     for s in secrets:
         assert not found(blob(anon.paths), s), s
     if fmt == "csv":
-        # same data rows; only the marker that named the patient changed
-        _, a = _read_csv(plain.paths[0])
+        # same data rows; only the marker that named the patient changed, and the host clock
+        # starts at 0 (issue 12: it dated the recording, with the wall-clock offset)
+        head, a = _read_csv(plain.paths[0])
         _, b = _read_csv(anon.paths[0])
-        assert [r[:-1] for r in a] == [r[:-1] for r in b]
+        host = head.index("host_time_s")
+        keep = [k for k in range(len(head) - 1) if k != host]
+        assert [[r[k] for k in keep] for r in a] == [[r[k] for k in keep] for r in b]
+        host_a = np.array([float(r[host]) for r in a])
+        host_b = np.array([float(r[host]) for r in b])
+        np.testing.assert_allclose(host_b, host_a - host_a[0], atol=2e-6)
         assert b[150][-1] == f'turn, "fast" | asked {ex.REDACTED} to stop'
         meta = json.loads(anon.paths[1].read_text(encoding="utf-8"))
         assert meta["deidentified"] is True and "source_file" not in meta

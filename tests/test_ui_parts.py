@@ -113,7 +113,7 @@ def test_settings_dialog_names_the_bad_field(qtbot):
         dlg.parsed()
     dlg.edits["q_gyro"].setText("0.003")
     dlg.edits["fsr_threshold"].setText("5000")
-    with pytest.raises(ValueError, match="between 0 and 4095"):
+    with pytest.raises(ValueError, match="above 0 and below 4095"):
         dlg.parsed()
     dlg.edits["fsr_threshold"].setText("800")
     dlg.edits["cutoff_hz"].setText("6,5")  # a decimal comma is accepted

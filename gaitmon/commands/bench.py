@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.dsp.pipeline import Pipeline
 
     if not 0 < args.hours <= 24:
-        raise UserError(f"--hours must be between 0 and 24, got {args.hours}")
+        raise UserError(f"--hours must be above 0 and at most 24, got {args.hours}")
     if args.repeat < 1:
         raise UserError("--repeat must be at least 1")
     fs = 100.0

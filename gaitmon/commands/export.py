@@ -6,6 +6,7 @@ import argparse
 import sys
 import time
 
+from gaitmon.commands import add_force, add_quiet, damaged_file_guard
 from gaitmon.errors import UserError
 from gaitmon.io.export.registry import FORMATS
 
@@ -38,8 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output file (default: FILE with the format's extension)")
     parser.add_argument("--deidentify", action="store_true",
                         help="leave out patient id, operator and notes (the data are kept)")
-    parser.add_argument("--force", action="store_true", help="overwrite existing output files")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress or summary")
+    add_force(parser, "existing output files")
+    add_quiet(parser)
 
 
 class _Progress:
@@ -75,13 +76,14 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     progress = None
     try:
-        if not args.quiet and session_length(args.file) >= PROGRESS_MIN_SAMPLES:
-            progress = _Progress(f"exporting {args.format}")
-        result = export_session(
-            args.file, args.format, args.output,
-            deidentify=args.deidentify, force=args.force, progress=progress,
-        )
-    except ExportError as exc:
+        with damaged_file_guard(args.file):
+            if not args.quiet and session_length(args.file) >= PROGRESS_MIN_SAMPLES:
+                progress = _Progress(f"exporting {args.format}")
+            result = export_session(
+                args.file, args.format, args.output,
+                deidentify=args.deidentify, force=args.force, progress=progress,
+            )
+    except (ExportError, UserError) as exc:
         if progress is not None and progress.shown and progress.tty:
             sys.stderr.write("\n")
         raise UserError(str(exc)) from None

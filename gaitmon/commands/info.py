@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gaitmon.commands import damaged_file_guard
 from gaitmon.errors import UserError
 
 if TYPE_CHECKING:
@@ -42,7 +43,10 @@ def run(args: argparse.Namespace) -> int:
 
     interrupted = journal_path(args.file).exists()
     try:
-        with open_session(args.file, progress=progress_printer("recovering")) as s:
+        with (
+            open_session(args.file, progress=progress_printer("recovering")) as s,
+            damaged_file_guard(args.file),
+        ):
             _print(s, analyse_session(s), interrupted)
     except SessionError as exc:
         raise UserError(str(exc)) from None

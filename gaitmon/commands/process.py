@@ -10,9 +10,11 @@ into a :class:`PipelineConfig` and prints.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
+from gaitmon.commands import add_force, add_quiet
 from gaitmon.errors import UserError
 
 # command-line option -> PipelineConfig field
@@ -35,12 +37,34 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
             default=None,
             help=f"{help_text}; default: as recorded",
         )
-    p.add_argument("--force", action="store_true", help="replace NEW if it exists")
+    add_force(p, "NEW")
+    add_quiet(p, "no progress or summary lines (warnings are still shown)")
+
+
+# The FSR channels are 12-bit ADC counts: a threshold at or above the top is never crossed.
+FSR_MAX_COUNTS = 4095
+
+
+def check_settings(changes: dict[str, float]) -> None:
+    """Reject settings that cannot work, one line naming the option (the pipeline's own checks
+    follow, for the combinations only it knows, such as a cut-off above Nyquist)."""
+    for name, value in changes.items():
+        opt = f"--{name.replace('_', '-')}"
+        if not math.isfinite(value):
+            raise UserError(f"{opt} must be a number, got {value:g}")
+        if value <= 0:
+            raise UserError(f"{opt} must be above 0, got {value:g}")
+    t = changes.get("fsr_threshold")
+    if t is not None and t >= FSR_MAX_COUNTS:
+        raise UserError(
+            f"--fsr-threshold must be above 0 and below {FSR_MAX_COUNTS} counts (the 12-bit "
+            f"ADC's top, never crossed), got {t:g}"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
     from gaitmon.commands.info import progress_printer
-    from gaitmon.io.session import SessionError
+    from gaitmon.io.session import SessionError, open_session
     from gaitmon.io.session.reprocess import recorded_config, rewrite_processed
 
     src, dst = Path(args.file), Path(args.output)
@@ -51,20 +75,31 @@ def run(args: argparse.Namespace) -> int:
     if not dst.parent.is_dir():
         raise UserError(f"folder {dst.parent} does not exist")
     changes = {k: getattr(args, k) for k in SETTINGS if getattr(args, k) is not None}
+    check_settings(changes)
+    quiet = bool(args.quiet)
     try:
-        recorded = recorded_config(src, progress=progress_printer("recovering"))
+        recorded = recorded_config(src, progress=None if quiet else progress_printer("recovering"))
         try:
             config = recorded.replace(**changes)
         except ValueError as exc:
             raise UserError(f"bad setting: {exc}") from None
         result = rewrite_processed(
-            src, dst, config, progress=progress_printer("reprocessing"), overwrite=args.force
+            src, dst, config, progress=None if quiet else progress_printer("reprocessing"),
+            overwrite=args.force,
         )
+        with open_session(src, recover=False) as before, open_session(dst) as after:
+            n_before, n_after = len(before.heel_strike_idx), len(after.heel_strike_idx)
     except SessionError as exc:
         raise UserError(str(exc)) from None
-    print(
-        f"gaitmon process: wrote {dst} ({result.n_frames} frames) with "
-        + (", ".join(f"{k}={v:g}" for k, v in changes.items()) or "the recorded settings"),
-        file=sys.stderr,
-    )
+    settings = ", ".join(f"{k}={v:g}" for k, v in changes.items()) or "the recorded settings"
+    if not quiet:
+        print(f"gaitmon process: wrote {dst} ({result.n_frames} frames, {n_after} heel "
+              f"strikes) with {settings}", file=sys.stderr)
+    if n_after < 2 <= n_before:  # settings that run but find no strides are almost always wrong
+        print(
+            f"gaitmon process: warning: {dst.name} has {n_after} heel strikes with {settings} "
+            f"(the recording has {n_before}), so no strides; check --fsr-threshold and "
+            "--cutoff-hz",
+            file=sys.stderr,
+        )
     return 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import signal
 import sys
@@ -12,6 +13,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
+from gaitmon.commands import add_force, add_quiet
 from gaitmon.commands.simulate import add_simulator_options, sim_config_from_args
 from gaitmon.errors import UserError
 
@@ -27,6 +29,13 @@ examples:
 The recording is crash-safe: if the process dies, the next `gaitmon info FILE` recovers it.
 Ctrl-C stops early and still leaves a complete file.
 """
+
+
+# Seconds without a single new frame after which the unit is taken to have stopped sending
+# (a dropped link that comes back sooner is a gap in the same recording). A real unit's
+# Bluetooth link gets longer to come back than the simulator, which never drops on its own.
+STALL_S = 10.0
+STALL_PORT_S = 30.0
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -51,19 +60,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--duration", type=float, required=True, metavar="S", help="seconds of data to record"
     )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="session file (.h5)")
-    p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
+    add_force(p, "FILE")
     p.add_argument("--patient", default="", metavar="ID", help="patient identifier (no names)")
     p.add_argument("--operator", default="", help="who ran the session")
-    p.add_argument("--side", choices=("L", "R", ""), default="", help="leg side of the unit")
+    p.add_argument(
+        "--side", choices=("L", "R"), default="", help="leg side of the unit (default: not given)"
+    )
     p.add_argument("--notes", default="", metavar="TEXT", help="free-text notes")
     p.add_argument(
         "--zero",
         action="store_true",
         help="zero the standing pose first (the subject must stand still for 1.5 s)",
     )
-    p.add_argument(
-        "--quiet", action="store_true", help="no progress lines on standard error"
-    )
+    add_quiet(p, "no progress lines on standard error")
     p.add_argument(
         "--status-lines",
         action="store_true",
@@ -78,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.engine import Engine, EngineError
     from gaitmon.io.device import Device
     from gaitmon.io.ports import make_transport
-    from gaitmon.io.session import SessionMeta
+    from gaitmon.io.session import SessionMeta, journal_path
     from gaitmon.io.transport import InProcessTransport, LinkError, Transport
 
     if args.port is not None and not args.port.strip():
@@ -86,8 +95,8 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.duration) and args.duration > 0):
         raise UserError(f"--duration must be a positive number of seconds, got {args.duration}")
     out = Path(args.output)
-    if out.exists() and not args.overwrite:
-        raise UserError(f"{out} already exists; choose another name or pass --overwrite")
+    if out.exists() and not args.force:
+        raise UserError(f"{out} already exists; choose another name or pass --force")
     if not out.parent.is_dir():
         raise UserError(f"folder {out.parent} does not exist")
     meta = SessionMeta(
@@ -102,15 +111,28 @@ def run(args: argparse.Namespace) -> int:
         unit = build_unit(sim)
         transport = InProcessTransport(unit)
         label = "simulated"
-        speed = sim.speed
     else:
         transport = make_transport(args.port, args.baud)  # serial, or bt://ADDRESS
         label = args.port
-        speed = 1.0
     engine = Engine(Device(transport), args.mode, PipelineConfig(), transport_label=label)
+    # The file and its journal are created once the unit is identified and before the first
+    # frame is requested, so nothing received is ever outside the file (a crash during start-up
+    # lost everything received until the file existed: seconds on a loaded machine). With
+    # --zero the stream must run first (zeroing needs data); the recording starts after it.
+    started_early = False
+
+    def record_from_the_first_frame() -> None:
+        nonlocal started_early
+        engine.start_recording(out, meta, overwrite=args.force)
+        started_early = True
+
     try:
-        engine.start()
+        engine.start(before_stream=None if args.zero else record_from_the_first_frame)
     except (EngineError, LinkError) as exc:
+        if started_early:  # an empty file of a recording that never began
+            for p in (out, journal_path(out)):
+                with contextlib.suppress(OSError):
+                    p.unlink()
         raise UserError(str(exc)) from None
 
     stop = threading.Event()
@@ -120,18 +142,25 @@ def run(args: argparse.Namespace) -> int:
 
     old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     reason = "duration"
+    stall_s = STALL_S if args.simulate else STALL_PORT_S
+    stalled_at_s: float | None = None
     try:
         if args.zero:
             _zero(engine, stop)
         if stop.is_set():  # Ctrl-C while zeroing: the user wants no recording at all
             raise UserError("stopped before the recording started; nothing was recorded")
-        try:
-            engine.start_recording(out, meta, overwrite=args.overwrite)
-        except EngineError as exc:
-            raise UserError(str(exc)) from None
+        if not started_early:
+            try:
+                engine.start_recording(out, meta, overwrite=args.force)
+            except EngineError as exc:
+                raise UserError(str(exc)) from None
         start_samples = engine.samples_total
         lost0 = engine.device.stats.decoder.frames_lost
-        wall_limit = time.monotonic() + args.duration / min(speed, 1e6) + 10.0
+        # The watchdog measures silence, not the whole recording: a total wall-time budget
+        # (duration / speed + 10 s) ended `--speed max` after ~10 s, since "max" is only as
+        # fast as this machine can decode and record, not infinitely fast.
+        last_data = time.monotonic()
+        last_seen = -1.0
         last_print = 0.0
         last_rows = -1
         while True:
@@ -146,22 +175,20 @@ def run(args: argparse.Namespace) -> int:
                 last_rows = got
                 print(f"ROWS {got} {time.monotonic():.6f}", flush=True)
             recorded_s = (got + link.decoder.frames_lost - lost0) / engine.fs_hz
-            if rec.error:
-                print(f"gaitmon record: {rec.error}", file=sys.stderr)
+            now = time.monotonic()
+            if recorded_s != last_seen:
+                last_seen, last_data = recorded_s, now
+            if rec.error:  # said once, below, as the command's error
                 reason = "error"
                 break
-            now = time.monotonic()
             if not args.quiet and now - last_print >= 1.0:
                 last_print = now
                 _progress(out, recorded_s, args.duration, rec, link)
             if recorded_s >= args.duration:
                 break
-            if now > wall_limit:
-                print(
-                    "gaitmon record: the unit stopped sending data; stopping early",
-                    file=sys.stderr,
-                )
+            if now - last_data > stall_s:
                 reason = "error: no data from the unit"
+                stalled_at_s = recorded_s
                 break
     finally:
         status = engine.stop_recording(reason)  # after a write error the file is closed already
@@ -173,6 +200,14 @@ def run(args: argparse.Namespace) -> int:
         from gaitmon.io.sim.truth import attach_ground_truth
 
         attach_ground_truth(out, unit)
+    if status.error:  # one message: the writer's, which states the rows a reader gets
+        raise UserError(status.error)
+    if stalled_at_s is not None:  # the request was not completed: say so, and exit non-zero
+        raise UserError(
+            f"the unit sent no data for {stall_s:g} s, so the recording stopped after "
+            f"{stalled_at_s:.1f} of {args.duration:g} s; {out} holds what was received "
+            "(check the unit's power and link)"
+        )
     d = stats.decoder
     print(
         f"gaitmon record: wrote {status.rows} frames to {out} "
@@ -180,8 +215,6 @@ def run(args: argparse.Namespace) -> int:
         f"{d.crc_failures} CRC failures, {stats.reconnects} reconnects",
         file=sys.stderr,
     )
-    if status.error:
-        raise UserError(status.error)
     return 0
 
 

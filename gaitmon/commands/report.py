@@ -13,6 +13,7 @@ import argparse
 import os
 from pathlib import Path
 
+from gaitmon.commands import add_force, add_quiet, damaged_file_guard
 from gaitmon.errors import UserError
 
 
@@ -30,7 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="leave out the patient identifier, operator and file name",
     )
     p.add_argument("--png", metavar="PNG", help="also write the page as a PNG image")
-    p.add_argument("--force", action="store_true", help="replace existing output files")
+    add_force(p, "existing output files")
+    add_quiet(p, "no summary line")
     p.epilog = "example: gaitmon report walk.h5 -o walk.pdf --normative docs/normative-example.csv"
 
 
@@ -69,7 +71,8 @@ def run(args: argparse.Namespace) -> int:
         except NormativeError as exc:
             raise UserError(f"normative band: {exc}") from None
     try:
-        data = report_from_file(args.file, deidentify=args.deidentify, normative=normative)
+        with damaged_file_guard(args.file):
+            data = report_from_file(args.file, deidentify=args.deidentify, normative=normative)
     except SessionError as exc:
         raise UserError(str(exc)) from None
 
@@ -84,5 +87,6 @@ def run(args: argparse.Namespace) -> int:
             write_report_png(data, png)
     except OSError as exc:
         raise UserError(f"cannot write the report: {exc}") from None
-    print(f"gaitmon report: wrote {out}" + (f" and {png}" if png else ""))
+    if not args.quiet:
+        print(f"gaitmon report: wrote {out}" + (f" and {png}" if png else ""))
     return 0

@@ -105,7 +105,8 @@ class Butterworth(ChannelFilter):
             raise ValueError(f"sample rate must be positive, got {fs_hz} Hz")
         if not 0 < cutoff_hz < fs_hz / 2:
             raise ValueError(
-                f"cut-off {cutoff_hz} Hz must be between 0 and the Nyquist frequency {fs_hz / 2} Hz"
+                f"cut-off {cutoff_hz} Hz must be above 0 and below the Nyquist frequency "
+                f"{fs_hz / 2} Hz"
             )
         if int(order) != order or order < 1 or order > 8:
             raise ValueError(f"filter order must be a whole number from 1 to 8, got {order}")

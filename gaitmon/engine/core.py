@@ -24,6 +24,7 @@ import dataclasses
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -128,19 +129,31 @@ class Engine:
     def identity(self) -> Identity | None:
         return self._identity
 
-    def start(self) -> None:
-        """Connect (if needed), identify, select the mode's frames and start streaming."""
+    def start(self, before_stream: Callable[[], None] | None = None) -> None:
+        """Connect (if needed), identify, select the mode's frames and start streaming.
+
+        ``before_stream`` runs once the unit is identified and before the first frame is
+        requested: ``gaitmon record`` starts its recording there, so the file and journal
+        exist before any data does (a crash can then lose nothing already received)."""
         if self._thread is not None:
             return
         try:
             self.device.connect()
             self._identity = self.device.identify()
             self.device.select_kind(self.mode.frame_kind)
+            if before_stream is not None:
+                before_stream()
             self.device.start_stream()
         except (DeviceError, LinkError) as exc:
             with contextlib.suppress(Exception):
+                self.stop_recording("error: the unit could not start streaming")
                 self.device.close()
             raise EngineError(str(exc)) from exc
+        except BaseException:
+            with contextlib.suppress(Exception):
+                self.stop_recording("error: start-up failed")
+                self.device.close()
+            raise
         self._stop.clear()
         self._stream.last_data_s = time.monotonic()
         self._thread = threading.Thread(target=self._run, name="gaitmon-engine", daemon=True)

@@ -44,6 +44,13 @@ except ImportError:  # Windows
 MAGIC = b"GMJRNL01"
 JOURNAL_SUFFIX = ".journal"
 
+# Who the session is about stays out of the journal: a crash leaves the journal beside the file
+# (possibly for long, on a shared drive), and it is plain bytes. The header record carries these
+# /session fields blank and IDENTITY_IN_FILE = true; the HDF5 file, created and flushed before
+# the first row, holds them, and recovery takes them from there.
+IDENTITY_FIELDS: tuple[str, ...] = ("patient_id", "operator", "notes")
+IDENTITY_IN_FILE = "identity_in_file"
+
 
 class RecordType(enum.IntEnum):
     HEADER = 1
@@ -95,6 +102,16 @@ def journal_path(session_path: str | os.PathLike[str]) -> Path:
     """``FILE.h5`` -> ``FILE.h5.journal``."""
     p = Path(session_path)
     return p.with_name(p.name + JOURNAL_SUFFIX)
+
+
+def without_identity(header: dict[str, Any]) -> dict[str, Any]:
+    """The session header as the journal keeps it: the identity fields blank (see
+    :data:`IDENTITY_FIELDS`)."""
+    session = dict(header.get("session", {}))
+    for k in IDENTITY_FIELDS:
+        if k in session:
+            session[k] = ""
+    return {**header, "session": session, IDENTITY_IN_FILE: True}
 
 
 def encode_record(rtype: int, payload: bytes) -> bytes:

@@ -263,7 +263,7 @@ class SettingsDialog(QDialog):
                 raise ValueError(f"{label}: {text!r} is not a number") from None
         if not 0.0 < changes["fsr_threshold"] < 4095.0:
             raise ValueError(
-                f"FSR contact threshold must be between 0 and 4095 counts (12-bit ADC), "
+                f"FSR contact threshold must be above 0 and below 4095 counts (12-bit ADC), "
                 f"got {changes['fsr_threshold']:g}"
             )
         return self.base.replace(**changes)

@@ -96,10 +96,13 @@ def export_session(
         raise ExportError(f"unknown format {fmt!r} (choose from {', '.join(FORMATS)})")
     form = FORMATS[fmt]
     src_path = Path(src_path)
-    out_path = Path(out) if out is not None else default_output(src_path, fmt)
+    out_path = (Path(out) if out is not None
+                else default_output(src_path, fmt, deidentify=deidentify))
     form.check_available()
     with open_source(src_path) as src:
         scrub = Scrubber(src.group_attrs("session"), deidentify)
+        if deidentify:  # times count from the recording's start; none says when it was made
+            src.shift_host_time()
         outputs = form.planned_outputs(src, scrub, out_path)
         check_outputs(outputs, src_path, force)
         atomic = AtomicOutputs()

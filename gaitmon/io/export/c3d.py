@@ -83,7 +83,10 @@ def _c3d_plan(src: Source, events: np.ndarray | None = None,
     t = src.read("timeline/t_s").astype(np.float64) if src.n else np.zeros(0)
     if src.n == 0:
         return C3dPlan(np.zeros(0, np.int64), 0, 1, ((0, 0),))
-    frame = np.rint((t - t[0]) * src.fs_hz).astype(np.int64)
+    grid = (t - t[0]) * src.fs_hz
+    if not np.all(np.abs(grid) < 2.0**53):  # NaN or absurd times: no frame number to cast to
+        raise ExportError(f"{src.path.name} is damaged: some sample times are not valid")
+    frame = np.rint(grid).astype(np.int64)
     if np.any(np.diff(frame) <= 0):
         raise ExportError(
             f"{src.path.name}: sample times are not increasing on the {src.fs_hz:g} Hz grid; "
@@ -228,12 +231,12 @@ def _c3d_part_spec(src: Source, plan: C3dPlan, part_no: int, scrub: Scrubber,
 
     session = scrub.session({**{k: "" for k in IDENTIFYING_FIELDS},
                              **src.group_attrs("session")})
-    device = scrub.value(src.group_attrs("device")) if deidentify else src.group_attrs("device")
+    device = scrub.device(src.group_attrs("device"))
     _c3d_text(c, "GAITMON", "MODE", src.mode or "unknown")
     _c3d_text(c, "GAITMON", "SIDE", side or "unknown")
-    _c3d_text(c, "GAITMON", "CREATED_UTC", as_text(src.attrs.get("created_utc", "")))
+    _c3d_text(c, "GAITMON", "CREATED_UTC", as_text(scrub.root(src.attrs).get("created_utc", "")))
     _c3d_text(c, "GAITMON", "DEVICE", " ".join(
-        f"{k}={as_text(device.get(k, ''))}" for k in ("name", "serial", "firmware")))
+        f"{k}={as_text(device[k])}" for k in ("name", "serial", "firmware") if k in device))
     c.add_parameter("GAITMON", "PART", float(part_no + 1), "1-based part of the session")
     c.add_parameter("GAITMON", "N_PARTS", float(len(plan.parts)))
     c.add_parameter("GAITMON", "PART_START_S", float(t_part0),

@@ -1,4 +1,16 @@
-"""De-identification of exports: which session fields identify a patient, and their removal.
+"""De-identification of exports: what identifies a patient or a session, and its removal.
+
+With ``--deidentify`` an export keeps the measurements and drops (docs/file-format.md,
+"De-identified exports"):
+
+* the patient id, operator and notes (blanked, and their values removed wherever else they
+  appear, e.g. in a marker label);
+* the unit's serial number and the transport (a Bluetooth address names the unit);
+* the recording's date and time: ``created_utc`` and the wall-clock offset are left out, and
+  the host clock column is shifted to start at 0, so every time in the export counts from the
+  start of the recording and none says when it was made;
+* the input's file name (often a patient code): the default output name is
+  ``deidentified-<random>`` instead of the input's name.
 
 Kept free of numpy so that the package's public names (``REDACTED``, ``ANONYMOUS``) cost
 nothing to import.
@@ -11,6 +23,9 @@ from typing import Any
 REDACTED = "[removed]"  # what an identifying value becomes wherever else it appears
 ANONYMOUS = "anonymous"  # C3D subject name when there is none or it is withheld
 IDENTIFYING_FIELDS: tuple[str, ...] = ("patient_id", "operator", "notes")
+DEVICE_FIELDS_DROPPED: tuple[str, ...] = ("serial", "transport")  # name the very unit used
+ROOT_FIELDS_DROPPED: tuple[str, ...] = ("created_utc",)  # when the recording was made
+DEIDENTIFIED_STEM = "deidentified"  # default output names: deidentified-<8 random hex>
 
 
 class Scrubber:
@@ -47,3 +62,15 @@ class Scrubber:
             for k in self.FIELDS:
                 out[k] = ""
         return self.value(out) if self.enabled else out
+
+    def device(self, attrs: dict[str, Any]) -> dict[str, Any]:
+        """The /device attributes without the unit's serial and transport."""
+        if not self.enabled:
+            return dict(attrs)
+        return self.value({k: v for k, v in attrs.items() if k not in DEVICE_FIELDS_DROPPED})
+
+    def root(self, attrs: dict[str, Any]) -> dict[str, Any]:
+        """The file's root attributes without the recording's date and time."""
+        if not self.enabled:
+            return dict(attrs)
+        return self.value({k: v for k, v in attrs.items() if k not in ROOT_FIELDS_DROPPED})

@@ -154,6 +154,7 @@ class Source:
         if "timeline/t_s" not in h5:
             raise ExportError(f"{path.name}: not a usable session (no /timeline/t_s)")
         self.channel_names = self._channel_names()
+        self.host_time_origin_s = 0.0  # subtracted from the host clock (see shift_host_time)
         self.series: list[Series] = [
             s for s in (*TIMELINE_SERIES, *PROCESSED_SERIES, raw_series(self.channel_names))
             if s.path in h5
@@ -180,6 +181,12 @@ class Source:
                 return names
         return CHANNEL_NAMES
 
+    def shift_host_time(self) -> None:
+        """Export the host clock from 0 at the first row (de-identification: the host clock
+        plus the wall-clock offset would give the recording's date and time)."""
+        if self.n and "timeline/host_time_s" in self.h5:
+            self.host_time_origin_s = float(self.h5["timeline/host_time_s"][0])
+
     def group_attrs(self, name: str) -> dict[str, Any]:
         if name not in self.h5:
             return {}
@@ -190,7 +197,19 @@ class Source:
 
     def read(self, path: str, start: int = 0, stop: int | None = None) -> np.ndarray:
         stop = self.n if stop is None else stop
-        return self.h5[path][start:stop]
+        try:
+            data = self.h5[path][start:stop]
+            if path == "timeline/host_time_s" and self.host_time_origin_s:
+                data = data - self.host_time_origin_s
+            return data
+        except (OSError, RuntimeError, KeyError, ValueError) as e:
+            # a damaged chunk surfaces only when read: say so, not "cannot write"
+            from gaitmon.io.session.h5file import _short_error
+
+            raise ExportError(
+                f"{self.path.name} is damaged: cannot read /{path} rows {start}-{stop} "
+                f"({_short_error(e)})"
+            ) from None
 
     def events(self, name: str) -> np.ndarray:
         """Sample indices (0-based) of one event kind, limited to the rows present."""
@@ -244,7 +263,7 @@ def _excluded_ranges(src: Source, scrub: Scrubber) -> list[dict[str, Any]]:
 
 
 def _wall_offset_s(src: Source, scrub: Scrubber) -> Any:
-    if not src.has("timeline/host_time_s"):
+    if scrub.enabled or not src.has("timeline/host_time_s"):  # it dates the recording
         return None
     return plain(src.h5["timeline/host_time_s"].attrs.get("wall_offset_s", None))
 
@@ -253,9 +272,9 @@ def _wall_offset_s(src: Source, scrub: Scrubber) -> Any:
 # A builder returns plain values; tables are lists of row dicts whose ``*_idx`` fields are
 # 0-based session rows (the MAT writer makes them 1-based). Scrubbing is applied to the whole.
 METADATA_SECTIONS: tuple[tuple[str, Callable[[Source, Scrubber], Any]], ...] = (
-    ("root", lambda src, scrub: src.attrs),
+    ("root", lambda src, scrub: scrub.root(src.attrs)),
     ("session", _session_fields),
-    ("device", lambda src, scrub: {**src.group_attrs("device"),
+    ("device", lambda src, scrub: {**scrub.device(src.group_attrs("device")),
                                    "channels": src.channel_table()}),
     ("processed", lambda src, scrub: src.group_attrs("processed")),
     ("config", lambda src, scrub: src.group_attrs("config")),

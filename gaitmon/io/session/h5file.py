@@ -40,10 +40,13 @@ class _H5File:
     """Creates the session layout and appends to it; knows nothing about journals."""
 
     def __init__(
-        self, path: Path, header: Mapping[str, Any], *, mode: str, reprocessed: bool
+        self, path: Path, header: Mapping[str, Any], *, mode: str, reprocessed: bool,
+        in_memory: bool = False,
     ) -> None:
         # no chunk cache: writes go straight to the file (see gaitmon.io.session.layout, "Chunking")
-        self.f = h5py.File(path, mode, rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES)
+        # in_memory: a file that never touches the disk (recovery while the disk is full)
+        where: dict[str, Any] = {"driver": "core", "backing_store": False} if in_memory else {}
+        self.f = h5py.File(path, mode, rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES, **where)
         try:
             self._create(header, reprocessed)
         except BaseException:
@@ -237,13 +240,36 @@ def _being_recorded(jpath: Path) -> bool:
         return False  # gone meanwhile, or unreadable: the caller's next step reports it
 
 
+# What the HDF5 library says about a file it cannot read, in words a user can act on (its own
+# text, "Unable to synchronously open file (file signature not found)", must not reach them).
+_H5_PHRASES: tuple[tuple[str, str], ...] = (
+    ("file signature not found", "not an HDF5 file"),
+    ("truncated file", "the file is cut short"),
+    ("file locking", "the file is locked by another program"),
+    ("unable to lock file", "the file is locked by another program"),
+    ("no space left", "the disk is full"),
+    ("file too large", "the file size limit is reached"),
+    ("permission denied", "permission denied"),
+    ("no such file", "the file does not exist"),
+)
+_H5_LIBRARY_WORDS = ("unable to", "can't", "synchronously", "b-tree", "object header",
+                     "addr overflow", "bad ", "wrong ", "errno =", "h5", "invalid ")
+
+
 def _short_error(e: BaseException) -> str:
-    """A one-line reason from an OSError or an h5py error (whose text can be very long)."""
+    """A one-line reason from an OSError or an h5py error (whose text can be very long and is
+    written for HDF5's developers: it is translated, or replaced by a plain phrase)."""
     if isinstance(e, OSError) and e.errno:
         return f"{os.strerror(e.errno)} (errno {e.errno})"
     text = " ".join(str(e).split()) or type(e).__name__
+    lower = text.lower()
+    for phrase, plain in _H5_PHRASES:
+        if phrase in lower:
+            return plain
     # h5py: "Can't write data (file write failed: time = ..., errno = 27, error message = ...)"
     for marker in ("error message = '", 'error message = "'):
         if marker in text:
             return text.split(marker, 1)[1].split("'", 1)[0].split('"', 1)[0]
+    if any(w in lower for w in _H5_LIBRARY_WORDS):
+        return "its internal structure is damaged"
     return text[:200]

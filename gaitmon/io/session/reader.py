@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -21,7 +22,13 @@ from gaitmon.io.session.exclusions import Exclusion
 from gaitmon.io.session.exclusions import load as load_exclusions
 from gaitmon.io.session.h5file import _being_recorded, _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta
-from gaitmon.io.session.layout import FORMAT, FORMAT_VERSION, MODES, per_sample_datasets
+from gaitmon.io.session.layout import (
+    _PER_SAMPLE,
+    FORMAT,
+    FORMAT_VERSION,
+    MODES,
+    per_sample_datasets,
+)
 from gaitmon.io.session.truth import Truth, truth_from_file
 
 
@@ -94,7 +101,7 @@ class Session:
         self.mode: str = str(self.attrs.get("mode", ""))
         if self.mode not in MODES:
             raise SessionError(f"{name} is damaged: unknown mode {self.mode!r}")
-        self.sample_rate_hz = float(self.attrs["sample_rate_hz"])
+        self.sample_rate_hz = _sample_rate(name, self.attrs.get("sample_rate_hz"))
         self.created_utc = str(self.attrs.get("created_utc", ""))
         self.complete = bool(self.attrs.get("complete", False))
         self.recovered = bool(self.attrs.get("recovered", False))
@@ -127,8 +134,8 @@ class Session:
             (int(r["sample_idx"]), Calibration.from_dict(json.loads(_s(r["json"]))))
             for r in f["calibration/changes"][()]
         ]
-        self.heel_strike_idx: np.ndarray = np.asarray(f["events/heel_strike"][()], np.int64)
-        self.toe_off_idx: np.ndarray = np.asarray(f["events/toe_off"][()], np.int64)
+        self.heel_strike_idx: np.ndarray = _event_rows(name, f, "heel_strike")
+        self.toe_off_idx: np.ndarray = _event_rows(name, f, "toe_off")
         self.markers: list[Marker] = [
             Marker(int(r["sample_idx"]), float(r["t_s"]), _s(r["label"])) for r in f["markers"][()]
         ]
@@ -151,6 +158,8 @@ class Session:
         missing = set(per_sample_datasets(self.mode)) - set(self.dataset_names)
         if missing:
             raise SessionError(f"{name} is damaged: missing {sorted(missing)[0]}")
+        for p in self.dataset_names:
+            _check_per_sample(name, p, f[p])
         lengths = {p: f[p].shape[0] for p in self.dataset_names}
         self.n_samples = min(lengths.values())
         if len(set(lengths.values())) > 1:
@@ -160,6 +169,12 @@ class Session:
         if self.complete and int(self.attrs.get("n_samples", -1)) != self.n_samples:
             self.problems.append("n_samples attribute does not match the data")
         self.duration_s = float(self.attrs.get("duration_s", 0.0))
+        if not (self.complete or self.recovered) and self.n_samples:
+            # an unfinished file's attribute still says 0: its last row's time says how long
+            with contextlib.suppress(OSError, RuntimeError, ValueError, TypeError):
+                t_last = float(f["timeline/t_s"][self.n_samples - 1])
+                if math.isfinite(t_last):
+                    self.duration_s = t_last + 1.0 / self.sample_rate_hz
         if not self.complete and not self.recovered:
             self.problems.append("the recording was not stopped cleanly")
 
@@ -242,18 +257,82 @@ class Session:
         self.close()
 
 
+# No unit samples faster; a larger recorded rate is a damaged attribute (1e300 Hz overflows
+# the time grids of the exports).
+MAX_SAMPLE_RATE_HZ = 100_000.0
+
+
+def _sample_rate(name: str, value: Any) -> float:
+    """The recorded sample rate; a damaged one (0, NaN, negative, not a number) is said here,
+    at the file's edge, rather than as a ValueError deep inside the analysis."""
+    if value is None:
+        raise SessionError(f"{name} is damaged: it has no sample rate")
+    try:
+        fs = float(value)
+    except (TypeError, ValueError):
+        fs = float("nan")
+    if not (math.isfinite(fs) and 0 < fs <= MAX_SAMPLE_RATE_HZ):
+        raise SessionError(f"{name} is damaged: its sample rate is {value!r} Hz")
+    return fs
+
+
+def _event_rows(name: str, f: h5py.File, kind: str) -> np.ndarray:
+    """One event kind's rows: whole numbers from 0 on, strictly increasing (as every writer
+    stores them); anything else means the file was damaged after it was written."""
+    raw = f[f"events/{kind}"][()]
+    arr = np.asarray(raw)
+    label = kind.replace("_", " ") + "s"
+    if arr.ndim != 1 or arr.dtype.kind not in "iu":
+        raise SessionError(
+            f"{name} is damaged: /events/{kind} holds {arr.dtype} of shape {arr.shape}, "
+            "not row numbers"
+        )
+    rows = arr.astype(np.int64)
+    if len(rows) and (rows[0] < 0 or np.any(np.diff(rows) <= 0)):
+        raise SessionError(f"{name} is damaged: its {label} are out of order")
+    return rows
+
+
+def _check_per_sample(name: str, path: str, ds: h5py.Dataset) -> None:
+    """A per-sample dataset has the row shape and a numeric kind of the layout's table."""
+    spec = _PER_SAMPLE.get(path)
+    if spec is None:
+        return
+    row_shape, dtype, _ = spec
+    if ds.ndim == 0 or tuple(ds.shape[1:]) != row_shape or ds.dtype.kind not in "iuf":
+        raise SessionError(
+            f"{name} is damaged: /{path} holds {ds.dtype} rows of shape {tuple(ds.shape[1:])} "
+            f"instead of {dtype} rows of shape {row_shape}"
+        )
+
+
 def _open_h5(path: Path) -> h5py.File:
     try:
         return h5py.File(path, "r")
     except (OSError, RuntimeError, ValueError) as e:
+        why = _short_error(e)
+        if path.is_dir():
+            why = "a folder"
+        elif path.exists() and path.stat().st_size == 0:
+            why = "an empty file"
+        elif why == "not an HDF5 file":
+            pass
+        else:
+            raise SessionError(
+                f"{path.name} is damaged and cannot be opened ({why}); "
+                "pick another session file recorded by gaitmon"
+            ) from e
         raise SessionError(
-            f"{path.name} is not an HDF5 file or is damaged ({_short_error(e)}); "
-            "pick a session file recorded by gaitmon"
+            f"{path.name} is not a gaitmon session ({why}); pick a session file recorded by "
+            "gaitmon"
         ) from e
 
 
 def _read_session(path: Path, problems: Sequence[str] = ()) -> Session:
-    f = _open_h5(path)
+    return _session_of(path, _open_h5(path), problems)
+
+
+def _session_of(path: Path, f: h5py.File, problems: Sequence[str] = ()) -> Session:
     try:
         return Session(path, f, problems)
     except SessionError:
@@ -291,11 +370,20 @@ def open_session(
             if done:
                 jpath.unlink()
         if jpath.exists():
-            try:
-                from gaitmon.io.session.recovery import recover_session  # only when needed
+            from gaitmon.io.session.recovery import (  # only when needed
+                recover_in_memory,
+                recover_session,
+            )
 
+            try:
                 recover_session(path, progress)
             except SessionError as e:
+                # e.g. a full disk: read what the journal holds from memory, so a reader gets
+                # every row the recorder said was saved, right away (the file's own rows can
+                # stop short of them, in datasets of different lengths)
+                with contextlib.suppress(SessionError):
+                    f = recover_in_memory(path)
+                    return _session_of(path, f, [f"recovered in memory only: {e}"])
                 if not path.exists():
                     raise
                 return _read_session(path, [f"not recovered: {e}"])

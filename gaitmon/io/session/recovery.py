@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import h5py
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
@@ -23,6 +24,8 @@ from gaitmon.dsp.gait import ContactEdges
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.errors import Cancelled
 from gaitmon.io.journal import (
+    IDENTITY_FIELDS,
+    IDENTITY_IN_FILE,
     N_COMMON_FIELDS,
     JournalContents,
     RecordType,
@@ -139,6 +142,66 @@ def recover_session(
         raise SessionError(f"cannot read {jpath.name}: {_short_error(e)}") from e
 
 
+IDENTITY_LOST = (
+    "the patient id, operator and notes were lost with the file's damaged header (the journal "
+    "never holds them)"
+)
+
+
+def _with_identity(path: Path, header: dict[str, Any]) -> dict[str, Any]:
+    """The journal's header with the identity fields the HDF5 file holds (the journal keeps
+    them blank, see gaitmon.io.journal.IDENTITY_FIELDS). A journal from before that rule
+    has them itself; a file whose header cannot be read leaves them blank and says so."""
+    if not header.get(IDENTITY_IN_FILE):
+        return header
+    session = dict(header.get("session", {}))
+    try:
+        with h5py.File(path, "r") as f:
+            attrs = f["session"].attrs
+            for k in IDENTITY_FIELDS:
+                v = attrs.get(k, "")
+                session[k] = v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+    except Exception:  # any damage (h5py raises many kinds): recover the data without them
+        session["notes"] = IDENTITY_LOST
+    return {k: v for k, v in header.items() if k != IDENTITY_IN_FILE} | {"session": session}
+
+
+# Above this journal size a recovery in memory is not attempted (an 8-hour raw journal is
+# ~150 MB and its session ~600 MB in memory).
+IN_MEMORY_MAX_JOURNAL_BYTES = 256 * 2**20
+
+
+def recover_in_memory(path: str | os.PathLike[str]) -> h5py.File:
+    """The session ``path`` as its journal holds it, rebuilt in memory only (nothing is
+    written, the journal stays): what a reader gets while a full disk prevents
+    :func:`recover_session`, so that it sees every row the recorder reported as saved.
+    Raises :class:`SessionError`."""
+    path = Path(path)
+    jpath = journal_path(path)
+    try:
+        if jpath.stat().st_size > IN_MEMORY_MAX_JOURNAL_BYTES:
+            raise SessionError(f"{jpath.name} is too large to recover in memory")
+        with journal_lock(jpath) as free:
+            if not free:
+                raise SessionError(f"{path.name} is being recorded right now")
+            contents = read_journal(jpath)
+    except OSError as e:
+        raise SessionError(f"cannot read {jpath.name}: {_short_error(e)}") from e
+    if contents.header is None or contents.rows is None:
+        raise SessionError(f"its journal is unusable ({contents.problem})")
+    contents.header = _with_identity(path, contents.header)
+    try:
+        header = SessionHeader.from_dict(contents.header)
+        changes = _journal_changes(contents)
+        # a name of its own: the core driver without a backing store never touches it
+        memory_name = path.with_name(path.name + ".in-memory")
+        f = _build_recovered(memory_name, header, contents, changes, None, in_memory=True)
+    except (KeyError, TypeError, ValueError, OSError, RuntimeError) as e:
+        raise SessionError(f"cannot recover {path.name} in memory ({_short_error(e)})") from e
+    assert f is not None
+    return f
+
+
 def _recover_locked(
     path: Path, jpath: Path, progress: Callable[[float], bool | None] | None
 ) -> Path:
@@ -151,6 +214,7 @@ def _recover_locked(
         raise SessionError(
             f"cannot recover {name}: its journal {jpath.name} is unusable ({contents.problem})"
         )
+    contents.header = _with_identity(path, contents.header)
     try:
         header = SessionHeader.from_dict(contents.header)
         changes = _journal_changes(contents)
@@ -188,14 +252,19 @@ def _build_recovered(
     contents: JournalContents,
     changes: list[tuple[int, PipelineConfig | Calibration]],
     progress: Callable[[float], bool | None] | None,
-) -> None:
+    *,
+    in_memory: bool = False,
+) -> h5py.File | None:
+    """Write the recovered session to ``tmp``; ``in_memory``: build it in memory instead and
+    return the open file (the caller closes it), for reading while the disk is full."""
     hdr = contents.header
     assert hdr is not None and contents.rows is not None
     rows = contents.rows
     n = len(rows)
     fs = header.sample_rate_hz
     mode = header.mode
-    h5 = _H5File(tmp, hdr, mode="w", reprocessed=mode == "raw")
+    h5 = _H5File(tmp, hdr, mode="w", reprocessed=mode == "raw", in_memory=in_memory)
+    ok = False
     try:
         if contents.wall_offset_s is not None:
             h5.set_wall_offset(contents.wall_offset_s)
@@ -265,8 +334,11 @@ def _build_recovered(
         h5.set_link_totals(totals)
         h5.finish(complete=False, recovered=True, stop_reason="recovered", fs_hz=fs)
         report(n)
+        ok = True
     finally:
-        h5.close()
+        if not (ok and in_memory):
+            h5.close()
+    return h5.f if in_memory else None
 
 
 def _device_chunks(

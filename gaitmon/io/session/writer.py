@@ -37,6 +37,7 @@ from gaitmon.io.journal import (
     encode_block,
     encode_json,
     journal_path,
+    without_identity,
 )
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _H5File, _short_error
@@ -101,7 +102,7 @@ class SessionWriter:
                 with contextlib.suppress(FileNotFoundError):
                     jpath.unlink()
             self._journal = JournalWriter(jpath)
-            self._journal.write_raw(encode_json(RecordType.HEADER, hdr))
+            self._journal.write_raw(encode_json(RecordType.HEADER, without_identity(hdr)))
             self._journal.sync()
             self._h5 = _H5File(self._path, hdr, mode="w" if overwrite else "x", reprocessed=False)
             self._h5.f.flush()
