@@ -123,14 +123,17 @@ CONTACT_SERIES = ("heel_loaded", "toe_loaded", "phase")
 def on_event_time(series: dict[str, np.ndarray], lag: int) -> dict[str, np.ndarray]:
     """``series`` with the contacts and the phase moved ``lag`` rows earlier, onto the time base
     of the events (see ``PipelineConfig.phase_lag_samples``); the newest ``lag`` rows have no
-    phase yet (NaN: nothing is drawn there until the detector has decided)."""
+    phase yet (NaN: nothing is drawn there until the detector has decided), and a lost row
+    has none either."""
     if lag <= 0:
         return series
     out = dict(series)
+    lost = series["lost"] > 0
     for k in CONTACT_SERIES:
         v = series[k]
         moved = np.full_like(v, np.nan)
         moved[: max(0, len(v) - lag)] = v[lag:]
+        moved[lost] = np.nan
         out[k] = moved
     return out
 
