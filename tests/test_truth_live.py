@@ -210,3 +210,25 @@ def test_process_restarts_where_the_live_pipeline_did(tmp_path):
     # both restarted at the gap: from there on the contacts and events are the same
     np.testing.assert_array_equal(fsr[gap:], live_fsr[gap:])
     np.testing.assert_array_equal(hs[hs >= gap], live_hs[live_hs >= gap])
+
+
+def test_review_phase_and_readout_use_the_event_time_base(tmp_path, record_simulated):
+    from gaitmon.review.model import open_document
+    from gaitmon.review.view import phase_on_event_time, readout_html
+
+    path = record_simulated(tmp_path / "walk.h5", duration_s=12)
+    doc = open_document(path)
+    try:
+        src = doc.current
+        hs = src.heel_strike_idx[2:-2]
+        to = src.toe_off_idx[2:-2]
+        assert len(hs) >= 4
+        phase = phase_on_event_time(doc, src, 0, doc.n_rows)
+        np.testing.assert_array_equal(phase[hs], Phase.LOADING)
+        np.testing.assert_array_equal(phase[hs - 1], Phase.SWING)
+        np.testing.assert_array_equal(phase[to], Phase.SWING)
+        # the cursor on a heel-strike line reads the loading phase, not "swing"
+        for i in hs[:3]:
+            assert "loading" in readout_html(doc, float(doc.t_s[i]), 0)
+    finally:
+        doc.close()
