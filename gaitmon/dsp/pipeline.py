@@ -65,7 +65,7 @@ _SUB_BLOCK = 16384
 BRIDGE_MAX_S = 0.05
 # After a restart the Kalman angle converges with the steady-state gain (time constant ~0.7 s at
 # the paper's Q and R): measured on the simulator, the joint-angle error after a 3 s outage is
-# within 10 % of its walking level after 3 s (benchmarks/gap_settling.py, docs/gaps.md).
+# within 10 % of its walking level after 3 s (benchmarks/gap_settling.py, docs/gaps-and-time.md).
 SETTLE_S = 3.0
 
 

@@ -5,7 +5,7 @@ timeline's worker from each source's :class:`gaitmon.io.overview.SessionOverview
 few, min/max decimated otherwise) as a :class:`ViewData`. :func:`readout_html` is the line of
 values at the cursor, read from the current series at the exact row.
 
-Gait phases are shown on the events' time base (docs/gait-events.md): the phase drawn and read
+Gait phases are shown on the events' time base (docs/gaps-and-time.md): the phase drawn and read
 out at row ``i`` is the recorded (causal) phase of row ``i + phase_lag`` (see
 ``PipelineConfig.phase_lag_samples``), so a heel-strike line and its loading band start together.
 """
