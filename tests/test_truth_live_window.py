@@ -59,9 +59,11 @@ def lines_across(path, x):
     return n
 
 
-def cut_and_reconnect(qtbot, win, seconds):
+def cut_and_reconnect(qtbot, win, seconds, during=None):
     win.cut_simulated_link(seconds)
     qtbot.waitUntil(lambda: win.state_text.startswith("Reconnecting"), timeout=WAIT_MS)
+    if during is not None:
+        during()
     qtbot.waitUntil(lambda: win.state_text == "Connected", timeout=WAIT_MS)
     at = win.engine.samples_total
     return at
@@ -71,7 +73,17 @@ def test_a_cut_link_is_drawn_as_lost_data_not_as_standing(qtbot, tmp_path, no_le
     win = open_window(qtbot, tmp_path, SimConfig(standing_s=1.0))
     try:
         qtbot.waitUntil(lambda: win.engine.samples_total >= 300, timeout=WAIT_MS)
-        at = cut_and_reconnect(qtbot, win, 3.0)
+
+        def during():
+            # the time without data runs on, shaded as lost; the traces scroll out of it
+            qtbot.waitUntil(lambda: win.last_snapshot.last_data_age_s > 1.2, timeout=WAIT_MS)
+            qtbot.wait(100)
+            shade = win.live.lost_path("knee")
+            assert shade is not None and shade.contains(QPointF(-0.5, 30.0))
+            path = win.live.curve_path("joint_kalman_deg", 1, "kalman")
+            assert path.boundingRect().right() < -0.5
+
+        at = cut_and_reconnect(qtbot, win, 3.0, during)
         qtbot.waitUntil(lambda: win.engine.samples_total >= at + 150, timeout=WAIT_MS)
         qtbot.wait(100)  # a frame drawn from the data after the outage
         snap = win.last_snapshot

@@ -36,6 +36,8 @@ from gaitmon.ui.plots.traces import (
 )
 from gaitmon.ui.theme import Colours, pen
 
+STALE_S = 0.3  # no new data for longer than this: the link is down, time runs on
+
 
 @dataclass
 class _PlotInfo:
@@ -231,7 +233,10 @@ class LivePlots(CountingPlotWidget):
         t = s["t_s"]
         if len(t) == 0:
             return
-        t_now = float(t[-1])
+        # while no data arrives (a cut link) the traces keep scrolling with the clock and the
+        # time without data is shaded as lost, instead of freezing as if nothing had happened
+        stale_s = snap.last_data_age_s if snap.last_data_age_s > STALE_S else 0.0
+        t_now = float(t[-1]) + stale_s
         x_full = t - t_now
         gyro_off = self._gyro_on_scale(s)
         cache: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -252,10 +257,14 @@ class LivePlots(CountingPlotWidget):
 
         self._update_phases(x_full, s["phase"])
         lost = s["lost"] > 0
+        x_lost = x_full
+        if stale_s:
+            x_lost = np.append(x_full, [x_full[-1] + 1e-6, 0.0])
+            lost = np.append(lost, [True, True])
         for info in self.plots.values():
             if info.lost is not None:
                 if lost.any():
-                    info.lost.set(*step_band(x_full, lost, info.yrange[1], info.yrange[0]))
+                    info.lost.set(*step_band(x_lost, lost, info.yrange[1], info.yrange[0]))
                 else:
                     info.lost.clear()
         hs = snap.heel_strike_t_s - t_now
