@@ -159,3 +159,37 @@ def test_live_cadence_agrees_with_the_recording_with_loss_and_a_cut(
     assert np.max(np.abs(live - report)) <= 1.0, (live.min(), live.max(), report)
     shown = {int(text.split()[0]) for _, text in seen}
     assert all(abs(v - report) <= 1.0 + 0.5 for v in shown), (shown, report)
+
+
+def test_gyro_integration_stays_inside_its_plot_and_says_when_off_scale(
+    qtbot, tmp_path, no_leaked_threads
+):
+    import dataclasses
+
+    win = open_window(qtbot, tmp_path, SimConfig(standing_s=1.0))
+    try:
+        qtbot.waitUntil(
+            lambda: win.last_snapshot is not None and len(win.last_snapshot.series["t_s"]) >= 300,
+            timeout=WAIT_MS,
+        )
+        win.set_paused(True)  # the window stops drawing; we draw one snapshot ourselves
+        snap = win.last_snapshot
+        n = len(snap.series["t_s"])
+        # a drift of -60 deg/s from 0: leaves the body plot (+-25) and wraps at -180 deg
+        drift = (-60.0 * np.arange(n) / 100.0 + 180.0) % 360.0 - 180.0
+        series = dict(snap.series, tilt_gyro_deg=np.repeat(drift[:, None], 4, axis=1))
+        win.live.update_from(dataclasses.replace(snap, series=series))
+        path = win.live.curve_path("tilt_gyro_deg", 0, "gyro")
+        lo, hi = win.live.plots["body"].yrange
+        assert path is not None
+        box = path.boundingRect()
+        assert lo <= box.top() and box.bottom() <= hi  # never drawn outside the plot
+        # no vertical line at the wrap: every drawn segment is a small step
+        for i in range(1, path.elementCount()):
+            e, prev = path.elementAt(i), path.elementAt(i - 1)
+            if e.isLineTo():
+                assert abs(e.y - prev.y) < 5.0
+        assert "gyro integration off scale" in win.live.gyro_note("body")
+        assert win.live.gyro_note("knee") == ""  # the joint series were not touched
+    finally:
+        close_window(win)
