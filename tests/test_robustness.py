@@ -186,11 +186,11 @@ def test_an_exception_inside_handle_is_survived_reported_and_logged_as_a_gap(tmp
         wait_for(lambda: eng.recording.rows >= 500, what="rows")
         real = eng._pipeline.process
 
-        def process(adc):
+        def process(adc, *rest):
             if not failed.is_set():
                 failed.set()
                 raise ValueError("malformed block (injected)")
-            return real(adc)
+            return real(adc, *rest)
 
         eng._pipeline.process = process
         wait_for(failed.is_set, what="the failure")
@@ -270,8 +270,8 @@ class _Pauser:
         self.go = threading.Event()
         eng._pipeline.process = self
 
-    def __call__(self, adc):
-        out = self.real(adc)
+    def __call__(self, adc, *rest):
+        out = self.real(adc, *rest)
         if self.armed.is_set():
             self.armed.clear()
             self.inside.set()
