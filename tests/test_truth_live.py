@@ -5,6 +5,7 @@ Device); references are the simulator's ledger and ground truth, and the recorde
 back through ``analysis.analyse_session`` (what ``info``, review and the report show).
 """
 
+import itertools
 import time
 
 import numpy as np
@@ -80,6 +81,54 @@ def test_a_long_gap_restarts_the_pipeline_chunk_invariantly_and_flags_the_settli
     # integration on)
     step = np.abs(whole.gyro_rad_s[3000]) / FS
     assert np.all(np.abs(whole.tilt_gyro_rad[3000] - whole.tilt_acc_rad[3000]) <= step + 1e-9)
+
+
+def test_any_chunking_with_many_gaps_gives_the_output_of_one_call(walk):
+    rng = np.random.default_rng(3)
+    counts = walk.counts
+    lost = np.zeros(len(counts), np.int64)
+    at = rng.choice(np.arange(100, len(counts)), 40, replace=False)
+    lost[at] = rng.choice([1, 2, 5, 6, 40, 300], len(at))  # bridged and restarting losses
+    whole = Pipeline().process(counts, lost)
+    assert len(whole.restart_idx) == int(np.sum(lost > 5))
+    p = Pipeline()
+    edges = np.unique(np.r_[0, np.sort(rng.integers(1, len(counts), 60)), len(counts)])
+    parts = [p.process(counts[a:b], lost[a:b]) for a, b in itertools.pairwise(edges)]
+    for name in ("joint_kalman_rad", "tilt_gyro_rad", "fsr_counts", "phase", "settling"):
+        np.testing.assert_array_equal(np.concatenate([getattr(b, name) for b in parts]),
+                                      getattr(whole, name), err_msg=name)  # fmt: skip
+    for name in ("heel_strike_idx", "toe_off_idx", "restart_idx"):
+        np.testing.assert_array_equal(np.concatenate([getattr(b, name) for b in parts]),
+                                      getattr(whole, name), err_msg=name)  # fmt: skip
+    assert [s.start_idx for b in parts for s in b.strides] == [s.start_idx for s in whole.strides]
+
+
+def test_a_restarted_kalman_keeps_its_bias_and_takes_the_next_angle():
+    from gaitmon.dsp.kalman import TiltKalman
+
+    kf = TiltKalman()
+    n = 3000
+    kf.process(np.full(n, 0.2), np.full(n, 0.05))  # a 0.05 rad/s gyro bias is learnt
+    bias = kf.bias_rad_s
+    assert bias is not None and abs(bias[0] - 0.05) < 0.01
+    kf.restart()
+    out = kf.process(np.full(10, -0.4), np.full(10, 0.05))
+    assert abs(out[0] - (-0.4)) < 0.01  # the new angle comes from the measurement
+    np.testing.assert_allclose(kf.bias_rad_s, bias, atol=1e-3)  # the bias is kept
+
+
+def test_a_restarted_detector_reports_no_event_for_the_state_it_finds():
+    from gaitmon.dsp.gait import GaitEventDetector
+
+    det = GaitEventDetector()
+    loaded, free = np.full((50, 2), 3000.0), np.full((50, 2), 0.0)
+    det.process(free)
+    det.restart()
+    b = det.process(loaded)  # loaded after an outage: not a heel strike
+    assert len(b.heel_strike_idx) == 0 and det.samples_seen == 100
+    b = det.process(free)
+    b = det.process(loaded)
+    assert b.heel_strike_idx.tolist() == [150]  # a real one, on the continuing index
 
 
 def test_a_short_loss_is_bridged(walk):
