@@ -109,6 +109,9 @@ def test_a_cut_link_is_drawn_as_lost_data_not_as_standing(qtbot, tmp_path, no_le
         for plot, y in (("fsr", 2000.0), ("knee", 30.0), ("body", 0.0)):
             shade = live.lost_path(plot)
             assert shade is not None and shade.contains(QPointF(mid, y)), plot
+        # the filters' settling after it is marked too (its strides are not counted)
+        settle = live.plots["knee"].settling.path
+        assert settle is not None and settle.contains(QPointF(g1 + 0.5, 30.0))
         # ... not as a gait phase ("foot flat" over 1900 counts looked like standing)
         for band in live.band_paths():
             for y in (500.0, 1900.0, FSR_RANGE[1] - 10):

@@ -2,9 +2,10 @@
 
 Fed from an engine `Snapshot` ~30 times a second through the primitives of :mod:`.traces`.
 Lost data (the engine's ``lost`` rows, NaN) breaks every line and is shaded in the review's
-red in every plot; it carries no phase band and no event. The drifting gyro integration is
-drawn only where it is on scale (never as a vertical line where it wraps), and a note in the
-plot says when it is off scale.
+red in every plot; it carries no phase band and no event. The filters' settling time after a
+long gap (strides there are not counted) is shaded faintly in the same red. The drifting gyro
+integration is drawn only where it is on scale (never as a vertical line where it wraps), and a
+note in the plot says when it is off scale.
 """
 
 from __future__ import annotations
@@ -37,6 +38,10 @@ from gaitmon.ui.plots.traces import (
 from gaitmon.ui.theme import Colours, pen
 
 STALE_S = 0.3  # no new data for longer than this: the link is down, time runs on
+SHADING_TIP = (
+    "Red shading: data lost (link outage). Faint red: the filters settle after a gap; strides "
+    "there are not counted."
+)
 
 
 @dataclass
@@ -48,6 +53,7 @@ class _PlotInfo:
     events_to: Trace | None = None
     markers: Trace | None = None
     lost: Trace | None = None  # red shading where data was lost
+    settling: Trace | None = None  # faint red: the filters settle after a gap
     gyro_note: pg.TextItem | None = None  # "gyro integration off scale"
 
 
@@ -86,13 +92,16 @@ class LivePlots(CountingPlotWidget):
     ) -> _PlotInfo:
         p = self.addPlot(row=row, col=col)
         style_plot(p, self.colours, ylabel, yr, bottom=bottom)
-        p.setToolTip(tip)
+        p.setToolTip(f"{tip} {SHADING_TIP}")
         ts = TraceSet((-self.window_s, 0.0), yr)
         p.addItem(ts)
         info = _PlotInfo(p, yr, ts)
         lost = QColor(self.colours.alert)
         lost.setAlpha(70)  # the review's gap shading
         info.lost = ts.add(Trace(brush=lost, fill_level=yr[0]))
+        settling = QColor(self.colours.alert)
+        settling.setAlpha(22)
+        info.settling = ts.add(Trace(brush=settling, fill_level=yr[0]))
         self.plots[name] = info
         return info
 
@@ -261,12 +270,15 @@ class LivePlots(CountingPlotWidget):
         if stale_s:
             x_lost = np.append(x_full, [x_full[-1] + 1e-6, 0.0])
             lost = np.append(lost, [True, True])
+        settling = s["settling"] > 0
         for info in self.plots.values():
-            if info.lost is not None:
-                if lost.any():
-                    info.lost.set(*step_band(x_lost, lost, info.yrange[1], info.yrange[0]))
-                else:
-                    info.lost.clear()
+            lo, hi = info.yrange
+            for tr, xb, mask in ((info.lost, x_lost, lost), (info.settling, x_full, settling)):
+                if tr is not None:
+                    if mask.any():
+                        tr.set(*step_band(xb, mask, hi, lo))
+                    else:
+                        tr.clear()
         hs = snap.heel_strike_t_s - t_now
         to = snap.toe_off_t_s - t_now
         marker_x = np.array([m[0] - t_now for m in snap.markers], dtype=float)
