@@ -273,12 +273,16 @@ class LivePlots(CountingPlotWidget):
         settling = s["settling"] > 0
         for info in self.plots.values():
             lo, hi = info.yrange
-            for tr, xb, mask in ((info.lost, x_lost, lost), (info.settling, x_full, settling)):
-                if tr is not None:
+            shades: tuple[tuple[Trace | None, np.ndarray, np.ndarray], ...] = (
+                (info.lost, x_lost, lost),
+                (info.settling, x_full, settling),
+            )
+            for shade, xb, mask in shades:
+                if shade is not None:
                     if mask.any():
-                        tr.set(*step_band(xb, mask, hi, lo))
+                        shade.set(*step_band(xb, mask, hi, lo))
                     else:
-                        tr.clear()
+                        shade.clear()
         hs = snap.heel_strike_t_s - t_now
         to = snap.toe_off_t_s - t_now
         marker_x = np.array([m[0] - t_now for m in snap.markers], dtype=float)
