@@ -3,11 +3,15 @@
 Shared by ``gaitmon info``, the review window and the clinical report, so that all three agree:
 :func:`analyse_session` is the one path from an open session (its events, gaps, true timeline,
 joint angles and the exclusions stored beside it) to the stride rows.
-A stride is excluded from the statistics (and says why) when it is the first or last of the
-recording (start-up and stopping are not steady walking), when it crosses a gap longer than
-``MAX_GAP_S`` (a link outage: a frame or two lost on a noisy link do not spoil a stride, since
-times come from the true timeline ``t_s``), or when it overlaps a range the user excluded (e.g. a
-turn).
+:func:`stride_exclusion` is the ONE rule for which strides count, used here for a whole session
+and by the live gait panel (``gaitmon.engine.live_gait``) on its rolling strides. A stride is
+excluded from the statistics (and says why) when it is the first or last of the recording (or,
+live, the first since the start: start-up and stopping are not steady walking), when it crosses
+a gap longer than ``MAX_GAP_S`` (a link outage: a frame or two lost on a noisy link do not spoil
+a stride, since times come from the true timeline ``t_s``), when it overlaps the ``SETTLE_S``
+after such a gap while the filters settle (``gaitmon.dsp.pipeline`` restarts them there), or when
+it overlaps a range the user excluded (e.g. a turn). Strides longer than
+``gaitmon.dsp.gait.DEFAULT_MAX_STRIDE_TIME_S`` are pauses, not strides, in both paths.
 """
 
 from __future__ import annotations
@@ -26,16 +30,48 @@ from gaitmon.dsp.gait import (
     normalise_strides,
     strides_from_events,
 )
+from gaitmon.dsp.pipeline import BRIDGE_MAX_S, settling_ranges
 
 if TYPE_CHECKING:
     from gaitmon.io.session import Exclusion, Session
 
-MAX_GAP_S = 0.05  # gaps up to 5 frames at 100 Hz leave a stride usable
+MAX_GAP_S = BRIDGE_MAX_S  # gaps up to 5 frames at 100 Hz are bridged and leave a stride usable
 
 FIRST = "first stride"
 LAST = "last stride"
 GAP = "crosses a gap"
+SETTLING = "filter settling after a gap"
 USER = "excluded range"
+
+
+def long_gap_rows(gaps: Sequence[tuple[int, float]]) -> np.ndarray:
+    """Rows where data resumed after a gap longer than ``MAX_GAP_S`` (where the filters restart)."""
+    return np.asarray(sorted(i for i, d in gaps if d > MAX_GAP_S + 1e-9), dtype=np.int64)
+
+
+def stride_exclusion(
+    s: Stride,
+    k: int,
+    n: int | None,
+    gap_rows: np.ndarray,
+    settling: Sequence[tuple[int, int]],
+    excluded_ranges: Sequence[tuple[int, int]] = (),
+) -> str:
+    """Why stride ``s`` (the ``k``-th of ``n``; ``n=None`` live, where the last is not known yet)
+    is left out of the statistics, or "" when it counts. ``gap_rows``: see
+    :func:`long_gap_rows`; ``settling``: [start, stop) rows after them (see
+    ``gaitmon.dsp.pipeline.settling_ranges``); ``excluded_ranges``: the user's [start, stop)."""
+    if k == 0:
+        return FIRST
+    if n is not None and k == n - 1:
+        return LAST
+    if np.any((gap_rows > s.start_idx) & (gap_rows <= s.end_idx)):
+        return GAP
+    if any(a <= s.end_idx and b > s.start_idx for a, b in settling):
+        return SETTLING
+    if any(a < s.end_idx and b > s.start_idx for a, b in excluded_ranges):
+        return USER
+    return ""
 
 
 @dataclass(frozen=True)
@@ -68,20 +104,11 @@ def analyse_strides(
     strides = strides_from_events(heel_strike_idx, toe_off_idx, fs_hz)
     if t_s is not None:
         strides = [_retime(s, t_s) for s in strides]
-    long_gaps = np.asarray(
-        sorted(i for i, d in gaps if d > MAX_GAP_S + 1e-9), dtype=np.int64
-    )
+    long_gaps = long_gap_rows(gaps)
+    settling = settling_ranges(long_gaps, fs_hz)
     rows: list[StrideRow] = []
     for k, s in enumerate(strides):
-        reason = ""
-        if k == 0:
-            reason = FIRST
-        elif k == len(strides) - 1:
-            reason = LAST
-        elif np.any((long_gaps > s.start_idx) & (long_gaps <= s.end_idx)):
-            reason = GAP
-        elif any(a < s.end_idx and b > s.start_idx for a, b in excluded_ranges):
-            reason = USER
+        reason = stride_exclusion(s, k, len(strides), long_gaps, settling, excluded_ranges)
         nan = float("nan")
         peak = nan
         rom: tuple[float, float, float] = (nan, nan, nan)

@@ -110,22 +110,28 @@ def test_the_recorder_counts_refused_blocks_and_reports_a_write_error():
 def test_live_gait_normalises_a_finished_stride_from_the_ring():
     fs_hz = 100.0
     ring = RingBuffer(500)
-    n = 200
+    n = 300
     t = np.arange(n) / fs_hz
     knee = np.linspace(0.0, 60.0, n)
-    ring.append({"t_s": t, "host_time_s": t, "joint_kalman_deg": np.stack([knee] * 3, 1)})
+    ring.append({"t_s": t, "host_time_s": t, "idx": np.arange(n, dtype=float),
+                 "joint_kalman_deg": np.stack([knee] * 3, 1)})  # fmt: skip
     gait = LiveGait(fs_hz, cycle_strides=4)
     assert gait.status(ring.latest(n), n).n_strides == 0
-    stride = Stride(
-        start_idx=50, end_idx=150, toe_off_idx=110, stride_time_s=1.0, stance_time_s=0.6,
-        swing_time_s=0.4, stance_pct=60.0, swing_pct=40.0,
-    )  # fmt: skip
-    gait.add(np.array([50, 150]), np.array([110]), [stride], t0_s=0.0, start_idx=0,
-             ring=ring, samples_total=n)  # fmt: skip
+
+    def stride(a, b):
+        return Stride(
+            start_idx=a, end_idx=b, toe_off_idx=a + 60, stride_time_s=1.0, stance_time_s=0.6,
+            swing_time_s=0.4, stance_pct=60.0, swing_pct=40.0,
+        )  # fmt: skip
+
+    # the first stride since the start is start-up, as the first of a recording (analysis)
+    gait.add(np.array([50, 150, 250]), np.array([110, 210]), [stride(50, 150), stride(150, 250)],
+             np.empty(0, np.int64), ring=ring, samples_total=n)  # fmt: skip
     hs, to = gait.events_since(1.0)
-    np.testing.assert_allclose(hs, [1.5])
-    assert len(to) == 1
+    np.testing.assert_allclose(hs, [1.5, 2.5])
+    assert len(to) == 2
     status = gait.status(ring.latest(n), n)
-    assert status.n_strides == 1 and status.cycles_deg.shape == (1, 101, 3)
-    np.testing.assert_allclose(status.cycles_deg[0, [0, -1], 1], [knee[50], knee[150]])
-    assert len(status.current_deg) == n - 150  # samples since the last heel strike
+    assert status.n_strides == 2 and status.cycles_deg.shape == (1, 101, 3)
+    assert [r for _, r in gait.excluded] == ["first stride"]
+    np.testing.assert_allclose(status.cycles_deg[0, [0, -1], 1], [knee[150], knee[250]])
+    assert len(status.current_deg) == n - 250  # samples since the last heel strike

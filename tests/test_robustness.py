@@ -81,6 +81,10 @@ def check_against_truth(out, unit, *, skip_after_gaps=30, skip_around=()):
     near_gap = np.zeros(n + 1, bool)
     for g in gaps:
         near_gap[g.sample_idx : g.sample_idx + skip_after_gaps] = True
+        if g.n_lost > 5:
+            # after a long gap the pipeline restarts (docs/gaps-and-time.md): a heel strike
+            # whose confirmation (filter delay + minimum contact, 8 rows) fell in the gap is lost
+            near_gap[max(0, g.sample_idx - 10) : g.sample_idx] = True
     for r in skip_around:
         near_gap[max(0, r - 30) : r + 30] = True
     true = true[~near_gap[true]]
@@ -186,11 +190,11 @@ def test_an_exception_inside_handle_is_survived_reported_and_logged_as_a_gap(tmp
         wait_for(lambda: eng.recording.rows >= 500, what="rows")
         real = eng._pipeline.process
 
-        def process(adc):
+        def process(adc, *rest):
             if not failed.is_set():
                 failed.set()
                 raise ValueError("malformed block (injected)")
-            return real(adc)
+            return real(adc, *rest)
 
         eng._pipeline.process = process
         wait_for(failed.is_set, what="the failure")
@@ -270,8 +274,8 @@ class _Pauser:
         self.go = threading.Event()
         eng._pipeline.process = self
 
-    def __call__(self, adc):
-        out = self.real(adc)
+    def __call__(self, adc, *rest):
+        out = self.real(adc, *rest)
         if self.armed.is_set():
             self.armed.clear()
             self.inside.set()

@@ -148,6 +148,11 @@ class GaitEventDetector:
         self._state = [_ContactState(), _ContactState()]
         self._n_seen = 0
 
+    def restart(self) -> None:
+        """Forget the contacts but keep counting samples (after a link outage): the next
+        confirmed state only initialises the output again, so no event spans the outage."""
+        self._state = [_ContactState(run_start=self._n_seen), _ContactState(run_start=self._n_seen)]
+
     @property
     def samples_seen(self) -> int:
         """Number of samples processed since construction or ``reset()``."""

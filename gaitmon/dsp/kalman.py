@@ -214,6 +214,16 @@ class TiltKalman:
             self._last_z = self._turns = None
             self._recovery_left = max(self._recovery_left, 1)
 
+    def restart(self) -> None:
+        """Start the angle again from the next measurement, keeping the learnt gyro bias and
+        the gains (after a link outage the old angle is stale, but the bias and the noise
+        levels are not: the filter settles with its steady-state gain, not from P = 0)."""
+        self._theta = None
+        self._lti_zi = None
+        self._last_z = self._turns = None
+        if self._bias is not None:
+            self._recovery_left = max(self._recovery_left, 1)
+
     # ------------------------------------------------------------ processing
     def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
         """Filter (N,) or (N, segments) measurements; returns the tilt (rad), same shape."""
@@ -224,6 +234,7 @@ class TiltKalman:
             return out[:, 0] if was_1d else out
         if self._theta is None:
             self._theta = z[0].copy()
+        if self._bias is None:
             self._bias = np.full(s, self.initial_bias_rad_s)
         i = 0
         while i < n:

@@ -16,12 +16,27 @@ the paper's "7-8 samples" by eye), so raw threshold crossings come ~55 ms after 
 With ``compensate_event_delay`` (default) event indices are moved back by the filter's DC group
 delay, rounded to whole samples; the per-sample contact and phase arrays stay causal (they lag).
 
+Gaps. ``process(adc, lost_before)`` is told how many frames were lost just before each row
+(the recording's gap table says the same). Losses of up to ``BRIDGE_MAX_S`` (5 frames at 100 Hz)
+are bridged: every stage carries on. After a longer loss the pipeline *restarts*: the low-pass
+filters and the gyro integration start again from the first sample after the gap, the Kalman
+filter takes its angle from the accelerometer again (keeping the gyro bias it had learnt and its
+steady-state gain), and the contact detector and stride tracker forget the open stride, so no
+event or stride spans the outage. The ``SETTLE_S`` after a restart (and after the start) are
+flagged ``settling``: strides overlapping them are left out of the statistics
+(:func:`settling_ranges` gives the same ranges from a file's gap table).
+
+Zeroing (``set_calibration``) also restarts the gyro integration from the zeroed pose, so its
+drift (kept: the paper shows it as a finding) is counted from the standing calibration.
+
 The same object serves live use (10 ms ticks) and offline reprocessing of whole recordings; any
 chunking of the input gives exactly the same output.
 """
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
@@ -44,6 +59,41 @@ from gaitmon.dsp.kalman import TiltKalman
 
 # long inputs are worked through in sub-blocks that stay in cache (same output, about 2x faster)
 _SUB_BLOCK = 16384
+
+# Losses up to this long are bridged (a frame or two on a noisy link); longer ones restart the
+# filters. The same limit decides which gaps a stride may cross (gaitmon.analysis).
+BRIDGE_MAX_S = 0.05
+# After a restart the Kalman angle converges with the steady-state gain (time constant ~0.7 s at
+# the paper's Q and R): measured on the simulator, the joint-angle error after a 3 s outage is
+# within 10 % of its walking level after 3 s (benchmarks/gap_settling.py, docs/gaps-and-time.md).
+SETTLE_S = 3.0
+
+
+def bridge_max_samples(fs_hz: float) -> int:
+    """The longest loss (in frames) the pipeline bridges without restarting."""
+    return round(BRIDGE_MAX_S * fs_hz)
+
+
+def restart_rows(lost_before: np.ndarray, fs_hz: float) -> np.ndarray:
+    """Rows where the pipeline restarts: the first row after a loss longer than the bridge."""
+    lost = np.asarray(lost_before, dtype=np.int64)
+    return np.flatnonzero(lost > bridge_max_samples(fs_hz)).astype(np.int64)
+
+
+def settling_ranges(
+    restarts: Sequence[int] | np.ndarray, fs_hz: float, n_rows: int | None = None
+) -> list[tuple[int, int]]:
+    """[start, stop) rows during which the filters settle after each restart row (row 0, the
+    start, included when given). Overlapping ranges are merged."""
+    k = round(SETTLE_S * fs_hz)
+    out: list[tuple[int, int]] = []
+    for r in sorted(int(x) for x in restarts):
+        b = r + k if n_rows is None else min(r + k, n_rows)
+        if out and r <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((r, b))
+    return out
 
 
 @dataclass(frozen=True)
@@ -72,6 +122,20 @@ class PipelineConfig:
     @property
     def dt_s(self) -> float:
         return 1.0 / self.fs_hz
+
+    @property
+    def phase_lag_samples(self) -> int:
+        """How far the per-sample contact and phase arrays lag the event time base.
+
+        Events are dated at the threshold crossing moved back by the filter delay; the
+        debounced contacts change ``min_contact`` - 1 samples after the crossing, at the causal
+        (delayed) sample. Displays and readouts show the phase of row ``i + lag`` at row ``i``
+        so that a heel-strike line and the loading band start at the same instant.
+        """
+        d = GaitEventDetector(
+            self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz
+        ).min_duration_samples
+        return self.event_delay_samples + d - 1
 
     @property
     def event_delay_samples(self) -> int:
@@ -111,6 +175,10 @@ class PipelineBlock:
     toe_off_idx: np.ndarray
     strides: tuple[Stride, ...] = field(default=())
     kalman_bias_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(4))  # after the block
+    # (N,) bool: the filters are settling (the SETTLE_S after the start or a restart)
+    settling: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    # absolute indices of the rows where the pipeline restarted after a long gap, this block
+    restart_idx: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def n(self) -> int:
@@ -176,6 +244,20 @@ class Pipeline:
         self._strides: StrideTracker = st["strides"]
         self._event_delay = self.config.event_delay_samples
         self._n_seen = 0
+        self._bridge = bridge_max_samples(self.config.fs_hz)
+        self._settle_n = round(SETTLE_S * self.config.fs_hz)
+        self._settle_until = 0  # the start-up is the first stride's exclusion (gaitmon.analysis)
+        self._event_floor = 0  # events are never dated before the last restart
+
+    def _restart(self, at: int) -> None:
+        """A long gap ends at absolute index ``at``: see the module doc."""
+        for stage in (self._acc_lp, self._fsr_lp, self._gyro_tilt_lp, self._integrator):
+            stage.reset()
+        self._kalman.restart()
+        self._detector.restart()
+        self._strides.reset()
+        self._settle_until = at + self._settle_n
+        self._event_floor = at
 
     def set_calibration(self, calibration: Calibration) -> None:
         """Use new standing offsets and gyro bias from the next sample on.
@@ -186,6 +268,9 @@ class Pipeline:
         delta = calibration.gyro_bias_rad_s - self.calibration.gyro_bias_rad_s
         self._kalman.shift_bias(-delta)
         self.calibration = calibration
+        # the gyro integration starts again from the zeroed pose (its drift counts from here)
+        self._integrator.reset()
+        self._gyro_tilt_lp.reset()
 
     @property
     def samples_seen(self) -> int:
@@ -195,20 +280,37 @@ class Pipeline:
     def kalman(self) -> TiltKalman:
         return self._kalman
 
-    def process(self, adc_counts: np.ndarray) -> PipelineBlock:
+    def process(
+        self, adc_counts: np.ndarray, lost_before: np.ndarray | None = None
+    ) -> PipelineBlock:
+        """``lost_before[i]``: frames lost just before row ``i`` (None: none lost)."""
         adc = np.asarray(adc_counts)
         if adc.ndim != 2 or adc.shape[1] != N_CHANNELS:
             raise ValueError(f"expected raw ADC counts of shape (N, {N_CHANNELS}), got {adc.shape}")
         n = adc.shape[0]
         start = self._n_seen
+        restarts = np.empty(0, dtype=np.int64)
+        if lost_before is not None:
+            lost = np.asarray(lost_before)
+            if lost.shape != (n,):
+                raise ValueError(f"lost_before must have shape ({n},), got {lost.shape}")
+            restarts = restart_rows(lost, self.config.fs_hz)
+            if start == 0:
+                restarts = restarts[restarts > 0]  # what was lost before the start is no gap
         out = {name: np.empty((n, *shape), dtype=dt) for name, shape, dt in _PER_SAMPLE}
+        settling = np.empty(n, dtype=bool)
         hs: list[np.ndarray] = []
         to: list[np.ndarray] = []
         strides: list[Stride] = []
-        for i in range(0, n, _SUB_BLOCK):
-            sl = slice(i, min(n, i + _SUB_BLOCK))
+        cuts = sorted({*range(0, n, _SUB_BLOCK), *restarts.tolist(), n})
+        restart_set = set(restarts.tolist())
+        for a, b in itertools.pairwise(cuts):
+            if a in restart_set:
+                self._restart(start + a)
+            sl = slice(a, b)
             self._process_into(adc[sl], out, sl, hs, to, strides)
-        self._n_seen += n
+            settling[sl] = np.arange(start + a, start + b) < self._settle_until
+        self._n_seen = start + n
         empty = np.empty(0, dtype=np.int64)
         bias = self._kalman.bias_rad_s
         return PipelineBlock(
@@ -217,6 +319,8 @@ class Pipeline:
             toe_off_idx=np.concatenate(to) if to else empty,
             strides=tuple(strides),
             kalman_bias_rad_s=np.zeros(4) if bias is None else bias,
+            settling=settling,
+            restart_idx=restarts + start,
             **out,
         )
 
@@ -258,8 +362,8 @@ class Pipeline:
         o["toe_loaded"][sl] = gait.toe_loaded
         o["phase"][sl] = gait.phase
         # back-dating by a constant keeps the order in which events are confirmed
-        hs_idx = np.maximum(gait.heel_strike_idx - self._event_delay, 0)
-        to_idx = np.maximum(gait.toe_off_idx - self._event_delay, 0)
+        hs_idx = np.maximum(gait.heel_strike_idx - self._event_delay, self._event_floor)
+        to_idx = np.maximum(gait.toe_off_idx - self._event_delay, self._event_floor)
         hs.append(hs_idx)
         to.append(to_idx)
         strides.extend(self._strides.process(hs_idx, to_idx))

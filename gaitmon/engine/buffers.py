@@ -3,6 +3,13 @@
 ``SERIES`` is the one list of display columns. ``cols_from_pipeline`` (raw mode, everything
 computed on the PC) and ``cols_from_device`` (the unit's own angles) turn a block into those
 columns; a series a block does not carry is shown as NaN.
+
+Lost frames are rows too: ``with_gap_rows`` puts one row per lost frame (at most a ring's
+worth) before the row that followed them, at its true time, with every value NaN and
+``lost`` = 1. So time stays true on screen, lines break across an outage instead of joining
+its two ends, and no phase or event can be drawn there. ``idx`` is the engine's index of a
+received sample (NaN on a lost row): events and strides, which carry engine indices, find their
+rows and times through it (``RingBuffer.times_of``, ``RingBuffer.since_index``).
 """
 
 from __future__ import annotations
@@ -21,6 +28,9 @@ from gaitmon.io.protocol import FrameKind
 SERIES: dict[str, tuple[int, ...]] = {
     "t_s": (),
     "host_time_s": (),
+    "idx": (),  # engine sample index; NaN on a lost row
+    "lost": (),  # 1 on a row standing for a lost frame
+    "settling": (),  # 1 while the filters settle after a gap (raw mode)
     "tilt_acc_deg": (4,),
     "tilt_gyro_deg": (4,),
     "tilt_kalman_deg": (4,),
@@ -68,6 +78,36 @@ class RingBuffer:
                 arr[: n - first] = v[first:]
             self._write += n + skipped
 
+    def _latest_cols(self, n: int, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+        with self._lock:
+            n = int(min(n, self.capacity, self._write))
+            end = self._write % self.capacity
+            idx = (np.arange(end - n, end)) % self.capacity
+            return {k: self._data[k][idx] for k in names}
+
+    def times_of(self, engine_idx: np.ndarray) -> np.ndarray:
+        """True times (t_s) of the samples with these engine indices (NaN if no longer held)."""
+        want = np.asarray(engine_idx, dtype=np.float64)
+        got = self._latest_cols(self.capacity, ("idx", "t_s"))
+        real = np.isfinite(got["idx"])
+        idx, t = got["idx"][real], got["t_s"][real]
+        out = np.full(want.shape, np.nan)
+        if not len(idx):
+            return out
+        pos = np.clip(np.searchsorted(idx, want), 0, len(idx) - 1)
+        hit = idx[pos] == want
+        out[hit] = t[pos[hit]]
+        return out
+
+    def since_index(self, engine_idx: int) -> dict[str, np.ndarray]:
+        """The rows from the sample with engine index ``engine_idx`` on (lost rows included);
+        empty if that sample is no longer held."""
+        got = self._latest_cols(self.capacity, ("idx",))["idx"]
+        pos = np.flatnonzero(got == engine_idx)
+        if not len(pos):
+            return {k: np.empty((0, *s)) for k, s in SERIES.items()}
+        return self.latest(len(got) - int(pos[0]))
+
     def latest(self, n: int) -> dict[str, np.ndarray]:
         """Copies of the last ``n`` samples (fewer if fewer were written), oldest first."""
         with self._lock:
@@ -77,6 +117,52 @@ class RingBuffer:
             return {k: arr[idx] for k, arr in self._data.items()}
 
 
+CONTACT_SERIES = ("heel_loaded", "toe_loaded", "phase")
+
+
+def on_event_time(series: dict[str, np.ndarray], lag: int) -> dict[str, np.ndarray]:
+    """``series`` with the contacts and the phase moved ``lag`` rows earlier, onto the time base
+    of the events (see ``PipelineConfig.phase_lag_samples``); the newest ``lag`` rows have no
+    phase yet (NaN: nothing is drawn there until the detector has decided), and a lost row
+    has none either."""
+    if lag <= 0:
+        return series
+    out = dict(series)
+    lost = series["lost"] > 0
+    for k in CONTACT_SERIES:
+        v = series[k]
+        moved = np.full_like(v, np.nan)
+        moved[: max(0, len(v) - lag)] = v[lag:]
+        moved[lost] = np.nan
+        out[k] = moved
+    return out
+
+
+def with_gap_rows(
+    cols: dict[str, np.ndarray], lost_before: np.ndarray, fs_hz: float, max_rows: int
+) -> dict[str, np.ndarray]:
+    """``cols`` with a NaN row (``lost`` = 1, true ``t_s``) for every frame lost before each
+    row, at most ``max_rows`` per gap (a ring holds no more)."""
+    n = len(cols["t_s"])
+    lost = np.minimum(np.asarray(lost_before, dtype=np.int64), max_rows)
+    if n == 0 or not lost.any():
+        return {**cols, "lost": np.zeros(n)}
+    pos = np.arange(n) + np.cumsum(lost)  # where each received row goes
+    total = n + int(lost.sum())
+    out: dict[str, np.ndarray] = {}
+    for k, v in cols.items():
+        arr = np.full((total, *v.shape[1:]), np.nan)
+        arr[pos] = v
+        out[k] = arr
+    gap = np.ones(total, dtype=bool)
+    gap[pos] = False
+    rows = np.flatnonzero(gap)
+    owner = np.searchsorted(pos, rows)  # the received row after each lost one
+    out["t_s"][rows] = cols["t_s"][owner] - (pos[owner] - rows) / fs_hz
+    out["lost"] = gap.astype(np.float64)
+    return out
+
+
 def cols_from_pipeline(
     p: PipelineBlock, t_s: np.ndarray, host: np.ndarray
 ) -> dict[str, np.ndarray]:
@@ -84,6 +170,7 @@ def cols_from_pipeline(
     return {
         "t_s": t_s,
         "host_time_s": host,
+        "settling": p.settling.astype(np.float64),
         "tilt_acc_deg": deg(p.tilt_acc_rad),
         "tilt_gyro_deg": deg(p.tilt_gyro_rad),
         "tilt_kalman_deg": deg(p.tilt_kalman_rad),

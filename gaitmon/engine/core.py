@@ -32,8 +32,14 @@ from typing import Any
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
-from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
-from gaitmon.engine.buffers import RingBuffer, cols_from_device, cols_from_pipeline
+from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, restart_rows
+from gaitmon.engine.buffers import (
+    RingBuffer,
+    cols_from_device,
+    cols_from_pipeline,
+    on_event_time,
+    with_gap_rows,
+)
 from gaitmon.engine.live_gait import LiveGait, UnitGaitEvents, shift_stride
 from gaitmon.engine.recorder import Recorder
 from gaitmon.engine.snapshot import Mode, RecordingStatus, Snapshot
@@ -57,7 +63,8 @@ class _Stream:
     pipeline_offset: int = 0  # engine sample index of the current pipeline's sample 0
     block_start: int = 0  # _handle: engine index of the current block's first sample
     handed_over: bool = False  # _handle: the current block is with the recorder
-    seq0: int | None = None  # the first sequence number seen (t_s = 0)
+    k_last: int | None = None  # unit sample periods from the first sample to the last (t_s * fs)
+    pending_lost: int = 0  # frames of blocks not processed, lost before the next one processed
     reconnects_seen: int = 0
 
 
@@ -108,6 +115,7 @@ class Engine:
         self.fs_hz = self.config.fs_hz
         self.transport_label = transport_label
         self._pipeline = Pipeline(self.config, self.calibration)
+        self._phase_lag = self.config.phase_lag_samples if self.mode is Mode.RAW else 0
         self._stream = _Stream()
         self._ring = RingBuffer(int(display_seconds * self.fs_hz))
         self._unit_events = UnitGaitEvents(self.fs_hz)  # events from the unit's contacts
@@ -325,7 +333,7 @@ class Engine:
 
     def snapshot(self, window_s: float = 10.0) -> Snapshot:
         n = int(window_s * self.fs_hz)
-        series = self._ring.latest(n)
+        series = on_event_time(self._ring.latest(n), self._phase_lag)
         t = series["t_s"]
         t0 = t[0] if len(t) else 0.0
         with self._lock:
@@ -421,6 +429,7 @@ class Engine:
             rec.row_map.record_offset = start_idx  # row 0 = this block's first sample
         if cfg is not None:
             self._pipeline = Pipeline(cfg, self.calibration)
+            self._phase_lag = cfg.phase_lag_samples
             st.pipeline_offset = start_idx
             if rec is not None and not (first and cfg is rec.header_config):
                 rec.put(("config", cfg))
@@ -428,8 +437,6 @@ class Engine:
             self._pipeline.set_calibration(cal)
             if rec is not None and not (first and cal is rec.header_calibration):
                 rec.put(("calibration", cal))
-        if st.seq0 is None:
-            st.seq0 = int(block.seq[0])
         if block.kind != self.mode.frame_kind:
             # not this session's frames (a unit that restarted into its default kind before
             # the setup was sent again): neither shown nor recorded; the file gets a gap
@@ -439,33 +446,66 @@ class Engine:
             )
             if rec is not None:
                 rec.row_map.not_recorded(block, f"frames lost: {FrameKind(block.kind).name} frames")
+            st.pending_lost += len(block) + self._lost_sum(block)
             return
         reconnects = self.device.stats.transport.reconnects
         gap_reason = ""
         if reconnects != st.reconnects_seen:
             st.reconnects_seen = reconnects
             gap_reason = "link lost: reconnected"
-        t_s = (block.seq - st.seq0) / self.fs_hz
+        lost = self._lost(block)
+        t_s = self._true_times(lost)
+        restarts = np.empty(0, np.int64)
         if block.kind == FrameKind.RAW and block.adc is not None:
-            p = self._pipeline.process(block.adc)
+            p = self._pipeline.process(block.adc, lost)
             offset = st.pipeline_offset
             cols = cols_from_pipeline(p, t_s, block.host_time_s)
             hs_idx = p.heel_strike_idx + offset
             to_idx = p.toe_off_idx + offset
             strides = [shift_stride(s, offset) for s in p.strides]
+            restarts = p.restart_idx + offset
             if rec is not None:
                 self._hand_over(rec, block, p, gap_reason)
         else:
             cols = cols_from_device(block, t_s)
             hs_idx, to_idx, strides = self._unit_events.process(block, start_idx)
+            restarts = start_idx + restart_rows(lost, self.fs_hz)
             if rec is not None:
                 self._hand_over(rec, block, None, gap_reason)
         st.handed_over = True
-        self._ring.append(cols)
+        cols["idx"] = np.arange(start_idx, start_idx + len(block), dtype=np.float64)
+        self._ring.append(with_gap_rows(cols, lost, self.fs_hz, self._ring.capacity))
         st.samples += len(block)
         with self._lock:
             self._health.rate_times.append((float(block.host_time_s[-1]), st.samples))
-            self._gait.add(hs_idx, to_idx, strides, t_s[0], start_idx, self._ring, st.samples)
+            self._gait.add(hs_idx, to_idx, strides, restarts, self._ring, st.samples)
+
+    @staticmethod
+    def _lost_sum(block: SampleBlock) -> int:
+        return 0 if block.lost_before is None else int(block.lost_before.sum())
+
+    def _lost(self, block: SampleBlock) -> np.ndarray:
+        """Frames lost before each sample of ``block``, with those of blocks not processed."""
+        st = self._stream
+        lost = (
+            np.zeros(len(block), np.int64)
+            if block.lost_before is None
+            else np.asarray(block.lost_before, np.int64).copy()
+        )
+        if st.k_last is None:
+            lost[0] = 0  # what came before the first sample is no gap
+        lost[0] += st.pending_lost
+        st.pending_lost = 0
+        return lost
+
+    def _true_times(self, lost: np.ndarray) -> np.ndarray:
+        """t_s: the unit's sample periods since the first sample, counting lost frames (as the
+        recording's timeline does; sequence numbers alone would count control frames too)."""
+        st = self._stream
+        k = np.cumsum(lost + 1)
+        k += -k[0] if st.k_last is None else st.k_last
+        st.k_last = int(k[-1])
+        return k / self.fs_hz
 
     def _hand_over(
         self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str

@@ -17,7 +17,9 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from gaitmon.analysis import stride_exclusion
 from gaitmon.dsp.gait import ContactEdges, Stride, StrideTracker, normalise_cycles
+from gaitmon.dsp.pipeline import settling_ranges
 from gaitmon.engine.buffers import RingBuffer
 from gaitmon.engine.snapshot import GaitStatus
 from gaitmon.io.device import SampleBlock
@@ -42,50 +44,76 @@ class UnitGaitEvents:
 
 
 class LiveGait:
-    """The gait panel's state; see the module doc for its lock (the engine's)."""
+    """The gait panel's state; see the module doc for its lock (the engine's).
+
+    Strides are timed on the true timeline (``t_s`` of the ring, which counts lost frames),
+    and whether one counts in the panel's "last strides" is decided by
+    :func:`gaitmon.analysis.stride_exclusion`, the rule ``info``, review, the report and the
+    exports apply to a recording: live, the first stride since the start, strides crossing a
+    long gap and strides overlapping the filters' settling after one are left out.
+    """
 
     def __init__(self, fs_hz: float, cycle_strides: int) -> None:
         self.fs_hz = fs_hz
         self._events_hs: deque[float] = deque(maxlen=512)  # times (t_s) of recent events
         self._events_to: deque[float] = deque(maxlen=512)
-        self._strides: deque[Stride] = deque(maxlen=cycle_strides)
+        self._strides: deque[Stride] = deque(maxlen=cycle_strides)  # the last included ones
         self._cycles: deque[np.ndarray] = deque(maxlen=cycle_strides)
         self._cycles_deg = np.empty((0, 101, 3))  # np.stack(_cycles), rebuilt once per stride
         self._n_strides = 0
+        self._last: Stride | None = None  # the last stride, counted or not
         self._last_hs_idx: int | None = None
+        self._gap_rows: deque[int] = deque(maxlen=64)  # engine indices where data resumed
+        self.excluded: deque[tuple[Stride, str]] = deque(maxlen=64)  # recent, with the reason
 
     def add(
         self,
         hs_idx: np.ndarray,
         to_idx: np.ndarray,
         strides: Iterable[Stride],
-        t0_s: float,
-        start_idx: int,
+        restarts: np.ndarray,
         ring: RingBuffer,
         samples_total: int,
     ) -> None:
-        """A block's events (engine indices; its first sample, index ``start_idx``, is at
-        ``t0_s``) and finished strides, once the block is in ``ring``."""
-        for idx in hs_idx:
-            self._events_hs.append(float(t0_s + (idx - start_idx) / self.fs_hz))
-        for idx in to_idx:
-            self._events_to.append(float(t0_s + (idx - start_idx) / self.fs_hz))
+        """A block's events and finished strides (engine indices) and the engine indices where
+        data resumed after a long gap, once the block is in ``ring``."""
+        self._gap_rows.extend(int(r) for r in restarts)
+        for idx, dest in ((hs_idx, self._events_hs), (to_idx, self._events_to)):
+            if len(idx):
+                t = ring.times_of(idx)
+                dest.extend(float(x) for x in t[np.isfinite(t)])
         if len(hs_idx):
             self._last_hs_idx = int(hs_idx[-1])
         for s in strides:
-            self._add_stride(s, ring, samples_total)
+            self._add_stride(s, ring)
 
-    def _add_stride(self, s: Stride, ring: RingBuffer, samples_total: int) -> None:
-        """Normalise a finished stride's joint angles from the ring buffer."""
+    def _add_stride(self, s: Stride, ring: RingBuffer) -> None:
+        """Time a finished stride on the true timeline, apply the one stride rule, and
+        normalise an included stride's joint angles from the ring buffer."""
+        t0, t_off, t1 = ring.times_of(np.array([s.start_idx, s.toe_off_idx, s.end_idx]))
+        if np.isfinite([t0, t_off, t1]).all() and t1 > t0:
+            s = dataclasses.replace(
+                s,
+                stride_time_s=float(t1 - t0),
+                stance_time_s=float(t_off - t0),
+                swing_time_s=float(t1 - t_off),
+                stance_pct=100.0 * float(t_off - t0) / float(t1 - t0),
+                swing_pct=100.0 * float(t1 - t_off) / float(t1 - t0),
+            )
+        gaps = np.asarray(self._gap_rows, dtype=np.int64)
+        reason = stride_exclusion(s, self._n_strides, None, gaps, settling_ranges(gaps, self.fs_hz))
         self._n_strides += 1
-        self._strides.append(s)
-        length = samples_total - s.start_idx
-        if length > ring.capacity or length <= 0:
+        self._last = s
+        if reason:
+            self.excluded.append((s, reason))
             return
-        joints = ring.latest(length)["joint_kalman_deg"]
-        k = s.end_idx - s.start_idx
-        seg = joints[: k + 1]
-        if len(seg) == k + 1 and not np.isnan(seg).all():
+        self._strides.append(s)
+        rows = ring.since_index(s.start_idx)
+        # the file's rows are the received samples: normalise over those, as analysis does
+        real = np.isfinite(rows["idx"]) & (rows["idx"] <= s.end_idx)
+        seg = rows["joint_kalman_deg"][real]
+        k = len(seg) - 1
+        if k > 0 and not np.isnan(seg).all():
             self._cycles.append(normalise_cycles(seg, np.array([0, k]))[0])
             self._cycles_deg = np.stack(self._cycles)
 
@@ -97,17 +125,24 @@ class LiveGait:
 
     def status(self, series: dict[str, np.ndarray], samples_total: int) -> GaitStatus:
         """The panel for a snapshot whose display series are ``series``."""
-        if not self._strides:
+        last = self._last
+        if last is None:
             return GaitStatus()
-        last = self._strides[-1]
+        if not self._strides:
+            return GaitStatus(
+                n_strides=self._n_strides,
+                last_stride_time_s=last.stride_time_s,
+                last_stance_pct=last.stance_pct,
+            )
         mean_stride = float(np.mean([s.stride_time_s for s in self._strides]))
         cur_pct = np.empty(0)
         cur = np.empty((0, 3))
-        if self._last_hs_idx is not None:
-            k = samples_total - self._last_hs_idx
-            if 0 < k <= len(series["t_s"]):
-                cur = series["joint_kalman_deg"][-k:]
-                cur_pct = np.arange(k) / (mean_stride * self.fs_hz) * 100.0
+        if self._last_hs_idx is not None and len(series["t_s"]):
+            at = np.flatnonzero(series["idx"] == self._last_hs_idx)
+            if len(at):
+                cur = series["joint_kalman_deg"][int(at[0]) :]
+                t = series["t_s"][int(at[0]) :]
+                cur_pct = (t - t[0]) / mean_stride * 100.0
         return GaitStatus(
             n_strides=self._n_strides,
             last_stride_time_s=last.stride_time_s,

@@ -134,7 +134,7 @@ def slice_pipeline(p: PipelineBlock, a: int, z: int, with_events: bool) -> Pipel
         f.name: getattr(p, f.name)[a:z]
         for f in dataclasses.fields(p)
         if isinstance(getattr(p, f.name), np.ndarray)
-        and f.name not in ("heel_strike_idx", "toe_off_idx", "kalman_bias_rad_s")
+        and f.name not in ("heel_strike_idx", "toe_off_idx", "kalman_bias_rad_s", "restart_idx")
     }
     if not with_events:
         changes["heel_strike_idx"] = p.heel_strike_idx[:0]

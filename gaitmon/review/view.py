@@ -4,10 +4,15 @@ A change of the detail range becomes a :class:`ViewRequest`; :func:`load_view` a
 timeline's worker from each source's :class:`gaitmon.io.overview.SessionOverview` (raw rows when
 few, min/max decimated otherwise) as a :class:`ViewData`. :func:`readout_html` is the line of
 values at the cursor, read from the current series at the exact row.
+
+Gait phases are shown on the events' time base (docs/gaps-and-time.md): the phase drawn and read
+out at row ``i`` is the recorded (causal) phase of row ``i + phase_lag`` (see
+``PipelineConfig.phase_lag_samples``), so a heel-strike line and its loading band start together.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -16,12 +21,33 @@ import numpy as np
 
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.gait import PHASE_NAMES
+from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Ticket
 from gaitmon.review.model import JOINT, Document, Source
 
 PHASE = "processed/phase"
+
+
+@functools.lru_cache(maxsize=16)
+def _lag(config: PipelineConfig) -> int:
+    return config.phase_lag_samples
+
+
+def phase_lag(doc: Document, src: Source) -> int:
+    """Rows by which ``src``'s phases lag its events (0 for the unit's own contacts)."""
+    return _lag(src.config) if doc.session.mode == "raw" else 0
+
+
+def phase_on_event_time(doc: Document, src: Source, start: int, stop: int) -> np.ndarray:
+    """The phase of rows [start, stop) on the events' time base; -1 where not known (the end)."""
+    lag = phase_lag(doc, src)
+    out = np.full(max(0, stop - start), -1, dtype=np.int8)
+    a, b = start + lag, min(stop + lag, src.n_rows)
+    if b > a:
+        out[: b - a] = src.read_rows(PHASE, a, b)[:, 0]
+    return out
 
 
 @dataclass(frozen=True)
@@ -60,7 +86,7 @@ def load_view(
         windows[(label, name)] = sources[label].overview.window(
             name, req.start, req.stop, req.max_points, progress=ticket.progress
         )
-    phase = current.read_rows(PHASE, req.start, req.stop)[:, 0] if req.phase else None
+    phase = phase_on_event_time(doc, current, req.start, req.stop) if req.phase else None
     return ViewData(request_id, req, doc, windows, phase)
 
 
@@ -86,7 +112,7 @@ def readout_html(doc: Document, cursor_t_s: float, segment: int) -> str:
         f = src.read_rows("processed/fsr_counts", i, i + 1)[0]
         parts.append(f"heel {f[0]:.0f} · toe {f[1]:.0f}")
     if src.has(PHASE):
-        ph = int(src.read_rows(PHASE, i, i + 1)[0, 0])
+        ph = int(phase_on_event_time(doc, src, i, i + 1)[0])
         if 0 <= ph < len(PHASE_NAMES):
             parts.append(PHASE_NAMES[ph])
     if src is not doc.recorded:

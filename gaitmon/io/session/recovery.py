@@ -48,6 +48,7 @@ def replay_pipeline(
     *,
     table: ChannelTable = DEFAULT_TABLE,
     chunk_rows: int = _RECOVERY_CHUNK_ROWS,
+    lost_before: np.ndarray | None = None,
 ) -> Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]]:
     """Run the pipeline over a whole recording from row 0, applying logged changes at their rows.
 
@@ -55,7 +56,9 @@ def replay_pipeline(
     calibration is applied with ``Pipeline.set_calibration`` (filter state kept); new settings
     start a fresh ``Pipeline(new_config, calibration in force)`` at that row (the stages are
     rebuilt, as they must be when the filter design changes). Changes at the same row apply in
-    the given order. Use it for recovery and for ``gaitmon process``.
+    the given order. ``lost_before`` (frames lost before each row, see
+    :func:`lost_before_from_gaps`) lets the pipeline restart after a long gap as it did live.
+    Use it for recovery and for ``gaitmon process``.
     """
     n = len(adc)
     ordered = sorted(
@@ -77,8 +80,18 @@ def replay_pipeline(
                 pipeline = Pipeline(change, pipeline.calibration, table)
                 base = a
             k += 1
-        blk = pipeline.process(adc[a:b])
+        blk = pipeline.process(adc[a:b], None if lost_before is None else lost_before[a:b])
         yield a, rows_from_pipeline(blk), blk.heel_strike_idx + base, blk.toe_off_idx + base
+
+
+def lost_before_from_gaps(gaps: Sequence[Any], n_rows: int) -> np.ndarray:
+    """Frames lost just before each row, from a session's gap table (gaps at one row add up)."""
+    lost = np.zeros(n_rows, dtype=np.int64)
+    for g in gaps:
+        idx = int(g.sample_idx if hasattr(g, "sample_idx") else g["sample_idx"])
+        if 0 <= idx < n_rows:
+            lost[idx] += int(g.n_lost if hasattr(g, "n_lost") else g["n_lost"])
+    return lost
 
 
 def _journal_changes(
@@ -279,7 +292,14 @@ def _build_recovered(
         if mode == "raw":
             adc = np.ascontiguousarray(rows["adc"])
             chunks: Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]] = (
-                replay_pipeline(adc, header.config, header.calibration, changes, table=header.table)
+                replay_pipeline(
+                    adc,
+                    header.config,
+                    header.calibration,
+                    changes,
+                    table=header.table,
+                    lost_before=np.asarray(rows["lost_before"], dtype=np.int64),
+                )
             )
         else:
             chunks = _device_chunks(rows, FrameKind.TILT if mode == "tilt" else FrameKind.JOINT)

@@ -26,7 +26,7 @@ from gaitmon.errors import Cancelled
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.reader import Session, open_session
-from gaitmon.io.session.recovery import replay_pipeline
+from gaitmon.io.session.recovery import lost_before_from_gaps, replay_pipeline
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
 COPY_SHARE = 0.25
@@ -116,6 +116,7 @@ def rewrite_processed(
             table = s.header.table  # the unit's own conversion, as recovery and review use
             adc = s.read("raw/adc")
             n = s.n_samples
+            lost = lost_before_from_gaps(s.gaps, n)
             _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
         _rewrite(
             tmp,
@@ -125,6 +126,7 @@ def rewrite_processed(
             config,
             calibration_log,
             table,
+            lost,
             lambda f: report(COPY_SHARE + (1.0 - COPY_SHARE) * f),
             check_cancel,
         )
@@ -162,6 +164,7 @@ def _rewrite(
     config: PipelineConfig,
     calibration_log: list[tuple[int, Calibration]],
     table: ChannelTable,
+    lost: np.ndarray,
     report: Progress,
     check_cancel: Callable[[], None],
 ) -> None:
@@ -170,7 +173,13 @@ def _rewrite(
         hs: list[np.ndarray] = []
         to: list[np.ndarray] = []
         replay = replay_pipeline(
-            adc, config, calibration, calibration_log, table=table, chunk_rows=REPLAY_CHUNK_ROWS
+            adc,
+            config,
+            calibration,
+            calibration_log,
+            table=table,
+            chunk_rows=REPLAY_CHUNK_ROWS,
+            lost_before=lost,
         )
         for start, rows, hs_rows, to_rows in replay:
             stop = start + len(rows["processed/joint_deg"])

@@ -1,6 +1,11 @@
 """The live monitor's plots: segment tilts, joint angles, FSR with gait phases; raw sensors.
 
 Fed from an engine `Snapshot` ~30 times a second through the primitives of :mod:`.traces`.
+Lost data (the engine's ``lost`` rows, NaN) breaks every line and is shaded in the review's
+red in every plot; it carries no phase band and no event. The filters' settling time after a
+long gap (strides there are not counted) is shaded faintly in the same red. The drifting gyro
+integration is drawn only where it is on scale (never as a vertical line where it wraps), and a
+note in the plot says when it is off scale.
 """
 
 from __future__ import annotations
@@ -25,11 +30,18 @@ from gaitmon.ui.plots.traces import (
     Trace,
     TraceSet,
     decimate_peak,
+    on_scale,
     step_band,
     style_plot,
     vertical_lines,
 )
 from gaitmon.ui.theme import Colours, pen
+
+STALE_S = 0.3  # no new data for longer than this: the link is down, time runs on
+SHADING_TIP = (
+    "Red shading: data lost (link outage). Faint red: the filters settle after a gap; strides "
+    "there are not counted."
+)
 
 
 @dataclass
@@ -40,6 +52,9 @@ class _PlotInfo:
     events_hs: Trace | None = None
     events_to: Trace | None = None
     markers: Trace | None = None
+    lost: Trace | None = None  # red shading where data was lost
+    settling: Trace | None = None  # faint red: the filters settle after a gap
+    gyro_note: pg.TextItem | None = None  # "gyro integration off scale"
 
 
 class LivePlots(CountingPlotWidget):
@@ -77,12 +92,25 @@ class LivePlots(CountingPlotWidget):
     ) -> _PlotInfo:
         p = self.addPlot(row=row, col=col)
         style_plot(p, self.colours, ylabel, yr, bottom=bottom)
-        p.setToolTip(tip)
+        p.setToolTip(f"{tip} {SHADING_TIP}")
         ts = TraceSet((-self.window_s, 0.0), yr)
         p.addItem(ts)
         info = _PlotInfo(p, yr, ts)
+        lost = QColor(self.colours.alert)
+        lost.setAlpha(70)  # the review's gap shading
+        info.lost = ts.add(Trace(brush=lost, fill_level=yr[0]))
+        settling = QColor(self.colours.alert)
+        settling.setAlpha(22)
+        info.settling = ts.add(Trace(brush=settling, fill_level=yr[0]))
         self.plots[name] = info
         return info
+
+    def _add_gyro_note(self, info: _PlotInfo) -> None:
+        note = pg.TextItem(color=self.colours.gyro, anchor=(0, 0))
+        note.setVisible(False)
+        note.setZValue(10)
+        info.plot.addItem(note)
+        info.gyro_note = note
 
     def _build(self) -> None:
         c = self.colours
@@ -100,6 +128,7 @@ class LivePlots(CountingPlotWidget):
                 tr = Trace(method_pen[key], series=tilt_series, column=i, method=key)
                 self.curves.append(info.traces.add(tr))
             info.markers = info.traces.add(Trace(pen(c.marker)))
+            self._add_gyro_note(info)
         for j, (key, label, yr) in enumerate(JOINTS):
             sign = "dorsiflexion" if key == "ankle" else "flexion"
             info = self._new_plot(
@@ -112,6 +141,7 @@ class LivePlots(CountingPlotWidget):
                 tr = Trace(method_pen[mkey], series=joint_series, column=j, method=mkey)
                 self.curves.append(info.traces.add(tr))
             info.markers = info.traces.add(Trace(pen(c.marker)))
+            self._add_gyro_note(info)
         # FSR and gait phase: bands under the events under the traces
         info = self._new_plot(
             "fsr", len(JOINTS) + 1, 1, "FSR (ADC counts)", FSR_RANGE, True,
@@ -150,6 +180,8 @@ class LivePlots(CountingPlotWidget):
         for info in self.plots.values():
             info.plot.setXRange(-self.window_s, 0.0, padding=0)
             info.traces.nominal[0] = (-self.window_s, 0.0)
+            if info.gyro_note is not None:
+                info.gyro_note.setPos(-self.window_s, info.yrange[1])
         if self._no_fsr_text is not None:
             self._no_fsr_text.setPos(-self.window_s / 2, sum(FSR_RANGE) / 2)
 
@@ -210,15 +242,19 @@ class LivePlots(CountingPlotWidget):
         t = s["t_s"]
         if len(t) == 0:
             return
-        t_now = float(t[-1])
+        # while no data arrives (a cut link) the traces keep scrolling with the clock and the
+        # time without data is shaded as lost, instead of freezing as if nothing had happened
+        stale_s = snap.last_data_age_s if snap.last_data_age_s > STALE_S else 0.0
+        t_now = float(t[-1]) + stale_s
         x_full = t - t_now
+        gyro_off = self._gyro_on_scale(s)
         cache: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         for tr in self.curves:
             if not tr.visible:
                 continue
             got = cache.get(tr.series)
             if got is None:
-                x, y = decimate_peak(x_full, s[tr.series], MAX_POINTS)
+                x, y = decimate_peak(x_full, gyro_off.get(tr.series, s[tr.series]), MAX_POINTS)
                 fin = np.isfinite(y)
                 got = (x, y, fin.all(axis=0), fin.any(axis=0))
                 cache[tr.series] = got
@@ -229,6 +265,24 @@ class LivePlots(CountingPlotWidget):
                 tr.clear()
 
         self._update_phases(x_full, s["phase"])
+        lost = s["lost"] > 0
+        x_lost = x_full
+        if stale_s:
+            x_lost = np.append(x_full, [x_full[-1] + 1e-6, 0.0])
+            lost = np.append(lost, [True, True])
+        settling = s["settling"] > 0
+        for info in self.plots.values():
+            lo, hi = info.yrange
+            shades: tuple[tuple[Trace | None, np.ndarray, np.ndarray], ...] = (
+                (info.lost, x_lost, lost),
+                (info.settling, x_full, settling),
+            )
+            for shade, xb, mask in shades:
+                if shade is not None:
+                    if mask.any():
+                        shade.set(*step_band(xb, mask, hi, lo))
+                    else:
+                        shade.clear()
         hs = snap.heel_strike_t_s - t_now
         to = snap.toe_off_t_s - t_now
         marker_x = np.array([m[0] - t_now for m in snap.markers], dtype=float)
@@ -245,6 +299,40 @@ class LivePlots(CountingPlotWidget):
         if self._no_fsr_text is not None and self._no_fsr_text.isVisible() != fsr_missing:
             self._no_fsr_text.setVisible(fsr_missing)
         self.mark_new_data(float(s["host_time_s"][-1]))
+
+    def _gyro_on_scale(self, s: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The gyro-integration series as drawn (see :func:`on_scale`), and each plot's note."""
+        out: dict[str, np.ndarray] = {}
+        on = self.methods_on.get("gyro", True)
+        for series, names in (
+            ("tilt_gyro_deg", list(SEGMENTS)),
+            ("joint_gyro_deg", [key for key, _label, _yr in JOINTS]),
+        ):
+            y, last_off = on_scale(s[series], [self.plots[n].yrange for n in names])
+            out[series] = y
+            for j, name in enumerate(names):
+                note = self.plots[name].gyro_note
+                if note is None:
+                    continue
+                show = on and bool(np.isfinite(last_off[j]))
+                if show:
+                    note.setText(f"gyro integration off scale ({last_off[j]:+.0f}°)")
+                if note.isVisible() != show:
+                    note.setVisible(show)
+        return out
+
+    def gyro_note(self, plot: str) -> str:
+        """The off-scale note shown on ``plot`` ("" when none): what the tests look at."""
+        note = self.plots[plot].gyro_note
+        return note.toPlainText() if note is not None and note.isVisible() else ""
+
+    def lost_path(self, plot: str) -> QPainterPath | None:
+        info = self.plots[plot]
+        return None if info.lost is None else info.lost.path
+
+    def band_paths(self) -> list[QPainterPath]:
+        """The gait-phase shading drawn now (visible bands only)."""
+        return [tr.path for tr, _ in self._bands if tr.visible and tr.path is not None]
 
     def _update_phases(self, x: np.ndarray, phase: np.ndarray) -> None:
         lo, hi = FSR_RANGE

@@ -108,6 +108,34 @@ def step_band(
     return out_x, out_y
 
 
+def on_scale(
+    y: np.ndarray, ranges: list[tuple[float, float]]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(N, k) angles in degrees -> (the same with NaN where a value lies outside its column's
+    range or jumps by more than 180° from the previous sample (a wrap at +-180°), the newest
+    off-scale value per column (NaN if none is off scale)).
+
+    For the drifting gyro integration: a line never leaves its plot and a wrap is never drawn
+    as a vertical line; the caller says that it is off scale instead.
+    """
+    out = np.array(y, dtype=np.float64, copy=True)
+    if out.size == 0:
+        return out, np.full(out.shape[1:], np.nan)
+    lo = np.array([r[0] for r in ranges])
+    hi = np.array([r[1] for r in ranges])
+    with np.errstate(invalid="ignore"):
+        off = (out < lo) | (out > hi)
+        jump = np.zeros_like(off)
+        jump[1:] = np.abs(np.diff(out, axis=0)) > 180.0
+    last_off = np.full(out.shape[1], np.nan)
+    for j in range(out.shape[1]):
+        rows = np.flatnonzero(off[:, j])
+        if len(rows):
+            last_off[j] = out[rows[-1], j]
+    out[off | jump] = np.nan
+    return out, last_off
+
+
 def vertical_lines(xs: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
     """Points for a ``connect='pairs'`` curve drawing one vertical line per x."""
     return np.repeat(xs, 2), np.tile(np.array([lo, hi]), len(xs))
