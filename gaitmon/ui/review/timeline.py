@@ -509,9 +509,15 @@ class Timeline(QWidget):
         self._draw_events(cur, req)
         fsr = self.lanes["fsr"]
         phase = resp.phase
+        if phase is not None and len(phase):
+            x = t_s[req.start : req.stop]
+            # a band never spans lost data: an off sample at the last time before each gap
+            g = cur.gaps[0]
+            g = g[(g > req.start) & (g < req.stop)] - req.start
+            x = np.insert(x, g, x[g - 1])
+            phase = np.insert(phase.astype(np.int16), g, -1)
         for tr, k in fsr.bands:
             if phase is not None and len(phase):
-                x = t_s[req.start : req.stop]
                 tr.set(*step_band(x, phase == k, FSR_RANGE[1], FSR_RANGE[0]))
             else:
                 tr.clear()
