@@ -9,7 +9,6 @@ cut (the simulated unit over a pty drops the link; the engine reconnects into th
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -24,35 +23,11 @@ from gaitmon.ui.plots import FSR_RANGE
 WAIT_MS = 20_000
 
 
-def record_with_cut(out: Path, *, cut_at_s: float = 12.0, cut_s: float = 3.0,
-                    rows: int = 2700, speed: float = 5.0) -> Path:  # fmt: skip
-    """Record from the simulated unit over a real pty whose link drops for ``cut_s``."""
-    from gaitmon.engine import Engine
-    from gaitmon.io.device import Device
-    from gaitmon.io.session import SessionMeta
-    from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
-    from gaitmon.io.sim.pty import PtySimulator
-    from gaitmon.io.transport import SerialTransport
-
-    faults = FaultConfig(link_drops=((cut_at_s, cut_s),))
-    unit = SimulatedUnit(GaitConfig(seed=3, standing_s=2.0), faults=faults, speed=speed)
-    with PtySimulator(unit) as sim:
-        eng = Engine(Device(SerialTransport(str(sim.link_path))), "raw", transport_label="pty")
-        with eng:
-            eng.start_recording(out, SessionMeta(patient_id="G1"))
-            deadline = time.monotonic() + 90
-            while eng.recording.rows < rows and time.monotonic() < deadline:
-                time.sleep(0.02)
-            eng.stop_recording()
-    return out
-
-
-@pytest.fixture(scope="module")
-def cut_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = record_with_cut(tmp_path_factory.mktemp("gap") / "cut.h5")
-    with open_session(out) as s:
+@pytest.fixture
+def cut_file(cut_recording: Path) -> Path:
+    with open_session(cut_recording) as s:
         assert [g for g in s.gaps if g.n_lost >= 100], "the cut left no gap"
-    return out
+    return cut_recording
 
 
 def _crossing_pairs(idx: np.ndarray, y: np.ndarray, gap_rows: np.ndarray) -> list[int]:

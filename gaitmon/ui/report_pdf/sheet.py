@@ -19,7 +19,7 @@ from PySide6.QtGui import QColor, QPaintDevice, QPainter
 
 from gaitmon.analysis import FIRST, GAP, LAST, MAX_GAP_S, USER
 from gaitmon.report import JOINT_TITLES, GapSpan, ReportData, ReportHeader
-from gaitmon.text import count
+from gaitmon.text import count, no_gait_events
 from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.cycle_plot import draw_cycle_plot
 from gaitmon.ui.report_pdf.flow import Block, Column
@@ -237,6 +237,8 @@ def _cycle_plots(p: Page, data: ReportData, y: float) -> float:
         f"Mean ± 1 SD of {n} included strides (blue band), individual strides faint; dashed "
         f"line: mean toe off at {fmt(data.toe_off_pct)} % of the cycle."
         if n
+        else f"No gait events: {no_gait_events(data.header.mode)}."
+        if no_gait_events(data.header.mode)
         else "No included strides: nothing to average."
     )
     if data.normative is not None:

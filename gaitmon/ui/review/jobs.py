@@ -272,7 +272,7 @@ class ReviewJobs(QMainWindow):
         note = ""
         if doc.reprocessed is not None:
             note = changed_settings(doc.recorded.config, doc.reprocessed.config)
-        self.summary.setText(summary_html(a, b, note))
+        self.summary.setText(summary_html(a, b, note, doc.session.mode))
         self.cycles.set_analysis(a, b if self.act["compare"].isChecked() else None)
         self.analysis_done.emit()
 

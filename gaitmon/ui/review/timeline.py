@@ -234,6 +234,7 @@ class Timeline(QWidget):
             lane.plot.addItem(lane.missing, ignoreBounds=True)
         self._marker_labels: list[pg.TextItem] = []
         self.master.sigXRangeChanged.connect(self._detail_range_changed)
+        self.master.sigYRangeChanged.connect(self._place_marker_labels)
         self._update_bottom_axes()
 
     @property
@@ -250,7 +251,7 @@ class Timeline(QWidget):
             ax = ln.plot.getAxis("bottom")
             ax.setStyle(showValues=last)
             ax.setHeight(None if last else 4)
-            ax.setLabel("time from the start of the session" if last else None)
+            ax.set_titled(last)  # "time (s)", from the start of the session
 
     # -- options -------------------------------------------------------------------------------
 
@@ -386,9 +387,19 @@ class Timeline(QWidget):
         hip = self.lanes["hip"].plot
         for m in ms:
             item = pg.TextItem(m.label or "marker", color=self.colours.marker, anchor=(0, 0))
-            item.setPos(m.t_s, self.lanes["hip"].yrange[1])
+            item.setToolTip(f"marker at {m.t_s:.2f} s: {m.label or '(no label)'}")
             hip.addItem(item, ignoreBounds=True)
             self._marker_labels.append(item)
+        self._place_marker_labels()
+
+    def _place_marker_labels(self, *_args: object) -> None:
+        """Marker labels hang from the top of the hip lane's current y range (they were placed
+        at its nominal top, above the fitted view, and never seen)."""
+        if not self._marker_labels or self.doc is None:
+            return
+        top = self.lanes["hip"].plot.getViewBox().viewRange()[1][1]
+        for m, item in zip(self.doc.session.markers, self._marker_labels, strict=False):
+            item.setPos(m.t_s, top)
 
     # -- view range ----------------------------------------------------------------------------
 
