@@ -267,21 +267,23 @@ def gather_report(
     *,
     deidentify: bool = False,
     normative: NormativeBands | None = None,
-    excluded_ranges: Sequence[tuple[int, int]] | None = None,
+    excluded_ranges: Sequence[tuple[int, int] | Exclusion] | None = None,
     now_utc: _dt.datetime | None = None,
 ) -> ReportData:
     """Everything the report shows, from an open session.
 
     ``excluded_ranges=None`` applies the exclusions stored for the session (made in review);
-    the review window passes the ranges in force there.
+    the review window passes the ranges in force there (as :class:`Exclusion` s, so their
+    labels are the reasons the report gives; bare row pairs get the default label).
     """
     # the stride analysis exactly as ``gaitmon info`` and the review window do it; the joint
     # angles are read once (a whole-session read) and serve the strides and the cycles
     given = (
         None
         if excluded_ranges is None
-        else [Exclusion(int(a), int(b)) for a, b in excluded_ranges]
-    )
+        else [r if isinstance(r, Exclusion) else Exclusion(int(r[0]), int(r[1]))
+              for r in excluded_ranges]
+    )  # fmt: skip
     an = analyse_session(session, exclusions=given)
     rows, joints = an.rows, an.joints_deg
     summ = summary(rows)
@@ -364,7 +366,7 @@ def report_from_file(
     *,
     deidentify: bool = False,
     normative: NormativeBands | None = None,
-    excluded_ranges: Sequence[tuple[int, int]] | None = None,
+    excluded_ranges: Sequence[tuple[int, int] | Exclusion] | None = None,
 ) -> ReportData:
     """Open (recovering if needed), gather, close. Raises ``SessionError`` for a bad file.
 

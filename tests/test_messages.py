@@ -101,6 +101,9 @@ def test_review_says_tilt_mode_has_no_gait_events(qtbot, review, tilt_file: Path
     _open(qtbot, review, tilt_file)
     assert "No gait events" in review.summary.text()
     assert "tilt mode sends no foot-sensor data" in review.summary.text()
+    fsr = review.timeline.lanes["fsr"].missing
+    assert fsr.isVisible() and "no gait events" in fsr.textItem.toPlainText()
+    assert "no gait events" in review.statusBar().currentMessage()
 
 
 def test_review_small_text(qtbot, review, cut_recording: Path, tmp_path: Path) -> None:

@@ -178,3 +178,15 @@ def test_deidentified_report_withholds_the_notes(qapp, busy: Path, tmp_path: Pat
                                   text=True, check=True).stdout)  # fmt: skip
     assert "cane" not in text and "P042" not in text
     assert "m00" in text  # markers are kept (as export keeps them)
+
+
+def test_ranges_passed_by_review_keep_their_labels(busy: Path) -> None:
+    from gaitmon.report import gather_report
+
+    with open_session(busy) as s:
+        data = gather_report(s, excluded_ranges=[Exclusion(1000, 1400, "turn at the wall")])
+        t_s = s.read("timeline/t_s")
+    (span,) = data.excluded_spans
+    assert span.reason == "turn at the wall"
+    assert (span.from_s, span.to_s) == (t_s[1000], t_s[1399])
+    assert span.n_strides == sum(1 for r in data.rows if r.excluded == "excluded range")

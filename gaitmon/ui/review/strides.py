@@ -15,7 +15,7 @@ from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableView
 
 from gaitmon.analysis import StrideRow
 from gaitmon.review.model import Analysis
-from gaitmon.text import no_gait_events
+from gaitmon.text import no_gait_events, num
 from gaitmon.ui.theme import Colours
 
 # (header, tooltip, widest value): two-line headers and widths from the widest value, so the
@@ -40,7 +40,9 @@ _Index = QModelIndex | QPersistentModelIndex
 
 
 def _f(x: float, spec: str) -> str:
-    return "–" if not math.isfinite(x) else format(x, spec)
+    """``x`` with the decimals of ``spec`` (".2f"): the shared formatter (no "-0.0", a dash
+    for NaN)."""
+    return num(x, int(spec.strip(".f")))
 
 
 class StrideModel(QAbstractTableModel):
@@ -177,13 +179,13 @@ def summary_html(
             + ".</p>"
         )
     else:
-        sd = "" if not math.isfinite(s.stride_time_sd_s) else f" ± {s.stride_time_sd_s:.3f}"
+        sd = "" if not math.isfinite(s.stride_time_sd_s) else f" ± {num(s.stride_time_sd_s, 3)}"
         knee = [r.knee_peak_swing_deg for r in a.rows if r.included]
         knee_ok = [k for k in knee if math.isfinite(k)]
         knee_mean = sum(knee_ok) / len(knee_ok) if knee_ok else math.nan
         rows = [
             ("Strides analysed", f"<b>{s.n_strides}</b> of {n_all} ({a.n_excluded} excluded)"),
-            ("Stride time", f"{s.stride_time_mean_s:.3f}{sd} s"),
+            ("Stride time", f"{num(s.stride_time_mean_s, 3)}{sd} s"),
             ("CV of stride time",
              cmp(s.stride_time_cv_pct, b.stride_time_cv_pct if b else None, ".1f") + " %"),
             ("Stance",

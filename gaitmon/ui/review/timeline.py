@@ -38,6 +38,7 @@ from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Response
 from gaitmon.review.model import JOINT, Document, Source
 from gaitmon.review.view import ViewData, ViewRequest, load_view, readout_html
+from gaitmon.text import no_gait_events
 from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_band
 from gaitmon.ui.plots import vertical_lines as _vlines
@@ -335,7 +336,10 @@ class Timeline(QWidget):
             primary = [s for s, _ in lane.specs if s.method in ("", "kalman") and not s.before]
             absent = bool(primary) and not any(src.has(s.series) for s in primary)
             if lane.missing is not None:
-                lane.missing.setText(f"not recorded in mode {doc.session.mode!r}" if absent else "")
+                why = f"not recorded in mode {doc.session.mode!r}"
+                if lane.key == "fsr" and no_gait_events(doc.session.mode):
+                    why = f"no gait events: {no_gait_events(doc.session.mode)}"
+                lane.missing.setText(why if absent else "")
                 lane.missing.setVisible(absent)
         self.refresh_overview()
         self.refresh_shading()
