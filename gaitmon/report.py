@@ -1,11 +1,13 @@
-"""What goes into the one-page clinical report, gathered from a session (Qt-free).
+"""What goes into the clinical report, gathered from a session (Qt-free).
 
-This module owns the *content* of the report: the header (patient identifier, never a name),
-the gait summary, the per-stride statistics, the cycle-normalised mean ± SD curves, the filter
-settings and angle conventions in force, and the gaps, losses and exclusions. The stride
-analysis is ``gaitmon.analysis`` (the same as ``gaitmon info`` and the review window), so the
-three always agree. Drawing it is ``gaitmon.ui.report_pdf`` (Qt); ``gaitmon report``
-wires the two together headless.
+This module owns the *content* of the report: the header (patient identifier, never a
+name), the session notes typed when recording, the gait summary, the per-stride statistics,
+the cycle-normalised mean ± SD curves, the filter settings and angle conventions in force, the
+gaps (each one's times), losses and excluded ranges (times and reason), and the markers (time
+and label). Nothing is shortened here: the layout wraps text and continues on further pages.
+The stride analysis is ``gaitmon.analysis`` (the same as ``gaitmon info`` and the review
+window), so the three always agree. Drawing it is ``gaitmon.ui.report_pdf`` (Qt); ``gaitmon
+report`` wires the two together headless.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
 from gaitmon.normative import NormativeBands
+from gaitmon.text import count, no_gait_events, num
 
 N_POINTS = 101
 # axis labels with units and the clinical sign words (positive direction named)
@@ -65,6 +68,33 @@ class JointStat:
 
 
 @dataclass(frozen=True)
+class GapSpan:
+    """Lost data: samples from ``from_s`` up to (not including) ``to_s`` are missing."""
+
+    from_s: float  # time of the first missing sample
+    to_s: float  # time of the first sample after the gap
+    duration_s: float  # to_s - from_s (n_lost / fs)
+    n_lost: int
+    reason: str
+
+
+@dataclass(frozen=True)
+class ExcludedSpan:
+    """A range the user excluded in review, with the strides it left out."""
+
+    from_s: float
+    to_s: float
+    reason: str  # the label given to the range
+    n_strides: int  # strides excluded because they overlap it
+
+
+@dataclass(frozen=True)
+class MarkerItem:
+    t_s: float
+    label: str
+
+
+@dataclass(frozen=True)
 class Losses:
     frames_lost: int
     n_gaps: int
@@ -100,6 +130,10 @@ class ReportData:
     losses: Losses
     normative: NormativeBands | None = None
     notes: tuple[str, ...] = field(default=())  # why a section is empty, etc.
+    session_notes: str = ""  # typed in the record form; REDACTED when de-identified
+    markers: tuple[MarkerItem, ...] = field(default=())
+    gaps: tuple[GapSpan, ...] = field(default=())
+    excluded_spans: tuple[ExcludedSpan, ...] = field(default=())
     generated_utc: str = ""
     software: str = f"gaitmon {__version__}"
 
@@ -154,17 +188,20 @@ def _settings(session: Session) -> tuple[tuple[str, str], ...]:
         out.append(("Signal chain", f"the unit's own {what} (mode {session.mode})"))
     n_changes = len(session.config_changes)
     if n_changes:
-        out.append(("Setting changes", f"{n_changes} during the recording (the file logs each)"))
+        out.append(
+            ("Setting changes", f"{count(n_changes, 'change')} during the recording (the file "
+             "logs each)")
+        )  # fmt: skip
     off = np.degrees(session.calibration.tilt_offset_rad)
     zeroed = bool(np.any(off != 0)) or bool(session.calibration_changes)
     if zeroed:
         cal = (
             "standing pose zeroed; offsets "
-            + ", ".join(f"{s} {v:+.1f}" for s, v in zip(SEGMENTS, off, strict=True))
+            + ", ".join(f"{s} {num(v, 1, sign=True)}" for s, v in zip(SEGMENTS, off, strict=True))
             + " deg"
         )
         if session.calibration_changes:
-            cal += f"; {len(session.calibration_changes)} zeroings during the recording"
+            cal += f"; {count(len(session.calibration_changes), 'zeroing')} during the recording"
     else:
         cal = "not zeroed: angles are relative to the sensor axes (mounting offsets included)"
     out.append(("Calibration", cal))
@@ -193,26 +230,60 @@ def _losses(
     )
 
 
+def _timed_spans(
+    session: Session, rows: Sequence[StrideRow], exclusions: Sequence[Exclusion]
+) -> tuple[tuple[GapSpan, ...], tuple[ExcludedSpan, ...]]:
+    """Every gap and every user-excluded range with its times in seconds."""
+    n = session.n_samples
+    if not n or not (session.gaps or exclusions):
+        return (), ()
+    t_s = np.asarray(session.read("timeline/t_s"), dtype=np.float64)
+    dt = 1.0 / session.sample_rate_hz
+    gaps = []
+    for g in session.gaps:
+        i = int(g.sample_idx)
+        if 0 < i < len(t_s):
+            to = float(t_s[i])
+            start = to - g.n_lost * dt
+        else:  # before the first row or after the last one
+            start = float(t_s[-1]) + dt if i >= len(t_s) else float(t_s[0]) - g.duration_s
+            to = start + g.n_lost * dt
+        gaps.append(GapSpan(start, to, to - start, int(g.n_lost), str(g.reason)))
+    spans = []
+    for r in exclusions:
+        a, b = max(0, r.start_idx), min(len(t_s), r.stop_idx)
+        if b <= a:
+            continue
+        hit = sum(
+            1 for row in rows
+            if row.excluded == USER and row.stride.start_idx < b and row.stride.end_idx > a
+        )  # fmt: skip
+        spans.append(ExcludedSpan(float(t_s[a]), float(t_s[b - 1]), r.label, hit))
+    return tuple(gaps), tuple(spans)
+
+
 def gather_report(
     session: Session,
     *,
     deidentify: bool = False,
     normative: NormativeBands | None = None,
-    excluded_ranges: Sequence[tuple[int, int]] | None = None,
+    excluded_ranges: Sequence[tuple[int, int] | Exclusion] | None = None,
     now_utc: _dt.datetime | None = None,
 ) -> ReportData:
     """Everything the report shows, from an open session.
 
     ``excluded_ranges=None`` applies the exclusions stored for the session (made in review);
-    the review window passes the ranges in force there.
+    the review window passes the ranges in force there (as :class:`Exclusion` s, so their
+    labels are the reasons the report gives; bare row pairs get the default label).
     """
     # the stride analysis exactly as ``gaitmon info`` and the review window do it; the joint
     # angles are read once (a whole-session read) and serve the strides and the cycles
     given = (
         None
         if excluded_ranges is None
-        else [Exclusion(int(a), int(b)) for a, b in excluded_ranges]
-    )
+        else [r if isinstance(r, Exclusion) else Exclusion(int(r[0]), int(r[1]))
+              for r in excluded_ranges]
+    )  # fmt: skip
     an = analyse_session(session, exclusions=given)
     rows, joints = an.rows, an.joints_deg
     summ = summary(rows)
@@ -228,12 +299,13 @@ def gather_report(
     notes: list[str] = []
     if an.problem:
         notes.append(an.problem)
-    if session.mode == "tilt":
-        notes.append("mode tilt records no gait events: no strides to analyse")
+    no_events = no_gait_events(session.mode)
+    if no_events:
+        notes.append(no_events[0].upper() + no_events[1:] + ".")
     elif not included:
         notes.append(
-            f"{len(session.heel_strike_idx)} heel strikes, {len(rows)} strides: "
-            "too few usable strides to analyse"
+            f"{count(len(session.heel_strike_idx), 'heel strike')}, "
+            f"{count(len(rows), 'stride')}: too few usable strides to analyse"
         )
     meta = session.meta
     dev = session.device
@@ -262,6 +334,7 @@ def gather_report(
         "Cadence is derived (120 / mean stride time): one leg is measured.",
     )
     now = now_utc or _dt.datetime.now(_dt.UTC)
+    gaps, excluded_spans = _timed_spans(session, rows, an.exclusions)
     return ReportData(
         header=header,
         summary=summ,
@@ -281,6 +354,10 @@ def gather_report(
         losses=_losses(session, rows, an.excluded_ranges),
         normative=normative,
         notes=tuple(notes),
+        session_notes=(REDACTED if deidentify and meta.notes else meta.notes),
+        markers=tuple(MarkerItem(float(m.t_s), str(m.label)) for m in session.markers),
+        gaps=gaps,
+        excluded_spans=excluded_spans,
         generated_utc=now.strftime("%Y-%m-%d %H:%M UTC"),
     )
 
@@ -290,7 +367,7 @@ def report_from_file(
     *,
     deidentify: bool = False,
     normative: NormativeBands | None = None,
-    excluded_ranges: Sequence[tuple[int, int]] | None = None,
+    excluded_ranges: Sequence[tuple[int, int] | Exclusion] | None = None,
 ) -> ReportData:
     """Open (recovering if needed), gather, close. Raises ``SessionError`` for a bad file.
 

@@ -73,3 +73,37 @@ def record_simulated() -> Callable[..., pathlib.Path]:
         return path
 
     return record
+
+
+CUT_MARKER = "walk start"
+
+
+@pytest.fixture(scope="session")
+def cut_recording(tmp_path_factory) -> pathlib.Path:
+    """A recording with a real link cut: the simulated unit over a pty drops the link for 3 s
+    of device time (the engine reconnects into the same file: one gap, one reconnect), and a
+    marker labelled ``CUT_MARKER`` before the cut. Read-only: copy it before changing it."""
+    import time
+
+    from gaitmon.engine import Engine
+    from gaitmon.io.device import Device
+    from gaitmon.io.session import SessionMeta
+    from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
+    from gaitmon.io.sim.pty import PtySimulator
+    from gaitmon.io.transport import SerialTransport
+
+    out = tmp_path_factory.mktemp("cut") / "cut.h5"
+    faults = FaultConfig(link_drops=((12.0, 3.0),))
+    unit = SimulatedUnit(GaitConfig(seed=3, standing_s=2.0), faults=faults, speed=5.0)
+    with PtySimulator(unit) as sim:
+        eng = Engine(Device(SerialTransport(str(sim.link_path))), "raw", transport_label="pty")
+        with eng:
+            eng.start_recording(out, SessionMeta(patient_id="G1"))
+            deadline = time.monotonic() + 90
+            while eng.recording.rows < 400 and time.monotonic() < deadline:
+                time.sleep(0.01)
+            eng.add_marker(CUT_MARKER)
+            while eng.recording.rows < 2700 and time.monotonic() < deadline:
+                time.sleep(0.02)
+            eng.stop_recording()
+    return out

@@ -1,6 +1,6 @@
 """The layer contract, checked from the source: arrows only point down, and no import circle.
 
-    base (gaitmon, errors, jobs, lazy) <- dsp <- io <- engine / analysis / normative
+    base (gaitmon, errors, jobs, lazy, text) <- dsp <- io <- engine / analysis / normative
         <- report / live / review / lab <- ui <- commands / cli
 
 A module may import its own layer and the layers below it, never one above. Every import
@@ -20,7 +20,7 @@ import gaitmon
 ROOT = Path(gaitmon.__file__).resolve().parent
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("gaitmon", "gaitmon.errors", "gaitmon.jobs", "gaitmon.lazy"),
+    ("gaitmon", "gaitmon.errors", "gaitmon.jobs", "gaitmon.lazy", "gaitmon.text"),
     ("gaitmon.dsp",),
     ("gaitmon.io",),
     ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative"),

@@ -231,6 +231,10 @@ def test_zero_is_refused_while_walking_with_the_engines_reason(
         win.act_zero.trigger()
         qtbot.waitUntil(lambda: "Zero refused" in win.statusBar().currentMessage(), timeout=WAIT_MS)
         assert "moving" in win.statusBar().currentMessage()
+        # in a clinician's words, the figures in the tooltip
+        assert "Ask the patient to stand still: the " in win.statusBar().currentMessage()
+        assert "rad/s" not in win.statusBar().currentMessage()
+        assert "rad/s RMS exceeds" in win.statusBar().toolTip()
         assert win.act_zero.isEnabled()
     finally:
         win.close()

@@ -12,6 +12,7 @@ import numpy as np
 
 from gaitmon.commands import damaged_file_guard
 from gaitmon.errors import UserError
+from gaitmon.text import count, no_gait_events, num
 
 if TYPE_CHECKING:
     from gaitmon.analysis import SessionAnalysis
@@ -76,8 +77,9 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
     lines += [
         f"  device       {dev.get('name', '?')} firmware {dev.get('firmware', '?')} serial "
         f"{dev.get('serial', '?')} via {dev.get('transport', '?')}",
-        f"  link         {lost} frames lost in {len(s.gaps)} gaps, "
-        f"{s.link.get('crc_failures', 0)} CRC failures, {s.link.get('reconnects', 0)} reconnects",
+        f"  link         {count(lost, 'frame')} lost in {count(len(s.gaps), 'gap')}, "
+        f"{count(s.link.get('crc_failures', 0), 'CRC failure')}, "
+        f"{count(s.link.get('reconnects', 0), 'reconnect')}",
     ]
     reasons = Counter(r.excluded for r in rows if r.excluded)
     why = ", ".join(f"{n} {reason}" for reason, n in reasons.items())
@@ -94,15 +96,17 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
             f"{summ.cadence_derived_steps_per_min:.0f} steps/min (derived), over the included "
             "strides"
         )
+    elif no_gait_events(s.mode):
+        lines.append(f"  gait         none: {no_gait_events(s.mode)}")
     else:
         lines.append(
-            f"  gait         {len(s.heel_strike_idx)} heel strikes, {len(rows)} strides; "
-            "too few to analyse"
+            f"  gait         {count(len(s.heel_strike_idx), 'heel strike')}, "
+            f"{count(len(rows), 'stride')}; too few to analyse"
         )
     if an.exclusions:
         k = len(an.exclusions)
         lines.append(
-            f"  exclusions   {k} user-excluded range{'s' if k != 1 else ''} from "
+            f"  exclusions   {count(k, 'user-excluded range')} from "
             f"{an.side_file.name} ({an.n_user_excluded} strides left out)"
         )
     if an.problem:
@@ -119,8 +123,8 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
         "  calibration  "
         + (
             "standing offsets body/thigh/shank/foot "
-            + " / ".join(f"{v:+.1f}" for v in off)
-            + f" deg; {len(s.calibration_changes)} zeroings during the recording"
+            + " / ".join(num(v, 1, sign=True) for v in off)
+            + f" deg; {count(len(s.calibration_changes), 'zeroing')} during the recording"
             if zeroed
             else "not zeroed (tilts relative to the sensor axes)"
         )

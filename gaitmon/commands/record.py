@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from gaitmon.commands import add_force, add_quiet
 from gaitmon.commands.simulate import add_simulator_options, sim_config_from_args
 from gaitmon.errors import UserError
+from gaitmon.text import count
 
 if TYPE_CHECKING:
     from gaitmon.engine import Engine, RecordingStatus
@@ -210,9 +211,9 @@ def run(args: argparse.Namespace) -> int:
         )
     d = stats.decoder
     print(
-        f"gaitmon record: wrote {status.rows} frames to {out} "
-        f"({status.file_bytes / 1e6:.1f} MB); {d.frames_lost} frames lost, "
-        f"{d.crc_failures} CRC failures, {stats.reconnects} reconnects",
+        f"gaitmon record: wrote {count(status.rows, 'frame')} to {out} "
+        f"({status.file_bytes / 1e6:.1f} MB); {count(d.frames_lost, 'frame')} lost, "
+        f"{count(d.crc_failures, 'CRC failure')}, {count(stats.reconnects, 'reconnect')}",
         file=sys.stderr,
     )
     return 0

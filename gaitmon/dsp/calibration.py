@@ -58,7 +58,14 @@ _N_SEGMENTS = len(SEGMENTS)
 
 
 class CalibrationError(ValueError):
-    """The standing calibration could not be done; the message says why and what to do."""
+    """The standing calibration could not be done; the message says why and what to do.
+
+    The message is for the clinician ("Ask the patient to stand still: the thigh is moving");
+    ``detail`` holds the figures behind it (for a tooltip or a log)."""
+
+    def __init__(self, message: str, detail: str = "") -> None:
+        super().__init__(message)
+        self.detail = detail or message
 
 
 def _frozen_vector(value: np.ndarray, name: str) -> np.ndarray:
@@ -121,12 +128,31 @@ class Calibration:
 
 @dataclass(frozen=True, eq=False)
 class StillnessResult:
-    """Outcome of :func:`check_stillness`. ``reason`` is empty when still."""
+    """Outcome of :func:`check_stillness`. ``reason`` (the figures that failed, technical) and
+    ``message`` (what to do, in a clinician's words) are empty when still."""
 
     still: bool
     reason: str
     gyro_rms_rad_s: np.ndarray  # (4,) RMS of the rate about its mean, per segment
     acc_std_ms2: np.ndarray  # (4,) RMS deviation of the (x, z) vector from its mean, per segment
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.message and self.reason:
+            object.__setattr__(self, "message", self.reason)
+
+
+def _moving_message(excess: np.ndarray) -> str:
+    """"Ask the patient to stand still: the thigh is moving", naming the segments that move
+    most (those at least half as far over their limit as the worst one)."""
+    worst = float(excess.max())
+    names = [SEGMENTS[i] for i in np.argsort(-excess, kind="stable")
+             if excess[i] > 1.0 and excess[i] >= 0.5 * worst]  # fmt: skip
+    if len(names) == 1:
+        who = f"the {names[0]} is moving"
+    else:
+        who = "the " + ", ".join(names[:-1]) + f" and {names[-1]} are moving"
+    return f"Ask the patient to stand still: {who}"
 
 
 def _check_shapes(acc_ms2: np.ndarray, gyro_rad_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -195,7 +221,8 @@ def check_stillness(
             )
     if problems:
         reason = "subject is moving: " + "; ".join(problems) + "; stand still and retry"
-        return StillnessResult(False, reason, gyro_rms, acc_std)
+        excess = np.maximum(gyro_rms / gyro_rms_limit_rad_s, acc_std / acc_std_limit_ms2)
+        return StillnessResult(False, reason, gyro_rms, acc_std, _moving_message(excess))
 
     lo, hi = acc_norm_range_ms2
     implausible = [
@@ -227,7 +254,7 @@ def standing_calibration(
     """
     result = check_stillness(acc_ms2, gyro_rad_s, **limits)
     if not result.still:
-        raise CalibrationError(result.reason)
+        raise CalibrationError(result.message, result.reason)
     acc, gyro = _check_shapes(acc_ms2, gyro_rad_s)
     mean_acc = acc.mean(axis=0)
     return Calibration(

@@ -47,6 +47,7 @@ from gaitmon.io.protocol import (
     encode_command,
 )
 from gaitmon.io.transport import LinkError, Transport, TransportStatus
+from gaitmon.text import count
 
 
 class DeviceError(Exception):
@@ -204,8 +205,8 @@ class LinkStats:
     def describe(self) -> str:
         d = self.decoder
         return (
-            f"{self.transport.describe()} | {d.frames_ok} frames, {d.frames_lost} lost, "
-            f"{d.crc_failures} CRC errors, {self.reconnects} reconnects"
+            f"{self.transport.describe()} | {count(d.frames_ok, 'frame')}, {d.frames_lost} lost, "
+            f"{count(d.crc_failures, 'CRC error')}, {count(self.reconnects, 'reconnect')}"
         )
 
 

@@ -17,6 +17,12 @@ Every answer is a :class:`PeakWindow`: ``idx`` (row numbers, to map onto ``/time
 ``y``; a decimated answer holds two rows per bin (the bin's min then max, both at the bin's
 first row), so the drawn envelope keeps every peak that the full-rate data has. NaN values
 (device modes leave some series NaN) are ignored by the min/max; an all-NaN bin stays NaN.
+
+Gaps (lost frames) are not rows of the file: the row after a gap simply has a later time. So
+that a line is never drawn across lost data, a :class:`SessionOverview` given the gaps' rows
+(``breaks``) inserts a NaN row after the last point before each gap (:func:`break_at_gaps`), at
+every zoom level, from raw rows, a direct decimation or the pyramid alike; drawn with
+``connect='finite'`` the line stops at the gap and starts again after it.
 """
 
 from __future__ import annotations
@@ -30,7 +36,7 @@ import numpy as np
 
 from gaitmon.errors import Cancelled
 
-__all__ = ["PeakPyramid", "PeakWindow", "SessionOverview", "peak_decimate"]
+__all__ = ["PeakPyramid", "PeakWindow", "SessionOverview", "break_at_gaps", "peak_decimate"]
 
 Reader = Callable[[str, int, int], np.ndarray]  # (series name, start row, stop row) -> rows
 Progress = Callable[[float], bool | None]  # fraction done -> False to cancel
@@ -59,6 +65,40 @@ class PeakWindow:
     @property
     def decimated(self) -> bool:
         return self.step > 1
+
+
+def break_at_gaps(
+    w: PeakWindow, breaks: np.ndarray, n_lost: np.ndarray | None = None
+) -> PeakWindow:
+    """``w`` with a NaN row inserted wherever a gap falls between two of its points.
+
+    ``breaks`` are sorted row numbers ``g``: the first row after a gap (rows ``g - 1`` and
+    ``g`` are not consecutive samples); ``n_lost`` the frames each gap lost (default: many).
+    The NaN row goes after the last point of the bin that holds row ``g - 1`` (for
+    ``step == 1``: between rows ``g - 1`` and ``g``) and takes that point's row number, so the
+    x of every point is unchanged. A decimated window breaks only at gaps at least one bin
+    long: a shorter one is narrower than half a pixel, and breaking there would hatch the
+    envelope of a long session with random single-frame losses. Integer series come back as
+    float64 (NaN).
+    """
+    b = np.asarray(breaks, dtype=np.int64)
+    keep = (b > w.start) & (b < w.stop)
+    if n_lost is not None:
+        keep &= np.asarray(n_lost, dtype=np.int64) >= w.step
+    b = b[keep]
+    if not len(b) or not len(w.idx):
+        return w
+    if w.step == 1:
+        pos = b - w.start  # insert before the point of row g
+    else:
+        pos = 2 * ((b - 1 - w.start) // w.step + 1)  # after the max of the bin holding g - 1
+    pos = np.unique(pos[(pos > 0) & (pos < len(w.idx))])
+    if not len(pos):
+        return w
+    y = w.y if np.issubdtype(w.y.dtype, np.floating) else w.y.astype(np.float64)
+    idx = np.insert(w.idx, pos, w.idx[pos - 1])
+    y = np.insert(y, pos, np.nan, axis=0)
+    return PeakWindow(idx, y, w.step, w.start, w.stop)
 
 
 def _minmax_bins(y: np.ndarray, step: int) -> tuple[np.ndarray, np.ndarray]:
@@ -200,9 +240,24 @@ class SessionOverview:
     the others rather than built twice.
     """
 
-    def __init__(self, read: Reader, n_rows: int, *, base_step: int = BASE_STEP) -> None:
+    def __init__(
+        self,
+        read: Reader,
+        n_rows: int,
+        *,
+        base_step: int = BASE_STEP,
+        breaks: np.ndarray | None = None,
+        break_lost: np.ndarray | None = None,
+    ) -> None:
         self._read = read
         self.n_rows = int(n_rows)
+        # first rows after the gaps, and the frames each lost: every answer breaks its line
+        # there (see break_at_gaps)
+        b = np.asarray([] if breaks is None else breaks, dtype=np.int64)
+        lost = np.full(len(b), np.iinfo(np.int64).max) if break_lost is None else break_lost
+        order = np.argsort(b, kind="stable")
+        self.breaks = b[order]
+        self.break_lost = np.asarray(lost, dtype=np.int64)[order]
         self.base_step = base_step
         self._pyramids: dict[str, PeakPyramid] = {}
         self._locks: dict[str, threading.Lock] = {}
@@ -248,18 +303,24 @@ class SessionOverview:
         stop = max(start, min(int(stop), self.n_rows))
         n = stop - start
         if n <= max_points:
-            return PeakWindow(
+            w = PeakWindow(
                 np.arange(start, stop, dtype=np.int64),
                 self.read_rows(name, start, stop),
                 1,
                 start,
                 stop,
             )
-        need_step = math.ceil(n / (max_points // 2))
-        if need_step < self.base_step or (
+        elif math.ceil(n / (max_points // 2)) < self.base_step or (
             not self.has_pyramid(name) and n <= DIRECT_FACTOR * max_points
         ):
             # finer than the pyramid, or a moderate range: one read of the range is cheaper
             # than building the whole series' pyramid
-            return peak_decimate(self.read_rows(name, start, stop), max_points, start)
-        return self.pyramid(name, progress).query(start, stop, max_points)
+            w = peak_decimate(self.read_rows(name, start, stop), max_points, start)
+        else:
+            w = self.pyramid(name, progress).query(start, stop, max_points)
+        return break_at_gaps(w, self.breaks, self.break_lost)
+
+    def envelope(self, name: str, max_points: int) -> PeakWindow:
+        """The whole series from its (already built) pyramid, broken at the gaps."""
+        w = self.pyramid(name).query(0, self.n_rows, max_points)
+        return break_at_gaps(w, self.breaks, self.break_lost)

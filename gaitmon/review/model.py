@@ -58,11 +58,17 @@ class Source:
         heel_strike_idx: np.ndarray,
         toe_off_idx: np.ndarray,
         config: PipelineConfig,
+        gaps: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> None:
         self.label = label
         self.names = tuple(names)
         self.n_rows = n_rows
-        self.overview = SessionOverview(read, n_rows)
+        # (first row after each gap, frames it lost): lines are broken there, never drawn
+        # across lost data
+        self.gaps = gaps or (np.empty(0, np.int64), np.empty(0, np.int64))
+        self.overview = SessionOverview(
+            read, n_rows, breaks=self.gaps[0], break_lost=self.gaps[1]
+        )
         self.heel_strike_idx = np.asarray(heel_strike_idx, dtype=np.int64)
         self.toe_off_idx = np.asarray(toe_off_idx, dtype=np.int64)
         self.config = config
@@ -145,7 +151,14 @@ def open_document(path: str | Path, progress: Progress | None = None) -> Documen
             return s.read_range(a, b, [name])[name]
 
         names = [p for p in s.dataset_names if not p.startswith("timeline/")]
-        recorded = Source("recorded", read, names, n, s.heel_strike_idx, s.toe_off_idx, s.config)
+        inner = [g for g in s.gaps if 0 < g.sample_idx < n]
+        gaps = (
+            np.array([g.sample_idx for g in inner], dtype=np.int64),
+            np.array([g.n_lost for g in inner], dtype=np.int64),
+        )
+        recorded = Source(
+            "recorded", read, names, n, s.heel_strike_idx, s.toe_off_idx, s.config, gaps
+        )
         if n and recorded.has(OVERVIEW_SERIES):
             recorded.overview.pyramid(OVERVIEW_SERIES, progress=part(0.72, 1.0))
         ranges, problem = s.exclusions()
@@ -247,7 +260,9 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
     def cat(parts: list[np.ndarray]) -> np.ndarray:
         return np.concatenate(parts) if parts else np.empty(0, np.int64)
 
-    return Source("reprocessed", read, tuple(out), n, cat(hs), cat(to), config)
+    return Source(
+        "reprocessed", read, tuple(out), n, cat(hs), cat(to), config, doc.recorded.gaps
+    )
 
 
 def changed_settings(before: PipelineConfig, after: PipelineConfig) -> str:

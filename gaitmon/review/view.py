@@ -3,7 +3,8 @@
 A change of the detail range becomes a :class:`ViewRequest`; :func:`load_view` answers it on the
 timeline's worker from each source's :class:`gaitmon.io.overview.SessionOverview` (raw rows when
 few, min/max decimated otherwise) as a :class:`ViewData`. :func:`readout_html` is the line of
-values at the cursor, read from the current series at the exact row.
+values at the cursor, read from the current series at the exact row (numbers through
+:func:`gaitmon.text.num`: never a "-0.0°").
 
 Gait phases are shown on the events' time base (docs/gaps-and-time.md): the phase drawn and read
 out at row ``i`` is the recorded (causal) phase of row ``i + phase_lag`` (see
@@ -26,6 +27,7 @@ from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Ticket
 from gaitmon.review.model import JOINT, Document, Source
+from gaitmon.text import num
 
 PHASE = "processed/phase"
 
@@ -100,17 +102,17 @@ def readout_html(doc: Document, cursor_t_s: float, segment: int) -> str:
     h, rem = divmod(t, 3600)
     m, s = divmod(rem, 60)
     clock = f"{int(h)}:{int(m):02d}:{s:06.3f}" if h else f"{int(m)}:{s:06.3f}"
-    parts = [f"<b>t {t:.2f} s</b> ({clock}, row {i})"]
+    parts = [f"<b>t {num(t, 2)} s</b> ({clock}, row {i})"]
     if src.has(JOINT):
         j = src.read_rows(JOINT, i, i + 1)[0]
-        parts.append(" · ".join(f"{n} {v:+.1f}°" for n, v in zip(("hip", "knee", "ankle"),
-                                                                 j, strict=True)))  # fmt: skip
+        parts.append(" · ".join(f"{n} {num(v, 1, sign=True)}°" for n, v in
+                                zip(("hip", "knee", "ankle"), j, strict=True)))  # fmt: skip
     if src.has("processed/tilt_deg"):
         v = src.read_rows("processed/tilt_deg", i, i + 1)[0, segment]
-        parts.append(f"{SEGMENTS[segment]} tilt {v:+.1f}°")
+        parts.append(f"{SEGMENTS[segment]} tilt {num(v, 1, sign=True)}°")
     if src.has("processed/fsr_counts"):
         f = src.read_rows("processed/fsr_counts", i, i + 1)[0]
-        parts.append(f"heel {f[0]:.0f} · toe {f[1]:.0f}")
+        parts.append(f"heel {num(f[0], 0)} · toe {num(f[1], 0)}")
     if src.has(PHASE):
         ph = int(phase_on_event_time(doc, src, i, i + 1)[0])
         if 0 <= ph < len(PHASE_NAMES):

@@ -146,9 +146,12 @@ class DeviceSlots(LiveWindowBase):
         self._update_controls()
         exc = response.error
         if exc is None:
+            self.statusBar().setToolTip("")
             self.notify("Standing pose zeroed: angles now read 0 in this pose.")
         elif isinstance(exc, EngineError):
-            self.notify(f"Zero refused: {one_line(exc)}", 30_000)
+            # the clinician's sentence in the bar; the figures behind it in the tooltip
+            self.statusBar().setToolTip(getattr(exc.__cause__, "detail", "") or one_line(exc))
+            self.notify(f"Zero refused. {one_line(exc)}", 30_000)
         else:
             self.report_exception("zero", exc)
 

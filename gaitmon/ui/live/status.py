@@ -18,6 +18,7 @@ from PySide6.QtWidgets import QGridLayout, QLabel, QSizePolicy, QStatusBar, QVBo
 
 from gaitmon.engine import Mode, RecordingStatus, Snapshot
 from gaitmon.live.health import HealthTracker, link_view
+from gaitmon.text import no_gait_events
 from gaitmon.ui.plots import CyclePlots
 from gaitmon.ui.theme import Colours
 
@@ -235,9 +236,11 @@ class GaitPanel(QWidget):
         if g.n_strides != self._shown_strides:
             self._shown_strides = g.n_strides
             k = len(g.cycles_deg)
+            none = no_gait_events(str(snap.mode))  # tilt mode: no foot sensors, no strides
             self.cycle_title.setText(
                 f"Gait cycle: mean ± SD of the last {k} strides (band), current stride (line)"
                 if k
+                else f"No gait events: {none}." if none
                 else "Gait cycle: waiting for complete strides…"
-            )
+            )  # fmt: skip
         self.cycles.update_from(snap)

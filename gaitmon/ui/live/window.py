@@ -23,6 +23,7 @@ from PySide6.QtWidgets import (
     QLabel,
     QLineEdit,
     QMessageBox,
+    QSizePolicy,
     QToolBar,
     QToolButton,
     QVBoxLayout,
@@ -272,11 +273,14 @@ class MainWindow(DeviceSlots, RecordingSlots):
             # legends may be clipped on a narrow screen rather than force a wide window
             label.setMinimumWidth(40)  # overrides the text's minimum: shrinks only if needed
         bar.addStretch(1)
+        lay.addLayout(bar)
+        # a banner row of its own: in the legend's row it took the legend's width (clipping it)
+        # and widened the central area, squeezing the gait dock (kept so after a restart)
         self.pause_label = QLabel("  ❚❚ Display paused: acquisition and recording continue  ")
         self.pause_label.setStyleSheet(banner_style(self.colours, "warn"))
+        self.pause_label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         self.pause_label.setVisible(False)
-        bar.addWidget(self.pause_label)
-        lay.addLayout(bar)
+        lay.insertWidget(2, self.pause_label)
 
         self.live = LivePlots(self.colours)
         self.live.setToolTip("")

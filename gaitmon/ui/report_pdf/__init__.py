@@ -1,14 +1,17 @@
-"""The one-page clinical report drawn with Qt's own PDF support (QPdfWriter + QPainter).
+"""The clinical report drawn with Qt's own PDF support (QPdfWriter + QPainter).
 
-Content comes from :mod:`gaitmon.report` (Qt-free); this package only lays it out on an A4 page:
+Content comes from :mod:`gaitmon.report` (Qt-free); this package only lays it out on A4 pages:
 header, the three cycle plots (drawn with QPainter as vector paths, so they stay sharp at any
-zoom and need no widget), summary, stride statistics, gaps and losses, settings and
-conventions. :func:`paint_report` draws on any paint device, so the same code writes the PDF
-(:func:`write_report_pdf`) and a PNG preview (:func:`write_report_png`).
+zoom and need no widget), summary, stride statistics, session notes, gaps, losses and excluded
+ranges, markers, settings and conventions. A normal session fits one page; long notes or many
+markers, gaps or exclusions continue on further pages, never cut short. :func:`paint_report`
+draws on any paint device, so the same code writes the PDF (:func:`write_report_pdf`, every
+page) and a PNG preview (:func:`write_report_png`, the first page).
 
-This module owns the writers (PDF, image, PNG; files written atomically). The page is drawn by
-``sheet`` (the page's sections), ``cycle_plot`` (one joint's cycle plot) and ``page`` (colours,
-fonts, number formatting, ticks, the millimetre painter, :func:`ensure_gui_app`).
+This module owns the writers (PDF, image, PNG; files written atomically). The pages are drawn
+by ``sheet`` (the sections), ``flow`` (wrapped lines, rows and tables as blocks, and the
+pagination), ``cycle_plot`` (one joint's cycle plot) and ``page`` (colours, fonts, number
+formatting, ticks, the millimetre painter, :func:`ensure_gui_app`).
 
 Needs a ``QGuiApplication`` (fonts); :func:`ensure_gui_app` makes one when there is none, so
 ``gaitmon report`` runs headless on the offscreen platform with no window.
@@ -43,7 +46,7 @@ def _tmp_path(path: Path) -> Path:
 
 
 def write_report_pdf(data: ReportData, path: str | os.PathLike[str], *, dpi: int = 600) -> Path:
-    """Write the one-page A4 PDF (atomically: a temporary file renamed at the end)."""
+    """Write the A4 PDF (atomically: a temporary file renamed at the end)."""
     ensure_gui_app()
     path = Path(path)
     tmp = _tmp_path(path)
@@ -71,7 +74,7 @@ def write_report_pdf(data: ReportData, path: str | os.PathLike[str], *, dpi: int
         tmp.unlink(missing_ok=True)
         raise OSError(f"cannot write {path}")
     try:
-        paint_report(painter, writer, data)
+        paint_report(painter, writer, data, new_page=writer.newPage)
     finally:
         painter.end()
     del writer
@@ -83,7 +86,7 @@ def write_report_pdf(data: ReportData, path: str | os.PathLike[str], *, dpi: int
 
 
 def render_report_image(data: ReportData, dpi: float = 150.0) -> QImage:
-    """The page as an image (for a preview, or the README)."""
+    """The first page as an image (for a preview, or the README)."""
     ensure_gui_app()
     size = QSizeF(PAGE_W_MM / 25.4 * dpi, PAGE_H_MM / 25.4 * dpi)
     img = QImage(round(size.width()), round(size.height()), QImage.Format.Format_RGB32)

@@ -22,6 +22,7 @@ from PySide6.QtGui import (
 )
 
 from gaitmon.report import JointStat
+from gaitmon.text import num
 
 PAGE_W_MM, PAGE_H_MM = 210.0, 297.0
 MARGIN_MM = 14.0
@@ -59,8 +60,8 @@ def ensure_gui_app() -> QGuiApplication:
 
 
 def fmt(v: float, decimals: int = 1) -> str:
-    """A number with a true minus sign; a dash when there is none (NaN)."""
-    return "–" if not np.isfinite(v) else f"{v:.{decimals}f}".replace("-", "−")
+    """A number with a true minus sign and no negative zero; a dash when there is none (NaN)."""
+    return num(v, decimals, minus="−")
 
 
 def fmt_pm(mean: float, sd: float, decimals: int = 1, unit: str = "") -> str:
@@ -76,11 +77,6 @@ def fmt_pm(mean: float, sd: float, decimals: int = 1, unit: str = "") -> str:
 def fmt_stat(s: JointStat, decimals: int = 1, unit: str = "") -> str:
     """A per-stride figure as "mean ± SD unit"."""
     return fmt_pm(s.mean_deg, s.sd_deg, decimals, unit)
-
-
-def cut(text: str, n: int) -> str:
-    """``text`` shortened to at most ``n`` characters, with an ellipsis when shortened."""
-    return text if len(text) <= n else text[: n - 1].rstrip() + "…"
 
 
 def nice_ticks(lo: float, hi: float, target: int = 5) -> np.ndarray:
@@ -104,6 +100,10 @@ class Page:
         self.p = painter
         self.dev = device
         self.k = px_per_mm
+        self.page = 0  # the page being drawn (0 = the first)
+        self.n_pages = 1
+        # every text drawn: (page, x, y, w, h) of its box in mm and the text (layout checks)
+        self.boxes: list[tuple[int, float, float, float, float, str]] = []
 
     def mm(self, v: float) -> float:
         return v * self.k
@@ -151,6 +151,7 @@ class Page:
         self.p.setFont(font)
         self.p.setPen(colour)
         r = self.rect(x, y, w, h)
+        self.boxes.append((self.page, x, y, w, h, text))
         if elide:
             text = QFontMetricsF(font, self.dev).elidedText(
                 text, Qt.TextElideMode.ElideRight, r.width()
@@ -178,6 +179,7 @@ class Page:
         fm = QFontMetricsF(font, self.dev)
         br = fm.boundingRect(QRectF(0, 0, self.mm(w), 1e6), flags, text)
         r = QRectF(self.mm(x), self.mm(y), self.mm(w), br.height() + 1)
+        self.boxes.append((self.page, x, y, w, br.height() / self.k, text))
         self.p.drawText(r, flags, text)
         return br.height() / self.k
 

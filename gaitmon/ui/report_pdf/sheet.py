@@ -1,23 +1,28 @@
-"""The report's content laid out on the A4 page: :func:`paint_report` and one function per
-section of the page (title, header grid, cycle plots, summary and stride statistics, data
-quality, settings and conventions, footer with the clinician's comments), with the key-value
-rows and tables they are made of.
+"""The report's content laid out on A4 pages: :func:`paint_report` and one function per
+section (title, header grid, cycle plots, summary and stride statistics; then session notes,
+data quality with every gap and excluded range, markers, settings and conventions, and the
+clinician's comments), with the key-value rows and tables they are made of.
 
-Each section draws from its top ``y`` (mm) across the text column and returns the ``y`` below
-it, so the sections stack in order and the page stays one page.
+The head of page 1 has a fixed size: each of its sections draws from its top ``y`` (mm) and
+returns the ``y`` below it. The rest is a flow of blocks (:mod:`~gaitmon.ui.report_pdf.flow`)
+that continues on further pages when it does not fit, so nothing is ever cut short; every page
+has the footer ("page k of n") and a continuation page a one-line header.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QColor, QPaintDevice, QPainter
 
-from gaitmon.analysis import FIRST, GAP, LAST, USER
-from gaitmon.report import JOINT_TITLES, ReportData, ReportHeader
+from gaitmon.analysis import FIRST, GAP, LAST, MAX_GAP_S, USER
+from gaitmon.report import JOINT_TITLES, GapSpan, ReportData, ReportHeader
+from gaitmon.text import count, no_gait_events
+from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.cycle_plot import draw_cycle_plot
+from gaitmon.ui.report_pdf.flow import Block, Column
 from gaitmon.ui.report_pdf.page import (
     ACCENT,
     MARGIN_MM,
@@ -27,7 +32,6 @@ from gaitmon.ui.report_pdf.page import (
     RULE,
     SHADE,
     Page,
-    cut,
     fmt,
     fmt_pm,
     fmt_stat,
@@ -36,6 +40,12 @@ from gaitmon.ui.report_pdf.page import (
 # the text column every section spans
 LEFT_MM, RIGHT_MM = MARGIN_MM, PAGE_W_MM - MARGIN_MM
 WIDTH_MM = RIGHT_MM - LEFT_MM
+FOOTER_MM = PAGE_H_MM - 12.0  # the footer's rule; nothing else is drawn below FOOTER_MM - 2
+CONTINUED_TOP_MM = 22.0  # where the flow starts on a continuation page
+# Lists longer than this are not written out one by one (an 8-hour session with 2 % random
+# loss has ~60 000 one-frame gaps: hundreds of pages); the report then says how many more there
+# are and what they add up to.
+MAX_LISTED = 400
 
 
 def _kv_rows(
@@ -103,8 +113,17 @@ def _table(
     return y
 
 
-def paint_report(painter: QPainter, device: QPaintDevice, data: ReportData) -> None:
-    """Draw the whole A4 page on ``device`` (its full area is the page)."""
+def paint_report(
+    painter: QPainter,
+    device: QPaintDevice,
+    data: ReportData,
+    new_page: Callable[[], object] | None = None,
+) -> Page:
+    """Draw the report on ``device`` (its full area is one A4 page).
+
+    ``new_page`` starts the next page of a multi-page device (``QPdfWriter.newPage``); without
+    it only the first page is drawn (an image preview). Returns the :class:`Page` (its
+    ``boxes`` record where each text went; the number of pages is ``n_pages``)."""
     p = Page(painter, device, device.width() / PAGE_W_MM)
     painter.setRenderHint(QPainter.RenderHint.TextAntialiasing, True)
     painter.fillRect(p.rect(0, 0, PAGE_W_MM, PAGE_H_MM), QColor("#ffffff"))
@@ -112,9 +131,42 @@ def paint_report(painter: QPainter, device: QPaintDevice, data: ReportData) -> N
     y = _header_grid(p, data.header, y)
     y = _cycle_plots(p, data, y)
     y = _summary_and_stride_statistics(p, data, y)
-    y = _data_quality(p, data, y)
-    y = _settings_and_conventions(p, data, y)
-    _footer(p, y)
+    blocks = [
+        *_session_notes(p, data),
+        *_data_quality(p, data),
+        *_markers(p, data),
+        *_settings_and_conventions(p, data),
+    ]
+    bottom = FOOTER_MM - 3.0
+    pages = flow.paginate(blocks, y, CONTINUED_TOP_MM, bottom)
+    last_y = pages[-1][-1][0] + pages[-1][-1][1].height_mm if pages[-1] else y
+    p.n_pages = len(pages)
+    for k, placed in enumerate(pages):
+        if k:
+            if new_page is None:
+                break
+            new_page()
+            p.page = k
+            painter.fillRect(p.rect(0, 0, PAGE_W_MM, PAGE_H_MM), QColor("#ffffff"))
+            _continued(p, data)
+        for by, block in placed:
+            block.draw(p, by)
+        if k == len(pages) - 1:
+            _comments(p, last_y)
+        _footer(p, k, len(pages))
+    return p
+
+
+def _continued(p: Page, data: ReportData) -> None:
+    """The head of a continuation page: whose report it is."""
+    h = data.header
+    who = h.patient_id or "no patient ID"
+    p.text(LEFT_MM, 11.0, WIDTH_MM * 0.6, 6.0, "Gait analysis report (continued)", 11.0,
+           bold=True, colour=ACCENT)  # fmt: skip
+    p.text(LEFT_MM + WIDTH_MM * 0.5, 11.5, WIDTH_MM * 0.5, 4.0,
+           f"{who} · recorded {h.recorded_utc or 'unknown'}", 7.5, colour=MUTED,
+           align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)  # fmt: skip
+    p.hline(LEFT_MM, RIGHT_MM, 18.0, ACCENT, 0.6)
 
 
 def _title(p: Page, data: ReportData) -> float:
@@ -185,6 +237,8 @@ def _cycle_plots(p: Page, data: ReportData, y: float) -> float:
         f"Mean ± 1 SD of {n} included strides (blue band), individual strides faint; dashed "
         f"line: mean toe off at {fmt(data.toe_off_pct)} % of the cycle."
         if n
+        else f"No gait events: {no_gait_events(data.header.mode)}."
+        if no_gait_events(data.header.mode)
         else "No included strides: nothing to average."
     )
     if data.normative is not None:
@@ -192,7 +246,7 @@ def _cycle_plots(p: Page, data: ReportData, y: float) -> float:
     y += p.wrapped(LEFT_MM, y, WIDTH_MM, sub, 7.5, colour=MUTED) + 1.2
     gap = 5.0
     pw = (WIDTH_MM - 2 * gap) / 3
-    ph = 74.0
+    ph = 68.0
     for j in range(3):
         draw_cycle_plot(p, data, j, LEFT_MM + j * (pw + gap), y, pw, ph)
     return y + (ph + 5.0)
@@ -248,56 +302,170 @@ def _summary_and_stride_statistics(p: Page, data: ReportData, y: float) -> float
     return max(ya, yb) + 5.0
 
 
-def _data_quality(p: Page, data: ReportData, y: float) -> float:
-    """Gaps, losses and exclusions."""
-    y = p.section(LEFT_MM, y, WIDTH_MM, "Data quality: gaps, losses and exclusions")
+def _session_notes(p: Page, data: ReportData) -> list[Block]:
+    """The notes typed in the record form, in full."""
+    if not data.session_notes:
+        return []
+    return [
+        flow.heading(p, LEFT_MM, WIDTH_MM, "Session notes"),
+        *flow.paragraph(p, LEFT_MM + 1.2, WIDTH_MM - 2.4, data.session_notes, 8.0),
+        flow.gap(3.0),
+    ]
+
+
+def _link_line(data: ReportData) -> str:
     lo = data.losses
     link = (
-        f"{lo.frames_lost} frames lost in {lo.n_gaps} gaps"
-        + (f" (longest {lo.longest_gap_s:.2f} s)" if lo.n_gaps else "")
-        + f"; {lo.outages} link outage{'s' if lo.outages != 1 else ''}"
-        + (f" ({lo.outage_s:.1f} s in total)" if lo.outages else "")
-        + f"; {lo.crc_failures} CRC failures; {lo.reconnects} reconnects"
+        f"{count(lo.frames_lost, 'frame')} lost in {count(lo.n_gaps, 'gap')}"
+        + (f" (longest {fmt(lo.longest_gap_s, 2)} s)" if lo.n_gaps else "")
+        + f"; {count(lo.outages, 'link outage')}"
+        + (f" ({fmt(lo.outage_s)} s in total)" if lo.outages else "")
+        + f"; {count(lo.crc_failures, 'CRC failure')}; {count(lo.reconnects, 'reconnect')}"
     )
     if lo.queue_overflow_frames:
-        link += f"; {lo.queue_overflow_frames} frames dropped by a full queue"
+        link += f"; {count(lo.queue_overflow_frames, 'frame')} dropped by a full queue"
+    if lo.invalid_values:
+        link += f"; {count(lo.invalid_values, 'invalid value')}"
+    return link
+
+
+def _data_quality(p: Page, data: ReportData) -> list[Block]:
+    """Gaps, losses and exclusions: the counts, then every gap and excluded range."""
+    lo = data.losses
     names = {
         FIRST: "first stride (start-up)",
         LAST: "last stride (stopping)",
-        GAP: "crosses a gap > 50 ms",
+        GAP: f"crosses a gap > {1000 * MAX_GAP_S:.0f} ms",
         USER: "in a range excluded by the user",
     }
-    excl = ", ".join(f"{names.get(k, k)} {v}" for k, v in lo.excluded.items()) or "none"
-    rows = [("Link", link), ("Strides excluded", excl)]
-    if lo.excluded_ranges:
-        rows.append(("Excluded ranges", f"{len(lo.excluded_ranges)} range(s) chosen in review"))
-    notes = [*data.notes, *lo.problems]
-    if len(notes) > 3:  # keep the page to one page whatever the reader found
-        notes = [*notes[:2], f"and {len(notes) - 2} more (see gaitmon info)"]
-    rows += [("Note", note) for note in notes]
-    return _kv_rows(p, LEFT_MM, y, WIDTH_MM, rows, label_w=29.0) + 5.0
+    excl = ", ".join(f"{names.get(k, k)}: {v}" for k, v in lo.excluded.items()) or "none"
+    rows = [("Link", _link_line(data)), ("Strides excluded", excl)]
+    if data.excluded_spans:
+        rows.append(("Excluded ranges", f"{count(len(data.excluded_spans), 'range')} chosen "
+                     "in review (listed below)"))  # fmt: skip
+    rows += [("Note", note) for note in (*data.notes, *lo.problems)]
+    blocks = [flow.heading(p, LEFT_MM, WIDTH_MM, "Data quality: gaps, losses and exclusions")]
+    for k, (label, value) in enumerate(rows):
+        blocks += flow.kv_row(p, LEFT_MM, WIDTH_MM, label, value, shaded=k % 2 == 0)
+    blocks += _gap_list(p, data)
+    blocks += _excluded_list(p, data)
+    blocks.append(flow.gap(3.0))
+    return blocks
 
 
-def _settings_and_conventions(p: Page, data: ReportData, y: float) -> float:
-    y = p.section(LEFT_MM, y, WIDTH_MM, "Settings and conventions in force")
-    for label, value in data.settings:
-        p.text(LEFT_MM + 1.2, y, 29.0, 4.0, label, 7.5, colour=MUTED)
-        y += max(4.0, p.wrapped(LEFT_MM + 30.2, y + 0.35, WIDTH_MM - 31.4, value, 7.5)) + 0.6
-    for k, line in enumerate(data.conventions):
-        p.text(LEFT_MM + 1.2, y, 29.0, 4.0, "Conventions" if k == 0 else "", 7.5, colour=MUTED)
-        y += max(4.0, p.wrapped(LEFT_MM + 30.2, y + 0.35, WIDTH_MM - 31.4, line, 7.5)) + 0.6
+def _longest_first(items: Sequence[GapSpan]) -> tuple[list[GapSpan], list[GapSpan]]:
+    """(listed, left out): the MAX_LISTED longest, in time order, and the rest."""
+    if len(items) <= MAX_LISTED:
+        return list(items), []
+    order = sorted(range(len(items)), key=lambda i: -items[i].duration_s)
+    keep = set(order[:MAX_LISTED])
+    return ([g for i, g in enumerate(items) if i in keep],
+            [g for i, g in enumerate(items) if i not in keep])  # fmt: skip
+
+
+def _gap_list(p: Page, data: ReportData) -> list[Block]:
+    """Every gap: outages (longer than MAX_GAP_S) in a table, short losses grouped by size."""
+    if not data.gaps:
+        return []
+    long = [g for g in data.gaps if g.duration_s > MAX_GAP_S + 1e-9]
+    short = [g for g in data.gaps if g.duration_s <= MAX_GAP_S + 1e-9]
+    blocks: list[Block] = [flow.gap(1.5)]
+    if long:
+        listed, rest = _longest_first(long)
+        blocks.append(flow.subheading(LEFT_MM, WIDTH_MM,
+                                      f"Gaps longer than {1000 * MAX_GAP_S:.0f} ms (lost data)"))
+        cols = (Column("from (s)", 22.0, True), Column("to (s)", 22.0, True),
+                Column("duration (s)", 24.0, True), Column("frames lost", 22.0, True),
+                Column("cause", WIDTH_MM - 90.0))  # fmt: skip
+        blocks += flow.table(p, LEFT_MM, cols, [
+            (fmt(g.from_s, 2), fmt(g.to_s, 2), fmt(g.duration_s, 2), str(g.n_lost), g.reason)
+            for g in listed
+        ])  # fmt: skip
+        if rest:
+            blocks += flow.paragraph(
+                p, LEFT_MM + 1.2, WIDTH_MM - 2.4,
+                f"{count(len(rest), 'shorter gap')} of more than {1000 * MAX_GAP_S:.0f} ms "
+                f"({fmt(sum(g.duration_s for g in rest), 2)} s in total) are not listed one by "
+                "one; the review window shades every gap.", 7.5, colour=MUTED)  # fmt: skip
+        blocks.append(flow.gap(1.5))
+    if short:
+        blocks.append(flow.subheading(
+            LEFT_MM, WIDTH_MM,
+            f"Short gaps (up to {1000 * MAX_GAP_S:.0f} ms each; strides across them are kept)"))
+        sizes = sorted({g.n_lost for g in short})
+        left = MAX_LISTED
+        for n in sizes:
+            of_size = [g for g in short if g.n_lost == n]
+            shown = of_size[: max(0, left)]
+            left -= len(shown)
+            dur = of_size[0].duration_s
+            text = (f"{count(n, 'frame')} ({fmt(1000 * dur, 0)} ms) lost at "
+                    + ", ".join(fmt(g.from_s, 2) for g in shown) + " s")  # fmt: skip
+            if len(shown) < len(of_size):
+                more = len(of_size) - len(shown)
+                text += (f"; and {count(more, 'more gap')} of this size "
+                         f"({fmt(more * dur, 2)} s in total), not listed one by one")  # fmt: skip
+            blocks += flow.paragraph(p, LEFT_MM + 1.2, WIDTH_MM - 2.4, text, 7.0, after_mm=0.6)
+    return blocks
+
+
+def _excluded_list(p: Page, data: ReportData) -> list[Block]:
+    if not data.excluded_spans:
+        return []
+    cols = (Column("from (s)", 22.0, True), Column("to (s)", 22.0, True),
+            Column("strides left out", 26.0, True), Column("reason", WIDTH_MM - 70.0))  # fmt: skip
+    return [
+        flow.gap(1.5),
+        flow.subheading(LEFT_MM, WIDTH_MM, "Ranges excluded in review"),
+        *flow.table(
+            p,
+            LEFT_MM,
+            cols,
+            [
+                (fmt(e.from_s, 2), fmt(e.to_s, 2), str(e.n_strides), e.reason)
+                for e in data.excluded_spans
+            ],
+        ),
+    ]
+
+
+def _markers(p: Page, data: ReportData) -> list[Block]:
+    """Every marker, time and label, in two columns (read across)."""
+    if not data.markers:
+        return []
+    half = (WIDTH_MM - 6.0) / 2
+    cols = (Column("time (s)", 20.0, True), Column("label", half - 20.0), Column("", 6.0),
+            Column("time (s)", 20.0, True), Column("label", half - 20.0))  # fmt: skip
+    ms = list(data.markers)
+    rows = []
+    for k in range(0, len(ms), 2):
+        a = ms[k]
+        b = ms[k + 1] if k + 1 < len(ms) else None
+        rows.append((fmt(a.t_s, 2), a.label or "(no label)", "",
+                     fmt(b.t_s, 2) if b else "", (b.label or "(no label)") if b else ""))
+    return [
+        flow.heading(p, LEFT_MM, WIDTH_MM, f"Markers ({len(ms)})"),
+        *flow.table(p, LEFT_MM, cols, rows),
+        flow.gap(3.0),
+    ]
+
+
+def _settings_and_conventions(p: Page, data: ReportData) -> list[Block]:
+    blocks = [flow.heading(p, LEFT_MM, WIDTH_MM, "Settings and conventions in force")]
+    rows = list(data.settings)
+    rows += [("Conventions" if k == 0 else "", line) for k, line in enumerate(data.conventions)]
     if data.normative is not None:
         nb = data.normative
-        p.text(LEFT_MM + 1.2, y, 29.0, 4.0, "Reference band", 7.5, colour=MUTED)
-        ref = f"{nb.label}; source: {cut(nb.source, 420)}; licence: {cut(nb.licence, 120)}"
-        y += max(4.0, p.wrapped(LEFT_MM + 30.2, y + 0.35, WIDTH_MM - 31.4, ref, 7.5)) + 0.6
-    return y
+        rows.append(("Reference band", f"{nb.label}; source: {nb.source}; licence: {nb.licence}"))
+    for label, value in rows:
+        blocks += flow.kv_row(p, LEFT_MM, WIDTH_MM, label, value, size_pt=7.0)
+    return blocks
 
 
-def _footer(p: Page, y: float) -> None:
-    """The footer, and the clinician's comments in the space left above it."""
+def _comments(p: Page, y: float) -> None:
+    """The clinician's comments, in the space left above the footer of the last page."""
     painter = p.p
-    fy = PAGE_H_MM - 12.0
+    fy = FOOTER_MM
     y += 4.0
     if fy - 4.0 - y >= 16.0:
         y = p.section(LEFT_MM, y, WIDTH_MM, "Clinician's comments")
@@ -314,6 +482,10 @@ def _footer(p: Page, y: float) -> None:
             colour=MUTED,
             align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
         )
+
+
+def _footer(p: Page, page: int, n_pages: int) -> None:
+    fy = FOOTER_MM
     p.hline(LEFT_MM, RIGHT_MM, fy, RULE, 0.25)
     p.text(
         LEFT_MM,
@@ -330,7 +502,7 @@ def _footer(p: Page, y: float) -> None:
         fy + 0.8,
         WIDTH_MM * 0.2,
         4.0,
-        "page 1 of 1",
+        f"page {page + 1} of {n_pages}",
         6.5,
         colour=MUTED,
         align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,

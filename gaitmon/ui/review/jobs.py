@@ -138,7 +138,7 @@ def save_request(src: Path, dst: Path, config: PipelineConfig) -> Callable[[Tick
 def report_request(doc: Document, bands: NormativeBands | None) -> Callable[[Ticket], ReportReady]:
     from gaitmon.report import gather_report
 
-    ranges = [(r.start_idx, r.stop_idx) for r in doc.exclusions]
+    ranges = list(doc.exclusions)  # with their labels: the report gives them as the reasons
 
     def job(ticket: Ticket) -> ReportReady:
         return ReportReady(doc, gather_report(doc.session, normative=bands, excluded_ranges=ranges))
@@ -272,7 +272,7 @@ class ReviewJobs(QMainWindow):
         note = ""
         if doc.reprocessed is not None:
             note = changed_settings(doc.recorded.config, doc.reprocessed.config)
-        self.summary.setText(summary_html(a, b, note))
+        self.summary.setText(summary_html(a, b, note, doc.session.mode))
         self.cycles.set_analysis(a, b if self.act["compare"].isChecked() else None)
         self.analysis_done.emit()
 

@@ -1,7 +1,8 @@
 """The pieces the review timeline is drawn with: the time axis, the shaded spans, the lane's
 mouse handling, and what a lane holds.
 
-* :class:`TimeAxis` - seconds from the session start, h:mm:ss once ticks are a minute apart;
+* :class:`TimeAxis` - seconds from the session start, m:ss once ticks are a minute apart,
+  titled with the unit the ticks are in ("time (s)");
 * :class:`ShadeItem` - vertical bands in named layers (gaps, exclusions, selection, the picked
   stride), drawing only the spans in view;
 * :class:`LaneViewBox` - x pan/zoom, Shift+drag selects a range, a click places the cursor;
@@ -17,7 +18,7 @@ from typing import Any
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import QRectF, Qt, Signal
+from PySide6.QtCore import QRectF, Qt, QTimer, Signal
 from PySide6.QtGui import QBrush, QColor, QPainter, QPen
 from PySide6.QtWidgets import QGraphicsItem
 
@@ -35,9 +36,35 @@ def line_pen(colour: QColor, *, dashed: bool = False) -> QPen:
 
 
 class TimeAxis(pg.AxisItem):  # type: ignore[misc]  # pyqtgraph is untyped
-    """Seconds from the session start, written h:mm:ss once the ticks are a minute apart."""
+    """Seconds from the session start, written h:mm:ss once the ticks are a minute apart; the
+    axis title (when shown) names the unit the ticks are written in."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.titled = False
+        self.unit = "s"
+
+    def set_titled(self, on: bool) -> None:
+        """Show the axis title ("time (s)") under the ticks."""
+        self.titled = bool(on)
+        self.setLabel(self.title() if on else None)
+
+    def title(self) -> str:
+        return f"time ({self.unit})"
+
+    def _retitle(self) -> None:
+        if self.titled:
+            self.setLabel(self.title())
 
     def tickStrings(self, values: list[float], scale: float, spacing: float) -> list[str]:
+        if spacing < 60:
+            unit = "s"
+        else:
+            unit = "h:mm:ss" if max((abs(v) for v in values), default=0.0) >= 3600 else "m:ss"
+        if unit != self.unit:
+            self.unit = unit
+            # not while the axis is being laid out: a new title changes its height
+            QTimer.singleShot(0, self._retitle)
         if spacing < 60:
             return super().tickStrings(values, scale, spacing)
         out = []

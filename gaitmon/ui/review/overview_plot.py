@@ -56,7 +56,8 @@ class OverviewPlot:
             ov = doc.recorded.overview
         if not ov.has_pyramid(OVERVIEW_SERIES):
             return
-        w = ov.pyramid(OVERVIEW_SERIES).query(0, doc.n_rows, 2 * max(MIN_POINTS, width_px))
+        # broken at the gaps (NaN rows), so no line is drawn across lost data
+        w = ov.envelope(OVERVIEW_SERIES, 2 * max(MIN_POINTS, width_px))
         x = doc.t_s[np.minimum(w.idx, doc.n_rows - 1)]
         y = w.y[:, 1].astype(np.float64)
         self.curve.setData(x, y, connect="finite")

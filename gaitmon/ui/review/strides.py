@@ -15,29 +15,34 @@ from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableView
 
 from gaitmon.analysis import StrideRow
 from gaitmon.review.model import Analysis
+from gaitmon.text import no_gait_events, num
 from gaitmon.ui.theme import Colours
 
-# (header, tooltip)
+# (header, tooltip, widest value): two-line headers and widths from the widest value, so the
+# whole table, status included, fits beside the summary at 1500 px without scrolling
 COLUMNS = (
-    ("#", "stride number"),
-    ("start s", "heel strike that starts the stride, seconds from the session start"),
-    ("stride s", "heel strike to the next heel strike of the same foot"),
-    ("stance s", "heel strike to toe off"),
-    ("swing s", "toe off to the next heel strike"),
-    ("stance %", "stance time as % of the stride"),
-    ("swing %", "swing time as % of the stride"),
-    ("knee peak °", "peak knee flexion between toe off and the next heel strike"),
-    ("hip ROM °", "range of motion of the hip over the stride"),
-    ("knee ROM °", "range of motion of the knee over the stride"),
-    ("ankle ROM °", "range of motion of the ankle over the stride"),
-    ("status", "included in the statistics, or why not"),
-)
+    ("#", "stride number", "0000"),
+    ("start\ns", "heel strike that starts the stride, seconds from the session start",
+     "00000.00"),
+    ("stride\ns", "heel strike to the next heel strike of the same foot", "0.000"),
+    ("stance\ns", "heel strike to toe off", "0.000"),
+    ("swing\ns", "toe off to the next heel strike", "0.000"),
+    ("stance\n%", "stance time as % of the stride", "00.0"),
+    ("swing\n%", "swing time as % of the stride", "00.0"),
+    ("knee\npeak °", "peak knee flexion between toe off and the next heel strike", "000.0"),
+    ("hip\nROM °", "range of motion of the hip over the stride", "000.0"),
+    ("knee\nROM °", "range of motion of the knee over the stride", "000.0"),
+    ("ankle\nROM °", "range of motion of the ankle over the stride", "000.0"),
+    ("status", "included in the statistics, or why not", "excluded: excluded range"),
+)  # fmt: skip
 
 _Index = QModelIndex | QPersistentModelIndex
 
 
 def _f(x: float, spec: str) -> str:
-    return "–" if not math.isfinite(x) else format(x, spec)
+    """``x`` with the decimals of ``spec`` (".2f"): the shared formatter (no "-0.0", a dash
+    for NaN)."""
+    return num(x, int(spec.strip(".f")))
 
 
 class StrideModel(QAbstractTableModel):
@@ -136,10 +141,10 @@ class StrideTable(QTableView):
         # widths from the header text and the widest number (resizeColumnsToContents would
         # measure every one of an 8-hour session's ~26 000 rows)
         fm = hh.fontMetrics()
-        for col, (title, _tip) in enumerate(COLUMNS[:-1]):
-            sample = "0000" if col == 0 else "00000.00"
-            width = max(fm.horizontalAdvance(title), fm.horizontalAdvance(sample)) + 18
-            self.setColumnWidth(col, width)
+        for col, (title, _tip, sample) in enumerate(COLUMNS):
+            lines = [*title.split("\n"), sample]
+            self.setColumnWidth(col, max(fm.horizontalAdvance(t) for t in lines) + 14)
+        self.status_width_px = self.columnWidth(len(COLUMNS) - 1)
         self.setToolTip("Click a stride to show it on the timeline. Greyed: not in the statistics.")
         self.clicked.connect(lambda idx: self.stride_picked.emit(idx.row()))
         self.activated.connect(lambda idx: self.stride_picked.emit(idx.row()))
@@ -148,10 +153,16 @@ class StrideTable(QTableView):
         self.model_.set_rows(rows, start_t_s)
 
 
-def summary_html(a: Analysis | None, before: Analysis | None = None, note: str = "") -> str:
-    """The summary panel's text: included strides only (derived cadence labelled as such)."""
+def summary_html(
+    a: Analysis | None, before: Analysis | None = None, note: str = "", mode: str = ""
+) -> str:
+    """The summary panel's text: included strides only (derived cadence labelled as such);
+    for a recording in a mode without foot-sensor data, why there are no strides."""
     if a is None:
         return "<i>No session open.</i>"
+    none = no_gait_events(mode)
+    if none and not a.rows:
+        return f"<p><b>No gait events.</b> {none[0].upper()}{none[1:]}.</p>"
     s = a.summary
     n_all = len(a.rows)
 
@@ -168,13 +179,13 @@ def summary_html(a: Analysis | None, before: Analysis | None = None, note: str =
             + ".</p>"
         )
     else:
-        sd = "" if not math.isfinite(s.stride_time_sd_s) else f" ± {s.stride_time_sd_s:.3f}"
+        sd = "" if not math.isfinite(s.stride_time_sd_s) else f" ± {num(s.stride_time_sd_s, 3)}"
         knee = [r.knee_peak_swing_deg for r in a.rows if r.included]
         knee_ok = [k for k in knee if math.isfinite(k)]
         knee_mean = sum(knee_ok) / len(knee_ok) if knee_ok else math.nan
         rows = [
             ("Strides analysed", f"<b>{s.n_strides}</b> of {n_all} ({a.n_excluded} excluded)"),
-            ("Stride time", f"{s.stride_time_mean_s:.3f}{sd} s"),
+            ("Stride time", f"{num(s.stride_time_mean_s, 3)}{sd} s"),
             ("CV of stride time",
              cmp(s.stride_time_cv_pct, b.stride_time_cv_pct if b else None, ".1f") + " %"),
             ("Stance",

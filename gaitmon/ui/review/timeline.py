@@ -38,6 +38,7 @@ from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Response
 from gaitmon.review.model import JOINT, Document, Source
 from gaitmon.review.view import ViewData, ViewRequest, load_view, readout_html
+from gaitmon.text import no_gait_events
 from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_band
 from gaitmon.ui.plots import vertical_lines as _vlines
@@ -234,6 +235,7 @@ class Timeline(QWidget):
             lane.plot.addItem(lane.missing, ignoreBounds=True)
         self._marker_labels: list[pg.TextItem] = []
         self.master.sigXRangeChanged.connect(self._detail_range_changed)
+        self.master.sigYRangeChanged.connect(self._place_marker_labels)
         self._update_bottom_axes()
 
     @property
@@ -250,7 +252,7 @@ class Timeline(QWidget):
             ax = ln.plot.getAxis("bottom")
             ax.setStyle(showValues=last)
             ax.setHeight(None if last else 4)
-            ax.setLabel("time from the start of the session" if last else None)
+            ax.set_titled(last)  # "time (s)", from the start of the session
 
     # -- options -------------------------------------------------------------------------------
 
@@ -334,7 +336,10 @@ class Timeline(QWidget):
             primary = [s for s, _ in lane.specs if s.method in ("", "kalman") and not s.before]
             absent = bool(primary) and not any(src.has(s.series) for s in primary)
             if lane.missing is not None:
-                lane.missing.setText(f"not recorded in mode {doc.session.mode!r}" if absent else "")
+                why = f"not recorded in mode {doc.session.mode!r}"
+                if lane.key == "fsr" and no_gait_events(doc.session.mode):
+                    why = f"no gait events: {no_gait_events(doc.session.mode)}"
+                lane.missing.setText(why if absent else "")
                 lane.missing.setVisible(absent)
         self.refresh_overview()
         self.refresh_shading()
@@ -386,9 +391,19 @@ class Timeline(QWidget):
         hip = self.lanes["hip"].plot
         for m in ms:
             item = pg.TextItem(m.label or "marker", color=self.colours.marker, anchor=(0, 0))
-            item.setPos(m.t_s, self.lanes["hip"].yrange[1])
+            item.setToolTip(f"marker at {m.t_s:.2f} s: {m.label or '(no label)'}")
             hip.addItem(item, ignoreBounds=True)
             self._marker_labels.append(item)
+        self._place_marker_labels()
+
+    def _place_marker_labels(self, *_args: object) -> None:
+        """Marker labels hang from the top of the hip lane's current y range (they were placed
+        at its nominal top, above the fitted view, and never seen)."""
+        if not self._marker_labels or self.doc is None:
+            return
+        top = self.lanes["hip"].plot.getViewBox().viewRange()[1][1]
+        for m, item in zip(self.doc.session.markers, self._marker_labels, strict=False):
+            item.setPos(m.t_s, top)
 
     # -- view range ----------------------------------------------------------------------------
 
@@ -509,9 +524,15 @@ class Timeline(QWidget):
         self._draw_events(cur, req)
         fsr = self.lanes["fsr"]
         phase = resp.phase
+        if phase is not None and len(phase):
+            x = t_s[req.start : req.stop]
+            # a band never spans lost data: an off sample at the last time before each gap
+            g = cur.gaps[0]
+            g = g[(g > req.start) & (g < req.stop)] - req.start
+            x = np.insert(x, g, x[g - 1])
+            phase = np.insert(phase.astype(np.int16), g, -1)
         for tr, k in fsr.bands:
             if phase is not None and len(phase):
-                x = t_s[req.start : req.stop]
                 tr.set(*step_band(x, phase == k, FSR_RANGE[1], FSR_RANGE[0]))
             else:
                 tr.clear()

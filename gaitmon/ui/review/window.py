@@ -31,6 +31,7 @@ from PySide6.QtWidgets import QFileDialog, QLabel, QSplitter, QVBoxLayout, QWidg
 from gaitmon import __version__
 from gaitmon.io.session import exclusions as excl
 from gaitmon.review.model import Document
+from gaitmon.text import count, no_gait_events, num
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SettingsDialog
@@ -124,7 +125,7 @@ class ReviewWindow(ReviewJobs):
         bottom.setStretchFactor(0, 5)
         bottom.setStretchFactor(1, 2)
         bottom.setStretchFactor(2, 3)
-        bottom.setSizes([700, 260, 420])
+        bottom.setSizes([760, 250, 400])
         self.bottom = bottom
         split = QSplitter(Qt.Orientation.Vertical)
         split.addWidget(self.timeline)
@@ -190,9 +191,10 @@ class ReviewWindow(ReviewJobs):
         state = "complete" if s.complete else ("recovered" if s.recovered else "incomplete")
         self.setWindowTitle(f"gaitmon — review — {doc.path.name}")
         self.status.message(
-            f"{doc.path.name}: {who}, side {s.meta.side or '-'}, {doc.n_rows} frames "
-            f"({s.duration_s or doc.n_rows / doc.fs_hz:.0f} s), mode {s.mode}, {state}; "
-            f"{len(s.gaps)} gaps, {len(s.markers)} markers",
+            f"{doc.path.name}: {who}, side {s.meta.side or '-'}, {count(doc.n_rows, 'frame')} "
+            f"({num(s.duration_s or doc.n_rows / doc.fs_hz, 0)} s), mode {s.mode}, {state}; "
+            f"{count(len(s.gaps), 'gap')}, {count(len(s.markers), 'marker')}"
+            + (f"; no gait events: {no_gait_events(s.mode)}" if no_gait_events(s.mode) else ""),
             20_000,
         )
         if not doc.n_rows:
@@ -364,7 +366,7 @@ class ReviewWindow(ReviewJobs):
         except OSError as e:
             where = f"not kept: {e.strerror or e}; they apply until the file is closed"
         n = len(doc.exclusions)
-        self.status.message(f"{n} excluded range{'s' if n != 1 else ''}, {where}", 8000)
+        self.status.message(f"{count(n, 'excluded range')}, {where}", 8000)
         self.timeline.refresh_shading()
         self._update_actions()
         self.run_analysis()

@@ -1,0 +1,141 @@
+"""Lost data look lost in review: no line is drawn across a gap, at any zoom level.
+
+A gap is not a row of the file (the row after it simply has a later time), so a plain line
+joins the last sample before the outage to the first one after it: a sloping line over the red
+shading. Checked on the overview reads themselves (raw rows, direct decimation, the pyramid)
+against the gap rows, and on the review window's drawn paths over a recording with a real link
+cut (the simulated unit over a pty drops the link; the engine reconnects into the same file).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QSettings
+from PySide6.QtGui import QPainterPath
+
+from gaitmon.io.overview import SessionOverview
+from gaitmon.io.session import open_session
+from gaitmon.ui.plots import FSR_RANGE
+
+WAIT_MS = 20_000
+
+
+@pytest.fixture
+def cut_file(cut_recording: Path) -> Path:
+    with open_session(cut_recording) as s:
+        assert [g for g in s.gaps if g.n_lost >= 100], "the cut left no gap"
+    return cut_recording
+
+
+def _crossing_pairs(idx: np.ndarray, y: np.ndarray, gap_rows: np.ndarray) -> list[int]:
+    """Gaps some drawn segment crosses: consecutive finite points at rows a < g <= b."""
+    fin = np.isfinite(y)
+    a, b = idx[:-1], idx[1:]
+    joined = fin[:-1] & fin[1:]
+    return [int(g) for g in gap_rows if np.any(joined & (a < g) & (b >= g))]
+
+
+@pytest.mark.parametrize("max_points", [100_000, 3000, 400, 60])
+def test_overview_reads_break_the_line_at_every_gap_at_every_zoom(max_points: int) -> None:
+    n = 200_000
+    rng = np.random.default_rng(1)
+    y = np.cumsum(rng.normal(size=(n, 2)), axis=0).astype(np.float32)
+    gaps = np.array([1_000, 1_016, 50_003, 120_000, 180_777])  # rows after each gap
+    lost = np.array([300, 300, 5_000, 40_000, 40_000])  # a 3 s cut ... 400 s outages
+    ov = SessionOverview(lambda _n, a, b: y[a:b], n, breaks=gaps, break_lost=lost)
+    for start, stop in [(0, n), (900, 1_200), (40_000, 140_000), (179_000, n)]:
+        w = ov.window("s", start, stop, max_points)
+        for col in range(2):
+            big = gaps[lost >= w.step]
+            assert _crossing_pairs(w.idx, w.y[:, col], big) == [], (start, stop, w.step)
+        # every finite point is the data's own: min/max of its bin, or the row itself
+        fin = np.isfinite(w.y[:, 0])
+        assert fin.sum() == len(w.idx) - np.isnan(w.y[:, 0]).sum()
+    # the whole-session envelope from the pyramid breaks too
+    ov.pyramid("s")
+    w = ov.envelope("s", 800)
+    assert w.step > 16 and _crossing_pairs(w.idx, w.y[:, 0], gaps[lost >= w.step]) == []
+    assert np.isnan(w.y[:, 0]).any()
+
+
+def test_a_window_without_gaps_is_unchanged() -> None:
+    y = np.arange(10_000, dtype=np.float64).reshape(-1, 1)
+    plain = SessionOverview(lambda _n, a, b: y[a:b], len(y))
+    w = plain.window("s", 0, len(y), 500)
+    assert not np.isnan(w.y).any() and len(w.idx) == 500
+
+
+# -- the review window over a real cut ---------------------------------------------------------
+
+
+def _path_segments(path: QPainterPath, above: float = -np.inf) -> np.ndarray:
+    """(k, 2) x of the start and end of every line segment of a painter path (only those
+    lying above ``above``: a band's outline runs along its fill level where it is off)."""
+    segs, prev = [], None
+    for i in range(path.elementCount()):
+        e = path.elementAt(i)
+        if e.isLineTo() and prev is not None and min(prev[1], e.y) > above:
+            segs.append((prev[0], e.x))
+        prev = (e.x, e.y)
+    return np.asarray(segs, dtype=np.float64).reshape(-1, 2)
+
+
+@pytest.fixture
+def review(qtbot, tmp_path):
+    from gaitmon.ui.review.window import ReviewWindow
+
+    w = ReviewWindow(QSettings(str(tmp_path / "s.ini"), QSettings.Format.IniFormat))
+    qtbot.addWidget(w)
+    w.resize(1500, 950)
+    w.show()
+    yield w
+    w.close()
+    assert w.errors == []
+
+
+def _open(qtbot, w, path):
+    with qtbot.waitSignal(w.analysis_done, timeout=WAIT_MS):
+        w.open_file(path)
+    qtbot.waitUntil(lambda: w.timeline.applied_requests > 0, timeout=WAIT_MS)
+
+
+def _show(qtbot, tl, t0, t1):
+    n = tl.applied_requests
+    tl.set_view(t0, t1)
+    qtbot.waitUntil(lambda: tl.applied_requests > n and not tl.loader.busy, timeout=WAIT_MS)
+
+
+def test_review_lanes_and_overview_draw_no_line_across_the_cut(qtbot, review, cut_file) -> None:
+    _open(qtbot, review, cut_file)
+    tl = review.timeline
+    doc = review.doc
+    g = next(g for g in doc.session.gaps if g.n_lost >= 100)
+    t_before, t_after = doc.t_s[g.sample_idx - 1], doc.t_s[g.sample_idx]
+    assert t_after - t_before > 1.0
+    mid = (t_before + t_after) / 2
+    for half_width_s in (4.0, 15.0, 60.0):
+        _show(qtbot, tl, mid - half_width_s, mid + half_width_s)
+        for key in ("hip", "knee", "ankle", "tilt", "fsr"):
+            lane = tl.lanes[key]
+            drawn = [tr for _spec, tr in lane.specs if tr.visible and tr.path is not None]
+            assert drawn, key
+            for tr in drawn:
+                segs = _path_segments(tr.path)
+                across = (segs[:, 0] <= t_before + 1e-9) & (segs[:, 1] >= t_after - 1e-9)
+                assert not across.any(), (key, half_width_s, segs[across][:3])
+        # no phase band spans the outage either
+        for tr, _k in tl.lanes["fsr"].bands:
+            if tr.path is None:
+                continue
+            segs = _path_segments(tr.path, above=FSR_RANGE[0])
+            flat = segs[(segs[:, 0] <= t_before + 1e-9) & (segs[:, 1] >= t_after - 1e-9)]
+            assert not len(flat), flat
+    x, y = tl.strip.curve.getData()
+    fin = np.isfinite(y)
+    joined = fin[:-1] & fin[1:]
+    across = joined & (x[:-1] <= t_before) & (x[1:] >= t_after)
+    assert not across.any()
+    assert (~fin).any()  # the break is a NaN point, drawn with connect='finite'
