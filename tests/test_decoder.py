@@ -163,7 +163,8 @@ def test_a_lost_last_byte_that_was_not_0xa5_loses_only_that_frame():
     dec = FrameDecoder()
     assert dec.feed(wire_a[:-1] + p.encode_frame(b)) == [b]
     s = dec.stats
-    assert (s.frames_ok, s.frames_lost, s.bytes_skipped, s.crc_failures) == (1, 0, len(wire_a) - 1, 1)
+    assert (s.frames_ok, s.frames_lost, s.crc_failures) == (1, 0, 1)
+    assert s.bytes_skipped == len(wire_a) - 1
 
 
 def test_a_frame_inside_a_frame_is_found_and_its_bytes_are_counted_once():

@@ -19,6 +19,7 @@ Pure Python and numpy; the expectations do not use the decoder.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -110,7 +111,7 @@ class LinkFaultLedger:
         are not the ledger's business), from the ground truth alone."""
         ok = self.intact()
         lost = resets = 0
-        for a, b in zip(ok, ok[1:], strict=False):
+        for a, b in itertools.pairwise(ok):
             gap = (self.frames[b].seq - self.frames[a].seq - 1) % P.SEQ_MODULO
             if gap < P.SEQ_MODULO // 2:
                 lost += gap
@@ -139,9 +140,7 @@ def faulty_stream(n_frames: int, config: LinkFaultConfig, seq0: int = 0) -> Link
     with the faults of ``config``; the received stream and its ledger."""
     rng = np.random.default_rng(config.seed)
     c = config
-    edges = np.cumsum(
-        [c.drop_pct, c.flip_pct, c.tail_pct, c.delete_pct, c.insert_pct]
-    ) / 100.0
+    edges = np.cumsum([c.drop_pct, c.flip_pct, c.tail_pct, c.delete_pct, c.insert_pct]) / 100.0
     names = ("drop", "flip", "tail", "delete", "insert")
     events: dict[str, int] = {}
     stream = bytearray()
@@ -187,7 +186,7 @@ def faulty_stream(n_frames: int, config: LinkFaultConfig, seq0: int = 0) -> Link
             stream += _noise(rng, int(rng.integers(1, 51)))
             events["garbage"] = events.get("garbage", 0) + 1
     # overwrite bursts, kept clear of the protected head and tail
-    n_bursts = int(round(c.bursts_per_10k * n_frames / 10_000))
+    n_bursts = round(c.bursts_per_10k * n_frames / 10_000)
     if n_bursts and n_frames > 2 * c.protect:
         lo = offsets[c.protect]  # protected frames are never dropped: their offsets are real
         hi = max(lo + 1, offsets[n_frames - c.protect] - 64)
