@@ -44,7 +44,9 @@ def check_against_ledger(ledger: LinkFaultLedger, got: list[p.Frame], dec: Frame
 
 @pytest.mark.parametrize("seed", range(5))
 def test_counters_equal_the_ledger_under_byte_level_faults(seed):
-    ledger = faulty_stream(3000, LinkFaultConfig(seed=seed), seq0=65536 - 1000)
+    # lost tails 3x as often as the default, so the old decoder's swallowed frame shows up in
+    # seed 4 (a lost last byte that was 0xA5) even at this fast size
+    ledger = faulty_stream(3000, LinkFaultConfig(seed=seed, tail_pct=15.0), seq0=65536 - 1000)
     assert ledger.n_events > 800 and min(ledger.events.values()) > 0  # every fault injected
     dec = FrameDecoder()
     got = dec.feed(ledger.stream)
