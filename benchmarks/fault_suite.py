@@ -1,7 +1,7 @@
 """The fault-injection suite of issue 12: prints each figure beside its goal, PASS/FAIL per row.
 
-    python benchmarks/fault_suite.py --quick          # ~2-4 min: smaller sizes, same rows
-    python benchmarks/fault_suite.py                  # the full campaign (~20-30 min)
+    python benchmarks/fault_suite.py --quick          # smaller sizes, same rows (~4 min)
+    python benchmarks/fault_suite.py                  # the full campaign (~45 min)
     python benchmarks/fault_suite.py --only decoder,chunking
 
 Rows (goal in the table):
