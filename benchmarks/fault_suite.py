@@ -567,13 +567,15 @@ def row_damaged(quick: bool, corpus_module: str | None) -> list[Row]:
         for i, r in results.items()
         if r["tb"] and r["tb"] != "hang"
     ]
-    multi = sum(1 for r in results.values() if r["code"] not in (0, None) and r["lines"] > 1)
+    multi = collections.Counter(
+        jobs[i]["cmd"] for i, r in results.items() if r["code"] not in (0, None) and r["lines"] > 1
+    )
     by_cmd = collections.Counter(c for c, _ in tbs)
     fig = (
         f"{len(chosen)} files x {len(commands)} commands = {len(jobs)} runs: {len(hangs)} hangs, "
         f"{len(tbs)} tracebacks"
         + (f" ({dict(by_cmd)}; e.g. {tbs[0][0]} on {tbs[0][1]})" if tbs else "")
-        + f"; {multi} failing runs with more than one error line"
+        + f"; failing runs with more than one stderr line: {dict(multi) or 0}"
     )
     return [Row(name, goal, fig, not hangs and not tbs)]
 
