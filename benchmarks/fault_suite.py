@@ -1,7 +1,7 @@
 """The fault-injection suite of issue 12: prints each figure beside its goal, PASS/FAIL per row.
 
     python benchmarks/fault_suite.py --quick          # smaller sizes, same rows (~4 min)
-    python benchmarks/fault_suite.py                  # the full campaign (~45 min)
+    python benchmarks/fault_suite.py                  # the full campaign (~55 min)
     python benchmarks/fault_suite.py --only decoder,chunking
 
 Rows (goal in the table):
@@ -692,7 +692,7 @@ def main() -> int:
     ap.add_argument("--only", default="", help="comma-separated rows: " + ",".join(
         ["decoder", "linkcut", "kill9", "diskfull", "damaged", "soak"]))  # fmt: skip
     ap.add_argument("--corpus-module", default=None, help="path of a damaged_corpus.py")
-    ap.add_argument("--soak-speed", type=float, default=30.0, help="simulator time factor")
+    ap.add_argument("--soak-speed", type=float, default=12.0, help="simulator time factor")
     args = ap.parse_args()
     rows: dict[str, Callable[[], list[Row]]] = {
         "decoder": lambda: row_decoder(args.quick),
