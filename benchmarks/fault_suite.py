@@ -385,9 +385,10 @@ def row_diskfull(quick: bool) -> list[Row]:
         tracebacks = "Traceback" in text
         stated = None
         for ln in lines:
-            m = re.search(r"(\d[\d,]*)\s+(?:rows|frames|samples)", ln)
+            # "N rows|frames|samples" or "up to row N"
+            m = re.search(r"(\d[\d,]*)\s+(?:rows|frames|samples)\b|\brows?\s+(\d[\d,]*)", ln)
             if m:
-                stated = int(m.group(1).replace(",", ""))
+                stated = int((m.group(1) or m.group(2)).replace(",", ""))
         readable = -1
         why = ""
         try:
