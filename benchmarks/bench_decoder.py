@@ -1,10 +1,17 @@
 """Decoder and encoder speed: frames per second for each kind, clean and 5 % corrupted streams.
 
 Run: python benchmarks/bench_decoder.py   (prints figures; no assertions)
+     python benchmarks/bench_decoder.py --compare-with OLD_decoder.py
+        (e.g. `git show main:gaitmon/io/decoder.py > /tmp/old.py`): this decoder against
+        another version of gaitmon/io/decoder.py in the same run, interleaved, as the median
+        of paired speed ratios (robust on a busy machine)
 """
 
 from __future__ import annotations
 
+import importlib.util
+import statistics
+import sys
 import time
 
 import numpy as np
@@ -32,7 +39,39 @@ def rate(fn, n: int) -> float:
     return n / (time.perf_counter() - t0)
 
 
+def compare(path: str, n: int = 5000, pairs: int = 25) -> None:
+    spec = importlib.util.spec_from_file_location("other_decoder", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["other_decoder"] = mod  # dataclasses look their module up
+    spec.loader.exec_module(mod)
+    rng = np.random.default_rng(0)
+    print(f"this decoder / {path}: speed ratio, median of {pairs} interleaved pairs, {n} frames")
+    for kind in p.DATA_KINDS:
+        stream = b"".join(p.encode_frame(f) for f in frames_of(kind, rng)[:n])
+        for chunk in (1 << 16, 512, 36):
+
+            def run(cls: type, s: bytes = stream, c: int = chunk) -> float:
+                d = cls()
+                t0 = time.perf_counter()
+                for i in range(0, len(s), c):
+                    d.feed(s[i : i + c])
+                return time.perf_counter() - t0
+
+            ratios = []
+            for k in range(pairs):  # alternate who goes first
+                if k % 2:
+                    t_new, t_old = run(FrameDecoder), run(mod.FrameDecoder)
+                else:
+                    t_old, t_new = run(mod.FrameDecoder), run(FrameDecoder)
+                ratios.append(t_old / t_new)
+            print(f"  {kind.name:5s} {chunk:6d}-byte chunks: {statistics.median(ratios):.3f}")
+
+
 def main() -> None:
+    if len(sys.argv) == 3 and sys.argv[1] == "--compare-with":
+        compare(sys.argv[2])
+        return
     rng = np.random.default_rng(0)
     print(f"gaitmon decoder benchmark, {N} frames per run (real time needs 100 frames/s)")
     for kind in p.DATA_KINDS:

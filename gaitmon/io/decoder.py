@@ -3,22 +3,31 @@
 Pure (no I/O, no clock, no threads) and total: `FrameDecoder.feed` never raises, whatever bytes
 it is given. The byte layout is defined in `gaitmon.io.protocol` and `docs/protocol.md`.
 
-How it scans. At the current position it looks for the sync pair 0xA5 0x5A. A candidate is
-accepted only if (1) the kind byte is a known FrameKind, (2) the length byte equals that kind's
-fixed payload length, (3) the CRC-16 over kind..payload matches, and (4) every value is in
-range. If (1) or (2) fails, or the CRC fails, the decoder drops exactly one byte (the 0xA5) and
-scans on, so a real frame hiding inside a false candidate is never lost; the first intact frame
-after garbage is always found (barring a 1-in-65536 CRC collision on a false candidate).
+How it scans. Every offset where the sync pair 0xA5 0x5A begins is a candidate, and it is
+examined once its bytes are all in. A candidate is accepted only if (1) the kind byte is a known
+FrameKind, (2) the length byte equals that kind's fixed payload length, (3) the CRC-16 over
+kind..payload matches, and (4) every value is in range. Whatever the outcome, scanning resumes
+inside the candidate (at its next byte), never after it: so no real frame is ever swallowed.
+
+Why "never after it", even for an accepted frame: a frame that lost bytes is completed by the
+bytes of the next frame. When only its last CRC byte was lost and that byte was 0xA5 (1 in
+256), the next frame's first byte (0xA5) completes it exactly, and it passes its CRC: its
+content is the true content. Jumping to its end would eat the next frame's sync. Here both are
+delivered; the two frames share that one byte. (Frames that overlap otherwise need a CRC-16
+coincidence, 1 in 65536 per damaged frame, as any false accept does.)
 
 Bounded buffer: between calls at most `BUFFER_BOUND` = MAX_FRAME_LEN - 1 = 38 bytes are kept
-(a partial candidate that starts with the sync pair, or one trailing 0xA5).
+(a partial candidate that starts with the sync pair, or one trailing 0xA5). The decision on a
+candidate depends only on its own bytes, so the output does not depend on the chunking, and no
+frame waits for bytes after its own end: no latency is added.
 
 Counters (see `DecoderStats`) follow exact accounting rules so a test can check them:
 
     bytes_received == bytes_in_frames + bytes_skipped + buffered
 
-where bytes_in_frames is the total length of CRC-valid frames (delivered or rejected for
-out-of-range values).
+where bytes_in_frames is the number of bytes inside at least one CRC-valid frame (delivered or
+rejected for out-of-range values; a byte shared by two frames counts once) and buffered the
+held bytes not yet counted.
 """
 
 from __future__ import annotations
@@ -58,7 +67,7 @@ class DecoderStats:
                      received, whose CRC did not match. A corrupted frame usually counts once,
                      but a false candidate inside garbage or inside a corrupted frame counts too.
     bytes_skipped    bytes discarded outside any CRC-valid frame while searching for sync
-                     (garbage, corrupted frames, rejected headers).
+                     (garbage, corrupted frames, rejected headers). Each byte counts once.
     frames_lost      sequence numbers skipped between consecutive CRC-valid frames (delivered
                      or rejected for values): for a forward gap g = (seq - last - 1) mod 2**16
                      below 2**15, g frames are counted lost. Losses before the first CRC-valid
@@ -68,7 +77,9 @@ class DecoderStats:
                      They are not delivered, but their sequence number is tracked.
     sequence_resets  CRC-valid frames whose sequence number went backwards or repeated (a
                      forward gap of 2**15 or more, e.g. a device reboot); no loss is counted.
-    buffered         bytes held for the next feed() (<= BUFFER_BOUND).
+    buffered         bytes held for the next feed() and not yet counted (a held byte inside
+                     a frame already delivered, the first byte of a possible next sync, is
+                     not counted again).
     """
 
     bytes_received: int = 0
@@ -82,7 +93,7 @@ class DecoderStats:
 
     @property
     def bytes_in_frames(self) -> int:
-        """Bytes consumed by CRC-valid frames (derived from the accounting identity)."""
+        """Bytes inside at least one CRC-valid frame (from the accounting identity)."""
         return self.bytes_received - self.bytes_skipped - self.buffered
 
 
@@ -99,6 +110,7 @@ class FrameDecoder:
         self._invalid_values = 0
         self._sequence_resets = 0
         self._last_seq: int | None = None
+        self._covered = 0  # leading held bytes that are inside a frame already counted
 
     @property
     def stats(self) -> DecoderStats:
@@ -110,11 +122,12 @@ class FrameDecoder:
             frames_lost=self._frames_lost,
             invalid_values=self._invalid_values,
             sequence_resets=self._sequence_resets,
-            buffered=len(self._buf),
+            buffered=len(self._buf) - self._covered,
         )
 
     @property
     def buffered(self) -> int:
+        """Bytes held for the next feed() (<= BUFFER_BOUND), counted or not."""
         return len(self._buf)
 
     @property
@@ -125,8 +138,9 @@ class FrameDecoder:
     def discard_buffer(self) -> None:
         """Drop held bytes (counted as skipped), e.g. after the link was re-opened, so a partial
         frame from before a cut is not glued to bytes from after it."""
-        self._bytes_skipped += len(self._buf)
+        self._bytes_skipped += len(self._buf) - self._covered
         self._buf.clear()
+        self._covered = 0
 
     def feed(self, data: bytes | bytearray | memoryview) -> list[Frame]:
         """Consume bytes, return the frames completed by them, in order. Never raises."""
@@ -137,6 +151,9 @@ class FrameDecoder:
         self._bytes_received += len(data)
         out: list[Frame] = []
         pos, n = 0, len(buf)
+        # buf[:cov] is inside a CRC-valid frame already counted: scanning goes on inside such a
+        # frame (the next one may start in it), but its bytes are never counted as skipped
+        cov = self._covered
         skipped = 0
         plen_by_byte = _PAYLOAD_LEN_BY_BYTE
         while True:
@@ -144,17 +161,20 @@ class FrameDecoder:
             if i < 0:
                 # keep a trailing first sync byte: its partner may be in the next chunk
                 keep = n - 1 if n > pos and buf[n - 1] == _SYNC0 else n
-                skipped += keep - pos
+                if keep > cov:
+                    skipped += keep - (pos if pos > cov else cov)
                 pos = keep
                 break
-            skipped += i - pos
+            if i > cov:
+                skipped += i - (pos if pos > cov else cov)
             pos = i
             if n - pos < HEADER_LEN:
                 break
             kind = buf[pos + 2]
             plen = plen_by_byte[kind]
             if plen == 0 or buf[pos + 3] != plen:
-                skipped += 1
+                if pos >= cov:
+                    skipped += 1
                 pos += 1
                 continue
             flen = plen + HEADER_LEN + CRC_LEN
@@ -164,7 +184,8 @@ class FrameDecoder:
             body = bytes(buf[pos + 2 : end - CRC_LEN])
             if crc16(body) != buf[end - 2] | (buf[end - 1] << 8):
                 self._crc_failures += 1
-                skipped += 1
+                if pos >= cov:
+                    skipped += 1
                 pos += 1
                 continue
             seq = body[2] | (body[3] << 8)
@@ -178,8 +199,11 @@ class FrameDecoder:
             else:
                 self._frames_ok += 1
                 out.append(frame)
-            pos = end
+            if end > cov:
+                cov = end
+            pos += 2  # not `end`: the next frame may start inside this one (module docstring)
         del buf[:pos]
+        self._covered = cov - pos if cov > pos else 0
         self._bytes_skipped += skipped
         return out
 

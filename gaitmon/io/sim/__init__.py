@@ -8,7 +8,9 @@
 * ``pty``        -- ``PtySimulator``: the unit behind a pseudo-terminal for pyserial clients;
 * ``config``     -- ``SimConfig``: what a user chooses about the simulator, as one frozen value,
   and ``build_unit`` / ``serve_on_pty`` that make the unit from it;
-* ``patterns``   -- the gait patterns by name.
+* ``patterns``   -- the gait patterns by name;
+* ``linkfaults`` -- byte-level link faults (lost bytes and tails, noise, bursts) on a stream of
+  random frames, with a ledger that predicts every decoder counter (fault-injection tests).
 
 Importing the package imports none of them: a name is loaded from its module on first use
 (PEP 562), so the command line can name the simulator's options without paying for numpy and
