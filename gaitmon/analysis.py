@@ -40,8 +40,9 @@ MAX_GAP_S = BRIDGE_MAX_S  # gaps up to 5 frames at 100 Hz are bridged and leave 
 FIRST = "first stride"
 LAST = "last stride"
 GAP = "crosses a gap"
-SETTLING = "filter settling after a gap"
+SETTLING = "settling after a gap"  # the filters restart after a long gap and settle (3 s)
 USER = "excluded range"
+REASONS = (FIRST, LAST, GAP, SETTLING, USER)  # every reason a stride is left out
 
 
 def long_gap_rows(gaps: Sequence[tuple[int, float]]) -> np.ndarray:

@@ -13,7 +13,7 @@ from PySide6.QtCore import QAbstractTableModel, QModelIndex, QPersistentModelInd
 from PySide6.QtGui import QColor, QFont
 from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableView, QWidget
 
-from gaitmon.analysis import StrideRow
+from gaitmon.analysis import REASONS, StrideRow
 from gaitmon.review.model import Analysis
 from gaitmon.text import no_gait_events, num
 from gaitmon.ui.theme import Colours
@@ -33,7 +33,8 @@ COLUMNS = (
     ("hip\nROM °", "range of motion of the hip over the stride", "000.0"),
     ("knee\nROM °", "range of motion of the knee over the stride", "000.0"),
     ("ankle\nROM °", "range of motion of the ankle over the stride", "000.0"),
-    ("status", "included in the statistics, or why not", "excluded: excluded range"),
+    ("status", "included in the statistics, or why not",
+     "excluded: " + max(REASONS, key=len)),
 )  # fmt: skip
 
 _Index = QModelIndex | QPersistentModelIndex
