@@ -141,6 +141,7 @@ class Source:
         path = session.path
         self.h5 = h5
         self.path = path
+        self._session = session
         # the ranges excluded in review are the session's analysis state: exported with it, and
         # a side file that could not be used is said, as info and the report say it
         self.exclusions, problem = session.exclusions()
@@ -189,7 +190,11 @@ class Source:
         return path in self.h5
 
     def read(self, path: str, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Rows start:stop of one per-sample series, through the session reader (which
+        decodes however the file stores it), so a streaming writer reads one block at a time."""
         stop = self.n if stop is None else stop
+        if path in self._session.dataset_names:
+            return self._session.read_range(start, stop, [path])[path]
         return self.h5[path][start:stop]
 
     def events(self, name: str) -> np.ndarray:
