@@ -117,7 +117,8 @@ def _recorded(created_utc: str) -> str:
 
 
 def _stat(name: str, values: Sequence[float]) -> JointStat:
-    v = np.asarray([x for x in values if np.isfinite(x)], dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    v = v[np.isfinite(v)]
     n = len(v)
     mean = float(v.mean()) if n else float("nan")
     sd = float(v.std(ddof=1)) if n > 1 else float("nan")
