@@ -392,13 +392,11 @@ def test_c3d_round_trip(session, tmp_path):
     assert P["GAITMON"]["MODE"]["value"] == [mode]
 
 
-@pytest.mark.parametrize("in_process", [8, 1], ids=["in-process", "worker-process"])
-def test_c3d_long_session_is_split_into_parts(tmp_path, monkeypatch, in_process):
+def test_c3d_long_session_is_split_into_parts(tmp_path, monkeypatch):
     ezc3d = pytest.importorskip("ezc3d")
     src = tmp_path / "long.h5"
     truth = write_session(src, "raw", n=600, side="L")
     monkeypatch.setattr(ex_c3d, "C3D_MAX_PART_S", 2.5)  # 250-frame parts: 605 frames -> 3 parts
-    monkeypatch.setattr(ex_c3d, "C3D_INPROCESS_PARTS", in_process)
     res = ex.export_session(src, "c3d")
     assert [p.name for p in res.paths] == [f"long_part00{k}.c3d" for k in (1, 2, 3)]
     parts = [ezc3d.c3d(str(p)) for p in res.paths]

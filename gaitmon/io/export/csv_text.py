@@ -65,7 +65,7 @@ def _round_scaled(x: np.ndarray, d: int) -> np.ndarray:
         xs = x[tie]
         ps = p[tie]
         ah, al = _split(xs)
-        bh, bl = _split(np.float64(scale))
+        bh, bl = _split(np.array(scale))
         err = ((ah * bh - ps) + ah * bl + al * bh) + al * bl
         k[tie] = np.where(err > 0, ps + 0.5, np.where(err < 0, ps - 0.5, k[tie]))
     return k

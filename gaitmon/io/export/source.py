@@ -142,6 +142,7 @@ class Source:
         self.h5 = h5
         self.path = path
         self._session = session
+        self._attrs: dict[str, dict[str, Any]] = {}
         # the ranges excluded in review are the session's analysis state: exported with it, and
         # a side file that could not be used is said, as info and the report say it
         self.exclusions, problem = session.exclusions()
@@ -182,9 +183,13 @@ class Source:
         return CHANNEL_NAMES
 
     def group_attrs(self, name: str) -> dict[str, Any]:
-        if name not in self.h5:
-            return {}
-        return {k: plain(v) for k, v in self.h5[name].attrs.items()}
+        """A group's attributes as plain values (read once: formats that write many parts
+        ask for them per part)."""
+        if name not in self._attrs:
+            self._attrs[name] = (
+                {k: plain(v) for k, v in self.h5[name].attrs.items()} if name in self.h5 else {}
+            )
+        return dict(self._attrs[name])
 
     def has(self, path: str) -> bool:
         return path in self.h5
