@@ -121,8 +121,9 @@ def _task(task: str, src: Path, out: Path) -> list[Path]:
 
         return list(export_session(src, task, out / f"x.{task}", force=True).paths)
     if task == "csv_pyarrow":
-        import pyarrow as pa
-        import pyarrow.csv as pacsv
+        # the reference only: pyarrow is not a dependency of gaitmon (pip install pyarrow)
+        import pyarrow as pa  # type: ignore[import-untyped,import-not-found,unused-ignore]
+        import pyarrow.csv as pacsv  # type: ignore[import-untyped,import-not-found,unused-ignore]
 
         names, arrays = _all_columns(src)
         table = pa.Table.from_arrays([pa.array(a) for a in arrays], names=names)
@@ -135,8 +136,8 @@ def _task(task: str, src: Path, out: Path) -> list[Path]:
         from gaitmon.io.export.source import open_source
 
         with open_source(src) as s:
-            arrays = {x.key: s.read(x.path) for x in s.series}
-        savemat(out / "ref.mat", {"session": arrays}, format="5", oned_as="column",
+            mats = {x.key: s.read(x.path) for x in s.series}
+        savemat(out / "ref.mat", {"session": mats}, format="5", oned_as="column",
                 do_compression=False)
         return [out / "ref.mat"]
     if task == "report":
