@@ -19,7 +19,7 @@ import numpy as np
 
 from gaitmon import __version__
 from gaitmon.dsp.channels import DEFAULT_TABLE, SEGMENTS, ChannelSpec, ChannelTable
-from gaitmon.io.export.c3d_worker import C3dSpec, write_spec
+from gaitmon.io.export.c3d_file import C3dSpec, write_c3d
 from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
 from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
 from gaitmon.io.export.outputs import c3d_part_path
@@ -250,7 +250,7 @@ def _write_c3d_parts(specs: Iterator[C3dSpec], paths: list[Path],
                      progress: Progress | None, cancel: Cancel | None) -> None:
     """Write the parts one at a time (each part's rows are read only when it is built)."""
     for k, (spec, path) in enumerate(zip(specs, paths, strict=True)):
-        write_spec(spec, str(path))
+        write_c3d(spec, str(path))
         step(progress, cancel, (k + 1) / len(paths))
 
 

@@ -6,8 +6,10 @@ kept about the data size of every file it wrote until the process exited, so an 
 (c3d.org, "The C3D File Format User Guide"): 512-byte blocks, Intel byte order, float data
 (POINT:SCALE < 0). ezc3d remains the independent reader the tests use.
 
-Layout written: block 1 the header; from block 2 the parameter groups and parameters of a
-:class:`~gaitmon.io.export.c3d_worker.C3dSpec`; then per frame the points (X, Y, Z, residual
+A part is built (gaitmon.io.export.c3d) as a :class:`C3dSpec`, plain data.
+
+Layout written: block 1 the header; from block 2 the parameter groups and parameters of the
+spec; then per frame the points (X, Y, Z, residual
 word as float32: 0 valid, -1 invalid) followed by one sample of every analog channel.
 """
 
@@ -15,12 +17,33 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Iterable
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from gaitmon.io.export.c3d_worker import C3dSpec
+
+@dataclass
+class C3dSpec:
+    """One C3D file as plain data: the parameters to set and the arrays."""
+
+    values: list[tuple[str, str, Any]] = field(default_factory=list)  # set existing param
+    params: list[tuple[str, str, Any, str]] = field(default_factory=list)  # add_parameter
+    int_params: list[tuple[str, str, list[int], str]] = field(default_factory=list)
+    points: np.ndarray = field(default_factory=lambda: np.zeros((4, 0, 0)))
+    residuals: np.ndarray = field(default_factory=lambda: np.zeros((1, 0, 0)))
+    analogs: np.ndarray = field(default_factory=lambda: np.zeros((1, 0, 0)))
+
+    def set_value(self, group: str, name: str, value: Any) -> None:
+        self.values.append((group, name, value))
+
+    def add_parameter(self, group: str, name: str, value: Any, desc: str = "") -> None:
+        self.params.append((group, name, value, desc))
+
+    def add_int_parameter(self, group: str, name: str, values: list[int],
+                          desc: str = "") -> None:
+        self.int_params.append((group, name, [int(v) for v in values], desc))
+
 
 BLOCK = 512
 _INTEL = 84  # processor type: Intel (little-endian, IEEE floats)
