@@ -26,6 +26,7 @@ from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_sessio
 from gaitmon.normative import NormativeBands
 
 N_POINTS = 101
+_CYCLE_CHUNK = 2048  # strides normalised per call
 # axis labels with units and the clinical sign words (positive direction named)
 JOINT_AXIS_LABELS: tuple[str, ...] = (
     "hip flexion (deg)",
@@ -218,7 +219,13 @@ def gather_report(
     rows, joints = an.rows, an.joints_deg
     summ = summary(rows)
     if joints is not None and rows:
-        cyc = cycles(joints, rows, N_POINTS)
+        # a few thousand strides at a time: the interpolation's temporaries are ~6x the
+        # result, which for the 26 000 strides of 8 hours was 400 MB
+        included_rows = [r for r in rows if r.included]
+        parts = [cycles(joints, included_rows[i : i + _CYCLE_CHUNK], N_POINTS)
+                 for i in range(0, len(included_rows), _CYCLE_CHUNK)]
+        cyc = np.concatenate(parts) if parts else np.empty((0, N_POINTS, 3))
+        del parts
     else:
         cyc = np.empty((0, N_POINTS, 3))
     mean, sd = cycle_mean_sd(cyc)
