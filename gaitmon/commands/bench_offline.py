@@ -202,7 +202,10 @@ def run_suite(lengths: list[str], repeat: int, skip: set[str]) -> dict[str, dict
                     if not t or t in skip:
                         continue
                     runs = [_run(t, src, outdir) for _ in range(repeat)]
-                    results.setdefault(t, {})[name] = _median(runs)
+                    m = results.setdefault(t, {})[name] = _median(runs)
+                    each = ", ".join(f"{r['cpu_s']:.2f}" for r in runs)
+                    print(f"    {t:12s} {m['cpu_s']:7.2f} CPU s  peak RSS {m['rss_mb']:5.0f} MB"
+                          f"  (runs: {each})", flush=True)
     return results
 
 
