@@ -17,7 +17,7 @@ it overlaps a range the user excluded (e.g. a turn). Strides longer than
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -104,37 +104,63 @@ def analyse_strides(
     """
     strides = strides_from_events(heel_strike_idx, toe_off_idx, fs_hz)
     if t_s is not None:
-        strides = [_retime(s, t_s) for s in strides]
+        strides = _retime_all(strides, t_s)
     long_gaps = long_gap_rows(gaps)
     settling = settling_ranges(long_gaps, fs_hz)
-    rows: list[StrideRow] = []
-    for k, s in enumerate(strides):
-        reason = stride_exclusion(s, k, len(strides), long_gaps, settling, excluded_ranges)
-        nan = float("nan")
-        peak = nan
-        rom: tuple[float, float, float] = (nan, nan, nan)
-        if joint_deg is not None and s.end_idx < len(joint_deg):
-            seg = joint_deg[s.start_idx : s.end_idx + 1]
-            peak = float(np.max(joint_deg[s.toe_off_idx : s.end_idx + 1, 1]))
-            hip, knee, ankle = (float(v) for v in np.ptp(seg, axis=0))
-            rom = (hip, knee, ankle)
-        rows.append(StrideRow(s, reason, peak, rom))
+    n = len(strides)
+    start = np.fromiter((s.start_idx for s in strides), np.int64, n)
+    end = np.fromiter((s.end_idx for s in strides), np.int64, n)
+    toe = np.fromiter((s.toe_off_idx for s in strides), np.int64, n)
+    peak, rom = _stride_extremes(joint_deg, start, end, toe)
+    reasons = [stride_exclusion(s, k, n, long_gaps, settling, excluded_ranges)
+               for k, s in enumerate(strides)]  # fmt: skip
+    rows = [StrideRow(s, reasons[k], peak[k], rom[k]) for k, s in enumerate(strides)]
     return rows
 
 
-def _retime(s: Stride, t_s: np.ndarray) -> Stride:
-    if s.end_idx >= len(t_s):
-        return s
-    stride = float(t_s[s.end_idx] - t_s[s.start_idx])
-    stance = float(t_s[s.toe_off_idx] - t_s[s.start_idx])
-    return replace(
-        s,
-        stride_time_s=stride,
-        stance_time_s=stance,
-        swing_time_s=stride - stance,
-        stance_pct=100.0 * stance / stride,
-        swing_pct=100.0 * (stride - stance) / stride,
-    )
+def _stride_extremes(
+    joint_deg: np.ndarray | None, start: np.ndarray, end: np.ndarray, toe: np.ndarray
+) -> tuple[list[float], list[tuple[float, float, float]]]:
+    """Per stride: the peak knee flexion from toe off to the end, and each joint's range of
+    motion over [start, end] (both ends included; NaN when the stride is not in the data).
+    One reduceat per figure instead of numpy calls per stride (26 000 strides in 8 hours)."""
+    n = len(start)
+    peak = np.full(n, np.nan)
+    rom = np.full((n, 3), np.nan)
+    if joint_deg is not None and n:
+        ok = end < len(joint_deg)
+        if ok.any():
+            # one NaN row after the data, so that end + 1 is always a valid reduceat index
+            a = np.concatenate([np.asarray(joint_deg, np.float64),
+                                np.full((1, joint_deg.shape[1]), np.nan)])
+            s0, e1, t0 = start[ok], end[ok] + 1, toe[ok]
+            # reduceat over [s, e + 1) pairs: the odd results (from e + 1 on) are not used
+            idx = np.column_stack([s0, e1]).ravel()
+            hi = np.maximum.reduceat(a, idx, axis=0)[::2]
+            lo = np.minimum.reduceat(a, idx, axis=0)[::2]
+            rom[ok] = (hi - lo)[:, :3]
+            kidx = np.column_stack([t0, e1]).ravel()
+            peak[ok] = np.maximum.reduceat(a[:, 1], kidx)[::2]
+    return peak.tolist(), [(h, k, a) for h, k, a in rom.tolist()]
+
+
+def _retime_all(strides: list[Stride], t_s: np.ndarray) -> list[Stride]:
+    """Stride, stance and swing times from the rows' true times (``_retime`` for every stride
+    inside ``t_s``, as plain float arithmetic on arrays: same values, no per-stride numpy)."""
+    inside = [k for k, s in enumerate(strides) if s.end_idx < len(t_s)]
+    if not inside:
+        return strides
+    t = np.asarray(t_s)
+    a = t[[strides[k].start_idx for k in inside]]
+    # differences in t_s's own dtype, as _retime takes them
+    strides_s = (t[[strides[k].end_idx for k in inside]] - a).tolist()
+    stances_s = (t[[strides[k].toe_off_idx for k in inside]] - a).tolist()
+    out = list(strides)
+    for k, stride, stance in zip(inside, strides_s, stances_s, strict=True):
+        s = strides[k]
+        out[k] = Stride(s.start_idx, s.end_idx, s.toe_off_idx, stride, stance, stride - stance,
+                        100.0 * stance / stride, 100.0 * (stride - stance) / stride)
+    return out
 
 
 def included_strides(rows: Sequence[StrideRow]) -> list[Stride]:

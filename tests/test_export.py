@@ -393,13 +393,11 @@ def test_c3d_round_trip(session, tmp_path):
     assert P["GAITMON"]["MODE"]["value"] == [mode]
 
 
-@pytest.mark.parametrize("in_process", [8, 1], ids=["in-process", "worker-process"])
-def test_c3d_long_session_is_split_into_parts(tmp_path, monkeypatch, in_process):
+def test_c3d_long_session_is_split_into_parts(tmp_path, monkeypatch):
     ezc3d = pytest.importorskip("ezc3d")
     src = tmp_path / "long.h5"
     truth = write_session(src, "raw", n=600, side="L")
     monkeypatch.setattr(ex_c3d, "C3D_MAX_PART_S", 2.5)  # 250-frame parts: 605 frames -> 3 parts
-    monkeypatch.setattr(ex_c3d, "C3D_INPROCESS_PARTS", in_process)
     res = ex.export_session(src, "c3d")
     assert [p.name for p in res.paths] == [f"long_part00{k}.c3d" for k in (1, 2, 3)]
     parts = [ezc3d.c3d(str(p)) for p in res.paths]
@@ -711,3 +709,32 @@ def test_listing_the_formats_loads_no_format_module():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=60)
     assert out.stdout.strip() == "[]"
+
+
+def test_csv_text_equals_python_percent_formatting():
+    """The vectorised CSV writer gives byte for byte what ``"%.Nf" % x`` / ``"%d" % x`` give,
+    including rounding ties of the exact binary value, -0, NaN, inf and out-of-range values."""
+    from gaitmon.io.export.csv_text import Column, format_block
+
+    rng = np.random.default_rng(7)
+    m = 5000
+    specials = np.array([np.nan, -np.nan, np.inf, -np.inf, -0.0, 0.0, 1e12, 1e20, -1e17, 0.5,
+                         1.5, 2.5, 0.125, -0.375, 1.00005, 2.00015, -1e-9, 999.99995])
+    cols = [
+        (rng.standard_normal(m).astype(np.float32) * 100, 4),
+        (rng.standard_normal(m) * 1e4 + 1e5, 6),
+        ((rng.integers(-10**7, 10**7, m) + 0.5) / 10**4, 4),  # exact ties at the 4th decimal
+        ((rng.integers(-10**6, 10**6, m) + 0.5) / 10**5, 4),  # near ties (binary inexact)
+        (np.resize(specials, m), 3),
+        (np.resize(specials, m), 0),
+        (rng.integers(0, 4096, m).astype(np.uint16), None),
+        (rng.integers(-3, 4, m).astype(np.int8), None),
+        (np.resize([1.7, -2.5, 1e20, -0.0, 3.0], m), None),
+        (np.arange(m, dtype=np.int64) * 10**9, None),
+    ]
+    tails = {3: '"a, b"', 10: ""}
+    got = format_block([Column(np.asarray(v), d) for v, d in cols], tails).decode()
+    fmt = ",".join("%d" if d is None else f"%.{d}f" for _, d in cols) + ","
+    want = "".join(fmt % tuple(float(np.asarray(v)[r]) for v, _ in cols) + tails.get(r, "")
+                   + "\n" for r in range(m))
+    assert got == want

@@ -303,3 +303,48 @@ def test_report_command_runs_headless_in_a_fresh_process(session: Path, tmp_path
     assert res.returncode == 0, res.stderr
     assert res.stdout.split()[-4:] == ["0", "QGuiApplication", "offscreen", "0"]
     assert _page_count(out) == 1
+
+
+def _long_session(path: Path, minutes: float) -> Path:
+    """A long raw session written directly (simulated counts -> Pipeline -> SessionWriter),
+    much faster than recording it through the simulated unit."""
+    from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
+    from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
+    from gaitmon.io.sim.sensors import simulate
+
+    n = int(minutes * 60 * 100)
+    counts = simulate(n, GaitModel(GaitConfig(seed=3)), SensorConfig(seed=3)).counts
+    hdr = SessionHeader(mode="raw", meta=SessionMeta(patient_id="LONG-1", side="R"))
+    with SessionWriter(path, hdr) as w:
+        seq = np.arange(n, dtype=np.int64)
+        w.append(SampleBlock(FrameKind.RAW, seq, 1000.0 + seq / 100.0, 1.7e9,
+                             lost_before=np.zeros(n, np.int64), adc=counts),
+                 Pipeline().process(counts))
+    return path
+
+
+def test_long_session_report_states_every_stride_and_stays_small(qapp, tmp_path: Path) -> None:
+    """Every included stride counts in the statistics and the stated n, but only a bounded
+    number is drawn, so the PDF of a long session stays small (20 minutes: ~1100 strides, a
+    2 MB PDF when each was drawn)."""
+    from gaitmon.ui.report_pdf.cycle_plot import MAX_FAINT_STRIDES
+
+    src = _long_session(tmp_path / "long.h5", 20)
+    out = tmp_path / "long.pdf"
+    assert main(["report", str(src), "-o", str(out)]) == 0
+    data = report_from_file(src)
+    with open_session(src) as s:
+        rows = analyse_strides(s.heel_strike_idx, s.toe_off_idx, s.sample_rate_hz,
+                               np.asarray(s.read("processed/joint_deg"), np.float64),
+                               t_s=s.read("timeline/t_s"))
+    n = sum(r.included for r in rows)
+    assert n > 10 * MAX_FAINT_STRIDES
+    assert data.n_included == data.summary.n_strides == n
+    assert out.stat().st_size < 1_000_000
+    text = " ".join(_pdf_text(out).split())
+    assert f"Mean ± 1 SD of {n} included strides" in text
+    assert f"{n} of {len(rows)}" in text
+    assert f"n = {n}" in text

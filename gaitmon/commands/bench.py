@@ -20,6 +20,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--hours", type=float, default=8.0, help="length of the synthetic record (default 8 h)"
     )
     p.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
+    p.add_argument(
+        "--suite",
+        choices=("pipeline", "offline"),
+        default="pipeline",
+        help="pipeline: the signal chain (default); offline: export and report cost over "
+        "1 min .. 8 h sessions beside references (medians of --repeat runs)",
+    )
+    p.add_argument(
+        "--lengths",
+        default="1min,10min,1h,8h",
+        help="session lengths for --suite offline (default 1min,10min,1h,8h)",
+    )
 
 
 def _best_of(fn: Callable[[], object], repeat: int) -> float:
@@ -47,6 +59,10 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.dsp.kalman import TiltKalman
     from gaitmon.dsp.pipeline import Pipeline
 
+    if args.suite == "offline":
+        from gaitmon.commands.bench_offline import suite
+
+        return suite(args.lengths.split(","), args.repeat)
     if not 0 < args.hours <= 24:
         raise UserError(f"--hours must be above 0 and at most 24, got {args.hours}")
     if args.repeat < 1:

@@ -4,8 +4,8 @@ Joint angles (and segment tilts) are POINTs of type angle, the 14 ADC channels i
 units are ANALOGs, gait events and markers go in the EVENT group. Rows are placed on a uniform
 1/fs frame grid (lost frames become invalid points). Sessions longer than one C3D trial, or
 with more events than one EVENT group holds, are split into parts (``<stem>_part001.c3d``…).
-The files themselves are written by gaitmon.io.export.c3d_worker. Layout: docs/file-format.md,
-"Export formats".
+The files themselves are written by gaitmon.io.export.c3d_file (numpy, no ezc3d). Layout:
+docs/file-format.md, "Export formats".
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 
 from gaitmon import __version__
 from gaitmon.dsp.channels import DEFAULT_TABLE, SEGMENTS, ChannelSpec, ChannelTable
-from gaitmon.io.export.c3d_worker import C3dSpec, C3dWorker, write_spec
+from gaitmon.io.export.c3d_file import C3dSpec, write_c3d
 from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
 from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
 from gaitmon.io.export.outputs import c3d_part_path
@@ -30,9 +30,6 @@ from gaitmon.io.export.source import JOINT_LABELS, Source, as_text, markers, ses
 C3D_MAX_PART_S = 600.0
 # EVENT parameters are arrays whose dimensions are single bytes: at most 255 events per file.
 C3D_MAX_EVENTS = 255
-# ezc3d 1.7 keeps about the data size of each file it writes: beyond this many parts, parts
-# are written by a worker process that is replaced after this many.
-C3D_INPROCESS_PARTS = 8
 
 # C3D angle points named as in Vicon Plug-in Gait (X = sagittal component).
 C3D_JOINT_POINTS: tuple[str, ...] = ("HipAngles", "KneeAngles", "AnkleAngles")
@@ -53,10 +50,12 @@ def planned_outputs(src: Source, scrub: Scrubber, out: Path) -> list[Path]:
 def write(src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
           progress: Progress | None, cancel: Cancel | None, chunk_rows: int | None) -> None:
     events = _c3d_events(src, scrub, session_side(src))
-    plan = _c3d_plan(src, _event_rows(events))
+    rows = _event_rows(events)
+    plan = _c3d_plan(src, rows)
     if len(plan.parts) != len(outputs):
         raise ExportError(f"{src.path.name}: C3D parts changed while exporting")
-    specs = (_c3d_part_spec(src, plan, k, scrub, deidentify, events)
+    ev_frame = plan.frame[rows] if len(rows) else np.zeros(0, np.int64)
+    specs = (_c3d_part_spec(src, plan, k, scrub, deidentify, events, ev_frame)
              for k in range(len(outputs)))
     _write_c3d_parts(specs, outputs, progress, cancel)
 
@@ -121,8 +120,8 @@ def _c3d_events(src: Source, scrub: Scrubber, side: str) -> list[C3dEvent]:
 
 
 def _c3d_part_spec(src: Source, plan: C3dPlan, part_no: int, scrub: Scrubber,
-                   deidentify: bool, events: list[C3dEvent]) -> C3dSpec:
-    """Everything one C3D part holds, as plain data (written by c3d_worker.write_spec)."""
+                   deidentify: bool, events: list[C3dEvent], ev_frame: np.ndarray) -> C3dSpec:
+    """Everything one C3D part holds, as plain data (written by c3d_file.write_c3d)."""
     f0, f1 = plan.parts[part_no]
     nf = f1 - f0
     fs = src.fs_hz
@@ -205,9 +204,10 @@ def _c3d_part_spec(src: Source, plan: C3dPlan, part_no: int, scrub: Scrubber,
     # in one go: ezc3d's add_event rewrites the whole group per event (quadratic).
     subject = (ANONYMOUS if deidentify
                else as_text(src.group_attrs("session").get("patient_id", "")) or ANONYMOUS)
-    evs = [(int(plan.frame[row]) - f0, ctx, label, desc, icon)
-           for row, ctx, label, desc, icon in events]
-    evs = [e for e in evs if 0 <= e[0] < nf]
+    # events are in row order, so in frame order (ev_frame): this part's are one slice
+    e0, e1 = (int(i) for i in np.searchsorted(ev_frame, [f0, f1]))
+    evs = [(int(fr) - f0, *events[k][1:]) for k, fr in
+           zip(range(e0, e1), ev_frame[e0:e1].tolist(), strict=True)]
     if evs:
         times = np.array([_c3d_time(e[0] / fs) for e in evs]).T  # (2, n)
         c.add_int_parameter("EVENT", "USED", [len(evs)])
@@ -251,19 +251,10 @@ def _c3d_part_spec(src: Source, plan: C3dPlan, part_no: int, scrub: Scrubber,
 
 def _write_c3d_parts(specs: Iterator[C3dSpec], paths: list[Path],
                      progress: Progress | None, cancel: Cancel | None) -> None:
-    """Write the parts; beyond a few, in a child process replaced every few files, because
-    ezc3d 1.7 keeps about the data size of every file it writes until the process exits."""
-    worker = C3dWorker(C3D_INPROCESS_PARTS) if len(paths) > C3D_INPROCESS_PARTS else None
-    try:
-        for k, (spec, path) in enumerate(zip(specs, paths, strict=True)):
-            if worker is None:
-                write_spec(spec, str(path))
-            else:
-                worker.write(spec, path)
-            step(progress, cancel, (k + 1) / len(paths))
-    finally:
-        if worker is not None:
-            worker.close()
+    """Write the parts one at a time (each part's rows are read only when it is built)."""
+    for k, (spec, path) in enumerate(zip(specs, paths, strict=True)):
+        write_c3d(spec, str(path))
+        step(progress, cancel, (k + 1) / len(paths))
 
 
 def _c3d_text(c: C3dSpec, group: str, name: str, text: str, width: int = 80) -> None:

@@ -6,7 +6,9 @@ formats".
 
 from __future__ import annotations
 
+import io
 import json
+import struct
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +17,7 @@ import numpy as np
 from gaitmon.io.export.deidentify import Scrubber
 from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
 from gaitmon.io.export.source import (
+    Series,
     Source,
     export_header,
     gaps,
@@ -94,6 +97,119 @@ def _one_based(v: Any) -> Any:
     return v
 
 
+_STREAMED = object()  # placeholder of a per-sample field in the struct being built
+
+# MAT v5 element types and array classes (MATLAB "MAT-File Format", level 5)
+_MI_INT8, _MI_INT32, _MI_UINT32, _MI_MATRIX = 1, 5, 6, 14
+_MI_BY_DTYPE = {"i1": 1, "u1": 2, "i2": 3, "u2": 4, "i4": 5, "u4": 6, "f4": 7, "f8": 9,
+                "i8": 12, "u8": 13}
+_MX_BY_DTYPE = {"f8": 6, "f4": 7, "i1": 8, "u1": 9, "i2": 10, "u2": 11, "i4": 12, "u4": 13,
+                "i8": 14, "u8": 15}
+STREAM_ROWS = 262_144  # rows per read while streaming a per-sample array
+
+
+def _pad8(n: int) -> int:
+    return -n % 8
+
+
+def _element(raw: bytes, pos: int) -> tuple[int, int, int]:
+    """(type, data start, end incl. padding) of the data element at ``pos``."""
+    word, nbytes = struct.unpack_from("<II", raw, pos)
+    if word >> 16:  # small data element: type and size in one word, data in the next four
+        return word & 0xFFFF, pos + 4, pos + 8
+    return word, pos + 8, pos + 8 + nbytes + _pad8(nbytes)
+
+
+def _series_dtype(s: Series, src: Source) -> np.dtype:
+    if s.path.startswith("timeline/"):
+        return np.dtype("<f8")  # MATLAB works in double; seq < 2**53 stays exact
+    # as the session reader returns it (however the file stores it)
+    return np.asarray(src.read(s.path, 0, 1)).dtype.newbyteorder("<")
+
+
+def _series_shape(s: Series, src: Source) -> tuple[int, ...]:
+    shape = tuple(int(d) for d in np.asarray(src.read(s.path, 0, 1)).shape[1:])
+    return (src.n, *shape) if shape else (src.n, 1)
+
+
+def _array_header(dtype: np.dtype, shape: tuple[int, ...]) -> tuple[bytes, int]:
+    """An unnamed numeric miMATRIX (a struct field) up to its data, and the data's size."""
+    code = dtype.str[1:]
+    nbytes = int(np.prod(shape)) * dtype.itemsize
+    dims = struct.pack(f"<{len(shape)}i", *shape)
+    dims += bytes(_pad8(len(dims)))
+    body = (struct.pack("<IIII", _MI_UINT32, 8, _MX_BY_DTYPE[code], 0)
+            + struct.pack("<II", _MI_INT32, 4 * len(shape)) + dims
+            + struct.pack("<II", _MI_INT8, 0)
+            + struct.pack("<II", _MI_BY_DTYPE[code], nbytes))
+    total = len(body) + nbytes + _pad8(nbytes)
+    return struct.pack("<II", _MI_MATRIX, total) + body, nbytes
+
+
+def _splice(raw: bytes, order: list[str], big: dict[str, Series], src: Source, f: Any,
+            progress: Progress | None, cancel: Cancel | None) -> None:
+    """Write scipy's MAT file of the small fields with the per-sample arrays added to the
+    struct, each streamed column by column from the session (MAT arrays are column-major)."""
+    head, pos = raw[:128], 128
+    kind, start, _ = _element(raw, pos)
+    assert kind == _MI_MATRIX
+    subs = []  # flags, dims, name, field name length, field names, then one per field
+    p = start
+    while p < len(raw):
+        _, _, end = _element(raw, p)
+        subs.append(raw[p:end])
+        p = end
+    flags, dims, name, fnl_el, names_el, *fields = subs
+    fnl = struct.unpack_from("<i", fnl_el, 4 if struct.unpack_from("<I", fnl_el)[0] >> 16
+                             else 8)[0]
+    _, nstart, _ = _element(names_el, 0)
+    small_names = [names_el[nstart + i * fnl : nstart + (i + 1) * fnl].rstrip(b"\0").decode()
+                   for i in range(len(fields))]
+    by_name = dict(zip(small_names, fields, strict=True))
+    names = b"".join(k.encode("ascii").ljust(fnl, b"\0") for k in order)
+    names_el = struct.pack("<II", _MI_INT8, len(names)) + names + bytes(_pad8(len(names)))
+    headers = {k: _array_header(_series_dtype(s, src), _series_shape(s, src))
+               for k, s in big.items()}
+    size = len(flags) + len(dims) + len(name) + len(fnl_el) + len(names_el)
+    for k in order:
+        if k in headers:
+            hdr, nbytes = headers[k]
+            size += len(hdr) + nbytes + _pad8(nbytes)
+        else:
+            size += len(by_name[k])
+    f.write(head)
+    f.write(struct.pack("<II", _MI_MATRIX, size))
+    for part in (flags, dims, name, fnl_el, names_el):
+        f.write(part)
+    done = 0
+    for k in order:
+        if k not in headers:
+            f.write(by_name[k])
+            continue
+        hdr, nbytes = headers[k]
+        f.write(hdr)
+        base = f.tell()
+        _stream_columns(big[k], src, f, base)
+        f.seek(base + nbytes)
+        f.write(bytes(_pad8(nbytes)))
+        done += 1
+        step(progress, cancel, 0.2 + 0.8 * done / len(big))
+
+
+def _stream_columns(s: Series, src: Source, f: Any, base: int) -> None:
+    """Rows in blocks; each block's columns go to their place in the column-major array."""
+    dtype = _series_dtype(s, src)
+    n = src.n
+    for r0 in range(0, n, STREAM_ROWS):
+        r1 = min(n, r0 + STREAM_ROWS)
+        block = np.asarray(src.read(s.path, r0, r1))
+        # trailing dimensions flattened in MATLAB's (column-major) order
+        cols = block.reshape(r1 - r0, -1, order="F").astype(dtype, copy=False)
+        for c in range(cols.shape[1]):
+            f.seek(base + (c * n + r0) * dtype.itemsize)
+            f.write(np.ascontiguousarray(cols[:, c]).data)
+
+
 def _write_mat(src: Source, out: Path, scrub: Scrubber, deidentify: bool,
                progress: Progress | None, cancel: Cancel | None) -> None:
     from scipy.io import savemat
@@ -113,13 +229,11 @@ def _write_mat(src: Source, out: Path, scrub: Scrubber, deidentify: bool,
     session["index_base"] = 1.0
     session["t0_s"] = 0.0
     labels: dict[str, Any] = {}
-    for n_done, s in enumerate(series, start=1):
-        arr = np.asarray(src.read(s.path))
-        if s.path.startswith("timeline/"):
-            arr = arr.astype(np.float64)  # MATLAB works in double; seq < 2**53 stays exact
-        session[s.key] = arr.reshape(src.n, 1) if arr.ndim == 1 else arr
+    big: dict[str, Series] = {}  # the per-sample arrays: streamed, never whole in memory
+    for s in series:
+        session[s.key] = _STREAMED
+        big[s.key] = s
         labels[s.key] = _cell(s.columns) if s.key != "acc_ms2" else _cell(s.labels)
-        step(progress, cancel, 0.8 * n_done / len(series))
     session["labels"] = labels
     session["units"] = {s.key: s.unit for s in series}
     t = src.read("timeline/t_s").astype(np.float64) if src.n else np.zeros(0)
@@ -143,9 +257,12 @@ def _write_mat(src: Source, out: Path, scrub: Scrubber, deidentify: bool,
         "reason": _cell([g["reason"] for g in gps]),
     }
     session["meta"] = _mat_value(_one_based(metadata(src, scrub)))
+    small = {k: v for k, v in session.items() if v is not _STREAMED}
+    buf = io.BytesIO()
+    savemat(buf, {"session": small}, format="5", oned_as="column",
+            long_field_names=True, do_compression=False)
     with open(out, "wb") as f:
-        savemat(f, {"session": session}, format="5", oned_as="column",
-                long_field_names=True, do_compression=False)
+        _splice(buf.getvalue(), list(session), big, src, f, progress, cancel)
     step(progress, cancel, 1.0)
 
 

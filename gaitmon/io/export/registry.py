@@ -82,6 +82,6 @@ FORMATS: dict[str, Format] = {
         Format("mat", ".mat", "MATLAB .mat (struct 'session', 1-based indices)",
                "gaitmon.io.export.mat"),
         Format("c3d", ".c3d", "C3D (Mokka, Nexus, btk; angles as points, events)",
-               "gaitmon.io.export.c3d", requires="ezc3d", temp_suffix=".c3d"),
+               "gaitmon.io.export.c3d", temp_suffix=".c3d"),
     )
 }

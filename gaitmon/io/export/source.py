@@ -141,6 +141,8 @@ class Source:
         path = session.path
         self.h5 = h5
         self.path = path
+        self._session = session
+        self._attrs: dict[str, dict[str, Any]] = {}
         # the ranges excluded in review are the session's analysis state: exported with it, and
         # a side file that could not be used is said, as info and the report say it
         self.exclusions, problem = session.exclusions()
@@ -188,20 +190,26 @@ class Source:
             self.host_time_origin_s = float(self.h5["timeline/host_time_s"][0])
 
     def group_attrs(self, name: str) -> dict[str, Any]:
-        if name not in self.h5:
-            return {}
-        return {k: plain(v) for k, v in self.h5[name].attrs.items()}
+        """A group's attributes as plain values (read once: formats that write many parts
+        ask for them per part)."""
+        if name not in self._attrs:
+            self._attrs[name] = (
+                {k: plain(v) for k, v in self.h5[name].attrs.items()} if name in self.h5 else {}
+            )
+        return dict(self._attrs[name])
 
     def has(self, path: str) -> bool:
         return path in self.h5
 
     def read(self, path: str, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Rows start:stop of one per-sample series, through the session reader (which
+        decodes however the file stores it), so a streaming writer reads one block at a time."""
         stop = self.n if stop is None else stop
         try:
-            data = self.h5[path][start:stop]
-            if path == "timeline/host_time_s" and self.host_time_origin_s:
-                data = data - self.host_time_origin_s
-            return data
+            if path in self._session.dataset_names:
+                data = self._session.read_range(start, stop, [path])[path]
+            else:
+                data = self.h5[path][start:stop]
         except (OSError, RuntimeError, KeyError, ValueError) as e:
             # a damaged chunk surfaces only when read: say so, not "cannot write"
             from gaitmon.io.session.h5file import _short_error
@@ -210,6 +218,9 @@ class Source:
                 f"{self.path.name} is damaged: cannot read /{path} rows {start}-{stop} "
                 f"({_short_error(e)})"
             ) from None
+        if path == "timeline/host_time_s" and self.host_time_origin_s:
+            data = data - self.host_time_origin_s
+        return data
 
     def events(self, name: str) -> np.ndarray:
         """Sample indices (0-based) of one event kind, limited to the rows present."""

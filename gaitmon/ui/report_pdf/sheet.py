@@ -21,7 +21,7 @@ from gaitmon.analysis import FIRST, GAP, LAST, MAX_GAP_S, USER
 from gaitmon.report import JOINT_TITLES, GapSpan, ReportData, ReportHeader
 from gaitmon.text import count, no_gait_events
 from gaitmon.ui.report_pdf import flow
-from gaitmon.ui.report_pdf.cycle_plot import draw_cycle_plot
+from gaitmon.ui.report_pdf.cycle_plot import MAX_FAINT_STRIDES, draw_cycle_plot
 from gaitmon.ui.report_pdf.flow import Block, Column
 from gaitmon.ui.report_pdf.page import (
     ACCENT,
@@ -233,8 +233,13 @@ def _header_grid(p: Page, h: ReportHeader, y: float) -> float:
 def _cycle_plots(p: Page, data: ReportData, y: float) -> float:
     y = p.section(LEFT_MM, y, WIDTH_MM, "Joint kinematics over the gait cycle")
     n = data.n_included
+    drawn = (
+        "individual strides faint"
+        if n <= MAX_FAINT_STRIDES
+        else f"{MAX_FAINT_STRIDES} of them, evenly chosen, drawn faint"
+    )
     sub = (
-        f"Mean ± 1 SD of {n} included strides (blue band), individual strides faint; dashed "
+        f"Mean ± 1 SD of {n} included strides (blue band), {drawn}; dashed "
         f"line: mean toe off at {fmt(data.toe_off_pct)} % of the cycle."
         if n
         else f"No gait events: {no_gait_events(data.header.mode)}."

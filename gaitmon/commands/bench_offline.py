@@ -1,0 +1,266 @@
+"""``gaitmon bench --suite offline``: export and report cost against session length.
+
+Each figure is the median of ``--repeat`` runs, each in a fresh Python process (so its peak
+memory is its own), over synthetic sessions of 1 min, 10 min, 1 h and 8 h, printed beside a
+reference measured in the same run on the same data:
+
+* CSV export vs pyarrow's ``write_csv`` of the same columns (read from the same session);
+* MAT export vs ``scipy.io.savemat`` of the same arrays;
+* C3D export and the PDF report, against their own 1-minute figure (the fixed cost).
+
+"per h" is the growth per hour of session, (8 h - 1 h) / 7. The sessions are written directly
+(simulated counts -> Pipeline -> SessionWriter; one simulated hour tiled) and cached under the
+temp folder, keyed by the session-format source, so a changed format rebuilds them.
+
+Child protocol: ``python -m gaitmon.commands.bench_offline TASK SRC OUTDIR`` prints one JSON
+line {"cpu_s", "rss_mb", "bytes"}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+LENGTHS_H: dict[str, float] = {"1min": 1 / 60, "10min": 1 / 6, "1h": 1.0, "8h": 8.0}
+# (task, reference task or "" for none, what the line says)
+ROWS: tuple[tuple[str, str, str], ...] = (
+    ("csv", "csv_pyarrow", "CSV export | pyarrow write_csv"),
+    ("mat", "mat_savemat", "MAT export | scipy savemat"),
+    ("c3d", "", "C3D export"),
+    ("report", "", "PDF report"),
+)
+FS_HZ = 100.0
+
+
+def _cache_dir() -> Path:
+    d = Path(tempfile.gettempdir()) / f"gaitmon-bench-{os.getuid()}"
+    d.mkdir(parents=True, exist_ok=True)
+    return d
+
+
+def _format_key() -> str:
+    """A hash of the session package's source: a changed file format rebuilds the sessions."""
+    import gaitmon.io.session as sess
+
+    h = hashlib.sha256()
+    for p in sorted(Path(sess.__file__).parent.glob("*.py")):
+        h.update(p.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def write_session(path: Path, hours: float) -> int:
+    """A raw session of ``hours`` written directly (seconds for 8 hours, not 8 hours)."""
+    import numpy as np
+
+    from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
+    from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
+    from gaitmon.io.sim.sensors import simulate
+
+    n = round(hours * 3600 * FS_HZ)
+    base = simulate(min(n, 360_000), GaitModel(GaitConfig(seed=1)), SensorConfig(seed=1)).counts
+    pipe = Pipeline()
+    hdr = SessionHeader(mode="raw", meta=SessionMeta(patient_id="BENCH-1", side="R"))
+    block = 60_000
+    tmp = path.with_suffix(".tmp.h5")
+    with SessionWriter(tmp, hdr) as w:
+        for a in range(0, n, block):
+            b = min(n, a + block)
+            idx = np.arange(a, b)
+            counts = base[idx % len(base)]
+            blk = SampleBlock(FrameKind.RAW, idx.astype(np.int64), 1000.0 + idx / FS_HZ, 1.7e9,
+                              lost_before=np.zeros(b - a, np.int64), adc=counts)
+            w.append(blk, pipe.process(counts))
+            if a % 360_000 == 0:
+                w.add_marker(f"hour {a // 360_000}")
+    tmp.replace(path)
+    return n
+
+
+def session_file(name: str) -> Path:
+    """The cached synthetic session ``name`` (a key of LENGTHS_H), written if missing."""
+    path = _cache_dir() / f"{name}-{_format_key()}.h5"
+    if not path.exists():
+        write_session(path, LENGTHS_H[name])
+    return path
+
+
+# ---- one measurement, in its own process ----
+
+
+def _all_columns(src_path: Path) -> tuple[list[str], list[Any]]:
+    from gaitmon.io.export.csv import _csv_columns
+    from gaitmon.io.export.source import open_source
+
+    names: list[str] = []
+    arrays: list[Any] = []
+    with open_source(src_path) as src:
+        for s in _csv_columns(src):
+            a = src.read(s.path).reshape(src.n, -1)
+            for i, c in enumerate(s.columns):
+                names.append(c)
+                arrays.append(a[:, i])
+    return names, arrays
+
+
+def _task(task: str, src: Path, out: Path) -> list[Path]:
+    if task in ("csv", "mat", "c3d"):
+        from gaitmon.io.export import export_session
+
+        return list(export_session(src, task, out / f"x.{task}", force=True).paths)
+    if task == "csv_pyarrow":
+        # the reference only: pyarrow is not a dependency of gaitmon (pip install pyarrow)
+        import pyarrow as pa  # type: ignore[import-untyped,import-not-found,unused-ignore]
+        import pyarrow.csv as pacsv  # type: ignore[import-untyped,import-not-found,unused-ignore]
+
+        names, arrays = _all_columns(src)
+        table = pa.Table.from_arrays([pa.array(a) for a in arrays], names=names)
+        del arrays
+        pacsv.write_csv(table, out / "ref.csv")
+        return [out / "ref.csv"]
+    if task == "mat_savemat":
+        from scipy.io import savemat
+
+        from gaitmon.io.export.source import open_source
+
+        with open_source(src) as s:
+            mats = {x.key: s.read(x.path) for x in s.series}
+        savemat(out / "ref.mat", {"session": mats}, format="5", oned_as="column",
+                do_compression=False)
+        return [out / "ref.mat"]
+    if task == "report":
+        from gaitmon.cli import main
+
+        if main(["report", str(src), "-o", str(out / "r.pdf"), "--force"]) != 0:
+            raise SystemExit(1)
+        return [out / "r.pdf"]
+    raise SystemExit(f"unknown task {task}")
+
+
+def _peak_rss_mb() -> float:
+    """This process's peak RSS. VmHWM, not getrusage: on Linux ru_maxrss keeps the parent's
+    peak across fork + exec, so every child would report the bench runner's memory."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def child(task: str, src: str, outdir: str) -> None:
+    t0 = time.process_time()
+    paths = _task(task, Path(src), Path(outdir))
+    cpu = time.process_time() - t0
+    size = sum(p.stat().st_size for p in paths)
+    for p in paths:
+        p.unlink()
+    rss = _peak_rss_mb()
+    print(json.dumps({"cpu_s": cpu, "rss_mb": rss, "bytes": size, "files": len(paths)}))
+
+
+def _run(task: str, src: Path, outdir: Path) -> dict[str, float]:
+    env = dict(os.environ, QT_QPA_PLATFORM=os.environ.get("QT_QPA_PLATFORM", "offscreen"))
+    r = subprocess.run([sys.executable, "-m", "gaitmon.commands.bench_offline", task, str(src),
+                        str(outdir)], capture_output=True, text=True, env=env, check=False)
+    if r.returncode != 0:
+        raise RuntimeError(f"{task} on {src.name} failed: {r.stderr.strip()[-300:]}")
+    out: dict[str, float] = json.loads(r.stdout.strip().splitlines()[-1])
+    return out
+
+
+def _median(runs: list[dict[str, float]]) -> dict[str, float]:
+    return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+
+
+def run_suite(lengths: list[str], repeat: int, skip: set[str]) -> dict[str, dict[str, Any]]:
+    """{task: {length: median figures}} for every task and its reference."""
+    results: dict[str, dict[str, Any]] = {}
+    with tempfile.TemporaryDirectory(prefix="gaitmon-bench-out-") as d:
+        outdir = Path(d)
+        for name in lengths:
+            t0 = time.perf_counter()
+            src = session_file(name)
+            print(f"  session {name}: {src.stat().st_size / 2**20:.0f} MB "
+                  f"(ready in {time.perf_counter() - t0:.1f} s)", flush=True)
+            for task, ref, _ in ROWS:
+                for t in (task, ref):
+                    if not t or t in skip:
+                        continue
+                    runs = [_run(t, src, outdir) for _ in range(repeat)]
+                    m = results.setdefault(t, {})[name] = _median(runs)
+                    each = ", ".join(f"{r['cpu_s']:.2f}" for r in runs)
+                    print(f"    {t:12s} {m['cpu_s']:7.2f} CPU s  peak RSS {m['rss_mb']:5.0f} MB"
+                          f"  (runs: {each})", flush=True)
+    return results
+
+
+def print_table(results: dict[str, dict[str, Any]], lengths: list[str], repeat: int) -> None:
+    print(f"\nmedian CPU s of {repeat} runs (fresh process each); ratio = export / reference; "
+          "per h = (8 h - 1 h) / 7")
+    head = "| what | " + " | ".join(lengths) + " | per h | peak RSS (longest) | output (longest) |"
+    print(head)
+    print("|" + "---|" * (head.count("|") - 1))
+    for task, ref, label in ROWS:
+        for t in (task, ref):
+            if t not in results:
+                continue
+            r = results[t]
+            cells = [f"{r[n]['cpu_s']:.2f}" if n in r else "–" for n in lengths]
+            if t == task and ref in results:
+                cells = [
+                    f"{r[n]['cpu_s']:.2f} ({r[n]['cpu_s'] / results[ref][n]['cpu_s']:.2f}×)"
+                    if n in r and n in results[ref] else c
+                    for n, c in zip(lengths, cells, strict=True)
+                ]
+            per_h = (f"{(r['8h']['cpu_s'] - r['1h']['cpu_s']) / 7:.2f}"
+                     if "8h" in r and "1h" in r else "–")
+            last = [n for n in lengths if n in r][-1]
+            name = label.split(" | ")[0] if t == task else "  ref: " + label.split(" | ")[-1]
+            print(f"| {name} | " + " | ".join(cells) + f" | {per_h} | "
+                  f"{r[last]['rss_mb']:.0f} MB | {r[last]['bytes'] / 2**20:.1f} MB "
+                  f"in {int(r[last]['files'])} file(s) |")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else "")
+    ap.add_argument("--lengths", default=",".join(LENGTHS_H),
+                    help="comma-separated of " + ", ".join(LENGTHS_H))
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--skip", default="", help="comma-separated tasks to leave out")
+    args = ap.parse_args(argv)
+    return suite(args.lengths.split(","), args.repeat, set(filter(None, args.skip.split(","))))
+
+
+def suite(lengths: list[str], repeat: int, skip: set[str] | None = None) -> int:
+    bad = [n for n in lengths if n not in LENGTHS_H]
+    if bad:
+        from gaitmon.errors import UserError
+
+        raise UserError(f"unknown length {bad[0]!r} (choose from {', '.join(LENGTHS_H)})")
+    print(f"gaitmon bench --suite offline: {', '.join(lengths)}; {repeat} runs each "
+          f"({os.cpu_count()} CPUs)", flush=True)
+    results = run_suite(lengths, repeat, skip or set())
+    print_table(results, lengths, repeat)
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and not sys.argv[1].startswith("-"):
+        child(*sys.argv[1:])
+    else:
+        raise SystemExit(main())
