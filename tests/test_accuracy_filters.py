@@ -16,7 +16,7 @@ from gaitmon.dsp.motion_kalman import (
     solve_scheduled,
     steady_state_gain,
 )
-from gaitmon.dsp.pipeline import Pipeline
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.dsp.smoother import smooth_map, smooth_tilt
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
@@ -190,7 +190,7 @@ def test_gait_aware_and_smoother_meet_the_goals_on_the_simulator(walk):
     off = np.stack(
         [smooth_tilt(ax[:, j], az[:, j], w[:, j], FS, s) for j, s in enumerate(SEGMENTS)], axis=1
     )
-    paper = Pipeline().process(sb.counts).tilt_kalman_rad
+    paper = Pipeline(PipelineConfig(tilt_method="paper")).process(sb.counts).tilt_kalman_rad
     e_live, e_off, e_paper = (joint_errors(t, sb) for t in (live, off, paper))
     print(f"\njoint RMSE deg: live {e_live.round(2)} offline {e_off.round(2)}", e_paper.round(2))
     assert np.all(e_live <= 3.0) and np.all(e_off <= 1.5)
@@ -201,7 +201,7 @@ def test_gait_aware_and_smoother_meet_the_goals_on_the_simulator(walk):
 
 def test_estimate_tilt_paper_is_the_pipelines_paper_kalman(walk):
     _, sb, ax, az, _ = walk
-    block = Pipeline().process(sb.counts)
+    block = Pipeline(PipelineConfig(tilt_method="paper")).process(sb.counts)
     gyro = DEFAULT_TABLE.to_physical(sb.counts)[:, GYRO_IDX]
     for j, seg in enumerate(SEGMENTS):
         got = estimate_tilt(ax[:, j], az[:, j], gyro[:, j], FS, segment=seg, method="paper")
@@ -241,3 +241,15 @@ def test_gyro_events_on_silence_and_bad_input():
     assert len(hs) == len(to) == 0
     with pytest.raises(ValueError, match="1-D"):
         gyro_gait_events(np.zeros((10, 2)), FS)
+
+
+def test_streaming_gyro_events_equal_the_offline_ones_in_any_chunking():
+    from gaitmon.dsp.gyro_events import GyroEventDetector
+
+    sb = simulate(5000, GaitModel(GaitConfig(seed=34)), SensorConfig(seed=34))
+    gyro = DEFAULT_TABLE.to_physical(sb.counts)[:, GYRO_IDX[3]]
+    hs, to = gyro_gait_events(gyro, FS)
+    det = GyroEventDetector()
+    parts = chunked(lambda g: np.concatenate(det.process(g)) if len(g) else np.empty(0), [gyro], 8)
+    rest = np.concatenate(det.flush())
+    assert sorted(np.concatenate([parts, rest]).astype(int)) == sorted(np.concatenate([hs, to]))

@@ -177,59 +177,66 @@ class MotionWindow:
         self.reset()
 
     def reset(self) -> None:
-        self._tail: tuple[np.ndarray, np.ndarray] | None = None
+        self._tail: np.ndarray | None = None  # (n - 1, 2, S) last samples of (dev, rate)
 
     def process(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """(N, S) inputs -> (dev, rate) window maxima, (N, S) each."""
-        from numpy.lib.stride_tricks import sliding_window_view
-
-        dev = np.abs(np.hypot(acc_x_ms2, acc_z_ms2) - STANDARD_GRAVITY_MS2)
-        rate = np.abs(gyro_rad_s)
+        x = np.stack(
+            [np.abs(np.hypot(acc_x_ms2, acc_z_ms2) - STANDARD_GRAVITY_MS2), np.abs(gyro_rad_s)],
+            axis=1,
+        )  # (N, 2, S)
         if self._tail is None:
-            # -inf padding: windows that reach before the first sample ignore that part
-            pad = np.full((self.n - 1, dev.shape[1]), -np.inf)
-            self._tail = (pad, pad)
-        outs = []
-        tails = []
-        for x, tail in zip((dev, rate), self._tail, strict=True):
-            ext = np.concatenate([tail, x], axis=0)
-            outs.append(sliding_window_view(ext, self.n, axis=0).max(axis=-1))
-            tails.append(ext[len(ext) - (self.n - 1) :])
-        self._tail = (tails[0], tails[1])
-        return outs[0], outs[1]
+            # -inf: windows that reach before the first sample ignore that part
+            self._tail = np.full((self.n - 1, *x.shape[1:]), -np.inf)
+        ext = np.concatenate([self._tail, x], axis=0)
+        n = len(x)
+        out = ext[self.n - 1 :].copy()
+        for lag in range(1, self.n):  # max of shifted copies: exact, and fast for short windows
+            np.maximum(out, ext[self.n - 1 - lag : self.n - 1 - lag + n], out=out)
+        self._tail = ext[len(ext) - (self.n - 1) :]
+        return out[:, 0], out[:, 1]
 
 
 def solve_scheduled(
-    theta0: float, bias0: float, k0: np.ndarray, k1: np.ndarray, z: np.ndarray,
-    w: np.ndarray, dt_s: float,
+    theta0: np.ndarray | float, bias0: np.ndarray | float, k0: np.ndarray, k1: np.ndarray,
+    z: np.ndarray, w: np.ndarray, dt_s: float,
 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """Run theta/b through the scheduled update for one segment; returns (theta, bias), (N,) each.
+    """Run theta/b through the scheduled update; returns (theta, bias), shaped like ``z``.
 
     theta_k = (1 - K0) (theta_{k-1} + (w_k - b_{k-1}) dt) + K0 z_k
     b_k     = b_{k-1} + K1 (z_k - theta_{k-1} - (w_k - b_{k-1}) dt)
-    as a unit lower-triangular banded system (see the module doc).
+
+    as a unit lower-triangular banded system (see the module doc). (N,) inputs are one segment;
+    (N, S) inputs run S segments as S independent blocks of one system (one BLAS call): no
+    coefficient links one block to the next, so each column is computed exactly as alone.
     """
     from scipy.linalg.blas import dtbsv  # lazy: scipy only where a filter is run
 
-    n = len(z)
-    m = 2 * n + 2
-    a = np.zeros((4, m), order="F")
+    was_1d = np.ndim(z) == 1
+    k0, k1, z, w = (np.asarray(a, dtype=np.float64).reshape(len(a), -1).T for a in (k0, k1, z, w))
+    s, n = z.shape  # segment-major from here on
+    m = 2 * n + 2  # unknowns per segment: the carried (theta, b), then (theta_k, b_k)
+    a = np.zeros((4, s, m))
     a[0] = 1.0
     c0 = 1.0 - k0
-    a[2, 0 : 2 * n : 2] = -c0  # theta_k <- theta_{k-1}
-    a[3, 0 : 2 * n : 2] = k1  # b_k <- theta_{k-1}
-    a[1, 1 : 2 * n : 2] = c0 * dt_s  # theta_k <- b_{k-1}
-    a[2, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
-    x = np.empty(m)
-    x[0] = theta0
-    x[1] = bias0
+    a[2, :, 0 : 2 * n : 2] = -c0  # theta_k <- theta_{k-1}
+    a[3, :, 0 : 2 * n : 2] = k1  # b_k <- theta_{k-1}
+    a[1, :, 1 : 2 * n : 2] = c0 * dt_s  # theta_k <- b_{k-1}
+    a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
+    x = np.empty((s, m))
+    x[:, 0] = theta0
+    x[:, 1] = bias0
     wdt = w * dt_s
-    x[2::2] = c0 * wdt + k0 * z
-    x[3::2] = k1 * (z - wdt)
-    y = dtbsv(3, a, x, lower=1, diag=1, overwrite_x=1)
-    return y[2::2], y[3::2]
+    x[:, 2::2] = c0 * wdt + k0 * z
+    x[:, 3::2] = k1 * (z - wdt)
+    band = np.asfortranarray(a.reshape(4, s * m))
+    y = dtbsv(3, band, x.reshape(-1), lower=1, diag=1, overwrite_x=1).reshape(s, m)
+    theta, bias = y[:, 2::2].T, y[:, 3::2].T
+    if was_1d:
+        return theta[:, 0].copy(), bias[:, 0].copy()
+    return theta, bias
 
 
 class GaitAwareKalman:
@@ -253,9 +260,15 @@ class GaitAwareKalman:
         self.segments = tuple(segments)
         table = tuning or SEGMENT_TUNING
         self.tunings = tuple(table[s] if s in table else tuning_for(s) for s in self.segments)
-        self._windows = [MotionWindow(t.window_samples(self.fs_hz)) for t in self.tunings]
-        for t in self.tunings:
-            _gain_table(self.dt_s, t.q_angle, t.q_bias)  # designed now, not on the first block
+        # segments that share a tuning are run together (one window, one gain look-up)
+        groups: dict[SegmentTuning, list[int]] = {}
+        for j, t in enumerate(self.tunings):
+            groups.setdefault(t, []).append(j)
+        self._groups = [(t, np.array(cols)) for t, cols in groups.items()]
+        self._windows = [MotionWindow(t.window_samples(self.fs_hz)) for t, _ in self._groups]
+        self._static_gain = [
+            steady_state_gain(t.r_static, self.dt_s, t.q_angle, t.q_bias) for t, _ in self._groups
+        ]
         self.reset()
 
     def reset(self) -> None:
@@ -301,16 +314,21 @@ class GaitAwareKalman:
         turns = self._turns + np.cumsum(steps, axis=0)
         z_unw = z + TWO_PI * turns
         self._last_z, self._turns = z[-1].copy(), turns[-1].copy()
-        theta = self._theta.copy()
-        bias = self._bias.copy()
-        for j, (tun, win) in enumerate(zip(self.tunings, self._windows, strict=True)):
-            dev, rate = win.process(ax[:, j : j + 1], az[:, j : j + 1], w[:, j : j + 1])
-            r = measurement_variance(dev[:, 0], rate[:, 0], tun)
-            k = steady_state_gain(r, self.dt_s, tun.q_angle, tun.q_bias)
-            th, b = solve_scheduled(
-                theta[j], bias[j], k[:, 0], k[:, 1], z_unw[:, j], w[:, j], self.dt_s
-            )
-            out[:, j] = th
-            theta[j], bias[j] = th[-1], b[-1]
-        self._theta, self._bias = theta, bias
+        k0 = np.empty((n, s))
+        k1 = np.empty((n, s))
+        for (tun, cols), win, k_static in zip(
+            self._groups, self._windows, self._static_gain, strict=True
+        ):
+            dev, rate = win.process(ax[:, cols], az[:, cols], w[:, cols])
+            if tun.r_moving is None:  # gated: the static gain or nothing
+                static = (dev < tun.static_acc_ms2) & (rate < tun.static_rate_rad_s)
+                k0[:, cols] = np.where(static, k_static[0], 0.0)
+                k1[:, cols] = np.where(static, k_static[1], 0.0)
+            else:
+                k = steady_state_gain(
+                    measurement_variance(dev, rate, tun), self.dt_s, tun.q_angle, tun.q_bias
+                )
+                k0[:, cols], k1[:, cols] = k[..., 0], k[..., 1]
+        out, bias = solve_scheduled(self._theta, self._bias, k0, k1, z_unw, w, self.dt_s)
+        self._theta, self._bias = out[-1].copy(), bias[-1].copy()
         return out[:, 0] if was_1d else out
