@@ -86,8 +86,9 @@ def test_closed_forms_static_tilt_with_biased_gyro_and_rotation_without_measurem
     assert kf.bias_rad_s[0] == pytest.approx(
         (np.linalg.matrix_power(a, n) @ (np.array([tilt, 0.0]) - fixed) + fixed)[1], abs=1e-12
     )
-    # a foot that rotates at a constant 2 rad/s is never trusted: theta = theta0 + (w - b) t
-    kf = GaitAwareKalman(FS, segments=("foot",))
+    # a gated segment (no measurement while moving) rotating at a constant 2 rad/s is never
+    # corrected: theta = theta0 + (w - b) t
+    kf = GaitAwareKalman(FS, segments=("foot",), tuning={"foot": SegmentTuning()})
     out = kf.process(np.full(200, 15.0), np.zeros(200), np.full(200, 2.0))
     np.testing.assert_allclose(out, 2.0 * DT * np.arange(1, 201), atol=1e-12)
 

@@ -65,6 +65,9 @@ class SegmentTuning:
     r_static: float = 1e-3  # rad^2, measurement variance when quasi-static
     r_moving: float | None = None  # rad^2 at |a| = g while moving; None = not used then
     acc_scale_ms2: float = 2.0
+    # while moving, R also grows as (1 + (rate / scale)^2): a fast-swinging segment's
+    # accelerometer carries more of its own acceleration (None = no growth)
+    moving_rate_scale_rad_s: float | None = None
     q_angle: float = 1e-7  # rad^2 per step, angle random walk (gyro noise)
     q_bias: float = 1e-9  # (rad/s)^2 per step, bias random walk
     # offline smoother only: the angle's process noise grows as (1 + (|omega| / scale)^2)
@@ -85,12 +88,14 @@ class SegmentTuning:
 
 # Chosen on the simulator (docs/filters.md): the foot is gated (foot-flat every stance); body,
 # thigh and shank keep a weak, acceleration-weighted measurement while walking.
-_WEIGHTED = SegmentTuning(static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.1)
+_WEIGHTED = SegmentTuning(
+    static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0
+)
 SEGMENT_TUNING: dict[str, SegmentTuning] = {
     "body": _WEIGHTED,
     "thigh": _WEIGHTED,
     "shank": _WEIGHTED,
-    "foot": SegmentTuning(),
+    "foot": SegmentTuning(r_moving=1.0),
 }
 
 
@@ -163,6 +168,8 @@ def measurement_variance(
         moving = np.full(np.shape(dev_ms2), np.inf)
     else:
         moving = tuning.r_moving * (1.0 + (dev_ms2 / tuning.acc_scale_ms2) ** 2)
+        if tuning.moving_rate_scale_rad_s is not None:
+            moving = moving * (1.0 + (rate_rad_s / tuning.moving_rate_scale_rad_s) ** 2)
     return np.where(static, tuning.r_static, moving)
 
 
