@@ -77,7 +77,8 @@ def test_closed_forms_static_tilt_with_biased_gyro_and_rotation_without_measurem
     kf = GaitAwareKalman(FS, segments=("foot",))
     out = kf.process(ax, az, np.full(n, 0.05))  # standing still, gyro biased by 0.05 rad/s
     # constant inputs: x_k = A^k (x_0 - x*) + x*, with x* = (tilt, bias) the fixed point
-    k0, k1 = steady_state_gain(SegmentTuning().r_static, DT, 1e-7, 1e-9)
+    tun = SegmentTuning()
+    k0, k1 = steady_state_gain(tun.r_static, DT, tun.q_angle, tun.q_bias)
     a = np.array([[1 - k0, -(1 - k0) * DT], [-k1, 1 + k1 * DT]])
     fixed = np.array([tilt, 0.05])
     for k in (1, 10, 500, 2999):

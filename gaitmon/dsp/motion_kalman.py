@@ -69,7 +69,7 @@ class SegmentTuning:
     # accelerometer carries more of its own acceleration (None = no growth)
     moving_rate_scale_rad_s: float | None = None
     q_angle: float = 1e-7  # rad^2 per step, angle random walk (gyro noise)
-    q_bias: float = 1e-9  # (rad/s)^2 per step, bias random walk
+    q_bias: float = 1e-8  # (rad/s)^2 per step, bias random walk
     # offline smoother only: the angle's process noise grows as (1 + (|omega| / scale)^2)
     rate_scale_rad_s: float = 1.0
 

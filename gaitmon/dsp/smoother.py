@@ -28,7 +28,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from gaitmon.dsp.channels import STANDARD_GRAVITY_MS2
+from gaitmon.dsp.angles import wrap_angle
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channels import (
+    ACC_X_IDX,
+    ACC_Z_IDX,
+    GYRO_IDX,
+    SEGMENTS,
+    STANDARD_GRAVITY_MS2,
+    ChannelTable,
+)
 from gaitmon.dsp.motion_kalman import SegmentTuning, measurement_variance, tuning_for
 
 _PRIOR_THETA_VAR = 1.0
@@ -128,3 +137,28 @@ def smooth_tilt(
         keep = slice(start, min(n, start + window))
         out[keep] = theta[keep.start - a : keep.stop - a]
     return out
+
+
+def smooth_record_tilts(
+    adc_counts: np.ndarray, table: ChannelTable, calibrations: list[tuple[int, Calibration]],
+    fs_hz: float,
+) -> np.ndarray:  # fmt: skip
+    """(N, 4) zeroed tilts (rad) of a whole raw recording by the RTS smoother, per segment.
+
+    ``calibrations`` are (first row, Calibration) in row order, the first at row 0: each row's
+    gyro bias is removed before smoothing and its tilt offsets after, as the pipeline does.
+    """
+    counts = np.asarray(adc_counts)
+    n = len(counts)
+    phys = table.to_physical(counts)
+    bias = np.zeros((n, len(SEGMENTS)))
+    offset = np.zeros((n, len(SEGMENTS)))
+    starts = [max(0, int(r)) for r, _ in calibrations] + [n]
+    for (_, cal), a, b in zip(calibrations, starts[:-1], starts[1:], strict=True):
+        bias[a:b] = cal.gyro_bias_rad_s
+        offset[a:b] = cal.tilt_offset_rad
+    gyro = phys[:, GYRO_IDX] - bias
+    out = np.empty((n, len(SEGMENTS)))
+    for j, seg in enumerate(SEGMENTS):
+        out[:, j] = smooth_tilt(phys[:, ACC_X_IDX[j]], phys[:, ACC_Z_IDX[j]], gyro[:, j], fs_hz, seg)
+    return np.asarray(wrap_angle(out - offset))
