@@ -255,3 +255,24 @@ def test_streaming_gyro_events_equal_the_offline_ones_in_any_chunking():
     parts = chunked(lambda g: np.concatenate(det.process(g)) if len(g) else np.empty(0), [gyro], 8)
     rest = np.concatenate(det.flush())
     assert sorted(np.concatenate([parts, rest]).astype(int)) == sorted(np.concatenate([hs, to]))
+
+
+def test_innovation_is_wrapped_when_the_accelerometer_tilt_jumps_across_180_degrees():
+    # a segment held still near 180 deg: the accelerometer tilt flips between +pi and -pi with
+    # noise; the filter must stay near pi (paper 000's wrapped innovation), in any chunking
+    rng = np.random.default_rng(12)
+    n = 3000
+    tilt = np.pi - 0.02 + 0.03 * rng.standard_normal(n)
+    g = 9.80665
+    ax, az, w = g * np.cos(tilt), g * np.sin(tilt), 0.01 * rng.standard_normal(n)
+    # then the board's y axis points up for 0.5 s: a small x-z vector in random directions
+    burst = slice(1500, 1550)
+    phi = rng.uniform(-np.pi, np.pi, 50)
+    ax[burst], az[burst] = np.cos(phi), np.sin(phi)
+    z = np.arctan2(az, ax)
+    assert abs(np.unwrap(z)[-1] - z[-1]) > 6.0  # unwrapping by continuity gains whole turns
+    whole = GaitAwareKalman(FS, segments=("foot",)).process(ax, az, w)
+    after = np.r_[100:1500, 1700:n]
+    assert np.max(np.abs(whole[after] - (np.pi - 0.02))) < 0.05
+    kf = GaitAwareKalman(FS, segments=("foot",))
+    np.testing.assert_array_equal(chunked(kf.process, [ax, az, w], seed=13), whole)

@@ -36,10 +36,10 @@ theta_0, b_0, theta_1, b_1, ...) by BLAS ``dtbsv``, which substitutes strictly i
 the state carried from the previous block enters as two identity rows, so any chunking performs
 the same floating-point operations in the same order and gives bit-for-bit the same output.
 
-Wrap. z is unwrapped by continuity (carried across blocks), anchored within pi of the prediction
-at the first sample, so the state stays continuous through +-pi. Unlike paper 000's filter the
-innovation is not wrapped again: a segment would have to turn by more than half a turn between
-two trusted samples for that to matter.
+Wrap. z is unwrapped by continuity (carried across blocks), so the state stays continuous through
++-pi; where a trusted sample's innovation would still lie beyond +-pi (the accelerometer tilt
+jumps when the board's y axis nears the vertical), z is re-anchored by whole turns and the block
+re-solved from that sample, which is paper 000's wrap(z - theta-) (``_solve_wrapped``).
 """
 
 from __future__ import annotations
@@ -319,8 +319,6 @@ class GaitAwareKalman:
         # unwrap by continuity from the last sample of the previous block
         steps = -np.rint(np.diff(np.vstack([self._last_z, z]), axis=0) / TWO_PI)
         turns = self._turns + np.cumsum(steps, axis=0)
-        z_unw = z + TWO_PI * turns
-        self._last_z, self._turns = z[-1].copy(), turns[-1].copy()
         k0 = np.empty((n, s))
         k1 = np.empty((n, s))
         for (tun, cols), win, k_static in zip(
@@ -336,6 +334,38 @@ class GaitAwareKalman:
                     measurement_variance(dev, rate, tun), self.dt_s, tun.q_angle, tun.q_bias
                 )
                 k0[:, cols], k1[:, cols] = k[..., 0], k[..., 1]
-        out, bias = solve_scheduled(self._theta, self._bias, k0, k1, z_unw, w, self.dt_s)
+        out, bias = self._solve_wrapped(k0, k1, z, turns, w)
+        self._last_z, self._turns = z[-1].copy(), turns[-1].copy()
         self._theta, self._bias = out[-1].copy(), bias[-1].copy()
         return out[:, 0] if was_1d else out
+
+    def _solve_wrapped(
+        self, k0: np.ndarray, k1: np.ndarray, z: np.ndarray, turns: np.ndarray, w: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Solve, then honour the wrap of the innovation (paper 000's wrap(z - theta-)).
+
+        Where a trusted sample's innovation against the unwrapped z lies beyond +-pi (the
+        accelerometer tilt jumped across +-pi while the segment did not, e.g. with its y axis
+        near vertical), z is re-anchored by whole turns from that sample on and the rest of the
+        block is solved again from the state before it: the same arithmetic as a block that
+        starts there, so the result stays the same in any chunking. ``turns`` is updated.
+        """
+        assert self._theta is not None and self._bias is not None
+        out = np.empty_like(z)
+        bias = np.empty_like(z)
+        i0, th0, b0 = 0, self._theta, self._bias
+        while True:
+            z_unw = z[i0:] + TWO_PI * turns[i0:]
+            th, b = solve_scheduled(th0, b0, k0[i0:], k1[i0:], z_unw, w[i0:], self.dt_s)
+            out[i0:], bias[i0:] = th, b
+            prev_th = np.vstack([th0, th[:-1]])
+            prev_b = np.vstack([b0, b[:-1]])
+            e = z_unw - (prev_th + (w[i0:] - prev_b) * self.dt_s)
+            bad = (k0[i0:] > 0) & (np.abs(e) > np.pi)
+            rows = np.flatnonzero(bad.any(axis=1))
+            if len(rows) == 0:
+                return out, bias
+            j = i0 + int(rows[0])
+            turns[j:] -= np.where(bad[rows[0]], np.floor(e[rows[0]] / TWO_PI + 0.5), 0.0)
+            th0, b0 = (out[j - 1], bias[j - 1]) if j > 0 else (self._theta, self._bias)
+            i0 = j

@@ -63,7 +63,14 @@ def smoother_inputs(
     rate = centred_max(np.abs(gyro_rad_s), n_win)
     r = measurement_variance(dev, rate, tuning)
     qa = tuning.q_angle * (1.0 + (np.abs(gyro_rad_s) / tuning.rate_scale_rad_s) ** 2)
-    z = np.unwrap(np.arctan2(acc_z_ms2, acc_x_ms2))
+    # unwrap against the causal filter (paper 000's wrapped innovation), not by continuity: the
+    # accelerometer tilt jumps across +-pi whenever the board's y axis nears the vertical
+    from gaitmon.dsp.motion_kalman import GaitAwareKalman
+
+    ref = GaitAwareKalman(fs_hz, segments=("foot",), tuning={"foot": tuning}).process(
+        acc_x_ms2, acc_z_ms2, gyro_rad_s
+    )
+    z = ref + wrap_angle(np.arctan2(acc_z_ms2, acc_x_ms2) - ref)
     return z, r, qa
 
 
@@ -160,5 +167,6 @@ def smooth_record_tilts(
     gyro = phys[:, GYRO_IDX] - bias
     out = np.empty((n, len(SEGMENTS)))
     for j, seg in enumerate(SEGMENTS):
-        out[:, j] = smooth_tilt(phys[:, ACC_X_IDX[j]], phys[:, ACC_Z_IDX[j]], gyro[:, j], fs_hz, seg)
+        ax, az = phys[:, ACC_X_IDX[j]], phys[:, ACC_Z_IDX[j]]
+        out[:, j] = smooth_tilt(ax, az, gyro[:, j], fs_hz, seg)
     return np.asarray(wrap_angle(out - offset))

@@ -16,7 +16,6 @@ import h5py
 import numpy as np
 
 from gaitmon.dsp.estimate import method_label
-
 from gaitmon.io.journal import journal_lock
 from gaitmon.io.session.layout import (
     _DEVICE_KEYS,
