@@ -35,6 +35,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
             default=None,
             help=f"{help_text}; default: as recorded",
         )
+    p.add_argument(
+        "--method",
+        choices=("gait-aware", "paper"),
+        default=None,
+        help="tilt filter: gait-aware (default for new recordings) or paper ('Kalman (paper, "
+        "seed 000)'); default: as recorded",
+    )
+    p.add_argument(
+        "--smooth",
+        action="store_true",
+        help="store the zero-lag RTS smoother's angles (gait-aware method only)",
+    )
     p.add_argument("--force", action="store_true", help="replace NEW if it exists")
 
 
@@ -51,10 +63,17 @@ def run(args: argparse.Namespace) -> int:
     if not dst.parent.is_dir():
         raise UserError(f"folder {dst.parent} does not exist")
     changes = {k: getattr(args, k) for k in SETTINGS if getattr(args, k) is not None}
+    choices: dict[str, object] = {}
+    if args.method is not None:
+        choices["tilt_method"] = args.method
+    if args.smooth:
+        choices["offline_smoother"] = True
     try:
         recorded = recorded_config(src, progress=progress_printer("recovering"))
         try:
-            config = recorded.replace(**changes)
+            config = recorded.replace(**changes, **choices)
+            if args.smooth and not config.smooths_offline:
+                raise UserError("--smooth needs the gait-aware method (--method gait-aware)")
         except ValueError as exc:
             raise UserError(f"bad setting: {exc}") from None
         result = rewrite_processed(
@@ -64,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(str(exc)) from None
     print(
         f"gaitmon process: wrote {dst} ({result.n_frames} frames) with "
-        + (", ".join(f"{k}={v:g}" for k, v in changes.items()) or "the recorded settings"),
+        + (", ".join(f"{k}={v:g}" for k, v in changes.items()) or "the recorded settings")
+        + f"; angles: {config.offline_method_label}",
         file=sys.stderr,
     )
     return 0

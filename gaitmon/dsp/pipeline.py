@@ -79,10 +79,11 @@ class PipelineConfig:
     compensate_event_delay: bool = True
     tilt_method: str = DEFAULT_METHOD  # "gait-aware" | "paper" (gaitmon.dsp.estimate.METHODS)
     fsr_check: bool = True  # cross-check the FSRs with the foot gyro, fall back to its events
-    # offline re-runs of a whole recording (gaitmon process, "Save reprocessed as…") replace the
-    # gait-aware filter's tilts by the zero-lag RTS smoother's (gaitmon.dsp.smoother); the live
-    # pipeline cannot look ahead and ignores it
-    offline_smoother: bool = True
+    # offline re-runs of a whole recording (rewrite_processed: gaitmon process --smooth) replace
+    # the gait-aware filter's tilts by the zero-lag RTS smoother's (gaitmon.dsp.smoother); the
+    # live pipeline cannot look ahead and ignores it. Off by default until the review window's
+    # in-memory reprocessing smooths too (it must show what the file will hold)
+    offline_smoother: bool = False
 
     @classmethod
     def from_stored(cls, values: Mapping[str, Any]) -> PipelineConfig:
