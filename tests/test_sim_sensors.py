@@ -149,3 +149,22 @@ def test_any_chunking_gives_the_same_samples():
     np.testing.assert_array_equal(np.concatenate([p.counts for p in parts]), whole.counts)
     model.reset()
     np.testing.assert_array_equal(model.next_block(100).counts, whole.counts[:100])
+
+
+def test_realism_options_are_off_by_default_and_change_only_what_they_model():
+    from gaitmon.io.sim.sensors import realistic_sensors, simulate
+
+    gait = GaitModel(GaitConfig(seed=5))
+    plain = simulate(3000, gait, SensorConfig(seed=5))
+    real = simulate(3000, GaitModel(GaitConfig(seed=5)), realistic_sensors(5, turns=True))
+    # the truth is the bone's: the same motion under both sensor models
+    np.testing.assert_array_equal(plain.kinematics.tilt_rad, real.kinematics.tilt_rad)
+    standing = slice(0, 400)  # no heel strike, no turn yet: the same accelerometer samples
+    acc = np.concatenate([ACC_X_IDX, ACC_Z_IDX])
+    np.testing.assert_array_equal(plain.counts[standing][:, acc], real.counts[standing][:, acc])
+    walking = slice(1500, 3000)
+    assert np.any(plain.counts[walking] != real.counts[walking])
+    # in chunks: the same samples (wobble and turns are functions of time)
+    model = SensorModel(GaitModel(GaitConfig(seed=5)), realistic_sensors(5, turns=True))
+    parts = np.concatenate([model.next_block(c).counts for c in (1, 999, 2000)])
+    np.testing.assert_array_equal(parts, real.counts)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from gaitmon.errors import UserError
 
-CHOICES = ("all", "p000", "p001", "p002", "p003", "p004")
+CHOICES = ("all", "p000", "p001", "p002", "p003", "p004", "accuracy")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -16,9 +16,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "experiment",
         nargs="?",
         default="all",
-        help=f"which experiment: {', '.join(CHOICES)} (default all)",
+        help=f"which experiment: {', '.join(CHOICES)} (default all; 'accuracy' prints the tilt "
+        "methods' accuracy table and needs no -o)",
     )
-    p.add_argument("-o", "--out", required=True, metavar="DIR", help="directory for the reports")
+    p.add_argument("-o", "--out", metavar="DIR", help="directory for the reports")
+    p.add_argument(
+        "--data",
+        metavar="DIR",
+        help="the shared real recordings (accuracy; default ../shared/data beside the source)",
+    )
     p.add_argument(
         "--quick", action="store_true", help="shorter records and fewer runs (for a smoke test)"
     )
@@ -27,6 +33,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.experiment not in CHOICES:
         raise UserError(f"unknown experiment {args.experiment!r}; use one of {', '.join(CHOICES)}")
+    if args.experiment == "accuracy":
+        return _accuracy(args)
+    if not args.out:
+        raise UserError("gaitmon lab needs -o DIR, the directory for the reports")
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UserError(f"{out} exists and is not a directory")
@@ -44,4 +54,28 @@ def run(args: argparse.Namespace) -> int:
     print(f"gaitmon lab: {len(names)} experiment(s) -> {out}", flush=True)
     run_all(names, out, quick=args.quick, progress=lambda m: print(f"  {m}", flush=True))
     print(f"gaitmon lab: done in {time.perf_counter() - t0:.1f} s", flush=True)
+    return 0
+
+
+def _accuracy(args: argparse.Namespace) -> int:
+    from gaitmon.lab.accuracy import default_data_dir, evaluate, format_table
+
+    data = Path(args.data) if args.data else default_data_dir()
+    if data is not None and args.data and not (data / "broad").is_dir():
+        raise UserError(f"{data} has no broad/ folder of real recordings (see its README)")
+    t0 = time.perf_counter()
+    print("gaitmon lab accuracy: simulator scenarios"
+          + (f" and the recordings in {data}" if data else " (no real recordings found)"),
+          flush=True)  # fmt: skip
+    acc = evaluate(quick=args.quick, data_dir=data, progress=lambda m: print(f"  {m}", flush=True))
+    table = format_table(acc)
+    print(table)
+    if args.out:
+        out = Path(args.out)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+            (out / "accuracy.md").write_text(table + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise UserError(f"cannot write the table to {out}: {exc.strerror or exc}") from None
+    print(f"gaitmon lab accuracy: done in {time.perf_counter() - t0:.1f} s", flush=True)
     return 0

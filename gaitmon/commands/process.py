@@ -37,6 +37,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
             default=None,
             help=f"{help_text}; default: as recorded",
         )
+    p.add_argument(
+        "--method",
+        choices=("gait-aware", "paper"),
+        default=None,
+        help="tilt filter: gait-aware (default for new recordings) or paper ('Kalman (paper, "
+        "seed 000)'); default: as recorded",
+    )
+    p.add_argument(
+        "--smooth",
+        action="store_true",
+        help="store the zero-lag RTS smoother's angles (gait-aware method only)",
+    )
     add_force(p, "NEW")
     add_quiet(p, "no progress or summary lines (warnings are still shown)")
 
@@ -77,10 +89,17 @@ def run(args: argparse.Namespace) -> int:
     changes = {k: getattr(args, k) for k in SETTINGS if getattr(args, k) is not None}
     check_settings(changes)
     quiet = bool(args.quiet)
+    choices: dict[str, object] = {}
+    if args.method is not None:
+        choices["tilt_method"] = args.method
+    if args.smooth:
+        choices["offline_smoother"] = True
     try:
         recorded = recorded_config(src, progress=None if quiet else progress_printer("recovering"))
         try:
-            config = recorded.replace(**changes)
+            config = recorded.replace(**changes, **choices)
+            if args.smooth and not config.smooths_offline:
+                raise UserError("--smooth needs the gait-aware method (--method gait-aware)")
         except ValueError as exc:
             raise UserError(f"bad setting: {exc}") from None
         result = rewrite_processed(
@@ -94,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
     settings = ", ".join(f"{k}={v:g}" for k, v in changes.items()) or "the recorded settings"
     if not quiet:
         print(f"gaitmon process: wrote {dst} ({result.n_frames} frames, {n_after} heel "
-              f"strikes) with {settings}", file=sys.stderr)
+              f"strikes) with {settings}; angles: {config.offline_method_label}", file=sys.stderr)
     if n_after < 2 <= n_before:  # settings that run but find no strides are almost always wrong
         print(
             f"gaitmon process: warning: {dst.name} has {n_after} heel strikes with {settings} "

@@ -139,4 +139,5 @@ def slice_pipeline(p: PipelineBlock, a: int, z: int, with_events: bool) -> Pipel
     if not with_events:
         changes["heel_strike_idx"] = p.heel_strike_idx[:0]
         changes["toe_off_idx"] = p.toe_off_idx[:0]
+        changes.update(gyro_heel_strike_idx=(), gyro_toe_off_idx=(), fsr_faults=())
     return dataclasses.replace(p, start_idx=p.start_idx + a, **changes)

@@ -15,6 +15,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from gaitmon.dsp.estimate import method_label
 from gaitmon.io.journal import journal_lock
 from gaitmon.io.session.layout import (
     _DEVICE_KEYS,
@@ -119,6 +120,12 @@ class _H5File:
         p = f["processed"]
         p.attrs["source"] = "pc" if mode == "raw" else "device"
         p.attrs["reprocessed"] = bool(reprocessed)
+        # what made tilt_deg / joint_deg (rewrite_processed replaces it when it smooths)
+        p.attrs["tilt_method"] = (
+            method_label(str(h["config"].get("tilt_method", "paper")))
+            if mode == "raw"
+            else "the unit's own"
+        )
 
         ev = f.create_group("events")
         for name in ("heel_strike", "toe_off"):

@@ -106,7 +106,7 @@ class SessionHeader:
             sample_rate_hz=float(d["sample_rate_hz"]),
             meta=SessionMeta(**d.get("session", {})),
             device=d.get("device", {}),
-            config=PipelineConfig(**d["config"]),
+            config=PipelineConfig.from_stored(d["config"]),
             calibration=Calibration.from_dict(d["calibration"]),
             created_utc=d.get("created_utc", ""),
             channels=tuple(ChannelSpec(**c) for c in d.get("channels", [])) or CHANNELS,

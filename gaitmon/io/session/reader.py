@@ -120,10 +120,9 @@ class Session:
 
         cfg_attrs = {k: _py(v) for k, v in f["config"].attrs.items()}
         self.event_delay_samples = int(cfg_attrs.pop("event_delay_samples", 0))
-        fields = PipelineConfig.__dataclass_fields__
-        self.config = PipelineConfig(**{k: v for k, v in cfg_attrs.items() if k in fields})
+        self.config = PipelineConfig.from_stored(cfg_attrs)
         self.config_changes: list[tuple[int, PipelineConfig]] = [
-            (int(r["sample_idx"]), PipelineConfig(**json.loads(_s(r["json"]))))
+            (int(r["sample_idx"]), PipelineConfig.from_stored(json.loads(_s(r["json"]))))
             for r in f["config/changes"][()]
         ]
         cal = f["calibration"].attrs

@@ -101,7 +101,7 @@ def _journal_changes(
     for rtype, obj in contents.changes:
         idx = int(obj["sample_idx"])
         if rtype == RecordType.CONFIG:
-            out.append((idx, PipelineConfig(**obj["config"])))
+            out.append((idx, PipelineConfig.from_stored(obj["config"])))
         else:
             out.append((idx, Calibration.from_dict(obj["calibration"])))
     return out

@@ -156,6 +156,22 @@ def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], Non
             check_cancel()
 
 
+def _smooth_into(
+    f: h5py.File, adc: np.ndarray, table: ChannelTable, calibration: Calibration,
+    calibration_log: list[tuple[int, Calibration]], fs_hz: float,
+) -> None:  # fmt: skip
+    """Replace the stored Kalman tilts and joints by the zero-lag RTS smoother's."""
+    from gaitmon.dsp.angles import joint_angles
+    from gaitmon.dsp.smoother import smooth_record_tilts
+
+    cals = [(0, calibration), *[(r, c) for r, c in calibration_log if r > 0]]
+    tilt = smooth_record_tilts(adc, table, cals, fs_hz)
+    n = min(len(tilt), len(f["processed/joint_deg"]))
+    if "processed/tilt_deg" in f:
+        f["processed/tilt_deg"][:n] = np.degrees(tilt[:n]).astype(np.float32)
+    f["processed/joint_deg"][:n] = np.degrees(joint_angles(tilt[:n])).astype(np.float32)
+
+
 def _rewrite(
     tmp: Path,
     adc: np.ndarray,
@@ -191,6 +207,9 @@ def _rewrite(
             check_cancel()
         proc.attrs["reprocessed"] = True
         proc.attrs["source"] = "pc"
+        if config.smooths_offline:
+            _smooth_into(f, adc, table, calibration, calibration_log, config.fs_hz)
+        proc.attrs["tilt_method"] = config.offline_method_label
         ev = f["events"]
         for name, parts in (("heel_strike", hs), ("toe_off", to)):
             data = np.concatenate(parts) if parts else np.empty(0, np.int64)

@@ -1,0 +1,146 @@
+"""Force-sensor faults, found by checking each FSR against the strides the foot gyro sees.
+
+Force sensors break (never load), saturate or short (never unload) and drift (load at the wrong
+time). The foot gyro's strides (gaitmon.dsp.gyro_events) give an independent clock: for each gyro
+stride k (heel strike HS_k, the following toe off TO_k, next heel strike HS_k+1), each sensor is
+checked on its debounced loaded state:
+
+* "never loads": not one loaded sample between HS_k and TO_k (stance);
+* "never unloads": loaded for more than 90 % of the swing, TO_k .. HS_k+1;
+* "disagrees with the foot gyro": the heel is not loaded anywhere within ``tolerance_s`` before
+  to 2 x ``tolerance_s`` after HS_k, or the toe is not loaded anywhere within 2 x ``tolerance_s``
+  before to ``tolerance_s`` after TO_k.
+
+A sensor that fails the same check in ``strides_to_flag`` (3) consecutive gyro strides is flagged
+as faulty; the flag stays for the rest of the record. The flag's ``decided_idx`` is the gyro
+stride's closing heel strike plus ``decision_delay`` samples (the gyro detector's latency): a
+deterministic sample index, so a pipeline that switches its event source there behaves the same in
+any chunking.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+SENSORS = ("heel", "toe")
+
+
+@dataclass(frozen=True)
+class FsrFault:
+    sensor: str  # heel | toe
+    reason: str  # never loads | never unloads | disagrees with the foot gyro
+    stride_start_idx: int  # gyro heel strike of the first of the failing strides
+    decided_idx: int  # sample index from which the fault is known
+
+    def message(self) -> str:
+        return f"{self.sensor} force sensor {self.reason}: gait events from the foot gyro"
+
+
+class FsrMonitor:
+    """Streaming FSR check (module doc): feed loaded flags and gyro events, get new faults."""
+
+    def __init__(
+        self, fs_hz: float = 100.0, strides_to_flag: int = 3, tolerance_s: float = 0.15,
+        decision_delay: int = 0,
+    ) -> None:  # fmt: skip
+        if strides_to_flag < 1:
+            raise ValueError(f"strides_to_flag must be >= 1, got {strides_to_flag}")
+        self.fs_hz = float(fs_hz)
+        self.strides_to_flag = int(strides_to_flag)
+        self.tol = max(1, round(tolerance_s * fs_hz))
+        self.decision_delay = int(decision_delay)
+        self.reset()
+
+    def reset(self) -> None:
+        self._loaded = np.zeros((0, 2), dtype=bool)  # from absolute index self._start
+        self._start = 0
+        self._seen = 0
+        self._hs: list[int] = []
+        self._to: list[int] = []
+        self._runs = {(s, r): 0 for s in SENSORS for r in _REASONS}
+        self.faults: list[FsrFault] = []
+        self._first_fail: dict[tuple[str, str], int] = {}
+
+    @property
+    def faulty(self) -> tuple[str, ...]:
+        return tuple(f.sensor for f in self.faults)
+
+    def process(
+        self, heel_loaded: np.ndarray, toe_loaded: np.ndarray,
+        gyro_hs_idx: np.ndarray, gyro_to_idx: np.ndarray,
+    ) -> list[FsrFault]:  # fmt: skip
+        """New faults found with this block (their ``decided_idx`` may lie in a later block)."""
+        block = np.stack([np.asarray(heel_loaded, bool), np.asarray(toe_loaded, bool)], axis=1)
+        self._loaded = np.concatenate([self._loaded, block.reshape(-1, 2)])
+        self._seen += len(block)
+        self._hs.extend(int(i) for i in gyro_hs_idx)
+        self._to.extend(int(i) for i in gyro_to_idx)
+        # a stride HS_k .. HS_k+1 is checked once the loaded flags reach its closing heel strike
+        strides: list[tuple[int, int, int]] = []
+        while len(self._hs) >= 2 and self._hs[1] + 2 * self.tol <= self._seen:
+            hs0, hs1 = self._hs[0], self._hs[1]
+            self._to = [t for t in self._to if t > hs0]
+            to = next((t for t in self._to if t < hs1), None)
+            if to is not None:
+                strides.append((hs0, to, hs1))
+            self._hs.pop(0)
+        new = self._check(np.array(strides, dtype=np.int64).reshape(-1, 3)) if strides else []
+        keep = max(self._start, (self._hs[0] if self._hs else self._seen) - 3 * self.tol)
+        self._loaded = self._loaded[keep - self._start :]
+        self._start = keep
+        return new
+
+    def _counts(self, cs: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(loaded samples, samples) in [a, b) per row, from the prefix sums of one column."""
+        lo = np.clip(a - self._start, 0, len(cs) - 1)
+        hi = np.clip(b - self._start, 0, len(cs) - 1)
+        hi = np.maximum(hi, lo)
+        return cs[hi] - cs[lo], hi - lo
+
+    def _check(self, st: np.ndarray) -> list[FsrFault]:
+        """Check strides (rows hs0, to, hs1) in order; vectorised counts, then the run logic."""
+        found: list[FsrFault] = []
+        tol = self.tol
+        hs0, to, hs1 = st[:, 0], st[:, 1], st[:, 2]
+        fails: dict[str, dict[str, np.ndarray]] = {}
+        for col, sensor in enumerate(SENSORS):
+            cs = np.concatenate([[0], np.cumsum(self._loaded[:, col], dtype=np.int64)])
+            stance, _ = self._counts(cs, hs0, to)
+            swing, swing_n = self._counts(cs, to, hs1)
+            if sensor == "heel":
+                near, _ = self._counts(cs, hs0 - tol, hs0 + 2 * tol)
+            else:
+                near, _ = self._counts(cs, to - 2 * tol, to + tol)
+            fails[sensor] = {
+                "never loads": stance == 0,
+                "never unloads": (swing_n > 0) & (swing > 0.9 * swing_n),
+                "disagrees with the foot gyro": near == 0,
+            }
+        for k in range(len(st)):
+            for sensor in SENSORS:
+                if sensor in self.faulty:
+                    continue
+                for reason in _REASONS:
+                    key = (sensor, reason)
+                    if fails[sensor][reason][k]:
+                        if self._runs[key] == 0:
+                            self._first_fail[key] = int(hs0[k])
+                        self._runs[key] += 1
+                    else:
+                        self._runs[key] = 0
+                for reason in _REASONS:  # the most specific reason first
+                    key = (sensor, reason)
+                    if self._runs[key] >= self.strides_to_flag:
+                        fault = FsrFault(
+                            sensor, reason, self._first_fail[key],
+                            int(hs1[k]) + self.decision_delay,
+                        )  # fmt: skip
+                        self.faults.append(fault)
+                        found.append(fault)
+                        break
+        return found
+
+
+_REASONS = ("never loads", "never unloads", "disagrees with the foot gyro")

@@ -1,0 +1,380 @@
+"""The gait-aware causal tilt filter: paper 000's state, the measurement trusted by the motion.
+
+State x = [theta, b] (tilt, gyro bias) and the prediction are paper 000's (SPEC section 4):
+
+    theta- = theta + (omega - b) dt ;  b- = b
+
+What changes is *when* the accelerometer tilt z = atan2(a_z, a_x) is believed. It measures the
+tilt only while the segment's own acceleration is small, i.e. while | |a| - g | is small. Per
+sample and segment the filter looks at the last ``window_s`` (50 ms) of raw (not low-passed)
+samples:
+
+    dev = max | |a| - g |  over the window,    rate = max |omega| over the window
+
+and gives the measurement a variance R (rad^2) from them (:class:`SegmentTuning`):
+
+* quasi-static (dev < ``static_acc_ms2`` and rate < ``static_rate_rad_s``): R = ``r_static``.
+  For the foot this is foot-flat in every stance: the accelerometer is then as good as it gets.
+* otherwise R = ``r_moving`` (1 + (dev / ``acc_scale_ms2``)^2), or infinity (no update at all)
+  where ``r_moving`` is None. Thigh and body are never still while walking; a foot-style gate
+  would leave them on the gyro alone for minutes, so they keep a weak measurement whose weight
+  falls with the acceleration magnitude's deviation from 1 g.
+
+Gain. The gain at each sample is the *steady-state* Kalman gain [K0, K1] of the paper's model
+(exact discretisation, Q = diag(q_angle, q_bias)) for that sample's R, looked up in a table
+over log10(R) (linear interpolation between 0.05-decade knots; R = infinity gives K = 0). It is a
+gain-scheduled Kalman filter: with the large static gains the first foot-flat samples after a
+swing correct the angle within a few samples, which is what the exact time-varying filter does
+too (on the simulator the scheduled gains were as accurate as the exact time-varying
+covariance; see docs/filters.md). The update is paper 000's, with K from the schedule:
+
+    theta = theta- + K0 e ; b = b- + K1 e ;  e = z - theta-
+
+Speed and chunking. With K known per sample the filter is a linear recursion with time-varying
+coefficients. It is solved as one lower-triangular banded system (bandwidth 3, unknowns
+theta_0, b_0, theta_1, b_1, ...) by BLAS ``dtbsv``, which substitutes strictly in time order;
+the state carried from the previous block enters as two identity rows, so any chunking performs
+the same floating-point operations in the same order and gives bit-for-bit the same output.
+
+Wrap. z is unwrapped by continuity (carried across blocks), so the state stays continuous through
++-pi; where a trusted sample's innovation would still lie beyond +-pi (the accelerometer tilt
+jumps when the board's y axis nears the vertical), z is re-anchored by whole turns and the block
+re-solved from that sample, which is paper 000's wrap(z - theta-) (``_solve_wrapped``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from gaitmon.dsp.angles import TWO_PI
+from gaitmon.dsp.channels import SEGMENTS, STANDARD_GRAVITY_MS2
+
+_LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
+
+
+@dataclass(frozen=True)
+class SegmentTuning:
+    """How one segment's motion sets the accelerometer's weight (see the module doc)."""
+
+    static_acc_ms2: float = 1.5
+    static_rate_rad_s: float = 1.0
+    window_s: float = 0.05
+    r_static: float = 1e-3  # rad^2, measurement variance when quasi-static
+    r_moving: float | None = None  # rad^2 at |a| = g while moving; None = not used then
+    acc_scale_ms2: float = 2.0
+    # while moving, R also grows as (1 + (rate / scale)^2): a fast-swinging segment's
+    # accelerometer carries more of its own acceleration (None = no growth)
+    moving_rate_scale_rad_s: float | None = None
+    q_angle: float = 1e-7  # rad^2 per step, angle random walk (gyro noise)
+    q_bias: float = 1e-8  # (rad/s)^2 per step, bias random walk
+    # offline smoother only: the angle's process noise grows as (1 + (|omega| / scale)^2)
+    rate_scale_rad_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("static_acc_ms2", "static_rate_rad_s", "window_s", "r_static",
+                     "acc_scale_ms2", "q_angle", "q_bias", "rate_scale_rad_s"):  # fmt: skip
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value}")
+        if self.r_moving is not None and not (np.isfinite(self.r_moving) and self.r_moving > 0):
+            raise ValueError(f"r_moving must be a positive number or None, got {self.r_moving}")
+
+    def window_samples(self, fs_hz: float) -> int:
+        return max(1, round(self.window_s * fs_hz))
+
+
+# Chosen on the simulator (docs/filters.md): the foot is gated (foot-flat every stance); body,
+# thigh and shank keep a weak, acceleration-weighted measurement while walking.
+_WEIGHTED = SegmentTuning(
+    static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0
+)
+SEGMENT_TUNING: dict[str, SegmentTuning] = {
+    "body": _WEIGHTED,
+    "thigh": _WEIGHTED,
+    "shank": _WEIGHTED,
+    "foot": SegmentTuning(r_moving=1.0),
+}
+
+
+def tuning_for(segment: str) -> SegmentTuning:
+    try:
+        return SEGMENT_TUNING[segment]
+    except KeyError:
+        raise ValueError(f"unknown segment {segment!r}; use one of {list(SEGMENTS)}") from None
+
+
+def prior_covariance(
+    dt_s: float, q_angle: float, q_bias: float, r: np.ndarray
+) -> np.ndarray:
+    """(M, 2, 2) steady prior covariances of the paper's model for measurement variances r (M,).
+
+    The discrete Riccati equation P = F P (I + G P)^-1 F^T + Q, G = H^T H / r, solved for all r
+    at once by the structured doubling algorithm (Chu, Fan, Lin 2005; quadratic convergence),
+    which scipy's one-at-a-time ``solve_discrete_are`` agrees with (tests).
+    """
+    r = np.asarray(r, dtype=np.float64)
+    m = len(r)
+    eye = np.broadcast_to(np.eye(2), (m, 2, 2))
+    a = np.broadcast_to(np.array([[1.0, 0.0], [-dt_s, 1.0]]), (m, 2, 2)).copy()  # F^T
+    g = np.zeros((m, 2, 2))
+    g[:, 0, 0] = 1.0 / r
+    h = np.broadcast_to(np.diag([q_angle, q_bias]), (m, 2, 2)).copy()
+    for _ in range(200):
+        w_inv = np.linalg.inv(eye + g @ h)
+        at = np.swapaxes(a, 1, 2)
+        h_new = h + at @ h @ w_inv @ a
+        g = g + a @ w_inv @ g @ at
+        a = a @ w_inv @ a
+        done = np.allclose(h_new, h, rtol=1e-15, atol=0.0)
+        h = h_new
+        if done:
+            break
+    return 0.5 * (h + np.swapaxes(h, 1, 2))
+
+
+@lru_cache(maxsize=64)
+def _gain_table(dt_s: float, q_angle: float, q_bias: float) -> tuple[np.ndarray, np.ndarray]:
+    """(log10 R knots, (M, 2) steady-state gains [K0, K1]) of the paper's model."""
+    log_r = np.arange(_LOG_R_MIN, _LOG_R_MAX + _LOG_R_STEP / 2, _LOG_R_STEP)
+    r = 10.0**log_r
+    p = prior_covariance(dt_s, q_angle, q_bias, r)
+    gains = p[:, :, 0] / (p[:, 0, 0] + r)[:, None]
+    return log_r, gains
+
+
+def steady_state_gain(
+    r: np.ndarray | float, dt_s: float, q_angle: float, q_bias: float
+) -> np.ndarray:
+    """(..., 2) scheduled gains [K0, K1] for measurement variances r (inf -> [0, 0])."""
+    log_r, gains = _gain_table(float(dt_s), float(q_angle), float(q_bias))
+    r = np.asarray(r, dtype=np.float64)
+    finite = np.isfinite(r)
+    lr = np.log10(np.where(finite, r, 1.0))
+    out = np.empty((*r.shape, 2))
+    for j in range(2):
+        out[..., j] = np.where(finite, np.interp(lr, log_r, gains[:, j]), 0.0)
+    return out
+
+
+def measurement_variance(
+    dev_ms2: np.ndarray, rate_rad_s: np.ndarray, tuning: SegmentTuning
+) -> np.ndarray:
+    """R (rad^2) from the window maxima of | |a| - g | and |omega| (inf = not trusted)."""
+    static = (dev_ms2 < tuning.static_acc_ms2) & (rate_rad_s < tuning.static_rate_rad_s)
+    if tuning.r_moving is None:
+        moving = np.full(np.shape(dev_ms2), np.inf)
+    else:
+        moving = tuning.r_moving * (1.0 + (dev_ms2 / tuning.acc_scale_ms2) ** 2)
+        if tuning.moving_rate_scale_rad_s is not None:
+            moving = moving * (1.0 + (rate_rad_s / tuning.moving_rate_scale_rad_s) ** 2)
+    return np.where(static, tuning.r_static, moving)
+
+
+class MotionWindow:
+    """Causal sliding maxima of | |a| - g | and |omega| over the last ``n`` samples, any chunking.
+
+    Before the first sample there is nothing: the first n - 1 windows are shorter.
+    """
+
+    def __init__(self, n: int) -> None:
+        self.n = int(n)
+        self.reset()
+
+    def reset(self) -> None:
+        self._tail: np.ndarray | None = None  # (n - 1, 2, S) last samples of (dev, rate)
+
+    def process(
+        self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(N, S) inputs -> (dev, rate) window maxima, (N, S) each."""
+        x = np.stack(
+            [np.abs(np.hypot(acc_x_ms2, acc_z_ms2) - STANDARD_GRAVITY_MS2), np.abs(gyro_rad_s)],
+            axis=1,
+        )  # (N, 2, S)
+        if self._tail is None:
+            # -inf: windows that reach before the first sample ignore that part
+            self._tail = np.full((self.n - 1, *x.shape[1:]), -np.inf)
+        ext = np.concatenate([self._tail, x], axis=0)
+        n = len(x)
+        out = ext[self.n - 1 :].copy()
+        for lag in range(1, self.n):  # max of shifted copies: exact, and fast for short windows
+            np.maximum(out, ext[self.n - 1 - lag : self.n - 1 - lag + n], out=out)
+        self._tail = ext[len(ext) - (self.n - 1) :]
+        return out[:, 0], out[:, 1]
+
+
+def solve_scheduled(
+    theta0: np.ndarray | float, bias0: np.ndarray | float, k0: np.ndarray, k1: np.ndarray,
+    z: np.ndarray, w: np.ndarray, dt_s: float,
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Run theta/b through the scheduled update; returns (theta, bias), shaped like ``z``.
+
+    theta_k = (1 - K0) (theta_{k-1} + (w_k - b_{k-1}) dt) + K0 z_k
+    b_k     = b_{k-1} + K1 (z_k - theta_{k-1} - (w_k - b_{k-1}) dt)
+
+    as a unit lower-triangular banded system (see the module doc). (N,) inputs are one segment;
+    (N, S) inputs run S segments as S independent blocks of one system (one BLAS call): no
+    coefficient links one block to the next, so each column is computed exactly as alone.
+    """
+    from scipy.linalg.blas import dtbsv  # lazy: scipy only where a filter is run
+
+    was_1d = np.ndim(z) == 1
+    k0, k1, z, w = (np.asarray(a, dtype=np.float64).reshape(len(a), -1).T for a in (k0, k1, z, w))
+    s, n = z.shape  # segment-major from here on
+    m = 2 * n + 2  # unknowns per segment: the carried (theta, b), then (theta_k, b_k)
+    a = np.zeros((4, s, m))
+    a[0] = 1.0
+    c0 = 1.0 - k0
+    a[2, :, 0 : 2 * n : 2] = -c0  # theta_k <- theta_{k-1}
+    a[3, :, 0 : 2 * n : 2] = k1  # b_k <- theta_{k-1}
+    a[1, :, 1 : 2 * n : 2] = c0 * dt_s  # theta_k <- b_{k-1}
+    a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
+    x = np.empty((s, m))
+    x[:, 0] = theta0
+    x[:, 1] = bias0
+    wdt = w * dt_s
+    x[:, 2::2] = c0 * wdt + k0 * z
+    x[:, 3::2] = k1 * (z - wdt)
+    band = np.asfortranarray(a.reshape(4, s * m))
+    y = dtbsv(3, band, x.reshape(-1), lower=1, diag=1, overwrite_x=1).reshape(s, m)
+    theta, bias = y[:, 2::2].T, y[:, 3::2].T
+    if was_1d:
+        return theta[:, 0].copy(), bias[:, 0].copy()
+    return theta, bias
+
+
+class GaitAwareKalman:
+    """The gait-aware causal tilt filter for several segments at once (see the module doc).
+
+    ``process(acc_x_ms2, acc_z_ms2, gyro_rad_s)`` takes (N,) or (N, S) raw accelerometer axes
+    and the bias-corrected gyro rate, one column per entry of ``segments``, and returns the tilt
+    (rad, continuous: not wrapped). Stateful; any chunking gives bit-for-bit the same output.
+    """
+
+    def __init__(
+        self,
+        fs_hz: float = 100.0,
+        segments: tuple[str, ...] = SEGMENTS,
+        tuning: dict[str, SegmentTuning] | None = None,
+    ) -> None:
+        if not (np.isfinite(fs_hz) and fs_hz > 0):
+            raise ValueError(f"fs_hz must be a positive number, got {fs_hz}")
+        self.fs_hz = float(fs_hz)
+        self.dt_s = 1.0 / self.fs_hz
+        self.segments = tuple(segments)
+        table = tuning or SEGMENT_TUNING
+        self.tunings = tuple(table[s] if s in table else tuning_for(s) for s in self.segments)
+        # segments that share a tuning are run together (one window, one gain look-up)
+        groups: dict[SegmentTuning, list[int]] = {}
+        for j, t in enumerate(self.tunings):
+            groups.setdefault(t, []).append(j)
+        self._groups = [(t, np.array(cols)) for t, cols in groups.items()]
+        self._windows = [MotionWindow(t.window_samples(self.fs_hz)) for t, _ in self._groups]
+        self._static_gain = [
+            steady_state_gain(t.r_static, self.dt_s, t.q_angle, t.q_bias) for t, _ in self._groups
+        ]
+        self.reset()
+
+    def reset(self) -> None:
+        for win in self._windows:
+            win.reset()
+        self._theta: np.ndarray | None = None
+        self._bias: np.ndarray | None = None
+        self._last_z: np.ndarray | None = None  # last wrapped z, for unwrapping
+        self._turns: np.ndarray | None = None  # 2 pi turns added to it
+
+    def restart(self) -> None:
+        """Start the angle again from the next measurement, keeping the learnt gyro bias (after
+        a link outage the old angle and motion windows are stale; the bias is not)."""
+        for win in self._windows:
+            win.reset()
+        self._theta = None
+        self._last_z = self._turns = None
+
+    @property
+    def bias_rad_s(self) -> np.ndarray | None:
+        return None if self._bias is None else self._bias.copy()
+
+    def shift_bias(self, delta_rad_s: np.ndarray | float) -> None:
+        """Add ``delta`` to the bias state (the gyro input got a new fixed offset)."""
+        if self._bias is not None:
+            self._bias = self._bias + np.asarray(delta_rad_s, dtype=np.float64)
+
+    def process(
+        self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
+    ) -> np.ndarray:
+        ax = np.asarray(acc_x_ms2, dtype=np.float64)
+        was_1d = ax.ndim == 1
+        ax = ax.reshape(ax.shape[0], -1 if ax.size else len(self.segments))
+        az = np.asarray(acc_z_ms2, dtype=np.float64).reshape(ax.shape)
+        w = np.asarray(gyro_rad_s, dtype=np.float64).reshape(ax.shape)
+        n, s = ax.shape
+        if s != len(self.segments):
+            raise ValueError(f"expected {len(self.segments)} segment columns, got {s}")
+        out = np.empty((n, s))
+        if n == 0:
+            return out[:, 0] if was_1d else out
+        z = np.arctan2(az, ax)
+        if self._theta is None:
+            self._theta = z[0].copy()
+            if self._bias is None:  # a restart keeps the learnt bias
+                self._bias = np.zeros(s)
+            self._last_z = z[0].copy()
+            self._turns = np.zeros(s)
+        assert self._bias is not None and self._last_z is not None and self._turns is not None
+        # unwrap by continuity from the last sample of the previous block
+        steps = -np.rint(np.diff(np.vstack([self._last_z, z]), axis=0) / TWO_PI)
+        turns = self._turns + np.cumsum(steps, axis=0)
+        k0 = np.empty((n, s))
+        k1 = np.empty((n, s))
+        for (tun, cols), win, k_static in zip(
+            self._groups, self._windows, self._static_gain, strict=True
+        ):
+            dev, rate = win.process(ax[:, cols], az[:, cols], w[:, cols])
+            if tun.r_moving is None:  # gated: the static gain or nothing
+                static = (dev < tun.static_acc_ms2) & (rate < tun.static_rate_rad_s)
+                k0[:, cols] = np.where(static, k_static[0], 0.0)
+                k1[:, cols] = np.where(static, k_static[1], 0.0)
+            else:
+                k = steady_state_gain(
+                    measurement_variance(dev, rate, tun), self.dt_s, tun.q_angle, tun.q_bias
+                )
+                k0[:, cols], k1[:, cols] = k[..., 0], k[..., 1]
+        out, bias = self._solve_wrapped(k0, k1, z, turns, w)
+        self._last_z, self._turns = z[-1].copy(), turns[-1].copy()
+        self._theta, self._bias = out[-1].copy(), bias[-1].copy()
+        return out[:, 0] if was_1d else out
+
+    def _solve_wrapped(
+        self, k0: np.ndarray, k1: np.ndarray, z: np.ndarray, turns: np.ndarray, w: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Solve, then honour the wrap of the innovation (paper 000's wrap(z - theta-)).
+
+        Where a trusted sample's innovation against the unwrapped z lies beyond +-pi (the
+        accelerometer tilt jumped across +-pi while the segment did not, e.g. with its y axis
+        near vertical), z is re-anchored by whole turns from that sample on and the rest of the
+        block is solved again from the state before it: the same arithmetic as a block that
+        starts there, so the result stays the same in any chunking. ``turns`` is updated.
+        """
+        assert self._theta is not None and self._bias is not None
+        out = np.empty_like(z)
+        bias = np.empty_like(z)
+        i0, th0, b0 = 0, self._theta, self._bias
+        while True:
+            z_unw = z[i0:] + TWO_PI * turns[i0:]
+            th, b = solve_scheduled(th0, b0, k0[i0:], k1[i0:], z_unw, w[i0:], self.dt_s)
+            out[i0:], bias[i0:] = th, b
+            prev_th = np.vstack([th0, th[:-1]])
+            prev_b = np.vstack([b0, b[:-1]])
+            e = z_unw - (prev_th + (w[i0:] - prev_b) * self.dt_s)
+            bad = (k0[i0:] > 0) & (np.abs(e) > np.pi)
+            rows = np.flatnonzero(bad.any(axis=1))
+            if len(rows) == 0:
+                return out, bias
+            j = i0 + int(rows[0])
+            turns[j:] -= np.where(bad[rows[0]], np.floor(e[rows[0]] / TWO_PI + 0.5), 0.0)
+            th0, b0 = (out[j - 1], bias[j - 1]) if j > 0 else (self._theta, self._bias)
+            i0 = j

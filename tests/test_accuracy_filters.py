@@ -1,0 +1,278 @@
+"""The gait-aware Kalman filter, the RTS smoother and the gyro events, against independent
+references: hand-expanded steps, scipy's Riccati solver, a plain RTS loop, closed forms and the
+simulator's truth; and the chunking contract."""
+
+import numpy as np
+import pytest
+
+from gaitmon.dsp import estimate_tilt, gyro_gait_events
+from gaitmon.dsp.angles import joint_angles, wrap_angle
+from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX, SEGMENTS
+from gaitmon.dsp.gyro_events import match_events
+from gaitmon.dsp.motion_kalman import (
+    GaitAwareKalman,
+    SegmentTuning,
+    prior_covariance,
+    solve_scheduled,
+    steady_state_gain,
+)
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.dsp.smoother import smooth_map, smooth_tilt
+from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
+from gaitmon.io.sim.sensors import simulate
+
+FS = 100.0
+DT = 0.01
+
+
+@pytest.fixture(scope="module")
+def walk():
+    gait = GaitModel(GaitConfig(seed=21, cadence_steps_min=108.0))
+    sb = simulate(7000, gait, SensorConfig(seed=21))
+    ph = DEFAULT_TABLE.to_physical(sb.counts)
+    gyro = ph[:, GYRO_IDX] - ph[100:450, GYRO_IDX].mean(axis=0)  # the standing calibration
+    return gait, sb, ph[:, ACC_X_IDX], ph[:, ACC_Z_IDX], gyro
+
+
+def test_scheduled_gains_are_scipys_steady_state_kalman_gains():
+    from scipy.linalg import solve_discrete_are
+
+    f = np.array([[1.0, -DT], [0.0, 1.0]])
+    h = np.array([[1.0, 0.0]])
+    q = np.diag([1e-7, 1e-9])
+    r = np.array([1e-4, 1e-3, 0.1, 10.0])
+    p_sda = prior_covariance(DT, 1e-7, 1e-9, r)
+    for i, ri in enumerate(r):
+        p = solve_discrete_are(f.T, h.T, q, np.array([[ri]]))
+        np.testing.assert_allclose(p_sda[i], p, rtol=1e-8)
+        k = p[:, 0] / (p[0, 0] + ri)
+        # knots every 0.05 decade: 1e-3 and 0.1 are knots, the gain there is exact
+        if ri in (1e-3, 0.1):
+            np.testing.assert_allclose(steady_state_gain(ri, DT, 1e-7, 1e-9), k, rtol=1e-9)
+    assert np.all(steady_state_gain(np.inf, DT, 1e-7, 1e-9) == 0.0)
+
+
+def test_scheduled_recursion_equals_hand_expanded_steps():
+    k0 = np.array([0.5, 0.0, 0.2])
+    k1 = np.array([-0.1, 0.0, -0.05])
+    z = np.array([0.30, 0.10, 0.25])
+    w = np.array([1.0, 2.0, -1.0])
+    theta, bias = solve_scheduled(0.2, 0.1, k0, k1, z, w, DT)
+    # step 1: pred = 0.2 + (1 - 0.1) 0.01 = 0.209; e = 0.091
+    assert theta[0] == pytest.approx(0.209 + 0.5 * 0.091, abs=1e-15)
+    assert bias[0] == pytest.approx(0.1 - 0.1 * 0.091, abs=1e-15)
+    # step 2: no measurement: pure integration with the bias from step 1
+    assert theta[1] == pytest.approx(theta[0] + (2.0 - bias[0]) * DT, abs=1e-15)
+    assert bias[1] == pytest.approx(bias[0], abs=1e-15)
+    pred = theta[1] + (-1.0 - bias[1]) * DT
+    assert theta[2] == pytest.approx(pred + 0.2 * (0.25 - pred), abs=1e-15)
+    assert bias[2] == pytest.approx(bias[1] - 0.05 * (0.25 - pred), abs=1e-15)
+
+
+def test_closed_forms_static_tilt_with_biased_gyro_and_rotation_without_measurement():
+    n = 3000
+    tilt = 0.4
+    g = 9.80665
+    ax, az = np.full(n, g * np.cos(tilt)), np.full(n, g * np.sin(tilt))
+    kf = GaitAwareKalman(FS, segments=("foot",))
+    out = kf.process(ax, az, np.full(n, 0.05))  # standing still, gyro biased by 0.05 rad/s
+    # constant inputs: x_k = A^k (x_0 - x*) + x*, with x* = (tilt, bias) the fixed point
+    tun = SegmentTuning()
+    k0, k1 = steady_state_gain(tun.r_static, DT, tun.q_angle, tun.q_bias)
+    a = np.array([[1 - k0, -(1 - k0) * DT], [-k1, 1 + k1 * DT]])
+    fixed = np.array([tilt, 0.05])
+    for k in (1, 10, 500, 2999):
+        expect = np.linalg.matrix_power(a, k + 1) @ (np.array([tilt, 0.0]) - fixed) + fixed
+        assert out[k] == pytest.approx(expect[0], abs=1e-12)
+    assert kf.bias_rad_s[0] == pytest.approx(
+        (np.linalg.matrix_power(a, n) @ (np.array([tilt, 0.0]) - fixed) + fixed)[1], abs=1e-12
+    )
+    # a gated segment (no measurement while moving) rotating at a constant 2 rad/s is never
+    # corrected: theta = theta0 + (w - b) t
+    kf = GaitAwareKalman(FS, segments=("foot",), tuning={"foot": SegmentTuning()})
+    out = kf.process(np.full(200, 15.0), np.zeros(200), np.full(200, 2.0))
+    np.testing.assert_allclose(out, 2.0 * DT * np.arange(1, 201), atol=1e-12)
+
+
+def chunked(fn, arrays, seed):
+    rng = np.random.default_rng(seed)
+    parts, i, n = [], 0, len(arrays[0])
+    while i < n:
+        c = int(rng.choice([0, 1, 2, 5, 64, 333, 2100]))
+        parts.append(fn(*(a[i : i + c] for a in arrays)))
+        i += c
+    return np.concatenate(parts)
+
+
+def test_gait_aware_filter_is_bit_exact_in_any_chunking(walk):
+    _, _, ax, az, w = walk
+    whole = GaitAwareKalman(FS).process(ax, az, w)
+    kf = GaitAwareKalman(FS)
+    np.testing.assert_array_equal(chunked(kf.process, [ax, az, w], seed=3), whole)
+    kf.reset()
+    np.testing.assert_array_equal(kf.process(ax, az, w), whole)
+    one = GaitAwareKalman(FS, segments=("thigh",)).process(ax[:, 1], az[:, 1], w[:, 1])
+    np.testing.assert_array_equal(one, whole[:, 1])
+
+
+def rts_reference(z, w, r, qa, qb, dt):
+    """A plain Kalman forward pass and Rauch-Tung-Striebel backward pass (the textbook loops)."""
+    n = len(z)
+    f = np.array([[1.0, -dt], [0.0, 1.0]])
+    xs, ps, xp, pp = np.zeros((n, 2)), np.zeros((n, 2, 2)), np.zeros((n, 2)), np.zeros((n, 2, 2))
+    x, p = np.array([z[0], 0.0]), np.diag([1.0, 0.01])
+    for k in range(n):
+        if k > 0:
+            x = f @ x + np.array([w[k] * dt, 0.0])
+            p = f @ p @ f.T + np.diag([qa[k], qb])
+        xp[k], pp[k] = x, p
+        if np.isfinite(r[k]):
+            s = p[0, 0] + r[k]
+            kg = p[:, 0] / s
+            x = x + kg * (z[k] - x[0])
+            p = p - np.outer(kg, p[0])
+        xs[k], ps[k] = x, p
+    out = xs.copy()
+    for k in range(n - 2, -1, -1):
+        c = ps[k] @ f.T @ np.linalg.inv(pp[k + 1])
+        out[k] = xs[k] + c @ (out[k + 1] - xp[k + 1])
+    return out
+
+
+def test_smoother_is_the_rts_smoother():
+    rng = np.random.default_rng(7)
+    n = 600
+    t = np.arange(n) * DT
+    true = 0.5 * np.sin(2 * np.pi * 0.9 * t)
+    w = np.gradient(true, DT) + 0.03 + 0.01 * rng.standard_normal(n)
+    z = true + 0.05 * rng.standard_normal(n)
+    r = np.where((np.arange(n) // 50) % 2 == 0, 1e-3, np.inf)  # measured in every other 0.5 s
+    r[300:320] = 0.3
+    qa = 1e-6 * (1 + np.abs(w) ** 2)
+    ref = rts_reference(z, w, r, qa, 1e-8, DT)
+    theta, bias = smooth_map(z, w, r, qa, 1e-8, DT)
+    np.testing.assert_allclose(theta, ref[:, 0], atol=1e-9)
+    np.testing.assert_allclose(bias, ref[:, 1], atol=1e-9)
+
+
+def test_smoother_windows_agree_with_one_solve():
+    # the bias random walk ties data minutes apart together: windows need minutes of overlap
+    sb = simulate(30000, GaitModel(GaitConfig(seed=22)), SensorConfig(seed=22))
+    ph = DEFAULT_TABLE.to_physical(sb.counts)
+    ax, az, w = ph[:, ACC_X_IDX[1]], ph[:, ACC_Z_IDX[1]], ph[:, GYRO_IDX[1]]
+    w = w - w[100:450].mean()
+    whole = smooth_tilt(ax, az, w, FS, "thigh")
+    win = smooth_tilt(ax, az, w, FS, "thigh", window=5000, overlap=12000)
+    assert np.degrees(np.max(np.abs(win - whole))) < 0.01
+
+
+def joint_errors(tilt, sb, skip=1500):
+    est = joint_angles(tilt)
+    e = np.degrees(wrap_angle(est - sb.kinematics.joint_rad))[skip:]
+    e -= e.mean(axis=0)  # mounting offsets (the standing zero removes them in the app)
+    return np.sqrt(np.mean(e**2, axis=0))
+
+
+def peak_knee_error(tilt, sb, skip=1500):
+    kin = sb.kinematics
+    knee = joint_angles(tilt)[:, 1]
+    knee = np.degrees(knee - np.mean((knee - kin.joint_rad[:, 1])[skip:]))
+    true = np.degrees(kin.joint_rad[:, 1])
+    stride = np.floor(kin.phase).astype(int)
+    errs = []
+    for s in range(stride[skip], stride[-1]):
+        m = (stride == s) & (np.mod(kin.phase, 1.0) > 0.6)
+        errs.append(knee[m].max() - true[m].max())
+    return float(np.mean(errs))
+
+
+def test_gait_aware_and_smoother_meet_the_goals_on_the_simulator(walk):
+    _, sb, ax, az, w = walk
+    live = GaitAwareKalman(FS).process(ax, az, w)
+    off = np.stack(
+        [smooth_tilt(ax[:, j], az[:, j], w[:, j], FS, s) for j, s in enumerate(SEGMENTS)], axis=1
+    )
+    paper = Pipeline(PipelineConfig(tilt_method="paper")).process(sb.counts).tilt_kalman_rad
+    e_live, e_off, e_paper = (joint_errors(t, sb) for t in (live, off, paper))
+    print(f"\njoint RMSE deg: live {e_live.round(2)} offline {e_off.round(2)}", e_paper.round(2))
+    assert np.all(e_live <= 3.0) and np.all(e_off <= 1.5)
+    assert np.all(e_live < e_paper)
+    assert abs(peak_knee_error(live, sb)) <= 3.0
+    assert abs(peak_knee_error(off, sb)) <= 1.5
+
+
+def test_estimate_tilt_paper_is_the_pipelines_paper_kalman(walk):
+    _, sb, ax, az, _ = walk
+    block = Pipeline(PipelineConfig(tilt_method="paper")).process(sb.counts)
+    gyro = DEFAULT_TABLE.to_physical(sb.counts)[:, GYRO_IDX]
+    for j, seg in enumerate(SEGMENTS):
+        got = estimate_tilt(ax[:, j], az[:, j], gyro[:, j], FS, segment=seg, method="paper")
+        np.testing.assert_allclose(got, block.tilt_kalman_rad[:, j], atol=1e-10)
+
+
+def test_estimate_tilt_refuses_bad_requests():
+    x = np.zeros(10)
+    with pytest.raises(ValueError, match="unknown tilt method"):
+        estimate_tilt(x, x, x, FS, method="magic")
+    with pytest.raises(ValueError, match="no offline"):
+        estimate_tilt(x, x, x, FS, method="paper", offline=True)
+    with pytest.raises(ValueError, match="unknown segment"):
+        estimate_tilt(x, x, x, FS, segment="elbow")
+    with pytest.raises(ValueError, match="1-D"):
+        estimate_tilt(np.zeros((10, 2)), x, x, FS)
+    with pytest.raises(ValueError, match="positive"):
+        SegmentTuning(r_static=0.0)
+
+
+def test_gyro_events_match_the_simulators_contacts():
+    for seed, kw in ((31, {}), (32, {"pattern": "stiff-knee"}), (33, {"pattern": "long-stance"})):
+        gait = GaitModel(GaitConfig(seed=seed, **kw))
+        sb = simulate(6000, gait, SensorConfig(seed=seed))
+        gyro = DEFAULT_TABLE.to_physical(sb.counts)[:, GYRO_IDX[3]]
+        hs, to = gyro_gait_events(gyro - gyro[100:450].mean(), FS)
+        true_hs, true_to = gait.events(0, 6000)
+        for det, true in ((hs, true_hs), (to, true_to)):
+            err, found = match_events(det, true, tolerance=20)
+            inside = det[(det >= true[0] - 20) & (det <= true[-1] + 20)]  # a cut stride at the end
+            assert found.all() and len(inside) == len(true)
+            assert np.median(np.abs(err)) * 10 <= 20 and np.percentile(np.abs(err), 95) * 10 <= 40
+
+
+def test_gyro_events_on_silence_and_bad_input():
+    hs, to = gyro_gait_events(np.zeros(3000), FS)
+    assert len(hs) == len(to) == 0
+    with pytest.raises(ValueError, match="1-D"):
+        gyro_gait_events(np.zeros((10, 2)), FS)
+
+
+def test_streaming_gyro_events_equal_the_offline_ones_in_any_chunking():
+    from gaitmon.dsp.gyro_events import GyroEventDetector
+
+    sb = simulate(5000, GaitModel(GaitConfig(seed=34)), SensorConfig(seed=34))
+    gyro = DEFAULT_TABLE.to_physical(sb.counts)[:, GYRO_IDX[3]]
+    hs, to = gyro_gait_events(gyro, FS)
+    det = GyroEventDetector()
+    parts = chunked(lambda g: np.concatenate(det.process(g)) if len(g) else np.empty(0), [gyro], 8)
+    rest = np.concatenate(det.flush())
+    assert sorted(np.concatenate([parts, rest]).astype(int)) == sorted(np.concatenate([hs, to]))
+
+
+def test_innovation_is_wrapped_when_the_accelerometer_tilt_jumps_across_180_degrees():
+    # a segment held still near 180 deg: the accelerometer tilt flips between +pi and -pi with
+    # noise; the filter must stay near pi (paper 000's wrapped innovation), in any chunking
+    rng = np.random.default_rng(12)
+    n = 3000
+    tilt = np.pi - 0.02 + 0.03 * rng.standard_normal(n)
+    g = 9.80665
+    ax, az, w = g * np.cos(tilt), g * np.sin(tilt), 0.01 * rng.standard_normal(n)
+    # then the board's y axis points up for 0.5 s: a small x-z vector in random directions
+    burst = slice(1500, 1550)
+    phi = rng.uniform(-np.pi, np.pi, 50)
+    ax[burst], az[burst] = np.cos(phi), np.sin(phi)
+    z = np.arctan2(az, ax)
+    assert abs(np.unwrap(z)[-1] - z[-1]) > 6.0  # unwrapping by continuity gains whole turns
+    whole = GaitAwareKalman(FS, segments=("foot",)).process(ax, az, w)
+    after = np.r_[100:1500, 1700:n]
+    assert np.max(np.abs(whole[after] - (np.pi - 0.02))) < 0.05
+    kf = GaitAwareKalman(FS, segments=("foot",))
+    np.testing.assert_array_equal(chunked(kf.process, [ax, az, w], seed=13), whole)
