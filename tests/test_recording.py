@@ -211,7 +211,9 @@ def test_missing_port_gets_a_one_line_error(tmp_path):
     assert not (tmp_path / "x.h5").exists()
 
 
-def test_process_reruns_the_pipeline_from_raw_counts_without_touching_the_original(tmp_path):
+def test_process_reruns_the_pipeline_from_raw_counts_without_touching_the_original(
+    tmp_path, capsys
+):
     import hashlib
 
     from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
@@ -221,14 +223,18 @@ def test_process_reruns_the_pipeline_from_raw_counts_without_touching_the_origin
                  "--standing-s", "1", "--quiet"]) == 0
     digest = hashlib.sha256(src.read_bytes()).hexdigest()
     new = tmp_path / "new.h5"
-    assert main(["process", str(src), "--cutoff-hz", "2.5", "--r", "0.5", "-o", str(new)]) == 0
+    # Q/R tune the paper's filter only: without --method paper they are refused, not ignored
+    assert main(["process", str(src), "--r", "0.5", "-o", str(new)]) == 2
+    assert "add --method paper" in capsys.readouterr().err
+    assert main(["process", str(src), "--cutoff-hz", "2.5", "--r", "0.5", "--method", "paper",
+                 "-o", str(new)]) == 0  # fmt: skip
     assert hashlib.sha256(src.read_bytes()).hexdigest() == digest  # original untouched
     with open_session(new) as s:
         assert s.config.cutoff_hz == 2.5 and s.config.r == 0.5 and s.reprocessed
         adc = s.read("raw/adc")
         joint = s.read("processed/joint_deg")
         hs = s.heel_strike_idx
-    ref = Pipeline(PipelineConfig(cutoff_hz=2.5, r=0.5)).process(adc)
+    ref = Pipeline(PipelineConfig(cutoff_hz=2.5, r=0.5, tilt_method="paper")).process(adc)
     np.testing.assert_allclose(joint, np.degrees(ref.joint_kalman_rad), atol=1e-4)  # float32
     np.testing.assert_array_equal(hs, ref.heel_strike_idx)
     with open_session(src) as s:

@@ -25,6 +25,9 @@ SETTINGS = {
     "r": "Kalman R (accelerometer tilt variance)",
     "fsr_threshold": "FSR contact threshold (ADC counts)",
 }
+# settings that only the paper's filter reads: given with the gait-aware filter they would
+# silently change nothing
+PAPER_ONLY = ("q_angle", "q_gyro", "r")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -100,6 +103,12 @@ def run(args: argparse.Namespace) -> int:
             config = recorded.replace(**changes, **choices)
             if args.smooth and not config.smooths_offline:
                 raise UserError("--smooth needs the gait-aware method (--method gait-aware)")
+            paper_only = [f"--{k.replace('_', '-')}" for k in PAPER_ONLY if k in changes]
+            if paper_only and config.tilt_method != "paper":
+                raise UserError(
+                    f"{', '.join(paper_only)} tune the paper's Kalman filter, which this "
+                    f"reprocessing does not use ({config.tilt_method_label}); add --method paper"
+                )
         except ValueError as exc:
             raise UserError(f"bad setting: {exc}") from None
         result = rewrite_processed(
