@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gaitmon import __version__
-from gaitmon.analysis import FIRST, GAP, LAST, USER, StrideRow, analyse_session, cycles, summary
+from gaitmon.analysis import REASONS, USER, StrideRow, analyse_session, cycles, summary
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
@@ -38,7 +38,7 @@ JOINT_AXIS_LABELS: tuple[str, ...] = (
 )
 JOINT_TITLES: tuple[str, ...] = ("Hip", "Knee", "Ankle")
 REDACTED = "[removed]"
-EXCLUSION_ORDER: tuple[str, ...] = (FIRST, LAST, GAP, USER)
+EXCLUSION_ORDER: tuple[str, ...] = REASONS
 _SIDES = {"L": "left", "R": "right"}
 
 
@@ -160,6 +160,17 @@ def _stat(name: str, values: Sequence[float]) -> JointStat:
     return JointStat(name, mean, sd, n)
 
 
+def _tilt_method(session: Session) -> str:
+    """The method that produced the stored angles (the file says which; older files: the
+    paper's), with the settings that method reads."""
+    c = session.config
+    label = c.offline_method_label if session.reprocessed else c.tilt_method_label
+    if c.tilt_method == "paper":
+        return (f"{label} ({c.kalman_form} form) Q_angle {c.q_angle:g}, Q_gyro {c.q_gyro:g}, "
+                f"R {c.r:g}")  # fmt: skip
+    return f"{label} (accelerometer weighted by the segment's motion; docs/filters.md)"
+
+
 def _settings(session: Session) -> tuple[tuple[str, str], ...]:
     c = session.config
     out: list[tuple[str, str]] = []
@@ -169,8 +180,7 @@ def _settings(session: Session) -> tuple[tuple[str, str], ...]:
                 "Signal chain",
                 f"PC pipeline{' (reprocessed offline)' if session.reprocessed else ''}: "
                 f"Butterworth low-pass {c.cutoff_hz:g} Hz order {c.filter_order} on "
-                f"accelerometers and FSRs; tilt Kalman filter ({c.kalman_form} form) "
-                f"Q_angle {c.q_angle:g}, Q_gyro {c.q_gyro:g}, R {c.r:g}",
+                f"accelerometers and FSRs; tilt: {_tilt_method(session)}",
             )
         )
         out.append(

@@ -153,8 +153,28 @@ def test_header_losses_and_conventions(session: Path) -> None:
     assert data.losses.excluded.get("last stride") == 1
     assert data.conventions[0] == convention
     labels = dict(data.settings)
-    assert "4 Hz" in labels["Signal chain"] and "R 0.3" in labels["Signal chain"]
+    chain = labels["Signal chain"]
+    assert "4 Hz" in chain
+    # the method that produced the stored angles, as the file records it (gait-aware by
+    # default; the paper's Q/R are named only when the paper's filter was used)
+    with open_session(session) as s:
+        method = s.config.tilt_method
+    assert method == "gait-aware" and "gait-aware" in chain and "R 0.3" not in chain
     assert labels["Calibration"].startswith("not zeroed")
+
+
+def test_report_names_every_exclusion_reason_with_its_count(cut_recording: Path) -> None:
+    """A stride excluded while the filters settle after a gap is counted in the report's data
+    quality line like every other reason (it was left out: 6 excluded, 3 listed)."""
+    from gaitmon.analysis import SETTLING, analyse_session
+
+    with open_session(cut_recording) as s:
+        a = analyse_session(s)
+        data = gather_report(s)
+    reasons = [r.excluded for r in a.rows if r.excluded]
+    assert reasons.count(SETTLING) >= 1
+    assert sum(data.losses.excluded.values()) == len(reasons) == a.n_excluded
+    assert data.losses.excluded[SETTLING] == reasons.count(SETTLING)
 
 
 def test_deidentified_data_hold_no_identifiers(session: Path) -> None:

@@ -17,7 +17,8 @@ import numpy as np
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QColor, QPaintDevice, QPainter
 
-from gaitmon.analysis import FIRST, GAP, LAST, MAX_GAP_S, USER
+from gaitmon.analysis import FIRST, GAP, LAST, MAX_GAP_S, SETTLING, USER
+from gaitmon.dsp.pipeline import SETTLE_S
 from gaitmon.report import JOINT_TITLES, GapSpan, ReportData, ReportHeader
 from gaitmon.text import count, no_gait_events
 from gaitmon.ui.report_pdf import flow
@@ -341,6 +342,7 @@ def _data_quality(p: Page, data: ReportData) -> list[Block]:
         FIRST: "first stride (start-up)",
         LAST: "last stride (stopping)",
         GAP: f"crosses a gap > {1000 * MAX_GAP_S:.0f} ms",
+        SETTLING: f"filters settling after a gap ({SETTLE_S:g} s)",
         USER: "in a range excluded by the user",
     }
     excl = ", ".join(f"{names.get(k, k)}: {v}" for k, v in lo.excluded.items()) or "none"

@@ -1,0 +1,142 @@
+"""Retake the README's pictures of a link cut (issue 11), on a real X server.
+
+    python benchmarks/screenshots.py [--out assets]
+
+Starts ``Xvfb :97`` when no ``DISPLAY`` is set, then:
+
+- ``live_gap_during.png``: the live window on the simulated unit (over a pseudo-terminal and the
+  real serial transport), walking, 1.5 s into a 3 s cut (Device ▸ Simulator ▸ Cut link);
+- ``live_gap_after.png``: the same window 4 s after the link came back;
+- ``review_gap.png``: the review window on a recording with a 3 s cut, zoomed on the gap;
+- ``report.png``: page 1 of ``gaitmon report`` of that recording (needs ``pdftoppm``).
+
+Look at every picture before committing it: a picture not looked at is not done.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def ensure_display() -> subprocess.Popen[bytes] | None:
+    if os.environ.get("DISPLAY"):
+        return None
+    xvfb = subprocess.Popen(["Xvfb", ":97", "-screen", "0", "1600x1000x24", "-nolisten", "tcp"])
+    os.environ["DISPLAY"] = ":97"
+    time.sleep(1.0)
+    return xvfb
+
+
+def wait(app, cond, timeout_s: float = 60.0) -> None:  # type: ignore[no-untyped-def]
+    deadline = time.monotonic() + timeout_s
+    while not cond():
+        if time.monotonic() > deadline:
+            raise SystemExit("screenshots: timed out waiting for the window")
+        app.processEvents()
+        time.sleep(0.01)
+
+
+def pause(app, seconds: float) -> None:  # type: ignore[no-untyped-def]
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        app.processEvents()
+        time.sleep(0.01)
+
+
+def save(widget, path: Path) -> None:  # type: ignore[no-untyped-def]
+    widget.grab().save(str(path))
+    if shutil.which("convert") and path.stat().st_size > 300_000:
+        subprocess.run(["convert", str(path), "-colors", "256", f"PNG8:{path}"], check=True)
+    print(f"wrote {path} ({path.stat().st_size // 1024} KB)")
+
+
+def record_cut(out: Path) -> None:
+    """A 27 s walk with a real 3 s link cut at 12 s of device time and a marker before it."""
+    from gaitmon.engine import Engine
+    from gaitmon.io.device import Device
+    from gaitmon.io.session import SessionMeta
+    from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
+    from gaitmon.io.sim.pty import PtySimulator
+    from gaitmon.io.transport import SerialTransport
+
+    unit = SimulatedUnit(
+        GaitConfig(seed=3, standing_s=2.0), faults=FaultConfig(link_drops=((12.0, 3.0),)), speed=5
+    )
+    with PtySimulator(unit) as sim:
+        eng = Engine(Device(SerialTransport(str(sim.link_path))), "raw", transport_label="pty")
+        with eng:
+            eng.start_recording(out, SessionMeta(patient_id="DEMO-01", side="R"))
+            deadline = time.monotonic() + 120
+            while eng.recording.rows < 400 and time.monotonic() < deadline:
+                time.sleep(0.01)
+            eng.add_marker("walk start")
+            while eng.recording.rows < 2700 and time.monotonic() < deadline:
+                time.sleep(0.02)
+            eng.stop_recording()
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "assets")
+    args = ap.parse_args()
+    xvfb = ensure_display()
+    try:
+        from PySide6.QtCore import QSettings
+        from PySide6.QtWidgets import QApplication
+
+        from gaitmon.io.sim.config import SimConfig
+        from gaitmon.live.connection import SIMULATED_PORT
+        from gaitmon.ui.live import MainWindow
+        from gaitmon.ui.review.window import ReviewWindow
+
+        app = QApplication.instance() or QApplication(sys.argv)
+        tmp = Path(tempfile.mkdtemp(prefix="gaitmon-shots-"))
+        settings = QSettings(str(tmp / "gaitmon.ini"), QSettings.Format.IniFormat)
+        win = MainWindow(settings, sim=SimConfig(standing_s=1.0), autoconnect=SIMULATED_PORT,
+                         mode="raw", confirm_close=False)  # fmt: skip
+        win.resize(1400, 880)
+        win.show()
+        wait(app, lambda: win.engine is not None and win.engine.samples_total >= 1100)
+        win.cut_simulated_link(3.0)
+        wait(app, lambda: win.state_text.startswith("Reconnecting"))
+        pause(app, 1.5)
+        save(win, args.out / "live_gap_during.png")
+        wait(app, lambda: win.state_text == "Connected")
+        pause(app, 4.0)
+        save(win, args.out / "live_gap_after.png")
+        win.close()
+
+        rec = tmp / "demo_cut.h5"
+        record_cut(rec)
+        review = ReviewWindow(QSettings(str(tmp / "review.ini"), QSettings.Format.IniFormat))
+        review.resize(1600, 1000)
+        review.show()
+        review.open_file(rec)
+        wait(app, lambda: review.analysis is not None and review.table.model().rowCount() > 0)
+        review.timeline.set_view(8.0, 27.5)
+        pause(app, 2.0)
+        save(review, args.out / "review_gap.png")
+        review.close()
+
+        pdf = tmp / "report.pdf"
+        subprocess.run([sys.executable, "-m", "gaitmon", "report", str(rec), "-o", str(pdf)],
+                       check=True)  # fmt: skip
+        if shutil.which("pdftoppm"):
+            subprocess.run(["pdftoppm", "-png", "-r", "70", "-f", "1", "-l", "1", "-singlefile",
+                            str(pdf), str(args.out / "report")], check=True)  # fmt: skip
+            print(f"wrote {args.out / 'report.png'}")
+        return 0
+    finally:
+        if xvfb is not None:
+            xvfb.terminate()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
