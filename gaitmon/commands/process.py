@@ -13,9 +13,13 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gaitmon.commands import add_force, add_quiet
 from gaitmon.errors import UserError
+
+if TYPE_CHECKING:
+    from gaitmon.io.session import Session
 
 # command-line option -> PipelineConfig field
 SETTINGS = {
@@ -117,13 +121,22 @@ def run(args: argparse.Namespace) -> int:
         )
         with open_session(src, recover=False) as before, open_session(dst) as after:
             n_before, n_after = len(before.heel_strike_idx), len(after.heel_strike_idx)
+            silent = [name for name in ("heel", "toe") if _loads(before, name)
+                      and not _loads(after, name)]  # fmt: skip
     except SessionError as exc:
         raise UserError(str(exc)) from None
     settings = ", ".join(f"{k}={v:g}" for k, v in changes.items()) or "the recorded settings"
     if not quiet:
         print(f"gaitmon process: wrote {dst} ({result.n_frames} frames, {n_after} heel "
               f"strikes) with {settings}; angles: {config.offline_method_label}", file=sys.stderr)
-    if n_after < 2 <= n_before:  # settings that run but find no strides are almost always wrong
+    if silent:  # the FSR check then takes the events from the foot gyro
+        print(
+            f"gaitmon process: warning: with {settings} the {' and '.join(silent)} sensor never "
+            f"loads in {dst.name}, so its gait events come from the foot gyro; check "
+            "--fsr-threshold and --cutoff-hz",
+            file=sys.stderr,
+        )
+    elif n_after < 2 <= n_before:  # settings that run but find no strides are almost always wrong
         print(
             f"gaitmon process: warning: {dst.name} has {n_after} heel strikes with {settings} "
             f"(the recording has {n_before}), so no strides; check --fsr-threshold and "
@@ -131,3 +144,9 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     return 0
+
+
+def _loads(session: Session, sensor: str) -> bool:
+    """Whether the heel or toe sensor is ever loaded in a session's processed contacts."""
+    path = f"processed/{sensor}_loaded"
+    return path in session.dataset_names and bool(session.read(path).any())
