@@ -15,6 +15,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from gaitmon.commands import add_force, add_quiet
 from gaitmon.errors import UserError
 
@@ -121,19 +123,20 @@ def run(args: argparse.Namespace) -> int:
         )
         with open_session(src, recover=False) as before, open_session(dst) as after:
             n_before, n_after = len(before.heel_strike_idx), len(after.heel_strike_idx)
-            silent = [name for name in ("heel", "toe") if _loads(before, name)
-                      and not _loads(after, name)]  # fmt: skip
+            stuck = [name for name in ("heel", "toe") if _switches(before, name)
+                     and not _switches(after, name)]  # fmt: skip
     except SessionError as exc:
         raise UserError(str(exc)) from None
     settings = ", ".join(f"{k}={v:g}" for k, v in changes.items()) or "the recorded settings"
     if not quiet:
         print(f"gaitmon process: wrote {dst} ({result.n_frames} frames, {n_after} heel "
               f"strikes) with {settings}; angles: {config.offline_method_label}", file=sys.stderr)
-    if silent:  # the FSR check then takes the events from the foot gyro
+    if stuck:  # the FSR check then takes the events from the foot gyro
         print(
-            f"gaitmon process: warning: with {settings} the {' and '.join(silent)} sensor never "
-            f"loads in {dst.name}, so its gait events come from the foot gyro; check "
-            "--fsr-threshold and --cutoff-hz",
+            f"gaitmon process: warning: with {settings} the {' and '.join(stuck)} "
+            f"sensor{'s' if len(stuck) > 1 else ''} never switch between loaded and unloaded "
+            f"in {dst.name}, so the gait events come from the foot gyro; check --fsr-threshold "
+            "and --cutoff-hz",
             file=sys.stderr,
         )
     elif n_after < 2 <= n_before:  # settings that run but find no strides are almost always wrong
@@ -146,7 +149,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _loads(session: Session, sensor: str) -> bool:
-    """Whether the heel or toe sensor is ever loaded in a session's processed contacts."""
+def _switches(session: Session, sensor: str) -> bool:
+    """Whether the heel or toe sensor switches between loaded and unloaded in a session's
+    processed contacts as a walking foot does (a sensor stuck either way, or switching only
+    once as the filters start, gives no gait events)."""
     path = f"processed/{sensor}_loaded"
-    return path in session.dataset_names and bool(session.read(path).any())
+    if path not in session.dataset_names:
+        return False
+    loaded = session.read(path).astype(np.int8)
+    return int(np.count_nonzero(np.diff(loaded))) >= 4  # two steps' worth of contacts
