@@ -45,6 +45,18 @@ USER = "excluded range"
 REASONS = (FIRST, LAST, GAP, SETTLING, USER)  # every reason a stride is left out
 
 
+def session_gaps(session: Session) -> list[tuple[int, float]]:
+    """(row where data resumed, gap duration in s) of every gap of a session."""
+    return [(g.sample_idx, g.duration_s) for g in session.gaps]
+
+
+def session_settling(session: Session) -> list[tuple[int, int]]:
+    """[start, stop) rows where the filters settle after a long gap: the strides there are
+    excluded (``SETTLING``), and the windows shade them."""
+    rows = long_gap_rows(session_gaps(session))
+    return settling_ranges(rows, session.sample_rate_hz, session.n_samples)
+
+
 def long_gap_rows(gaps: Sequence[tuple[int, float]]) -> np.ndarray:
     """Rows where data resumed after a gap longer than ``MAX_GAP_S`` (where the filters restart)."""
     return np.asarray(sorted(i for i, d in gaps if d > MAX_GAP_S + 1e-9), dtype=np.int64)
@@ -243,7 +255,7 @@ def analyse_session(
         to,
         session.sample_rate_hz,
         joints,
-        [(g.sample_idx, g.duration_s) for g in session.gaps],
+        session_gaps(session),
         [(r.start_idx, r.stop_idx) for r in ranges],
         t_s=t_s,
     )

@@ -139,3 +139,27 @@ def test_review_lanes_and_overview_draw_no_line_across_the_cut(qtbot, review, cu
     across = joined & (x[:-1] <= t_before) & (x[1:] >= t_after)
     assert not across.any()
     assert (~fin).any()  # the break is a NaN point, drawn with connect='finite'
+
+
+def test_review_shades_the_settling_time_after_the_cut(qtbot, review, cut_file) -> None:
+    """The 3 s while the filters settle after the cut are shaded faintly in every lane (as in
+    the live view), and every stride excluded for settling lies across that shade."""
+    from gaitmon.analysis import SETTLING
+    from gaitmon.dsp.pipeline import SETTLE_S
+
+    _open(qtbot, review, cut_file)
+    doc = review.doc
+    with open_session(cut_file) as s:
+        t_s = s.read("timeline/t_s")
+        resumed = [g.sample_idx for g in s.gaps if g.duration_s > 1.0]
+    assert len(resumed) == 1
+    for lane in review.timeline.lanes.values():
+        spans = lane.shade.spans("settling")
+        assert spans.shape == (1, 2)
+        assert spans[0, 0] == pytest.approx(t_s[resumed[0]])
+        assert spans[0, 1] - spans[0, 0] == pytest.approx(SETTLE_S, abs=0.02)
+    settling = [r for r in review.analysis.rows if r.excluded == SETTLING]
+    assert settling
+    for r in settling:
+        a, b = doc.t_s[r.stride.start_idx], doc.t_s[r.stride.end_idx]
+        assert a < spans[0, 1] and b > spans[0, 0]

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gaitmon.analysis import StrideRow, analyse_session, cycles, summary
+from gaitmon.analysis import StrideRow, analyse_session, cycles, session_settling, summary
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
@@ -92,6 +92,8 @@ class Document:
     notes: list[str]  # problems worth a line in the window (recovery, side file, ...)
     reprocessed: Source | None = None
     gap_spans_s: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+    # the filters settling after each long gap (their strides are excluded), in seconds
+    settling_spans_s: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
 
     @property
     def n_rows(self) -> int:
@@ -172,6 +174,8 @@ def open_document(path: str | Path, progress: Progress | None = None) -> Documen
                 spans.append((t_s[-1], t_s[-1] + g.duration_s))
         doc = Document(path, s, t_s, recorded, ranges, notes)
         doc.gap_spans_s = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
+        settle = [(t_s[a], t_s[b - 1]) for a, b in session_settling(s) if 0 <= a < b <= n]
+        doc.settling_spans_s = np.asarray(settle, dtype=np.float64).reshape(-1, 2)
         return doc
     except Cancelled:
         s.close()

@@ -360,6 +360,8 @@ class Timeline(QWidget):
         c = self.colours
         gap_c = QColor(c.alert)
         gap_c.setAlpha(70)
+        settle_c = QColor(c.alert)
+        settle_c.setAlpha(22)  # as faint as the live view's settling shade
         ex_c = QColor(c.foreground)
         ex_c.setAlpha(45 if not c.dark else 60)
         sel_c = QColor(c.marker)
@@ -372,6 +374,7 @@ class Timeline(QWidget):
         sel = np.array([self.selection] if self.selection else [], dtype=np.float64).reshape(-1, 2)
         for item in [self.strip.shade, *(ln.shade for ln in self.lanes.values())]:
             item.set_layer("gaps", doc.gap_spans_s, gap_c)
+            item.set_layer("settling", doc.settling_spans_s, settle_c)
             item.set_layer("excluded", ex, ex_c)
             item.set_layer("selection", sel, sel_c)
 
