@@ -55,6 +55,18 @@ def test_a_dropped_block_becomes_a_gap_and_its_earlier_events_go_with_the_next_b
     assert rows.carry_events == {"heel_strike_idx": [], "toe_off_idx": []}
 
 
+def test_a_carried_loss_is_kept_on_a_block_that_does_not_state_its_losses():
+    # a block with lost_before=None (not every source states them) used to drop the carry
+    rows = RowMap()
+    rows.record_offset = 0
+    rows.dropped(raw_block(40, 10), None, 0, start=40)
+    bare = dataclasses.replace(raw_block(50, 10), lost_before=None)
+    out, _p, why = rows.outgoing(bare, None, 0)
+    assert out.lost_before is not None
+    np.testing.assert_array_equal(out.lost_before, [10] + [0] * 9)
+    assert why == "frames lost: recorder queue full"
+
+
 class FakeWriter:
     def __init__(self, fail_on_append: bool = False, gate: threading.Event | None = None):
         self.path = "fake.h5"

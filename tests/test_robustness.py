@@ -316,16 +316,17 @@ def test_start_recording_while_a_block_is_being_processed_keeps_events_on_their_
 
 
 class _StalledDisk:
-    """SessionWriter.append waits (as on a stalled disk) until released."""
+    """SessionWriter.append waits (as on a stalled disk) until released, once the file holds
+    ``after_rows`` rows (0: from the first block on)."""
 
-    def __init__(self, monkeypatch) -> None:
+    def __init__(self, monkeypatch, after_rows: int = 0) -> None:
         self.real = SessionWriter.append
         self.stalled = threading.Event()
         self.go = threading.Event()
         stall = self
 
         def append(self, *a, **kw):
-            if not stall.go.is_set():
+            if not stall.go.is_set() and self.rows >= after_rows:
                 stall.stalled.set()
                 stall.go.wait(30)
             return stall.real(self, *a, **kw)
@@ -334,20 +335,29 @@ class _StalledDisk:
 
 
 def test_blocks_dropped_by_a_full_recorder_queue_are_gaps_in_a_true_timeline(tmp_path, monkeypatch):
+    # the disk stalls in the middle of a recording (not before its first row: a recording
+    # whose first blocks are refused simply starts later, which is not what is tested here)
     unit, eng = make_engine(seed=2, recorder_queue_blocks=3)
     out = tmp_path / "overflow.h5"
     with eng:
         wait_for(lambda: eng.samples_total >= 300, what="data")
-        disk = _StalledDisk(monkeypatch)
+        disk = _StalledDisk(monkeypatch, after_rows=200)
         eng.start_recording(out)
+        wait_for(disk.stalled.is_set, what="the stall")
         wait_for(lambda: eng.recording.dropped_blocks >= 20, what="dropped blocks")
         disk.go.set()
         rows = eng.recording.rows
         wait_for(lambda: eng.recording.rows >= rows + 1500, what="rows after")
+        with eng._lock:  # the engine thread's record of what it dropped (exact, not timed)
+            rec = eng._recorder
+            assert rec is not None
+            dropped_frames = rec.row_map.drop_cum[-1]
         status = eng.stop_recording()
     assert status.error == "" and status.dropped_blocks >= 20
     samples = check_against_truth(out, unit)
-    assert np.sum(np.diff(samples) - 1) >= 20  # the dropped blocks really are missing
+    missing = np.diff(samples) - 1
+    assert np.flatnonzero(missing)[0] + 1 >= 200  # the first gap is where the disk stalled
+    assert np.sum(missing) >= dropped_frames >= 20  # the dropped blocks really are missing
     with open_session(out) as s:
         assert all(g.reason.startswith("frames lost") for g in s.gaps)
 

@@ -67,8 +67,12 @@ class RowMap:
         with offset 0."""
         first_reason = ""
         out = block
-        if self.carry_lost and block.lost_before is not None:
-            lost = block.lost_before.copy()
+        if self.carry_lost:
+            lost = (
+                np.zeros(len(block), np.int64)
+                if block.lost_before is None
+                else np.asarray(block.lost_before, np.int64).copy()
+            )
             lost[0] += self.carry_lost
             out = dataclasses.replace(block, lost_before=lost)
             first_reason = self.carry_reason
