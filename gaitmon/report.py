@@ -161,14 +161,18 @@ def _stat(name: str, values: Sequence[float]) -> JointStat:
 
 
 def _tilt_method(session: Session) -> str:
-    """The method that produced the stored angles (the file says which; older files: the
-    paper's), with the settings that method reads."""
+    """The method behind the angles analysed here (the session's, see
+    :mod:`gaitmon.io.session.smoothed`), and the live filter's with the settings it reads."""
     c = session.config
-    label = c.offline_method_label if session.reprocessed else c.tilt_method_label
+    live = session.angle_method_of("live")
     if c.tilt_method == "paper":
-        return (f"{label} ({c.kalman_form} form) Q_angle {c.q_angle:g}, Q_gyro {c.q_gyro:g}, "
+        live = (f"{live} ({c.kalman_form} form) Q_angle {c.q_angle:g}, Q_gyro {c.q_gyro:g}, "
                 f"R {c.r:g}")  # fmt: skip
-    return f"{label} (accelerometer weighted by the segment's motion; docs/filters.md)"
+    else:
+        live = f"{live} (accelerometer weighted by the segment's motion; docs/filters.md)"
+    if session.angle_source == "live":
+        return live
+    return f"{session.angle_method} (zero-lag, offline); live view: {live}"
 
 
 def _settings(session: Session) -> tuple[tuple[str, str], ...]:

@@ -150,7 +150,7 @@ def test_rewrite_processed_reports_progress_and_writes_what_the_command_writes(
     assert len(seen) > 5 and not partial_path(out).exists()
     # the same as a replay computed here
     joint = np.concatenate(
-        [r["processed/joint_deg"] for _, r, _, _ in replay_pipeline(adc, config, cal, cal_log)]
+        [c.rows["processed/joint_deg"] for c in replay_pipeline(adc, config, cal, cal_log)]
     )
     with open_session(out) as s:
         np.testing.assert_array_equal(s.read("processed/joint_deg"), joint)
@@ -179,7 +179,7 @@ def test_rewrite_processed_converts_with_the_recordings_own_channel_table(walk, 
     with open_session(src) as s:
         table, adc, cfg, cal = s.header.table, s.read("raw/adc"), s.config, s.calibration
         changes = list(s.calibration_changes)
-    want = np.concatenate([rows["processed/acc_ms2"] for _, rows, _, _ in
+    want = np.concatenate([c.rows["processed/acc_ms2"] for c in
                            replay_pipeline(adc, cfg, cal, changes, table=table)])  # fmt: skip
     out = rewrite_processed(src, tmp_path / "out.h5", cfg)
     with h5py.File(out.path, "r") as f:

@@ -92,6 +92,12 @@ def write_session(path: Path, mode: str = "raw", n: int = 600, seed: int = 0,
               c.sensitivity_v_per_unit) for c in CHANNELS], dtype=ch_dt))
         for key, arr in truth.items():
             h.create_dataset(key, data=arr)
+        if mode == "raw":
+            # a recording's analysed angles are the smoother's (/smoothed); the live filter's
+            # differ, and an export must write the smoothed ones by default
+            for key in ("processed/tilt_deg", "processed/joint_deg"):
+                h.create_dataset(key.replace("processed/", "smoothed/"), data=truth[key])
+                h[key][...] = truth[key] + np.float32(7.0)
         h["timeline/host_time_s"].attrs["wall_offset_s"] = 1.7e9
         h["processed"].attrs.update({"source": "pc" if mode == "raw" else "device",
                                      "reprocessed": False})
@@ -625,7 +631,11 @@ def test_export_of_a_recorded_session(tmp_path, crash):
     import subprocess
     import sys
 
+    from gaitmon.dsp.angles import joint_angles
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.dsp.channels import DEFAULT_TABLE
     from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.dsp.smoother import smooth_record_tilts
 
     src = tmp_path / "rec.h5"
     n = 1500
@@ -643,7 +653,9 @@ def test_export_of_a_recorded_session(tmp_path, crash):
     # the pipeline run once over the whole record (chunked = whole, by the pipeline's contract)
     ref = Pipeline().process(counts)
     knee = np.array([float(r[col["knee_flexion_deg"]]) for r in rows])
-    want = np.degrees(ref.joint_kalman_rad[:, 1]).astype(np.float32)
+    # the exported angles are the zero-lag smoother's over the whole record
+    tilt = smooth_record_tilts(counts, DEFAULT_TABLE, [(0, Calibration.identity())], FS)
+    want = np.degrees(joint_angles(tilt)[:, 1]).astype(np.float32)
     np.testing.assert_allclose(knee, want, rtol=0, atol=0.5e-4 + 1e-9)
     assert np.ptp(knee) > 20  # it really walked
     hs = np.flatnonzero([int(r[col["heel_strike"]]) for r in rows])

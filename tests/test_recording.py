@@ -232,12 +232,14 @@ def test_process_reruns_the_pipeline_from_raw_counts_without_touching_the_origin
     with open_session(new) as s:
         assert s.config.cutoff_hz == 2.5 and s.config.r == 0.5 and s.reprocessed
         adc = s.read("raw/adc")
+        s.use_angles("live")  # the causal filter the new settings tune
         joint = s.read("processed/joint_deg")
         hs = s.heel_strike_idx
     ref = Pipeline(PipelineConfig(cutoff_hz=2.5, r=0.5, tilt_method="paper")).process(adc)
     np.testing.assert_allclose(joint, np.degrees(ref.joint_kalman_rad), atol=1e-4)  # float32
     np.testing.assert_array_equal(hs, ref.heel_strike_idx)
     with open_session(src) as s:
+        s.use_angles("live")
         assert not np.allclose(s.read("processed/joint_deg"), joint, atol=0.5)
     # bad settings and refusing to overwrite are one-line errors
     assert main(["process", str(src), "--cutoff-hz", "80", "-o", str(tmp_path / "x.h5")]) == 2

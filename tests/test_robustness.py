@@ -212,6 +212,7 @@ def test_an_exception_inside_handle_is_survived_reported_and_logged_as_a_gap(tmp
         gaps = s.gaps
         changes = s.config_changes
         adc = s.read("raw/adc")
+        s.use_angles("live")  # what the live pipeline stored
         joint = s.read("processed/joint_deg")
         hs = s.heel_strike_idx
         cal = s.calibration
@@ -252,6 +253,7 @@ def test_settings_changed_mid_recording_keep_the_events_on_their_rows(tmp_path):
     check_against_truth(out, unit, skip_around=[r for r, _ in changes])
     with open_session(out) as s:
         adc = s.read("raw/adc")
+        s.use_angles("live")  # what the live pipeline stored
         joint = s.read("processed/joint_deg")
         hs = s.heel_strike_idx
         cal = s.calibration

@@ -163,6 +163,7 @@ def _reference(cfg0, cfg1=None, change_row=None, cal_row=None):
 
 def _check_processed(s, cfg0, cfg1=None, change_row=None, cal_row=None):
     ref, hs, to = _reference(cfg0, cfg1, change_row, cal_row)
+    s.use_angles("live")  # the stored causal series (readers default to the smoothed ones)
     for name, expected in ref.items():
         got = s.read(name)
         assert got.dtype == (np.int8 if name.endswith("phase") else np.float32)
@@ -342,7 +343,9 @@ def test_recovery_rebuilds_the_live_file(tmp_path):
         assert np.array_equal(s.read("timeline/seq"), seq)
         assert np.array_equal(s.read("timeline/host_time_s"), host)
         _check_processed(s, cfg0, cfg1, 1200, 1800)
+        s.use_angles("smoothed")  # stored by the recovery as by the live writer's close
         with open_session(live) as ref:
+            assert s.smoothed_stored and ref.smoothed_stored
             assert np.array_equal(s.read("timeline/t_s"), ref.read("timeline/t_s"))
             for name in ref.dataset_names:
                 assert np.array_equal(s.read(name), ref.read(name)), name

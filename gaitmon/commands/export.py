@@ -39,6 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output file (default: FILE with the format's extension)")
     parser.add_argument("--deidentify", action="store_true",
                         help="leave out patient id, operator and notes (the data are kept)")
+    parser.add_argument("--angles", choices=("smoothed", "live"), default="smoothed",
+                        help="tilt and joint angles: smoothed (zero-lag offline estimate, the "
+                        "default) or live (the causal filter's, as shown while recording)")
     add_force(parser, "existing output files")
     add_quiet(parser)
 
@@ -82,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
             result = export_session(
                 args.file, args.format, args.output,
                 deidentify=args.deidentify, force=args.force, progress=progress,
+                angles=args.angles,
             )
     except (ExportError, UserError) as exc:
         if progress is not None and progress.shown and progress.tty:

@@ -111,11 +111,21 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
         )
     if an.problem:
         lines.append(f"  exclusions   {an.problem}")
+    lines.append(f"  events       from {s.event_source}")
+    if s.angle_source == "smoothed":
+        lines.append(f"  angles       {s.angle_method} (zero-lag, analysed here); live view: "
+                     f"{s.angle_method_of('live')}")  # fmt: skip
+    else:
+        lines.append(f"  angles       {s.angle_method}")
     c = s.config
+    kalman = (
+        f"Kalman Q_angle {c.q_angle:g} Q_gyro {c.q_gyro:g} R {c.r:g} ({c.kalman_form} form)"
+        if c.tilt_method == "paper"
+        else c.tilt_method_label
+    )
     lines.append(
-        f"  settings     low-pass {c.cutoff_hz:g} Hz order {c.filter_order}, Kalman Q_angle "
-        f"{c.q_angle:g} Q_gyro {c.q_gyro:g} R {c.r:g} ({c.kalman_form} form), FSR threshold "
-        f"{c.fsr_threshold:g} LSB; {len(s.config_changes)} changes during the recording"
+        f"  settings     low-pass {c.cutoff_hz:g} Hz order {c.filter_order}, {kalman}, FSR "
+        f"threshold {c.fsr_threshold:g} LSB; {len(s.config_changes)} changes during the recording"
     )
     off = np.degrees(s.calibration.tilt_offset_rad)
     zeroed = bool(np.any(off != 0)) or bool(s.calibration_changes)

@@ -53,11 +53,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="tilt filter: gait-aware (default for new recordings) or paper ('Kalman (paper, "
         "seed 000)'); default: as recorded",
     )
-    p.add_argument(
-        "--smooth",
-        action="store_true",
-        help="store the zero-lag RTS smoother's angles (gait-aware method only)",
-    )
     add_force(p, "NEW")
     add_quiet(p, "no progress or summary lines (warnings are still shown)")
 
@@ -101,14 +96,10 @@ def run(args: argparse.Namespace) -> int:
     choices: dict[str, object] = {}
     if args.method is not None:
         choices["tilt_method"] = args.method
-    if args.smooth:
-        choices["offline_smoother"] = True
     try:
         recorded = recorded_config(src, progress=None if quiet else progress_printer("recovering"))
         try:
             config = recorded.replace(**changes, **choices)
-            if args.smooth and not config.smooths_offline:
-                raise UserError("--smooth needs the gait-aware method (--method gait-aware)")
             paper_only = [f"--{k.replace('_', '-')}" for k in PAPER_ONLY if k in changes]
             if paper_only and config.tilt_method != "paper":
                 raise UserError(
@@ -123,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
         )
         with open_session(src, recover=False) as before, open_session(dst) as after:
             n_before, n_after = len(before.heel_strike_idx), len(after.heel_strike_idx)
+            after_method = after.angle_method
             stuck = [name for name in ("heel", "toe") if _switches(before, name)
                      and not _switches(after, name)]  # fmt: skip
     except SessionError as exc:
@@ -130,7 +122,9 @@ def run(args: argparse.Namespace) -> int:
     settings = ", ".join(f"{k}={v:g}" for k, v in changes.items()) or "the recorded settings"
     if not quiet:
         print(f"gaitmon process: wrote {dst} ({result.n_frames} frames, {n_after} heel "
-              f"strikes) with {settings}; angles: {config.offline_method_label}", file=sys.stderr)
+              f"strikes) with {settings}; angles: {after_method} "
+              f"(live: {config.tilt_method_label})",
+              file=sys.stderr)
     if stuck:  # the FSR check then takes the events from the foot gyro
         print(
             f"gaitmon process: warning: with {settings} the {' and '.join(stuck)} "

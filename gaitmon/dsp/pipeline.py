@@ -128,12 +128,6 @@ class PipelineConfig:
     compensate_event_delay: bool = True
     tilt_method: str = DEFAULT_METHOD  # "gait-aware" | "paper" (gaitmon.dsp.estimate.METHODS)
     fsr_check: bool = True  # cross-check the FSRs with the foot gyro, fall back to its events
-    # offline re-runs of a whole recording (rewrite_processed: gaitmon process --smooth) replace
-    # the gait-aware filter's tilts by the zero-lag RTS smoother's (gaitmon.dsp.smoother); the
-    # live pipeline cannot look ahead and ignores it. Off by default until the review window's
-    # in-memory reprocessing smooths too (it must show what the file will hold)
-    offline_smoother: bool = False
-
     @classmethod
     def from_stored(cls, values: Mapping[str, Any]) -> PipelineConfig:
         """The configuration a session file (or journal) recorded; unknown keys are ignored.
@@ -145,25 +139,13 @@ class PipelineConfig:
         d = {k: v for k, v in values.items() if k in fields}
         d.setdefault("tilt_method", "paper")
         d.setdefault("fsr_check", False)
-        d.setdefault("offline_smoother", False)
         d["fsr_check"] = bool(d["fsr_check"])
-        d["offline_smoother"] = bool(d["offline_smoother"])
         return cls(**d)
 
     @property
     def tilt_method_label(self) -> str:
         """The tilt filter's name for people: "Kalman (paper, seed 000)" or "gait-aware Kalman"."""
         return method_label(self.tilt_method)
-
-    @property
-    def smooths_offline(self) -> bool:
-        """Whether an offline re-run stores the RTS smoother's tilts instead of the filter's."""
-        return self.offline_smoother and self.tilt_method == "gait-aware"
-
-    @property
-    def offline_method_label(self) -> str:
-        """The name of what an offline re-run stores in ``tilt_deg`` / ``joint_deg``."""
-        return method_label(self.tilt_method, offline=self.smooths_offline)
 
     def __post_init__(self) -> None:
         # Every value is checked with a message that names it, as the stages check them, but

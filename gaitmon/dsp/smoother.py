@@ -157,16 +157,21 @@ def smooth_record_tilts(
     """
     counts = np.asarray(adc_counts)
     n = len(counts)
-    phys = table.to_physical(counts)
-    bias = np.zeros((n, len(SEGMENTS)))
-    offset = np.zeros((n, len(SEGMENTS)))
     starts = [max(0, int(r)) for r, _ in calibrations] + [n]
-    for (_, cal), a, b in zip(calibrations, starts[:-1], starts[1:], strict=True):
-        bias[a:b] = cal.gyro_bias_rad_s
-        offset[a:b] = cal.tilt_offset_rad
-    gyro = phys[:, GYRO_IDX] - bias
+
+    def physical(ch: int) -> np.ndarray:  # one channel at a time: a long record stays small
+        return (counts[:, ch].astype(np.float64) - table.zero_counts[ch]) * table.units_per_count[
+            ch
+        ]
+
     out = np.empty((n, len(SEGMENTS)))
     for j, seg in enumerate(SEGMENTS):
-        ax, az = phys[:, ACC_X_IDX[j]], phys[:, ACC_Z_IDX[j]]
-        out[:, j] = smooth_tilt(ax, az, gyro[:, j], fs_hz, seg)
-    return np.asarray(wrap_angle(out - offset))
+        bias = np.zeros(n)
+        offset = np.zeros(n)
+        for (_, cal), a, b in zip(calibrations, starts[:-1], starts[1:], strict=True):
+            bias[a:b] = cal.gyro_bias_rad_s[j]
+            offset[a:b] = cal.tilt_offset_rad[j]
+        gyro = physical(GYRO_IDX[j]) - bias
+        theta = smooth_tilt(physical(ACC_X_IDX[j]), physical(ACC_Z_IDX[j]), gyro, fs_hz, seg)
+        out[:, j] = theta - offset
+    return np.asarray(wrap_angle(out))

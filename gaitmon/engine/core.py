@@ -465,7 +465,12 @@ class Engine:
             strides = [shift_stride(s, offset) for s in p.strides]
             restarts = p.restart_idx + offset
             if rec is not None:
-                self._hand_over(rec, block, p, gap_reason)
+                if first and len(self._pipeline.fsr_faults) > len(p.fsr_faults):
+                    # sensors flagged before the recording started are faulty in it from row 0
+                    p_rec = dataclasses.replace(p, fsr_faults=self._pipeline.fsr_faults)
+                    self._hand_over(rec, block, p_rec, gap_reason)
+                else:
+                    self._hand_over(rec, block, p, gap_reason)
         else:
             cols = cols_from_device(block, t_s)
             hs_idx, to_idx, strides = self._unit_events.process(block, start_idx)

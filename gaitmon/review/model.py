@@ -26,7 +26,7 @@ from gaitmon.errors import Cancelled
 from gaitmon.io.overview import SessionOverview
 from gaitmon.io.session import Session, SessionError, open_session, replay_pipeline
 from gaitmon.io.session import exclusions as excl
-from gaitmon.io.session.recovery import lost_before_from_gaps
+from gaitmon.io.session.rows import lost_before_from_gaps
 
 Progress = Callable[[float], bool | None]
 
@@ -243,7 +243,7 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
     out: dict[str, np.ndarray] = {}
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
-    for start, rows, hs_rows, to_rows in replay_pipeline(
+    for start, rows, hs_rows, to_rows, _faults in replay_pipeline(
         adc, config, s.calibration, list(s.calibration_changes), table=s.header.table,
         lost_before=lost_before_from_gaps(s.gaps, n),
     ):  # fmt: skip

@@ -80,6 +80,7 @@ def export_session(
     progress: Progress | None = None,
     cancel: Cancel | None = None,
     chunk_rows: int | None = None,
+    angles: str = "smoothed",
 ) -> ExportResult:
     """Export one session file; returns the files written. Raises ExportError (one line).
 
@@ -87,6 +88,8 @@ def export_session(
     points and, once it returns True, the export stops with :class:`ExportCancelled`. If
     either raises, every temporary output is removed and the exception propagates.
     ``chunk_rows``: rows per read for the streaming formats (CSV); None for their default.
+    ``angles``: "smoothed" (the zero-lag offline estimate, where the session has one) or
+    "live" (the causal filter's, as shown while recording); the metadata names the method.
     """
     from gaitmon.io.export.deidentify import Scrubber
     from gaitmon.io.export.outputs import AtomicOutputs, check_outputs
@@ -99,7 +102,7 @@ def export_session(
     out_path = (Path(out) if out is not None
                 else default_output(src_path, fmt, deidentify=deidentify))
     form.check_available()
-    with open_source(src_path) as src:
+    with open_source(src_path, angles) as src:
         scrub = Scrubber(src.group_attrs("session"), deidentify)
         if deidentify:  # times count from the recording's start; none says when it was made
             src.shift_host_time()

@@ -198,6 +198,12 @@ class Source:
             )
         return dict(self._attrs[name])
 
+    def angles(self) -> dict[str, str]:
+        """Which angles the tilt and joint series hold, and the method that made them."""
+        s = self._session
+        return {"source": s.angle_source, "method": s.angle_method,
+                "live_method": s.angle_method_of("live")}  # fmt: skip
+
     def has(self, path: str) -> bool:
         return path in self.h5
 
@@ -241,15 +247,20 @@ class Source:
 
 
 @contextlib.contextmanager
-def open_source(path: Path) -> Iterator[Source]:
+def open_source(path: Path, angles: str = "smoothed") -> Iterator[Source]:
     """Open through gaitmon.io.session, which validates the file and first recovers an
-    interrupted recording from its journal, so bad files are judged in one place."""
+    interrupted recording from its journal, so bad files are judged in one place. ``angles``:
+    the session's smoothed (where it has them; else its only, live, angles) or live angles."""
     from gaitmon.io.session import SessionError, open_session
 
     if path.is_dir():
         raise ExportError(f"{path} is a directory, not a session file")
+    if angles not in ("smoothed", "live"):
+        raise ExportError(f"unknown angles {angles!r}; use smoothed or live")
     try:
         session = open_session(path)
+        if angles in session.angle_sources:
+            session.use_angles(angles)
     except SessionError as exc:
         raise ExportError(str(exc)) from None
     try:
@@ -288,6 +299,7 @@ METADATA_SECTIONS: tuple[tuple[str, Callable[[Source, Scrubber], Any]], ...] = (
     ("device", lambda src, scrub: {**scrub.device(src.group_attrs("device")),
                                    "channels": src.channel_table()}),
     ("processed", lambda src, scrub: src.group_attrs("processed")),
+    ("angles", lambda src, scrub: src.angles()),
     ("config", lambda src, scrub: src.group_attrs("config")),
     ("config_changes", lambda src, scrub: src.table("config/changes")),
     ("calibration", lambda src, scrub: src.group_attrs("calibration")),

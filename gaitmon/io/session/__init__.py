@@ -12,6 +12,7 @@ package:
 * :mod:`.recovery` - :func:`replay_pipeline` and :func:`recover_session`;
 * :mod:`.reader` - :func:`open_session` / :class:`Session`, :class:`Marker`, :class:`Gap`;
 * :mod:`.reprocess` - :func:`rewrite_processed`, a raw session re-run into a new file;
+* :mod:`.smoothed` - the ``/smoothed`` zero-lag angles of raw sessions (the readers' default);
 * :mod:`.truth` - the ``/truth`` group of simulated sessions;
 * :mod:`.exclusions` - the user's excluded ranges, kept beside the recording in
   ``FILE.review.json`` (analysis state: the recording itself is never modified).

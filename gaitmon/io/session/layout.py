@@ -65,6 +65,12 @@ _TABLES: dict[str, np.dtype] = {
     "link/crc_failures": np.dtype([("sample_idx", "<i8"), ("count", "<i8")]),
     "config/changes": np.dtype([("sample_idx", "<i8"), ("json", _STR)]),
     "calibration/changes": np.dtype([("sample_idx", "<i8"), ("json", _STR)]),
+    # force sensors the foot-gyro cross-check flagged (gaitmon.dsp.fsr_check): the row from
+    # which the fault is known (events come from the foot gyro from there on), the first row
+    # of the failing strides, the sensor (heel | toe) and what it did
+    "events/fsr_faults": np.dtype(
+        [("sample_idx", "<i8"), ("stride_start_idx", "<i8"), ("sensor", _STR), ("reason", _STR)]
+    ),
 }
 
 LINK_TOTALS = (

@@ -16,6 +16,7 @@ import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import CHANNELS, ChannelSpec
+from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.journal import journal_path
 from gaitmon.io.session.exclusions import Exclusion
@@ -28,6 +29,13 @@ from gaitmon.io.session.layout import (
     FORMAT_VERSION,
     MODES,
     per_sample_datasets,
+)
+from gaitmon.io.session.smoothed import (
+    ANGLE_SOURCES,
+    SMOOTHED,
+    smoothed_from_file,
+    smoothed_method_label,
+    stored_smoothed,
 )
 from gaitmon.io.session.truth import Truth, truth_from_file
 
@@ -138,6 +146,14 @@ class Session:
         self.markers: list[Marker] = [
             Marker(int(r["sample_idx"]), float(r["t_s"]), _s(r["label"])) for r in f["markers"][()]
         ]
+        faults = f["events/fsr_faults"][()] if "events/fsr_faults" in f else []
+        # force sensors the foot-gyro cross-check flagged, in rows (decided_idx: from there
+        # on the events come from the foot gyro)
+        self.fsr_faults: list[FsrFault] = [
+            FsrFault(_s(r["sensor"]), _s(r["reason"]), int(r["stride_start_idx"]),
+                     int(r["sample_idx"]))
+            for r in faults
+        ]  # fmt: skip
         self.gaps: list[Gap] = [
             Gap(int(r["sample_idx"]), int(r["n_lost"]), float(r["duration_s"]), _s(r["reason"]))
             for r in f["gaps"][()]
@@ -176,6 +192,21 @@ class Session:
                     self.duration_s = t_last + 1.0 / self.sample_rate_hz
         if not self.complete and not self.recovered:
             self.problems.append("the recording was not stopped cleanly")
+        # the angles every reader gets: the zero-lag smoother's (raw mode; stored in /smoothed,
+        # or computed on first read), or the live filter's (see gaitmon.io.session.smoothed)
+        self.live_angle_method = _s(proc.get("tilt_method", "")) or (
+            self.config.tilt_method_label if self.mode == "raw" else "the unit's own"
+        )
+        self.angle_sources: tuple[str, ...] = (
+            ANGLE_SOURCES if self.mode == "raw" and self.n_samples else ("live",)
+        )
+        self.angle_source = self.angle_sources[0]
+        self.smoothed_stored = stored_smoothed(f, self.n_samples)
+        self._smoothed: dict[str, np.ndarray] | None = None
+        sm = f.get("smoothed")
+        self._smoothed_method = (
+            _s(sm.attrs.get("method", "")) if self.smoothed_stored and sm is not None else ""
+        ) or smoothed_method_label()
 
     # -- access ----------------------------------------------------------------------------------
 
@@ -198,13 +229,69 @@ class Session:
             channels=channels,
         )
 
+    @property
+    def event_source(self) -> str:
+        """Where the heel strikes and toe offs come from, for people: the force sensors, the
+        foot gyro from the row a sensor was flagged, or the unit (tilt/joint modes)."""
+        if self.mode == "tilt":
+            return "none (tilt mode)"
+        if self.mode == "joint":
+            return "the unit's force sensors"
+        if not self.config.fsr_check:
+            return "the force sensors (not cross-checked with the foot gyro)"
+        if not self.fsr_faults:
+            return "the force sensors (cross-checked with the foot gyro: no fault)"
+        first = min(self.fsr_faults, key=lambda x: x.decided_idx)
+        why = "; ".join(f"{x.sensor} force sensor {x.reason}" for x in self.fsr_faults)
+        return (f"the force sensors, then the foot gyro from "
+                f"{first.decided_idx / self.sample_rate_hz:.1f} s ({why})")  # fmt: skip
+
+    def use_angles(self, source: str) -> None:
+        """Which angles ``processed/tilt_deg`` and ``processed/joint_deg`` give from now on:
+        "smoothed" (the zero-lag offline estimate, the default where there is one) or "live"
+        (the causal filter's, as shown while recording)."""
+        if source not in self.angle_sources:
+            raise SessionError(
+                f"{self.path.name} has no {source!r} angles "
+                f"(it has {' and '.join(self.angle_sources)})"
+            )
+        self.angle_source = source
+
+    def angle_method_of(self, source: str) -> str:
+        """The name of the method that made the angles of ``source`` (smoothed | live)."""
+        return self._smoothed_method if source == "smoothed" else self.live_angle_method
+
+    @property
+    def angle_method(self) -> str:
+        """The name of the method behind the angles read now (see :meth:`use_angles`)."""
+        return self.angle_method_of(self.angle_source)
+
+    def _smoothed_series(self) -> dict[str, np.ndarray]:
+        """The whole smoothed series of a file that does not store them, computed once."""
+        if self._smoothed is None:
+            try:
+                self._smoothed = smoothed_from_file(
+                    self._f, self.header.table, self.calibration, self.sample_rate_hz
+                )
+            except (OSError, RuntimeError, ValueError, KeyError) as e:
+                raise SessionError(
+                    f"{self.path.name} is damaged: cannot compute the smoothed angles "
+                    f"({_short_error(e)}); read the live ones (review: Angles > live)"
+                ) from e
+        return self._smoothed
+
     def dataset(self, name: str) -> h5py.Dataset:
-        """The h5py dataset, e.g. ``'raw/adc'`` or ``'processed/joint_deg'`` (lazy)."""
+        """The h5py dataset, e.g. ``'raw/adc'`` or ``'processed/joint_deg'`` (lazy; the angle
+        datasets are those of :attr:`angle_source`, an array if computed in memory)."""
         if name not in self.dataset_names:
             raise SessionError(
                 f"{self.path.name} has no per-sample dataset {name!r} "
                 f"(it has {', '.join(self.dataset_names)})"
             )
+        if self.angle_source == "smoothed" and name in SMOOTHED:
+            if self.smoothed_stored:
+                return self._f[SMOOTHED[name]]
+            return self._smoothed_series()[SMOOTHED[name]]
         return self._f[name]
 
     def read(self, name: str) -> np.ndarray:

@@ -13,7 +13,7 @@ import json
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import h5py
 import numpy as np
@@ -37,7 +37,23 @@ from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.h5file import _fsync_path, _H5File, _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _field_names
-from gaitmon.io.session.rows import _device_rows, _extrapolated_t, _Timeline, rows_from_pipeline
+from gaitmon.io.session.rows import (
+    _device_rows,
+    _extrapolated_t,
+    _Timeline,
+    fault_rows,
+    rows_from_pipeline,
+)
+
+
+class ReplayChunk(NamedTuple):
+    """Rows ``start:start + len`` of a replayed recording."""
+
+    start: int
+    rows: dict[str, np.ndarray]  # /processed rows
+    heel_strike: np.ndarray  # rows
+    toe_off: np.ndarray  # rows
+    fsr_faults: list[tuple[int, int, str, str]]  # /events/fsr_faults records flagged here
 
 
 def replay_pipeline(
@@ -49,10 +65,10 @@ def replay_pipeline(
     table: ChannelTable = DEFAULT_TABLE,
     chunk_rows: int = _RECOVERY_CHUNK_ROWS,
     lost_before: np.ndarray | None = None,
-) -> Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]]:
+) -> Iterator[ReplayChunk]:
     """Run the pipeline over a whole recording from row 0, applying logged changes at their rows.
 
-    Yields ``(start_row, processed rows, heel_strike rows, toe_off rows)`` per chunk. A new
+    Yields a :class:`ReplayChunk` per chunk. A new
     calibration is applied with ``Pipeline.set_calibration`` (filter state kept); new settings
     start a fresh ``Pipeline(new_config, calibration in force)`` at that row (the stages are
     rebuilt, as they must be when the filter design changes). Changes at the same row apply in
@@ -81,17 +97,9 @@ def replay_pipeline(
                 base = a
             k += 1
         blk = pipeline.process(adc[a:b], None if lost_before is None else lost_before[a:b])
-        yield a, rows_from_pipeline(blk), blk.heel_strike_idx + base, blk.toe_off_idx + base
-
-
-def lost_before_from_gaps(gaps: Sequence[Any], n_rows: int) -> np.ndarray:
-    """Frames lost just before each row, from a session's gap table (gaps at one row add up)."""
-    lost = np.zeros(n_rows, dtype=np.int64)
-    for g in gaps:
-        idx = int(g.sample_idx if hasattr(g, "sample_idx") else g["sample_idx"])
-        if 0 <= idx < n_rows:
-            lost[idx] += int(g.n_lost if hasattr(g, "n_lost") else g["n_lost"])
-    return lost
+        faults = fault_rows(blk.fsr_faults, blk.start_idx, a)
+        yield ReplayChunk(a, rows_from_pipeline(blk), blk.heel_strike_idx + base,
+                          blk.toe_off_idx + base, faults)  # fmt: skip
 
 
 def _journal_changes(
@@ -291,7 +299,7 @@ def _build_recovered(
 
         if mode == "raw":
             adc = np.ascontiguousarray(rows["adc"])
-            chunks: Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]] = (
+            chunks: Iterator[ReplayChunk] = (
                 replay_pipeline(
                     adc,
                     header.config,
@@ -303,7 +311,7 @@ def _build_recovered(
             )
         else:
             chunks = _device_chunks(rows, FrameKind.TILT if mode == "tilt" else FrameKind.JOINT)
-        for a, proc, hs, to in chunks:
+        for a, proc, hs, to, faults in chunks:
             b = a + len(proc["processed/joint_deg"])
             cols = {
                 "timeline/seq": seq[a:b],
@@ -316,6 +324,7 @@ def _build_recovered(
             h5.append_rows(cols, b - a)
             h5.append_events("heel_strike", hs)
             h5.append_events("toe_off", to)
+            h5.append_table("events/fsr_faults", faults)
             report(b)
 
         h5.append_table(
@@ -352,6 +361,14 @@ def _build_recovered(
                 last_crc = crc
         h5.append_table("link/crc_failures", crc_log)
         h5.set_link_totals(totals)
+        if mode == "raw" and n and not in_memory:  # in memory, the reader computes them if asked
+            from gaitmon.io.session.smoothed import smoothed_angles, write_smoothed
+
+            cal_changes = [(i, c) for i, c in changes if isinstance(c, Calibration)]
+            write_smoothed(h5.f, smoothed_angles(
+                adc, header.table, header.calibration, cal_changes,
+                np.asarray(rows["lost_before"], dtype=np.int64), fs,
+            ))  # fmt: skip
         h5.finish(complete=False, recovered=True, stop_reason="recovered", fs_hz=fs)
         report(n)
         ok = True
@@ -361,9 +378,7 @@ def _build_recovered(
     return h5.f if in_memory else None
 
 
-def _device_chunks(
-    rows: np.ndarray, kind: FrameKind
-) -> Iterator[tuple[int, dict[str, np.ndarray], np.ndarray, np.ndarray]]:
+def _device_chunks(rows: np.ndarray, kind: FrameKind) -> Iterator[ReplayChunk]:
     edges = ContactEdges() if kind == FrameKind.JOINT else None
     names = _field_names(rows.dtype)[N_COMMON_FIELDS:]
     empty = np.empty(0, np.int64)
@@ -374,4 +389,4 @@ def _device_chunks(
             hs, to = edges.process(part["heel_loaded"], part["toe_loaded"], a)
         else:
             hs, to = empty, empty
-        yield a, proc, hs, to
+        yield ReplayChunk(a, proc, hs, to, [])

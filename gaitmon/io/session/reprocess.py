@@ -26,7 +26,9 @@ from gaitmon.errors import Cancelled
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.reader import Session, open_session
-from gaitmon.io.session.recovery import lost_before_from_gaps, replay_pipeline
+from gaitmon.io.session.recovery import replay_pipeline
+from gaitmon.io.session.rows import lost_before_from_gaps
+from gaitmon.io.session.smoothed import smoothed_angles, write_smoothed
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
 COPY_SHARE = 0.25
@@ -156,22 +158,6 @@ def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], Non
             check_cancel()
 
 
-def _smooth_into(
-    f: h5py.File, adc: np.ndarray, table: ChannelTable, calibration: Calibration,
-    calibration_log: list[tuple[int, Calibration]], fs_hz: float,
-) -> None:  # fmt: skip
-    """Replace the stored Kalman tilts and joints by the zero-lag RTS smoother's."""
-    from gaitmon.dsp.angles import joint_angles
-    from gaitmon.dsp.smoother import smooth_record_tilts
-
-    cals = [(0, calibration), *[(r, c) for r, c in calibration_log if r > 0]]
-    tilt = smooth_record_tilts(adc, table, cals, fs_hz)
-    n = min(len(tilt), len(f["processed/joint_deg"]))
-    if "processed/tilt_deg" in f:
-        f["processed/tilt_deg"][:n] = np.degrees(tilt[:n]).astype(np.float32)
-    f["processed/joint_deg"][:n] = np.degrees(joint_angles(tilt[:n])).astype(np.float32)
-
-
 def _rewrite(
     tmp: Path,
     adc: np.ndarray,
@@ -197,7 +183,9 @@ def _rewrite(
             chunk_rows=REPLAY_CHUNK_ROWS,
             lost_before=lost,
         )
-        for start, rows, hs_rows, to_rows in replay:
+        faults: list[tuple[int, int, str, str]] = []
+        for start, rows, hs_rows, to_rows, found in replay:
+            faults += found
             stop = start + len(rows["processed/joint_deg"])
             for path, data in rows.items():
                 f[path][start:stop] = data
@@ -207,14 +195,22 @@ def _rewrite(
             check_cancel()
         proc.attrs["reprocessed"] = True
         proc.attrs["source"] = "pc"
-        if config.smooths_offline:
-            _smooth_into(f, adc, table, calibration, calibration_log, config.fs_hz)
-        proc.attrs["tilt_method"] = config.offline_method_label
+        proc.attrs["tilt_method"] = config.tilt_method_label
+        write_smoothed(f, smoothed_angles(adc, table, calibration, calibration_log, lost,
+                                          config.fs_hz))  # fmt: skip
         ev = f["events"]
         for name, parts in (("heel_strike", hs), ("toe_off", to)):
             data = np.concatenate(parts) if parts else np.empty(0, np.int64)
             del ev[name]
             ev.create_dataset(name, data=data.astype(np.int64), maxshape=(None,), chunks=True)
+        if "fsr_faults" in ev:  # (a file written before the table existed has none)
+            del ev["fsr_faults"]
+        ev.create_dataset(
+            "fsr_faults",
+            data=np.array(faults, dtype=_TABLES["events/fsr_faults"]),
+            maxshape=(None,),
+            chunks=(_TABLE_CHUNK_ROWS,),
+        )
         cfg = f["config"]
         for key, value in config.as_dict().items():
             cfg.attrs[key] = value

@@ -5,11 +5,13 @@ The live writer and the recovery both turn blocks into rows here, so they write 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from gaitmon.dsp.angles import joint_angles, wrap_angle
+from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineBlock
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.layout import _F4
@@ -35,6 +37,31 @@ def rows_from_pipeline(block: PipelineBlock) -> dict[str, np.ndarray]:
         "processed/toe_loaded": block.toe_loaded.astype(np.uint8),
         "processed/phase": block.phase.astype(np.int8),
     }
+
+
+def fault_rows(
+    faults: Sequence[FsrFault], block_start_idx: int, first_row: int
+) -> list[tuple[int, int, str, str]]:
+    """``/events/fsr_faults`` records of the faults a pipeline block flagged, whose sample
+    ``block_start_idx`` is row ``first_row`` (a fault's decision row can lie a little past the
+    block, see gaitmon.dsp.fsr_check; one known before the recording started is known from
+    ``first_row``, and its failing strides start at row 0 at the earliest)."""
+    out = []
+    for f in faults:
+        decided = max(first_row + int(f.decided_idx) - block_start_idx, first_row)
+        start = min(max(first_row + int(f.stride_start_idx) - block_start_idx, 0), decided)
+        out.append((decided, start, f.sensor, f.reason))
+    return out
+
+
+def lost_before_from_gaps(gaps: Sequence[Any], n_rows: int) -> np.ndarray:
+    """Frames lost just before each row, from a session's gap table (gaps at one row add up)."""
+    lost = np.zeros(n_rows, dtype=np.int64)
+    for g in gaps:
+        idx = int(g.sample_idx if hasattr(g, "sample_idx") else g["sample_idx"])
+        if 0 <= idx < n_rows:
+            lost[idx] += int(g.n_lost if hasattr(g, "n_lost") else g["n_lost"])
+    return lost
 
 
 def _joints_deg_from_tilts_deg(tilt_deg: np.ndarray) -> np.ndarray:

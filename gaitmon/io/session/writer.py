@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
 import os
 import time
 from pathlib import Path
@@ -43,7 +44,15 @@ from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _H5File, _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader
 from gaitmon.io.session.layout import _TABLES, LINK_TOTALS, _field_names, per_sample_datasets
-from gaitmon.io.session.rows import _device_rows, _extrapolated_t, _Timeline, rows_from_pipeline
+from gaitmon.io.session.rows import (
+    _device_rows,
+    _extrapolated_t,
+    _Timeline,
+    fault_rows,
+    rows_from_pipeline,
+)
+
+log = logging.getLogger("gaitmon.session")
 
 
 class SessionWriter:
@@ -197,6 +206,9 @@ class SessionWriter:
                 raise ValueError("raw mode needs the pipeline block of the same samples")
             rec["adc"] = samples.adc
             rows = rows_from_pipeline(processed)
+            self._staged_tables["events/fsr_faults"] += fault_rows(
+                processed.fsr_faults, processed.start_idx, self._rows
+            )
         else:
             if processed is not None:
                 raise ValueError(f"{self.header.mode} mode takes no pipeline block")
@@ -348,6 +360,8 @@ class SessionWriter:
         try:
             self._write_staged()
             self._write_markers(final=True)
+            if self._kind == FrameKind.RAW and self._rows:
+                self._store_smoothed()
             self._h5.finish(complete=True, recovered=False, stop_reason=stop_reason, fs_hz=self._fs)
             self._bytes = self._h5.size_bytes()
             self._h5.close()
@@ -396,6 +410,19 @@ class SessionWriter:
             raise self._error
         if self._closed:
             raise SessionError(f"the recording to {self._path.name} is already stopped")
+
+    def _store_smoothed(self) -> None:
+        """``/smoothed``: the whole record's zero-lag angles, so that every reader analyses the
+        best estimate without computing it (a disk error fails the close as any write does:
+        the journal stays and recovery stores them; bad data only leaves them to be computed
+        when read)."""
+        from gaitmon.io.session.smoothed import smooth_into
+
+        assert self._h5 is not None
+        try:
+            smooth_into(self._h5.f, self.header.table, self.header.calibration, self._fs)
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:
+            log.warning("smoothed angles not stored in %s: %s", self._path.name, e)
 
     def _write_journal(self, record: bytes) -> None:
         assert self._journal is not None

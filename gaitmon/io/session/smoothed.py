@@ -1,0 +1,130 @@
+"""A raw-mode session's zero-lag angles: ``/smoothed``, the best estimate every reader uses.
+
+The live view can only use the causal filter (``/processed/tilt_deg`` and ``joint_deg``, what the
+clinician saw). A recorded session is analysed on the offline estimate: the RTS smoother over
+the gait-aware Kalman model (:mod:`gaitmon.dsp.smoother`) run over the whole record, with the
+calibration in force at each row and a fresh start after every long gap (as the live pipeline
+restarts there). It is computed once, when a recording is closed, recovered or reprocessed, and
+stored beside the live series:
+
+    /smoothed/tilt_deg   (N, 4) float32   zeroed segment tilts
+    /smoothed/joint_deg  (N, 3) float32   hip, knee, ankle (clinical signs)
+    /smoothed.attrs["method"]             e.g. "gait-aware Kalman + RTS smoother"
+
+A file without it (written before it existed, or a stop that could not finish it) gets the same
+numbers computed in memory when a reader asks (:func:`smoothed_from_file`). Tilt and joint mode
+sessions hold the unit's own angles only: there is nothing to smooth.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from typing import Any
+
+import h5py
+import numpy as np
+
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channels import ChannelTable
+from gaitmon.io.session.layout import CHUNK_ROWS
+from gaitmon.io.session.rows import lost_before_from_gaps
+
+# the live series a smoothed one stands in for
+SMOOTHED: dict[str, str] = {
+    "processed/tilt_deg": "smoothed/tilt_deg",
+    "processed/joint_deg": "smoothed/joint_deg",
+}
+ANGLE_SOURCES = ("smoothed", "live")
+
+
+def smoothed_method_label() -> str:
+    from gaitmon.dsp.estimate import DEFAULT_METHOD, method_label
+
+    return method_label(DEFAULT_METHOD, offline=True)
+
+
+def smoothed_angles(
+    adc: np.ndarray,
+    table: ChannelTable,
+    calibration: Calibration,
+    calibration_changes: list[tuple[int, Calibration]],
+    lost_before: np.ndarray,
+    fs_hz: float,
+) -> dict[str, np.ndarray]:
+    """``{"smoothed/tilt_deg": (N, 4), "smoothed/joint_deg": (N, 3)}`` float32 of a raw record.
+
+    The record is smoothed in pieces split at the rows after a long gap (where the live pipeline
+    restarts, :func:`gaitmon.dsp.pipeline.restart_rows`): the segments moved while no data came,
+    so nothing links the angle before a gap to the one after it."""
+    from gaitmon.dsp.angles import joint_angles
+    from gaitmon.dsp.pipeline import restart_rows
+    from gaitmon.dsp.smoother import smooth_record_tilts
+
+    counts = np.asarray(adc)
+    n = len(counts)
+    tilt = np.empty((n, 4), np.float64)
+    changes = sorted((max(0, int(r)), c) for r, c in calibration_changes)
+    cuts = sorted({0, n, *(int(r) for r in restart_rows(lost_before[:n], fs_hz) if 0 < r < n)})
+    for a, b in itertools.pairwise(cuts):
+        in_force = calibration
+        for r, c in changes:
+            if r <= a:
+                in_force = c
+        cals = [(0, in_force), *[(r - a, c) for r, c in changes if a < r < b]]
+        tilt[a:b] = smooth_record_tilts(counts[a:b], table, cals, fs_hz)
+    return {
+        "smoothed/tilt_deg": np.degrees(tilt).astype(np.float32),
+        "smoothed/joint_deg": np.degrees(joint_angles(tilt)).astype(np.float32),
+    }
+
+
+def _inputs(f: h5py.File) -> tuple[np.ndarray, list[tuple[int, Calibration]], np.ndarray]:
+    """(raw counts, calibration changes, frames lost before each row) stored in a session file."""
+    n = min(f["raw/adc"].shape[0], f["processed/joint_deg"].shape[0])
+    adc = f["raw/adc"][:n]
+    changes = [
+        (int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
+        for r in f["calibration/changes"][()]
+    ]
+    return adc, changes, lost_before_from_gaps(f["gaps"][()], n)
+
+
+def _text(x: Any) -> str:
+    return x.decode("utf-8") if isinstance(x, bytes) else str(x)
+
+
+def smoothed_from_file(
+    f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float
+) -> dict[str, np.ndarray]:
+    """The smoothed angles of a raw-mode session file open in ``f`` (computed, not read)."""
+    adc, changes, lost = _inputs(f)
+    return smoothed_angles(adc, table, calibration, changes, lost, fs_hz)
+
+
+def write_smoothed(f: h5py.File, series: dict[str, np.ndarray]) -> None:
+    """Store (or replace) ``/smoothed`` in a file open for writing."""
+    grp = f.require_group("smoothed")
+    for path, data in series.items():
+        name = path.split("/", 1)[1]
+        if name in grp:
+            del grp[name]
+        grp.create_dataset(
+            name, data=data, chunks=(min(CHUNK_ROWS, max(1, len(data))), data.shape[1])
+        )
+    grp.attrs["method"] = smoothed_method_label()
+
+
+def smooth_into(
+    f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float
+) -> None:
+    """Compute and store ``/smoothed`` of the raw-mode session open (writable) in ``f``."""
+    write_smoothed(f, smoothed_from_file(f, table, calibration, fs_hz))
+
+
+def stored_smoothed(f: h5py.File, n_samples: int) -> bool:
+    """Whether ``f`` holds a complete ``/smoothed`` for its ``n_samples`` rows."""
+    return all(
+        p in f and isinstance(f[p], h5py.Dataset) and f[p].shape[0] == n_samples
+        for p in SMOOTHED.values()
+    )
