@@ -153,6 +153,7 @@ def test_rewrite_processed_reports_progress_and_writes_what_the_command_writes(
         [c.rows["processed/joint_deg"] for c in replay_pipeline(adc, config, cal, cal_log)]
     )
     with open_session(out) as s:
+        s.use_angles("live")  # the causal filter's, which the new settings tune
         np.testing.assert_array_equal(s.read("processed/joint_deg"), joint)
         assert s.config == config and s.reprocessed and not s.config_changes
     # and the same as the command line writes
