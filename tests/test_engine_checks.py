@@ -17,8 +17,6 @@ from gaitmon.io.sim.kinematics import GaitModel
 from gaitmon.io.sim.sensors import SensorConfig, SensorModel
 from gaitmon.io.transport import InProcessTransport
 
-HEEL_MESSAGE = "heel force sensor never loads: gait events from the foot gyro"
-
 
 def wait_for(pred, timeout_s=30.0, what="condition"):
     deadline = time.monotonic() + timeout_s
@@ -95,17 +93,23 @@ def true_strides_between(unit, a, b):
     return int(np.sum((hs > a) & (hs <= b)))
 
 
-def test_a_heel_sensor_dying_while_walking_is_flagged_within_5_strides_and_strides_go_on():
+@pytest.mark.parametrize(
+    ("fault", "sensor", "reason"),
+    [((True, False), "heel", "never loads"), ((False, True), "toe", "never unloads")],
+)
+def test_a_foot_sensor_failing_while_walking_is_flagged_within_5_strides_and_strides_go_on(
+    fault, sensor, reason
+):
     unit, eng = make_engine()
     with eng:
         wait_for(lambda: eng.samples_total >= 1200, what="10 s of walking")
         assert eng.snapshot(1.0).fsr_faults == ()
-        broken_at = unit.set_foot_sensor_fault(heel_dead=True)
+        broken_at = unit.set_foot_sensor_fault(*fault)
         wait_for(lambda: eng.snapshot(0.1).fsr_faults, what="the fault")
         snap = eng.snapshot(1.0)
         (notice,) = snap.fsr_faults
-        assert (notice.sensor, notice.reason) == ("heel", "never loads")
-        assert notice.message == HEEL_MESSAGE
+        assert (notice.sensor, notice.reason) == (sensor, reason)
+        assert notice.message == f"{sensor} force sensor {reason}: gait events from the foot gyro"
         assert snap.event_source == "foot gyro"
         # the notice's time, on the unit's sample clock (no frame is lost in process)
         first_sample = int(unit.frame_log()[1][0])
