@@ -1,6 +1,6 @@
-"""Retake the README's pictures of a link cut (issue 11), on a real X server.
+"""Retake the README's pictures of a link cut (issue 11) and a dead foot sensor (issue 13).
 
-    python benchmarks/screenshots.py [--out assets]
+    python benchmarks/screenshots.py [--out assets] [--only live_fsr_fault]
 
 Starts ``Xvfb :97`` when no ``DISPLAY`` is set, then:
 
@@ -8,7 +8,12 @@ Starts ``Xvfb :97`` when no ``DISPLAY`` is set, then:
   real serial transport), walking, 1.5 s into a 3 s cut (Device ▸ Simulator ▸ Cut link);
 - ``live_gap_after.png``: the same window 4 s after the link came back;
 - ``review_gap.png``: the review window on a recording with a 3 s cut, zoomed on the gap;
-- ``report.png``: page 1 of ``gaitmon report`` of that recording (needs ``pdftoppm``).
+- ``report.png``: page 1 of ``gaitmon report`` of that recording (needs ``pdftoppm``);
+- ``live_fsr_fault.png``: the live window walking, 10 s after Device ▸ Simulator ▸ Heel sensor
+  dead: the force-sensor banner, the gait panel's event source, the tilt filter in the titles.
+
+The pictures are the windows' own rendering (``QWidget.grab``), so ``QT_QPA_PLATFORM=offscreen``
+takes the same pictures where no X server can run.
 
 Look at every picture before committing it: a picture not looked at is not done.
 """
@@ -82,11 +87,31 @@ def record_cut(out: Path) -> None:
             eng.stop_recording()
 
 
+def live_fsr_fault(app, out: Path, tmp: Path) -> None:  # type: ignore[no-untyped-def]
+    from PySide6.QtCore import QSettings
+
+    from gaitmon.io.sim.config import SimConfig
+    from gaitmon.live.connection import SIMULATED_PORT
+    from gaitmon.ui.live import MainWindow
+
+    settings = QSettings(str(tmp / "fsr.ini"), QSettings.Format.IniFormat)
+    win = MainWindow(settings, sim=SimConfig(standing_s=1.0), autoconnect=SIMULATED_PORT,
+                     mode="raw", confirm_close=False)  # fmt: skip
+    win.resize(1400, 880)
+    win.show()
+    wait(app, lambda: win.engine is not None and win.engine.samples_total >= 1000)
+    win.sim_fsr_actions["heel_dead"].trigger()
+    pause(app, 10.0)
+    save(win, out / "live_fsr_fault.png")
+    win.close()
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "assets")
+    ap.add_argument("--only", choices=["live_fsr_fault"], help="take only this picture")
     args = ap.parse_args()
-    xvfb = ensure_display()
+    xvfb = None if os.environ.get("QT_QPA_PLATFORM") == "offscreen" else ensure_display()
     try:
         from PySide6.QtCore import QSettings
         from PySide6.QtWidgets import QApplication
@@ -98,6 +123,9 @@ def main() -> int:
 
         app = QApplication.instance() or QApplication(sys.argv)
         tmp = Path(tempfile.mkdtemp(prefix="gaitmon-shots-"))
+        if args.only == "live_fsr_fault":
+            live_fsr_fault(app, args.out, tmp)
+            return 0
         settings = QSettings(str(tmp / "gaitmon.ini"), QSettings.Format.IniFormat)
         win = MainWindow(settings, sim=SimConfig(standing_s=1.0), autoconnect=SIMULATED_PORT,
                          mode="raw", confirm_close=False)  # fmt: skip
@@ -132,6 +160,7 @@ def main() -> int:
             subprocess.run(["pdftoppm", "-png", "-r", "70", "-f", "1", "-l", "1", "-singlefile",
                             str(pdf), str(args.out / "report")], check=True)  # fmt: skip
             print(f"wrote {args.out / 'report.png'}")
+        live_fsr_fault(app, args.out, tmp)
         return 0
     finally:
         if xvfb is not None:

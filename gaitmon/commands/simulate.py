@@ -61,6 +61,16 @@ def _positive(text: str) -> float:
     return v
 
 
+def _seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not 0.0 <= v < math.inf:
+        raise argparse.ArgumentTypeError(f"must be >= 0 s, got {v}")
+    return v
+
+
 def _speed(text: str) -> float:
     if text.lower() in ("max", "inf", "fast"):
         return math.inf
@@ -151,6 +161,21 @@ def add_simulator_options(
         metavar="PCT",
         help="percentage of data frames with 1-3 flipped bits (default: 0)",
     )
+    parser.add_argument(
+        "--heel-dead-at",
+        type=_seconds,
+        default=math.inf,
+        metavar="S",
+        help="the heel force sensor dies (reads ~0 counts, never loads) S seconds after the "
+        "unit starts; the window's Device ▸ Simulator menu does it at any time (default: never)",
+    )
+    parser.add_argument(
+        "--toe-stuck-at",
+        type=_seconds,
+        default=math.inf,
+        metavar="S",
+        help="the toe force sensor sticks loaded S seconds after the unit starts (default: never)",
+    )
 
 
 def sim_config_from_args(args: argparse.Namespace) -> SimConfig:
@@ -170,6 +195,8 @@ def sim_config_from_args(args: argparse.Namespace) -> SimConfig:
             speed=args.speed,
             loss_pct=args.loss_pct,
             corrupt_pct=args.corrupt_pct,
+            heel_dead_at_s=getattr(args, "heel_dead_at", math.inf),
+            toe_stuck_at_s=getattr(args, "toe_stuck_at", math.inf),
         )
     except ValueError as exc:
         raise UserError(str(exc)) from None

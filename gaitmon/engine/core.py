@@ -14,7 +14,8 @@ the tests and the desktop window all drive this same object.
 This module owns the lifecycle (start, stop, the engine thread's loop), recording start and
 stop, zeroing, settings and snapshots. The parts it wires together live beside it: display
 buffers (``buffers``), snapshot types (``snapshot``), the recorder thread (``recorder``), the
-map of engine samples to file rows (``rows``) and the live gait panel (``live_gait``).
+map of engine samples to file rows (``rows``), the live gait panel (``live_gait``) and the
+force-sensor check's findings (``sensor_checks``).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
+from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, restart_rows
 from gaitmon.engine.buffers import (
     RingBuffer,
@@ -42,7 +44,14 @@ from gaitmon.engine.buffers import (
 )
 from gaitmon.engine.live_gait import LiveGait, UnitGaitEvents, shift_stride
 from gaitmon.engine.recorder import Recorder
-from gaitmon.engine.snapshot import Mode, RecordingStatus, Snapshot
+from gaitmon.engine.sensor_checks import SensorChecks
+from gaitmon.engine.snapshot import (
+    EVENTS_UNIT,
+    UNIT_ANGLE_METHOD,
+    Mode,
+    RecordingStatus,
+    Snapshot,
+)
 from gaitmon.io.device import Device, DeviceError, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
 from gaitmon.io.transport import LinkError
@@ -90,10 +99,11 @@ class _Pending:
 class Engine:
     """Runs one Device in one mode; see the module doc.
 
-    Ownership: ``_lock`` guards ``_pending``, ``_recorder``, ``_markers``, ``_health`` and
-    ``_gait``, and the engine thread's writes of ``config`` and ``calibration``; only the engine
-    thread writes ``_stream``, ``_pipeline`` and ``_unit_events`` (no lock); the caller's thread
-    writes ``_last_recording``, ``_identity`` and ``_thread``.
+    Ownership: ``_lock`` guards ``_pending``, ``_recorder``, ``_markers``, ``_health``,
+    ``_gait`` and ``_checks``, and the engine thread's writes of ``config`` and
+    ``calibration``; only the engine thread writes ``_stream``, ``_pipeline`` and
+    ``_unit_events`` (no lock); the caller's thread writes ``_last_recording``, ``_identity``
+    and ``_thread``.
     """
 
     def __init__(
@@ -123,6 +133,7 @@ class Engine:
         self._lock = threading.Lock()  # guards the small mutable state below
         self._markers: deque[tuple[float, str]] = deque(maxlen=512)
         self._gait = LiveGait(self.fs_hz, cycle_strides)
+        self._checks = SensorChecks()
         self._health = _Health()
         self._pending = _Pending()
         self._recorder: Recorder | None = None
@@ -343,6 +354,12 @@ class Engine:
             gait = self._gait.status(series, self._stream.samples)
             rec = self._recording_status(self._recorder)
             engine_error, engine_errors = self._health.error, self._health.errors
+            method = self.config.tilt_method_label
+            fsr_faults = tuple(self._checks.faults)
+            event_source = self._checks.event_source
+        if self.mode is not Mode.RAW:
+            method = UNIT_ANGLE_METHOD
+            event_source = EVENTS_UNIT if self.mode is Mode.JOINT else ""
         rate = 0.0
         if len(rates) >= 2 and rates[-1][0] > rates[0][0]:
             rate = (rates[-1][1] - rates[0][1]) / (rates[-1][0] - rates[0][0])
@@ -369,6 +386,9 @@ class Engine:
             calibrated=bool(np.any(self.calibration.tilt_offset_rad != 0)),
             engine_error=engine_error,
             engine_errors=engine_errors,
+            angle_method=method,
+            fsr_faults=fsr_faults,
+            event_source=event_source,
         )
 
     def _latest_t(self) -> float:
@@ -419,6 +439,7 @@ class Engine:
             cal, self._pending.calibration = self._pending.calibration, None
             if cfg is not None:
                 self.config = cfg
+                self._checks.pipeline_rebuilt()
             if cal is not None:
                 self.calibration = cal
             rec = self._recorder
@@ -456,9 +477,11 @@ class Engine:
         lost = self._lost(block)
         t_s = self._true_times(lost)
         restarts = np.empty(0, np.int64)
+        faults: tuple[FsrFault, ...] = ()
+        offset = st.pipeline_offset
         if block.kind == FrameKind.RAW and block.adc is not None:
             p = self._pipeline.process(block.adc, lost)
-            offset = st.pipeline_offset
+            faults = p.fsr_faults
             cols = cols_from_pipeline(p, t_s, block.host_time_s)
             hs_idx = p.heel_strike_idx + offset
             to_idx = p.toe_off_idx + offset
@@ -484,6 +507,7 @@ class Engine:
         with self._lock:
             self._health.rate_times.append((float(block.host_time_s[-1]), st.samples))
             self._gait.add(hs_idx, to_idx, strides, restarts, self._ring, st.samples)
+            self._checks.add(faults, offset, st.samples, self._ring)
 
     @staticmethod
     def _lost_sum(block: SampleBlock) -> int:
@@ -547,5 +571,7 @@ class Engine:
         if self.mode is Mode.RAW:
             self._pipeline = Pipeline(self.config, self.calibration)
             st.pipeline_offset = st.samples
+            with self._lock:
+                self._checks.pipeline_rebuilt()
             if rec is not None:
                 rec.put(("config", self.config))

@@ -1,5 +1,6 @@
 """The frozen values a viewer gets from the engine: the mode, and the snapshot a GUI pulls
-(~30 Hz) with its recording and live gait status. Nothing here is mutable or shared.
+(~30 Hz) with its recording and live gait status, the tilt filter in force and the force
+sensors found faulty. Nothing here is mutable or shared.
 
 ``Mode`` lives here rather than beside ``Engine`` because a ``Snapshot`` carries it and the
 engine imports this module (so no import circle).
@@ -26,6 +27,25 @@ class Mode(enum.StrEnum):
         return {Mode.RAW: FrameKind.RAW, Mode.TILT: FrameKind.TILT, Mode.JOINT: FrameKind.JOINT}[
             self
         ]
+
+
+# what made the Kalman series in the unit's own modes (the file's /processed tilt_method says
+# "the unit's own"; the unit runs the paper's Kalman filter on its own counts)
+UNIT_ANGLE_METHOD = "the unit's own Kalman"
+# Snapshot.event_source: where the gait events come from
+EVENTS_FSR = "fsr"  # the PC pipeline, from the force sensors
+EVENTS_GYRO = "foot gyro"  # the PC pipeline, after a force sensor was found faulty
+EVENTS_UNIT = "unit"  # the unit's own foot contacts (joint mode); "" in tilt mode: no events
+
+
+@dataclass(frozen=True)
+class FsrFaultNotice:
+    """A force sensor the PC pipeline's check flagged (gaitmon.dsp.fsr_check), for a viewer."""
+
+    sensor: str  # heel | toe
+    reason: str  # never loads | never unloads | disagrees with the foot gyro
+    message: str  # "heel force sensor never loads: gait events from the foot gyro"
+    t_s: float  # when it was decided (events from the gyro from then on), on series["t_s"]
 
 
 @dataclass(frozen=True)
@@ -76,3 +96,8 @@ class Snapshot:
     # block is not shown, and a recording gets a gap in its place
     engine_error: str = ""
     engine_errors: int = 0
+    # what made the Kalman series: PipelineConfig.tilt_method_label, or UNIT_ANGLE_METHOD
+    angle_method: str = ""
+    # force sensors flagged since the engine started (one per sensor and reason), oldest first
+    fsr_faults: tuple[FsrFaultNotice, ...] = ()
+    event_source: str = ""  # EVENTS_FSR | EVENTS_GYRO | EVENTS_UNIT | "" (tilt mode)

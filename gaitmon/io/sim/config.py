@@ -9,6 +9,7 @@ an argparse namespace.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -36,6 +37,8 @@ class SimConfig:
     speed: float = 1.0  # time factor: 1 = real time; math.inf = as fast as the client reads
     loss_pct: float = 0.0  # data frames dropped at random
     corrupt_pct: float = 0.0  # data frames with 1-3 flipped bits
+    heel_dead_at_s: float = math.inf  # the heel force sensor dies (reads ~0) at this device time
+    toe_stuck_at_s: float = math.inf  # the toe force sensor sticks loaded at this device time
 
     def __post_init__(self) -> None:
         if self.side not in SIDES:
@@ -46,6 +49,7 @@ class SimConfig:
             )
         # the simulator's own configs own the ranges: building them checks, with their messages
         self.gait_config()
+        self.sensor_config()
         self.fault_config()
 
     def gait_config(self) -> GaitConfig:
@@ -62,7 +66,11 @@ class SimConfig:
     def sensor_config(self) -> SensorConfig:
         from gaitmon.io.sim.sensors import SensorConfig
 
-        return SensorConfig(seed=self.seed)
+        return SensorConfig(
+            seed=self.seed,
+            heel_dead_from_s=self.heel_dead_at_s,
+            toe_stuck_from_s=self.toe_stuck_at_s,
+        )
 
     def fault_config(self) -> FaultConfig:
         from gaitmon.io.sim.unit import FaultConfig

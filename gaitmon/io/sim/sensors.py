@@ -33,10 +33,17 @@ evaluation, ``gaitmon lab accuracy``, turns them on with :func:`realistic_sensor
   of walking the subject turns; each board rolls out of the sagittal plane, so its y gyro also
   sees the yaw rate times sin(roll), and gravity's in-plane part shrinks by cos(roll). One gyro
   axis cannot tell this from a real sagittal rotation (SPEC section 9).
+
+Foot-sensor faults (off by default): from ``heel_dead_from_s`` the heel FSR is dead (open
+circuit: it reads its noise around 0 counts and never loads); from ``toe_stuck_from_s`` the toe
+FSR is stuck loaded (it reads ``toe_peak_counts`` plus noise). ``SensorModel.set_fsr_fault``
+switches them at run time from a sample index on. Only the counts change: the gait, and so the
+truth of its events, is the subject's.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -97,8 +104,14 @@ class SensorConfig:
     turn_s: float = 2.0
     turn_yaw_rad: float = np.pi / 2
     turn_roll_deg: tuple[float, float, float, float] = (2.0, 5.0, 8.0, 15.0)
+    # foot-sensor faults from these device times on (module doc); inf = never
+    heel_dead_from_s: float = math.inf
+    toe_stuck_from_s: float = math.inf
 
     def __post_init__(self) -> None:
+        for name in ("heel_dead_from_s", "toe_stuck_from_s"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0 s (inf: never), got {getattr(self, name)}")
         for name in ("acc_noise_ms2", "gyro_noise_rad_s", "fsr_noise_counts", "fsr_edge_s"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0")
@@ -198,10 +211,33 @@ class SensorModel:
         self.reset()
 
     def reset(self) -> None:
+        """Back to sample 0, with the foot-sensor faults the configuration schedules."""
         self._noise = np.random.default_rng(
             np.random.SeedSequence(self.config.seed, spawn_key=(3,))
         )
         self.position = 0  # next sample index
+        # (first sample, heel dead, toe stuck) in sample order: the state from that sample on
+        self._fsr_faults: list[tuple[int, bool, bool]] = [(0, False, False)]
+        fs = self.gait.config.fs_hz
+        heel_at, toe_at = self.config.heel_dead_from_s, self.config.toe_stuck_from_s
+        for at_s in sorted({heel_at, toe_at} - {math.inf}):
+            self._fsr_faults.append((math.ceil(at_s * fs), heel_at <= at_s, toe_at <= at_s))
+
+    def set_fsr_fault(self, at_sample: int, heel_dead: bool, toe_stuck: bool) -> None:
+        """From sample ``at_sample`` on, the heel FSR is dead and / or the toe FSR stuck loaded
+        (both False: the sensors work). Replaces any change scheduled from that sample on."""
+        at = int(at_sample)
+        kept = [f for f in self._fsr_faults if f[0] < at]
+        self._fsr_faults = [*kept, (at, bool(heel_dead), bool(toe_stuck))]
+
+    def fsr_fault_at(self, sample_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(N,) sample indices -> (N,) heel dead, (N,) toe stuck loaded."""
+        starts = np.array([f[0] for f in self._fsr_faults], dtype=np.int64)
+        k = np.searchsorted(starts, np.asarray(sample_idx, dtype=np.int64), side="right") - 1
+        k = np.maximum(k, 0)
+        heel = np.array([f[1] for f in self._fsr_faults], dtype=bool)
+        toe = np.array([f[2] for f in self._fsr_faults], dtype=bool)
+        return heel[k], toe[k]
 
     def gyro_bias(self, t_s: np.ndarray) -> np.ndarray:
         """(N,) device time -> (N, 4) true gyro bias in rad/s."""
@@ -276,6 +312,9 @@ class SensorModel:
         phys[:, GYRO_IDX] = rate + bias + cfg.gyro_noise_rad_s * noise[:, GYRO_IDX]
 
         fsr = fsr_load_counts(kin.phase, kin.phase_rate_hz, cfg) + cfg.fsr_floor_counts
+        heel_dead, toe_stuck = self.fsr_fault_at(kin.sample_idx)
+        fsr[heel_dead, 0] = 0.0  # open circuit: the ADC reads its noise (clipped at 0)
+        fsr[toe_stuck, 1] = cfg.toe_peak_counts
         phys[:, FSR_IDX] = fsr + cfg.fsr_noise_counts * noise[:, FSR_IDX]
 
         return SensorBlock(

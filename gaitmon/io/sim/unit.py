@@ -46,6 +46,11 @@ one stride) and stand upright and still, so the standing pose can be zeroed, unt
 ``unit.walk()``; ``unit.walk()`` during the first ``standing_s`` starts walking at once. Both
 take effect at the unit's current device time, in process or behind the pty alike.
 
+``unit.set_foot_sensor_fault(heel_dead=True, toe_stuck=False)`` breaks the force sensors from
+the current sample on (the heel sensor reads ~0 counts and never loads; the toe sensor stays
+loaded), ``set_foot_sensor_fault(False, False)`` repairs them. Only the FSR counts change (the
+unit's own contacts follow them); the gait and its true events (``truth``) do not.
+
 Faults and the ledger
 ---------------------
 ``FaultConfig`` injects, on data frames: independent frame loss, bursts of consecutive losses,
@@ -318,6 +323,23 @@ class SimulatedUnit:
             if not self._closed and not math.isinf(self.speed):
                 self._advance_to_now()
             self.gait.walk(self.sensors.position / self.fs_hz)
+
+    def set_foot_sensor_fault(self, heel_dead: bool = True, toe_stuck: bool = False) -> int:
+        """Break (or repair) the foot's force sensors from now on; returns the first sample
+        index with the new state. Samples already produced never change."""
+        with self._lock:
+            if not self._closed and not math.isinf(self.speed):
+                self._advance_to_now()
+            at = self.sensors.position
+            self.sensors.set_fsr_fault(at, heel_dead, toe_stuck)
+            return at
+
+    @property
+    def foot_sensor_fault(self) -> tuple[bool, bool]:
+        """(heel dead, toe stuck loaded) for the next sample."""
+        with self._lock:
+            heel, toe = self.sensors.fsr_fault_at(np.array([self.sensors.position]))
+            return bool(heel[0]), bool(toe[0])
 
     @property
     def standing(self) -> bool:

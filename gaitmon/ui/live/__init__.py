@@ -2,8 +2,10 @@
 
 * ``window``    -- :class:`MainWindow`, the shell: layout, toolbars, docks, the 30 Hz update;
 * ``actions``   -- the actions as a table (name, text, shortcut, slot, menu) and the key list;
-* ``device``    -- ports, connect / disconnect, zero, the simulator's link (slots);
+* ``device``    -- ports, connect / disconnect, zero, the simulator's link, subject and foot
+  sensors (slots);
 * ``recording`` -- start / stop a recording, markers (slots);
+* ``processing`` -- the Settings dialog and the tilt filter menu, applied live (slots);
 * ``jobs``      -- connect and zero off the GUI thread (one in-order ``QtWorker``);
 * ``status``    -- status bar, banners and gait panel: what a snapshot says, shown;
 * ``prefs``     -- what the window remembers (QSettings);

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import QMainWindow, QMenu
 
+from gaitmon.dsp.estimate import DEFAULT_METHOD, METHODS
 from gaitmon.engine import Mode
 from gaitmon.ui.actions import make_action
 from gaitmon.ui.plots import METHOD_LABELS
@@ -43,8 +44,28 @@ SHORTCUTS = [
     ("Ctrl+Q", "quit"),
 ]
 
+# the tilt filters the PC pipeline offers (PipelineConfig.tilt_method): key, menu text, tip
+TILT_METHODS = tuple(
+    (key, f"{label[0].upper()}{label[1:]}" + (" (default)" if key == DEFAULT_METHOD else ""),
+     tip)
+    for key, label, tip in (
+        ("gait-aware", METHODS["gait-aware"], "Trusts the accelerometer by how much each "
+         "segment moves: 2-3.5x closer to the simulator's truth than the paper's filter "
+         "(docs/filters.md)"),
+        ("paper", METHODS["paper"], "The source paper's Kalman filter exactly as published "
+         "(Q_angle, Q_gyro and R in Settings)"),
+    )
+)  # fmt: skip
+# the simulated unit's foot-sensor faults: key, menu text, tip
+SIM_FSR_FAULTS = (
+    ("heel_dead", "Heel sensor dead", "The simulated heel force sensor reads ~0 counts and "
+     "never loads (uncheck: it works again)"),
+    ("toe_stuck", "Toe sensor stuck loaded", "The simulated toe force sensor stays loaded "
+     "(uncheck: it works again)"),
+)  # fmt: skip
+
 # menu paths ("A/B": submenu B of menu A)
-DEVICE, SIMULATOR = "&Device", "&Device/Simulator"
+DEVICE, SIMULATOR, TILT = "&Device", "&Device/Simulator", "&Device/Tilt filter"
 SESSION, VIEW, HELP = "&Session", "&View", "&Help"
 
 
@@ -74,6 +95,11 @@ ACTIONS: tuple[ActionSpec, ...] = (
                "(Ctrl+0)", menu=DEVICE, separator_before=True),
     ActionSpec("settings", "Settings…", "open_settings", "Ctrl+,",
                "Filter, Kalman and FSR settings", menu=DEVICE),
+    *(
+        ActionSpec(f"tilt_{key}", text, "set_tilt_method", None,
+                   f"{tip}. Applied live; remembered", checkable=True, menu=TILT, args=(key,))
+        for key, text, tip in TILT_METHODS
+    ),
     ActionSpec("cut", "Cut link for 3 s", "cut_simulated_link", "Ctrl+Shift+X",
                "Simulate a Bluetooth drop-out: the simulated unit's port vanishes for 3 s",
                menu=SIMULATOR, separator_before=True, args=(3.0,)),
@@ -85,6 +111,11 @@ ACTIONS: tuple[ActionSpec, ...] = (
                args=(True,)),
     ActionSpec("sim_walk", "Walk again", "set_simulated_standing", None,
                "The simulated subject starts walking again", menu=SIMULATOR, args=(False,)),
+    *(
+        ActionSpec(f"sim_{key}", text, "set_simulated_fsr_fault", None, tip, checkable=True,
+                   menu=SIMULATOR, separator_before=i == 0, args=(key,))
+        for i, (key, text, tip) in enumerate(SIM_FSR_FAULTS)
+    ),
     ActionSpec("quit", "Quit", "close", "Ctrl+Q", menu=DEVICE, separator_before=True),
     ActionSpec("record", "Record", "toggle_recording", "Ctrl+R",
                "Start / stop recording a session (Ctrl+R)", menu=SESSION),

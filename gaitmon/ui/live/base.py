@@ -60,6 +60,7 @@ class LiveWindowBase(QMainWindow):
     act_pause: QAction
     act_cut: QAction
     act_restore: QAction
+    sim_fsr_actions: dict[str, QAction]  # Device ▸ Simulator: foot-sensor faults, by key
     _connecting: bool
     _recording: bool
     _closing: bool

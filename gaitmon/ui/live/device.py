@@ -1,5 +1,5 @@
-"""The live monitor's device slots: ports, connect / disconnect, zero, the simulator's link and
-its subject (stand still / walk again).
+"""The live monitor's device slots: ports, connect / disconnect, zero, the simulator's link, its
+subject (stand still / walk again) and its foot sensors (dead heel, toe stuck loaded).
 
 Connecting and zeroing block (the unit identifies itself, the engine checks the pose), so they
 are requests to :class:`~gaitmon.ui.live.jobs.DeviceJobs` whose typed responses arrive here on
@@ -98,6 +98,8 @@ class DeviceSlots(LiveWindowBase):
         self.prefs.set("device/last_port", conn.port)
         self.prefs.set("device/mode", conn.engine.mode.value)
         self.status.connected()
+        for act in self.sim_fsr_actions.values():  # a new simulated unit has working sensors
+            act.setChecked(False)
         self.gait_panel.clear()
         self.live.clear_data()
         self.raw.clear_data()
@@ -200,3 +202,25 @@ class DeviceSlots(LiveWindowBase):
         else:
             unit.walk()
             self.notify("The simulated subject walks again.")
+
+    @guarded
+    def set_simulated_fsr_fault(self, key: str, on: bool) -> None:
+        """Device ▸ Simulator ▸ Heel sensor dead / Toe sensor stuck loaded (checkable)."""
+        conn = self.conn
+        unit = conn.unit if conn is not None else None
+        if unit is None:
+            self.sim_fsr_actions[key].setChecked(False)
+            self.notify("Only the simulated unit's foot sensors can be broken.")
+            return
+        heel_dead, toe_stuck = unit.foot_sensor_fault
+        if key == "heel_dead":
+            heel_dead = bool(on)
+        else:
+            toe_stuck = bool(on)
+        unit.set_foot_sensor_fault(heel_dead, toe_stuck)
+        faults = (("the heel sensor is dead", heel_dead), ("the toe sensor is stuck", toe_stuck))
+        broken = [what for what, bad in faults if bad]
+        self.notify(
+            f"Simulated foot sensors: {' and '.join(broken)}." if broken
+            else "Simulated foot sensors work again."
+        )  # fmt: skip

@@ -35,10 +35,17 @@ class Prefs:
         self.s.setValue(key, value)
 
     def pipeline_config(self) -> PipelineConfig:
+        """The processing settings last applied: the Settings dialog's numbers and the tilt
+        filter (Device ▸ Tilt filter); the defaults for any that are missing or invalid."""
         base = PipelineConfig()
-        changes = {}
+        changes: dict[str, Any] = {}
         for name, _label, _tip in SETTINGS_FIELDS:
             changes[name] = self.get(f"pipeline/{name}", getattr(base, name), float)
+        method = self.get("pipeline/tilt_method", base.tilt_method, str)
+        try:
+            base = base.replace(tilt_method=method)
+        except ValueError:
+            log.warning("stored tilt filter %r is unknown; using %s", method, base.tilt_method)
         try:
             return base.replace(**changes)
         except (ValueError, TypeError):
@@ -48,6 +55,7 @@ class Prefs:
     def save_pipeline_config(self, cfg: PipelineConfig) -> None:
         for name, _label, _tip in SETTINGS_FIELDS:
             self.set(f"pipeline/{name}", float(getattr(cfg, name)))
+        self.set("pipeline/tilt_method", cfg.tilt_method)
 
 
 def default_session_folder() -> Path:

@@ -1,9 +1,10 @@
 """What one snapshot says, shown: the status bar, the link banner, recording status, gait panel.
 
 :class:`StatusView` owns the status bar's permanent labels (link state pill, link health,
-recording, zeroing, samples) and the two banners above the plots (link, recorder); the grading
-itself is Qt-free in :mod:`gaitmon.live.health`. :class:`GaitPanel` is the gait dock's content:
-cadence, stride, stance, stride count and the gait-cycle plots. Both only display; what to do
+recording, zeroing, the tilt filter in force, samples) and the three banners above the plots
+(link, recorder, force sensors); the grading itself is Qt-free in :mod:`gaitmon.live.health`.
+:class:`GaitPanel` is the gait dock's content: cadence, stride, stance, stride count, where the
+gait events come from and the gait-cycle plots. Both only display; what to do
 about a snapshot (stop a recording the recorder gave up on) is the window's business.
 """
 
@@ -17,6 +18,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QGridLayout, QLabel, QSizePolicy, QStatusBar, QVBoxLayout, QWidget
 
 from gaitmon.engine import Mode, RecordingStatus, Snapshot
+from gaitmon.engine.snapshot import EVENTS_FSR, EVENTS_GYRO, EVENTS_UNIT, FsrFaultNotice
 from gaitmon.live.health import HealthTracker, link_view
 from gaitmon.text import no_gait_events
 from gaitmon.ui.plots import CyclePlots
@@ -57,6 +59,12 @@ class StatusView:
         self.record_banner.setWordWrap(True)
         self.record_banner.setVisible(False)
         self.record_banner.setStyleSheet(banner_style(colours, "alert"))
+        self.fsr_banner = QLabel()  # a force sensor found faulty: stays for the connection
+        self.fsr_banner.setWordWrap(True)
+        self.fsr_banner.setVisible(False)
+        self.fsr_banner.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.fsr_banner.setStyleSheet(banner_style(colours, "warn"))
+        self._fsr_shown: tuple[FsrFaultNotice, ...] = ()
 
         self.state_label = QLabel()
         self.state_label.setToolTip("Link state")
@@ -67,7 +75,13 @@ class StatusView:
         self.cal_label.setToolTip("Standing-pose zeroing (Zero, Ctrl+0)")
         self.samples_label = QLabel()
         self.samples_label.setToolTip("Samples received since connecting")
-        for w in (self.rec_label, self.cal_label, self.health_label, self.samples_label):
+        self.method_label = QLabel()
+        self.method_label.setToolTip(
+            "What makes the Kalman (green) angles: the PC's tilt filter (Device ▸ Tilt filter) "
+            "or, in the unit's modes, the unit's own"
+        )
+        for w in (self.rec_label, self.cal_label, self.method_label, self.health_label,
+                  self.samples_label):  # fmt: skip
             w.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Preferred)
             status_bar.addPermanentWidget(w)
         status_bar.addPermanentWidget(self.state_label)
@@ -86,11 +100,14 @@ class StatusView:
         self.state_label.setProperty("state_text", text)
 
     def connected(self) -> None:
-        """A new connection: link health starts from scratch."""
+        """A new connection: link health and the force-sensor check start from scratch."""
         self.health.reset()
+        self._show_fsr_faults(())
 
     def disconnected(self) -> None:
         self.link_banner.setVisible(False)
+        self._show_fsr_faults(())
+        self.method_label.setText("")
         self.set_state_pill("Disconnected", "ok")
         self.health_label.setText("")
         self.rec_label.setText("")
@@ -151,6 +168,34 @@ class StatusView:
             cal = "unit zeroes itself"
         self.cal_label.setText(cal)
 
+    def show_checks(self, snap: Snapshot) -> None:
+        """The tilt filter in force and the force sensors found faulty (kept until the next
+        connection: a sensor does not mend itself)."""
+        text = f"angles: {snap.angle_method}" if snap.angle_method else ""
+        if self.method_label.text() != text:
+            self.method_label.setText(text)
+        if snap.fsr_faults != self._fsr_shown:
+            self._show_fsr_faults(snap.fsr_faults)
+
+    def _show_fsr_faults(self, faults: tuple[FsrFaultNotice, ...]) -> None:
+        self._fsr_shown = faults
+        if not faults:
+            self.fsr_banner.setVisible(False)
+            self.fsr_banner.setText("")
+            return
+        lines = [
+            f"⚠ {f.message[0].upper()}{f.message[1:]} (found {fmt_elapsed(f.t_s)} after connecting)"
+            for f in faults
+        ]
+        self.fsr_banner.setText("<br>".join(lines))
+        self.fsr_banner.setStyleSheet(banner_style(self.colours, "warn"))  # theme may change
+        self.fsr_banner.setToolTip(
+            "Each force sensor is checked against the strides the foot gyro sees; three failing "
+            "strides in a row flag it. Heel strikes, toe offs and strides then come from the "
+            "foot gyro. Check the sensor and its cable; the flag stays until you reconnect."
+        )
+        self.fsr_banner.setVisible(True)
+
     def show_recording(self, rec: RecordingStatus) -> None:
         """The running recording: elapsed time, size, file, blocks the recorder could not keep."""
         text = (
@@ -181,6 +226,7 @@ class GaitPanel(QWidget):
 
     def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
         super().__init__(parent)
+        self._colours = colours
         g = QVBoxLayout(self)
         g.setContentsMargins(4, 4, 4, 4)
         grid = QGridLayout()
@@ -200,6 +246,14 @@ class GaitPanel(QWidget):
             grid.addWidget(value, r, 1)
             self.values[key] = value
         g.addLayout(grid)
+        self.events_label = QLabel()  # where the gait events come from
+        self.events_label.setWordWrap(True)
+        self.events_label.setToolTip(
+            "Heel strikes and toe offs come from the force sensors (FSR) unless one is found "
+            "faulty: then from the foot gyro"
+        )
+        g.addWidget(self.events_label)
+        self._events_source: str | None = None
         self.cycle_title = QLabel("Gait cycle: mean ± SD of the last strides, current stride")
         self.cycle_title.setWordWrap(True)
         g.addWidget(self.cycle_title)
@@ -211,10 +265,26 @@ class GaitPanel(QWidget):
 
     def clear(self) -> None:
         self._shown_strides = -1
+        self._events_source = None
+        self.events_label.setText("")
         self.cycles.clear_data()
+
+    def _show_event_source(self, source: str) -> None:
+        text = {
+            EVENTS_FSR: "Gait events: force sensors",
+            EVENTS_GYRO: "⚠ Gait events: foot gyro (sensor fault)",
+            EVENTS_UNIT: "Gait events: the unit's foot contacts",
+        }.get(source, "")
+        self.events_label.setText(text)
+        self.events_label.setStyleSheet(
+            f"color: {self._colours.warn}; font-weight: bold" if source == EVENTS_GYRO else ""
+        )
 
     def set_colours(self, colours: Colours) -> None:
         """Curves are created once per theme: a new plot widget with the new shades."""
+        self._colours = colours
+        if self._events_source is not None:
+            self._show_event_source(self._events_source)
         old = self.cycles
         self.cycles = CyclePlots(colours)
         self.cycles.setMinimumHeight(300)
@@ -233,6 +303,9 @@ class GaitPanel(QWidget):
         v["stride"].setText(fmt(g.last_stride_time_s, ".2f", "s"))
         v["stance"].setText(fmt(g.last_stance_pct, ".0f", "%"))
         v["strides"].setText(str(g.n_strides))
+        if snap.event_source != self._events_source:
+            self._events_source = snap.event_source
+            self._show_event_source(snap.event_source)
         if g.n_strides != self._shown_strides:
             self._shown_strides = g.n_strides
             k = len(g.cycles_deg)

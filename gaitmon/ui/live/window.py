@@ -2,10 +2,11 @@
 
 The window owns no data path. Acquisition, processing and recording run in the engine's
 threads; a QTimer (~30 Hz) pulls one `Snapshot` and hands it to the plots, the status view and
-the gait panel (:mod:`.status`). The actions are rows of a table (:mod:`.actions`); the device
-and session slots are :mod:`.device` and :mod:`.recording`; blocking calls (connect, zero on
-the unit) go through :mod:`.jobs`. Every slot is wrapped so that an unexpected exception
-becomes one line in the status bar (and a traceback in the log file), never a crash.
+the gait panel (:mod:`.status`). The actions are rows of a table (:mod:`.actions`); the device,
+session and processing slots are :mod:`.device`, :mod:`.recording` and :mod:`.processing`;
+blocking calls (connect, zero on the unit) go through :mod:`.jobs`. Every slot is wrapped so
+that an unexpected exception becomes one line in the status bar (and a traceback in the log
+file), never a crash.
 """
 
 from __future__ import annotations
@@ -31,16 +32,17 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon import __version__
-from gaitmon.engine import EngineError, Mode
+from gaitmon.engine import Mode
 from gaitmon.io.sim.config import SimConfig
-from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SettingsDialog, shortcuts_dialog
 from gaitmon.ui.live.actions import (
     METHOD_COLOURS,
     MODES,
     SHORTCUTS,
+    SIM_FSR_FAULTS,
     SIMULATOR,
+    TILT_METHODS,
     VIEW,
     WINDOWS_S,
     build_actions,
@@ -49,6 +51,7 @@ from gaitmon.ui.live.actions import (
 from gaitmon.ui.live.device import DeviceSlots
 from gaitmon.ui.live.jobs import DeviceJobs
 from gaitmon.ui.live.prefs import Prefs
+from gaitmon.ui.live.processing import ProcessingSlots
 from gaitmon.ui.live.recording import RecordingSlots
 from gaitmon.ui.live.status import GaitPanel, StatusView, banner_style
 from gaitmon.ui.plots import METHOD_LABELS, LivePlots, RawPlots
@@ -60,7 +63,7 @@ REFRESH_HZ = 30.0
 GAIT_PANEL_EVERY = 3  # ticks between gait-panel updates
 
 
-class MainWindow(DeviceSlots, RecordingSlots):
+class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots):
     """The live monitor. ``settings`` is injected so tests can isolate it; ``sim``: the
     simulated device's settings (default: SimConfig())."""
 
@@ -148,6 +151,11 @@ class MainWindow(DeviceSlots, RecordingSlots):
         self.method_actions: dict[str, QAction] = {
             key: acts[f"method_{key}"] for key, _ in METHOD_COLOURS
         }
+        self.tilt_actions = {key: acts[f"tilt_{key}"] for key, _text, _tip in TILT_METHODS}
+        self.tilt_group = QActionGroup(self)  # exclusive: one filter in force
+        for a in self.tilt_actions.values():
+            self.tilt_group.addAction(a)
+        self.sim_fsr_actions = {key: acts[f"sim_{key}"] for key, _text, _tip in SIM_FSR_FAULTS}
         self.act_connect = acts["connect"]
         self.act_refresh = acts["refresh"]
         self.act_zero = acts["zero"]
@@ -241,6 +249,7 @@ class MainWindow(DeviceSlots, RecordingSlots):
         lay.setSpacing(2)
         lay.addWidget(self.status.link_banner)
         lay.addWidget(self.status.record_banner)
+        lay.addWidget(self.status.fsr_banner)
 
         bar = QHBoxLayout()
         bar.setSpacing(12)
@@ -332,6 +341,7 @@ class MainWindow(DeviceSlots, RecordingSlots):
             self.set_method(key, p.get(f"view/method_{key}", True, bool))
         self.set_four_phases(p.get("view/four_phases", True, bool))
         self.live.set_fsr_threshold(self.config.fsr_threshold)
+        self.show_tilt_method()
         geo = p.s.value("window/geometry")
         self.geometry_restored = bool(geo is not None and self.restoreGeometry(geo))
         state = p.s.value("window/state")
@@ -423,10 +433,12 @@ class MainWindow(DeviceSlots, RecordingSlots):
         paused = self.paused
         snap = eng.snapshot(0.05 if paused else self.window_s)
         self.status.show_link(snap, "the simulated unit" if conn.simulated else conn.port)
+        self.status.show_checks(snap)
         self._show_recording(snap, conn)
         if paused:
             return
         self.last_snapshot = snap
+        self.live.set_angle_method(snap.angle_method)
         self.live.update_from(snap)
         self._ticks += 1
         # the gait panel changes slowly: 10 Hz is plenty to read and saves a third of its cost
@@ -434,44 +446,6 @@ class MainWindow(DeviceSlots, RecordingSlots):
             self.gait_panel.show_snapshot(snap)
         if self.raw_dock.isVisible():
             self.raw.update_from(snap)
-
-    # ------------------------------------------------------------------------------------
-    # settings and help
-    # ------------------------------------------------------------------------------------
-
-    @guarded
-    def open_settings(self) -> None:
-        note = ""
-        if self.conn is not None and self.conn.engine.mode is not Mode.RAW:
-            note = (
-                "The unit computes the angles in this mode: these settings take effect when "
-                "gaitmon computes (mode “PC computes”). They are saved now."
-            )
-        dlg = SettingsDialog(self, self.config, note=note)
-        dlg.accepted.connect(self._settings_accepted)
-        self.settings_dialog = dlg
-        dlg.open()
-
-    @guarded
-    def _settings_accepted(self) -> None:
-        dlg = self.settings_dialog
-        if dlg is None or dlg.config is None:
-            return
-        cfg = dlg.config
-        if self.conn is not None:
-            try:
-                self.conn.engine.apply_config(cfg)
-            except EngineError as exc:
-                self.notify(f"Settings not applied: {one_line(exc)}", 30_000)
-                return
-        self.config = cfg
-        self.prefs.save_pipeline_config(cfg)
-        self.live.set_fsr_threshold(cfg.fsr_threshold)
-        logged = " and logged in the recording" if self._recording else ""
-        self.notify(
-            f"Settings applied{logged}: cut-off {cfg.cutoff_hz:g} Hz, Q_angle {cfg.q_angle:g}, "
-            f"Q_gyro {cfg.q_gyro:g}, R {cfg.r:g}, FSR threshold {cfg.fsr_threshold:g}."
-        )
 
     # ------------------------------------------------------------------------------------
     # help
@@ -528,6 +502,7 @@ class MainWindow(DeviceSlots, RecordingSlots):
             self.live.set_method(key, on)
         self.set_four_phases(old_live.four_phases)
         self.live.set_fsr_threshold(self.config.fsr_threshold)
+        self.live.set_angle_method(old_live.angle_method)
 
     def shutdown(self) -> None:
         """Stop everything this window started (idempotent); the window stays open."""

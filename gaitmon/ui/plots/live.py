@@ -10,6 +10,7 @@ note in the plot says when it is off scale.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -71,6 +72,8 @@ class LivePlots(CountingPlotWidget):
         self._bands: list[tuple[Trace, tuple[int, ...]]] = []
         self._marker_labels: list[tuple[pg.TextItem, str]] = []
         self._no_fsr_text: pg.TextItem | None = None
+        self.angle_method = ""  # what makes the Kalman traces, named in the column titles
+        self._titles: list[tuple[pg.LabelItem, str]] = []
         self.threshold_line: pg.InfiniteLine | None = None
         self.ci.setContentsMargins(2, 2, 8, 2)
         self.ci.layout.setHorizontalSpacing(10)
@@ -115,8 +118,9 @@ class LivePlots(CountingPlotWidget):
     def _build(self) -> None:
         c = self.colours
         method_pen = {"acc": pen(c.acc), "kalman": pen(c.kalman), "gyro": pen(c.gyro)}
-        self.addLabel("Segment tilt", row=0, col=0, size="9pt", bold=True)
-        self.addLabel("Joint angles and foot contact", row=0, col=1, size="9pt", bold=True)
+        for col, title in enumerate(("Segment tilt", "Joint angles and foot contact")):
+            label = self.addLabel(title, row=0, col=col, size="9pt", bold=True)
+            self._titles.append((label, title))
         for i, seg in enumerate(SEGMENTS):
             info = self._new_plot(
                 seg, i + 1, 0, f"{seg} tilt (deg)", TILT_RANGES_DEG[seg],
@@ -184,6 +188,21 @@ class LivePlots(CountingPlotWidget):
                 info.gyro_note.setPos(-self.window_s, info.yrange[1])
         if self._no_fsr_text is not None:
             self._no_fsr_text.setPos(-self.window_s / 2, sum(FSR_RANGE) / 2)
+
+    def set_angle_method(self, label: str) -> None:
+        """Name what makes the Kalman (green) traces in the column titles ("" names none)."""
+        if label == self.angle_method:
+            return
+        self.angle_method = label
+        green = self.colours.kalman.name()
+        for item, title in self._titles:
+            kalman = f" · <span style='color:{green}'>■</span> {label}" if label else ""
+            item.setText(title + kalman, size="9pt", bold=True)
+
+    def title_text(self, column: int) -> str:
+        """A column title as shown, without markup (what the tests look at)."""
+        plain = re.sub(r"<[^>]+>", "", self._titles[column][0].text).replace("■", "")
+        return " ".join(plain.split())
 
     def set_method(self, method: str, on: bool) -> None:
         self.methods_on[method] = bool(on)
