@@ -72,6 +72,13 @@ class SegmentTuning:
     q_bias: float = 1e-8  # (rad/s)^2 per step, bias random walk
     # offline smoother only: the angle's process noise grows as (1 + (|omega| / scale)^2)
     rate_scale_rad_s: float = 1.0
+    # offline smoother only, its gravity passes (gaitmon.dsp.smoother): the length of the
+    # boxcar (applied three times) over which the specific force, turned into the world frame by
+    # the previous pass's tilt, must average to vertical (None = no gravity pass), the variance
+    # (rad^2) given to that gravity-referenced tilt, and how many passes
+    gravity_window_s: float | None = 1.5
+    r_gravity: float = 3e-4
+    gravity_passes: int = 1
 
     def __post_init__(self) -> None:
         for name in ("static_acc_ms2", "static_rate_rad_s", "window_s", "r_static",
@@ -79,6 +86,16 @@ class SegmentTuning:
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
+        if self.gravity_window_s is not None and not (
+            np.isfinite(self.gravity_window_s) and self.gravity_window_s > 0
+        ):
+            raise ValueError(
+                f"gravity_window_s must be a positive number or None, got {self.gravity_window_s}"
+            )
+        if not (np.isfinite(self.r_gravity) and self.r_gravity > 0):
+            raise ValueError(f"r_gravity must be a positive number, got {self.r_gravity}")
+        if not (isinstance(self.gravity_passes, int) and self.gravity_passes >= 1):
+            raise ValueError(f"gravity_passes must be an integer >= 1, got {self.gravity_passes}")
         if self.r_moving is not None and not (np.isfinite(self.r_moving) and self.r_moving > 0):
             raise ValueError(f"r_moving must be a positive number or None, got {self.r_moving}")
 
