@@ -49,7 +49,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from gaitmon.dsp.angles import TWO_PI
+from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.channels import SEGMENTS, STANDARD_GRAVITY_MS2
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
@@ -79,6 +79,11 @@ class SegmentTuning:
     gravity_window_s: float | None = 1.5
     r_gravity: float = 3e-4
     gravity_passes: int = 1
+    # causal filter: the cut-off of the 2nd-order Butterworth low-pass that averages the
+    # gyro-turned specific force (None = the accelerometer tilt as above) and the variance (rad^2)
+    # of the tilt it gives (see the module doc, "Gravity measurement")
+    live_gravity_hz: float | None = None
+    r_live_gravity: float = 1e-2
 
     def __post_init__(self) -> None:
         for name in ("static_acc_ms2", "static_rate_rad_s", "window_s", "r_static",
@@ -92,6 +97,14 @@ class SegmentTuning:
             raise ValueError(
                 f"gravity_window_s must be a positive number or None, got {self.gravity_window_s}"
             )
+        if self.live_gravity_hz is not None and not (
+            np.isfinite(self.live_gravity_hz) and self.live_gravity_hz > 0
+        ):
+            raise ValueError(
+                f"live_gravity_hz must be a positive number or None, got {self.live_gravity_hz}"
+            )
+        if not (np.isfinite(self.r_live_gravity) and self.r_live_gravity > 0):
+            raise ValueError(f"r_live_gravity must be a positive number, got {self.r_live_gravity}")
         if not (np.isfinite(self.r_gravity) and self.r_gravity > 0):
             raise ValueError(f"r_gravity must be a positive number, got {self.r_gravity}")
         if not (isinstance(self.gravity_passes, int) and self.gravity_passes >= 1):
@@ -104,10 +117,11 @@ class SegmentTuning:
 
 
 # Chosen on the simulator (docs/filters.md): the foot is gated (foot-flat every stance); body,
-# thigh and shank keep a weak, acceleration-weighted measurement while walking.
+# thigh and shank are never still while walking and take the gravity measurement live.
 _WEIGHTED = SegmentTuning(
-    static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0
-)
+    static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0,
+    live_gravity_hz=0.4,
+)  # fmt: skip
 SEGMENT_TUNING: dict[str, SegmentTuning] = {
     "body": _WEIGHTED,
     "thigh": _WEIGHTED,
@@ -223,6 +237,42 @@ class MotionWindow:
         return out[:, 0], out[:, 1]
 
 
+class GravityReference:
+    """Causal gravity-referenced tilt of S segments (module doc, "Gravity measurement").
+
+    ``process(ax, az, w)`` with (N, S) inputs returns z~ (rad, (N, S), continuous up to the
+    wrap of its arg). Stateful; any chunking gives bit-for-bit the same output.
+    """
+
+    def __init__(self, cutoff_hz: float, fs_hz: float) -> None:
+        from scipy import signal  # lazy: scipy only where a filter is run
+
+        self.dt_s = 1.0 / fs_hz
+        self._sos = signal.butter(2, cutoff_hz, fs=fs_hz, output="sos")
+        self._zi_unit = signal.sosfilt_zi(self._sos)[:, :, None]  # steady state for input 1
+        self.reset()
+
+    def reset(self) -> None:
+        self._theta: np.ndarray | None = None  # the gyro angle at the last sample
+        self._zi: np.ndarray | None = None
+
+    def process(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> np.ndarray:
+        from scipy import signal  # lazy
+
+        s = ax.shape[1]
+        if self._theta is None:  # the gyro angle starts at the first accelerometer tilt
+            self._theta = np.arctan2(az[0], ax[0]) - w[0] * self.dt_s
+        # one cumulative sum from the carried angle: the same additions in any chunking
+        theta = np.cumsum(np.vstack([self._theta, w * self.dt_s]), axis=0)[1:]
+        c, sn = np.cos(theta), np.sin(theta)
+        world = np.concatenate([ax * c + az * sn, az * c - ax * sn], axis=1)  # (up, fwd) x S
+        if self._zi is None:
+            self._zi = self._zi_unit * world[0]
+        avg, self._zi = signal.sosfilt(self._sos, world, axis=0, zi=self._zi)
+        self._theta = theta[-1].copy()
+        return np.asarray(theta + np.arctan2(avg[:, s:], avg[:, :s]))
+
+
 def solve_scheduled(
     theta0: np.ndarray | float, bias0: np.ndarray | float, k0: np.ndarray, k1: np.ndarray,
     z: np.ndarray, w: np.ndarray, dt_s: float,
@@ -293,11 +343,32 @@ class GaitAwareKalman:
         self._static_gain = [
             steady_state_gain(t.r_static, self.dt_s, t.q_angle, t.q_bias) for t, _ in self._groups
         ]
+        self._gravity = [
+            None if t.live_gravity_hz is None else GravityReference(t.live_gravity_hz, self.fs_hz)
+            for t, _ in self._groups
+        ]
+        # gravity groups: the gain of the gravity tilt alone, and with a quasi-static sample's
+        # accelerometer tilt combined into one measurement (variances in parallel)
+        self._gravity_gain = [
+            None
+            if t.live_gravity_hz is None
+            else (
+                steady_state_gain(t.r_live_gravity, self.dt_s, t.q_angle, t.q_bias),
+                steady_state_gain(
+                    1.0 / (1.0 / t.r_live_gravity + 1.0 / t.r_static),
+                    self.dt_s, t.q_angle, t.q_bias,
+                ),
+            )
+            for t, _ in self._groups
+        ]  # fmt: skip
         self.reset()
 
     def reset(self) -> None:
         for win in self._windows:
             win.reset()
+        for grav in self._gravity:
+            if grav is not None:
+                grav.reset()
         self._theta: np.ndarray | None = None
         self._bias: np.ndarray | None = None
         self._last_z: np.ndarray | None = None  # last wrapped z, for unwrapping
@@ -308,6 +379,9 @@ class GaitAwareKalman:
         a link outage the old angle and motion windows are stale; the bias is not)."""
         for win in self._windows:
             win.reset()
+        for grav in self._gravity:
+            if grav is not None:
+                grav.reset()
         self._theta = None
         self._last_z = self._turns = None
 
@@ -335,6 +409,31 @@ class GaitAwareKalman:
         if n == 0:
             return out[:, 0] if was_1d else out
         z = np.arctan2(az, ax)
+        k0 = np.empty((n, s))
+        k1 = np.empty((n, s))
+        for (tun, cols), win, k_static, grav, k_grav in zip(
+            self._groups, self._windows, self._static_gain, self._gravity, self._gravity_gain,
+            strict=True,
+        ):  # fmt: skip
+            dev, rate = win.process(ax[:, cols], az[:, cols], w[:, cols])
+            static = (dev < tun.static_acc_ms2) & (rate < tun.static_rate_rad_s)
+            if grav is not None and k_grav is not None:
+                # the gravity tilt, and where quasi-static also the accelerometer's, as one
+                # measurement: their variance-weighted mean (z taken near z~ across the wrap)
+                z_grav = grav.process(ax[:, cols], az[:, cols], w[:, cols])
+                share = tun.r_live_gravity / (tun.r_live_gravity + tun.r_static)
+                pull = np.where(static, share, 0.0) * wrap_angle(z[:, cols] - z_grav)
+                z[:, cols] = wrap_angle(z_grav + pull)  # as the accelerometer's: wrapped
+                k0[:, cols] = np.where(static, k_grav[1][0], k_grav[0][0])
+                k1[:, cols] = np.where(static, k_grav[1][1], k_grav[0][1])
+            elif tun.r_moving is None:  # gated: the static gain or nothing
+                k0[:, cols] = np.where(static, k_static[0], 0.0)
+                k1[:, cols] = np.where(static, k_static[1], 0.0)
+            else:
+                k = steady_state_gain(
+                    measurement_variance(dev, rate, tun), self.dt_s, tun.q_angle, tun.q_bias
+                )
+                k0[:, cols], k1[:, cols] = k[..., 0], k[..., 1]
         if self._theta is None:
             self._theta = z[0].copy()
             if self._bias is None:  # a restart keeps the learnt bias
@@ -345,21 +444,6 @@ class GaitAwareKalman:
         # unwrap by continuity from the last sample of the previous block
         steps = -np.rint(np.diff(np.vstack([self._last_z, z]), axis=0) / TWO_PI)
         turns = self._turns + np.cumsum(steps, axis=0)
-        k0 = np.empty((n, s))
-        k1 = np.empty((n, s))
-        for (tun, cols), win, k_static in zip(
-            self._groups, self._windows, self._static_gain, strict=True
-        ):
-            dev, rate = win.process(ax[:, cols], az[:, cols], w[:, cols])
-            if tun.r_moving is None:  # gated: the static gain or nothing
-                static = (dev < tun.static_acc_ms2) & (rate < tun.static_rate_rad_s)
-                k0[:, cols] = np.where(static, k_static[0], 0.0)
-                k1[:, cols] = np.where(static, k_static[1], 0.0)
-            else:
-                k = steady_state_gain(
-                    measurement_variance(dev, rate, tun), self.dt_s, tun.q_angle, tun.q_bias
-                )
-                k0[:, cols], k1[:, cols] = k[..., 0], k[..., 1]
         out, bias = self._solve_wrapped(k0, k1, z, turns, w)
         self._last_z, self._turns = z[-1].copy(), turns[-1].copy()
         self._theta, self._bias = out[-1].copy(), bias[-1].copy()
