@@ -120,7 +120,7 @@ class SegmentTuning:
 # thigh and shank are never still while walking and take the gravity measurement live.
 _WEIGHTED = SegmentTuning(
     static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0,
-    live_gravity_hz=0.4,
+    live_gravity_hz=0.25,
 )  # fmt: skip
 SEGMENT_TUNING: dict[str, SegmentTuning] = {
     "body": _WEIGHTED,
@@ -138,10 +138,11 @@ def tuning_for(segment: str) -> SegmentTuning:
 
 
 def prior_covariance(
-    dt_s: float, q_angle: float, q_bias: float, r: np.ndarray
+    dt_s: float, q_angle: float, q_bias: float, r: np.ndarray, h_bias: float = 0.0
 ) -> np.ndarray:
     """(M, 2, 2) steady prior covariances of the paper's model for measurement variances r (M,).
 
+    The measurement is z = theta + h_bias b (H = [1, h_bias]; the paper's h_bias = 0).
     The discrete Riccati equation P = F P (I + G P)^-1 F^T + Q, G = H^T H / r, solved for all r
     at once by the structured doubling algorithm (Chu, Fan, Lin 2005; quadratic convergence),
     which scipy's one-at-a-time ``solve_discrete_are`` agrees with (tests).
@@ -152,6 +153,8 @@ def prior_covariance(
     a = np.broadcast_to(np.array([[1.0, 0.0], [-dt_s, 1.0]]), (m, 2, 2)).copy()  # F^T
     g = np.zeros((m, 2, 2))
     g[:, 0, 0] = 1.0 / r
+    g[:, 0, 1] = g[:, 1, 0] = h_bias / r
+    g[:, 1, 1] = h_bias * h_bias / r
     h = np.broadcast_to(np.diag([q_angle, q_bias]), (m, 2, 2)).copy()
     for _ in range(200):
         w_inv = np.linalg.inv(eye + g @ h)
@@ -188,6 +191,15 @@ def steady_state_gain(
     for j in range(2):
         out[..., j] = np.where(finite, np.interp(lr, log_r, gains[:, j]), 0.0)
     return out
+
+
+def gravity_gain(
+    r: float, dt_s: float, q_angle: float, q_bias: float, h_bias: float
+) -> np.ndarray:
+    """[K0, K1], the steady-state gain for a measurement z = theta + h_bias b of variance r."""
+    p = prior_covariance(dt_s, q_angle, q_bias, np.array([float(r)]), h_bias)[0]
+    ph = p @ np.array([1.0, h_bias])
+    return np.asarray(ph / (ph[0] + h_bias * ph[1] + r))
 
 
 def measurement_variance(
@@ -241,15 +253,24 @@ class GravityReference:
     """Causal gravity-referenced tilt of S segments (module doc, "Gravity measurement").
 
     ``process(ax, az, w)`` with (N, S) inputs returns z~ (rad, (N, S), continuous up to the
-    wrap of its arg). Stateful; any chunking gives bit-for-bit the same output.
+    wrap of its arg), minus ``lag_s * offset_rad_s``. Stateful; any chunking gives bit-for-bit
+    the same output.
     """
 
-    def __init__(self, cutoff_hz: float, fs_hz: float) -> None:
+    def __init__(self, cutoff_hz: float, fs_hz: float, n_segments: int) -> None:
         from scipy import signal  # lazy: scipy only where a filter is run
 
         self.dt_s = 1.0 / fs_hz
-        self._sos = signal.butter(2, cutoff_hz, fs=fs_hz, output="sos")
-        self._zi_unit = signal.sosfilt_zi(self._sos)[:, :, None]  # steady state for input 1
+        b, a = signal.butter(2, cutoff_hz, fs=fs_hz)
+        self._ba = (b, a)
+        self._zi_unit = signal.lfilter_zi(b, a)[:, None]  # steady state for input 1
+        k = np.arange(len(b))
+        # the low-pass's delay at DC: a gyro bias b turns the gyro angle at b, so z~ leads the
+        # tilt by lag_s * b (the filter's measurement model, z~ = theta + lag_s b)
+        self.lag_s = float((k @ b / b.sum() - k @ a / a.sum()) * self.dt_s)
+        # added to the gyro before it is integrated: undoes shift_bias, so a new calibration
+        # does not turn the gyro angle differently from before
+        self.offset_rad_s = np.zeros(n_segments)
         self.reset()
 
     def reset(self) -> None:
@@ -261,26 +282,33 @@ class GravityReference:
 
         s = ax.shape[1]
         if self._theta is None:  # the gyro angle starts at the first accelerometer tilt
-            self._theta = np.arctan2(az[0], ax[0]) - w[0] * self.dt_s
+            self._theta = np.arctan2(az[0], ax[0]) - (w[0] + self.offset_rad_s) * self.dt_s
         # one cumulative sum from the carried angle: the same additions in any chunking
-        theta = np.cumsum(np.vstack([self._theta, w * self.dt_s]), axis=0)[1:]
-        c, sn = np.cos(theta), np.sin(theta)
+        rate = (w + self.offset_rad_s) * self.dt_s
+        theta = np.cumsum(np.vstack([self._theta, rate]), axis=0)[1:]
+        # the turn in single precision (20x faster; 1e-7 rad), of the angle wrapped first
+        turn = wrap_angle(theta).astype(np.float32)
+        c, sn = np.cos(turn), np.sin(turn)
         world = np.concatenate([ax * c + az * sn, az * c - ax * sn], axis=1)  # (up, fwd) x S
         if self._zi is None:
             self._zi = self._zi_unit * world[0]
-        avg, self._zi = signal.sosfilt(self._sos, world, axis=0, zi=self._zi)
+        avg, self._zi = signal.lfilter(*self._ba, world, axis=0, zi=self._zi)
         self._theta = theta[-1].copy()
-        return np.asarray(theta + np.arctan2(avg[:, s:], avg[:, :s]))
+        tilt = theta + np.arctan2(avg[:, s:], avg[:, :s])
+        return np.asarray(tilt - self.lag_s * self.offset_rad_s)
 
 
 def solve_scheduled(
     theta0: np.ndarray | float, bias0: np.ndarray | float, k0: np.ndarray, k1: np.ndarray,
-    z: np.ndarray, w: np.ndarray, dt_s: float,
+    z: np.ndarray, w: np.ndarray, dt_s: float, h_bias: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Run theta/b through the scheduled update; returns (theta, bias), shaped like ``z``.
 
-    theta_k = (1 - K0) (theta_{k-1} + (w_k - b_{k-1}) dt) + K0 z_k
-    b_k     = b_{k-1} + K1 (z_k - theta_{k-1} - (w_k - b_{k-1}) dt)
+    theta_k = (1 - K0) (theta_{k-1} + (w_k - b_{k-1}) dt) + K0 z_k - K0 h_k b_{k-1}
+    b_k     = b_{k-1} + K1 (z_k - theta_{k-1} - (w_k - b_{k-1}) dt - h_k b_{k-1})
+
+    where the measurement is z_k = theta_k + h_k b_k (``h_bias``, shaped like z; None = 0, the
+    paper's).
 
     as a unit lower-triangular banded system (see the module doc). (N,) inputs are one segment;
     (N, S) inputs run S segments as S independent blocks of one system (one BLAS call): no
@@ -297,8 +325,13 @@ def solve_scheduled(
     c0 = 1.0 - k0
     a[2, :, 0 : 2 * n : 2] = -c0  # theta_k <- theta_{k-1}
     a[3, :, 0 : 2 * n : 2] = k1  # b_k <- theta_{k-1}
-    a[1, :, 1 : 2 * n : 2] = c0 * dt_s  # theta_k <- b_{k-1}
-    a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
+    if h_bias is None:
+        a[1, :, 1 : 2 * n : 2] = c0 * dt_s  # theta_k <- b_{k-1}
+        a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
+    else:
+        h = np.asarray(h_bias, dtype=np.float64).reshape(n, -1).T
+        a[1, :, 1 : 2 * n : 2] = c0 * dt_s + k0 * h
+        a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s - k1 * h)
     x = np.empty((s, m))
     x[:, 0] = theta0
     x[:, 1] = bias0
@@ -344,23 +377,18 @@ class GaitAwareKalman:
             steady_state_gain(t.r_static, self.dt_s, t.q_angle, t.q_bias) for t, _ in self._groups
         ]
         self._gravity = [
-            None if t.live_gravity_hz is None else GravityReference(t.live_gravity_hz, self.fs_hz)
-            for t, _ in self._groups
-        ]
-        # gravity groups: the gain of the gravity tilt alone, and with a quasi-static sample's
-        # accelerometer tilt combined into one measurement (variances in parallel)
-        self._gravity_gain = [
             None
             if t.live_gravity_hz is None
-            else (
-                steady_state_gain(t.r_live_gravity, self.dt_s, t.q_angle, t.q_bias),
-                steady_state_gain(
-                    1.0 / (1.0 / t.r_live_gravity + 1.0 / t.r_static),
-                    self.dt_s, t.q_angle, t.q_bias,
-                ),
-            )
-            for t, _ in self._groups
-        ]  # fmt: skip
+            else GravityReference(t.live_gravity_hz, self.fs_hz, len(cols))
+            for t, cols in self._groups
+        ]
+        # gravity groups: the steady-state gain of z~ = theta + lag b
+        self._gravity_gain = [
+            None
+            if g is None
+            else gravity_gain(t.r_live_gravity, self.dt_s, t.q_angle, t.q_bias, g.lag_s)
+            for (t, _), g in zip(self._groups, self._gravity, strict=True)
+        ]
         self.reset()
 
     def reset(self) -> None:
@@ -391,8 +419,12 @@ class GaitAwareKalman:
 
     def shift_bias(self, delta_rad_s: np.ndarray | float) -> None:
         """Add ``delta`` to the bias state (the gyro input got a new fixed offset)."""
+        delta = np.broadcast_to(np.asarray(delta_rad_s, dtype=np.float64), (len(self.segments),))
         if self._bias is not None:
-            self._bias = self._bias + np.asarray(delta_rad_s, dtype=np.float64)
+            self._bias = self._bias + delta
+        for grav, (_, cols) in zip(self._gravity, self._groups, strict=True):
+            if grav is not None:
+                grav.offset_rad_s = grav.offset_rad_s - delta[cols]
 
     def process(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
@@ -411,21 +443,20 @@ class GaitAwareKalman:
         z = np.arctan2(az, ax)
         k0 = np.empty((n, s))
         k1 = np.empty((n, s))
+        h_bias = np.zeros((n, s)) if any(g is not None for g in self._gravity) else None
         for (tun, cols), win, k_static, grav, k_grav in zip(
             self._groups, self._windows, self._static_gain, self._gravity, self._gravity_gain,
             strict=True,
         ):  # fmt: skip
             dev, rate = win.process(ax[:, cols], az[:, cols], w[:, cols])
             static = (dev < tun.static_acc_ms2) & (rate < tun.static_rate_rad_s)
-            if grav is not None and k_grav is not None:
-                # the gravity tilt, and where quasi-static also the accelerometer's, as one
-                # measurement: their variance-weighted mean (z taken near z~ across the wrap)
+            if grav is not None and k_grav is not None and h_bias is not None:
+                # quasi-static: the accelerometer tilt as the foot's; otherwise the gravity tilt
                 z_grav = grav.process(ax[:, cols], az[:, cols], w[:, cols])
-                share = tun.r_live_gravity / (tun.r_live_gravity + tun.r_static)
-                pull = np.where(static, share, 0.0) * wrap_angle(z[:, cols] - z_grav)
-                z[:, cols] = wrap_angle(z_grav + pull)  # as the accelerometer's: wrapped
-                k0[:, cols] = np.where(static, k_grav[1][0], k_grav[0][0])
-                k1[:, cols] = np.where(static, k_grav[1][1], k_grav[0][1])
+                z[:, cols] = np.where(static, z[:, cols], wrap_angle(z_grav))
+                k0[:, cols] = np.where(static, k_static[0], k_grav[0])
+                k1[:, cols] = np.where(static, k_static[1], k_grav[1])
+                h_bias[:, cols] = np.where(static, 0.0, grav.lag_s)
             elif tun.r_moving is None:  # gated: the static gain or nothing
                 k0[:, cols] = np.where(static, k_static[0], 0.0)
                 k1[:, cols] = np.where(static, k_static[1], 0.0)
@@ -444,14 +475,15 @@ class GaitAwareKalman:
         # unwrap by continuity from the last sample of the previous block
         steps = -np.rint(np.diff(np.vstack([self._last_z, z]), axis=0) / TWO_PI)
         turns = self._turns + np.cumsum(steps, axis=0)
-        out, bias = self._solve_wrapped(k0, k1, z, turns, w)
+        out, bias = self._solve_wrapped(k0, k1, z, turns, w, h_bias)
         self._last_z, self._turns = z[-1].copy(), turns[-1].copy()
         self._theta, self._bias = out[-1].copy(), bias[-1].copy()
         return out[:, 0] if was_1d else out
 
     def _solve_wrapped(
-        self, k0: np.ndarray, k1: np.ndarray, z: np.ndarray, turns: np.ndarray, w: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
+        self, k0: np.ndarray, k1: np.ndarray, z: np.ndarray, turns: np.ndarray, w: np.ndarray,
+        h_bias: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """Solve, then honour the wrap of the innovation (paper 000's wrap(z - theta-)).
 
         Where a trusted sample's innovation against the unwrapped z lies beyond +-pi (the
@@ -466,11 +498,14 @@ class GaitAwareKalman:
         i0, th0, b0 = 0, self._theta, self._bias
         while True:
             z_unw = z[i0:] + TWO_PI * turns[i0:]
-            th, b = solve_scheduled(th0, b0, k0[i0:], k1[i0:], z_unw, w[i0:], self.dt_s)
+            h = None if h_bias is None else h_bias[i0:]
+            th, b = solve_scheduled(th0, b0, k0[i0:], k1[i0:], z_unw, w[i0:], self.dt_s, h)
             out[i0:], bias[i0:] = th, b
             prev_th = np.vstack([th0, th[:-1]])
             prev_b = np.vstack([b0, b[:-1]])
             e = z_unw - (prev_th + (w[i0:] - prev_b) * self.dt_s)
+            if h is not None:
+                e = e - h * prev_b
             bad = (k0[i0:] > 0) & (np.abs(e) > np.pi)
             rows = np.flatnonzero(bad.any(axis=1))
             if len(rows) == 0:
