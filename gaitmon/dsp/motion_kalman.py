@@ -17,8 +17,28 @@ and gives the measurement a variance R (rad^2) from them (:class:`SegmentTuning`
   For the foot this is foot-flat in every stance: the accelerometer is then as good as it gets.
 * otherwise R = ``r_moving`` (1 + (dev / ``acc_scale_ms2``)^2), or infinity (no update at all)
   where ``r_moving`` is None. Thigh and body are never still while walking; a foot-style gate
-  would leave them on the gyro alone for minutes, so they keep a weak measurement whose weight
-  falls with the acceleration magnitude's deviation from 1 g.
+  would leave them on the gyro alone for minutes, so they need a measurement while moving: with
+  ``live_gravity_hz`` set (their default) it is the gravity measurement below; without it, this
+  weak one, whose weight falls with the acceleration magnitude's deviation from 1 g (the
+  smoother's first pass still uses it).
+
+Gravity measurement (``live_gravity_hz``; body, thigh and shank). Those segments are never
+still while walking, and the accelerometer tilt of a swinging thigh or shank carries its own
+acceleration with a mean over the stride that is not zero in the board's frame: a walking bias
+of 2-9 deg (the peak swing knee error). In a fixed frame, though, a sensor point's acceleration
+averages to zero over whole strides (its velocity is periodic). So the filter turns the specific
+force by the gyro angle Theta_k = Theta_(k-1) + omega_k dt (started at the first accelerometer
+tilt) into that fixed frame, low-passes it (2nd-order Butterworth at ``live_gravity_hz``,
+causal), and measures
+
+    z~_k = Theta_k + arg( LP[ (a_x + i a_z) e^(-i Theta) ]_k )
+
+the tilt at which the averaged specific force points up. A gyro bias b turns Theta away at b
+rad/s and the low-pass sees that drift late by its DC delay ``lag`` (0.90 s at 0.25 Hz), so
+z~ = theta + lag b: the measurement row is H = [1, lag], with its own steady-state gain
+(``gravity_gain``), and the bias state absorbs it. ``shift_bias`` (a new calibration) is undone
+in the gyro angle, so zeroing mid-stream does not disturb it. Quasi-static samples use the
+accelerometer tilt with ``r_static`` as before. The foot keeps its foot-flat gate.
 
 Gain. The gain at each sample is the *steady-state* Kalman gain [K0, K1] of the paper's model
 (exact discretisation, Q = diag(q_angle, q_bias)) for that sample's R, looked up in a table
@@ -28,7 +48,7 @@ swing correct the angle within a few samples, which is what the exact time-varyi
 too (on the simulator the scheduled gains were as accurate as the exact time-varying
 covariance; see docs/filters.md). The update is paper 000's, with K from the schedule:
 
-    theta = theta- + K0 e ; b = b- + K1 e ;  e = z - theta-
+    theta = theta- + K0 e ; b = b- + K1 e ;  e = z - theta- - h b-   (h = lag for z~, else 0)
 
 Speed and chunking. With K known per sample the filter is a linear recursion with time-varying
 coefficients. It is solved as one lower-triangular banded system (bandwidth 3, unknowns
