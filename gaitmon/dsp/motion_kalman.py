@@ -306,10 +306,12 @@ class GravityReference:
         # one cumulative sum from the carried angle: the same additions in any chunking
         rate = (w + self.offset_rad_s) * self.dt_s
         theta = np.cumsum(np.vstack([self._theta, rate]), axis=0)[1:]
-        # the turn in single precision (20x faster; 1e-7 rad), of the angle wrapped first
-        turn = wrap_angle(theta).astype(np.float32)
+        # the turn in single precision (20x faster; 1e-7 rad), of the angle reduced first
+        turn = (theta - TWO_PI * np.rint(theta * (1.0 / TWO_PI))).astype(np.float32)
         c, sn = np.cos(turn), np.sin(turn)
-        world = np.concatenate([ax * c + az * sn, az * c - ax * sn], axis=1)  # (up, fwd) x S
+        world = np.empty((len(theta), 2 * s))  # (up, fwd) x S
+        np.add(ax * c, az * sn, out=world[:, :s])
+        np.subtract(az * c, ax * sn, out=world[:, s:])
         if self._zi is None:
             self._zi = self._zi_unit * world[0]
         avg, self._zi = signal.lfilter(*self._ba, world, axis=0, zi=self._zi)
