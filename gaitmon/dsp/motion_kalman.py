@@ -17,8 +17,28 @@ and gives the measurement a variance R (rad^2) from them (:class:`SegmentTuning`
   For the foot this is foot-flat in every stance: the accelerometer is then as good as it gets.
 * otherwise R = ``r_moving`` (1 + (dev / ``acc_scale_ms2``)^2), or infinity (no update at all)
   where ``r_moving`` is None. Thigh and body are never still while walking; a foot-style gate
-  would leave them on the gyro alone for minutes, so they keep a weak measurement whose weight
-  falls with the acceleration magnitude's deviation from 1 g.
+  would leave them on the gyro alone for minutes, so they need a measurement while moving: with
+  ``live_gravity_hz`` set (their default) it is the gravity measurement below; without it, this
+  weak one, whose weight falls with the acceleration magnitude's deviation from 1 g (the
+  smoother's first pass still uses it).
+
+Gravity measurement (``live_gravity_hz``; body, thigh and shank). Those segments are never
+still while walking, and the accelerometer tilt of a swinging thigh or shank carries its own
+acceleration with a mean over the stride that is not zero in the board's frame: a walking bias
+of 2-9 deg (the peak swing knee error). In a fixed frame, though, a sensor point's acceleration
+averages to zero over whole strides (its velocity is periodic). So the filter turns the specific
+force by the gyro angle Theta_k = Theta_(k-1) + omega_k dt (started at the first accelerometer
+tilt) into that fixed frame, low-passes it (2nd-order Butterworth at ``live_gravity_hz``,
+causal), and measures
+
+    z~_k = Theta_k + arg( LP[ (a_x + i a_z) e^(-i Theta) ]_k )
+
+the tilt at which the averaged specific force points up. A gyro bias b turns Theta away at b
+rad/s and the low-pass sees that drift late by its DC delay ``lag`` (0.90 s at 0.25 Hz), so
+z~ = theta + lag b: the measurement row is H = [1, lag], with its own steady-state gain
+(``gravity_gain``), and the bias state absorbs it. ``shift_bias`` (a new calibration) is undone
+in the gyro angle, so zeroing mid-stream does not disturb it. Quasi-static samples use the
+accelerometer tilt with ``r_static`` as before. The foot keeps its foot-flat gate.
 
 Gain. The gain at each sample is the *steady-state* Kalman gain [K0, K1] of the paper's model
 (exact discretisation, Q = diag(q_angle, q_bias)) for that sample's R, looked up in a table
@@ -28,7 +48,7 @@ swing correct the angle within a few samples, which is what the exact time-varyi
 too (on the simulator the scheduled gains were as accurate as the exact time-varying
 covariance; see docs/filters.md). The update is paper 000's, with K from the schedule:
 
-    theta = theta- + K0 e ; b = b- + K1 e ;  e = z - theta-
+    theta = theta- + K0 e ; b = b- + K1 e ;  e = z - theta- - h b-   (h = lag for z~, else 0)
 
 Speed and chunking. With K known per sample the filter is a linear recursion with time-varying
 coefficients. It is solved as one lower-triangular banded system (bandwidth 3, unknowns
@@ -49,7 +69,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from gaitmon.dsp.angles import TWO_PI
+from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.channels import SEGMENTS, STANDARD_GRAVITY_MS2
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
@@ -72,6 +92,18 @@ class SegmentTuning:
     q_bias: float = 1e-8  # (rad/s)^2 per step, bias random walk
     # offline smoother only: the angle's process noise grows as (1 + (|omega| / scale)^2)
     rate_scale_rad_s: float = 1.0
+    # offline smoother only, its gravity passes (gaitmon.dsp.smoother): the length of the
+    # boxcar (applied three times) over which the specific force, turned into the world frame by
+    # the previous pass's tilt, must average to vertical (None = no gravity pass), the variance
+    # (rad^2) given to that gravity-referenced tilt, and how many passes
+    gravity_window_s: float | None = 1.5
+    r_gravity: float = 3e-4
+    gravity_passes: int = 1
+    # causal filter: the cut-off of the 2nd-order Butterworth low-pass that averages the
+    # gyro-turned specific force (None = the accelerometer tilt as above) and the variance (rad^2)
+    # of the tilt it gives (see the module doc, "Gravity measurement")
+    live_gravity_hz: float | None = None
+    r_live_gravity: float = 1e-2
 
     def __post_init__(self) -> None:
         for name in ("static_acc_ms2", "static_rate_rad_s", "window_s", "r_static",
@@ -79,6 +111,24 @@ class SegmentTuning:
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
+        if self.gravity_window_s is not None and not (
+            np.isfinite(self.gravity_window_s) and self.gravity_window_s > 0
+        ):
+            raise ValueError(
+                f"gravity_window_s must be a positive number or None, got {self.gravity_window_s}"
+            )
+        if self.live_gravity_hz is not None and not (
+            np.isfinite(self.live_gravity_hz) and self.live_gravity_hz > 0
+        ):
+            raise ValueError(
+                f"live_gravity_hz must be a positive number or None, got {self.live_gravity_hz}"
+            )
+        if not (np.isfinite(self.r_live_gravity) and self.r_live_gravity > 0):
+            raise ValueError(f"r_live_gravity must be a positive number, got {self.r_live_gravity}")
+        if not (np.isfinite(self.r_gravity) and self.r_gravity > 0):
+            raise ValueError(f"r_gravity must be a positive number, got {self.r_gravity}")
+        if not (isinstance(self.gravity_passes, int) and self.gravity_passes >= 1):
+            raise ValueError(f"gravity_passes must be an integer >= 1, got {self.gravity_passes}")
         if self.r_moving is not None and not (np.isfinite(self.r_moving) and self.r_moving > 0):
             raise ValueError(f"r_moving must be a positive number or None, got {self.r_moving}")
 
@@ -87,10 +137,11 @@ class SegmentTuning:
 
 
 # Chosen on the simulator (docs/filters.md): the foot is gated (foot-flat every stance); body,
-# thigh and shank keep a weak, acceleration-weighted measurement while walking.
+# thigh and shank are never still while walking and take the gravity measurement live.
 _WEIGHTED = SegmentTuning(
-    static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0
-)
+    static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0,
+    live_gravity_hz=0.25,
+)  # fmt: skip
 SEGMENT_TUNING: dict[str, SegmentTuning] = {
     "body": _WEIGHTED,
     "thigh": _WEIGHTED,
@@ -107,10 +158,11 @@ def tuning_for(segment: str) -> SegmentTuning:
 
 
 def prior_covariance(
-    dt_s: float, q_angle: float, q_bias: float, r: np.ndarray
+    dt_s: float, q_angle: float, q_bias: float, r: np.ndarray, h_bias: float = 0.0
 ) -> np.ndarray:
     """(M, 2, 2) steady prior covariances of the paper's model for measurement variances r (M,).
 
+    The measurement is z = theta + h_bias b (H = [1, h_bias]; the paper's h_bias = 0).
     The discrete Riccati equation P = F P (I + G P)^-1 F^T + Q, G = H^T H / r, solved for all r
     at once by the structured doubling algorithm (Chu, Fan, Lin 2005; quadratic convergence),
     which scipy's one-at-a-time ``solve_discrete_are`` agrees with (tests).
@@ -121,6 +173,8 @@ def prior_covariance(
     a = np.broadcast_to(np.array([[1.0, 0.0], [-dt_s, 1.0]]), (m, 2, 2)).copy()  # F^T
     g = np.zeros((m, 2, 2))
     g[:, 0, 0] = 1.0 / r
+    g[:, 0, 1] = g[:, 1, 0] = h_bias / r
+    g[:, 1, 1] = h_bias * h_bias / r
     h = np.broadcast_to(np.diag([q_angle, q_bias]), (m, 2, 2)).copy()
     for _ in range(200):
         w_inv = np.linalg.inv(eye + g @ h)
@@ -157,6 +211,15 @@ def steady_state_gain(
     for j in range(2):
         out[..., j] = np.where(finite, np.interp(lr, log_r, gains[:, j]), 0.0)
     return out
+
+
+def gravity_gain(
+    r: float, dt_s: float, q_angle: float, q_bias: float, h_bias: float
+) -> np.ndarray:
+    """[K0, K1], the steady-state gain for a measurement z = theta + h_bias b of variance r."""
+    p = prior_covariance(dt_s, q_angle, q_bias, np.array([float(r)]), h_bias)[0]
+    ph = p @ np.array([1.0, h_bias])
+    return np.asarray(ph / (ph[0] + h_bias * ph[1] + r))
 
 
 def measurement_variance(
@@ -206,14 +269,68 @@ class MotionWindow:
         return out[:, 0], out[:, 1]
 
 
+class GravityReference:
+    """Causal gravity-referenced tilt of S segments (module doc, "Gravity measurement").
+
+    ``process(ax, az, w)`` with (N, S) inputs returns z~ (rad, (N, S), continuous up to the
+    wrap of its arg), minus ``lag_s * offset_rad_s``. Stateful; any chunking gives bit-for-bit
+    the same output.
+    """
+
+    def __init__(self, cutoff_hz: float, fs_hz: float, n_segments: int) -> None:
+        from scipy import signal  # lazy: scipy only where a filter is run
+
+        self.dt_s = 1.0 / fs_hz
+        b, a = signal.butter(2, cutoff_hz, fs=fs_hz)
+        self._ba = (b, a)
+        self._zi_unit = signal.lfilter_zi(b, a)[:, None]  # steady state for input 1
+        k = np.arange(len(b))
+        # the low-pass's delay at DC: a gyro bias b turns the gyro angle at b, so z~ leads the
+        # tilt by lag_s * b (the filter's measurement model, z~ = theta + lag_s b)
+        self.lag_s = float((k @ b / b.sum() - k @ a / a.sum()) * self.dt_s)
+        # added to the gyro before it is integrated: undoes shift_bias, so a new calibration
+        # does not turn the gyro angle differently from before
+        self.offset_rad_s = np.zeros(n_segments)
+        self.reset()
+
+    def reset(self) -> None:
+        self._theta: np.ndarray | None = None  # the gyro angle at the last sample
+        self._zi: np.ndarray | None = None
+
+    def process(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> np.ndarray:
+        from scipy import signal  # lazy
+
+        s = ax.shape[1]
+        if self._theta is None:  # the gyro angle starts at the first accelerometer tilt
+            self._theta = np.arctan2(az[0], ax[0]) - (w[0] + self.offset_rad_s) * self.dt_s
+        # one cumulative sum from the carried angle: the same additions in any chunking
+        rate = (w + self.offset_rad_s) * self.dt_s
+        theta = np.cumsum(np.vstack([self._theta, rate]), axis=0)[1:]
+        # the turn in single precision (20x faster; 1e-7 rad), of the angle reduced first
+        turn = (theta - TWO_PI * np.rint(theta * (1.0 / TWO_PI))).astype(np.float32)
+        c, sn = np.cos(turn), np.sin(turn)
+        world = np.empty((len(theta), 2 * s))  # (up, fwd) x S
+        np.add(ax * c, az * sn, out=world[:, :s])
+        np.subtract(az * c, ax * sn, out=world[:, s:])
+        if self._zi is None:
+            self._zi = self._zi_unit * world[0]
+        avg, self._zi = signal.lfilter(*self._ba, world, axis=0, zi=self._zi)
+        self._theta = theta[-1].copy()
+        tilt = theta + np.arctan2(avg[:, s:], avg[:, :s])
+        return np.asarray(tilt - self.lag_s * self.offset_rad_s)
+
+
 def solve_scheduled(
     theta0: np.ndarray | float, bias0: np.ndarray | float, k0: np.ndarray, k1: np.ndarray,
-    z: np.ndarray, w: np.ndarray, dt_s: float,
+    z: np.ndarray, w: np.ndarray, dt_s: float, h_bias: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Run theta/b through the scheduled update; returns (theta, bias), shaped like ``z``.
 
-    theta_k = (1 - K0) (theta_{k-1} + (w_k - b_{k-1}) dt) + K0 z_k
-    b_k     = b_{k-1} + K1 (z_k - theta_{k-1} - (w_k - b_{k-1}) dt)
+    theta_k = (1 - K0) (theta_{k-1} + (w_k - b_{k-1}) dt) + K0 z_k - K0 h_k b_{k-1}
+    b_k     = b_{k-1} + K1 (z_k - theta_{k-1} - (w_k - b_{k-1}) dt - h_k b_{k-1})
+
+    where the measurement is z_k = theta_k + h_k b_k (``h_bias``, shaped like z; None = 0, the
+    paper's).
 
     as a unit lower-triangular banded system (see the module doc). (N,) inputs are one segment;
     (N, S) inputs run S segments as S independent blocks of one system (one BLAS call): no
@@ -230,8 +347,13 @@ def solve_scheduled(
     c0 = 1.0 - k0
     a[2, :, 0 : 2 * n : 2] = -c0  # theta_k <- theta_{k-1}
     a[3, :, 0 : 2 * n : 2] = k1  # b_k <- theta_{k-1}
-    a[1, :, 1 : 2 * n : 2] = c0 * dt_s  # theta_k <- b_{k-1}
-    a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
+    if h_bias is None:
+        a[1, :, 1 : 2 * n : 2] = c0 * dt_s  # theta_k <- b_{k-1}
+        a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
+    else:
+        h = np.asarray(h_bias, dtype=np.float64).reshape(n, -1).T
+        a[1, :, 1 : 2 * n : 2] = c0 * dt_s + k0 * h
+        a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s - k1 * h)
     x = np.empty((s, m))
     x[:, 0] = theta0
     x[:, 1] = bias0
@@ -276,11 +398,27 @@ class GaitAwareKalman:
         self._static_gain = [
             steady_state_gain(t.r_static, self.dt_s, t.q_angle, t.q_bias) for t, _ in self._groups
         ]
+        self._gravity = [
+            None
+            if t.live_gravity_hz is None
+            else GravityReference(t.live_gravity_hz, self.fs_hz, len(cols))
+            for t, cols in self._groups
+        ]
+        # gravity groups: the steady-state gain of z~ = theta + lag b
+        self._gravity_gain = [
+            None
+            if g is None
+            else gravity_gain(t.r_live_gravity, self.dt_s, t.q_angle, t.q_bias, g.lag_s)
+            for (t, _), g in zip(self._groups, self._gravity, strict=True)
+        ]
         self.reset()
 
     def reset(self) -> None:
         for win in self._windows:
             win.reset()
+        for grav in self._gravity:
+            if grav is not None:
+                grav.reset()
         self._theta: np.ndarray | None = None
         self._bias: np.ndarray | None = None
         self._last_z: np.ndarray | None = None  # last wrapped z, for unwrapping
@@ -291,6 +429,9 @@ class GaitAwareKalman:
         a link outage the old angle and motion windows are stale; the bias is not)."""
         for win in self._windows:
             win.reset()
+        for grav in self._gravity:
+            if grav is not None:
+                grav.reset()
         self._theta = None
         self._last_z = self._turns = None
 
@@ -300,8 +441,12 @@ class GaitAwareKalman:
 
     def shift_bias(self, delta_rad_s: np.ndarray | float) -> None:
         """Add ``delta`` to the bias state (the gyro input got a new fixed offset)."""
+        delta = np.broadcast_to(np.asarray(delta_rad_s, dtype=np.float64), (len(self.segments),))
         if self._bias is not None:
-            self._bias = self._bias + np.asarray(delta_rad_s, dtype=np.float64)
+            self._bias = self._bias + delta
+        for grav, (_, cols) in zip(self._gravity, self._groups, strict=True):
+            if grav is not None:
+                grav.offset_rad_s = grav.offset_rad_s - delta[cols]
 
     def process(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
@@ -318,6 +463,30 @@ class GaitAwareKalman:
         if n == 0:
             return out[:, 0] if was_1d else out
         z = np.arctan2(az, ax)
+        k0 = np.empty((n, s))
+        k1 = np.empty((n, s))
+        h_bias = np.zeros((n, s)) if any(g is not None for g in self._gravity) else None
+        for (tun, cols), win, k_static, grav, k_grav in zip(
+            self._groups, self._windows, self._static_gain, self._gravity, self._gravity_gain,
+            strict=True,
+        ):  # fmt: skip
+            dev, rate = win.process(ax[:, cols], az[:, cols], w[:, cols])
+            static = (dev < tun.static_acc_ms2) & (rate < tun.static_rate_rad_s)
+            if grav is not None and k_grav is not None and h_bias is not None:
+                # quasi-static: the accelerometer tilt as the foot's; otherwise the gravity tilt
+                z_grav = grav.process(ax[:, cols], az[:, cols], w[:, cols])
+                z[:, cols] = np.where(static, z[:, cols], wrap_angle(z_grav))
+                k0[:, cols] = np.where(static, k_static[0], k_grav[0])
+                k1[:, cols] = np.where(static, k_static[1], k_grav[1])
+                h_bias[:, cols] = np.where(static, 0.0, grav.lag_s)
+            elif tun.r_moving is None:  # gated: the static gain or nothing
+                k0[:, cols] = np.where(static, k_static[0], 0.0)
+                k1[:, cols] = np.where(static, k_static[1], 0.0)
+            else:
+                k = steady_state_gain(
+                    measurement_variance(dev, rate, tun), self.dt_s, tun.q_angle, tun.q_bias
+                )
+                k0[:, cols], k1[:, cols] = k[..., 0], k[..., 1]
         if self._theta is None:
             self._theta = z[0].copy()
             if self._bias is None:  # a restart keeps the learnt bias
@@ -328,29 +497,15 @@ class GaitAwareKalman:
         # unwrap by continuity from the last sample of the previous block
         steps = -np.rint(np.diff(np.vstack([self._last_z, z]), axis=0) / TWO_PI)
         turns = self._turns + np.cumsum(steps, axis=0)
-        k0 = np.empty((n, s))
-        k1 = np.empty((n, s))
-        for (tun, cols), win, k_static in zip(
-            self._groups, self._windows, self._static_gain, strict=True
-        ):
-            dev, rate = win.process(ax[:, cols], az[:, cols], w[:, cols])
-            if tun.r_moving is None:  # gated: the static gain or nothing
-                static = (dev < tun.static_acc_ms2) & (rate < tun.static_rate_rad_s)
-                k0[:, cols] = np.where(static, k_static[0], 0.0)
-                k1[:, cols] = np.where(static, k_static[1], 0.0)
-            else:
-                k = steady_state_gain(
-                    measurement_variance(dev, rate, tun), self.dt_s, tun.q_angle, tun.q_bias
-                )
-                k0[:, cols], k1[:, cols] = k[..., 0], k[..., 1]
-        out, bias = self._solve_wrapped(k0, k1, z, turns, w)
+        out, bias = self._solve_wrapped(k0, k1, z, turns, w, h_bias)
         self._last_z, self._turns = z[-1].copy(), turns[-1].copy()
         self._theta, self._bias = out[-1].copy(), bias[-1].copy()
         return out[:, 0] if was_1d else out
 
     def _solve_wrapped(
-        self, k0: np.ndarray, k1: np.ndarray, z: np.ndarray, turns: np.ndarray, w: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
+        self, k0: np.ndarray, k1: np.ndarray, z: np.ndarray, turns: np.ndarray, w: np.ndarray,
+        h_bias: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """Solve, then honour the wrap of the innovation (paper 000's wrap(z - theta-)).
 
         Where a trusted sample's innovation against the unwrapped z lies beyond +-pi (the
@@ -365,11 +520,14 @@ class GaitAwareKalman:
         i0, th0, b0 = 0, self._theta, self._bias
         while True:
             z_unw = z[i0:] + TWO_PI * turns[i0:]
-            th, b = solve_scheduled(th0, b0, k0[i0:], k1[i0:], z_unw, w[i0:], self.dt_s)
+            h = None if h_bias is None else h_bias[i0:]
+            th, b = solve_scheduled(th0, b0, k0[i0:], k1[i0:], z_unw, w[i0:], self.dt_s, h)
             out[i0:], bias[i0:] = th, b
             prev_th = np.vstack([th0, th[:-1]])
             prev_b = np.vstack([b0, b[:-1]])
             e = z_unw - (prev_th + (w[i0:] - prev_b) * self.dt_s)
+            if h is not None:
+                e = e - h * prev_b
             bad = (k0[i0:] > 0) & (np.abs(e) > np.pi)
             rows = np.flatnonzero(bad.any(axis=1))
             if len(rows) == 0:
