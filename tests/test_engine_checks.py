@@ -126,9 +126,23 @@ def test_a_foot_sensor_failing_while_walking_is_flagged_within_5_strides_and_str
         assert snap.gait.last_stride_time_s == pytest.approx(
             np.median(np.diff(true_hs[-6:])) / eng.fs_hz, rel=0.1
         )
-        # new settings: a new pipeline checks afresh; the fault stays listed once, and the
-        # events come from the gyro again once it has flagged the sensor itself
+        # another tilt filter reads the FSRs the same way: the sensor stays flagged and the
+        # strides go on from the gyro without a break (they came from the broken sensor for
+        # ~4 strides when a new pipeline checked afresh)
+        n1 = eng.snapshot(0.1).gait.n_strides
         eng.apply_config(PipelineConfig(tilt_method="paper"))
+        wait_for(lambda: eng.snapshot(0.1).angle_method == "Kalman (paper, seed 000)",
+                 what="the new filter")  # fmt: skip
+        at1 = unit.samples_produced
+        wait_for(lambda: true_strides_between(unit, at1, unit.samples_produced) >= 5,
+                 what="5 more strides")  # fmt: skip
+        snap = eng.snapshot(0.1)
+        assert snap.event_source == "foot gyro" and snap.fsr_faults == (notice,)
+        # (a dead heel gives none: the new pipeline's first gyro stride needs two heel
+        # strikes after its start and the detector's latency)
+        assert snap.gait.n_strides >= n1 + 3
+        # a new FSR threshold may be what mends a sensor: that one is checked afresh
+        eng.apply_config(PipelineConfig(tilt_method="paper", fsr_threshold=900.0))
         wait_for(lambda: eng.snapshot(0.1).event_source == "fsr", what="a fresh check")
         wait_for(lambda: eng.snapshot(0.1).event_source == "foot gyro", what="found again")
         assert eng.snapshot(0.1).fsr_faults == (notice,)

@@ -301,6 +301,21 @@ class Pipeline:
         self._fsr_monitor = FsrMonitor(self.config.fs_hz, tolerance_s=0.15, decision_delay=delay)
         self._switch_idx: int | None = None  # events from the gyro from this index on
 
+    def successor(self, config: PipelineConfig) -> Pipeline:
+        """A fresh pipeline for new settings from the next sample on (index 0 = that sample),
+        with this one's calibration and channel table. Force sensors this one flagged stay
+        flagged (events from the foot gyro at once) when the new settings read the FSRs the
+        same way; new FSR settings (threshold, hysteresis, low-pass, minimum contact) are
+        checked from scratch, since they may be what made a sensor look faulty."""
+        new = Pipeline(config, self.calibration, self.table)
+        fsr_keys = ("fs_hz", "cutoff_hz", "filter_order", "fsr_threshold", "fsr_hysteresis",
+                    "min_contact_s")  # fmt: skip
+        same = all(getattr(config, k) == getattr(self.config, k) for k in fsr_keys)
+        if same and config.fsr_check and self.fsr_faults:
+            new._fsr_monitor.faults = [FsrFault(f.sensor, f.reason, 0, 0) for f in self.fsr_faults]
+            new._switch_idx = 0
+        return new
+
     def _restart(self, at: int) -> None:
         """A long gap ends at absolute index ``at``: see the module doc."""
         for stage in (self._acc_lp, self._fsr_lp, self._gyro_tilt_lp, self._integrator):

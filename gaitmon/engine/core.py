@@ -439,7 +439,6 @@ class Engine:
             cal, self._pending.calibration = self._pending.calibration, None
             if cfg is not None:
                 self.config = cfg
-                self._checks.pipeline_rebuilt()
             if cal is not None:
                 self.calibration = cal
             rec = self._recorder
@@ -449,7 +448,9 @@ class Engine:
             assert rec is not None
             rec.row_map.record_offset = start_idx  # row 0 = this block's first sample
         if cfg is not None:
-            self._pipeline = Pipeline(cfg, self.calibration)
+            self._pipeline = self._pipeline.successor(cfg)
+            with self._lock:
+                self._checks.pipeline_rebuilt(self._pipeline.event_source == "foot gyro")
             self._phase_lag = cfg.phase_lag_samples
             st.pipeline_offset = start_idx
             if rec is not None and not (first and cfg is rec.header_config):
@@ -569,9 +570,9 @@ class Engine:
         if rec is not None:
             rec.row_map.not_recorded(block, "frames lost: processing error")
         if self.mode is Mode.RAW:
-            self._pipeline = Pipeline(self.config, self.calibration)
+            self._pipeline = self._pipeline.successor(self.config)
             st.pipeline_offset = st.samples
             with self._lock:
-                self._checks.pipeline_rebuilt()
+                self._checks.pipeline_rebuilt(self._pipeline.event_source == "foot gyro")
             if rec is not None:
                 rec.put(("config", self.config))

@@ -30,12 +30,14 @@ class SensorChecks:
         self.faults: list[FsrFaultNotice] = []
         self.event_source = EVENTS_FSR
 
-    def pipeline_rebuilt(self) -> None:
-        """A new pipeline (new settings, or after a block it could not take) checks afresh and
-        takes its events from the force sensors until it flags one again. The faults already
-        found stay: the sensor has not been repaired."""
+    def pipeline_rebuilt(self, gyro_from_start: bool) -> None:
+        """A new pipeline (new settings, or after a block it could not take): it keeps the
+        sensors flagged before when it reads the FSRs the same way (``gyro_from_start``: its
+        events come from the foot gyro at once, ``Pipeline.successor``); new FSR settings are
+        checked afresh, events from the force sensors until it flags one again. The faults
+        already found stay listed either way."""
         self._gyro_from_idx = None
-        self.event_source = EVENTS_FSR
+        self.event_source = EVENTS_GYRO if gyro_from_start else EVENTS_FSR
 
     def add(
         self, faults: Iterable[FsrFault], offset: int, samples_total: int, ring: RingBuffer

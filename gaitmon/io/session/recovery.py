@@ -70,7 +70,7 @@ def replay_pipeline(
 
     Yields a :class:`ReplayChunk` per chunk. A new
     calibration is applied with ``Pipeline.set_calibration`` (filter state kept); new settings
-    start a fresh ``Pipeline(new_config, calibration in force)`` at that row (the stages are
+    start a fresh ``pipeline.successor(new_config)`` at that row (the stages are
     rebuilt, as they must be when the filter design changes). Changes at the same row apply in
     the given order. ``lost_before`` (frames lost before each row, see
     :func:`lost_before_from_gaps`) lets the pipeline restart after a long gap as it did live.
@@ -93,7 +93,7 @@ def replay_pipeline(
             if isinstance(change, Calibration):
                 pipeline.set_calibration(change)
             else:
-                pipeline = Pipeline(change, pipeline.calibration, table)
+                pipeline = pipeline.successor(change)
                 base = a
             k += 1
         blk = pipeline.process(adc[a:b], None if lost_before is None else lost_before[a:b])
