@@ -67,6 +67,20 @@ def open_and_wait(qtbot, w, path):
     qtbot.waitUntil(lambda: w.timeline.applied_requests > 0, timeout=WAIT_MS)
 
 
+def show_angles(qtbot, w, angles):
+    """View ▸ Angles ▸ Smoothed | Live, as a user picks it; waits until the strides and the
+    lanes show them."""
+    n = w.timeline.applied_requests
+    with qtbot.waitSignal(w.analysis_done, timeout=WAIT_MS):
+        w.act[f"angles_{angles}"].trigger()
+    assert w.doc.angle_source == angles
+    qtbot.waitUntil(lambda: w.timeline.applied_requests > n, timeout=WAIT_MS)
+
+
+# where each angle source's series are stored in the file (read here with plain h5py)
+STORED = {"smoothed": "smoothed/joint_deg", "live": "processed/joint_deg"}
+
+
 def _md5(p):
     return hashlib.md5(p.read_bytes()).hexdigest()
 
@@ -100,17 +114,21 @@ def test_cycle_plots_hold_101_point_curves_of_the_included_strides(qtbot, win, s
         assert len(x) == 101 and x[0] == 0 and x[-1] == 100
         sx, _ = win.cycles.strides[j].getData()
         assert len(sx) == n_included * 102  # 101 points + a NaN break per stride
-    # the mean knee curve is the mean of the strides normalised independently here
-    with h5py.File(session_file) as f:
-        knee = f["processed/joint_deg"][:, 1].astype(float)
-    curves = []
-    for r in win.analysis.rows:
-        if r.included:
-            s = r.stride
-            pos = np.linspace(s.start_idx, s.end_idx, 101)
-            curves.append(np.interp(pos, np.arange(len(knee)), knee))
-    _, y = win.cycles.mean[1].getData()
-    np.testing.assert_allclose(y, np.mean(curves, axis=0), atol=1e-3)
+    # the mean knee curve is the mean of the strides normalised independently here, from the
+    # series of the angles shown: the smoothed ones at open, the live ones once switched
+    for angles in ("smoothed", "live"):
+        if angles == "live":
+            show_angles(qtbot, win, "live")
+        with h5py.File(session_file) as f:
+            knee = f[STORED[angles]][:, 1].astype(float)
+        curves = []
+        for r in win.analysis.rows:
+            if r.included:
+                s = r.stride
+                pos = np.linspace(s.start_idx, s.end_idx, 101)
+                curves.append(np.interp(pos, np.arange(len(knee)), knee))
+        _, y = win.cycles.mean[1].getData()
+        np.testing.assert_allclose(y, np.mean(curves, axis=0), atol=1e-3)
     assert win.cycles.toe_off[1].isVisible()
     assert 55 < win.cycles.toe_off[1].value() < 65  # mean stance % of normal walking
 
@@ -122,7 +140,7 @@ def test_overview_and_detail_hold_points_and_keep_the_peaks(qtbot, win, session_
     x0, x1 = tl.view_range()
     with h5py.File(session_file) as f:
         t = f["timeline/t_s"][()]
-        knee = f["processed/joint_deg"][:, 1]
+        knee = f["smoothed/joint_deg"][:, 1]  # the angles shown at open
     n = tl.trace_points("knee", "processed/joint_deg", 1)
     assert 100 < n <= 4000
     in_view = knee[(t >= x0) & (t <= x1)]
@@ -275,9 +293,19 @@ def test_reprocessing_matches_gaitmon_process_and_leaves_the_recording(
                      "--fsr-threshold", "1400"]) == 0  # fmt: skip
     with h5py.File(ref) as f:
         np.testing.assert_array_equal(win.doc.reprocessed.heel_strike_idx, f["events/heel_strike"])
-        ref_knee = f["processed/joint_deg"][:, 1]
-    got = win.doc.reprocessed.read_rows("processed/joint_deg", 0, len(ref_knee))[:, 1]
-    np.testing.assert_array_equal(got, ref_knee)
+        ref_knee = {a: f[STORED[a]][:, 1] for a in STORED}
+    with h5py.File(session_file) as f:
+        recorded_smoothed = f["smoothed/joint_deg"][:, 1]
+    # smoothed angles shown: they do not depend on the settings, so they are the recording's,
+    # and gaitmon process stores the same ones
+    got = win.doc.reprocessed.read_rows("processed/joint_deg", 0, len(recorded_smoothed))[:, 1]
+    np.testing.assert_array_equal(got, recorded_smoothed)
+    np.testing.assert_array_equal(got, ref_knee["smoothed"])
+    # the live ones: the reprocessed filter's, as gaitmon process computes them
+    show_angles(qtbot, win, "live")
+    got = win.doc.reprocessed.read_rows("processed/joint_deg", 0, len(ref_knee["live"]))[:, 1]
+    np.testing.assert_array_equal(got, ref_knee["live"])
+    assert not np.array_equal(got, recorded_smoothed)
     assert abs(len(win.doc.reprocessed.heel_strike_idx) - n_before) <= 2
     qtbot.waitUntil(
         lambda: win.timeline.trace_points("knee", "processed/joint_deg", 1, before=True) > 0,
