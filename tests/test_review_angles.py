@@ -134,6 +134,13 @@ def test_switching_the_angles_redraws_everything_with_that_sources_series(
         np.testing.assert_array_equal(t_s[rows], x)
         assert len(rows) > 400
         np.testing.assert_allclose(y, stored[angles][rows, 1], rtol=0, atol=1e-9)
+        # every joint lane's y range holds its curve: refitted to the angles now shown
+        for key in ("hip", "knee", "ankle"):
+            lane = win.timeline.lanes[key]
+            tr = next(t for sp, t in lane.specs if sp.method == "kalman" and not sp.before)
+            r = tr.path.boundingRect()
+            y0, y1 = lane.plot.getViewBox().viewRange()[1]
+            assert y0 <= r.top() and r.bottom() <= y1, (key, angles, (y0, y1), r)
         # the whole-session strip keeps this source's extremes
         _ox, oy = win.timeline.strip.curve.getData()
         assert np.nanmax(oy) == pytest.approx(stored[angles][:, 1].max(), abs=1e-4)
@@ -288,3 +295,44 @@ def test_a_flagged_force_sensor_is_a_visible_note(qtbot, win, tmp_path):
     assert faults[0].message() in note
     assert f"from {faults[0].decided_idx / fs:.1f} s" in note
     assert dead_from / fs < faults[0].decided_idx / fs < dead_from / fs + 10
+
+
+def test_the_report_from_review_analyses_and_names_the_angles_shown(
+    qtbot, win, session_file, tmp_path, monkeypatch
+):
+    import gaitmon.report as report
+
+    made = []
+    real = report.gather_report
+
+    def spy(session, **kw):
+        data = real(session, **kw)
+        made.append((session.angle_source, data))
+        return data
+
+    monkeypatch.setattr(report, "gather_report", spy)
+    open_and_wait(qtbot, win, session_file)
+    pick_angles(qtbot, win, "live")
+    with qtbot.waitSignal(win.report_written, timeout=60_000):
+        win.write_report(tmp_path / "live.pdf")
+    assert f"angles: {METHOD['live']}" in win.statusBar().currentMessage()
+    source, data = made[-1]
+    assert source == "live"
+    chain = dict(data.settings)["Signal chain"]
+    assert f"tilt: {METHOD['live']}" in chain and "RTS" not in chain
+    # the figures are the window's: the same knee peaks, stride by stride
+    assert [r.knee_peak_swing_deg for r in data.rows] == [
+        r.knee_peak_swing_deg for r in win.analysis.rows]
+    assert win.doc.session.angle_source == "smoothed"  # the window's own reader is untouched
+
+
+def test_a_file_without_stored_smoothed_angles_gets_them_computed(qtbot, win, session_file):
+    with h5py.File(session_file, "a") as f:
+        stored = f["smoothed/joint_deg"][()]
+        del f["smoothed"]
+    open_and_wait(qtbot, win, session_file)
+    assert win.doc.angle_source == "smoothed"
+    assert not win.doc.session.smoothed_stored
+    knee = win.doc.recorded.read_rows(JOINT, 0, win.doc.n_rows)
+    np.testing.assert_allclose(knee, stored, atol=1e-4)
+    assert METHOD["smoothed"] in win.status.angles.text()

@@ -91,17 +91,22 @@ def test_stride_table_matches_the_simulator_truth(qtbot, win, session_file):
         t_s = f["timeline/t_s"][()]
     open_and_wait(qtbot, win, session_file)
     model = win.table.model()
+    # a heel strike is detected once the sensor stayed loaded past the low-pass and the minimum
+    # contact (~0.15 s): a true one in the recording's last rows may not be in the file (the
+    # recording stops wherever it stops), so the last true stride may or may not be there
+    truth_hs = truth_hs[truth_hs < len(t_s) - 30]
     n_truth = len(truth_hs) - 1  # strides between consecutive true heel strikes
-    assert model.rowCount() == n_truth
-    status = [model.index(r, model.columnCount() - 1).data() for r in range(model.rowCount())]
+    n_rows = model.rowCount()
+    assert n_rows in (n_truth, n_truth + 1)
+    status = [model.index(r, model.columnCount() - 1).data() for r in range(n_rows)]
     assert status[0] == "excluded: first stride" and status[-1] == "excluded: last stride"
-    assert status[1:-1] == ["included"] * (n_truth - 2)
+    assert status[1:-1] == ["included"] * (n_rows - 2)
     # every stride starts within 30 ms of a true heel strike, and its time matches the truth
-    starts = np.array([float(model.index(r, 1).data()) for r in range(model.rowCount())])
-    np.testing.assert_allclose(starts, t_s[truth_hs[:-1]], atol=0.03)
-    stride_s = np.array([float(model.index(r, 2).data()) for r in range(model.rowCount())])
+    starts = np.array([float(model.index(r, 1).data()) for r in range(n_rows)])
+    np.testing.assert_allclose(starts[:n_truth + 1], t_s[truth_hs[:n_rows]], atol=0.03)
+    stride_s = np.array([float(model.index(r, 2).data()) for r in range(n_truth)])
     np.testing.assert_allclose(stride_s, np.diff(t_s[truth_hs]), atol=0.03)
-    assert f"<b>{n_truth - 2}</b> of {n_truth}" in win.summary.text()
+    assert f"<b>{n_rows - 2}</b> of {n_rows}" in win.summary.text()
     assert "Cadence (derived)" in win.summary.text()
     assert win.windowTitle().endswith("walk.h5")
 

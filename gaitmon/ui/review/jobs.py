@@ -383,7 +383,9 @@ class ReviewJobs(QMainWindow):
         doc.use_angles(angles)
         self._source_changed()
         if changed:
-            self.status.message(f"Angles: {doc.angle_method}", 10_000)
+            what = ("the smoothed angles (zero-lag, offline)" if angles == "smoothed"
+                    else "the live angles (as shown while recording)")  # fmt: skip
+            self.status.message(f"Showing {what}: {doc.angle_method}", 10_000)
             self.angles_changed.emit(angles)
 
     def _source_changed(self) -> None:
@@ -392,7 +394,7 @@ class ReviewJobs(QMainWindow):
         assert doc is not None
         self.timeline.set_fsr_threshold(doc.current.config.fsr_threshold)
         self._show_angles()
-        self.timeline.refresh_overview()
+        self.timeline.series_changed()
         self.timeline.set_compare(self.act["compare"].isChecked())
         self._update_actions()
         self.run_analysis()

@@ -348,6 +348,13 @@ class Timeline(QWidget):
         self.set_view(t0, min(t1, t0 + INITIAL_VIEW_S))
         self._schedule()
 
+    def series_changed(self) -> None:
+        """Other series are shown (the angles switched, a reprocessing): redraw the overview
+        and the lanes, and fit each lane's y range to them again once they arrive."""
+        self._fitted_y = False
+        self.refresh_overview()
+        self._schedule()
+
     def refresh_overview(self) -> None:
         if self.doc is not None:
             self.strip.draw(self.doc, self.glw.width())
