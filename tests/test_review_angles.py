@@ -336,3 +336,35 @@ def test_a_file_without_stored_smoothed_angles_gets_them_computed(qtbot, win, se
     knee = win.doc.recorded.read_rows(JOINT, 0, win.doc.n_rows)
     np.testing.assert_allclose(knee, stored, atol=1e-4)
     assert METHOD["smoothed"] in win.status.angles.text()
+
+
+def test_cancel_while_switching_keeps_the_angles_shown(qtbot, win, session_file, monkeypatch):
+    from PySide6.QtCore import Qt
+
+    from gaitmon.ui.review import jobs
+
+    reached, release = threading.Event(), threading.Event()
+    real = jobs.build_overview
+
+    def gated(doc, angles, replay=None, progress=None):
+        if progress is not None:
+            progress(0.1)
+        reached.set()
+        release.wait(30)  # the user clicks Cancel meanwhile
+        return real(doc, angles, replay, progress)
+
+    open_and_wait(qtbot, win, session_file)
+    monkeypatch.setattr(jobs, "build_overview", gated)
+    win.act["angles_live"].trigger()
+    qtbot.waitUntil(reached.is_set, timeout=WAIT_MS)
+    assert win.act["angles_live"].isChecked()  # the click shows at once
+    qtbot.waitUntil(win.status.cancel_button.isVisible, timeout=WAIT_MS)
+    qtbot.mouseClick(win.status.cancel_button, Qt.MouseButton.LeftButton)
+    release.set()
+    assert win.angles_job.wait_idle(30)
+    qtbot.wait(100)  # a response that still arrived would be applied by now
+    assert win.doc.angle_source == "smoothed"
+    assert win.act["angles_smoothed"].isChecked() and not win.act["angles_live"].isChecked()
+    assert METHOD["smoothed"] in win.status.angles.text()
+    assert "cancelled" in win.statusBar().currentMessage()
+    assert not win.status.progress.isVisible()

@@ -238,6 +238,10 @@ class ReviewJobs(QMainWindow):
 
     def cancel_job(self) -> None:
         was = self._job_label
+        if self.angles_job.busy:  # the angles shown stay as they were
+            was = self._angles_label
+            self.angles_job.cancel()
+            self._show_angles()
         self.job.cancel()
         self.timeline.loader.cancel()
         self.status.hide_progress()
