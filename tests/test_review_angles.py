@@ -295,6 +295,15 @@ def test_a_flagged_force_sensor_is_a_visible_note(qtbot, win, tmp_path):
     assert faults[0].message() in note
     assert f"from {faults[0].decided_idx / fs:.1f} s" in note
     assert dead_from / fs < faults[0].decided_idx / fs < dead_from / fs + 10
+    # reprocessed: the note is the reprocessing's own check (the same settings flag the same
+    # sensor at the same row, as gaitmon process stores it); back to the recording's after
+    with qtbot.waitSignal(win.analysis_done, timeout=60_000):
+        win.start_reprocess(win.doc.recorded.config)
+    assert win.doc.replay.fsr_faults == tuple(faults)
+    assert f"reprocessed: {faults[0].message()}" in win.status.notes.text()
+    with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
+        win.revert_reprocessing()
+    assert "reprocessed" not in win.status.notes.text() and note in win.status.notes.text()
 
 
 def test_the_report_from_review_analyses_and_names_the_angles_shown(

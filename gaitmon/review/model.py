@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from gaitmon.analysis import StrideRow, analyse_session, cycles, session_settling, summary
+from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
@@ -111,6 +112,7 @@ class Replay:
     series: dict[str, np.ndarray]  # REPROCESSED_SERIES, every row
     heel_strike_idx: np.ndarray
     toe_off_idx: np.ndarray
+    fsr_faults: tuple[FsrFault, ...] = ()  # the force sensors its foot-gyro check flagged
 
 
 @dataclass(eq=False)
@@ -185,6 +187,15 @@ class Document:
                 f"(it has {' and '.join(self.angle_sources)})"
             )
         self.angle_source = angles
+
+    def shown_notes(self) -> list[str]:
+        """The notes worth a line now: the recording's problems, and each force sensor the
+        foot-gyro check flagged in the series shown (the recording's, or the reprocessing's)."""
+        fs = self.fs_hz
+        if self.replay is None:
+            return [*self.notes, *fsr_fault_notes(self.session.fsr_faults, fs)]
+        return [*self.notes,
+                *(f"reprocessed: {n}" for n in fsr_fault_notes(self.replay.fsr_faults, fs))]
 
     def set_replay(self, replay: Replay | None) -> None:
         """The reprocessing to show (None: back to the recorded series)."""
@@ -265,6 +276,24 @@ class Document:
         self.session.close()
 
 
+def angles_caption(doc: Document) -> tuple[str, str]:
+    """(method, explanation) of the angles shown, for the status bar and its tooltip."""
+    if len(doc.angle_sources) < 2:
+        tip = (f"A {doc.session.mode}-mode recording holds the unit's own angles only: there "
+               "is nothing to smooth.")  # fmt: skip
+    elif doc.angle_source == "smoothed":
+        tip = ("Zero-lag offline estimate, as gaitmon info, the report and export use; the "
+               f"live view showed {doc.angle_method_of('live')} (View ▸ Angles ▸ Live)."
+               + (" A reprocessing changes the events, foot sensors and phases; these "
+                  "angles do not depend on its settings." if doc.replay else ""))  # fmt: skip
+    else:
+        tip = ("The causal filter's angles, as shown while recording"
+               + (" (here: the reprocessing's)" if doc.replay else "")
+               + f"; View ▸ Angles ▸ Smoothed shows {doc.angle_method_of('smoothed')}.")
+    reprocessed_live = doc.replay is not None and doc.angle_source == "live"
+    return doc.angle_method + (" (reprocessed)" if reprocessed_live else ""), tip
+
+
 def build_overview(
     doc: Document, angles: str, replay: Replay | None = None, progress: Progress | None = None
 ) -> Source:
@@ -304,7 +333,6 @@ def open_document(path: str | Path, progress: Progress | None = None) -> Documen
         ranges, problem = s.exclusions()
         if problem:
             notes.append(problem)
-        notes.extend(fsr_fault_notes(s))
         spans = []
         for g in s.gaps[:MAX_GAP_SHADE]:
             if 0 < g.sample_idx < n:
@@ -328,12 +356,11 @@ def open_document(path: str | Path, progress: Progress | None = None) -> Documen
         raise SessionError(f"{path.name} is damaged ({e})") from e
 
 
-def fsr_fault_notes(s: Session) -> list[str]:
+def fsr_fault_notes(faults: Sequence[FsrFault], fs_hz: float) -> list[str]:
     """One line per force sensor the foot-gyro cross-check flagged, saying from when (s) the
     gait events come from the foot gyro."""
-    fs = s.sample_rate_hz
-    return [f"{f.message()} from {num(f.decided_idx / fs, 1)} s"
-            for f in sorted(s.fsr_faults, key=lambda f: f.decided_idx)]  # fmt: skip
+    return [f"{f.message()} from {num(f.decided_idx / fs_hz, 1)} s"
+            for f in sorted(faults, key=lambda f: f.decided_idx)]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -397,7 +424,8 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
     out: dict[str, np.ndarray] = {}
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
-    for start, rows, hs_rows, to_rows, _faults in replay_pipeline(
+    faults: list[FsrFault] = []
+    for start, rows, hs_rows, to_rows, fault_rows in replay_pipeline(
         adc, config, s.calibration, list(s.calibration_changes), table=s.header.table,
         lost_before=lost_before_from_gaps(s.gaps, n),
     ):  # fmt: skip
@@ -409,13 +437,15 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
             out[name][start:stop] = data
         hs.append(hs_rows)
         to.append(to_rows)
+        faults.extend(FsrFault(sensor, reason, first, decided)
+                      for decided, first, sensor, reason in fault_rows)  # fmt: skip
         if progress is not None and progress(stop / max(n, 1)) is False:
             raise SessionError("reprocessing cancelled; the recorded series are shown")
 
     def cat(parts: list[np.ndarray]) -> np.ndarray:
         return np.concatenate(parts) if parts else np.empty(0, np.int64)
 
-    return Replay(config, out, cat(hs), cat(to))
+    return Replay(config, out, cat(hs), cat(to), tuple(faults))
 
 
 def changed_settings(before: PipelineConfig, after: PipelineConfig) -> str:

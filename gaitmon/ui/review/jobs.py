@@ -398,6 +398,7 @@ class ReviewJobs(QMainWindow):
         assert doc is not None
         self.timeline.set_fsr_threshold(doc.current.config.fsr_threshold)
         self._show_angles()
+        self.status.show_notes(doc.shown_notes())
         self.timeline.series_changed()
         self.timeline.set_compare(self.act["compare"].isChecked())
         self._update_actions()

@@ -34,7 +34,7 @@ from PySide6.QtWidgets import QFileDialog, QLabel, QSplitter, QVBoxLayout, QWidg
 
 from gaitmon import __version__
 from gaitmon.io.session import exclusions as excl
-from gaitmon.review.model import Document
+from gaitmon.review.model import Document, angles_caption
 from gaitmon.text import count, no_gait_events, num
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
@@ -197,24 +197,7 @@ class ReviewWindow(ReviewJobs):
             action = self.act.get(f"angles_{angles}")
             if action is not None and doc is not None:
                 action.setChecked(doc.angle_source == angles)
-        if doc is None:
-            self.status.show_angles("", "")
-            return
-        if len(doc.angle_sources) < 2:
-            tip = (f"A {doc.session.mode}-mode recording holds the unit's own angles only: there "
-                   "is nothing to smooth.")  # fmt: skip
-        elif doc.angle_source == "smoothed":
-            tip = ("Zero-lag offline estimate, as gaitmon info, the report and export use; the "
-                   f"live view showed {doc.angle_method_of('live')} (View ▸ Angles ▸ Live)."
-                   + (" A reprocessing changes the events, foot sensors and phases; these "
-                      "angles do not depend on its settings." if doc.replay else ""))  # fmt: skip
-        else:
-            tip = ("The causal filter's angles, as shown while recording"
-                   + (" (here: the reprocessing's)" if doc.replay else "")
-                   + f"; View ▸ Angles ▸ Smoothed shows {doc.angle_method_of('smoothed')}.")
-        reprocessed_live = doc.replay is not None and doc.angle_source == "live"
-        self.status.show_angles(doc.angle_method + (" (reprocessed)" if reprocessed_live else ""),
-                                tip)  # fmt: skip
+        self.status.show_angles(*angles_caption(doc) if doc is not None else ("", ""))
 
     # -- the document ----------------------------------------------------------------------------
 
@@ -241,7 +224,7 @@ class ReviewWindow(ReviewJobs):
         )
         if not doc.n_rows:
             doc.notes.append("the session holds no samples")
-        self.status.show_notes(doc.notes)
+        self.status.show_notes(doc.shown_notes())
         self.timeline.set_fsr_threshold(doc.current.config.fsr_threshold)
         self.timeline.set_document(doc)
         self._update_actions()
