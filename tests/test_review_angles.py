@@ -109,6 +109,8 @@ def test_switching_the_angles_redraws_everything_with_that_sources_series(
     with h5py.File(session_file) as f:
         t_s = f["timeline/t_s"][()]
         stored = {a: f[p][()].astype(np.float64) for a, p in STORED.items()}
+        tilt = {a: f[p.replace("joint", "tilt")][()].astype(np.float64)
+                for a, p in STORED.items()}  # fmt: skip
     assert np.abs(stored["smoothed"][:, 1] - stored["live"][:, 1]).max() > 1.0  # they differ
     open_and_wait(qtbot, win, session_file)
     assert win.act["angles_smoothed"].isEnabled() and win.act["angles_live"].isEnabled()
@@ -134,6 +136,15 @@ def test_switching_the_angles_redraws_everything_with_that_sources_series(
         np.testing.assert_array_equal(t_s[rows], x)
         assert len(rows) > 400
         np.testing.assert_allclose(y, stored[angles][rows, 1], rtol=0, atol=1e-9)
+        # the tilt lane (thigh) too
+        tr = next(t for sp, t in win.timeline.lanes["tilt"].specs
+                  if sp.series == "processed/tilt_deg" and not sp.before)  # fmt: skip
+        tx, ty = drawn(tr.path)
+        np.testing.assert_allclose(ty, tilt[angles][np.searchsorted(t_s, tx), 1], atol=1e-9)
+        # the readout at the cursor
+        win.timeline.set_cursor(12.0)
+        i = int(np.argmin(np.abs(t_s - 12.0)))
+        assert f"knee {stored[angles][i, 1]:+.1f}°" in win.timeline.readout.text()
         # every joint lane's y range holds its curve: refitted to the angles now shown
         for key in ("hip", "knee", "ankle"):
             lane = win.timeline.lanes[key]
