@@ -37,11 +37,11 @@ class ReprocessDialog(SettingsDialog):
             "The causal tilt filter replayed over the raw counts: its angles are the live ones "
             "(View ▸ Angles ▸ Live). Q_angle, Q_gyro and R tune the paper's filter only."
         )
-        form = QFormLayout()
-        form.addRow("Live tilt filter", self.method_combo)
         lay = self.layout()
         assert isinstance(lay, QVBoxLayout)
-        lay.insertLayout(0, form)
+        form = lay.itemAt(0).layout()  # the settings' form: the method is its first row
+        assert isinstance(form, QFormLayout)
+        form.insertRow(0, "Live tilt filter", self.method_combo)
         self.angles_note = QLabel(angles_note)
         self.angles_note.setWordWrap(True)
         self.angles_note.setVisible(bool(angles_note))
