@@ -39,7 +39,8 @@ class ReprocessDialog(SettingsDialog):
         )
         lay = self.layout()
         assert isinstance(lay, QVBoxLayout)
-        form = lay.itemAt(0).layout()  # the settings' form: the method is its first row
+        item = lay.itemAt(0)  # the settings' form: the method is its first row
+        form = item.layout() if item is not None else None
         assert isinstance(form, QFormLayout)
         form.insertRow(0, "Live tilt filter", self.method_combo)
         self.angles_note = QLabel(angles_note)
