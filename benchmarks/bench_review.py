@@ -8,7 +8,9 @@ in the layout of docs/file-format.md (chunks of 4096 rows). Then, offscreen:
 
 * review window: time from ``open_file`` to the first painted view (overview + detail lanes),
   then to the stride analysis; pan and zoom steps, each timed from the range change to the
-  repaint with the new data (p50/p95);
+  repaint with the new data (p50/p95); View ▸ Angles ▸ Live and back to Smoothed, each timed
+  from the click to the lanes and the stride analysis of those angles (the session stores its
+  smoothed angles in ``/smoothed``, tiled like the rest, as every recording does);
 * naive: 14 raw channels, every row handed to pyqtgraph (``PlotDataItem.setData``), first
   paint and pan frames;
 * pyqtgraph clip-to-view + peak auto-downsampling of the same 14 channels.
@@ -56,7 +58,7 @@ def build_session(path: Path, hours: float) -> int:
                 g.attrs[k] = v
             for grp in ("session", "device", "config", "calibration", "link", "markers", "gaps"):
                 f.copy(f[grp], g, name=grp)
-            for name in ("processed", "raw"):
+            for name in [n for n in ("processed", "raw", "smoothed") if n in f]:
                 g.create_group(name)
                 for k, v in f[name].attrs.items():
                     g[name].attrs[k] = v
@@ -86,8 +88,8 @@ def build_session(path: Path, hours: float) -> int:
 
 def _per_sample(f: h5py.File) -> list[str]:
     out = []
-    for grp in ("raw", "processed"):
-        out += [f"{grp}/{k}" for k in f[grp]]
+    for grp in ("raw", "processed", "smoothed"):
+        out += [f"{grp}/{k}" for k in f[grp]] if grp in f else []
     return out
 
 
@@ -147,6 +149,17 @@ def bench_review(path: Path, app) -> dict[str, float]:
     whole_pans = []
     for k in range(20):
         whole_pans.append(step(k * 60.0, k * 60.0 + 7200.0))
+    switches = {}
+    done: list[int] = []
+    win.analysis_done.connect(lambda: done.append(1))
+    for angles in ("live", "smoothed"):
+        done.clear()
+        s = time.perf_counter()
+        win.act[f"angles_{angles}"].trigger()
+        wait(lambda a=angles: win.doc.angle_source == a and bool(done)
+             and (f"recorded/{a}", "processed/joint_deg") in tl.last_window)  # fmt: skip
+        tl.glw.viewport().repaint()
+        switches[angles] = time.perf_counter() - s
     win.close()
     return {
         "first_view_s": first,
@@ -158,6 +171,8 @@ def bench_review(path: Path, app) -> dict[str, float]:
         "zoom_p95_ms": 1e3 * pct(zooms, 0.95),
         "pan2h_p50_ms": 1e3 * statistics.median(whole_pans),
         "pan2h_p95_ms": 1e3 * pct(whole_pans, 0.95),
+        "to_live_s": switches["live"],
+        "to_smoothed_s": switches["smoothed"],
     }
 
 
@@ -233,6 +248,8 @@ def main() -> int:
     print(f"  pan 30-s view         p50 {r['pan_p50_ms']:.1f} ms  p95 {r['pan_p95_ms']:.1f} ms")
     print(f"  zoom 10 s .. 8 h      p50 {r['zoom_p50_ms']:.1f} ms  p95 {r['zoom_p95_ms']:.1f} ms")
     print(f"  pan 2-h view          p50 {r['pan2h_p50_ms']:.1f} ms  p95 {r['pan2h_p95_ms']:.1f} ms")
+    print(f"  angles: to live       {r['to_live_s']:.2f} s   back to smoothed "
+          f"{r['to_smoothed_s']:.2f} s   (lanes, overview and strides of those angles)")
     rows = [("clip-to-view + peak", bench_pyqtgraph(path, app, True, 30))]
     if not args.no_naive:
         rows.append(("naive full plot", bench_pyqtgraph(path, app, False, 5)))

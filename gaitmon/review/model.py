@@ -3,7 +3,14 @@
 * :func:`open_document` - open a session (recovering an interrupted one, with progress and
   cancel), read its timeline and build the whole-session overview of the knee angle;
 * :class:`Source` - a set of per-sample series with their events: the recorded series, or a
-  reprocessed set held in memory (the recording is never modified);
+  reprocessed set held in memory (the recording is never modified), each with the angles of
+  one *angle source*: "smoothed" (the zero-lag offline estimate stored beside a raw-mode
+  recording, the default, as ``gaitmon info``, the report and export read) or "live" (the causal
+  filter's, as shown while recording). :meth:`Document.use_angles` switches every view at once;
+* :class:`Replay` - a reprocessing's series and events. The smoothed angles depend on the raw
+  counts and the calibration only, not on the settings a reprocessing changes, so a reprocessed
+  source with smoothed angles keeps the session's smoothed angles, and its events, force
+  sensors and phases come from the reprocessing;
 * :func:`analyse` - strides with exclusions, summary and cycle-normalised curves for a source
   (:func:`gaitmon.analysis.analyse_session`, as ``gaitmon info`` and the report use);
 * :func:`reprocess` - the pipeline replayed over ``raw/adc`` with new settings
@@ -13,6 +20,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from gaitmon.analysis import StrideRow, analyse_session, cycles, session_settling, summary
+from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
@@ -27,6 +36,8 @@ from gaitmon.io.overview import SessionOverview
 from gaitmon.io.session import Session, SessionError, open_session, replay_pipeline
 from gaitmon.io.session import exclusions as excl
 from gaitmon.io.session.rows import lost_before_from_gaps
+from gaitmon.io.session.smoothed import SMOOTHED
+from gaitmon.text import num
 
 Progress = Callable[[float], bool | None]
 
@@ -43,6 +54,9 @@ REPROCESSED_SERIES = (
     "processed/fsr_counts",
     "processed/phase",
 )
+# the settings only the paper's tilt filter reads (as ``gaitmon process`` refuses them without
+# --method paper): the reprocess dialog offers them for that method only
+PAPER_ONLY = ("q_angle", "q_gyro", "r")
 MAX_GAP_SHADE = 20_000  # gaps beyond this are too many to shade one by one (noisy link)
 
 
@@ -59,8 +73,12 @@ class Source:
         toe_off_idx: np.ndarray,
         config: PipelineConfig,
         gaps: tuple[np.ndarray, np.ndarray] | None = None,
+        angles: str = "live",
+        angle_method: str = "",
     ) -> None:
-        self.label = label
+        self.label = label  # recorded | reprocessed
+        self.angles = angles  # the angles its tilt and joint series hold: smoothed | live
+        self.angle_method = angle_method  # the method that made them, for people
         self.names = tuple(names)
         self.n_rows = n_rows
         # (first row after each gap, frames it lost): lines are broken there, never drawn
@@ -73,6 +91,12 @@ class Source:
         self.toe_off_idx = np.asarray(toe_off_idx, dtype=np.int64)
         self.config = config
 
+    @property
+    def key(self) -> str:
+        """Unique among one document's sources: views and caches are keyed by it, so a view
+        read for one angle source is never drawn as another's."""
+        return f"{self.label}/{self.angles}"
+
     def has(self, name: str) -> bool:
         return name in self.names
 
@@ -80,20 +104,51 @@ class Source:
         return self.overview.read_rows(name, start, stop)
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
+class Replay:
+    """A reprocessing (:func:`reprocess`): its live series and events, held in memory."""
+
+    config: PipelineConfig
+    series: dict[str, np.ndarray]  # REPROCESSED_SERIES, every row
+    heel_strike_idx: np.ndarray
+    toe_off_idx: np.ndarray
+    fsr_faults: tuple[FsrFault, ...] = ()  # the force sensors its foot-gyro check flagged
+
+
+@dataclass(eq=False)
 class Document:
-    """One opened recording (owns the open :class:`Session`; call :meth:`close`)."""
+    """One opened recording (owns the open :class:`Session`; call :meth:`close`).
+
+    Its sources are built on demand, one per (angle source, replay), and kept (with their
+    overview pyramids): :attr:`recorded` and :attr:`reprocessed` are those of
+    :attr:`angle_source`. Sources may be built on worker threads; the angle source and the
+    replay are changed on one thread (the GUI's)."""
 
     path: Path
     session: Session
     t_s: np.ndarray  # (N,) true time of every row
-    recorded: Source
     exclusions: list[excl.Exclusion]
     notes: list[str]  # problems worth a line in the window (recovery, side file, ...)
-    reprocessed: Source | None = None
+    angle_source: str = "live"
+    replay: Replay | None = None
     gap_spans_s: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
     # the filters settling after each long gap (their strides are excluded), in seconds
     settling_spans_s: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+    # (first row after each gap inside the data, frames it lost)
+    gaps: tuple[np.ndarray, np.ndarray] = field(
+        default_factory=lambda: (np.empty(0, np.int64), np.empty(0, np.int64))
+    )
+    _views: dict[str, Session] = field(default_factory=dict, repr=False)
+    _sources: dict[tuple[str, Replay | None], Source] = field(default_factory=dict, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+
+    def __post_init__(self) -> None:
+        s = self.session
+        if self.angle_source not in s.angle_sources:
+            self.angle_source = s.angle_source
+        # one reader per angle source, so a worker reading one never sees the other's
+        self._views = {a: (s if a == s.angle_source else s.with_angles(a))
+                       for a in s.angle_sources}  # fmt: skip
 
     @property
     def n_rows(self) -> int:
@@ -102,6 +157,98 @@ class Document:
     @property
     def fs_hz(self) -> float:
         return self.session.sample_rate_hz
+
+    @property
+    def angle_sources(self) -> tuple[str, ...]:
+        """("smoothed", "live") for a raw-mode recording, ("live",) for the unit's own angles."""
+        return self.session.angle_sources
+
+    def angle_method_of(self, angles: str) -> str:
+        """The method behind the angles of ``angles``, for people."""
+        return self.session.angle_method_of(angles)
+
+    @property
+    def angle_method(self) -> str:
+        """The method behind the angles shown now, e.g. "gait-aware Kalman + RTS smoother" (a
+        reprocessing's live angles: its filter's)."""
+        return self.current.angle_method
+
+    def session_view(self, angles: str | None = None) -> Session:
+        """The session reading ``angles`` (default: those shown), for ``gaitmon info``-like
+        readers such as the report; owned by the document (never close it)."""
+        return self._views[self.angle_source if angles is None else angles]
+
+    def use_angles(self, angles: str) -> None:
+        """Show ``angles`` (smoothed | live) from now on. Raises :class:`SessionError` for a
+        source the recording does not have (tilt and joint modes have only the live one)."""
+        if angles not in self._views:
+            raise SessionError(
+                f"{self.path.name} has no {angles!r} angles "
+                f"(it has {' and '.join(self.angle_sources)})"
+            )
+        self.angle_source = angles
+
+    def shown_notes(self) -> list[str]:
+        """The notes worth a line now: the recording's problems, and each force sensor the
+        foot-gyro check flagged in the series shown (the recording's, or the reprocessing's)."""
+        fs = self.fs_hz
+        if self.replay is None:
+            return [*self.notes, *fsr_fault_notes(self.session.fsr_faults, fs)]
+        return [*self.notes,
+                *(f"reprocessed: {n}" for n in fsr_fault_notes(self.replay.fsr_faults, fs))]
+
+    def set_replay(self, replay: Replay | None) -> None:
+        """The reprocessing to show (None: back to the recorded series)."""
+        self.replay = replay
+        with self._lock:
+            for key in [k for k in self._sources if k[1] not in (None, replay)]:
+                del self._sources[key]
+
+    def source(self, angles: str, replay: Replay | None = None) -> Source:
+        """The recorded series (``replay`` None) or ``replay`` 's, with the angles of
+        ``angles``; built once, from any thread."""
+        key = (angles, replay)
+        with self._lock:
+            src = self._sources.get(key)
+            if src is None:
+                src = self._build_source(angles, replay)
+                self._sources[key] = src
+        return src
+
+    def _build_source(self, angles: str, replay: Replay | None) -> Source:
+        view = self.session_view(angles)
+        n = self.n_rows
+
+        def read_session(name: str, a: int, b: int) -> np.ndarray:
+            return view.read_range(a, b, [name])[name]
+
+        if replay is None:
+            s = self.session
+            names = [p for p in s.dataset_names if not p.startswith("timeline/")]
+            return Source("recorded", read_session, names, n, s.heel_strike_idx,
+                          s.toe_off_idx, s.config, self.gaps, angles,
+                          s.angle_method_of(angles))  # fmt: skip
+        series = replay.series
+
+        def read_replay(name: str, a: int, b: int) -> np.ndarray:
+            # the smoothed angles do not depend on the reprocessing's settings
+            if angles == "smoothed" and name in SMOOTHED:
+                return read_session(name, a, b)
+            return series[name][a:b]
+
+        method = (self.angle_method_of(angles) if angles == "smoothed"
+                  else replay.config.tilt_method_label)  # fmt: skip
+        return Source("reprocessed", read_replay, tuple(series), n, replay.heel_strike_idx,
+                      replay.toe_off_idx, replay.config, self.gaps, angles, method)  # fmt: skip
+
+    @property
+    def recorded(self) -> Source:
+        return self.source(self.angle_source)
+
+    @property
+    def reprocessed(self) -> Source | None:
+        replay = self.replay
+        return None if replay is None else self.source(self.angle_source, replay)
 
     @property
     def current(self) -> Source:
@@ -129,9 +276,39 @@ class Document:
         self.session.close()
 
 
+def angles_caption(doc: Document) -> tuple[str, str]:
+    """(method, explanation) of the angles shown, for the status bar and its tooltip."""
+    if len(doc.angle_sources) < 2:
+        tip = (f"A {doc.session.mode}-mode recording holds the unit's own angles only: there "
+               "is nothing to smooth.")  # fmt: skip
+    elif doc.angle_source == "smoothed":
+        tip = ("Zero-lag offline estimate, as gaitmon info, the report and export use; the "
+               f"live view showed {doc.angle_method_of('live')} (View ▸ Angles ▸ Live)."
+               + (" A reprocessing changes the events, foot sensors and phases; these "
+                  "angles do not depend on its settings." if doc.replay else ""))  # fmt: skip
+    else:
+        tip = ("The causal filter's angles, as shown while recording"
+               + (" (here: the reprocessing's)" if doc.replay else "")
+               + f"; View ▸ Angles ▸ Smoothed shows {doc.angle_method_of('smoothed')}.")
+    reprocessed_live = doc.replay is not None and doc.angle_source == "live"
+    return doc.angle_method + (" (reprocessed)" if reprocessed_live else ""), tip
+
+
+def build_overview(
+    doc: Document, angles: str, replay: Replay | None = None, progress: Progress | None = None
+) -> Source:
+    """``doc.source(angles, replay)`` with its whole-session knee pyramid built (slow for a long
+    recording, and for one whose smoothed angles are not stored: run it on a worker)."""
+    src = doc.source(angles, replay)
+    if doc.n_rows and src.has(OVERVIEW_SERIES):
+        src.overview.pyramid(OVERVIEW_SERIES, progress=progress)
+    return src
+
+
 def open_document(path: str | Path, progress: Progress | None = None) -> Document:
     """Open, recover if needed (``progress`` may cancel: the file is then shown as it is),
-    read the timeline, and build the overview pyramid. Raises :class:`SessionError`."""
+    read the timeline, and build the overview pyramid of the default angles (the smoothed ones
+    where the recording has them). Raises :class:`SessionError`."""
     path = Path(path)
     if path.is_dir():
         raise SessionError(f"{path.name} is a folder; pick a session file (.h5)")
@@ -148,21 +325,11 @@ def open_document(path: str | Path, progress: Progress | None = None) -> Documen
             raise Cancelled
         t_s = np.asarray(s.read("timeline/t_s"), dtype=np.float64)
         n = len(t_s)
-
-        def read(name: str, a: int, b: int) -> np.ndarray:
-            return s.read_range(a, b, [name])[name]
-
-        names = [p for p in s.dataset_names if not p.startswith("timeline/")]
         inner = [g for g in s.gaps if 0 < g.sample_idx < n]
         gaps = (
             np.array([g.sample_idx for g in inner], dtype=np.int64),
             np.array([g.n_lost for g in inner], dtype=np.int64),
         )
-        recorded = Source(
-            "recorded", read, names, n, s.heel_strike_idx, s.toe_off_idx, s.config, gaps
-        )
-        if n and recorded.has(OVERVIEW_SERIES):
-            recorded.overview.pyramid(OVERVIEW_SERIES, progress=part(0.72, 1.0))
         ranges, problem = s.exclusions()
         if problem:
             notes.append(problem)
@@ -172,7 +339,8 @@ def open_document(path: str | Path, progress: Progress | None = None) -> Documen
                 spans.append((t_s[g.sample_idx - 1], t_s[g.sample_idx]))
             elif g.sample_idx >= n and n:
                 spans.append((t_s[-1], t_s[-1] + g.duration_s))
-        doc = Document(path, s, t_s, recorded, ranges, notes)
+        doc = Document(path, s, t_s, ranges, notes, s.angle_source, gaps=gaps)
+        build_overview(doc, doc.angle_source, progress=part(0.72, 1.0))
         doc.gap_spans_s = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
         settle = [(t_s[a], t_s[b - 1]) for a, b in session_settling(s) if 0 <= a < b <= n]
         doc.settling_spans_s = np.asarray(settle, dtype=np.float64).reshape(-1, 2)
@@ -188,6 +356,13 @@ def open_document(path: str | Path, progress: Progress | None = None) -> Documen
         raise SessionError(f"{path.name} is damaged ({e})") from e
 
 
+def fsr_fault_notes(faults: Sequence[FsrFault], fs_hz: float) -> list[str]:
+    """One line per force sensor the foot-gyro cross-check flagged, saying from when (s) the
+    gait events come from the foot gyro."""
+    return [f"{f.message()} from {num(f.decided_idx / fs_hz, 1)} s"
+            for f in sorted(faults, key=lambda f: f.decided_idx)]  # fmt: skip
+
+
 @dataclass(frozen=True)
 class Analysis:
     """Strides, summary and cycle curves of one source with the exclusions in force."""
@@ -198,6 +373,8 @@ class Analysis:
     cycles_deg: np.ndarray  # (k, 101, 3) included strides, hip/knee/ankle
     mean_deg: np.ndarray  # (101, 3)
     sd_deg: np.ndarray  # (101, 3)
+    angles: str = "live"  # the angles analysed: smoothed | live
+    angle_method: str = ""  # their method, for people
 
     @property
     def stance_pct_mean(self) -> float:
@@ -211,7 +388,9 @@ class Analysis:
 def analyse(
     doc: Document, source: Source, exclusions: Sequence[excl.Exclusion], n_points: int = 101
 ) -> Analysis:
-    joint = source.read_rows(JOINT, 0, source.n_rows) if source.has(JOINT) else None
+    # float64 as gaitmon info and the report read them: the same figures to the last digit
+    joint = (np.asarray(source.read_rows(JOINT, 0, source.n_rows), dtype=np.float64)
+             if source.has(JOINT) else None)  # fmt: skip
     # the same analysis as gaitmon info and the report, on this source's series and events
     rows = analyse_session(
         doc.session,
@@ -225,13 +404,15 @@ def analyse(
     else:
         cyc = np.empty((0, n_points, 3))
     mean, sd = cycle_mean_sd(cyc)
-    return Analysis(source.label, rows, summary(rows), cyc, mean, sd)
+    return Analysis(source.label, rows, summary(rows), cyc, mean, sd, source.angles,
+                    source.angle_method)
 
 
-def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None = None) -> Source:
+def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None = None) -> Replay:
     """Replay the pipeline over the recording's raw counts with ``config`` (the whole recording,
     standing calibrations replayed at their rows, like ``gaitmon process``); the result is kept
-    in memory. Raises :class:`SessionError` (also when cancelled)."""
+    in memory (show it with :meth:`Document.set_replay`). Raises :class:`SessionError` (also
+    when cancelled)."""
     s = doc.session
     if s.mode != "raw":
         raise SessionError(
@@ -243,7 +424,8 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
     out: dict[str, np.ndarray] = {}
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
-    for start, rows, hs_rows, to_rows, _faults in replay_pipeline(
+    faults: list[FsrFault] = []
+    for start, rows, hs_rows, to_rows, fault_rows in replay_pipeline(
         adc, config, s.calibration, list(s.calibration_changes), table=s.header.table,
         lost_before=lost_before_from_gaps(s.gaps, n),
     ):  # fmt: skip
@@ -255,18 +437,15 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
             out[name][start:stop] = data
         hs.append(hs_rows)
         to.append(to_rows)
+        faults.extend(FsrFault(sensor, reason, first, decided)
+                      for decided, first, sensor, reason in fault_rows)  # fmt: skip
         if progress is not None and progress(stop / max(n, 1)) is False:
             raise SessionError("reprocessing cancelled; the recorded series are shown")
-
-    def read(name: str, a: int, b: int) -> np.ndarray:
-        return out[name][a:b]
 
     def cat(parts: list[np.ndarray]) -> np.ndarray:
         return np.concatenate(parts) if parts else np.empty(0, np.int64)
 
-    return Source(
-        "reprocessed", read, tuple(out), n, cat(hs), cat(to), config, doc.recorded.gaps
-    )
+    return Replay(config, out, cat(hs), cat(to), tuple(faults))
 
 
 def changed_settings(before: PipelineConfig, after: PipelineConfig) -> str:

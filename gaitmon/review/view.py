@@ -57,7 +57,7 @@ class ViewRequest:
     start: int
     stop: int
     max_points: int
-    series: tuple[tuple[str, str], ...]  # (source label, series name)
+    series: tuple[tuple[str, str], ...]  # (source key, series name)
     phase: bool
 
 
@@ -68,7 +68,7 @@ class ViewData:
     request_id: int
     request: ViewRequest
     doc: Document
-    windows: dict[tuple[str, str], PeakWindow]  # (source label, series name) -> rows drawn
+    windows: dict[tuple[str, str], PeakWindow]  # (source key, series name) -> rows drawn
     phase: np.ndarray | None  # gait phase of every row in view (when asked for)
 
 
@@ -82,10 +82,10 @@ def load_view(
 ) -> ViewData:
     """Read the request's series (raises :class:`Cancelled` once the request is overtaken)."""
     windows: dict[tuple[str, str], PeakWindow] = {}
-    for label, name in req.series:
+    for key, name in req.series:
         if not ticket.wanted:
             raise Cancelled("overtaken by a newer view")
-        windows[(label, name)] = sources[label].overview.window(
+        windows[(key, name)] = sources[key].overview.window(
             name, req.start, req.stop, req.max_points, progress=ticket.progress
         )
     phase = phase_on_event_time(doc, current, req.start, req.stop) if req.phase else None

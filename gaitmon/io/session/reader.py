@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import contextlib
+import copy
 import json
 import math
 import os
@@ -256,6 +257,14 @@ class Session:
                 f"(it has {' and '.join(self.angle_sources)})"
             )
         self.angle_source = source
+
+    def with_angles(self, source: str) -> Session:
+        """This session reading the angles of ``source`` (see :meth:`use_angles`): a second
+        view of the same open file, so readers on other threads can read one source while
+        this session reads the other. Close this session, not the view."""
+        view = copy.copy(self)
+        view.use_angles(source)
+        return view
 
     def angle_method_of(self, source: str) -> str:
         """The name of the method that made the angles of ``source`` (smoothed | live)."""

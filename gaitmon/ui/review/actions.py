@@ -15,14 +15,15 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from PySide6.QtGui import QAction
+from PySide6.QtGui import QAction, QActionGroup
 from PySide6.QtWidgets import QMainWindow, QMenu
 
 from gaitmon.ui.actions import make_action
 
 # when an action is enabled: always, with a document, with a selected range, with a raw-mode
-# document (reprocessing needs the raw counts), with a reprocessed series
-Enabled = Literal["always", "document", "selection", "raw", "reprocessed"]
+# document (reprocessing needs the raw counts), with a reprocessed series, with a document that
+# has two angle sources (smoothed and live: raw mode)
+Enabled = Literal["always", "document", "selection", "raw", "reprocessed", "angles"]
 SEPARATOR = "-"
 RECENT = "@recent"  # the Open recent submenu, filled by the window when it is shown
 
@@ -39,6 +40,7 @@ class ActionSpec:
     checked: bool = False
     enabled: Enabled = "always"
     requires: tuple[str, ...] = ()  # modules the action needs (optional parts of the window)
+    group: str = ""  # checkable actions of one group are exclusive (a QActionGroup)
 
 
 A = ActionSpec
@@ -84,6 +86,15 @@ METHODS = (
     A("method_gyro", "Joint angles from gyro integration (blue)", "set_method", ("gyro",),
       checkable=True),
 )  # fmt: skip
+ANGLES = (
+    A("angles_smoothed", "&Smoothed (zero-lag, offline)", "set_angles", ("smoothed",),
+      tip="The zero-lag offline estimate (gait-aware Kalman + RTS smoother) stored with the "
+      "recording: what gaitmon info, the report and export use by default",
+      checkable=True, checked=True, enabled="angles", group="angles"),
+    A("angles_live", "&Live (as shown while recording)", "set_angles", ("live",),
+      tip="The causal filter's angles, as the live window showed them (they lag a little)",
+      checkable=True, enabled="angles", group="angles"),
+)  # fmt: skip
 COMPARE = A(
     "compare", "Show recorded under reprocessed", "set_compare",
     tip="After a reprocessing, draw the recorded series (grey, dashed) for comparison",
@@ -116,19 +127,25 @@ NO_NORMATIVE = A("no_normative", "Remove normative band", "set_normative", (None
                  requires=("gaitmon.normative",))  # fmt: skip
 ABOUT = A("about", "About", "show_about")
 
-MenuItem = ActionSpec | str  # str: SEPARATOR or RECENT
+# str: SEPARATOR or RECENT; (title, actions): a submenu
+MenuItem = ActionSpec | str | tuple[str, tuple[ActionSpec, ...]]
+ANGLES_MENU = "&Angles"
 MENUS: tuple[tuple[str, tuple[MenuItem, ...]], ...] = (
     ("&File", (OPEN, RECENT, CLOSE, SEPARATOR, EXPORT, REPORT, SAVE_REPROCESSED, SEPARATOR,
                QUIT)),
-    ("&View", (WHOLE, ZOOM_IN, ZOOM_OUT, LEFT, RIGHT, FIT, SEPARATOR, *LANES, *METHODS, COMPARE,
-               SEPARATOR, FILTERS)),
+    ("&View", ((ANGLES_MENU, ANGLES), SEPARATOR, WHOLE, ZOOM_IN, ZOOM_OUT, LEFT, RIGHT, FIT,
+               SEPARATOR, *LANES, *METHODS, COMPARE, SEPARATOR, FILTERS)),
     ("&Analysis", (EXCLUDE, INCLUDE, CLEAR_EXCLUSIONS, CLEAR_SELECTION, SEPARATOR, REPROCESS,
                    REVERT, SEPARATOR, NORMATIVE, NO_NORMATIVE)),
     ("&Help", (ABOUT,)),
 )  # fmt: skip
 SPECS: tuple[ActionSpec, ...] = tuple(
-    item for _title, items in MENUS for item in items if isinstance(item, ActionSpec)
-)
+    spec
+    for _title, items in MENUS
+    for item in items
+    for spec in ((item,) if isinstance(item, ActionSpec)
+                 else item[1] if isinstance(item, tuple) else ())
+)  # fmt: skip
 
 
 def available(module: str) -> bool:
@@ -141,14 +158,18 @@ def available(module: str) -> bool:
 def build_actions(window: QMainWindow, specs: tuple[ActionSpec, ...] = SPECS) -> dict[str, QAction]:
     """The window's actions, by name; an action whose modules are missing is left out."""
     out: dict[str, QAction] = {}
+    groups: dict[str, QActionGroup] = {}
     for spec in specs:
         if not all(available(m) for m in spec.requires):
             continue
         method: Callable[..., Any] = getattr(window, spec.slot)
         slot = functools.partial(method, *spec.args) if spec.args else method
-        out[spec.name] = make_action(
+        action = make_action(
             window, spec.text, slot, spec.shortcut, spec.tip, spec.checkable, spec.checked
         )
+        if spec.group:
+            groups.setdefault(spec.group, QActionGroup(window)).addAction(action)
+        out[spec.name] = action
     return out
 
 
@@ -171,6 +192,12 @@ def build_menus(window: QMainWindow, actions: Mapping[str, QAction]) -> dict[str
                 pending_separator = False
             if isinstance(item, ActionSpec):
                 menu.addAction(actions[item.name])
+            elif isinstance(item, tuple):
+                sub = menu.addMenu(item[0])
+                for spec in item[1]:
+                    if spec.name in actions:
+                        sub.addAction(actions[spec.name])
+                menus[item[0]] = sub
             elif item == RECENT:
                 menus[RECENT] = menu.addMenu("Open &recent")
         menus[title] = menu

@@ -11,6 +11,9 @@ cancel waits for the next progress call. The cancelled request is still the one 
 waits for (Cancel is a flag the request reads, not :meth:`QtWorker.cancel`), so its
 ``Cancelled`` response arrives and the dialog says so. The GUI stays responsive throughout: the
 worker touches no widget. One worker per export; it ends when the export's response arrives.
+
+The review window passes the angles it shows (``angles``: smoothed | live, and their method):
+the export holds those angles, names them in the dialog and in its metadata ("angles").
 """
 
 from __future__ import annotations
@@ -55,10 +58,15 @@ class ExportDialog(QDialog):
         parent: QWidget | None = None,
         *,
         export_fn: Callable[..., ExportResult] | None = None,
+        angles: str = "smoothed",
+        angle_method: str = "",
     ) -> None:
         super().__init__(parent)
         self.setWindowTitle("Export session")
         self.session_path = Path(session_path)
+        # the angles exported: the review's (smoothed where the session has them, else live)
+        self.angles = angles
+        self.angle_method = angle_method
         # the export function is injectable so tests can slow it down or gate it
         self._export_fn = export_fn or export_session
         self._worker: QtWorker | None = None  # while an export runs
@@ -84,8 +92,22 @@ class ExportDialog(QDialog):
         out_row.addWidget(self.browse_button)
         self.deidentify_check = QCheckBox("De-identify (leave out patient ID, operator and notes)")
         self.overwrite_check = QCheckBox("Replace existing files")
+        what = "zero-lag, offline" if self.angles == "smoothed" else "as shown while recording"
+        if self.angle_method:
+            text = f"{self.angle_method} ({what}), as shown in review"
+        elif self.angles == "smoothed":
+            text = "the smoothed ones (zero-lag, offline) where the session has them, else live"
+        else:
+            text = "the live ones (as shown while recording)"
+        self.angles_label = QLabel(text)
+        self.angles_label.setWordWrap(True)
+        self.angles_label.setToolTip(
+            "The tilt and joint angles exported are those the review window shows; switch "
+            "them with View ▸ Angles. The export's metadata names them ('angles')."
+        )
         form = QFormLayout()
         form.addRow("Session", self.source_label)
+        form.addRow("Angles", self.angles_label)
         form.addRow("Format", self.format_combo)
         form.addRow("Save as", out_row)
         form.addRow("", self.deidentify_check)
@@ -171,6 +193,7 @@ class ExportDialog(QDialog):
         src, fmt, out = self.session_path, self.fmt, Path(out_text)
         deidentify = self.deidentify_check.isChecked()
         force = self.overwrite_check.isChecked()
+        angles = self.angles
         self._cancel.clear()
         self.result_ = None
         self.progress_bar.setValue(0)
@@ -179,7 +202,7 @@ class ExportDialog(QDialog):
         cancel, export_fn = self._cancel, self._export_fn
 
         def job(ticket: Ticket) -> ExportResult:
-            return export_fn(src, fmt, out, deidentify=deidentify, force=force,
+            return export_fn(src, fmt, out, deidentify=deidentify, force=force, angles=angles,
                              progress=ticket.progress, cancel=cancel.is_set)  # fmt: skip
 
         self._worker = QtWorker("export", latest=False, parent=self)

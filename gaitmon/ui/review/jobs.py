@@ -1,11 +1,14 @@
-"""The review window's background requests: open, analyse, reprocess, save reprocessed, report.
+"""The review window's background requests: open, analyse, reprocess, switch the angles shown,
+save reprocessed, report.
 
 Each request is built on the GUI thread from everything it needs (a request never reads the
 window) and runs on one of the window's :class:`gaitmon.ui.jobs.QtWorker` s, newest wins:
 ``job`` (open, reprocess, save, report: one at a time, with the status bar's progress bar and
-Cancel) and ``analyser`` (the stride analysis, redone on every exclusion). Each returns a frozen
-response (:class:`Opened`, :class:`Analysed`, ...) that :class:`ReviewJobs` applies on the GUI
-thread; a response overtaken by a newer request or a Cancel never arrives.
+Cancel), ``analyser`` (the stride analysis, redone on every exclusion) and ``angles_job`` (the
+overview of the other angle source, smoothed | live, built before the window switches to it).
+Each returns a frozen response (:class:`Opened`, :class:`Analysed`, ...) that
+:class:`ReviewJobs` applies on the GUI thread; a response overtaken by a newer request or a
+Cancel never arrives.
 """
 
 from __future__ import annotations
@@ -27,8 +30,9 @@ from gaitmon.jobs import Response, Ticket
 from gaitmon.review.model import (
     Analysis,
     Document,
-    Source,
+    Replay,
     analyse,
+    build_overview,
     changed_settings,
     open_document,
     reprocess,
@@ -70,7 +74,12 @@ class Analysed:
 
 @dataclass(frozen=True)
 class Reprocessed:
-    source: Source
+    replay: Replay
+
+
+@dataclass(frozen=True)
+class AnglesReady:
+    angles: str  # smoothed | live, their sources' overviews built
 
 
 @dataclass(frozen=True)
@@ -83,6 +92,7 @@ class Saved:
 class ReportReady:
     doc: Document
     data: ReportData
+    angle_method: str  # the angles the report analysed (those shown when it was asked for)
 
 
 # -- requests (run on a worker thread) ----------------------------------------------------------
@@ -108,13 +118,28 @@ def analyse_request(doc: Document) -> Callable[[Ticket], Analysed]:
 
 
 def reprocess_request(doc: Document, config: PipelineConfig) -> Callable[[Ticket], Reprocessed]:
+    angles = doc.angle_source
+
     def job(ticket: Ticket) -> Reprocessed:
-        src = reprocess(doc, config, progress=lambda f: ticket.progress(REPROCESS_SHARE * f))
+        replay = reprocess(doc, config, progress=lambda f: ticket.progress(REPROCESS_SHARE * f))
         rest = 1.0 - REPROCESS_SHARE
-        src.overview.pyramid(
-            "processed/joint_deg", lambda f: ticket.progress(REPROCESS_SHARE + rest * f)
-        )
-        return Reprocessed(src)
+        build_overview(doc, angles, replay, lambda f: ticket.progress(REPROCESS_SHARE + rest * f))
+        return Reprocessed(replay)
+
+    return job
+
+
+def angles_request(doc: Document, angles: str) -> Callable[[Ticket], AnglesReady]:
+    """The recorded (and reprocessed) series with the angles of ``angles``, their whole-session
+    overview built (the smoothed angles of a file that does not store them are computed here)."""
+    replay = doc.replay
+
+    def job(ticket: Ticket) -> AnglesReady:
+        share = 0.5 if replay is not None else 1.0
+        build_overview(doc, angles, None, lambda f: ticket.progress(share * f))
+        if replay is not None:
+            build_overview(doc, angles, replay, lambda f: ticket.progress(share + share * f))
+        return AnglesReady(angles)
 
     return job
 
@@ -139,9 +164,12 @@ def report_request(doc: Document, bands: NormativeBands | None) -> Callable[[Tic
     from gaitmon.report import gather_report
 
     ranges = list(doc.exclusions)  # with their labels: the report gives them as the reasons
+    session = doc.session_view()  # the angles shown: the report analyses and names them
+    method = doc.angle_method_of(doc.angle_source)  # of the recording, as the report
 
     def job(ticket: Ticket) -> ReportReady:
-        return ReportReady(doc, gather_report(doc.session, normative=bands, excluded_ranges=ranges))
+        data = gather_report(session, normative=bands, excluded_ranges=ranges)
+        return ReportReady(doc, data, method)
 
     return job
 
@@ -157,6 +185,7 @@ class ReviewJobs(QMainWindow):
     open_failed = Signal(str)
     analysis_done = Signal()
     reprocessed = Signal()
+    angles_changed = Signal(str)  # the angle source now shown: smoothed | live
     report_written = Signal(str)
     saved = Signal(str)
 
@@ -168,6 +197,7 @@ class ReviewJobs(QMainWindow):
     normative: NormativeBands | None
     job: QtWorker
     analyser: QtWorker
+    angles_job: QtWorker
     status: StatusArea
     timeline: Timeline
     table: StrideTable
@@ -190,6 +220,9 @@ class ReviewJobs(QMainWindow):
     def _update_actions(self) -> None:
         raise NotImplementedError
 
+    def _show_angles(self) -> None:
+        raise NotImplementedError
+
     # -- progress --------------------------------------------------------------------------------
 
     def _start_job(self, label: str) -> None:
@@ -205,6 +238,10 @@ class ReviewJobs(QMainWindow):
 
     def cancel_job(self) -> None:
         was = self._job_label
+        if self.angles_job.busy:  # the angles shown stay as they were
+            was = self._angles_label
+            self.angles_job.cancel()
+            self._show_angles()
         self.job.cancel()
         self.timeline.loader.cancel()
         self.status.hide_progress()
@@ -294,22 +331,75 @@ class ReviewJobs(QMainWindow):
         if response.error is not None:
             self.status.show_problem(f"Reprocessing failed: {one_line(response.error)}")
             return
-        src = response.result().source
-        doc.reprocessed = src
+        replay = response.result().replay
+        doc.set_replay(replay)
+        kept = (" The smoothed angles shown are the recording's: they do not depend on these "
+                "settings (View ▸ Angles ▸ Live shows the reprocessed filter's)."
+                if doc.angle_source == "smoothed" else "")  # fmt: skip
         self.status.message(
-            f"Reprocessed with {changed_settings(doc.recorded.config, src.config)}; "
-            f"{len(src.heel_strike_idx)} heel strikes (recorded: "
-            f"{len(doc.recorded.heel_strike_idx)})", 15_000,
+            f"Reprocessed with {changed_settings(doc.recorded.config, replay.config)}; "
+            f"{len(replay.heel_strike_idx)} heel strikes (recorded: "
+            f"{len(doc.recorded.heel_strike_idx)}).{kept}", 15_000,
         )  # fmt: skip
         self._source_changed()
+        src = doc.reprocessed
+        if src is not None and not src.overview.has_pyramid("processed/joint_deg"):
+            # the angles were switched while it ran: build the shown ones' overview too
+            self.angles_job.submit(angles_request(doc, doc.angle_source),
+                                   functools.partial(self._angles_ready, doc))  # fmt: skip
         self.reprocessed.emit()
+
+    # -- the angles shown ------------------------------------------------------------------------
+
+    @guarded
+    def set_angles(self, angles: str, on: bool = True) -> None:
+        """Show the ``angles`` (smoothed | live) of the recording (and of a reprocessing): the
+        lanes, the overview, the strides, the cycles and the summary follow once the other
+        source's overview is built (in the background, with progress)."""
+        doc = self.doc
+        if not on or doc is None:
+            return
+        if angles not in doc.angle_sources:
+            self._show_angles()
+            self.status.message(f"{doc.path.name} has only the {doc.angle_method} angles", 8000)
+            return
+        label = "Reading the live angles" if angles == "live" else "Reading the smoothed angles"
+        self._angles_label = label
+        self.status.show_progress(label, 0.0)
+        self.angles_job.submit(angles_request(doc, angles),
+                               functools.partial(self._angles_ready, doc))  # fmt: skip
+
+    def _angles_progress(self, fraction: float) -> None:
+        self.status.show_progress(self._angles_label, fraction)
+
+    @guarded
+    def _angles_ready(self, doc: Document, response: Response[AnglesReady]) -> None:
+        if not self.job.busy:
+            self.status.hide_progress()
+        if doc is not self.doc:
+            return
+        if response.error is not None:
+            self._show_angles()  # the menu goes back to the angles still shown
+            self.status.show_problem(f"Cannot show those angles: {one_line(response.error)}")
+            return
+        angles = response.result().angles
+        changed = angles != doc.angle_source
+        doc.use_angles(angles)
+        self._source_changed()
+        if changed:
+            what = ("the smoothed angles (zero-lag, offline)" if angles == "smoothed"
+                    else "the live angles (as shown while recording)")  # fmt: skip
+            self.status.message(f"Showing {what}: {doc.angle_method}", 10_000)
+            self.angles_changed.emit(angles)
 
     def _source_changed(self) -> None:
         """The document's current series (recorded or reprocessed) changed: redraw, re-analyse."""
         doc = self.doc
         assert doc is not None
         self.timeline.set_fsr_threshold(doc.current.config.fsr_threshold)
-        self.timeline.refresh_overview()
+        self._show_angles()
+        self.status.show_notes(doc.shown_notes())
+        self.timeline.series_changed()
         self.timeline.set_compare(self.act["compare"].isChecked())
         self._update_actions()
         self.run_analysis()
@@ -364,5 +454,5 @@ class ReviewJobs(QMainWindow):
             return
         note = " (recorded series; reprocessing is not in the report)" if (
             r.doc.reprocessed is not None) else ""  # fmt: skip
-        self.status.message(f"Report written to {out}{note}", 15_000)
+        self.status.message(f"Report written to {out}{note}; angles: {r.angle_method}", 15_000)
         self.report_written.emit(str(out))

@@ -1,5 +1,6 @@
 """What the review window tells the user: the problem banner, the notes, the job's progress bar
-with its Cancel button, and status-bar messages.
+with its Cancel button, the angles shown (their method, always in the status bar) and
+status-bar messages.
 
 :class:`StatusArea` builds these widgets into the window (the banner and notes above the
 timeline, the progress bar in the status bar) and is the one place that shows or hides them.
@@ -52,6 +53,10 @@ class StatusArea:
         self.notes.setVisible(False)
 
         sb = window.statusBar()
+        # which angles every lane, the strides and the cycles show (View ▸ Angles switches)
+        self.angles = QLabel()
+        self.angles.setVisible(False)
+        sb.addPermanentWidget(self.angles)
         self.progress = QProgressBar()
         self.progress.setRange(0, PROGRESS_STEPS)
         self.progress.setMaximumWidth(220)
@@ -89,6 +94,12 @@ class StatusArea:
         """Problems worth a line that do not stop the work (recovery, side file, ...)."""
         self.notes.setText(" · ".join(f"Note: {n}" for n in notes))
         self.notes.setVisible(bool(notes))
+
+    def show_angles(self, method: str, tip: str) -> None:
+        """The method behind the angles shown ("" when no session is open)."""
+        self.angles.setText(f"Angles: <b>{method}</b>" if method else "")
+        self.angles.setToolTip(tip)
+        self.angles.setVisible(bool(method))
 
     # -- progress --------------------------------------------------------------------------------
 

@@ -205,7 +205,10 @@ def summary_html(
         "leg, so two equal steps per stride are assumed.</p>"
     )
     src = "" if a.source_label == "recorded" else "<p><b>Reprocessed</b> " + note + "</p>"
-    return src + body + foot
+    angles = (f"<p>Angles: {a.angle_method}"
+              + (" (zero-lag, offline)" if a.angles == "smoothed" else "") + "</p>"
+              if a.angle_method else "")  # fmt: skip
+    return src + angles + body + foot
 
 
 class SummaryLabel(QLabel):

@@ -348,6 +348,13 @@ class Timeline(QWidget):
         self.set_view(t0, min(t1, t0 + INITIAL_VIEW_S))
         self._schedule()
 
+    def series_changed(self) -> None:
+        """Other series are shown (the angles switched, a reprocessing): redraw the overview
+        and the lanes, and fit each lane's y range to them again once they arrive."""
+        self._fitted_y = False
+        self.refresh_overview()
+        self._schedule()
+
     def refresh_overview(self) -> None:
         if self.doc is not None:
             self.strip.draw(self.doc, self.glw.width())
@@ -470,7 +477,7 @@ class Timeline(QWidget):
                     tr.visible = False
                     continue
                 tr.visible = True
-                key = (src.label, spec.series)
+                key = (src.key, spec.series)
                 if key not in out:
                     out.append(key)
         return out
@@ -489,7 +496,7 @@ class Timeline(QWidget):
             self.lanes["fsr"].plot.isVisible() and cur.has("processed/phase")
             and stop - start <= PHASE_MAX_ROWS,
         )  # fmt: skip
-        sources = {doc.recorded.label: doc.recorded, cur.label: cur}
+        sources = {doc.recorded.key: doc.recorded, cur.key: cur}
         self._request_id += 1
         rid = self._request_id
         self.request_log.append((rid, time.perf_counter()))
@@ -509,15 +516,17 @@ class Timeline(QWidget):
         if resp is None or doc is None or resp.doc is not doc:
             return
         req = resp.request
+        cur = doc.current
+        if not {key for key, _name in req.series} <= {doc.recorded.key, cur.key}:
+            return  # read before the angles or the reprocessing changed: a newer one follows
         self.last_window = resp.windows
         t_s = doc.t_s
-        cur = doc.current
         for lane in self.visible_lanes():
             for spec, tr in lane.specs:
                 if not tr.visible:
                     continue
-                label = doc.recorded.label if spec.before else cur.label
-                w = self.last_window.get((label, spec.series))
+                key = doc.recorded.key if spec.before else cur.key
+                w = self.last_window.get((key, spec.series))
                 if w is None or not len(w.idx):
                     tr.clear()
                     continue
@@ -623,6 +632,9 @@ class Timeline(QWidget):
         return self.strip.points()
 
     def shutdown(self) -> None:
+        # no view request after the loader stopped (one may be scheduled for this event loop)
+        self._load_timer.stop()
+        self.doc = None
         self.loader.stop()
 
 

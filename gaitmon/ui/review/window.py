@@ -1,10 +1,14 @@
 """The review window: open a recorded session, inspect it, analyse the strides, reprocess.
 
 Layout: a red banner for problems; the timeline (readout, whole-session overview, detail lanes);
-below it the stride table, the summary and the cycle-normalised plots. This module is the
-window's shell: it builds the widgets, keeps the document, exclusions, navigation and the
-optional parts (export, report, filters, normative band). The actions and menus are declared in
-:mod:`~gaitmon.ui.review.actions`, the banner and progress bar live in
+below it the stride table, the summary and the cycle-normalised plots. Every one of them shows
+the angles of one source, switched with View ▸ Angles: the zero-lag smoothed angles stored with
+a raw-mode recording (the default, as ``gaitmon info``, the report and export read them) or the
+live filter's, as shown while recording; the status bar names the method in force.
+
+This module is the window's shell: it builds the widgets, keeps the document, exclusions,
+navigation and the optional parts (export, report, filters, normative band). The actions and
+menus are declared in :mod:`~gaitmon.ui.review.actions`, the banner and progress bar live in
 :mod:`~gaitmon.ui.review.status`, and everything slow runs as request -> response in
 :mod:`~gaitmon.ui.review.jobs`. Every slot is guarded: an unexpected exception becomes one line
 in the banner (and a logged traceback), never a crash.
@@ -30,13 +34,19 @@ from PySide6.QtWidgets import QFileDialog, QLabel, QSplitter, QVBoxLayout, QWidg
 
 from gaitmon import __version__
 from gaitmon.io.session import exclusions as excl
-from gaitmon.review.model import Document
+from gaitmon.review.model import Document, angles_caption
 from gaitmon.text import count, no_gait_events, num
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
-from gaitmon.ui.dialogs import SettingsDialog
 from gaitmon.ui.jobs import QtWorker
-from gaitmon.ui.review.actions import RECENT, available, build_actions, build_menus, update_enabled
+from gaitmon.ui.review.actions import (
+    ANGLES_MENU,
+    RECENT,
+    available,
+    build_actions,
+    build_menus,
+    update_enabled,
+)
 from gaitmon.ui.review.cycles import CyclePlots
 from gaitmon.ui.review.jobs import ReviewJobs
 from gaitmon.ui.review.status import StatusArea
@@ -48,6 +58,7 @@ if TYPE_CHECKING:
     from gaitmon.normative import NormativeBands
     from gaitmon.ui.review.export_dialog import ExportDialog
     from gaitmon.ui.review.filters_view import FiltersView
+    from gaitmon.ui.review.reprocess_dialog import ReprocessDialog
 
 log = logging.getLogger("gaitmon.ui.review")
 
@@ -68,10 +79,11 @@ class ReviewWindow(ReviewJobs):
         self.normative = None
         self._closing = False
         self._job_label = ""
+        self._angles_label = ""
         self._filters_window: FiltersView | None = None
         self._filters_path: Path | None = None
         self._export_dialog: ExportDialog | None = None
-        self._settings_dialog: SettingsDialog | None = None
+        self._settings_dialog: ReprocessDialog | None = None
         self.colours: Colours = current_colours()
         configure_pyqtgraph(self.colours)
         self.setWindowTitle("gaitmon — review")
@@ -81,6 +93,8 @@ class ReviewWindow(ReviewJobs):
         self.job = QtWorker("review-job", latest=True, parent=self)  # open, reprocess, save
         self.analyser = QtWorker("review-analysis", latest=True, parent=self)
         self.job.progressed.connect(self._job_progress)
+        self.angles_job = QtWorker("review-angles", latest=True, parent=self)
+        self.angles_job.progressed.connect(self._angles_progress)
 
         self.status = StatusArea(self, self.cancel_job)
         self.banner, self.banner_box = self.status.banner, self.status.banner_box
@@ -90,6 +104,7 @@ class ReviewWindow(ReviewJobs):
         menus = build_menus(self, self.act)
         self.file_menu, self.view_menu = menus["&File"], menus["&View"]
         self.analysis_menu = menus["&Analysis"]
+        self.angles_menu = menus[ANGLES_MENU]
         self.recent_menu = menus[RECENT]
         self.recent_menu.aboutToShow.connect(self._fill_recent)
         self._attach_plot_export()
@@ -172,7 +187,17 @@ class ReviewWindow(ReviewJobs):
             "selection": doc is not None and self.timeline.selection is not None,
             "raw": doc is not None and doc.session.mode == "raw",
             "reprocessed": doc is not None and doc.reprocessed is not None,
+            "angles": doc is not None and len(doc.angle_sources) > 1,
         })  # fmt: skip
+
+    def _show_angles(self) -> None:
+        """The angles shown: checked in View ▸ Angles, named in the status bar."""
+        doc = self.doc
+        for angles in ("smoothed", "live"):
+            action = self.act.get(f"angles_{angles}")
+            if action is not None and doc is not None:
+                action.setChecked(doc.angle_source == angles)
+        self.status.show_angles(*angles_caption(doc) if doc is not None else ("", ""))
 
     # -- the document ----------------------------------------------------------------------------
 
@@ -199,10 +224,11 @@ class ReviewWindow(ReviewJobs):
         )
         if not doc.n_rows:
             doc.notes.append("the session holds no samples")
-        self.status.show_notes(doc.notes)
+        self.status.show_notes(doc.shown_notes())
         self.timeline.set_fsr_threshold(doc.current.config.fsr_threshold)
         self.timeline.set_document(doc)
         self._update_actions()
+        self._show_angles()
         self.run_analysis()
 
     def _drop_document(self) -> None:
@@ -210,10 +236,12 @@ class ReviewWindow(ReviewJobs):
         self.doc = None
         self.analysis = self.before = None
         self.analyser.cancel()
+        self.angles_job.cancel()
         self.timeline.clear()
         # the workers may still be reading the old file: close it once they are idle
         self.timeline.loader.wait_idle(5.0)
         self.analyser.wait_idle(5.0)
+        self.angles_job.wait_idle(5.0)
         if old is not None:
             old.close()
         self.table.set_rows([], [])
@@ -227,6 +255,7 @@ class ReviewWindow(ReviewJobs):
         self._drop_document()
         self.setWindowTitle("gaitmon — review")
         self._update_actions()
+        self._show_angles()
 
     # -- recent files, drag and drop -------------------------------------------------------------
 
@@ -377,19 +406,26 @@ class ReviewWindow(ReviewJobs):
     def reprocess_dialog(self) -> None:
         if self.doc is None:
             return
-        dlg = SettingsDialog(
+        from gaitmon.ui.review.reprocess_dialog import ReprocessDialog
+
+        smoothed = self.doc.angle_source == "smoothed"
+        dlg = ReprocessDialog(
             self,
             self.doc.current.config,
-            note="Recomputes angles and gait events from the recorded raw counts (the whole "
-            "session, standing calibrations replayed). The recording is not modified; use "
-            "File ▸ Save reprocessed as… to keep the result.",
+            note="Recomputes the live filter's angles, the gait events, the foot sensors and "
+            "the gait phases from the recorded raw counts (the whole session, standing "
+            "calibrations replayed). The recording is not modified; use File ▸ Save "
+            "reprocessed as… to keep the result.",
+            angles_note="<i>Shown now: the smoothed angles (zero-lag, offline). They depend "
+            "on the raw counts and the calibration only, not on these settings, so they stay "
+            "as recorded; the events, foot sensors and phases come from the reprocessing. View "
+            "▸ Angles ▸ Live shows the reprocessed filter's angles.</i>" if smoothed else "",
         )
-        dlg.setWindowTitle("Reprocess with settings")
         dlg.accepted.connect(lambda: self._reprocess_accepted(dlg))
         dlg.open()
         self._settings_dialog = dlg
 
-    def _reprocess_accepted(self, dlg: SettingsDialog) -> None:
+    def _reprocess_accepted(self, dlg: ReprocessDialog) -> None:
         if dlg.config is not None:
             self.start_reprocess(dlg.config)
 
@@ -397,7 +433,7 @@ class ReviewWindow(ReviewJobs):
     def revert_reprocessing(self) -> None:
         if self.doc is None or self.doc.reprocessed is None:
             return
-        self.doc.reprocessed = None
+        self.doc.set_replay(None)
         self._source_changed()
 
     @guarded
@@ -433,7 +469,10 @@ class ReviewWindow(ReviewJobs):
             return
         from gaitmon.ui.review.export_dialog import ExportDialog
 
-        dlg = ExportDialog(self.doc.path, self)
+        # the angles shown are the ones exported (and named in the export's metadata)
+        doc = self.doc
+        dlg = ExportDialog(doc.path, self, angles=doc.angle_source,
+                           angle_method=doc.angle_method_of(doc.angle_source))  # fmt: skip
         dlg.export_finished.connect(
             lambda r: self.status.message(f"Exported {getattr(r, 'paths', r)}", 10_000)
         )
@@ -524,6 +563,7 @@ class ReviewWindow(ReviewJobs):
             self._filters_window.close()
         self.job.stop()
         self.analyser.stop()
+        self.angles_job.stop()
         self.timeline.shutdown()
         if self.doc is not None:
             self.doc.close()

@@ -1,0 +1,73 @@
+"""The review's Reprocess dialog: the processing settings
+(:class:`gaitmon.ui.dialogs.SettingsDialog`) plus the live tilt filter to replay with,
+gait-aware or the paper's.
+
+As ``gaitmon process`` refuses ``--q-angle``, ``--q-gyro`` and ``--r`` without ``--method paper``
+(they tune the paper's Kalman filter only and would silently change nothing), the dialog enables
+those fields for the paper's method only and keeps the recorded values otherwise.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtWidgets import QComboBox, QFormLayout, QLabel, QVBoxLayout, QWidget
+
+from gaitmon.dsp.estimate import METHODS
+from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.review.model import PAPER_ONLY
+from gaitmon.ui.dialogs import SettingsDialog
+
+# the methods offered, the default first
+METHOD_ORDER = ("gait-aware", "paper")
+
+
+class ReprocessDialog(SettingsDialog):
+    """Settings and live filter of a reprocessing; :attr:`config` once accepted."""
+
+    def __init__(
+        self, parent: QWidget | None, config: PipelineConfig, *, note: str = "",
+        angles_note: str = "",
+    ) -> None:  # fmt: skip
+        super().__init__(parent, config, note=note)
+        self.setWindowTitle("Reprocess with settings")
+        self.method_combo = QComboBox()
+        for key in METHOD_ORDER:
+            self.method_combo.addItem(METHODS[key], key)
+        self.method_combo.setCurrentIndex(max(0, self.method_combo.findData(config.tilt_method)))
+        self.method_combo.setToolTip(
+            "The causal tilt filter replayed over the raw counts: its angles are the live ones "
+            "(View ▸ Angles ▸ Live). Q_angle, Q_gyro and R tune the paper's filter only."
+        )
+        lay = self.layout()
+        assert isinstance(lay, QVBoxLayout)
+        item = lay.itemAt(0)  # the settings' form: the method is its first row
+        form = item.layout() if item is not None else None
+        assert isinstance(form, QFormLayout)
+        form.insertRow(0, "Live tilt filter", self.method_combo)
+        self.angles_note = QLabel(angles_note)
+        self.angles_note.setWordWrap(True)
+        self.angles_note.setVisible(bool(angles_note))
+        lay.insertWidget(lay.count() - 2, self.angles_note)  # above the error line and buttons
+        self._tips = {name: self.edits[name].toolTip() for name in PAPER_ONLY}
+        self.method_combo.currentIndexChanged.connect(self._method_changed)
+        self._method_changed()
+
+    @property
+    def method(self) -> str:
+        return str(self.method_combo.currentData())
+
+    def _method_changed(self, *_args: object) -> None:
+        paper = self.method == "paper"
+        for name in PAPER_ONLY:
+            edit = self.edits[name]
+            edit.setEnabled(paper)
+            edit.setToolTip(self._tips[name] if paper else
+                            "Tunes the paper's Kalman filter only: choose it above to change it")
+            if not paper:  # the recorded value: this filter does not read it
+                edit.setText(f"{getattr(self.base, name):g}")
+
+    def _defaults(self) -> None:
+        super()._defaults()
+        self._method_changed()
+
+    def parsed(self) -> PipelineConfig:
+        return super().parsed().replace(tilt_method=self.method)
