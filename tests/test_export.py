@@ -750,3 +750,20 @@ def test_csv_text_equals_python_percent_formatting():
     want = "".join(fmt % tuple(float(np.asarray(v)[r]) for v, _ in cols) + tails.get(r, "")
                    + "\n" for r in range(m))
     assert got == want
+
+
+def test_a_marker_without_a_label_is_a_visible_placeholder_in_csv(tmp_path: Path) -> None:
+    src = tmp_path / "s.h5"
+    write_session(src, "raw", n=600)
+    with h5py.File(src, "r+") as h:  # a marker set with no label (the Marker button, empty box)
+        mk = h["markers"]
+        rows = mk[()]
+        new = np.concatenate([rows, np.array([(400, 4.0, "")], dtype=rows.dtype)])
+        del h["markers"]
+        h.create_dataset("markers", data=new)
+    res = ex.export_session(src, "csv", tmp_path / "out.csv")
+    header, rows = _read_csv(res.paths[0])
+    col = header.index("marker")
+    assert rows[400][col] == "marker"
+    assert rows[50][col] == "start walk"  # labelled markers as they were
+    assert all(r[col] == "" for i, r in enumerate(rows) if i not in (50, 150, 400))

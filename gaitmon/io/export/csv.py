@@ -31,6 +31,7 @@ from gaitmon.io.export.source import (
 
 CSV_CHUNK_ROWS = 32_768  # ~15 MB of text per chunk
 CSV_EXTRA_COLUMNS: tuple[str, ...] = ("heel_strike", "toe_off", "gap_lost_frames", "marker")
+MARKER_PLACEHOLDER = "marker"  # the marker column's text for a marker set without a label
 
 
 def planned_outputs(src: Source, scrub: Scrubber, out: Path) -> list[Path]:
@@ -74,7 +75,9 @@ def _write_csv(src: Source, out: Path, scrub: Scrubber, progress: Progress | Non
         gap_at[g["sample_idx"]] = gap_at.get(g["sample_idx"], 0) + g["n_lost"]
     marker_at: dict[int, list[str]] = {}
     for mk in markers(src, scrub):
-        marker_at.setdefault(mk["sample_idx"], []).append(mk["label"])
+        # a marker without a label is still a marker: a visible placeholder, not an empty cell
+        label = mk["label"].strip() or MARKER_PLACEHOLDER
+        marker_at.setdefault(mk["sample_idx"], []).append(label)
     n = src.n
     cols_dec = [decimals_of(s.fmt) for s in series for _ in s.columns]
     with open(out, "wb") as f:
@@ -115,7 +118,8 @@ def _csv_meta(src: Source, scrub: Scrubber, deidentify: bool) -> dict[str, Any]:
         {"name": "gap_lost_frames", "unit": "frames", "source": "/gaps",
          "description": "frames lost just before this row (0 if none)", "decimals": 0},
         {"name": "marker", "unit": "", "source": "/markers",
-         "description": "clinician marker label(s) on this row, joined with ' | '",
+         "description": "clinician marker label(s) on this row, joined with ' | ' "
+                        "('marker' for one set without a label)",
          "decimals": None},
     ]
     return {
