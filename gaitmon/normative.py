@@ -1,10 +1,12 @@
-"""Normative bands for the gait-cycle plots: the CSV format of ``docs/normative-format.md``.
+"""Normative bands for the gait-cycle plots: the CSV format of ``docs/normative-format.md``,
+GCD files (:mod:`gaitmon.normative_gcd`), and the deviation of a patient's mean from a band.
 
 A normative band is a reference mean ± SD per joint over the gait cycle (0-100 %, 101 points,
 the same grid as ``gaitmon.analysis.cycles``), drawn behind a patient's curves in the review
-window and the clinical report. gaitmon ships no normative data: published reference curves
-come with their own licences, so the user supplies a file (and its source) explicitly. This
-module only reads and writes the format; it never guesses a missing value.
+window and the clinical report. gaitmon ships no normative data (no reference curves with a
+licence that allows shipping and numbers readable from here were found; see
+``docs/normative-format.md``), so the user supplies a file (and its source) explicitly. This
+module reads and writes the format and never guesses a missing value.
 
 Qt-free (numpy only), so the report command and the tests use it headless.
 """
@@ -175,21 +177,64 @@ def parse_normative(text: str, name: str = "normative file") -> NormativeBands:
     return NormativeBands(expected, mean, sd, metadata)
 
 
-def load_normative(path: str | os.PathLike[str]) -> NormativeBands:
-    """Read a normative CSV file; raises :class:`NormativeError` with a one-line message."""
+def load_normative(path: str | os.PathLike[str], side: str | None = None) -> NormativeBands:
+    """Read a normative band: a GCD file (``.gcd``, or text starting with ``#!DST`` or a
+    ``!Name`` line) or the CSV format. Raises :class:`NormativeError` with a one-line message.
+
+    ``side`` ('left' / 'right') picks a GCD file's side-prefixed curves; the CSV has no sides.
+    """
     p = Path(path)
     try:
         raw = p.read_bytes()
     except FileNotFoundError:
         raise NormativeError(f"{p.name} does not exist; check the file name and folder") from None
+    except IsADirectoryError:
+        raise NormativeError(f"{p.name} is a folder; choose a .csv or .gcd file") from None
     except OSError as e:
         raise NormativeError(f"cannot read {p.name}: {e.strerror or e}") from None
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
-        raise NormativeError(f"{p.name} is not UTF-8 text; save it as UTF-8 CSV") from None
-    bands = parse_normative(text, p.name)
+        if p.suffix.lower() != ".gcd":
+            raise NormativeError(f"{p.name} is not UTF-8 text; save it as UTF-8 CSV") from None
+        text = raw.decode("latin-1")  # GCD files from older lab software are often Latin-1
+    from gaitmon.normative_gcd import is_gcd_text, parse_gcd
+
+    if p.suffix.lower() == ".gcd" or is_gcd_text(text):
+        bands = parse_gcd(text, p.name, side)
+    else:
+        bands = parse_normative(text, p.name)
     return NormativeBands(bands.cycle_pct, bands.mean_deg, bands.sd_deg, bands.metadata, p)
+
+
+load = load_normative  # the one entry point for every format
+
+
+# Where a band is drawn, what it cannot tell: lab normal data are anatomical joint angles from
+# marker models; gaitmon's are sagittal segment-tilt differences zeroed at standing.
+CAVEAT = (
+    "gaitmon's angles are sagittal only, zeroed at the standing pose, and its hip is the thigh "
+    "relative to the trunk (not the pelvis), so a marker lab's normal data may sit a few "
+    "degrees apart"
+)
+DEVIATION_LABEL = "sagittal GVS-like deviation, deg"
+
+
+def deviation_deg(mean_deg: np.ndarray, bands: NormativeBands) -> np.ndarray:
+    """(3,) per joint: the RMS distance over the 101 cycle points between a patient's mean
+    cycle ``mean_deg`` (101, 3) and the band's mean, in degrees.
+
+    A sagittal variant of the Gait Variable Score (Baker et al. 2009: RMS difference from the
+    reference mean over the cycle), on gaitmon's 101 points; NaN for a joint the band does not
+    give or the patient's mean lacks. Not the Gait Profile Score nor the Gait Deviation Index.
+    """
+    m = np.asarray(mean_deg, dtype=np.float64)
+    if m.shape != (N_POINTS, len(JOINT_KEYS)):
+        raise ValueError(f"mean_deg must have shape ({N_POINTS}, {len(JOINT_KEYS)})")
+    d = m - bands.mean_deg
+    out = np.sqrt(np.mean(d * d, axis=0))
+    out[~np.all(np.isfinite(d), axis=0)] = np.nan
+    return out
 
 
 def format_normative(bands: NormativeBands, decimals: int = 3, preamble: Sequence[str] = ()) -> str:

@@ -25,7 +25,7 @@ from gaitmon.analysis import REASONS, USER, StrideRow, analyse_session, cycles, 
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
-from gaitmon.normative import NormativeBands
+from gaitmon.normative import NormativeBands, deviation_deg
 from gaitmon.text import count, no_gait_events, num
 
 N_POINTS = 101
@@ -130,6 +130,9 @@ class ReportData:
     conventions: tuple[str, ...]
     losses: Losses
     normative: NormativeBands | None = None
+    # per joint, RMS distance of ``mean_deg`` from the band's mean (gaitmon.normative.
+    # deviation_deg); NaN without a band, a joint the band lacks, or no included strides
+    deviation_deg: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     notes: tuple[str, ...] = field(default=())  # why a section is empty, etc.
     session_notes: str = ""  # typed in the record form; REDACTED when de-identified
     markers: tuple[MarkerItem, ...] = field(default=())
@@ -314,6 +317,7 @@ def gather_report(
     else:
         cyc = np.empty((0, N_POINTS, 3))
     mean, sd = cycle_mean_sd(cyc)
+    deviation = deviation_deg(mean, normative) if normative is not None else np.full(3, np.nan)
     included = [r for r in rows if r.included]
     rom = tuple(_stat(JOINT_TITLES[j], [r.rom_deg[j] for r in included]) for j in range(3))
     peak = tuple(_stat(JOINT_TITLES[j], cyc[:, :, j].max(axis=1)) for j in range(3))
@@ -375,6 +379,7 @@ def gather_report(
         conventions=conventions,
         losses=_losses(session, rows, an.excluded_ranges),
         normative=normative,
+        deviation_deg=deviation,
         notes=tuple(notes),
         session_notes=(REDACTED if deidentify and meta.notes else meta.notes),
         markers=tuple(MarkerItem(float(m.t_s), str(m.label)) for m in session.markers),

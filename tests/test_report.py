@@ -61,10 +61,11 @@ def _page_count(pdf: Path) -> int:
     return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", pdf.read_bytes()))
 
 
-def _pdf_text(pdf: Path) -> str:
+def _pdf_text(pdf: Path, layout: bool = False) -> str:
     if not shutil.which("pdftotext"):
         pytest.skip("pdftotext (poppler-utils) is not installed")
-    out = subprocess.run(["pdftotext", str(pdf), "-"], capture_output=True, text=True, check=True)
+    args = ["pdftotext", *(["-layout"] if layout else []), str(pdf), "-"]
+    out = subprocess.run(args, capture_output=True, text=True, check=True)
     return out.stdout
 
 
@@ -236,6 +237,37 @@ def test_deidentified_pdf_has_no_patient_id(qapp, session: Path, tmp_path: Path)
     text = _pdf_text(out)
     assert PATIENT not in text and OPERATOR not in text and "walk.h5" not in text
     assert REDACTED in text
+
+
+def test_deviation_from_a_band_and_its_caveat_in_the_report(
+    qapp, session: Path, tmp_path: Path
+) -> None:
+    from gaitmon.normative import NormativeBands
+
+    plain = report_from_file(session)
+    assert np.isnan(plain.deviation_deg).all()  # no band, no deviation
+    # a band whose mean is the patient's own mean cycle shifted by 2 deg at the hip, -3 at the
+    # knee and 0.5 at the ankle: the RMS distance is exactly those offsets
+    shift = np.array([2.0, -3.0, 0.5])
+    band = NormativeBands(np.arange(101.0), plain.mean_deg + shift, np.ones((101, 3)),
+                          {"name": "Shifted self", "source": "test", "licence": "CC0"})  # fmt: skip
+    data = report_from_file(session, normative=band)
+    np.testing.assert_allclose(data.deviation_deg, np.abs(shift), atol=1e-9)
+    # the GCD reader's band reaches the PDF: its name, the deviation line and the caveat
+    gcd = Path(__file__).resolve().parent / "data" / "gcd" / "vicon_style_normal.gcd"
+    out = tmp_path / "gcd.pdf"
+    assert main(["report", str(session), "-o", str(out), "--normative", str(gcd)]) == 0
+    text = " ".join(_pdf_text(out, layout=True).split())
+    assert _page_count(out) == 1
+    assert ("Sagittal GVS-like deviation, deg: RMS distance of the mean cycle from the mean of "
+            "vicon_style_normal (GCD)") in text  # fmt: skip
+    # the table's Dev.* column: each joint's row ends with its deviation
+    expected = report_from_file(session, normative=load_normative(gcd)).deviation_deg
+    for title, d in zip(("Hip", "Knee", "Ankle"), expected, strict=True):
+        assert re.search(rf"{title} [^A-Z]*? {d:.1f}(?= )", text), (title, d)
+    assert "zeroed at the standing pose" in text and "thigh relative to the trunk" in text
+    assert "licence: not stated" in text  # the band's licence line under Settings
+    assert "GPS" not in text and "GDI" not in text
 
 
 def test_pdf_renders_and_normative_band_is_named(qapp, session: Path, tmp_path: Path) -> None:

@@ -19,6 +19,7 @@ from PySide6.QtGui import QColor, QPaintDevice, QPainter
 
 from gaitmon.analysis import FIRST, GAP, LAST, MAX_GAP_S, SETTLING, USER
 from gaitmon.dsp.pipeline import SETTLE_S
+from gaitmon.normative import CAVEAT, DEVIATION_LABEL
 from gaitmon.report import JOINT_TITLES, GapSpan, ReportData, ReportHeader
 from gaitmon.text import count, no_gait_events
 from gaitmon.ui.report_pdf import flow
@@ -247,15 +248,28 @@ def _cycle_plots(p: Page, data: ReportData, y: float) -> float:
         if no_gait_events(data.header.mode)
         else "No included strides: nothing to average."
     )
-    if data.normative is not None:
-        sub += f" Grey band: reference ± 1 SD ({data.normative.label})."
     y += p.wrapped(LEFT_MM, y, WIDTH_MM, sub, 7.5, colour=MUTED) + 1.2
     gap = 5.0
     pw = (WIDTH_MM - 2 * gap) / 3
-    ph = 68.0
+    ph = 68.0 if data.normative is None else 62.0  # room for the band's caption below
     for j in range(3):
         draw_cycle_plot(p, data, j, LEFT_MM + j * (pw + gap), y, pw, ph)
-    return y + (ph + 5.0)
+    y += ph + 5.0
+    if data.normative is not None:
+        y += _reference_lines(p, data, y) + 3.0
+    return y
+
+
+def _reference_lines(p: Page, data: ReportData, y: float) -> float:
+    """Under the cycle plots: which band is drawn, and what it cannot tell (gaitmon's angles
+    are not a marker lab's). Returns the height used (mm)."""
+    nb = data.normative
+    assert nb is not None
+    text = (
+        f"Grey band and dashed line: {nb.label}, mean ± 1 SD (source and licence: see "
+        f"Settings). Caveat: {CAVEAT}."
+    )
+    return p.wrapped(LEFT_MM, y - 1.0, WIDTH_MM, text, 7.0, colour=MUTED) - 1.0
 
 
 def _summary_and_stride_statistics(p: Page, data: ReportData, y: float) -> float:
@@ -279,12 +293,18 @@ def _summary_and_stride_statistics(p: Page, data: ReportData, y: float) -> float
         ("Swing time", fmt_stat(data.swing_time, 2, "s")),
     ]
     ya = _kv_rows(p, xa, ya, colw, summary_rows, label_w=29.0)
-    header = ("Joint", "ROM", "Maximum", "Minimum")
-    widths = (colw * 0.22, colw * 0.26, colw * 0.26, colw * 0.26)
-    table_rows = [
+    header: tuple[str, ...] = ("Joint", "ROM", "Maximum", "Minimum")
+    widths: tuple[float, ...] = (colw * 0.22, colw * 0.26, colw * 0.26, colw * 0.26)
+    table_rows: list[tuple[str, ...]] = [
         (JOINT_TITLES[j], fmt_stat(data.rom[j]), fmt_stat(data.peak[j]), fmt_stat(data.trough[j]))
         for j in range(3)
     ]
+    band = data.normative
+    if band is not None:  # the deviation from the band: one more column, no more height
+        header += ("Dev.*",)
+        widths = (colw * 0.14, colw * 0.24, colw * 0.24, colw * 0.24, colw * 0.14)
+        table_rows = [(*r, fmt(float(data.deviation_deg[j])))
+                      for j, r in enumerate(table_rows)]  # fmt: skip
     yb = _table(p, xb, yb, widths, header, table_rows)
     yb += 1.0
     yb = _kv_rows(
@@ -301,7 +321,10 @@ def _summary_and_stride_statistics(p: Page, data: ReportData, y: float) -> float
         yb,
         colw,
         "ROM = maximum − minimum within each stride; maximum and "
-        "minimum from the time-normalised stride.",
+        "minimum from the time-normalised stride."
+        + ("" if band is None else
+           f" *{DEVIATION_LABEL[0].upper()}{DEVIATION_LABEL[1:]}: RMS distance of the mean "
+           f"cycle from the mean of {band.label}."),
         6.5,
         colour=MUTED,
     )

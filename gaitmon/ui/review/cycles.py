@@ -52,6 +52,7 @@ class CyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgraph is
         self.norm_mean: list[pg.PlotCurveItem] = []
         self._bands: NormativeBands | None = None
         self._analysis: Analysis | None = None
+        self._tips: list[str] = []
         norm_c = QColor(colours.foreground)
         norm_c.setAlpha(50)
         norm_line = QColor(colours.foreground)
@@ -72,11 +73,13 @@ class CyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgraph is
             ax = p.getAxis("bottom")
             if j == len(JOINTS) - 1:
                 ax.setLabel("% of stride (heel strike to heel strike)")
-            p.setToolTip(
+            tip = (
                 f"{label} over the gait cycle: green line and band = mean ± SD of the included "
                 "strides, grey = individual strides, dashed = mean toe off (stance %); after a "
                 "reprocessing the recorded mean is drawn dashed."
             )
+            p.setToolTip(tip)
+            self._tips.append(tip)
             n_lo, n_hi = pg.PlotCurveItem(pen=pg.mkPen(None)), pg.PlotCurveItem(pen=pg.mkPen(None))
             n_fill = pg.FillBetweenItem(n_lo, n_hi, brush=norm_c)
             n_mean = pg.PlotCurveItem(pen=pen(norm_line, dashed=True))
@@ -124,8 +127,21 @@ class CyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgraph is
         # the band's own name can be long: it goes in the tooltip, the title stays short
         self.title.setText("Gait cycle (included strides)" + (" · grey: normative" if bands
                                                                 else ""))  # fmt: skip
-        self.title.setToolTip("" if bands is None else f"Normative band: {bands.label} "
-                              f"(source: {bands.source or 'not given'})")  # fmt: skip
+        about = "" if bands is None else self.band_note(bands)
+        self.title.setToolTip(about)
+        for p, tip in zip(self.plots, self._tips, strict=True):
+            p.setToolTip(tip if bands is None else f"{tip}\n\n{about}")
+
+    @staticmethod
+    def band_note(bands: NormativeBands) -> str:
+        """What the grey band is, and what it cannot tell (the tooltips say both)."""
+        from gaitmon.normative import CAVEAT
+
+        return (
+            f"Grey band and dashed grey line: normative mean ± 1 SD, {bands.label} (source: "
+            f"{bands.source or 'not given'}; licence: {bands.licence or 'not given'}).\n"
+            f"Caveat: {CAVEAT}."
+        )
 
     def clear_data(self) -> None:
         self._analysis = None

@@ -306,12 +306,21 @@ class ReviewJobs(QMainWindow):
         t = doc.t_s
         starts = [float(t[min(row.stride.start_idx, len(t) - 1)]) for row in a.rows]
         self.table.set_rows(a.rows, starts)
+        self.refresh_summary()
+        self.cycles.set_analysis(a, b if self.act["compare"].isChecked() else None)
+        self.analysis_done.emit()
+
+    def refresh_summary(self) -> None:
+        """The summary panel from the analysis in force and the normative band, if any."""
+        doc = self.doc
+        if doc is None or self.analysis is None:
+            return
         note = ""
         if doc.reprocessed is not None:
             note = changed_settings(doc.recorded.config, doc.reprocessed.config)
-        self.summary.setText(summary_html(a, b, note, doc.session.mode))
-        self.cycles.set_analysis(a, b if self.act["compare"].isChecked() else None)
-        self.analysis_done.emit()
+        self.summary.setText(
+            summary_html(self.analysis, self.before, note, doc.session.mode, self.normative)
+        )
 
     # -- reprocessing ----------------------------------------------------------------------------
 

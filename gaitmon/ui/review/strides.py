@@ -6,8 +6,9 @@ scrolled to. Clicking a row emits ``stride_picked(row)``; the window moves the t
 
 from __future__ import annotations
 
+import html
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from PySide6.QtCore import QAbstractTableModel, QModelIndex, QPersistentModelIndex, Qt, Signal
 from PySide6.QtGui import QColor, QFont
@@ -17,6 +18,9 @@ from gaitmon.analysis import REASONS, StrideRow
 from gaitmon.review.model import Analysis
 from gaitmon.text import no_gait_events, num
 from gaitmon.ui.theme import Colours
+
+if TYPE_CHECKING:
+    from gaitmon.normative import NormativeBands
 
 # (header, tooltip, widest value): two-line headers and widths from the widest value, so the
 # whole table, status included, fits beside the summary at 1500 px without scrolling
@@ -155,10 +159,15 @@ class StrideTable(QTableView):
 
 
 def summary_html(
-    a: Analysis | None, before: Analysis | None = None, note: str = "", mode: str = ""
+    a: Analysis | None,
+    before: Analysis | None = None,
+    note: str = "",
+    mode: str = "",
+    normative: NormativeBands | None = None,
 ) -> str:
     """The summary panel's text: included strides only (derived cadence labelled as such);
-    for a recording in a mode without foot-sensor data, why there are no strides."""
+    for a recording in a mode without foot-sensor data, why there are no strides; with a
+    normative band, the deviation of the mean cycle from it per joint."""
     if a is None:
         return "<i>No session open.</i>"
     none = no_gait_events(mode)
@@ -208,7 +217,30 @@ def summary_html(
     angles = (f"<p>Angles: {a.angle_method}"
               + (" (zero-lag, offline)" if a.angles == "smoothed" else "") + "</p>"
               if a.angle_method else "")  # fmt: skip
-    return src + angles + body + foot
+    return src + angles + body + _deviation_html(a, normative) + foot
+
+
+def _deviation_html(a: Analysis, bands: NormativeBands | None) -> str:
+    """Per joint, the RMS distance of the included strides' mean cycle from the band's mean
+    (``gaitmon.normative.deviation_deg``), named after the band, with the caveat."""
+    if bands is None or a.summary.n_strides == 0:
+        return ""
+    from gaitmon.normative import CAVEAT, DEVIATION_LABEL, deviation_deg
+
+    dev = deviation_deg(a.mean_deg, bands)
+    cells = "".join(
+        f"<tr><td>{title}&nbsp;&nbsp;</td><td>{_f(float(d), '.1f')}</td></tr>"
+        for title, d in zip(("Hip", "Knee", "Ankle"), dev, strict=True)
+        if math.isfinite(d)
+    )
+    if not cells:
+        return ""
+    return (
+        f"<p style='margin-top:6px'><b>{DEVIATION_LABEL[0].upper()}{DEVIATION_LABEL[1:]}</b> "
+        f"from {html.escape(bands.label)} (RMS over the cycle):</p>"
+        f"<table cellspacing=2>{cells}</table>"
+        f"<p style='color:gray'>{html.escape(CAVEAT[0].upper() + CAVEAT[1:])}.</p>"
+    )
 
 
 class SummaryLabel(QLabel):

@@ -517,7 +517,8 @@ class ReviewWindow(ReviewJobs):
     def normative_dialog(self) -> None:
         folder = str(self.settings.value("review/normative_folder", str(Path.home())))
         path, _ = QFileDialog.getOpenFileName(
-            self, "Load a normative band", folder, "Normative bands (*.csv);;All files (*)"
+            self, "Load a normative band", folder,
+            "Normative bands (*.csv *.gcd *.GCD);;All files (*)",
         )
         if path:
             self.load_normative(path)
@@ -537,6 +538,7 @@ class ReviewWindow(ReviewJobs):
     def set_normative(self, bands: NormativeBands | None) -> None:
         self.normative = bands
         self.cycles.set_normative(bands)
+        self.refresh_summary()
         if bands is not None:
             self.status.message(
                 f"Normative band: {bands.label} (source: {bands.source or 'not given'})", 10_000
