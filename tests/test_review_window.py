@@ -471,3 +471,39 @@ def test_cancel_while_saving_reprocessed_leaves_no_file(
     assert not win.status.progress.isVisible()
     assert "cancelled" in win.statusBar().currentMessage()
     assert not win.banner_box.isVisible()
+
+
+def test_gcd_band_deviation_in_summary_and_caveat_in_tooltips(qtbot, win, session_file, tmp_path):
+    from gaitmon.normative import deviation_deg, load
+
+    open_and_wait(qtbot, win, session_file)
+    assert "GVS-like" not in win.summary.text()
+    gcd = os.path.join(os.path.dirname(__file__), "data", "gcd", "vicon_style_normal.gcd")
+    win.load_normative(gcd)
+    assert not win.banner_box.isVisible()
+    # the band is drawn: the knee of this file is 0, 1, ..., 100 after resampling 51 -> 101
+    x, y = win.cycles.norm_mean[1].getData()
+    np.testing.assert_allclose(x, np.arange(101.0))
+    np.testing.assert_allclose(y, np.arange(101.0))
+    # the summary names the band and gives each joint's deviation of the shown mean cycle
+    text = win.summary.text()
+    assert "Sagittal GVS-like deviation, deg" in text and "vicon_style_normal (GCD)" in text
+    dev = deviation_deg(win.analysis.mean_deg, load(gcd))
+    assert f"hip <b>{dev[0]:.1f}</b> · knee <b>{dev[1]:.1f}</b> · ankle <b>{dev[2]:.1f}</b>" in text
+    assert "zeroed at the standing pose" in win.summary.toolTip()
+    # the caveat where the band is drawn: every cycle plot's tooltip and the title's
+    for p in win.cycles.plots:
+        tip = p.toolTip()
+        assert "vicon_style_normal (GCD)" in tip and "thigh relative to the trunk" in tip
+    assert "licence: not stated" in win.cycles.title.toolTip()
+    # removed: no deviation, no caveat
+    win.set_normative(None)
+    assert "GVS-like" not in win.summary.text() and not win.summary.toolTip()
+    assert "thigh relative" not in win.cycles.plots[0].toolTip()
+    # a bad GCD: one line naming the line, the band in force is kept
+    bad = tmp_path / "bad.gcd"
+    bad.write_text("!KneeFlexExt 3\n1 2\nx 2\n", encoding="utf-8")
+    win.load_normative(bad)
+    assert win.banner_box.isVisible()
+    assert "bad.gcd: line 3 (variable KneeFlexExt)" in win.banner.text()
+    assert win.normative is None

@@ -321,6 +321,9 @@ class ReviewJobs(QMainWindow):
         self.summary.setText(
             summary_html(self.analysis, self.before, note, doc.session.mode, self.normative)
         )
+        self.summary.setToolTip(
+            "" if self.normative is None else self.cycles.band_note(self.normative)
+        )
 
     # -- reprocessing ----------------------------------------------------------------------------
 

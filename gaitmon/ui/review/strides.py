@@ -222,24 +222,22 @@ def summary_html(
 
 def _deviation_html(a: Analysis, bands: NormativeBands | None) -> str:
     """Per joint, the RMS distance of the included strides' mean cycle from the band's mean
-    (``gaitmon.normative.deviation_deg``), named after the band, with the caveat."""
+    (``gaitmon.normative.deviation_deg``), named after the band. Kept to three lines: the
+    caveat is in the cycle plots' tooltips and this panel's."""
     if bands is None or a.summary.n_strides == 0:
         return ""
-    from gaitmon.normative import CAVEAT, DEVIATION_LABEL, deviation_deg
+    from gaitmon.normative import DEVIATION_LABEL, deviation_deg
 
     dev = deviation_deg(a.mean_deg, bands)
-    cells = "".join(
-        f"<tr><td>{title}&nbsp;&nbsp;</td><td>{_f(float(d), '.1f')}</td></tr>"
-        for title, d in zip(("Hip", "Knee", "Ankle"), dev, strict=True)
-        if math.isfinite(d)
-    )
-    if not cells:
+    per = " · ".join(f"{title} <b>{_f(float(d), '.1f')}</b>"
+                     for title, d in zip(("hip", "knee", "ankle"), dev, strict=True)
+                     if math.isfinite(d))  # fmt: skip
+    if not per:
         return ""
     return (
-        f"<p style='margin-top:6px'><b>{DEVIATION_LABEL[0].upper()}{DEVIATION_LABEL[1:]}</b> "
-        f"from {html.escape(bands.label)} (RMS over the cycle):</p>"
-        f"<table cellspacing=2>{cells}</table>"
-        f"<p style='color:gray'>{html.escape(CAVEAT[0].upper() + CAVEAT[1:])}.</p>"
+        f"<p style='margin-top:6px'>{DEVIATION_LABEL[0].upper()}{DEVIATION_LABEL[1:]}: {per}"
+        f"<br><span style='color:gray'>RMS over the cycle from {html.escape(bands.label)} "
+        "(hover for the caveat)</span></p>"
     )
 
 

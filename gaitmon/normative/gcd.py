@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gaitmon.normative import JOINT_KEYS, N_POINTS, NormativeBands, NormativeError
+from gaitmon.normative.bands import JOINT_KEYS, N_POINTS, NormativeBands, NormativeError
 
 # sagittal variable names per joint, lower case, without side prefix. The first of each row is
 # the Vicon/Plug-in Gait name found in normal-data GCD files; the others are spelled-out aliases.
@@ -55,7 +55,7 @@ def _split_side(name: str) -> tuple[str, str]:
     low = name.lower()
     for side in SIDES:
         if low.startswith(side) and len(low) > len(side):
-            return side, low[len(side):]
+            return side, low[len(side) :]
     return "", low
 
 
@@ -237,7 +237,8 @@ def parse_gcd(text: str, name: str = "GCD file", side: str | None = None) -> Nor
     how = " and ".join(f"{p}" for p in sorted(points)) + " points per cycle"
     meta.setdefault("name", f"{stem} (GCD)")
     meta["source"] = (
-        f"GCD file {name}" + (f" ({meta['gcd_header']})" if "gcd_header" in meta else "")
+        f"GCD file {name}"
+        + (f" ({meta['gcd_header']})" if "gcd_header" in meta else "")
         + f": {', '.join(used)} flexion"
         + (f", {chosen} side" if chosen else "")
         + (f" ({meta['gcd_side_note']})" if "gcd_side_note" in meta else "")

@@ -1,5 +1,5 @@
 """Normative bands for the gait-cycle plots: the CSV format of ``docs/normative-format.md``,
-GCD files (:mod:`gaitmon.normative_gcd`), and the deviation of a patient's mean from a band.
+GCD files (:mod:`gaitmon.normative.gcd`), and the deviation of a patient's mean from a band.
 
 A normative band is a reference mean ± SD per joint over the gait cycle (0-100 %, 101 points,
 the same grid as ``gaitmon.analysis.cycles``), drawn behind a patient's curves in the review
@@ -18,67 +18,44 @@ import io
 import itertools
 import math
 import os
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-N_POINTS = 101  # 0, 1, ..., 100 % of the gait cycle
-JOINT_KEYS: tuple[str, ...] = ("hip", "knee", "ankle")  # column order of every (101, 3) array
+from gaitmon.normative.bands import (
+    JOINT_KEYS,
+    N_POINTS,
+    NormativeBands,
+    NormativeError,
+)
+from gaitmon.normative.gcd import ACCEPTED_NAMES, is_gcd_text, parse_gcd
+
+__all__ = [
+    "ACCEPTED_NAMES",
+    "CAVEAT",
+    "CYCLE_COLUMN",
+    "DEVIATION_LABEL",
+    "EXAMPLE_METADATA",
+    "EXAMPLE_PREAMBLE",
+    "JOINT_KEYS",
+    "N_POINTS",
+    "REQUIRED_METADATA",
+    "NormativeBands",
+    "NormativeError",
+    "deviation_deg",
+    "format_normative",
+    "is_gcd_text",
+    "load",
+    "load_normative",
+    "parse_gcd",
+    "parse_normative",
+    "simulated_example",
+    "write_normative",
+]
+
 CYCLE_COLUMN = "cycle_pct"
 REQUIRED_METADATA: tuple[str, ...] = ("source", "licence")
-
-
-class NormativeError(ValueError):
-    """A normative file that cannot be used; the message is one line naming the problem."""
-
-
-@dataclass(frozen=True, eq=False)
-class NormativeBands:
-    """Mean and SD per joint over the cycle; NaN columns for joints the file does not give."""
-
-    cycle_pct: np.ndarray  # (101,) 0..100
-    mean_deg: np.ndarray  # (101, 3) hip flexion, knee flexion, ankle dorsiflexion (clinical signs)
-    sd_deg: np.ndarray  # (101, 3)
-    metadata: Mapping[str, str] = field(default_factory=dict)  # from the '# key: value' lines
-    path: Path | None = None
-
-    def __post_init__(self) -> None:
-        for name in ("cycle_pct", "mean_deg", "sd_deg"):
-            a = np.array(getattr(self, name), dtype=np.float64)
-            a.setflags(write=False)
-            object.__setattr__(self, name, a)
-        if self.cycle_pct.shape != (N_POINTS,):
-            raise NormativeError(f"cycle_pct must have {N_POINTS} values")
-        for name in ("mean_deg", "sd_deg"):
-            if getattr(self, name).shape != (N_POINTS, len(JOINT_KEYS)):
-                raise NormativeError(f"{name} must have shape ({N_POINTS}, {len(JOINT_KEYS)})")
-        object.__setattr__(self, "metadata", dict(self.metadata))
-
-    @property
-    def joints(self) -> tuple[str, ...]:
-        """The joints this file gives (in ``JOINT_KEYS`` order)."""
-        return tuple(
-            j for k, j in enumerate(JOINT_KEYS) if np.all(np.isfinite(self.mean_deg[:, k]))
-        )
-
-    def has(self, joint: str) -> bool:
-        return joint in self.joints
-
-    @property
-    def source(self) -> str:
-        return self.metadata.get("source", "")
-
-    @property
-    def licence(self) -> str:
-        return self.metadata.get("licence", "")
-
-    @property
-    def label(self) -> str:
-        """A short caption for plots and the report: the name (or file name) and source."""
-        name = self.metadata.get("name") or (self.path.name if self.path else "normative band")
-        return name
 
 
 def _number(text: str, line_no: int, column: str) -> float:
@@ -198,8 +175,6 @@ def load_normative(path: str | os.PathLike[str], side: str | None = None) -> Nor
         if p.suffix.lower() != ".gcd":
             raise NormativeError(f"{p.name} is not UTF-8 text; save it as UTF-8 CSV") from None
         text = raw.decode("latin-1")  # GCD files from older lab software are often Latin-1
-    from gaitmon.normative_gcd import is_gcd_text, parse_gcd
-
     if p.suffix.lower() == ".gcd" or is_gcd_text(text):
         bands = parse_gcd(text, p.name, side)
     else:
