@@ -22,8 +22,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", required=True, metavar="PDF", help="report to write (.pdf)")
     p.add_argument(
         "--normative",
-        metavar="CSV",
-        help="reference band to draw behind the curves (format: docs/normative-format.md)",
+        metavar="FILE",
+        help="normal data to draw behind the curves, with each joint's sagittal GVS-like "
+        "deviation: gaitmon's CSV or a lab's GCD file (docs/normative-format.md)",
     )
     p.add_argument(
         "--deidentify",
