@@ -312,9 +312,13 @@ def test_cli_errors_are_one_line(qapp, session: Path, tmp_path: Path, capsys) ->
     capsys.readouterr()
     bad_csv = tmp_path / "bad.csv"
     bad_csv.write_text("# source: x\n# licence: y\ncycle_pct,knee_mean_deg\n0,1\n")
+    bad_gcd = tmp_path / "bad.gcd"
+    bad_gcd.write_text("#!DST-0.1 GCD x\n!KneeFlexExt 3\n1.0 0.5\n1.0 -\n")
     cases = [
         ([str(tmp_path / "none.h5"), "-o", str(tmp_path / "a.pdf")], "does not exist"),
         ([str(session), "-o", str(tmp_path / "a.pdf"), "--normative", str(bad_csv)], "knee_sd_deg"),
+        ([str(session), "-o", str(tmp_path / "a.pdf"), "--normative", str(bad_gcd)],
+         "normative band: bad.gcd: line 4 (variable KneeFlexExt): '-' is not a number"),
         ([str(session), "-o", str(tmp_path / "a.png")], ".pdf"),
         ([str(session), "-o", str(tmp_path / "nodir" / "a.pdf")], "does not exist"),
     ]
