@@ -382,3 +382,13 @@ def test_bids_options_with_another_format_are_refused(raw, capsys):
     assert "only for --format bids" in capsys.readouterr().err
     with pytest.raises(ex.ExportError, match="takes no options"):
         ex.export_session(src, "csv", options={"subject": "01"})
+
+
+def test_a_force_sensor_the_cross_check_flagged_is_a_bad_channel(tmp_path, record_simulated):
+    src = record_simulated(tmp_path / "dead.h5", "--heel-dead-at", "4", duration_s=14)
+    assert _export(src, tmp_path / "d") == 0
+    status = {c["name"]: c for c in _tsv(_recording(tmp_path / "d", "01")["channels.tsv"])}
+    assert status["heel_fsr"]["status"] == "bad"
+    assert "never loads" in status["heel_fsr"]["status_description"]
+    assert status["toe_fsr"]["status"] == "good"  # checked by the same cross-check, not flagged
+    assert status["knee_flexion"]["status"] == "n/a"  # not assessed

@@ -97,8 +97,10 @@ def channels(src: Source) -> list[Channel]:
                 "processed/gyro_rad_s", i, 6))
     if src.has("processed/fsr_counts"):
         faults = _fsr_faults(src)
+        # "good" only where the foot-gyro cross-check watched the sensor and did not flag it
+        checked = bool(src.group_attrs("config").get("fsr_check", False))
         for i, sensor in enumerate(("heel", "toe")):
-            status, why = ("good", NA) if src.mode == "raw" else (NA, NA)
+            status, why = ("good", NA) if checked else (NA, NA)
             if sensor in faults:
                 status, why = "bad", faults[sensor]
             out.append(Channel(
