@@ -307,7 +307,14 @@ def test_events_are_dated_on_the_rows_of_the_motion_file(raw, tmp_path):
 def test_dataset_files_and_a_second_recording_in_the_same_folder(raw, tmp_path):
     src, _ = raw
     out = tmp_path / "study"
+    out.mkdir()
+    # a study's participants.tsv with its own column: kept, the new row gets n/a there
+    (out / "participants.tsv").write_text("participant_id\tage\nsub-03\t54\n")
     assert _export(src, out, "--subject", "07") == 0
+    assert _tsv(out / "participants.tsv") == [{"participant_id": "sub-03", "age": "54"},
+                                              {"participant_id": "sub-07", "age": "n/a"}]
+    (out / "participants.tsv").unlink()
+    assert _export(src, out, "--subject", "07", "--force") == 0
     desc = json.loads((out / "dataset_description.json").read_text())
     assert desc["Name"] and desc["BIDSVersion"] == "1.9.0" and desc["DatasetType"] == "raw"
     assert "n/a" in (out / "README").read_text()
@@ -332,9 +339,10 @@ def test_without_deidentification_the_scan_is_dated_and_the_serial_kept(raw, tmp
                       "acq_time": "2026-11-22T04:10:00Z"}]  # fmt: skip
     side = json.loads(_recording(out, "01")["motion.json"].read_text())
     assert side["DeviceSerialNumber"] == "SIM-1"
-    # de-identified (the default): no scans file, no date, no serial anywhere
-    assert _export(src, tmp_path / "a") == 0
+    # de-identified (the default, from Python too): no scans file, no date, no serial anywhere
+    res = ex.export_session(src, "bids", tmp_path / "a")
     files = [p for p in (tmp_path / "a").rglob("*") if p.is_file()]
+    assert sorted(files) == sorted(res.paths)
     assert not [p for p in files if p.name.endswith("_scans.tsv")]
     blob = b"".join(p.read_bytes() for p in files)
     for secret in ("2026-11-22", "SIM-1", PATIENT, OPERATOR):
