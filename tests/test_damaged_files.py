@@ -70,7 +70,7 @@ def test_the_corpus_has_every_kind_of_damage(corpus):
 
 
 # info reads every variant; each variant also goes through one of the writers in turn, so
-# every format and the report see a quarter of the corpus (the whole run stays under a minute;
+# every format and the report see an equal share of the corpus (the whole run stays under a minute;
 # benchmarks/ runs the full cross product)
 WRITERS = (*(f"export-{f}" for f in FORMATS), "report")
 

@@ -60,12 +60,18 @@ def _traces(data: bytes) -> list[str]:
 
 
 def _export(session: Path, where: Path, fmt: str, *extra: str) -> list[Path]:
+    """What the export made beside the session: its files, or its folder (BIDS)."""
     where.mkdir()
     src = where / session.name
     shutil.copyfile(session, src)
     before = set(where.iterdir())
     assert main(["export", str(src), "--format", fmt, "-q", *extra]) == 0
     return sorted(set(where.iterdir()) - before)
+
+
+def _files(outs: list[Path]) -> list[Path]:
+    """Every file written: the outputs, and everything inside an output folder."""
+    return sorted(f for p in outs for f in ([p] if p.is_file() else p.rglob("*")) if f.is_file())
 
 
 @pytest.mark.parametrize("fmt", list(FORMATS))
@@ -75,16 +81,24 @@ def test_a_deidentified_export_holds_no_identifier_in_any_byte(session, tmp_path
     for p in outs:
         assert PATIENT not in p.name and "walk" not in p.name, p.name  # default names too
         assert p.name.startswith("deidentified-")
-        assert _traces(p.read_bytes()) == [], (p.name, _traces(p.read_bytes()))
+    files = _files(outs)
+    assert len(files) >= len(outs)
+    for f in files:
+        name = str(f.relative_to(tmp_path / "d")).encode()
+        assert _traces(f.read_bytes()) == [] and _traces(name) == [], (f, _traces(f.read_bytes()))
+
+
+# BIDS writes the patient id only when asked (--subject-from-patient-id), de-identified or not
+FORMAT_NOT_DEIDENTIFIED = {"bids": ("--no-deidentify", "--subject-from-patient-id")}
 
 
 @pytest.mark.parametrize("fmt", list(FORMATS))
 def test_the_search_finds_them_when_not_deidentified(session, tmp_path, fmt):
     """The same search over a normal export finds the secrets: the test above is not blind."""
-    outs = _export(session, tmp_path / "n", fmt)
+    outs = _export(session, tmp_path / "n", fmt, *FORMAT_NOT_DEIDENTIFIED.get(fmt, ()))
     found = set()
-    for p in outs:
-        found.update(_traces(p.read_bytes()))
+    for f in _files(outs):
+        found.update(_traces(f.read_bytes()))
     assert PATIENT in found and str(SERIAL) in found and "2019-03-14" in found, found
     assert any(p.name.startswith(f"{PATIENT}_walk") for p in outs)
 

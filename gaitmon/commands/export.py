@@ -1,4 +1,4 @@
-"""``gaitmon export``: write a recorded session as CSV, MATLAB .mat or C3D."""
+"""``gaitmon export``: write a recorded session as CSV, MATLAB .mat, C3D or a BIDS dataset."""
 
 from __future__ import annotations
 
@@ -12,8 +12,9 @@ from gaitmon.io.export.registry import FORMATS
 
 DESCRIPTION = """\
 Export a recorded session (.h5) to CSV (+ a .meta.json side file), a MATLAB v5 .mat file
-(struct `session`, 1-based indices) or C3D (angles as POINTs, raw channels as ANALOGs in
-physical units, Foot Strike / Foot Off events). Layouts: docs/file-format.md, "Export formats".
+(struct `session`, 1-based indices), C3D (angles as POINTs, raw channels as ANALOGs in
+physical units, Foot Strike / Foot Off events) or a Motion-BIDS dataset folder (-o DIR; one
+export adds one recording). Layouts: docs/file-format.md, "Export formats".
 """
 
 EPILOG = """\
@@ -21,7 +22,12 @@ examples:
   gaitmon export walk.h5 --format csv              # walk.csv + walk.meta.json
   gaitmon export walk.h5 --format mat -o out/walk.mat
   gaitmon export walk.h5 --format c3d --deidentify # walk.c3d (walk_part001.c3d ... if > 10 min)
+  gaitmon export walk.h5 --format bids -o study --subject 01 --session pre
+  gaitmon export walk.h5 --format bids -o study --subject-map subjects.tsv
 """
+
+# --format bids only: option -> its name in export_session(options=...)
+BIDS_OPTIONS = ("subject", "subject_map", "subject_from_patient_id", "session", "task")
 
 # Progress is shown only for sessions long enough for the wait to be noticeable.
 PROGRESS_MIN_SAMPLES = 100_000
@@ -36,12 +42,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output format: " + "; ".join(
                             f"{f.name}: {f.description}" for f in FORMATS.values()))
     parser.add_argument("-o", "--output", metavar="OUT",
-                        help="output file (default: FILE with the format's extension)")
-    parser.add_argument("--deidentify", action="store_true",
-                        help="leave out patient id, operator and notes (the data are kept)")
+                        help="output file, or folder for bids (default: FILE with the format's "
+                        "extension; bids: FILE-bids)")
+    parser.add_argument("--deidentify", action=argparse.BooleanOptionalAction, default=None,
+                        help="leave out patient id, operator, notes, serial and recording date "
+                        "(the data are kept); default: on for bids, off for the others")
     parser.add_argument("--angles", choices=("smoothed", "live"), default="smoothed",
                         help="tilt and joint angles: smoothed (zero-lag offline estimate, the "
                         "default) or live (the causal filter's, as shown while recording)")
+    bids = parser.add_argument_group("BIDS (--format bids)")
+    who = bids.add_mutually_exclusive_group()
+    who.add_argument("--subject", metavar="LABEL",
+                     help="subject label, letters and digits (default 01)")
+    who.add_argument("--subject-map", metavar="MAP.tsv",
+                     help="file of patient id <TAB> subject label rows: the label of this "
+                     "session's patient is looked up in it")
+    who.add_argument("--subject-from-patient-id", action="store_true", default=None,
+                     help="use the patient id itself as the subject label (identifies the "
+                     "patient; never done otherwise)")
+    bids.add_argument("--session", metavar="LABEL", help="session label (ses-LABEL level)")
+    bids.add_argument("--task", metavar="LABEL", help="task label (default walk)")
     add_force(parser, "existing output files")
     add_quiet(parser)
 
@@ -78,6 +98,10 @@ def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     progress = None
+    options = {k: getattr(args, k) for k in BIDS_OPTIONS if getattr(args, k) is not None}
+    if options and args.format != "bids":
+        given = ", ".join("--" + k.replace("_", "-") for k in options)
+        raise UserError(f"{given}: only for --format bids")
     try:
         with damaged_file_guard(args.file):
             if not args.quiet and session_length(args.file) >= PROGRESS_MIN_SAMPLES:
@@ -85,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
             result = export_session(
                 args.file, args.format, args.output,
                 deidentify=args.deidentify, force=args.force, progress=progress,
-                angles=args.angles,
+                angles=args.angles, options=options or None,
             )
     except (ExportError, UserError) as exc:
         if progress is not None and progress.shown and progress.tty:

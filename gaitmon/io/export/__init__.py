@@ -1,13 +1,13 @@
-"""Export of recorded sessions (HDF5, docs/file-format.md) to CSV, MATLAB .mat and C3D.
+"""Export of recorded sessions (HDF5, docs/file-format.md) to CSV, MATLAB .mat, C3D and BIDS.
 
 The package owns the exported layouts (column names, MAT struct fields, C3D groups), the
 precision each format keeps, and de-identification of what is exported. The layouts are
 documented in docs/file-format.md, section "Export formats"; keep the two in step.
 
 A format is a plugin (:mod:`.registry`): one module per format (:mod:`.csv`, :mod:`.mat`,
-:mod:`.c3d`) writes a :class:`~.source.Source` (the read side, :mod:`.source`) to temporary
-files that :mod:`.outputs` renames into place only when everything was written, so an error,
-a cancel or Ctrl-C never leaves a half-written file under the final name.
+:mod:`.c3d`, :mod:`.bids`) writes a :class:`~.source.Source` (the read side, :mod:`.source`)
+to temporary files that :mod:`.outputs` renames into place only when everything was written,
+so an error, a cancel or Ctrl-C never leaves a half-written file under the final name.
 
 :func:`export_session` is the one entry point, for ``gaitmon export`` and the review window's
 export dialog alike. Importing this package is cheap (no numpy): the format modules are loaded
@@ -17,9 +17,10 @@ when an export runs, so the command-line parser can list :data:`FORMATS`.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from gaitmon.io.export.deidentify import ANONYMOUS, REDACTED
 from gaitmon.io.export.errors import Cancel, ExportCancelled, ExportError, Progress
@@ -29,10 +30,10 @@ from gaitmon.io.export.registry import FORMATS, Format
 if TYPE_CHECKING:
     # mypy checks each registered module against the FormatWriter contract (here, above the
     # writers, so that the registry they are listed in imports none of them)
-    from gaitmon.io.export import c3d, csv, mat
+    from gaitmon.io.export import bids, c3d, csv, mat
     from gaitmon.io.export.registry import FormatWriter
 
-    _WRITERS: tuple[FormatWriter, ...] = (csv, mat, c3d)
+    _WRITERS: tuple[FormatWriter, ...] = (csv, mat, c3d, bids.configure(None))
 
 __all__ = [
     "ANONYMOUS",
@@ -75,12 +76,13 @@ def export_session(
     fmt: str,
     out: str | os.PathLike[str] | None = None,
     *,
-    deidentify: bool = False,
+    deidentify: bool | None = None,
     force: bool = False,
     progress: Progress | None = None,
     cancel: Cancel | None = None,
     chunk_rows: int | None = None,
     angles: str = "smoothed",
+    options: Mapping[str, Any] | None = None,
 ) -> ExportResult:
     """Export one session file; returns the files written. Raises ExportError (one line).
 
@@ -90,34 +92,45 @@ def export_session(
     ``chunk_rows``: rows per read for the streaming formats (CSV); None for their default.
     ``angles``: "smoothed" (the zero-lag offline estimate, where the session has one) or
     "live" (the causal filter's, as shown while recording); the metadata names the method.
+    ``deidentify``: None for the format's default (BIDS: de-identified; the others: not).
+    ``options``: the format's own options (BIDS: subject, subject_map,
+    subject_from_patient_id, session, task; see :class:`.bids_labels.BidsOptions`).
     """
     from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.outputs import AtomicOutputs, check_outputs
+    from gaitmon.io.export.outputs import AtomicOutputs, check_outputs, make_folders
     from gaitmon.io.export.source import open_source
 
     if fmt not in FORMATS:
         raise ExportError(f"unknown format {fmt!r} (choose from {', '.join(FORMATS)})")
     form = FORMATS[fmt]
+    deidentify = form.deidentify_default if deidentify is None else bool(deidentify)
     src_path = Path(src_path)
     out_path = (Path(out) if out is not None
                 else default_output(src_path, fmt, deidentify=deidentify))
     form.check_available()
+    writer = form.writer(options)
     with open_source(src_path, angles) as src:
         scrub = Scrubber(src.group_attrs("session"), deidentify)
         if deidentify:  # times count from the recording's start; none says when it was made
             src.shift_host_time()
-        outputs = form.planned_outputs(src, scrub, out_path)
-        check_outputs(outputs, src_path, force)
+        outputs = writer.planned_outputs(src, scrub, out_path)
+        merges = getattr(writer, "merges_existing", None)
+        shared = {p for p in outputs if merges is not None and merges(p)}
         atomic = AtomicOutputs()
+        made: list[Path] = []
         try:
+            if form.folder:
+                made = make_folders(out_path, outputs)
+            check_outputs([p for p in outputs if p not in shared], src_path, force)
+            check_outputs([p for p in outputs if p in shared], src_path, True)
             tmps = [atomic.tmp(final, form.temp_suffix) for final in outputs]
-            form.write(src, tmps, scrub, deidentify, progress, cancel, chunk_rows)
+            writer.write(src, tmps, scrub, deidentify, progress, cancel, chunk_rows)
             written = atomic.commit()
         except OSError as exc:
-            atomic.discard()
+            atomic.discard(made)
             where = exc.filename or out_path
             raise ExportError(f"cannot write {where}: {exc.strerror or exc}") from None
         except BaseException:
-            atomic.discard()
+            atomic.discard(made)
             raise
         return ExportResult(tuple(written), src.n, src.mode, src.problems)

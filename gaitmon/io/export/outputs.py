@@ -26,6 +26,8 @@ def default_output(
     if deidentify:
         token = secrets.token_hex(4)
         return src.with_name(f"{DEIDENTIFIED_STEM}-{token}{FORMATS[fmt].suffix}")
+    if FORMATS[fmt].folder:  # a dataset folder beside the file: walk.h5 -> walk-bids
+        return src.with_name(f"{src.stem}-{fmt}")
     return src.with_suffix(FORMATS[fmt].suffix)
 
 
@@ -61,10 +63,30 @@ class AtomicOutputs:
             os.replace(t, final)
         return [final for _, final in self.pairs]
 
-    def discard(self) -> None:
+    def discard(self, folders: list[Path] | None = None) -> None:
+        """Delete the temporary files, then ``folders`` (those the export made) if empty."""
         for t, _ in self.pairs:
             with contextlib.suppress(FileNotFoundError):
                 t.unlink()
+        for d in sorted(folders or (), key=lambda p: len(p.parts), reverse=True):
+            with contextlib.suppress(OSError):  # not empty: something else is in it
+                d.rmdir()
+
+
+def make_folders(root: Path, paths: list[Path]) -> list[Path]:
+    """Create the folders of a folder format's outputs (``root`` and below it); returns the
+    ones made here, so a failed export can remove them again."""
+    if root.exists() and not root.is_dir():
+        raise ExportError(f"output {root} is a file; a {root.name!r} folder is needed here")
+    if not root.parent.is_dir():
+        raise ExportError(f"output folder does not exist: {root.parent}")
+    made: list[Path] = []
+    for folder in sorted({p.parent for p in paths}, key=lambda p: len(p.parts)):
+        missing = [d for d in (folder, *folder.parents) if not d.exists()]
+        for d in reversed(missing):
+            d.mkdir()
+            made.append(d)
+    return made
 
 
 def check_outputs(paths: list[Path], src_path: Path, force: bool) -> None:

@@ -12,9 +12,10 @@ the names, and must not pay for numpy, scipy or ezc3d. This module itself import
 from __future__ import annotations
 
 import importlib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol, cast
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 from gaitmon.io.export.errors import Cancel, ExportError, Progress
 
@@ -37,6 +38,11 @@ class FormatWriter(Protocol):
         their default); formats that read whole series ignore it."""
         ...
 
+    # Optional: ``merges_existing(path) -> bool`` says an output is a file several exports
+    # share and add a row to (BIDS participants.tsv): it may exist already without --force.
+    # Optional, for the module: ``configure(options) -> FormatWriter``, a fresh writer for one
+    # export with its format's options (BIDS subject, session, task); see Format.writer.
+
 
 @dataclass(frozen=True)
 class Format:
@@ -49,9 +55,21 @@ class Format:
     requires: str | None = None  # an optional package the writer imports
     # appended to temporary output names: ezc3d adds ".c3d" to a name not ending in it
     temp_suffix: str = ""
+    folder: bool = False  # the output is a folder the format fills (BIDS), not one file
+    deidentify_default: bool = False  # de-identified unless asked otherwise
 
-    def writer(self) -> FormatWriter:
-        return cast("FormatWriter", importlib.import_module(self.module))
+    def writer(self, options: Mapping[str, Any] | None = None) -> FormatWriter:
+        """The writer of one export: the module itself, or, for a module with
+        ``configure(options)``, a fresh writer for these options."""
+        module = importlib.import_module(self.module)
+        configure = getattr(module, "configure", None)
+        if configure is not None:
+            return cast("FormatWriter", configure(options))
+        if options:
+            raise ExportError(
+                f"{self.name.upper()} export takes no options ({', '.join(options)})"
+            )
+        return cast("FormatWriter", module)
 
     def check_available(self) -> None:
         """Raise ExportError if the optional package this format needs is not installed."""
@@ -65,14 +83,6 @@ class Format:
                 f"(pip install {self.requires})"
             ) from None
 
-    def planned_outputs(self, src: Source, scrub: Scrubber, out: Path) -> list[Path]:
-        return self.writer().planned_outputs(src, scrub, out)
-
-    def write(self, src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
-              progress: Progress | None, cancel: Cancel | None,
-              chunk_rows: int | None = None) -> None:
-        self.writer().write(src, outputs, scrub, deidentify, progress, cancel, chunk_rows)
-
 
 FORMATS: dict[str, Format] = {
     f.name: f
@@ -83,5 +93,7 @@ FORMATS: dict[str, Format] = {
                "gaitmon.io.export.mat"),
         Format("c3d", ".c3d", "C3D (Mokka, Nexus, btk; angles as points, events)",
                "gaitmon.io.export.c3d", temp_suffix=".c3d"),
+        Format("bids", "", "BIDS motion dataset folder (Motion-BIDS; de-identified by default)",
+               "gaitmon.io.export.bids", folder=True, deidentify_default=True),
     )
 }

@@ -1,0 +1,486 @@
+"""BIDS export: a session as one recording of a Motion-BIDS dataset (BIDS 1.9, ``motion``).
+
+``OUT`` is the dataset folder; one export adds one recording to it::
+
+    OUT/dataset_description.json, README, participants.tsv
+    OUT/sub-<label>/[ses-<label>/]motion/
+        sub-<label>[_ses-<label>]_task-<label>_tracksys-IMU_motion.tsv   (no header)
+        ..._channels.tsv, ..._motion.json, ..._events.tsv, ..._events.json
+    OUT/sub-<label>/[ses-<label>/]sub-<label>[_ses-<label>]_scans.tsv    (not de-identified)
+
+Rows of ``_motion.tsv`` are on the regular 1/fs grid that BIDS motion assumes: row k is time
+k / fs from the first sample, and every lost frame is a row of ``n/a`` (placed from
+``/timeline/t_s``, which counts the lost frames, as the C3D export's frames are). Events
+(heel strike, toe off, markers, gaps) are dated on the same grid. A second export into the same
+folder adds its participant to ``participants.tsv`` (and its scan to ``scans.tsv``); the
+dataset's ``README`` and ``dataset_description.json`` are written only if absent.
+Layout: docs/file-format.md, "Export formats" / "BIDS".
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import re
+from collections import Counter
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gaitmon import __version__
+from gaitmon.dsp.channels import SEGMENTS
+from gaitmon.io.export.bids_labels import BidsOptions
+from gaitmon.io.export.csv_text import Column, format_block
+from gaitmon.io.export.deidentify import Scrubber
+from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
+from gaitmon.io.export.source import (
+    JOINT_LABELS,
+    Source,
+    as_text,
+    gaps,
+    json_default,
+    json_safe,
+    markers,
+    session_side,
+)
+
+BIDS_VERSION = "1.9.0"
+TRACKSYS = "IMU"  # the tracksys entity and TrackingSystemName (they must agree)
+NA = "n/a"
+DATASET_TYPE = "raw"  # why raw, not derivative: see README_TEXT
+TSV_CHUNK_FRAMES = 32_768  # rows of _motion.tsv formatted at a time
+_ISO_UTC = re.compile(r"\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,6})?Z?")
+_SIDE = {"L": "Left", "R": "Right"}
+_JOINT_POINT = ("Hip", "Knee", "Ankle")
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One column of ``_motion.tsv``: a row of ``_channels.tsv`` and where its values are."""
+
+    name: str
+    component: str
+    type: str
+    tracked_point: str
+    units: str
+    description: str
+    path: str  # the session's per-sample dataset
+    column: int  # column of the dataset's rows, flattened
+    decimals: int
+    status: str = NA
+    status_description: str = NA
+
+
+def channels(src: Source) -> list[Channel]:
+    """The exported channels, in column order: per segment accelerometer x, z and gyro y; the
+    heel and toe force sensors; segment tilts; joint angles (those the session's mode has)."""
+    side = _SIDE.get(session_side(src), "")
+    seg_point = {s: ("Body" if s == "body" else side + s.capitalize()) for s in SEGMENTS}
+    angles = src.angles()
+    how = f"{angles['source']} angles: {angles['method']}"
+    out: list[Channel] = []
+    for i, seg in enumerate(SEGMENTS):
+        if src.has("processed/acc_ms2"):
+            for j, axis in enumerate(("x", "z")):
+                out.append(Channel(
+                    f"{seg}_acc_{axis}", axis, "ACCEL", seg_point[seg], "m/s^2",
+                    f"{seg} accelerometer {axis} (sensor axis, low-passed, calibrated)",
+                    "processed/acc_ms2", 2 * i + j, 5))
+        if src.has("processed/gyro_rad_s"):
+            out.append(Channel(
+                f"{seg}_gyro_y", "y", "GYRO", seg_point[seg], "rad/s",
+                f"{seg} gyro rate about the mediolateral axis (calibrated bias removed)",
+                "processed/gyro_rad_s", i, 6))
+    if src.has("processed/fsr_counts"):
+        faults = _fsr_faults(src)
+        # "good" only where the foot-gyro cross-check watched the sensor and did not flag it
+        checked = bool(src.group_attrs("config").get("fsr_check", False))
+        for i, sensor in enumerate(("heel", "toe")):
+            status, why = ("good", NA) if checked else (NA, NA)
+            if sensor in faults:
+                status, why = "bad", faults[sensor]
+            out.append(Channel(
+                f"{sensor}_fsr", NA, "MISC", side + sensor.capitalize(), "arbitrary",
+                f"{sensor} force sensor, low-passed ADC counts (not calibrated to newtons)",
+                "processed/fsr_counts", i, 3, status, why))
+    if src.has("processed/tilt_deg"):
+        for i, seg in enumerate(SEGMENTS):
+            out.append(Channel(
+                f"{seg}_tilt", "y", "ORNT", seg_point[seg], "deg",
+                f"{seg} sagittal tilt, + counter-clockwise seen from the right, 0 standing "
+                f"({how})", "processed/tilt_deg", i, 4))
+    if src.has("processed/joint_deg"):
+        for i, joint in enumerate(JOINT_LABELS):
+            out.append(Channel(
+                joint, "y", "JNTANG", side + _JOINT_POINT[i], "deg",
+                f"{joint.replace('_', ' ')} (+), proximal to distal segment ({how})",
+                "processed/joint_deg", i, 4))
+    return out
+
+
+def _fsr_faults(src: Source) -> dict[str, str]:
+    """Force sensors the foot-gyro cross-check flagged: sensor -> why, and from when."""
+    out: dict[str, str] = {}
+    for row in src.table("events/fsr_faults"):
+        sensor = as_text(row.get("sensor", ""))
+        idx = int(row.get("sample_idx", 0))
+        out.setdefault(sensor, f"{as_text(row.get('reason', ''))} (flagged from row {idx}; "
+                               "events from the foot gyro from there)")
+    return out
+
+
+def frame_grid(src: Source) -> np.ndarray:
+    """The ``_motion.tsv`` row of every session row: round((t_s - t_s[0]) * fs)."""
+    if src.n == 0:
+        return np.zeros(0, np.int64)
+    t = src.read("timeline/t_s").astype(np.float64)
+    grid = (t - t[0]) * src.fs_hz
+    if not np.all(np.abs(grid) < 2.0**53):  # NaN or absurd times: no row number to cast to
+        raise ExportError(f"{src.path.name} is damaged: some sample times are not valid")
+    frame = np.rint(grid).astype(np.int64)
+    if np.any(np.diff(frame) <= 0):
+        raise ExportError(
+            f"{src.path.name}: sample times are not increasing on the {src.fs_hz:g} Hz grid; "
+            "cannot place them on BIDS rows"
+        )
+    return frame
+
+
+@dataclass(frozen=True)
+class Names:
+    """Where one recording goes in the dataset folder."""
+
+    root: Path
+    subject: str
+    session: str | None
+    task: str
+
+    @property
+    def folder(self) -> Path:
+        sub = self.root / f"sub-{self.subject}"
+        return sub if self.session is None else sub / f"ses-{self.session}"
+
+    @property
+    def prefix(self) -> str:
+        ses = "" if self.session is None else f"_ses-{self.session}"
+        return f"sub-{self.subject}{ses}"
+
+    def motion(self, suffix: str) -> Path:
+        """``motion/<prefix>_task-<t>_tracksys-IMU_<suffix>``: entities in the BIDS order."""
+        name = f"{self.prefix}_task-{self.task}_tracksys-{TRACKSYS}_{suffix}"
+        return self.folder / "motion" / name
+
+    @property
+    def scans(self) -> Path:
+        return self.folder / f"{self.prefix}_scans.tsv"
+
+
+class BidsWriter:
+    """One BIDS export (a fresh writer per export: it keeps the plan between the calls)."""
+
+    def __init__(self, options: BidsOptions) -> None:
+        self.options = options
+        self.names: Names | None = None
+        self.finals: list[Path] = []
+
+    # -- the FormatWriter contract ----------------------------------------------------------
+
+    def planned_outputs(self, src: Source, scrub: Scrubber, out: Path) -> list[Path]:
+        pid = as_text(src.group_attrs("session").get("patient_id", ""))
+        names = Names(out, self.options.subject_label(pid), self.options.session_label,
+                      self.options.task_label)
+        self.names = names
+        files = [names.motion(s) for s in ("motion.tsv", "channels.tsv", "motion.json",
+                                           "events.tsv", "events.json")]
+        if not scrub.enabled and _acq_time(src):
+            files.append(names.scans)
+        files.append(out / "participants.tsv")
+        files += [p for p in (out / "dataset_description.json", out / "README")
+                  if not p.exists()]  # a dataset's own description is never replaced
+        self.finals = files
+        return list(files)
+
+    def merges_existing(self, path: Path) -> bool:
+        """Files that one export adds a row to (several recordings share them)."""
+        return path.name == "participants.tsv" or path.name.endswith("_scans.tsv")
+
+    def write(self, src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
+              progress: Progress | None, cancel: Cancel | None, chunk_rows: int | None) -> None:
+        names = self.names
+        if names is None or len(outputs) != len(self.finals):
+            raise ExportError("BIDS export: planned_outputs must be called first")
+        tmp = dict(zip(self.finals, outputs, strict=True))
+        chans = channels(src)
+        if not chans:
+            raise ExportError(f"{src.path.name} has no series to export as BIDS motion channels")
+        frame = frame_grid(src)
+        n_rows = int(frame[-1]) + 1 if len(frame) else 0
+        write_motion_tsv(src, chans, frame, tmp[names.motion("motion.tsv")], progress, cancel,
+                         TSV_CHUNK_FRAMES if chunk_rows is None else chunk_rows)
+        _write_text(tmp[names.motion("channels.tsv")], _channels_tsv(src, chans))
+        sidecar = motion_sidecar(src, chans, n_rows, frame, scrub, names.task)
+        _write_json(tmp[names.motion("motion.json")], sidecar)
+        _write_text(tmp[names.motion("events.tsv")], _events_tsv(events(src, scrub, frame)))
+        _write_json(tmp[names.motion("events.json")], EVENTS_JSON)
+        if names.scans in tmp:
+            row = {"filename": names.motion("motion.tsv").relative_to(names.folder).as_posix(),
+                   "acq_time": _acq_time(src)}
+            _write_text(tmp[names.scans], _merge_tsv(names.scans, row))
+        participants = names.root / "participants.tsv"
+        _write_text(tmp[participants],
+                    _merge_tsv(participants, {"participant_id": f"sub-{names.subject}"}))
+        if names.root / "dataset_description.json" in tmp:
+            _write_json(tmp[names.root / "dataset_description.json"], dataset_description())
+        if names.root / "README" in tmp:
+            _write_text(tmp[names.root / "README"], README_TEXT)
+
+
+def configure(options: Mapping[str, Any] | None) -> BidsWriter:
+    """The writer of one export (registry: a format module with options provides this)."""
+    return BidsWriter(BidsOptions.from_mapping(options))
+
+
+# ---- _motion.tsv ----------------------------------------------------------------------------
+
+
+def write_motion_tsv(src: Source, chans: list[Channel], frame: np.ndarray, out: Path,
+                     progress: Progress | None, cancel: Cancel | None, chunk: int) -> None:
+    """Rows on the 1/fs grid, ``chunk`` grid rows at a time (memory does not grow with the
+    session); a lost frame, or a value that is not finite, is ``n/a``."""
+    n_rows = int(frame[-1]) + 1 if len(frame) else 0
+    paths = list(dict.fromkeys(c.path for c in chans))
+    with open(out, "wb") as f:
+        for f0 in range(0, n_rows, max(1, chunk)):
+            f1 = min(n_rows, f0 + max(1, chunk))
+            r0, r1 = (int(i) for i in np.searchsorted(frame, [f0, f1]))
+            at = frame[r0:r1] - f0
+            blocks = {p: np.asarray(src.read(p, r0, r1)).reshape(r1 - r0, -1) for p in paths}
+            cols = []
+            for c in chans:
+                v = np.full(f1 - f0, np.nan)
+                x = blocks[c.path][:, c.column].astype(np.float64)
+                v[at] = np.where(np.isfinite(x), x, np.nan)
+                cols.append(Column(v, c.decimals))
+            f.write(_tsv_lines(format_block(cols)))
+            step(progress, cancel, f1 / n_rows)
+    if n_rows == 0:
+        step(progress, cancel, 1.0)
+
+
+def _tsv_lines(block: bytes) -> bytes:
+    """format_block's CSV lines (each ending in an empty last cell) as TSV with ``n/a``.
+    Numbers never contain a comma, and ``nan`` is only ever a whole cell."""
+    return block.replace(b",\n", b"\n").replace(b",", b"\t").replace(b"nan", NA.encode())
+
+
+# ---- _channels.tsv, _motion.json --------------------------------------------------------------
+
+CHANNEL_COLUMNS = ("name", "component", "type", "tracked_point", "units", "sampling_frequency",
+                   "status", "status_description", "description")
+
+
+def _channels_tsv(src: Source, chans: list[Channel]) -> str:
+    rows = ["\t".join(CHANNEL_COLUMNS)]
+    for c in chans:
+        cells = (c.name, c.component, c.type, c.tracked_point, c.units, f"{src.fs_hz:g}",
+                 c.status, c.status_description, c.description)
+        rows.append("\t".join(_cell(x) for x in cells))
+    return "\n".join(rows) + "\n"
+
+
+def motion_sidecar(src: Source, chans: list[Channel], n_rows: int, frame: np.ndarray,
+                   scrub: Scrubber, task: str) -> dict[str, Any]:
+    device = scrub.device(src.group_attrs("device"))
+    counts = Counter(c.type for c in chans)
+    lost = n_rows - len(frame)
+    n_gaps = int(np.count_nonzero(np.diff(frame) > 1)) if len(frame) else 0
+    angles = src.angles()
+    side = json_safe({
+        "TaskName": task,
+        "TaskDescription": "gait recorded with a gaitmon wearable unit (planar IMUs on body, "
+                           "thigh, shank and foot; heel and toe force sensors)",
+        "SamplingFrequency": src.fs_hz,
+        "TrackingSystemName": TRACKSYS,
+        "ManufacturersModelName": as_text(device.get("name", "")) or NA,
+        "SoftwareVersions": f"firmware {as_text(device.get('firmware', '')) or NA}; recorded "
+                            f"by gaitmon {as_text(src.attrs.get('software_version', '')) or NA};"
+                            f" exported by gaitmon {__version__}",
+        "RecordingDuration": n_rows / src.fs_hz,
+        "MotionChannelCount": len(chans),
+        **{f"{t}ChannelCount": counts[t] for t in ("ACCEL", "GYRO", "ORNT", "JNTANG", "MISC")},
+        "TrackedPointsCount": len({c.tracked_point for c in chans}),
+        "MissingValues": NA,
+        "SubjectArtefactDescription": (
+            f"{lost} lost frames ({n_gaps} gaps) are rows of n/a in _motion.tsv (row k is "
+            f"at k / {src.fs_hz:g} s) and 'gap' events" if lost else NA),
+        "GaitmonMode": src.mode,
+        "GaitmonAngles": {**angles, "convention": as_text(src.attrs.get("angle_convention", ""))},
+        "GaitmonRows": "row k of _motion.tsv is the time k / SamplingFrequency from the first "
+                       "sample; a lost frame is a row of n/a",
+    })
+    serial = device.get("serial", "")
+    if not scrub.enabled and as_text(serial).strip():
+        side["DeviceSerialNumber"] = as_text(serial)
+    result: dict[str, Any] = scrub.value(side)
+    return result
+
+
+# ---- events -----------------------------------------------------------------------------------
+
+EVENTS_COLUMNS = ("onset", "duration", "trial_type", "sample", "label")
+
+EVENTS_JSON: dict[str, Any] = {
+    "onset": {"Description": "time of the event from the first row of _motion.tsv "
+                             "(= sample / SamplingFrequency)", "Units": "s"},
+    "duration": {"Description": "0 for instantaneous events; for a gap, the time lost "
+                                "(its n/a rows / SamplingFrequency)", "Units": "s"},
+    "trial_type": {
+        "Description": "kind of event",
+        "Levels": {
+            "heel_strike": "initial contact (heel strike), dated at the estimated true contact",
+            "toe_off": "final contact (toe off)",
+            "marker": "a marker the clinician set during the recording (text in label)",
+            "gap": "frames lost by the link: the rows of _motion.tsv from sample on for "
+                   "duration are n/a",
+        },
+    },
+    "sample": {"Description": "0-based row of _motion.tsv at onset (first n/a row of a gap)"},
+    "label": {"Description": "marker text, or the reason frames were lost (gap); n/a otherwise"},
+}
+
+
+@dataclass(frozen=True)
+class Event:
+    onset_s: float
+    duration_s: float
+    trial_type: str
+    sample: int | None
+    label: str
+
+
+def events(src: Source, scrub: Scrubber, frame: np.ndarray) -> list[Event]:
+    """Heel strikes, toe offs, markers and gaps on the grid of ``_motion.tsv``, by onset."""
+    fs = src.fs_hz
+    out: list[Event] = []
+    for kind in ("heel_strike", "toe_off"):
+        out += [Event(int(frame[r]) / fs, 0.0, kind, int(frame[r]), NA)
+                for r in src.events(kind).tolist()]
+    for mk in markers(src, scrub):
+        r = int(frame[mk["sample_idx"]])
+        out.append(Event(r / fs, 0.0, "marker", r, _cell(mk["label"])))
+    by_row: dict[int, list[dict[str, Any]]] = {}
+    for g in gaps(src, scrub):
+        by_row.setdefault(g["sample_idx"], []).append(g)
+    for row, gs in by_row.items():
+        reason = _cell(" | ".join(dict.fromkeys(g["reason"] for g in gs)))
+        if 0 < row < src.n:
+            first = int(frame[row - 1]) + 1
+            out.append(Event(first / fs, (int(frame[row]) - first) / fs, "gap", first, reason))
+        else:  # before the first row or after the last one: no rows of the file are n/a
+            lost_s = float(sum(g["duration_s"] for g in gs if np.isfinite(g["duration_s"])))
+            at = 0.0 if row == 0 else (int(frame[-1]) + 1) / fs if len(frame) else 0.0
+            out.append(Event(at - lost_s if row == 0 else at, lost_s, "gap", None, reason))
+    order = {"gap": 0, "heel_strike": 1, "toe_off": 2, "marker": 3}
+    return sorted(out, key=lambda e: (e.onset_s, order[e.trial_type]))
+
+
+def _events_tsv(evs: list[Event]) -> str:
+    rows = ["\t".join(EVENTS_COLUMNS)]
+    for e in evs:
+        rows.append("\t".join((f"{e.onset_s:.6f}", f"{e.duration_s:.6f}", e.trial_type,
+                               NA if e.sample is None else str(e.sample), e.label)))
+    return "\n".join(rows) + "\n"
+
+
+# ---- dataset-level files ----------------------------------------------------------------------
+
+
+def dataset_description() -> dict[str, Any]:
+    return {
+        "Name": "gaitmon gait recordings",
+        "BIDSVersion": BIDS_VERSION,
+        "DatasetType": DATASET_TYPE,
+        "GeneratedBy": [{"Name": "gaitmon", "Version": __version__,
+                         "Description": "gaitmon export --format bids"}],
+    }
+
+
+README_TEXT = """\
+Gait recordings exported by gaitmon (Motion-BIDS, BIDS 1.9, datatype "motion").
+
+Each recording is one tracking system, tracksys-IMU: four planar inertial units (body, thigh,
+shank, foot; accelerometer x and z, gyro about the mediolateral axis y), a heel and a toe force
+sensor, and the segment tilts and joint angles gaitmon computed from them. _channels.tsv lists
+every column of _motion.tsv with its type, tracked point and units; _motion.json names the
+method behind the angles (GaitmonAngles).
+
+Rows: _motion.tsv has no header. Row k is the time k / SamplingFrequency from the first
+sample. Frames the wireless link lost are rows of n/a at their true place, so the sampling is
+regular, and each loss is also a "gap" event in _events.tsv (duration = time lost).
+
+Events: heel_strike, toe_off (gait events), marker (set by the clinician; text in "label"),
+gap. onset = sample / SamplingFrequency, where sample is the 0-based row of _motion.tsv.
+
+DatasetType is "raw": the series are what the recording system outputs (calibrated,
+low-passed inertial signals and its orientation estimates), as BIDS motion data are; the
+unit's ADC counts remain in the gaitmon session files (.h5), which are the source data.
+
+De-identification (the default for BIDS exports): subject labels come from the user (a label
+or a patient-id-to-label map), never from the patient id unless asked; no patient id,
+operator, notes, device serial or recording date is written. No _scans.tsv is written then
+(its acq_time would date the recording): times count from the start of each recording only.
+"""
+
+
+def _acq_time(src: Source) -> str:
+    """The recording's start as a BIDS date-time, or "" if the file has none usable."""
+    created = as_text(src.attrs.get("created_utc", "")).strip()
+    return created if _ISO_UTC.fullmatch(created) else ""
+
+
+def _merge_tsv(path: Path, row: dict[str, str]) -> str:
+    """``path``'s rows plus ``row`` (replacing the row with the same first cell), sorted;
+    columns are the file's (a new column is added, ``n/a`` where unknown)."""
+    columns = list(row)
+    rows: dict[str, dict[str, str]] = {}
+    if path.exists():
+        try:
+            with open(path, encoding="utf-8", newline="") as f:
+                reader = csv.DictReader(f, delimiter="\t")
+                have = [c for c in reader.fieldnames or () if c]
+                if not have or have[0] != columns[0]:
+                    raise ExportError(f"{path} does not start with a {columns[0]} column")
+                columns = have + [c for c in columns if c not in have]
+                for r in reader:
+                    key = r.get(columns[0]) or ""
+                    if key:
+                        rows[key] = {c: (r.get(c) or NA) for c in have}
+        except (OSError, UnicodeDecodeError, csv.Error) as exc:
+            raise ExportError(f"cannot read {path}: {exc}") from None
+    rows[row[columns[0]]] = row
+    buf = io.StringIO()
+    buf.write("\t".join(columns) + "\n")
+    for key in sorted(rows):
+        buf.write("\t".join(_cell(rows[key].get(c, NA)) for c in columns) + "\n")
+    return buf.getvalue()
+
+
+def _cell(text: str) -> str:
+    """A TSV cell: no tabs or line breaks; ``n/a`` for an empty one."""
+    text = re.sub(r"[\t\r\n]+", " ", str(text)).strip()
+    return text or NA
+
+
+def _write_text(path: Path, text: str) -> None:
+    with open(path, "w", encoding="utf-8", newline="\n") as f:
+        f.write(text)
+
+
+def _write_json(path: Path, data: Any) -> None:
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(data, f, indent=2, ensure_ascii=False, default=json_default)
+        f.write("\n")

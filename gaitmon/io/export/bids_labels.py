@@ -1,0 +1,141 @@
+"""BIDS export options and labels: which subject, session and task a recording is filed under.
+
+The subject label is the one piece of a BIDS dataset that could name the patient, so it is
+never taken from the session file unless the user asks for it (``subject_from_patient_id``):
+it comes from ``subject`` (one label), or from ``subject_map``, a file the user keeps that maps
+patient ids to labels, or else it is ``01``. Kept free of numpy (the command line builds these).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from gaitmon.io.export.errors import ExportError
+
+DEFAULT_SUBJECT = "01"  # when no label is given: says nothing about the patient
+DEFAULT_TASK = "walk"
+_LABEL = re.compile(r"[0-9A-Za-z]+")
+_MAP_HEADERS = {"patient_id", "patient", "participant_id", "label", "subject"}
+
+
+def check_label(kind: str, value: str) -> str:
+    """A BIDS label (letters and digits only); ``sub-01`` is accepted for subject ``01``."""
+    prefix = {"subject": "sub-", "session": "ses-", "task": "task-"}[kind]
+    text = str(value).strip()
+    if text.startswith(prefix):
+        text = text[len(prefix):]
+    if not _LABEL.fullmatch(text):
+        raise ExportError(
+            f"BIDS {kind} label {value!r} must be letters and digits only (e.g. 01)"
+        )
+    return text
+
+
+@dataclass(frozen=True)
+class BidsOptions:
+    """What ``gaitmon export --format bids`` is told besides the file (all optional)."""
+
+    subject: str | None = None  # the subject label
+    subject_map: Path | None = None  # a TSV/CSV file: patient id -> subject label
+    subject_from_patient_id: bool = False  # label = the patient id (letters and digits kept)
+    session: str | None = None  # a ses-<label> level, if given
+    task: str = DEFAULT_TASK
+
+    @classmethod
+    def from_mapping(cls, options: Mapping[str, Any] | None) -> BidsOptions:
+        """Options as given to ``export_session(options=...)``; None values are left out."""
+        given = {k: v for k, v in (options or {}).items() if v is not None}
+        known = [f.name for f in fields(cls)]
+        for key in given:
+            if key not in known:
+                raise ExportError(f"BIDS export has no option {key!r} (it has {', '.join(known)})")
+        if "subject_map" in given:
+            given["subject_map"] = Path(given["subject_map"])
+        opts = cls(**given)
+        chosen = [opts.subject is not None, opts.subject_map is not None,
+                  bool(opts.subject_from_patient_id)]  # fmt: skip
+        if sum(chosen) > 1:
+            raise ExportError(
+                "give only one of --subject, --subject-map and --subject-from-patient-id"
+            )
+        if opts.subject is not None:
+            check_label("subject", opts.subject)
+        if opts.session is not None:
+            check_label("session", opts.session)
+        check_label("task", opts.task)
+        return opts
+
+    def subject_label(self, patient_id: str) -> str:
+        """The subject label of the session whose patient id is ``patient_id``."""
+        pid = str(patient_id).strip()
+        if self.subject is not None:
+            return check_label("subject", self.subject)
+        if self.subject_map is not None:
+            table = read_subject_map(self.subject_map)
+            if not pid:
+                raise ExportError(
+                    f"the session has no patient id to look up in {self.subject_map.name}; "
+                    "give --subject LABEL"
+                )
+            if pid not in table:
+                # the id itself is not repeated: a message may end up in a log
+                raise ExportError(
+                    f"{self.subject_map.name} has no row for this session's patient id; "
+                    "add one (patient_id<TAB>label)"
+                )
+            return table[pid]
+        if self.subject_from_patient_id:
+            label = re.sub(r"[^0-9A-Za-z]", "", pid)
+            if not label:
+                raise ExportError(
+                    "the session's patient id has no letters or digits to use as a subject "
+                    "label; give --subject LABEL"
+                )
+            return label
+        return DEFAULT_SUBJECT
+
+    @property
+    def session_label(self) -> str | None:
+        return None if self.session is None else check_label("session", self.session)
+
+    @property
+    def task_label(self) -> str:
+        return check_label("task", self.task)
+
+
+def read_subject_map(path: Path) -> dict[str, str]:
+    """``patient id -> subject label`` from a two-column file (tab- or comma-separated, an
+    optional header row, ``#`` comments); the label may be written ``07`` or ``sub-07``."""
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise ExportError(f"subject map not found: {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ExportError(f"cannot read the subject map {path}: {exc}") from None
+    table: dict[str, str] = {}
+    first = True
+    for n, line in enumerate(text.splitlines(), 1):
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        cells = [c.strip() for c in line.split("\t" if "\t" in line else ",")]
+        header = first and (cells[0].lower() in _MAP_HEADERS
+                            or (len(cells) > 1 and cells[1].lower() in _MAP_HEADERS))
+        first = False
+        if header:
+            continue
+        if len(cells) < 2 or not cells[0] or not cells[1]:
+            raise ExportError(f"{path.name} line {n}: expected a patient id and a label")
+        try:
+            label = check_label("subject", cells[1])
+        except ExportError as exc:
+            raise ExportError(f"{path.name} line {n}: {exc}") from None
+        if table.get(cells[0], label) != label:
+            raise ExportError(f"{path.name} line {n}: a patient id is given two labels")
+        table[cells[0]] = label
+    if not table:
+        raise ExportError(f"subject map {path} has no rows (patient_id<TAB>label)")
+    return table
