@@ -380,7 +380,7 @@ def draw_overlay(p: Page, c: Comparison, j: int, x: float, y: float, w: float, h
 Col = tuple[str, str, int, int | None]
 
 
-def _columns(c: Comparison, later: Sequence[int]) -> list[Col]:
+def table_columns(c: Comparison, later: Sequence[int]) -> list[Col]:
     """The baseline's values, then each of ``later`` with its change columns."""
     cols: list[Col] = [("1 (baseline)", c.sessions[0].recorded_utc[:10], 0, None)]
     for k in later:
@@ -415,7 +415,7 @@ def _measure_table(p: Page, c: Comparison, later: Sequence[int]) -> list[Block]:
     size = 7.5
     h = flow.line_height_mm(p, size)
     label_w = 46.0
-    cols = _columns(c, later)
+    cols = table_columns(c, later)
     cw = (WIDTH_MM - label_w) / len(cols)
     right = Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter
     left = Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignVCenter
