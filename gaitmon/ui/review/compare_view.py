@@ -91,25 +91,31 @@ class CompareView(QWidget):
         self.rule = QLabel(f"{MARK} beyond the between-stride variability (red). {RULE_TEXT} "
                            "Δ = later − earlier. See docs/compare.md.")  # fmt: skip
         self.rule.setWordWrap(True)
-        self.rule.setStyleSheet("color: palette(mid);")
         self.save_button = QPushButton("Save as PDF…")
         self.save_button.clicked.connect(self.save_dialog)
 
+        muted = "#9aa3ad" if colours.dark else "#5b6470"
+        self.rule.setStyleSheet(f"color: {muted};")
+        self.table.setSizeAdjustPolicy(QTableWidget.SizeAdjustPolicy.AdjustToContents)
+        # below the plots: the table at its own width, and beside it who, what and the rule
+        side = QWidget()
+        sv = QVBoxLayout(side)
+        sv.setContentsMargins(8, 0, 0, 0)
+        sv.addWidget(self.sessions)
+        sv.addWidget(self.warnings)
+        sv.addWidget(self.rule)
+        sv.addStretch(1)
+        sv.addWidget(self.save_button, 0, Qt.AlignmentFlag.AlignRight)
         lower = QWidget()
-        lv = QVBoxLayout(lower)
-        lv.setContentsMargins(0, 0, 0, 0)
-        lv.addWidget(self.table, 1)
-        row = QHBoxLayout()
-        row.addWidget(self.rule, 1)
-        row.addWidget(self.save_button)
-        lv.addLayout(row)
+        lh = QHBoxLayout(lower)
+        lh.setContentsMargins(0, 0, 0, 0)
+        lh.addWidget(self.table, 0)
+        lh.addWidget(side, 1)
         split = QSplitter(Qt.Orientation.Vertical)
         split.addWidget(self.plots)
         split.addWidget(lower)
-        split.setSizes([380, 420])
+        split.setSizes([560, 400])
         v = QVBoxLayout(self)
-        v.addWidget(self.sessions)
-        v.addWidget(self.warnings)
         v.addWidget(split, 1)
 
     # -- content -------------------------------------------------------------------------------
@@ -119,17 +125,19 @@ class CompareView(QWidget):
         self.setWindowTitle(f"gaitmon — compare {len(c.sessions)} sessions — "
                             f"{c.patient_id or 'patient ids not checked'}")  # fmt: skip
         rows = []
+        muted = "#9aa3ad" if self.colours.dark else "#5b6470"
         for k, s in enumerate(c.sessions):
             role = " (baseline)" if k == 0 else ""
             rows.append(
                 f"<span style='color:{colour(k).name()}; font-size:14pt'>■</span> "
-                f"<b>{k + 1}{role}</b> {html.escape(s.recorded_utc)} · "
-                f"{html.escape(s.file_name)} · {num(s.duration_s, 0)} s · "
-                f"{s.n_included} of {s.n_strides_total} strides · "
-                f"<span style='color:palette(mid)'>{html.escape(s.angle_method)}</span>"
+                f"<b>{k + 1}{role}</b> {html.escape(s.recorded_utc)}<br>"
+                f"&nbsp;&nbsp;&nbsp;&nbsp;{html.escape(s.file_name)} · {num(s.duration_s, 0)} s"
+                f" · {s.n_included} of {s.n_strides_total} strides<br>&nbsp;&nbsp;&nbsp;&nbsp;"
+                f"<span style='color:{muted}'>{html.escape(s.angle_method)}</span>"
             )
         who = html.escape(c.patient_id or "patient ids not checked")
-        self.sessions.setText(f"<b>Patient {who}</b><br>" + "<br>".join(rows))
+        self.sessions.setText(f"<span style='font-size:12pt'><b>Patient {who}</b></span><br>"
+                              + "<br>".join(rows))  # fmt: skip
         self.warnings.setText("\n".join(f"⚠ {w}" for w in c.warnings))
         self.warnings.setVisible(bool(c.warnings))
         self._draw_cycles(c)
@@ -164,9 +172,8 @@ class CompareView(QWidget):
             if v.size:
                 pad = 0.08 * max(float(v.max() - v.min()), 5.0)
                 p.setYRange(float(v.min()) - pad, float(v.max()) + pad, padding=0)
-        legend = self.plot_items[0].addLegend(offset=(8, 8), labelTextSize="8pt")
-        for k, curve in enumerate(self.curves[0]):
-            legend.addItem(curve, f"{k + 1} · {c.sessions[k].label}")
+        # the legend is the session list beside the table (colour, number, date, file): a
+        # legend inside a plot hid the curves it names
 
     def _fill_table(self, c: Comparison) -> None:
         cols = table_columns(c, range(1, len(c.sessions)))
@@ -204,6 +211,11 @@ class CompareView(QWidget):
                 item.setTextAlignment(right)
                 self.table.setItem(r, j, item)
         self.table.resizeColumnsToContents()
+        # every row shown, no blank rows' worth of table: the plots take the height left (room
+        # for a horizontal scroll bar, which many sessions need)
+        self.table.setFixedHeight(self.table.horizontalHeader().height()
+                                  + self.table.verticalHeader().length()
+                                  + self.table.horizontalScrollBar().sizeHint().height() + 4)
 
     def beyond_cells(self) -> list[tuple[str, str]]:
         """(measure label, column title) of every cell marked beyond (what a user sees red)."""

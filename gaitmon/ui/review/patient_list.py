@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from PySide6.QtCore import Qt, Signal
+from PySide6.QtGui import QColor, QPalette
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QHBoxLayout,
@@ -63,7 +64,7 @@ class PatientList(QWidget):
         self.open_button.clicked.connect(self.open_selected)
         self.hint = QLabel("Select two or more recordings to compare (Ctrl/Shift+click), or "
                            "one to open; double-click opens.")  # fmt: skip
-        self.hint.setStyleSheet("color: palette(mid);")
+        self.hint.setStyleSheet(f"color: {self._muted().name(QColor.NameFormat.HexArgb)};")
         buttons = QHBoxLayout()
         buttons.addWidget(self.hint, 1)
         buttons.addWidget(self.open_button)
@@ -101,11 +102,17 @@ class PatientList(QWidget):
                 if 3 <= c <= 6:
                     item.setTextAlignment(right)
                 if not ok:
-                    item.setForeground(self.palette().color(self.palette().ColorRole.Mid))
+                    item.setForeground(self._muted())
                 item.setToolTip(rec.problem or str(rec.path))
                 self.table.setItem(r, c, item)
         self.table.resizeColumnsToContents()
         self._selection_changed()
+
+    def _muted(self) -> QColor:
+        """The text colour, faded (readable on a light or a dark theme)."""
+        c = QColor(self.palette().color(QPalette.ColorRole.WindowText))
+        c.setAlpha(150)
+        return c
 
     def selected(self) -> list[Recording]:
         rows = sorted({i.row() for i in self.table.selectionModel().selectedRows()})
