@@ -148,6 +148,14 @@ class Comparison:
     warnings: tuple[str, ...]  # one line each (patient ids, dates, angle methods)
     patient_id: str  # the one patient id, or "" when they differ or are missing
     deidentified: bool = False
+    ids_differ: bool = False  # two or more different patient ids
+
+    @property
+    def who(self) -> str:
+        """Whose sessions, for a title: the patient id, or why there is none."""
+        if self.patient_id:
+            return self.patient_id
+        return "patient ids differ" if self.ids_differ else "no patient ID"
 
     def change(self, k: int, key: str, since: int = 0) -> Change:
         """Session ``k``'s change in measure ``key`` from session ``since`` (0: baseline)."""
@@ -365,7 +373,7 @@ def _assemble(done: list[_Analysed], deidentify: bool) -> Comparison:
             a.n_strides_total, a.values, a.mean_deg, a.sd_deg, label))  # fmt: skip
     if deidentify and patient:
         patient = REDACTED
-    return Comparison(tuple(sessions), tuple(warnings), patient, deidentify)
+    return Comparison(tuple(sessions), tuple(warnings), patient, deidentify, len(distinct) > 1)
 
 
 # ------------------------------------------------------------------------------------------

@@ -128,17 +128,19 @@ def test_patient_ids_checked(normal_and_stiff_knee, tmp_path):
         tmp_path / "other.h5", patient_id="P002", created_utc="2026-11-05T09:00:00Z"
     )
     c = compare_sessions([normal, other])
-    assert c.patient_id == ""
+    assert c.patient_id == "" and c.who == "patient ids differ"
     assert any("Patient ids differ" in w and "P002 (other.h5)" in w for w in c.warnings)
     anon = write_simulated_session(
         tmp_path / "anon.h5", patient_id="", created_utc="2026-11-06T09:00:00Z"
     )
     c = compare_sessions([normal, anon])
     assert any("No patient id in anon.h5" in w for w in c.warnings)
+    assert c.who == "no patient ID"
     d = compare_sessions([normal, other], deidentify=True)
     text = " ".join(d.warnings) + " ".join(s.label + s.file_name + s.patient_id for s in d.sessions)
     assert "P00" not in text and ".h5" not in text and "2026" not in text
     assert [s.recorded_utc for s in d.sessions] == ["day 0", "day 35"]
+    assert d.who == "patient ids differ"  # also when the ids themselves are withheld
 
 
 @pytest.mark.parametrize("case", ["one", "missing", "twice", "damaged", "tilt", "folder"])

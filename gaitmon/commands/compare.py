@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"cannot write the comparison: {exc}") from None
     if not args.quiet:
         n = sum(len(c.beyond(k)) for k in range(1, len(c.sessions)))
-        who = c.patient_id or "patient ids not checked"
+        who = c.who
         print(f"gaitmon compare: wrote {out}" + (f" and {png}" if png else "")
               + f" ({len(c.sessions)} sessions, {who}; {n} change{'s' if n != 1 else ''} from "
               "the baseline beyond the between-stride variability)")  # fmt: skip

@@ -133,13 +133,6 @@ def paint_comparison(
     return p
 
 
-def _who(c: Comparison) -> str:
-    if c.patient_id:
-        return c.patient_id
-    ids = sorted({s.patient_id for s in c.sessions if s.patient_id})
-    return "patient ids differ" if len(ids) > 1 else "no patient ID"
-
-
 def _title(p: Page, c: Comparison, generated_utc: str) -> float:
     y = 11.0
     p.text(LEFT_MM, y, WIDTH_MM * 0.62, 8.0, "Gait comparison across sessions", 16.0, bold=True,
@@ -154,7 +147,7 @@ def _title(p: Page, c: Comparison, generated_utc: str) -> float:
     p.hline(LEFT_MM, RIGHT_MM, y, ACCENT, 0.6)
     y += 2.5
     p.fill(LEFT_MM, y, WIDTH_MM, 9.6, SHADE)
-    cols = (("PATIENT ID", _who(c)), ("SESSIONS", f"{len(c.sessions)}, oldest first"),
+    cols = (("PATIENT ID", c.who), ("SESSIONS", f"{len(c.sessions)}, oldest first"),
             ("FROM … TO", f"{c.sessions[0].recorded_utc[:10]} … "
                           f"{c.sessions[-1].recorded_utc[:10]}"))  # fmt: skip
     w = WIDTH_MM / 3
@@ -169,7 +162,7 @@ def _continued(p: Page, c: Comparison) -> None:
     p.text(LEFT_MM, 11.0, WIDTH_MM * 0.6, 6.0, "Gait comparison (continued)", 11.0, bold=True,
            colour=ACCENT)  # fmt: skip
     p.text(LEFT_MM + WIDTH_MM * 0.5, 11.5, WIDTH_MM * 0.5, 4.0,
-           f"{_who(c)} · {len(c.sessions)} sessions", 7.5, colour=MUTED,
+           f"{c.who} · {len(c.sessions)} sessions", 7.5, colour=MUTED,
            align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)  # fmt: skip
     p.hline(LEFT_MM, RIGHT_MM, 18.0, ACCENT, 0.6)
 

@@ -123,7 +123,7 @@ class CompareView(QWidget):
     def set_comparison(self, c: Comparison) -> None:
         self.comparison = c
         self.setWindowTitle(f"gaitmon — compare {len(c.sessions)} sessions — "
-                            f"{c.patient_id or 'patient ids not checked'}")  # fmt: skip
+                            f"{c.who}")  # fmt: skip
         rows = []
         muted = "#9aa3ad" if self.colours.dark else "#5b6470"
         for k, s in enumerate(c.sessions):
@@ -135,7 +135,7 @@ class CompareView(QWidget):
                 f" · {s.n_included} of {s.n_strides_total} strides<br>&nbsp;&nbsp;&nbsp;&nbsp;"
                 f"<span style='color:{muted}'>{html.escape(s.angle_method)}</span>"
             )
-        who = html.escape(c.patient_id or "patient ids not checked")
+        who = html.escape(c.who)
         self.sessions.setText(f"<span style='font-size:12pt'><b>Patient {who}</b></span><br>"
                               + "<br>".join(rows))  # fmt: skip
         self.warnings.setText("\n".join(f"⚠ {w}" for w in c.warnings))
