@@ -134,7 +134,8 @@ def test_deidentified_comparison(qapp, normal_and_stiff_knee, tmp_path):
     assert "day 0" in text and "day 31" in text and "[removed]" in text
 
 
-@pytest.mark.parametrize("case", ["one", "missing", "damaged", "tilt", "not-pdf", "exists"])
+@pytest.mark.parametrize("case", ["one", "missing", "damaged", "truncated", "tilt", "not-pdf",
+                                  "exists"])  # fmt: skip
 def test_bad_inputs_one_line(case, normal_and_stiff_knee, tmp_path, capsys, record_simulated):
     normal, stiff = map(str, normal_and_stiff_knee)
     out = tmp_path / "c.pdf"
@@ -147,6 +148,10 @@ def test_bad_inputs_one_line(case, normal_and_stiff_knee, tmp_path, capsys, reco
         bad = tmp_path / "bad.h5"
         bad.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 600)
         args, words = [normal, str(bad)], "bad.h5"
+    elif case == "truncated":
+        cut = tmp_path / "cut.h5"
+        cut.write_bytes(normal_and_stiff_knee[1].read_bytes()[:50_000])
+        args, words = [normal, str(cut)], "cut.h5 is damaged"
     elif case == "tilt":
         tilt = record_simulated(tmp_path / "tilt.h5", "--mode", "tilt", duration_s=5)
         args, words = [normal, str(tilt)], "tilt.h5: the unit's tilt mode sends no foot-sensor"
