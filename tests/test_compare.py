@@ -201,3 +201,17 @@ def test_patient_list_by_patient_and_date(normal_and_stiff_knee, tmp_path):
     assert rows[3].problem and not rows[2].problem
     with pytest.raises(CompareError, match="not a folder"):
         list_recordings(tmp_path / "notes.txt")
+
+
+def test_ranges_excluded_in_review_count_in_the_comparison(normal_and_stiff_knee, tmp_path):
+    from gaitmon.io.session import exclusions as excl
+
+    normal, stiff = (shutil.copy(p, tmp_path / p.name) for p in normal_and_stiff_knee)
+    before = compare_sessions([normal, stiff]).sessions[1].values["n_strides"].n
+    with open_session(stiff) as s:
+        n, created, t_s = s.n_samples, s.created_utc, s.read("timeline/t_s")
+    excl.save(stiff, [excl.Exclusion(800, 1400, "turn")], created, n, t_s)
+    after = compare_sessions([normal, stiff]).sessions[1]
+    own = own_figures(stiff)  # analyse_session reads the same side file
+    assert after.values["n_strides"].n == own["n"] < before
+    assert after.n_strides_total == before + 2  # the same strides, fewer of them included
