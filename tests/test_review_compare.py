@@ -97,6 +97,16 @@ def test_compare_sessions_shows_cycles_and_changes(win, qtbot, monkeypatch, tmp_
     assert out.stat().st_size > 1000
 
 
+def test_cancel_stops_a_comparison(win, qtbot, monkeypatch, normal_and_stiff_knee):
+    _pick_files(monkeypatch, normal_and_stiff_knee)
+    win.act["compare_sessions"].trigger()
+    assert win.status.cancel_button.isVisible()  # the status bar's progress, with Cancel
+    qtbot.mouseClick(win.status.cancel_button, Qt.MouseButton.LeftButton)
+    win.comparer.worker.wait_idle(WAIT_MS / 1000)
+    qtbot.wait(200)
+    assert win.comparer.view is None and not win.status.cancel_button.isVisible()
+
+
 @pytest.mark.parametrize("case", ["one", "damaged"])
 def test_compare_problems_are_one_line_in_the_banner(case, win, qtbot, monkeypatch, tmp_path,
                                                      normal_and_stiff_knee):  # fmt: skip

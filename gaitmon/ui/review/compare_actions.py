@@ -42,6 +42,8 @@ class SessionComparer(QObject):
         self.open_file = open_file
         self.worker = QtWorker("review-compare", latest=True, parent=self)
         self.worker.progressed.connect(self._progress)
+        # the status bar's one Cancel stops a comparison or a folder listing too
+        status.cancel_button.clicked.connect(self.worker.cancel)
         self.view: CompareView | None = None
         self.patients: PatientList | None = None
         self._label = ""
