@@ -132,6 +132,7 @@ class SessionResult:
     mean_deg: np.ndarray  # (101, 3) hip / knee / ankle
     sd_deg: np.ndarray  # (101, 3), NaN with fewer than 2 strides
     label: str  # the legend's name for it: date and file (or session number and day)
+    side: str = ""  # the leg measured: "L", "R" or "" (not recorded)
 
     @property
     def n_included(self) -> int:
@@ -250,6 +251,7 @@ class _Analysed:
     values: dict[str, Value]
     mean_deg: np.ndarray
     sd_deg: np.ndarray
+    side: str
 
 
 def _analyse_file(path: Path) -> _Analysed:
@@ -269,6 +271,7 @@ def _analyse_file(path: Path) -> _Analysed:
             cyc = _cycles(an)
             pid, created_utc, duration_s = s.meta.patient_id.strip(), s.created_utc, s.duration_s
             mode, method = s.mode, s.angle_method
+            side = s.meta.side or str(s.device.get("side", ""))  # as the report reads it
     except SessionError as exc:
         raise CompareError(str(exc)) from None
     except _DAMAGE as exc:
@@ -287,7 +290,8 @@ def _analyse_file(path: Path) -> _Analysed:
         )
     mean, sd = cycle_mean_sd(cyc)
     return _Analysed(path, pid, parse_utc(created_utc), created_utc, float(duration_s), mode,
-                     method, len(an.rows), session_values(an, cyc), mean, sd)  # fmt: skip
+                     method, len(an.rows), session_values(an, cyc), mean, sd,
+                     side if side in ("L", "R") else "")  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------
@@ -349,6 +353,14 @@ def _assemble(done: list[_Analysed], deidentify: bool) -> Comparison:
         names = ", ".join(missing) if not deidentify else count(len(missing), "session")
         warnings.append(f"No patient id in {names}: the sessions cannot be checked to be one "
                         "patient's")  # fmt: skip
+    sides = {a.side for a in ordered if a.side}
+    if len(sides) > 1:
+        leg = {"L": "left", "R": "right"}
+        legs = ", ".join(f"{leg.get(a.side, 'not recorded')} "
+                         f"({a.path.name if not deidentify else f'session {k + 1}'})"
+                         for k, a in enumerate(ordered))  # fmt: skip
+        warnings.append(f"The sessions measured different legs: {legs}; a change may be the "
+                        "other leg's")  # fmt: skip
     methods = sorted({a.angle_method for a in ordered})
     if len(methods) > 1:
         warnings.append(
@@ -370,7 +382,7 @@ def _assemble(done: list[_Analysed], deidentify: bool) -> Comparison:
             name, pid = a.path.name, a.patient_id
         sessions.append(SessionResult(
             a.path, name, pid, when, a.created, a.duration_s, a.mode, a.angle_method,
-            a.n_strides_total, a.values, a.mean_deg, a.sd_deg, label))  # fmt: skip
+            a.n_strides_total, a.values, a.mean_deg, a.sd_deg, label, a.side))  # fmt: skip
     if deidentify and patient:
         patient = REDACTED
     return Comparison(tuple(sessions), tuple(warnings), patient, deidentify, len(distinct) > 1)

@@ -111,7 +111,8 @@ def cut_recording(tmp_path_factory) -> pathlib.Path:
 
 def write_simulated_session(path: pathlib.Path, *, pattern: str = "normal", seed: int = 7,
                             n: int = 2500, patient_id: str = "P001",
-                            created_utc: str = "2026-10-01T09:00:00Z") -> pathlib.Path:
+                            created_utc: str = "2026-10-01T09:00:00Z",
+                            side: str = "R") -> pathlib.Path:
     """A raw session of the simulator's ``pattern`` written with SessionWriter from simulated
     counts (so the test chooses its date and patient id): 2 s standing, then walking."""
     import numpy as np
@@ -127,7 +128,7 @@ def write_simulated_session(path: pathlib.Path, *, pattern: str = "normal", seed
     fs = 100.0
     gait = GaitModel(GaitConfig(seed=seed, pattern=pattern, standing_s=2.0))
     counts = simulate(n, gait).counts
-    header = SessionHeader("raw", fs, meta=SessionMeta(patient_id=patient_id, side="R"),
+    header = SessionHeader("raw", fs, meta=SessionMeta(patient_id=patient_id, side=side),
                            config=PipelineConfig(), calibration=Calibration.identity(),
                            created_utc=created_utc)  # fmt: skip
     w = SessionWriter(path, header)

@@ -215,3 +215,13 @@ def test_ranges_excluded_in_review_count_in_the_comparison(normal_and_stiff_knee
     own = own_figures(stiff)  # analyse_session reads the same side file
     assert after.values["n_strides"].n == own["n"] < before
     assert after.n_strides_total == before + 2  # the same strides, fewer of them included
+
+
+def test_sessions_of_different_legs_are_warned(normal_and_stiff_knee, tmp_path):
+    left = write_simulated_session(tmp_path / "left.h5", side="L",
+                                   created_utc="2026-11-20T09:00:00Z")  # fmt: skip
+    c = compare_sessions([normal_and_stiff_knee[0], left])
+    assert [s.side for s in c.sessions] == ["R", "L"]
+    assert any("different legs: right (visit1_normal.h5), left (left.h5)" in w
+               for w in c.warnings)  # fmt: skip
+    assert not compare_sessions(list(normal_and_stiff_knee)).warnings
