@@ -23,6 +23,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("gaitmon.commands.bench", "measure pipeline speed and print the figures"),
     "export": ("gaitmon.commands.export", "export a recorded session to CSV, MATLAB .mat or C3D"),
     "report": ("gaitmon.commands.report", "write the one-page clinical report (PDF) of a session"),
+    "compare": ("gaitmon.commands.compare", "compare sessions of one patient (PDF): cycles, "
+                "measures and changes"),
     "lab": ("gaitmon.commands.lab", "reproduce the papers' filter experiments as reports"),
     "ports": ("gaitmon.commands.ports", "list serial ports a unit could be on"),
     "simulate": ("gaitmon.commands.simulate", "run a simulated gait unit on a pseudo-terminal"),

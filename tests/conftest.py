@@ -107,3 +107,49 @@ def cut_recording(tmp_path_factory) -> pathlib.Path:
                 time.sleep(0.02)
             eng.stop_recording()
     return out
+
+
+def write_simulated_session(path: pathlib.Path, *, pattern: str = "normal", seed: int = 7,
+                            n: int = 2500, patient_id: str = "P001",
+                            created_utc: str = "2026-10-01T09:00:00Z",
+                            side: str = "R") -> pathlib.Path:
+    """A raw session of the simulator's ``pattern`` written with SessionWriter from simulated
+    counts (so the test chooses its date and patient id): 2 s standing, then walking."""
+    import numpy as np
+
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
+    from gaitmon.io.sim import GaitConfig, GaitModel
+    from gaitmon.io.sim.sensors import simulate
+
+    fs = 100.0
+    gait = GaitModel(GaitConfig(seed=seed, pattern=pattern, standing_s=2.0))
+    counts = simulate(n, gait).counts
+    header = SessionHeader("raw", fs, meta=SessionMeta(patient_id=patient_id, side=side),
+                           config=PipelineConfig(), calibration=Calibration.identity(),
+                           created_utc=created_utc)  # fmt: skip
+    w = SessionWriter(path, header)
+    pipe = Pipeline(PipelineConfig())
+    for i in range(0, n, 50):
+        adc = counts[i : i + 50]
+        seq = np.arange(i, i + len(adc), dtype=np.int64)
+        blk = SampleBlock(FrameKind.RAW, seq, seq / fs, 1.7e9,
+                          lost_before=np.zeros(len(adc), np.int64), adc=adc)  # fmt: skip
+        w.append(blk, pipe.process(adc))
+    w.close()
+    return path
+
+
+@pytest.fixture(scope="session")
+def normal_and_stiff_knee(tmp_path_factory) -> tuple[pathlib.Path, pathlib.Path]:
+    """Two sessions of patient P001: normal gait on 2026-10-01, stiff-knee on 2026-11-01
+    (same seed: only the pattern differs). Read-only: copy them before changing them."""
+    d = tmp_path_factory.mktemp("compare")
+    return (
+        write_simulated_session(d / "visit1_normal.h5", pattern="normal"),
+        write_simulated_session(d / "visit2_stiff.h5", pattern="stiff-knee",
+                                created_utc="2026-11-01T09:30:00Z"),
+    )

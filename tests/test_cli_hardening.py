@@ -47,7 +47,7 @@ def test_a_closed_pipe_ends_quietly(rec, tmp_path, command):
 # -- defect 9: one spelling, honest choices, settings that cannot work ------------------------
 
 
-@pytest.mark.parametrize("command", ["record", "export", "report", "process"])
+@pytest.mark.parametrize("command", ["record", "export", "report", "process", "compare"])
 def test_every_writing_command_has_force_and_q(command):
     p = build_parser(command)
     sub = next(a for a in p._actions if isinstance(a.choices, dict)).choices[command]
@@ -56,7 +56,8 @@ def test_every_writing_command_has_force_and_q(command):
     assert "--overwrite" not in helptext  # the old spelling is a hidden alias
     base = {"record": ["--simulate", "--duration", "1", "-o", "x.h5"],
             "export": ["f.h5", "--format", "csv"], "report": ["f.h5", "-o", "r.pdf"],
-            "process": ["f.h5", "-o", "n.h5"]}[command]  # fmt: skip
+            "process": ["f.h5", "-o", "n.h5"],
+            "compare": ["a.h5", "b.h5", "-o", "c.pdf"]}[command]  # fmt: skip
     for spelling in ("--force", "--overwrite"):
         assert p.parse_args([command, *base, spelling, "-q"]).force is True
     assert p.parse_args([command, *base]).force is False

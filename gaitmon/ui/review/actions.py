@@ -47,6 +47,13 @@ A = ActionSpec
 OPEN = A("open", "&Open…", "open_dialog", shortcut="Ctrl+O", tip="Open a recorded session (.h5)")
 CLOSE = A("close", "&Close", "close_document", shortcut="Ctrl+W", tip="Close the session",
           enabled="document")  # fmt: skip
+OPEN_FOLDER = A("open_folder", "Open &folder…", "open_folder_dialog", shortcut="Ctrl+Shift+O",
+                tip="List the recordings of a folder by patient and date, to compare or open")
+COMPARE_SESSIONS = A(
+    "compare_sessions", "Compare &sessions…", "compare_sessions_dialog",
+    shortcut="Ctrl+Shift+C", tip="Pick two or more sessions of a patient: their cycles overlaid "
+    "and their measures side by side, with the changes", requires=("gaitmon.compare",),
+)  # fmt: skip
 EXPORT = A("export", "&Export…", "export_dialog", shortcut="Ctrl+Shift+E",
            tip="Export the session to CSV, MATLAB .mat or C3D", enabled="document",
            requires=("gaitmon.ui.review.export_dialog",))  # fmt: skip
@@ -131,8 +138,8 @@ ABOUT = A("about", "About", "show_about")
 MenuItem = ActionSpec | str | tuple[str, tuple[ActionSpec, ...]]
 ANGLES_MENU = "&Angles"
 MENUS: tuple[tuple[str, tuple[MenuItem, ...]], ...] = (
-    ("&File", (OPEN, RECENT, CLOSE, SEPARATOR, EXPORT, REPORT, SAVE_REPROCESSED, SEPARATOR,
-               QUIT)),
+    ("&File", (OPEN, OPEN_FOLDER, RECENT, CLOSE, SEPARATOR, COMPARE_SESSIONS, SEPARATOR, EXPORT,
+               REPORT, SAVE_REPROCESSED, SEPARATOR, QUIT)),
     ("&View", ((ANGLES_MENU, ANGLES), SEPARATOR, WHOLE, ZOOM_IN, ZOOM_OUT, LEFT, RIGHT, FIT,
                SEPARATOR, *LANES, *METHODS, COMPARE, SEPARATOR, FILTERS)),
     ("&Analysis", (EXCLUDE, INCLUDE, CLEAR_EXCLUSIONS, CLEAR_SELECTION, SEPARATOR, REPROCESS,

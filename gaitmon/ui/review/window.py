@@ -47,6 +47,7 @@ from gaitmon.ui.review.actions import (
     build_menus,
     update_enabled,
 )
+from gaitmon.ui.review.compare_actions import SessionComparer
 from gaitmon.ui.review.cycles import CyclePlots
 from gaitmon.ui.review.jobs import ReviewJobs
 from gaitmon.ui.review.status import StatusArea
@@ -99,6 +100,7 @@ class ReviewWindow(ReviewJobs):
         self.status = StatusArea(self, self.cancel_job)
         self.banner, self.banner_box = self.status.banner, self.status.banner_box
         self._build_central()
+        self.comparer = SessionComparer(self, settings, self.status, self.colours, self.open_file)
         self.act: dict[str, QAction] = build_actions(self)
         self.act_exclude = self.act["exclude"]
         menus = build_menus(self, self.act)
@@ -544,6 +546,12 @@ class ReviewWindow(ReviewJobs):
                 f"Normative band: {bands.label} (source: {bands.source or 'not given'})", 10_000
             )
 
+    def compare_sessions_dialog(self) -> None:  # File ▸ Compare sessions… (compare_actions)
+        self.comparer.compare_dialog()
+
+    def open_folder_dialog(self) -> None:  # File ▸ Open folder…: the patient list
+        self.comparer.folder_dialog()
+
     # -- misc ------------------------------------------------------------------------------------
 
     def show_about(self) -> None:
@@ -563,6 +571,7 @@ class ReviewWindow(ReviewJobs):
         self._closing = True
         if self._filters_window is not None:
             self._filters_window.close()
+        self.comparer.shutdown()
         self.job.stop()
         self.analyser.stop()
         self.angles_job.stop()

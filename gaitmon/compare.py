@@ -1,0 +1,473 @@
+"""Progress across sessions: two or more recordings of one patient side by side (Qt-free).
+
+:func:`compare_sessions` opens each file, analyses it with
+:func:`gaitmon.analysis.analyse_session` (the strides, exclusions and figures of ``gaitmon
+info``, the report and review), orders the sessions by recording date, checks that they are of
+one patient, and gives per session every summary measure the report shows with its
+between-stride SD, and the mean ± SD cycles. For each later session it gives the change from
+the first session (the baseline) and from the one before, judged by ONE rule,
+:func:`judge_change` (``docs/compare.md``):
+
+    a change is *beyond the between-stride variability* when |Δmean| > the pooled
+    between-stride SD of the two sessions, sqrt(((n1 − 1)·SD1² + (n2 − 1)·SD2²) / (n1 + n2 − 2)),
+    each session with at least 2 included strides; otherwise it is not judged.
+
+``gaitmon compare`` draws a :class:`Comparison` as a PDF (``gaitmon.ui.report_pdf.compare``)
+and the review window shows the same one (``gaitmon.ui.review.compare_view``).
+:func:`list_recordings` is the patient list: the recordings of a folder by patient id and date
+with their key measures.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gaitmon.errors import Cancelled, UserError
+from gaitmon.text import count, no_gait_events
+
+if TYPE_CHECKING:
+    from gaitmon.analysis import SessionAnalysis
+
+N_POINTS = 101
+JOINTS: tuple[str, ...] = ("Hip", "Knee", "Ankle")
+REDACTED = "[removed]"
+_CYCLE_CHUNK = 2048  # strides normalised per call (as the report: bounded temporaries)
+# what analysing a damaged file's contents can raise past the reader's checks
+_DAMAGE = (ValueError, IndexError, KeyError, OSError, RuntimeError, ZeroDivisionError,
+           FloatingPointError, OverflowError)  # fmt: skip
+Progress = Callable[[float], bool | None]  # fraction done; False: stop (Cancelled)
+
+
+class CompareError(UserError):
+    """A comparison that cannot be made: one line naming the problem and what to do."""
+
+
+@dataclass(frozen=True)
+class Measure:
+    """One row of the comparison table."""
+
+    key: str
+    label: str
+    unit: str
+    decimals: int
+    judged: bool = True  # False: a count or a ratio with no between-stride SD (never flagged)
+
+
+MEASURES: tuple[Measure, ...] = (
+    Measure("n_strides", "Strides included", "", 0, judged=False),
+    Measure("stride_time", "Stride time", "s", 2),
+    Measure("stride_time_cv", "Stride time CV", "%", 1, judged=False),
+    Measure("cadence", "Cadence (derived)", "steps/min", 0),
+    Measure("stance_pct", "Stance", "% of cycle", 1),
+    Measure("swing_pct", "Swing", "% of cycle", 1),
+    Measure("stance_time", "Stance time", "s", 2),
+    Measure("swing_time", "Swing time", "s", 2),
+    Measure("knee_peak_swing", "Peak knee flexion in swing", "deg", 1),
+    *(Measure(f"rom_{j.lower()}", f"ROM {j.lower()}", "deg", 1) for j in JOINTS),
+    *(Measure(f"max_{j.lower()}", f"Maximum {j.lower()}", "deg", 1) for j in JOINTS),
+    *(Measure(f"min_{j.lower()}", f"Minimum {j.lower()}", "deg", 1) for j in JOINTS),
+)
+MEASURE_BY_KEY = {m.key: m for m in MEASURES}
+RULE_TEXT = (
+    "A change is beyond the between-stride variability when |Δmean| is larger than the pooled "
+    "between-stride SD of the two sessions (each with at least 2 included strides)."
+)
+
+
+@dataclass(frozen=True)
+class Value:
+    """A measure of one session: the value shown, the SD between its strides and how many."""
+
+    mean: float
+    sd: float  # sample SD (n − 1) between the included strides; NaN when undefined
+    n: int
+
+
+@dataclass(frozen=True)
+class Change:
+    """A later session's measure against an earlier one's."""
+
+    delta: float  # later − earlier
+    pooled_sd: float  # NaN when not judged
+    beyond: bool | None  # |delta| > pooled_sd; None: not judged (a count, or < 2 strides)
+
+
+def pooled_sd(a: Value, b: Value) -> float:
+    """The pooled between-stride SD of two sessions (NaN with fewer than 2 strides in one)."""
+    if a.n < 2 or b.n < 2 or not (math.isfinite(a.sd) and math.isfinite(b.sd)):
+        return float("nan")
+    return math.sqrt(((a.n - 1) * a.sd**2 + (b.n - 1) * b.sd**2) / (a.n + b.n - 2))
+
+
+def judge_change(earlier: Value, later: Value, judged: bool = True) -> Change:
+    """THE rule (module doc, docs/compare.md): beyond when |Δmean| > pooled between-stride SD."""
+    delta = later.mean - earlier.mean
+    sd = pooled_sd(earlier, later) if judged else float("nan")
+    beyond = bool(abs(delta) > sd) if math.isfinite(sd) and math.isfinite(delta) else None
+    return Change(delta, sd, beyond)
+
+
+@dataclass(frozen=True, eq=False)
+class SessionResult:
+    """One session of a comparison."""
+
+    path: Path
+    file_name: str  # REDACTED when de-identified
+    patient_id: str  # as recorded ("" when none); REDACTED when de-identified
+    recorded_utc: str  # "2026-11-22 04:10 UTC", "" when unknown, "day 28" when de-identified
+    created: _dt.datetime | None  # the recording's start (ordering)
+    duration_s: float
+    mode: str
+    angle_method: str  # the method behind the angles analysed
+    n_strides_total: int
+    values: dict[str, Value]
+    mean_deg: np.ndarray  # (101, 3) hip / knee / ankle
+    sd_deg: np.ndarray  # (101, 3), NaN with fewer than 2 strides
+    label: str  # the legend's name for it: date and file (or session number and day)
+    side: str = ""  # the leg measured: "L", "R" or "" (not recorded)
+
+    @property
+    def n_included(self) -> int:
+        return self.values["n_strides"].n
+
+    @property
+    def stance_pct(self) -> float:
+        return self.values["stance_pct"].mean
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    sessions: tuple[SessionResult, ...]  # oldest first: sessions[0] is the baseline
+    warnings: tuple[str, ...]  # one line each (patient ids, dates, angle methods)
+    patient_id: str  # the one patient id, or "" when they differ or are missing
+    deidentified: bool = False
+    ids_differ: bool = False  # two or more different patient ids
+
+    @property
+    def who(self) -> str:
+        """Whose sessions, for a title: the patient id, or why there is none."""
+        if self.patient_id:
+            return self.patient_id
+        return "patient ids differ" if self.ids_differ else "no patient ID"
+
+    def change(self, k: int, key: str, since: int = 0) -> Change:
+        """Session ``k``'s change in measure ``key`` from session ``since`` (0: baseline)."""
+        m = MEASURE_BY_KEY[key]
+        return judge_change(self.sessions[since].values[key], self.sessions[k].values[key],
+                            m.judged)  # fmt: skip
+
+    def changes(self, since: str = "baseline") -> list[dict[str, Change]]:
+        """For every later session (1, 2, …), its changes from the baseline or the previous."""
+        return [{m.key: self.change(k, m.key, 0 if since == "baseline" else k - 1)
+                 for m in MEASURES} for k in range(1, len(self.sessions))]  # fmt: skip
+
+    def beyond(self, k: int, since: int = 0) -> list[str]:
+        """The measures of session ``k`` whose change from ``since`` is beyond the rule."""
+        return [m.key for m in MEASURES if self.change(k, m.key, since).beyond]
+
+
+# ------------------------------------------------------------------------------------------
+# one session
+
+
+def _stat(values: Sequence[float] | np.ndarray) -> Value:
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    v = v[np.isfinite(v)]
+    n = len(v)
+    return Value(float(v.mean()) if n else math.nan, float(v.std(ddof=1)) if n > 1 else math.nan,
+                 n)  # fmt: skip
+
+
+def parse_utc(created_utc: str) -> _dt.datetime | None:
+    try:
+        t = _dt.datetime.fromisoformat(created_utc.replace("Z", "+00:00"))
+    except ValueError:
+        return None
+    return t if t.tzinfo else t.replace(tzinfo=_dt.UTC)
+
+
+def format_utc(t: _dt.datetime | None) -> str:
+    return t.astimezone(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC") if t is not None else ""
+
+
+def _cycles(an: SessionAnalysis) -> np.ndarray:
+    from gaitmon.analysis import cycles
+
+    included = [r for r in an.rows if r.included]
+    if an.joints_deg is None or not included:
+        return np.empty((0, N_POINTS, 3))
+    parts = [cycles(an.joints_deg, included[i: i + _CYCLE_CHUNK], N_POINTS)
+             for i in range(0, len(included), _CYCLE_CHUNK)]  # fmt: skip
+    return np.concatenate(parts)
+
+
+def session_values(an: SessionAnalysis, cyc: np.ndarray) -> dict[str, Value]:
+    """Every measure of :data:`MEASURES` from one session's analysis and its cycles."""
+    s = an.summary()
+    inc = [r for r in an.rows if r.included]
+    n = len(inc)
+    stride_t = np.array([r.stride.stride_time_s for r in inc], dtype=np.float64)
+    with np.errstate(divide="ignore"):
+        cadence = 120.0 / stride_t
+    out = {
+        "n_strides": Value(float(s.n_strides), math.nan, s.n_strides),
+        # the summary's own figures are the values shown (as the report), the per-stride SD
+        # is the variability the changes are judged against
+        "stride_time": Value(s.stride_time_mean_s, s.stride_time_sd_s, n),
+        "stride_time_cv": Value(s.stride_time_cv_pct, math.nan, n),
+        "cadence": Value(s.cadence_derived_steps_per_min, _stat(cadence).sd, n),
+        "stance_pct": Value(s.stance_pct_mean, _stat([r.stride.stance_pct for r in inc]).sd, n),
+        "swing_pct": Value(s.swing_pct_mean, _stat([r.stride.swing_pct for r in inc]).sd, n),
+        "stance_time": _stat([r.stride.stance_time_s for r in inc]),
+        "swing_time": _stat([r.stride.swing_time_s for r in inc]),
+        "knee_peak_swing": _stat([r.knee_peak_swing_deg for r in inc]),
+    }
+    for j, name in enumerate(JOINTS):
+        key = name.lower()
+        out[f"rom_{key}"] = _stat([r.rom_deg[j] for r in inc])
+        out[f"max_{key}"] = _stat(cyc[:, :, j].max(axis=1) if len(cyc) else [])
+        out[f"min_{key}"] = _stat(cyc[:, :, j].min(axis=1) if len(cyc) else [])
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class _Analysed:
+    path: Path
+    patient_id: str
+    created: _dt.datetime | None
+    created_utc: str
+    duration_s: float
+    mode: str
+    angle_method: str
+    n_strides_total: int
+    values: dict[str, Value]
+    mean_deg: np.ndarray
+    sd_deg: np.ndarray
+    side: str
+
+
+def _analyse_file(path: Path) -> _Analysed:
+    """Open, analyse, close; CompareError for a file that cannot be compared."""
+    from gaitmon.analysis import analyse_session
+    from gaitmon.dsp.gait import cycle_mean_sd
+    from gaitmon.io.session import SessionError, open_session
+
+    name = path.name
+    if not path.exists():
+        raise CompareError(f"{name} does not exist; check the file name and folder")
+    if path.is_dir():
+        raise CompareError(f"{name} is a folder; give session files (.h5)")
+    try:
+        with open_session(path) as s:
+            an = analyse_session(s)
+            cyc = _cycles(an)
+            pid, created_utc, duration_s = s.meta.patient_id.strip(), s.created_utc, s.duration_s
+            mode, method = s.mode, s.angle_method
+            side = s.meta.side or str(s.device.get("side", ""))  # as the report reads it
+    except SessionError as exc:
+        raise CompareError(str(exc)) from None
+    except _DAMAGE as exc:
+        what = " ".join(str(exc).split())[:160] or type(exc).__name__
+        raise CompareError(
+            f"{name} is damaged and cannot be analysed ({what}); the "
+            "recording's own journal or a backup may hold a good copy"
+        ) from None
+    if no_gait_events(mode):
+        raise CompareError(f"{name}: {no_gait_events(mode)}; compare sessions recorded in raw "
+                           "or joint mode")  # fmt: skip
+    if not any(r.included for r in an.rows):
+        raise CompareError(
+            f"{name} has no stride to compare ({count(len(an.rows), 'stride')}, none included); "
+            "record at least a few steps of walking, or include its excluded ranges in review"
+        )
+    mean, sd = cycle_mean_sd(cyc)
+    return _Analysed(path, pid, parse_utc(created_utc), created_utc, float(duration_s), mode,
+                     method, len(an.rows), session_values(an, cyc), mean, sd,
+                     side if side in ("L", "R") else "")  # fmt: skip
+
+
+# ------------------------------------------------------------------------------------------
+# the comparison
+
+
+def compare_sessions(
+    paths: Sequence[str | os.PathLike[str]],
+    *,
+    deidentify: bool = False,
+    progress: Progress | None = None,
+) -> Comparison:
+    """Compare two or more session files (see the module doc). ``CompareError`` (one line)
+    when they cannot be compared; ``progress(fraction)`` returning False cancels
+    (:class:`gaitmon.errors.Cancelled`)."""
+    files = [Path(p) for p in paths]
+    if len(files) < 2:
+        raise CompareError(
+            f"compare needs two or more sessions, got {len(files)}; give the files to compare "
+            "(e.g. the first visit and the latest)"
+        )
+    seen: dict[Path, str] = {}
+    for f in files:
+        key = f.resolve()
+        if key in seen:
+            raise CompareError(f"{f.name} is given twice; give each session once")
+        seen[key] = f.name
+    done = []
+    for k, f in enumerate(files):
+        done.append(_analyse_file(f))
+        if progress is not None and progress((k + 1) / len(files)) is False:
+            raise Cancelled()
+    return _assemble(done, deidentify)
+
+
+def _assemble(done: list[_Analysed], deidentify: bool) -> Comparison:
+    warnings: list[str] = []
+    undated = [a.path.name for a in done if a.created is None]
+    if undated:
+        warnings.append(f"No recording date in {', '.join(undated)}: placed after the dated "
+                        "sessions, in the order given")  # fmt: skip
+    # stable: sessions of the same minute (or without a date) keep the order given
+    order = sorted(
+        range(len(done)),
+        key=lambda i: (done[i].created is None, done[i].created or _dt.datetime.min, i),
+    )
+    ordered = [done[i] for i in order]
+    ids = [a.patient_id for a in ordered]
+    missing = [a.path.name for a in ordered if not a.patient_id]
+    distinct = sorted({i for i in ids if i})
+    patient = distinct[0] if len(distinct) == 1 and not missing else ""
+    if len(distinct) > 1:
+        listing = ", ".join(f"{a.patient_id or 'none'} ({a.path.name})" for a in ordered)
+        if deidentify:
+            listing = f"{len(distinct)} different ids"
+        warnings.append(f"Patient ids differ: {listing}; check that these are one patient's "
+                        "sessions")  # fmt: skip
+    if missing:
+        names = ", ".join(missing) if not deidentify else count(len(missing), "session")
+        warnings.append(f"No patient id in {names}: the sessions cannot be checked to be one "
+                        "patient's")  # fmt: skip
+    sides = {a.side for a in ordered if a.side}
+    if len(sides) > 1:
+        leg = {"L": "left", "R": "right"}
+        legs = ", ".join(f"{leg.get(a.side, 'not recorded')} "
+                         f"({a.path.name if not deidentify else f'session {k + 1}'})"
+                         for k, a in enumerate(ordered))  # fmt: skip
+        warnings.append(f"The sessions measured different legs: {legs}; a change may be the "
+                        "other leg's")  # fmt: skip
+    methods = sorted({a.angle_method for a in ordered})
+    if len(methods) > 1:
+        warnings.append(
+            "The angles come from different methods ("
+            + "; ".join(methods)
+            + "): part of a change in the joint figures may be the method's"
+        )
+    t0 = ordered[0].created
+    sessions = []
+    for k, a in enumerate(ordered):
+        if deidentify:
+            days = (a.created - t0).total_seconds() / 86400 if a.created and t0 else math.nan
+            when = f"day {days:.0f}" if math.isfinite(days) else "date withheld"
+            label = f"Session {k + 1} ({when})"
+            name, pid = REDACTED, REDACTED if a.patient_id else ""
+        else:
+            when = format_utc(a.created) or a.created_utc or "date unknown"
+            label = f"{format_utc(a.created)[:10] or 'undated'} · {a.path.name}"
+            name, pid = a.path.name, a.patient_id
+        sessions.append(SessionResult(
+            a.path, name, pid, when, a.created, a.duration_s, a.mode, a.angle_method,
+            a.n_strides_total, a.values, a.mean_deg, a.sd_deg, label, a.side))  # fmt: skip
+    if deidentify and patient:
+        patient = REDACTED
+    return Comparison(tuple(sessions), tuple(warnings), patient, deidentify, len(distinct) > 1)
+
+
+# ------------------------------------------------------------------------------------------
+# the patient list
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One recording of a folder, as the patient list shows it."""
+
+    path: Path
+    patient_id: str
+    created: _dt.datetime | None
+    recorded_utc: str
+    duration_s: float
+    mode: str
+    n_strides: int  # included strides
+    cadence_steps_min: float
+    knee_peak_swing_deg: float
+    problem: str = ""  # why it cannot be compared ("" when it can)
+
+
+def list_recordings(folder: str | os.PathLike[str],
+                    progress: Progress | None = None) -> list[Recording]:  # fmt: skip
+    """Every session file (``*.h5``, ``*.hdf5``) of ``folder`` by patient id, then date; a
+    file that cannot be analysed is listed with its problem."""
+    d = Path(folder)
+    if not d.is_dir():
+        raise CompareError(f"{d} is not a folder; pick the folder that holds the recordings")
+    files = sorted(p for p in d.iterdir()
+                   if p.suffix.lower() in (".h5", ".hdf5") and p.is_file())  # fmt: skip
+    out = []
+    for k, f in enumerate(files):
+        out.append(_recording(f))
+        if progress is not None and progress((k + 1) / max(1, len(files))) is False:
+            raise Cancelled()
+    return sorted(
+        out,
+        key=lambda r: (
+            r.patient_id == "",
+            r.patient_id.lower(),
+            r.created or _dt.datetime.max,
+            r.path.name,
+        ),
+    )
+
+
+def _recording(f: Path) -> Recording:
+    try:
+        a = _analyse_file(f)
+    except CompareError as exc:
+        pid, created, mode, dur = _header_only(f)
+        return Recording(f, pid, created, format_utc(created), dur, mode, 0, math.nan, math.nan,
+                         str(exc))  # fmt: skip
+    return Recording(f, a.patient_id, a.created, format_utc(a.created), a.duration_s, a.mode,
+                     a.values["n_strides"].n, a.values["cadence"].mean,
+                     a.values["knee_peak_swing"].mean)  # fmt: skip
+
+
+def _header_only(f: Path) -> tuple[str, _dt.datetime | None, str, float]:
+    """What can be read of a file that cannot be compared (nothing, for a damaged one)."""
+    from gaitmon.io.session import SessionError, open_session
+
+    try:
+        with open_session(f, recover=False) as s:
+            return s.meta.patient_id.strip(), parse_utc(s.created_utc), s.mode, s.duration_s
+    except (SessionError, *_DAMAGE):
+        return "", None, "", math.nan
+
+
+__all__ = [
+    "MEASURES",
+    "RULE_TEXT",
+    "Change",
+    "CompareError",
+    "Comparison",
+    "Measure",
+    "Recording",
+    "SessionResult",
+    "Value",
+    "compare_sessions",
+    "judge_change",
+    "list_recordings",
+    "pooled_sd",
+]
