@@ -63,6 +63,17 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from gaitmon.io.sim.contact import (
+    FLAT_END,
+    FLAT_START,
+    FREE_SPAN,
+    SWING_LIFT_H,
+    FootGeometry,
+    flat_window,
+    hip_over_contact,
+    quintic_hermite,
+    swing_lift,
+)
 from gaitmon.io.sim.patterns import PATTERNS
 
 if TYPE_CHECKING:
@@ -123,7 +134,6 @@ class GaitConfig:
     stride_length_m: float | None = None  # default 0.8 * height
     body_lean_rad: float = -3.0 * DEG  # pelvis leans forward while walking (tilt < 0)
     body_osc_rad: float = 1.5 * DEG
-    hip_bob_m: float = 0.02  # half the peak-to-peak vertical excursion of the hip
 
     def __post_init__(self) -> None:
         if self.pattern not in PATTERNS:
@@ -309,6 +319,20 @@ class KinematicsBlock:
     position_m: np.ndarray  # (N, 4, 2) sensor-point position (F, U); F grows with walking
 
 
+@dataclass(frozen=True)
+class StrideTruth:
+    """True strides (GaitModel.strides): one entry per heel strike that starts a stride."""
+
+    heel_strike_idx: np.ndarray  # (K,) first sample at/after the heel strike
+    stride_length_m: np.ndarray  # (K,) foot sensor's displacement, foot-flat to foot-flat
+    stride_time_s: np.ndarray  # (K,) to the next heel strike
+    foot_clearance_m: np.ndarray  # (K,) sensor's highest point above its foot-flat height
+
+    @property
+    def speed_m_s(self) -> np.ndarray:
+        return self.stride_length_m / self.stride_time_s
+
+
 @dataclass
 class GaitModel:
     """Deterministic gait for a config: any sample range can be evaluated in any order.
@@ -333,6 +357,7 @@ class GaitModel:
         self._stops: list[list[float]] = []
         self._stop_t_s: list[tuple[float, float]] = []
         self._stand_requested = False
+        self.foot = FootGeometry.for_height(cfg.height_m)
 
     # ---- stride schedule -------------------------------------------------------------------
     def _ensure(self, t_max_s: float) -> None:
@@ -435,10 +460,11 @@ class GaitModel:
         return self._stop_t_s[-1][0]
 
     def _reach(self) -> float:
-        """How far back in phase a stop changes the motion: its ramp-out, and the PCHIP slope
-        at the heel strike before it (0.25 before; the interval from the toe off before that,
-        0.65 before)."""
-        return max(self.config.ramp_strides, START_PHASE + (1.0 - TOE_OFF_PHASE))
+        """How far back in phase a stop changes the motion: its ramp-out, seen by the hip
+        before it too (between foot-flats the hip joins the next foot-flat's pose and place,
+        FREE_SPAN ahead), and the PCHIP slope at the heel strike before it (0.25 before; the
+        interval from the toe off before that, 0.65 before)."""
+        return max(self.config.ramp_strides + FREE_SPAN, START_PHASE + 1.0 - TOE_OFF_PHASE)
 
     def walk(self, after_t_s: float) -> None:
         """Walk again (no-op while walking), changing nothing before ``after_t_s``."""
@@ -501,21 +527,28 @@ class GaitModel:
             }
         )
 
-    def _evaluate(self, start: int, stop: int) -> KinematicsBlock:
+    def distance_m(self, phase: np.ndarray) -> np.ndarray:
+        """The distance walked at each normative phase, m: one stride length per cycle once
+        walking, less while the walk ramps in and out of each stop. Heel strike k lands at
+        ``distance_m(k)`` (gaitmon.io.sim.contact)."""
         cfg = self.config
-        idx = np.arange(start, stop, dtype=np.int64)
-        t = idx / cfg.fs_hz
-        p = self.phase_jet(t)
+        p = np.asarray(phase, dtype=np.float64)
+        d = _ramp_integral(p - START_PHASE, cfg.ramp_strides)[0] * cfg.stride_len_m
+        for p_stop, _ in self._stops:
+            d = d - _stop_bump(p - p_stop, cfg.ramp_strides)[1][0] * cfg.stride_len_m
+        return np.asarray(d)
+
+    def _angles(self, p: Jet) -> tuple[Jet, ...]:
+        """(hip, knee, ankle, body, thigh, shank, foot, env) as jets of whatever ``p`` is a jet
+        of: time (evaluate) or the phase itself (d = 1, dd = 0: derivatives w.r.t. phase)."""
+        cfg = self.config
         q = np.mod(p.v, 1.0)
         env = p.compose(*_smoothstep(p.v - START_PHASE, cfg.ramp_strides))
-        hip_f = p.compose(*_ramp_integral(p.v - START_PHASE, cfg.ramp_strides)) * cfg.stride_len_m
         for p_stop, _ in self._stops:
-            # ramp out into the stop and in again after it; the distance walked follows
+            # ramp out into the stop and in again after it
             u = p.v - p_stop
             if np.any(u > -cfg.ramp_strides):
-                bump, dist = _stop_bump(u, cfg.ramp_strides)
-                env = env - p.compose(*bump)
-                hip_f = hip_f - p.compose(*dist) * cfg.stride_len_m
+                env = env - p.compose(*_stop_bump(u, cfg.ramp_strides)[0])
 
         def curve(coeffs: FourierCoeffs) -> Jet:
             f, f1, f2 = fourier_series(coeffs, q)
@@ -529,32 +562,60 @@ class GaitModel:
             base = 5.0 * DEG
             knee_n = (knee_n - base) * (win * (cfg.knee_scale - 1.0) + 1.0) + base
         knee = knee_n * env
-        ankle = curve(ANKLE_COEFFS_DEG) * env
-        w = 4.0 * np.pi
-        osc = _cos_jet(p, q, w, 0.1)
-        body = (osc * cfg.body_osc_rad + cfg.body_lean_rad) * env
+        body = (_cos_jet(p, q, 4.0 * np.pi, 0.1) * cfg.body_osc_rad + cfg.body_lean_rad) * env
         thigh = body + hip
         shank = thigh - knee
-        foot = shank + ankle
+        # the foot lies flat on the ground in mid-stance (contact module); the ankle follows
+        foot = (shank + curve(ANKLE_COEFFS_DEG) * env) * (p.compose(*flat_window(q)) * -1.0 + 1.0)
+        ankle = foot - shank
+        return hip, knee, ankle, body, thigh, shank, foot, env
 
-        # Linkage: hip point moves one stride length per cycle once walking (its speed ramps in
-        # with the envelope, so starting off is not a jolt), with a twice-per-stride bob
-        # (highest at mid-stance q = 0.3 and mid-swing q = 0.8).
-        bob = _cos_jet(p, q, w, 0.3)
-        hip_u = bob * env * cfg.hip_bob_m + (cfg.thigh_m + cfg.shank_m)
-        st, ct = thigh.sin(), thigh.cos()
-        ss, cs = shank.sin(), shank.cos()
-        sf, cf = foot.sin(), foot.cos()
-        knee_f, knee_u = hip_f + st * cfg.thigh_m, hip_u - ct * cfg.thigh_m
-        ankle_f, ankle_u = knee_f + ss * cfg.shank_m, knee_u - cs * cfg.shank_m
-        half_t, half_s = 0.5 * cfg.thigh_m, 0.5 * cfg.shank_m
-        foot_fwd, foot_up = 0.06, 0.03  # board on the dorsum, ahead of and above the ankle
-        points = (
-            (hip_f, hip_u),
-            (hip_f + st * half_t, hip_u - ct * half_t),
-            (knee_f + ss * half_s, knee_u - cs * half_s),
-            (ankle_f + cf * foot_fwd - sf * foot_up, ankle_u + sf * foot_fwd + cf * foot_up),
+    def _hip(self, p: Jet, thigh: Jet, shank: Jet, foot: Jet, env: Jet) -> tuple[Jet, Jet]:
+        """The hip (forward, up): above the flat stance foot at its place while the foot lies
+        flat, a C2 curve in phase from one foot-flat to the next (gaitmon.io.sim.contact)."""
+        cfg, geo = self.config, self.foot
+        s = p.v - FLAT_END
+        kb = np.floor(s)  # the foot-flat the sample is after (or in, when pinned)
+        u = (s - kb) / FREE_SPAN
+        free = u < 1.0
+        k = np.where(free, kb, kb + 1.0)  # the stride whose foot lies flat when pinned
+        hip_f, hip_u = hip_over_contact(
+            self.distance_m(k), thigh, shank, foot, cfg.thigh_m, cfg.shank_m, geo
         )
+        if not free.any():
+            return hip_f, hip_u
+        ks, inv = np.unique(kb[free], return_inverse=True)
+        ends = []
+        for at, contact in ((ks + FLAT_END, ks), (ks + 1.0 + FLAT_START, ks + 1.0)):
+            pj = Jet(at, np.ones_like(at), np.zeros_like(at))
+            _, _, _, _, th, sh, ft, _ = self._angles(pj)
+            ends.append(hip_over_contact(self.distance_m(contact), th, sh, ft,
+                                         cfg.thigh_m, cfg.shank_m, geo))  # fmt: skip
+        out = []
+        pf = Jet(p.v[free], p.d[free], p.dd[free])
+        for axis, pinned in ((0, hip_f), (1, hip_u)):
+            a, b = ends[0][axis], ends[1][axis]
+            sp = FREE_SPAN
+            e = np.stack([a.v, a.d * sp, a.dd * sp**2, b.v, b.d * sp, b.dd * sp**2], axis=1)
+            x, x1, x2 = quintic_hermite(u[free], e[inv])
+            curve = pf.compose(x, x1 / sp, x2 / sp**2)
+            if axis == 1:  # the other leg's mid-stance lifts the hip while this foot swings
+                b0, b1, b2 = swing_lift(u[free])
+                lift = pf.compose(b0, b1 / sp, b2 / sp**2) * Jet(*(j[free] for j in env))
+                curve = curve + lift * (SWING_LIFT_H * cfg.height_m)
+            full = Jet(pinned.v.copy(), pinned.d.copy(), pinned.dd.copy())
+            for arr, part in zip(full, curve, strict=True):
+                arr[free] = part
+            out.append(full)
+        return out[0], out[1]
+
+    def _evaluate(self, start: int, stop: int) -> KinematicsBlock:
+        cfg = self.config
+        idx = np.arange(start, stop, dtype=np.int64)
+        t = idx / cfg.fs_hz
+        p = self.phase_jet(t)
+        hip, knee, ankle, body, thigh, shank, foot, env = self._angles(p)
+        points = self._points(p, thigh, shank, foot, env)
         lin_acc = np.stack([np.stack([pf.dd, pu.dd], axis=-1) for pf, pu in points], axis=1)
         pos = np.stack([np.stack([pf.v, pu.v], axis=-1) for pf, pu in points], axis=1)
         tilts = (body, thigh, shank, foot)
@@ -569,4 +630,51 @@ class GaitModel:
             rate_rad_s=np.stack([j.d for j in tilts], axis=-1),
             lin_acc_ms2=lin_acc,
             position_m=pos,
+        )
+
+    def _points(
+        self, p: Jet, thigh: Jet, shank: Jet, foot: Jet, env: Jet
+    ) -> tuple[tuple[Jet, Jet], ...]:
+        """(forward, up) of the four sensor points: body at the hip, thigh and shank boards at
+        mid-segment, the foot board on the dorsum."""
+        cfg, geo = self.config, self.foot
+        hip_f, hip_u = self._hip(p, thigh, shank, foot, env)
+        st, ct = thigh.sin(), thigh.cos()
+        ss, cs = shank.sin(), shank.cos()
+        sf, cf = foot.sin(), foot.cos()
+        knee_f, knee_u = hip_f + st * cfg.thigh_m, hip_u - ct * cfg.thigh_m
+        ankle_f, ankle_u = knee_f + ss * cfg.shank_m, knee_u - cs * cfg.shank_m
+        half_t, half_s = 0.5 * cfg.thigh_m, 0.5 * cfg.shank_m
+        fwd, up = geo.sensor_fwd_m, geo.sensor_up_m
+        return (
+            (hip_f, hip_u),
+            (hip_f + st * half_t, hip_u - ct * half_t),
+            (knee_f + ss * half_s, knee_u - cs * half_s),
+            (ankle_f + cf * fwd - sf * up, ankle_u + sf * fwd + cf * up),
+        )
+
+    # ---- truth per stride ---------------------------------------------------------------------
+    def strides(self, start: int, stop: int) -> StrideTruth:
+        """The true strides that start (heel strike) in samples [start, stop): stride k runs
+        from heel strike k to k + 1; its length is the foot sensor's forward displacement from
+        one foot-flat to the next (= where heel strike k + 1 landed minus where k did), its
+        clearance the sensor's highest point over that interval above its foot-flat height."""
+        fs = self.config.fs_hz
+        self._ensure(stop / fs + 3.0 * self.config.stride_s)
+        i = np.ceil(self._hs_times * fs - 1e-9).astype(np.int64)
+        keep = (i >= start) & (i < stop)
+        k = np.flatnonzero(keep).astype(np.float64) + 1.0  # heel strike j is phase j + 1
+        length = self.distance_m(k + 1.0) - self.distance_m(k)
+        grid = np.linspace(FLAT_START, 1.0 + FLAT_START, 201)
+        pv = (k[:, None] + grid[None, :]).ravel()
+        pj = Jet(pv, np.ones_like(pv), np.zeros_like(pv))
+        _, _, _, _, th, sh, ft, en = self._angles(pj)
+        up = self._points(pj, th, sh, ft, en)[3][1].v.reshape(len(k), len(grid))
+        clearance = up.max(axis=1, initial=-np.inf) - self.foot.flat_sensor_height_m
+        t_next = np.interp(k + 1.0, np.arange(1, len(self._hs_times) + 1), self._hs_times)
+        return StrideTruth(
+            heel_strike_idx=i[keep],
+            stride_length_m=length,
+            stride_time_s=t_next - self._hs_times[keep],
+            foot_clearance_m=clearance,
         )
