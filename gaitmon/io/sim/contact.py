@@ -129,7 +129,12 @@ def quintic_hermite(u: np.ndarray, ends: np.ndarray) -> Triple:
 
 
 def hip_over_contact(
-    heel_f_m: np.ndarray, thigh: Jet, shank: Jet, foot: Jet, thigh_m: float, shank_m: float,
+    heel_f_m: np.ndarray,
+    thigh: Jet,
+    shank: Jet,
+    foot: Jet,
+    thigh_m: float,
+    shank_m: float,
     geo: FootGeometry,
 ) -> tuple[Jet, Jet]:
     """Hip (forward, up) for a foot whose heel lies on the ground at forward position
