@@ -53,6 +53,12 @@ A segment with tilt th has its board x axis (up along the segment) along (-sin t
 z axis (forward) along (cos th, sin th). Thigh and shank run from their proximal joint down along
 (sin th, -cos th); the foot points forward along (cos th, sin th). Segment lengths are Winter's
 anthropometric fractions of body height (thigh 0.245 H, shank 0.246 H).
+
+Forward progression (``gaitmon.io.sim.contact``): the foot lies flat and still on the ground in
+mid-stance (its tilt blended to 0 there), the hip stands on the linkage above it, and between
+foot-flats the hip follows a C2 curve to the next one, which lies a stride length ahead
+(``GaitConfig.stride_length_m``, default 0.8 H; speed = stride length x cadence / 120).
+``GaitModel.strides`` gives the true stride lengths, times and foot clearances.
 """
 
 from __future__ import annotations
