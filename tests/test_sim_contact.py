@@ -124,3 +124,13 @@ def test_impacts_and_tissue_slides_leave_no_net_velocity():
     assert np.abs(diff).max() > 20.0  # the impacts are there
     fine = np.abs(np.sum(diff[600:], axis=0)) / FS  # summed over ~20 heel strikes, m/s
     assert fine.max() < 0.05
+
+
+def test_a_stride_length_the_angles_cannot_walk_is_refused():
+    # the normative joint angles do not shrink with the stride: a 0.5 m stride would have the
+    # hip step back between foot-flats
+    with pytest.raises(ValueError, match="stride length"):
+        GaitConfig(stride_length_m=0.5)
+    with pytest.raises(ValueError, match="stride length"):
+        GaitConfig(stride_length_m=2.5)
+    GaitConfig(stride_length_m=0.7)  # the shortest that still walks forward (1.70 m tall)

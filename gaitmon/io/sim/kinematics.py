@@ -137,7 +137,7 @@ class GaitConfig:
     standing_s: float = 5.0
     ramp_strides: float = 1.0
     height_m: float = 1.70
-    stride_length_m: float | None = None  # default 0.8 * height
+    stride_length_m: float | None = None  # default 0.8 * height; 0.4 .. 1.2 * height
     body_lean_rad: float = -3.0 * DEG  # pelvis leans forward while walking (tilt < 0)
     body_osc_rad: float = 1.5 * DEG
 
@@ -152,6 +152,12 @@ class GaitConfig:
             raise ValueError(f"stride CV {self.stride_cv} is outside 0..0.2")
         if not 0.4 <= self.stance_frac <= 0.85:
             raise ValueError(f"stance fraction {self.stance_frac} is outside 0.4..0.85")
+        if not 0.4 <= self.stride_len_m / self.height_m <= 1.2:
+            # the joint angles do not shrink with the stride: shorter ones would walk backwards
+            raise ValueError(
+                f"stride length {self.stride_len_m} m is outside 0.4..1.2 x height "
+                f"({0.4 * self.height_m:.2f}..{1.2 * self.height_m:.2f} m)"
+            )
         if self.fs_hz <= 0 or self.standing_s < 0 or self.ramp_strides <= 0:
             raise ValueError("fs_hz and ramp_strides must be > 0 and standing_s >= 0")
 
