@@ -370,6 +370,7 @@ class GaitModel:
         self._stop_t_s: list[tuple[float, float]] = []
         self._stand_requested = False
         self.foot = FootGeometry.for_height(cfg.height_m)
+        self._ends_cache: dict[float, np.ndarray] = {}  # _free_ends, per foot-flat
 
     # ---- stride schedule -------------------------------------------------------------------
     def _ensure(self, t_max_s: float) -> None:
@@ -410,6 +411,7 @@ class GaitModel:
             t_all = np.concatenate([[-1.0], t_all])
             p_all = np.concatenate([[START_PHASE], p_all])
         self._stop_t_s = []
+        self._ends_cache.clear()  # the stops may have changed: the hip's curves with them
         if self._stops:
             t_all, p_all = self._insert_stops(t_all, p_all)
             self._hs_times = np.interp(np.arange(1, len(hs) + 1), p_all, t_all)
@@ -597,18 +599,12 @@ class GaitModel:
         if not free.any():
             return hip_f, hip_u
         ks, inv = np.unique(kb[free], return_inverse=True)
-        ends = []
-        for at, contact in ((ks + FLAT_END, ks), (ks + 1.0 + FLAT_START, ks + 1.0)):
-            pj = Jet(at, np.ones_like(at), np.zeros_like(at))
-            _, _, _, _, th, sh, ft, _ = self._angles(pj)
-            ends.append(hip_over_contact(self.distance_m(contact), th, sh, ft,
-                                         cfg.thigh_m, cfg.shank_m, geo))  # fmt: skip
+        ends = self._free_ends(ks)  # (K, 2 axes, 6)
         out = []
         pf = Jet(p.v[free], p.d[free], p.dd[free])
+        sp = FREE_SPAN
         for axis, pinned in ((0, hip_f), (1, hip_u)):
-            a, b = ends[0][axis], ends[1][axis]
-            sp = FREE_SPAN
-            e = np.stack([a.v, a.d * sp, a.dd * sp**2, b.v, b.d * sp, b.dd * sp**2], axis=1)
+            e = ends[:, axis, :]
             x, x1, x2 = quintic_hermite(u[free], e[inv])
             curve = pf.compose(x, x1 / sp, x2 / sp**2)
             if axis == 1:  # the other leg's mid-stance lifts the hip while this foot swings
@@ -620,6 +616,29 @@ class GaitModel:
                 arr[free] = part
             out.append(full)
         return out[0], out[1]
+
+    def _free_ends(self, ks: np.ndarray) -> np.ndarray:
+        """(K, 2, 6): for the curve after foot-flat k, the hip (forward, up) at both ends and
+        its first two derivatives w.r.t. the curve's own parameter (quintic_hermite's ends).
+        Cached per k: it depends on the phase and the stops only (_rebuild clears it)."""
+        missing = np.array([k for k in ks if k not in self._ends_cache])
+        if len(missing):
+            cfg, geo, sp = self.config, self.foot, FREE_SPAN
+            ends = []
+            for at, contact in ((missing + FLAT_END, missing),
+                                (missing + 1.0 + FLAT_START, missing + 1.0)):  # fmt: skip
+                pj = Jet(at, np.ones_like(at), np.zeros_like(at))
+                _, _, _, _, th, sh, ft, _ = self._angles(pj)
+                ends.append(hip_over_contact(self.distance_m(contact), th, sh, ft,
+                                             cfg.thigh_m, cfg.shank_m, geo))  # fmt: skip
+            per_axis = [
+                np.stack([a.v, a.d * sp, a.dd * sp**2, b.v, b.d * sp, b.dd * sp**2], axis=1)
+                for a, b in zip(ends[0], ends[1], strict=True)
+            ]
+            both = np.stack(per_axis, axis=1)
+            for k, row in zip(missing, both, strict=True):
+                self._ends_cache[float(k)] = row
+        return np.stack([self._ends_cache[float(k)] for k in ks])
 
     def _evaluate(self, start: int, stop: int) -> KinematicsBlock:
         cfg = self.config

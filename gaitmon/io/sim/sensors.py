@@ -44,6 +44,7 @@ truth of its events, is the subject's.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -175,6 +176,7 @@ def _ring_acc(t_s: np.ndarray, freq_hz: float, decay_s: float) -> np.ndarray:
     return np.asarray(f * (lam * lam * g - 2.0 * lam * g1 + g2))
 
 
+@functools.lru_cache(maxsize=16)
 def _ring_peak(freq_hz: float, decay_s: float) -> float:
     t = np.linspace(0.0, 8.0 * decay_s, 4001)
     return float(np.max(np.abs(_ring_acc(t, freq_hz, decay_s))))
