@@ -134,3 +134,24 @@ def test_a_stride_length_the_angles_cannot_walk_is_refused():
     with pytest.raises(ValueError, match="stride length"):
         GaitConfig(stride_length_m=2.5)
     GaitConfig(stride_length_m=0.7)  # the shortest that still walks forward (1.70 m tall)
+
+
+def test_the_motion_does_not_depend_on_how_it_is_asked_for():
+    """The hip's curves are cached per foot-flat: any chunking and order, and a stop asked for
+    mid-walk, give the same positions and accelerations as one evaluation."""
+    whole = GaitModel(GaitConfig(seed=4)).evaluate(0, 6000)
+    model = GaitModel(GaitConfig(seed=4))
+    later = model.evaluate(4000, 6000)  # the end first
+    pieces = [model.evaluate(a, min(a + 333, 4000)) for a in range(0, 4000, 333)]
+    for name in ("position_m", "lin_acc_ms2"):
+        got = np.concatenate([getattr(p, name) for p in pieces] + [getattr(later, name)])
+        np.testing.assert_array_equal(got, getattr(whole, name))
+    # a stop changes nothing already produced, and the stopped foot stands where it was flat
+    ref = GaitModel(GaitConfig(seed=4, standing_s=1.0))
+    g = GaitModel(GaitConfig(seed=4, standing_s=1.0))
+    before = g.evaluate(0, 800)
+    t_stand = g.stand(8.0)
+    np.testing.assert_array_equal(g.evaluate(0, 800).position_m, ref.evaluate(0, 800).position_m)
+    np.testing.assert_array_equal(before.lin_acc_ms2, ref.evaluate(0, 800).lin_acc_ms2)
+    stood = g.evaluate(int(np.ceil(t_stand * FS)), int(np.ceil(t_stand * FS)) + 200)
+    assert np.all(stood.lin_acc_ms2 == 0) and np.ptp(stood.position_m, axis=0).max() == 0
