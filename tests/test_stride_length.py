@@ -162,6 +162,29 @@ def test_stride_length_and_speed_within_3_percent_of_the_simulator_truth(name):
     np.testing.assert_array_equal(live, m.stride_length_m)
 
 
+def test_a_stop_mid_walk_gives_no_speed_for_its_stride_and_leaves_the_others_right():
+    from gaitmon.io.sim.sensors import SensorModel
+
+    gait = GaitModel(GaitConfig(seed=5))
+    sensors = SensorModel(gait, realistic_sensors(5))
+    blocks = [sensors.next_block(2500)]
+    gait.stand(25.0)  # stops within ~3 strides, at mid-stance
+    blocks.append(sensors.next_block(800))
+    gait.walk(sensors.position / FS + 2.0)
+    blocks.append(sensors.next_block(2500))
+    ph = DEFAULT_TABLE.to_physical(np.concatenate([b.counts for b in blocks]))
+    gy = ph[:, GYRO_IDX[3]] - ph[100:450, GYRO_IDX[3]].mean()
+    hs, _ = gyro_gait_events(gy, FS)
+    m = stride_measures(ph[:, ACC_X_IDX[3]], ph[:, ACC_Z_IDX[3]], gy, FS, hs)
+    stopped = m.stride_time_s > 3.0
+    assert stopped.sum() == 1 and np.isnan(m.stride_length_m[stopped]).all()
+    est, true, _, _ = _matched(m, gait.strides(0, len(gy)))
+    ok = np.isfinite(est)
+    assert len(est) >= 30 and (~ok).sum() <= 1  # only the stride that stood
+    assert np.max(np.abs(est[ok] - true[ok]) / true[ok]) < 0.03  # into and out of the stop too
+    assert true[ok].min() < 0.8 * true[ok].max()  # ... which are shorter: the walk ramps
+
+
 def test_foot_clearance_follows_the_simulator_truth():
     gait, ax, az, gy = _simulated({}, seed=22)
     truth = gait.strides(0, len(gy))
