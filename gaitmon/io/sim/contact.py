@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from gaitmon.io.sim.kinematics import Jet
+    from gaitmon.io.sim.jets import Jet
 
 FLAT_RAMP_IN = (0.0, 0.14)  # foot-flat ramps in over this part of the cycle ...
 FLAT_RAMP_OUT = (0.36, 0.42)  # ... and out over this one (heel rise)
