@@ -4,7 +4,7 @@ shared recordings when present)."""
 import numpy as np
 
 from gaitmon.cli import main
-from gaitmon.lab.accuracy import LABELS, evaluate, format_table
+from gaitmon.lab.accuracy import LABELS, STRIDE_SCENARIOS, evaluate, format_table
 
 
 def test_quick_evaluation_ranks_the_methods_and_meets_the_event_goals():
@@ -17,6 +17,15 @@ def test_quick_evaluation_ranks_the_methods_and_meets_the_event_goals():
     assert all(v <= 5 for v in acc.fault_strides.values())
     table = format_table(acc)
     assert all(label in table for label in LABELS.values())
+    # stride length and speed against the simulator's true strides, live and offline
+    assert set(acc.stride_err_pct) == set(STRIDE_SCENARIOS)
+    for per in acc.stride_err_pct.values():
+        for kind in ("length", "speed"):
+            for mode in ("live", "offline"):
+                e = per[kind][mode]
+                assert len(e) >= 25 and np.isfinite(e).mean() > 0.95
+                assert np.nanmedian(e) <= 3.0
+    assert "simulator stride length |error|" in table and "gait speed" in table
 
 
 def test_command_prints_the_table_and_writes_it(tmp_path, capsys, shared_data):
@@ -24,6 +33,7 @@ def test_command_prints_the_table_and_writes_it(tmp_path, capsys, shared_data):
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "Kalman (paper, seed 000)" in out and "BROAD" in out and "strides until flagged" in out
+    assert "stride length |error|" in out
     assert "gait-aware" in (tmp_path / "accuracy.md").read_text()
 
 

@@ -66,9 +66,12 @@ def test_gyro_integrates_to_the_true_tilt_change_minus_bias():
     integ = np.concatenate([np.zeros((1, 4)), np.cumsum(0.5 * (rate[1:] + rate[:-1]) / FS, axis=0)])
     err = integ - (true_tilt[walk] - true_tilt[walk][0])
     assert np.max(np.abs(err)) < np.deg2rad(0.5)
-    # Without subtracting the bias the integral drifts by the bias times the time.
-    raw = np.cumsum(phys[walk][:, GYRO_IDX], axis=0)[-1] / FS
-    expected_drift = block.gyro_bias_rad_s[walk].sum(axis=0) / FS
+    # Without subtracting the bias the integral drifts by the bias times the time (trapezoid
+    # rule: a plain sum is off by half the last sample's rate, up to ~1 deg on the foot).
+    r = phys[walk][:, GYRO_IDX]
+    raw = 0.5 * (r[1:] + r[:-1]).sum(axis=0) / FS
+    b = block.gyro_bias_rad_s[walk]
+    expected_drift = 0.5 * (b[1:] + b[:-1]).sum(axis=0) / FS
     assert np.all(np.abs(expected_drift) > np.deg2rad(5.0))  # biases are big enough to matter
     np.testing.assert_allclose(
         raw - (true_tilt[-1] - true_tilt[walk][0]), expected_drift, atol=np.deg2rad(1.0)

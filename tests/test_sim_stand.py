@@ -102,7 +102,7 @@ def stand_and_walk(dev: Device, unit: SimulatedUnit) -> None:
     assert gyro_rms(walking) > WALK_GYRO_RMS and not can_zero(walking)
     unit.stand_still()
     assert unit.standing
-    take(dev, 3.0)  # stops within a couple of strides
+    take(dev, 4.0)  # stops within three strides (the hip looks ahead to the next foot-flat)
     standing = take(dev, 2.0)
     assert gyro_rms(standing) < 0.05 and can_zero(standing)  # the segment gyros go quiet
     unit.walk()

@@ -16,7 +16,13 @@ Kalman (live, the pipeline's default) and the gait-aware RTS smoother (offline).
 * events: the foot-gyro heel strikes against the simulator's true contacts (median and 95th
   percentile of |error|), beside the FSR detector's; gaitpdb has no gyro, so it cannot judge them;
 * FSR faults: a heel sensor that dies and a toe sensor that sticks loaded 30 s into a walk; the
-  number of true strides from the failure until the pipeline's flag is known.
+  number of true strides from the failure until the pipeline's flag is known;
+* stride length and gait speed (gaitmon.dsp.stride_length, the foot IMU with zero-velocity
+  updates) against the simulator's true strides, on normal, slow (85 steps/min, 1.0 m strides)
+  and stiff-knee (1.1 m) walking with the realistic sensors: offline on the whole record with
+  the foot-gyro heel strikes, live with the streaming tracker fed block by block with the
+  pipeline's own heel strikes (the FSRs). Median and 95th percentile of |error| over strides
+  after the ramp-in, in %.
 """
 
 from __future__ import annotations
@@ -48,6 +54,12 @@ SCENARIOS: dict[str, tuple[dict[str, Any], bool]] = {
     "long-stance": ({"pattern": "long-stance", "cadence_steps_min": 95.0}, False),
     "turns every 12 s": ({}, True),
 }
+# name -> GaitConfig options of the stride-length judges (each its own stride length)
+STRIDE_SCENARIOS: dict[str, dict[str, Any]] = {
+    "normal": {},
+    "slow (85 steps/min, 1.0 m)": {"cadence_steps_min": 85.0, "stride_length_m": 1.0},
+    "stiff-knee (1.1 m)": {"pattern": "stiff-knee", "stride_length_m": 1.1},
+}
 BROAD_TRIALS = (
     "02_undisturbed_slow_rotation_B",
     "07_undisturbed_fast_rotation_B",
@@ -68,6 +80,8 @@ class Accuracy:
     broad_rmse_deg: dict[str, dict[str, float]] = field(default_factory=dict)  # trial, method
     hs_err_ms: dict[str, np.ndarray] = field(default_factory=dict)  # gyro | fsr -> |errors|
     fault_strides: dict[str, float] = field(default_factory=dict)  # case -> strides (inf = never)
+    # scenario -> "length" | "speed" -> "live" | "offline" -> |error| per stride, %
+    stride_err_pct: dict[str, dict[str, dict[str, np.ndarray]]] = field(default_factory=dict)
 
     def mean_joint(self, method: str, scenarios: list[str] | None = None) -> np.ndarray:
         names = scenarios or list(self.joint_rmse_deg)
@@ -176,6 +190,62 @@ def _faults(gait: Any, counts: np.ndarray, cal: Calibration, n: int, acc: Accura
         acc.fault_strides[case] = float(np.sum((true_hs > onset) & (true_hs <= known)))
 
 
+def match_strides(
+    start_idx: np.ndarray, length_m: np.ndarray, speed_m_s: np.ndarray, truth: Any,
+    after: int = SKIP, tolerance: int = 5,
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """|error| in % of stride length and speed of the estimated strides whose opening and closing
+    heel strikes both lie within ``tolerance`` samples of a true stride's (``truth``: a
+    gaitmon.io.sim.kinematics.StrideTruth), after sample ``after``."""
+    t_hs = truth.heel_strike_idx
+    if len(t_hs) == 0 or len(start_idx) == 0:
+        return np.empty(0), np.empty(0)
+    j = np.clip(np.searchsorted(t_hs, start_idx - tolerance), 0, len(t_hs) - 1)
+    ok = (np.abs(t_hs[j] - start_idx) <= tolerance) & (start_idx > after)
+    # the same stride: its time agrees too (a missed heel strike would double it)
+    est_time = length_m / speed_m_s
+    ok &= np.abs(est_time - truth.stride_time_s[j]) * FS <= 2 * tolerance
+    t_len, t_speed = truth.stride_length_m[j[ok]], truth.speed_m_s[j[ok]]
+    return (np.abs(length_m[ok] - t_len) / t_len * 100.0,
+            np.abs(speed_m_s[ok] - t_speed) / t_speed * 100.0)  # fmt: skip
+
+
+def _strides(n: int, seed: int, acc: Accuracy) -> None:
+    from gaitmon.dsp.gyro_events import gyro_gait_events
+    from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.dsp.stride_length import StrideLengthTracker, stride_measures
+    from gaitmon.io.sim import GaitConfig, GaitModel
+    from gaitmon.io.sim.sensors import realistic_sensors, simulate
+
+    for i, (name, opts) in enumerate(STRIDE_SCENARIOS.items()):
+        gait = GaitModel(GaitConfig(seed=seed + i, **opts))
+        sb = simulate(n, gait, realistic_sensors(seed + i))
+        cal = _calibrate(sb.counts)
+        ph = DEFAULT_TABLE.to_physical(sb.counts)
+        ax, az = ph[:, ACC_X_IDX[3]], ph[:, ACC_Z_IDX[3]]
+        gyro = cal.apply_gyro(ph[:, GYRO_IDX])[:, 3]
+        truth = gait.strides(0, n)
+        out: dict[str, dict[str, np.ndarray]] = {"length": {}, "speed": {}}
+        # offline: the whole record, the foot-gyro heel strikes
+        hs, _ = gyro_gait_events(gyro, FS)
+        m = stride_measures(ax, az, gyro, FS, hs)
+        out["length"]["offline"], out["speed"]["offline"] = match_strides(
+            m.heel_strike_idx, m.stride_length_m, m.speed_m_s, truth
+        )
+        # live: 10-sample blocks, each heel strike handed over when the pipeline confirmed it
+        live_hs = Pipeline(calibration=cal).process(sb.counts).heel_strike_idx
+        tracker = StrideLengthTracker(FS)
+        parts = []
+        for a in range(0, n, 10):
+            b = min(a + 10, n)
+            parts.append(tracker.push(ax[a:b], az[a:b], gyro[a:b], live_hs[live_hs + 8 < b]))
+        starts = np.concatenate([p.heel_strike_idx for p in parts])
+        length = np.concatenate([p.stride_length_m for p in parts])
+        speed = np.concatenate([p.speed_m_s for p in parts])
+        out["length"]["live"], out["speed"]["live"] = match_strides(starts, length, speed, truth)
+        acc.stride_err_pct[name] = out
+
+
 def _broad(root: Path, acc: Accuracy) -> None:
     import h5py
     from scipy import signal
@@ -238,6 +308,8 @@ def evaluate(
         _events(gait, sb.counts, cal, n, acc)
         if name == "normal":
             _faults(gait, sb.counts, cal, n, acc)
+    progress("stride length and speed")
+    _strides(n + 2000, seed, acc)
     if data_dir is not None and (data_dir / "broad").is_dir():
         progress("BROAD recordings")
         _broad(data_dir, acc)
@@ -291,7 +363,24 @@ def table_rows(acc: Accuracy) -> list[tuple[str, str, str, str, str]]:
     for case, strides in acc.fault_strides.items():
         rows.append((f"FSR fault ({case}): strides until flagged", "", _f(strides, 0), "",
                      "≤ 5"))  # fmt: skip
+    if acc.stride_err_pct:
+        names = " / ".join(acc.stride_err_pct)
+        for kind, label in (("length", "stride length"), ("speed", "gait speed")):
+
+            def cell(mode: str, kind: str = kind) -> str:
+                return " / ".join(_median_p95(v[kind][mode]) for v in acc.stride_err_pct.values())
+
+            rows.append((
+                f"simulator {label} |error| median (p95) over strides, % ({names}); "
+                "live: streamed, the pipeline's heel strikes; offline: whole record, foot gyro",
+                "", cell("live"), cell("offline"), "≤ 3 median",
+            ))  # fmt: skip
     return rows
+
+
+def _median_p95(e: np.ndarray) -> str:
+    e = e[np.isfinite(e)]
+    return "–" if len(e) == 0 else f"{np.median(e):.1f} ({np.percentile(e, 95):.1f})"
 
 
 def format_table(acc: Accuracy) -> str:
@@ -309,6 +398,19 @@ def format_table(acc: Accuracy) -> str:
             for m in METHODS
         ]
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    if acc.stride_err_pct:
+        lines += ["", "Per scenario, stride length and gait speed |error|, % of the truth: median "
+                  "(p95); strides with a value / strides matched to a true one:", "",
+                  "| scenario | length, live | length, offline | speed, live | speed, offline |",
+                  "|---|---|---|---|---|"]  # fmt: skip
+        for name, stride in acc.stride_err_pct.items():
+            cells = []
+            for kind in ("length", "speed"):
+                for mode in ("live", "offline"):
+                    e = stride[kind][mode]
+                    n_ok = int(np.isfinite(e).sum())
+                    cells.append(f"{_median_p95(e)}; {n_ok}/{len(e)}")
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

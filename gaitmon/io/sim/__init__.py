@@ -1,6 +1,8 @@
 """The simulated gait unit: true gait motion, sensor model, byte-level device and pty transport.
 
 * ``kinematics`` -- normative sagittal gait (hip/knee/ankle, segment tilts, sensor-point motion);
+* ``contact``    -- the foot on the ground: foot-flat, the hip above it, where each stride lands;
+* ``jets``       -- values with their time derivatives, and the gait's curves built from them;
 * ``sensors``    -- the 14 ADC channels in counts (gravity, linear acceleration, impacts, gyro
   bias/drift, mounting offsets, FSR loading, noise, 12-bit quantisation);
 * ``unit``       -- ``SimulatedUnit``: speaks ``gaitmon.io.protocol`` through ``write``/``read``,

@@ -36,8 +36,8 @@ toe-off knot at ``stance_fraction`` of each stride's duration stretches stance a
 (the long-stance pattern) without touching the curves; stride durations are drawn per stride
 with the configured CV. The subject stands still (p constant at mid-stance, all joint angles 0)
 for ``standing_s``, then the angles ramp in over ``ramp_strides`` strides. Every quantity is carried
-with its first and second time derivative (a small forward-mode "jet"), so rates and linear
-accelerations are analytic, not numerical.
+with its first and second time derivative (a small forward-mode "jet", ``jets.py``), so rates
+and linear accelerations are analytic, not numerical.
 
 Standing still on request (``GaitModel.stand`` / ``walk``, the simulator's stand-still command):
 the subject slows over one stride (the angles ramp out as they ramped in) and stops at the next
@@ -53,16 +53,43 @@ A segment with tilt th has its board x axis (up along the segment) along (-sin t
 z axis (forward) along (cos th, sin th). Thigh and shank run from their proximal joint down along
 (sin th, -cos th); the foot points forward along (cos th, sin th). Segment lengths are Winter's
 anthropometric fractions of body height (thigh 0.245 H, shank 0.246 H).
+
+Forward progression (``gaitmon.io.sim.contact``): the foot lies flat and still on the ground in
+mid-stance (its tilt blended to 0 there), the hip stands on the linkage above it, and between
+foot-flats the hip follows a C2 curve to the next one, which lies a stride length ahead
+(``GaitConfig.stride_length_m``, default 0.8 H; speed = stride length x cadence / 120).
+``GaitModel.strides`` gives the true stride lengths, times and foot clearances.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gaitmon.io.sim.contact import (
+    FLAT_END,
+    FLAT_START,
+    FREE_SPAN,
+    SWING_LIFT_H,
+    FootGeometry,
+    flat_window,
+    hip_over_contact,
+    quintic_hermite,
+    swing_lift,
+)
+from gaitmon.io.sim.jets import (
+    FourierCoeffs,
+    Jet,
+    _cos_jet,
+    _ramp_integral,
+    _smoothstep,
+    _stop_bump,
+    _swing_window,
+    fourier_series,
+)
 from gaitmon.io.sim.patterns import PATTERNS
 
 if TYPE_CHECKING:
@@ -120,10 +147,9 @@ class GaitConfig:
     standing_s: float = 5.0
     ramp_strides: float = 1.0
     height_m: float = 1.70
-    stride_length_m: float | None = None  # default 0.8 * height
+    stride_length_m: float | None = None  # default 0.8 * height; 0.4 .. 1.2 * height
     body_lean_rad: float = -3.0 * DEG  # pelvis leans forward while walking (tilt < 0)
     body_osc_rad: float = 1.5 * DEG
-    hip_bob_m: float = 0.02  # half the peak-to-peak vertical excursion of the hip
 
     def __post_init__(self) -> None:
         if self.pattern not in PATTERNS:
@@ -136,6 +162,12 @@ class GaitConfig:
             raise ValueError(f"stride CV {self.stride_cv} is outside 0..0.2")
         if not 0.4 <= self.stance_frac <= 0.85:
             raise ValueError(f"stance fraction {self.stance_frac} is outside 0.4..0.85")
+        if not 0.4 <= self.stride_len_m / self.height_m <= 1.2:
+            # the joint angles do not shrink with the stride: shorter ones would walk backwards
+            raise ValueError(
+                f"stride length {self.stride_len_m} m is outside 0.4..1.2 x height "
+                f"({0.4 * self.height_m:.2f}..{1.2 * self.height_m:.2f} m)"
+            )
         if self.fs_hz <= 0 or self.standing_s < 0 or self.ramp_strides <= 0:
             raise ValueError("fs_hz and ramp_strides must be > 0 and standing_s >= 0")
 
@@ -165,132 +197,12 @@ class GaitConfig:
         return 0.246 * self.height_m
 
 
-class Jet(NamedTuple):
-    """A value with its first and second derivative with respect to time (arrays)."""
-
-    v: np.ndarray
-    d: np.ndarray
-    dd: np.ndarray
-
-    def __add__(self, o: Jet | float) -> Jet:  # type: ignore[override]
-        if isinstance(o, Jet):
-            return Jet(self.v + o.v, self.d + o.d, self.dd + o.dd)
-        return Jet(self.v + o, self.d, self.dd)
-
-    def __sub__(self, o: Jet | float) -> Jet:
-        if isinstance(o, Jet):
-            return Jet(self.v - o.v, self.d - o.d, self.dd - o.dd)
-        return Jet(self.v - o, self.d, self.dd)
-
-    def __mul__(self, o: Jet | float) -> Jet:  # type: ignore[override]
-        if isinstance(o, Jet):
-            return Jet(
-                self.v * o.v,
-                self.d * o.v + self.v * o.d,
-                self.dd * o.v + 2.0 * self.d * o.d + self.v * o.dd,
-            )
-        return Jet(self.v * o, self.d * o, self.dd * o)
-
-    # a method, not ``__rmul__ = __mul__``: NamedTuple bodies may only hold fields and methods
-    def __rmul__(self, o: Jet | float) -> Jet:  # type: ignore[override]  # tuple: repeat by int
-        return self.__mul__(o)
-
-    def compose(self, f: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> Jet:
-        """Chain rule: given f, f', f'' evaluated at self.v, return the jet of f(self)."""
-        return Jet(f, f1 * self.d, f2 * self.d**2 + f1 * self.dd)
-
-    def sin(self) -> Jet:
-        s, c = np.sin(self.v), np.cos(self.v)
-        return self.compose(s, c, -s)
-
-    def cos(self) -> Jet:
-        s, c = np.sin(self.v), np.cos(self.v)
-        return self.compose(c, -s, -c)
-
-
-# (a0, (a1 .. an), (b1 .. bn)) of a Fourier series with period 1
-FourierCoeffs = tuple[float, tuple[float, ...], tuple[float, ...]]
-
-
-def fourier_series(
-    coeffs: FourierCoeffs, q: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Value and first two derivatives (w.r.t. q) of a Fourier series with period 1."""
-    a0, a, b = coeffs
-    q = np.asarray(q, dtype=np.float64)
-    z1 = np.exp(2j * np.pi * q)
-    zk = np.ones_like(z1)
-    f = np.full(q.shape, a0, dtype=np.float64)
-    f1 = np.zeros(q.shape)
-    f2 = np.zeros(q.shape)
-    for k, (ak, bk) in enumerate(zip(a, b, strict=True), start=1):
-        zk = zk * z1
-        c, s = zk.real, zk.imag
-        w = 2.0 * np.pi * k
-        f += ak * c + bk * s
-        f1 += w * (-ak * s + bk * c)
-        f2 += -(w**2) * (ak * c + bk * s)
-    return f, f1, f2
-
-
 def normative_joint_deg(q: np.ndarray) -> np.ndarray:
     """(N,) cycle phase in [0, 1) -> (N, 3) normative hip, knee, ankle in degrees."""
     return np.stack(
         [fourier_series(c, q)[0] for c in (HIP_COEFFS_DEG, KNEE_COEFFS_DEG, ANKLE_COEFFS_DEG)],
         axis=-1,
     )
-
-
-def _smoothstep(u: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """C1 ramp 0 -> 1 over u in [0, width]: value and derivatives w.r.t. u."""
-    x = np.clip(u / width, 0.0, 1.0)
-    inside = (u > 0) & (u < width)
-    f = x * x * (3.0 - 2.0 * x)
-    f1 = np.where(inside, 6.0 * x * (1.0 - x) / width, 0.0)
-    f2 = np.where(inside, (6.0 - 12.0 * x) / width**2, 0.0)
-    return f, f1, f2
-
-
-def _ramp_integral(u: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Integral of ``_smoothstep`` from 0 to u, and its first two derivatives (the ramp)."""
-    x = np.clip(u / width, 0.0, 1.0)
-    f = np.where(u >= width, 0.5 * width + (u - width), width * (x**3 - 0.5 * x**4))
-    f = np.where(u <= 0, 0.0, f)
-    ramp, ramp1, _ = _smoothstep(u, width)
-    return f, ramp, ramp1
-
-
-def _stop_bump(
-    u: np.ndarray, width: float
-) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """A stop at u = 0 (u: phase from the stop): the walking envelope loses
-    1 - smoothstep(|u|) (ramp out before, ramp in after), and the distance walked loses that
-    bump's integral from -inf (0 before, width after). Values and derivatives w.r.t. u."""
-    a = np.abs(u)
-    sign = np.where(u < 0, -1.0, 1.0)
-    f, f1, f2 = _smoothstep(a, width)
-    r, _, _ = _ramp_integral(a, width)
-    bump = (1.0 - f, -f1 * sign, -f2)
-    dist = (0.5 * width + u - sign * r, 1.0 - f, -f1 * sign)
-    return bump, dist
-
-
-def _swing_window(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Raised-cosine window over the swing part of the cycle (q in [0.5, 1.0]), peak at 0.75."""
-    a, b = 0.5, 1.0
-    w = 2.0 * np.pi / (b - a)
-    inside = (q >= a) & (q < b)
-    x = q - a
-    f = np.where(inside, 0.5 * (1.0 - np.cos(w * x)), 0.0)
-    f1 = np.where(inside, 0.5 * w * np.sin(w * x), 0.0)
-    f2 = np.where(inside, 0.5 * w * w * np.cos(w * x), 0.0)
-    return f, f1, f2
-
-
-def _cos_jet(p: Jet, q: np.ndarray, w: float, q0: float) -> Jet:
-    """Jet of cos(w (q - q0)) where q is the cycle phase of the phase jet p."""
-    c, s = np.cos(w * (q - q0)), np.sin(w * (q - q0))
-    return p.compose(c, -w * s, -w * w * c)
 
 
 @dataclass(frozen=True)
@@ -307,6 +219,20 @@ class KinematicsBlock:
     rate_rad_s: np.ndarray  # (N, 4) d(tilt)/dt
     lin_acc_ms2: np.ndarray  # (N, 4, 2) sensor-point acceleration in the world frame (F, U)
     position_m: np.ndarray  # (N, 4, 2) sensor-point position (F, U); F grows with walking
+
+
+@dataclass(frozen=True)
+class StrideTruth:
+    """True strides (GaitModel.strides): one entry per heel strike that starts a stride."""
+
+    heel_strike_idx: np.ndarray  # (K,) first sample at/after the heel strike
+    stride_length_m: np.ndarray  # (K,) foot sensor's displacement, foot-flat to foot-flat
+    stride_time_s: np.ndarray  # (K,) to the next heel strike
+    foot_clearance_m: np.ndarray  # (K,) sensor's highest point above its foot-flat height
+
+    @property
+    def speed_m_s(self) -> np.ndarray:
+        return self.stride_length_m / self.stride_time_s
 
 
 @dataclass
@@ -333,6 +259,8 @@ class GaitModel:
         self._stops: list[list[float]] = []
         self._stop_t_s: list[tuple[float, float]] = []
         self._stand_requested = False
+        self.foot = FootGeometry.for_height(cfg.height_m)
+        self._ends_cache: dict[float, np.ndarray] = {}  # _free_ends, per foot-flat
 
     # ---- stride schedule -------------------------------------------------------------------
     def _ensure(self, t_max_s: float) -> None:
@@ -373,6 +301,7 @@ class GaitModel:
             t_all = np.concatenate([[-1.0], t_all])
             p_all = np.concatenate([[START_PHASE], p_all])
         self._stop_t_s = []
+        self._ends_cache.clear()  # the stops may have changed: the hip's curves with them
         if self._stops:
             t_all, p_all = self._insert_stops(t_all, p_all)
             self._hs_times = np.interp(np.arange(1, len(hs) + 1), p_all, t_all)
@@ -435,10 +364,11 @@ class GaitModel:
         return self._stop_t_s[-1][0]
 
     def _reach(self) -> float:
-        """How far back in phase a stop changes the motion: its ramp-out, and the PCHIP slope
-        at the heel strike before it (0.25 before; the interval from the toe off before that,
-        0.65 before)."""
-        return max(self.config.ramp_strides, START_PHASE + (1.0 - TOE_OFF_PHASE))
+        """How far back in phase a stop changes the motion: its ramp-out, seen by the hip
+        before it too (between foot-flats the hip joins the next foot-flat's pose and place,
+        FREE_SPAN ahead), and the PCHIP slope at the heel strike before it (0.25 before; the
+        interval from the toe off before that, 0.65 before)."""
+        return max(self.config.ramp_strides + FREE_SPAN, START_PHASE + 1.0 - TOE_OFF_PHASE)
 
     def walk(self, after_t_s: float) -> None:
         """Walk again (no-op while walking), changing nothing before ``after_t_s``."""
@@ -501,21 +431,28 @@ class GaitModel:
             }
         )
 
-    def _evaluate(self, start: int, stop: int) -> KinematicsBlock:
+    def distance_m(self, phase: np.ndarray) -> np.ndarray:
+        """The distance walked at each normative phase, m: one stride length per cycle once
+        walking, less while the walk ramps in and out of each stop. Heel strike k lands at
+        ``distance_m(k)`` (gaitmon.io.sim.contact)."""
         cfg = self.config
-        idx = np.arange(start, stop, dtype=np.int64)
-        t = idx / cfg.fs_hz
-        p = self.phase_jet(t)
+        p = np.asarray(phase, dtype=np.float64)
+        d = _ramp_integral(p - START_PHASE, cfg.ramp_strides)[0] * cfg.stride_len_m
+        for p_stop, _ in self._stops:
+            d = d - _stop_bump(p - p_stop, cfg.ramp_strides)[1][0] * cfg.stride_len_m
+        return np.asarray(d)
+
+    def _angles(self, p: Jet) -> tuple[Jet, ...]:
+        """(hip, knee, ankle, body, thigh, shank, foot, env) as jets of whatever ``p`` is a jet
+        of: time (evaluate) or the phase itself (d = 1, dd = 0: derivatives w.r.t. phase)."""
+        cfg = self.config
         q = np.mod(p.v, 1.0)
         env = p.compose(*_smoothstep(p.v - START_PHASE, cfg.ramp_strides))
-        hip_f = p.compose(*_ramp_integral(p.v - START_PHASE, cfg.ramp_strides)) * cfg.stride_len_m
         for p_stop, _ in self._stops:
-            # ramp out into the stop and in again after it; the distance walked follows
+            # ramp out into the stop and in again after it
             u = p.v - p_stop
             if np.any(u > -cfg.ramp_strides):
-                bump, dist = _stop_bump(u, cfg.ramp_strides)
-                env = env - p.compose(*bump)
-                hip_f = hip_f - p.compose(*dist) * cfg.stride_len_m
+                env = env - p.compose(*_stop_bump(u, cfg.ramp_strides)[0])
 
         def curve(coeffs: FourierCoeffs) -> Jet:
             f, f1, f2 = fourier_series(coeffs, q)
@@ -529,32 +466,77 @@ class GaitModel:
             base = 5.0 * DEG
             knee_n = (knee_n - base) * (win * (cfg.knee_scale - 1.0) + 1.0) + base
         knee = knee_n * env
-        ankle = curve(ANKLE_COEFFS_DEG) * env
-        w = 4.0 * np.pi
-        osc = _cos_jet(p, q, w, 0.1)
-        body = (osc * cfg.body_osc_rad + cfg.body_lean_rad) * env
+        body = (_cos_jet(p, q, 4.0 * np.pi, 0.1) * cfg.body_osc_rad + cfg.body_lean_rad) * env
         thigh = body + hip
         shank = thigh - knee
-        foot = shank + ankle
+        # the foot lies flat on the ground in mid-stance (contact module); the ankle follows
+        foot = (shank + curve(ANKLE_COEFFS_DEG) * env) * (p.compose(*flat_window(q)) * -1.0 + 1.0)
+        ankle = foot - shank
+        return hip, knee, ankle, body, thigh, shank, foot, env
 
-        # Linkage: hip point moves one stride length per cycle once walking (its speed ramps in
-        # with the envelope, so starting off is not a jolt), with a twice-per-stride bob
-        # (highest at mid-stance q = 0.3 and mid-swing q = 0.8).
-        bob = _cos_jet(p, q, w, 0.3)
-        hip_u = bob * env * cfg.hip_bob_m + (cfg.thigh_m + cfg.shank_m)
-        st, ct = thigh.sin(), thigh.cos()
-        ss, cs = shank.sin(), shank.cos()
-        sf, cf = foot.sin(), foot.cos()
-        knee_f, knee_u = hip_f + st * cfg.thigh_m, hip_u - ct * cfg.thigh_m
-        ankle_f, ankle_u = knee_f + ss * cfg.shank_m, knee_u - cs * cfg.shank_m
-        half_t, half_s = 0.5 * cfg.thigh_m, 0.5 * cfg.shank_m
-        foot_fwd, foot_up = 0.06, 0.03  # board on the dorsum, ahead of and above the ankle
-        points = (
-            (hip_f, hip_u),
-            (hip_f + st * half_t, hip_u - ct * half_t),
-            (knee_f + ss * half_s, knee_u - cs * half_s),
-            (ankle_f + cf * foot_fwd - sf * foot_up, ankle_u + sf * foot_fwd + cf * foot_up),
+    def _hip(self, p: Jet, thigh: Jet, shank: Jet, foot: Jet, env: Jet) -> tuple[Jet, Jet]:
+        """The hip (forward, up): above the flat stance foot at its place while the foot lies
+        flat, a C2 curve in phase from one foot-flat to the next (gaitmon.io.sim.contact)."""
+        cfg, geo = self.config, self.foot
+        s = p.v - FLAT_END
+        kb = np.floor(s)  # the foot-flat the sample is after (or in, when pinned)
+        u = (s - kb) / FREE_SPAN
+        free = u < 1.0
+        k = np.where(free, kb, kb + 1.0)  # the stride whose foot lies flat when pinned
+        hip_f, hip_u = hip_over_contact(
+            self.distance_m(k), thigh, shank, foot, cfg.thigh_m, cfg.shank_m, geo
         )
+        if not free.any():
+            return hip_f, hip_u
+        ks, inv = np.unique(kb[free], return_inverse=True)
+        ends = self._free_ends(ks)  # (K, 2 axes, 6)
+        out = []
+        pf = Jet(p.v[free], p.d[free], p.dd[free])
+        sp = FREE_SPAN
+        for axis, pinned in ((0, hip_f), (1, hip_u)):
+            e = ends[:, axis, :]
+            x, x1, x2 = quintic_hermite(u[free], e[inv])
+            curve = pf.compose(x, x1 / sp, x2 / sp**2)
+            if axis == 1:  # the other leg's mid-stance lifts the hip while this foot swings
+                b0, b1, b2 = swing_lift(u[free])
+                lift = pf.compose(b0, b1 / sp, b2 / sp**2) * Jet(*(j[free] for j in env))
+                curve = curve + lift * (SWING_LIFT_H * cfg.height_m)
+            full = Jet(pinned.v.copy(), pinned.d.copy(), pinned.dd.copy())
+            for arr, part in zip(full, curve, strict=True):
+                arr[free] = part
+            out.append(full)
+        return out[0], out[1]
+
+    def _free_ends(self, ks: np.ndarray) -> np.ndarray:
+        """(K, 2, 6): for the curve after foot-flat k, the hip (forward, up) at both ends and
+        its first two derivatives w.r.t. the curve's own parameter (quintic_hermite's ends).
+        Cached per k: it depends on the phase and the stops only (_rebuild clears it)."""
+        missing = np.array([k for k in ks if k not in self._ends_cache])
+        if len(missing):
+            cfg, geo, sp = self.config, self.foot, FREE_SPAN
+            ends = []
+            for at, contact in ((missing + FLAT_END, missing),
+                                (missing + 1.0 + FLAT_START, missing + 1.0)):  # fmt: skip
+                pj = Jet(at, np.ones_like(at), np.zeros_like(at))
+                _, _, _, _, th, sh, ft, _ = self._angles(pj)
+                ends.append(hip_over_contact(self.distance_m(contact), th, sh, ft,
+                                             cfg.thigh_m, cfg.shank_m, geo))  # fmt: skip
+            per_axis = [
+                np.stack([a.v, a.d * sp, a.dd * sp**2, b.v, b.d * sp, b.dd * sp**2], axis=1)
+                for a, b in zip(ends[0], ends[1], strict=True)
+            ]
+            both = np.stack(per_axis, axis=1)
+            for k, row in zip(missing, both, strict=True):
+                self._ends_cache[float(k)] = row
+        return np.stack([self._ends_cache[float(k)] for k in ks])
+
+    def _evaluate(self, start: int, stop: int) -> KinematicsBlock:
+        cfg = self.config
+        idx = np.arange(start, stop, dtype=np.int64)
+        t = idx / cfg.fs_hz
+        p = self.phase_jet(t)
+        hip, knee, ankle, body, thigh, shank, foot, env = self._angles(p)
+        points = self._points(p, thigh, shank, foot, env)
         lin_acc = np.stack([np.stack([pf.dd, pu.dd], axis=-1) for pf, pu in points], axis=1)
         pos = np.stack([np.stack([pf.v, pu.v], axis=-1) for pf, pu in points], axis=1)
         tilts = (body, thigh, shank, foot)
@@ -569,4 +551,51 @@ class GaitModel:
             rate_rad_s=np.stack([j.d for j in tilts], axis=-1),
             lin_acc_ms2=lin_acc,
             position_m=pos,
+        )
+
+    def _points(
+        self, p: Jet, thigh: Jet, shank: Jet, foot: Jet, env: Jet
+    ) -> tuple[tuple[Jet, Jet], ...]:
+        """(forward, up) of the four sensor points: body at the hip, thigh and shank boards at
+        mid-segment, the foot board on the dorsum."""
+        cfg, geo = self.config, self.foot
+        hip_f, hip_u = self._hip(p, thigh, shank, foot, env)
+        st, ct = thigh.sin(), thigh.cos()
+        ss, cs = shank.sin(), shank.cos()
+        sf, cf = foot.sin(), foot.cos()
+        knee_f, knee_u = hip_f + st * cfg.thigh_m, hip_u - ct * cfg.thigh_m
+        ankle_f, ankle_u = knee_f + ss * cfg.shank_m, knee_u - cs * cfg.shank_m
+        half_t, half_s = 0.5 * cfg.thigh_m, 0.5 * cfg.shank_m
+        fwd, up = geo.sensor_fwd_m, geo.sensor_up_m
+        return (
+            (hip_f, hip_u),
+            (hip_f + st * half_t, hip_u - ct * half_t),
+            (knee_f + ss * half_s, knee_u - cs * half_s),
+            (ankle_f + cf * fwd - sf * up, ankle_u + sf * fwd + cf * up),
+        )
+
+    # ---- truth per stride ---------------------------------------------------------------------
+    def strides(self, start: int, stop: int) -> StrideTruth:
+        """The true strides that start (heel strike) in samples [start, stop): stride k runs
+        from heel strike k to k + 1; its length is the foot sensor's forward displacement from
+        one foot-flat to the next (= where heel strike k + 1 landed minus where k did), its
+        clearance the sensor's highest point over that interval above its foot-flat height."""
+        fs = self.config.fs_hz
+        self._ensure(stop / fs + 3.0 * self.config.stride_s)
+        i = np.ceil(self._hs_times * fs - 1e-9).astype(np.int64)
+        keep = (i >= start) & (i < stop)
+        k = np.flatnonzero(keep).astype(np.float64) + 1.0  # heel strike j is phase j + 1
+        length = self.distance_m(k + 1.0) - self.distance_m(k)
+        grid = np.linspace(FLAT_START, 1.0 + FLAT_START, 201)
+        pv = (k[:, None] + grid[None, :]).ravel()
+        pj = Jet(pv, np.ones_like(pv), np.zeros_like(pv))
+        _, _, _, _, th, sh, ft, en = self._angles(pj)
+        up = self._points(pj, th, sh, ft, en)[3][1].v.reshape(len(k), len(grid))
+        clearance = up.max(axis=1, initial=-np.inf) - self.foot.flat_sensor_height_m
+        t_next = np.interp(k + 1.0, np.arange(1, len(self._hs_times) + 1), self._hs_times)
+        return StrideTruth(
+            heel_strike_idx=i[keep],
+            stride_length_m=length,
+            stride_time_s=t_next - self._hs_times[keep],
+            foot_clearance_m=clearance,
         )

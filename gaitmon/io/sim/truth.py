@@ -4,6 +4,10 @@ Only sessions recorded from the simulated unit have it. Every row of the session
 to the sample the unit generated (through the unit's frame log: the file's unwrapped sequence
 number is the unit's frame number), so researchers can score any filter against what really
 happened. The ``/truth`` layout and the writing belong to :mod:`gaitmon.io.session.truth`.
+
+Besides the per-row truth and the events, ``stride_length_m``, ``stride_time_s`` and
+``foot_clearance_m`` hold, for each ``heel_strike`` row, the true stride it opens
+(gaitmon.io.sim.kinematics.GaitModel.strides).
 """
 
 from __future__ import annotations
@@ -54,5 +58,11 @@ def attach_ground_truth(path: str | Path, unit: SimulatedUnit) -> int:
     for name, events in true_events.items():
         k = np.searchsorted(samples[valid], events)  # first recorded row at/after each event
         datasets[name] = valid_rows[k[k < len(valid_rows)]].astype(np.int64)
+    # the stride each recorded heel strike opens (same order as "heel_strike")
+    k = np.searchsorted(samples[valid], truth.heel_strike_idx)
+    recorded = k < len(valid_rows)
+    datasets["stride_length_m"] = truth.stride_length_m[recorded]
+    datasets["stride_time_s"] = truth.stride_time_s[recorded]
+    datasets["foot_clearance_m"] = truth.foot_clearance_m[recorded]
     write_truth(path, datasets, np.degrees(truth.mount_offset_rad))
     return int(valid.sum())

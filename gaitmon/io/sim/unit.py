@@ -66,8 +66,9 @@ exact. Bytes already inside the OS pty buffer at a cut are beyond the unit's kno
 Ground truth
 ------------
 ``unit.truth(start, stop)`` gives the true tilts and joint angles (rad, clinical convention, no
-mounting offset), gyro bias, gait phase and heel-strike / toe-off sample indices for a sample
-range; ``unit.frame_log()`` maps every data frame's number and sequence to its sample index.
+mounting offset), gyro bias, gait phase, heel-strike / toe-off sample indices and each stride's
+length, time and foot clearance (from its heel strike to the next) for a sample range;
+``unit.frame_log()`` maps every data frame's number and sequence to its sample index.
 """
 
 from __future__ import annotations
@@ -175,6 +176,12 @@ class GroundTruth:
     mount_offset_rad: np.ndarray  # (4,) per-board mounting offset (added to the true tilt)
     heel_strike_idx: np.ndarray  # first sample at/after each true heel strike in the range
     toe_off_idx: np.ndarray
+    # per heel strike above, the stride it opens (to the next heel strike, which may lie beyond
+    # the range): the foot sensor's forward displacement from one foot-flat to the next, and its
+    # highest point over that interval above its foot-flat height (GaitModel.strides)
+    stride_length_m: np.ndarray
+    foot_clearance_m: np.ndarray
+    stride_time_s: np.ndarray
 
 
 class SimulatedUnit:
@@ -399,6 +406,7 @@ class SimulatedUnit:
             stop = self.sensors.position if stop is None else stop
             kin = self.gait.evaluate(start, stop)
             hs, to = self.gait.events(start, stop)
+            strides = self.gait.strides(start, stop)
             bias = self.sensors.gyro_bias(kin.t_s)
         return GroundTruth(
             sample_idx=kin.sample_idx,
@@ -410,6 +418,9 @@ class SimulatedUnit:
             mount_offset_rad=self.sensors.mount_offset_rad.copy(),
             heel_strike_idx=hs,
             toe_off_idx=to,
+            stride_length_m=strides.stride_length_m,
+            foot_clearance_m=strides.foot_clearance_m,
+            stride_time_s=strides.stride_time_s,
         )
 
     # ---- time -------------------------------------------------------------------------------

@@ -1,0 +1,327 @@
+"""Stride length, gait speed and foot clearance from the foot IMU (zero-velocity updates).
+
+Method: planar strapdown integration of the foot board, reset at every foot-flat.
+
+1. **Foot-flat.** After each heel strike the foot lies flat on the ground for a while (loading
+   response to heel rise). In a search span after the heel strike (``SEARCH_FRACTION`` of the
+   stride before it; of the stride after it for the first heel strike) a sample is *still* when,
+   over +-2 samples, the gyro stays within ``STILL_GYRO_RAD_S`` of zero and the accelerometer's
+   magnitude within ``STILL_ACC_MS2`` of g. The longest still run is the foot-flat; its middle
+   sample is the anchor where the foot's velocity is taken as zero.
+2. **Pitch.** At each foot-flat the board's pitch from vertical is the accelerometer tilt
+   atan2(mean a_z, mean a_x) over the run (gravity alone acts on a still foot: no calibration
+   or mounting offset needed), and the gyro's mean over the run is its residual bias. Between
+   two anchors the pitch is the first anchor's plus the integral of the gyro (less the mean of
+   the two biases), with its remaining mismatch at the second anchor spread linearly.
+3. **Acceleration.** The specific force is rotated into the world (forward, up) by the pitch,
+   and the local gravity (the mean |a| at the two foot-flats) is removed.
+4. **Zero-velocity update.** Velocity is integrated from 0 at the first anchor; its value at the
+   second anchor (which should be 0) is removed linearly over the stride (the standard ZUPT
+   de-drift: a constant acceleration error, e.g. from a pitch offset, leaves no trace). Position
+   is integrated from the velocity; its height at the second anchor is removed linearly too
+   (level ground).
+5. **Per stride** (heel strike j to j + 1, the swing between them): the stride length is the
+   forward displacement from the foot-flat after heel strike j to the foot-flat after heel
+   strike j + 1, the foot clearance the sensor's highest point above its foot-flat height over
+   that interval, the gait speed the stride length over the stride time (heel strike to heel
+   strike). NaN where a foot-flat is not found or the two anchors are more than
+   ``MAX_STRIDE_S`` apart (the subject stood still mid-stride: no speed to speak of).
+
+Assumptions (module doc of gaitmon.dsp.channels for the frames): the foot board lies in the
+foot's sagittal plane, x up and z forward when standing (any pitch offset on the foot is fine),
+the gyro measures the rate about the board's y axis (to the subject's right), positive when the
+toe goes up (the tilt convention of gaitmon.dsp.angles), in rad/s with its standing bias
+removed (gaitmon's calibration; a residual of a few hundredths of a rad/s is estimated at each
+foot-flat); the accelerometer in m/s^2 with its gain right (the local g is taken from it).
+Walking is straight (no turns: one gyro axis cannot see them) and on level ground (clearance
+only; the stride length holds on slopes). The foot is still for at least ~50 ms each stance. No
+leg length, height or other anthropometry is needed.
+
+The same stride needs only the samples from its heel strike to the foot-flat after the next one
+(``stride_data_end``): :class:`StrideLengthTracker` gives each stride as soon as those have
+arrived, with the same numbers as :func:`stride_measures` on the whole record.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gaitmon.dsp.channels import STANDARD_GRAVITY_MS2
+
+STILL_GYRO_RAD_S = 0.35
+STILL_ACC_MS2 = 0.8
+STILL_HALF_WIDTH = 2  # samples either side that must be still too
+MIN_STILL_SAMPLES = 3
+SEARCH_FRACTION = 0.6  # of a stride, after its heel strike (foot-flat ends by ~40 %)
+MAX_STRIDE_S = 3.0
+
+
+@dataclass(frozen=True)
+class StrideMeasures:
+    """One entry per stride (heel strike j to j + 1); NaN where it cannot be computed."""
+
+    heel_strike_idx: np.ndarray  # (K,) the stride's opening heel strike
+    stride_length_m: np.ndarray  # (K,)
+    foot_clearance_m: np.ndarray  # (K,)
+    stride_time_s: np.ndarray  # (K,)
+    foot_flat_idx: np.ndarray  # (K, 2) anchor samples (-1: not found) the stride runs between
+
+    @property
+    def speed_m_s(self) -> np.ndarray:
+        return self.stride_length_m / self.stride_time_s
+
+    def __len__(self) -> int:
+        return len(self.heel_strike_idx)
+
+
+def _check(acc_x: np.ndarray, acc_z: np.ndarray, gyro: np.ndarray, fs_hz: float) -> None:
+    if not (acc_x.ndim == acc_z.ndim == gyro.ndim == 1):
+        raise ValueError("stride lengths need 1-D foot acc x, acc z and gyro arrays")
+    if not (len(acc_x) == len(acc_z) == len(gyro)):
+        raise ValueError(
+            f"foot acc x, acc z and gyro differ in length ({len(acc_x)}, {len(acc_z)}, "
+            f"{len(gyro)}): pass the same samples of each"
+        )
+    if not fs_hz > 0:
+        raise ValueError(f"sampling rate must be > 0 Hz, got {fs_hz}")
+
+
+def search_spans(heel_strike_idx: np.ndarray) -> np.ndarray:
+    """(J,) samples after each heel strike searched for its foot-flat: SEARCH_FRACTION of the
+    stride before it (of the stride after it for the first)."""
+    hs = np.asarray(heel_strike_idx, dtype=np.int64)
+    if len(hs) < 2:
+        return np.zeros(len(hs), dtype=np.int64)
+    d = np.diff(hs)
+    before = np.concatenate([[d[0]], d])
+    return np.maximum(np.round(SEARCH_FRACTION * before).astype(np.int64), 1)
+
+
+def stride_data_end(heel_strike_idx: np.ndarray, j: int) -> int:
+    """Exclusive end of the samples stride j (heel strike j to j + 1) needs."""
+    hs = np.asarray(heel_strike_idx, dtype=np.int64)
+    return int(hs[j + 1] + search_spans(hs)[j + 1])
+
+
+def _moving_max(x: np.ndarray, half: int) -> np.ndarray:
+    n = len(x)
+    out = x.copy()
+    for s in range(1, half + 1):
+        out[s:] = np.maximum(out[s:], x[: n - s])
+        out[: n - s] = np.maximum(out[: n - s], x[s:])
+    return out
+
+
+@dataclass(frozen=True)
+class _FootFlat:
+    anchor: int  # absolute sample index
+    pitch_rad: float
+    gyro_bias_rad_s: float
+    g_ms2: float
+
+
+def _foot_flat(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, start: int, stop: int
+) -> _FootFlat | None:
+    """The foot-flat (module doc, step 1) in samples [start, stop) of the arrays given."""
+    stop = min(stop, len(gy))
+    if stop - start < MIN_STILL_SAMPLES:
+        return None
+    x, z, w = ax[start:stop], az[start:stop], gy[start:stop]
+    dev = np.maximum(np.abs(w) / STILL_GYRO_RAD_S,
+                     np.abs(np.hypot(x, z) - STANDARD_GRAVITY_MS2) / STILL_ACC_MS2)  # fmt: skip
+    still = _moving_max(dev, STILL_HALF_WIDTH) < 1.0
+    if not still.any():
+        return None
+    edges = np.diff(np.concatenate([[0], still.astype(np.int8), [0]]))
+    runs_a, runs_b = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    k = int(np.argmax(runs_b - runs_a))
+    a, b = int(runs_a[k]), int(runs_b[k])
+    if b - a < MIN_STILL_SAMPLES:
+        return None
+    mx, mz = float(np.mean(x[a:b])), float(np.mean(z[a:b]))
+    return _FootFlat(
+        anchor=start + (a + b - 1) // 2,
+        pitch_rad=float(np.arctan2(mz, mx)),
+        gyro_bias_rad_s=float(np.mean(w[a:b])),
+        g_ms2=float(np.hypot(mx, mz)),
+    )
+
+
+def _cumtrapz(y: np.ndarray, dt: float) -> np.ndarray:
+    out = np.zeros_like(y)
+    out[1:] = np.cumsum(0.5 * (y[1:] + y[:-1])) * dt
+    return out
+
+
+def _stride(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlat, f1: _FootFlat
+) -> tuple[float, float]:
+    """(forward displacement, clearance) between two foot-flats (module doc, steps 2-4)."""
+    a, b = f0.anchor, f1.anchor
+    dt = 1.0 / fs_hz
+    u = np.arange(b - a + 1) / (b - a)  # 0 at the first anchor, 1 at the second
+    bias = 0.5 * (f0.gyro_bias_rad_s + f1.gyro_bias_rad_s)
+    pitch = f0.pitch_rad + _cumtrapz(gy[a : b + 1] - bias, dt)
+    pitch -= (pitch[-1] - f1.pitch_rad) * u
+    s, c = np.sin(pitch), np.cos(pitch)
+    x, z = ax[a : b + 1], az[a : b + 1]
+    acc_f = z * c - x * s
+    acc_u = x * c + z * s - 0.5 * (f0.g_ms2 + f1.g_ms2)
+    out = []
+    for acc in (acc_f, acc_u):
+        v = _cumtrapz(acc, dt)
+        v -= v[-1] * u
+        p = _cumtrapz(v, dt)
+        out.append(p)
+    fwd, up = out
+    up -= up[-1] * u
+    return float(fwd[-1]), float(np.max(up))
+
+
+def stride_measures(
+    acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_y_rad_s: np.ndarray, fs_hz: float,
+    heel_strike_idx: np.ndarray,
+) -> StrideMeasures:  # fmt: skip
+    """Stride length, foot clearance, stride time and speed of every stride between consecutive
+    heel strikes, from the foot board's samples (module doc: method and assumptions)."""
+    ax = np.asarray(acc_x_ms2, dtype=np.float64)
+    az = np.asarray(acc_z_ms2, dtype=np.float64)
+    gy = np.asarray(gyro_y_rad_s, dtype=np.float64)
+    _check(ax, az, gy, fs_hz)
+    hs = np.asarray(heel_strike_idx, dtype=np.int64)
+    if hs.ndim != 1 or np.any(np.diff(hs) <= 0):
+        raise ValueError("heel strikes must be a 1-D increasing array of sample indices")
+    n_strides = max(len(hs) - 1, 0)
+    spans = search_spans(hs)
+    flats = [
+        _foot_flat(ax, az, gy, int(h), int(h + sp)) if 0 <= h < len(gy) else None
+        for h, sp in zip(hs, spans, strict=True)
+    ]
+    length = np.full(n_strides, np.nan)
+    clearance = np.full(n_strides, np.nan)
+    anchors = np.full((n_strides, 2), -1, dtype=np.int64)
+    for j in range(n_strides):
+        f0, f1 = flats[j], flats[j + 1]
+        if f0 is not None:
+            anchors[j, 0] = f0.anchor
+        if f1 is not None:
+            anchors[j, 1] = f1.anchor
+        if f0 is None or f1 is None or f1.anchor - f0.anchor > MAX_STRIDE_S * fs_hz:
+            continue
+        length[j], clearance[j] = _stride(ax, az, gy, fs_hz, f0, f1)
+    return StrideMeasures(
+        heel_strike_idx=hs[:n_strides],
+        stride_length_m=length,
+        foot_clearance_m=clearance,
+        stride_time_s=np.diff(hs).astype(np.float64) / fs_hz,
+        foot_flat_idx=anchors,
+    )
+
+
+def stride_lengths(
+    acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_y_rad_s: np.ndarray, fs_hz: float,
+    heel_strike_idx: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """(len(heel_strike_idx) - 1,) stride lengths in m, NaN where one cannot be computed: the
+    foot's forward displacement from the foot-flat after each heel strike to the foot-flat after
+    the next (module doc). :func:`stride_measures` gives clearance and speed too."""
+    return stride_measures(
+        acc_x_ms2, acc_z_ms2, gyro_y_rad_s, fs_hz, heel_strike_idx
+    ).stride_length_m
+
+
+class StrideLengthTracker:
+    """Strides as the samples come (the live Gait panel's gait speed).
+
+    ``push`` takes the foot board's next samples and the heel strikes known so far (absolute
+    sample indices; repeats are ignored), and returns the strides whose samples are all in
+    (``stride_data_end``): the same numbers :func:`stride_measures` gives on the whole record;
+    ``finish`` gives the last ones at the record's end. It keeps only the samples from the
+    oldest stride still to come.
+    """
+
+    def __init__(self, fs_hz: float) -> None:
+        if not fs_hz > 0:
+            raise ValueError(f"sampling rate must be > 0 Hz, got {fs_hz}")
+        self.fs_hz = float(fs_hz)
+        self.reset()
+
+    def reset(self) -> None:
+        self._buf = np.empty((0, 3))
+        self._buf_start = 0  # absolute index of the first kept sample
+        self._n_seen = 0
+        self._hs: list[int] = []
+        self._next = 0  # index into _hs of the next stride to give
+
+    def push(
+        self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_y_rad_s: np.ndarray,
+        heel_strike_idx: np.ndarray | list[int] | None = None,
+    ) -> StrideMeasures:  # fmt: skip
+        x = np.asarray(acc_x_ms2, dtype=np.float64)
+        z = np.asarray(acc_z_ms2, dtype=np.float64)
+        g = np.asarray(gyro_y_rad_s, dtype=np.float64)
+        _check(x, z, g, self.fs_hz)
+        self._buf = np.concatenate([self._buf, np.stack([x, z, g], axis=1)])
+        self._n_seen += len(x)
+        new = np.empty(0) if heel_strike_idx is None else heel_strike_idx
+        for h in np.asarray(new, dtype=np.int64).ravel():
+            if not self._hs or h > self._hs[-1]:
+                self._hs.append(int(h))
+        return self._give(everything=False)
+
+    def finish(self) -> StrideMeasures:
+        """At the end of the record: the strides still open whose closing heel strike is known,
+        from the samples there are (as :func:`stride_measures` does at a record's end)."""
+        return self._give(everything=True)
+
+    def _give(self, everything: bool) -> StrideMeasures:
+        done = []
+        hs = np.asarray(self._hs, dtype=np.int64)
+        while self._next + 1 < len(hs) and (
+            everything or stride_data_end(hs, self._next) <= self._n_seen
+        ):
+            done.append(self._next)
+            self._next += 1
+        out = self._measure(hs, done)
+        self._trim(hs)
+        return out
+
+    def _measure(self, hs: np.ndarray, done: list[int]) -> StrideMeasures:
+        if not done:
+            empty = np.empty(0)
+            return StrideMeasures(np.empty(0, np.int64), empty, empty, empty,
+                                  np.empty((0, 2), np.int64))  # fmt: skip
+        # The strides' heel strikes (and the one before the first, which sets its search span),
+        # with the samples they need, relative to the buffer's start.
+        lo = max(done[0] - 1, 0)
+        sub = hs[lo : done[-1] + 2]
+        end = min(int(sub[-1] + search_spans(sub)[-1]), self._n_seen)
+        m = stride_measures(*self._padded(end), self.fs_hz, sub - self._buf_start)
+        keep = slice(done[0] - lo, None)
+        ff = m.foot_flat_idx[keep]
+        return StrideMeasures(
+            heel_strike_idx=m.heel_strike_idx[keep] + self._buf_start,
+            stride_length_m=m.stride_length_m[keep],
+            foot_clearance_m=m.foot_clearance_m[keep],
+            stride_time_s=m.stride_time_s[keep],
+            foot_flat_idx=np.where(ff >= 0, ff + self._buf_start, -1),
+        )
+
+    def _padded(self, end_abs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The kept samples up to ``end_abs`` (a heel strike before them finds no foot-flat)."""
+        buf = self._buf[: end_abs - self._buf_start]
+        return buf[:, 0], buf[:, 1], buf[:, 2]
+
+    def _trim(self, hs: np.ndarray) -> None:
+        """Drop samples no stride still to come needs: before the heel strike of the next
+        stride (and the one before it, for its search span: only its index is needed)."""
+        if self._next < len(hs):
+            keep_from = min(int(hs[self._next]), self._n_seen)
+        else:  # no stride open: keep enough for a heel strike that is reported late
+            keep_from = self._n_seen - int(MAX_STRIDE_S * self.fs_hz)
+        if keep_from > self._buf_start:
+            self._buf = self._buf[keep_from - self._buf_start :]
+            self._buf_start = keep_from

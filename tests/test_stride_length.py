@@ -1,0 +1,239 @@
+"""Stride length, gait speed and foot clearance from the foot IMU (gaitmon.dsp.stride_length):
+a hand-computed synthetic foot, the simulator's truth on three gait patterns (offline and
+streaming), a recorded session's /truth, and bad input."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from gaitmon.dsp import StrideLengthTracker, stride_lengths, stride_measures
+from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX
+from gaitmon.dsp.gyro_events import gyro_gait_events
+from gaitmon.io.sim import GaitConfig, GaitModel
+from gaitmon.io.sim.sensors import realistic_sensors, simulate
+
+FS = 100.0
+G = 9.80665
+
+
+# ---- a synthetic foot, computed by hand ------------------------------------------------------
+V_MS, RAMP_S, CRUISE_S = 1.2, 0.3, 0.5  # swing: ramp up, constant velocity, ramp down
+SWING_S = 2 * RAMP_S + CRUISE_S
+STANCE_S = 0.5
+LIFT_M = 0.07  # the swing's peak height
+PITCH0_RAD, SWING_PITCH_RAD = np.radians(4.0), np.radians(-40.0)
+# raised-cosine ramps cover half their time at full speed: V (RAMP_S + CRUISE_S) per stride
+
+
+def synthetic_foot(n_strides: int = 6, gyro_bias_rad_s: float = 0.0, v_ms: float = V_MS):
+    """Stance (still, flat: the board at its mounting pitch) then a swing that moves forward
+    with a raised-cosine ramp to V_MS, cruises, and ramps down, lifts by LIFT_M and pitches the
+    foot down and back. Returns acc x, acc z, gyro and the heel strikes (start of each
+    stance)."""
+    stride_s = STANCE_S + SWING_S
+    n = round((n_strides * stride_s + STANCE_S) * FS)
+    t = np.arange(n) / FS
+    tau = np.mod(t, stride_s) - STANCE_S  # time into the swing (< 0: stance)
+    swing = tau > 0
+    u = np.clip(tau, 0.0, SWING_S)
+    # forward acceleration: +V/2 (pi/RAMP) sin over the first ramp, the mirror over the last
+    w = np.pi / RAMP_S
+    acc_f = np.where(u < RAMP_S, 0.5 * v_ms * w * np.sin(w * u), 0.0)
+    late = u > RAMP_S + CRUISE_S
+    acc_f = np.where(late, -0.5 * v_ms * w * np.sin(w * (u - RAMP_S - CRUISE_S)), acc_f)
+    acc_f = np.where(swing, acc_f, 0.0)
+    # height LIFT sin^2(pi u / SWING): its acceleration
+    k = np.pi / SWING_S
+    acc_u = np.where(swing, LIFT_M * 2.0 * k * k * np.cos(2.0 * k * u), 0.0)
+    pitch = PITCH0_RAD + np.where(swing, SWING_PITCH_RAD * np.sin(k * u) ** 2, 0.0)
+    rate = np.where(swing, SWING_PITCH_RAD * k * np.sin(2.0 * k * u), 0.0)
+    f_f, f_u = acc_f, acc_u + G
+    ax = -f_f * np.sin(pitch) + f_u * np.cos(pitch)
+    az = f_f * np.cos(pitch) + f_u * np.sin(pitch)
+    hs = np.round(np.arange(n_strides + 1) * stride_s * FS).astype(np.int64)
+    return ax, az, rate + gyro_bias_rad_s, hs[hs < n]
+
+
+@pytest.mark.parametrize(("bias", "v_ms"), [(0.0, V_MS), (0.03, V_MS), (0.03, 0.7)])
+def test_synthetic_foot_gives_the_hand_computed_stride(bias, v_ms):
+    ax, az, gy, hs = synthetic_foot(gyro_bias_rad_s=bias, v_ms=v_ms)
+    m = stride_measures(ax, az, gy, FS, hs)
+    assert len(m) == len(hs) - 1 == 6
+    # v * (0.3 + 0.5) s forward per stride (1.2 m/s: 0.96 m; 0.7 m/s: 0.56 m); lifted 7 cm
+    stride_m = v_ms * (RAMP_S + CRUISE_S)
+    np.testing.assert_allclose(m.stride_length_m, stride_m, atol=0.002)
+    np.testing.assert_allclose(m.foot_clearance_m, LIFT_M, atol=0.002)
+    np.testing.assert_allclose(m.stride_time_s, STANCE_S + SWING_S)
+    np.testing.assert_allclose(m.speed_m_s, stride_m / (STANCE_S + SWING_S), atol=0.002)
+    # the foot-flat anchors lie in the stances, between heel strike and swing
+    assert np.all((m.foot_flat_idx[:, 0] > hs[:-1]) & (m.foot_flat_idx[:, 0] < hs[:-1] + 50))
+    np.testing.assert_array_equal(stride_lengths(ax, az, gy, FS, hs), m.stride_length_m)
+
+
+def test_a_stride_without_a_foot_flat_is_nan():
+    ax, az, gy, hs = synthetic_foot()
+    gy = gy.copy()
+    a, b = hs[2], hs[2] + int(STANCE_S * FS)
+    gy[a:b] = 1.0  # the foot never rests in stance 2
+    m = stride_measures(ax, az, gy, FS, hs)
+    assert np.isnan(m.stride_length_m[1]) and np.isnan(m.stride_length_m[2])
+    assert np.all(np.isfinite(m.stride_length_m[[0, 3, 4, 5]]))
+    assert m.foot_flat_idx[2, 0] == -1
+
+
+def test_streaming_gives_the_same_strides_in_any_chunking():
+    ax, az, gy, hs = synthetic_foot(n_strides=8)
+    whole = stride_measures(ax, az, gy, FS, hs)
+    rng = np.random.default_rng(0)
+    tr = StrideLengthTracker(FS)
+    got = []
+    a = 0
+    while a < len(ax):
+        b = min(a + int(rng.integers(1, 60)), len(ax))
+        # heel strikes are reported late (a detector's delay): 15 samples after they happen
+        known = hs[hs + 15 < b]
+        got.append(tr.push(ax[a:b], az[a:b], gy[a:b], known))
+        a = b
+    got.append(tr.push(np.empty(0), np.empty(0), np.empty(0), hs))
+    assert len(got[-1]) == 0  # the last stride's next foot-flat is past the record's end ...
+    got.append(tr.finish())  # ... so it comes at the end, from the samples there are
+    assert len(got[-1]) == 1
+    length = np.concatenate([g.stride_length_m for g in got])
+    starts = np.concatenate([g.heel_strike_idx for g in got])
+    np.testing.assert_array_equal(starts, whole.heel_strike_idx)
+    np.testing.assert_array_equal(length, whole.stride_length_m)
+    assert len(tr._buf) < 3 * (STANCE_S + SWING_S) * FS  # it does not keep the record
+
+
+# ---- the simulator's truth ------------------------------------------------------------------
+PATTERNS = {  # each with its own stride length, so no constant could pass
+    "normal": {},
+    "slow (85 steps/min, 1.0 m)": {"cadence_steps_min": 85.0, "stride_length_m": 1.0},
+    "stiff-knee (1.1 m)": {"pattern": "stiff-knee", "stride_length_m": 1.1},
+}
+
+
+def _simulated(opts: dict, seed: int, n: int = 6000):
+    gait = GaitModel(GaitConfig(seed=seed, **opts))
+    sb = simulate(n, gait, realistic_sensors(seed))
+    ph = DEFAULT_TABLE.to_physical(sb.counts)
+    gyro = ph[:, GYRO_IDX[3]] - ph[100:450, GYRO_IDX[3]].mean()  # standing zero
+    return gait, ph[:, ACC_X_IDX[3]], ph[:, ACC_Z_IDX[3]], gyro
+
+
+def _matched(m, truth, after: int = 1000):
+    """(estimated, true) stride lengths and speeds of strides whose opening heel strike is
+    within 50 ms of a true one (after the walk's ramp-in)."""
+    j = np.clip(np.searchsorted(truth.heel_strike_idx, m.heel_strike_idx - 5), 0, None)
+    j = np.minimum(j, len(truth.heel_strike_idx) - 1)
+    ok = (np.abs(truth.heel_strike_idx[j] - m.heel_strike_idx) <= 5) & (m.heel_strike_idx > after)
+    ok &= np.abs(np.diff(np.append(m.heel_strike_idx, 0))[: len(ok)] - truth.stride_time_s[j]
+                 * FS) <= 5  # fmt: skip
+    return (m.stride_length_m[ok], truth.stride_length_m[j[ok]], m.speed_m_s[ok],
+            truth.speed_m_s[j[ok]])  # fmt: skip
+
+
+@pytest.mark.parametrize("name", list(PATTERNS))
+def test_stride_length_and_speed_within_3_percent_of_the_simulator_truth(name):
+    gait, ax, az, gy = _simulated(PATTERNS[name], seed=21)
+    hs, _ = gyro_gait_events(gy, FS)  # the app's own foot-gyro heel strikes
+    m = stride_measures(ax, az, gy, FS, hs)
+    truth = gait.strides(0, len(gy))
+    est, true, v_est, v_true = _matched(m, truth)
+    assert len(est) >= 30
+    assert np.isfinite(est).mean() > 0.95
+    err = np.abs(est - true) / true
+    v_err = np.abs(v_est - v_true) / v_true
+    assert np.nanmedian(err) <= 0.03, np.nanmedian(err)
+    assert np.nanmedian(v_err) <= 0.03, np.nanmedian(v_err)
+    assert np.nanpercentile(err, 95) <= 0.06
+    assert np.median(true) == pytest.approx(gait.config.stride_len_m)
+    # streaming (the live Gait panel): the same strides, block by block
+    tr = StrideLengthTracker(FS)
+    parts = []
+    for a in range(0, len(gy), 37):
+        b = min(a + 37, len(gy))
+        parts.append(tr.push(ax[a:b], az[a:b], gy[a:b], hs[hs + 12 < b]))
+    parts.append(tr.push(ax[:0], az[:0], gy[:0], hs))
+    parts.append(tr.finish())
+    live = np.concatenate([p.stride_length_m for p in parts])
+    np.testing.assert_array_equal(live, m.stride_length_m)
+
+
+def test_a_stop_mid_walk_gives_no_speed_for_its_stride_and_leaves_the_others_right():
+    from gaitmon.io.sim.sensors import SensorModel
+
+    gait = GaitModel(GaitConfig(seed=5))
+    sensors = SensorModel(gait, realistic_sensors(5))
+    blocks = [sensors.next_block(2500)]
+    gait.stand(25.0)  # stops within ~3 strides, at mid-stance
+    blocks.append(sensors.next_block(800))
+    gait.walk(sensors.position / FS + 2.0)
+    blocks.append(sensors.next_block(2500))
+    ph = DEFAULT_TABLE.to_physical(np.concatenate([b.counts for b in blocks]))
+    gy = ph[:, GYRO_IDX[3]] - ph[100:450, GYRO_IDX[3]].mean()
+    hs, _ = gyro_gait_events(gy, FS)
+    m = stride_measures(ph[:, ACC_X_IDX[3]], ph[:, ACC_Z_IDX[3]], gy, FS, hs)
+    stopped = m.stride_time_s > 3.0
+    assert stopped.sum() == 1 and np.isnan(m.stride_length_m[stopped]).all()
+    est, true, _, _ = _matched(m, gait.strides(0, len(gy)))
+    ok = np.isfinite(est)
+    assert len(est) >= 30 and (~ok).sum() <= 1  # only the stride that stood
+    assert np.max(np.abs(est[ok] - true[ok]) / true[ok]) < 0.03  # into and out of the stop too
+    assert true[ok].min() < 0.8 * true[ok].max()  # ... which are shorter: the walk ramps
+
+
+def test_foot_clearance_follows_the_simulator_truth():
+    gait, ax, az, gy = _simulated({}, seed=22)
+    truth = gait.strides(0, len(gy))
+    m = stride_measures(ax, az, gy, FS, truth.heel_strike_idx)
+    ok = truth.heel_strike_idx[:-1] > 1000
+    err = m.foot_clearance_m - truth.foot_clearance_m[:-1]
+    assert np.nanmedian(np.abs(err[ok])) < 0.01  # m
+    gait2, ax2, az2, gy2 = _simulated({"pattern": "stiff-knee"}, seed=22)
+    m2 = stride_measures(ax2, az2, gy2, FS, gait2.strides(0, len(gy2)).heel_strike_idx)
+    # stiff knee: the foot lifts less, and the estimate says so
+    assert np.nanmedian(m2.foot_clearance_m[10:]) < np.nanmedian(m.foot_clearance_m[10:]) - 0.02
+
+
+def test_a_recorded_session_holds_the_true_strides_and_they_match(tmp_path):
+    from gaitmon.cli import main
+
+    out = tmp_path / "s.h5"
+    code = main(["record", "--simulate", "--duration", "14", "-o", str(out), "--speed", "8",
+                 "--standing-s", "2", "--quiet"])  # fmt: skip
+    assert code == 0
+    with h5py.File(out, "r") as f:
+        hs = f["truth/heel_strike"][()]
+        length = f["truth/stride_length_m"][()]
+        clearance = f["truth/foot_clearance_m"][()]
+        stride_t = f["truth/stride_time_s"][()]
+        adc = f["raw/adc"][()]
+        bias = f["truth/gyro_bias_rad_s"][()][:, 3]
+    assert len(hs) >= 8 and len(length) == len(hs) == len(clearance) == len(stride_t)
+    cfg = GaitConfig()
+    np.testing.assert_allclose(length[2:], cfg.stride_len_m)
+    ph = DEFAULT_TABLE.to_physical(adc)
+    # the recording may start after the standing period: the truth's gyro bias, not a zero
+    gy = ph[:, GYRO_IDX[3]] - bias
+    m = stride_measures(ph[:, ACC_X_IDX[3]], ph[:, ACC_Z_IDX[3]], gy, FS, hs)
+    steady = slice(2, None)
+    err = np.abs(m.stride_length_m[steady] - length[:-1][steady]) / length[:-1][steady]
+    assert np.nanmedian(err) < 0.03
+
+
+# ---- bad input ------------------------------------------------------------------------------
+def test_bad_input_is_one_clear_message():
+    ax, az, gy, hs = synthetic_foot()
+    with pytest.raises(ValueError, match="differ in length"):
+        stride_lengths(ax, az[:-1], gy, FS, hs)
+    with pytest.raises(ValueError, match="increasing"):
+        stride_lengths(ax, az, gy, FS, hs[::-1])
+    with pytest.raises(ValueError, match="sampling rate"):
+        stride_lengths(ax, az, gy, 0.0, hs)
+    with pytest.raises(ValueError, match="1-D"):
+        stride_lengths(np.stack([ax, ax]), az, gy, FS, hs)
+    assert len(stride_lengths(ax, az, gy, FS, hs[:1])) == 0  # one heel strike: no stride
+    assert len(stride_lengths(ax, az, gy, FS, np.empty(0, np.int64))) == 0
