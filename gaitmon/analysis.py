@@ -16,7 +16,8 @@ it overlaps a range the user excluded (e.g. a turn). Strides longer than
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import dataclasses
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -93,10 +94,167 @@ class StrideRow:
     excluded: str  # "" when the stride counts in the statistics, else the reason
     knee_peak_swing_deg: float  # peak knee flexion between toe off and the next heel strike
     rom_deg: tuple[float, float, float]  # range of motion of hip, knee, ankle over the stride
+    # from the foot IMU (gaitmon.dsp.stride_length); NaN where not computed (no raw data, no
+    # foot-flat found, or the subject stood mid-stride)
+    stride_length_m: float = float("nan")
+    foot_clearance_m: float = float("nan")
 
     @property
     def included(self) -> bool:
         return not self.excluded
+
+    @property
+    def speed_m_s(self) -> float:
+        """Gait speed over the stride: stride length / stride time (true timeline)."""
+        return self.stride_length_m / self.stride.stride_time_s
+
+
+@dataclass(frozen=True)
+class SpatialSummary:
+    """Stride length and gait speed over the included strides that have them."""
+
+    n_strides: int  # included strides with a stride length
+    stride_length_mean_m: float
+    stride_length_sd_m: float  # sample SD (ddof=1)
+    stride_length_cv_pct: float
+    speed_mean_m_s: float
+    speed_sd_m_s: float
+    speed_cv_pct: float
+    foot_clearance_mean_m: float
+
+
+def _mean_sd_cv(v: np.ndarray) -> tuple[float, float, float]:
+    if len(v) == 0:
+        return (float("nan"),) * 3
+    mean = float(v.mean())
+    sd = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
+    return mean, sd, 100.0 * sd / mean
+
+
+def spatial_summary(rows: Sequence[StrideRow]) -> SpatialSummary:
+    """Stride length, speed and clearance statistics over the included strides (NaN-free)."""
+    ok = [r for r in rows if r.included and np.isfinite(r.stride_length_m)]
+    length = np.array([r.stride_length_m for r in ok])
+    speed = np.array([r.speed_m_s for r in ok])
+    clear = np.array([r.foot_clearance_m for r in ok])
+    lm, lsd, lcv = _mean_sd_cv(length)
+    sm, ssd, scv = _mean_sd_cv(speed)
+    clear = clear[np.isfinite(clear)]
+    return SpatialSummary(len(ok), lm, lsd, lcv, sm, ssd, scv,
+                          float(clear.mean()) if len(clear) else float("nan"))  # fmt: skip
+
+
+def foot_imu(session: Session) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The foot board's acc x, acc z (m/s^2, unfiltered) and gyro (rad/s, the calibration in
+    force removed) of a raw-mode session, float64, as the live pipeline sees them; None for a
+    session without raw counts."""
+    from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, GYRO_IDX, SEGMENTS
+
+    if session.mode != "raw" or not session.n_samples:
+        return None
+    foot = SEGMENTS.index("foot")
+    table = session.header.table
+    cols = [int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])]
+    counts = np.asarray(session.read("raw/adc"))[:, cols].astype(np.float64)
+    phys = (counts - table.zero_counts[cols]) * table.units_per_count[cols]
+    n = len(phys)
+    bias = np.full(n, float(session.calibration.gyro_bias_rad_s[foot]))
+    for row, cal in sorted(session.calibration_changes, key=lambda x: x[0]):
+        bias[max(0, row):] = float(cal.gyro_bias_rad_s[foot])
+    return phys[:, 0], phys[:, 1], phys[:, 2] - bias
+
+
+def with_stride_measures(
+    rows: list[StrideRow], foot: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+    heel_strike_idx: np.ndarray, fs_hz: float,
+) -> list[StrideRow]:  # fmt: skip
+    """The rows with their stride length and foot clearance from the foot IMU (one value per
+    pair of consecutive heel strikes, matched to a row by its opening heel strike)."""
+    from gaitmon.dsp.stride_length import stride_measures
+
+    hs = np.unique(np.asarray(heel_strike_idx, dtype=np.int64))
+    if foot is None or len(hs) < 2 or not rows:
+        return rows
+    m = stride_measures(*foot, fs_hz, hs[hs < len(foot[0])])
+    at = {int(h): k for k, h in enumerate(m.heel_strike_idx)}
+    out = []
+    for r in rows:
+        k = at.get(r.stride.start_idx)
+        if k is None:
+            out.append(r)
+            continue
+        out.append(dataclasses.replace(r, stride_length_m=float(m.stride_length_m[k]),
+                                       foot_clearance_m=float(m.foot_clearance_m[k])))  # fmt: skip
+    return out
+
+
+@dataclass(frozen=True)
+class StrideColumn:
+    """One column of the per-stride table: the review's stride table and the per-stride
+    exports (``gaitmon export --format strides``, batch) show the same cells."""
+
+    key: str  # the export's column name (unit in it)
+    title: str  # the table's two-line header
+    tip: str
+    sample: str  # the widest cell, for the table's column width
+    decimals: int | None  # None: text
+
+
+def _status(r: StrideRow) -> str:
+    return "included" if r.included else f"excluded: {r.excluded}"
+
+
+# (column, value of a row given its number and start time in s)
+_STRIDE_TABLE: tuple[tuple[StrideColumn, Callable[[StrideRow, int, float], float | str]], ...] = (
+    (StrideColumn("stride", "#", "stride number", "0000", 0), lambda r, k, t: k),
+    (StrideColumn("start_s", "start\ns", "heel strike that starts the stride, seconds from "
+                  "the session start", "00000.00", 2), lambda r, k, t: t),
+    (StrideColumn("stride_s", "stride\ns", "heel strike to the next heel strike of the same "
+                  "foot", "0.000", 3), lambda r, k, t: r.stride.stride_time_s),
+    (StrideColumn("stance_s", "stance\ns", "heel strike to toe off", "0.000", 3),
+     lambda r, k, t: r.stride.stance_time_s),
+    (StrideColumn("swing_s", "swing\ns", "toe off to the next heel strike", "0.000", 3),
+     lambda r, k, t: r.stride.swing_time_s),
+    (StrideColumn("stance_pct", "stance\n%", "stance time as % of the stride (swing: the rest)",
+                  "00.0", 1),
+     lambda r, k, t: r.stride.stance_pct),
+    (StrideColumn("stride_length_m", "length\nm", "stride length from the foot IMU (forward "
+                  "displacement between foot-flats)", "0.00", 2),
+     lambda r, k, t: r.stride_length_m),
+    (StrideColumn("speed_m_s", "speed\nm/s", "gait speed over the stride: stride length / "
+                  "stride time", "0.00", 2), lambda r, k, t: r.speed_m_s),
+    (StrideColumn("knee_peak_swing_deg", "knee\npeak °", "peak knee flexion between toe off "
+                  "and the next heel strike", "000.0", 1),
+     lambda r, k, t: r.knee_peak_swing_deg),
+    (StrideColumn("hip_rom_deg", "hip\nROM °", "range of motion of the hip over the stride",
+                  "000.0", 1), lambda r, k, t: r.rom_deg[0]),
+    (StrideColumn("knee_rom_deg", "knee\nROM °", "range of motion of the knee over the stride",
+                  "000.0", 1), lambda r, k, t: r.rom_deg[1]),
+    (StrideColumn("ankle_rom_deg", "ankle\nROM °", "range of motion of the ankle over the "
+                  "stride", "000.0", 1), lambda r, k, t: r.rom_deg[2]),
+    (StrideColumn("status", "status", "included in the statistics, or why not",
+                  "excluded: " + max(REASONS, key=len), None), lambda r, k, t: _status(r)),
+)  # fmt: skip
+STRIDE_COLUMNS: tuple[StrideColumn, ...] = tuple(c for c, _ in _STRIDE_TABLE)
+
+
+def stride_start_times(rows: Sequence[StrideRow], t_s: np.ndarray) -> list[float]:
+    """Each stride's opening heel strike on the session's true timeline, s."""
+    t = np.asarray(t_s)
+    if not len(t):
+        return [float("nan")] * len(rows)
+    return [float(t[min(r.stride.start_idx, len(t) - 1)]) for r in rows]
+
+
+def stride_cells(row: StrideRow, number: int, start_t_s: float) -> list[str]:
+    """The table's cells of one stride, as text (a dash for a missing number, no "-0.0")."""
+    from gaitmon.text import num
+
+    out = []
+    for col, value in _STRIDE_TABLE:
+        v = value(row, number, start_t_s)
+        out.append(str(v) if col.decimals is None else num(float(v), col.decimals))
+    return out
 
 
 def analyse_strides(
@@ -222,6 +380,9 @@ class SessionAnalysis:
     def summary(self) -> GaitSummary:
         return summary(self.rows)
 
+    def spatial(self) -> SpatialSummary:
+        return spatial_summary(self.rows)
+
 
 def analyse_session(
     session: Session,
@@ -259,4 +420,5 @@ def analyse_session(
         [(r.start_idx, r.stop_idx) for r in ranges],
         t_s=t_s,
     )
+    rows = with_stride_measures(rows, foot_imu(session), hs, session.sample_rate_hz)
     return SessionAnalysis(rows, joints, ranges, stored_path(session.path), problem)

@@ -70,6 +70,8 @@ MEASURES: tuple[Measure, ...] = (
     Measure("swing_pct", "Swing", "% of cycle", 1),
     Measure("stance_time", "Stance time", "s", 2),
     Measure("swing_time", "Swing time", "s", 2),
+    Measure("stride_length", "Stride length", "m", 2),
+    Measure("speed", "Gait speed", "m/s", 2),
     Measure("knee_peak_swing", "Peak knee flexion in swing", "deg", 1),
     *(Measure(f"rom_{j.lower()}", f"ROM {j.lower()}", "deg", 1) for j in JOINTS),
     *(Measure(f"max_{j.lower()}", f"Maximum {j.lower()}", "deg", 1) for j in JOINTS),
@@ -228,6 +230,9 @@ def session_values(an: SessionAnalysis, cyc: np.ndarray) -> dict[str, Value]:
         "swing_pct": Value(s.swing_pct_mean, _stat([r.stride.swing_pct for r in inc]).sd, n),
         "stance_time": _stat([r.stride.stance_time_s for r in inc]),
         "swing_time": _stat([r.stride.swing_time_s for r in inc]),
+        # from the foot IMU; NaN (a dash) for a session without raw counts
+        "stride_length": _stat([r.stride_length_m for r in inc]),
+        "speed": _stat([r.speed_m_s for r in inc]),
         "knee_peak_swing": _stat([r.knee_peak_swing_deg for r in inc]),
     }
     for j, name in enumerate(JOINTS):

@@ -21,7 +21,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gaitmon import __version__
-from gaitmon.analysis import REASONS, USER, StrideRow, analyse_session, cycles, summary
+from gaitmon.analysis import (
+    REASONS,
+    USER,
+    SpatialSummary,
+    StrideRow,
+    analyse_session,
+    cycles,
+    spatial_summary,
+    summary,
+)
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
@@ -140,6 +149,9 @@ class ReportData:
     excluded_spans: tuple[ExcludedSpan, ...] = field(default=())
     generated_utc: str = ""
     software: str = f"gaitmon {__version__}"
+    # stride length, gait speed, foot clearance (gaitmon.analysis.spatial_summary); n 0 when the
+    # session has no foot IMU data
+    spatial: SpatialSummary | None = None
 
     @property
     def n_included(self) -> int:
@@ -375,6 +387,7 @@ def gather_report(
         knee_peak_swing=_stat("Knee", [r.knee_peak_swing_deg for r in included]),
         stance_time=_stat("stance", [r.stride.stance_time_s for r in included]),
         swing_time=_stat("swing", [r.stride.swing_time_s for r in included]),
+        spatial=spatial_summary(rows),
         settings=_settings(session),
         conventions=conventions,
         losses=_losses(session, rows, an.excluded_ranges),

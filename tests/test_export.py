@@ -719,8 +719,9 @@ def test_cancel_that_never_fires_changes_nothing(tmp_path):
 def test_listing_the_formats_loads_no_format_module():
     """The command-line parser reads FORMATS; that must not import numpy or a writer."""
     code = ("import sys, gaitmon.io.export as e;"
-            "assert list(e.FORMATS) == ['csv', 'mat', 'c3d', 'bids'];"
+            "assert list(e.FORMATS) == ['csv', 'mat', 'c3d', 'strides', 'bids'];"
             "print(sorted(m for m in sys.modules if m == 'numpy' or m.startswith('h5py')"
+            " or m == 'gaitmon.strides_export'"
             " or m.startswith('gaitmon.io.export.') and m.rsplit('.', 1)[1] in e.FORMATS))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=60)

@@ -24,7 +24,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("gaitmon.dsp",),
     ("gaitmon.io",),
     ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative"),
-    ("gaitmon.report", "gaitmon.compare", "gaitmon.live", "gaitmon.review", "gaitmon.lab"),
+    ("gaitmon.report", "gaitmon.strides_export", "gaitmon.compare", "gaitmon.live",
+     "gaitmon.review", "gaitmon.lab"),
     ("gaitmon.ui",),
     ("gaitmon.commands", "gaitmon.cli", "gaitmon.__main__"),
 )

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings
 
-from gaitmon.analysis import analyse_session
+from gaitmon.analysis import STRIDE_COLUMNS, analyse_session
 from gaitmon.io.session import open_session
 from gaitmon.ui.review.window import ReviewWindow
 
@@ -100,7 +100,9 @@ def table_column(w, col):
     return [m.index(r, col).data() for r in range(m.rowCount())]
 
 
-KNEE_PEAK_COL, KNEE_ROM_COL = 7, 9
+KNEE_PEAK_COL, KNEE_ROM_COL = (  # by name: the table's columns are analysis.STRIDE_COLUMNS
+    [c.key for c in STRIDE_COLUMNS].index(k) for k in ("knee_peak_swing_deg", "knee_rom_deg")
+)
 
 
 def test_switching_the_angles_redraws_everything_with_that_sources_series(

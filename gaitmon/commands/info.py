@@ -96,6 +96,16 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
             f"{summ.cadence_derived_steps_per_min:.0f} steps/min (derived), over the included "
             "strides"
         )
+        sp = an.spatial()
+        if sp.n_strides:
+            cv = "" if np.isnan(sp.speed_cv_pct) else f" (CV {sp.speed_cv_pct:.1f} %)"
+            lines.append(
+                f"  spatial      stride length {sp.stride_length_mean_m:.2f} ± "
+                f"{sp.stride_length_sd_m:.2f} m, gait speed {sp.speed_mean_m_s:.2f} ± "
+                f"{sp.speed_sd_m_s:.2f} m/s{cv}, foot clearance "
+                f"{sp.foot_clearance_mean_m * 100:.1f} cm, over {count(sp.n_strides, 'stride')} "
+                "(foot IMU)"
+            )
     elif no_gait_events(s.mode):
         lines.append(f"  gait         none: {no_gait_events(s.mode)}")
     else:

@@ -93,6 +93,8 @@ FORMATS: dict[str, Format] = {
                "gaitmon.io.export.mat"),
         Format("c3d", ".c3d", "C3D (Mokka, Nexus, btk; angles as points, events)",
                "gaitmon.io.export.c3d", temp_suffix=".c3d"),
+        Format("strides", ".strides.csv", "per-stride CSV (one row per stride, as the review's "
+               "stride table) + meta.json", "gaitmon.strides_export"),
         Format("bids", "", "BIDS motion dataset folder (Motion-BIDS; de-identified by default)",
                "gaitmon.io.export.bids", folder=True, deidentify_default=True),
     )

@@ -198,6 +198,11 @@ class Source:
             )
         return dict(self._attrs[name])
 
+    @property
+    def session(self) -> Session:
+        """The open session (its angles as chosen for this export)."""
+        return self._session
+
     def angles(self) -> dict[str, str]:
         """Which angles the tilt and joint series hold, and the method that made them."""
         s = self._session

@@ -214,11 +214,17 @@ class Session:
     @property
     def header(self) -> SessionHeader:
         known = {c.name for c in CHANNELS}
-        channels = (
-            tuple(ChannelSpec(**c) for c in self.channels)
-            if all(c.get("name") in known for c in self.channels)
-            else CHANNELS
-        )
+        try:
+            channels = (
+                tuple(ChannelSpec(**c) for c in self.channels)
+                if all(c.get("name") in known for c in self.channels)
+                else CHANNELS
+            )
+        except (TypeError, ValueError) as e:
+            raise SessionError(
+                f"{self.path.name} is damaged: its channel table /device/channels cannot be "
+                f"read ({_short_error(e)})"
+            ) from e
         return SessionHeader(
             mode=self.mode,
             sample_rate_hz=self.sample_rate_hz,

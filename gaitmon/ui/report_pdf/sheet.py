@@ -289,9 +289,16 @@ def _summary_and_stride_statistics(p: Page, data: ReportData, y: float) -> float
             f"{fmt(s.cadence_derived_steps_per_min, 0)} steps/min (from stride time)",
         ),
         ("Stance / swing", f"{fmt(s.stance_pct_mean)} % / {fmt(s.swing_pct_mean)} % of the cycle"),
-        ("Stance time", fmt_stat(data.stance_time, 2, "s")),
-        ("Swing time", fmt_stat(data.swing_time, 2, "s")),
-    ]
+        ("Stance / swing time",
+         f"{fmt_stat(data.stance_time, 2, 's')} / {fmt_stat(data.swing_time, 2, 's')}"),
+    ]  # fmt: skip
+    sp = data.spatial
+    if sp is not None and sp.n_strides:
+        summary_rows.append((
+            "Stride length, speed",
+            f"{fmt_pm(sp.stride_length_mean_m, sp.stride_length_sd_m, 2, 'm')}, "
+            f"{fmt_pm(sp.speed_mean_m_s, sp.speed_sd_m_s, 2, 'm/s')}",
+        ))  # fmt: skip
     ya = _kv_rows(p, xa, ya, colw, summary_rows, label_w=29.0)
     header: tuple[str, ...] = ("Joint", "ROM", "Maximum", "Minimum")
     widths: tuple[float, ...] = (colw * 0.22, colw * 0.26, colw * 0.26, colw * 0.26)

@@ -24,6 +24,7 @@ from PySide6.QtCore import QSettings, Signal
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import QMainWindow
 
+from gaitmon.analysis import stride_start_times
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.session import SessionError, journal_path, rewrite_processed
 from gaitmon.jobs import Response, Ticket
@@ -303,9 +304,7 @@ class ReviewJobs(QMainWindow):
         r = response.result()
         a, b = r.analysis, r.before
         self.analysis, self.before = a, b
-        t = doc.t_s
-        starts = [float(t[min(row.stride.start_idx, len(t) - 1)]) for row in a.rows]
-        self.table.set_rows(a.rows, starts)
+        self.table.set_rows(a.rows, stride_start_times(a.rows, doc.t_s))
         self.refresh_summary()
         self.cycles.set_analysis(a, b if self.act["compare"].isChecked() else None)
         self.analysis_done.emit()

@@ -14,7 +14,7 @@ from PySide6.QtCore import QAbstractTableModel, QModelIndex, QPersistentModelInd
 from PySide6.QtGui import QColor, QFont
 from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableView, QWidget
 
-from gaitmon.analysis import REASONS, StrideRow
+from gaitmon.analysis import STRIDE_COLUMNS, StrideRow, spatial_summary, stride_cells
 from gaitmon.review.model import Analysis
 from gaitmon.text import no_gait_events, num
 from gaitmon.ui.theme import Colours
@@ -24,22 +24,7 @@ if TYPE_CHECKING:
 
 # (header, tooltip, widest value): two-line headers and widths from the widest value, so the
 # whole table, status included, fits beside the summary at 1500 px without scrolling
-COLUMNS = (
-    ("#", "stride number", "0000"),
-    ("start\ns", "heel strike that starts the stride, seconds from the session start",
-     "00000.00"),
-    ("stride\ns", "heel strike to the next heel strike of the same foot", "0.000"),
-    ("stance\ns", "heel strike to toe off", "0.000"),
-    ("swing\ns", "toe off to the next heel strike", "0.000"),
-    ("stance\n%", "stance time as % of the stride", "00.0"),
-    ("swing\n%", "swing time as % of the stride", "00.0"),
-    ("knee\npeak °", "peak knee flexion between toe off and the next heel strike", "000.0"),
-    ("hip\nROM °", "range of motion of the hip over the stride", "000.0"),
-    ("knee\nROM °", "range of motion of the knee over the stride", "000.0"),
-    ("ankle\nROM °", "range of motion of the ankle over the stride", "000.0"),
-    ("status", "included in the statistics, or why not",
-     "excluded: " + max(REASONS, key=len)),
-)  # fmt: skip
+COLUMNS = tuple((c.title, c.tip, c.sample) for c in STRIDE_COLUMNS)
 
 _Index = QModelIndex | QPersistentModelIndex
 
@@ -87,21 +72,7 @@ class StrideModel(QAbstractTableModel):
         return None
 
     def text(self, row: int, col: int) -> str:
-        r = self.rows[row]
-        s = r.stride
-        values = (
-            str(row + 1),
-            _f(self.start_t_s[row], ".2f"),
-            _f(s.stride_time_s, ".3f"),
-            _f(s.stance_time_s, ".3f"),
-            _f(s.swing_time_s, ".3f"),
-            _f(s.stance_pct, ".1f"),
-            _f(s.swing_pct, ".1f"),
-            _f(r.knee_peak_swing_deg, ".1f"),
-            *(_f(v, ".1f") for v in r.rom_deg),
-            "included" if r.included else f"excluded: {r.excluded}",
-        )
-        return values[col]
+        return stride_cells(self.rows[row], row + 1, self.start_t_s[row])[col]
 
     def data(self, index: _Index, role: int = Qt.ItemDataRole.DisplayRole) -> Any:
         if not index.isValid():
@@ -148,7 +119,7 @@ class StrideTable(QTableView):
         fm = hh.fontMetrics()
         for col, (title, _tip, sample) in enumerate(COLUMNS):
             lines = [*title.split("\n"), sample]
-            self.setColumnWidth(col, max(fm.horizontalAdvance(t) for t in lines) + 14)
+            self.setColumnWidth(col, max(fm.horizontalAdvance(t) for t in lines) + 10)
         self.status_width_px = self.columnWidth(len(COLUMNS) - 1)
         self.setToolTip("Click a stride to show it on the timeline. Greyed: not in the statistics.")
         self.clicked.connect(lambda idx: self.stride_picked.emit(idx.row()))
@@ -206,6 +177,16 @@ def summary_html(
                  b.cadence_derived_steps_per_min if b else None, ".0f") + " steps/min"),
             ("Knee peak in swing", _f(knee_mean, ".1f") + "°"),
         ]  # fmt: skip
+        sp = spatial_summary(a.rows)
+        if sp.n_strides:
+            bs = spatial_summary(before.rows) if before is not None else None
+            rows += [
+                ("Stride length", cmp(sp.stride_length_mean_m,
+                                      bs.stride_length_mean_m if bs else None, ".2f")
+                 + f" ± {_f(sp.stride_length_sd_m, '.2f')} m"),
+                ("Gait speed", cmp(sp.speed_mean_m_s, bs.speed_mean_m_s if bs else None, ".2f")
+                 + f" ± {_f(sp.speed_sd_m_s, '.2f')} m/s"),
+            ]  # fmt: skip
         body = "<table cellspacing=2>" + "".join(
             f"<tr><td>{k}&nbsp;&nbsp;</td><td>{v}</td></tr>" for k, v in rows
         ) + "</table>"
