@@ -256,6 +256,11 @@ class StrideLengthTracker:
         self._hs: list[int] = []
         self._next = 0  # index into _hs of the next stride to give
 
+    @property
+    def n_seen(self) -> int:
+        """Samples pushed since the last reset (the next sample's index)."""
+        return self._n_seen
+
     def push(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_y_rad_s: np.ndarray,
         heel_strike_idx: np.ndarray | list[int] | None = None,

@@ -33,8 +33,10 @@ from typing import Any
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
+from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, SEGMENTS
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, restart_rows
+from gaitmon.dsp.stride_length import StrideLengthTracker
 from gaitmon.engine.buffers import (
     RingBuffer,
     cols_from_device,
@@ -55,6 +57,9 @@ from gaitmon.engine.snapshot import (
 from gaitmon.io.device import Device, DeviceError, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
 from gaitmon.io.transport import LinkError
+
+_FOOT = SEGMENTS.index("foot")
+_FOOT_IMU_COLS = [int(ACC_X_IDX[_FOOT]), int(ACC_Z_IDX[_FOOT])]  # raw columns of the foot board
 
 
 class EngineError(Exception):
@@ -133,6 +138,10 @@ class Engine:
         self._lock = threading.Lock()  # guards the small mutable state below
         self._markers: deque[tuple[float, str]] = deque(maxlen=512)
         self._gait = LiveGait(self.fs_hz, cycle_strides)
+        # stride lengths from the foot IMU (the gait panel's speed); its sample 0 is the engine
+        # index _spatial_base
+        self._spatial = StrideLengthTracker(self.fs_hz)
+        self._spatial_base = 0
         self._checks = SensorChecks()
         self._health = _Health()
         self._pending = _Pending()
@@ -488,6 +497,7 @@ class Engine:
             to_idx = p.toe_off_idx + offset
             strides = [shift_stride(s, offset) for s in p.strides]
             restarts = p.restart_idx + offset
+            lengths = self._stride_lengths(block.adc, p, hs_idx, start_idx)
             if rec is not None:
                 if first and len(self._pipeline.fsr_faults) > len(p.fsr_faults):
                     # sensors flagged before the recording started are faulty in it from row 0
@@ -499,6 +509,7 @@ class Engine:
             cols = cols_from_device(block, t_s)
             hs_idx, to_idx, strides = self._unit_events.process(block, start_idx)
             restarts = start_idx + restart_rows(lost, self.fs_hz)
+            lengths = []
             if rec is not None:
                 self._hand_over(rec, block, None, gap_reason)
         st.handed_over = True
@@ -508,7 +519,28 @@ class Engine:
         with self._lock:
             self._health.rate_times.append((float(block.host_time_s[-1]), st.samples))
             self._gait.add(hs_idx, to_idx, strides, restarts, self._ring, st.samples)
+            self._gait.add_lengths(lengths)
             self._checks.add(faults, offset, st.samples, self._ring)
+
+    def _stride_lengths(
+        self, adc: np.ndarray, p: PipelineBlock, hs_idx: np.ndarray, start_idx: int
+    ) -> list[tuple[int, float]]:
+        """Feed the foot board's samples (unfiltered acceleration, the pipeline's
+        bias-corrected gyro: what gaitmon.analysis.foot_imu reads from a file) to the stride
+        length tracker; the strides it finished, (opening heel strike, m), engine indices."""
+        tr = self._spatial
+        if self._spatial_base + tr.n_seen != start_idx:  # samples not processed: start afresh
+            tr.reset()
+            self._spatial_base = start_idx
+        table = self._pipeline.table
+        cols = _FOOT_IMU_COLS
+        phys = (adc[:, cols].astype(np.float64) - table.zero_counts[cols]) * (
+            table.units_per_count[cols]
+        )
+        m = tr.push(phys[:, 0], phys[:, 1], p.gyro_rad_s[:, _FOOT], hs_idx - self._spatial_base)
+        base = self._spatial_base
+        return [(int(h) + base, float(v)) for h, v in zip(m.heel_strike_idx, m.stride_length_m,
+                                                           strict=True)]  # fmt: skip
 
     @staticmethod
     def _lost_sum(block: SampleBlock) -> int:

@@ -65,6 +65,9 @@ class LiveGait:
         self._last_hs_idx: int | None = None
         self._gap_rows: deque[int] = deque(maxlen=64)  # engine indices where data resumed
         self.excluded: deque[tuple[Stride, str]] = deque(maxlen=64)  # recent, with the reason
+        # stride length (m) by opening heel strike (engine index), from the foot IMU; known a
+        # little after the stride ends (the foot-flat after its closing heel strike)
+        self._lengths: dict[int, float] = {}
 
     def add(
         self,
@@ -117,6 +120,24 @@ class LiveGait:
             self._cycles.append(normalise_cycles(seg, np.array([0, k]))[0])
             self._cycles_deg = np.stack(self._cycles)
 
+    def add_lengths(self, lengths: Iterable[tuple[int, float]]) -> None:
+        """Stride lengths found by the foot-IMU tracker: (opening heel strike, metres)."""
+        for start, length in lengths:
+            self._lengths[start] = length
+        if len(self._lengths) > 256:  # keep the recent ones (the panel uses the last strides)
+            for k in sorted(self._lengths)[: len(self._lengths) - 128]:
+                del self._lengths[k]
+
+    def _spatial(self) -> tuple[float, float]:
+        """(mean gait speed m/s, mean stride length m) over the last included strides."""
+        pairs = [(self._lengths[s.start_idx], s.stride_time_s) for s in self._strides
+                 if np.isfinite(self._lengths.get(s.start_idx, np.nan))]  # fmt: skip
+        if not pairs:
+            return float("nan"), float("nan")
+        length = np.array([p[0] for p in pairs])
+        time_s = np.array([p[1] for p in pairs])
+        return float(np.mean(length / time_s)), float(np.mean(length))
+
     def events_since(self, t0_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Times of the heel strikes and toe offs at or after ``t0_s``."""
         hs = np.array([x for x in self._events_hs if x >= t0_s])
@@ -143,11 +164,14 @@ class LiveGait:
                 cur = series["joint_kalman_deg"][int(at[0]) :]
                 t = series["t_s"][int(at[0]) :]
                 cur_pct = (t - t[0]) / mean_stride * 100.0
+        speed, length = self._spatial()
         return GaitStatus(
             n_strides=self._n_strides,
             last_stride_time_s=last.stride_time_s,
             last_stance_pct=last.stance_pct,
             cadence_derived_steps_per_min=120.0 / mean_stride,
+            speed_mean_m_s=speed,
+            stride_length_mean_m=length,
             cycles_deg=self._cycles_deg,
             current_pct=cur_pct,
             current_deg=cur,

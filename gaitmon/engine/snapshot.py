@@ -68,6 +68,9 @@ class GaitStatus:
     last_stride_time_s: float = float("nan")
     last_stance_pct: float = float("nan")
     cadence_derived_steps_per_min: float = float("nan")
+    # mean over the last included strides that have one (foot IMU; NaN until one is known)
+    speed_mean_m_s: float = float("nan")
+    stride_length_mean_m: float = float("nan")
     cycles_deg: np.ndarray = field(default_factory=lambda: np.empty((0, 101, 3)))  # last N strides
     current_pct: np.ndarray = field(default_factory=lambda: np.empty(0))  # current stride so far
     current_deg: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))

@@ -215,6 +215,8 @@ class StatusView:
 GAIT_ROWS = (
     ("cadence", "Cadence (derived)", "steps/min: 120 / mean stride time of the last "
      "strides. Derived: one unit measures one leg."),
+    ("speed", "Gait speed", "m/s: stride length / stride time, mean of the last strides; "
+     "stride length from the foot IMU (straight, level walking assumed)"),
     ("stride", "Last stride", "time from one heel strike to the next (s)"),
     ("stance", "Stance", "stance time as % of the last stride (normal ≈ 60 %)"),
     ("strides", "Strides", "strides completed since connecting"),
@@ -300,6 +302,7 @@ class GaitPanel(QWidget):
             return f"{x:{spec}} {unit}" if math.isfinite(x) else "—"
 
         v["cadence"].setText(fmt(g.cadence_derived_steps_per_min, ".0f", "steps/min"))
+        v["speed"].setText(fmt(g.speed_mean_m_s, ".2f", "m/s"))
         v["stride"].setText(fmt(g.last_stride_time_s, ".2f", "s"))
         v["stance"].setText(fmt(g.last_stance_pct, ".0f", "%"))
         v["strides"].setText(str(g.n_strides))
