@@ -30,6 +30,7 @@ MODES = (
      "gait phase."),
 )  # fmt: skip
 SHORTCUTS = [
+    ("Ctrl+E", "engineering view: all traces, segment tilts, raw sensors (off: clinical view)"),
     ("Space", "pause / resume the display (acquisition and recording continue)"),
     ("M", "drop a marker (with the label typed in the marker field, if any)"),
     ("Ctrl+R", "start / stop recording"),
@@ -121,9 +122,13 @@ ACTIONS: tuple[ActionSpec, ...] = (
                "Start / stop recording a session (Ctrl+R)", menu=SESSION),
     ActionSpec("marker", "Marker", "add_marker", "M",
                "Drop a marker now, with the label typed beside (M)", menu=SESSION),
+    ActionSpec("engineering", "Engineering view", "set_engineering_view", "Ctrl+E",
+               "Engineering view: the accelerometer and gyro-integration traces, the segment "
+               "tilts and the raw sensors (off: the clinical view, the filter's joint angles "
+               "only; Ctrl+E). Remembered", checkable=True, menu=VIEW),
     ActionSpec("pause", "Pause", "set_paused", "Space",
                "Freeze the display; acquisition and recording continue (Space)",
-               checkable=True, menu=VIEW),
+               checkable=True, menu=VIEW, separator_before=True),
     *(
         ActionSpec(f"window_{w:g}", f"Last {w:g} s", "set_window", str(i),
                    f"Show the last {w:g} seconds ({i})", checkable=True, menu=VIEW,
@@ -141,6 +146,9 @@ ACTIONS: tuple[ActionSpec, ...] = (
                menu=VIEW),
     ActionSpec("reset_y", "Reset y ranges", "reset_y_ranges", "Home",
                "Back to the clinical y ranges", menu=VIEW),
+    ActionSpec("guide", "Guided start", "show_guide", None,
+               "Show the step bar above the plots: Connect → stand still, Zero → Record",
+               menu=HELP),
     ActionSpec("help", "Keyboard shortcuts", "show_shortcuts", "F1", menu=HELP),
     ActionSpec("about", "About gaitmon", "show_about", menu=HELP),
 )  # fmt: skip

@@ -49,11 +49,13 @@ from gaitmon.ui.live.actions import (
     build_menus,
 )
 from gaitmon.ui.live.device import DeviceSlots
+from gaitmon.ui.live.guide import GuideBar
 from gaitmon.ui.live.jobs import DeviceJobs
 from gaitmon.ui.live.prefs import Prefs
 from gaitmon.ui.live.processing import ProcessingSlots
 from gaitmon.ui.live.recording import RecordingSlots
 from gaitmon.ui.live.status import GaitPanel, StatusView, banner_style
+from gaitmon.ui.live.views import ViewSlots
 from gaitmon.ui.plots import METHOD_LABELS, LivePlots, RawPlots
 from gaitmon.ui.theme import configure_pyqtgraph, current_colours
 
@@ -63,7 +65,7 @@ REFRESH_HZ = 30.0
 GAIT_PANEL_EVERY = 3  # ticks between gait-panel updates
 
 
-class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots):
+class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots):
     """The live monitor. ``settings`` is injected so tests can isolate it; ``sim``: the
     simulated device's settings (default: SimConfig())."""
 
@@ -170,6 +172,8 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots):
         self.act_about = acts["about"]
         self.act_quit = acts["quit"]
         self.act_four_phases = acts["four_phases"]
+        self.act_engineering = acts["engineering"]
+        self.act_guide = acts["guide"]
         self._actions = acts
 
     def _build_toolbars(self) -> None:
@@ -231,6 +235,8 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots):
         self.window_combo.currentIndexChanged.connect(self._window_combo_changed)
         tb2.addWidget(QLabel("  Window "))
         tb2.addWidget(self.window_combo)
+        tb2.addSeparator()
+        tb2.addAction(self.act_engineering)  # a toggle button: the engineering view
 
     def _legend_box(self, text: str, colour: str, checkable: bool) -> QWidget:
         if checkable:
@@ -250,6 +256,8 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots):
         lay.addWidget(self.status.link_banner)
         lay.addWidget(self.status.record_banner)
         lay.addWidget(self.status.fsr_banner)
+        self.guide = GuideBar(self.colours, (self.act_connect, self.act_zero, self.act_record))
+        lay.addWidget(self.guide)
 
         bar = QHBoxLayout()
         bar.setSpacing(12)
@@ -346,6 +354,12 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots):
         self.geometry_restored = bool(geo is not None and self.restoreGeometry(geo))
         state = p.s.value("window/state")
         self.state_restored = bool(state is not None and self.restoreState(state))
+        self._restore_view()  # after the layout: the clinical view hides the raw dock
+
+    def _update_controls(self) -> None:
+        super()._update_controls()
+        if hasattr(self, "guide"):
+            self._show_guide_state()
 
     # ------------------------------------------------------------------------------------
     # view options
@@ -435,6 +449,7 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots):
         self.status.show_link(snap, "the simulated unit" if conn.simulated else conn.port)
         self.status.show_checks(snap)
         self._show_recording(snap, conn)
+        self._show_guide_state(snap.calibrated)
         if paused:
             return
         self.last_snapshot = snap
@@ -503,6 +518,7 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots):
         self.set_four_phases(old_live.four_phases)
         self.live.set_fsr_threshold(self.config.fsr_threshold)
         self.live.set_angle_method(old_live.angle_method)
+        self.live.set_engineering(old_live.engineering)
 
     def shutdown(self) -> None:
         """Stop everything this window started (idempotent); the window stays open."""

@@ -38,6 +38,7 @@ from gaitmon.ui.plots.traces import (
 )
 from gaitmon.ui.theme import Colours, pen
 
+CONTACT_STRIP_PX = 110  # the FSR / gait-phase plot's height in the clinical view
 STALE_S = 0.3  # no new data for longer than this: the link is down, time runs on
 SHADING_TIP = (
     "Red shading: data lost (link outage). Faint red: the filters settle after a gap; strides "
@@ -66,6 +67,7 @@ class LivePlots(CountingPlotWidget):
         self.colours = colours
         self.window_s = 10.0
         self.methods_on = {"acc": True, "kalman": True, "gyro": True}
+        self.engineering = True  # False: the clinical view (see set_engineering)
         self.four_phases = True
         self.curves: list[Trace] = []  # the data traces (series, column, method)
         self.plots: dict[str, _PlotInfo] = {}
@@ -206,9 +208,35 @@ class LivePlots(CountingPlotWidget):
 
     def set_method(self, method: str, on: bool) -> None:
         self.methods_on[method] = bool(on)
+        self._set_trace_visibility()
+
+    def set_engineering(self, on: bool) -> None:
+        """The engineering view (all three methods, the segment tilts, full-height FSR) or the
+        clinical one: the joint angles of the chosen filter only (green), large, above a
+        compact foot-contact strip. ``methods_on`` is kept for when engineering returns."""
+        self.engineering = bool(on)
+        for name in SEGMENTS:
+            self.plots[name].plot.setVisible(self.engineering)
+        self._titles[0][0].setVisible(self.engineering)
+        fsr = self.plots["fsr"].plot
+        row = len(JOINTS) + 1
+        height = 1e6 if self.engineering else CONTACT_STRIP_PX  # the rows above get the rest
+        fsr.setMaximumHeight(height)
+        self.ci.layout.setRowMaximumHeight(row, height)
+        left = fsr.getAxis("left")
+        left.setLabel("FSR (ADC counts)" if self.engineering else "contact")
+        left.setStyle(showValues=self.engineering)
+        self._set_trace_visibility()
+
+    def shown_plots(self) -> list[str]:
+        """The plots the view shows (what the tests look at)."""
+        return [name for name, info in self.plots.items() if info.plot.isVisible()]
+
+    def _set_trace_visibility(self) -> None:
         for tr in self.curves:
-            if tr.method == method:
-                tr.visible = bool(on)
+            if tr.method:
+                clinical = tr.method == "kalman" and tr.series.startswith("joint_")
+                tr.visible = self.methods_on[tr.method] if self.engineering else clinical
         self._commit()
 
     def set_four_phases(self, four: bool) -> None:
@@ -322,7 +350,7 @@ class LivePlots(CountingPlotWidget):
     def _gyro_on_scale(self, s: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The gyro-integration series as drawn (see :func:`on_scale`), and each plot's note."""
         out: dict[str, np.ndarray] = {}
-        on = self.methods_on.get("gyro", True)
+        on = self.methods_on.get("gyro", True) and self.engineering
         for series, names in (
             ("tilt_gyro_deg", list(SEGMENTS)),
             ("joint_gyro_deg", [key for key, _label, _yr in JOINTS]),

@@ -1,0 +1,143 @@
+"""The guided start: a step bar above the plots, Connect → stand still and Zero → Record.
+
+Each step shows its state (done ✓, current, waiting) from the real state the window passes to
+:meth:`GuideBar.show_state` (connected? zeroed, from the engine's snapshot? recording?); the
+current step's button performs it by triggering the window's own action (so it does exactly
+what the menu and the shortcut do), and a one-line hint says what to do. The bar collapses
+when a recording starts; Help ▸ Guided start opens it again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from PySide6.QtGui import QAction
+from PySide6.QtWidgets import QHBoxLayout, QLabel, QPushButton, QSizePolicy, QToolButton, QWidget
+
+from gaitmon.ui.theme import Colours
+
+CONNECT, ZERO, RECORD, RECORDING = 0, 1, 2, 3  # the current step (RECORDING: all done)
+DONE, CURRENT, WAITING = "done", "current", "waiting"
+
+
+@dataclass(frozen=True)
+class GuideState:
+    """What the guide looks at: all of it real state, none of it the guide's own."""
+
+    connected: bool
+    connecting: bool = False
+    zeroed: bool = False
+    recording: bool = False
+    simulated: bool = False
+
+
+def current_step(state: GuideState) -> int:
+    if not state.connected:
+        return CONNECT
+    if state.recording:
+        return RECORDING
+    return RECORD if state.zeroed else ZERO
+
+
+def hint(state: GuideState) -> str:
+    step = current_step(state)
+    if step == CONNECT:
+        if state.connecting:
+            return "Connecting to the unit…"
+        return "Choose the unit (or the simulated device) under Unit, then press Connect."
+    if step == ZERO:
+        sim = " (simulated subject: Device ▸ Simulator ▸ Stand still)" if state.simulated else ""
+        return f"Ask the patient to stand upright and still, leg straight, then press Zero{sim}."
+    if step == RECORD:
+        return "Zeroed: the angles read 0 in that pose. The patient may walk; press Record."
+    return "Recording. M drops a marker; Stop (Ctrl+R) ends the session."
+
+
+class GuideBar(QWidget):
+    """The step bar. ``actions``: the window's Connect, Zero and Record actions, in step order."""
+
+    TITLES = ("Connect", "Stand still, then Zero", "Record")
+
+    def __init__(self, colours: Colours, actions: tuple[QAction, QAction, QAction]) -> None:
+        super().__init__()
+        self.setObjectName("guide-bar")
+        self.colours = colours
+        self.actions_ = actions
+        self.state = GuideState(connected=False)
+        self.dismissed = False  # the user closed it, or a recording started
+        self.states: list[str] = ["", "", ""]  # as shown
+        lay = QHBoxLayout(self)
+        lay.setContentsMargins(4, 2, 4, 2)
+        lay.setSpacing(6)
+        lay.addWidget(QLabel("<b>Start:</b>"))
+        self.buttons: list[QPushButton] = []
+        for i, action in enumerate(actions):
+            if i:
+                lay.addWidget(QLabel("→"))
+            b = QPushButton()
+            b.clicked.connect(action.trigger)
+            b.setSizePolicy(QSizePolicy.Policy.Fixed, QSizePolicy.Policy.Fixed)
+            self.buttons.append(b)
+            lay.addWidget(b)
+        self.hint_label = QLabel()
+        self.hint_label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
+        self.hint_label.setMinimumWidth(80)
+        lay.addSpacing(8)
+        lay.addWidget(self.hint_label, 1)
+        close = QToolButton()
+        close.setText("✕")
+        close.setAutoRaise(True)
+        close.setToolTip("Hide the guided start (Help ▸ Guided start shows it again)")
+        close.clicked.connect(self.dismiss)
+        self.close_button = close
+        lay.addWidget(close)
+        self.show_state(self.state)
+
+    @property
+    def hint_text(self) -> str:
+        return self.hint_label.text()
+
+    def dismiss(self) -> None:
+        self.dismissed = True
+        self.setVisible(False)
+
+    def reopen(self) -> None:
+        self.dismissed = False
+        self.setVisible(True)
+        self.show_state(self.state)
+
+    def show_state(self, state: GuideState) -> None:
+        started = state.recording and not self.state.recording
+        self.state = state
+        if started and not self.dismissed:
+            self.dismiss()  # the guide has done its job: the plots get the room
+        step = current_step(state)
+        c = self.colours
+        for i, (b, action) in enumerate(zip(self.buttons, self.actions_, strict=True)):
+            kind = DONE if i < step else CURRENT if i == step else WAITING
+            restyle = kind != self.states[i]
+            self.states[i] = kind
+            mark = "✓ " if kind == DONE else f"{i + 1}  "
+            title = self.TITLES[i]
+            if kind == CURRENT and i == CONNECT and state.connecting:
+                title = "Connecting…"
+            text = f"{mark}{title}"
+            if b.text() != text:
+                b.setText(text)
+            b.setEnabled(kind == CURRENT and action.isEnabled())
+            if not restyle:
+                continue
+            if kind == DONE:
+                style = f"QPushButton {{ color: {c.ok}; border: none; font-weight: 600; }}"
+            elif kind == CURRENT:
+                style = (
+                    f"QPushButton {{ font-weight: 700; padding: 3px 12px; border-radius: 4px; "
+                    f"border: 2px solid {c.ok}; }}"
+                )
+            else:
+                style = "QPushButton { border: none; }"
+            b.setStyleSheet(style)
+            b.setToolTip(action.toolTip() if kind == CURRENT else "")
+        text = hint(state)
+        if self.hint_label.text() != text:
+            self.hint_label.setText(text)
