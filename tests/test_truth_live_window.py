@@ -37,6 +37,7 @@ def no_leaked_threads():
 
 def open_window(qtbot, tmp_path, sim):
     settings = QSettings(str(tmp_path / "gaitmon.ini"), QSettings.Format.IniFormat)
+    settings.setValue("view/engineering", True)  # every trace and plot is checked here
     win = MainWindow(settings, sim=sim, autoconnect=SIMULATED_PORT, mode="raw", confirm_close=False)
     win.show()
     qtbot.waitUntil(lambda: win.engine is not None, timeout=WAIT_MS)

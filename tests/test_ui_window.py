@@ -47,6 +47,9 @@ def ui_settings(tmp_path):
 
 def make_window(qtbot, settings, *, standing_s=1.0, mode="raw", autoconnect=True):
     sim = SimConfig(standing_s=standing_s)
+    # these tests look at every trace: the engineering view, as if chosen in an earlier run
+    # (the default clinical view is tests/test_ui_clinical.py's)
+    settings.setValue("view/engineering", True)
     win = MainWindow(
         settings,
         sim=sim,
