@@ -1,6 +1,7 @@
-"""Retake the README's pictures of a link cut (issue 11) and a dead foot sensor (issue 13).
+"""Retake the README's pictures of the live monitor (issue 15: the clinical view and the guided
+start), of a link cut (issue 11) and of a dead foot sensor (issue 13).
 
-    python benchmarks/screenshots.py [--out assets] [--only live_fsr_fault]
+    python benchmarks/screenshots.py [--out assets] [--only live_fsr_fault|live_clinical]
 
 Starts ``Xvfb :97`` when no ``DISPLAY`` is set, then:
 
@@ -10,7 +11,11 @@ Starts ``Xvfb :97`` when no ``DISPLAY`` is set, then:
 - ``review_gap.png``: the review window on a recording with a 3 s cut, zoomed on the gap;
 - ``report.png``: page 1 of ``gaitmon report`` of that recording (needs ``pdftoppm``);
 - ``live_fsr_fault.png``: the live window walking, 10 s after Device ▸ Simulator ▸ Heel sensor
-  dead: the force-sensor banner, the gait panel's event source, the tilt filter in the titles.
+  dead: the force-sensor banner, the gait panel's event source, the tilt filter in the titles;
+- ``live_guided_start.png``: a first run (fresh settings: the clinical view) just connected to
+  the walking simulated subject: the guided start's "Stand still, then Zero" is the step to do;
+- ``screenshot.png``: the same window after the steps were done with the guide's own buttons
+  (Device ▸ Simulator ▸ Stand still, Zero, Walk again) and 10 s of walking: Record is next.
 
 The pictures are the windows' own rendering (``QWidget.grab``), so ``QT_QPA_PLATFORM=offscreen``
 takes the same pictures where no X server can run.
@@ -106,10 +111,38 @@ def live_fsr_fault(app, out: Path, tmp: Path) -> None:  # type: ignore[no-untype
     win.close()
 
 
+def live_clinical(app, out: Path, tmp: Path) -> None:  # type: ignore[no-untyped-def]
+    from PySide6.QtCore import QSettings
+
+    from gaitmon.io.sim.config import SimConfig
+    from gaitmon.live.connection import SIMULATED_PORT
+    from gaitmon.ui.live import MainWindow
+
+    settings = QSettings(str(tmp / "clinical.ini"), QSettings.Format.IniFormat)
+    win = MainWindow(settings, sim=SimConfig(standing_s=0.0), mode="raw", confirm_close=False)
+    win.resize(1400, 880)
+    win.show()
+    win.port_combo.setCurrentIndex(win.port_combo.findData(SIMULATED_PORT))
+    win.guide.buttons[0].click()  # Connect
+    wait(app, lambda: win.engine is not None and win.engine.samples_total >= 700)
+    save(win, out / "live_guided_start.png")
+    win.set_simulated_standing(True)
+    at = win.engine.samples_total
+    wait(app, lambda: win.engine.samples_total >= at + 600)
+    win.guide.buttons[1].click()  # Zero
+    wait(app, lambda: win.guide.states[1] == "done")
+    win.set_simulated_standing(False)
+    pause(app, 11.0)
+    save(win, out / "screenshot.png")
+    win.close()
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "assets")
-    ap.add_argument("--only", choices=["live_fsr_fault"], help="take only this picture")
+    ap.add_argument("--only", choices=["live_fsr_fault", "live_clinical"],
+                    help="take only this picture (live_clinical: screenshot.png and "
+                    "live_guided_start.png)")  # fmt: skip
     args = ap.parse_args()
     xvfb = None if os.environ.get("QT_QPA_PLATFORM") == "offscreen" else ensure_display()
     try:
@@ -125,6 +158,9 @@ def main() -> int:
         tmp = Path(tempfile.mkdtemp(prefix="gaitmon-shots-"))
         if args.only == "live_fsr_fault":
             live_fsr_fault(app, args.out, tmp)
+            return 0
+        if args.only == "live_clinical":
+            live_clinical(app, args.out, tmp)
             return 0
         settings = QSettings(str(tmp / "gaitmon.ini"), QSettings.Format.IniFormat)
         win = MainWindow(settings, sim=SimConfig(standing_s=1.0), autoconnect=SIMULATED_PORT,
@@ -161,6 +197,7 @@ def main() -> int:
                             str(pdf), str(args.out / "report")], check=True)  # fmt: skip
             print(f"wrote {args.out / 'report.png'}")
         live_fsr_fault(app, args.out, tmp)
+        live_clinical(app, args.out, tmp)
         return 0
     finally:
         if xvfb is not None:

@@ -46,7 +46,7 @@ def hint(state: GuideState) -> str:
             return "Connecting to the unit…"
         return "Choose the unit (or the simulated device) under Unit, then press Connect."
     if step == ZERO:
-        sim = " (simulated subject: Device ▸ Simulator ▸ Stand still)" if state.simulated else ""
+        sim = " (simulator: Device ▸ Simulator ▸ Stand still)" if state.simulated else ""
         return f"Ask the patient to stand upright and still, leg straight, then press Zero{sim}."
     if step == RECORD:
         return "Zeroed: the angles read 0 in that pose. The patient may walk; press Record."
@@ -80,8 +80,9 @@ class GuideBar(QWidget):
             self.buttons.append(b)
             lay.addWidget(b)
         self.hint_label = QLabel()
-        self.hint_label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
-        self.hint_label.setMinimumWidth(80)
+        self.hint_label.setWordWrap(True)  # two lines rather than a clipped hint
+        self.hint_label.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Preferred)
+        self.hint_label.setMinimumWidth(160)
         lay.addSpacing(8)
         lay.addWidget(self.hint_label, 1)
         close = QToolButton()
