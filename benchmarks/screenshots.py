@@ -100,6 +100,7 @@ def live_fsr_fault(app, out: Path, tmp: Path) -> None:  # type: ignore[no-untype
     from gaitmon.ui.live import MainWindow
 
     settings = QSettings(str(tmp / "fsr.ini"), QSettings.Format.IniFormat)
+    settings.setValue("view/engineering", True)  # the picture shows every trace
     win = MainWindow(settings, sim=SimConfig(standing_s=1.0), autoconnect=SIMULATED_PORT,
                      mode="raw", confirm_close=False)  # fmt: skip
     win.resize(1400, 880)
@@ -163,6 +164,7 @@ def main() -> int:
             live_clinical(app, args.out, tmp)
             return 0
         settings = QSettings(str(tmp / "gaitmon.ini"), QSettings.Format.IniFormat)
+        settings.setValue("view/engineering", True)  # every trace breaks at the gap
         win = MainWindow(settings, sim=SimConfig(standing_s=1.0), autoconnect=SIMULATED_PORT,
                          mode="raw", confirm_close=False)  # fmt: skip
         win.resize(1400, 880)

@@ -157,3 +157,28 @@ def test_guided_start_follows_the_real_state_and_its_buttons_do_the_steps(qtbot,
     finally:
         win.close()
     assert win.errors == []
+
+
+def test_a_theme_change_keeps_the_view_and_restyles_the_guide(qtbot, tmp_path):
+    from PySide6.QtGui import QColor, QPalette
+    from PySide6.QtWidgets import QApplication
+
+    app = QApplication.instance()
+    old = app.palette()
+    win = open_window(qtbot, settings_at(tmp_path), SimConfig(), autoconnect=False)
+    try:
+        assert win.live.shown_plots() == CLINICAL
+        was_dark = win.colours.dark
+        pal = QPalette(old)
+        shade = QColor("#f0f0f0") if was_dark else QColor("#202020")
+        pal.setColor(QPalette.ColorRole.Window, shade)
+        pal.setColor(QPalette.ColorRole.Base, shade)
+        app.setPalette(pal)
+        qtbot.waitUntil(lambda: win.colours.dark != was_dark, timeout=WAIT_MS)
+        # the plots were rebuilt in the new shades: still the clinical view, the guide restyled
+        assert win.live.shown_plots() == CLINICAL and not win.live.engineering
+        assert win.colours.ok in win.guide.buttons[0].styleSheet()
+    finally:
+        app.setPalette(old)
+        win.close()
+    assert win.errors == []

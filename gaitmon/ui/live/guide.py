@@ -94,6 +94,12 @@ class GuideBar(QWidget):
         lay.addWidget(close)
         self.show_state(self.state)
 
+    def set_colours(self, colours: Colours) -> None:
+        """A theme change: restyle the steps in the new shades."""
+        self.colours = colours
+        self.states = ["", "", ""]
+        self.show_state(self.state)
+
     @property
     def hint_text(self) -> str:
         return self.hint_label.text()

@@ -508,6 +508,7 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots):
         self.live = LivePlots(colours)
         self._central_layout.replaceWidget(old_live, self.live)
         self.gait_panel.set_colours(colours)
+        self.guide.set_colours(colours)
         self.raw = RawPlots(colours)
         self.raw_dock.setWidget(self.raw)
         for w in (old_live, old_raw):
