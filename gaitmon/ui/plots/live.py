@@ -31,6 +31,7 @@ from gaitmon.ui.plots.traces import (
     Trace,
     TraceSet,
     decimate_peak,
+    newest_idx,
     on_scale,
     step_band,
     style_plot,
@@ -317,7 +318,7 @@ class LivePlots(CountingPlotWidget):
         fsr_missing = not np.isfinite(s["fsr_counts"]).any()
         if self._no_fsr_text is not None and self._no_fsr_text.isVisible() != fsr_missing:
             self._no_fsr_text.setVisible(fsr_missing)
-        self.mark_new_data(float(s["host_time_s"][-1]))
+        self.mark_new_data(newest_idx(s))
 
     def _gyro_on_scale(self, s: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The gyro-integration series as drawn (see :func:`on_scale`), and each plot's note."""
@@ -448,4 +449,4 @@ class RawPlots(CountingPlotWidget):
                     tr.clear()
         self.acc_traces.commit()
         self.gyro_traces.commit()
-        self.mark_new_data(float(s["host_time_s"][-1]))
+        self.mark_new_data(newest_idx(s))

@@ -19,8 +19,6 @@ cheap (budget: < 30 % of one core for the GUI thread):
 from __future__ import annotations
 
 import math
-import time
-from collections import deque
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -233,28 +231,34 @@ class TraceSet(_GraphicsObject):
                 p.drawPath(tr.path)
 
 
-class CountingPlotWidget(_GraphicsLayoutWidget):
-    """A GraphicsLayoutWidget that counts its repaints and the latency of the data it shows.
+def newest_idx(series: dict[str, np.ndarray]) -> float:
+    """The engine index of the newest received sample in a snapshot's series (NaN if none)."""
+    idx = series.get("idx")
+    if idx is None:
+        return math.nan
+    real = idx[np.isfinite(idx)]
+    return float(real[-1]) if len(real) else math.nan
 
-    Latency = time the paint finished - host receive time of the newest sample drawn; measured
-    on the first paint after new data (what `benchmarks/bench_gui.py` reports).
+
+class CountingPlotWidget(_GraphicsLayoutWidget):
+    """A GraphicsLayoutWidget that counts its repaints and knows the newest sample it shows.
+
+    ``mark_new_data(newest_idx)`` after new data is set: the next paint shows every sample up
+    to that engine index (what `benchmarks/bench_gui.py` times, per sample, from the port).
     """
 
     def __init__(self, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.paints = 0
-        self.latencies_s: deque[float] = deque(maxlen=4096)
-        self._shown_host_time_s: float | None = None
+        self._shown_idx: float | None = None
 
-    def mark_new_data(self, newest_host_time_s: float) -> None:
-        self._shown_host_time_s = newest_host_time_s
+    def mark_new_data(self, newest_idx: float) -> None:
+        self._shown_idx = newest_idx
 
     def paintEvent(self, ev: QPaintEvent) -> None:
         super().paintEvent(ev)
         self.paints += 1
-        if self._shown_host_time_s is not None:
-            self.latencies_s.append(time.monotonic() - self._shown_host_time_s)
-            self._shown_host_time_s = None
+        self._shown_idx = None
 
 
 def style_plot(
