@@ -214,6 +214,7 @@ def measure(
     read = (host[have] - written[eng_idx[have].astype(np.int64)]) * 1000.0
     return {
         "gui_cpu_pct": 100.0 * gui / wall,
+        "gui_ms_per_frame": 1000.0 * gui / max(1, live.paints - paints0),
         "process_cpu_pct": 100.0 * proc / wall,
         "fps": fps,
         "p50_ms": _pct(lat, 50),
@@ -230,7 +231,8 @@ def measure(
 
 def _print_segment(label: str, r: dict[str, float]) -> None:
     print(
-        f"  {label:22s} GUI thread {r['gui_cpu_pct']:5.1f} % | process {r['process_cpu_pct']:5.1f}"
+        f"  {label:22s} GUI thread {r['gui_cpu_pct']:5.1f} % "
+        f"({r['gui_ms_per_frame']:4.1f} ms/frame) | process {r['process_cpu_pct']:5.1f}"
         f" % | {r['fps']:5.1f} fps | input {r['input_hz']:5.1f} Hz | port -> painted, all "
         f"{r['n']:.0f} samples: p50 {r['p50_ms']:5.1f}, p95 {r['p95_ms']:5.1f}, max "
         f"{r['max_ms']:6.1f} ms (port -> read p95 {r['read_p95_ms']:4.1f} ms) | "
@@ -344,7 +346,7 @@ def _run(app: QApplication, args: argparse.Namespace, tmp: str, unit: _Unit) -> 
     styles = [("pen 1, no antialias (shipped)", 1, False)]
     if args.variants:
         styles += [("pen 2, no antialias", 2, False), ("pen 1, antialias", 1, True)]
-    keys = ("gui_cpu_pct", "fps", "p50_ms", "p95_ms", "max_ms")
+    keys = ("gui_cpu_pct", "gui_ms_per_frame", "fps", "p50_ms", "p95_ms", "max_ms")
     for label, width, aa in styles:
         _restyle(win, width, aa)
         print(label)
@@ -360,10 +362,15 @@ def _run(app: QApplication, args: argparse.Namespace, tmp: str, unit: _Unit) -> 
             if n:
                 ref = med[0]
                 ratio = " | x load 0: " + ", ".join(
-                    f"{k.split('_')[0]} {m[k] / ref[k]:.2f}" for k in keys if ref[k]
+                    f"{short} {m[k] / ref[k]:.2f}"
+                    for k, short in zip(
+                        keys, ("gui", "ms/frame", "fps", "p50", "p95", "max"), strict=True
+                    )
+                    if ref[k]
                 )
             print(
-                f"  MEDIAN load {n}: GUI thread {m['gui_cpu_pct']:.1f} % of a core, "
+                f"  MEDIAN load {n}: GUI thread {m['gui_cpu_pct']:.1f} % of a core "
+                f"({m['gui_ms_per_frame']:.1f} ms per frame), "
                 f"{m['fps']:.1f} fps, port -> painted p50 / p95 / max {m['p50_ms']:.0f} / "
                 f"{m['p95_ms']:.0f} / {m['max_ms']:.0f} ms{ratio}",
                 flush=True,
