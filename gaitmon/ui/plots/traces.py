@@ -1,15 +1,20 @@
 """Drawing primitives the live and review plots share, and the clinical ranges they show.
 
 Everything here is built once and then fed numpy arrays ~30 times a second. What keeps that
-cheap (budget: < 30 % of one core for the GUI thread):
+cheap (goal: <= 25 % of one core for the live window's GUI thread, measured per sample from
+the port by ``benchmarks/bench_gui.py``):
 
 * each plot's traces drawn by one `TraceSet` item (one paint call per plot, paths built by
   ``pg.arrayToQPath``), pen width 1, no antialiasing, fixed axis ranges (no autorange pass);
-* axes (which draw the grid) cached as pixmaps, major grid lines only (:func:`style_plot`);
+* in the live window, layered painting (`CountingPlotWidget`): a frame is the trace sets drawn
+  between a cached picture of the rest of the scene and a cached picture of the axes (which
+  draw the grid); the scene is not traversed for a frame;
+* elsewhere, axes cached as pixmaps by Qt; major grid lines only (:func:`style_plot`);
 * the x axis is "seconds before now" with a fixed range, so the axes never re-render while the
   traces scroll;
 * series known to be finite skip pyqtgraph's finite check; series with gaps (device modes leave
-  some series NaN) are drawn with ``connect='finite'`` and all-NaN ones are hidden;
+  some series NaN, the gyro integration off scale) are broken at NaN one polygon per finite
+  run (:func:`broken_line_path`) and all-NaN ones are hidden;
 * windows longer than ``MAX_POINTS`` are min/max decimated once per series (all columns in one
   numpy call) instead of per curve, so peaks stay visible (:func:`decimate_peak`);
 * gait phases are drawn as step polygons through the phase changes only (:func:`step_band`),
