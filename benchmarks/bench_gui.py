@@ -30,6 +30,7 @@ GUI thread <= 25 % of one core.
     DISPLAY=:94 QT_QPA_PLATFORM=xcb python benchmarks/bench_gui.py --load 2  # a real X server
     python benchmarks/bench_gui.py --seconds 20 --window 30 --raw-dock
     python benchmarks/bench_gui.py --variants   # also pen width 2 / antialiased, same run
+    python benchmarks/bench_gui.py --load 2 --scene-paint  # also the whole scene painted
 """
 
 from __future__ import annotations
@@ -302,6 +303,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--variants", action="store_true", help="also pen width 2, antialiased")
     ap.add_argument("--load", type=int, default=0, help="busy processes beside the window")
     ap.add_argument(
+        "--scene-paint",
+        action="store_true",
+        help="also the window painting its whole scene every frame (the code path before the "
+        "layered painting), same run",
+    )
+    ap.add_argument(
         "--screenshot", metavar="PNG", help="instead: save the window with live data as PNG"
     )
     ap.add_argument("--serve", metavar="LINK", help=argparse.SUPPRESS)  # the child process
@@ -343,33 +350,39 @@ def _run(app: QApplication, args: argparse.Namespace, tmp: str, unit: _Unit) -> 
         flush=True,
     )
     loads = [0] if args.load == 0 else [0, args.load]
+    # (name, busy processes, layered painting); the first is the reference of the ratios
+    conditions = [(f"load {n}", n, True) for n in loads]
+    if args.scene_paint:  # the previous code path: the whole scene painted every frame
+        conditions += [(f"load {n}, scene paint", n, False) for n in loads]
     styles = [("pen 1, no antialias (shipped)", 1, False)]
     if args.variants:
         styles += [("pen 2, no antialias", 2, False), ("pen 1, antialias", 1, True)]
     keys = ("gui_cpu_pct", "gui_ms_per_frame", "fps", "p50_ms", "p95_ms", "max_ms")
+    shorts = ("gui", "ms/frame", "fps", "p50", "p95", "max")
     for label, width, aa in styles:
         _restyle(win, width, aa)
         print(label)
-        res: dict[int, list[dict[str, float]]] = {n: [] for n in loads}
-        for _ in range(args.repeat):  # the reference and the load alternate
-            for n in loads:
-                res[n].append(measure(app, win, unit, args.seconds, n))
-                _print_segment(f"load {n}", res[n][-1])
-        med = {n: {k: statistics.median(r[k] for r in res[n]) for k in keys} for n in loads}
-        for n in loads:
-            m = med[n]
+        res: dict[str, list[dict[str, float]]] = {c[0]: [] for c in conditions}
+        for _ in range(args.repeat):  # the reference and the others alternate
+            for name, n, layered in conditions:
+                win.live.layered = layered
+                res[name].append(measure(app, win, unit, args.seconds, n))
+                _print_segment(name, res[name][-1])
+        win.live.layered = True
+        med = {c: {k: statistics.median(r[k] for r in rs) for k in keys} for c, rs in res.items()}
+        ref_name = conditions[0][0]
+        for name, _n, _layered in conditions:
+            m = med[name]
             ratio = ""
-            if n:
-                ref = med[0]
-                ratio = " | x load 0: " + ", ".join(
+            if name != ref_name:
+                ref = med[ref_name]
+                ratio = f" | x {ref_name}: " + ", ".join(
                     f"{short} {m[k] / ref[k]:.2f}"
-                    for k, short in zip(
-                        keys, ("gui", "ms/frame", "fps", "p50", "p95", "max"), strict=True
-                    )
+                    for k, short in zip(keys, shorts, strict=True)
                     if ref[k]
                 )
             print(
-                f"  MEDIAN load {n}: GUI thread {m['gui_cpu_pct']:.1f} % of a core "
+                f"  MEDIAN {name}: GUI thread {m['gui_cpu_pct']:.1f} % of a core "
                 f"({m['gui_ms_per_frame']:.1f} ms per frame), "
                 f"{m['fps']:.1f} fps, port -> painted p50 / p95 / max {m['p50_ms']:.0f} / "
                 f"{m['p95_ms']:.0f} / {m['max_ms']:.0f} ms{ratio}",
