@@ -163,7 +163,8 @@ def drawn_at(idx: np.ndarray, log: list[tuple[float, float]], end_s: float) -> n
     out = np.full(len(idx), end_s)
     if not log:
         return out
-    shown = np.maximum.accumulate(np.array([a for a, _ in log]))
+    shown = np.fmax.accumulate(np.array([a for a, _ in log]))  # NaN: no sample shown yet
+    shown = np.nan_to_num(shown, nan=-1.0)
     ends = np.array([b for _, b in log])
     k = np.searchsorted(shown, idx, "left")
     ok = k < len(shown)
