@@ -217,3 +217,53 @@ def test_every_live_action_row_names_a_window_slot_once():
     assert len(shortcuts) == len(set(shortcuts))  # no key does two things
     for spec in ACTIONS:
         assert callable(getattr(MainWindow, spec.slot, None)), spec.slot
+
+
+@pytest.mark.parametrize("nan_pct", [1.0, 30.0])
+def test_a_line_broken_at_nans_draws_what_pyqtgraphs_finite_connect_draws(qtbot, nan_pct):
+    """The live plots build NaN-broken lines (the gyro integration off scale, lost rows) one
+    polygon per finite run; the pixels drawn must be pyqtgraph's connect='finite' ones, both
+    below and above the 2 % of NaN where pyqtgraph switches its method."""
+    import pyqtgraph as pg
+    from PySide6.QtCore import Qt
+    from PySide6.QtGui import QImage, QPainter, QPen, QTransform
+
+    from gaitmon.ui.plots.traces import broken_line_path
+
+    rng = np.random.default_rng(int(nan_pct))
+    n = 1000
+    x = np.linspace(-10.0, 0.0, n)
+    y = np.cumsum(rng.normal(size=n))
+    nan = rng.random(n) < nan_pct / 100.0
+    nan[[3, 5, 6, 7]] = True  # lone finite points between NaNs, and a run of NaNs
+    nan[-2], nan[-1] = True, False  # a lone finite point at the very end
+    y[nan] = np.nan
+
+    def draw(path):
+        img = QImage(600, 300, QImage.Format.Format_ARGB32)
+        img.fill(Qt.GlobalColor.white)
+        p = QPainter(img)
+        lo, hi = np.nanmin(y), np.nanmax(y)
+        p.setTransform(
+            QTransform().scale(60.0, -290.0 / (hi - lo))
+            * QTransform().translate(600.0, 295.0 + 290.0 * lo / (hi - lo))
+        )
+        pen = QPen(Qt.GlobalColor.black)
+        pen.setCosmetic(True)
+        p.setPen(pen)
+        p.drawPath(path)
+        p.end()
+        return img
+
+    ours = draw(broken_line_path(x, y))
+    theirs = draw(pg.arrayToQPath(x, y, connect="finite", finiteCheck=True))
+    assert ours == theirs
+    assert ours != draw(pg.arrayToQPath(x, np.nan_to_num(y), connect="all"))  # gaps show
+    # one subpath per run of finite points (runs of one point only at the end draw nothing)
+    fin = ~nan
+    runs = np.sum(fin & ~np.concatenate([[False], fin[:-1]]))
+    path = broken_line_path(x, y)
+    moves = sum(
+        path.elementAt(i).type.name == "MoveToElement" for i in range(path.elementCount())
+    )
+    assert moves == runs - 1  # the lone point at the end

@@ -209,8 +209,8 @@ def stride_measures(
             anchors[j, 0] = f0.anchor
         if f1 is not None:
             anchors[j, 1] = f1.anchor
-        if f0 is None or f1 is None or f1.anchor - f0.anchor > MAX_STRIDE_S * fs_hz:
-            continue
+        if f0 is None or f1 is None or not 0 < f1.anchor - f0.anchor <= MAX_STRIDE_S * fs_hz:
+            continue  # (the same foot-flat for both heel strikes: no stride between them)
         length[j], clearance[j] = _stride(ax, az, gy, fs_hz, f0, f1)
     return StrideMeasures(
         heel_strike_idx=hs[:n_strides],

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pyqtgraph as pg
@@ -12,7 +11,7 @@ from PySide6.QtWidgets import QWidget
 
 from gaitmon.dsp.gait import cycle_mean_sd
 from gaitmon.engine import Snapshot
-from gaitmon.ui.plots.traces import JOINTS, CountingPlotWidget, style_plot
+from gaitmon.ui.plots.traces import JOINTS, CountingPlotWidget, newest_idx, style_plot
 from gaitmon.ui.theme import Colours, pen
 
 
@@ -104,4 +103,4 @@ class CyclePlots(CountingPlotWidget):
                     self.current[j].setData(pct[keep], y, skipFiniteCheck=True)
                 else:
                     self.current[j].setData(pct[keep], y, connect="finite")
-        self.mark_new_data(float(time.monotonic()))
+        self.mark_new_data(newest_idx(snap.series))

@@ -28,9 +28,11 @@ from gaitmon.ui.plots.traces import (
     METHODS,
     TILT_RANGES_DEG,
     CountingPlotWidget,
+    Label,
     Trace,
     TraceSet,
     decimate_peak,
+    newest_idx,
     on_scale,
     step_band,
     style_plot,
@@ -56,7 +58,8 @@ class _PlotInfo:
     markers: Trace | None = None
     lost: Trace | None = None  # red shading where data was lost
     settling: Trace | None = None  # faint red: the filters settle after a gap
-    gyro_note: pg.TextItem | None = None  # "gyro integration off scale"
+    gyro_note: Label | None = None  # "gyro integration off scale"
+    tip: str = ""  # the plot's tooltip
 
 
 class LivePlots(CountingPlotWidget):
@@ -72,11 +75,12 @@ class LivePlots(CountingPlotWidget):
         self.curves: list[Trace] = []  # the data traces (series, column, method)
         self.plots: dict[str, _PlotInfo] = {}
         self._bands: list[tuple[Trace, tuple[int, ...]]] = []
-        self._marker_labels: list[tuple[pg.TextItem, str]] = []
+        self._marker_labels: list[tuple[Label, str]] = []
         self._no_fsr_text: pg.TextItem | None = None
         self.angle_method = ""  # what makes the Kalman traces, named in the column titles
         self._titles: list[tuple[pg.LabelItem, str]] = []
-        self.threshold_line: pg.InfiniteLine | None = None
+        self.threshold: Trace | None = None  # the FSR contact threshold, dashed
+        self.fsr_threshold = 1000.0
         self.ci.setContentsMargins(2, 2, 8, 2)
         self.ci.layout.setHorizontalSpacing(10)
         self.ci.layout.setVerticalSpacing(3)
@@ -95,12 +99,12 @@ class LivePlots(CountingPlotWidget):
         bottom: bool,
         tip: str,
     ) -> _PlotInfo:
-        p = self.addPlot(row=row, col=col)
+        p = self.addPlot(row=row, col=col, axisItems=self.axes())
         style_plot(p, self.colours, ylabel, yr, bottom=bottom)
         p.setToolTip(f"{tip} {SHADING_TIP}")
-        ts = TraceSet((-self.window_s, 0.0), yr)
+        ts = self.adopt(TraceSet((-self.window_s, 0.0), yr))
         p.addItem(ts)
-        info = _PlotInfo(p, yr, ts)
+        info = _PlotInfo(p, yr, ts, tip=f"{tip} {SHADING_TIP}")
         lost = QColor(self.colours.alert)
         lost.setAlpha(70)  # the review's gap shading
         info.lost = ts.add(Trace(brush=lost, fill_level=yr[0]))
@@ -111,11 +115,7 @@ class LivePlots(CountingPlotWidget):
         return info
 
     def _add_gyro_note(self, info: _PlotInfo) -> None:
-        note = pg.TextItem(color=self.colours.gyro, anchor=(0, 0))
-        note.setVisible(False)
-        note.setZValue(10)
-        info.plot.addItem(note)
-        info.gyro_note = note
+        info.gyro_note = info.traces.add_label(self.colours.gyro, z=10.0)  # over the markers
 
     def _build(self) -> None:
         c = self.colours
@@ -162,11 +162,9 @@ class LivePlots(CountingPlotWidget):
         for k, colour in enumerate((c.heel, c.toe)):
             self.curves.append(info.traces.add(Trace(pen(colour), series="fsr_counts", column=k)))
         info.markers = info.traces.add(Trace(pen(c.marker)))
+        # over the traces and the bands, as a line item of the plot would be
+        self.threshold = info.traces.add(Trace(pen(c.event, dashed=True)))
         p = info.plot
-        self.threshold_line = pg.InfiniteLine(
-            pos=1000.0, angle=0, pen=pen(c.event, dashed=True), movable=False
-        )
-        p.addItem(self.threshold_line)
         self._no_fsr_text = pg.TextItem(
             "no foot-contact data in the unit's tilt mode", color=c.foreground, anchor=(0.5, 0.5)
         )
@@ -187,9 +185,10 @@ class LivePlots(CountingPlotWidget):
             info.plot.setXRange(-self.window_s, 0.0, padding=0)
             info.traces.nominal[0] = (-self.window_s, 0.0)
             if info.gyro_note is not None:
-                info.gyro_note.setPos(-self.window_s, info.yrange[1])
+                info.gyro_note.x, info.gyro_note.y = -self.window_s, info.yrange[1]
         if self._no_fsr_text is not None:
             self._no_fsr_text.setPos(-self.window_s / 2, sum(FSR_RANGE) / 2)
+        self._draw_threshold()
 
     def set_angle_method(self, label: str) -> None:
         """Name what makes the Kalman (green) traces in the column titles ("" names none)."""
@@ -249,9 +248,18 @@ class LivePlots(CountingPlotWidget):
             tr.visible = (len(phases) == 1) == self.four_phases
 
     def set_fsr_threshold(self, counts: float) -> None:
-        if self.threshold_line is not None:
-            self.threshold_line.setValue(counts)
-            self.threshold_line.setToolTip(f"contact threshold: {counts:g} counts (Settings)")
+        self.fsr_threshold = float(counts)
+        self._draw_threshold()
+        info = self.plots["fsr"]
+        info.plot.setToolTip(
+            f"{info.tip} Dashed line: contact threshold, {counts:g} counts (Settings)."
+        )
+        info.traces.commit()
+
+    def _draw_threshold(self) -> None:
+        if self.threshold is not None:
+            c = self.fsr_threshold
+            self.threshold.set(np.array([-self.window_s, 0.0]), np.array([c, c]))
 
     def reset_y_ranges(self) -> None:
         for info in self.plots.values():
@@ -265,8 +273,9 @@ class LivePlots(CountingPlotWidget):
         for info in self.plots.values():
             for tr in info.traces.traces:
                 tr.clear()
-        for item, _ in self._marker_labels:
-            item.setVisible(False)
+        for label, _ in self._marker_labels:
+            label.hide()
+        self._draw_threshold()
         self._commit()
 
     def _find(self, series: str, column: int, method: str = "") -> Trace:
@@ -345,7 +354,7 @@ class LivePlots(CountingPlotWidget):
         fsr_missing = not np.isfinite(s["fsr_counts"]).any()
         if self._no_fsr_text is not None and self._no_fsr_text.isVisible() != fsr_missing:
             self._no_fsr_text.setVisible(fsr_missing)
-        self.mark_new_data(float(s["host_time_s"][-1]))
+        self.mark_new_data(newest_idx(s))
 
     def _gyro_on_scale(self, s: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The gyro-integration series as drawn (see :func:`on_scale`), and each plot's note."""
@@ -363,15 +372,19 @@ class LivePlots(CountingPlotWidget):
                     continue
                 show = on and bool(np.isfinite(last_off[j]))
                 if show:
-                    note.setText(f"gyro integration off scale ({last_off[j]:+.0f}°)")
-                if note.isVisible() != show:
-                    note.setVisible(show)
+                    note.set(f"gyro integration off scale ({last_off[j]:+.0f}°)", note.x, note.y)
+                else:
+                    note.hide()
         return out
 
     def gyro_note(self, plot: str) -> str:
         """The off-scale note shown on ``plot`` ("" when none): what the tests look at."""
         note = self.plots[plot].gyro_note
-        return note.toPlainText() if note is not None and note.isVisible() else ""
+        return note.text if note is not None and note.visible else ""
+
+    def marker_labels(self) -> list[str]:
+        """The marker labels shown now, oldest first (one per column: each twice)."""
+        return [label.text for label, _ in self._marker_labels if label.visible]
 
     def lost_path(self, plot: str) -> QPainterPath | None:
         info = self.plots[plot]
@@ -395,19 +408,15 @@ class LivePlots(CountingPlotWidget):
         need = 2 * len(shown)  # one label on the top plot of each column
         while len(self._marker_labels) < need:
             name = "body" if len(self._marker_labels) % 2 == 0 else "hip"
-            item = pg.TextItem(color=self.colours.marker, anchor=(0, 0))
-            self.plots[name].plot.addItem(item)
+            item = self.plots[name].traces.add_label(self.colours.marker)
             self._marker_labels.append((item, name))
         for i, (item, name) in enumerate(self._marker_labels):
             k = i // 2
             if k < len(shown):
                 x, label = shown[k]
-                item.setText(label or "marker")
-                item.setPos(x, self.plots[name].yrange[1])
-                if not item.isVisible():
-                    item.setVisible(True)
-            elif item.isVisible():
-                item.setVisible(False)
+                item.set(label or "marker", x, self.plots[name].yrange[1])
+            else:
+                item.hide()
 
 
 class RawPlots(CountingPlotWidget):
@@ -429,6 +438,7 @@ class RawPlots(CountingPlotWidget):
         self.gyro_plot.setToolTip("Gyro rate per segment in rad/s (bias removed after Zero).")
         self.acc_traces = TraceSet((-self.window_s, 0.0), (-25, 30))
         self.gyro_traces = TraceSet((-self.window_s, 0.0), (-9, 9))
+        # painted through the scene (not layered): its legend lies over the traces
         self.acc_plot.addItem(self.acc_traces)
         self.gyro_plot.addItem(self.gyro_traces)
         legend = self.acc_plot.addLegend(colCount=4, offset=(4, 2), labelTextSize="8pt")
@@ -476,4 +486,4 @@ class RawPlots(CountingPlotWidget):
                     tr.clear()
         self.acc_traces.commit()
         self.gyro_traces.commit()
-        self.mark_new_data(float(s["host_time_s"][-1]))
+        self.mark_new_data(newest_idx(s))
