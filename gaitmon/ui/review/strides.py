@@ -183,9 +183,10 @@ def summary_html(
             rows += [
                 ("Stride length", cmp(sp.stride_length_mean_m,
                                       bs.stride_length_mean_m if bs else None, ".2f")
-                 + f" ± {_f(sp.stride_length_sd_m, '.2f')} m"),
+                 + f" ± {_f(sp.stride_length_sd_m, '.2f')} m"
+                 + f" (CV {_f(sp.stride_length_cv_pct, '.1f')} %)"),
                 ("Gait speed", cmp(sp.speed_mean_m_s, bs.speed_mean_m_s if bs else None, ".2f")
-                 + f" ± {_f(sp.speed_sd_m_s, '.2f')} m/s"),
+                 + f" ± {_f(sp.speed_sd_m_s, '.2f')} m/s (CV {_f(sp.speed_cv_pct, '.1f')} %)"),
             ]  # fmt: skip
         body = "<table cellspacing=2>" + "".join(
             f"<tr><td>{k}&nbsp;&nbsp;</td><td>{v}</td></tr>" for k, v in rows
