@@ -85,7 +85,8 @@ class Outcome:
     summary: dict[str, float] = field(default_factory=dict)
     angles_method: str = ""
     strides: tuple[tuple[Any, ...], ...] = ()  # stride_table_row values
-    # seconds: opening the source, rewriting it (copy + pipeline + write), analysing the result
+    # wall seconds opening the source, rewriting it (copy + pipeline + write) and analysing the
+    # result; cpu_s: the CPU time of all three (the cost without waiting for a busy machine)
     timing: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -118,7 +119,7 @@ def reprocess_one(task: Task) -> Outcome:
 
     bad_file: tuple[type[BaseException], ...] = (SessionError, *DAMAGE_ERRORS)
     src, dst = Path(task.src), Path(task.dst)
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     wrote = False
     try:
         with open_session(src) as s:  # (recovers an interrupted recording first)
@@ -153,7 +154,8 @@ def reprocess_one(task: Task) -> Outcome:
     return Outcome(
         task.rel, OK, problem, patient, created, duration, len(an.rows), an.n_included,
         {k: float(getattr(summ, k)) for k in SUMMARY_MEASURES}, method, rows,
-        {"read_s": t1 - t0, "rewrite_s": t2 - t1, "analyse_s": t3 - t2},
+        {"read_s": t1 - t0, "rewrite_s": t2 - t1, "analyse_s": t3 - t2,
+         "cpu_s": time.process_time() - cpu0},
     )  # fmt: skip
 
 
@@ -251,28 +253,31 @@ def _run_local(tasks: Sequence[Task], jobs: int, done: Callable[[Outcome], None]
 DASK_CONNECT_TIMEOUT_S = 20
 
 
-def _run_dask(tasks: Sequence[Task], address: Any, done: Callable[[Outcome], None]) -> None:
-    """The same tasks on a Dask distributed cluster (``address``: the scheduler's address,
-    or a cluster object such as a ``LocalCluster``)."""
+def dask_client(address: Any) -> Any:
+    """A client of the Dask distributed cluster at ``address`` (the scheduler's address, or a
+    cluster object such as a ``LocalCluster``); :class:`UserError` when there is none."""
     try:
         from distributed import Client
-        from distributed import as_completed as dask_completed
     except ImportError:
-        raise UserError(
-            "--dask needs Dask distributed: pip install 'gaitmon[dask]'"
-        ) from None
+        raise UserError("--dask needs Dask distributed: pip install 'gaitmon[dask]'") from None
     try:
         # (typed only when installed: the ignore covers both cases)
-        client = Client(address, timeout=f"{DASK_CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call, unused-ignore]
+        return Client(address, timeout=f"{DASK_CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call, unused-ignore]
     except (OSError, TimeoutError, ValueError) as exc:
         raise UserError(
             f"cannot reach the Dask scheduler at {address} ({_one_line(exc)}); start it with "
             "'dask scheduler' and check the address"
         ) from None
-    with client:
-        futures = client.map(reprocess_one, list(tasks), pure=False)
-        for f in dask_completed(futures):  # type: ignore[no-untyped-call, unused-ignore]
-            done(f.result())
+
+
+def _run_dask(tasks: Sequence[Task], client: Any, done: Callable[[Outcome], None]) -> None:
+    """The same tasks on the cluster: each worker imports gaitmon and opens its own files
+    (the paths must be the same there: a shared file system)."""
+    from distributed import as_completed as dask_completed
+
+    futures = client.map(reprocess_one, list(tasks), pure=False)
+    for f in dask_completed(futures):  # type: ignore[no-untyped-call, unused-ignore]
+        done(f.result())
 
 
 @dataclass(frozen=True)
@@ -310,6 +315,18 @@ def run_batch(
     rels = find_sessions(root_p, out_p)
     if not rels:
         raise UserError(f"no session files (*.h5) under {root_p}")
+    client = dask_client(dask) if dask is not None else None  # (fails before any work)
+    try:
+        return _run(root_p, out_p, rels, settings, jobs, client, deidentify, progress, t0)
+    finally:
+        if client is not None:
+            client.close()
+
+
+def _run(
+    root_p: Path, out_p: Path, rels: list[str], settings: Reprocessing | None, jobs: int,
+    client: Any, deidentify: bool, progress: Progress | None, t0: float,
+) -> BatchResult:  # fmt: skip
     out_p.mkdir(parents=True, exist_ok=True)
     fp = _fingerprint(settings)
     tasks = [Task(rel, str(root_p / rel), str(out_p / rel), settings) for rel in rels]
@@ -336,8 +353,8 @@ def run_batch(
 
     report()
     if todo:
-        if dask is not None:
-            _run_dask(todo, dask, done)
+        if client is not None:
+            _run_dask(todo, client, done)
         else:
             _run_local(todo, jobs, done)
     outcomes = tuple(results[r] for r in rels)
@@ -361,7 +378,7 @@ def _cell(name: str, value: Any) -> str:
     if isinstance(value, float):
         if not math.isfinite(value):
             return ""
-        text = f"{value:.{4 if name.endswith('_s') else 2}f}"
+        text = f"{value:.{4 if name.endswith('_s') and name != 'duration_s' else 2}f}"
         return text.lstrip("-") if float(text) == 0.0 else text
     return " ".join(str(value).split())
 

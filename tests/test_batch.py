@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import io
+import logging
 import math
 import shutil
 from pathlib import Path
@@ -140,7 +141,8 @@ def test_the_dask_run_equals_the_local_run_bit_for_bit(study, local_run, tmp_pat
     _, local_out = local_run
     out = tmp_path / "dask"
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0") as cluster:  # fmt: skip
+                                  dashboard_address=":0",
+                                  silence_logs=logging.CRITICAL) as cluster:  # fmt: skip
         result = run_batch(study, out, SETTINGS, dask=cluster.scheduler_address)
     assert result.count(OK) == N_SESSIONS and result.n_resumed == 0
     for name in ("summary.csv", "strides.csv"):
