@@ -22,7 +22,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
-import io
 import json
 import math
 import multiprocessing
@@ -86,7 +85,7 @@ class Outcome:
     angles_method: str = ""
     strides: tuple[tuple[Any, ...], ...] = ()  # stride_table_row values
     # wall seconds opening the source, rewriting it (copy + pipeline + write) and analysing the
-    # result; cpu_s: the CPU time of all three (the cost without waiting for a busy machine)
+    # result; cpu_s: this thread's CPU time for all three (without waiting for a busy machine)
     timing: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -119,7 +118,7 @@ def reprocess_one(task: Task) -> Outcome:
 
     bad_file: tuple[type[BaseException], ...] = (SessionError, *DAMAGE_ERRORS)
     src, dst = Path(task.src), Path(task.dst)
-    t0, cpu0 = time.perf_counter(), time.process_time()
+    t0, cpu0 = time.perf_counter(), time.thread_time()
     wrote = False
     try:
         with open_session(src) as s:  # (recovers an interrupted recording first)
@@ -155,7 +154,7 @@ def reprocess_one(task: Task) -> Outcome:
         task.rel, OK, problem, patient, created, duration, len(an.rows), an.n_included,
         {k: float(getattr(summ, k)) for k in SUMMARY_MEASURES}, method, rows,
         {"read_s": t1 - t0, "rewrite_s": t2 - t1, "analyse_s": t3 - t2,
-         "cpu_s": time.process_time() - cpu0},
+         "cpu_s": time.thread_time() - cpu0},
     )  # fmt: skip
 
 
@@ -337,7 +336,7 @@ def _run(
         if prev is None:
             todo.append(t)
         else:
-            results[t.rel] = prev
+            results[t.rel] = dataclasses.replace(prev, strides=())
     n_resumed = len(results)
     total = len(tasks)
     by_rel = {t.rel: t for t in tasks}
@@ -348,7 +347,8 @@ def _run(
 
     def done(outcome: Outcome) -> None:
         _save_record(by_rel[outcome.rel], out_p, fp, outcome)
-        results[outcome.rel] = outcome
+        # the stride rows stay in the record only: 10,000 ten-minute sessions hold ~5 million
+        results[outcome.rel] = dataclasses.replace(outcome, strides=())
         report()
 
     report()
@@ -358,11 +358,22 @@ def _run(
         else:
             _run_local(todo, jobs, done)
     outcomes = tuple(results[r] for r in rels)
-    summary_csv, strides_csv = out_p / SUMMARY_CSV, out_p / STRIDES_CSV
-    summary_text, strides_text = tables(outcomes, deidentify=deidentify)
-    _write_atomic(summary_csv, summary_text.encode("utf-8"))
-    _write_atomic(strides_csv, strides_text.encode("utf-8"))
+    summary_csv, strides_csv = write_tables(
+        outcomes, out_p, deidentify=deidentify, strides_of=lambda o: _recorded_strides(out_p, o)
+    )
     return BatchResult(outcomes, n_resumed, summary_csv, strides_csv, time.perf_counter() - t0)
+
+
+def _recorded_strides(out: Path, o: Outcome) -> tuple[tuple[Any, ...], ...]:
+    """A finished session's stride rows, read back from its record (JSON keeps every float's
+    exact value, so the table is the same as from the worker's own result)."""
+    if o.status != OK:
+        return ()
+    try:
+        rec = json.loads(_record_path(out, o.rel).read_text(encoding="utf-8"))
+        return Outcome.from_record(rec["outcome"]).strides
+    except (OSError, ValueError, KeyError, TypeError):
+        return ()
 
 
 # -- the tables ------------------------------------------------------------------------------
@@ -417,27 +428,42 @@ def _scrub(o: Outcome, label: str) -> str:
     return reason
 
 
-def tables(outcomes: Sequence[Outcome], *, deidentify: bool = False) -> tuple[str, str]:
-    """The summary and the per-stride CSV text. De-identified: no patient id, no date, no
-    file name (a file name is often a patient code), which are also
-    removed from the reasons (the file's name becomes its label)."""
+def write_tables(
+    outcomes: Sequence[Outcome],
+    out: Path,
+    *,
+    deidentify: bool = False,
+    strides_of: Callable[[Outcome], Iterable[Sequence[Any]]] = lambda o: o.strides,
+) -> tuple[Path, Path]:
+    """Write ``out/summary.csv`` and ``out/strides.csv`` (each as ``.partial``, then moved into
+    place), one session's strides at a time (``strides_of``). De-identified: no patient id, no
+    date, no file name (a file name is often a patient code), which are also removed from the
+    reasons (the file's name becomes its label)."""
     sessions, patients = labels(outcomes, deidentify)
-    summary, strides = io.StringIO(), io.StringIO()
-    ws = csv.writer(summary, lineterminator="\n")
-    wr = csv.writer(strides, lineterminator="\n")
-    ws.writerow(SUMMARY_COLUMNS)
-    wr.writerow(STRIDES_COLUMNS)
-    for o, session, patient in zip(outcomes, sessions, patients, strict=True):
-        reason = _scrub(o, session) if deidentify else o.reason
-        values: list[Any] = [
-            session, patient, "" if deidentify else o.created_utc, o.duration_s,
-            o.n_strides if o.status == OK else None, o.n_included if o.status == OK else None,
-            o.n_excluded if o.status == OK else None,
-            *(o.summary.get(k) for k in SUMMARY_MEASURES),
-            o.angles_method, o.status, reason,
-        ]  # fmt: skip
-        ws.writerow([_cell(n, v) for n, v in zip(SUMMARY_COLUMNS, values, strict=True)])
-        for row in o.strides:
-            wr.writerow([session, *(_cell(n, v) for n, v in zip(STRIDES_COLUMNS[1:], row,
-                                                                   strict=True))])
-    return summary.getvalue(), strides.getvalue()
+    paths = out / SUMMARY_CSV, out / STRIDES_CSV
+    tmps = [p.with_name(p.name + PARTIAL) for p in paths]
+    with (open(tmps[0], "w", encoding="utf-8", newline="") as fs,
+          open(tmps[1], "w", encoding="utf-8", newline="") as fr):  # fmt: skip
+        ws = csv.writer(fs, lineterminator="\n")
+        wr = csv.writer(fr, lineterminator="\n")
+        ws.writerow(SUMMARY_COLUMNS)
+        wr.writerow(STRIDES_COLUMNS)
+        for o, session, patient in zip(outcomes, sessions, patients, strict=True):
+            reason = _scrub(o, session) if deidentify else o.reason
+            ok = o.status == OK
+            values: list[Any] = [
+                session, patient, "" if deidentify else o.created_utc, o.duration_s,
+                o.n_strides if ok else None, o.n_included if ok else None,
+                o.n_excluded if ok else None, *(o.summary.get(k) for k in SUMMARY_MEASURES),
+                o.angles_method, o.status, reason,
+            ]  # fmt: skip
+            ws.writerow([_cell(n, v) for n, v in zip(SUMMARY_COLUMNS, values, strict=True)])
+            for row in strides_of(o):
+                wr.writerow([session, *(_cell(n, v) for n, v in zip(STRIDES_COLUMNS[1:], row,
+                                                                       strict=True))])
+        for f in (fs, fr):
+            f.flush()
+            os.fsync(f.fileno())
+    for tmp, path in zip(tmps, paths, strict=True):
+        os.replace(tmp, path)
+    return paths

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from gaitmon.analysis import analyse_session, stride_table_row
-from gaitmon.batch import OK, SUMMARY_MEASURES, run_batch, tables
+from gaitmon.batch import OK, SUMMARY_MEASURES, run_batch
 from gaitmon.cli import main
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
@@ -161,8 +161,9 @@ def test_a_rerun_skips_what_is_done_and_redoes_a_deleted_output(study, tmp_path)
         shutil.copyfile(study / rel, sub / rel)
     out = tmp_path / "out"
     first = run_batch(sub, out, SETTINGS, jobs=1)
-    summary = (out / "summary.csv").read_bytes()
+    summary, strides = (out / "summary.csv").read_bytes(), (out / "strides.csv").read_bytes()
     assert first.n_resumed == 0 and first.count(OK) == 4
+    assert len(strides.splitlines()) > 4 * 6
     stamps = {o.rel: (out / o.rel).stat().st_mtime_ns for o in first.outcomes}
     again = run_batch(sub, out, SETTINGS, jobs=1)
     assert again.n_resumed == 4
@@ -173,6 +174,7 @@ def test_a_rerun_skips_what_is_done_and_redoes_a_deleted_output(study, tmp_path)
     third = run_batch(sub, out, SETTINGS, jobs=1)
     assert third.n_resumed == 3 and (out / gone).exists()
     assert (out / "summary.csv").read_bytes() == summary  # redone to the same values
+    assert (out / "strides.csv").read_bytes() == strides
     # other settings are another batch: nothing is reused
     other = run_batch(sub, out, Reprocessing.of({"cutoff_hz": 6.0}), jobs=1)
     assert other.n_resumed == 0
@@ -209,9 +211,14 @@ def test_a_damaged_file_is_a_row_and_the_batch_goes_on(study, tmp_path, capsys):
     assert {x["session"] for x in read_csv(out / "strides.csv")} == {r["session"] for r in others}
 
 
-def test_deidentified_tables_carry_no_patient_id_date_or_file_name(local_run):
-    result, _ = local_run
-    summary, strides = tables(result.outcomes, deidentify=True)
+def test_deidentified_tables_carry_no_patient_id_date_or_file_name(study, local_run, tmp_path):
+    result, local_out = local_run
+    out = tmp_path / "copy"
+    shutil.copytree(local_out, out)  # the same outputs and records: a rerun resumes them all
+    deid = run_batch(study, out, SETTINGS, deidentify=True)
+    assert deid.n_resumed == N_SESSIONS
+    summary = (out / "summary.csv").read_text(encoding="utf-8")
+    strides = (out / "strides.csv").read_text(encoding="utf-8")
     data = (summary + strides).encode()
     for o in result.outcomes:
         assert o.patient_id.encode() not in data
@@ -221,15 +228,20 @@ def test_deidentified_tables_carry_no_patient_id_date_or_file_name(local_run):
     rows = list(csv.DictReader(io.StringIO(summary)))
     assert [r["session"] for r in rows] == [f"S{k:04d}" for k in range(1, N_SESSIONS + 1)]
     # one label per patient: sessions of the same patient share it, others differ
-    pid_of = {o.rel: o.patient_id for o in result.outcomes}
     label_of: dict[str, str] = {}
     for o, r in zip(result.outcomes, rows, strict=True):
-        assert label_of.setdefault(pid_of[o.rel], r["patient"]) == r["patient"]
-    assert len(set(label_of.values())) == len(set(pid_of.values())) == 7
-    # the measures are the identified table's
-    plain = list(csv.DictReader(io.StringIO(tables(result.outcomes)[0])))
+        assert label_of.setdefault(o.patient_id, r["patient"]) == r["patient"]
+    assert len(set(label_of.values())) == len(label_of) == 7
+    # the measures and strides are the identified tables', under the labels
+    plain = read_csv(local_out / "summary.csv")
     for a, b in zip(rows, plain, strict=True):
         assert [a[k] for k in SUMMARY_MEASURES] == [b[k] for k in SUMMARY_MEASURES]
+    to_label = {b["session"]: a["session"] for a, b in zip(rows, plain, strict=True)}
+    plain_strides = (local_out / "strides.csv").read_text(encoding="utf-8").splitlines()
+    relabelled = [plain_strides[0]] + [
+        to_label[line.split(",", 1)[0]] + "," + line.split(",", 1)[1] for line in plain_strides[1:]
+    ]
+    assert strides.splitlines() == relabelled
 
 
 def test_the_command_writes_deidentified_csvs_and_reads_settings_json(study, tmp_path):
