@@ -141,11 +141,16 @@ def _bench(root: Path, args: argparse.Namespace) -> int:
     one("local, 2 workers", jobs=2)
     if not args.no_dask:
         try:
+            import dask
             from distributed import LocalCluster
         except ImportError:
             print("  dask: not installed (pip install 'gaitmon[dask]'); skipped")
         else:
             t = time.perf_counter()
+            # the nanny sets MALLOC_TRIM_THRESHOLD_=65536 in its workers, which turns off
+            # glibc's adaptive mmap threshold: every large numpy array is then mmap'd and
+            # faulted in afresh, ~2x the CPU per session (see README, "Batch reprocessing")
+            dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None})
             with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                               dashboard_address=":0",
                               silence_logs=logging.CRITICAL) as cluster:  # fmt: skip
