@@ -292,3 +292,25 @@ def test_paper_settings_without_the_paper_filter_skip_the_session_with_the_reaso
     (o,) = result.outcomes
     assert o.status == "skipped" and "add --method paper" in o.reason
     assert math.isnan(o.duration_s)
+
+
+def test_a_run_interrupted_mid_way_resumes_to_the_same_tables(study, tmp_path):
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    for src in sorted(study.rglob("*.h5"))[:4]:
+        shutil.copyfile(src, sub / src.name)
+    clean = run_batch(sub, tmp_path / "clean", SETTINGS)
+    assert clean.count(OK) == 4
+
+    def interrupt_after_two(fraction: float, detail: str) -> None:
+        if fraction >= 0.5:
+            raise KeyboardInterrupt  # Ctrl-C after the second session
+
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(sub, out, SETTINGS, progress=interrupt_after_two)
+    assert not (out / "summary.csv").exists()  # the tables come last
+    resumed = run_batch(sub, out, SETTINGS)
+    assert resumed.n_resumed == 2 and resumed.count(OK) == 4
+    for name in ("summary.csv", "strides.csv"):
+        assert (out / name).read_bytes() == (tmp_path / "clean" / name).read_bytes()
