@@ -333,53 +333,6 @@ def _retime_all(strides: list[Stride], t_s: np.ndarray) -> list[Stride]:
     return out
 
 
-# The stride table's columns, as the review window's table and ``gaitmon batch``'s per-stride
-# CSV show them: (name, unit, what it is). ``stride_table_row`` gives the values in this order.
-STRIDE_COLUMNS: tuple[tuple[str, str, str], ...] = (
-    ("stride", "", "stride number, from 1"),
-    ("start_s", "s", "heel strike that starts the stride, seconds from the session start"),
-    ("stride_s", "s", "heel strike to the next heel strike of the same foot"),
-    ("stance_s", "s", "heel strike to toe off"),
-    ("swing_s", "s", "toe off to the next heel strike"),
-    ("stance_pct", "%", "stance time as % of the stride"),
-    ("swing_pct", "%", "swing time as % of the stride"),
-    ("knee_peak_swing_deg", "deg", "peak knee flexion between toe off and the next heel strike"),
-    ("hip_rom_deg", "deg", "range of motion of the hip over the stride"),
-    ("knee_rom_deg", "deg", "range of motion of the knee over the stride"),
-    ("ankle_rom_deg", "deg", "range of motion of the ankle over the stride"),
-    ("status", "", "included in the statistics, or why not"),
-)  # fmt: skip
-
-
-def stride_status(row: StrideRow) -> str:
-    """"included", or "excluded: <reason>"."""
-    return "included" if row.included else f"excluded: {row.excluded}"
-
-
-def stride_table_row(k: int, row: StrideRow, t_s: np.ndarray | None) -> tuple[object, ...]:
-    """The ``k``-th (0-based) stride's values in :data:`STRIDE_COLUMNS` order: numbers
-    unformatted (NaN where a figure does not exist), the status as text. The start is the true
-    time of the starting heel strike from ``t_s`` (the last row's when the stride runs past
-    the data); without a timeline, the row number over the sample rate is not known here, so
-    NaN."""
-    s = row.stride
-    start_s = float("nan")
-    if t_s is not None and len(t_s):
-        start_s = float(t_s[min(s.start_idx, len(t_s) - 1)])
-    return (
-        k + 1,
-        start_s,
-        float(s.stride_time_s),
-        float(s.stance_time_s),
-        float(s.swing_time_s),
-        float(s.stance_pct),
-        float(s.swing_pct),
-        float(row.knee_peak_swing_deg),
-        *(float(v) for v in row.rom_deg),
-        stride_status(row),
-    )
-
-
 def included_strides(rows: Sequence[StrideRow]) -> list[Stride]:
     return [r.stride for r in rows if r.included]
 

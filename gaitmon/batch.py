@@ -33,8 +33,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from gaitmon import __version__
-from gaitmon.analysis import STRIDE_COLUMNS, analyse_session, stride_table_row
+from gaitmon.analysis import (
+    STRIDE_COLUMNS,
+    SpatialSummary,
+    analyse_session,
+    stride_cells,
+    stride_start_times,
+)
 from gaitmon.dsp.gait import GaitSummary
 from gaitmon.errors import DAMAGE_ERRORS, UserError
 from gaitmon.reprocessing import Reprocessing
@@ -46,15 +54,22 @@ PARTIAL = ".partial"
 
 OK, DAMAGED, SKIPPED = "ok", "damaged", "skipped"  # the summary's status column
 
-# the summary measures of GaitSummary, in its order (n_strides is the strides_included column)
-SUMMARY_MEASURES: tuple[str, ...] = tuple(
+# the summary measures of GaitSummary then SpatialSummary (the review window's summary), in
+# their order; GaitSummary.n_strides is the strides_included column
+TEMPORAL_MEASURES: tuple[str, ...] = tuple(
     f.name for f in dataclasses.fields(GaitSummary) if f.name != "n_strides"
 )
+SPATIAL_MEASURES: tuple[str, ...] = tuple(
+    f.name for f in dataclasses.fields(SpatialSummary) if f.name != "n_strides"
+)
+SUMMARY_MEASURES: tuple[str, ...] = (*TEMPORAL_MEASURES, "strides_with_length",
+                                     *SPATIAL_MEASURES)  # fmt: skip
 SUMMARY_COLUMNS: tuple[str, ...] = (
     "session", "patient", "date_utc", "duration_s", "strides", "strides_included",
     "strides_excluded", *SUMMARY_MEASURES, "angles_method", "status", "reason",
 )  # fmt: skip
-STRIDES_COLUMNS: tuple[str, ...] = ("session", *(name for name, _, _ in STRIDE_COLUMNS))
+# the review window's stride table, cell for cell (gaitmon.analysis.stride_cells)
+STRIDES_COLUMNS: tuple[str, ...] = ("session", *(c.key for c in STRIDE_COLUMNS))
 
 Progress = Callable[[float, str], object]  # (fraction done, "12/200 sessions")
 
@@ -81,9 +96,9 @@ class Outcome:
     duration_s: float = math.nan
     n_strides: int = 0
     n_included: int = 0
-    summary: dict[str, float] = field(default_factory=dict)
+    summary: dict[str, float] = field(default_factory=dict)  # SUMMARY_MEASURES
     angles_method: str = ""
-    strides: tuple[tuple[Any, ...], ...] = ()  # stride_table_row values
+    strides: tuple[tuple[str, ...], ...] = ()  # the stride table's cells (stride_cells)
     # wall seconds opening the source, rewriting it (copy + pipeline + write) and analysing the
     # result; cpu_s: this thread's CPU time for all three (without waiting for a busy machine)
     timing: dict[str, float] = field(default_factory=dict)
@@ -140,8 +155,10 @@ def reprocess_one(task: Task) -> Outcome:
         with open_session(dst) as new:
             t_s = new.read("timeline/t_s") if new.n_samples else None
             an = analyse_session(new, exclusions=exclusions, t_s=t_s)
-            rows = tuple(stride_table_row(k, r, t_s) for k, r in enumerate(an.rows))
-            summ = an.summary()
+            starts = stride_start_times(an.rows, t_s if t_s is not None else np.empty(0))
+            rows = tuple(tuple(stride_cells(r, k + 1, t)) for k, (r, t)
+                         in enumerate(zip(an.rows, starts, strict=True)))  # fmt: skip
+            summ, spatial = an.summary(), an.spatial()
             method, duration = new.angle_method, new.duration_s
         t3 = time.perf_counter()
     except bad_file as exc:
@@ -152,7 +169,9 @@ def reprocess_one(task: Task) -> Outcome:
         return Outcome(task.rel, DAMAGED, _one_line(exc))
     return Outcome(
         task.rel, OK, problem, patient, created, duration, len(an.rows), an.n_included,
-        {k: float(getattr(summ, k)) for k in SUMMARY_MEASURES}, method, rows,
+        {**{k: float(getattr(summ, k)) for k in TEMPORAL_MEASURES},
+         "strides_with_length": spatial.n_strides,
+         **{k: float(getattr(spatial, k)) for k in SPATIAL_MEASURES}}, method, rows,
         {"read_s": t1 - t0, "rewrite_s": t2 - t1, "analyse_s": t3 - t2,
          "cpu_s": time.thread_time() - cpu0},
     )  # fmt: skip
@@ -364,7 +383,7 @@ def _run(
     return BatchResult(outcomes, n_resumed, summary_csv, strides_csv, time.perf_counter() - t0)
 
 
-def _recorded_strides(out: Path, o: Outcome) -> tuple[tuple[Any, ...], ...]:
+def _recorded_strides(out: Path, o: Outcome) -> tuple[tuple[str, ...], ...]:
     """A finished session's stride rows, read back from its record (JSON keeps every float's
     exact value, so the table is the same as from the worker's own result)."""
     if o.status != OK:
@@ -379,9 +398,17 @@ def _recorded_strides(out: Path, o: Outcome) -> tuple[tuple[Any, ...], ...]:
 # -- the tables ------------------------------------------------------------------------------
 
 
+def _decimals(name: str) -> int:
+    if name.endswith(("_m", "_m_s")):
+        return 3  # lengths to the mm, speeds to the mm/s
+    if name.endswith("_s") and name != "duration_s":
+        return 4  # stride times to 0.1 ms
+    return 2
+
+
 def _cell(name: str, value: Any) -> str:
-    """Fixed decimals by unit (seconds to 0.1 ms, the rest to 0.01), empty for NaN, so the
-    same values always give the same text."""
+    """Fixed decimals by unit (:func:`_decimals`), empty for NaN, so the same values always
+    give the same text."""
     if isinstance(value, bool) or value is None:
         return "" if value is None else str(value)
     if isinstance(value, int):
@@ -389,7 +416,7 @@ def _cell(name: str, value: Any) -> str:
     if isinstance(value, float):
         if not math.isfinite(value):
             return ""
-        text = f"{value:.{4 if name.endswith('_s') and name != 'duration_s' else 2}f}"
+        text = f"{value:.{_decimals(name)}f}"
         return text.lstrip("-") if float(text) == 0.0 else text
     return " ".join(str(value).split())
 
@@ -459,8 +486,7 @@ def write_tables(
             ]  # fmt: skip
             ws.writerow([_cell(n, v) for n, v in zip(SUMMARY_COLUMNS, values, strict=True)])
             for row in strides_of(o):
-                wr.writerow([session, *(_cell(n, v) for n, v in zip(STRIDES_COLUMNS[1:], row,
-                                                                       strict=True))])
+                wr.writerow([session, *row])
         for f in (fs, fr):
             f.flush()
             os.fsync(f.fileno())
