@@ -1,7 +1,7 @@
 """The layer contract, checked from the source: arrows only point down, and no import circle.
 
     base (gaitmon, errors, jobs, lazy, text) <- dsp <- io <- engine / analysis / normative
-        <- report / live / review / lab <- ui <- commands / cli
+        / reprocessing <- report / live / review / lab / batch <- ui <- commands / cli
 
 A module may import its own layer and the layers below it, never one above. Every import
 counts, also one inside a function (a lazy import is still an arrow) or under ``TYPE_CHECKING``
@@ -23,9 +23,9 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("gaitmon", "gaitmon.errors", "gaitmon.jobs", "gaitmon.lazy", "gaitmon.text"),
     ("gaitmon.dsp",),
     ("gaitmon.io",),
-    ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative"),
+    ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative", "gaitmon.reprocessing"),
     ("gaitmon.report", "gaitmon.strides_export", "gaitmon.compare", "gaitmon.live",
-     "gaitmon.review", "gaitmon.lab"),
+     "gaitmon.review", "gaitmon.lab", "gaitmon.batch"),
     ("gaitmon.ui",),
     ("gaitmon.commands", "gaitmon.cli", "gaitmon.__main__"),
 )

@@ -10,8 +10,15 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import sys
 from collections.abc import Iterator
 from pathlib import Path
+
+# what analysing a damaged file's contents can raise (gaitmon.errors: batch jobs use it too)
+from gaitmon.errors import DAMAGE_ERRORS
+
+__all__ = ["DAMAGE_ERRORS", "DEBUG_ENV", "Progress", "add_force", "add_quiet",
+           "damaged_file_guard"]  # fmt: skip
 
 
 def add_force(p: argparse.ArgumentParser, what: str = "the output file") -> None:
@@ -25,14 +32,6 @@ def add_quiet(p: argparse.ArgumentParser, what: str = "no progress or summary li
     """``-q/--quiet``: only warnings and errors on the terminal."""
     p.add_argument("-q", "--quiet", action="store_true", help=what)
 
-
-# What analysing a damaged file's contents can raise past the reader's checks (numpy on odd
-# shapes, h5py on a bad chunk). TypeError, AttributeError, NameError are left out: they are
-# programming errors, and stay tracebacks.
-DAMAGE_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError, IndexError, KeyError, OSError, RuntimeError, ZeroDivisionError,
-    FloatingPointError, OverflowError,
-)  # fmt: skip
 
 DEBUG_ENV = "GAITMON_DEBUG"  # set to 1: the last resort re-raises, so tests see the real error
 
@@ -57,3 +56,32 @@ def damaged_file_guard(path: str | os.PathLike[str]) -> Iterator[None]:
             f"{Path(path).name} is damaged and cannot be analysed ({what}); "
             "the recording's own journal or a backup may hold a good copy"
         ) from None
+
+
+class Progress:
+    """Percent on stderr: rewritten in place on a terminal, every 10 % otherwise (``export``,
+    ``batch``)."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.tty = sys.stderr.isatty()
+        self.last = -1
+        self.shown = False
+
+    def __call__(self, fraction: float, detail: str = "") -> None:
+        pct = int(100 * min(max(fraction, 0.0), 1.0))
+        step = 1 if self.tty else 10
+        if pct // step == self.last // step and pct != 100:
+            return
+        if pct == self.last:
+            return
+        self.last = pct
+        self.shown = True
+        tail = f" {detail}" if detail else ""
+        if self.tty:
+            sys.stderr.write(f"\r{self.label}: {pct:3d}%{tail}")
+            if pct == 100:
+                sys.stderr.write("\n")
+        else:
+            sys.stderr.write(f"{self.label}: {pct}%{tail}\n")
+        sys.stderr.flush()

@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from gaitmon.commands import add_force, add_quiet, damaged_file_guard
+from gaitmon.commands import Progress, add_force, add_quiet, damaged_file_guard
 from gaitmon.errors import UserError
 from gaitmon.io.export.registry import FORMATS
 
@@ -66,33 +66,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_quiet(parser)
 
 
-class _Progress:
-    """Percent on stderr: rewritten in place on a terminal, every 10 % otherwise."""
-
-    def __init__(self, label: str) -> None:
-        self.label = label
-        self.tty = sys.stderr.isatty()
-        self.last = -1
-        self.shown = False
-
-    def __call__(self, fraction: float) -> None:
-        pct = int(100 * min(max(fraction, 0.0), 1.0))
-        step = 1 if self.tty else 10
-        if pct // step == self.last // step and pct != 100:
-            return
-        if pct == self.last:
-            return
-        self.last = pct
-        self.shown = True
-        if self.tty:
-            sys.stderr.write(f"\r{self.label}: {pct:3d}%")
-            if pct == 100:
-                sys.stderr.write("\n")
-        else:
-            sys.stderr.write(f"{self.label}: {pct}%\n")
-        sys.stderr.flush()
-
-
 def run(args: argparse.Namespace) -> int:
     from gaitmon.io.export import ExportError, export_session, session_length
 
@@ -105,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         with damaged_file_guard(args.file):
             if not args.quiet and session_length(args.file) >= PROGRESS_MIN_SAMPLES:
-                progress = _Progress(f"exporting {args.format}")
+                progress = Progress(f"exporting {args.format}")
             result = export_session(
                 args.file, args.format, args.output,
                 deidentify=args.deidentify, force=args.force, progress=progress,

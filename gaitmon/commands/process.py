@@ -10,7 +10,6 @@ into a :class:`PipelineConfig` and prints.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -19,63 +18,60 @@ import numpy as np
 
 from gaitmon.commands import add_force, add_quiet
 from gaitmon.errors import UserError
+from gaitmon.reprocessing import (
+    FSR_MAX_COUNTS,
+    METHODS,
+    PAPER_ONLY,
+    SETTINGS,
+    Reprocessing,
+    check_settings,
+    option,
+)
 
 if TYPE_CHECKING:
     from gaitmon.io.session import Session
 
-# command-line option -> PipelineConfig field
-SETTINGS = {
-    "cutoff_hz": "low-pass cut-off (Hz)",
-    "q_angle": "Kalman Q_angle",
-    "q_gyro": "Kalman Q_gyro",
-    "r": "Kalman R (accelerometer tilt variance)",
-    "fsr_threshold": "FSR contact threshold (ADC counts)",
-}
-# settings that only the paper's filter reads: given with the gait-aware filter they would
-# silently change nothing
-PAPER_ONLY = ("q_angle", "q_gyro", "r")
+# the settings and their checks are gaitmon.reprocessing's, shared with ``gaitmon batch``
+__all__ = ["FSR_MAX_COUNTS", "PAPER_ONLY", "SETTINGS", "add_settings_arguments", "check_settings",
+           "reprocessing_from_args"]  # fmt: skip
+
+
+def add_settings_arguments(p: argparse.ArgumentParser, default: str = "as recorded") -> None:
+    """The settings options (``--cutoff-hz`` ... ``--method``), as ``process`` and ``batch``
+    take them."""
+    for name, help_text in SETTINGS.items():
+        p.add_argument(
+            option(name),
+            type=float,
+            default=None,
+            help=f"{help_text}; default: {default}",
+        )
+    p.add_argument(
+        "--method",
+        choices=METHODS,
+        default=None,
+        help="tilt filter: gait-aware (default for new recordings) or paper ('Kalman (paper, "
+        f"seed 000)'); default: {default}",
+    )
+
+
+def reprocessing_from_args(
+    args: argparse.Namespace, base: Reprocessing | None = None
+) -> Reprocessing:
+    """The settings options as a checked :class:`Reprocessing`; each option given overrides
+    ``base`` (``batch --settings``)."""
+    changes = dict(base.changes) if base is not None else {}
+    changes.update({k: getattr(args, k) for k in SETTINGS if getattr(args, k) is not None})
+    method = args.method if args.method is not None else (base.method if base else None)
+    return Reprocessing.of(changes, method)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="FILE", help="a raw-mode session file (.h5)")
     p.add_argument("-o", "--output", required=True, metavar="NEW", help="the new session file")
-    for name, help_text in SETTINGS.items():
-        p.add_argument(
-            f"--{name.replace('_', '-')}",
-            type=float,
-            default=None,
-            help=f"{help_text}; default: as recorded",
-        )
-    p.add_argument(
-        "--method",
-        choices=("gait-aware", "paper"),
-        default=None,
-        help="tilt filter: gait-aware (default for new recordings) or paper ('Kalman (paper, "
-        "seed 000)'); default: as recorded",
-    )
+    add_settings_arguments(p)
     add_force(p, "NEW")
     add_quiet(p, "no progress or summary lines (warnings are still shown)")
-
-
-# The FSR channels are 12-bit ADC counts: a threshold at or above the top is never crossed.
-FSR_MAX_COUNTS = 4095
-
-
-def check_settings(changes: dict[str, float]) -> None:
-    """Reject settings that cannot work, one line naming the option (the pipeline's own checks
-    follow, for the combinations only it knows, such as a cut-off above Nyquist)."""
-    for name, value in changes.items():
-        opt = f"--{name.replace('_', '-')}"
-        if not math.isfinite(value):
-            raise UserError(f"{opt} must be a number, got {value:g}")
-        if value <= 0:
-            raise UserError(f"{opt} must be above 0, got {value:g}")
-    t = changes.get("fsr_threshold")
-    if t is not None and t >= FSR_MAX_COUNTS:
-        raise UserError(
-            f"--fsr-threshold must be above 0 and below {FSR_MAX_COUNTS} counts (the 12-bit "
-            f"ADC's top, never crossed), got {t:g}"
-        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -90,24 +86,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"{dst} already exists; choose another name or pass --force")
     if not dst.parent.is_dir():
         raise UserError(f"folder {dst.parent} does not exist")
-    changes = {k: getattr(args, k) for k in SETTINGS if getattr(args, k) is not None}
-    check_settings(changes)
+    settings = reprocessing_from_args(args)
+    changes = dict(settings.changes)
     quiet = bool(args.quiet)
-    choices: dict[str, object] = {}
-    if args.method is not None:
-        choices["tilt_method"] = args.method
     try:
         recorded = recorded_config(src, progress=None if quiet else progress_printer("recovering"))
-        try:
-            config = recorded.replace(**changes, **choices)
-            paper_only = [f"--{k.replace('_', '-')}" for k in PAPER_ONLY if k in changes]
-            if paper_only and config.tilt_method != "paper":
-                raise UserError(
-                    f"{', '.join(paper_only)} tune the paper's Kalman filter, which this "
-                    f"reprocessing does not use ({config.tilt_method_label}); add --method paper"
-                )
-        except ValueError as exc:
-            raise UserError(f"bad setting: {exc}") from None
+        config = settings.apply(recorded)
         result = rewrite_processed(
             src, dst, config, progress=None if quiet else progress_printer("reprocessing"),
             overwrite=args.force,
@@ -119,15 +103,16 @@ def run(args: argparse.Namespace) -> int:
                      and not _switches(after, name)]  # fmt: skip
     except SessionError as exc:
         raise UserError(str(exc)) from None
-    settings = ", ".join(f"{k}={v:g}" for k, v in changes.items()) or "the recorded settings"
+    settings_text = ", ".join(f"{k}={v:g}" for k, v in changes.items()) or (
+        "the recorded settings")
     if not quiet:
         print(f"gaitmon process: wrote {dst} ({result.n_frames} frames, {n_after} heel "
-              f"strikes) with {settings}; angles: {after_method} "
+              f"strikes) with {settings_text}; angles: {after_method} "
               f"(live: {config.tilt_method_label})",
               file=sys.stderr)
     if stuck:  # the FSR check then takes the events from the foot gyro
         print(
-            f"gaitmon process: warning: with {settings} the {' and '.join(stuck)} "
+            f"gaitmon process: warning: with {settings_text} the {' and '.join(stuck)} "
             f"sensor{'s' if len(stuck) > 1 else ''} never switch between loaded and unloaded "
             f"in {dst.name}, so the gait events come from the foot gyro; check --fsr-threshold "
             "and --cutoff-hz",
@@ -135,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
         )
     elif n_after < 2 <= n_before:  # settings that run but find no strides are almost always wrong
         print(
-            f"gaitmon process: warning: {dst.name} has {n_after} heel strikes with {settings} "
+            f"gaitmon process: warning: {dst.name} has {n_after} heel strikes with {settings_text} "
             f"(the recording has {n_before}), so no strides; check --fsr-threshold and "
             "--cutoff-hz",
             file=sys.stderr,

@@ -1,0 +1,495 @@
+"""Reprocessing a study: every session under a folder, on a process pool or a Dask cluster.
+
+``gaitmon batch DIR -o OUT`` is :func:`run_batch`. Each session is one :class:`Task` (plain
+paths and a frozen :class:`~gaitmon.reprocessing.Reprocessing`: picklable, so a local process or
+a Dask worker can take it) run by :func:`reprocess_one`, which opens its own files (h5py objects
+cannot travel between processes), writes ``OUT/<same relative path>`` through
+:func:`gaitmon.io.session.reprocess.rewrite_processed` (as ``gaitmon process`` does: built as
+``.partial``, moved into place) and returns a small :class:`Outcome`: the session's summary
+row and its stride rows, or why it could not be reprocessed. A damaged file is an outcome
+("damaged" and one line), never an exception that stops the batch.
+
+Resuming: after each session the driver writes a small record (its outcome, the source's size
+and time, the settings, the output's size) under ``OUT/.gaitmon-batch/``, atomically. A rerun
+skips every session whose record matches and whose output is there whole; a session killed
+mid-way has no record (or only a ``.partial`` output) and is done again. The CSVs are written
+last, from every record, sorted by relative path, so two runs over the same files give the same
+bytes whatever the order the workers finished in.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import dataclasses
+import json
+import math
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gaitmon import __version__
+from gaitmon.analysis import (
+    STRIDE_COLUMNS,
+    SpatialSummary,
+    analyse_session,
+    stride_cells,
+    stride_start_times,
+)
+from gaitmon.dsp.gait import GaitSummary
+from gaitmon.errors import DAMAGE_ERRORS, UserError
+from gaitmon.reprocessing import Reprocessing
+
+STATE_DIR = ".gaitmon-batch"  # in OUT: one record per finished session
+SUMMARY_CSV = "summary.csv"
+STRIDES_CSV = "strides.csv"
+PARTIAL = ".partial"
+
+OK, DAMAGED, SKIPPED = "ok", "damaged", "skipped"  # the summary's status column
+
+# the summary measures of GaitSummary then SpatialSummary (the review window's summary), in
+# their order; GaitSummary.n_strides is the strides_included column
+TEMPORAL_MEASURES: tuple[str, ...] = tuple(
+    f.name for f in dataclasses.fields(GaitSummary) if f.name != "n_strides"
+)
+SPATIAL_MEASURES: tuple[str, ...] = tuple(
+    f.name for f in dataclasses.fields(SpatialSummary) if f.name != "n_strides"
+)
+SUMMARY_MEASURES: tuple[str, ...] = (*TEMPORAL_MEASURES, "strides_with_length",
+                                     *SPATIAL_MEASURES)  # fmt: skip
+SUMMARY_COLUMNS: tuple[str, ...] = (
+    "session", "patient", "date_utc", "duration_s", "strides", "strides_included",
+    "strides_excluded", *SUMMARY_MEASURES, "angles_method", "status", "reason",
+)  # fmt: skip
+# the review window's stride table, cell for cell (gaitmon.analysis.stride_cells)
+STRIDES_COLUMNS: tuple[str, ...] = ("session", *(c.key for c in STRIDE_COLUMNS))
+
+Progress = Callable[[float, str], object]  # (fraction done, "12/200 sessions")
+
+
+@dataclass(frozen=True)
+class Task:
+    """One session to reprocess: ``src`` into ``dst`` (``rel``: its path under DIR, the key)."""
+
+    rel: str
+    src: str
+    dst: str
+    settings: Reprocessing | None = None  # None: each file's own settings
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one session gave: its summary and stride rows, or why it gave none."""
+
+    rel: str
+    status: str  # OK | DAMAGED | SKIPPED
+    reason: str = ""  # one line; for OK, a note (e.g. unusable stored exclusions) or ""
+    patient_id: str = ""
+    created_utc: str = ""
+    duration_s: float = math.nan
+    n_strides: int = 0
+    n_included: int = 0
+    summary: dict[str, float] = field(default_factory=dict)  # SUMMARY_MEASURES
+    angles_method: str = ""
+    strides: tuple[tuple[str, ...], ...] = ()  # the stride table's cells (stride_cells)
+    # wall seconds opening the source, rewriting it (copy + pipeline + write) and analysing the
+    # result; cpu_s: this thread's CPU time for all three (without waiting for a busy machine)
+    timing: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def n_excluded(self) -> int:
+        return self.n_strides - self.n_included
+
+    def as_record(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["strides"] = [list(r) for r in self.strides]
+        return d
+
+    @classmethod
+    def from_record(cls, d: dict[str, Any]) -> Outcome:
+        d = dict(d)
+        d["strides"] = tuple(tuple(r) for r in d.get("strides", ()))
+        return cls(**d)
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())[:200] or type(exc).__name__
+
+
+def reprocess_one(task: Task) -> Outcome:
+    """Reprocess one session and analyse the result; never raises for a bad file.
+
+    Runs in a worker: imports what it needs, opens its own files, returns plain values.
+    """
+    from gaitmon.io.session import SessionError, open_session
+    from gaitmon.io.session.reprocess import partial_path, rewrite_processed
+
+    bad_file: tuple[type[BaseException], ...] = (SessionError, *DAMAGE_ERRORS)
+    src, dst = Path(task.src), Path(task.dst)
+    t0, cpu0 = time.perf_counter(), time.thread_time()
+    wrote = False
+    try:
+        with open_session(src) as s:  # (recovers an interrupted recording first)
+            if s.mode != "raw":
+                return Outcome(task.rel, SKIPPED, f"{s.mode}-mode recording: it holds the "
+                               "unit's own angles, not raw counts, so it cannot be reprocessed")
+            recorded = s.config
+            exclusions, problem = s.exclusions()  # the user's, from beside the recording
+            patient, created = s.meta.patient_id, s.created_utc
+        try:
+            config = task.settings.apply(recorded) if task.settings is not None else recorded
+        except UserError as exc:
+            return Outcome(task.rel, SKIPPED, _one_line(exc), patient, created)
+        t1 = time.perf_counter()
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        wrote = True
+        rewrite_processed(src, dst, config, overwrite=True)
+        t2 = time.perf_counter()
+        with open_session(dst) as new:
+            t_s = new.read("timeline/t_s") if new.n_samples else None
+            an = analyse_session(new, exclusions=exclusions, t_s=t_s)
+            starts = stride_start_times(an.rows, t_s if t_s is not None else np.empty(0))
+            rows = tuple(tuple(stride_cells(r, k + 1, t)) for k, (r, t)
+                         in enumerate(zip(an.rows, starts, strict=True)))  # fmt: skip
+            summ, spatial = an.summary(), an.spatial()
+            method, duration = new.angle_method, new.duration_s
+        t3 = time.perf_counter()
+    except bad_file as exc:
+        if wrote:  # only whole, analysed outputs stay in OUT
+            for p in (dst, partial_path(dst)):
+                with contextlib.suppress(OSError):
+                    p.unlink()
+        return Outcome(task.rel, DAMAGED, _one_line(exc))
+    return Outcome(
+        task.rel, OK, problem, patient, created, duration, len(an.rows), an.n_included,
+        {**{k: float(getattr(summ, k)) for k in TEMPORAL_MEASURES},
+         "strides_with_length": spatial.n_strides,
+         **{k: float(getattr(spatial, k)) for k in SPATIAL_MEASURES}}, method, rows,
+        {"read_s": t1 - t0, "rewrite_s": t2 - t1, "analyse_s": t3 - t2,
+         "cpu_s": time.thread_time() - cpu0},
+    )  # fmt: skip
+
+
+# -- finding the sessions and what is done ---------------------------------------------------
+
+
+def find_sessions(root: Path, out: Path | None = None) -> list[str]:
+    """Relative paths (POSIX, sorted) of every ``*.h5`` under ``root``, not those under
+    ``out`` (an OUT inside DIR is not read back as input). Journals (``.h5.journal``) and
+    half-written files (``.h5.partial``) do not end in ``.h5`` and are left out."""
+    out_r = out.resolve() if out is not None else None
+    found = []
+    for p in root.rglob("*.h5"):
+        if not p.is_file():
+            continue
+        if out_r is not None and p.resolve().is_relative_to(out_r):
+            continue
+        found.append(p.relative_to(root).as_posix())
+    return sorted(found)
+
+
+def _record_path(out: Path, rel: str) -> Path:
+    return out / STATE_DIR / (rel + ".json")
+
+
+def _source_stamp(src: Path) -> list[int]:
+    st = src.stat()
+    return [st.st_size, st.st_mtime_ns]
+
+
+def _fingerprint(settings: Reprocessing | None) -> str:
+    return "recorded" if settings is None else settings.fingerprint()
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    """Write ``path`` as ``path.partial`` then move it into place: a kill leaves the old file
+    or the new one, never half of one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + PARTIAL)
+    with open(tmp, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _finished(task: Task, out: Path, fingerprint: str) -> Outcome | None:
+    """The recorded outcome when ``task`` is done with these settings on this very source and
+    its output is there whole; else None (do it again)."""
+    try:
+        rec = json.loads(_record_path(out, task.rel).read_text(encoding="utf-8"))
+        if (rec.get("version") != __version__ or rec.get("settings") != fingerprint
+                or rec.get("source") != _source_stamp(Path(task.src))):
+            return None
+        outcome = Outcome.from_record(rec["outcome"])
+        if outcome.status != OK or Path(task.dst).stat().st_size != rec.get("output_size"):
+            return None  # a damaged or skipped session is tried again: it may be fixed
+        return outcome
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _save_record(task: Task, out: Path, fingerprint: str, outcome: Outcome) -> None:
+    with contextlib.suppress(OSError):  # a missing source or output: the record says so
+        rec = {
+            "version": __version__,
+            "settings": fingerprint,
+            "source": _source_stamp(Path(task.src)),
+            "output_size": Path(task.dst).stat().st_size if outcome.status == OK else None,
+            "outcome": outcome.as_record(),
+        }
+        _write_atomic(_record_path(out, task.rel), json.dumps(rec).encode())
+
+
+# -- running ---------------------------------------------------------------------------------
+
+
+def _run_local(tasks: Sequence[Task], jobs: int, done: Callable[[Outcome], None]) -> None:
+    if jobs <= 1 or len(tasks) <= 1:
+        for t in tasks:
+            done(reprocess_one(t))
+        return
+    # spawn: a fresh interpreter per worker, no fork of a parent holding h5py state or threads
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=ctx) as pool:
+        futures = [pool.submit(reprocess_one, t) for t in tasks]
+        try:
+            for f in as_completed(futures):
+                done(f.result())
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+
+
+DASK_CONNECT_TIMEOUT_S = 20
+
+
+def dask_client(address: Any) -> Any:
+    """A client of the Dask distributed cluster at ``address`` (the scheduler's address, or a
+    cluster object such as a ``LocalCluster``); :class:`UserError` when there is none."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise UserError("--dask needs Dask distributed: pip install 'gaitmon[dask]'") from None
+    try:
+        # (typed only when installed: the ignore covers both cases)
+        return Client(address, timeout=f"{DASK_CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call, unused-ignore]
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UserError(
+            f"cannot reach the Dask scheduler at {address} ({_one_line(exc)}); start it with "
+            "'dask scheduler' and check the address"
+        ) from None
+
+
+def _run_dask(tasks: Sequence[Task], client: Any, done: Callable[[Outcome], None]) -> None:
+    """The same tasks on the cluster: each worker imports gaitmon and opens its own files
+    (the paths must be the same there: a shared file system)."""
+    from distributed import as_completed as dask_completed
+
+    futures = client.map(reprocess_one, list(tasks), pure=False)
+    for f in dask_completed(futures):  # type: ignore[no-untyped-call, unused-ignore]
+        done(f.result())
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    outcomes: tuple[Outcome, ...]  # every session, sorted by relative path
+    n_resumed: int  # finished by an earlier run, not done again
+    summary_csv: Path
+    strides_csv: Path
+    elapsed_s: float
+
+    def count(self, status: str) -> int:
+        return sum(1 for o in self.outcomes if o.status == status)
+
+
+def run_batch(
+    root: str | os.PathLike[str],
+    out: str | os.PathLike[str],
+    settings: Reprocessing | None = None,
+    *,
+    jobs: int = 1,
+    dask: Any = None,
+    deidentify: bool = False,
+    progress: Progress | None = None,
+) -> BatchResult:
+    """Reprocess every session under ``root`` into ``out`` (same layout) and write the summary
+    and per-stride CSVs there. ``settings=None``: each file's own; ``dask``: a scheduler
+    address (or cluster) to run on instead of ``jobs`` local processes. Raises
+    :class:`UserError` for a bad folder; a bad session is a row, not an exception."""
+    t0 = time.perf_counter()
+    root_p, out_p = Path(root), Path(out)
+    if not root_p.is_dir():
+        raise UserError(f"folder {root_p} does not exist; give the folder that holds the sessions")
+    if out_p.resolve() == root_p.resolve():
+        raise UserError("OUT must be another folder: the original recordings are never modified")
+    rels = find_sessions(root_p, out_p)
+    if not rels:
+        raise UserError(f"no session files (*.h5) under {root_p}")
+    client = dask_client(dask) if dask is not None else None  # (fails before any work)
+    try:
+        return _run(root_p, out_p, rels, settings, jobs, client, deidentify, progress, t0)
+    finally:
+        if client is not None:
+            client.close()
+
+
+def _run(
+    root_p: Path, out_p: Path, rels: list[str], settings: Reprocessing | None, jobs: int,
+    client: Any, deidentify: bool, progress: Progress | None, t0: float,
+) -> BatchResult:  # fmt: skip
+    out_p.mkdir(parents=True, exist_ok=True)
+    fp = _fingerprint(settings)
+    tasks = [Task(rel, str(root_p / rel), str(out_p / rel), settings) for rel in rels]
+    results: dict[str, Outcome] = {}
+    todo = []
+    for t in tasks:
+        prev = _finished(t, out_p, fp)
+        if prev is None:
+            todo.append(t)
+        else:
+            results[t.rel] = dataclasses.replace(prev, strides=())
+    n_resumed = len(results)
+    total = len(tasks)
+    by_rel = {t.rel: t for t in tasks}
+
+    def report() -> None:
+        if progress is not None:
+            progress(len(results) / total, f"{len(results)}/{total} sessions")
+
+    def done(outcome: Outcome) -> None:
+        _save_record(by_rel[outcome.rel], out_p, fp, outcome)
+        # the stride rows stay in the record only: 10,000 ten-minute sessions hold ~5 million
+        results[outcome.rel] = dataclasses.replace(outcome, strides=())
+        report()
+
+    report()
+    if todo:
+        if client is not None:
+            _run_dask(todo, client, done)
+        else:
+            _run_local(todo, jobs, done)
+    outcomes = tuple(results[r] for r in rels)
+    summary_csv, strides_csv = write_tables(
+        outcomes, out_p, deidentify=deidentify, strides_of=lambda o: _recorded_strides(out_p, o)
+    )
+    return BatchResult(outcomes, n_resumed, summary_csv, strides_csv, time.perf_counter() - t0)
+
+
+def _recorded_strides(out: Path, o: Outcome) -> tuple[tuple[str, ...], ...]:
+    """A finished session's stride rows, read back from its record (JSON keeps every float's
+    exact value, so the table is the same as from the worker's own result)."""
+    if o.status != OK:
+        return ()
+    try:
+        rec = json.loads(_record_path(out, o.rel).read_text(encoding="utf-8"))
+        return Outcome.from_record(rec["outcome"]).strides
+    except (OSError, ValueError, KeyError, TypeError):
+        return ()
+
+
+# -- the tables ------------------------------------------------------------------------------
+
+
+def _decimals(name: str) -> int:
+    if name.endswith(("_m", "_m_s")):
+        return 3  # lengths to the mm, speeds to the mm/s
+    if name.endswith("_s") and name != "duration_s":
+        return 4  # stride times to 0.1 ms
+    return 2
+
+
+def _cell(name: str, value: Any) -> str:
+    """Fixed decimals by unit (:func:`_decimals`), empty for NaN, so the same values always
+    give the same text."""
+    if isinstance(value, bool) or value is None:
+        return "" if value is None else str(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            return ""
+        text = f"{value:.{_decimals(name)}f}"
+        return text.lstrip("-") if float(text) == 0.0 else text
+    return " ".join(str(value).split())
+
+
+def labels(outcomes: Iterable[Outcome], deidentify: bool) -> tuple[list[str], list[str]]:
+    """(session label, patient label) per outcome: the relative path and patient id, or, de-
+    identified, S0001... and P001... numbered in the order of the sorted paths (the same
+    patient keeps one label within a run's tables)."""
+    sessions, patients = [], []
+    numbers: dict[str, str] = {}
+    for k, o in enumerate(outcomes):
+        if not deidentify:
+            sessions.append(o.rel)
+            patients.append(o.patient_id)
+            continue
+        sessions.append(f"S{k + 1:04d}")
+        pid = o.patient_id.strip()
+        if pid and pid not in numbers:
+            numbers[pid] = f"P{len(numbers) + 1:03d}"
+        patients.append(numbers.get(pid, ""))
+    return sessions, patients
+
+
+REMOVED = "[removed]"
+
+
+def _scrub(o: Outcome, label: str) -> str:
+    """The reason without the file's name or path (often a patient code) or the patient id:
+    the name becomes the session's label."""
+    reason = o.reason
+    name = Path(o.rel).name
+    for secret, by in sorted(((o.rel, label), (name, label), (Path(name).stem, label),
+                              (o.patient_id.strip(), REMOVED)), key=lambda x: -len(x[0])):
+        if secret:
+            reason = reason.replace(secret, by)
+    return reason
+
+
+def write_tables(
+    outcomes: Sequence[Outcome],
+    out: Path,
+    *,
+    deidentify: bool = False,
+    strides_of: Callable[[Outcome], Iterable[Sequence[Any]]] = lambda o: o.strides,
+) -> tuple[Path, Path]:
+    """Write ``out/summary.csv`` and ``out/strides.csv`` (each as ``.partial``, then moved into
+    place), one session's strides at a time (``strides_of``). De-identified: no patient id, no
+    date, no file name (a file name is often a patient code), which are also removed from the
+    reasons (the file's name becomes its label)."""
+    sessions, patients = labels(outcomes, deidentify)
+    paths = out / SUMMARY_CSV, out / STRIDES_CSV
+    tmps = [p.with_name(p.name + PARTIAL) for p in paths]
+    with (open(tmps[0], "w", encoding="utf-8", newline="") as fs,
+          open(tmps[1], "w", encoding="utf-8", newline="") as fr):  # fmt: skip
+        ws = csv.writer(fs, lineterminator="\n")
+        wr = csv.writer(fr, lineterminator="\n")
+        ws.writerow(SUMMARY_COLUMNS)
+        wr.writerow(STRIDES_COLUMNS)
+        for o, session, patient in zip(outcomes, sessions, patients, strict=True):
+            reason = _scrub(o, session) if deidentify else o.reason
+            ok = o.status == OK
+            values: list[Any] = [
+                session, patient, "" if deidentify else o.created_utc, o.duration_s,
+                o.n_strides if ok else None, o.n_included if ok else None,
+                o.n_excluded if ok else None, *(o.summary.get(k) for k in SUMMARY_MEASURES),
+                o.angles_method, o.status, reason,
+            ]  # fmt: skip
+            ws.writerow([_cell(n, v) for n, v in zip(SUMMARY_COLUMNS, values, strict=True)])
+            for row in strides_of(o):
+                wr.writerow([session, *row])
+        for f in (fs, fr):
+            f.flush()
+            os.fsync(f.fileno())
+    for tmp, path in zip(tmps, paths, strict=True):
+        os.replace(tmp, path)
+    return paths
