@@ -81,7 +81,7 @@ def smoothed_angles(
 
 def _inputs(f: h5py.File) -> tuple[np.ndarray, list[tuple[int, Calibration]], np.ndarray]:
     """(raw counts, calibration changes, frames lost before each row) stored in a session file."""
-    n = min(f["raw/adc"].shape[0], f["processed/joint_deg"].shape[0])
+    n = min(f["raw/adc"].shape[0], f["timeline/t_s"].shape[0])
     adc = f["raw/adc"][:n]
     changes = [
         (int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
@@ -103,15 +103,23 @@ def smoothed_from_file(
 
 
 def write_smoothed(f: h5py.File, series: dict[str, np.ndarray]) -> None:
-    """Store (or replace) ``/smoothed`` in a file open for writing."""
+    """Store (or replace) ``/smoothed`` in a file open for writing (format 2: the tilts
+    quantised and compressed, the joint angles derived from them on read)."""
+    from gaitmon.io.session.codec import COMPRESSION, JOINT_OF, encode
+
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
     grp = f.require_group("smoothed")
     for path, data in series.items():
         name = path.split("/", 1)[1]
         if name in grp:
             del grp[name]
+        if v2 and path in JOINT_OF:
+            continue
         grp.create_dataset(
-            name, data=data, chunks=(min(CHUNK_ROWS, max(1, len(data))), data.shape[1])
-        )
+            name, data=encode(path, data) if v2 else data,
+            chunks=(min(CHUNK_ROWS, max(1, len(data))), data.shape[1]),
+            **(COMPRESSION if v2 else {}),
+        )  # fmt: skip
     grp.attrs["method"] = smoothed_method_label()
 
 
@@ -123,8 +131,13 @@ def smooth_into(
 
 
 def stored_smoothed(f: h5py.File, n_samples: int) -> bool:
-    """Whether ``f`` holds a complete ``/smoothed`` for its ``n_samples`` rows."""
+    """Whether ``f`` holds a complete ``/smoothed`` for its ``n_samples`` rows (format 2
+    stores the tilts only: the joint angles are derived from them)."""
+    from gaitmon.io.session.codec import JOINT_OF
+
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
     return all(
         p in f and isinstance(f[p], h5py.Dataset) and f[p].shape[0] == n_samples
         for p in SMOOTHED.values()
+        if not (v2 and p in JOINT_OF)
     )

@@ -359,6 +359,7 @@ class SessionWriter:
         assert self._h5 is not None and self._journal is not None
         try:
             self._write_staged()
+            self._h5.drain()  # the chunk being filled, so that the smoother reads every row
             self._write_markers(final=True)
             if self._kind == FrameKind.RAW and self._rows:
                 self._store_smoothed()
