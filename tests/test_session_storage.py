@@ -197,3 +197,34 @@ def test_format_1_files_through_every_command(fixture, tmp_path, capsys):
         finally:
             doc.close()
     assert fixture.read_bytes() == src.read_bytes()  # nothing wrote into the recording
+
+
+def test_the_event_delay_is_scipys_without_importing_scipy_signal(tmp_path):
+    """The review's first view asks for the phase lag (the low-pass's DC group delay): it is
+    computed with numpy alone (importing scipy.signal took 1.2 s of that view), equal to
+    scipy's where scipy is accurate and to the impulse response's centroid where it is not."""
+    import subprocess
+    import sys
+
+    from scipy import signal
+
+    from gaitmon.dsp.pipeline import PipelineConfig, butterworth_dc_delay_samples
+
+    for order in (1, 2, 3, 4):
+        for fc in (0.5, 1.0, 2.5, 4.0, 6.0, 10.0, 20.0, 40.0):
+            b, a = signal.butter(order, fc, fs=100.0)
+            _, gd = signal.group_delay((b, a), w=[0.0], fs=100.0)
+            assert butterworth_dc_delay_samples(order, fc, 100.0) == pytest.approx(gd[0],
+                                                                                   rel=1e-6)
+    sos = signal.butter(8, 2.0, fs=1000.0, output="sos")  # scipy's group_delay: ~0 here
+    h = signal.sosfilt(sos, np.r_[1.0, np.zeros(199_999)])
+    centroid = (np.arange(len(h)) * h).sum() / h.sum()
+    assert butterworth_dc_delay_samples(8, 2.0, 1000.0) == pytest.approx(centroid, rel=1e-9)
+    assert PipelineConfig().event_delay_samples == 6  # 2nd order, 4 Hz at 100 Hz: 5.6 samples
+    code = ("import sys\nfrom gaitmon.review.model import open_document\n"
+            "from gaitmon.review.view import phase_lag\n"
+            f"doc = open_document({str(V1_RAW)!r})\n"
+            "print(phase_lag(doc, doc.recorded), 'scipy.signal' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()  # fmt: skip
+    assert out == [str(PipelineConfig().phase_lag_samples), "False"]

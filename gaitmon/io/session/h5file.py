@@ -44,12 +44,15 @@ class _H5File:
 
     def __init__(
         self, path: Path, header: Mapping[str, Any], *, mode: str, reprocessed: bool,
-        in_memory: bool = False,
+        in_memory: bool = False, version: int = FORMAT_VERSION,
     ) -> None:
         # no chunk cache: writes go straight to the file (see gaitmon.io.session.layout, "Chunking")
         # in_memory: a file that never touches the disk (recovery while the disk is full)
         where: dict[str, Any] = {"driver": "core", "backing_store": False} if in_memory else {}
         self.f = h5py.File(path, mode, rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES, **where)
+        # format 1 (uncompressed float32, written in place on every flush) is written only
+        # for comparisons (gaitmon bench --suite size) and tests of older files
+        self.version = int(version)
         try:
             self._create(header, reprocessed)
         except BaseException:
@@ -73,7 +76,7 @@ class _H5File:
         mode = h["mode"]
         a = f.attrs
         a["format"] = FORMAT
-        a["format_version"] = np.int64(FORMAT_VERSION)
+        a["format_version"] = np.int64(self.version)
         a["created_utc"] = h["created_utc"]
         a["sample_rate_hz"] = float(h["sample_rate_hz"])
         a["software_version"] = h["software_version"]
@@ -114,14 +117,14 @@ class _H5File:
         )
         g.create_dataset("channels", data=channels)
 
-        filters = COMPRESSION if FORMAT_VERSION >= 2 else {}
-        for path in stored_datasets(mode):
+        filters = COMPRESSION if self.version >= 2 else {}
+        for path in stored_datasets(mode, self.version):
             shape = _PER_SAMPLE[path][0]
             f.create_dataset(
                 path,
                 shape=(0, *shape),
                 maxshape=(None, *shape),
-                dtype=stored_dtype(path),
+                dtype=stored_dtype(path, self.version),
                 chunks=(CHUNK_ROWS, *shape),
                 fill_time="never",
                 **filters,
@@ -166,6 +169,11 @@ class _H5File:
         format derives are dropped, quantised ones encoded). Rows reach the file a whole
         chunk at a time; :meth:`drain` writes the chunk being filled."""
         if n == 0:
+            return
+        if self.version < 2:  # uncompressed: every flush writes its rows in place
+            for path, data in cols.items():
+                _append_low_level(self._dsid(path), self.rows, data)
+            self.rows += n
             return
         enc = {p: encode(p, d) for p, d in cols.items() if p in self.f}
         if not self._stage:

@@ -43,7 +43,13 @@ from gaitmon.io.journal import (
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _H5File, _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader
-from gaitmon.io.session.layout import _TABLES, LINK_TOTALS, _field_names, per_sample_datasets
+from gaitmon.io.session.layout import (
+    _TABLES,
+    FORMAT_VERSION,
+    LINK_TOTALS,
+    _field_names,
+    per_sample_datasets,
+)
 from gaitmon.io.session.rows import (
     _device_rows,
     _extrapolated_t,
@@ -75,6 +81,7 @@ class SessionWriter:
         *,
         flush_interval_s: float = 0.1,
         overwrite: bool = False,
+        format_version: int = FORMAT_VERSION,
     ) -> None:
         self._path = Path(path)
         self.header = header
@@ -113,7 +120,8 @@ class SessionWriter:
             self._journal = JournalWriter(jpath)
             self._journal.write_raw(encode_json(RecordType.HEADER, without_identity(hdr)))
             self._journal.sync()
-            self._h5 = _H5File(self._path, hdr, mode="w" if overwrite else "x", reprocessed=False)
+            self._h5 = _H5File(self._path, hdr, mode="w" if overwrite else "x", reprocessed=False,
+                               version=format_version)  # fmt: skip
             self._h5.f.flush()
         except (OSError, RuntimeError) as e:
             self._release()
