@@ -7,8 +7,8 @@ format 2 (the current format: quantised, derived, shuffle + gzip), in the same r
 fresh process (so its peak memory is its own). Printed per length and format: file MB, bytes per
 frame (file size / rows), the writer's append throughput (rows per CPU second, the pipeline
 excluded: what the recorder thread spends; here one flush per 100 rows, live flushes every
-100 ms), the close (the smoother and the overview, written once at the end); then the growth per hour, (8 h - 1 h) / 7, beside 8 hours
-extrapolated against the goal (150 MB, 52 bytes per frame).
+100 ms), the close (the smoother and the overview, written once at the end); then the growth
+per hour, (8 h - 1 h) / 7, beside the goal (8 hours in 150 MB, 52 bytes per frame).
 
 Child protocol: ``python -m gaitmon.commands.bench_size LENGTH VERSION OUT`` prints one JSON line.
 """
@@ -108,8 +108,8 @@ def suite(lengths: list[str], repeat: int) -> int:
                 print(f"  {name:5s} format {v}: {m['bytes'] / 2**20:8.1f} MB  "
                       f"{m['bytes'] / m['rows']:6.1f} B/frame  append "
                       f"{m['rows'] / max(m['append_cpu_s'], 1e-9) / 1e6:5.2f} M rows/CPU s  "
-                      f"close {m['close_cpu_s']:6.2f} CPU s  (process peak RSS {m['rss_mb']:4.0f} MB, "
-                      "simulator included)",
+                      f"close {m['close_cpu_s']:6.2f} CPU s  (process peak RSS "
+                      f"{m['rss_mb']:4.0f} MB, simulator included)",
                       flush=True)  # fmt: skip
     print("\n| session | format 1 MB | format 2 MB | ratio | format 1 B/frame | format 2 B/frame "
           "| append M rows/CPU s (1 / 2) | close CPU s (1 / 2) |")
