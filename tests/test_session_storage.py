@@ -228,3 +228,42 @@ def test_the_event_delay_is_scipys_without_importing_scipy_signal(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.split()  # fmt: skip
     assert out == [str(PipelineConfig().phase_lag_samples), "False"]
+
+
+def test_a_crash_of_a_format_1_recording_is_recovered_into_format_2(tmp_path):
+    """A journal (its layout did not change) left beside a format-1 file by the gaitmon
+    before format 2 is rebuilt into a format-2 file with every row handed over, and the
+    patient id from the old file."""
+    import json
+    import struct
+
+    from gaitmon.io.journal import MAGIC, RecordType, encode_json, journal_path
+
+    n = CHUNK_ROWS + 500
+    counts = simulate(n).counts
+    live, crashed = tmp_path / "live.h5", tmp_path / "crashed.h5"
+    w = SessionWriter(live, SessionHeader("raw", meta=SessionMeta(patient_id="OLD-7")),
+                      format_version=1)  # fmt: skip
+    pipe = Pipeline()
+    for a in range(0, n, 450):
+        b = min(n, a + 450)
+        w.append(SampleBlock(FrameKind.RAW, np.arange(a, b, dtype=np.int64), np.zeros(b - a),
+                             0.0, lost_before=np.zeros(b - a, np.int64), adc=counts[a:b]),
+                 pipe.process(counts[a:b]))  # fmt: skip
+    w.flush()
+    shutil.copyfile(live, crashed)
+    raw = journal_path(live).read_bytes()
+    w.close()
+    # the header record as the format-1 gaitmon wrote it
+    assert raw[: len(MAGIC)] == MAGIC
+    length = struct.unpack_from("<I", raw, len(MAGIC) + 1)[0]
+    end = len(MAGIC) + 5 + length + 4
+    header = json.loads(raw[len(MAGIC) + 5 : len(MAGIC) + 5 + length])
+    header["format_version"] = 1
+    journal_path(crashed).write_bytes(MAGIC + encode_json(RecordType.HEADER, header) + raw[end:])
+    with h5py.File(crashed, "r") as f:
+        assert f.attrs["format_version"] == 1
+    with open_session(crashed) as s:
+        assert s.recovered and s.format_version == 2 and s.n_samples == n
+        assert s.meta.patient_id == "OLD-7"
+        assert np.array_equal(s.read("raw/adc"), counts)

@@ -3,7 +3,10 @@
 How a recording survives a crash. Every :meth:`SessionWriter.append` first writes the block to
 the journal (``FILE.journal``, see :mod:`gaitmon.io.journal`) with one ``write()``, so a killed
 process loses nothing it had handed over; the rows are staged in memory and written to the
-HDF5 file, which is flushed and the journal synced, every ``flush_interval_s`` (100 ms). A clean
+HDF5 file, which is flushed and the journal synced, every ``flush_interval_s`` (100 ms); format 2
+compresses its datasets, so the file receives each 4096-row chunk once, whole, when it is full
+(:class:`gaitmon.io.session.h5file._H5File` stages the chunk being filled: it is in the journal
+meanwhile, and a reader of the file as it is sees the whole chunks). A clean
 :meth:`SessionWriter.close` marks the file complete and deletes the journal. A journal found
 beside a file means the recording was interrupted (see :mod:`gaitmon.io.session.recovery`).
 
