@@ -267,3 +267,16 @@ def test_a_crash_of_a_format_1_recording_is_recovered_into_format_2(tmp_path):
         assert s.recovered and s.format_version == 2 and s.n_samples == n
         assert s.meta.patient_id == "OLD-7"
         assert np.array_equal(s.read("raw/adc"), counts)
+
+
+def test_long_reads_are_decoded_a_block_at_a_time_with_the_same_result(walk, monkeypatch):
+    import gaitmon.io.session.reader as reader
+
+    path, _, _ = walk
+    with open_session(path) as s:
+        whole = {name: s.read(name) for name in s.dataset_names}
+        monkeypatch.setattr(reader, "_DECODE_ROWS", 1000)  # 13 blocks, the last one short
+        for name, want in whole.items():
+            np.testing.assert_array_equal(s.read(name), want, err_msg=name)
+            part = s.read_range(999, 12_345, [name])[name]
+            np.testing.assert_array_equal(part, want[999:12_345], err_msg=name)

@@ -50,6 +50,9 @@ _CODED = frozenset(("processed/tilt_deg", "processed/tilt_acc_deg", "processed/t
                     "processed/fsr_counts", "smoothed/tilt_deg", "smoothed/joint_deg"))
 
 
+_DECODE_ROWS = 1 << 18  # rows decoded at a time (64 chunks; ~4 MB of int16 tilts)
+
+
 class SeriesView:
     """A per-sample series read by slicing (``view[a:b]``), decoded by the session reader."""
 
@@ -398,6 +401,20 @@ class Session:
         return out
 
     def _read_path(self, path: str, a: int, b: int) -> np.ndarray:
+        """Rows a:b of a per-sample series as readers get it. A long range of a series this
+        file encodes is decoded a block at a time into the result, so reading a whole 8-hour
+        series costs its result, not several times it in temporaries."""
+        if b - a > _DECODE_ROWS and (path in self._derived or path in _CODED):
+            first = self._read_one(path, a, a + _DECODE_ROWS)
+            out = np.empty((b - a, *first.shape[1:]), dtype=first.dtype)
+            out[:_DECODE_ROWS] = first
+            for k in range(a + _DECODE_ROWS, b, _DECODE_ROWS):
+                e = min(b, k + _DECODE_ROWS)
+                out[k - a : e - a] = self._read_one(path, k, e)
+            return out
+        return self._read_one(path, a, b)
+
+    def _read_one(self, path: str, a: int, b: int) -> np.ndarray:
         f = self._f
         if path.startswith("smoothed/") and not self.smoothed_stored:
             return self._smoothed_series()[path][a:b]
