@@ -27,7 +27,7 @@ import numpy as np
 from gaitmon.dsp.angles import JOINT_PAIRS
 
 # filters of every format-2 per-sample dataset (HDF5 built-ins: any HDF5 tool reads them)
-COMPRESSION = {"shuffle": True, "compression": "gzip", "compression_opts": 4}
+COMPRESSION = {"shuffle": True, "compression": "gzip", "compression_opts": 6}
 
 CENTIDEG = 0.01
 # path -> (stored dtype, resolution in the series' unit); quantised series of format 2
@@ -37,7 +37,7 @@ RESOLUTION: dict[str, tuple[np.dtype, float]] = {
     "processed/tilt_gyro_deg": (np.dtype("<i2"), CENTIDEG),
     "processed/joint_deg": (np.dtype("<i2"), CENTIDEG),  # joint mode only (else derived)
     "processed/joint_acc_deg": (np.dtype("<i2"), CENTIDEG),  # joint mode only
-    "processed/acc_ms2": (np.dtype("<i4"), 0.005),
+    "processed/acc_ms2": (np.dtype("<i2"), 0.005),  # +-163 m/s2 (16.7 g)
     "processed/fsr_counts": (np.dtype("<i4"), 0.25),
     "smoothed/tilt_deg": (np.dtype("<i2"), CENTIDEG),
 }
