@@ -7,8 +7,9 @@ format 2 (the current format: quantised, derived, shuffle + gzip), in the same r
 fresh process (so its peak memory is its own). Printed per length and format: file MB, bytes per
 frame (file size / rows), the writer's append throughput (rows per CPU second, the pipeline
 excluded: what the recorder thread spends; blocks of 100 rows, one flush per 1000 rows, where
-live flushes every 100 ms), the close (the smoother and the overview, written once at the end); then the growth
-per hour, (8 h - 1 h) / 7, beside the goal (8 hours in 150 MB, 52 bytes per frame).
+live flushes every 100 ms), the close (the smoother and the overview, written once at the
+end); then the growth per hour, (8 h - 1 h) / 7, beside the goal (8 hours in 150 MB, 52
+bytes per frame).
 
 Child protocol: ``python -m gaitmon.commands.bench_size LENGTH VERSION OUT`` prints one JSON line.
 """

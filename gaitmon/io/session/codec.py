@@ -1,7 +1,7 @@
 """How a format-2 session stores its per-sample series: quantised, derived, or as they are.
 
 Format 1 stores every per-sample series as its readers get it (float32, uncompressed). Format 2
-(``docs/file-format.md``, "Storage") stores the same series in a third of the space:
+(``docs/file-format.md``, "Storage") stores the same series in under a quarter of the space:
 
 * **exact**: the raw counts, the timeline and the contact states as they are, shuffle + gzip;
 * **quantised**: the processed float series as integers at a fixed resolution

@@ -9,7 +9,7 @@ open), and a typical review window of 10-60 s touches one or two chunks per data
 
 Format 2 (written now) compresses every per-sample dataset (shuffle + gzip, built into every
 HDF5 library) and stores the processed floats quantised, the joint angles and gyro rate derived
-(:mod:`gaitmon.io.session.codec`): ~45 bytes a row instead of ~200. A compressed chunk is
+(:mod:`gaitmon.io.session.codec`): ~49 bytes a row instead of ~224. A compressed chunk is
 written once, whole: the writer stages the rows of the chunk being filled in memory (the
 journal holds them meanwhile, see :mod:`gaitmon.io.session.writer`). Format 1 (uncompressed
 float32, each flush writing its rows in place) is still read everywhere. Both use the default
