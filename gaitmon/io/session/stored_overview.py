@@ -14,7 +14,8 @@ close, by recovery and by reprocessing, for the live and the smoothed joint angl
 The values are the min and max of the joint angles exactly as the reader returns them
 (quantised, and decoding is monotonic), so :meth:`Session.stored_pyramid` gives the same
 pyramid as one built from the rows, from a ~0.6 MB read (8 hours). The coarser levels are
-computed from this one in memory. A file without it (format 1, or whose overview is stale) is read as before.
+computed from this one in memory. A file without it (format 1, or whose overview is stale)
+is read as before.
 """
 
 from __future__ import annotations
