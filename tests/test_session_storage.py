@@ -175,7 +175,8 @@ def test_format_1_files_open_as_they_were_written(fixture):
 
 
 @pytest.mark.parametrize("fixture", [V1_RAW, V1_TILT], ids=["raw", "tilt"])
-def test_format_1_files_through_every_command(fixture, tmp_path, capsys):
+def test_format_1_files_through_every_command(fixture, tmp_path, capsys, qapp):
+    # (qapp: the report command needs a Qt application; pytest-qt's, as the report tests use)
     from gaitmon.review.model import analyse, open_document
 
     src = tmp_path / fixture.name
