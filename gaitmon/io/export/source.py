@@ -188,7 +188,8 @@ class Source:
         """Export the host clock from 0 at the first row (de-identification: the host clock
         plus the wall-clock offset would give the recording's date and time)."""
         if self.n and "timeline/host_time_s" in self.h5:
-            self.host_time_origin_s = float(self.h5["timeline/host_time_s"][0])
+            # through read(): a damaged (compressed) chunk is a one-line ExportError
+            self.host_time_origin_s = float(self.read("timeline/host_time_s", 0, 1)[0])
 
     def group_attrs(self, name: str) -> dict[str, Any]:
         """A group's attributes as plain values (read once: formats that write many parts
