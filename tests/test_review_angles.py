@@ -105,14 +105,18 @@ KNEE_PEAK_COL, KNEE_ROM_COL = (  # by name: the table's columns are analysis.STR
 )
 
 
-def _stored_smoothed(path):
-    """The smoothed joint angles the file stores, as the session reader gives them (format 2
-    stores the tilts, the joints are derived: docs/file-format.md, "Storage")."""
+def _stored(path, angles="smoothed", name=JOINT):
+    """A series of ``angles`` as the file stores it, through the session reader (format 2
+    stores the tilts quantised, the joints are derived: docs/file-format.md, "Storage")."""
     from gaitmon.io.session import open_session
 
     with open_session(path) as s:
-        s.use_angles("smoothed")
-        return s.read(JOINT)
+        s.use_angles(angles)
+        return s.read(name)
+
+
+def _stored_smoothed(path):
+    return _stored(path)
 
 
 def test_switching_the_angles_redraws_everything_with_that_sources_series(
@@ -120,9 +124,9 @@ def test_switching_the_angles_redraws_everything_with_that_sources_series(
 ):
     with h5py.File(session_file) as f:
         t_s = f["timeline/t_s"][()]
-        stored = {a: f[p][()].astype(np.float64) for a, p in STORED.items()}
-        tilt = {a: f[p.replace("joint", "tilt")][()].astype(np.float64)
-                for a, p in STORED.items()}  # fmt: skip
+    stored = {a: _stored(session_file, a).astype(np.float64) for a in STORED}
+    tilt = {a: _stored(session_file, a, "processed/tilt_deg").astype(np.float64)
+            for a in STORED}  # fmt: skip
     assert np.abs(stored["smoothed"][:, 1] - stored["live"][:, 1]).max() > 1.0  # they differ
     open_and_wait(qtbot, win, session_file)
     assert win.act["angles_smoothed"].isEnabled() and win.act["angles_live"].isEnabled()
@@ -205,8 +209,7 @@ def test_a_tilt_mode_session_has_no_angle_switch(qtbot, win, tilt_file, tmp_path
 
 
 def test_the_export_dialog_exports_the_angles_shown(qtbot, win, session_file, tmp_path):
-    with h5py.File(session_file) as f:
-        stored = {a: f[p][()] for a, p in STORED.items()}
+    stored = {a: _stored(session_file, a) for a in STORED}
     open_and_wait(qtbot, win, session_file)
     for angles in ("smoothed", "live"):
         if angles == "live":
