@@ -1,19 +1,22 @@
 """Review window on an 8-hour session: first view, pan/zoom frame times; naive plots beside it.
 
-    .venv/bin/python benchmarks/bench_review.py [--hours 8] [--keep FILE] [--no-naive]
+    .venv/bin/python benchmarks/bench_review.py [--hours 8] [--keep DIR] [--formats 1,2]
+        [--repeat 3] [--pyqtgraph]
 
 Builds a synthetic session by tiling the walking part of a 40-s simulator recording (so the
 data and the events are real pipeline output) up to the requested length, written with h5py
-in the layout of docs/file-format.md (chunks of 4096 rows). Then, offscreen:
+in the layout of docs/file-format.md (chunks of 4096 rows), once per session format (1:
+uncompressed float32; 2: the current, compressed, with its /overview), and measures each in
+fresh processes, alternating, side by side. Offscreen:
 
 * review window: time from ``open_file`` to the first painted view (overview + detail lanes),
   then to the stride analysis; pan and zoom steps, each timed from the range change to the
   repaint with the new data (p50/p95); View ▸ Angles ▸ Live and back to Smoothed, each timed
   from the click to the lanes and the stride analysis of those angles (the session stores its
   smoothed angles in ``/smoothed``, tiled like the rest, as every recording does);
-* naive: 14 raw channels, every row handed to pyqtgraph (``PlotDataItem.setData``), first
-  paint and pan frames;
-* pyqtgraph clip-to-view + peak auto-downsampling of the same 14 channels.
+* peak RSS of the process (the window with the session open);
+* with ``--pyqtgraph``: naive (14 raw channels, every row handed to pyqtgraph) and pyqtgraph's
+  clip-to-view + peak auto-downsampling of the same 14 channels.
 """
 
 from __future__ import annotations
@@ -34,28 +37,52 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from gaitmon.io.session import CHUNK_ROWS  # noqa: E402
+from gaitmon.io.session import CHUNK_ROWS, FORMAT_VERSION  # noqa: E402
 
 
-def build_session(path: Path, hours: float) -> int:
-    """Tile a short simulator recording's walking part into an ``hours``-long session."""
+def build_session(path: Path, hours: float, version: int = FORMAT_VERSION) -> int:
+    """Tile a short simulator recording's walking part into an ``hours``-long session of
+    format ``version``: 2 (the current one: the template's stored datasets tiled with their
+    own dtype and filters, then its /overview computed as a closing recorder does) or 1
+    (every series decoded and stored as float32, uncompressed, as format 1 did)."""
     from gaitmon.cli import main as cli_main
+    from gaitmon.io.session import open_session
+    from gaitmon.io.session.codec import COMPRESSION
+    from gaitmon.io.session.stored_overview import write_overview
 
     src = path.with_name("bench_review_template.h5")
     if not src.exists():
         cli_main(["record", "--simulate", "--duration", "40", "-o", str(src), "--speed", "max",
                   "--standing-s", "2", "--quiet"])  # fmt: skip
     n_target = int(hours * 3600 * 100)
-    with h5py.File(src) as f:
+    with h5py.File(src) as f, open_session(src) as sess:
         hs = f["events/heel_strike"][()]
         to = f["events/toe_off"][()]
         a, b = int(hs[1]), int(hs[-2])  # whole strides: the tile joins seamlessly in phase
         period = b - a
         reps = -(-n_target // period)
         n = reps * period
+        tiles: dict[str, tuple[np.ndarray, dict]] = {}
+        if version >= 2:
+            for name in _per_sample(f):
+                ds = f[name]
+                filters = {"compression": ds.compression, "compression_opts":
+                           ds.compression_opts, "shuffle": ds.shuffle}
+                tiles[name] = (ds[a:b], filters)
+        else:
+            for name in sess.dataset_names:
+                if name.startswith("timeline/"):
+                    continue
+                sess.use_angles("live")
+                tiles[name] = (sess.read_range(a, b, [name])[name], {})
+                if name in ("processed/tilt_deg", "processed/joint_deg"):
+                    sess.use_angles("smoothed")
+                    smooth = name.replace("processed/", "smoothed/")
+                    tiles[smooth] = (sess.read_range(a, b, [name])[name], {})
         with h5py.File(path, "w") as g:
             for k, v in f.attrs.items():
                 g.attrs[k] = v
+            g.attrs["format_version"] = version
             for grp in ("session", "device", "config", "calibration", "link", "markers", "gaps"):
                 f.copy(f[grp], g, name=grp)
             for name in [n for n in ("processed", "raw", "smoothed") if n in f]:
@@ -64,25 +91,28 @@ def build_session(path: Path, hours: float) -> int:
                     g[name].attrs[k] = v
             g.create_group("timeline")
             g.create_group("events")
-            for name in _per_sample(f):
-                ds = f[name]
-                tile = ds[a:b]
-                out = g.create_dataset(name, shape=(n, *ds.shape[1:]), dtype=ds.dtype,
-                                       chunks=(CHUNK_ROWS, *ds.shape[1:]),
-                                       maxshape=(None, *ds.shape[1:]))  # fmt: skip
-                block = np.concatenate([tile] * max(1, (1 << 20) // period))
-                for s in range(0, n, len(block)):
-                    e = min(n, s + len(block))
-                    out[s:e] = block[: e - s]
-            g["timeline/t_s"] = np.arange(n) / 100.0
-            g["timeline/seq"] = np.arange(n, dtype=np.int64)
-            g["timeline/host_time_s"] = np.arange(n) / 100.0
+            for name, (tile, filters) in tiles.items():
+                out = g.create_dataset(name, shape=(n, *tile.shape[1:]), dtype=tile.dtype,
+                                       chunks=(CHUNK_ROWS, *tile.shape[1:]),
+                                       maxshape=(None, *tile.shape[1:]), **filters)  # fmt: skip
+                # 2**20 rows (whole chunks: a compressed chunk is written once) at a time
+                for s in range(0, n, 1 << 20):
+                    e = min(n, s + (1 << 20))
+                    out[s:e] = tile[np.arange(s, e) % period]
+            timeline = {"timeline/t_s": np.arange(n) / 100.0,
+                        "timeline/seq": np.arange(n, dtype=np.int64),
+                        "timeline/host_time_s": np.arange(n) / 100.0}
+            for name, data in timeline.items():
+                g.create_dataset(name, data=data, chunks=(CHUNK_ROWS,), maxshape=(None,),
+                                 **(COMPRESSION if version >= 2 else {}))  # fmt: skip
             for name, ev in (("heel_strike", hs), ("toe_off", to)):
                 one = ev[(ev >= a) & (ev < b)] - a
                 allv = (one[None, :] + period * np.arange(reps)[:, None]).ravel()
                 g.create_dataset(f"events/{name}", data=allv.astype(np.int64), maxshape=(None,))
             g.attrs["n_samples"] = n
             g.attrs["duration_s"] = n / 100.0
+            if version >= 2:
+                write_overview(g)
     return n
 
 
@@ -137,18 +167,20 @@ def bench_review(path: Path, app) -> dict[str, float]:
         return time.perf_counter() - s
 
     pans = []
-    x0 = 3600.0
+    total = float(win.doc.t_s[-1])
+    x0 = min(3600.0, total / 8)  # (the 8-h figures pan from hour 1, zoom around hour 4)
     for _ in range(60):
         x0 += 3.0
         pans.append(step(x0, x0 + 30.0))
     zooms = []
-    centre = 4 * 3600.0
-    total = float(win.doc.t_s[-1])
-    for w in [10, 30, 120, 600, 1800, 3600, 4 * 3600, total] * 3:
+    centre = total / 2
+    widths = [w for w in (10, 30, 120, 600, 1800, 3600, 4 * 3600) if w < total] + [total]
+    for w in widths * 3:
         zooms.append(step(max(0, centre - w / 2), min(total, centre + w / 2)))
     whole_pans = []
     for k in range(20):
-        whole_pans.append(step(k * 60.0, k * 60.0 + 7200.0))
+        wide = min(7200.0, total / 4)  # 2 h (of 8 h); a quarter of a shorter session
+        whole_pans.append(step(k * wide / 120, k * wide / 120 + wide))
     switches = {}
     done: list[int] = []
     win.analysis_done.connect(lambda: done.append(1))
@@ -225,45 +257,109 @@ def bench_pyqtgraph(path: Path, app, clip: bool, n_pans: int) -> dict[str, float
     }
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--hours", type=float, default=8.0)
-    ap.add_argument("--keep", type=Path, default=None, help="reuse / keep the session file here")
-    ap.add_argument("--no-naive", action="store_true", help="skip the naive full plot")
-    args = ap.parse_args()
+def _child(path: Path) -> None:
+    """One review run in this (fresh) process: its figures and peak RSS as one JSON line."""
+    import json
+
     from PySide6.QtWidgets import QApplication
 
     app = QApplication.instance() or QApplication([])
-    tmpdir = Path(tempfile.mkdtemp(prefix="bench_review_"))
-    path = args.keep or tmpdir / "session_8h.h5"
-    if not path.exists():
-        s = time.perf_counter()
-        n = build_session(path, args.hours)
-        print(f"built {path.name}: {n} rows ({n / 360000:.2f} h), "
-              f"{path.stat().st_size / 1e6:.0f} MB in {time.perf_counter() - s:.1f} s")  # fmt: skip
     r = bench_review(path, app)
-    print(f"\nreview window ({args.hours:g} h, offscreen, 1600x1000)")
-    print(f"  first view            {r['first_view_s']:.2f} s   (stride analysis done at "
-          f"{r['analysis_s']:.2f} s, {r['strides']} strides)")  # fmt: skip
-    print(f"  pan 30-s view         p50 {r['pan_p50_ms']:.1f} ms  p95 {r['pan_p95_ms']:.1f} ms")
-    print(f"  zoom 10 s .. 8 h      p50 {r['zoom_p50_ms']:.1f} ms  p95 {r['zoom_p95_ms']:.1f} ms")
-    print(f"  pan 2-h view          p50 {r['pan2h_p50_ms']:.1f} ms  p95 {r['pan2h_p95_ms']:.1f} ms")
-    print(f"  angles: to live       {r['to_live_s']:.2f} s   back to smoothed "
-          f"{r['to_smoothed_s']:.2f} s   (lanes, overview and strides of those angles)")
-    rows = [("clip-to-view + peak", bench_pyqtgraph(path, app, True, 30))]
-    if not args.no_naive:
-        rows.append(("naive full plot", bench_pyqtgraph(path, app, False, 5)))
-    for label, q in rows:
-        print(f"\npyqtgraph, 14 raw channels, {label}")
-        print(f"  first view            {q['first_view_s']:.2f} s   (of which reading "
-              f"{q['read_s']:.2f} s)")  # fmt: skip
-        print(f"  pan 30-s view         p50 {q['pan_p50_ms']:.1f} ms  p95 {q['pan_p95_ms']:.1f} ms")
-        print(f"  pan 2-h view          p50 {q['pan2h_p50_ms']:.1f} ms  "
-              f"p95 {q['pan2h_p95_ms']:.1f} ms")  # fmt: skip
+    with open("/proc/self/status") as f:
+        rss = next((int(x.split()[1]) / 1024 for x in f if x.startswith("VmHWM:")), float("nan"))
+    print(json.dumps({**r, "rss_mb": rss}), flush=True)
+
+
+def _run_child(path: Path) -> dict[str, float]:
+    import json
+    import subprocess
+
+    r = subprocess.run([sys.executable, __file__, "--child", str(path)], capture_output=True,
+                       text=True, check=False)  # fmt: skip
+    if r.returncode != 0:
+        raise RuntimeError(r.stderr[-2000:])
+    out: dict[str, float] = json.loads(r.stdout.strip().splitlines()[-1])
+    return out
+
+
+ROWS = (
+    ("first view (s)", "first_view_s", "{:.2f}"),
+    ("stride analysis done (s)", "analysis_s", "{:.2f}"),
+    ("pan 30-s view p50 (ms)", "pan_p50_ms", "{:.1f}"),
+    ("pan 30-s view p95 (ms)", "pan_p95_ms", "{:.1f}"),
+    ("zoom 10 s .. 8 h p50 (ms)", "zoom_p50_ms", "{:.1f}"),
+    ("zoom 10 s .. 8 h p95 (ms)", "zoom_p95_ms", "{:.1f}"),
+    ("pan 2-h view p50 (ms)", "pan2h_p50_ms", "{:.1f}"),
+    ("pan 2-h view p95 (ms)", "pan2h_p95_ms", "{:.1f}"),
+    ("View > Angles > Live (s)", "to_live_s", "{:.2f}"),
+    ("and back to Smoothed (s)", "to_smoothed_s", "{:.2f}"),
+    ("peak RSS (MB)", "rss_mb", "{:.0f}"),
+)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--hours", type=float, default=8.0)
+    ap.add_argument("--keep", type=Path, default=None,
+                    help="a folder to reuse / keep the session files in")
+    ap.add_argument("--formats", default="1,2",
+                    help="session format versions compared side by side (default 1,2)")
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="runs per format, alternating, each in a fresh process (median)")
+    ap.add_argument("--pyqtgraph", action="store_true",
+                    help="also plot the 14 raw channels with pyqtgraph (clip-to-view and naive)")
+    ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.child is not None:
+        _child(args.child)
+        return 0
+    formats = [int(v) for v in args.formats.split(",")]
+    folder = args.keep or Path(tempfile.mkdtemp(prefix="bench_review_"))
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    for v in formats:
+        path = folder / f"session_{args.hours:g}h_format{v}.h5"
+        if not path.exists():
+            s = time.perf_counter()
+            n = build_session(path, args.hours, v)
+            print(f"built {path.name}: {n} rows ({n / 360000:.2f} h), "
+                  f"{path.stat().st_size / 1e6:.0f} MB in {time.perf_counter() - s:.1f} s",
+                  flush=True)  # fmt: skip
+        paths[v] = path
+    runs: dict[int, list[dict[str, float]]] = {v: [] for v in formats}
+    for k in range(args.repeat):
+        for v in formats:
+            r = _run_child(paths[v])
+            runs[v].append(r)
+            print(f"  run {k + 1} format {v}: first view {r['first_view_s']:.2f} s, pan p95 "
+                  f"{r['pan_p95_ms']:.0f} ms, 2-h pan p95 {r['pan2h_p95_ms']:.0f} ms, "
+                  f"RSS {r['rss_mb']:.0f} MB", flush=True)  # fmt: skip
+    print(f"\nreview window, {args.hours:g} h session, offscreen 1600x1000, median of "
+          f"{args.repeat} runs (fresh process each), {runs[formats[0]][0]['strides']:.0f} strides")
+    print("| | " + " | ".join(f"format {v} ({paths[v].stat().st_size / 2**20:.0f} MB)"
+                             for v in formats) + " |")  # fmt: skip
+    print("|---|" + "---|" * len(formats))
+    for label, key, fmt in ROWS:
+        cells = [fmt.format(statistics.median(r[key] for r in runs[v])) for v in formats]
+        print(f"| {label} | " + " | ".join(cells) + " |")
+    if args.pyqtgraph:
+        from PySide6.QtWidgets import QApplication
+
+        app = QApplication.instance() or QApplication([])
+        path = paths[formats[-1]]
+        for label, q in (("clip-to-view + peak", bench_pyqtgraph(path, app, True, 30)),
+                         ("naive full plot", bench_pyqtgraph(path, app, False, 5))):
+            print(f"\npyqtgraph, 14 raw channels, {label}")
+            print(f"  first view            {q['first_view_s']:.2f} s   (of which reading "
+                  f"{q['read_s']:.2f} s)")  # fmt: skip
+            print(f"  pan 30-s view         p50 {q['pan_p50_ms']:.1f} ms  "
+                  f"p95 {q['pan_p95_ms']:.1f} ms")  # fmt: skip
+            print(f"  pan 2-h view          p50 {q['pan2h_p50_ms']:.1f} ms  "
+                  f"p95 {q['pan2h_p95_ms']:.1f} ms")  # fmt: skip
     if args.keep is None:
-        for p in tmpdir.iterdir():
+        for p in folder.iterdir():
             p.unlink()
-        tmpdir.rmdir()
+        folder.rmdir()
     return 0
 
 

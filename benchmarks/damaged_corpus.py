@@ -108,6 +108,10 @@ def make_corpus(src_path: str | Path, out_dir: str | Path, seed: int = 1) -> lis
     data = src.read_bytes()
     size = len(data)
     variants: list[Variant] = []
+    with h5py.File(src, "r") as f:
+        present = {d for d in DATASETS if d in f}
+        # format 2 derives the joint angles from the stored tilts: damage those instead
+        joint = "processed/joint_deg" if "processed/joint_deg" in f else "processed/tilt_deg"
 
     def put(name: str, description: str, content: bytes) -> None:
         p = out / name
@@ -155,9 +159,9 @@ def make_corpus(src_path: str | Path, out_dir: str | Path, seed: int = 1) -> lis
     h5("dtype_t_str.h5", "timeline/t_s stored as strings",
        _replace("timeline/t_s", lambda a: np.array([b"t"] * len(a))))
     h5("dtype_joint_1d.h5", "processed/joint_deg one column",
-       _replace("processed/joint_deg", lambda a: a[:, 0].copy()))
+       _replace(joint, lambda a: a[:, 0].copy()))
     h5("dtype_joint_scalar.h5", "processed/joint_deg a scalar",
-       _replace("processed/joint_deg", lambda a: np.float64(1.0)))
+       _replace(joint, lambda a: np.float64(1.0)))
     h5("dtype_hs_float.h5", "heel strikes stored as float",
        _replace("events/heel_strike", lambda a: a.astype(np.float64) + 0.5))
     h5("dtype_hs_str.h5", "heel strikes stored as strings",
@@ -179,7 +183,7 @@ def make_corpus(src_path: str | Path, out_dir: str | Path, seed: int = 1) -> lis
     # -- missing groups, datasets, attributes
     for g in GROUPS:
         h5(f"missing_group_{g}.h5", f"group /{g} removed", _del(g))
-    for d in DATASETS:
+    for d in sorted(present, key=DATASETS.index):
         h5(f"missing_ds_{d.replace('/', '_')}.h5", f"dataset /{d} removed", _del(d))
     for a in ROOT_ATTRS:
         h5(f"missing_attr_{a}.h5", f"root attribute {a} removed", _del_attr("/", a))
@@ -219,10 +223,10 @@ def make_corpus(src_path: str | Path, out_dir: str | Path, seed: int = 1) -> lis
        _replace("events/toe_off", lambda a: a[::-1].copy()))
     h5("events_empty.h5", "no events at all", _events(lambda a: a[:0]))
     h5("ragged_lengths.h5", "processed/joint_deg shorter than the rest",
-       _replace("processed/joint_deg", lambda a: a[: len(a) // 2]))
+       _replace(joint, lambda a: a[: len(a) // 2]))
     h5("t_s_nan.h5", "timeline/t_s all NaN", _replace("timeline/t_s", lambda a: a * np.nan))
     h5("joint_nan.h5", "processed/joint_deg all NaN",
-       _replace("processed/joint_deg", lambda a: a * np.nan))
+       _replace(joint, lambda a: a * np.nan))
     h5("markers_beyond.h5", "a marker far beyond the data", _replace("markers", lambda a: np.array(
         [(10**9, 1e9, b"far")], dtype=a.dtype) if a.dtype.names else a))
 

@@ -153,3 +153,35 @@ def normal_and_stiff_knee(tmp_path_factory) -> tuple[pathlib.Path, pathlib.Path]
         write_simulated_session(d / "visit2_stiff.h5", pattern="stiff-knee",
                                 created_utc="2026-11-01T09:30:00Z"),
     )
+
+
+@pytest.fixture(scope="session")
+def assert_stored():
+    """``assert_stored(got, expected, name, version=2)``: a per-sample series read from a
+    session equals the pipeline's values within what the file format promises
+    (``gaitmon.io.session.codec.tolerance``: half the resolution of a quantised series, one
+    resolution for a joint angle; exact otherwise; angle differences wrapped), plus float32
+    rounding."""
+    import numpy as np
+
+    from gaitmon.io.session.codec import tolerance
+
+    def check(got, expected, name: str, version: int = 2) -> None:
+        got = np.asarray(got)
+        expected = np.asarray(expected)
+        assert got.shape == expected.shape, (name, got.shape, expected.shape)
+        tol = tolerance(name, version)
+        if tol == 0.0:
+            assert np.array_equal(got, expected.astype(got.dtype), equal_nan=True), name
+            return
+        err = got.astype(np.float64) - expected.astype(np.float64)
+        if name.endswith("_deg"):
+            err = (err + 180.0) % 360.0 - 180.0
+        ok = np.isfinite(expected)
+        assert np.array_equal(np.isfinite(got), ok), name
+        big = float(np.abs(expected[ok]).max()) if ok.any() else 0.0
+        slack = 4 * float(np.spacing(np.float32(big)))
+        worst = float(np.abs(err[ok]).max()) if ok.any() else 0.0
+        assert worst <= tol + slack, f"{name}: off by {worst} > {tol} (+{slack})"
+
+    return check

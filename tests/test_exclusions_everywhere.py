@@ -28,13 +28,22 @@ def walk(tmp_path_factory, record_simulated):
     return record_simulated(tmp_path_factory.mktemp("excl") / "walk.h5", duration_s=20)
 
 
+def _joints_of(f):
+    from gaitmon.io.session.codec import joints_from_stored_tilts
+
+    if "processed/joint_deg" in f:
+        return f["processed/joint_deg"][()]
+    return joints_from_stored_tilts(f["processed/tilt_deg"][()], "processed/tilt_deg")
+
+
 def _included(path, ranges):
     """The included-stride count computed here, from the file's datasets and the ranges."""
     with h5py.File(path, "r") as f:
         hs = f["events/heel_strike"][()]
         to = f["events/toe_off"][()]
         t_s = f["timeline/t_s"][()]
-        joints = f["processed/joint_deg"][()].astype(np.float64)
+        # format 2 stores the tilts (0.01 deg); the joints are their differences
+        joints = _joints_of(f).astype(np.float64)
         gaps = [(int(g["sample_idx"]), float(g["duration_s"])) for g in f["gaps"][()]]
         fs = float(f.attrs["sample_rate_hz"])
     rows = analyse_strides(hs, to, fs, joints, gaps, ranges, t_s=t_s)
@@ -132,7 +141,7 @@ def test_a_read_only_folder_keeps_them_in_the_user_store_where_info_sees_them(
 
 
 def test_rewrite_processed_reports_progress_and_writes_what_the_command_writes(
-    walk, tmp_path, monkeypatch
+    walk, tmp_path, monkeypatch, assert_stored
 ):
     import gaitmon.io.session.reprocess as rp
 
@@ -154,19 +163,21 @@ def test_rewrite_processed_reports_progress_and_writes_what_the_command_writes(
     )
     with open_session(out) as s:
         s.use_angles("live")  # the causal filter's, which the new settings tune
-        np.testing.assert_array_equal(s.read("processed/joint_deg"), joint)
+        assert_stored(s.read("processed/joint_deg"), joint, "processed/joint_deg")
         assert s.config == config and s.reprocessed and not s.config_changes
     # and the same as the command line writes
     ref = tmp_path / "ref.h5"
     assert main(["process", str(walk), "-o", str(ref), "--cutoff-hz", "3"]) == 0
     with h5py.File(out, "r") as a, h5py.File(ref, "r") as b:
-        for name in ("processed/joint_deg", "processed/tilt_deg", "events/heel_strike",
+        for name in ("processed/tilt_deg", "smoothed/tilt_deg", "events/heel_strike",
                      "events/toe_off", "raw/adc", "timeline/t_s"):  # fmt: skip
             np.testing.assert_array_equal(a[name][()], b[name][()], err_msg=name)
         assert dict(a["config"].attrs) == dict(b["config"].attrs)
 
 
-def test_rewrite_processed_converts_with_the_recordings_own_channel_table(walk, tmp_path):
+def test_rewrite_processed_converts_with_the_recordings_own_channel_table(
+    walk, tmp_path, assert_stored
+):
     """A unit whose channel table differs from the default: the reprocessed file converts its
     counts with the recording's table (as recovery and the review window do)."""
     import shutil
@@ -183,9 +194,9 @@ def test_rewrite_processed_converts_with_the_recordings_own_channel_table(walk, 
     want = np.concatenate([c.rows["processed/acc_ms2"] for c in
                            replay_pipeline(adc, cfg, cal, changes, table=table)])  # fmt: skip
     out = rewrite_processed(src, tmp_path / "out.h5", cfg)
-    with h5py.File(out.path, "r") as f:
-        got = f["processed/acc_ms2"][()]
-    np.testing.assert_allclose(got, want, rtol=0, atol=1e-4)
+    with open_session(out.path) as s:
+        got = s.read("processed/acc_ms2")
+    assert_stored(got, want, "processed/acc_ms2")
 
 
 def test_rewrite_processed_cancelled_midway_keeps_nothing(walk, tmp_path, monkeypatch):

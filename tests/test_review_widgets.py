@@ -222,9 +222,12 @@ def _view(qtbot):
 
 def _knee_rmse_by_hand(session: Path) -> dict[str, float]:
     """Accelerometer and gyro-integration knee angles vs the simulator's true knee angle."""
+    from gaitmon.io.session import open_session
+
+    with open_session(session) as s:  # (the format derives the gyro, quantises the acc)
+        acc = s.read("processed/acc_ms2").astype(np.float64)
+        gyro = s.read("processed/gyro_rad_s").astype(np.float64)
     with h5py.File(session) as f:
-        acc = f["processed/acc_ms2"][()].astype(np.float64)
-        gyro = f["processed/gyro_rad_s"][()].astype(np.float64)
         true_knee = f["truth/joint_deg"][()][:, 1].astype(np.float64)
         mount = np.radians(f["truth"].attrs["mount_offset_deg"])
         fs = float(f.attrs["sample_rate_hz"])

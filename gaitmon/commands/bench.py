@@ -22,15 +22,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
     p.add_argument(
         "--suite",
-        choices=("pipeline", "offline"),
+        choices=("pipeline", "offline", "size"),
         default="pipeline",
-        help="pipeline: the signal chain (default); offline: export and report cost over "
-        "1 min .. 8 h sessions beside references (medians of --repeat runs)",
+        help="pipeline: the signal chain (default); offline: info, export and report cost over "
+        "1 min .. 8 h sessions beside references (medians of --repeat runs); size: session "
+        "file size and write cost, format 1 beside format 2",
     )
     p.add_argument(
         "--lengths",
         default="1min,10min,1h,8h",
-        help="session lengths for --suite offline (default 1min,10min,1h,8h)",
+        help="session lengths for --suite offline and size (default 1min,10min,1h,8h)",
     )
 
 
@@ -63,6 +64,10 @@ def run(args: argparse.Namespace) -> int:
         from gaitmon.commands.bench_offline import suite
 
         return suite(args.lengths.split(","), args.repeat)
+    if args.suite == "size":
+        from gaitmon.commands.bench_size import suite as size_suite
+
+        return size_suite(args.lengths.split(","), args.repeat)
     if not 0 < args.hours <= 24:
         raise UserError(f"--hours must be above 0 and at most 24, got {args.hours}")
     if args.repeat < 1:

@@ -6,7 +6,9 @@ reference measured in the same run on the same data:
 
 * CSV export vs pyarrow's ``write_csv`` of the same columns (read from the same session);
 * MAT export vs ``scipy.io.savemat`` of the same arrays;
-* C3D export and the PDF report, against their own 1-minute figure (the fixed cost).
+* ``info``, C3D export and the PDF report, against their own 1-minute figure (the fixed cost).
+
+The sessions are written in the current format (2); every line shows the command's peak RSS.
 
 "per h" is the growth per hour of session, (8 h - 1 h) / 7. The sessions are written directly
 (simulated counts -> Pipeline -> SessionWriter; one simulated hour tiled) and cached under the
@@ -34,6 +36,7 @@ from typing import Any
 LENGTHS_H: dict[str, float] = {"1min": 1 / 60, "10min": 1 / 6, "1h": 1.0, "8h": 8.0}
 # (task, reference task or "" for none, what the line says)
 ROWS: tuple[tuple[str, str, str], ...] = (
+    ("info", "", "info"),
     ("csv", "csv_pyarrow", "CSV export | pyarrow write_csv"),
     ("mat", "mat_savemat", "MAT export | scipy savemat"),
     ("c3d", "", "C3D export"),
@@ -140,6 +143,16 @@ def _task(task: str, src: Path, out: Path) -> list[Path]:
         savemat(out / "ref.mat", {"session": mats}, format="5", oned_as="column",
                 do_compression=False)
         return [out / "ref.mat"]
+    if task == "info":
+        import contextlib
+        import io
+
+        from gaitmon.cli import main
+
+        with contextlib.redirect_stdout(io.StringIO()):
+            if main(["info", str(src)]) != 0:
+                raise SystemExit(1)
+        return []
     if task == "report":
         from gaitmon.cli import main
 

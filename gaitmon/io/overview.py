@@ -203,8 +203,16 @@ class PeakPyramid:
                 raise Cancelled
         if not mins_parts:
             raise ValueError("cannot build a pyramid of an empty series")
-        mins = np.concatenate(mins_parts)
-        maxs = np.concatenate(maxs_parts)
+        return cls.from_level0(np.concatenate(mins_parts), np.concatenate(maxs_parts), n_rows,
+                               base_step, factor)  # fmt: skip
+
+    @classmethod
+    def from_level0(
+        cls, mins: np.ndarray, maxs: np.ndarray, n_rows: int, base_step: int = BASE_STEP,
+        factor: int = FACTOR,
+    ) -> PeakPyramid:
+        """The pyramid from its finest level (min and max of every ``base_step`` rows, e.g.
+        as a session file stores them), the coarser levels computed from it."""
         levels = [(mins, maxs)]
         # coarser levels from the finer bins: min of mins, max of maxs (exact, since the
         # bins nest: a level-l bin is exactly `factor` level-(l-1) bins, the last one short)
@@ -248,8 +256,12 @@ class SessionOverview:
         base_step: int = BASE_STEP,
         breaks: np.ndarray | None = None,
         break_lost: np.ndarray | None = None,
+        stored: Callable[[str], PeakPyramid | None] | None = None,
     ) -> None:
         self._read = read
+        # a series' pyramid as the file stores it (Session.stored_pyramid), tried before
+        # building one from the rows
+        self._stored = stored
         self.n_rows = int(n_rows)
         # first rows after the gaps, and the frames each lost: every answer breaks its line
         # there (see break_at_gaps)
@@ -279,6 +291,13 @@ class SessionOverview:
             lock = self._locks.setdefault(name, threading.Lock())
         with lock:
             got = self._pyramids.get(name)
+            if got is not None:
+                return got
+            if self._stored is not None:
+                got = self._stored(name)
+                if got is not None and (got.n_rows, got.base_step) != (self.n_rows,
+                                                                       self.base_step):
+                    got = None
             if got is None:
                 got = PeakPyramid.build(
                     lambda a, b: self.read_rows(name, a, b),
@@ -286,8 +305,8 @@ class SessionOverview:
                     base_step=self.base_step,
                     progress=progress,
                 )
-                with self._lock:
-                    self._pyramids[name] = got
+            with self._lock:
+                self._pyramids[name] = got
         return got
 
     def window(

@@ -32,7 +32,7 @@ from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
-from gaitmon.io.overview import SessionOverview
+from gaitmon.io.overview import PeakPyramid, SessionOverview
 from gaitmon.io.session import Session, SessionError, open_session, replay_pipeline
 from gaitmon.io.session import exclusions as excl
 from gaitmon.io.session.rows import lost_before_from_gaps
@@ -75,6 +75,7 @@ class Source:
         gaps: tuple[np.ndarray, np.ndarray] | None = None,
         angles: str = "live",
         angle_method: str = "",
+        stored: Callable[[str], PeakPyramid | None] | None = None,
     ) -> None:
         self.label = label  # recorded | reprocessed
         self.angles = angles  # the angles its tilt and joint series hold: smoothed | live
@@ -85,7 +86,7 @@ class Source:
         # across lost data
         self.gaps = gaps or (np.empty(0, np.int64), np.empty(0, np.int64))
         self.overview = SessionOverview(
-            read, n_rows, breaks=self.gaps[0], break_lost=self.gaps[1]
+            read, n_rows, breaks=self.gaps[0], break_lost=self.gaps[1], stored=stored
         )
         self.heel_strike_idx = np.asarray(heel_strike_idx, dtype=np.int64)
         self.toe_off_idx = np.asarray(toe_off_idx, dtype=np.int64)
@@ -222,12 +223,13 @@ class Document:
         def read_session(name: str, a: int, b: int) -> np.ndarray:
             return view.read_range(a, b, [name])[name]
 
-        if replay is None:
+        if replay is None:  # (the file's /overview gives the knee pyramid, where it has one)
             s = self.session
             names = [p for p in s.dataset_names if not p.startswith("timeline/")]
             return Source("recorded", read_session, names, n, s.heel_strike_idx,
                           s.toe_off_idx, s.config, self.gaps, angles,
-                          s.angle_method_of(angles))  # fmt: skip
+                          s.angle_method_of(angles),
+                          stored=view.stored_pyramid)  # fmt: skip
         series = replay.series
 
         def read_replay(name: str, a: int, b: int) -> np.ndarray:
@@ -239,7 +241,8 @@ class Document:
         method = (self.angle_method_of(angles) if angles == "smoothed"
                   else replay.config.tilt_method_label)  # fmt: skip
         return Source("reprocessed", read_replay, tuple(series), n, replay.heel_strike_idx,
-                      replay.toe_off_idx, replay.config, self.gaps, angles, method)  # fmt: skip
+                      replay.toe_off_idx, replay.config, self.gaps, angles, method,
+                      stored=view.stored_pyramid if angles == "smoothed" else None)  # fmt: skip
 
     @property
     def recorded(self) -> Source:

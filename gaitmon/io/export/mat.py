@@ -82,7 +82,7 @@ def _mat_bytes(src: Source) -> int:
     """Bytes of the per-sample arrays in the MAT `session` variable (timeline as double)."""
     total = 0
     for s in src.series:
-        size = 8 if s.path.startswith("timeline/") else int(src.h5[s.path].dtype.itemsize)
+        size = 8 if s.path.startswith("timeline/") else _series_dtype(s, src).itemsize
         total += src.n * len(s.columns) * size
     return total
 

@@ -137,7 +137,7 @@ class Source:
     """What the exporters need from a session file, read lazily (datasets stay on disk)."""
 
     def __init__(self, session: Session) -> None:
-        h5 = session.dataset("timeline/t_s").file
+        h5 = session.h5
         path = session.path
         self.h5 = h5
         self.path = path
@@ -157,18 +157,19 @@ class Source:
             raise ExportError(f"{path.name}: not a usable session (no /timeline/t_s)")
         self.channel_names = self._channel_names()
         self.host_time_origin_s = 0.0  # subtracted from the host clock (see shift_host_time)
+        # the series the session gives (stored or, in format 2, derived on read)
         self.series: list[Series] = [
             s for s in (*TIMELINE_SERIES, *PROCESSED_SERIES, raw_series(self.channel_names))
-            if s.path in h5
+            if s.path in session.dataset_names
         ]
         # Rows common to every per-sample dataset (the reader's count; ragged ends cut off).
-        self.n = min([session.n_samples, *(int(h5[s.path].shape[0]) for s in self.series)])
+        self.n = session.n_samples
         for s in self.series:
-            ds = h5[s.path]
-            width = int(np.prod(ds.shape[1:], dtype=np.int64)) if ds.ndim > 1 else 1
+            shape = session.shape_of(s.path)
+            width = int(np.prod(shape[1:], dtype=np.int64)) if len(shape) > 1 else 1
             if width != len(s.columns):
                 raise ExportError(
-                    f"{path.name}: /{s.path} has shape {ds.shape}, expected {len(s.columns)} "
+                    f"{path.name}: /{s.path} has shape {shape}, expected {len(s.columns)} "
                     "columns per row"
                 )
 
@@ -187,7 +188,8 @@ class Source:
         """Export the host clock from 0 at the first row (de-identification: the host clock
         plus the wall-clock offset would give the recording's date and time)."""
         if self.n and "timeline/host_time_s" in self.h5:
-            self.host_time_origin_s = float(self.h5["timeline/host_time_s"][0])
+            # through read(): a damaged (compressed) chunk is a one-line ExportError
+            self.host_time_origin_s = float(self.read("timeline/host_time_s", 0, 1)[0])
 
     def group_attrs(self, name: str) -> dict[str, Any]:
         """A group's attributes as plain values (read once: formats that write many parts
@@ -210,7 +212,7 @@ class Source:
                 "live_method": s.angle_method_of("live")}  # fmt: skip
 
     def has(self, path: str) -> bool:
-        return path in self.h5
+        return path in self._session.dataset_names or path in self.h5
 
     def read(self, path: str, start: int = 0, stop: int | None = None) -> np.ndarray:
         """Rows start:stop of one per-sample series, through the session reader (which

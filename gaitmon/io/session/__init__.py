@@ -4,6 +4,7 @@ Every read and write of a session file (and of its analysis state beside it) goe
 package:
 
 * :mod:`.layout` - format name and version, modes, dataset paths, dtypes, chunking;
+* :mod:`.codec` - how format 2 stores each series (exact, quantised, derived on read);
 * :mod:`.header` - :class:`SessionMeta`, :class:`SessionHeader`, :func:`device_info`,
   :class:`SessionError`;
 * :mod:`.rows` - blocks to rows (pipeline and device blocks, the timeline);
@@ -13,6 +14,8 @@ package:
 * :mod:`.reader` - :func:`open_session` / :class:`Session`, :class:`Marker`, :class:`Gap`;
 * :mod:`.reprocess` - :func:`rewrite_processed`, a raw session re-run into a new file;
 * :mod:`.smoothed` - the ``/smoothed`` zero-lag angles of raw sessions (the readers' default);
+* :mod:`.stored_overview` - ``/overview``, the joint angles' min/max for a long session's first
+  view;
 * :mod:`.truth` - the ``/truth`` group of simulated sessions;
 * :mod:`.exclusions` - the user's excluded ranges, kept beside the recording in
   ``FILE.review.json`` (analysis state: the recording itself is never modified).

@@ -17,6 +17,7 @@ import numpy as np
 
 from gaitmon.dsp.estimate import method_label
 from gaitmon.io.journal import journal_lock
+from gaitmon.io.session.codec import COMPRESSION, encode
 from gaitmon.io.session.layout import (
     _DEVICE_KEYS,
     _EVENT_CHUNK_ROWS,
@@ -30,7 +31,8 @@ from gaitmon.io.session.layout import (
     FORMAT_VERSION,
     LINK_TOTALS,
     _field_names,
-    per_sample_datasets,
+    stored_datasets,
+    stored_dtype,
 )
 
 # HDF5 chunk cache of the writing side; 0 = none (the benchmark compares it with HDF5's 1 MB)
@@ -42,12 +44,15 @@ class _H5File:
 
     def __init__(
         self, path: Path, header: Mapping[str, Any], *, mode: str, reprocessed: bool,
-        in_memory: bool = False,
+        in_memory: bool = False, version: int = FORMAT_VERSION,
     ) -> None:
         # no chunk cache: writes go straight to the file (see gaitmon.io.session.layout, "Chunking")
         # in_memory: a file that never touches the disk (recovery while the disk is full)
         where: dict[str, Any] = {"driver": "core", "backing_store": False} if in_memory else {}
         self.f = h5py.File(path, mode, rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES, **where)
+        # format 1 (uncompressed float32, written in place on every flush) is written only
+        # for comparisons (gaitmon bench --suite size) and tests of older files
+        self.version = int(version)
         try:
             self._create(header, reprocessed)
         except BaseException:
@@ -55,7 +60,13 @@ class _H5File:
                 self.f.close()
             raise
         self._ids: dict[str, h5py.h5d.DatasetID] = {}
-        self.rows = 0
+        self.rows = 0  # rows appended (format 2: some still staged in memory)
+        # format 2: the chunk being filled, per dataset, written whole once full (a compressed
+        # chunk rewritten on every flush would cost its compression each time)
+        self._stage: dict[str, np.ndarray] = {}
+        self._staged = 0  # rows of the current chunk in _stage
+        self._aligned = 0  # rows written in whole chunks: the current chunk's first row
+        self._in_file = 0  # rows in the file's datasets (whole chunks, + a drained tail)
         self.n_events = {"heel_strike": 0, "toe_off": 0}
         self.events_sorted = True
         self._last_event = {"heel_strike": -1, "toe_off": -1}
@@ -65,7 +76,7 @@ class _H5File:
         mode = h["mode"]
         a = f.attrs
         a["format"] = FORMAT
-        a["format_version"] = np.int64(FORMAT_VERSION)
+        a["format_version"] = np.int64(self.version)
         a["created_utc"] = h["created_utc"]
         a["sample_rate_hz"] = float(h["sample_rate_hz"])
         a["software_version"] = h["software_version"]
@@ -106,15 +117,17 @@ class _H5File:
         )
         g.create_dataset("channels", data=channels)
 
-        for path in per_sample_datasets(mode):
-            shape, dtype, _ = _PER_SAMPLE[path]
+        filters = COMPRESSION if self.version >= 2 else {}
+        for path in stored_datasets(mode, self.version):
+            shape = _PER_SAMPLE[path][0]
             f.create_dataset(
                 path,
                 shape=(0, *shape),
                 maxshape=(None, *shape),
-                dtype=dtype,
+                dtype=stored_dtype(path, self.version),
                 chunks=(CHUNK_ROWS, *shape),
                 fill_time="never",
+                **filters,
             )
         f["timeline/host_time_s"].attrs["wall_offset_s"] = 0.0
         p = f["processed"]
@@ -152,12 +165,52 @@ class _H5File:
         self.f["timeline/host_time_s"].attrs["wall_offset_s"] = float(wall_offset_s)
 
     def append_rows(self, cols: Mapping[str, np.ndarray], n: int) -> None:
+        """Append ``n`` rows of every per-sample series (as readers get them: series the
+        format derives are dropped, quantised ones encoded). Rows reach the file a whole
+        chunk at a time; :meth:`drain` writes the chunk being filled."""
         if n == 0:
             return
-        a, b = self.rows, self.rows + n
-        for path, data in cols.items():
-            _append_low_level(self._dsid(path), a, data)
-        self.rows = b
+        if self.version < 2:  # uncompressed: every flush writes its rows in place
+            for path, data in cols.items():
+                _append_low_level(self._dsid(path), self.rows, data)
+            self.rows += n
+            return
+        enc = {p: encode(p, d) for p, d in cols.items() if p in self.f}
+        if not self._stage:
+            self._stage = {
+                p: np.empty((CHUNK_ROWS, *d.shape[1:]), dtype=self._dsid(p).dtype)
+                for p, d in enc.items()
+            }
+        done = 0
+        while done < n:
+            take = min(n - done, CHUNK_ROWS - self._staged)
+            for p, d in enc.items():
+                self._stage[p][self._staged : self._staged + take] = d[done : done + take]
+            self._staged += take
+            done += take
+            if self._staged == CHUNK_ROWS:
+                self._write_chunk(CHUNK_ROWS)
+                self._aligned += CHUNK_ROWS
+                self._in_file = self._aligned
+                self._staged = 0
+        self.rows += n
+
+    def _write_chunk(self, k: int) -> None:
+        for p, buf in self._stage.items():
+            _append_low_level(self._dsid(p), self._aligned, buf[:k])
+
+    def drain(self) -> None:
+        """Write the rows of the chunk being filled (at the end of a recording; they stay
+        staged, so later rows still complete that chunk)."""
+        if self._staged:
+            self._write_chunk(self._staged)
+            self._in_file = self._aligned + self._staged
+
+    def staged_row(self, path: str, idx: int) -> np.ndarray | None:
+        """Row ``idx`` of ``path`` as stored, if it is still staged, else None."""
+        if self._stage and self._aligned <= idx < self._aligned + self._staged:
+            return self._stage[path][idx - self._aligned]
+        return None
 
     def _dsid(self, path: str) -> h5py.h5d.DatasetID:
         dsid = self._ids.get(path)
@@ -191,9 +244,17 @@ class _H5File:
             link.attrs[k] = np.int64(totals.get(k, 0))
 
     def t_s_at(self, idx: int) -> float:
+        staged = self.staged_row("timeline/t_s", idx)
+        if staged is not None:
+            return float(staged)
         return float(self.f["timeline/t_s"][idx])
 
     def finish(self, *, complete: bool, recovered: bool, stop_reason: str, fs_hz: float) -> None:
+        self.drain()
+        if self.rows:
+            from gaitmon.io.session.stored_overview import write_overview
+
+            write_overview(self.f)
         if not self.events_sorted:  # several pipelines (settings changes) can interleave events
             for name in ("heel_strike", "toe_off"):
                 ds = self.f["events/" + name]

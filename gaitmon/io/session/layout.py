@@ -4,14 +4,16 @@ One table says which per-sample datasets a session of each mode holds (``docs/fi
 the writer, the recovery and the reader all take names and dtypes from here.
 
 Chunking. Per-sample datasets use chunks of :data:`CHUNK_ROWS` = 4096 rows (41 s at 100 Hz):
-the widest row (``/raw/adc``, 28 bytes) gives 112 KB chunks, inside HDF5's 1 MB default chunk
-cache, an 8-hour session (2.88 M rows) is ~700 chunks per dataset (a small chunk index, fast to
-open), and a typical review window of 10-60 s touches one or two chunks per dataset. The
-writer opens the file without a chunk cache, so each flush writes only the new rows (an
-uncompressed chunk is written in place) instead of every partly filled chunk in full. Data are
-not compressed: noisy float32 signals compress poorly, a compressed chunk must be rewritten
-and re-allocated on every flush, and uncompressed files open in any HDF5 tool with no filter
-plugins. The file uses the default (earliest) HDF5 format version, for the oldest readers.
+an 8-hour session (2.88 M rows) is ~700 chunks per dataset (a small chunk index, fast to
+open), and a typical review window of 10-60 s touches one or two chunks per dataset.
+
+Format 2 (written now) compresses every per-sample dataset (shuffle + gzip, built into every
+HDF5 library) and stores the processed floats quantised, the joint angles and gyro rate derived
+(:mod:`gaitmon.io.session.codec`): ~49 bytes a row instead of ~224. A compressed chunk is
+written once, whole: the writer stages the rows of the chunk being filled in memory (the
+journal holds them meanwhile, see :mod:`gaitmon.io.session.writer`). Format 1 (uncompressed
+float32, each flush writing its rows in place) is still read everywhere. Both use the default
+(earliest) HDF5 file-format version, for the oldest readers.
 """
 
 from __future__ import annotations
@@ -20,7 +22,10 @@ import h5py
 import numpy as np
 
 FORMAT = "gaitmon-session"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # what this gaitmon writes; it reads every version up to it
+# chunk cache of a reader, per dataset: ~30 decoded 4096-row chunks (format 2 chunks are
+# compressed: a pan over rows read a moment ago must not decode them again)
+READER_CHUNK_CACHE_BYTES = 4 << 20
 MODES = ("raw", "tilt", "joint")
 CHUNK_ROWS = 4096
 _TABLE_CHUNK_ROWS = 256
@@ -96,8 +101,35 @@ _DEVICE_KEYS = (
 
 
 def per_sample_datasets(mode: str) -> tuple[str, ...]:
-    """The per-sample dataset paths a session of this mode holds, in a fixed order."""
+    """The per-sample series a session of this mode holds, in a fixed order (what readers
+    get, whether the file stores them or derives them: see :func:`stored_datasets`)."""
     return tuple(p for p, (_, _, modes) in _PER_SAMPLE.items() if mode in modes)
+
+
+def stored_datasets(mode: str, version: int = FORMAT_VERSION) -> tuple[str, ...]:
+    """The per-sample datasets a file of this mode and format version stores (format 2
+    derives the joint angles and the gyro rate on read: :mod:`gaitmon.io.session.codec`)."""
+    from gaitmon.io.session.codec import derived
+
+    skip = derived(mode, version)
+    return tuple(p for p in per_sample_datasets(mode) if p not in skip)
+
+
+def stored_dtype(path: str, version: int = FORMAT_VERSION) -> np.dtype:
+    """The dtype a per-sample dataset is stored as (format 2 quantises the processed floats)."""
+    from gaitmon.io.session.codec import RESOLUTION
+
+    if version >= 2 and path in RESOLUTION:
+        return RESOLUTION[path][0]
+    return _PER_SAMPLE[path][1]
+
+
+def resolution(version: int = FORMAT_VERSION) -> dict[str, float]:
+    """Per-sample series stored quantised -> their resolution (in the series' unit): what a
+    reader of this format version gets within +- half of it. Format 1 stores float32."""
+    from gaitmon.io.session.codec import RESOLUTION
+
+    return {p: res for p, (_, res) in RESOLUTION.items()} if version >= 2 else {}
 
 
 def _field_names(dtype: np.dtype) -> tuple[str, ...]:

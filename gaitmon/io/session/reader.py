@@ -16,10 +16,12 @@ import h5py
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
-from gaitmon.dsp.channels import CHANNELS, ChannelSpec
+from gaitmon.dsp.channels import CHANNELS, GYRO_IDX, ChannelSpec
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.journal import journal_path
+from gaitmon.io.session.codec import GYRO, JOINT_OF, decode, derived, gyro_from_counts
+from gaitmon.io.session.codec import joints_from_stored_tilts as _joints_of
 from gaitmon.io.session.exclusions import Exclusion
 from gaitmon.io.session.exclusions import load as load_exclusions
 from gaitmon.io.session.h5file import _being_recorded, _short_error
@@ -29,7 +31,9 @@ from gaitmon.io.session.layout import (
     FORMAT,
     FORMAT_VERSION,
     MODES,
+    READER_CHUNK_CACHE_BYTES,
     per_sample_datasets,
+    stored_datasets,
 )
 from gaitmon.io.session.smoothed import (
     ANGLE_SOURCES,
@@ -39,6 +43,39 @@ from gaitmon.io.session.smoothed import (
     stored_smoothed,
 )
 from gaitmon.io.session.truth import Truth, truth_from_file
+
+# per-sample series a format-2 file stores encoded (read through SeriesView, not h5py)
+_CODED = frozenset(("processed/tilt_deg", "processed/tilt_acc_deg", "processed/tilt_gyro_deg",
+                    "processed/joint_deg", "processed/joint_acc_deg", "processed/acc_ms2",
+                    "processed/fsr_counts", "smoothed/tilt_deg", "smoothed/joint_deg"))
+
+
+_DECODE_ROWS = 1 << 18  # rows decoded at a time (64 chunks; ~4 MB of int16 tilts)
+
+
+class SeriesView:
+    """A per-sample series read by slicing (``view[a:b]``), decoded by the session reader."""
+
+    def __init__(self, session: Session, name: str) -> None:
+        self._s = session
+        self.name = name
+        self.shape = session.shape_of(name)
+        self.dtype = np.dtype(_PER_SAMPLE[name][1])
+        self.ndim = len(self.shape)
+        self.file = session.h5
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, key: Any) -> np.ndarray:
+        if isinstance(key, slice) and key.step in (None, 1):
+            a, b, _ = key.indices(self.shape[0])
+            return self._s.read_range(a, b, [self.name])[self.name]
+        return self._s.read(self.name)[key]
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        a = self._s.read(self.name)
+        return a if dtype is None else a.astype(dtype)
 
 
 class Marker(NamedTuple):
@@ -106,10 +143,13 @@ class Session:
                 f"{name} was written by a newer gaitmon (format version {version}); "
                 "update gaitmon to open it"
             )
+        self.format_version = max(1, version)
         self.attrs: dict[str, Any] = {k: _py(v) for k, v in a.items()}
         self.mode: str = str(self.attrs.get("mode", ""))
         if self.mode not in MODES:
             raise SessionError(f"{name} is damaged: unknown mode {self.mode!r}")
+        # series this file computes on read (format 2: joints from tilts, gyro from counts)
+        self._derived = derived(self.mode, self.format_version)
         self.sample_rate_hz = _sample_rate(name, self.attrs.get("sample_rate_hz"))
         self.created_utc = str(self.attrs.get("created_utc", ""))
         self.complete = bool(self.attrs.get("complete", False))
@@ -168,15 +208,15 @@ class Session:
         self.reprocessed = bool(proc.get("reprocessed", False))
         self.wall_offset_s = float(f["timeline/host_time_s"].attrs.get("wall_offset_s", 0.0))
 
-        self.dataset_names: tuple[str, ...] = tuple(
-            p for p in per_sample_datasets(self.mode) if p in f
-        )
-        missing = set(per_sample_datasets(self.mode)) - set(self.dataset_names)
+        stored = stored_datasets(self.mode, self.format_version)
+        missing = sorted(p for p in stored if p not in f)
         if missing:
-            raise SessionError(f"{name} is damaged: missing {sorted(missing)[0]}")
-        for p in self.dataset_names:
+            raise SessionError(f"{name} is damaged: missing {missing[0]}")
+        for p in stored:
             _check_per_sample(name, p, f[p])
-        lengths = {p: f[p].shape[0] for p in self.dataset_names}
+        # every series readers get, stored or derived (see gaitmon.io.session.codec)
+        self.dataset_names: tuple[str, ...] = per_sample_datasets(self.mode)
+        lengths = {p: f[p].shape[0] for p in stored}
         self.n_samples = min(lengths.values())
         if len(set(lengths.values())) > 1:
             self.problems.append(
@@ -202,6 +242,7 @@ class Session:
             ANGLE_SOURCES if self.mode == "raw" and self.n_samples else ("live",)
         )
         self.angle_source = self.angle_sources[0]
+        self._bias_rows: list[tuple[int, np.ndarray]] | None = None
         self.smoothed_stored = stored_smoothed(f, self.n_samples)
         self._smoothed: dict[str, np.ndarray] | None = None
         sm = f.get("smoothed")
@@ -295,19 +336,44 @@ class Session:
                 ) from e
         return self._smoothed
 
-    def dataset(self, name: str) -> h5py.Dataset:
-        """The h5py dataset, e.g. ``'raw/adc'`` or ``'processed/joint_deg'`` (lazy; the angle
-        datasets are those of :attr:`angle_source`, an array if computed in memory)."""
+    @property
+    def h5(self) -> h5py.File:
+        """The open HDF5 file (metadata and tables; per-sample series through :meth:`read_range`,
+        which decodes whatever the file stores)."""
+        return self._f
+
+    def _check_name(self, name: str) -> None:
         if name not in self.dataset_names:
             raise SessionError(
                 f"{self.path.name} has no per-sample dataset {name!r} "
                 f"(it has {', '.join(self.dataset_names)})"
             )
+
+    def dataset(self, name: str) -> h5py.Dataset | np.ndarray | SeriesView:
+        """A lazily read per-sample series, e.g. ``'raw/adc'`` or ``'processed/joint_deg'``:
+        the h5py dataset where the file stores it as readers get it, else a view that decodes
+        on slicing; the angle series are those of :attr:`angle_source` (an array if computed
+        in memory)."""
+        self._check_name(name)
+        path = self._path_of(name)
+        if path.startswith("smoothed/") and not self.smoothed_stored:
+            return self._smoothed_series()[path]
+        if path in self._f and path not in self._derived and (
+            self.format_version < 2 or path not in _CODED
+        ):
+            return self._f[path]
+        return SeriesView(self, name)
+
+    def _path_of(self, name: str) -> str:
+        """The file path of a series under the current angle source."""
         if self.angle_source == "smoothed" and name in SMOOTHED:
-            if self.smoothed_stored:
-                return self._f[SMOOTHED[name]]
-            return self._smoothed_series()[SMOOTHED[name]]
-        return self._f[name]
+            return SMOOTHED[name]
+        return name
+
+    def shape_of(self, name: str) -> tuple[int, ...]:
+        """(n_samples, *row shape) of a per-sample series, however the file stores it."""
+        self._check_name(name)
+        return (self.n_samples, *_PER_SAMPLE[name][0])
 
     def read(self, name: str) -> np.ndarray:
         """A whole per-sample dataset as a numpy array (its first ``n_samples`` rows)."""
@@ -316,21 +382,86 @@ class Session:
     def read_range(
         self, start: int, stop: int, names: Sequence[str] | None = None
     ) -> dict[str, np.ndarray]:
-        """Rows ``start:stop`` (clipped to the data) of the named per-sample datasets (all if
-        None): read only what a long file's visible window needs."""
+        """Rows ``start:stop`` (clipped to the data) of the named per-sample series (all if
+        None), decoded from whatever the file stores (format 1: as they are; format 2:
+        quantised series decoded, joint angles and gyro rates derived): read only what a long
+        file's visible window needs."""
         start = max(0, min(int(start), self.n_samples))
         stop = max(start, min(int(stop), self.n_samples))
         out = {}
         for name in names or self.dataset_names:
-            ds = self.dataset(name)
+            self._check_name(name)
             try:
-                out[name] = ds[start:stop]
+                out[name] = self._read_path(self._path_of(name), start, stop)
             except (OSError, RuntimeError, ValueError, KeyError) as e:
                 raise SessionError(
                     f"{self.path.name} is damaged: cannot read {name} rows {start}-{stop} "
                     f"({_short_error(e)})"
                 ) from e
         return out
+
+    def _read_path(self, path: str, a: int, b: int) -> np.ndarray:
+        """Rows a:b of a per-sample series as readers get it. A long range of a series this
+        file encodes is decoded a block at a time into the result, so reading a whole 8-hour
+        series costs its result, not several times it in temporaries."""
+        if b - a > _DECODE_ROWS and (path in self._derived or path in _CODED):
+            first = self._read_one(path, a, a + _DECODE_ROWS)
+            out = np.empty((b - a, *first.shape[1:]), dtype=first.dtype)
+            out[:_DECODE_ROWS] = first
+            for k in range(a + _DECODE_ROWS, b, _DECODE_ROWS):
+                e = min(b, k + _DECODE_ROWS)
+                out[k - a : e - a] = self._read_one(path, k, e)
+            return out
+        return self._read_one(path, a, b)
+
+    def _read_one(self, path: str, a: int, b: int) -> np.ndarray:
+        f = self._f
+        if path.startswith("smoothed/") and not self.smoothed_stored:
+            return self._smoothed_series()[path][a:b]
+        if path in self._derived or (path == "smoothed/joint_deg" and path not in f):
+            if path == GYRO:
+                return gyro_from_counts(
+                    f["raw/adc"][a:b], a, self.header.table.to_physical, GYRO_IDX,
+                    self._gyro_bias_rows(),
+                )  # fmt: skip
+            tilt = JOINT_OF[path]
+            return _joints_of(f[tilt][a:b], tilt)
+        return decode(path, f[path][a:b])
+
+    def _gyro_bias_rows(self) -> list[tuple[int, np.ndarray]]:
+        """(first row, gyro bias) of every calibration in force, in row order (the order
+        logged at the same row: the last one wins, as the pipeline applies them)."""
+        if self._bias_rows is None:
+            rows = [(0, np.asarray(self.calibration.gyro_bias_rad_s, np.float64))]
+            changes = sorted(
+                ((max(0, r), k, c) for k, (r, c) in enumerate(self.calibration_changes)),
+                key=lambda x: x[:2],
+            )
+            rows += [(r, np.asarray(c.gyro_bias_rad_s, np.float64)) for r, _, c in changes]
+            self._bias_rows = rows
+        return self._bias_rows
+
+    def stored_pyramid(self, name: str) -> Any:
+        """The min/max pyramid of a joint series (under the current angle source) from the
+        file's ``/overview`` (:mod:`gaitmon.io.session.stored_overview`), or None where the
+        file has none: then build it from the rows."""
+        from gaitmon.io.overview import PeakPyramid
+        from gaitmon.io.session.stored_overview import read_overview
+
+        if name not in self.dataset_names or not self.n_samples:
+            return None
+        path = self._path_of(name)
+        if path.startswith("smoothed/") and not self.smoothed_stored:
+            return None
+        try:
+            got = read_overview(self._f, path, self.n_samples)
+        except (OSError, RuntimeError, ValueError, KeyError):
+            return None  # a damaged overview: the rows are read instead
+        if got is None:
+            return None
+        from gaitmon.io.session.stored_overview import BASE_STEP
+
+        return PeakPyramid.from_level0(got[0], got[1], self.n_samples, BASE_STEP)
 
     def exclusions(self) -> tuple[list[Exclusion], str]:
         """(ranges, problem): the row ranges the user excluded in review (stored beside the
@@ -409,7 +540,7 @@ def _check_per_sample(name: str, path: str, ds: h5py.Dataset) -> None:
 
 def _open_h5(path: Path) -> h5py.File:
     try:
-        return h5py.File(path, "r")
+        return h5py.File(path, "r", rdcc_nbytes=READER_CHUNK_CACHE_BYTES, rdcc_nslots=1021)
     except (OSError, RuntimeError, ValueError) as e:
         why = _short_error(e)
         if path.is_dir():

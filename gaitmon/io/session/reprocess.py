@@ -23,12 +23,14 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import ChannelTable
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
+from gaitmon.io.session.codec import encode
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.reader import Session, open_session
 from gaitmon.io.session.recovery import replay_pipeline
 from gaitmon.io.session.rows import lost_before_from_gaps
 from gaitmon.io.session.smoothed import smoothed_angles, write_smoothed
+from gaitmon.io.session.stored_overview import write_overview
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
 COPY_SHARE = 0.25
@@ -171,6 +173,7 @@ def _rewrite(
     check_cancel: Callable[[], None],
 ) -> None:
     with h5py.File(tmp, "r+") as f:
+        v2 = int(f.attrs.get("format_version", 1)) >= 2
         proc = f["processed"]
         hs: list[np.ndarray] = []
         to: list[np.ndarray] = []
@@ -188,7 +191,8 @@ def _rewrite(
             faults += found
             stop = start + len(rows["processed/joint_deg"])
             for path, data in rows.items():
-                f[path][start:stop] = data
+                if path in f:  # (format 2 derives the joints and gyro rates on read)
+                    f[path][start:stop] = encode(path, data) if v2 else data
             hs.append(hs_rows)
             to.append(to_rows)
             report(stop / max(n, 1))
@@ -224,4 +228,5 @@ def _rewrite(
             chunks=(_TABLE_CHUNK_ROWS,),
         )
         cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
+        write_overview(f)  # the joint angles changed: so did their overview
     report(1.0)

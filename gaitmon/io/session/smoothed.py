@@ -44,6 +44,16 @@ def smoothed_method_label() -> str:
     return method_label(DEFAULT_METHOD, offline=True)
 
 
+# Pieces longer than this are smoothed in blocks of it, each with SMOOTH_OVERLAP_ROWS of context
+# on either side (kept inside the piece) whose results are dropped: the smoother's memory is
+# ~140 MB per hour of record, so an 8-hour record in one go peaked at ~1.3 GB (close, recovery,
+# gaitmon process). The difference to one pass falls ~40-fold per 15 s of context (measured on
+# 20 simulated minutes in blocks of 5: 0.2 deg with 15 s, 0.005 with 30 s, 3e-5 with 60 s);
+# 2 minutes put it below float32, far below the 0.01 deg the angles are stored at.
+SMOOTH_BLOCK_ROWS = 180_000  # 30 min at 100 Hz: ~80 MB for the smoother with its context
+SMOOTH_OVERLAP_ROWS = 12_000  # 120 s
+
+
 def smoothed_angles(
     adc: np.ndarray,
     table: ChannelTable,
@@ -56,32 +66,43 @@ def smoothed_angles(
 
     The record is smoothed in pieces split at the rows after a long gap (where the live pipeline
     restarts, :func:`gaitmon.dsp.pipeline.restart_rows`): the segments moved while no data came,
-    so nothing links the angle before a gap to the one after it."""
+    so nothing links the angle before a gap to the one after it. A long piece is smoothed in
+    blocks with a minute of context either side (:data:`SMOOTH_BLOCK_ROWS`), so memory does not
+    grow with the session."""
     from gaitmon.dsp.angles import joint_angles
     from gaitmon.dsp.pipeline import restart_rows
     from gaitmon.dsp.smoother import smooth_record_tilts
 
     counts = np.asarray(adc)
     n = len(counts)
-    tilt = np.empty((n, 4), np.float64)
+    tilt_deg = np.empty((n, 4), np.float32)
+    joint_deg = np.empty((n, 3), np.float32)
     changes = sorted((max(0, int(r)), c) for r, c in calibration_changes)
-    cuts = sorted({0, n, *(int(r) for r in restart_rows(lost_before[:n], fs_hz) if 0 < r < n)})
-    for a, b in itertools.pairwise(cuts):
+
+    def smooth(a: int, b: int) -> np.ndarray:
         in_force = calibration
         for r, c in changes:
             if r <= a:
                 in_force = c
         cals = [(0, in_force), *[(r - a, c) for r, c in changes if a < r < b]]
-        tilt[a:b] = smooth_record_tilts(counts[a:b], table, cals, fs_hz)
-    return {
-        "smoothed/tilt_deg": np.degrees(tilt).astype(np.float32),
-        "smoothed/joint_deg": np.degrees(joint_angles(tilt)).astype(np.float32),
-    }
+        return smooth_record_tilts(counts[a:b], table, cals, fs_hz)
+
+    cuts = sorted({0, n, *(int(r) for r in restart_rows(lost_before[:n], fs_hz) if 0 < r < n)})
+    block, overlap = SMOOTH_BLOCK_ROWS, SMOOTH_OVERLAP_ROWS
+    for a, b in itertools.pairwise(cuts):
+        step = b - a if b - a <= block + 2 * overlap else block
+        for s0 in range(a, b, step):
+            s1 = min(b, s0 + step)
+            r0, r1 = max(a, s0 - overlap), min(b, s1 + overlap)
+            part = smooth(r0, r1)[s0 - r0 : s1 - r0]
+            tilt_deg[s0:s1] = np.degrees(part)
+            joint_deg[s0:s1] = np.degrees(joint_angles(part))
+    return {"smoothed/tilt_deg": tilt_deg, "smoothed/joint_deg": joint_deg}
 
 
 def _inputs(f: h5py.File) -> tuple[np.ndarray, list[tuple[int, Calibration]], np.ndarray]:
     """(raw counts, calibration changes, frames lost before each row) stored in a session file."""
-    n = min(f["raw/adc"].shape[0], f["processed/joint_deg"].shape[0])
+    n = min(f["raw/adc"].shape[0], f["timeline/t_s"].shape[0])
     adc = f["raw/adc"][:n]
     changes = [
         (int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
@@ -103,15 +124,23 @@ def smoothed_from_file(
 
 
 def write_smoothed(f: h5py.File, series: dict[str, np.ndarray]) -> None:
-    """Store (or replace) ``/smoothed`` in a file open for writing."""
+    """Store (or replace) ``/smoothed`` in a file open for writing (format 2: the tilts
+    quantised and compressed, the joint angles derived from them on read)."""
+    from gaitmon.io.session.codec import COMPRESSION, JOINT_OF, encode
+
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
     grp = f.require_group("smoothed")
     for path, data in series.items():
         name = path.split("/", 1)[1]
         if name in grp:
             del grp[name]
+        if v2 and path in JOINT_OF:
+            continue
         grp.create_dataset(
-            name, data=data, chunks=(min(CHUNK_ROWS, max(1, len(data))), data.shape[1])
-        )
+            name, data=encode(path, data) if v2 else data,
+            chunks=(min(CHUNK_ROWS, max(1, len(data))), data.shape[1]),
+            **(COMPRESSION if v2 else {}),
+        )  # fmt: skip
     grp.attrs["method"] = smoothed_method_label()
 
 
@@ -123,8 +152,13 @@ def smooth_into(
 
 
 def stored_smoothed(f: h5py.File, n_samples: int) -> bool:
-    """Whether ``f`` holds a complete ``/smoothed`` for its ``n_samples`` rows."""
+    """Whether ``f`` holds a complete ``/smoothed`` for its ``n_samples`` rows (format 2
+    stores the tilts only: the joint angles are derived from them)."""
+    from gaitmon.io.session.codec import JOINT_OF
+
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
     return all(
         p in f and isinstance(f[p], h5py.Dataset) and f[p].shape[0] == n_samples
         for p in SMOOTHED.values()
+        if not (v2 and p in JOINT_OF)
     )

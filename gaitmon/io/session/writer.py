@@ -3,7 +3,10 @@
 How a recording survives a crash. Every :meth:`SessionWriter.append` first writes the block to
 the journal (``FILE.journal``, see :mod:`gaitmon.io.journal`) with one ``write()``, so a killed
 process loses nothing it had handed over; the rows are staged in memory and written to the
-HDF5 file, which is flushed and the journal synced, every ``flush_interval_s`` (100 ms). A clean
+HDF5 file, which is flushed and the journal synced, every ``flush_interval_s`` (100 ms); format 2
+compresses its datasets, so the file receives each 4096-row chunk once, whole, when it is full
+(:class:`gaitmon.io.session.h5file._H5File` stages the chunk being filled: it is in the journal
+meanwhile, and a reader of the file as it is sees the whole chunks). A clean
 :meth:`SessionWriter.close` marks the file complete and deletes the journal. A journal found
 beside a file means the recording was interrupted (see :mod:`gaitmon.io.session.recovery`).
 
@@ -43,7 +46,13 @@ from gaitmon.io.journal import (
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _H5File, _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader
-from gaitmon.io.session.layout import _TABLES, LINK_TOTALS, _field_names, per_sample_datasets
+from gaitmon.io.session.layout import (
+    _TABLES,
+    FORMAT_VERSION,
+    LINK_TOTALS,
+    _field_names,
+    per_sample_datasets,
+)
 from gaitmon.io.session.rows import (
     _device_rows,
     _extrapolated_t,
@@ -75,6 +84,7 @@ class SessionWriter:
         *,
         flush_interval_s: float = 0.1,
         overwrite: bool = False,
+        format_version: int = FORMAT_VERSION,
     ) -> None:
         self._path = Path(path)
         self.header = header
@@ -113,7 +123,8 @@ class SessionWriter:
             self._journal = JournalWriter(jpath)
             self._journal.write_raw(encode_json(RecordType.HEADER, without_identity(hdr)))
             self._journal.sync()
-            self._h5 = _H5File(self._path, hdr, mode="w" if overwrite else "x", reprocessed=False)
+            self._h5 = _H5File(self._path, hdr, mode="w" if overwrite else "x", reprocessed=False,
+                               version=format_version)  # fmt: skip
             self._h5.f.flush()
         except (OSError, RuntimeError) as e:
             self._release()
@@ -359,6 +370,7 @@ class SessionWriter:
         assert self._h5 is not None and self._journal is not None
         try:
             self._write_staged()
+            self._h5.drain()  # the chunk being filled, so that the smoother reads every row
             self._write_markers(final=True)
             if self._kind == FrameKind.RAW and self._rows:
                 self._store_smoothed()
