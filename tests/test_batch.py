@@ -156,7 +156,7 @@ def test_the_dask_run_equals_the_local_run_bit_for_bit(study, local_run, tmp_pat
         assert (out / name).read_bytes() == (local_out / name).read_bytes(), name
     for o in result.outcomes:
         a, b = contents(local_out / o.rel), contents(out / o.rel)
-        assert a.keys() == b.keys() and "processed/joint_deg" in a and "events/heel_strike" in a
+        assert a.keys() == b.keys() and "processed/tilt_deg" in a and "events/heel_strike" in a
         for k in a:
             assert a[k] == b[k], (o.rel, k)
 
