@@ -5,6 +5,7 @@ live window's Simulator menu."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import signal
@@ -95,20 +96,38 @@ def take(dev: Device, seconds: float) -> list[SampleBlock]:
     return out
 
 
+def take_after(dev: Device, unit: SimulatedUnit, first_sample: int, seconds: float):
+    """Blocks of the samples the unit made from ``first_sample`` on (by its frame log: the
+    device may still hold samples made before, however far the unit ran ahead)."""
+    from gaitmon.io.sim.truth import row_samples
+
+    out: list[SampleBlock] = []
+    while sum(len(b) for b in out) < seconds * FS:
+        b = dev.read_block(1.0)
+        assert b is not None, "the unit stopped sending"
+        keep = row_samples(b.seq, unit) >= first_sample
+        if keep.any():
+            out.append(dataclasses.replace(b, seq=b.seq[keep], adc=b.adc[keep]))
+    return out
+
+
 def stand_and_walk(dev: Device, unit: SimulatedUnit) -> None:
     dev.select_kind(p.FrameKind.RAW)
     dev.start_stream()
     walking = take(dev, 3.0)  # standing_s=0: walking from the first sample
     assert gyro_rms(walking) > WALK_GYRO_RMS and not can_zero(walking)
+    at = unit.samples_produced
     unit.stand_still()
     assert unit.standing
-    take(dev, 4.0)  # stops within three strides (the hip looks ahead to the next foot-flat)
-    standing = take(dev, 2.0)
+    # stops within three strides (the hip looks ahead to the next foot-flat): 4 s after the
+    # request, on the unit's own sample clock
+    standing = take_after(dev, unit, at + 4 * FS, 2.0)
     assert gyro_rms(standing) < 0.05 and can_zero(standing)  # the segment gyros go quiet
+    at = unit.samples_produced
     unit.walk()
     assert not unit.standing
-    take(dev, 1.5)  # the walk ramps in over a stride
-    assert gyro_rms(take(dev, 2.0)) > WALK_GYRO_RMS  # walking resumes
+    # the walk ramps in over a stride
+    assert gyro_rms(take_after(dev, unit, at + round(1.5 * FS), 2.0)) > WALK_GYRO_RMS
 
 
 def test_stand_still_in_process_through_the_device():
