@@ -111,29 +111,41 @@ def take_after(dev: Device, unit: SimulatedUnit, first_sample: int, seconds: flo
     return out
 
 
-def stand_and_walk(dev: Device, unit: SimulatedUnit) -> None:
+def stand_and_walk(dev: Device, unit: SimulatedUnit) -> list[tuple[str, float, bool, bool]]:
+    """Walk, stand still, walk again: per stage (name, segment gyro RMS in rad/s, whether the
+    engine's Zero would accept it, whether the unit said it stands)."""
     dev.select_kind(p.FrameKind.RAW)
     dev.start_stream()
     walking = take(dev, 3.0)  # standing_s=0: walking from the first sample
-    assert gyro_rms(walking) > WALK_GYRO_RMS and not can_zero(walking)
+    stages = [("walking", gyro_rms(walking), can_zero(walking), unit.standing)]
     at = unit.samples_produced
     unit.stand_still()
-    assert unit.standing
     # stops within three strides (the hip looks ahead to the next foot-flat): 4 s after the
     # request, on the unit's own sample clock
     standing = take_after(dev, unit, at + 4 * FS, 2.0)
-    assert gyro_rms(standing) < 0.05 and can_zero(standing)  # the segment gyros go quiet
+    stages.append(("standing", gyro_rms(standing), can_zero(standing), unit.standing))
     at = unit.samples_produced
     unit.walk()
-    assert not unit.standing
     # the walk ramps in over a stride
-    assert gyro_rms(take_after(dev, unit, at + round(1.5 * FS), 2.0)) > WALK_GYRO_RMS
+    again = take_after(dev, unit, at + round(1.5 * FS), 2.0)
+    stages.append(("walking again", gyro_rms(again), can_zero(again), unit.standing))
+    return stages
+
+
+def check_stages(stages: list[tuple[str, float, bool, bool]]) -> None:
+    (_, walk_rms, walk_zero, walk_stands), (_, stand_rms, stand_zero, stands), (
+        _, again_rms, _, again_stands) = stages  # fmt: skip
+    assert walk_rms > WALK_GYRO_RMS and not walk_zero and not walk_stands
+    assert stand_rms < 0.05 and stand_zero and stands  # the segment gyros go quiet
+    assert again_rms > WALK_GYRO_RMS and not again_stands  # walking resumes
 
 
 def test_stand_still_in_process_through_the_device():
     unit = SimulatedUnit(GaitConfig(standing_s=0.0), speed=math.inf)
     with Device(InProcessTransport(unit)) as dev:
-        stand_and_walk(dev, unit)
+        stages = stand_and_walk(dev, unit)
+    assert [name for name, *_ in stages] == ["walking", "standing", "walking again"]
+    check_stages(stages)
 
 
 def test_stand_still_over_the_pty():
@@ -141,7 +153,8 @@ def test_stand_still_over_the_pty():
 
     unit = SimulatedUnit(GaitConfig(standing_s=0.0), speed=10.0)
     with PtySimulator(unit) as sim, Device(SerialTransport(str(sim.link_path))) as dev:
-        stand_and_walk(dev, unit)
+        stages = stand_and_walk(dev, unit)
+    check_stages(stages)
 
 
 def test_gaitmon_simulate_stands_until_sigusr2_and_stands_again_on_sigusr1(tmp_path: Path):
