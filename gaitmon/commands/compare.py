@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
+from collections.abc import Callable
+from typing import Any
 
 from gaitmon.commands import add_force, add_quiet
-from gaitmon.commands.report import _check_output, _use_offscreen_if_headless
-from gaitmon.errors import UserError
+from gaitmon.commands.report import pdf_outputs, write_page
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -37,27 +37,17 @@ def run(args: argparse.Namespace) -> int:
     if len(args.files) < 2:  # before anything is checked or opened
         raise CompareError(f"compare needs two or more sessions, got {len(args.files)}; give "
                            "the files to compare (e.g. the first visit and the latest)")
-    out = Path(args.output)
-    png = Path(args.png) if args.png else None
-    if out.suffix.lower() != ".pdf":
-        raise UserError(f"{out.name}: the comparison is a PDF; name it .pdf")
-    _check_output(out, args.force)
-    if png is not None:
-        _check_output(png, args.force)
+    out, png = pdf_outputs(args, "comparison")
     c = compare_sessions(args.files, deidentify=args.deidentify)  # CompareError: a UserError
     for w in c.warnings:
         print(f"gaitmon compare: warning: {w}", file=sys.stderr)
-    _use_offscreen_if_headless()
-    try:
+
+    def writers() -> tuple[Callable[..., Any], Callable[..., Any]]:
         from gaitmon.ui.report_pdf.compare import write_comparison_pdf, write_comparison_png
-    except ImportError as exc:  # PySide6 missing, or a system library Qt needs
-        raise UserError(f"the comparison needs Qt, which cannot load here: {exc}") from None
-    try:
-        write_comparison_pdf(c, out)
-        if png is not None:
-            write_comparison_png(c, png)
-    except OSError as exc:
-        raise UserError(f"cannot write the comparison: {exc}") from None
+
+        return write_comparison_pdf, write_comparison_png
+
+    write_page("comparison", writers, c, out, png)
     if not args.quiet:
         n = sum(len(c.beyond(k)) for k in range(1, len(c.sessions)))
         who = c.who

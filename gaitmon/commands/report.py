@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import argparse
 import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from gaitmon.commands import add_force, add_quiet, damaged_file_guard
 from gaitmon.errors import UserError
@@ -46,6 +48,38 @@ def _check_output(path: Path, force: bool) -> None:
         raise UserError(f"folder {path.parent} does not exist")
 
 
+def pdf_outputs(args: argparse.Namespace, what: str) -> tuple[Path, Path | None]:
+    """The ``-o`` PDF and the optional ``--png`` of a page command (report, compare),
+    checked before any work: a .pdf name, not existing unless ``--force``, in a folder."""
+    out = Path(args.output)
+    png = Path(args.png) if args.png else None
+    if out.suffix.lower() != ".pdf":
+        raise UserError(f"{out.name}: the {what} is a PDF; name it .pdf")
+    _check_output(out, args.force)
+    if png is not None:
+        _check_output(png, args.force)
+    return out, png
+
+
+def write_page(
+    what: str, writers: Callable[[], tuple[Callable[[Any, Path], Any], Callable[[Any, Path], Any]]],
+    data: Any, out: Path, png: Path | None,
+) -> None:  # fmt: skip
+    """Draw ``data`` with Qt (offscreen without a display): ``writers()`` imports the PDF and
+    PNG writers; a Qt that cannot load or a file that cannot be written is one line."""
+    _use_offscreen_if_headless()
+    try:
+        write_pdf, write_png = writers()
+    except ImportError as exc:  # PySide6 missing, or a system library Qt needs
+        raise UserError(f"the {what} needs Qt, which cannot load here: {exc}") from None
+    try:
+        write_pdf(data, out)
+        if png is not None:
+            write_png(data, png)
+    except OSError as exc:
+        raise UserError(f"cannot write the {what}: {exc}") from None
+
+
 def _use_offscreen_if_headless() -> None:
     from gaitmon.ui import display_problem
 
@@ -58,13 +92,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.normative import NormativeError, load_normative
     from gaitmon.report import report_from_file
 
-    out = Path(args.output)
-    png = Path(args.png) if args.png else None
-    if out.suffix.lower() != ".pdf":
-        raise UserError(f"{out.name}: the report is a PDF; name it .pdf")
-    _check_output(out, args.force)
-    if png is not None:
-        _check_output(png, args.force)
+    out, png = pdf_outputs(args, "report")
     normative = None
     if args.normative:
         try:
@@ -77,17 +105,12 @@ def run(args: argparse.Namespace) -> int:
     except SessionError as exc:
         raise UserError(str(exc)) from None
 
-    _use_offscreen_if_headless()
-    try:
+    def writers() -> tuple[Callable[..., Any], Callable[..., Any]]:
         from gaitmon.ui.report_pdf import write_report_pdf, write_report_png
-    except ImportError as exc:  # PySide6 missing, or a system library Qt needs
-        raise UserError(f"the report needs Qt, which cannot load here: {exc}") from None
-    try:
-        write_report_pdf(data, out)
-        if png is not None:
-            write_report_png(data, png)
-    except OSError as exc:
-        raise UserError(f"cannot write the report: {exc}") from None
+
+        return write_report_pdf, write_report_png
+
+    write_page("report", writers, data, out, png)
     if not args.quiet:
         print(f"gaitmon report: wrote {out}" + (f" and {png}" if png else ""))
     return 0
