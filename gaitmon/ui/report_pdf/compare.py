@@ -17,25 +17,22 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
-from PySide6.QtCore import QMarginsF, QPointF, QRectF, QSizeF, Qt
+from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import (
     QBrush,
     QColor,
     QFontMetricsF,
     QImage,
-    QImageWriter,
-    QPageLayout,
-    QPageSize,
     QPaintDevice,
     QPainter,
     QPainterPath,
-    QPdfWriter,
 )
 
 from gaitmon import __version__
 from gaitmon.compare import JOINTS, MEASURES, RULE_TEXT, Comparison, Measure, SessionResult
 from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.flow import Block
+from gaitmon.ui.report_pdf.output import render_a4_image, write_a4_pdf, write_png
 from gaitmon.ui.report_pdf.page import (
     ACCENT,
     GRID,
@@ -47,7 +44,6 @@ from gaitmon.ui.report_pdf.page import (
     RULE,
     SHADE,
     Page,
-    ensure_gui_app,
     fmt,
     fmt_pm,
     nice_ticks,
@@ -468,53 +464,25 @@ def _now() -> str:
 
 def write_comparison_pdf(c: Comparison, path: str | os.PathLike[str], *, dpi: int = 600) -> Path:
     """Write the A4 PDF atomically (a temporary file renamed at the end)."""
-    ensure_gui_app()
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    writer = QPdfWriter(str(tmp))
-    writer.setResolution(dpi)
-    writer.setPageLayout(QPageLayout(QPageSize(QPageSize.PageSizeId.A4),
-                                     QPageLayout.Orientation.Portrait, QMarginsF(0, 0, 0, 0),
-                                     QPageLayout.Unit.Millimeter))  # fmt: skip
-    writer.setCreator(f"gaitmon {__version__}")
-    writer.setTitle("Gait comparison" + (f" {c.patient_id}" if c.patient_id and not
-                                         c.deidentified else ""))  # fmt: skip
-    painter = QPainter()
-    if not painter.begin(writer):
-        tmp.unlink(missing_ok=True)
-        raise OSError(f"cannot write {path}")
-    try:
-        paint_comparison(painter, writer, c, new_page=writer.newPage, generated_utc=_now())
-    finally:
-        painter.end()
-    del writer
-    if not tmp.exists() or tmp.stat().st_size == 0:
-        tmp.unlink(missing_ok=True)
-        raise OSError(f"cannot write {path}")
-    os.replace(tmp, path)
-    return path
+    who = c.patient_id if c.patient_id and not c.deidentified else ""
+    now = _now()
+    return write_a4_pdf(
+        path,
+        lambda painter, device, new_page: paint_comparison(painter, device, c, new_page=new_page,
+                                                           generated_utc=now),
+        creator=f"gaitmon {__version__}",
+        title="Gait comparison" + (f" {who}" if who else ""),
+        dpi=dpi,
+    )  # fmt: skip
 
 
 def render_comparison_image(c: Comparison, dpi: float = 150.0) -> QImage:
     """The first page as an image."""
-    ensure_gui_app()
-    size = QSizeF(PAGE_W_MM / 25.4 * dpi, PAGE_H_MM / 25.4 * dpi)
-    img = QImage(round(size.width()), round(size.height()), QImage.Format.Format_RGB32)
-    img.fill(QColor("#ffffff"))
-    painter = QPainter(img)
-    try:
-        painter.setRenderHint(QPainter.RenderHint.Antialiasing, True)
-        paint_comparison(painter, img, c, generated_utc=_now())
-    finally:
-        painter.end()
-    return img
+    now = _now()
+    return render_a4_image(
+        lambda painter, device, _: paint_comparison(painter, device, c, generated_utc=now), dpi
+    )
 
 
 def write_comparison_png(c: Comparison, path: str | os.PathLike[str]) -> Path:
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    if not QImageWriter(str(tmp), b"PNG").write(render_comparison_image(c)):
-        tmp.unlink(missing_ok=True)
-        raise OSError(f"cannot write {path}")
-    os.replace(tmp, path)
-    return path
+    return write_png(path, render_comparison_image(c))

@@ -1,0 +1,91 @@
+"""Writing a painted A4 page set: the PDF, a page as an image, the image as a PNG.
+
+Shared by the clinical report and the session comparison: each supplies a ``paint(painter,
+device, new_page)`` function (``new_page`` is None when painting one image); these write the
+files atomically (a temporary file renamed at the end) and turn a failure into ``OSError``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from PySide6.QtCore import QMarginsF, QSizeF
+from PySide6.QtGui import (
+    QColor,
+    QImage,
+    QImageWriter,
+    QPageLayout,
+    QPageSize,
+    QPaintDevice,
+    QPainter,
+    QPdfWriter,
+)
+
+from gaitmon.ui.report_pdf.page import PAGE_H_MM, PAGE_W_MM, ensure_gui_app
+
+Paint = Callable[[QPainter, QPaintDevice, Callable[[], object] | None], object]
+
+
+def tmp_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def write_a4_pdf(path: str | os.PathLike[str], paint: Paint, *, creator: str, title: str,
+                 dpi: int = 600) -> Path:  # fmt: skip
+    """Paint A4 pages into the PDF ``path``."""
+    ensure_gui_app()
+    path = Path(path)
+    tmp = tmp_path(path)
+    writer = QPdfWriter(str(tmp))
+    writer.setResolution(dpi)
+    writer.setPageLayout(QPageLayout(QPageSize(QPageSize.PageSizeId.A4),
+                                     QPageLayout.Orientation.Portrait, QMarginsF(0, 0, 0, 0),
+                                     QPageLayout.Unit.Millimeter))  # fmt: skip
+    writer.setCreator(creator)
+    writer.setTitle(title)
+    painter = QPainter()
+    if not painter.begin(writer):
+        tmp.unlink(missing_ok=True)
+        raise OSError(f"cannot write {path}")
+    try:
+        paint(painter, writer, writer.newPage)
+    finally:
+        painter.end()
+    del writer
+    if not tmp.exists() or tmp.stat().st_size == 0:
+        tmp.unlink(missing_ok=True)
+        raise OSError(f"cannot write {path}")
+    os.replace(tmp, path)
+    return path
+
+
+def render_a4_image(paint: Paint, dpi: float = 150.0) -> QImage:
+    """The first page as an image, antialiased, on white."""
+    ensure_gui_app()
+    size = QSizeF(PAGE_W_MM / 25.4 * dpi, PAGE_H_MM / 25.4 * dpi)
+    img = QImage(round(size.width()), round(size.height()), QImage.Format.Format_RGB32)
+    dpm = round(dpi / 0.0254)
+    img.setDotsPerMeterX(dpm)
+    img.setDotsPerMeterY(dpm)
+    img.fill(QColor("#ffffff"))
+    painter = QPainter(img)
+    try:
+        painter.setRenderHint(QPainter.RenderHint.Antialiasing, True)
+        paint(painter, img, None)
+    finally:
+        painter.end()
+    return img
+
+
+def write_png(path: str | os.PathLike[str], image: QImage) -> Path:
+    """Write ``image`` as a PNG (atomically, like the PDF)."""
+    path = Path(path)
+    tmp = tmp_path(path)
+    # QImageWriter: QImage.save's format argument is typed as bytes but only takes a str
+    if not QImageWriter(str(tmp), b"PNG").write(image):
+        tmp.unlink(missing_ok=True)
+        raise OSError(f"cannot write {path}")
+    os.replace(tmp, path)
+    return path
