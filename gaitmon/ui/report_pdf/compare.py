@@ -25,12 +25,12 @@ from PySide6.QtGui import (
     QImage,
     QPaintDevice,
     QPainter,
-    QPainterPath,
 )
 
 from gaitmon import __version__
 from gaitmon.compare import JOINTS, MEASURES, RULE_TEXT, Comparison, Measure, SessionResult
 from gaitmon.ui.report_pdf import flow
+from gaitmon.ui.report_pdf.cycle_plot import band_path, line_path
 from gaitmon.ui.report_pdf.flow import Block
 from gaitmon.ui.report_pdf.output import render_a4_image, write_a4_pdf, write_png
 from gaitmon.ui.report_pdf.page import (
@@ -275,37 +275,6 @@ def _y_range(c: Comparison, j: int) -> tuple[float, float]:
     return lo - pad, hi + pad
 
 
-def _line(xs: np.ndarray, ys: np.ndarray, to_px: Callable[[float, float], QPointF]) -> QPainterPath:
-    path = QPainterPath()
-    started = False
-    for x, y in zip(xs, ys, strict=True):
-        if not np.isfinite(y):
-            started = False
-            continue
-        if started:
-            path.lineTo(to_px(x, y))
-        else:
-            path.moveTo(to_px(x, y))
-            started = True
-    return path
-
-
-def _band(xs: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-          to_px: Callable[[float, float], QPointF]) -> QPainterPath:  # fmt: skip
-    ok = np.isfinite(lo) & np.isfinite(hi)
-    path = QPainterPath()
-    if ok.sum() < 2:
-        return path
-    xs, lo, hi = xs[ok], lo[ok], hi[ok]
-    path.moveTo(to_px(xs[0], hi[0]))
-    for x, y in zip(xs[1:], hi[1:], strict=True):
-        path.lineTo(to_px(x, y))
-    for x, y in zip(xs[::-1], lo[::-1], strict=True):
-        path.lineTo(to_px(x, y))
-    path.closeSubpath()
-    return path
-
-
 def draw_overlay(p: Page, c: Comparison, j: int, x: float, y: float, w: float, h: float) -> None:
     """Joint ``j``'s cycle plot with every session's mean ± SD in its colour."""
     left, bottom, top = 12.5, 9.0, 6.0
@@ -349,11 +318,11 @@ def draw_overlay(p: Page, c: Comparison, j: int, x: float, y: float, w: float, h
     for k, s in enumerate(c.sessions):
         xs = np.linspace(0.0, 100.0, s.mean_deg.shape[0])
         m, sd = s.mean_deg[:, j], s.sd_deg[:, j]
-        painter.fillPath(_band(xs, m - sd, m + sd, to_px), QBrush(session_colour(k, 55)))
+        painter.fillPath(band_path(xs, m - sd, m + sd, to_px), QBrush(session_colour(k, 55)))
     for k, s in enumerate(c.sessions):  # the means over every band
         xs = np.linspace(0.0, 100.0, s.mean_deg.shape[0])
         painter.setPen(p.pen(session_colour(k), 0.45))
-        painter.drawPath(_line(xs, s.mean_deg[:, j], to_px))
+        painter.drawPath(line_path(xs, s.mean_deg[:, j], to_px))
         if np.isfinite(s.stance_pct):
             xx = p.mm(px + pw * s.stance_pct / 100.0)
             painter.setPen(p.pen(session_colour(k), 0.5))

@@ -42,7 +42,8 @@ def faint_strides(n: int, limit: int = MAX_FAINT_STRIDES) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n - 1, limit)).astype(np.int64))
 
 
-def _path(p: Page, xs: np.ndarray, ys: np.ndarray, to_px: ToPixels) -> QPainterPath:
+def line_path(xs: np.ndarray, ys: np.ndarray, to_px: ToPixels) -> QPainterPath:
+    """A polyline through the finite points, broken where a value is missing."""
     path = QPainterPath()
     started = False
     for x, y in zip(xs, ys, strict=True):
@@ -58,7 +59,8 @@ def _path(p: Page, xs: np.ndarray, ys: np.ndarray, to_px: ToPixels) -> QPainterP
     return path
 
 
-def _band(xs: np.ndarray, lo: np.ndarray, hi: np.ndarray, to_px: ToPixels) -> QPainterPath:
+def band_path(xs: np.ndarray, lo: np.ndarray, hi: np.ndarray, to_px: ToPixels) -> QPainterPath:
+    """The closed area between ``lo`` and ``hi`` over their finite points."""
     ok = np.isfinite(lo) & np.isfinite(hi)
     path = QPainterPath()
     if ok.sum() < 2:
@@ -182,19 +184,19 @@ def draw_cycle_plot(
     if data.normative is not None and np.all(np.isfinite(data.normative.mean_deg[:, j])):
         nm, ns = data.normative.mean_deg[:, j], data.normative.sd_deg[:, j]
         nx = data.normative.cycle_pct
-        painter.fillPath(_band(nx, nm - ns, nm + ns, to_px), QBrush(NORM))
+        painter.fillPath(band_path(nx, nm - ns, nm + ns, to_px), QBrush(NORM))
         painter.setPen(p.pen(QColor("#7a7a7a"), 0.2, Qt.PenStyle.DashLine))
-        painter.drawPath(_path(p, nx, nm, to_px))
+        painter.drawPath(line_path(nx, nm, to_px))
     painter.setPen(p.pen(STRIDE, 0.12))
     strides = QPainterPath()  # one path for all strides: one PDF drawing operation, not n
     for k in faint_strides(n):
-        strides.addPath(_path(p, xs, data.cycles_deg[k, :, j], to_px))
+        strides.addPath(line_path(xs, data.cycles_deg[k, :, j], to_px))
     painter.drawPath(strides)
     if n:
         mean, sd = data.mean_deg[:, j], data.sd_deg[:, j]
-        painter.fillPath(_band(xs, mean - sd, mean + sd, to_px), QBrush(BAND))
+        painter.fillPath(band_path(xs, mean - sd, mean + sd, to_px), QBrush(BAND))
         painter.setPen(p.pen(MEAN, 0.45))
-        painter.drawPath(_path(p, xs, mean, to_px))
+        painter.drawPath(line_path(xs, mean, to_px))
     if np.isfinite(data.toe_off_pct):
         xx = p.mm(px + pw * data.toe_off_pct / 100.0)
         painter.setPen(p.pen(TOE_OFF, 0.25, Qt.PenStyle.DashLine))
