@@ -185,3 +185,34 @@ def assert_stored():
         assert worst <= tol + slack, f"{name}: off by {worst} > {tol} (+{slack})"
 
     return check
+
+
+def _review_threads() -> list:
+    import threading
+
+    return [t for t in threading.enumerate() if t.name.startswith("gaitmon-review")]
+
+
+@pytest.fixture
+def review_win(qtbot, tmp_path):
+    """A real review window with its own settings file; on closing, it must have reported no
+    error and its worker threads must have stopped."""
+    import time
+
+    from PySide6.QtCore import QSettings
+
+    from gaitmon.ui.review.window import ReviewWindow
+
+    before = set(_review_threads())
+    settings = QSettings(str(tmp_path / "settings" / "gaitmon.ini"), QSettings.Format.IniFormat)
+    w = ReviewWindow(settings)
+    qtbot.addWidget(w)
+    w.show()
+    yield w
+    w.close()
+    assert w.errors == []
+    deadline = time.monotonic() + 5
+    while [t for t in _review_threads() if t not in before and t.is_alive()]:
+        if time.monotonic() > deadline:
+            pytest.fail("review worker threads left running")
+        time.sleep(0.05)

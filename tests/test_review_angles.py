@@ -13,16 +13,13 @@ from __future__ import annotations
 import json
 import shutil
 import threading
-import time
 
 import h5py
 import numpy as np
 import pytest
-from PySide6.QtCore import QSettings
 
 from gaitmon.analysis import STRIDE_COLUMNS, analyse_session
 from gaitmon.io.session import open_session
-from gaitmon.ui.review.window import ReviewWindow
 
 WAIT_MS = 30_000
 JOINT = "processed/joint_deg"
@@ -48,25 +45,9 @@ def session_file(raw_file, tmp_path):
     return p
 
 
-def _review_threads():
-    return [t for t in threading.enumerate() if t.name.startswith("gaitmon-review")]
-
-
 @pytest.fixture
-def win(qtbot, tmp_path):
-    before = set(_review_threads())
-    settings = QSettings(str(tmp_path / "settings" / "gaitmon.ini"), QSettings.Format.IniFormat)
-    w = ReviewWindow(settings)
-    qtbot.addWidget(w)
-    w.show()
-    yield w
-    w.close()
-    assert w.errors == []
-    deadline = time.monotonic() + 5
-    while [t for t in _review_threads() if t not in before and t.is_alive()]:
-        if time.monotonic() > deadline:
-            pytest.fail("review worker threads left running")
-        time.sleep(0.05)
+def win(review_win):
+    return review_win  # tests/conftest.py: a real window, checked for errors and leftover threads
 
 
 def open_and_wait(qtbot, w, path):

@@ -4,41 +4,23 @@ cycles and the measures with the knee changes in red; File ▸ Open folder… li
 patient and date, compares two of them or opens one."""
 
 import shutil
-import threading
-import time
 
 import numpy as np
 import pytest
 from conftest import write_simulated_session
-from PySide6.QtCore import QSettings, Qt
+from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFileDialog
 
 from gaitmon.compare import MEASURES
 from gaitmon.io.session import open_session
 from gaitmon.report import gather_report
-from gaitmon.ui.review.window import ReviewWindow
 
 WAIT_MS = 20_000
 
 
-def _threads():
-    return [t for t in threading.enumerate() if t.name.startswith("gaitmon-review")]
-
-
 @pytest.fixture
-def win(qtbot, tmp_path):
-    before = set(_threads())
-    settings = QSettings(str(tmp_path / "settings" / "gaitmon.ini"), QSettings.Format.IniFormat)
-    w = ReviewWindow(settings)
-    qtbot.addWidget(w)
-    w.show()
-    yield w
-    w.close()
-    assert w.errors == []
-    deadline = time.monotonic() + 5
-    while [t for t in _threads() if t not in before and t.is_alive()]:
-        assert time.monotonic() < deadline, "a review worker outlived the window"
-        time.sleep(0.05)
+def win(review_win):
+    return review_win  # tests/conftest.py: a real window, checked for errors and leftover threads
 
 
 def _pick_files(monkeypatch, paths):

@@ -11,17 +11,15 @@ import shutil
 import subprocess
 import sys
 import threading
-import time
 
 import h5py
 import numpy as np
 import pytest
-from PySide6.QtCore import QMimeData, QPoint, QPointF, QSettings, Qt, QUrl
+from PySide6.QtCore import QMimeData, QPoint, QPointF, Qt, QUrl
 from PySide6.QtGui import QDropEvent
 
 from gaitmon.cli import main as cli_main
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.ui.review.window import ReviewWindow
 
 WAIT_MS = 20_000
 
@@ -48,27 +46,9 @@ def session_file(recorded, tmp_path):
     return p
 
 
-def _review_threads():
-    return [t for t in threading.enumerate() if t.name.startswith("gaitmon-review")]
-
-
 @pytest.fixture
-def win(qtbot, tmp_path):
-    before = set(_review_threads())
-    settings = QSettings(str(tmp_path / "settings" / "gaitmon.ini"), QSettings.Format.IniFormat)
-    w = ReviewWindow(settings)
-    qtbot.addWidget(w)
-    w.show()
-    yield w
-    w.close()
-    assert w.errors == []
-    deadline = time.monotonic() + 5
-    while time.monotonic() < deadline:
-        if not [t for t in _review_threads() if t not in before and t.is_alive()]:
-            break
-        time.sleep(0.05)
-    else:
-        pytest.fail("review worker threads left running")
+def win(review_win):
+    return review_win  # tests/conftest.py: a real window, checked for errors and leftover threads
 
 
 def open_and_wait(qtbot, w, path):
