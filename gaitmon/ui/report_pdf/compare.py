@@ -114,18 +114,8 @@ def paint_comparison(
         *_measures(p, c),
     ]
     pages = flow.paginate(blocks, y, CONTINUED_TOP_MM, FOOTER_MM - 3.0)
-    p.n_pages = len(pages)
-    for k, placed in enumerate(pages):
-        if k:
-            if new_page is None:
-                break
-            new_page()
-            p.page = k
-            painter.fillRect(p.rect(0, 0, PAGE_W_MM, PAGE_H_MM), QColor("#ffffff"))
-            _continued(p, c)
-        for by, block in placed:
-            block.draw(p, by)
-        _footer(p, k, len(pages))
+    flow.paint_pages(p, pages, new_page, lambda: _continued(p, c),
+                     lambda k, n: _footer(p, k, n))
     return p
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QColor, QFontMetricsF, QTextLayout, QTextOption
 
-from gaitmon.ui.report_pdf.page import INK, MUTED, RULE, SHADE, Page
+from gaitmon.ui.report_pdf.page import INK, MUTED, PAGE_H_MM, PAGE_W_MM, RULE, SHADE, Page
 
 Draw = Callable[[Page, float], None]  # draws the block with its top at y (mm)
 
@@ -210,3 +210,27 @@ __all__ = [
     "subheading",
     "table",
 ]
+
+
+def paint_pages(
+    p: Page, pages: list[list[tuple[float, Block]]], new_page: Callable[[], object] | None,
+    continued: Callable[[], object], footer: Callable[[int, int], object],
+    last: Callable[[], object] | None = None,
+) -> None:  # fmt: skip
+    """Draw paginated blocks: a new white page with its ``continued`` header from the second
+    on (only the first when ``new_page`` is None, i.e. one image), ``last`` on the last page,
+    and every page's ``footer(page, n_pages)``."""
+    p.n_pages = len(pages)
+    for k, placed in enumerate(pages):
+        if k:
+            if new_page is None:
+                break
+            new_page()
+            p.page = k
+            p.p.fillRect(p.rect(0, 0, PAGE_W_MM, PAGE_H_MM), QColor("#ffffff"))
+            continued()
+        for by, block in placed:
+            block.draw(p, by)
+        if last is not None and k == len(pages) - 1:
+            last()
+        footer(k, len(pages))

@@ -142,20 +142,8 @@ def paint_report(
     bottom = FOOTER_MM - 3.0
     pages = flow.paginate(blocks, y, CONTINUED_TOP_MM, bottom)
     last_y = pages[-1][-1][0] + pages[-1][-1][1].height_mm if pages[-1] else y
-    p.n_pages = len(pages)
-    for k, placed in enumerate(pages):
-        if k:
-            if new_page is None:
-                break
-            new_page()
-            p.page = k
-            painter.fillRect(p.rect(0, 0, PAGE_W_MM, PAGE_H_MM), QColor("#ffffff"))
-            _continued(p, data)
-        for by, block in placed:
-            block.draw(p, by)
-        if k == len(pages) - 1:
-            _comments(p, last_y)
-        _footer(p, k, len(pages))
+    flow.paint_pages(p, pages, new_page, lambda: _continued(p, data),
+                     lambda k, n: _footer(p, k, n), last=lambda: _comments(p, last_y))
     return p
 
 
