@@ -184,3 +184,36 @@ def test_a_qt_worker_is_freed_by_its_last_reference_not_by_a_garbage_collection(
         gc.enable()
     thread.join(5.0)
     assert not thread.is_alive()  # dropped without stop(): its thread ended too
+
+
+def test_a_qt_worker_whose_qt_side_is_deleted_tells_nobody_and_raises_nothing(qapp) -> None:
+    """A parent window deleted the QtWorker's C++ object while its wrapper and thread lived on
+    (as at interpreter exit): the thread's last busy/progress/response news is dropped quietly
+    ("Signal source has been deleted" was raised on the worker thread)."""
+    import shiboken6
+    from PySide6.QtCore import QObject
+
+    from gaitmon.ui.jobs import QtWorker
+
+    raised: list[BaseException] = []
+    old_hook = threading.excepthook
+    threading.excepthook = lambda args: raised.append(args.exc_value)
+    parent = QObject()
+    w = QtWorker("orphan", parent=parent)
+    go = threading.Event()
+
+    def job(t: Ticket) -> int:
+        go.wait(5.0)
+        t.progress(0.5)
+        return 1
+
+    try:
+        w.submit(job, lambda r: None)
+        shiboken6.delete(parent)
+        assert not shiboken6.isValid(w)
+        go.set()
+        assert w.core.wait_idle(5.0)  # its response and progress were posted to nobody
+        assert w.core.stop(5.0)  # and "not busy" is told to nobody
+    finally:
+        threading.excepthook = old_hook
+    assert raised == []

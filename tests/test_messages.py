@@ -132,6 +132,11 @@ def test_review_small_text(qtbot, review, cut_recording: Path, tmp_path: Path) -
     item = labels[0]
     vb = tl.lanes["hip"].plot.getViewBox()
     qtbot.waitUntil(lambda: vb.viewRect().contains(item.pos()), timeout=WAIT_MS)
+    # also for a y range whose rectangle's top, rounded, lies below its upper limit
+    vb.setYRange(-5.1, 61.7, padding=0)
+    lo, hi = vb.viewRange()[1]
+    assert lo + (hi - lo) < hi, "the view did not keep the rounding-prone range"
+    assert vb.viewRect().contains(item.pos())
     assert item.isVisible()
     scene_box = item.mapRectToScene(item.boundingRect())
     assert vb.sceneBoundingRect().intersects(scene_box)

@@ -15,6 +15,7 @@ import weakref
 from collections.abc import Callable
 from typing import TypeVar
 
+import shiboken6
 from PySide6.QtCore import QObject, Qt, Signal, Slot
 
 from gaitmon.jobs import Response, Ticket, Worker
@@ -38,7 +39,13 @@ class QtWorker(QObject):
         # would make a reference cycle, and a QObject in a cycle is freed by whichever thread
         # runs the next garbage collection (an engine or worker thread), where PySide's
         # destructor can deadlock against the GUI thread's. Without the cycle it is freed here.
-        me = weakref.ref(self)
+        # Its C++ side can also be gone while the wrapper lives (a parent window deleted it, or
+        # the interpreter is exiting): then nothing is told.
+        ref = weakref.ref(self)
+
+        def me() -> QtWorker | None:
+            w = ref()
+            return w if w is not None and shiboken6.isValid(w) else None
 
         def post(fn: Callable[[], None]) -> None:
             if (w := me()) is not None:

@@ -411,7 +411,9 @@ class Timeline(QWidget):
         at its nominal top, above the fitted view, and never seen)."""
         if not self._marker_labels or self.doc is None:
             return
-        top = self.lanes["hip"].plot.getViewBox().viewRange()[1][1]
+        y0, y1 = self.lanes["hip"].plot.getViewBox().viewRange()[1]
+        # a hair below the top edge: exactly on it, rounding can put the label outside the view
+        top = y1 - 1e-3 * (y1 - y0)
         for m, item in zip(self.doc.session.markers, self._marker_labels, strict=False):
             item.setPos(m.t_s, top)
 
