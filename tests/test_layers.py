@@ -25,7 +25,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("gaitmon.io",),
     ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative", "gaitmon.reprocessing"),
     ("gaitmon.report", "gaitmon.strides_export", "gaitmon.compare", "gaitmon.live",
-     "gaitmon.review", "gaitmon.lab", "gaitmon.batch"),
+     "gaitmon.review", "gaitmon.lab", "gaitmon.batch", "gaitmon.lsl"),
     ("gaitmon.ui",),
     ("gaitmon.commands", "gaitmon.cli", "gaitmon.__main__"),
 )

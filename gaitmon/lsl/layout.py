@@ -1,0 +1,92 @@
+"""The Lab Streaming Layer streams gaitmon publishes: the one contract between the outlets, the
+XDF import and ``docs/lsl.md``. Pure (no pylsl): names, types, channels, units, event words.
+
+Three streams per connected unit (``unit`` is the unit's serial number, or "sim"):
+
+* ``angles``: the joint angles and segment tilts the live view shows, float32 at the unit's
+  rate (100 Hz); a channel the mode does not produce is NaN. Degrees, clinical signs.
+* ``events``: an irregular-rate string stream; one sample per event (``EventWord``).
+* ``raw``: in raw mode only, the unit's frame counter (unwrapped) and its 14 ADC counts,
+  int32 at the unit's rate. With the header carried in the stream's description (and the
+  ``config``/``calibration`` events for later changes) this is enough to rebuild the session
+  bit-exactly from a LabRecorder file (``gaitmon import FILE.xdf``).
+
+Every sample's timestamp is the unit's sample clock mapped onto LSL's clock (a linear fit of
+host receive time against the frame counter), never the moment of sending.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+from gaitmon.dsp.channels import CHANNEL_NAMES, JOINTS, SEGMENTS
+
+#: LSL stream type of each stream (the XDF meta-data conventions' content types)
+ANGLES_TYPE = "MoCap"
+EVENTS_TYPE = "Markers"
+RAW_TYPE = "RawCounts"
+
+#: the manufacturer field of every stream's ``acquisition`` description; the XDF import finds
+#: gaitmon's streams by it
+MANUFACTURER = "gaitmon"
+
+
+@dataclass(frozen=True)
+class StreamChannel:
+    label: str
+    unit: str
+    type: str
+
+
+JOINT_LABELS: dict[str, str] = {
+    "hip": "hip_flexion",
+    "knee": "knee_flexion",
+    "ankle": "ankle_dorsiflexion",
+}
+
+ANGLE_CHANNELS: tuple[StreamChannel, ...] = tuple(
+    StreamChannel(JOINT_LABELS[j], "degrees", "JointAngle") for j in JOINTS
+) + tuple(StreamChannel(f"{s}_tilt", "degrees", "SegmentTilt") for s in SEGMENTS)
+
+RAW_CHANNELS: tuple[StreamChannel, ...] = (
+    StreamChannel("frame_counter", "frames", "Counter"),
+    *(StreamChannel(name, "counts", "ADC") for name in CHANNEL_NAMES),
+)
+
+
+def stream_name(unit: str, stream: str) -> str:
+    """``gaitmon <unit> <stream>``, e.g. "gaitmon sim angles"."""
+    return f"gaitmon {unit} {stream}"
+
+
+def source_id(unit: str, stream: str) -> str:
+    """Stable across restarts, so LSL recorders reconnect to the same stream."""
+    return f"gaitmon-{unit}-{stream}"
+
+
+class EventWord(enum.StrEnum):
+    """The first word of an ``events`` sample; a label or JSON follows after one space."""
+
+    HEEL_STRIKE = "heel_strike"
+    TOE_OFF = "toe_off"
+    MARKER = "marker"  # "marker <label>"
+    GAP_START = "gap_start"  # "gap_start <reason>"; stamped at the first lost frame
+    GAP_END = "gap_end"  # stamped at the first frame after the gap
+    RECORDING_START = "recording_start"  # "recording_start <file name>"
+    RECORDING_STOP = "recording_stop"
+    CONFIG = "config"  # "config <PipelineConfig.as_dict() as JSON>": from this sample on
+    CALIBRATION = "calibration"  # "calibration <Calibration.as_dict() as JSON>"
+
+
+def event_text(word: EventWord, rest: str = "") -> str:
+    return f"{word.value} {rest}" if rest else word.value
+
+
+def parse_event(text: str) -> tuple[EventWord | None, str]:
+    """(word, rest); word is None for a sample that is not one of gaitmon's words."""
+    head, _, rest = text.partition(" ")
+    try:
+        return EventWord(head), rest
+    except ValueError:
+        return None, text
