@@ -17,6 +17,7 @@ it overlaps a range the user excluded (e.g. a turn). Strides longer than
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,6 +37,7 @@ from gaitmon.dsp.pipeline import BRIDGE_MAX_S, settling_ranges
 if TYPE_CHECKING:
     from gaitmon.io.session import Exclusion, Session
 
+FOOT_IMU_BLOCK_ROWS = 1 << 16  # raw rows read at a time for the foot IMU's three columns
 MAX_GAP_S = BRIDGE_MAX_S  # gaps up to 5 frames at 100 Hz are bridged and leave a stride usable
 
 FIRST = "first stride"
@@ -155,13 +157,21 @@ def foot_imu(session: Session) -> tuple[np.ndarray, np.ndarray, np.ndarray] | No
     foot = SEGMENTS.index("foot")
     table = session.header.table
     cols = [int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])]
-    counts = np.asarray(session.read("raw/adc"))[:, cols].astype(np.float64)
-    phys = (counts - table.zero_counts[cols]) * table.units_per_count[cols]
-    n = len(phys)
-    bias = np.full(n, float(session.calibration.gyro_bias_rad_s[foot]))
-    for row, cal in sorted(session.calibration_changes, key=lambda x: x[0]):
-        bias[max(0, row):] = float(cal.gyro_bias_rad_s[foot])
-    return phys[:, 0], phys[:, 1], phys[:, 2] - bias
+    n = session.n_samples
+    zero, per_count = table.zero_counts[cols], table.units_per_count[cols]
+    out = np.empty((3, n))
+    # a block of rows at a time: the three columns, not the whole raw record, in memory
+    for a in range(0, n, FOOT_IMU_BLOCK_ROWS):
+        b = min(n, a + FOOT_IMU_BLOCK_ROWS)
+        counts = session.read_range(a, b, ["raw/adc"])["raw/adc"][:, cols].astype(np.float64)
+        out[:, a:b] = ((counts - zero) * per_count).T
+    # the gyro bias of the calibration in force at each row (the last one logged at a row wins)
+    biases = [(0, float(session.calibration.gyro_bias_rad_s[foot]))]
+    biases += [(max(0, row), float(cal.gyro_bias_rad_s[foot]))
+               for row, cal in sorted(session.calibration_changes, key=lambda x: x[0])]
+    for (lo, bias), (hi, _) in itertools.pairwise([*biases, (n, 0.0)]):
+        out[2, lo:max(lo, hi)] -= bias
+    return out[0], out[1], out[2]
 
 
 def with_stride_measures(
@@ -300,16 +310,23 @@ def _stride_extremes(
     if joint_deg is not None and n:
         ok = end < len(joint_deg)
         if ok.any():
-            # one NaN row after the data, so that end + 1 is always a valid reduceat index
-            a = np.concatenate([np.asarray(joint_deg, np.float64),
-                                np.full((1, joint_deg.shape[1]), np.nan)])
+            a = np.asarray(joint_deg)
+            if a.dtype.kind != "f":
+                a = a.astype(np.float64)
             s0, e1, t0 = start[ok], end[ok] + 1, toe[ok]
-            # reduceat over [s, e + 1) pairs: the odd results (from e + 1 on) are not used
+            # reduceat over [s, e + 1) pairs: the odd results (from e + 1 on) are not used. An
+            # index must lie inside the data: a stride ending on the last row (e + 1 == len,
+            # only ever the last stride) is reduced to the end by leaving its e + 1 out. Max and
+            # min pick samples, so float32 angles (as read) give the same figures as float64.
             idx = np.column_stack([s0, e1]).ravel()
-            hi = np.maximum.reduceat(a, idx, axis=0)[::2]
-            lo = np.minimum.reduceat(a, idx, axis=0)[::2]
-            rom[ok] = (hi - lo)[:, :3]
             kidx = np.column_stack([t0, e1]).ravel()
+            if idx[-1] == len(a):
+                idx, kidx = idx[:-1], kidx[:-1]
+            if np.any(idx >= len(a)) or np.any(kidx >= len(a)):  # (strides out of order)
+                a = np.concatenate([a, np.full((1, a.shape[1]), np.nan, a.dtype)])
+            hi = np.maximum.reduceat(a, idx, axis=0)[::2].astype(np.float64)
+            lo = np.minimum.reduceat(a, idx, axis=0)[::2].astype(np.float64)
+            rom[ok] = (hi - lo)[:, :3]
             peak[ok] = np.maximum.reduceat(a[:, 1], kidx)[::2]
     return peak.tolist(), [(h, k, a) for h, k, a in rom.tolist()]
 
@@ -355,7 +372,7 @@ class SessionAnalysis:
     """The strides of one session with the exclusions in force, and where those came from."""
 
     rows: list[StrideRow]
-    joints_deg: np.ndarray | None  # (n, 3) float64 hip/knee/ankle, None for an empty session
+    joints_deg: np.ndarray | None  # (n, 3) hip/knee/ankle as read (float32), None if empty
     exclusions: tuple[Exclusion, ...]  # the user's ranges applied
     side_file: Path  # where stored exclusions live (FILE.review.json, or the user store)
     problem: str = ""  # one line when the stored exclusions could not be used, else ""
@@ -406,7 +423,9 @@ def analyse_session(
         found, problem = session.exclusions()
         exclusions = found
     if joints is None and session.n_samples:
-        joints = np.asarray(session.read("processed/joint_deg"), dtype=np.float64)
+        # float32 as read (not a float64 copy, 8 bytes a value): the figures take their
+        # samples exactly (gaitmon.dsp.gait computes in float64 from them)
+        joints = session.read("processed/joint_deg")
     if t_s is None and session.n_samples:
         t_s = session.read("timeline/t_s")
     hs, to = events if events is not None else (session.heel_strike_idx, session.toe_off_idx)

@@ -63,32 +63,44 @@ def _format_key() -> str:
 
 def write_session(path: Path, hours: float) -> int:
     """A raw session of ``hours`` written directly (seconds for 8 hours, not 8 hours)."""
+    from gaitmon.io.session import SessionWriter
+
+    tmp = path.with_suffix(".tmp.h5")
+    with SessionWriter(tmp, bench_header()) as w:
+        n = append_synthetic(w, hours)
+    tmp.replace(path)
+    return n
+
+
+def bench_header() -> Any:
+    from gaitmon.io.session import SessionHeader, SessionMeta
+
+    return SessionHeader(mode="raw", meta=SessionMeta(patient_id="BENCH-1", side="R"))
+
+
+def append_synthetic(w: Any, hours: float, block: int = 60_000) -> int:
+    """Append ``hours`` of the synthetic raw session (one simulated hour tiled, through the
+    pipeline) to the open :class:`SessionWriter` ``w``, a marker every hour; the rows."""
     import numpy as np
 
     from gaitmon.dsp.pipeline import Pipeline
     from gaitmon.io.device import SampleBlock
     from gaitmon.io.protocol import FrameKind
-    from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
     from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
     from gaitmon.io.sim.sensors import simulate
 
     n = round(hours * 3600 * FS_HZ)
     base = simulate(min(n, 360_000), GaitModel(GaitConfig(seed=1)), SensorConfig(seed=1)).counts
     pipe = Pipeline()
-    hdr = SessionHeader(mode="raw", meta=SessionMeta(patient_id="BENCH-1", side="R"))
-    block = 60_000
-    tmp = path.with_suffix(".tmp.h5")
-    with SessionWriter(tmp, hdr) as w:
-        for a in range(0, n, block):
-            b = min(n, a + block)
-            idx = np.arange(a, b)
-            counts = base[idx % len(base)]
-            blk = SampleBlock(FrameKind.RAW, idx.astype(np.int64), 1000.0 + idx / FS_HZ, 1.7e9,
-                              lost_before=np.zeros(b - a, np.int64), adc=counts)
-            w.append(blk, pipe.process(counts))
-            if a % 360_000 == 0:
-                w.add_marker(f"hour {a // 360_000}")
-    tmp.replace(path)
+    for a in range(0, n, block):
+        b = min(n, a + block)
+        idx = np.arange(a, b)
+        counts = base[idx % len(base)]
+        blk = SampleBlock(FrameKind.RAW, idx.astype(np.int64), 1000.0 + idx / FS_HZ, 1.7e9,
+                          lost_before=np.zeros(b - a, np.int64), adc=counts)
+        w.append(blk, pipe.process(counts))
+        if a % 360_000 == 0:
+            w.add_marker(f"hour {a // 360_000}")
     return n
 
 

@@ -425,10 +425,17 @@ class StrideTracker:
 # cycle normalisation
 
 
+NORMALISE_BLOCK_STRIDES = 2048  # strides resampled at a time (their temporaries: ~15 MB)
+
+
 def _normalise_between(
     angles: np.ndarray, start: np.ndarray, end: np.ndarray, n_points: int
 ) -> np.ndarray:
-    a = np.asarray(angles, dtype=np.float64)
+    # float32 angles (as a session reads them) are not copied whole to float64: the samples
+    # each block of strides needs are, exactly, so the result is the same to the last bit
+    a = np.asarray(angles)
+    if a.dtype.kind != "f":
+        a = a.astype(np.float64)
     squeeze = a.ndim == 1
     if squeeze:
         a = a[:, None]
@@ -440,10 +447,15 @@ def _normalise_between(
     keep = (start >= 0) & (end <= n - 1) & (end > start)
     start, end = start[keep], end[keep]
     frac_cycle = np.linspace(0.0, 1.0, n_points)
-    pos = start[:, None] + (end - start)[:, None] * frac_cycle[None, :]  # (n_strides, n_points)
-    i0 = np.minimum(np.floor(pos).astype(np.int64), (end - 1)[:, None])
-    w = (pos - i0)[..., None]
-    out = a[i0] * (1.0 - w) + a[i0 + 1] * w  # (n_strides, n_points, k)
+    out = np.empty((len(start), n_points, a.shape[1]))  # (n_strides, n_points, k)
+    # a block of strides at a time: the temporaries stay small whatever the session's length
+    for b0 in range(0, len(start), NORMALISE_BLOCK_STRIDES):
+        s, e = start[b0 : b0 + NORMALISE_BLOCK_STRIDES], end[b0 : b0 + NORMALISE_BLOCK_STRIDES]
+        pos = s[:, None] + (e - s)[:, None] * frac_cycle[None, :]  # (strides, n_points)
+        i0 = np.minimum(np.floor(pos).astype(np.int64), (e - 1)[:, None])
+        w = (pos - i0)[..., None]
+        out[b0 : b0 + len(s)] = (a[i0].astype(np.float64) * (1.0 - w)
+                                 + a[i0 + 1].astype(np.float64) * w)  # fmt: skip
     return out[..., 0] if squeeze else out
 
 

@@ -391,9 +391,9 @@ class Analysis:
 def analyse(
     doc: Document, source: Source, exclusions: Sequence[excl.Exclusion], n_points: int = 101
 ) -> Analysis:
-    # float64 as gaitmon info and the report read them: the same figures to the last digit
-    joint = (np.asarray(source.read_rows(JOINT, 0, source.n_rows), dtype=np.float64)
-             if source.has(JOINT) else None)  # fmt: skip
+    # as read (float32), as gaitmon info and the report take them: the same figures to the last
+    # digit (the stride figures and cycles are computed in float64 from these samples)
+    joint = source.read_rows(JOINT, 0, source.n_rows) if source.has(JOINT) else None
     # the same analysis as gaitmon info and the report, on this source's series and events
     rows = analyse_session(
         doc.session,

@@ -38,6 +38,7 @@ from gaitmon.io.session.h5file import _fsync_path, _H5File, _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _field_names
 from gaitmon.io.session.rows import (
+    LazyRows,
     _device_rows,
     _extrapolated_t,
     _Timeline,
@@ -57,7 +58,7 @@ class ReplayChunk(NamedTuple):
 
 
 def replay_pipeline(
-    adc: np.ndarray,
+    adc: np.ndarray | LazyRows,
     config: PipelineConfig,
     calibration: Calibration,
     changes: Sequence[tuple[int, PipelineConfig | Calibration]] = (),
@@ -74,7 +75,8 @@ def replay_pipeline(
     rebuilt, as they must be when the filter design changes). Changes at the same row apply in
     the given order. ``lost_before`` (frames lost before each row, see
     :func:`lost_before_from_gaps`) lets the pipeline restart after a long gap as it did live.
-    Use it for recovery and for ``gaitmon process``.
+    Use it for recovery and for ``gaitmon process``. ``adc`` is only sliced a chunk at a time
+    (a :class:`gaitmon.io.session.rows.LazyRows` reads each from the file or journal then).
     """
     n = len(adc)
     ordered = sorted(
@@ -289,8 +291,9 @@ def _build_recovered(
     try:
         if contents.wall_offset_s is not None:
             h5.set_wall_offset(contents.wall_offset_s)
-        seq = np.ascontiguousarray(rows["seq"])
-        host = np.ascontiguousarray(rows["host_time_s"])
+        # the journal's columns are read a chunk at a time (no whole-session copies)
+        seq = LazyRows(rows["seq"])
+        host = LazyRows(rows["host_time_s"])
         t_s = _timeline_from_rows(rows["lost_before"], contents.gaps, fs)
 
         def report(done: int) -> None:
@@ -298,7 +301,8 @@ def _build_recovered(
                 raise Cancelled("recovery cancelled")
 
         if mode == "raw":
-            adc = np.ascontiguousarray(rows["adc"])
+            adc = LazyRows(rows["adc"])
+            lost = np.asarray(rows["lost_before"], dtype=np.int64)
             chunks: Iterator[ReplayChunk] = (
                 replay_pipeline(
                     adc,
@@ -306,7 +310,7 @@ def _build_recovered(
                     header.calibration,
                     changes,
                     table=header.table,
-                    lost_before=np.asarray(rows["lost_before"], dtype=np.int64),
+                    lost_before=lost,
                 )
             )
         else:
@@ -362,13 +366,11 @@ def _build_recovered(
         h5.append_table("link/crc_failures", crc_log)
         h5.set_link_totals(totals)
         if mode == "raw" and n and not in_memory:  # in memory, the reader computes them if asked
-            from gaitmon.io.session.smoothed import smoothed_angles, write_smoothed
+            from gaitmon.io.session.smoothed import store_smoothed
 
             cal_changes = [(i, c) for i, c in changes if isinstance(c, Calibration)]
-            write_smoothed(h5.f, smoothed_angles(
-                adc, header.table, header.calibration, cal_changes,
-                np.asarray(rows["lost_before"], dtype=np.int64), fs,
-            ))  # fmt: skip
+            store_smoothed(h5.f, adc.rows, n, header.table, header.calibration, cal_changes,
+                           lost, fs)  # fmt: skip
         h5.finish(complete=False, recovered=True, stop_reason="recovered", fs_hz=fs)
         report(n)
         ok = True

@@ -28,8 +28,8 @@ from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.reader import Session, open_session
 from gaitmon.io.session.recovery import replay_pipeline
-from gaitmon.io.session.rows import lost_before_from_gaps
-from gaitmon.io.session.smoothed import smoothed_angles, write_smoothed
+from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
+from gaitmon.io.session.smoothed import store_smoothed
 from gaitmon.io.session.stored_overview import write_overview
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
@@ -118,13 +118,11 @@ def rewrite_processed(
             calibration_log: list[tuple[int, Calibration]] = list(s.calibration_changes)
             calibration = s.calibration
             table = s.header.table  # the unit's own conversion, as recovery and review use
-            adc = s.read("raw/adc")
             n = s.n_samples
             lost = lost_before_from_gaps(s.gaps, n)
             _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
         _rewrite(
             tmp,
-            adc,
             n,
             calibration,
             config,
@@ -162,7 +160,6 @@ def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], Non
 
 def _rewrite(
     tmp: Path,
-    adc: np.ndarray,
     n: int,
     calibration: Calibration,
     config: PipelineConfig,
@@ -175,6 +172,8 @@ def _rewrite(
     with h5py.File(tmp, "r+") as f:
         v2 = int(f.attrs.get("format_version", 1)) >= 2
         proc = f["processed"]
+        # the raw counts are read a chunk at a time (the copy holds the recording's own)
+        adc = LazyRows(f["raw/adc"], n)
         hs: list[np.ndarray] = []
         to: list[np.ndarray] = []
         replay = replay_pipeline(
@@ -200,8 +199,7 @@ def _rewrite(
         proc.attrs["reprocessed"] = True
         proc.attrs["source"] = "pc"
         proc.attrs["tilt_method"] = config.tilt_method_label
-        write_smoothed(f, smoothed_angles(adc, table, calibration, calibration_log, lost,
-                                          config.fs_hz))  # fmt: skip
+        store_smoothed(f, adc.rows, n, table, calibration, calibration_log, lost, config.fs_hz)
         ev = f["events"]
         for name, parts in (("heel_strike", hs), ("toe_off", to)):
             data = np.concatenate(parts) if parts else np.empty(0, np.int64)

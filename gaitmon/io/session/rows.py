@@ -54,6 +54,30 @@ def fault_rows(
     return out
 
 
+class LazyRows:
+    """The first ``n`` rows of an array-like (an h5py dataset, a field of a structured array)
+    read only when sliced, as C-contiguous copies: a whole recording's raw counts handed to
+    :func:`gaitmon.io.session.recovery.replay_pipeline` or the smoother without reading them
+    all into memory at once."""
+
+    def __init__(self, data: Any, n: int | None = None) -> None:
+        self._data = data
+        self._n = len(data) if n is None else int(n)
+
+    def __len__(self) -> int:
+        return self._n
+
+    def rows(self, a: int, b: int) -> np.ndarray:
+        """Rows a:b (clipped to the first ``n``)."""
+        return np.ascontiguousarray(self._data[max(0, a) : min(b, self._n)])
+
+    def __getitem__(self, key: slice) -> np.ndarray:
+        if not isinstance(key, slice) or key.step not in (None, 1):
+            raise TypeError("LazyRows takes row slices a:b only")
+        a, b, _ = key.indices(self._n)
+        return self.rows(a, b)
+
+
 def lost_before_from_gaps(gaps: Sequence[Any], n_rows: int) -> np.ndarray:
     """Frames lost just before each row, from a session's gap table (gaps at one row add up)."""
     lost = np.zeros(n_rows, dtype=np.int64)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import itertools
 import json
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import h5py
@@ -54,29 +55,29 @@ SMOOTH_BLOCK_ROWS = 180_000  # 30 min at 100 Hz: ~80 MB for the smoother with it
 SMOOTH_OVERLAP_ROWS = 12_000  # 120 s
 
 
-def smoothed_angles(
-    adc: np.ndarray,
+Counts = Callable[[int, int], np.ndarray]  # rows a:b of the raw counts
+
+
+def smoothed_blocks(
+    counts: Counts,
+    n: int,
     table: ChannelTable,
     calibration: Calibration,
     calibration_changes: list[tuple[int, Calibration]],
-    lost_before: np.ndarray,
+    restarts: np.ndarray,
     fs_hz: float,
-) -> dict[str, np.ndarray]:
-    """``{"smoothed/tilt_deg": (N, 4), "smoothed/joint_deg": (N, 3)}`` float32 of a raw record.
+) -> Iterator[tuple[int, np.ndarray]]:
+    """(first row, tilts in rad (rows, 4) float64) of a raw record of ``n`` rows, block after
+    block in row order; ``counts(a, b)`` gives rows a:b of the raw counts, asked for one block
+    with its context at a time (at most :data:`SMOOTH_BLOCK_ROWS` + 2 x
+    :data:`SMOOTH_OVERLAP_ROWS` rows), so memory does not grow with the session.
 
-    The record is smoothed in pieces split at the rows after a long gap (where the live pipeline
-    restarts, :func:`gaitmon.dsp.pipeline.restart_rows`): the segments moved while no data came,
-    so nothing links the angle before a gap to the one after it. A long piece is smoothed in
-    blocks with a minute of context either side (:data:`SMOOTH_BLOCK_ROWS`), so memory does not
-    grow with the session."""
-    from gaitmon.dsp.angles import joint_angles
-    from gaitmon.dsp.pipeline import restart_rows
+    The record is smoothed in pieces split at the ``restarts`` rows (after a long gap, where
+    the live pipeline restarts, :func:`gaitmon.dsp.pipeline.restart_rows`): the segments moved
+    while no data came, so nothing links the angle before a gap to the one after it. A long
+    piece is smoothed in blocks with :data:`SMOOTH_OVERLAP_ROWS` of context either side."""
     from gaitmon.dsp.smoother import smooth_record_tilts
 
-    counts = np.asarray(adc)
-    n = len(counts)
-    tilt_deg = np.empty((n, 4), np.float32)
-    joint_deg = np.empty((n, 3), np.float32)
     changes = sorted((max(0, int(r)), c) for r, c in calibration_changes)
 
     def smooth(a: int, b: int) -> np.ndarray:
@@ -85,30 +86,140 @@ def smoothed_angles(
             if r <= a:
                 in_force = c
         cals = [(0, in_force), *[(r - a, c) for r, c in changes if a < r < b]]
-        return smooth_record_tilts(counts[a:b], table, cals, fs_hz)
+        return smooth_record_tilts(counts(a, b), table, cals, fs_hz)
 
-    cuts = sorted({0, n, *(int(r) for r in restart_rows(lost_before[:n], fs_hz) if 0 < r < n)})
+    cuts = sorted({0, n, *(int(r) for r in restarts if 0 < r < n)})
     block, overlap = SMOOTH_BLOCK_ROWS, SMOOTH_OVERLAP_ROWS
     for a, b in itertools.pairwise(cuts):
         step = b - a if b - a <= block + 2 * overlap else block
         for s0 in range(a, b, step):
             s1 = min(b, s0 + step)
             r0, r1 = max(a, s0 - overlap), min(b, s1 + overlap)
-            part = smooth(r0, r1)[s0 - r0 : s1 - r0]
-            tilt_deg[s0:s1] = np.degrees(part)
-            joint_deg[s0:s1] = np.degrees(joint_angles(part))
+            yield s0, smooth(r0, r1)[s0 - r0 : s1 - r0]
+
+
+def _restarts(lost_before: np.ndarray, n: int, fs_hz: float) -> np.ndarray:
+    from gaitmon.dsp.pipeline import restart_rows
+
+    return restart_rows(lost_before[:n], fs_hz)
+
+
+def _tilt_joint_deg(part_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One block's tilts and joint angles in degrees, float32 (as stored and read)."""
+    from gaitmon.dsp.angles import joint_angles
+
+    return (np.degrees(part_rad).astype(np.float32),
+            np.degrees(joint_angles(part_rad)).astype(np.float32))  # fmt: skip
+
+
+def smoothed_angles(
+    adc: np.ndarray,
+    table: ChannelTable,
+    calibration: Calibration,
+    calibration_changes: list[tuple[int, Calibration]],
+    lost_before: np.ndarray,
+    fs_hz: float,
+) -> dict[str, np.ndarray]:
+    """``{"smoothed/tilt_deg": (N, 4), "smoothed/joint_deg": (N, 3)}`` float32 of a raw record
+    held in memory (:func:`smoothed_blocks`, collected; :func:`store_smoothed` writes them to
+    a file block by block instead)."""
+    counts = np.asarray(adc)
+    n = len(counts)
+    tilt_deg = np.empty((n, 4), np.float32)
+    joint_deg = np.empty((n, 3), np.float32)
+    for s0, part in smoothed_blocks(lambda a, b: counts[a:b], n, table, calibration,
+                                    calibration_changes, _restarts(lost_before, n, fs_hz),
+                                    fs_hz):  # fmt: skip
+        s1 = s0 + len(part)
+        tilt_deg[s0:s1], joint_deg[s0:s1] = _tilt_joint_deg(part)
     return {"smoothed/tilt_deg": tilt_deg, "smoothed/joint_deg": joint_deg}
 
 
-def _inputs(f: h5py.File) -> tuple[np.ndarray, list[tuple[int, Calibration]], np.ndarray]:
-    """(raw counts, calibration changes, frames lost before each row) stored in a session file."""
+def store_smoothed(
+    f: h5py.File,
+    counts: Counts,
+    n: int,
+    table: ChannelTable,
+    calibration: Calibration,
+    calibration_changes: list[tuple[int, Calibration]],
+    lost_before: np.ndarray,
+    fs_hz: float,
+) -> None:
+    """Compute and store (or replace) ``/smoothed`` of a raw record of ``n`` rows in a file open
+    for writing, a block at a time (``counts(a, b)``: rows a:b of the raw counts): the same
+    datasets, values and chunks as :func:`write_smoothed` of :func:`smoothed_angles`, without
+    the whole series in memory (an 8-hour record: ~80 MB of angles, several times that while
+    they were quantised at once)."""
+    from gaitmon.io.session.codec import COMPRESSION, JOINT_OF, RESOLUTION
+
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
+    grp = f.require_group("smoothed")
+    out: dict[str, h5py.Dataset] = {}
+    for path, cols in (("smoothed/tilt_deg", 4), ("smoothed/joint_deg", 3)):
+        name = path.split("/", 1)[1]
+        if name in grp:
+            del grp[name]
+        if v2 and path in JOINT_OF:
+            continue
+        dtype = RESOLUTION[path][0] if v2 and path in RESOLUTION else np.dtype(np.float32)
+        out[path] = grp.create_dataset(
+            name, shape=(n, cols), dtype=dtype, chunks=(min(CHUNK_ROWS, max(1, n)), cols),
+            **(COMPRESSION if v2 else {}),
+        )  # fmt: skip
+    writers = {path: _AlignedWriter(ds, v2) for path, ds in out.items()}
+    for s0, part in smoothed_blocks(counts, n, table, calibration, calibration_changes,
+                                    _restarts(lost_before, n, fs_hz), fs_hz):  # fmt: skip
+        tilt, joint = _tilt_joint_deg(part)
+        for path, data in (("smoothed/tilt_deg", tilt), ("smoothed/joint_deg", joint)):
+            if path in writers:
+                writers[path].write(s0, data)
+    for w in writers.values():
+        w.finish()
+    grp.attrs["method"] = smoothed_method_label()
+
+
+class _AlignedWriter:
+    """Writes consecutive row blocks to a chunked dataset in whole chunks (the rows of a chunk
+    split between two blocks wait for the next one): a compressed chunk is written once."""
+
+    def __init__(self, ds: h5py.Dataset, encoded: bool) -> None:
+        self._ds = ds
+        self._path = ds.name.lstrip("/")
+        self._encoded = encoded
+        self._rows = ds.chunks[0] if ds.chunks else 1
+        self._start = 0  # first row not yet written
+        self._pending: list[np.ndarray] = []
+
+    def write(self, s0: int, data: np.ndarray) -> None:
+        from gaitmon.io.session.codec import encode
+
+        assert s0 == self._start + sum(len(p) for p in self._pending)
+        self._pending.append(encode(self._path, data) if self._encoded else data)
+        end = s0 + len(data)
+        cut = end - end % self._rows  # rows up to here fill whole chunks
+        if cut > self._start:
+            rows = np.concatenate(self._pending) if len(self._pending) > 1 else self._pending[0]
+            k = cut - self._start
+            self._ds[self._start : cut] = rows[:k]
+            self._pending = [rows[k:]] if k < len(rows) else []
+            self._start = cut
+
+    def finish(self) -> None:
+        if self._pending:
+            rows = np.concatenate(self._pending)
+            self._ds[self._start : self._start + len(rows)] = rows
+            self._start += len(rows)
+            self._pending = []
+
+
+def _inputs(f: h5py.File) -> tuple[int, list[tuple[int, Calibration]], np.ndarray]:
+    """(rows, calibration changes, frames lost before each row) of a session file."""
     n = min(f["raw/adc"].shape[0], f["timeline/t_s"].shape[0])
-    adc = f["raw/adc"][:n]
     changes = [
         (int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
         for r in f["calibration/changes"][()]
     ]
-    return adc, changes, lost_before_from_gaps(f["gaps"][()], n)
+    return n, changes, lost_before_from_gaps(f["gaps"][()], n)
 
 
 def _text(x: Any) -> str:
@@ -119,8 +230,8 @@ def smoothed_from_file(
     f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float
 ) -> dict[str, np.ndarray]:
     """The smoothed angles of a raw-mode session file open in ``f`` (computed, not read)."""
-    adc, changes, lost = _inputs(f)
-    return smoothed_angles(adc, table, calibration, changes, lost, fs_hz)
+    n, changes, lost = _inputs(f)
+    return smoothed_angles(f["raw/adc"][:n], table, calibration, changes, lost, fs_hz)
 
 
 def write_smoothed(f: h5py.File, series: dict[str, np.ndarray]) -> None:
@@ -147,8 +258,11 @@ def write_smoothed(f: h5py.File, series: dict[str, np.ndarray]) -> None:
 def smooth_into(
     f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float
 ) -> None:
-    """Compute and store ``/smoothed`` of the raw-mode session open (writable) in ``f``."""
-    write_smoothed(f, smoothed_from_file(f, table, calibration, fs_hz))
+    """Compute and store ``/smoothed`` of the raw-mode session open (writable) in ``f``, reading
+    its raw counts a block at a time."""
+    n, changes, lost = _inputs(f)
+    ds = f["raw/adc"]
+    store_smoothed(f, lambda a, b: ds[a:b], n, table, calibration, changes, lost, fs_hz)
 
 
 def stored_smoothed(f: h5py.File, n_samples: int) -> bool:

@@ -1,0 +1,297 @@
+"""``gaitmon bench --suite memory``: peak RSS of the long-session work, beside references.
+
+Each measurement runs in a fresh Python process and reports that process's own peak resident
+memory (``VmHWM``; see :func:`gaitmon.commands.bench_offline._peak_rss_mb`), on the synthetic
+raw sessions of ``gaitmon bench --suite offline`` (8 h = 2.88 M frames, written in the current
+format by the recorder itself). What is measured:
+
+* ``review``: the review window (offscreen) opening the session, to its first painted view and
+  the stride analysis shown; then ``review, live + back``: View ▸ Angles ▸ Live and back to
+  Smoothed, each to its analysis (the window then has analysed both angle sources);
+* ``process``: ``gaitmon process FILE -o NEW`` (the pipeline replayed, the smoother, the overview);
+* ``recover``: ``gaitmon info`` on a recording killed (SIGKILL) before its close: the journal is
+  replayed into a new file (the pipeline, the smoother, the overview), then the file is read;
+* ``close``: :meth:`SessionWriter.close` of the recording (the smoother, ``/overview``, whatever
+  else close computes): the peak counter is reset just before the close, so the figure is the
+  close's own (the recording before it is given apart);
+
+and the references, in the same run:
+
+* ``floor``: the interpreter with numpy, scipy, h5py and gaitmon's session reader imported;
+* ``h5py raw``: a bare h5py read of the whole ``/raw/adc`` (the raw counts, the truth).
+
+Child protocol: ``python -m gaitmon.commands.bench_memory TASK SRC OUTDIR`` prints one JSON line.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from gaitmon.commands.bench_offline import LENGTHS_H, _cache_dir, _peak_rss_mb
+
+GOAL_MB = 400.0
+# (task, what the line says); "ref_" tasks are the references
+TASKS: tuple[tuple[str, str], ...] = (
+    ("ref_floor", "ref: interpreter + numpy, scipy, h5py, gaitmon.io imported"),
+    ("ref_raw", "ref: bare h5py read of /raw/adc"),
+    ("review", "review window: first view + stride analysis"),
+    ("process", "gaitmon process"),
+    ("recover", "recovery (gaitmon info on a killed recording)"),
+    ("close", "recorder close (smoother + overview)"),
+)
+
+
+def _reset_peak() -> bool:
+    """Reset this process's peak RSS counter (Linux >= 4.0); False where it cannot."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def session(name: str) -> Path:
+    """The cached synthetic session ``name``, keyed by the format version only (the content
+    does not change with the code: memory figures need not rebuild it on every edit)."""
+    from gaitmon.commands.bench_offline import write_session
+    from gaitmon.io.session import FORMAT_VERSION
+
+    path = _cache_dir() / f"mem-{name}-v{FORMAT_VERSION}.h5"
+    if not path.exists():
+        write_session(path, LENGTHS_H[name])
+    return path
+
+
+def interrupted(name: str) -> Path:
+    """A recording of ``name`` killed (SIGKILL) before its close: the HDF5 file and its
+    journal, cached (copy both before recovering)."""
+    from gaitmon.io.journal import journal_path
+    from gaitmon.io.session import FORMAT_VERSION
+
+    path = _cache_dir() / f"mem-killed-{name}-v{FORMAT_VERSION}.h5"
+    if path.exists() and journal_path(path).exists():
+        return path
+    r = subprocess.run([sys.executable, "-m", "gaitmon.commands.bench_memory", "_killed", name,
+                        str(path)], capture_output=True, text=True, check=False)  # fmt: skip
+    if r.returncode != -signal.SIGKILL or not journal_path(path).exists():
+        raise RuntimeError(f"making the killed recording failed: {r.stderr.strip()[-300:]}")
+    return path
+
+
+def _record_killed(name: str, out: str) -> None:
+    from gaitmon.commands.bench_offline import append_synthetic, bench_header
+    from gaitmon.io.journal import journal_path
+    from gaitmon.io.session import SessionWriter
+
+    path = Path(out)
+    for p in (path, journal_path(path)):
+        p.unlink(missing_ok=True)
+    w = SessionWriter(path, bench_header())
+    append_synthetic(w, LENGTHS_H[name])
+    w.flush()
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+# ---- one measurement, in its own process ----
+
+
+def _review(src: Path, out: Path) -> dict[str, float]:
+    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+    from PySide6.QtCore import QSettings
+    from PySide6.QtWidgets import QApplication
+
+    from gaitmon.ui.review.window import ReviewWindow
+
+    app = QApplication.instance() or QApplication([])
+    win = ReviewWindow(QSettings(str(out / "s.ini"), QSettings.Format.IniFormat))
+    win.resize(1600, 1000)
+    win.show()
+    app.processEvents()
+    tl = win.timeline
+
+    def wait(cond: Any, timeout: float = 600.0) -> None:
+        t_end = time.monotonic() + timeout
+        while not cond():
+            app.processEvents()
+            if time.monotonic() > t_end:
+                raise TimeoutError
+            time.sleep(0.002)
+
+    t0 = time.process_time()
+    win.open_file(src)
+    wait(lambda: tl.applied_requests > 0)
+    tl.glw.viewport().repaint()
+    wait(lambda: win.analysis is not None)
+    first = {"cpu_s": time.process_time() - t0, "rss_mb": _peak_rss_mb()}
+    done: list[int] = []
+    win.analysis_done.connect(lambda: done.append(1))
+    for angles in ("live", "smoothed"):
+        done.clear()
+        win.act[f"angles_{angles}"].trigger()
+        wait(lambda a=angles: win.doc is not None and win.doc.angle_source == a and bool(done))
+    both = _peak_rss_mb()
+    errors = list(win.errors)
+    win.close()
+    if errors:
+        raise RuntimeError(f"review window errors: {errors}")
+    return {**first, "both_rss_mb": both}
+
+
+def _close(name: str, out: Path) -> dict[str, float]:
+    from gaitmon.commands.bench_offline import append_synthetic, bench_header
+    from gaitmon.io.session import SessionWriter
+
+    path = out / "closing.h5"
+    w = SessionWriter(path, bench_header(), overwrite=True)
+    append_synthetic(w, LENGTHS_H[name])
+    w.flush()
+    recording = _peak_rss_mb()
+    if not _reset_peak():
+        raise RuntimeError("cannot reset the peak RSS counter (/proc/self/clear_refs)")
+    t0 = time.process_time()
+    w.close()
+    cpu = time.process_time() - t0
+    rss = _peak_rss_mb()
+    path.unlink()
+    return {"cpu_s": cpu, "rss_mb": rss, "recording_rss_mb": recording}
+
+
+def _task(task: str, name: str, out: Path) -> dict[str, float]:
+    import contextlib
+    import io
+
+    if task == "ref_floor":
+        import h5py
+        import numpy  # noqa: F401
+        import scipy.signal  # noqa: F401
+
+        import gaitmon.io.session  # noqa: F401
+
+        return {"cpu_s": time.process_time(), "rss_mb": _peak_rss_mb()}
+    if task == "close":
+        return _close(name, out)
+    if task == "recover":
+        from gaitmon.io.journal import journal_path
+
+        killed = interrupted(name)
+        src = out / "killed.h5"
+        shutil.copyfile(killed, src)
+        shutil.copyfile(journal_path(killed), journal_path(src))
+    else:
+        src = session(name)
+    t0 = time.process_time()
+    if task == "ref_raw":
+        import h5py
+
+        with h5py.File(src, "r") as f:
+            adc = f["raw/adc"][()]
+        assert adc.shape[0] > 0
+    elif task == "review":
+        return _review(src, out)
+    elif task in ("process", "recover"):
+        from gaitmon.cli import main
+
+        argv = (["process", str(src), "-o", str(out / "new.h5"), "--force", "--quiet"]
+                if task == "process" else ["info", str(src)])  # fmt: skip
+        with contextlib.redirect_stdout(io.StringIO()):
+            if main(argv) != 0:
+                raise SystemExit(1)
+        if task == "recover" and journal_path(src).exists():
+            raise RuntimeError("the recording was not recovered")
+    else:
+        raise SystemExit(f"unknown task {task}")
+    cpu = time.process_time() - t0
+    for p in out.glob("*.h5"):
+        p.unlink()
+    return {"cpu_s": cpu, "rss_mb": _peak_rss_mb()}
+
+
+def child(task: str, name: str, outdir: str) -> None:
+    print(json.dumps(_task(task, name, Path(outdir))))
+
+
+def _run(task: str, name: str, outdir: Path) -> dict[str, float]:
+    env = dict(os.environ, QT_QPA_PLATFORM=os.environ.get("QT_QPA_PLATFORM", "offscreen"))
+    r = subprocess.run([sys.executable, "-m", "gaitmon.commands.bench_memory", task, name,
+                        str(outdir)], capture_output=True, text=True, env=env, check=False)
+    if r.returncode != 0:
+        raise RuntimeError(f"{task} on {name} failed: {r.stderr.strip()[-400:]}")
+    out: dict[str, float] = json.loads(r.stdout.strip().splitlines()[-1])
+    return out
+
+
+def suite(lengths: list[str], repeat: int, only: set[str] | None = None) -> int:
+    bad = [n for n in lengths if n not in LENGTHS_H]
+    if bad:
+        from gaitmon.errors import UserError
+
+        raise UserError(f"unknown length {bad[0]!r} (choose from {', '.join(LENGTHS_H)})")
+    tasks = [(t, label) for t, label in TASKS if not only or t in only]
+    print(f"gaitmon bench --suite memory: {', '.join(lengths)}; peak RSS (VmHWM) of a fresh "
+          f"process per run, median of {repeat} ({os.cpu_count()} CPUs)", flush=True)
+    res: dict[tuple[str, str], dict[str, float]] = {}
+    with tempfile.TemporaryDirectory(prefix="gaitmon-bench-mem-") as d:
+        outdir = Path(d)
+        for name in lengths:
+            t0 = time.perf_counter()
+            session(name)
+            if any(t == "recover" for t, _ in tasks):
+                interrupted(name)
+            print(f"  sessions {name} ready in {time.perf_counter() - t0:.1f} s", flush=True)
+            for task, _ in tasks:
+                runs = [_run(task, name, outdir) for _ in range(repeat)]
+                m = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+                res[(task, name)] = m
+                extra = "".join(f"  {k} {v:.0f}" for k, v in m.items()
+                                if k not in ("cpu_s", "rss_mb"))  # fmt: skip
+                each = ", ".join(f"{r['rss_mb']:.0f}" for r in runs)
+                print(f"    {name:5s} {task:10s} peak RSS {m['rss_mb']:6.0f} MB  "
+                      f"{m['cpu_s']:6.2f} CPU s{extra}  (runs: {each})", flush=True)
+    print(f"\npeak RSS, MB (2^20 bytes), median of {repeat} fresh process(es); goal <= "
+          f"{GOAL_MB:.0f} MB")
+    print("| what | " + " | ".join(lengths) + " |")
+    print("|---|" + "---|" * len(lengths))
+    for task, label in tasks:
+        cells = [f"{res[(task, n)]['rss_mb']:.0f}" for n in lengths]
+        print(f"| {label} | " + " | ".join(cells) + " |")
+        if task == "review":
+            cells = [f"{res[(task, n)]['both_rss_mb']:.0f}" for n in lengths]
+            print("| review window: then View ▸ Angles ▸ Live and back | " + " | ".join(cells)
+                  + " |")
+        if task == "close":
+            cells = [f"{res[(task, n)]['recording_rss_mb']:.0f}" for n in lengths]
+            print("|   (the recording before the close, simulator included) | "
+                  + " | ".join(cells) + " |")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else "")
+    ap.add_argument("--lengths", default="1h,8h")
+    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--only", default="", help="comma-separated tasks: " +
+                    ", ".join(t for t, _ in TASKS))  # fmt: skip
+    args = ap.parse_args(argv)
+    return suite(args.lengths.split(","), args.repeat, set(filter(None, args.only.split(","))))
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "_killed":
+        _record_killed(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) == 4 and not sys.argv[1].startswith("-"):
+        child(*sys.argv[1:])
+    else:
+        raise SystemExit(main())

@@ -1,0 +1,240 @@
+"""Long sessions are processed in blocks (issue 14: peak memory <= 400 MB for 8 hours), and the
+blocks give exactly the numbers of the whole-array computation they replaced.
+
+Each test runs the chunked path with block sizes shrunk (so a short record spans several blocks)
+beside an independent whole-array reference: the previous code's formula, written out here."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channels import DEFAULT_TABLE, GYRO_IDX
+from gaitmon.dsp.gait import Stride
+from gaitmon.dsp.pipeline import Pipeline
+from gaitmon.io.device import SampleBlock
+from gaitmon.io.protocol import FrameKind
+from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter, open_session
+from gaitmon.io.session.codec import encode
+from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
+from gaitmon.io.sim.sensors import simulate
+
+FS = 100.0
+N = 30_000  # 5 minutes: several blocks once they are shrunk
+
+
+def _calibration(k: int) -> Calibration:
+    return Calibration(np.radians([1.0, -2.0, 0.5, 3.0]) * k,
+                       np.array([0.01, -0.02, 0.03, 0.04]) * k)
+
+
+@pytest.fixture(scope="module")
+def counts() -> np.ndarray:
+    return simulate(N, GaitModel(GaitConfig(seed=8)), SensorConfig(seed=8)).counts
+
+
+@pytest.fixture
+def small_blocks(monkeypatch):
+    import gaitmon.io.session.smoothed as sm
+
+    monkeypatch.setattr(sm, "SMOOTH_BLOCK_ROWS", 7000)
+    monkeypatch.setattr(sm, "SMOOTH_OVERLAP_ROWS", 1500)
+    return 7000 + 2 * 1500  # the most rows a block with its context needs
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_smoothed_angles_stored_block_by_block_equal_the_whole_series_written_at_once(
+    counts, small_blocks, tmp_path, version
+):
+    """store_smoothed (the close, recovery and ``process``) writes the values, dtypes and
+    chunks write_smoothed(smoothed_angles(...)) wrote, asking for one block of counts at a
+    time; with a restart after a long gap and a calibration change inside a block."""
+    import gaitmon.io.session.smoothed as sm
+
+    lost = np.zeros(N, np.int64)
+    lost[17_123] = 500  # a 5-s gap: the smoother starts afresh there
+    changes = [(9_001, _calibration(1)), (23_456, _calibration(2))]
+    want = sm.smoothed_angles(counts, DEFAULT_TABLE, _calibration(0), changes, lost, FS)
+    asked: list[tuple[int, int]] = []
+
+    def rows(a: int, b: int) -> np.ndarray:
+        asked.append((a, b))
+        return counts[a:b]
+
+    paths = {}
+    for name in ("whole", "blocks"):
+        paths[name] = tmp_path / f"{name}.h5"
+        with h5py.File(paths[name], "w") as f:
+            f.attrs["format_version"] = version
+            if name == "whole":
+                sm.write_smoothed(f, want)
+            else:
+                sm.store_smoothed(f, rows, N, DEFAULT_TABLE, _calibration(0), changes, lost, FS)
+    assert max(b - a for a, b in asked) <= small_blocks < N
+    assert len(asked) >= 5
+    with h5py.File(paths["whole"]) as f, h5py.File(paths["blocks"]) as g:
+        assert sorted(f["smoothed"]) == sorted(g["smoothed"])
+        assert f["smoothed"].attrs["method"] == g["smoothed"].attrs["method"]
+        for name in f["smoothed"]:
+            a, b = f["smoothed"][name], g["smoothed"][name]
+            assert a.dtype == b.dtype and a.chunks == b.chunks and a.compression == b.compression
+            assert np.array_equal(a[()], b[()]), name
+        if version == 2:  # the tilts quantised, as the whole array was
+            assert np.array_equal(g["smoothed/tilt_deg"][()],
+                                  encode("smoothed/tilt_deg", want["smoothed/tilt_deg"]))
+
+
+class _Recorder:
+    """A stand-in dataset that records the row ranges written to it."""
+
+    def __init__(self, n: int, chunk: int) -> None:
+        self.chunks = (chunk, 2)
+        self.name = "/smoothed/joint_deg"  # (float32, no resolution: written as given)
+        self.data = np.full((n, 2), np.nan, np.float32)
+        self.writes: list[tuple[int, int]] = []
+
+    def __setitem__(self, key: slice, value: np.ndarray) -> None:
+        self.writes.append((key.start, key.stop))
+        self.data[key] = value
+
+
+def test_the_smoothed_angles_are_written_in_whole_chunks():
+    """A compressed chunk written twice is decompressed and compressed again: the writer holds
+    the rows of a chunk split between two blocks until it is full."""
+    from gaitmon.io.session.smoothed import _AlignedWriter
+
+    n, chunk = 10_000, 512
+    ds = _Recorder(n, chunk)
+    w = _AlignedWriter(ds, encoded=False)  # type: ignore[arg-type]
+    want = np.arange(2 * n, dtype=np.float32).reshape(n, 2)
+    for a, b in [(0, 700), (700, 1024), (1024, 5000), (5000, 5001), (5001, n)]:
+        w.write(a, want[a:b])
+    w.finish()
+    assert np.array_equal(ds.data, want)
+    for a, b in ds.writes[:-1]:
+        assert a % chunk == 0 and b % chunk == 0 and b > a
+    assert ds.writes[-1][1] == n
+    assert [a for a, _ in ds.writes] == sorted({a for a, _ in ds.writes})  # each row once
+
+
+def _write(path: Path, counts: np.ndarray, *, calibrate_at: tuple[int, ...] = ()) -> None:
+    pipe = Pipeline()
+    with SessionWriter(path, SessionHeader("raw", meta=SessionMeta(patient_id="M-1"))) as w:
+        for a in range(0, len(counts), 1000):
+            b = min(len(counts), a + 1000)
+            for k, row in enumerate(calibrate_at, 1):
+                if a <= row < b:
+                    w.log_calibration(_calibration(k))
+                    pipe.set_calibration(_calibration(k))
+            blk = SampleBlock(FrameKind.RAW, np.arange(a, b, dtype=np.int64),
+                              10.0 + np.arange(a, b) / FS, 1.7e9,
+                              lost_before=np.zeros(b - a, np.int64), adc=counts[a:b])
+            w.append(blk, pipe.process(counts[a:b]))
+
+
+def test_a_closed_recording_stores_the_smoothed_angles_of_its_whole_raw_record(
+    counts, small_blocks, tmp_path
+):
+    """The close smooths from the file a block at a time: the stored tilts are those of the
+    whole record's smoothed_angles (same blocks), quantised, and the readers' joint angles
+    equal the whole-array ones within the storage's 0.01 deg."""
+    import gaitmon.io.session.smoothed as sm
+
+    path = tmp_path / "closed.h5"
+    _write(path, counts, calibrate_at=(12_000,))
+    with open_session(path) as s:
+        assert s.smoothed_stored and s.n_samples == N
+        want = sm.smoothed_angles(counts, s.header.table, s.calibration, s.calibration_changes,
+                                  np.zeros(N, np.int64), FS)  # fmt: skip
+        assert np.array_equal(s.h5["smoothed/tilt_deg"][()],
+                              encode("smoothed/tilt_deg", want["smoothed/tilt_deg"]))
+        joint = s.read("processed/joint_deg")
+    assert np.abs(joint - want["smoothed/joint_deg"]).max() <= 0.011
+
+
+def test_the_foot_imu_is_read_a_block_at_a_time_with_the_whole_array_values(
+    counts, tmp_path, monkeypatch
+):
+    import gaitmon.analysis as analysis
+    from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, SEGMENTS
+
+    path = tmp_path / "foot.h5"
+    _write(path, counts, calibrate_at=(4_321, 20_000))
+    monkeypatch.setattr(analysis, "FOOT_IMU_BLOCK_ROWS", 3000)  # 10 blocks
+    with open_session(path) as s:
+        got = analysis.foot_imu(s)
+        # the previous code: the whole record at once, a bias per row
+        foot = SEGMENTS.index("foot")
+        table = s.header.table
+        cols = [int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])]
+        c = np.asarray(s.read("raw/adc"))[:, cols].astype(np.float64)
+        phys = (c - table.zero_counts[cols]) * table.units_per_count[cols]
+        bias = np.full(N, float(s.calibration.gyro_bias_rad_s[foot]))
+        for row, cal in sorted(s.calibration_changes, key=lambda x: x[0]):
+            bias[max(0, row):] = float(cal.gyro_bias_rad_s[foot])
+        assert len(s.calibration_changes) == 2
+    assert got is not None
+    for k, want in enumerate((phys[:, 0], phys[:, 1], phys[:, 2] - bias)):
+        assert np.array_equal(got[k], want), k
+    assert not np.array_equal(got[2], phys[:, 2])  # (the biases were really removed)
+
+
+def _strides(n_rows: int, rng: np.random.Generator) -> list[Stride]:
+    out = []
+    a = 3
+    while True:
+        length = int(rng.integers(80, 140))
+        if a + length >= n_rows:
+            break
+        toe = a + int(0.6 * length)
+        out.append(Stride(a, a + length, toe, length / FS, 0.6 * length / FS, 0.4 * length / FS,
+                          60.0, 40.0))  # fmt: skip
+        a += length
+    # one ending on the last row (its ROM runs to the end of the data)
+    out.append(Stride(a, n_rows - 1, a + 5, 0.1, 0.05, 0.05, 50.0, 50.0))
+    return out
+
+
+def test_cycles_and_stride_figures_from_float32_angles_in_blocks_equal_the_float64_ones(
+    monkeypatch,
+):
+    """The analysis takes the joint angles as read (float32) instead of a float64 copy, and
+    resamples the cycles a block of strides at a time: every figure is the same to the bit
+    as the previous whole-array float64 computation."""
+    import gaitmon.dsp.gait as gait
+    from gaitmon.analysis import _stride_extremes
+
+    rng = np.random.default_rng(3)
+    n = 20_000
+    joints32 = (rng.normal(0, 20, (n, 3))).astype(np.float32)
+    strides = _strides(n, rng)
+    a64 = joints32.astype(np.float64)
+
+    # the previous code, whole arrays in float64
+    start = np.array([s.start_idx for s in strides])
+    end = np.array([s.end_idx for s in strides])
+    toe = np.array([s.toe_off_idx for s in strides])
+    frac = np.linspace(0.0, 1.0, 101)
+    pos = start[:, None] + (end - start)[:, None] * frac[None, :]
+    i0 = np.minimum(np.floor(pos).astype(np.int64), (end - 1)[:, None])
+    w = (pos - i0)[..., None]
+    want_cycles = a64[i0] * (1.0 - w) + a64[i0 + 1] * w
+    padded = np.concatenate([a64, np.full((1, 3), np.nan)])
+    idx = np.column_stack([start, end + 1]).ravel()
+    want_rom = (np.maximum.reduceat(padded, idx, axis=0)[::2]
+                - np.minimum.reduceat(padded, idx, axis=0)[::2])  # fmt: skip
+    want_peak = np.maximum.reduceat(padded[:, 1], np.column_stack([toe, end + 1]).ravel())[::2]
+
+    monkeypatch.setattr(gait, "NORMALISE_BLOCK_STRIDES", 37)  # ~5 blocks, the last one short
+    got = gait.normalise_strides(joints32, strides)
+    assert got.dtype == np.float64 and len(got) == len(strides) > 150
+    assert np.array_equal(got, want_cycles)
+    assert np.array_equal(gait.normalise_strides(a64, strides), want_cycles)
+    peak, rom = _stride_extremes(joints32, start, end, toe)
+    assert np.array_equal(np.array(rom), want_rom)
+    assert np.array_equal(np.array(peak), want_peak)
+    assert np.isfinite(want_rom[-1]).all()  # (the stride on the last row has its figures)
