@@ -279,7 +279,9 @@ def _build_recovered(
     in_memory: bool = False,
 ) -> h5py.File | None:
     """Write the recovered session to ``tmp``; ``in_memory``: build it in memory instead and
-    return the open file (the caller closes it), for reading while the disk is full."""
+    return the open file (the caller closes it), for reading while the disk is full. A raw
+    recording written to disk has ``contents.rows`` let go before its smoothed angles are
+    computed (memory)."""
     hdr = contents.header
     assert hdr is not None and contents.rows is not None
     rows = contents.rows
@@ -369,8 +371,14 @@ def _build_recovered(
             from gaitmon.io.session.smoothed import store_smoothed
 
             cal_changes = [(i, c) for i, c in changes if isinstance(c, Calibration)]
-            store_smoothed(h5.f, adc.rows, n, header.table, header.calibration, cal_changes,
-                           lost, fs)  # fmt: skip
+            # the journal's rows (~50 bytes a row) are let go first: the smoother reads the
+            # counts back from the new file a block at a time, as a recorder's close does
+            contents.rows = None
+            del rows, adc, seq, host, chunks
+            h5.drain()
+            ds = h5.f["raw/adc"]
+            store_smoothed(h5.f, lambda a, b: ds[a:b], n, header.table, header.calibration,
+                           cal_changes, lost, fs)  # fmt: skip
         h5.finish(complete=False, recovered=True, stop_reason="recovered", fs_hz=fs)
         report(n)
         ok = True
