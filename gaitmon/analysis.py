@@ -21,7 +21,7 @@ import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -365,6 +365,64 @@ def cycles(joint_deg: np.ndarray, rows: Sequence[StrideRow], n_points: int = 101
     if not strides:
         return np.empty((0, n_points, joint_deg.shape[1]))
     return normalise_strides(joint_deg, strides, n_points)
+
+
+CYCLE_BLOCK_STRIDES = 2048  # strides resampled at a time by cycle_stats (~5 MB of cycles)
+
+
+def evenly_chosen(k: int, m: int) -> np.ndarray:
+    """Indices of at most ``m`` of ``k`` items, evenly spread, first and last included."""
+    if k <= 0 or m <= 0:
+        return np.empty(0, np.int64)
+    return np.unique(np.linspace(0, k - 1, min(k, m)).round().astype(np.int64))
+
+
+def cycle_stats(
+    joint_deg: np.ndarray, rows: Sequence[StrideRow], n_points: int = 101, keep: int = 0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(mean, sd, kept) of the included strides' cycles: the mean and SD exactly (to the bit)
+    as ``cycle_mean_sd(cycles(joint_deg, rows, n_points))``, and the ``keep`` cycles
+    :func:`evenly_chosen` (in stride order), without the whole (k, n_points, 3) float64 array
+    (63 MB for the 26 000 strides of 8 hours, and as much again for the SD's temporaries):
+    the strides are resampled a block at a time, twice (the sums, then the squared
+    deviations, each added in stride order as numpy's reduction over the first axis does)."""
+    strides = included_strides(rows)
+    width = joint_deg.shape[1]
+    blocks = [strides[i : i + CYCLE_BLOCK_STRIDES]
+              for i in range(0, len(strides), CYCLE_BLOCK_STRIDES)]  # fmt: skip
+
+    def each() -> Any:
+        done = 0
+        for b in blocks:
+            c = normalise_strides(joint_deg, b, n_points)
+            yield done, c
+            done += len(c)
+
+    def add(acc: np.ndarray | None, c: np.ndarray) -> np.ndarray | None:
+        if not len(c):
+            return acc
+        return np.add.reduce(c if acc is None else np.concatenate([acc[None], c]), axis=0)
+
+    total: np.ndarray | None = None
+    k = 0
+    for _, c in each():
+        total = add(total, c)
+        k += len(c)
+    if total is None:
+        nan = np.full((n_points, width), np.nan)
+        return nan, nan.copy(), np.empty((0, n_points, width))
+    mean = total / k
+    pick = evenly_chosen(k, keep)
+    kept = np.empty((len(pick), n_points, width))
+    squares: np.ndarray | None = None
+    for first, c in each():
+        inside = (pick >= first) & (pick < first + len(c))
+        kept[inside] = c[pick[inside] - first]
+        if k > 1:
+            x = c - mean
+            squares = add(squares, np.multiply(x, x, out=x))
+    sd = np.sqrt(squares / (k - 1)) if squares is not None else np.full_like(mean, np.nan)
+    return mean, sd, kept
 
 
 @dataclass(frozen=True)

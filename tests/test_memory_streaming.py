@@ -238,3 +238,31 @@ def test_cycles_and_stride_figures_from_float32_angles_in_blocks_equal_the_float
     assert np.array_equal(np.array(rom), want_rom)
     assert np.array_equal(np.array(peak), want_peak)
     assert np.isfinite(want_rom[-1]).all()  # (the stride on the last row has its figures)
+
+
+@pytest.mark.parametrize("n_strides", [0, 1, 2, 157])
+def test_cycle_statistics_a_block_of_strides_at_a_time_equal_those_of_every_cycle_at_once(
+    monkeypatch, n_strides
+):
+    """The review keeps the mean, the SD and the few cycles it draws, not every cycle: the
+    mean and SD are those of the whole (k, 101, 3) array to the bit (as the report's), the
+    cycles kept those the window draws."""
+    import gaitmon.analysis as analysis
+    from gaitmon.analysis import StrideRow, cycle_stats, cycles, evenly_chosen
+    from gaitmon.dsp.gait import cycle_mean_sd
+
+    rng = np.random.default_rng(5)
+    n = 20_000
+    joints32 = rng.normal(10, 25, (n, 3)).astype(np.float32)
+    strides = _strides(n, rng)[:n_strides]
+    # every third stride excluded: only the included ones count
+    rows = [StrideRow(s, "excluded range" if k % 3 == 1 else "", 0.0, (0.0, 0.0, 0.0))
+            for k, s in enumerate(strides)]  # fmt: skip
+    whole = cycles(joints32.astype(np.float64), rows)
+    want_mean, want_sd = cycle_mean_sd(whole)
+    monkeypatch.setattr(analysis, "CYCLE_BLOCK_STRIDES", 16)  # 7 blocks of the 105 included
+    mean, sd, kept = cycle_stats(joints32, rows, keep=40)
+    assert np.array_equal(mean, want_mean, equal_nan=True)
+    assert np.array_equal(sd, want_sd, equal_nan=True)
+    assert np.array_equal(kept, whole[evenly_chosen(len(whole), 40)])
+    assert len(kept) == min(40, len(whole))

@@ -16,14 +16,14 @@ import pyqtgraph as pg
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import QWidget
 
-from gaitmon.review.model import Analysis
+from gaitmon.analysis import evenly_chosen
+from gaitmon.review.model import MAX_STRIDES_DRAWN, Analysis
 from gaitmon.ui.plots import JOINTS
 from gaitmon.ui.theme import Colours, pen
 
 if TYPE_CHECKING:
     from gaitmon.normative import NormativeBands
 
-MAX_STRIDES_DRAWN = 300
 N_POINTS = 101
 
 
@@ -159,7 +159,7 @@ class CyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgraph is
         cyc = a.cycles_deg
         k = len(cyc)
         if k:
-            pick = np.unique(np.linspace(0, k - 1, min(k, MAX_STRIDES_DRAWN)).round().astype(int))
+            pick = evenly_chosen(k, MAX_STRIDES_DRAWN)  # (the analysis keeps only these)
             self.n_strides_drawn = len(pick)
             x = np.tile(np.append(self.pct, np.nan), len(pick))
             for j in range(len(JOINTS)):
