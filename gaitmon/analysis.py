@@ -146,10 +146,12 @@ def spatial_summary(rows: Sequence[StrideRow]) -> SpatialSummary:
                           float(clear.mean()) if len(clear) else float("nan"))  # fmt: skip
 
 
-def foot_imu(session: Session) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def foot_imu(
+    session: Session, start: int = 0, stop: int | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """The foot board's acc x, acc z (m/s^2, unfiltered) and gyro (rad/s, the calibration in
-    force removed) of a raw-mode session, float64, as the live pipeline sees them; None for a
-    session without raw counts."""
+    force removed) of rows ``start:stop`` of a raw-mode session, float64, as the live pipeline
+    sees them; None for a session without raw counts."""
     from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, GYRO_IDX, SEGMENTS
 
     if session.mode != "raw" or not session.n_samples:
@@ -158,34 +160,70 @@ def foot_imu(session: Session) -> tuple[np.ndarray, np.ndarray, np.ndarray] | No
     table = session.header.table
     cols = [int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])]
     n = session.n_samples
+    start = max(0, min(int(start), n))
+    stop = n if stop is None else max(start, min(int(stop), n))
     zero, per_count = table.zero_counts[cols], table.units_per_count[cols]
-    out = np.empty((3, n))
+    out = np.empty((3, stop - start))
     # a block of rows at a time: the three columns, not the whole raw record, in memory
-    for a in range(0, n, FOOT_IMU_BLOCK_ROWS):
-        b = min(n, a + FOOT_IMU_BLOCK_ROWS)
+    for a in range(start, stop, FOOT_IMU_BLOCK_ROWS):
+        b = min(stop, a + FOOT_IMU_BLOCK_ROWS)
         counts = session.read_range(a, b, ["raw/adc"])["raw/adc"][:, cols].astype(np.float64)
-        out[:, a:b] = ((counts - zero) * per_count).T
+        out[:, a - start : b - start] = ((counts - zero) * per_count).T
     # the gyro bias of the calibration in force at each row (the last one logged at a row wins)
     biases = [(0, float(session.calibration.gyro_bias_rad_s[foot]))]
     biases += [(max(0, row), float(cal.gyro_bias_rad_s[foot]))
                for row, cal in sorted(session.calibration_changes, key=lambda x: x[0])]
     for (lo, bias), (hi, _) in itertools.pairwise([*biases, (n, 0.0)]):
-        out[2, lo:max(lo, hi)] -= bias
+        lo, hi = max(lo, start), min(max(lo, hi), stop)
+        if hi > lo:
+            out[2, lo - start : hi - start] -= bias
     return out[0], out[1], out[2]
 
 
-def with_stride_measures(
-    rows: list[StrideRow], foot: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
-    heel_strike_idx: np.ndarray, fs_hz: float,
-) -> list[StrideRow]:  # fmt: skip
-    """The rows with their stride length and foot clearance from the foot IMU (one value per
-    pair of consecutive heel strikes, matched to a row by its opening heel strike)."""
-    from gaitmon.dsp.stride_length import stride_measures
+STRIDE_BLOCK = 1024  # strides measured at a time from their own rows of the foot IMU
 
+
+def session_stride_measures(session: Session, heel_strike_idx: np.ndarray) -> Any:
+    """:func:`gaitmon.dsp.stride_length.stride_measures` of the session's foot IMU between
+    consecutive heel strikes (those inside the data), or None (no raw counts, fewer than two
+    heel strikes). The strides are measured :data:`STRIDE_BLOCK` at a time from the rows they
+    search (:func:`foot_imu` of those rows only): the same values as over the whole record,
+    without its 8-hour, 66 MB float64 copy. Each block starts one heel strike early, so that
+    its strides' foot-flat search spans are the whole record's; that stride is dropped."""
+    from gaitmon.dsp.stride_length import StrideMeasures, search_spans, stride_measures
+
+    n = session.n_samples
     hs = np.unique(np.asarray(heel_strike_idx, dtype=np.int64))
-    if foot is None or len(hs) < 2 or not rows:
+    hs = hs[hs < n]
+    if session.mode != "raw" or len(hs) < 2:
+        return None
+    fs = session.sample_rate_hz
+    spans = search_spans(hs)
+    k_all = len(hs) - 1
+    parts: list[StrideMeasures] = []
+    for j0 in range(0, k_all, STRIDE_BLOCK):
+        j1 = min(k_all, j0 + STRIDE_BLOCK)  # strides j0 .. j1 - 1: heel strikes j0 .. j1
+        s = max(0, j0 - 1)
+        sub = hs[s : j1 + 1]
+        lo, hi = int(sub[0]), min(n, int(np.max(sub + spans[s : j1 + 1])))
+        foot = foot_imu(session, lo, hi)
+        assert foot is not None
+        m = stride_measures(*foot, fs, sub - lo)
+        d = j0 - s
+        flat = m.foot_flat_idx[d:]
+        parts.append(StrideMeasures(hs[j0:j1], m.stride_length_m[d:], m.foot_clearance_m[d:],
+                                    m.stride_time_s[d:], np.where(flat >= 0, flat + lo, flat)))
+    return StrideMeasures(*(np.concatenate([getattr(p, f.name) for p in parts])
+                            for f in dataclasses.fields(StrideMeasures)))  # fmt: skip
+
+
+def with_stride_measures(rows: list[StrideRow], measures: Any) -> list[StrideRow]:
+    """The rows with their stride length and foot clearance from the foot IMU
+    (:func:`session_stride_measures`: one value per pair of consecutive heel strikes, matched
+    to a row by its opening heel strike); the rows as they are for None."""
+    if measures is None or not rows:
         return rows
-    m = stride_measures(*foot, fs_hz, hs[hs < len(foot[0])])
+    m = measures
     at = {int(h): k for k, h in enumerate(m.heel_strike_idx)}
     out = []
     for r in rows:
@@ -497,5 +535,5 @@ def analyse_session(
         [(r.start_idx, r.stop_idx) for r in ranges],
         t_s=t_s,
     )
-    rows = with_stride_measures(rows, foot_imu(session), hs, session.sample_rate_hz)
+    rows = with_stride_measures(rows, session_stride_measures(session, hs))
     return SessionAnalysis(rows, joints, ranges, stored_path(session.path), problem)

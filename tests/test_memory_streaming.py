@@ -266,3 +266,35 @@ def test_cycle_statistics_a_block_of_strides_at_a_time_equal_those_of_every_cycl
     assert np.array_equal(sd, want_sd, equal_nan=True)
     assert np.array_equal(kept, whole[evenly_chosen(len(whole), 40)])
     assert len(kept) == min(40, len(whole))
+
+
+def test_stride_measures_a_block_of_strides_at_a_time_equal_those_of_the_whole_record(
+    counts, tmp_path, monkeypatch
+):
+    """The stride length and clearance come from each block of strides' own rows of the foot
+    IMU: the values of stride_measures over the whole record, to the bit."""
+    import gaitmon.analysis as analysis
+    from gaitmon.dsp.stride_length import stride_measures
+
+    path = tmp_path / "strides.h5"
+    _write(path, counts, calibrate_at=(7_777,))
+    with open_session(path) as s:
+        hs = s.heel_strike_idx
+        want = stride_measures(*analysis.foot_imu(s), FS, hs)  # type: ignore[misc]
+        monkeypatch.setattr(analysis, "STRIDE_BLOCK", 16)
+        monkeypatch.setattr(analysis, "FOOT_IMU_BLOCK_ROWS", 999)
+        asked: list[tuple[int, int]] = []
+        real = analysis.foot_imu
+
+        def spy(session, start=0, stop=None):
+            asked.append((start, stop))
+            return real(session, start, stop)
+
+        monkeypatch.setattr(analysis, "foot_imu", spy)
+        got = analysis.session_stride_measures(s, hs)
+    assert len(hs) > 100 and len(asked) >= 6
+    assert max(b - a for a, b in asked) < N / 3  # (each block reads its own rows only)
+    assert np.isfinite(want.stride_length_m).sum() > 50
+    for name in ("heel_strike_idx", "stride_length_m", "foot_clearance_m", "stride_time_s",
+                 "foot_flat_idx"):
+        assert np.array_equal(getattr(got, name), getattr(want, name), equal_nan=True), name
