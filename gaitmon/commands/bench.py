@@ -22,16 +22,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
     p.add_argument(
         "--suite",
-        choices=("pipeline", "offline", "size"),
+        choices=("pipeline", "offline", "size", "memory"),
         default="pipeline",
         help="pipeline: the signal chain (default); offline: info, export and report cost over "
         "1 min .. 8 h sessions beside references (medians of --repeat runs); size: session "
-        "file size and write cost, format 1 beside format 2",
+        "file size and write cost, format 1 beside format 2; memory: peak RSS of the review "
+        "window, process, recovery, info, report and the recorder's close beside references",
     )
     p.add_argument(
         "--lengths",
         default="1min,10min,1h,8h",
-        help="session lengths for --suite offline and size (default 1min,10min,1h,8h)",
+        help="session lengths for --suite offline, size and memory (default 1min,10min,1h,8h; "
+        "memory: 1h,8h and one run unless --lengths / --repeat are given)",
     )
 
 
@@ -64,6 +66,11 @@ def run(args: argparse.Namespace) -> int:
         from gaitmon.commands.bench_offline import suite
 
         return suite(args.lengths.split(","), args.repeat)
+    if args.suite == "memory":
+        from gaitmon.commands.bench_memory import suite as memory_suite
+
+        lengths = args.lengths if args.lengths != "1min,10min,1h,8h" else "1h,8h"
+        return memory_suite(lengths.split(","), args.repeat if args.repeat != 3 else 1)
     if args.suite == "size":
         from gaitmon.commands.bench_size import suite as size_suite
 

@@ -11,6 +11,7 @@ format by the recorder itself). What is measured:
 * ``process``: ``gaitmon process FILE -o NEW`` (the pipeline replayed, the smoother, the overview);
 * ``recover``: ``gaitmon info`` on a recording killed (SIGKILL) before its close: the journal is
   replayed into a new file (the pipeline, the smoother, the overview), then the file is read;
+* ``info`` and ``report``: ``gaitmon info`` and ``gaitmon report`` (the stride analysis);
 * ``close``: :meth:`SessionWriter.close` of the recording (the smoother, ``/overview``, whatever
   else close computes): the freed memory is returned to the system (``malloc_trim``) and the
   peak counter reset just before the close, so the figure is the close's peak over what the
@@ -48,6 +49,8 @@ TASKS: tuple[tuple[str, str], ...] = (
     ("review", "review window: first view + stride analysis"),
     ("process", "gaitmon process"),
     ("recover", "recovery (gaitmon info on a killed recording)"),
+    ("info", "gaitmon info"),
+    ("report", "gaitmon report (PDF)"),
     ("close", "recorder close (smoother + overview)"),
 )
 
@@ -220,11 +223,12 @@ def _task(task: str, name: str, out: Path) -> dict[str, float]:
         assert adc.shape[0] > 0
     elif task == "review":
         return _review(src, out)
-    elif task in ("process", "recover"):
+    elif task in ("process", "recover", "info", "report"):
         from gaitmon.cli import main
 
-        argv = (["process", str(src), "-o", str(out / "new.h5"), "--force", "--quiet"]
-                if task == "process" else ["info", str(src)])  # fmt: skip
+        argv = {"process": ["process", str(src), "-o", str(out / "new.h5"), "--force", "--quiet"],
+                "report": ["report", str(src), "-o", str(out / "r.pdf"), "--force"]}.get(
+                    task, ["info", str(src)])  # fmt: skip
         with contextlib.redirect_stdout(io.StringIO()):
             if main(argv) != 0:
                 raise SystemExit(1)
@@ -233,7 +237,7 @@ def _task(task: str, name: str, out: Path) -> dict[str, float]:
     else:
         raise SystemExit(f"unknown task {task}")
     cpu = time.process_time() - t0
-    for p in out.glob("*.h5"):
+    for p in [*out.glob("*.h5"), *out.glob("*.pdf")]:
         p.unlink()
     return {"cpu_s": cpu, "rss_mb": _peak_rss_mb()}
 
