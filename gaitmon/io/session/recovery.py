@@ -46,6 +46,11 @@ from gaitmon.io.session.rows import (
     rows_from_pipeline,
 )
 
+# rows replayed at a time by a recovery: the pipeline's block for 65 536 rows (the default,
+# ``gaitmon process``'s cancel points) is ~50 MB with its temporaries; chunking does not change
+# the pipeline's output (its contract)
+RECOVERY_REPLAY_ROWS = 1 << 14
+
 
 class ReplayChunk(NamedTuple):
     """Rows ``start:start + len`` of a replayed recording."""
@@ -65,7 +70,7 @@ def replay_pipeline(
     *,
     table: ChannelTable = DEFAULT_TABLE,
     chunk_rows: int = _RECOVERY_CHUNK_ROWS,
-    lost_before: np.ndarray | None = None,
+    lost_before: np.ndarray | LazyRows | None = None,
 ) -> Iterator[ReplayChunk]:
     """Run the pipeline over a whole recording from row 0, applying logged changes at their rows.
 
@@ -304,7 +309,6 @@ def _build_recovered(
 
         if mode == "raw":
             adc = LazyRows(rows["adc"])
-            lost = np.asarray(rows["lost_before"], dtype=np.int64)
             chunks: Iterator[ReplayChunk] = (
                 replay_pipeline(
                     adc,
@@ -312,7 +316,8 @@ def _build_recovered(
                     header.calibration,
                     changes,
                     table=header.table,
-                    lost_before=lost,
+                    lost_before=LazyRows(rows["lost_before"], dtype=np.int64),
+                    chunk_rows=RECOVERY_REPLAY_ROWS,
                 )
             )
         else:
@@ -373,6 +378,7 @@ def _build_recovered(
             cal_changes = [(i, c) for i, c in changes if isinstance(c, Calibration)]
             # the journal's rows (~50 bytes a row) are let go first: the smoother reads the
             # counts back from the new file a block at a time, as a recorder's close does
+            lost = np.asarray(rows["lost_before"], dtype=np.int64)
             contents.rows = None
             del rows, adc, seq, host, chunks
             h5.drain()

@@ -60,16 +60,17 @@ class LazyRows:
     :func:`gaitmon.io.session.recovery.replay_pipeline` or the smoother without reading them
     all into memory at once."""
 
-    def __init__(self, data: Any, n: int | None = None) -> None:
+    def __init__(self, data: Any, n: int | None = None, dtype: Any = None) -> None:
         self._data = data
         self._n = len(data) if n is None else int(n)
+        self._dtype = dtype  # None: as stored
 
     def __len__(self) -> int:
         return self._n
 
     def rows(self, a: int, b: int) -> np.ndarray:
         """Rows a:b (clipped to the first ``n``)."""
-        return np.ascontiguousarray(self._data[max(0, a) : min(b, self._n)])
+        return np.ascontiguousarray(self._data[max(0, a) : min(b, self._n)], dtype=self._dtype)
 
     def __getitem__(self, key: slice) -> np.ndarray:
         if not isinstance(key, slice) or key.step not in (None, 1):
