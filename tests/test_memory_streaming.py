@@ -298,3 +298,36 @@ def test_stride_measures_a_block_of_strides_at_a_time_equal_those_of_the_whole_r
     for name in ("heel_strike_idx", "stride_length_m", "foot_clearance_m", "stride_time_s",
                  "foot_flat_idx"):
         assert np.array_equal(getattr(got, name), getattr(want, name), equal_nan=True), name
+
+
+def test_a_journal_read_lets_the_mapped_pages_go_behind_the_rows_gathered(
+    counts, tmp_path, monkeypatch
+):
+    """Recovery reads the journal's rows out of a memory map: the map's pages before the rows
+    gathered so far are let go (madvise), so the file and its rows are not both in memory; the
+    rows are the same, and the release only ever moves forward."""
+    import gaitmon.io.journal as journal
+    from gaitmon.io.journal import journal_path, read_journal
+
+    jpath = tmp_path / "copy.journal"
+    w = SessionWriter(tmp_path / "live.h5", SessionHeader("raw"))
+    pipe = Pipeline()
+    for a in range(0, 9000, 500):
+        blk = SampleBlock(FrameKind.RAW, np.arange(a, a + 500, dtype=np.int64),
+                          np.arange(a, a + 500) / FS, 1.7e9,
+                          lost_before=np.zeros(500, np.int64), adc=counts[a : a + 500])
+        w.append(blk, pipe.process(counts[a : a + 500]))
+    w.flush()
+    jpath.write_bytes(journal_path(tmp_path / "live.h5").read_bytes())
+    w.close()
+    whole = read_journal(jpath)
+    released: list[int] = []
+    monkeypatch.setattr(journal, "_GATHER_ROWS", 1000)
+    real = journal._release
+    monkeypatch.setattr(journal, "_release", lambda mm, upto: (released.append(upto),
+                                                                real(mm, upto)))
+    parts = read_journal(jpath)
+    assert whole.rows is not None and parts.rows is not None and len(parts.rows) == 9000
+    assert np.array_equal(parts.rows, whole.rows)
+    assert len(released) == 9 and released == sorted(released)
+    assert released[-1] > 9000 * 48  # (the whole map, at the end)
