@@ -217,7 +217,7 @@ def test_the_reprocess_dialog_offers_the_live_method_and_q_r_only_for_the_papers
     qtbot, win, session_file
 ):
     from gaitmon.commands.process import PAPER_ONLY as CLI_PAPER_ONLY
-    from gaitmon.review.model import PAPER_ONLY
+    from gaitmon.reprocessing import PAPER_ONLY
 
     assert PAPER_ONLY == CLI_PAPER_ONLY  # the dialog follows gaitmon process's rule
     open_and_wait(qtbot, win, session_file)
