@@ -18,7 +18,8 @@ package:
   view;
 * :mod:`.truth` - the ``/truth`` group of simulated sessions;
 * :mod:`.exclusions` - the user's excluded ranges, kept beside the recording in
-  ``FILE.review.json`` (analysis state: the recording itself is never modified).
+  ``FILE.review.json`` (analysis state: the recording itself is never modified);
+* :mod:`.deidentify` - a de-identified copy of a session file (``gaitmon batch --deidentify``).
 
 Importing the package imports none of them (:mod:`gaitmon.lazy`): ``gaitmon info`` reads a file
 without loading the writer, the device link or reprocessing.
