@@ -328,7 +328,8 @@ def test_a_deidentified_rerun_resumes_and_the_kinds_of_out_are_never_mixed(study
         run_batch(study, out, SETTINGS)
 
 
-def test_deidentified_sessions_lose_operator_notes_serial_and_the_patient_in_markers(tmp_path):
+def test_deidentified_sessions_lose_operator_notes_serial_and_the_patient_in_markers(tmp_path,
+                                                                                      capsys):
     """Typed texts: the patient id and operator inside marker labels, notes, the unit's serial
     and its Bluetooth address; none of their bytes is left anywhere in the file (HDF5 keeps
     a rewritten attribute's old bytes in free space: the file is copied afresh)."""
@@ -358,6 +359,12 @@ def test_deidentified_sessions_lose_operator_notes_serial_and_the_patient_in_mar
         assert dev["serial"] == "" and dev["transport"] == "" and dev["firmware"] == "1.2"
     assert list(out.iterdir()) and not any(p.suffix == ".partial" for p in out.rglob("*"))
     assert not any((result.key / "work").iterdir())  # no work file left in the key either
+    # info says what was removed instead of printing blanks
+    from gaitmon.cli import main
+
+    assert main(["info", str(out / "S0001.h5")]) == 0
+    text = capsys.readouterr().out
+    assert "recorded     date removed," in text and "serial - via -" in text
 
 
 def test_the_command_writes_deidentified_csvs_and_reads_settings_json(study, tmp_path, capsys):
