@@ -1,0 +1,410 @@
+"""``gaitmon import FILE.xdf``: a LabRecorder file of gaitmon's streams becomes a session.
+
+The XDF files are written here by ``tests/xdf_writer.py`` (from the XDF specification) and
+read by pyxdf: the streams are built from a source session recorded the live way
+(SessionWriter fed block by block by the live Pipeline, gaps logged as the recorder logs them),
+so the import, which replays the pipeline over the whole record, is checked against an
+independent computation of the same numbers.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pyxdf")
+
+from xdf_writer import Stream, write_xdf
+
+from gaitmon.lsl.layout import (
+    ANGLE_CHANNELS,
+    ANGLES_TYPE,
+    EVENTS_TYPE,
+    RAW_CHANNELS,
+    RAW_TYPE,
+    EventWord,
+    event_text,
+    stream_name,
+)
+
+FS = 100.0
+SEND_T0 = 5000.0  # the unit's host clock (LSL local_clock) at row 0
+GAITMON_OFFSET_S = 12.5  # recording clock = gaitmon host clock + this (pyxdf's clock sync)
+EEG_OFFSET_S = -3.25
+STIM_OFFSET_S = 40.125
+# frames dropped before these rows of the unit's frame count: one, a few, more than the
+# filters bridge (a restart), with the reason the recorder would give
+DROPS = {400: (1, "frames lost"), 900: (5, "frames lost"), 1500: (30, "frames lost"),
+         2100: (150, "link lost: reconnected")}  # fmt: skip
+MARKERS = {250: "walk start", 1234: "turn", 2600: "stop"}  # row -> label
+
+
+def write_source(path: Path, n_rows: int = 2900, seed: int = 5) -> Path:
+    """A raw session recorded the live way: the pipeline fed 50-row blocks (split at the
+    gaps, as the recorder splits them), told the frames lost, gaps and markers logged."""
+    from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
+    from gaitmon.io.sim import GaitConfig, GaitModel
+    from gaitmon.io.sim.sensors import simulate
+
+    lost_total = sum(k for k, _ in DROPS.values())
+    counts = simulate(n_rows + lost_total, GaitModel(GaitConfig(seed=seed, standing_s=2.0))).counts
+    keep = np.ones(len(counts), bool)
+    lost = np.zeros(n_rows, np.int64)
+    frame = 0
+    for row in range(n_rows):
+        if row in DROPS:
+            k = DROPS[row][0]
+            keep[frame : frame + k] = False
+            lost[row] = k
+            frame += k
+        frame += 1
+    adc = counts[keep]
+    seq = 17 + np.flatnonzero(keep)  # the unit's counter: it was running before the recording
+    header = SessionHeader("raw", FS, meta=SessionMeta(patient_id="", side="L"),
+                           device={"name": "gaitmon-sim", "firmware": "1.0.0", "serial": 4242,
+                                   "side": "L", "transport": "simulated"},
+                           config=PipelineConfig(cutoff_hz=5.0),
+                           created_utc="2026-11-20T10:00:00Z")  # fmt: skip
+    pipe = Pipeline(header.config, header.calibration)
+    bounds = sorted({0, n_rows, *range(0, n_rows, 50), *DROPS, *MARKERS})
+    with SessionWriter(path, header) as w:
+        for a, b in itertools.pairwise(bounds):
+            if lost[a]:
+                w.add_gap(int(lost[a]), lost[a] / FS, DROPS[a][1])
+            for row, label in MARKERS.items():
+                if a == row:
+                    w.add_marker(label)
+            blk = SampleBlock(FrameKind.RAW, seq[a:b], seq[a:b] / FS, 1.7e9,
+                              lost_before=lost[a:b], adc=adc[a:b])  # fmt: skip
+            w.append(blk, pipe.process(adc[a:b], lost[a:b]))
+    return path
+
+
+def _desc_raw(header: dict, unit: str) -> dict:
+    return {
+        "acquisition": {"manufacturer": "gaitmon", "model": "gaitmon-sim",
+                        "serial_number": unit, "firmware": "1.0.0", "gaitmon_version": "test"},
+        "channels": {"channel": [{"label": c.label, "unit": c.unit, "type": c.type}
+                                 for c in RAW_CHANNELS]},
+        "gaitmon": {"mode": "raw", "fs_hz": repr(FS), "side": "L", "header": json.dumps(header)},
+    }  # fmt: skip
+
+
+def _acq(unit: str) -> dict:
+    return {"acquisition": {"manufacturer": "gaitmon", "serial_number": unit}}
+
+
+def gaitmon_streams(src: Path, unit: str = "4242", *, offset_s: float = GAITMON_OFFSET_S,
+                    events: list[tuple[float, str]] = (), raw: bool = True,
+                    angles: bool = True, mode: str = "raw") -> list[Stream]:  # fmt: skip
+    """The three streams the outlets publish for the source session, as LabRecorder records
+    them: timestamps on the gaitmon host's clock (its sample clock: row time + start) and
+    clock offsets mapping it onto the recording computer's. ``events``: (row time offset in s
+    from row 0 on the gaitmon clock, text) added to the event stream."""
+    from gaitmon.io.session import open_session
+
+    with open_session(src) as s:
+        adc = s.read("raw/adc").astype(np.int32)
+        seq = s.read("timeline/seq").astype(np.int32)
+        t_s = s.read("timeline/t_s")
+        angles_deg = np.hstack([s.read("processed/joint_deg"), s.read("processed/tilt_deg")])
+        header = s.header.as_dict()
+        gaps = list(s.gaps)
+        marks = list(s.markers)
+        hs = s.heel_strike_idx
+    ts = SEND_T0 + t_s
+    offsets = [(SEND_T0 + k, offset_s) for k in range(-5, int(t_s[-1]) + 10, 5)]
+    ev: list[tuple[float, str]] = [(ts[0] - 0.5, event_text(EventWord.RECORDING_START, "x.h5"))]
+    ev += [(ts[i], EventWord.HEEL_STRIKE.value) for i in hs]
+    for g in gaps:
+        first_lost = ts[g.sample_idx - 1] + 1 / FS
+        ev.append((first_lost, event_text(EventWord.GAP_START, g.reason)))
+        ev.append((ts[g.sample_idx], EventWord.GAP_END.value))
+    # markers a little off their row's time, as a click between two frames is
+    ev += [(ts[m.sample_idx] + 0.003, event_text(EventWord.MARKER, m.label)) for m in marks]
+    ev += [(SEND_T0 + dt, text) for dt, text in events]
+    ev.sort()
+    out = []
+    if raw:
+        out.append(Stream(stream_name(unit, "raw"), RAW_TYPE, "int32", FS, ts,
+                          np.column_stack([seq, adc]), len(RAW_CHANNELS),
+                          desc=_desc_raw(header, unit), source_id=f"gaitmon-{unit}-raw",
+                          clock_offsets=offsets))  # fmt: skip
+    if angles:
+        ang = angles_deg.astype(np.float32)
+        if mode == "joint":
+            ang[:, 3:] = np.nan
+        desc = _acq(unit) | {"channels": {"channel": [{"label": c.label} for c in ANGLE_CHANNELS]}}
+        out.append(Stream(stream_name(unit, "angles"), ANGLES_TYPE, "float32", FS, ts, ang,
+                          len(ANGLE_CHANNELS), desc=desc, source_id=f"gaitmon-{unit}-angles",
+                          clock_offsets=offsets))  # fmt: skip
+    out.append(Stream(stream_name(unit, "events"), EVENTS_TYPE, "string", 0.0,
+                      np.array([t for t, _ in ev]), [[x] for _, x in ev], 1, desc=_acq(unit),
+                      source_id=f"gaitmon-{unit}-events", clock_offsets=offsets))  # fmt: skip
+    return out
+
+
+def eeg_stream(t0: float, t1: float) -> Stream:
+    """A foreign 250 Hz EEG stream on its own clock, spanning the recording and more."""
+    ts = np.arange(t0 - 2.0, t1 + 2.0, 1 / 250.0)
+    data = np.random.default_rng(1).normal(size=(len(ts), 8)).astype(np.float32)
+    desc = {"acquisition": {"manufacturer": "BrainAmp"}}
+    return Stream(
+        "EEG",
+        "EEG",
+        "float32",
+        250.0,
+        ts,
+        data,
+        8,
+        desc=desc,
+        source_id="eeg-1",
+        clock_offsets=[(t, EEG_OFFSET_S) for t in np.arange(t0 - 2, t1 + 2, 5.0)],
+    )
+
+
+@pytest.fixture(scope="module")
+def source(tmp_path_factory) -> Path:
+    return write_source(tmp_path_factory.mktemp("xdf") / "source.h5")
+
+
+@pytest.fixture(scope="module")
+def recording(source, tmp_path_factory) -> Path:
+    """The LabRecorder file: gaitmon's three streams, an EEG stream, a stimulator's markers
+    (on a clock 40 s off, placed at the recording-clock times of rows 500 and 1700)."""
+    from gaitmon.io.session import open_session
+
+    streams = gaitmon_streams(source)
+    with open_session(source) as s:
+        t_s = s.read("timeline/t_s")
+    stim_send = [SEND_T0 + t_s[r] + GAITMON_OFFSET_S - STIM_OFFSET_S for r in (500, 1700)]
+    stim = Stream(
+        "Stimulator",
+        "Markers",
+        "string",
+        0.0,
+        np.array(stim_send),
+        [["pulse on"], ["pulse off"]],
+        1,
+        source_id="stim",
+        clock_offsets=[(stim_send[0] - 10 + 5 * k, STIM_OFFSET_S) for k in range(8)],
+    )
+    eeg = eeg_stream(SEND_T0 + EEG_OFFSET_S, SEND_T0 + t_s[-1])
+    path = tmp_path_factory.mktemp("xdf") / "walk.xdf"
+    return write_xdf(path, [eeg, *streams[:2], stim, streams[2]])
+
+
+@pytest.fixture(scope="module")
+def imported(recording) -> Path:
+    from gaitmon.cli import main
+
+    out = recording.with_name("walk_imported.h5")
+    assert main(["import", str(recording), "-o", str(out), "--markers-from", "Stimulator",
+                 "-q"]) == 0  # fmt: skip
+    return out
+
+
+def test_counts_timeline_and_gaps_as_recorded(source, imported):
+    from gaitmon.io.session import open_session
+
+    with open_session(source) as a, open_session(imported) as b:
+        assert b.mode == "raw" and b.complete and not b.recovered
+        assert np.array_equal(a.read("raw/adc"), b.read("raw/adc"))  # bit-exact
+        assert b.read("raw/adc").dtype == a.read("raw/adc").dtype
+        assert np.array_equal(a.read("timeline/seq"), b.read("timeline/seq"))
+        assert np.array_equal(a.read("timeline/t_s"), b.read("timeline/t_s"))
+        got = [(g.sample_idx, g.n_lost, g.reason) for g in b.gaps]
+        assert got == [(row, k, why) for row, (k, why) in DROPS.items()]
+        assert [(g.sample_idx, g.n_lost, g.duration_s, g.reason) for g in a.gaps] == [
+            (g.sample_idx, g.n_lost, g.duration_s, g.reason) for g in b.gaps
+        ]
+        assert b.header.meta.side == "L" and b.device["serial"] == 4242
+        assert b.config == a.config and b.config.cutoff_hz == 5.0
+        assert "walk.xdf" in b.stop_reason
+
+
+def test_processed_series_equal_the_live_recording(source, imported):
+    """The import replays the pipeline over the whole record; the source was processed block
+    by block as it arrived, restarts after the long gap included: the same numbers."""
+    import h5py
+
+    from gaitmon.io.session import open_session
+
+    with h5py.File(source, "r") as fa, h5py.File(imported, "r") as fb:
+        names: list[str] = []
+        for group in ("processed", "smoothed", "events", "overview"):
+            fa[group].visititems(lambda name, obj, g=group: names.append(f"{g}/{name}")
+                                 if isinstance(obj, h5py.Dataset) else None)  # fmt: skip
+        assert {"processed/tilt_deg", "smoothed/tilt_deg", "events/heel_strike"} <= set(names)
+        for path in names:  # as stored: the quantised codes, bit for bit
+            x, y = fa[path][()], fb[path][()]
+            assert x.dtype == y.dtype, path
+            assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), path
+    with open_session(source) as a, open_session(imported) as b:
+        for source_of_angles in ("smoothed", "live"):
+            for path in ("processed/tilt_deg", "processed/joint_deg"):
+                assert np.array_equal(a.with_angles(source_of_angles).read(path),
+                                      b.with_angles(source_of_angles).read(path))  # fmt: skip
+        assert np.array_equal(a.heel_strike_idx, b.heel_strike_idx)
+        assert len(b.heel_strike_idx) > 10
+        assert np.array_equal(a.toe_off_idx, b.toe_off_idx)
+        assert "overview" in b.h5
+
+
+def test_markers_on_their_rows(source, imported):
+    """gaitmon's markers on their rows; the stimulator's (its clock 40 s off the recording
+    computer's, 27.6 s off gaitmon's) on the rows it was placed at: the clocks synchronised."""
+    from gaitmon.io.session import open_session
+
+    with open_session(imported) as b:
+        got = sorted((m.sample_idx, m.label) for m in b.markers)
+    want = sorted([*MARKERS.items(), (500, "pulse on"), (1700, "pulse off")])
+    assert [label for _, label in got] == [label for _, label in want]
+    for (row, _), (want_row, _) in zip(got, want, strict=True):
+        assert abs(row - want_row) <= 1
+    assert [r for r, _ in got if _ in MARKERS.values()] == sorted(MARKERS)
+
+
+def _strides_line(capsys, path: Path) -> str:
+    from gaitmon.cli import main
+
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    return next(line for line in out.splitlines() if line.strip().startswith("strides"))
+
+
+def test_info_agrees_with_the_source(source, imported, capsys):
+    a, b = _strides_line(capsys, source), _strides_line(capsys, imported)
+    assert re.search(r"\d+ included", a)
+    assert a == b
+
+
+def test_review_report_and_export_read_it(source, imported, tmp_path):
+    """The imported file opens in review (the model the window shows), gives the source's
+    report (strides, losses, cycles) and exports."""
+    from gaitmon.cli import main
+    from gaitmon.io.session import open_session
+    from gaitmon.report import gather_report
+    from gaitmon.review.model import open_document
+
+    a_doc, b_doc = open_document(source), open_document(imported)
+    try:
+        assert b_doc.n_rows == a_doc.n_rows == 2900
+        assert np.array_equal(b_doc.gaps[0], a_doc.gaps[0])
+        assert np.array_equal(b_doc.gaps[1], a_doc.gaps[1])
+        assert np.array_equal(b_doc.t_s, a_doc.t_s)
+    finally:
+        a_doc.close()
+        b_doc.close()
+    with open_session(source) as a, open_session(imported) as b:
+        ra, rb = gather_report(a), gather_report(b)
+    assert len(rb.rows) == len(ra.rows) > 10
+    assert rb.summary == ra.summary
+    assert np.array_equal(rb.mean_deg, ra.mean_deg, equal_nan=True)
+    assert (rb.losses.frames_lost, rb.losses.n_gaps) == (ra.losses.frames_lost, 4)
+    out = tmp_path / "w.csv"
+    assert main(["export", str(imported), "--format", "csv", "-o", str(out), "--quiet"]) == 0
+    assert out.stat().st_size > 10_000
+
+
+def test_settings_change_applies_from_its_row(source, tmp_path):
+    """A ``config`` event mid-recording: the rows before it keep the recorded settings, the
+    rows after it change, and the file lists the change at its row; an event repeating the
+    settings in force changes nothing."""
+    from gaitmon.cli import main
+    from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.io.session import open_session
+
+    with open_session(source) as s:
+        t_s = s.read("timeline/t_s")
+        same = s.config.as_dict()
+    new = PipelineConfig(cutoff_hz=2.0).as_dict()
+    row = 1800
+    events = [(t_s[300], event_text(EventWord.CONFIG, json.dumps(same))),
+              (t_s[row] + 0.002, event_text(EventWord.CONFIG, json.dumps(new)))]  # fmt: skip
+    xdf = write_xdf(tmp_path / "change.xdf", gaitmon_streams(source, events=events))
+    out = tmp_path / "change.h5"
+    assert main(["import", str(xdf), "-o", str(out), "-q"]) == 0
+    with open_session(source) as a, open_session(out) as b:
+        assert [(i, c.cutoff_hz) for i, c in b.config_changes] == [(row, 2.0)]
+        ta = a.with_angles("live").read("processed/tilt_deg")
+        tb = b.with_angles("live").read("processed/tilt_deg")
+        assert np.array_equal(ta[:row], tb[:row])
+        assert not np.allclose(ta[row + 50 :], tb[row + 50 :], atol=0.05)
+
+
+def _run(argv, capsys) -> tuple[int, str]:
+    from gaitmon.cli import main
+
+    rc = main(argv)
+    err = capsys.readouterr().err.strip()
+    return rc, err
+
+
+def test_not_an_xdf_file(tmp_path, capsys):
+    bad = tmp_path / "notes.xdf"
+    bad.write_text("hello")
+    rc, err = _run(["import", str(bad)], capsys)
+    assert rc == 2 and "not an XDF file" in err and len(err.splitlines()) == 1
+    rc, err = _run(["import", str(tmp_path / "missing.xdf")], capsys)
+    assert rc == 2 and "does not exist" in err
+
+
+def test_no_gaitmon_stream(tmp_path, capsys):
+    xdf = write_xdf(tmp_path / "eeg.xdf", [eeg_stream(100.0, 110.0)])
+    rc, err = _run(["import", str(xdf)], capsys)
+    assert rc == 2 and "no gaitmon stream" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "eeg.h5").exists()
+
+
+def test_two_units_need_unit(source, tmp_path, capsys):
+    streams = gaitmon_streams(source, "4242") + gaitmon_streams(source, "77")
+    xdf = write_xdf(tmp_path / "two.xdf", streams)
+    rc, err = _run(["import", str(xdf)], capsys)
+    assert rc == 2 and len(err.splitlines()) == 1
+    assert "4242" in err and "77" in err and "--unit" in err
+    rc, err = _run(["import", str(xdf), "--unit", "77", "-q"], capsys)
+    assert rc == 0, err
+    assert (tmp_path / "two.h5").exists()
+    rc, err = _run(["import", str(xdf), "--unit", "5", "--force"], capsys)
+    assert rc == 2 and "no gaitmon unit 5" in err
+
+
+def test_truncated_file(recording, tmp_path, capsys):
+    data = recording.read_bytes()
+    cut = tmp_path / "cut.xdf"
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    rc, err = _run(["import", str(cut)], capsys)
+    assert rc == 2 and "cut short" in err and "--partial" in err and len(err.splitlines()) == 1
+    assert "Traceback" not in err
+    assert not (tmp_path / "cut.h5").exists()
+    rc, err = _run(["import", str(cut), "--partial"], capsys)
+    assert rc == 0, err
+    assert "cut short" in err
+    from gaitmon.io.session import open_session
+
+    with open_session(tmp_path / "cut.h5") as s:
+        assert 500 < s.n_samples < 2900
+
+
+def test_cut_inside_the_header_is_one_line(recording, tmp_path, capsys):
+    cut = tmp_path / "head.xdf"
+    cut.write_bytes(recording.read_bytes()[:300])
+    rc, err = _run(["import", str(cut)], capsys)
+    assert rc == 2 and len(err.splitlines()) == 1 and "Traceback" not in err
+
+
+@pytest.mark.parametrize("mode", ["tilt", "joint"])
+def test_angles_without_raw_stream_said_in_one_line(source, tmp_path, capsys, mode):
+    xdf = write_xdf(tmp_path / "angles.xdf", gaitmon_streams(source, raw=False, mode=mode))
+    rc, err = _run(["import", str(xdf)], capsys)
+    assert rc == 2 and len(err.splitlines()) == 1
+    assert f"own {mode} angles" in err and "raw mode" in err
