@@ -112,7 +112,7 @@ def gaitmon_streams(src: Path, unit: str = "4242", *, offset_s: float = GAITMON_
     from gaitmon.io.session import open_session
 
     with open_session(src) as s:
-        adc = s.read("raw/adc").astype(np.int32)
+        adc = s.read("raw/adc").astype(np.int32) if raw else None
         seq = s.read("timeline/seq").astype(np.int32)
         t_s = s.read("timeline/t_s")
         angles_deg = np.hstack([s.read("processed/joint_deg"), s.read("processed/tilt_deg")])
@@ -143,6 +143,8 @@ def gaitmon_streams(src: Path, unit: str = "4242", *, offset_s: float = GAITMON_
         if mode == "joint":
             ang[:, 3:] = np.nan
         desc = _acq(unit) | {"channels": {"channel": [{"label": c.label} for c in ANGLE_CHANNELS]}}
+        if not raw:
+            desc["gaitmon"] = {"mode": mode, "fs_hz": repr(FS), "side": header["session"]["side"]}
         out.append(Stream(stream_name(unit, "angles"), ANGLES_TYPE, "float32", FS, ts, ang,
                           len(ANGLE_CHANNELS), desc=desc, source_id=f"gaitmon-{unit}-angles",
                           clock_offsets=offsets))  # fmt: skip
@@ -402,9 +404,34 @@ def test_cut_inside_the_header_is_one_line(recording, tmp_path, capsys):
     assert rc == 2 and len(err.splitlines()) == 1 and "Traceback" not in err
 
 
-@pytest.mark.parametrize("mode", ["tilt", "joint"])
-def test_angles_without_raw_stream_said_in_one_line(source, tmp_path, capsys, mode):
-    xdf = write_xdf(tmp_path / "angles.xdf", gaitmon_streams(source, raw=False, mode=mode))
+def test_joint_angles_without_raw_stream_said_in_one_line(source, tmp_path, capsys):
+    xdf = write_xdf(tmp_path / "angles.xdf", gaitmon_streams(source, raw=False, mode="joint"))
     rc, err = _run(["import", str(xdf)], capsys)
     assert rc == 2 and len(err.splitlines()) == 1
-    assert f"own {mode} angles" in err and "raw mode" in err
+    assert "own joint angles" in err and "raw mode" in err
+    assert not (tmp_path / "angles.h5").exists()
+
+
+def test_tilt_mode_imports_the_units_tilts(record_simulated, tmp_path, capsys):
+    """A unit in tilt mode streams only its angles: the import is a tilt-mode session with the
+    unit's tilts (to the file's 0.01 degree), the source's gaps and no accelerometer tilts."""
+    from gaitmon.io.session import open_session
+
+    src = record_simulated(tmp_path / "tilt.h5", "--mode", "tilt", "--loss-pct", "2",
+                           "--side", "R", duration_s=20)  # fmt: skip
+    xdf = write_xdf(tmp_path / "tilt.xdf", gaitmon_streams(src, raw=False, mode="tilt"))
+    out = tmp_path / "tilt_imported.h5"
+    rc, err = _run(["import", str(xdf), "-o", str(out)], capsys)
+    assert rc == 0, err
+    assert "tilt-mode session" in err
+    with open_session(src) as a, open_session(out) as b:
+        assert b.mode == "tilt" and b.complete and b.meta.side == "R"
+        assert b.n_samples == a.n_samples
+        assert [(g.sample_idx, g.n_lost) for g in b.gaps] == [
+            (g.sample_idx, g.n_lost) for g in a.gaps
+        ]
+        assert len(a.gaps) > 3
+        assert np.array_equal(b.read("timeline/t_s"), a.read("timeline/t_s"))
+        assert np.array_equal(b.read("processed/tilt_deg"), a.read("processed/tilt_deg"))
+        assert np.array_equal(b.read("processed/joint_deg"), a.read("processed/joint_deg"))
+        assert np.isnan(b.read("processed/tilt_acc_deg")).all()

@@ -12,10 +12,11 @@ exactly as a recording of the same counts.
 Times: pyxdf's clock-synchronised timestamps (:mod:`gaitmon.lsl.xdf_read`). An event (marker,
 settings change) goes on the raw sample nearest to its timestamp.
 
-A file with gaitmon's angles but no raw stream (the unit computed its own angles: mode tilt
-or joint) cannot be rebuilt: the angles stream carries one estimate of the tilts, where a
-tilt-mode session holds two (the unit's Kalman and accelerometer tilts) and a joint-mode one
-the force sensors' contacts too. That is said in one line.
+A file with gaitmon's angles but no raw stream (the unit computed its own angles) becomes a
+tilt-mode session when the unit was in tilt mode: its tilts, one row per sample, frames lost
+where the timestamps skip a period; the unit's accelerometer tilts, which a tilt-mode session
+also holds, are not streamed and stay empty (NaN). Joint mode cannot be rebuilt (a joint-mode
+session holds the force sensors' contacts, which no stream carries): that is said in one line.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -35,7 +36,7 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import CHANNEL_NAMES
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled, UserError
-from gaitmon.lsl.layout import RAW_CHANNELS, EventWord, parse_event
+from gaitmon.lsl.layout import ANGLE_CHANNELS, RAW_CHANNELS, EventWord, parse_event
 from gaitmon.lsl.xdf_read import (
     GaitmonUnit,
     XdfStream,
@@ -45,6 +46,9 @@ from gaitmon.lsl.xdf_read import (
     read_xdf,
     text,
 )
+
+if TYPE_CHECKING:
+    from gaitmon.io.session import SessionHeader
 
 ADC_MAX = 0xFFFF  # the unit's counts are 16-bit
 FRAMES_LOST = "frames lost"
@@ -107,7 +111,13 @@ def import_xdf(
     streams, problems = read_xdf(src)
     unit = choose_unit(name, gaitmon_units(streams), options.unit)
     notes: list[str] = []
-    unfinished = [s for s in (unit.raw, unit.events) if s is not None and not s.has_footer]
+    if unit.raw is not None:
+        raw = _raw_stream(name, unit.raw, unit.serial)
+        session, header = _rows(raw), _header_of(raw, "raw", notes).as_dict()
+    else:
+        session, header = _tilt_session(name, unit, notes)
+    samples = unit.raw or unit.angles
+    unfinished = [s for s in (samples, unit.events) if s is not None and not s.has_footer]
     if problems or unfinished:
         if not options.partial:
             raise UserError(
@@ -115,13 +125,12 @@ def import_xdf(
                 "incomplete); pass --partial to import the part it holds"
             )
         notes.append(f"{name} is cut short: imported the part it holds")
-    raw = _raw_stream(name, unit)
-    session = _rows(raw)
-    header = _header(raw, notes)
     fs = float(header["sample_rate_hz"])
     events = unit.events
     gaps = _gaps(session, events, fs)
     markers, changes, header = _events(session, events, header, notes)
+    if header["mode"] != "raw":
+        changes = []  # the unit computed the angles: the PC's settings changed nothing
     if options.markers_from is not None:
         foreign = find_stream(streams, options.markers_from)
         markers += _foreign_markers(session, foreign, notes)
@@ -160,27 +169,13 @@ class _Rows:
     restarts: frozenset[int]  # rows after which the frame counter restarted
 
 
-def _raw_stream(name: str, unit: GaitmonUnit) -> XdfStream:
-    raw = unit.raw
-    if raw is None:
-        if unit.angles is None:
-            raise UserError(
-                f"{name} holds only gaitmon's events of unit {unit.serial}, no samples; nothing "
-                "to import"
-            )
-        mode = text(unit.angles.desc, "gaitmon", "mode") or _angles_mode(unit.angles)
-        raise UserError(
-            f"{name} holds the unit's own {mode} angles of unit {unit.serial} but no raw "
-            "stream: a session cannot be rebuilt from them (they carry one tilt estimate and "
-            "no force-sensor contacts); record in raw mode to import into gaitmon, or read "
-            "the angles with any XDF reader"
-        )
+def _raw_stream(name: str, raw: XdfStream, serial: str) -> XdfStream:
     if raw.n == 0:
-        raise UserError(f"{name}: the raw stream of unit {unit.serial} holds no samples")
+        raise UserError(f"{name}: the raw stream of unit {serial} holds no samples")
     series = np.asarray(raw.time_series)
     if series.ndim != 2 or series.shape[1] != len(RAW_CHANNELS):
         raise UserError(
-            f"{name}: the raw stream of unit {unit.serial} has {series.shape[-1]} channels, "
+            f"{name}: the raw stream of unit {serial} has {series.shape[-1]} channels, "
             f"not {len(RAW_CHANNELS)} (frame counter + {len(CHANNEL_NAMES)} ADC counts)"
         )
     labels = raw.labels()
@@ -191,6 +186,51 @@ def _raw_stream(name: str, unit: GaitmonUnit) -> XdfStream:
             f"{', '.join(expected)} (a stream of another gaitmon version?)"
         )
     return raw
+
+
+def _tilt_session(name: str, unit: GaitmonUnit, notes: list[str]) -> tuple[_Rows, dict[str, Any]]:
+    """A tilt-mode session from the angles stream alone: the unit's own (Kalman) tilts, one row
+    per sample, frames lost where the timestamps skip a sample period. The unit's
+    accelerometer tilts are not streamed: their series is left empty (NaN)."""
+    from gaitmon.io.journal import ROW_DTYPES, RecordType
+
+    angles = unit.angles
+    if angles is None:
+        raise UserError(
+            f"{name} holds only gaitmon's events of unit {unit.serial}, no samples; nothing "
+            "to import"
+        )
+    mode = text(angles.desc, "gaitmon", "mode") or _angles_mode(angles)
+    if mode != "tilt":
+        raise UserError(
+            f"{name} holds the unit's own {mode} angles of unit {unit.serial} but no raw "
+            "stream: a joint-mode session cannot be rebuilt from them (the streams carry no "
+            "force-sensor contacts); record in raw mode (or tilt mode) to import into gaitmon, "
+            "or read the angles with any XDF reader"
+        )
+    series = np.asarray(angles.time_series, dtype=np.float64)
+    if angles.n == 0 or series.ndim != 2 or series.shape[1] != len(ANGLE_CHANNELS):
+        raise UserError(
+            f"{name}: the angles stream of unit {unit.serial} holds no samples of its "
+            f"{len(ANGLE_CHANNELS)} channels"
+        )
+    header = _header_of(angles, "tilt", notes)
+    fs = header.sample_rate_hz
+    order = np.argsort(angles.time_stamps, kind="stable")
+    ts, series = angles.time_stamps[order], series[order]
+    k = np.rint((ts - ts[0]) * fs).astype(np.int64)
+    step = np.maximum(np.diff(k, prepend=-1), 1)
+    rows = np.empty(len(ts), dtype=ROW_DTYPES[RecordType.TILT])
+    rows["seq"] = np.cumsum(step) - 1
+    rows["host_time_s"] = ts
+    rows["lost_before"] = step - 1
+    rows["acc_tilt_deg"] = np.nan
+    rows["kalman_tilt_deg"] = series[:, len(ANGLE_CHANNELS) - 4 :]
+    notes.append(
+        "no raw stream: imported the unit's own tilts as a tilt-mode session (the unit's "
+        "accelerometer tilts are not streamed, so that series is empty)"
+    )
+    return _Rows(rows, ts, frozenset()), header.as_dict()
 
 
 def _angles_mode(angles: XdfStream) -> str:
@@ -233,45 +273,49 @@ def _rows(raw: XdfStream) -> _Rows:
     return _Rows(rows, ts, frozenset(int(i) for i in restarts if i > 0))
 
 
-def _header(raw: XdfStream, notes: list[str]) -> dict[str, Any]:
-    """The session header carried in the raw stream's description (``gaitmon/header``), checked
-    by :class:`SessionHeader`; without one, what the description says, default settings."""
+def _header_of(stream: XdfStream, mode: str, notes: list[str]) -> SessionHeader:
+    """The session header carried in the stream's description (``gaitmon/header``), checked by
+    :class:`SessionHeader`; without one, what the description says, default settings."""
     from gaitmon.io.session import SessionHeader, SessionMeta
 
-    blob = text(raw.desc, "gaitmon", "header")
-    fs_text = text(raw.desc, "gaitmon", "fs_hz")
+    kind = stream.gaitmon_kind
+    blob = text(stream.desc, "gaitmon", "header")
     if blob:
         try:
-            header = SessionHeader.from_dict(json.loads(blob))
-        except (ValueError, KeyError, TypeError) as e:
+            d = json.loads(blob)
+            header = SessionHeader.from_dict(d | {"mode": mode} if mode != "raw" else d)
+        except (ValueError, KeyError, TypeError, AttributeError) as e:
             raise UserError(
-                f"the raw stream's gaitmon/header is not a session header ({e})"
+                f"the {kind} stream's gaitmon/header is not a session header ({e})"
             ) from None
     else:
-        fs = _float(fs_text) or raw.nominal_srate_hz
+        fs = _float(text(stream.desc, "gaitmon", "fs_hz")) or stream.nominal_srate_hz
         if not fs or not math.isfinite(fs) or fs <= 0:
-            raise UserError("the raw stream gives no sampling rate (gaitmon/fs_hz, nominal_srate)")
-        side = text(raw.desc, "gaitmon", "side") or ""
+            raise UserError(
+                f"the {kind} stream gives no sampling rate (gaitmon/fs_hz, nominal_srate)"
+            )
+        side = text(stream.desc, "gaitmon", "side") or ""
         device = {
-            "name": text(raw.desc, "acquisition", "model") or "",
-            "firmware": text(raw.desc, "acquisition", "firmware") or "",
-            "serial": raw.unit,
+            "name": text(stream.desc, "acquisition", "model") or "",
+            "firmware": text(stream.desc, "acquisition", "firmware") or "",
+            "serial": stream.unit,
             "transport": "lsl",
         }
-        header = SessionHeader("raw", fs, meta=SessionMeta(side=side if side in "LR" else ""),
-                               device=device)  # fmt: skip
-        notes.append(
-            "the raw stream carries no gaitmon header: the default settings and no calibration "
-            "were used"
-        )
-    if header.mode != "raw":
-        raise UserError(f"the raw stream's header says mode {header.mode!r}, not 'raw'")
-    if raw.nominal_srate_hz and abs(raw.nominal_srate_hz - header.sample_rate_hz) > 1e-6:
+        meta = SessionMeta(side=side if side in ("L", "R") else "")
+        header = SessionHeader(mode, fs, meta=meta, device=device)
+        if mode == "raw":
+            notes.append(
+                "the raw stream carries no gaitmon header: the default settings and no "
+                "calibration were used"
+            )
+    if header.mode != mode:
+        raise UserError(f"the {kind} stream's header says mode {header.mode!r}, not {mode!r}")
+    if stream.nominal_srate_hz and abs(stream.nominal_srate_hz - header.sample_rate_hz) > 1e-6:
         raise UserError(
-            f"the raw stream's rate ({raw.nominal_srate_hz:g} Hz) and its header's "
+            f"the {kind} stream's rate ({stream.nominal_srate_hz:g} Hz) and its header's "
             f"({header.sample_rate_hz:g} Hz) differ"
         )
-    return header.as_dict() | {"created_utc": header.created_utc}
+    return header
 
 
 def _float(value: str | None) -> float | None:
