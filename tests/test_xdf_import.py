@@ -9,7 +9,6 @@ independent computation of the same numbers.
 
 from __future__ import annotations
 
-import itertools
 import json
 import re
 from pathlib import Path
@@ -19,158 +18,20 @@ import pytest
 
 pytest.importorskip("pyxdf")
 
-from xdf_writer import Stream, write_xdf
+from xdf_sessions import (
+    DROPS,
+    MARKERS,
+    eeg_stream,
+    gaitmon_streams,
+    labrecorder_file,
+    write_source,
+)
+from xdf_writer import write_xdf
 
 from gaitmon.lsl.layout import (
-    ANGLE_CHANNELS,
-    ANGLES_TYPE,
-    EVENTS_TYPE,
-    RAW_CHANNELS,
-    RAW_TYPE,
     EventWord,
     event_text,
-    stream_name,
 )
-
-FS = 100.0
-SEND_T0 = 5000.0  # the unit's host clock (LSL local_clock) at row 0
-GAITMON_OFFSET_S = 12.5  # recording clock = gaitmon host clock + this (pyxdf's clock sync)
-EEG_OFFSET_S = -3.25
-STIM_OFFSET_S = 40.125
-# frames dropped before these rows of the unit's frame count: one, a few, more than the
-# filters bridge (a restart), with the reason the recorder would give
-DROPS = {400: (1, "frames lost"), 900: (5, "frames lost"), 1500: (30, "frames lost"),
-         2100: (150, "link lost: reconnected")}  # fmt: skip
-MARKERS = {250: "walk start", 1234: "turn", 2600: "stop"}  # row -> label
-
-
-def write_source(path: Path, n_rows: int = 2900, seed: int = 5) -> Path:
-    """A raw session recorded the live way: the pipeline fed 50-row blocks (split at the
-    gaps, as the recorder splits them), told the frames lost, gaps and markers logged."""
-    from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
-    from gaitmon.io.device import SampleBlock
-    from gaitmon.io.protocol import FrameKind
-    from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
-    from gaitmon.io.sim import GaitConfig, GaitModel
-    from gaitmon.io.sim.sensors import simulate
-
-    lost_total = sum(k for k, _ in DROPS.values())
-    counts = simulate(n_rows + lost_total, GaitModel(GaitConfig(seed=seed, standing_s=2.0))).counts
-    keep = np.ones(len(counts), bool)
-    lost = np.zeros(n_rows, np.int64)
-    frame = 0
-    for row in range(n_rows):
-        if row in DROPS:
-            k = DROPS[row][0]
-            keep[frame : frame + k] = False
-            lost[row] = k
-            frame += k
-        frame += 1
-    adc = counts[keep]
-    seq = 17 + np.flatnonzero(keep)  # the unit's counter: it was running before the recording
-    header = SessionHeader("raw", FS, meta=SessionMeta(patient_id="", side="L"),
-                           device={"name": "gaitmon-sim", "firmware": "1.0.0", "serial": 4242,
-                                   "side": "L", "transport": "simulated"},
-                           config=PipelineConfig(cutoff_hz=5.0),
-                           created_utc="2026-11-20T10:00:00Z")  # fmt: skip
-    pipe = Pipeline(header.config, header.calibration)
-    bounds = sorted({0, n_rows, *range(0, n_rows, 50), *DROPS, *MARKERS})
-    with SessionWriter(path, header) as w:
-        for a, b in itertools.pairwise(bounds):
-            if lost[a]:
-                w.add_gap(int(lost[a]), lost[a] / FS, DROPS[a][1])
-            for row, label in MARKERS.items():
-                if a == row:
-                    w.add_marker(label)
-            blk = SampleBlock(FrameKind.RAW, seq[a:b], seq[a:b] / FS, 1.7e9,
-                              lost_before=lost[a:b], adc=adc[a:b])  # fmt: skip
-            w.append(blk, pipe.process(adc[a:b], lost[a:b]))
-    return path
-
-
-def _desc_raw(header: dict, unit: str) -> dict:
-    return {
-        "acquisition": {"manufacturer": "gaitmon", "model": "gaitmon-sim",
-                        "serial_number": unit, "firmware": "1.0.0", "gaitmon_version": "test"},
-        "channels": {"channel": [{"label": c.label, "unit": c.unit, "type": c.type}
-                                 for c in RAW_CHANNELS]},
-        "gaitmon": {"mode": "raw", "fs_hz": repr(FS), "side": "L", "header": json.dumps(header)},
-    }  # fmt: skip
-
-
-def _acq(unit: str) -> dict:
-    return {"acquisition": {"manufacturer": "gaitmon", "serial_number": unit}}
-
-
-def gaitmon_streams(src: Path, unit: str = "4242", *, offset_s: float = GAITMON_OFFSET_S,
-                    events: list[tuple[float, str]] = (), raw: bool = True,
-                    angles: bool = True, mode: str = "raw") -> list[Stream]:  # fmt: skip
-    """The three streams the outlets publish for the source session, as LabRecorder records
-    them: timestamps on the gaitmon host's clock (its sample clock: row time + start) and
-    clock offsets mapping it onto the recording computer's. ``events``: (row time offset in s
-    from row 0 on the gaitmon clock, text) added to the event stream."""
-    from gaitmon.io.session import open_session
-
-    with open_session(src) as s:
-        adc = s.read("raw/adc").astype(np.int32) if raw else None
-        seq = s.read("timeline/seq").astype(np.int32)
-        t_s = s.read("timeline/t_s")
-        angles_deg = np.hstack([s.read("processed/joint_deg"), s.read("processed/tilt_deg")])
-        header = s.header.as_dict()
-        gaps = list(s.gaps)
-        marks = list(s.markers)
-        hs = s.heel_strike_idx
-    ts = SEND_T0 + t_s
-    offsets = [(SEND_T0 + k, offset_s) for k in range(-5, int(t_s[-1]) + 10, 5)]
-    ev: list[tuple[float, str]] = [(ts[0] - 0.5, event_text(EventWord.RECORDING_START, "x.h5"))]
-    ev += [(ts[i], EventWord.HEEL_STRIKE.value) for i in hs]
-    for g in gaps:
-        first_lost = ts[g.sample_idx - 1] + 1 / FS
-        ev.append((first_lost, event_text(EventWord.GAP_START, g.reason)))
-        ev.append((ts[g.sample_idx], EventWord.GAP_END.value))
-    # markers a little off their row's time, as a click between two frames is
-    ev += [(ts[m.sample_idx] + 0.003, event_text(EventWord.MARKER, m.label)) for m in marks]
-    ev += [(SEND_T0 + dt, text) for dt, text in events]
-    ev.sort()
-    out = []
-    if raw:
-        out.append(Stream(stream_name(unit, "raw"), RAW_TYPE, "int32", FS, ts,
-                          np.column_stack([seq, adc]), len(RAW_CHANNELS),
-                          desc=_desc_raw(header, unit), source_id=f"gaitmon-{unit}-raw",
-                          clock_offsets=offsets))  # fmt: skip
-    if angles:
-        ang = angles_deg.astype(np.float32)
-        if mode == "joint":
-            ang[:, 3:] = np.nan
-        desc = _acq(unit) | {"channels": {"channel": [{"label": c.label} for c in ANGLE_CHANNELS]}}
-        if not raw:
-            desc["gaitmon"] = {"mode": mode, "fs_hz": repr(FS), "side": header["session"]["side"]}
-        out.append(Stream(stream_name(unit, "angles"), ANGLES_TYPE, "float32", FS, ts, ang,
-                          len(ANGLE_CHANNELS), desc=desc, source_id=f"gaitmon-{unit}-angles",
-                          clock_offsets=offsets))  # fmt: skip
-    out.append(Stream(stream_name(unit, "events"), EVENTS_TYPE, "string", 0.0,
-                      np.array([t for t, _ in ev]), [[x] for _, x in ev], 1, desc=_acq(unit),
-                      source_id=f"gaitmon-{unit}-events", clock_offsets=offsets))  # fmt: skip
-    return out
-
-
-def eeg_stream(t0: float, t1: float) -> Stream:
-    """A foreign 250 Hz EEG stream on its own clock, spanning the recording and more."""
-    ts = np.arange(t0 - 2.0, t1 + 2.0, 1 / 250.0)
-    data = np.random.default_rng(1).normal(size=(len(ts), 8)).astype(np.float32)
-    desc = {"acquisition": {"manufacturer": "BrainAmp"}}
-    return Stream(
-        "EEG",
-        "EEG",
-        "float32",
-        250.0,
-        ts,
-        data,
-        8,
-        desc=desc,
-        source_id="eeg-1",
-        clock_offsets=[(t, EEG_OFFSET_S) for t in np.arange(t0 - 2, t1 + 2, 5.0)],
-    )
 
 
 @pytest.fixture(scope="module")
@@ -182,26 +43,7 @@ def source(tmp_path_factory) -> Path:
 def recording(source, tmp_path_factory) -> Path:
     """The LabRecorder file: gaitmon's three streams, an EEG stream, a stimulator's markers
     (on a clock 40 s off, placed at the recording-clock times of rows 500 and 1700)."""
-    from gaitmon.io.session import open_session
-
-    streams = gaitmon_streams(source)
-    with open_session(source) as s:
-        t_s = s.read("timeline/t_s")
-    stim_send = [SEND_T0 + t_s[r] + GAITMON_OFFSET_S - STIM_OFFSET_S for r in (500, 1700)]
-    stim = Stream(
-        "Stimulator",
-        "Markers",
-        "string",
-        0.0,
-        np.array(stim_send),
-        [["pulse on"], ["pulse off"]],
-        1,
-        source_id="stim",
-        clock_offsets=[(stim_send[0] - 10 + 5 * k, STIM_OFFSET_S) for k in range(8)],
-    )
-    eeg = eeg_stream(SEND_T0 + EEG_OFFSET_S, SEND_T0 + t_s[-1])
-    path = tmp_path_factory.mktemp("xdf") / "walk.xdf"
-    return write_xdf(path, [eeg, *streams[:2], stim, streams[2]])
+    return labrecorder_file(source, tmp_path_factory.mktemp("xdf") / "walk.xdf")
 
 
 @pytest.fixture(scope="module")
@@ -435,3 +277,21 @@ def test_tilt_mode_imports_the_units_tilts(record_simulated, tmp_path, capsys):
         assert np.array_equal(b.read("processed/tilt_deg"), a.read("processed/tilt_deg"))
         assert np.array_equal(b.read("processed/joint_deg"), a.read("processed/joint_deg"))
         assert np.isnan(b.read("processed/tilt_acc_deg")).all()
+
+
+def test_readme_example_file_imports(tmp_path, capsys):
+    """The README's command on docs/example-walk.xdf (made by tests/xdf_sessions.py)."""
+    import shutil
+
+    from gaitmon.cli import main
+    from gaitmon.io.session import open_session
+
+    example = Path(__file__).resolve().parents[1] / "docs" / "example-walk.xdf"
+    xdf = Path(shutil.copy(example, tmp_path / "example-walk.xdf"))
+    assert main(["import", str(xdf), "--markers-from", "Stimulator"]) == 0
+    err = capsys.readouterr().err
+    assert "1500 frames" in err and "2 gaps (5 frames lost)" in err and "4 markers" in err
+    with open_session(tmp_path / "example-walk.h5") as s:
+        assert [m.label for m in s.markers] == ["walk start", "pulse on", "pulse off", "stop"]
+        assert [m.sample_idx for m in s.markers] == [250, 600, 1200, 1400]
+    assert "9 included" in _strides_line(capsys, tmp_path / "example-walk.h5")
