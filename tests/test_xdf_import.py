@@ -295,3 +295,29 @@ def test_readme_example_file_imports(tmp_path, capsys):
         assert [m.label for m in s.markers] == ["walk start", "pulse on", "pulse off", "stop"]
         assert [m.sample_idx for m in s.markers] == [250, 600, 1200, 1400]
     assert "9 included" in _strides_line(capsys, tmp_path / "example-walk.h5")
+
+
+def test_control_frames_and_a_counter_restart_are_no_gaps(source, tmp_path, capsys):
+    """The unit's control frames share the frame counter (a jump with no time lost), and a
+    unit that restarts starts it again: neither is a gap, the timestamps say no data frame was
+    missed; the rows, gaps and processed series stay the recording's."""
+    from gaitmon.io.session import open_session
+
+    streams = gaitmon_streams(source)
+    counter = streams[0].time_series[:, 0]
+    counter[700:] += 1  # one control frame before row 700
+    counter[2300:] -= counter[2300]  # the counter restarts at 0 at row 2300
+    xdf = write_xdf(tmp_path / "counter.xdf", streams)
+    rc, err = _run(["import", str(xdf), "-o", str(tmp_path / "counter.h5")], capsys)
+    assert rc == 0, err
+    with open_session(source) as a, open_session(tmp_path / "counter.h5") as b:
+        assert [(g.sample_idx, g.n_lost) for g in b.gaps] == [(r, k) for r, (k, _) in DROPS.items()]
+        seq_a, seq_b = a.read("timeline/seq"), b.read("timeline/seq")
+        assert np.array_equal(seq_b[:700], seq_a[:700])
+        assert np.array_equal(seq_b[700:2300], seq_a[700:2300] + 1)
+        assert np.all(np.diff(seq_b) > 0)
+        assert np.array_equal(b.read("timeline/t_s"), a.read("timeline/t_s"))
+        assert np.array_equal(
+            a.with_angles("live").read("processed/tilt_deg"),
+            b.with_angles("live").read("processed/tilt_deg"),
+        )

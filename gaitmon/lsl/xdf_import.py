@@ -113,7 +113,8 @@ def import_xdf(
     notes: list[str] = []
     if unit.raw is not None:
         raw = _raw_stream(name, unit.raw, unit.serial)
-        session, header = _rows(raw), _header_of(raw, "raw", notes).as_dict()
+        header = _header_of(raw, "raw", notes).as_dict()
+        session = _rows(raw, float(header["sample_rate_hz"]))
     else:
         session, header = _tilt_session(name, unit, notes)
     samples = unit.raw or unit.angles
@@ -241,7 +242,11 @@ def _angles_mode(angles: XdfStream) -> str:
     return "tilt or joint"
 
 
-def _rows(raw: XdfStream) -> _Rows:
+def _rows(raw: XdfStream, fs: float) -> _Rows:
+    """One row per raw sample. Frames lost before a row: the counter's step, unless the
+    timestamps (the unit's sample clock, which counts data frames only) say fewer frames were
+    due: the unit's control frames (a command's answer) share the counter without being
+    data lost. A counter that goes back (the unit restarted) is taken up from the time."""
     from gaitmon.io.journal import ROW_DTYPES, RecordType
 
     series = np.asarray(raw.time_series)
@@ -255,22 +260,20 @@ def _rows(raw: XdfStream) -> _Rows:
             f"the raw stream holds counts outside 0..{ADC_MAX} (e.g. {int(adc.min())}, "
             f"{int(adc.max())}): not the unit's ADC counts"
         )
-    fs = raw.nominal_srate_hz
-    step = np.diff(counter, prepend=counter[0] - 1)
-    restarts = np.flatnonzero(step <= 0)
-    if len(restarts) and fs > 0:
-        # the counter went back (the unit restarted): the time between the rows says how many
-        # frames were missed
-        dt = np.diff(ts, prepend=ts[0])[restarts]
-        step[restarts] = np.maximum(1, np.rint(dt * fs).astype(np.int64))
-    elif len(restarts):
-        step[restarts] = 1
+    counter_step = np.diff(counter, prepend=counter[0] - 1)
+    time_step = np.maximum(1, np.rint(np.diff(ts, prepend=ts[0] - 1.0 / fs) * fs)).astype(np.int64)
+    restarted = counter_step <= 0
+    step = np.where(restarted, time_step, np.minimum(counter_step, time_step))
+    # the file's sequence numbers: the unit's, carried on across a restart so they increase
+    seq = counter.copy()
+    for i in np.flatnonzero(restarted):
+        seq[i:] += seq[i - 1] + step[i] - seq[i]
     rows = np.empty(len(ts), dtype=ROW_DTYPES[RecordType.RAW])
-    rows["seq"] = counter[0] + np.cumsum(step) - step[0]
+    rows["seq"] = seq
     rows["host_time_s"] = ts
     rows["lost_before"] = step - 1
     rows["adc"] = adc.astype(np.uint16)
-    return _Rows(rows, ts, frozenset(int(i) for i in restarts if i > 0))
+    return _Rows(rows, ts, frozenset(int(i) for i in np.flatnonzero(restarted)))
 
 
 def _header_of(stream: XdfStream, mode: str, notes: list[str]) -> SessionHeader:
