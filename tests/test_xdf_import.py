@@ -321,3 +321,20 @@ def test_control_frames_and_a_counter_restart_are_no_gaps(source, tmp_path, caps
             a.with_angles("live").read("processed/tilt_deg"),
             b.with_angles("live").read("processed/tilt_deg"),
         )
+
+
+def test_review_window_opens_the_import(qtbot, review_win, source, imported, tmp_path):
+    """The real review window on the imported file: the source's strides in its table, the
+    markers of both streams labelled on the timeline, no error."""
+    from gaitmon.analysis import analyse_session
+    from gaitmon.io.session import open_session
+
+    with qtbot.waitSignal(review_win.analysis_done, timeout=60_000):
+        review_win.open_file(imported)
+    qtbot.waitUntil(lambda: review_win.timeline.applied_requests > 0, timeout=60_000)
+    with open_session(source) as a:
+        n_strides = len(analyse_session(a).rows)
+    assert review_win.table.model().rowCount() == n_strides > 10
+    labels = sorted(item.toPlainText() for item in review_win.timeline._marker_labels)
+    assert labels == sorted([*MARKERS.values(), "pulse on", "pulse off"])
+    review_win.grab().save(str(tmp_path / "review_import.png"))

@@ -287,8 +287,8 @@ def _build_recovered(
     n = len(rows)
     fs = header.sample_rate_hz
     mode = header.mode
-    h5 = _H5File(tmp, hdr, mode="w", reprocessed=mode == "raw" and not imported_from,
-                 in_memory=in_memory)  # fmt: skip
+    # raw: a fresh pipeline from row 0 (the live one may have run before the recording)
+    h5 = _H5File(tmp, hdr, mode="w", reprocessed=mode == "raw", in_memory=in_memory)
     ok = False
     try:
         if contents.wall_offset_s is not None:
