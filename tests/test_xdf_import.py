@@ -338,3 +338,28 @@ def test_review_window_opens_the_import(qtbot, review_win, source, imported, tmp
     labels = sorted(item.toPlainText() for item in review_win.timeline._marker_labels)
     assert labels == sorted([*MARKERS.values(), "pulse on", "pulse off"])
     review_win.grab().save(str(tmp_path / "review_import.png"))
+
+
+def test_only_the_streams_needed_are_read(recording, tmp_path, capsys, monkeypatch):
+    """The EEG beside gaitmon's streams is not read (a lab's 64-channel EEG would cost most of
+    the time); a --markers-from name that is not in the file lists the file's streams."""
+    import pyxdf
+
+    asked = []
+    load = pyxdf.load_xdf
+
+    def spy(*args, **kwargs):
+        asked.append(kwargs.get("select_streams"))
+        return load(*args, **kwargs)
+
+    monkeypatch.setattr(pyxdf, "load_xdf", spy)
+    rc, err = _run(["import", str(recording), "-o", str(tmp_path / "a.h5"), "-q"], capsys)
+    assert rc == 0, err
+    ids = {int(i["stream_id"]): i["name"] for i in pyxdf.resolve_streams(str(recording))}
+    assert sorted(ids[k] for k in asked[0]) == sorted(
+        ["gaitmon 4242 raw", "gaitmon 4242 angles", "gaitmon 4242 events", "Stimulator"]
+    )
+    rc, err = _run(["import", str(recording), "-o", str(tmp_path / "b.h5"),
+                    "--markers-from", "Trigger"], capsys)  # fmt: skip
+    assert rc == 2 and "no stream named 'Trigger'" in err and "'EEG'" in err
+    assert not (tmp_path / "b.h5").exists()

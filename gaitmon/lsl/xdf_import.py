@@ -108,8 +108,8 @@ def import_xdf(
         raise UserError(f"{out} already exists; choose another name with -o, or pass --force")
     if not out.parent.is_dir():
         raise UserError(f"folder {out.parent} does not exist")
-    streams, problems = read_xdf(src)
-    unit = choose_unit(name, gaitmon_units(streams), options.unit)
+    contents = read_xdf(src, also=options.markers_from)
+    unit = choose_unit(name, gaitmon_units(contents.streams), options.unit)
     notes: list[str] = []
     if unit.raw is not None:
         raw = _raw_stream(name, unit.raw, unit.serial)
@@ -119,7 +119,7 @@ def import_xdf(
         session, header = _tilt_session(name, unit, notes)
     samples = unit.raw or unit.angles
     unfinished = [s for s in (samples, unit.events) if s is not None and not s.has_footer]
-    if problems or unfinished:
+    if contents.problems or unfinished:
         if not options.partial:
             raise UserError(
                 f"{name} is cut short (LabRecorder did not finish writing it, or the copy is "
@@ -133,7 +133,7 @@ def import_xdf(
     if header["mode"] != "raw":
         changes = []  # the unit computed the angles: the PC's settings changed nothing
     if options.markers_from is not None:
-        foreign = find_stream(streams, options.markers_from)
+        foreign = find_stream(contents, options.markers_from)
         markers += _foreign_markers(session, foreign, notes)
     markers.sort(key=lambda m: int(m["sample_idx"]))
 
@@ -141,7 +141,7 @@ def import_xdf(
 
     n = len(session.rows)
     lost_total = int(session.rows["lost_before"].sum())
-    contents = JournalContents(
+    journal = JournalContents(
         header=header,
         rows=session.rows,
         gaps=gaps,
@@ -149,7 +149,7 @@ def import_xdf(
         links=[{"sample_idx": n, "totals": {"frames_ok": n, "frames_lost": lost_total}}],
     )
     try:
-        build_session(out, contents, changes, imported_from=name,
+        build_session(out, journal, changes, imported_from=name,
                       overwrite=options.overwrite, progress=progress)  # fmt: skip
     except SessionError as e:
         raise UserError(str(e)) from None

@@ -146,11 +146,20 @@ def _quiet_pyxdf() -> Iterator[_Collect]:
         log.propagate = old
 
 
-def read_xdf(path: str | os.PathLike[str]) -> tuple[list[XdfStream], list[str]]:
-    """Every stream of the file, and pyxdf's complaints about damage (empty for a good file).
+@dataclass(frozen=True)
+class XdfContents:
+    streams: list[XdfStream]  # the streams read (gaitmon's kinds, and the one asked for)
+    problems: list[str]  # pyxdf's complaints about damage (empty for a good file)
+    names: list[str]  # the names of every stream of the file
 
-    Raises :class:`UserError` for a missing file, a file that is not XDF, or one too damaged
-    for pyxdf to read."""
+
+def read_xdf(path: str | os.PathLike[str], also: str | None = None) -> XdfContents:
+    """The streams of the file that can be gaitmon's (by type) and the stream named ``also``.
+
+    Only those are read: a lab's 64-channel EEG beside gaitmon's streams would cost most of the
+    time and memory (pyxdf's headers-only pass finds them; a file too damaged for it is read
+    whole). Raises :class:`UserError` for a missing file, a file that is not XDF, or one too
+    damaged for pyxdf to read."""
     path = Path(path)
     name = path.name
     if not path.is_file():
@@ -172,15 +181,33 @@ def read_xdf(path: str | os.PathLike[str]) -> tuple[list[XdfStream], list[str]]:
         )
     with _quiet_pyxdf() as log:
         try:
+            infos: list[dict[str, Any]] | None = pyxdf.resolve_streams(str(path))
+        except Exception:  # damaged: the full read below takes what it can
+            infos = None
+        select: list[int] | None = None
+        names: list[str] = []
+        if infos is not None:
+            names = [str(i.get("name") or "") for i in infos]
+            wanted = (also or "").lower()
+            select = [
+                int(i["stream_id"])
+                for i in infos
+                if i.get("type") in KINDS or (also and str(i.get("name") or "").lower() == wanted)
+            ]
+            if not select:
+                return XdfContents([], log.problems, names)
+        try:
             loaded, _ = pyxdf.load_xdf(
-                str(path), synchronize_clocks=True, dejitter_timestamps=False
-            )
+                str(path), select_streams=select, synchronize_clocks=True,
+                dejitter_timestamps=False,
+            )  # fmt: skip
         except Exception as e:  # pyxdf raises whatever the bytes lead it to (struct, XML, ...)
             what = " ".join(str(e).split())[:120] or type(e).__name__
             raise UserError(
                 f"{name} is damaged or cut short and cannot be read as XDF ({what})"
             ) from None
-    return [_stream(s) for s in loaded], log.problems
+    streams = [_stream(s) for s in loaded]
+    return XdfContents(streams, log.problems, names or [s.name for s in streams])
 
 
 def _stream(s: Mapping[str, Any]) -> XdfStream:
@@ -236,13 +263,14 @@ def _list(units: Mapping[str, GaitmonUnit]) -> str:
     return ", ".join(u.describe() for u in units.values())
 
 
-def find_stream(streams: Sequence[XdfStream], name: str) -> XdfStream:
+def find_stream(contents: XdfContents, name: str) -> XdfStream:
     """The stream named ``name`` (``--markers-from``)."""
+    streams = contents.streams
     hits = [s for s in streams if s.name == name] or [
         s for s in streams if s.name.lower() == name.lower()
     ]
     if not hits:
-        names = ", ".join(repr(s.name) for s in streams) or "none"
+        names = ", ".join(repr(n) for n in contents.names) or "none"
         raise UserError(f"no stream named {name!r} in the file; its streams: {names}")
     if len(hits) > 1:
         raise UserError(f"{len(hits)} streams are named {name!r}; rename one in LabRecorder")
