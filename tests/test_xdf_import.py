@@ -185,6 +185,36 @@ def test_settings_change_applies_from_its_row(source, tmp_path):
         assert not np.allclose(ta[row + 50 :], tb[row + 50 :], atol=0.05)
 
 
+def test_calibration_change_applies_from_its_row(source, tmp_path):
+    """A ``calibration`` event (the standing pose zeroed mid-recording): from its row on the
+    tilts are relative to the new offsets, in the live and the smoothed angles alike."""
+    from gaitmon.cli import main
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.io.session import open_session
+
+    with open_session(source) as s:
+        t_s = s.read("timeline/t_s")
+    offsets_rad = np.radians([1.0, -2.0, 3.0, 4.0])
+    cal = Calibration(offsets_rad, np.zeros(4))
+    row = 2400
+    events = [(t_s[row] - 0.003, event_text(EventWord.CALIBRATION, json.dumps(cal.as_dict())))]
+    xdf = write_xdf(tmp_path / "cal.xdf", gaitmon_streams(source, events=events))
+    out = tmp_path / "cal.h5"
+    assert main(["import", str(xdf), "-o", str(out), "-q"]) == 0
+    with open_session(source) as a, open_session(out) as b:
+        assert [(i, list(c.tilt_offset_rad)) for i, c in b.calibration_changes] == [
+            (row, list(offsets_rad))
+        ]
+        for angles in ("live", "smoothed"):
+            ta = a.with_angles(angles).read("processed/tilt_deg").astype(np.float64)
+            tb = b.with_angles(angles).read("processed/tilt_deg").astype(np.float64)
+            assert np.array_equal(ta[:row], tb[:row]), angles
+            # the live filter carries its state across the change: the offset shows once it
+            # has settled; the smoother sees the whole record
+            diff = np.median(ta[row + 200 :] - tb[row + 200 :], axis=0)
+            assert np.allclose(diff, [1.0, -2.0, 3.0, 4.0], atol=0.05), (angles, diff)
+
+
 def _run(argv, capsys) -> tuple[int, str]:
     from gaitmon.cli import main
 
