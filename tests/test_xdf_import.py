@@ -232,6 +232,13 @@ def test_not_an_xdf_file(tmp_path, capsys):
     assert rc == 2 and "does not exist" in err
 
 
+def test_the_recording_is_never_overwritten(recording, capsys):
+    before = recording.read_bytes()
+    rc, err = _run(["import", str(recording), "-o", str(recording), "--force"], capsys)
+    assert rc == 2 and "itself" in err
+    assert recording.read_bytes() == before
+
+
 def test_no_gaitmon_stream(tmp_path, capsys):
     xdf = write_xdf(tmp_path / "eeg.xdf", [eeg_stream(100.0, 110.0)])
     rc, err = _run(["import", str(xdf)], capsys)

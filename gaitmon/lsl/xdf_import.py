@@ -104,6 +104,8 @@ def import_xdf(
     src = Path(src)
     out = default_output(src) if dst is None else Path(dst)
     name = src.name
+    if out.exists() and src.exists() and out.resolve() == src.resolve():
+        raise UserError(f"OUT is {name} itself: write the session to another file (.h5)")
     if out.exists() and not options.overwrite:
         raise UserError(f"{out} already exists; choose another name with -o, or pass --force")
     if not out.parent.is_dir():
