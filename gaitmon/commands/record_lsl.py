@@ -69,8 +69,11 @@ def open_inputs(args: argparse.Namespace) -> LslInputs | None:
         raise UserError("--lsl-start-word and --lsl-stop-word need --lsl-control NAME")
     if args.lsl_markers is None and args.lsl_control is None:
         return None
-    if not (args.lsl_timeout > 0 and args.lsl_timeout < 3600):
-        raise UserError(f"--lsl-timeout must be between 0 and 3600 seconds, got {args.lsl_timeout}")
+    if not (args.lsl_timeout > 0 and args.lsl_timeout <= 3600):
+        raise UserError(
+            f"--lsl-timeout must be a positive number of seconds, at most 3600; "
+            f"got {args.lsl_timeout}"
+        )
     from gaitmon.lsl.control import ControlWords, RemoteControl
     from gaitmon.lsl.inlet import MarkerInlet, import_pylsl, resolve_marker_stream
 
