@@ -118,3 +118,79 @@ def test_file_rows_follow_the_recordings_row_map():
               Placed("d", 310, 310), Placed("e", 330, 330), Placed("f", None, None)]  # fmt: skip
     assert file_rows(placed, rm) == [50, 0, None, None, 210, None]
     assert file_rows(placed, None) == [None] * 6
+
+
+def _engine(faults=None):
+    from gaitmon.engine import Engine
+    from gaitmon.io.device import Device
+    from gaitmon.io.sim import GaitConfig, SimulatedUnit
+    from gaitmon.io.transport import InProcessTransport
+
+    # real time: the simulator takes sample n at time.monotonic() = t0 + n / fs
+    unit = SimulatedUnit(GaitConfig(seed=4, standing_s=1.0), faults=faults, speed=1.0)
+    return Engine(Device(InProcessTransport(unit)), "raw", transport_label="simulated")
+
+
+def _wait(cond, timeout_s=60.0):
+    import time
+
+    deadline = time.monotonic() + timeout_s
+    while not cond():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.01)
+
+
+def _taken(path):
+    """When each row's sample was taken (host clock), from the file's timeline alone."""
+    from gaitmon.io.session import open_session
+
+    with open_session(path) as s:
+        host = np.asarray(s.read("timeline/host_time_s"))
+        t = np.asarray(s.read("timeline/t_s"))
+        markers = {m.label: m for m in s.markers}
+        n_gaps = len(s.gaps)
+    return t + np.min(host - t), t, markers, n_gaps
+
+
+def test_markers_across_lost_frames_land_on_the_nearest_row_received(tmp_path):
+    import time
+
+    from gaitmon.io.sim import FaultConfig
+
+    out = tmp_path / "lossy.h5"
+    eng = _engine(FaultConfig(seed=2, burst_pct=2.0, burst_len_frames=8, loss_pct=2.0))
+    with eng:
+        eng.start_recording(out)
+        _wait(lambda: eng.recording.rows >= 300)
+        now = time.monotonic()
+        instants = {f"m{i}": now - 2.0 + i * 0.0437 for i in range(40)}  # 1.7 s, every 4.37 rows
+        for label, h in instants.items():
+            eng.add_marker(label, host_time_s=h)
+        _wait(lambda: eng.timed_markers.waiting == 0)
+        eng.stop_recording()
+    taken, t, markers, n_gaps = _taken(out)
+    assert n_gaps >= 2  # the link really lost frames
+    assert set(markers) == set(instants)
+    for label, h in instants.items():
+        expected = int(np.argmin(np.abs(taken - h)))
+        assert abs(markers[label].sample_idx - expected) <= 1, label
+        assert markers[label].t_s == t[markers[label].sample_idx]
+
+
+def test_a_marker_waiting_when_the_recording_stops_is_still_recorded(tmp_path):
+    import time
+
+    out = tmp_path / "stop.h5"
+    eng = _engine()
+    with eng:
+        eng.start_recording(out)
+        _wait(lambda: eng.recording.rows >= 100)
+        h = time.monotonic() - 0.2
+        eng.add_marker("just before stop", host_time_s=h)
+        eng.add_marker("after the end", host_time_s=time.monotonic() + 10.0)
+        eng.stop_recording()  # straight away: the engine thread has not looked yet
+        counts = eng.timed_markers
+    taken, _t, markers, _gaps = _taken(out)
+    assert list(markers) == ["just before stop"]
+    assert abs(markers["just before stop"].sample_idx - int(np.argmin(np.abs(taken - h)))) <= 1
+    assert (counts.recorded, counts.outside, counts.waiting) == (1, 1, 0)
