@@ -230,3 +230,36 @@ def test_remote_start_and_stop_from_an_lsl_marker_stream(tmp_path):
     assert [m.label for m in markers] == ["12"]
     row, _ = _expected_row(out, trigger, offset_s)
     assert abs(markers[0].sample_idx - row) <= 1, (markers[0].sample_idx, row)
+
+
+def test_ctrl_c_while_waiting_for_the_start_word_records_nothing(tmp_path):
+    import signal
+
+    control = _unique("gaitmon-test-idle")
+    ctl = _marker_outlet(control)
+    out = tmp_path / "never.h5"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    cmd = [sys.executable, "-m", "gaitmon", "record", "--simulate", "--duration", "60",
+           "-o", str(out), "--lsl-control", control, "--lsl-timeout", "20"]  # fmt: skip
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+    try:
+        assert proc.stderr is not None
+        for line in proc.stderr:
+            if "waiting for 'start'" in line:
+                break
+        ctl.push_sample(["stop"])  # not the start word: still waiting
+        time.sleep(0.5)
+        assert proc.poll() is None
+        proc.send_signal(signal.SIGINT)
+        rest = proc.communicate(timeout=60)[1]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 2
+    lines = [ln for ln in rest.splitlines() if ln.strip()]
+    assert lines == [
+        f"gaitmon record: error: stopped before 'start' arrived on {control!r}; nothing was "
+        "recorded"
+    ]
+    assert not out.exists()

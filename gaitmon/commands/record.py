@@ -27,9 +27,11 @@ EPILOG = """\
 examples:
   gaitmon record --simulate --duration 10 -o s.h5
   gaitmon record --port /dev/rfcomm0 --mode joint --duration 60 -o walk.h5 --patient P017
-  gaitmon record --simulate --duration 600 -o s.h5 --lsl-control LabControl \
-      --lsl-markers Stimulator   (start/stop and triggers over LSL: docs/lsl.md)
+  gaitmon record --simulate --duration 600 -o s.h5 --lsl-control LabControl --lsl-markers Stim
 
+With --lsl-control the unit streams while gaitmon waits for 'start' on the LSL marker stream,
+and the recording ends on 'stop'; --lsl-markers records a marker stream's samples on the rows
+sampled at their timestamps (docs/lsl.md).
 The recording is crash-safe: if the process dies, the next `gaitmon info FILE` recovers it.
 Ctrl-C stops early and still leaves a complete file.
 """
