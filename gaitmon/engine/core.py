@@ -45,7 +45,7 @@ from gaitmon.engine.buffers import (
     with_gap_rows,
 )
 from gaitmon.engine.live_gait import LiveGait, UnitGaitEvents, shift_stride
-from gaitmon.engine.markers import TimedMarkerCounts, TimedMarkers, file_rows
+from gaitmon.engine.markers import TimedMarkerCounts, TimedMarkers
 from gaitmon.engine.recorder import Recorder
 from gaitmon.engine.sensor_checks import SensorChecks
 from gaitmon.engine.snapshot import (
@@ -105,8 +105,8 @@ class _Pending:
 class Engine:
     """Runs one Device in one mode; see the module doc.
 
-    Ownership: ``_lock`` guards ``_pending``, ``_recorder``, ``_markers``, ``_timed_counts``,
-    ``_health``, ``_gait`` and ``_checks``, and the engine thread's writes of ``config`` and
+    Ownership: ``_lock`` guards ``_pending``, ``_recorder``, ``_markers``, ``_health``,
+    ``_gait`` and ``_checks``, and the engine thread's writes of ``config`` and
     ``calibration``; only the engine thread writes ``_stream``, ``_pipeline`` and
     ``_unit_events`` (no lock); the caller's thread writes ``_last_recording``, ``_identity``
     and ``_thread``.
@@ -138,12 +138,7 @@ class Engine:
         self._recorder_queue_blocks = recorder_queue_blocks
         self._lock = threading.Lock()  # guards the small mutable state below
         self._markers: deque[tuple[float, str]] = deque(maxlen=512)
-        # markers stamped with a host time wait for their sample (engine/markers.py); a
-        # stopping recording asks the engine thread to place what is waiting (_flush_*)
-        self._timed = TimedMarkers(self.fs_hz)
-        self._timed_counts = TimedMarkerCounts()
-        self._flush_asked = threading.Event()
-        self._flush_done = threading.Event()
+        self._timed = TimedMarkers(self.fs_hz)  # markers stamped with a host time, waiting
         self._gait = LiveGait(self.fs_hz, cycle_strides)
         # stride lengths from the foot IMU (the gait panel's speed); its sample 0 is the engine
         # index _spatial_base
@@ -271,8 +266,8 @@ class Engine:
         """
         with self._lock:
             rec = self._recorder
-        if rec is not None:
-            self._flush_timed_markers()
+        if rec is not None:  # the engine thread places the markers waiting, before "stop"
+            self._timed.flush(self._thread)
         with self._lock:
             rec = self._recorder
             self._recorder = None
@@ -337,37 +332,22 @@ class Engine:
     @property
     def timed_markers(self) -> TimedMarkerCounts:
         """What became of the markers given a host time: recorded, outside a recording."""
-        with self._lock:
-            counts = self._timed_counts
-        return dataclasses.replace(counts, waiting=self._timed.pending)
+        return self._timed.counts
 
-    def _place_timed_markers(self, final: bool = False) -> None:
+    def _place_timed_markers(self) -> None:
         """The engine thread: markers whose sample has been processed go to the display and,
         on a row of the recording, to the recorder (``engine/markers.py``)."""
-        placed = self._timed.due(final)
-        if not placed:
-            return
-        with self._lock:  # the recorder cannot stop in between: a marker precedes "stop"
-            rec = self._recorder
-            rows = file_rows(placed, None if rec is None else rec.row_map)
-            for m, row in zip(placed, rows, strict=True):
-                if m.k is not None:
-                    self._markers.append((m.k / self.fs_hz, m.label))
-                if rec is not None and row is not None:
-                    rec.put(("marker", (m.label, row)))
-            self._timed_counts = self._timed_counts.plus(rows)
-
-    def _flush_timed_markers(self, timeout_s: float = 1.0) -> None:
-        """Before a recording stops: have the engine thread place every marker waiting (one
-        stamped after the last sample received is outside the recording)."""
-        thread = self._thread
-        if not self._timed.pending or thread is None or thread is threading.current_thread():
-            return
-        if not thread.is_alive():
-            return
-        self._flush_done.clear()
-        self._flush_asked.set()
-        self._flush_done.wait(timeout_s)
+        with self._timed.placing() as placed:
+            if not placed:
+                return
+            with self._lock:  # the recorder cannot stop in between: a marker precedes "stop"
+                rec = self._recorder
+                rows = self._timed.rows(placed, None if rec is None else rec.row_map)
+                for m, row in zip(placed, rows, strict=True):
+                    if m.k is not None:
+                        self._markers.append((m.k / self.fs_hz, m.label))
+                    if rec is not None and row is not None:
+                        rec.put(("marker", (m.label, row)))
 
     # -- settings and calibration --------------------------------------------------------
 
@@ -478,15 +458,10 @@ class Engine:
                         self._block_failed(block, exc)
                     except Exception as again:
                         self._note_error(f"processing error: {type(again).__name__}: {again}")
-            final = self._flush_asked.is_set()
-            if final:
-                self._flush_asked.clear()
             try:
-                self._place_timed_markers(final)
+                self._place_timed_markers()
             except Exception as exc:  # a marker must never stop acquisition
                 self._note_error(f"marker error: {type(exc).__name__}: {exc}")
-            if final:
-                self._flush_done.set()
             if now - last_link_push >= 1.0:
                 last_link_push = now
                 with self._lock:

@@ -23,10 +23,12 @@ Only the engine thread calls ``add_block`` and ``due``; ``add`` is for any threa
 from __future__ import annotations
 
 import bisect
+import contextlib
 import dataclasses
 import itertools
 import threading
 from collections import deque
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -177,15 +179,55 @@ class Placed:
 
 
 class TimedMarkers:
-    """Markers stamped with a host time, waiting for the sample taken at that instant."""
+    """Markers stamped with a host time, waiting for the sample taken at that instant; what
+    became of them (``counts``); and the hand-shake by which a stopping recording has the
+    engine thread place every marker still waiting (``flush``, ``placing``)."""
 
     def __init__(self, fs_hz: float, window_s: float = 30.0, max_pending: int = 4096) -> None:
         self.clock = SampleClock(fs_hz, window_s)
         self.index = SampleIndex()
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # guards _pending, _counts, overflow
         self._pending: list[tuple[float, str]] = []
+        self._counts = TimedMarkerCounts()
         self._max_pending = max_pending
         self.overflow = 0  # markers refused: more than max_pending waiting (never expected)
+        self._flush_asked = threading.Event()
+        self._flush_done = threading.Event()
+
+    @property
+    def counts(self) -> TimedMarkerCounts:
+        with self._lock:
+            return dataclasses.replace(self._counts, waiting=len(self._pending))
+
+    def rows(self, placed: list[Placed], row_map: RowMap | None) -> list[int | None]:
+        """``file_rows``, counted."""
+        rows = file_rows(placed, row_map)
+        with self._lock:
+            self._counts = self._counts.plus(rows)
+        return rows
+
+    def flush(self, engine_thread: threading.Thread | None, timeout_s: float = 1.0) -> None:
+        """Any thread but the engine's: wait until the engine thread has placed every marker
+        waiting (one stamped after the last sample received is outside)."""
+        t = engine_thread
+        if not self.pending or t is None or t is threading.current_thread() or not t.is_alive():
+            return
+        self._flush_done.clear()
+        self._flush_asked.set()
+        self._flush_done.wait(timeout_s)
+
+    @contextlib.contextmanager
+    def placing(self) -> Iterator[list[Placed]]:
+        """The engine thread, once per loop: the markers due (all of them if a flush was asked
+        for, and the asker is released once the body has handed them on)."""
+        final = self._flush_asked.is_set()
+        if final:
+            self._flush_asked.clear()
+        try:
+            yield self.due(final)
+        finally:
+            if final:
+                self._flush_done.set()
 
     def add(self, label: str, host_time_s: float) -> None:
         """Any thread."""
