@@ -140,7 +140,8 @@ class BilateralConfig:
             if spec.clock.offset_s > self.standing_s:
                 raise ValueError(
                     f"the {side} unit's clock offset {spec.clock.offset_s} s is after walking "
-                    f"starts ({self.standing_s} s): start it during the standing time"
+                    f"starts ({self.standing_s} s): a unit must start while the subject stands (a "
+                    "longer standing time or a smaller offset)"
                 )
             self.gait_config(side)  # the stance and knee ranges, with GaitConfig's messages
         if self.left.serial == self.right.serial:
