@@ -370,3 +370,36 @@ def test_cli_serves_two_ports_and_prints_both_links(tmp_path):
     assert proc.returncode == 0 and "Traceback" not in err
     assert "drift -20 ppm" in err and "drift +30 ppm" in err
     assert not links[0].exists() and not links[1].exists()
+
+
+def test_command_line_options_become_the_pairs_config():
+    import argparse
+
+    from gaitmon.commands.simulate import add_arguments, bilateral_config_from_args, run
+    from gaitmon.errors import UserError
+
+    p = argparse.ArgumentParser()
+    add_arguments(p)
+    cfg = bilateral_config_from_args(p.parse_args(["--pty", "--bilateral"]))
+    assert (cfg.left.clock, cfg.right.clock) == (BilateralConfig().left.clock,
+                                                 BilateralConfig().right.clock)  # fmt: skip
+    assert cfg.asymmetry == "none" and cfg.step_time_ratio == 1.0
+    args = p.parse_args(["--pty", "--bilateral", "--asymmetry", "hemiparetic", "--affected", "R",
+                         "--drift-ppm=-5,12.5", "--clock-offset-s", "0,1", "--loss-pct", "2",
+                         "--serials", "7,8", "--seed", "3"])  # fmt: skip
+    cfg = bilateral_config_from_args(args)
+    assert (cfg.affected, cfg.step_time_ratio, cfg.stance_fraction("R")) == ("R", 0.85, 0.60)
+    assert cfg.left.clock == SampleClock(0.0, -5.0) and cfg.right.clock == SampleClock(1.0, 12.5)
+    assert (cfg.left.serial, cfg.right.serial) == (7, 8)
+    assert cfg.left.faults.loss_pct == cfg.right.faults.loss_pct == 2.0
+    assert cfg.left.faults.seed != cfg.right.faults.seed  # each link loses its own frames
+    with pytest.raises(UserError, match="--stand is not available"):
+        bilateral_config_from_args(p.parse_args(["--pty", "--bilateral", "--stand"]))
+    with pytest.raises(UserError, match="must outlast"):
+        bilateral_config_from_args(p.parse_args(["--pty", "--bilateral", "--step-ratio", "0.6"]))
+    with pytest.raises(UserError, match="--links names the two ports"):
+        run(p.parse_args(["--pty", "--links", "a,b"]))
+    with pytest.raises(UserError, match="name them with --links"):
+        run(p.parse_args(["--pty", "--bilateral", "--link", "x"]))
+    with pytest.raises(SystemExit):
+        p.parse_args(["--drift-ppm", "3"])  # argparse: two numbers, LEFT,RIGHT
