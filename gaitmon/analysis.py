@@ -34,7 +34,9 @@ from gaitmon.dsp.gait import (
 from gaitmon.dsp.pipeline import BRIDGE_MAX_S, settling_ranges
 
 if TYPE_CHECKING:
+    from gaitmon.dsp.bilateral import BilateralGait
     from gaitmon.io.session import Exclusion, Session
+    from gaitmon.io.session.bilateral import Bilateral
 
 MAX_GAP_S = BRIDGE_MAX_S  # gaps up to 5 frames at 100 Hz are bridged and leave a stride usable
 
@@ -422,3 +424,55 @@ def analyse_session(
     )
     rows = with_stride_measures(rows, foot_imu(session), hs, session.sample_rate_hz)
     return SessionAnalysis(rows, joints, ranges, stored_path(session.path), problem)
+
+
+@dataclass(frozen=True)
+class BilateralAnalysis:
+    """Both legs of a bilateral session: each side's own stride analysis (its exclusions
+    applied) and the bilateral measures of their events on the session's common time line
+    (``gaitmon.dsp.bilateral``; definitions in ``docs/bilateral.md``)."""
+
+    sides: dict[str, SessionAnalysis]
+    heel_strike_s: dict[str, np.ndarray]  # every detected heel strike, common seconds
+    toe_off_s: dict[str, np.ndarray]
+    gait: BilateralGait  # the rows of excluded strides set to NaN; symmetry over the rest
+
+
+def analyse_bilateral(bilateral: Bilateral) -> BilateralAnalysis:
+    """Each side analysed as one unit (``analyse_session``: its stride exclusions), its events
+    mapped to common time by the session's clock fits, then ``dsp.bilateral.bilateral_gait``.
+    A heel strike's row counts when the stride it opens is included on its side; cadence is
+    measured from both legs' steps."""
+    from gaitmon.dsp.bilateral import bilateral_gait, keep_rows
+
+    per: dict[str, SessionAnalysis] = {}
+    hs_s: dict[str, np.ndarray] = {}
+    to_s: dict[str, np.ndarray] = {}
+    included: dict[str, set[int]] = {}
+    for side in ("L", "R"):
+        if side not in bilateral.units:
+            hs_s[side] = to_s[side] = np.empty(0)
+            included[side] = set()
+            continue
+        s = bilateral.unit(side)
+        an = analyse_session(s)
+        per[side] = an
+        t = s.read("timeline/t_s") if s.n_samples else np.empty(0)
+        hs, to = s.heel_strike_idx, s.toe_off_idx
+        hs = hs[hs < len(t)]
+        to = to[to < len(t)]
+        hs_s[side] = bilateral.common_s(side, t[hs])
+        to_s[side] = bilateral.common_s(side, t[to])
+        included[side] = {r.stride.start_idx for r in an.rows if r.included}
+    gait = bilateral_gait(hs_s["L"], to_s["L"], hs_s["R"], to_s["R"])
+    keep = []
+    for side, sg in (("L", gait.left), ("R", gait.right)):
+        if side not in per:
+            keep.append(np.zeros(len(sg), bool))
+            continue
+        # bilateral_gait sorts the times; rows map back to the heel strikes in that order
+        hs_rows = bilateral.unit(side).heel_strike_idx
+        order = np.argsort(hs_s[side], kind="stable")
+        rows_sorted = hs_rows[: len(hs_s[side])][order]
+        keep.append(np.array([int(r) in included[side] for r in rows_sorted], bool))
+    return BilateralAnalysis(per, hs_s, to_s, keep_rows(gait, keep[0], keep[1]))

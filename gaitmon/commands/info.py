@@ -41,20 +41,23 @@ def progress_printer(label: str) -> Callable[[float], None]:
 def run(args: argparse.Namespace) -> int:
     from gaitmon.analysis import analyse_session
     from gaitmon.io.session import SessionError, journal_path, open_session
+    from gaitmon.io.session.parts import is_bilateral
 
+    if is_bilateral(args.file):
+        return _run_bilateral(args.file)
     interrupted = journal_path(args.file).exists()
     try:
         with (
             open_session(args.file, progress=progress_printer("recovering")) as s,
             damaged_file_guard(args.file),
         ):
-            _print(s, analyse_session(s), interrupted)
+            print("\n".join(_lines(s, analyse_session(s), interrupted)))
     except SessionError as exc:
         raise UserError(str(exc)) from None
     return 0
 
 
-def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
+def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     fs = s.sample_rate_hz
     rows = an.rows
     summ = an.summary()
@@ -155,4 +158,29 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
         lines.append(f"  markers      {len(s.markers)}: {shown}{more}")
     for p in s.problems:
         lines.append(f"  note         {p}")
-    print("\n".join(lines))
+    return lines
+
+
+def _run_bilateral(path: str) -> int:
+    from gaitmon.analysis import analyse_bilateral
+    from gaitmon.commands.info_bilateral import bilateral_lines, header_lines
+    from gaitmon.io.session import SessionError
+    from gaitmon.io.session.bilateral import open_bilateral
+    from gaitmon.io.session.parts import parts_of
+
+    interrupted = bool(parts_of(path))
+    try:
+        with (
+            open_bilateral(path, progress=progress_printer("recovering")) as b,
+            damaged_file_guard(path),
+        ):
+            an = analyse_bilateral(b)
+            out = header_lines(b, interrupted)
+            for side, unit in b.units.items():
+                out.append(f"{'left' if side == 'L' else 'right'} leg ({side}):")
+                out += ["  " + ln for ln in _lines(unit, an.sides[side], False)[1:]]
+            out += bilateral_lines(an)
+            print("\n".join(out))
+    except SessionError as exc:
+        raise UserError(str(exc)) from None
+    return 0

@@ -14,7 +14,11 @@ from types import FrameType
 from typing import TYPE_CHECKING
 
 from gaitmon.commands import add_force, add_quiet, record_lsl
-from gaitmon.commands.simulate import add_simulator_options, sim_config_from_args
+from gaitmon.commands.simulate import (
+    add_bilateral_options,
+    add_simulator_options,
+    sim_config_from_args,
+)
 from gaitmon.errors import UserError
 from gaitmon.text import count
 
@@ -26,6 +30,8 @@ if TYPE_CHECKING:
 EPILOG = """\
 examples:
   gaitmon record --simulate --duration 10 -o s.h5
+  gaitmon record --simulate-bilateral --duration 60 -o both.h5
+  gaitmon record --ports /dev/rfcomm0,/dev/rfcomm1 --duration 600 -o both.h5 --patient P017
   gaitmon record --port /dev/rfcomm0 --mode joint --duration 60 -o walk.h5 --patient P017
   gaitmon record --simulate --duration 600 -o s.h5 --lsl-control LabControl --lsl-markers Stim
 
@@ -49,6 +55,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.epilog = EPILOG
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--simulate", action="store_true", help="record from the simulated unit")
+    src.add_argument(
+        "--simulate-bilateral",
+        action="store_true",
+        help="record both legs from a simulated pair of units into one session "
+        "(docs/bilateral.md)",
+    )
+    src.add_argument(
+        "--ports",
+        metavar="LEFT,RIGHT",
+        help="record both legs: the left and the right unit's ports, into one session",
+    )
     src.add_argument(
         "--port",
         metavar="PORT",
@@ -87,6 +104,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     record_lsl.add_arguments(p)
     sim = p.add_argument_group("simulated unit (with --simulate)")
     add_simulator_options(sim, side=False)
+    add_bilateral_options(
+        p.add_argument_group("simulated pair of units (with --simulate-bilateral)"), serve=False
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -104,6 +124,10 @@ def run(args: argparse.Namespace) -> int:
     meta = SessionMeta(
         patient_id=args.patient, side=args.side, operator=args.operator, notes=args.notes
     )
+    if args.simulate_bilateral or args.ports is not None:
+        from gaitmon.commands import record_bilateral
+
+        return record_bilateral.run(args, out, meta)
     lsl = record_lsl.open_inputs(args)  # the streams are found before the unit is touched
     try:
         return _record(args, out, meta, lsl)

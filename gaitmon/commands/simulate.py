@@ -230,13 +230,18 @@ def _pair(kind: type[float] | type[int], what: str) -> Callable[[str], tuple[flo
     return parse
 
 
-def add_bilateral_options(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
-    """The options of a simulated pair of units (``gaitmon.io.sim.bilateral``)."""
-    parser.add_argument(
-        "--bilateral",
-        action="store_true",
-        help="simulate two units, left and right leg, walking one walk (--side is ignored)",
-    )
+def add_bilateral_options(
+    parser: argparse.ArgumentParser | argparse._ArgumentGroup, *, serve: bool = True
+) -> None:
+    """The options of a simulated pair of units (``gaitmon.io.sim.bilateral``); ``serve=False``
+    leaves out ``--bilateral`` and ``--links`` (``gaitmon record`` has ``--simulate-bilateral``
+    and no ports to name)."""
+    if serve:
+        parser.add_argument(
+            "--bilateral",
+            action="store_true",
+            help="simulate two units, left and right leg, walking one walk (--side is ignored)",
+        )
     parser.add_argument(
         "--asymmetry",
         choices=("none", "hemiparetic"),
@@ -277,6 +282,8 @@ def add_bilateral_options(parser: argparse.ArgumentParser | argparse._ArgumentGr
         metavar="L,R",
         help="the units' serial numbers (default: 1001,1002)",
     )
+    if not serve:
+        return
     parser.add_argument(
         "--links",
         type=lambda t: tuple(t.split(",")),

@@ -230,6 +230,27 @@ def bilateral_gait(
     hs_r, to_r = _clean(heel_strike_right_s), _clean(toe_off_right_s)
     left = _side("L", hs_l, to_l, hs_r, to_r, max_stride_s)
     right = _side("R", hs_r, to_r, hs_l, to_l, max_stride_s)
+    return _assemble(left, right)
+
+
+def keep_rows(gait: BilateralGait, keep_left: np.ndarray, keep_right: np.ndarray) -> BilateralGait:
+    """``gait`` with the rows (heel strikes) not kept set to NaN (their heel-strike times
+    stay), and the symmetry table and cadence taken over the rows kept: the analysis leaves
+    out the strides its exclusions name (a gap, a turn the user excluded)."""
+    sides = []
+    for sg, keep in ((gait.left, keep_left), (gait.right, keep_right)):
+        k = np.asarray(keep, bool)
+        fields = {
+            m: np.where(k, getattr(sg, m), np.nan)
+            for m in ("step_s", "stride_s", "toe_off_s", "stance_s", "swing_s",
+                      "initial_double_support_s", "single_support_s",
+                      "terminal_double_support_s")
+        }  # fmt: skip
+        sides.append(SideGait(side=sg.side, heel_strike_s=sg.heel_strike_s, **fields))
+    return _assemble(sides[0], sides[1])
+
+
+def _assemble(left: SideGait, right: SideGait) -> BilateralGait:
     rows = []
     for m in SYMMETRY_MEASURES:
         lv, rv = left.mean(m), right.mean(m)

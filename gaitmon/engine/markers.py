@@ -8,10 +8,11 @@ unit's sample clock (``k``: sample periods since the first sample, lost frames c
 recording's timeline counts them). From these:
 
 * ``SampleClock`` fits host time against ``k`` over the last ``window_s``: a line through the
-  lower envelope of the receive times, since a delay on the link only ever adds to a receive
-  time and the frames of one read share the time of the last one. A marker at host time H is
-  then at ``k = (H - a) / b``: the sample *taken* at H, not the one that happened to be read
-  at H.
+  lower envelope of the receive times (``gaitmon.dsp.clock_fit.envelope_line``, the one fit
+  the bilateral sessions' offline clock mapping uses too), since a delay on the link only ever
+  adds to a receive time and the frames of one read share the time of the last one. A marker
+  at host time H is then at ``k = (H - a) / b``: the sample *taken* at H, not the one that
+  happened to be read at H.
 * ``SampleIndex`` turns ``k`` into the engine's sample index (frames lost have none: the
   nearest sample received stands for them).
 * ``TimedMarkers`` holds the markers until the sample at their instant has been processed, and
@@ -33,10 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gaitmon.dsp.clock_fit import MIN_FIT_SPAN_S, envelope_line
 from gaitmon.engine.rows import RowMap
-
-# a fit needs this much of the sample clock; before that the unit's nominal rate is used
-_MIN_FIT_SPAN_S = 1.0
 
 
 class SampleClock:
@@ -79,20 +78,7 @@ class SampleClock:
         k_ref, h_ref = int(k[-1]), float(h[-1])
         x = (k - k_ref).astype(np.float64)  # relative: no precision lost on long sessions
         y = h - h_ref
-        b = 1.0 / self.fs_hz
-        if x[-1] - x[0] >= _MIN_FIT_SPAN_S * self.fs_hz:
-            # least squares on the quicker half of the points, twice: the late ones (a busy
-            # link, a read that collected several frames) pull the line up and tilt it
-            keep = np.ones(len(x), bool)
-            for _ in range(3):
-                slope, _icept = np.polyfit(x[keep], y[keep], 1)
-                r = y - slope * x
-                keep = r <= np.median(r[keep])
-                if keep.sum() < 8:
-                    break
-            if slope > 0:
-                b = float(slope)
-        a = float(np.min(y - b * x))  # down to the envelope: the samples read soonest
+        a, b = envelope_line(x, y, 1.0 / self.fs_hz, MIN_FIT_SPAN_S * self.fs_hz)
         return k_ref, h_ref, a, b
 
 

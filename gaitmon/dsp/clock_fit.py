@@ -1,0 +1,124 @@
+"""A unit's sample clock against the host clock: the one line fit, used live and offline.
+
+A unit stamps nothing; the host knows only when each sample's bytes arrived. A delay on the link
+(Bluetooth's retries, a busy reader, several frames collected by one read) only ever *adds* to
+a receive time, so the receive times lie on or above the line "host time when the sample was
+taken (plus the link's shortest delay)": the line is the **lower envelope** of the points
+(unit time x, host receive time y).
+
+:func:`envelope_line` fits it: least squares on the quicker half of the points, three times
+(the late points pull a plain fit up and tilt it), then the line is moved down to the lowest
+point. The engine's markers (``engine.markers.SampleClock``) use it on the last 30 s live;
+:func:`fit_clock` uses it offline, in windows along the whole recording (one segment per
+``window_s``), so a slow wander of the crystal with temperature is followed too. Pure numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# a fit needs this much of the unit's clock (in x units * fs); before that the nominal slope
+MIN_FIT_SPAN_S = 1.0
+WINDOW_S = 60.0  # offline: one line per this much of the unit's clock
+
+
+def envelope_line(
+    x: np.ndarray, y: np.ndarray, nominal_slope: float, min_span: float
+) -> tuple[float, float]:
+    """(a, b) of the lower-envelope line y = a + b x through the points (module doc).
+
+    With points spanning less than ``min_span`` of x (or a fit that is not increasing), the
+    slope is ``nominal_slope`` and only the offset is fitted. Give x relative to a point near
+    the data (``x - x[-1]``) on long sessions: no precision is lost then.
+    """
+    x = np.asarray(x, np.float64)
+    y = np.asarray(y, np.float64)
+    b = float(nominal_slope)
+    if len(x) >= 2 and x.max() - x.min() >= min_span:
+        keep = np.ones(len(x), bool)
+        slope = b
+        for _ in range(3):
+            slope, _icept = np.polyfit(x[keep], y[keep], 1)
+            r = y - slope * x
+            keep = r <= np.median(r[keep])
+            if keep.sum() < 8:
+                break
+        if slope > 0:
+            b = float(slope)
+    a = float(np.min(y - b * x))  # down to the envelope: the samples read soonest
+    return a, b
+
+
+@dataclass(frozen=True)
+class ClockFit:
+    """A unit's clock fit over a recording: host time = ``host_s[i] + slope[i] (x - x0[i])``
+    on segment i, x in [x0[i], x1[i]] (the unit's own seconds, ``/timeline/t_s``).
+
+    ``residual_*_ms``: the receive times above the line (the link's extra delays), median and
+    95th percentile, over all points.
+    """
+
+    x0_s: np.ndarray
+    x1_s: np.ndarray
+    host_s: np.ndarray  # host time at x0
+    slope: np.ndarray  # host seconds per unit second
+    residual_p50_ms: float
+    residual_p95_ms: float
+
+    def host_at(self, x_s: np.ndarray | float) -> np.ndarray:
+        """Host time of unit time ``x_s``: by the segment holding it (the nearest one outside),
+        each segment's line reaching to the middle between it and the next."""
+        x = np.asarray(x_s, np.float64)
+        if not len(self.x0_s):
+            return np.full(x.shape, np.nan)
+        edges = (self.x1_s[:-1] + self.x0_s[1:]) / 2.0
+        i = np.searchsorted(edges, x, side="right")
+        return np.asarray(self.host_s[i] + self.slope[i] * (x - self.x0_s[i]))
+
+    @property
+    def mean_slope(self) -> float:
+        """Host seconds per unit second over the whole fit (weighted by the segments' span)."""
+        span = self.x1_s - self.x0_s
+        if not len(span) or span.sum() <= 0:
+            return float(self.slope.mean()) if len(self.slope) else float("nan")
+        return float(np.sum(self.slope * span) / span.sum())
+
+
+def fit_clock(
+    x_s: np.ndarray, host_s: np.ndarray, *, window_s: float = WINDOW_S
+) -> ClockFit:
+    """Fit host receive times ``host_s`` against the unit's clock ``x_s`` (seconds, ascending)
+    with one lower-envelope line per ``window_s`` of the unit's clock (the last window takes
+    up a remainder shorter than half a window). Points whose host time is not finite are
+    skipped."""
+    x = np.asarray(x_s, np.float64)
+    h = np.asarray(host_s, np.float64)
+    ok = np.isfinite(x) & np.isfinite(h)
+    x, h = x[ok], h[ok]
+    empty = np.empty(0)
+    if not len(x):
+        return ClockFit(empty, empty, empty, empty, float("nan"), float("nan"))
+    n_win = max(1, round((x[-1] - x[0]) / window_s))
+    bounds = x[0] + (x[-1] - x[0]) * np.arange(n_win + 1) / n_win
+    cuts = np.searchsorted(x, bounds[1:-1], side="left")
+    x0, x1, a0, sl = [], [], [], []
+    resid = []
+    prev_slope = 1.0
+    for xs, hs in zip(np.split(x, cuts), np.split(h, cuts), strict=True):
+        if not len(xs):
+            continue
+        ref = float(xs[0])
+        a, b = envelope_line(xs - ref, hs - hs[0], prev_slope, MIN_FIT_SPAN_S)
+        prev_slope = b
+        x0.append(ref)
+        x1.append(float(xs[-1]))
+        a0.append(float(hs[0]) + a)
+        sl.append(b)
+        resid.append(hs - (hs[0] + a + b * (xs - ref)))
+    r = np.concatenate(resid) * 1e3
+    return ClockFit(
+        np.array(x0), np.array(x1), np.array(a0), np.array(sl),
+        float(np.median(r)), float(np.percentile(r, 95)),
+    )  # fmt: skip
