@@ -107,6 +107,10 @@ def _check_against_truth(sim: BilateralSim, out: Path) -> dict[str, float]:
         ds = np.abs(np.concatenate(ds_err))
         sr = an.gait.symmetry_of("step_s").ratio
         sr_true = truth.gait.symmetry_of("step_s").ratio
+        # the units' relative drift: L's clock gains on R's by rate_L / rate_R - 1
+        rel_ppm = (b.sync["R"].mean_slope / b.sync["L"].mean_slope - 1.0) * 1e6
+        rates = [sim.config.unit_spec(s).clock.rate for s in "LR"]
+        rel_true = (rates[0] / rates[1] - 1.0) * 1e6
     return {
         "align_p95_ms": float(np.percentile(align, 95) * 1e3),
         "offset_ms": offset * 1e3,
@@ -115,6 +119,7 @@ def _check_against_truth(sim: BilateralSim, out: Path) -> dict[str, float]:
         "n_ds": len(ds),
         "sr": sr,
         "sr_true": sr_true,
+        "drift_err_ppm": rel_ppm - rel_true,
     }
 
 
@@ -130,6 +135,7 @@ def test_both_legs_one_file_meet_the_goals(tmp_path: Path, asymmetry: str) -> No
     assert got["n_ds"] >= 150, got
     assert got["ds_median_ms"] <= 10.0, got
     assert abs(got["sr"] - got["sr_true"]) <= 0.02, got
+    assert abs(got["drift_err_ppm"]) <= 40.0, got  # 59 ppm apart; 40 ppm = 2.4 ms a minute
     if asymmetry == "hemiparetic":
         assert got["sr"] < 0.9  # the affected left leg's shorter step is seen
 

@@ -97,14 +97,16 @@ def test_markers_wait_for_their_sample_and_then_land_on_it():
 
 def test_at_a_flush_a_marker_after_the_last_sample_is_outside():
     tm = TimedMarkers(FS)
-    k, host, taken = _reads(200, 20.0, rate_ppm=0.0, seed=3)
+    # 10 s of reads: enough for the envelope fit to place an instant at the end within a
+    # fraction of a sample (over 2 s, 200 bursty reads, its slope is off by ~0.1 %)
+    k, host, taken = _reads(1000, 20.0, rate_ppm=0.0, seed=3)
     tm.add_block(0, k, host)
-    tm.add("on the last sample", taken[199] + 0.008)  # 0.8 of a sample after it
-    tm.add("much later", taken[199] + 5.0)
+    tm.add("on the last sample", taken[999] + 0.008)  # 0.8 of a sample after it
+    tm.add("much later", taken[999] + 5.0)
     tm.add("long before", taken[0] - 5.0)
     assert [(m.label, m.idx) for m in tm.due()] == [("long before", None)]  # the others wait
     rest = tm.due(final=True)
-    assert [(m.label, m.idx) for m in rest] == [("on the last sample", 199), ("much later", None)]
+    assert [(m.label, m.idx) for m in rest] == [("on the last sample", 999), ("much later", None)]
     assert tm.pending == 0
 
 

@@ -6,11 +6,11 @@ a receive time, so the receive times lie on or above the line "host time when th
 taken (plus the link's shortest delay)": the line is the **lower envelope** of the points
 (unit time x, host receive time y).
 
-:func:`envelope_line` fits it: least squares on the quicker half of the points, three times
-(the late points pull a plain fit up and tilt it), then the line is moved down to the lowest
-point. The engine's markers (``engine.markers.SampleClock``) use it on the last 30 s live;
-:func:`fit_clock` uses it offline, in windows along the whole recording (one segment per
-``window_s``), so a slow wander of the crystal with temperature is followed too. Pure numpy.
+:func:`envelope_line` fits it: the line under all the points that is closest to them (an
+edge of their lower convex hull), so only the points read soonest count. The engine's markers
+(``engine.markers.SampleClock``) use it on the last 30 s live; :func:`fit_clock` uses it
+offline, in windows along the whole recording (one segment per ``window_s``), so a slow wander
+of the crystal with temperature is followed too. Pure numpy.
 """
 
 from __future__ import annotations
@@ -22,6 +22,22 @@ import numpy as np
 # a fit needs this much of the unit's clock (in x units * fs); before that the nominal slope
 MIN_FIT_SPAN_S = 1.0
 WINDOW_S = 60.0  # offline: one line per this much of the unit's clock
+_BIN = 8  # points per bin of which only the quickest can be on the envelope (long fits)
+
+
+def _lower_hull(x: np.ndarray, y: np.ndarray) -> list[int]:
+    """Indices of the lower convex hull of points sorted by x (Andrew's monotone chain)."""
+    hull: list[int] = []
+    for i in range(len(x)):
+        while len(hull) >= 2:
+            o, a = hull[-2], hull[-1]
+            # a is not below the segment o -> i: drop it
+            if (x[a] - x[o]) * (y[i] - y[o]) - (y[a] - y[o]) * (x[i] - x[o]) <= 0:
+                hull.pop()
+            else:
+                break
+        hull.append(i)
+    return hull
 
 
 def envelope_line(
@@ -29,24 +45,40 @@ def envelope_line(
 ) -> tuple[float, float]:
     """(a, b) of the lower-envelope line y = a + b x through the points (module doc).
 
-    With points spanning less than ``min_span`` of x (or a fit that is not increasing), the
-    slope is ``nominal_slope`` and only the offset is fitted. Give x relative to a point near
-    the data (``x - x[-1]``) on long sessions: no precision is lost then.
+    The line lies under every point and, among such lines, is the closest to them on average
+    (it minimises the summed heights of the points above it): an edge of the points' lower
+    convex hull, the one spanning their mean x (the linear-programming estimate of clock skew
+    of Moon, Skelly and Towsley, 1999). Only the points read soonest matter; how late the
+    others were does not. With points spanning less than ``min_span`` of x (or a slope that is
+    not positive), the slope is ``nominal_slope`` and only the offset is fitted. Give x
+    relative to a point near the data (``x - x[-1]``) on long sessions: no precision is lost.
     """
     x = np.asarray(x, np.float64)
     y = np.asarray(y, np.float64)
     b = float(nominal_slope)
     if len(x) >= 2 and x.max() - x.min() >= min_span:
-        keep = np.ones(len(x), bool)
-        slope = b
-        for _ in range(3):
-            slope, _icept = np.polyfit(x[keep], y[keep], 1)
-            r = y - slope * x
-            keep = r <= np.median(r[keep])
-            if keep.sum() < 8:
-                break
-        if slope > 0:
-            b = float(slope)
+        order = np.lexsort((y, x))
+        xs, ys = x[order], y[order]
+        first = np.ones(len(xs), bool)  # of equal x only the lowest point can be on the hull
+        first[1:] = xs[1:] != xs[:-1]
+        xs, ys = xs[first], ys[first]
+        if len(xs) > _BIN * 32:
+            # only the quickest point of a few neighbours can be a hull vertex (to within the
+            # slope's error over a bin): keep those, so the hull's loop runs over 1/_BIN of them
+            rough = (ys[-1] - ys[0]) / (xs[-1] - xs[0])
+            r = ys - rough * xs
+            n = len(xs) // _BIN * _BIN
+            pick = np.argmin(r[:n].reshape(-1, _BIN), axis=1) + np.arange(0, n, _BIN)
+            pick = np.concatenate([pick, np.arange(n, len(xs))])
+            xs, ys = xs[pick], ys[pick]
+        hull = _lower_hull(xs, ys)
+        if len(hull) >= 2:
+            hx = xs[hull]
+            j = int(np.clip(np.searchsorted(hx, x.mean(), side="right") - 1, 0, len(hull) - 2))
+            p, q = hull[j], hull[j + 1]
+            slope = (ys[q] - ys[p]) / (xs[q] - xs[p])
+            if slope > 0:
+                b = float(slope)
     a = float(np.min(y - b * x))  # down to the envelope: the samples read soonest
     return a, b
 
