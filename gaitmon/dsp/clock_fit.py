@@ -9,8 +9,9 @@ taken (plus the link's shortest delay)": the line is the **lower envelope** of t
 :func:`envelope_line` fits it: the line under all the points that is closest to them (an
 edge of their lower convex hull), so only the points read soonest count. The engine's markers
 (``engine.markers.SampleClock``) use it on the last 30 s live; :func:`fit_clock` uses it
-offline, in windows along the whole recording (one segment per ``window_s``), so a slow wander
-of the crystal with temperature is followed too. Pure numpy.
+offline along the whole recording: one segment per minute of the unit's clock, each fitted over
+three minutes centred on it, so a slow wander of the crystal with temperature is followed too.
+Pure numpy.
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ import numpy as np
 
 # a fit needs this much of the unit's clock (in x units * fs); before that the nominal slope
 MIN_FIT_SPAN_S = 1.0
-WINDOW_S = 60.0  # offline: one line per this much of the unit's clock
+WINDOW_S = 60.0  # offline: one segment per this much of the unit's clock
+CONTEXT = 1  # ... fitted over its window and this many windows either side (3 minutes)
 _BIN = 8  # points per bin of which only the quickest can be on the envelope (long fits)
 
 
@@ -119,12 +121,13 @@ class ClockFit:
 
 
 def fit_clock(
-    x_s: np.ndarray, host_s: np.ndarray, *, window_s: float = WINDOW_S
+    x_s: np.ndarray, host_s: np.ndarray, *, window_s: float = WINDOW_S, context: int = CONTEXT
 ) -> ClockFit:
-    """Fit host receive times ``host_s`` against the unit's clock ``x_s`` (seconds, ascending)
-    with one lower-envelope line per ``window_s`` of the unit's clock (the last window takes
-    up a remainder shorter than half a window). Points whose host time is not finite are
-    skipped."""
+    """Fit host receive times ``host_s`` against the unit's clock ``x_s`` (seconds, ascending):
+    one segment per ``window_s`` of the unit's clock (the last window takes up a remainder
+    shorter than half a window), each the lower-envelope line of its window and ``context``
+    windows either side (its centre is the window's: the fit is best there), used over its own
+    window. Points whose host time is not finite are skipped."""
     x = np.asarray(x_s, np.float64)
     h = np.asarray(host_s, np.float64)
     ok = np.isfinite(x) & np.isfinite(h)
@@ -134,21 +137,23 @@ def fit_clock(
         return ClockFit(empty, empty, empty, empty, float("nan"), float("nan"))
     n_win = max(1, round((x[-1] - x[0]) / window_s))
     bounds = x[0] + (x[-1] - x[0]) * np.arange(n_win + 1) / n_win
-    cuts = np.searchsorted(x, bounds[1:-1], side="left")
+    cut = np.searchsorted(x, bounds, side="left")
+    cut[-1] = len(x)
     x0, x1, a0, sl = [], [], [], []
     resid = []
-    prev_slope = 1.0
-    for xs, hs in zip(np.split(x, cuts), np.split(h, cuts), strict=True):
-        if not len(xs):
+    slope = float((h[-1] - h[0]) / (x[-1] - x[0])) if x[-1] > x[0] else 1.0
+    for w in range(n_win):
+        own = slice(cut[w], cut[w + 1])
+        if cut[w + 1] <= cut[w]:
             continue
-        ref = float(xs[0])
-        a, b = envelope_line(xs - ref, hs - hs[0], prev_slope, MIN_FIT_SPAN_S)
-        prev_slope = b
-        x0.append(ref)
-        x1.append(float(xs[-1]))
-        a0.append(float(hs[0]) + a)
+        near = slice(cut[max(0, w - context)], cut[min(n_win, w + 1 + context)])
+        ref_x, ref_h = float(x[own][0]), float(h[own][0])
+        a, b = envelope_line(x[near] - ref_x, h[near] - ref_h, slope, MIN_FIT_SPAN_S)
+        x0.append(ref_x)
+        x1.append(float(x[own][-1]))
+        a0.append(ref_h + a)
         sl.append(b)
-        resid.append(hs - (hs[0] + a + b * (xs - ref)))
+        resid.append(h[own] - (ref_h + a + b * (x[own] - ref_x)))
     r = np.concatenate(resid) * 1e3
     return ClockFit(
         np.array(x0), np.array(x1), np.array(a0), np.array(sl),
