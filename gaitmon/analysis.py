@@ -423,7 +423,7 @@ def analyse_session(
         t_s=t_s,
     )
     rows = with_stride_measures(rows, foot_imu(session), hs, session.sample_rate_hz)
-    return SessionAnalysis(rows, joints, ranges, stored_path(session.path), problem)
+    return SessionAnalysis(rows, joints, ranges, stored_path(session.exclusions_key), problem)
 
 
 @dataclass(frozen=True)

@@ -159,3 +159,34 @@ def test_the_live_marker_clock_uses_the_same_fit() -> None:
     got = clock.k_at(60.0)
     assert got == pytest.approx(k[-1] + (60.0 - h[-1] - a) / b, abs=1e-9)
     assert got == pytest.approx(1000.0, abs=0.2)  # host 60.0 s is the sample taken at 10 s
+
+
+def test_each_leg_keeps_its_own_exclusions(
+    both: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+
+    from gaitmon.analysis import analyse_bilateral
+    from gaitmon.io.session.exclusions import Exclusion, save
+
+    copy = tmp_path / "both.h5"
+    shutil.copy(both, copy)
+    with open_session(copy, side="L") as s:
+        n, created = s.n_samples, s.created_utc
+    # the left leg's middle excluded (a turn): its file is FILE.L.review.json
+    written = save(copy.with_name("both.h5.L"), [Exclusion(n // 3, 2 * n // 3, "turn")],
+                   created, n)  # fmt: skip
+    assert written.name == "both.h5.L.review.json"
+    with open_bilateral(copy) as b:
+        an = analyse_bilateral(b)
+        assert an.sides["L"].n_user_excluded > 0 and an.sides["R"].n_user_excluded == 0
+        assert an.sides["L"].side_file.name == "both.h5.L.review.json"
+        # the left heel strikes inside the range count in no bilateral measure
+        t = b.unit("L").read("timeline/t_s")
+        lo, hi = (float(b.common_s("L", t[i])) for i in (n // 3, 2 * n // 3))
+        g = an.gait.left
+        inside = (g.heel_strike_s > lo + 1.2) & (g.heel_strike_s < hi - 1.2)
+        assert inside.any() and not np.isfinite(g.stride_s[inside]).any()
+        assert np.isfinite(g.stride_s[~inside]).sum() >= 2  # those outside still count
+    assert main(["info", str(copy)]) == 0
+    assert "user-excluded range from both.h5.L.review.json" in capsys.readouterr().out

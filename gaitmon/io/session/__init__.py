@@ -18,6 +18,9 @@ package:
 * :mod:`.stored_overview` - ``/overview``, the joint angles' min/max for a long session's first
   view;
 * :mod:`.truth` - the ``/truth`` group of simulated sessions;
+* :mod:`.parts`, :mod:`.combine`, :mod:`.bilateral` - bilateral sessions (both legs): the two
+  units' parts while recording, combining them into one file with their clock fits, and
+  :func:`~.bilateral.open_bilateral` (one leg: ``open_session(path, side="L")``);
 * :mod:`.exclusions` - the user's excluded ranges, kept beside the recording in
   ``FILE.review.json`` (analysis state: the recording itself is never modified);
 * :mod:`.deidentify` - a de-identified copy of a session file (``gaitmon batch --deidentify``).

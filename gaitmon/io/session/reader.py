@@ -476,10 +476,16 @@ class Session:
         """(ranges, problem): the row ranges the user excluded in review (stored beside the
         recording, see :mod:`gaitmon.io.session.exclusions`), merged and clipped to the data.
         ``problem`` is a one-line reason when the side file could not be used, else ""."""
-        path = self.path
-        if self.unit_side:  # rows are per unit: each leg of a bilateral file keeps its own
-            path = path.with_name(f"{path.name}.{self.unit_side}")
-        return load_exclusions(path, self.created_utc, self.n_samples)
+        return load_exclusions(self.exclusions_key, self.created_utc, self.n_samples)
+
+    @property
+    def exclusions_key(self) -> Path:
+        """The path the exclusions are kept for (``FILE.review.json`` beside it): the file, or
+        for one leg of a bilateral file ``FILE.L`` / ``FILE.R`` (rows are per unit, so each
+        leg keeps its own)."""
+        if self.unit_side:
+            return self.path.with_name(f"{self.path.name}.{self.unit_side}")
+        return self.path
 
     def truth(self, start: int, stop: int) -> Truth:
         """The simulator's ground truth of rows ``start:stop`` (see
