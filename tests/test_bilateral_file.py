@@ -190,3 +190,41 @@ def test_each_leg_keeps_its_own_exclusions(
         assert np.isfinite(g.stride_s[~inside]).sum() >= 2  # those outside still count
     assert main(["info", str(copy)]) == 0
     assert "user-excluded range from both.h5.L.review.json" in capsys.readouterr().out
+
+
+def test_record_from_two_ports(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from gaitmon.io.sim.bilateral import BilateralConfig, serve_pair_on_ptys
+
+    out = tmp_path / "ports.h5"
+    with serve_pair_on_ptys(BilateralConfig(speed=4.0, standing_s=1.0)) as pty:
+        left, right = (str(p) for p in pty.link_paths)
+        assert main(["record", "--ports", f"{left},{right}", "--duration", "6", "-o", str(out),
+                     "-q"]) == 0  # fmt: skip
+        assert "warning" not in capsys.readouterr().err
+        # swapped: each unit says which leg it is configured for
+        assert main(["record", "--ports", f"{right},{left}", "--duration", "2", "-o",
+                     str(tmp_path / "swapped.h5"), "-q"]) == 0  # fmt: skip
+        err = capsys.readouterr().err
+        assert "recorded as the L leg (serial 1002) says it is worn on R" in err
+    with open_bilateral(out) as b:
+        for side, port in (("L", left), ("R", right)):
+            u = b.unit(side)
+            assert u.device["transport"] == port and u.device["side"] == side
+            assert u.n_samples >= 590
+    assert main(["record", "--ports", f"{left},{left}", "--duration", "6", "-o",
+                 str(tmp_path / "x.h5")]) == 2  # fmt: skip
+    assert "--ports needs two different ports" in capsys.readouterr().err
+
+
+def test_parts_left_beside_a_combined_file_are_removed(both: Path, tmp_path: Path) -> None:
+    import shutil
+
+    from gaitmon.io.session.bilateral import part_path
+
+    copy = tmp_path / "both.h5"
+    shutil.copy(both, copy)
+    for side in "LR":  # the process died while deleting the parts, after the combine
+        part_path(copy, side).write_bytes(b"left over")
+    with open_bilateral(copy) as b:
+        assert b.complete and b.sides == ("L", "R")
+    assert not parts_of(copy)

@@ -83,6 +83,15 @@ def run(args: argparse.Namespace, out: Path, meta: SessionMeta) -> int:
     except (EngineError, LinkError) as exc:
         raise UserError(str(exc)) from None
 
+    for side, eng in pair.engines.items():  # a unit says which leg it is configured for
+        said = eng.identity.side if eng.identity is not None else ""
+        if said in ("L", "R") and said != side:
+            print(
+                f"gaitmon record: warning: the unit recorded as the {side} leg (serial "
+                f"{eng.identity.serial if eng.identity else '?'}) says it is worn on {said}; "
+                "check the order of --ports (left first)",
+                file=sys.stderr,
+            )
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
