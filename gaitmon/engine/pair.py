@@ -13,14 +13,21 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import threading
+import time
 from pathlib import Path
 
 from gaitmon.engine.core import Engine, EngineError
 from gaitmon.engine.snapshot import RecordingStatus
 from gaitmon.io.journal import journal_path
 from gaitmon.io.session.combine import combine_parts
+from gaitmon.io.session.h5file import _being_recorded
 from gaitmon.io.session.header import SessionError, SessionMeta
 from gaitmon.io.session.parts import SIDES, part_path, parts_of
+
+# closing a part computes its smoothed angles and overview (an hour: tens of seconds on a busy
+# machine); both must be closed before they can be combined
+STOP_TIMEOUT_S = 300.0
 
 
 class EnginePair:
@@ -77,18 +84,36 @@ class EnginePair:
         lost = eng.device.stats.decoder.frames_lost - lost0
         return (eng.samples_total - n0 + lost) / eng.fs_hz
 
-    def stop(self, reason: str = "user") -> dict[str, RecordingStatus]:
-        """Finish both parts and stop both engines (idempotent)."""
-        out = {}
+    def stop(self, reason: str = "user", timeout_s: float = STOP_TIMEOUT_S) -> dict[
+        str, RecordingStatus
+    ]:
+        """Finish both parts (at once: closing a long part computes its smoothed angles) and
+        stop both engines (idempotent). A part not finished within ``timeout_s`` says so in
+        its status's ``error``; its recorder finishes in the background."""
+        out: dict[str, RecordingStatus] = {}
+
+        def finish(side: str) -> None:
+            out[side] = self.engines[side].stop_recording(reason, timeout_s)
+
+        threads = [threading.Thread(target=finish, args=(s,), name=f"gaitmon-stop-{s}")
+                   for s in SIDES]  # fmt: skip
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
         for side in SIDES:
-            eng = self.engines[side]
-            out[side] = eng.stop_recording(reason)
-            eng.stop()
+            self.engines[side].stop()
         return out
 
-    def finish(self) -> Path:
-        """Combine the parts into the one session file; ``SessionError`` if that fails (the
-        parts are kept then, and combined when the file is next opened)."""
+    def finish(self, timeout_s: float = STOP_TIMEOUT_S) -> Path:
+        """Combine the parts into the one session file, once both recorders have let go of
+        them (waiting up to ``timeout_s``); ``SessionError`` if that fails (the parts are kept
+        then, and combined when the file is next opened)."""
         if self.path is None:
             raise SessionError("the pair was never started")
+        deadline = time.monotonic() + timeout_s
+        for side in SIDES:
+            jpath = journal_path(part_path(self.path, side))
+            while jpath.exists() and _being_recorded(jpath) and time.monotonic() < deadline:
+                time.sleep(0.1)
         return combine_parts(self.path)
