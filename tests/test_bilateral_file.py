@@ -228,3 +228,22 @@ def test_parts_left_beside_a_combined_file_are_removed(both: Path, tmp_path: Pat
     with open_bilateral(copy) as b:
         assert b.complete and b.sides == ("L", "R")
     assert not parts_of(copy)
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--simulate", "--asymmetry", "hemiparetic"], "--asymmetry: only with --simulate-bilat"),
+        (["--simulate-bilateral", "--speed", "max"], "--speed max is not available"),
+        (["--simulate-bilateral", "--side", "L"], "--side names the leg of one unit"),
+        (["--simulate-bilateral", "--zero"], "--zero is not available with"),
+    ],
+)
+def test_bilateral_record_options_are_checked(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], words: str
+) -> None:
+    out = tmp_path / "x.h5"
+    assert main(["record", *args, "--duration", "5", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err and err.count("\n") == 0
+    assert not list(tmp_path.iterdir())  # nothing written

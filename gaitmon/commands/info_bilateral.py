@@ -30,16 +30,14 @@ def header_lines(b: Bilateral, interrupted: bool) -> list[str]:
         f"{float(a.get('duration_s', 0.0)):.1f} s on the common time line, units "
         + " and ".join(f"{s} serial {b.unit(s).device.get('serial') or '-'}" for s in b.sides),
     ]
-    clocks = []
-    for s in b.sides:
-        fit = b.sync[s]
-        ppm = (b.host_s_per_common_s / fit.mean_slope - 1.0) * 1e6
-        clocks.append(
-            f"{s} {ppm:+.1f} ppm, receive delay above the fit p50 {_f(fit.residual_p50_ms, 1)} / "
-            f"p95 {_f(fit.residual_p95_ms, 1)} ms"
-        )
+    ppm = ", ".join(
+        f"{s} {(b.host_s_per_common_s / b.sync[s].mean_slope - 1.0) * 1e6:+.1f}" for s in b.sides
+    )
+    delay = ", ".join(f"{s} {_f(b.sync[s].residual_p95_ms, 1)}" for s in b.sides)
     lines.append(
-        f"  clocks       {'; '.join(clocks)} ({count(len(b.sync[b.sides[0]].x0_s), 'segment')})"
+        f"  clocks       {ppm} ppm against the common time line "
+        f"({count(len(b.sync[b.sides[0]].x0_s), 'segment')}); receive delay above the fit, "
+        f"p95: {delay} ms"
     )
     return lines
 

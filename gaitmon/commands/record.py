@@ -124,6 +124,13 @@ def run(args: argparse.Namespace) -> int:
     meta = SessionMeta(
         patient_id=args.patient, side=args.side, operator=args.operator, notes=args.notes
     )
+    defaults = argparse.ArgumentParser()
+    add_bilateral_options(defaults, serve=False)
+    pair_options = vars(defaults.parse_args([]))
+    given = [n for n, v in pair_options.items() if getattr(args, n, v) != v]
+    if given and not args.simulate_bilateral:
+        names = ", ".join("--" + n.replace("_", "-") for n in given)
+        raise UserError(f"{names}: only with --simulate-bilateral")
     if args.simulate_bilateral or args.ports is not None:
         from gaitmon.commands import record_bilateral
 
