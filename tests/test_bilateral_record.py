@@ -135,7 +135,8 @@ def test_both_legs_one_file_meet_the_goals(tmp_path: Path, asymmetry: str) -> No
     assert got["n_ds"] >= 150, got
     assert got["ds_median_ms"] <= 10.0, got
     assert abs(got["sr"] - got["sr_true"]) <= 0.02, got
-    assert abs(got["drift_err_ppm"]) <= 40.0, got  # 59 ppm apart; 40 ppm = 2.4 ms a minute
+    # (the fitted relative drift is printed, not held: 60 s at 4x is 15 s of host time, where
+    # 1 ms of host jitter is 70 ppm; benchmarks/bilateral_record.py measures it over an hour)
     if asymmetry == "hemiparetic":
         assert got["sr"] < 0.9  # the affected left leg's shorter step is seen
 
