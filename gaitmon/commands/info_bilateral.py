@@ -44,7 +44,7 @@ def header_lines(b: Bilateral, interrupted: bool) -> list[str]:
 
 def bilateral_lines(an: BilateralAnalysis) -> list[str]:
     g = an.gait
-    lines = ["both legs (on the common time line; strides excluded on either side left out):"]
+    lines = ["both legs (on the common time line; each side's excluded strides left out):"]
     n = {s.side: int(np.isfinite(s.stride_s).sum()) for s in (g.left, g.right)}
     if not (n["L"] and n["R"]):
         lines.append("  gait         too few strides on both legs to compare")
