@@ -526,8 +526,9 @@ class Engine:
         self, adc: np.ndarray, p: PipelineBlock, hs_idx: np.ndarray, start_idx: int
     ) -> list[tuple[int, float]]:
         """Feed the foot board's samples (unfiltered acceleration, the pipeline's
-        bias-corrected gyro: what gaitmon.analysis.foot_imu reads from a file) to the stride
-        length tracker; the strides it finished, (opening heel strike, m), engine indices."""
+        bias-corrected gyro: what gaitmon.dsp.stride_length.foot_imu_from_counts makes of a
+        file's raw counts) to the stride length tracker; the strides it finished, (opening
+        heel strike, m), engine indices."""
         tr = self._spatial
         if self._spatial_base + tr.n_seen != start_idx:  # samples not processed: start afresh
             tr.reset()

@@ -369,6 +369,10 @@ def _build_recovered(
                 adc, header.table, header.calibration, cal_changes,
                 np.asarray(rows["lost_before"], dtype=np.int64), fs,
             ))  # fmt: skip
+            from gaitmon.io.session.stored_strides import store_strides
+
+            h5.drain()  # the chunk being filled: the stride measures read every row
+            store_strides(h5.f, header.table, header.calibration, fs)
         h5.finish(complete=False, recovered=True, stop_reason="recovered", fs_hz=fs)
         report(n)
         ok = True
