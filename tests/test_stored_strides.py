@@ -276,6 +276,9 @@ def test_other_heel_strikes_than_the_stored_ones_are_computed(walk, monkeypatch)
     calls = computed_count(monkeypatch)
     with open_session(walk) as s:
         assert_same(s.foot_stride_measures(other), want)
+        recorded = s.foot_stride_measures()  # from the store
+        assert_same(s.foot_stride_measures(other), want)  # back to the other: kept
+        assert s.foot_stride_measures() is recorded
     assert calls == [1]
 
 
