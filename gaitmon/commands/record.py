@@ -13,7 +13,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from gaitmon.commands import add_force, add_quiet
+from gaitmon.commands import add_force, add_quiet, record_lsl
 from gaitmon.commands.simulate import add_simulator_options, sim_config_from_args
 from gaitmon.errors import UserError
 from gaitmon.text import count
@@ -21,12 +21,17 @@ from gaitmon.text import count
 if TYPE_CHECKING:
     from gaitmon.engine import Engine, RecordingStatus
     from gaitmon.io.device import LinkStats
+    from gaitmon.io.session import SessionMeta
 
 EPILOG = """\
 examples:
   gaitmon record --simulate --duration 10 -o s.h5
   gaitmon record --port /dev/rfcomm0 --mode joint --duration 60 -o walk.h5 --patient P017
+  gaitmon record --simulate --duration 600 -o s.h5 --lsl-control LabControl --lsl-markers Stim
 
+With --lsl-control the unit streams while gaitmon waits for 'start' on the LSL marker stream,
+and the recording ends on 'stop'; --lsl-markers records a marker stream's samples on the rows
+sampled at their timestamps (docs/lsl.md).
 The recording is crash-safe: if the process dies, the next `gaitmon info FILE` recovers it.
 Ctrl-C stops early and still leaves a complete file.
 """
@@ -79,17 +84,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help=argparse.SUPPRESS,  # for tests: 'ROWS <n> <monotonic s>' on stdout per block
     )
+    record_lsl.add_arguments(p)
     sim = p.add_argument_group("simulated unit (with --simulate)")
     add_simulator_options(sim, side=False)
 
 
 def run(args: argparse.Namespace) -> int:
-    from gaitmon.dsp.pipeline import PipelineConfig
-    from gaitmon.engine import Engine, EngineError
-    from gaitmon.io.device import Device
-    from gaitmon.io.ports import make_transport
-    from gaitmon.io.session import SessionMeta, journal_path
-    from gaitmon.io.transport import InProcessTransport, LinkError, Transport
+    from gaitmon.io.session import SessionMeta
 
     if args.port is not None and not args.port.strip():
         raise UserError("--port needs a port name; `gaitmon ports` lists the ports")
@@ -103,6 +104,25 @@ def run(args: argparse.Namespace) -> int:
     meta = SessionMeta(
         patient_id=args.patient, side=args.side, operator=args.operator, notes=args.notes
     )
+    lsl = record_lsl.open_inputs(args)  # the streams are found before the unit is touched
+    try:
+        return _record(args, out, meta, lsl)
+    finally:
+        if lsl is not None:
+            lsl.close()
+
+
+def _record(
+    args: argparse.Namespace, out: Path, meta: SessionMeta, lsl: record_lsl.LslInputs | None
+) -> int:
+    from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.engine import Engine, EngineError
+    from gaitmon.io.device import Device
+    from gaitmon.io.ports import make_transport
+    from gaitmon.io.session import journal_path
+    from gaitmon.io.transport import InProcessTransport, LinkError, Transport
+
+    control = lsl.control if lsl is not None else None
     unit = None
     transport: Transport
     if args.simulate:
@@ -119,7 +139,8 @@ def run(args: argparse.Namespace) -> int:
     # The file and its journal are created once the unit is identified and before the first
     # frame is requested, so nothing received is ever outside the file (a crash during start-up
     # lost everything received until the file existed: seconds on a loaded machine). With
-    # --zero the stream must run first (zeroing needs data); the recording starts after it.
+    # --zero the stream must run first (zeroing needs data); the recording starts after it,
+    # and with --lsl-control once the start word arrives.
     started_early = False
 
     def record_from_the_first_frame() -> None:
@@ -128,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
         started_early = True
 
     try:
-        engine.start(before_stream=None if args.zero else record_from_the_first_frame)
+        later = args.zero or control is not None
+        engine.start(before_stream=None if later else record_from_the_first_frame)
     except (EngineError, LinkError) as exc:
         if started_early:  # an empty file of a recording that never began
             for p in (out, journal_path(out)):
@@ -146,10 +168,14 @@ def run(args: argparse.Namespace) -> int:
     stall_s = STALL_S if args.simulate else STALL_PORT_S
     stalled_at_s: float | None = None
     try:
+        if lsl is not None:
+            record_lsl.start_markers(lsl, engine)
         if args.zero:
             _zero(engine, stop)
         if stop.is_set():  # Ctrl-C while zeroing: the user wants no recording at all
             raise UserError("stopped before the recording started; nothing was recorded")
+        if control is not None:
+            record_lsl.wait_for_start(control, engine, stop, stall_s, args.quiet)
         if not started_early:
             try:
                 engine.start_recording(out, meta, overwrite=args.force)
@@ -167,6 +193,9 @@ def run(args: argparse.Namespace) -> int:
         while True:
             if stop.wait(0.01):
                 reason = "user"
+                break
+            if control is not None and control.stopped.is_set():
+                reason = f"remote: {control.words.stop!r} on LSL stream {control.name!r}"
                 break
             # only counters here: a display snapshot (ring-buffer copies) is not needed
             rec = engine.recording
@@ -216,6 +245,9 @@ def run(args: argparse.Namespace) -> int:
         f"{count(d.crc_failures, 'CRC failure')}, {count(stats.reconnects, 'reconnect')}",
         file=sys.stderr,
     )
+    markers = record_lsl.summary(lsl, engine)
+    if markers:
+        print(f"gaitmon record: {markers}", file=sys.stderr)
     return 0
 
 
