@@ -294,19 +294,23 @@ def _stride_extremes(
     peak = np.full(n, np.nan)
     rom = np.full((n, 3), np.nan)
     if joint_deg is not None and n:
-        ok = end < len(joint_deg)
-        if ok.any():
-            # one NaN row after the data, so that end + 1 is always a valid reduceat index
-            a = np.concatenate([np.asarray(joint_deg, np.float64),
-                                np.full((1, joint_deg.shape[1]), np.nan)])
-            s0, e1, t0 = start[ok], end[ok] + 1, toe[ok]
-            # reduceat over [s, e + 1) pairs: the odd results (from e + 1 on) are not used
+        a = np.asarray(joint_deg, np.float64)  # (no copy of the session's float64 angles)
+        ok = end < len(a)
+        # reduceat over [s, e + 1) pairs (the odd results, from e + 1 on, are not used) needs
+        # e + 1 to be a row: a stride ending on the last row is reduced on its own
+        bulk = ok & (end + 1 < len(a))
+        if bulk.any():
+            s0, e1, t0 = start[bulk], end[bulk] + 1, toe[bulk]
             idx = np.column_stack([s0, e1]).ravel()
             hi = np.maximum.reduceat(a, idx, axis=0)[::2]
             lo = np.minimum.reduceat(a, idx, axis=0)[::2]
-            rom[ok] = (hi - lo)[:, :3]
+            rom[bulk] = (hi - lo)[:, :3]
             kidx = np.column_stack([t0, e1]).ravel()
-            peak[ok] = np.maximum.reduceat(a[:, 1], kidx)[::2]
+            peak[bulk] = np.maximum.reduceat(a[:, 1], kidx)[::2]
+        for k in np.flatnonzero(ok & ~bulk):
+            seg = a[start[k] :]
+            rom[k] = (seg.max(axis=0) - seg.min(axis=0))[:3]
+            peak[k] = a[toe[k] :, 1].max()
     return peak.tolist(), [(h, k, a) for h, k, a in rom.tolist()]
 
 

@@ -374,3 +374,23 @@ def test_the_exclusions_of_all_strides_at_once_are_the_per_stride_rule():
         assert {FIRST, GAP, SETTLING, USER, ""} <= set(got)
         assert (LAST in got) == (n is not None)
     assert stride_exclusions([5], [9], [1], 3, np.empty(0, np.int64), [], []) == [""]
+
+
+def test_stride_extremes_are_each_strides_own_to_its_last_row():
+    """Range of motion over [start, end] and the knee's swing peak from toe off, per stride as
+    numpy gives them one by one, also for a stride ending on the record's last row, NaN for
+    one past it."""
+    from gaitmon.analysis import analyse_strides
+
+    rng = np.random.default_rng(11)
+    joints = np.cumsum(rng.normal(size=(1200, 3)), axis=0)
+    hs = np.array([10, 120, 230, 345, 460, 580, 700, 815, 930, 1050, 1199, 1300])
+    to = hs[:-1] + 70
+    rows = analyse_strides(hs, to, FS, joints)
+    assert len(rows) == 11 and rows[-2].stride.end_idx == len(joints) - 1
+    for r in rows[:-1]:
+        a, b, t = r.stride.start_idx, r.stride.end_idx, r.stride.toe_off_idx
+        seg = joints[a : b + 1]
+        assert r.rom_deg == tuple(seg.max(axis=0) - seg.min(axis=0))
+        assert r.knee_peak_swing_deg == joints[t : b + 1, 1].max()
+    assert np.isnan(rows[-1].knee_peak_swing_deg) and np.isnan(rows[-1].rom_deg).all()
