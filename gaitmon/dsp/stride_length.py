@@ -38,7 +38,8 @@ only; the stride length holds on slopes). The foot is still for at least ~50 ms 
 leg length, height or other anthropometry is needed.
 
 The same stride needs only the samples from its heel strike to the foot-flat after the next one
-(``stride_data_end``): :class:`StrideLengthTracker` gives each stride as soon as those have
+(or to the end of its own foot-flat search, if a long stride before makes it end later:
+``stride_data_end``): :class:`StrideLengthTracker` gives each stride as soon as those have
 arrived, with the same numbers as :func:`stride_measures` on the whole record.
 """
 
@@ -127,9 +128,11 @@ def search_spans(heel_strike_idx: np.ndarray) -> np.ndarray:
 
 
 def stride_data_end(heel_strike_idx: np.ndarray, j: int) -> int:
-    """Exclusive end of the samples stride j (heel strike j to j + 1) needs."""
+    """Exclusive end of the samples stride j (heel strike j to j + 1) needs: the end of both
+    its foot-flat searches (after a long stride, heel strike j's reaches past j + 1's)."""
     hs = np.asarray(heel_strike_idx, dtype=np.int64)
-    return int(hs[j + 1] + search_spans(hs)[j + 1])
+    spans = search_spans(hs)
+    return int(max(hs[j] + spans[j], hs[j + 1] + spans[j + 1]))
 
 
 def _moving_max(x: np.ndarray, half: int) -> np.ndarray:
@@ -398,7 +401,8 @@ class StrideLengthTracker:
         # with the samples they need, relative to the buffer's start.
         lo = max(done[0] - 1, 0)
         sub = hs[lo : done[-1] + 2]
-        end = min(int(sub[-1] + search_spans(sub)[-1]), self._n_seen)
+        # (the first heel strike's span, taken from the stride after it, ends before the next)
+        end = min(int(np.max(sub + search_spans(sub))), self._n_seen)
         m = stride_measures(*self._padded(end), self.fs_hz, sub - self._buf_start)
         keep = slice(done[0] - lo, None)
         ff = m.foot_flat_idx[keep]
