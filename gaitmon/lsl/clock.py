@@ -1,0 +1,302 @@
+"""The unit's sample clock mapped onto the host's clock: a fit of host receive time against the
+sample counter, so that the jitter of the link never reaches a timestamp. Pure (numpy only).
+
+What is fitted. ``k`` counts the unit's sample periods since its first sample, lost frames
+included (the engine's ``t_s * fs``); ``host_s`` is ``time.monotonic()`` when the bytes of
+that sample were read. Every sample is read *after* it was made, so
+
+    host_s = a + b * k + delay,   delay >= d_min >= 0
+
+where ``b`` is the unit's sample period on the host's clock (1 / fs, off by the crystal's
+rate error, or 1 / (fs * speed) for a simulator running faster than real time) and the delay
+is the link's: the Bluetooth stack's buffering (several ms of jitter), frames that arrive in
+bursts and share one read time, a stalled link that delivers a second of backlog at once.
+The delays are one-sided and far from Gaussian, so an ordinary least-squares line through all
+the points would be pulled up and tilted by every burst and stall.
+
+The choice: the **lower envelope** (Moon, Skelly & Towsley, "Estimation and removal of clock
+skew from network delay measurements", 1999, the method NTP-style skew estimators use). The
+line ``a + b k`` that lies below every point and is as high as possible on average
+(linear programming: maximise ``sum(a + b k_i)`` subject to ``a + b k_i <= host_s_i``) is the
+edge of the points' lower convex hull that spans their mean ``k``. It rests on the samples
+that met the least delay, which every burst of a Bluetooth link contains (the last frame of a
+burst waited least), and ignores by construction every sample that was held up: a stall or a
+backlog moves nothing. Its offset is the smallest delay seen (``d_min``, the constant part of
+the link's latency, which no receiver can tell from the unit's own delay and which cannot be
+removed: it is reported, not hidden, see ``docs/lsl.md``). A least-squares or recursive fit
+with outlier rejection was the alternative; it needs a threshold for "outlier" that depends on
+the link, and still averages the delays it keeps. The hull needs no threshold.
+
+Window. The points of the last ``window_s`` of samples (default 60 s; the crystal's rate
+changes slowly with temperature) are kept as the minima of short buckets (``bucket_s``: only
+a bucket's least-delayed sample can be on the hull), and the line is refitted every
+``refit_s`` of samples: growing while the session is young, then sliding.
+
+The map. Timestamps must not jump when the fit changes: the map in force (``map``) is a line
+that, at each refit, starts from its own value at the newest sample and aims at the new fit
+``horizon_s`` later (a slew, never a step), unless the two differ by more than ``step_s``
+(the first fit, or a restart), when it takes the fit at once.
+
+Gaps and reconnects. Lost frames are gaps in ``k``, nothing more: the fit needs no sample at
+every ``k``. A reconnect in the same session keeps the unit's counter, and the points after
+it fall on the same line (later, never earlier): nothing changes. A unit that restarted, or a
+counter that jumped, shows as samples that arrive *before* the line says they could have been
+made (more than ``step_s`` below it), or that stay more than ``late_s`` above it for
+``late_for_s``: then the fit starts again from those samples (``restarts`` counts it) and
+keeps the rate it had learnt (the same crystal), and the map steps once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# a fitted rate this far from the nominal one is taken as it is even from a short span (a
+# simulator running at another speed than real time): no prior holds it
+_FREE_BEYOND = 0.1
+
+
+@dataclass(frozen=True)
+class ClockFit:
+    """One fitted line: ``host_s = offset_s + period_s * (k - k0)``."""
+
+    k0: float
+    offset_s: float
+    period_s: float
+
+    def at(self, k: np.ndarray | float) -> np.ndarray:
+        return self.offset_s + self.period_s * (np.asarray(k, dtype=np.float64) - self.k0)
+
+
+class SampleClock:
+    """The sample counter -> host time map of one unit; see the module doc.
+
+    ``update(k, host_s)`` with each block (``k`` increasing), then ``map(k)`` for the
+    timestamps of its samples or of events at earlier samples."""
+
+    def __init__(
+        self,
+        fs_hz: float,
+        *,
+        window_s: float = 60.0,
+        bucket_s: float = 0.1,
+        refit_s: float = 0.25,
+        horizon_s: float = 2.0,
+        step_s: float = 0.005,
+        late_s: float = 0.25,
+        late_for_s: float = 2.0,
+        trust_s: float = 10.0,
+        rate_prior_ppm: float = 1000.0,
+    ) -> None:
+        if not fs_hz > 0:
+            raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
+        self.fs_hz = float(fs_hz)
+        self._window_k = max(2.0, window_s * fs_hz)
+        self._bucket_k = max(1, round(bucket_s * fs_hz))
+        self._refit_k = max(1.0, refit_s * fs_hz)
+        self._horizon_k = max(1.0, horizon_s * fs_hz)
+        self.step_s = float(step_s)
+        self.late_s = float(late_s)
+        self._late_for_k = late_for_s * fs_hz
+        # points spanning less than this say little about the rate: before, the rate is held
+        # near the nominal one (at the start) or kept as learnt (after a restart)
+        self._trust_k = trust_s * fs_hz
+        self._min_span_k = self._trust_k
+        self._prior = rate_prior_ppm * 1e-6
+        self.restarts = 0
+        self.fit: ClockFit | None = None  # the last fitted line (None before two buckets)
+        self._map: ClockFit | None = None
+        self._restarted = False
+        self._reset_points()
+
+    def _reset_points(self) -> None:
+        # one entry per bucket: its least-delayed sample (k, host_s)
+        self._bk: list[float] = []
+        self._bh: list[float] = []
+        self._bucket: int | None = None
+        self._k_last: float | None = None
+        self._k_refit: float | None = None
+        self._late_since_k: float | None = None
+
+    # -- input ----------------------------------------------------------------------------
+
+    def update(self, k: np.ndarray, host_s: np.ndarray) -> None:
+        """Add a block's samples: ``k`` (sample periods since the first sample, increasing)
+        and the host time each was received."""
+        k = np.asarray(k, dtype=np.float64)
+        h = np.asarray(host_s, dtype=np.float64)
+        if not len(k):
+            return
+        if self._k_last is not None and k[0] <= self._k_last:
+            # the counter went back: a new unit (or a restarted one) on the same clock map
+            self._restart()
+        if self._trusted() and self._inconsistent(k, h):
+            self._restart()
+        # a sample below the line is news (less delay than any before): refit at once
+        news = self._map is None or float((h - self._map.at(k)).min()) < 0.0
+        self._add_points(k, h)
+        # the map changes from the last sample already stamped (the previous block's last)
+        k_anchor = float(k[0]) if self._k_last is None else self._k_last
+        k_now = float(k[-1])
+        self._k_last = k_now
+        if news or self._k_refit is None or k_now - self._k_refit >= self._refit_k:
+            self._refit(k_anchor, k_now)
+
+    def restart(self) -> None:
+        """Forget the points (keep the learnt rate): the counter no longer continues the
+        old one. ``update`` finds this by itself; a caller that knows may say it."""
+        self._restart()
+
+    def _restart(self) -> None:
+        if self._map is not None:
+            self.restarts += 1
+        self._reset_points()
+        self._restarted = self._map is not None
+
+    def _trusted(self) -> bool:
+        """A fit on points spanning long enough to judge new samples against it."""
+        return (
+            self.fit is not None
+            and self._map is not None
+            and not self._restarted
+            and len(self._bk) >= 2
+            and self._bk[-1] - self._bk[0] >= self._min_span_k
+        )
+
+    def _inconsistent(self, k: np.ndarray, h: np.ndarray) -> bool:
+        assert self._map is not None
+        r = h - self._map.at(k)
+        if float(r.min()) < -self.step_s:
+            return True  # received before it could have been made on this map
+        if float(r.min()) > self.late_s:
+            if self._late_since_k is None:
+                self._late_since_k = float(k[0])
+            return float(k[-1]) - self._late_since_k >= self._late_for_k
+        self._late_since_k = None
+        return False
+
+    def _add_points(self, k: np.ndarray, h: np.ndarray) -> None:
+        # the least-delayed sample of each bucket; judged against the current slope so a
+        # bucket's choice does not depend on the (unknown) true rate
+        period = self._map.period_s if self._map is not None else 1.0 / self.fs_hz
+        b = (k // self._bucket_k).astype(np.int64)
+        r = h - period * k
+        starts = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
+        ends = np.r_[starts[1:], len(b)]
+        for s, e in zip(starts, ends, strict=True):
+            i = s + int(np.argmin(r[s:e]))
+            bucket = int(b[s])
+            if bucket == self._bucket and self._bk:
+                j = len(self._bk) - 1
+                if r[i] < self._bh[j] - period * self._bk[j]:
+                    self._bk[j], self._bh[j] = float(k[i]), float(h[i])
+            else:
+                self._bk.append(float(k[i]))
+                self._bh.append(float(h[i]))
+                self._bucket = bucket
+        # slide: drop buckets older than the window (keep at least two)
+        cut = float(k[-1]) - self._window_k
+        n_old = 0
+        while n_old < len(self._bk) - 2 and self._bk[n_old] < cut:
+            n_old += 1
+        if n_old:
+            del self._bk[:n_old], self._bh[:n_old]
+
+    # -- fitting ----------------------------------------------------------------------------
+
+    def _refit(self, k_anchor: float, k_now: float) -> None:
+        self._k_refit = k_now
+        if self._restarted and self._bk[-1] - self._bk[0] >= self._min_span_k:
+            self._restarted = False
+        # after a restart, until the new points span enough to trust their own rate
+        fit = self._learnt_rate_fit() if self._restarted else self._envelope()
+        if fit is None:
+            if self._map is None:  # one bucket: the nominal rate through its lowest point
+                self._map = ClockFit(self._bk[-1], self._bh[-1], 1.0 / self.fs_hz)
+            return
+        self.fit = fit
+        m = self._map
+        now = float(m.at(k_anchor)) if m is not None else 0.0
+        if m is None or abs(float(fit.at(k_anchor)) - now) > self.step_s:
+            self._map = fit  # the first fit, or after a restart: a step, once
+            return
+        # slew: from where the map was at the last stamped sample to where the fit will be a
+        # horizon later (a shorter one while the points span little: the fit improves fast)
+        span = self._bk[-1] - self._bk[0]
+        k_aim = k_now + min(self._horizon_k, max(self._refit_k, span / 4))
+        period = (float(fit.at(k_aim)) - now) / (k_aim - k_anchor)
+        self._map = ClockFit(k_anchor, now, period)
+
+    def _learnt_rate_fit(self) -> ClockFit:
+        """The rate learnt before a restart, through the new points' least-delayed one."""
+        assert self._map is not None
+        period = self._map.period_s if self.fit is None else self.fit.period_s
+        k = np.asarray(self._bk)
+        h = np.asarray(self._bh)
+        i = int(np.argmin(h - period * k))
+        return ClockFit(float(k[i]), float(h[i]), period)
+
+    def _envelope(self) -> ClockFit | None:
+        """The lower convex hull's edge spanning the points' mean k (see the module doc)."""
+        n = len(self._bk)
+        if n < 2:
+            return None
+        k = np.asarray(self._bk)
+        h = np.asarray(self._bh)
+        k0 = float(k[0])
+        x = k - k0
+        # Andrew's monotone chain, lower hull (k is strictly increasing)
+        hull: list[int] = []
+        for i in range(n):
+            while len(hull) >= 2:
+                a, b = hull[-2], hull[-1]
+                cross = (x[b] - x[a]) * (h[i] - h[a]) - (h[b] - h[a]) * (x[i] - x[a])
+                if cross <= 0:
+                    hull.pop()
+                else:
+                    break
+            hull.append(i)
+        mean_x = float(x.mean())
+        j = 1
+        while j < len(hull) - 1 and x[hull[j]] < mean_x:
+            j += 1
+        a, b = hull[j - 1], hull[j]
+        period = float((h[b] - h[a]) / (x[b] - x[a]))
+        if not period > 0:
+            return None
+        nominal = 1.0 / self.fs_hz
+        if x[-1] < self._trust_k and abs(period / nominal - 1.0) < _FREE_BEYOND:
+            # a short span says little about the rate (the least delays it met differ by a
+            # fraction of a ms, over a second or two): hold it within a crystal's tolerance
+            # of the nominal rate, with the line as high as that slope allows
+            lo, hi = nominal * (1.0 - self._prior), nominal * (1.0 + self._prior)
+            if not lo <= period <= hi:
+                period = min(max(period, lo), hi)
+                i = int(np.argmin(h - period * x))
+                return ClockFit(k0, float(h[i] - period * x[i]), period)
+        return ClockFit(k0, float(h[a] - period * x[a]), period)
+
+    # -- output -------------------------------------------------------------------------
+
+    @property
+    def ready(self) -> bool:
+        return self._map is not None
+
+    @property
+    def current(self) -> ClockFit | None:
+        """The map in force (None before the first sample)."""
+        return self._map
+
+    def map(self, k: np.ndarray | float) -> np.ndarray:
+        """Host time (``time.monotonic`` seconds) of the samples at counter values ``k``."""
+        if self._map is None:
+            raise RuntimeError("no sample has been seen yet")
+        return self._map.at(k)
+
+    @property
+    def rate_error_ppm(self) -> float:
+        """The unit's clock against the host's: + = the unit runs fast (NaN before a fit)."""
+        if self.fit is None:
+            return float("nan")
+        return (1.0 / (self.fit.period_s * self.fs_hz) - 1.0) * 1e6
