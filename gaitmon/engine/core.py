@@ -55,7 +55,7 @@ from gaitmon.engine.snapshot import (
     RecordingStatus,
     Snapshot,
 )
-from gaitmon.engine.taps import BlockListener, BlockOut, columns, event_k
+from gaitmon.engine.taps import BlockListener, BlockOut, Taps, columns, event_k
 from gaitmon.io.device import Device, DeviceError, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
 from gaitmon.io.transport import LinkError
@@ -152,11 +152,7 @@ class Engine:
         self._identity: Identity | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
-        # listeners (replaced, never mutated: the engine thread reads the tuple without a
-        # lock), markers dropped for them since the last block, the recording they last saw
-        self._listeners: tuple[BlockListener, ...] = ()
-        self._tap_markers: list[str] = []
-        self._tap_rec: Recorder | None = None
+        self._taps = Taps()  # listeners (add_listener)
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -201,10 +197,10 @@ class Engine:
         if self._thread is not None:
             self._thread.join(timeout=5.0)
             self._thread = None
-            if self._listeners:  # the engine thread is gone: this thread tells them the end
-                stopped, self._tap_rec = self._tap_rec is not None, None
-                self._tell(BlockOut(self.mode.value, self.fs_hz, recording_stopped=stopped,
-                                    last=True))  # fmt: skip
+            if self._taps:  # the engine thread is gone: this thread tells them the end
+                stopped = self._taps.saw_recording(None)
+                out = BlockOut(self.mode.value, self.fs_hz, recording_stopped=stopped, last=True)
+                self._taps.tell(out, self._note_error)
         with contextlib.suppress(Exception):
             self.device.close()
 
@@ -324,8 +320,8 @@ class Engine:
         t = self._latest_t()
         with self._lock:
             self._markers.append((t, label))
-            if self._listeners:
-                self._tap_markers.append(label)
+            if self._taps:
+                self._taps.markers.append(label)
             if self._recorder is not None:
                 self._recorder.put(("marker", label))
 
@@ -334,21 +330,12 @@ class Engine:
     def add_listener(self, listener: BlockListener) -> None:
         """Call ``listener(BlockOut)`` on the engine thread after each block (``taps``)."""
         with self._lock:
-            self._listeners = (*self._listeners, listener)
+            self._taps.add(listener)
 
     def remove_listener(self, listener: BlockListener) -> None:
         """No more calls from the next block on (one already under way may still finish)."""
         with self._lock:
-            self._listeners = tuple(x for x in self._listeners if x is not listener)
-            if not self._listeners:
-                self._tap_markers.clear()
-
-    def _tell(self, out: BlockOut) -> None:
-        for listener in self._listeners:
-            try:
-                listener(out)
-            except Exception as exc:  # a listener must never stop acquisition
-                self._note_error(f"listener error: {type(exc).__name__}: {exc}")
+            self._taps.remove(listener)
 
     # -- settings and calibration --------------------------------------------------------
 
@@ -555,20 +542,19 @@ class Engine:
             self._gait.add(hs_idx, to_idx, strides, restarts, self._ring, st.samples)
             self._gait.add_lengths(lengths)
             self._checks.add(faults, offset, st.samples, self._ring)
-            markers, self._tap_markers = tuple(self._tap_markers), []
-        if self._listeners:
+            markers = self._taps.take_markers()
+        if self._taps:
             k = np.rint(t_s * self.fs_hz).astype(np.int64)
             joint, tilt = columns(cols, len(block))
-            stopped = self._tap_rec is not None and rec is not self._tap_rec
-            self._tap_rec = rec
+            stopped = self._taps.saw_recording(rec)
             started = str(rec.writer.path) if first and rec is not None else ""
             hs_k, to_k = (event_k(i, start_idx, k, self._ring.times_of, self.fs_hz)
                           for i in (hs_idx, to_idx))  # fmt: skip
-            self._tell(BlockOut(
+            self._taps.tell(BlockOut(
                 self.mode.value, self.fs_hz, cols["idx"].astype(np.int64), block.seq, k,
                 block.host_time_s, lost, joint, tilt, block.adc, hs_k, to_k, markers,
                 gap_reason, cfg, cal, started, stopped,
-            ))  # fmt: skip
+            ), self._note_error)  # fmt: skip
 
     def _stride_lengths(
         self, adc: np.ndarray, p: PipelineBlock, hs_idx: np.ndarray, start_idx: int

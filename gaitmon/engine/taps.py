@@ -82,6 +82,46 @@ class BlockOut:
 BlockListener = Callable[[BlockOut], None]
 
 
+class Taps:
+    """The engine's listeners and what it keeps for them: markers dropped since the last
+    block, and the recording they last saw (to say when it stopped). The listener tuple is
+    replaced, never changed in place, so the engine thread reads it without a lock; the rest
+    is changed under the engine's lock (``markers``) or by the engine thread only."""
+
+    def __init__(self) -> None:
+        self.listeners: tuple[BlockListener, ...] = ()
+        self.markers: list[str] = []
+        self.recording: object | None = None  # the engine's Recorder last seen
+
+    def __bool__(self) -> bool:
+        return bool(self.listeners)
+
+    def add(self, listener: BlockListener) -> None:
+        self.listeners = (*self.listeners, listener)
+
+    def remove(self, listener: BlockListener) -> None:
+        self.listeners = tuple(x for x in self.listeners if x is not listener)
+        if not self.listeners:
+            self.markers.clear()
+
+    def take_markers(self) -> tuple[str, ...]:
+        out, self.markers = tuple(self.markers), []
+        return out
+
+    def saw_recording(self, rec: object | None) -> bool:
+        """Note the recording of this block; True if the one seen before has stopped."""
+        stopped = self.recording is not None and rec is not self.recording
+        self.recording = rec
+        return stopped
+
+    def tell(self, out: BlockOut, on_error: Callable[[str], None]) -> None:
+        for listener in self.listeners:
+            try:
+                listener(out)
+            except Exception as exc:  # a listener must never stop acquisition
+                on_error(f"listener error: {type(exc).__name__}: {exc}")
+
+
 def columns(cols: dict[str, np.ndarray], n: int) -> tuple[np.ndarray, np.ndarray]:
     """The live joint angles and tilts of a block's display columns (NaN where absent)."""
     joint = cols.get("joint_kalman_deg")
