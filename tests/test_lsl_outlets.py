@@ -251,3 +251,42 @@ def test_record_without_lsl_never_imports_pylsl(tmp_path, monkeypatch, capsys):
     assert out.exists()
     assert main([*args[:-1], "--force", "--lsl"]) == 2
     assert "install gaitmon[lsl]" in capsys.readouterr().err
+
+
+def test_gaitmon_record_lsl_streams_while_it_records(tmp_path):
+    """The README's command, as written but shorter: LSL tools see the streams while it runs,
+    with the patient id only because --lsl-patient-id allows it."""
+    import os
+    import subprocess
+
+    out = tmp_path / "walk.h5"
+    since = pylsl.local_clock()
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "gaitmon", "record", "--simulate", "--lsl", "--duration", "8",
+         "--speed", "2", "--patient", "P9", "--lsl-patient-id", "-o", str(out)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, text=True,
+    )  # fmt: skip
+    try:
+        ours = []
+        deadline = time.monotonic() + 30
+        while not ours and time.monotonic() < deadline and proc.poll() is None:
+            found = pylsl.resolve_byprop("source_id", "gaitmon-sim-angles", 0, 1.0)
+            ours = [i for i in found if i.created_at() >= since]  # not another run's
+        assert ours, "gaitmon record --lsl published no angles stream"
+        inlet = pylsl.StreamInlet(ours[0], recover=False)
+        info = inlet.info(timeout=5.0)
+        got = 0
+        t_end = time.monotonic() + 20
+        while got < 200 and time.monotonic() < t_end:
+            _d, ts = inlet.pull_chunk(timeout=0.2)
+            got += len(ts)
+        assert got >= 200
+        assert info.desc().child("gaitmon").child_value("subject_id") == "P9"
+        assert _desc_channels(info)[0] == ("hip_flexion", "degrees", "JointAngle")
+    finally:
+        _out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "streaming to LSL as 'gaitmon sim angles'" in err
+    with open_session(out) as s:
+        assert s.n_samples >= 790
