@@ -128,8 +128,7 @@ def test_timestamps_follow_the_sample_clock_within_a_millisecond(streamed):
     late = seq >= seq[0] + SETTLE_S * 100 * 2  # fs 100 Hz at speed 2: samples per host second
     coef = np.polyfit(seq[late], ts[late], 1)
     resid = ts[late] - np.polyval(coef, seq[late])
-    worst = int(np.abs(resid).argmax())
-    assert np.abs(resid).max() <= 1e-3, (np.abs(resid).max(), worst, len(resid), resid[::50])
+    assert np.abs(resid).max() <= 1e-3, np.abs(resid).max()
     # the slope is the unit's sample period on the host's clock: 1 / (100 Hz x speed 2)
     assert coef[0] == pytest.approx(0.005, rel=1e-3)
     # and the stamps are LSL's clock: near now, not the monotonic clock's origin

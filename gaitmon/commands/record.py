@@ -151,7 +151,10 @@ def run(args: argparse.Namespace) -> int:
         if args.lsl:  # the outlets exist before the first frame: a recorder misses none
             from gaitmon.lsl.outlets import LslOutlets
 
-            outlets = LslOutlets.attach(engine, meta, allow_patient_id=args.lsl_patient_id)
+            try:
+                outlets = LslOutlets.attach(engine, meta, allow_patient_id=args.lsl_patient_id)
+            except Exception as exc:  # liblsl could not open its sockets
+                raise EngineError(f"could not open the LSL streams: {exc}") from None
             if not args.quiet:
                 names = ", ".join(repr(n) for n in outlets.names)
                 print(f"gaitmon record: streaming to LSL as {names}", file=sys.stderr)

@@ -25,17 +25,33 @@ backlog moves nothing. Its offset is the smallest delay seen (``d_min``, the con
 the link's latency, which no receiver can tell from the unit's own delay and which cannot be
 removed: it is reported, not hidden, see ``docs/lsl.md``). A least-squares or recursive fit
 with outlier rejection was the alternative; it needs a threshold for "outlier" that depends on
-the link, and still averages the delays it keeps. The hull needs no threshold.
+the link, and still averages the delays it keeps. The hull needs no threshold. One change
+to the LP's exact optimum: when the edge at the mean is short (two near-floor samples a tenth
+of a second apart, whose slope is their noise over 0.1 s; a busy host makes these), the slope
+is taken over the chord of the neighbouring hull vertices, widened about the mean until it
+spans an eighth of the window, keeping off the window's first and last samples (always on
+the hull, whatever their delay); the line is then placed as high as that slope allows.
 
-Window. The points of the last ``window_s`` of samples (default 60 s; the crystal's rate
-changes slowly with temperature) are kept as the minima of short buckets (``bucket_s``: only
-a bucket's least-delayed sample can be on the hull), and the line is refitted every
-``refit_s`` of samples: growing while the session is young, then sliding.
+Window. The samples of the last ``window_s`` (default 60 s; the crystal's rate changes
+slowly with temperature) are kept; a refit takes the least-delayed sample of each of at most
+``max_points`` buckets (only such a sample can be on the hull; while the window is short,
+every sample) and is made every ``refit_s`` of samples, and at once when a sample arrives
+below the line (news: less delay than any before). The window grows while the session is
+young, then slides.
+
+The first seconds. Until the points span ``trust_s`` (10 s) of samples the line is refitted
+with every block, and its rate is held within ``rate_prior_ppm`` (1000 ppm, a crystal's
+tolerance) of the nominal one, unless the fit is more than 10 % off it (a simulator running
+faster than real time): a short span says little about the rate. Before two samples with
+different receive times, the nominal rate is used.
 
 The map. Timestamps must not jump when the fit changes: the map in force (``map``) is a line
-that, at each refit, starts from its own value at the newest sample and aims at the new fit
-``horizon_s`` later (a slew, never a step), unless the two differ by more than ``step_s``
-(the first fit, or a restart), when it takes the fit at once.
+that, at each refit, starts from its own value at the last sample stamped and meets the new
+fit some time later (a slew, never a step), unless the two differ by more than ``step_s``
+(the first fit, or a restart), when it takes the fit at once. Down (a sample met less delay
+than any before: certain, delays are never negative) the slew takes 0.1 s while the rate is
+being learnt; up (no sample came near the line for a while: the floor may have moved, or the
+host was busy) and once the rate is learnt, ``horizon_s`` (2 s).
 
 Gaps and reconnects. Lost frames are gaps in ``k``, nothing more: the fit needs no sample at
 every ``k``. A reconnect in the same session keeps the unit's counter, and the points after
@@ -80,7 +96,7 @@ class SampleClock:
         fs_hz: float,
         *,
         window_s: float = 60.0,
-        bucket_s: float = 0.1,
+        max_points: int = 256,
         refit_s: float = 0.25,
         horizon_s: float = 2.0,
         step_s: float = 0.005,
@@ -93,7 +109,7 @@ class SampleClock:
             raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
         self.fs_hz = float(fs_hz)
         self._window_k = max(2.0, window_s * fs_hz)
-        self._bucket_k = max(1, round(bucket_s * fs_hz))
+        self._max_points = max(4, int(max_points))
         self._refit_k = max(1.0, refit_s * fs_hz)
         self._horizon_k = max(1.0, horizon_s * fs_hz)
         self.step_s = float(step_s)
@@ -111,12 +127,15 @@ class SampleClock:
         self._reset_points()
 
     def _reset_points(self) -> None:
-        # one entry per bucket: its least-delayed sample (k, host_s)
-        self._bk: list[float] = []
-        self._bh: list[float] = []
-        self._bucket: int | None = None
+        # the window's samples, block by block; and the candidates of the last refit: the
+        # least-delayed sample of each bucket (k, host_s), k increasing
+        self._blocks: list[tuple[np.ndarray, np.ndarray]] = []
+        self._bk = np.zeros(0)
+        self._bh = np.zeros(0)
         self._k_last: float | None = None
         self._k_refit: float | None = None
+        self._aim_k: float | None = None  # where the slew under way meets the fit
+        self._aim_down = False  # and whether it goes down
         self._late_since_k: float | None = None
 
     # -- input ----------------------------------------------------------------------------
@@ -140,7 +159,8 @@ class SampleClock:
         k_anchor = float(k[0]) if self._k_last is None else self._k_last
         k_now = float(k[-1])
         self._k_last = k_now
-        if news or self._k_refit is None or k_now - self._k_refit >= self._refit_k:
+        young = self._span() < self._trust_k  # the rate still being learnt: every block
+        if news or young or self._k_refit is None or k_now - self._k_refit >= self._refit_k:
             self._refit(k_anchor, k_now)
 
     def restart(self) -> None:
@@ -160,9 +180,13 @@ class SampleClock:
             self.fit is not None
             and self._map is not None
             and not self._restarted
-            and len(self._bk) >= 2
-            and self._bk[-1] - self._bk[0] >= self._min_span_k
+            and self._span() >= self._min_span_k
         )
+
+    def _span(self) -> float:
+        if not self._blocks:
+            return 0.0
+        return float(self._blocks[-1][0][-1] - self._blocks[0][0][0])
 
     def _inconsistent(self, k: np.ndarray, h: np.ndarray) -> bool:
         assert self._map is not None
@@ -177,43 +201,44 @@ class SampleClock:
         return False
 
     def _add_points(self, k: np.ndarray, h: np.ndarray) -> None:
-        # the least-delayed sample of each bucket; judged against the current slope so a
-        # bucket's choice does not depend on the (unknown) true rate
-        period = self._map.period_s if self._map is not None else 1.0 / self.fs_hz
-        b = (k // self._bucket_k).astype(np.int64)
-        r = h - period * k
-        starts = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
-        ends = np.r_[starts[1:], len(b)]
-        for s, e in zip(starts, ends, strict=True):
-            i = s + int(np.argmin(r[s:e]))
-            bucket = int(b[s])
-            if bucket == self._bucket and self._bk:
-                j = len(self._bk) - 1
-                if r[i] < self._bh[j] - period * self._bk[j]:
-                    self._bk[j], self._bh[j] = float(k[i]), float(h[i])
-            else:
-                self._bk.append(float(k[i]))
-                self._bh.append(float(h[i]))
-                self._bucket = bucket
-        # slide: drop buckets older than the window (keep at least two)
+        self._blocks.append((k, h))
+        # slide: drop the blocks wholly older than the window (keep the newest two)
         cut = float(k[-1]) - self._window_k
         n_old = 0
-        while n_old < len(self._bk) - 2 and self._bk[n_old] < cut:
+        while n_old < len(self._blocks) - 2 and self._blocks[n_old][0][-1] < cut:
             n_old += 1
         if n_old:
-            del self._bk[:n_old], self._bh[:n_old]
+            del self._blocks[:n_old]
+
+    def _candidates(self) -> None:
+        """The least-delayed sample of each of at most ``max_points`` buckets of the window
+        (only such a sample can be on the lower hull), judged against the current slope so
+        that a bucket's choice does not depend on the unknown true rate. Short windows keep
+        every sample: the first blocks' fit has every point it can get."""
+        k = np.concatenate([b[0] for b in self._blocks])
+        h = np.concatenate([b[1] for b in self._blocks])
+        width = max(1.0, np.ceil((k[-1] - k[0] + 1) / self._max_points))
+        bucket = ((k - k[0]) // width).astype(np.int64)
+        period = self._map.period_s if self._map is not None else 1.0 / self.fs_hz
+        r = h - period * (k - k[0])
+        order = np.lexsort((r, bucket))
+        first = order[np.r_[True, np.diff(bucket[order]) != 0]]
+        self._bk, self._bh = k[first], h[first]
 
     # -- fitting ----------------------------------------------------------------------------
 
     def _refit(self, k_anchor: float, k_now: float) -> None:
         self._k_refit = k_now
-        if self._restarted and self._bk[-1] - self._bk[0] >= self._min_span_k:
+        self._candidates()
+        if self._restarted and self._span() >= self._min_span_k:
             self._restarted = False
         # after a restart, until the new points span enough to trust their own rate
         fit = self._learnt_rate_fit() if self._restarted else self._envelope()
         if fit is None:
-            if self._map is None:  # one bucket: the nominal rate through its lowest point
-                self._map = ClockFit(self._bk[-1], self._bh[-1], 1.0 / self.fs_hz)
+            if self._map is None:  # no rate yet: the nominal one through the lowest point
+                period = 1.0 / self.fs_hz
+                i = int(np.argmin(self._bh - period * self._bk))
+                self._map = ClockFit(float(self._bk[i]), float(self._bh[i]), period)
             return
         self.fit = fit
         m = self._map
@@ -222,9 +247,16 @@ class SampleClock:
             self._map = fit  # the first fit, or after a restart: a step, once
             return
         # slew: from where the map was at the last stamped sample to where the fit will be a
-        # horizon later (a shorter one while the points span little: the fit improves fast)
-        span = self._bk[-1] - self._bk[0]
-        k_aim = k_now + min(self._horizon_k, max(self._refit_k, span / 4))
+        # horizon later; a refit during a slew keeps its meeting point, so every slew ends in
+        # time. Down (a sample met less delay than any before: certain, delays are never
+        # negative) it takes 0.1 s while the rate is being learnt; up (no sample has come
+        # near the line for a while: maybe the floor moved, maybe the host was busy) 2 s
+        down = float(fit.at(k_now)) < float(m.at(k_now))
+        if self._aim_k is None or self._aim_k <= k_now or down != self._aim_down:
+            young = self._span() < self._trust_k
+            horizon = 0.1 * self.fs_hz if (young and down) else self._horizon_k
+            self._aim_k, self._aim_down = k_now + horizon, down
+        k_aim = self._aim_k
         period = (float(fit.at(k_aim)) - now) / (k_aim - k_anchor)
         self._map = ClockFit(k_anchor, now, period)
 
@@ -232,18 +264,16 @@ class SampleClock:
         """The rate learnt before a restart, through the new points' least-delayed one."""
         assert self._map is not None
         period = self._map.period_s if self.fit is None else self.fit.period_s
-        k = np.asarray(self._bk)
-        h = np.asarray(self._bh)
+        k, h = self._bk, self._bh
         i = int(np.argmin(h - period * k))
         return ClockFit(float(k[i]), float(h[i]), period)
 
     def _envelope(self) -> ClockFit | None:
-        """The lower convex hull's edge spanning the points' mean k (see the module doc)."""
+        """The lower envelope of the candidates (see the module doc)."""
         n = len(self._bk)
         if n < 2:
             return None
-        k = np.asarray(self._bk)
-        h = np.asarray(self._bh)
+        k, h = self._bk, self._bh
         k0 = float(k[0])
         x = k - k0
         # Andrew's monotone chain, lower hull (k is strictly increasing)
@@ -257,14 +287,33 @@ class SampleClock:
                 else:
                     break
             hull.append(i)
-        mean_x = float(x.mean())
+        # the slope: the LP's optimum is the hull's edge spanning the mean k. That edge can
+        # be short, between two near-floor samples a tenth of a second apart whose slope is
+        # their noise over 0.1 s: then the chord over the neighbouring hull vertices, widened
+        # about the mean until it spans an eighth of the window, is taken instead. It keeps
+        # off the window's first and last samples, which are on the hull whatever their
+        # delay (the newest may be the end of a stall's backlog).
+        mean_x, span = float(x.mean()), float(x[-1])
         j = 1
         while j < len(hull) - 1 and x[hull[j]] < mean_x:
             j += 1
-        a, b = hull[j - 1], hull[j]
+        ia, ib = j - 1, j
+        while x[hull[ib]] - x[hull[ia]] < span / 8:
+            can_a, can_b = ia > 1, ib < len(hull) - 2
+            if not (can_a or can_b):
+                break
+            left = mean_x - x[hull[ia - 1]] if can_a else np.inf
+            right = x[hull[ib + 1]] - mean_x if can_b else np.inf
+            if left <= right:
+                ia -= 1
+            else:
+                ib += 1
+        a, b = hull[ia], hull[ib]
         period = float((h[b] - h[a]) / (x[b] - x[a]))
         if not period > 0:
             return None
+        # the line as high as it can be with that slope: touching the hull at one sample
+        a = int(np.argmin(h - period * x))
         nominal = 1.0 / self.fs_hz
         if x[-1] < self._trust_k and abs(period / nominal - 1.0) < _FREE_BEYOND:
             # a short span says little about the rate (the least delays it met differ by a
