@@ -289,3 +289,28 @@ def test_gaitmon_record_lsl_streams_while_it_records(tmp_path):
     assert "streaming to LSL as 'gaitmon sim angles'" in err
     with open_session(out) as s:
         assert s.n_samples >= 790
+
+
+def test_gaitmon_record_without_lsl_publishes_no_stream(tmp_path):
+    """Watched from outside, as LabRecorder would: while `gaitmon record` runs without --lsl,
+    no gaitmon stream appears on the network."""
+    import os
+    import subprocess
+
+    since = pylsl.local_clock()
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "gaitmon", "record", "--simulate", "--duration", "6",
+         "--speed", "2", "-q", "-o", str(tmp_path / "s.h5")],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, text=True,
+    )  # fmt: skip
+    try:
+        seen = []
+        deadline = time.monotonic() + 30
+        while proc.poll() is None and time.monotonic() < deadline:
+            found = pylsl.resolve_bypred("starts-with(name,'gaitmon sim')", 0, 0.5)
+            seen += [i.name() for i in found if i.created_at() >= since]
+    finally:
+        _out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert seen == []
