@@ -64,6 +64,7 @@ keeps the rate it had learnt (the same crystal), and the map steps once.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,6 +72,9 @@ import numpy as np
 # a fitted rate this far from the nominal one is taken as it is even from a short span (a
 # simulator running at another speed than real time): no prior holds it
 _FREE_BEYOND = 0.1
+# a sample this far below the line is news worth a refit at once (less is left to the next
+# scheduled one: a refit costs ~1 ms, and near-floor samples graze the line all the time)
+_NEWS_S = 50e-6
 
 
 @dataclass(frozen=True)
@@ -127,9 +131,11 @@ class SampleClock:
         self._reset_points()
 
     def _reset_points(self) -> None:
-        # the window's samples, block by block; and the candidates of the last refit: the
-        # least-delayed sample of each bucket (k, host_s), k increasing
-        self._blocks: list[tuple[np.ndarray, np.ndarray]] = []
+        # the window's samples: rows [_p0, _p1) of two growing arrays (k, host_s); and the
+        # candidates of the last refit: the least-delayed sample of each bucket, k increasing
+        self._pk = np.zeros(1024)
+        self._ph = np.zeros(1024)
+        self._p0 = self._p1 = 0
         self._bk = np.zeros(0)
         self._bh = np.zeros(0)
         self._k_last: float | None = None
@@ -153,7 +159,7 @@ class SampleClock:
         if self._trusted() and self._inconsistent(k, h):
             self._restart()
         # a sample below the line is news (less delay than any before): refit at once
-        news = self._map is None or float((h - self._map.at(k)).min()) < 0.0
+        news = self._map is None or float((h - self._map.at(k)).min()) < -_NEWS_S
         self._add_points(k, h)
         # the map changes from the last sample already stamped (the previous block's last)
         k_anchor = float(k[0]) if self._k_last is None else self._k_last
@@ -184,9 +190,9 @@ class SampleClock:
         )
 
     def _span(self) -> float:
-        if not self._blocks:
+        if self._p1 == self._p0:
             return 0.0
-        return float(self._blocks[-1][0][-1] - self._blocks[0][0][0])
+        return float(self._pk[self._p1 - 1] - self._pk[self._p0])
 
     def _inconsistent(self, k: np.ndarray, h: np.ndarray) -> bool:
         assert self._map is not None
@@ -201,29 +207,38 @@ class SampleClock:
         return False
 
     def _add_points(self, k: np.ndarray, h: np.ndarray) -> None:
-        self._blocks.append((k, h))
-        # slide: drop the blocks wholly older than the window (keep the newest two)
+        n = len(k)
+        if self._p1 + n > len(self._pk):  # move the window to the front; grow if it is full
+            size = self._p1 - self._p0
+            cap = max(len(self._pk), 2 * (size + n))
+            pk, ph = np.zeros(cap), np.zeros(cap)
+            pk[:size], ph[:size] = self._pk[self._p0 : self._p1], self._ph[self._p0 : self._p1]
+            self._pk, self._ph, self._p0, self._p1 = pk, ph, 0, size
+        self._pk[self._p1 : self._p1 + n] = k
+        self._ph[self._p1 : self._p1 + n] = h
+        self._p1 += n
+        # slide: drop the samples older than the window (keep at least two)
         cut = float(k[-1]) - self._window_k
-        n_old = 0
-        while n_old < len(self._blocks) - 2 and self._blocks[n_old][0][-1] < cut:
-            n_old += 1
-        if n_old:
-            del self._blocks[:n_old]
+        first = int(np.searchsorted(self._pk[self._p0 : self._p1], cut))
+        self._p0 += min(first, self._p1 - self._p0 - 2) if first > 0 else 0
 
     def _candidates(self) -> None:
         """The least-delayed sample of each of at most ``max_points`` buckets of the window
         (only such a sample can be on the lower hull), judged against the current slope so
         that a bucket's choice does not depend on the unknown true rate. Short windows keep
         every sample: the first blocks' fit has every point it can get."""
-        k = np.concatenate([b[0] for b in self._blocks])
-        h = np.concatenate([b[1] for b in self._blocks])
+        k = self._pk[self._p0 : self._p1]
+        h = self._ph[self._p0 : self._p1]
         width = max(1.0, np.ceil((k[-1] - k[0] + 1) / self._max_points))
         bucket = ((k - k[0]) // width).astype(np.int64)
         period = self._map.period_s if self._map is not None else 1.0 / self.fs_hz
         r = h - period * (k - k[0])
-        order = np.lexsort((r, bucket))
-        first = order[np.r_[True, np.diff(bucket[order]) != 0]]
-        self._bk, self._bh = k[first], h[first]
+        starts = np.flatnonzero(np.r_[True, np.diff(bucket) != 0])  # k is sorted
+        lows = np.minimum.reduceat(r, starts)
+        at_low = np.flatnonzero(r == np.repeat(lows, np.diff(np.r_[starts, len(r)])))
+        _, first = np.unique(bucket[at_low], return_index=True)
+        pick = at_low[first]
+        self._bk, self._bh = k[pick], h[pick]
 
     # -- fitting ----------------------------------------------------------------------------
 
@@ -273,9 +288,10 @@ class SampleClock:
         n = len(self._bk)
         if n < 2:
             return None
-        k, h = self._bk, self._bh
-        k0 = float(k[0])
-        x = k - k0
+        k0 = float(self._bk[0])
+        x_arr, h_arr = self._bk - k0, self._bh
+        x: list[float] = x_arr.tolist()  # plain floats: the loop below is ~20x faster
+        h: list[float] = h_arr.tolist()
         # Andrew's monotone chain, lower hull (k is strictly increasing)
         hull: list[int] = []
         for i in range(n):
@@ -293,7 +309,7 @@ class SampleClock:
         # about the mean until it spans an eighth of the window, is taken instead. It keeps
         # off the window's first and last samples, which are on the hull whatever their
         # delay (the newest may be the end of a stall's backlog).
-        mean_x, span = float(x.mean()), float(x[-1])
+        mean_x, span = float(x_arr.mean()), x[-1]
         j = 1
         while j < len(hull) - 1 and x[hull[j]] < mean_x:
             j += 1
@@ -302,18 +318,18 @@ class SampleClock:
             can_a, can_b = ia > 1, ib < len(hull) - 2
             if not (can_a or can_b):
                 break
-            left = mean_x - x[hull[ia - 1]] if can_a else np.inf
-            right = x[hull[ib + 1]] - mean_x if can_b else np.inf
+            left = mean_x - x[hull[ia - 1]] if can_a else math.inf
+            right = x[hull[ib + 1]] - mean_x if can_b else math.inf
             if left <= right:
                 ia -= 1
             else:
                 ib += 1
         a, b = hull[ia], hull[ib]
-        period = float((h[b] - h[a]) / (x[b] - x[a]))
+        period = (h[b] - h[a]) / (x[b] - x[a])
         if not period > 0:
             return None
         # the line as high as it can be with that slope: touching the hull at one sample
-        a = int(np.argmin(h - period * x))
+        a = int(np.argmin(h_arr - period * x_arr))
         nominal = 1.0 / self.fs_hz
         if x[-1] < self._trust_k and abs(period / nominal - 1.0) < _FREE_BEYOND:
             # a short span says little about the rate (the least delays it met differ by a
@@ -322,9 +338,9 @@ class SampleClock:
             lo, hi = nominal * (1.0 - self._prior), nominal * (1.0 + self._prior)
             if not lo <= period <= hi:
                 period = min(max(period, lo), hi)
-                i = int(np.argmin(h - period * x))
-                return ClockFit(k0, float(h[i] - period * x[i]), period)
-        return ClockFit(k0, float(h[a] - period * x[a]), period)
+                i = int(np.argmin(h_arr - period * x_arr))
+                return ClockFit(k0, h[i] - period * x[i], period)
+        return ClockFit(k0, h[a] - period * x[a], period)
 
     # -- output -------------------------------------------------------------------------
 
