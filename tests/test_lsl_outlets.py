@@ -87,12 +87,9 @@ def streamed(tmp_path_factory):
         t_end = time.monotonic() + 5
         while time.monotonic() < t_end:
             pull()
-            n = sum(len(ts) for _d, ts in got["angles"])
-            if n >= pushed and any(
-                parse_event(d[0])[0] is EventWord.RECORDING_STOP
-                for c in got["events"]
-                for d in c[0]
-            ):
+            n = min(sum(len(ts) for _d, ts in got[s]) for s in ("angles", "raw"))
+            words = [parse_event(d[0])[0] for c in got["events"] for d in c[0]]
+            if n >= pushed and EventWord.RECORDING_STOP in words:
                 break
             time.sleep(0.02)
         outlets.detach()
@@ -175,9 +172,12 @@ def test_heel_strikes_are_stamped_at_the_files_rows(streamed):
         seq = s.read("timeline/seq")
         file_hs = np.asarray(s.heel_strike_idx)
     rows = np.searchsorted(seq, raw[near, 0])
-    rows = rows[rows < len(seq) - 1]  # (the stream goes on a moment after the file stops)
-    assert len(file_hs) >= len(rows) >= 5
-    for r in rows:
+    # the stream goes on a moment after the file stops: a heel strike on the file's last
+    # rows may be confirmed only after the recording stopped (with the force-sensor check
+    # on, a stride's events are decided up to a stride and 0.75 s later)
+    settled = rows[rows < len(seq) - 250]
+    assert len(file_hs) >= len(settled) >= 5
+    for r in settled:
         assert np.abs(file_hs - r).min() <= 1
     for r in file_hs:  # and none of the file's is missing from the stream
         assert np.abs(rows - r).min() <= 1

@@ -51,7 +51,7 @@ fit some time later (a slew, never a step), unless the two differ by more than `
 (the first fit, or a restart), when it takes the fit at once. Down (a sample met less delay
 than any before: certain, delays are never negative) the slew takes 0.1 s while the rate is
 being learnt; up (no sample came near the line for a while: the floor may have moved, or the
-host was busy) and once the rate is learnt, ``horizon_s`` (2 s).
+host was busy) 0.5 s; once the rate is learnt, ``horizon_s`` (2 s) either way.
 
 Gaps and reconnects. Lost frames are gaps in ``k``, nothing more: the fit needs no sample at
 every ``k``. A reconnect in the same session keeps the unit's counter, and the points after
@@ -265,11 +265,12 @@ class SampleClock:
         # horizon later; a refit during a slew keeps its meeting point, so every slew ends in
         # time. Down (a sample met less delay than any before: certain, delays are never
         # negative) it takes 0.1 s while the rate is being learnt; up (no sample has come
-        # near the line for a while: maybe the floor moved, maybe the host was busy) 2 s
+        # near the line for a while: maybe the floor moved, maybe the host was busy) 0.5 s;
+        # once the rate is learnt, 2 s either way
         down = float(fit.at(k_now)) < float(m.at(k_now))
         if self._aim_k is None or self._aim_k <= k_now or down != self._aim_down:
             young = self._span() < self._trust_k
-            horizon = 0.1 * self.fs_hz if (young and down) else self._horizon_k
+            horizon = (0.1 if down else 0.5) * self.fs_hz if young else self._horizon_k
             self._aim_k, self._aim_down = k_now + horizon, down
         k_aim = self._aim_k
         period = (float(fit.at(k_aim)) - now) / (k_aim - k_anchor)
