@@ -78,6 +78,7 @@ def streamed(tmp_path_factory):
             pull()
             time.sleep(0.02)
         eng.add_marker("turn")
+        eng.apply_config(eng.config.replace(cutoff_hz=5.0))  # goes out as a config event
         while eng.samples_total < 1600 and time.monotonic() < deadline:
             pull()
             time.sleep(0.02)
@@ -185,6 +186,31 @@ def test_heel_strikes_are_stamped_at_the_files_rows(streamed):
     assert {EventWord.TOE_OFF, EventWord.MARKER, EventWord.RECORDING_START,
             EventWord.RECORDING_STOP} <= kinds  # fmt: skip
     assert "turn" in {r for w, r in words if w is EventWord.MARKER}
+
+
+def test_a_settings_change_goes_out_at_the_files_row(streamed):
+    """``config <json>`` on the events stream, stamped at the row the file logs it at."""
+    import json
+
+    received, _infos, path, _outlets, _total = streamed
+    events, ev_ts = received["events"]
+    raw, ts = received["raw"]
+    words = [parse_event(e) for e in events]
+    changes = [
+        (json.loads(rest), t)
+        for (w, rest), t in zip(words, ev_ts, strict=True)
+        if w is EventWord.CONFIG
+    ]
+    assert len(changes) == 1
+    cfg, t = changes[0]
+    assert cfg["cutoff_hz"] == 5.0
+    with open_session(path) as s:
+        seq = s.read("timeline/seq")
+        (row, logged), = s.config_changes
+    assert logged.cutoff_hz == 5.0
+    at = int(np.abs(ts - t).argmin())
+    assert abs(ts[at] - t) < 0.5 / 200  # stamped on a sample: the one of the file's row
+    assert int(np.searchsorted(seq, raw[at, 0])) == row
 
 
 def test_descriptions_say_channels_units_and_hide_the_patient(streamed):
