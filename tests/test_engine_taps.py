@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-import gaitmon.engine.core as core
+import gaitmon.engine.taps as taps
 from gaitmon.engine import Engine
 from gaitmon.io.device import Device
 from gaitmon.io.session import open_session
@@ -90,7 +90,7 @@ def test_no_listener_builds_nothing(monkeypatch):
     def refuse(*a, **k):
         raise AssertionError("a BlockOut was built with no listener")
 
-    monkeypatch.setattr(core, "BlockOut", refuse)
+    monkeypatch.setattr(taps, "BlockOut", refuse)
     _unit, eng = make_engine(standing_s=1.0)
     with eng:
         eng.add_marker("m")

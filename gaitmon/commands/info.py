@@ -67,8 +67,8 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
     lost = sum(g.n_lost for g in s.gaps)
     lines = [
         f"{s.path.name}: gaitmon session, format {s.attrs.get('format_version')}, {state}",
-        f"  recorded     {s.created_utc}, {s.duration_s:.1f} s, {s.n_samples} frames at "
-        f"{fs:g} Hz, mode {s.mode} ({mode})",
+        f"  recorded     {s.created_utc or 'date removed'}, {s.duration_s:.1f} s, "
+        f"{s.n_samples} frames at {fs:g} Hz, mode {s.mode} ({mode})",
         f"  patient      {s.meta.patient_id or '-'}   side {s.meta.side or '-'}   "
         f"operator {s.meta.operator or '-'}",
     ]
@@ -76,7 +76,7 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
         lines.append(f"  notes        {s.meta.notes}")
     lines += [
         f"  device       {dev.get('name', '?')} firmware {dev.get('firmware', '?')} serial "
-        f"{dev.get('serial', '?')} via {dev.get('transport', '?')}",
+        f"{dev.get('serial') or '-'} via {dev.get('transport') or '-'}",
         f"  link         {count(lost, 'frame')} lost in {count(len(s.gaps), 'gap')}, "
         f"{count(s.link.get('crc_failures', 0), 'CRC failure')}, "
         f"{count(s.link.get('reconnects', 0), 'reconnect')}",

@@ -13,7 +13,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from gaitmon.commands import add_force, add_quiet
+from gaitmon.commands import add_force, add_quiet, record_lsl
 from gaitmon.commands.simulate import add_simulator_options, sim_config_from_args
 from gaitmon.errors import UserError
 from gaitmon.text import count
@@ -21,14 +21,19 @@ from gaitmon.text import count
 if TYPE_CHECKING:
     from gaitmon.engine import Engine, RecordingStatus
     from gaitmon.io.device import LinkStats
+    from gaitmon.io.session import SessionMeta
     from gaitmon.lsl.outlets import LslOutlets
 
 EPILOG = """\
 examples:
   gaitmon record --simulate --duration 10 -o s.h5
   gaitmon record --port /dev/rfcomm0 --mode joint --duration 60 -o walk.h5 --patient P017
+  gaitmon record --simulate --duration 600 -o s.h5 --lsl-control LabControl --lsl-markers Stim
   gaitmon record --simulate --lsl --duration 60 -o walk.h5   (LabRecorder sees the streams)
 
+With --lsl-control the unit streams while gaitmon waits for 'start' on the LSL marker stream,
+and the recording ends on 'stop'; --lsl-markers records a marker stream's samples on the rows
+sampled at their timestamps (docs/lsl.md).
 The recording is crash-safe: if the process dies, the next `gaitmon info FILE` recovers it.
 Ctrl-C stops early and still leaves a complete file.
 """
@@ -76,7 +81,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="zero the standing pose first (the subject must stand still for 1.5 s)",
     )
     add_quiet(p, "no progress lines on standard error")
-    lsl = p.add_argument_group("Lab Streaming Layer (needs gaitmon[lsl]; docs/lsl.md)")
+    lsl = p.add_argument_group("Lab Streaming Layer output (needs gaitmon[lsl]; docs/lsl.md)")
     lsl.add_argument(
         "--lsl",
         action="store_true",
@@ -93,17 +98,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help=argparse.SUPPRESS,  # for tests: 'ROWS <n> <monotonic s>' on stdout per block
     )
+    record_lsl.add_arguments(p)
     sim = p.add_argument_group("simulated unit (with --simulate)")
     add_simulator_options(sim, side=False)
 
 
 def run(args: argparse.Namespace) -> int:
-    from gaitmon.dsp.pipeline import PipelineConfig
-    from gaitmon.engine import Engine, EngineError
-    from gaitmon.io.device import Device
-    from gaitmon.io.ports import make_transport
-    from gaitmon.io.session import SessionMeta, journal_path
-    from gaitmon.io.transport import InProcessTransport, LinkError, Transport
+    from gaitmon.io.session import SessionMeta
 
     if args.port is not None and not args.port.strip():
         raise UserError("--port needs a port name; `gaitmon ports` lists the ports")
@@ -123,6 +124,25 @@ def run(args: argparse.Namespace) -> int:
         from gaitmon.lsl.outlets import require_pylsl
 
         require_pylsl()  # before anything starts: one line saying what to install
+    lsl = record_lsl.open_inputs(args)  # the streams are found before the unit is touched
+    try:
+        return _record(args, out, meta, lsl)
+    finally:
+        if lsl is not None:
+            lsl.close()
+
+
+def _record(
+    args: argparse.Namespace, out: Path, meta: SessionMeta, lsl: record_lsl.LslInputs | None
+) -> int:
+    from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.engine import Engine, EngineError
+    from gaitmon.io.device import Device
+    from gaitmon.io.ports import make_transport
+    from gaitmon.io.session import journal_path
+    from gaitmon.io.transport import InProcessTransport, LinkError, Transport
+
+    control = lsl.control if lsl is not None else None
     unit = None
     transport: Transport
     if args.simulate:
@@ -139,13 +159,15 @@ def run(args: argparse.Namespace) -> int:
     # The file and its journal are created once the unit is identified and before the first
     # frame is requested, so nothing received is ever outside the file (a crash during start-up
     # lost everything received until the file existed: seconds on a loaded machine). With
-    # --zero the stream must run first (zeroing needs data); the recording starts after it.
+    # --zero the stream must run first (zeroing needs data); the recording starts after it,
+    # and with --lsl-control once the start word arrives.
     started_early = False
+    later = args.zero or control is not None
     outlets: LslOutlets | None = None
 
     def before_stream() -> None:
         nonlocal started_early, outlets
-        if not args.zero:
+        if not later:
             engine.start_recording(out, meta, overwrite=args.force)
             started_early = True
         if args.lsl:  # the outlets exist before the first frame: a recorder misses none
@@ -180,10 +202,14 @@ def run(args: argparse.Namespace) -> int:
     stall_s = STALL_S if args.simulate else STALL_PORT_S
     stalled_at_s: float | None = None
     try:
+        if lsl is not None:
+            record_lsl.start_markers(lsl, engine)
         if args.zero:
             _zero(engine, stop)
         if stop.is_set():  # Ctrl-C while zeroing: the user wants no recording at all
             raise UserError("stopped before the recording started; nothing was recorded")
+        if control is not None:
+            record_lsl.wait_for_start(control, engine, stop, stall_s, args.quiet)
         if not started_early:
             try:
                 engine.start_recording(out, meta, overwrite=args.force)
@@ -201,6 +227,9 @@ def run(args: argparse.Namespace) -> int:
         while True:
             if stop.wait(0.01):
                 reason = "user"
+                break
+            if control is not None and control.stopped.is_set():
+                reason = f"remote: {control.words.stop!r} on LSL stream {control.name!r}"
                 break
             # only counters here: a display snapshot (ring-buffer copies) is not needed
             rec = engine.recording
@@ -252,6 +281,9 @@ def run(args: argparse.Namespace) -> int:
         f"{count(d.crc_failures, 'CRC failure')}, {count(stats.reconnects, 'reconnect')}",
         file=sys.stderr,
     )
+    markers = record_lsl.summary(lsl, engine)
+    if markers:
+        print(f"gaitmon record: {markers}", file=sys.stderr)
     return 0
 
 

@@ -13,6 +13,7 @@ know who listens (``gaitmon.lsl.outlets`` is one).
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -22,6 +23,7 @@ import numpy as np
 if TYPE_CHECKING:
     from gaitmon.dsp.calibration import Calibration
     from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.io.device import SampleBlock
 
 _NO_INT = np.zeros(0, np.int64)
 
@@ -85,41 +87,76 @@ BlockListener = Callable[[BlockOut], None]
 class Taps:
     """The engine's listeners and what it keeps for them: markers dropped since the last
     block, and the recording they last saw (to say when it stopped). The listener tuple is
-    replaced, never changed in place, so the engine thread reads it without a lock; the rest
-    is changed under the engine's lock (``markers``) or by the engine thread only."""
+    replaced, never changed in place, so the engine thread reads it without a lock; the
+    markers are guarded by the taps' own lock; the rest is the engine thread's."""
 
-    def __init__(self) -> None:
+    def __init__(self, mode: str, fs_hz: float, on_error: Callable[[str], None]) -> None:
+        self.mode, self.fs_hz, self._on_error = mode, fs_hz, on_error
         self.listeners: tuple[BlockListener, ...] = ()
-        self.markers: list[str] = []
-        self.recording: object | None = None  # the engine's Recorder last seen
+        self._markers: list[str] = []
+        self._lock = threading.Lock()
+        self._recording: object | None = None  # the engine's Recorder last seen
 
     def __bool__(self) -> bool:
         return bool(self.listeners)
 
     def add(self, listener: BlockListener) -> None:
-        self.listeners = (*self.listeners, listener)
+        with self._lock:
+            self.listeners = (*self.listeners, listener)
 
     def remove(self, listener: BlockListener) -> None:
-        self.listeners = tuple(x for x in self.listeners if x is not listener)
-        if not self.listeners:
-            self.markers.clear()
+        with self._lock:
+            self.listeners = tuple(x for x in self.listeners if x is not listener)
+            if not self.listeners:
+                self._markers.clear()
 
-    def take_markers(self) -> tuple[str, ...]:
-        out, self.markers = tuple(self.markers), []
-        return out
+    def marker(self, label: str) -> None:
+        """A marker dropped now: it goes out at the first sample of the next block."""
+        if self.listeners:
+            with self._lock:
+                self._markers.append(label)
 
-    def saw_recording(self, rec: object | None) -> bool:
+    def _saw_recording(self, rec: object | None) -> bool:
         """Note the recording of this block; True if the one seen before has stopped."""
-        stopped = self.recording is not None and rec is not self.recording
-        self.recording = rec
+        stopped = self._recording is not None and rec is not self._recording
+        self._recording = rec
         return stopped
 
-    def tell(self, out: BlockOut, on_error: Callable[[str], None]) -> None:
+    def block(
+        self, block: SampleBlock, start_idx: int, t_s: np.ndarray, lost: np.ndarray,
+        cols: dict[str, np.ndarray], events: tuple[np.ndarray, np.ndarray],
+        times_of: Callable[[np.ndarray], np.ndarray], gap_reason: str,
+        changes: tuple[PipelineConfig | None, Calibration | None],
+        recording: tuple[object | None, str],
+    ) -> None:  # fmt: skip
+        """Tell the listeners about a processed block (the engine thread, after the block is
+        shown and handed to the recorder). ``events``: heel-strike and toe-off engine indices
+        confirmed in it; ``changes``: the settings and calibration that took effect at its
+        first sample; ``recording``: the recorder in force and, if this block is its row 0,
+        the file's path."""
+        with self._lock:
+            markers, self._markers = tuple(self._markers), []
+        k = np.rint(t_s * self.fs_hz).astype(np.int64)
+        joint, tilt = columns(cols, len(block))
+        hs_k, to_k = (event_k(i, start_idx, k, times_of, self.fs_hz) for i in events)
+        rec, started = recording
+        self._tell(BlockOut(
+            self.mode, self.fs_hz, np.arange(start_idx, start_idx + len(block)), block.seq,
+            k, block.host_time_s, lost, joint, tilt, block.adc, hs_k, to_k, markers,
+            gap_reason, changes[0], changes[1], started, self._saw_recording(rec),
+        ))  # fmt: skip
+
+    def engine_stopped(self) -> None:
+        """The engine thread is gone: the end, and a recording that stopped with it."""
+        stopped = self._saw_recording(None)
+        self._tell(BlockOut(self.mode, self.fs_hz, recording_stopped=stopped, last=True))
+
+    def _tell(self, out: BlockOut) -> None:
         for listener in self.listeners:
             try:
                 listener(out)
             except Exception as exc:  # a listener must never stop acquisition
-                on_error(f"listener error: {type(exc).__name__}: {exc}")
+                self._on_error(f"listener error: {type(exc).__name__}: {exc}")
 
 
 def columns(cols: dict[str, np.ndarray], n: int) -> tuple[np.ndarray, np.ndarray]:
