@@ -186,3 +186,25 @@ def test_receive_times_of_a_busy_machine_map_within_a_millisecond():
     recv = h[late] - np.polyval(np.polyfit(k[late], h[late], 1), k[late])
     assert np.abs(recv).max() > 0.05  # the receive times themselves: tens of ms off
     assert coef[0] == pytest.approx(1 / (FS * 2), rel=1e-3)
+
+
+@pytest.mark.parametrize("speed", [1.0, 2.0])
+def test_stamps_always_increase(speed):
+    """A regular stream's timestamps must increase (an XDF reader drops a sample stamped
+    before its predecessor): the map never steps back, even in the first blocks, where a
+    simulator at speed 2 is first stamped at the nominal rate (twice too slow)."""
+    rng = np.random.default_rng(12)
+    period = 1.0 / (FS * speed)
+    k_all = np.arange(3000, dtype=np.float64)
+    arrive = 5.0 + k_all * period + 0.0003 + rng.exponential(0.004, len(k_all))
+    clock = SampleClock(FS)
+    stamps = []
+    i = 0
+    while i < len(k_all):
+        m = int(rng.integers(1, 25))
+        k = k_all[i : i + m]
+        clock.update(k, np.full(len(k), arrive[i : i + m].max()))
+        stamps.append(clock.map(k))
+        i += m
+    t = np.concatenate(stamps)
+    assert np.all(np.diff(t) > 0.25 * period)

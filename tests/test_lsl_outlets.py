@@ -123,6 +123,7 @@ def test_timestamps_follow_the_sample_clock_within_a_millisecond(streamed):
     received, _infos, _path, _outlets, _total = streamed
     raw, ts = received["raw"]
     seq = raw[:, 0].astype(np.float64)
+    assert np.all(np.diff(ts) > 0)  # from the first sample: never back (XDF readers need it)
     late = seq >= seq[0] + SETTLE_S * 100 * 2  # fs 100 Hz at speed 2: samples per host second
     coef = np.polyfit(seq[late], ts[late], 1)
     resid = ts[late] - np.polyval(coef, seq[late])
@@ -340,3 +341,47 @@ def test_gaitmon_record_without_lsl_publishes_no_stream(tmp_path):
         _out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     assert seen == []
+
+
+def test_a_labrecorder_file_of_the_streams_imports_as_the_recorded_session(streamed, tmp_path):
+    """The streams as the inlets received them, written as LabRecorder writes them (each
+    stream's own info XML as its header; tests/xdf_writer.py), then `gaitmon import`: the
+    session it rebuilds holds the recorded file's raw counts on the same frame counters, and
+    the marker and the settings change on their rows."""
+    from xdf_writer import Stream, write_xdf
+
+    from gaitmon.lsl.xdf_import import import_xdf
+
+    received, infos, path, _outlets, _total = streamed
+
+    class AsReceived(Stream):
+        xml: bytes = b""
+
+        def header_xml(self) -> bytes:
+            return self.xml  # what LabRecorder stores: the stream's info as LSL sent it
+
+    streams = []
+    for s, fmt in (("raw", "int32"), ("angles", "float32"), ("events", "string")):
+        data, ts = received[s]
+        series = [[e] for e in data] if s == "events" else data
+        info = infos[s]
+        st = AsReceived(info.name(), info.type(), fmt, info.nominal_srate(), np.asarray(ts),
+                        series, info.channel_count(), source_id=info.source_id())  # fmt: skip
+        st.xml = info.as_xml().encode("utf-8")
+        streams.append(st)
+    xdf = write_xdf(tmp_path / "lab.xdf", streams)
+    imported = tmp_path / "imported.h5"
+    import_xdf(xdf, imported)
+    with open_session(path) as rec, open_session(imported) as imp:
+        seq_rec, seq_imp = rec.read("timeline/seq"), imp.read("timeline/seq")
+        common, i_rec, i_imp = np.intersect1d(seq_rec, seq_imp, return_indices=True)
+        assert len(common) >= 0.95 * len(seq_rec)
+        assert np.array_equal(rec.read("raw/adc")[i_rec], imp.read("raw/adc")[i_imp])
+        assert imp.header.meta.patient_id == ""  # not let out: not in the lab's file either
+        turn = [m for m in imp.markers if m.label == "turn"]
+        rec_turn = [m for m in rec.markers if m.label == "turn"]
+        assert len(turn) == 1 and len(rec_turn) == 1
+        row_rec = rec_turn[0].sample_idx
+        assert seq_imp[turn[0].sample_idx] == seq_rec[row_rec]
+        (row_c, _cfg), = [c for c in imp.config_changes if c[1].cutoff_hz == 5.0]
+        assert seq_imp[row_c] == seq_rec[rec.config_changes[0][0]]

@@ -47,8 +47,10 @@ different receive times, the nominal rate is used.
 
 The map. Timestamps must not jump when the fit changes: the map in force (``map``) is a line
 that, at each refit, starts from its own value at the last sample stamped and meets the new
-fit some time later (a slew, never a step), unless the two differ by more than ``step_s``
-(the first fit, or a restart), when it takes the fit at once. Down (a sample met less delay
+fit some time later (a slew, never a step), unless the fit is more than ``step_s`` ahead
+(or it is the first fit, or a restart), when it takes the fit at once. The stamps never go
+back (an XDF reader drops a sample stamped before its predecessor): a slew back advances at
+half the sample period at least. Down (a sample met less delay
 than any before: certain, delays are never negative) the slew takes 0.1 s while the rate is
 being learnt; up (no sample came near the line for a while: the floor may have moved, or the
 host was busy) 0.5 s; once the rate is learnt, ``horizon_s`` (2 s) either way.
@@ -258,8 +260,12 @@ class SampleClock:
         self.fit = fit
         m = self._map
         now = float(m.at(k_anchor)) if m is not None else 0.0
-        if m is None or abs(float(fit.at(k_anchor)) - now) > self.step_s:
-            self._map = fit  # the first fit, or after a restart: a step, once
+        err = float(fit.at(k_anchor)) - now
+        # a step, once: the first fit, a restart (a new counter: its times may well go back),
+        # or a fit far ahead. Never a step back otherwise: a regular stream's timestamps must
+        # increase (an XDF reader drops a sample stamped before its predecessor)
+        if m is None or (abs(err) > self.step_s and (self._restarted or err > 0)):
+            self._map = fit
             return
         # slew: from where the map was at the last stamped sample to where the fit will be a
         # horizon later; a refit during a slew keeps its meeting point, so every slew ends in
@@ -274,7 +280,8 @@ class SampleClock:
             self._aim_k, self._aim_down = k_now + horizon, down
         k_aim = self._aim_k
         period = (float(fit.at(k_aim)) - now) / (k_aim - k_anchor)
-        self._map = ClockFit(k_anchor, now, period)
+        # going back, the stamps still advance at half the sample period at least
+        self._map = ClockFit(k_anchor, now, max(period, 0.5 * fit.period_s))
 
     def _learnt_rate_fit(self) -> ClockFit:
         """The rate learnt before a restart, through the new points' least-delayed one."""
