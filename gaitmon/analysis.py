@@ -16,7 +16,6 @@ it overlaps a range the user excluded (e.g. a turn). Strides longer than
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +34,7 @@ from gaitmon.dsp.pipeline import BRIDGE_MAX_S, settling_ranges
 
 if TYPE_CHECKING:
     from gaitmon.dsp.bilateral import BilateralGait
+    from gaitmon.dsp.stride_length import StrideMeasures
     from gaitmon.io.session import Exclusion, Session
     from gaitmon.io.session.bilateral import Bilateral
 
@@ -77,17 +77,38 @@ def stride_exclusion(
     is left out of the statistics, or "" when it counts. ``gap_rows``: see
     :func:`long_gap_rows`; ``settling``: [start, stop) rows after them (see
     ``gaitmon.dsp.pipeline.settling_ranges``); ``excluded_ranges``: the user's [start, stop)."""
-    if k == 0:
-        return FIRST
-    if n is not None and k == n - 1:
-        return LAST
-    if np.any((gap_rows > s.start_idx) & (gap_rows <= s.end_idx)):
-        return GAP
-    if any(a <= s.end_idx and b > s.start_idx for a, b in settling):
-        return SETTLING
-    if any(a < s.end_idx and b > s.start_idx for a, b in excluded_ranges):
-        return USER
-    return ""
+    return stride_exclusions([s.start_idx], [s.end_idx], [k], n, gap_rows, settling,
+                             excluded_ranges)[0]  # fmt: skip
+
+
+def stride_exclusions(
+    start_idx: Sequence[int] | np.ndarray,
+    end_idx: Sequence[int] | np.ndarray,
+    k: Sequence[int] | np.ndarray,
+    n: int | None,
+    gap_rows: np.ndarray,
+    settling: Sequence[tuple[int, int]],
+    excluded_ranges: Sequence[tuple[int, int]] = (),
+) -> list[str]:
+    """:func:`stride_exclusion` of many strides at once (their first and last rows, their
+    numbers ``k``): the first reason that applies, in the order FIRST, LAST, GAP, SETTLING,
+    USER, or "" (26 000 strides of 8 hours: one numpy pass per rule, not per stride)."""
+    start = np.asarray(start_idx, dtype=np.int64)
+    end = np.asarray(end_idx, dtype=np.int64)
+    num = np.asarray(k, dtype=np.int64)
+    out = np.full(len(start), "", dtype=object)
+    # the rules from the last to the first, so that the first that applies is the one left
+    for a, b in excluded_ranges:
+        out[(a < end) & (b > start)] = USER
+    for a, b in settling:
+        out[(a <= end) & (b > start)] = SETTLING
+    g = np.sort(np.asarray(gap_rows, dtype=np.int64).ravel())
+    if len(g):  # a gap row in (start, end]
+        out[np.searchsorted(g, end, "right") > np.searchsorted(g, start, "right")] = GAP
+    if n is not None:
+        out[num == n - 1] = LAST
+    out[num == 0] = FIRST
+    return [str(x) for x in out.tolist()]
 
 
 @dataclass(frozen=True)
@@ -146,47 +167,22 @@ def spatial_summary(rows: Sequence[StrideRow]) -> SpatialSummary:
                           float(clear.mean()) if len(clear) else float("nan"))  # fmt: skip
 
 
-def foot_imu(session: Session) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """The foot board's acc x, acc z (m/s^2, unfiltered) and gyro (rad/s, the calibration in
-    force removed) of a raw-mode session, float64, as the live pipeline sees them; None for a
-    session without raw counts."""
-    from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, GYRO_IDX, SEGMENTS
-
-    if session.mode != "raw" or not session.n_samples:
-        return None
-    foot = SEGMENTS.index("foot")
-    table = session.header.table
-    cols = [int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])]
-    counts = np.asarray(session.read("raw/adc"))[:, cols].astype(np.float64)
-    phys = (counts - table.zero_counts[cols]) * table.units_per_count[cols]
-    n = len(phys)
-    bias = np.full(n, float(session.calibration.gyro_bias_rad_s[foot]))
-    for row, cal in sorted(session.calibration_changes, key=lambda x: x[0]):
-        bias[max(0, row):] = float(cal.gyro_bias_rad_s[foot])
-    return phys[:, 0], phys[:, 1], phys[:, 2] - bias
-
-
-def with_stride_measures(
-    rows: list[StrideRow], foot: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
-    heel_strike_idx: np.ndarray, fs_hz: float,
-) -> list[StrideRow]:  # fmt: skip
-    """The rows with their stride length and foot clearance from the foot IMU (one value per
-    pair of consecutive heel strikes, matched to a row by its opening heel strike)."""
-    from gaitmon.dsp.stride_length import stride_measures
-
-    hs = np.unique(np.asarray(heel_strike_idx, dtype=np.int64))
-    if foot is None or len(hs) < 2 or not rows:
+def with_stride_measures(rows: list[StrideRow], m: StrideMeasures | None) -> list[StrideRow]:
+    """The rows with their stride length and foot clearance from the foot IMU (``m``: one value
+    per pair of consecutive heel strikes, matched to a row by its opening heel strike; see
+    ``Session.foot_stride_measures``)."""
+    if m is None or not len(m) or not rows:
         return rows
-    m = stride_measures(*foot, fs_hz, hs[hs < len(foot[0])])
     at = {int(h): k for k, h in enumerate(m.heel_strike_idx)}
+    length, clearance = m.stride_length_m.tolist(), m.foot_clearance_m.tolist()
     out = []
     for r in rows:
         k = at.get(r.stride.start_idx)
         if k is None:
             out.append(r)
             continue
-        out.append(dataclasses.replace(r, stride_length_m=float(m.stride_length_m[k]),
-                                       foot_clearance_m=float(m.foot_clearance_m[k])))  # fmt: skip
+        out.append(StrideRow(r.stride, r.excluded, r.knee_peak_swing_deg, r.rom_deg, length[k],
+                             clearance[k]))  # fmt: skip
     return out
 
 
@@ -284,8 +280,8 @@ def analyse_strides(
     end = np.fromiter((s.end_idx for s in strides), np.int64, n)
     toe = np.fromiter((s.toe_off_idx for s in strides), np.int64, n)
     peak, rom = _stride_extremes(joint_deg, start, end, toe)
-    reasons = [stride_exclusion(s, k, n, long_gaps, settling, excluded_ranges)
-               for k, s in enumerate(strides)]  # fmt: skip
+    reasons = stride_exclusions(start, end, np.arange(n), n, long_gaps, settling,
+                                excluded_ranges)  # fmt: skip
     rows = [StrideRow(s, reasons[k], peak[k], rom[k]) for k, s in enumerate(strides)]
     return rows
 
@@ -300,19 +296,23 @@ def _stride_extremes(
     peak = np.full(n, np.nan)
     rom = np.full((n, 3), np.nan)
     if joint_deg is not None and n:
-        ok = end < len(joint_deg)
-        if ok.any():
-            # one NaN row after the data, so that end + 1 is always a valid reduceat index
-            a = np.concatenate([np.asarray(joint_deg, np.float64),
-                                np.full((1, joint_deg.shape[1]), np.nan)])
-            s0, e1, t0 = start[ok], end[ok] + 1, toe[ok]
-            # reduceat over [s, e + 1) pairs: the odd results (from e + 1 on) are not used
+        a = np.asarray(joint_deg, np.float64)  # (no copy of the session's float64 angles)
+        ok = end < len(a)
+        # reduceat over [s, e + 1) pairs (the odd results, from e + 1 on, are not used) needs
+        # e + 1 to be a row: a stride ending on the last row is reduced on its own
+        bulk = ok & (end + 1 < len(a))
+        if bulk.any():
+            s0, e1, t0 = start[bulk], end[bulk] + 1, toe[bulk]
             idx = np.column_stack([s0, e1]).ravel()
             hi = np.maximum.reduceat(a, idx, axis=0)[::2]
             lo = np.minimum.reduceat(a, idx, axis=0)[::2]
-            rom[ok] = (hi - lo)[:, :3]
+            rom[bulk] = (hi - lo)[:, :3]
             kidx = np.column_stack([t0, e1]).ravel()
-            peak[ok] = np.maximum.reduceat(a[:, 1], kidx)[::2]
+            peak[bulk] = np.maximum.reduceat(a[:, 1], kidx)[::2]
+        for k in np.flatnonzero(ok & ~bulk):
+            seg = a[start[k] :]
+            rom[k] = (seg.max(axis=0) - seg.min(axis=0))[:3]
+            peak[k] = a[toe[k] :, 1].max()
     return peak.tolist(), [(h, k, a) for h, k, a in rom.tolist()]
 
 
@@ -422,7 +422,7 @@ def analyse_session(
         [(r.start_idx, r.stop_idx) for r in ranges],
         t_s=t_s,
     )
-    rows = with_stride_measures(rows, foot_imu(session), hs, session.sample_rate_hz)
+    rows = with_stride_measures(rows, session.foot_stride_measures(hs))
     return SessionAnalysis(rows, joints, ranges, stored_path(session.exclusions_key), problem)
 
 

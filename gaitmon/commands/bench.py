@@ -33,6 +33,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="1min,10min,1h,8h",
         help="session lengths for --suite offline and size (default 1min,10min,1h,8h)",
     )
+    p.add_argument(
+        "--only",
+        default="",
+        help="--suite offline: comma-separated of info, csv, mat, c3d, report (each with its "
+        "reference); default: all",
+    )
 
 
 def _best_of(fn: Callable[[], object], repeat: int) -> float:
@@ -63,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     if args.suite == "offline":
         from gaitmon.commands.bench_offline import suite
 
-        return suite(args.lengths.split(","), args.repeat)
+        return suite(args.lengths.split(","), args.repeat, only=args.only)
     if args.suite == "size":
         from gaitmon.commands.bench_size import suite as size_suite
 

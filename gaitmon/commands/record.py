@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from gaitmon.engine import Engine, RecordingStatus
     from gaitmon.io.device import LinkStats
     from gaitmon.io.session import SessionMeta
+    from gaitmon.lsl.outlets import LslOutlets
 
 EPILOG = """\
 examples:
@@ -34,6 +35,7 @@ examples:
   gaitmon record --ports /dev/rfcomm0,/dev/rfcomm1 --duration 600 -o both.h5 --patient P017
   gaitmon record --port /dev/rfcomm0 --mode joint --duration 60 -o walk.h5 --patient P017
   gaitmon record --simulate --duration 600 -o s.h5 --lsl-control LabControl --lsl-markers Stim
+  gaitmon record --simulate --lsl --duration 60 -o walk.h5   (LabRecorder sees the streams)
 
 With --lsl-control the unit streams while gaitmon waits for 'start' on the LSL marker stream,
 and the recording ends on 'stop'; --lsl-markers records a marker stream's samples on the rows
@@ -96,6 +98,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="zero the standing pose first (the subject must stand still for 1.5 s)",
     )
     add_quiet(p, "no progress lines on standard error")
+    lsl = p.add_argument_group("Lab Streaming Layer output (needs gaitmon[lsl]; docs/lsl.md)")
+    lsl.add_argument(
+        "--lsl",
+        action="store_true",
+        help="also stream the angles, the gait events (and in raw mode the raw counts) to LSL "
+        "for LabRecorder; off by default (no LSL socket is opened without it)",
+    )
+    lsl.add_argument(
+        "--lsl-patient-id",
+        action="store_true",
+        help="let the patient id (--patient) into the LSL streams' description (default: left out)",
+    )
     p.add_argument(
         "--status-lines",
         action="store_true",
@@ -124,6 +138,12 @@ def run(args: argparse.Namespace) -> int:
     meta = SessionMeta(
         patient_id=args.patient, side=args.side, operator=args.operator, notes=args.notes
     )
+    if args.lsl_patient_id and not args.lsl:
+        raise UserError("--lsl-patient-id needs --lsl")
+    if args.lsl:
+        from gaitmon.lsl.outlets import require_pylsl
+
+        require_pylsl()  # before anything starts: one line saying what to install
     defaults = argparse.ArgumentParser()
     add_bilateral_options(defaults, serve=False)
     pair_options = vars(defaults.parse_args([]))
@@ -173,20 +193,34 @@ def _record(
     # --zero the stream must run first (zeroing needs data); the recording starts after it,
     # and with --lsl-control once the start word arrives.
     started_early = False
+    later = args.zero or control is not None
+    outlets: LslOutlets | None = None
 
-    def record_from_the_first_frame() -> None:
-        nonlocal started_early
-        engine.start_recording(out, meta, overwrite=args.force)
-        started_early = True
+    def before_stream() -> None:
+        nonlocal started_early, outlets
+        if not later:
+            engine.start_recording(out, meta, overwrite=args.force)
+            started_early = True
+        if args.lsl:  # the outlets exist before the first frame: a recorder misses none
+            from gaitmon.lsl.outlets import LslOutlets
+
+            try:
+                outlets = LslOutlets.attach(engine, meta, allow_patient_id=args.lsl_patient_id)
+            except Exception as exc:  # liblsl could not open its sockets
+                raise EngineError(f"could not open the LSL streams: {exc}") from None
+            if not args.quiet:
+                names = ", ".join(repr(n) for n in outlets.names)
+                print(f"gaitmon record: streaming to LSL as {names}", file=sys.stderr)
 
     try:
-        later = args.zero or control is not None
-        engine.start(before_stream=None if later else record_from_the_first_frame)
+        engine.start(before_stream=before_stream)
     except (EngineError, LinkError) as exc:
         if started_early:  # an empty file of a recording that never began
             for p in (out, journal_path(out)):
                 with contextlib.suppress(OSError):
                     p.unlink()
+        if outlets is not None:
+            outlets.detach()
         raise UserError(str(exc)) from None
 
     stop = threading.Event()
@@ -255,6 +289,8 @@ def _record(
         status = engine.stop_recording(reason)  # after a write error the file is closed already
         stats = engine.device.stats
         engine.stop()
+        if outlets is not None:  # after the engine's last event; a recorder takes the rest
+            outlets.detach(linger_s=0.5)
         for s, h in old.items():
             signal.signal(s, h)
     if unit is not None and status.rows and not status.error:

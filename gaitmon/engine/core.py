@@ -15,7 +15,8 @@ This module owns the lifecycle (start, stop, the engine thread's loop), recordin
 stop, zeroing, settings and snapshots. The parts it wires together live beside it: display
 buffers (``buffers``), snapshot types (``snapshot``), the recorder thread (``recorder``), the
 map of engine samples to file rows (``rows``), the live gait panel (``live_gait``) and the
-force-sensor check's findings (``sensor_checks``).
+force-sensor check's findings (``sensor_checks``). Listeners (``add_listener``: the Lab
+Streaming Layer outlets, say) get each processed block as a plain value (``taps``).
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ from gaitmon.engine.snapshot import (
     RecordingStatus,
     Snapshot,
 )
+from gaitmon.engine.taps import BlockListener, Taps
 from gaitmon.io.device import Device, DeviceError, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
 from gaitmon.io.transport import LinkError
@@ -152,6 +154,7 @@ class Engine:
         self._identity: Identity | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
+        self._taps = Taps(self.mode.value, self.fs_hz, self._note_error)  # add_listener
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -196,6 +199,8 @@ class Engine:
         if self._thread is not None:
             self._thread.join(timeout=5.0)
             self._thread = None
+            if self._taps:  # the engine thread is gone: this thread tells them the end
+                self._taps.engine_stopped()
         with contextlib.suppress(Exception):
             self.device.close()
 
@@ -326,6 +331,7 @@ class Engine:
         t = self._latest_t()
         with self._lock:
             self._markers.append((t, label))
+            self._taps.marker(label)
             if self._recorder is not None:
                 self._recorder.put(("marker", label))
 
@@ -348,6 +354,14 @@ class Engine:
                         self._markers.append((m.k / self.fs_hz, m.label))
                     if rec is not None and row is not None:
                         rec.put(("marker", (m.label, row)))
+
+    def add_listener(self, listener: BlockListener) -> None:
+        """Call ``listener(BlockOut)`` on the engine thread after each block (``taps``)."""
+        self._taps.add(listener)
+
+    def remove_listener(self, listener: BlockListener) -> None:
+        """No more calls from the next block on (one already under way may still finish)."""
+        self._taps.remove(listener)
 
     # -- settings and calibration --------------------------------------------------------
 
@@ -561,13 +575,18 @@ class Engine:
             self._gait.add(hs_idx, to_idx, strides, restarts, self._ring, st.samples)
             self._gait.add_lengths(lengths)
             self._checks.add(faults, offset, st.samples, self._ring)
+        if self._taps:
+            path = str(rec.writer.path) if first and rec is not None else ""
+            self._taps.block(block, start_idx, t_s, lost, cols, (hs_idx, to_idx),
+                             self._ring.times_of, gap_reason, (cfg, cal), (rec, path))  # fmt: skip
 
     def _stride_lengths(
         self, adc: np.ndarray, p: PipelineBlock, hs_idx: np.ndarray, start_idx: int
     ) -> list[tuple[int, float]]:
         """Feed the foot board's samples (unfiltered acceleration, the pipeline's
-        bias-corrected gyro: what gaitmon.analysis.foot_imu reads from a file) to the stride
-        length tracker; the strides it finished, (opening heel strike, m), engine indices."""
+        bias-corrected gyro: what gaitmon.dsp.stride_length.foot_imu_from_counts makes of a
+        file's raw counts) to the stride length tracker; the strides it finished, (opening
+        heel strike, m), engine indices."""
         tr = self._spatial
         if self._spatial_base + tr.n_seen != start_idx:  # samples not processed: start afresh
             tr.reset()

@@ -254,6 +254,7 @@ class Session:
         self._bias_rows: list[tuple[int, np.ndarray]] | None = None
         self.smoothed_stored = stored_smoothed(f, self.n_samples)
         self._smoothed: dict[str, np.ndarray] | None = None
+        self._stride_cache: dict[bytes, Any] = {}  # heel strikes -> their stride measures
         sm = f.get("smoothed")
         self._smoothed_method = (
             _s(sm.attrs.get("method", "")) if self.smoothed_stored and sm is not None else ""
@@ -471,6 +472,38 @@ class Session:
         from gaitmon.io.session.stored_overview import BASE_STEP
 
         return PeakPyramid.from_level0(got[0], got[1], self.n_samples, BASE_STEP)
+
+    def foot_stride_measures(self, heel_strike_idx: np.ndarray | None = None) -> Any:
+        """Stride length and foot clearance (:class:`gaitmon.dsp.stride_length.StrideMeasures`)
+        of the strides between ``heel_strike_idx`` (default: the recorded heel strikes), from
+        the foot IMU: stored in ``/strides`` when computed from exactly these inputs, else
+        computed (:mod:`gaitmon.io.session.stored_strides`); None without raw counts. The
+        last two results are kept (review compares the recorded events with a reprocessing's),
+        so analysing again with other exclusions costs nothing."""
+        from gaitmon.io.session.stored_strides import StrideInputs, stride_measures_of
+
+        if self.mode != "raw" or not self.n_samples:
+            return None
+        hs = np.asarray(self.heel_strike_idx if heel_strike_idx is None else heel_strike_idx,
+                        dtype=np.int64)  # fmt: skip
+        key = hs.tobytes()
+        if key in self._stride_cache:
+            return self._stride_cache[key]
+        inputs = StrideInputs(self.n_samples, self.sample_rate_hz, self.header.table,
+                              self.calibration, self.calibration_changes)  # fmt: skip
+        try:
+            m = stride_measures_of(
+                self._f, lambda a, b: self.read_range(a, b, ["raw/adc"])["raw/adc"], inputs, hs
+            )
+        except (OSError, RuntimeError, KeyError) as e:
+            raise SessionError(
+                f"{self.path.name} is damaged: cannot read the foot sensor's raw counts "
+                f"({_short_error(e)})"
+            ) from e
+        # the newest before and this one (the recorded events and a reprocessing's), swapped
+        # in whole, so that a reader on another thread never sees it change size
+        self._stride_cache = {**dict(list(self._stride_cache.items())[-1:]), key: m}
+        return m
 
     def exclusions(self) -> tuple[list[Exclusion], str]:
         """(ranges, problem): the row ranges the user excluded in review (stored beside the

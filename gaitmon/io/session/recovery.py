@@ -373,6 +373,10 @@ def _build_recovered(
                 adc, header.table, header.calibration, cal_changes,
                 np.asarray(rows["lost_before"], dtype=np.int64), fs,
             ))  # fmt: skip
+            from gaitmon.io.session.stored_strides import store_strides
+
+            h5.drain()  # the chunk being filled: the stride measures read every row
+            store_strides(h5.f, header.table, header.calibration, fs)
         if imported_from:
             h5.f.attrs["imported_from"] = imported_from
             h5.finish(complete=True, recovered=False, stop_reason=f"imported from {imported_from}",
