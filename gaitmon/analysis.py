@@ -16,8 +16,6 @@ it overlaps a range the user excluded (e.g. a turn). Strides longer than
 
 from __future__ import annotations
 
-import dataclasses
-import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,9 +33,11 @@ from gaitmon.dsp.gait import (
 from gaitmon.dsp.pipeline import BRIDGE_MAX_S, settling_ranges
 
 if TYPE_CHECKING:
+    from gaitmon.dsp.bilateral import BilateralGait
+    from gaitmon.dsp.stride_length import StrideMeasures
     from gaitmon.io.session import Exclusion, Session
+    from gaitmon.io.session.bilateral import Bilateral
 
-FOOT_IMU_BLOCK_ROWS = 1 << 16  # raw rows read at a time for the foot IMU's three columns
 MAX_GAP_S = BRIDGE_MAX_S  # gaps up to 5 frames at 100 Hz are bridged and leave a stride usable
 
 FIRST = "first stride"
@@ -77,17 +77,38 @@ def stride_exclusion(
     is left out of the statistics, or "" when it counts. ``gap_rows``: see
     :func:`long_gap_rows`; ``settling``: [start, stop) rows after them (see
     ``gaitmon.dsp.pipeline.settling_ranges``); ``excluded_ranges``: the user's [start, stop)."""
-    if k == 0:
-        return FIRST
-    if n is not None and k == n - 1:
-        return LAST
-    if np.any((gap_rows > s.start_idx) & (gap_rows <= s.end_idx)):
-        return GAP
-    if any(a <= s.end_idx and b > s.start_idx for a, b in settling):
-        return SETTLING
-    if any(a < s.end_idx and b > s.start_idx for a, b in excluded_ranges):
-        return USER
-    return ""
+    return stride_exclusions([s.start_idx], [s.end_idx], [k], n, gap_rows, settling,
+                             excluded_ranges)[0]  # fmt: skip
+
+
+def stride_exclusions(
+    start_idx: Sequence[int] | np.ndarray,
+    end_idx: Sequence[int] | np.ndarray,
+    k: Sequence[int] | np.ndarray,
+    n: int | None,
+    gap_rows: np.ndarray,
+    settling: Sequence[tuple[int, int]],
+    excluded_ranges: Sequence[tuple[int, int]] = (),
+) -> list[str]:
+    """:func:`stride_exclusion` of many strides at once (their first and last rows, their
+    numbers ``k``): the first reason that applies, in the order FIRST, LAST, GAP, SETTLING,
+    USER, or "" (26 000 strides of 8 hours: one numpy pass per rule, not per stride)."""
+    start = np.asarray(start_idx, dtype=np.int64)
+    end = np.asarray(end_idx, dtype=np.int64)
+    num = np.asarray(k, dtype=np.int64)
+    out = np.full(len(start), "", dtype=object)
+    # the rules from the last to the first, so that the first that applies is the one left
+    for a, b in excluded_ranges:
+        out[(a < end) & (b > start)] = USER
+    for a, b in settling:
+        out[(a <= end) & (b > start)] = SETTLING
+    g = np.sort(np.asarray(gap_rows, dtype=np.int64).ravel())
+    if len(g):  # a gap row in (start, end]
+        out[np.searchsorted(g, end, "right") > np.searchsorted(g, start, "right")] = GAP
+    if n is not None:
+        out[num == n - 1] = LAST
+    out[num == 0] = FIRST
+    return [str(x) for x in out.tolist()]
 
 
 @dataclass(frozen=True)
@@ -146,93 +167,22 @@ def spatial_summary(rows: Sequence[StrideRow]) -> SpatialSummary:
                           float(clear.mean()) if len(clear) else float("nan"))  # fmt: skip
 
 
-def foot_imu(
-    session: Session, start: int = 0, stop: int | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """The foot board's acc x, acc z (m/s^2, unfiltered) and gyro (rad/s, the calibration in
-    force removed) of rows ``start:stop`` of a raw-mode session, float64, as the live pipeline
-    sees them; None for a session without raw counts."""
-    from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, GYRO_IDX, SEGMENTS
-
-    if session.mode != "raw" or not session.n_samples:
-        return None
-    foot = SEGMENTS.index("foot")
-    table = session.header.table
-    cols = [int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])]
-    n = session.n_samples
-    start = max(0, min(int(start), n))
-    stop = n if stop is None else max(start, min(int(stop), n))
-    zero, per_count = table.zero_counts[cols], table.units_per_count[cols]
-    out = np.empty((3, stop - start))
-    # a block of rows at a time: the three columns, not the whole raw record, in memory
-    for a in range(start, stop, FOOT_IMU_BLOCK_ROWS):
-        b = min(stop, a + FOOT_IMU_BLOCK_ROWS)
-        counts = session.read_range(a, b, ["raw/adc"])["raw/adc"][:, cols].astype(np.float64)
-        out[:, a - start : b - start] = ((counts - zero) * per_count).T
-    # the gyro bias of the calibration in force at each row (the last one logged at a row wins)
-    biases = [(0, float(session.calibration.gyro_bias_rad_s[foot]))]
-    biases += [(max(0, row), float(cal.gyro_bias_rad_s[foot]))
-               for row, cal in sorted(session.calibration_changes, key=lambda x: x[0])]
-    for (lo, bias), (hi, _) in itertools.pairwise([*biases, (n, 0.0)]):
-        lo, hi = max(lo, start), min(max(lo, hi), stop)
-        if hi > lo:
-            out[2, lo - start : hi - start] -= bias
-    return out[0], out[1], out[2]
-
-
-STRIDE_BLOCK = 1024  # strides measured at a time from their own rows of the foot IMU
-
-
-def session_stride_measures(session: Session, heel_strike_idx: np.ndarray) -> Any:
-    """:func:`gaitmon.dsp.stride_length.stride_measures` of the session's foot IMU between
-    consecutive heel strikes (those inside the data), or None (no raw counts, fewer than two
-    heel strikes). The strides are measured :data:`STRIDE_BLOCK` at a time from the rows they
-    search (:func:`foot_imu` of those rows only): the same values as over the whole record,
-    without its 8-hour, 66 MB float64 copy. Each block starts one heel strike early, so that
-    its strides' foot-flat search spans are the whole record's; that stride is dropped."""
-    from gaitmon.dsp.stride_length import StrideMeasures, search_spans, stride_measures
-
-    n = session.n_samples
-    hs = np.unique(np.asarray(heel_strike_idx, dtype=np.int64))
-    hs = hs[hs < n]
-    if session.mode != "raw" or len(hs) < 2:
-        return None
-    fs = session.sample_rate_hz
-    spans = search_spans(hs)
-    k_all = len(hs) - 1
-    parts: list[StrideMeasures] = []
-    for j0 in range(0, k_all, STRIDE_BLOCK):
-        j1 = min(k_all, j0 + STRIDE_BLOCK)  # strides j0 .. j1 - 1: heel strikes j0 .. j1
-        s = max(0, j0 - 1)
-        sub = hs[s : j1 + 1]
-        lo, hi = int(sub[0]), min(n, int(np.max(sub + spans[s : j1 + 1])))
-        foot = foot_imu(session, lo, hi)
-        assert foot is not None
-        m = stride_measures(*foot, fs, sub - lo)
-        d = j0 - s
-        flat = m.foot_flat_idx[d:]
-        parts.append(StrideMeasures(hs[j0:j1], m.stride_length_m[d:], m.foot_clearance_m[d:],
-                                    m.stride_time_s[d:], np.where(flat >= 0, flat + lo, flat)))
-    return StrideMeasures(*(np.concatenate([getattr(p, f.name) for p in parts])
-                            for f in dataclasses.fields(StrideMeasures)))  # fmt: skip
-
-
-def with_stride_measures(rows: list[StrideRow], measures: Any) -> list[StrideRow]:
-    """The rows with their stride length and foot clearance from the foot IMU
-    (:func:`session_stride_measures`: one value per pair of consecutive heel strikes, matched
-    to a row by its opening heel strike); the rows as they are for None."""
-    if measures is None or not rows:
+def with_stride_measures(rows: list[StrideRow], m: StrideMeasures | None) -> list[StrideRow]:
+    """The rows with their stride length and foot clearance from the foot IMU (``m``: one value
+    per pair of consecutive heel strikes, matched to a row by its opening heel strike; see
+    ``Session.foot_stride_measures``)."""
+    if m is None or not len(m) or not rows:
         return rows
-    m = measures
     at = {int(h): k for k, h in enumerate(m.heel_strike_idx)}
+    length, clearance = m.stride_length_m.tolist(), m.foot_clearance_m.tolist()
     out = []
     for r in rows:
         k = at.get(r.stride.start_idx)
         if k is None:
             out.append(r)
             continue
-        out.append(dataclasses.replace(r, stride_length_m=float(m.stride_length_m[k]),
-                                       foot_clearance_m=float(m.foot_clearance_m[k])))  # fmt: skip
+        out.append(StrideRow(r.stride, r.excluded, r.knee_peak_swing_deg, r.rom_deg, length[k],
+                             clearance[k]))  # fmt: skip
     return out
 
 
@@ -330,8 +280,8 @@ def analyse_strides(
     end = np.fromiter((s.end_idx for s in strides), np.int64, n)
     toe = np.fromiter((s.toe_off_idx for s in strides), np.int64, n)
     peak, rom = _stride_extremes(joint_deg, start, end, toe)
-    reasons = [stride_exclusion(s, k, n, long_gaps, settling, excluded_ranges)
-               for k, s in enumerate(strides)]  # fmt: skip
+    reasons = stride_exclusions(start, end, np.arange(n), n, long_gaps, settling,
+                                excluded_ranges)  # fmt: skip
     rows = [StrideRow(s, reasons[k], peak[k], rom[k]) for k, s in enumerate(strides)]
     return rows
 
@@ -346,26 +296,27 @@ def _stride_extremes(
     peak = np.full(n, np.nan)
     rom = np.full((n, 3), np.nan)
     if joint_deg is not None and n:
-        ok = end < len(joint_deg)
-        if ok.any():
-            a = np.asarray(joint_deg)
-            if a.dtype.kind != "f":
-                a = a.astype(np.float64)
-            s0, e1, t0 = start[ok], end[ok] + 1, toe[ok]
-            # reduceat over [s, e + 1) pairs: the odd results (from e + 1 on) are not used. An
-            # index must lie inside the data: a stride ending on the last row (e + 1 == len,
-            # only ever the last stride) is reduced to the end by leaving its e + 1 out. Max and
-            # min pick samples, so float32 angles (as read) give the same figures as float64.
+        # float32 angles (as read) are not copied to float64: max and min pick samples, and
+        # the ranges are taken in float64 from them, so the figures are the same
+        a = np.asarray(joint_deg)
+        if a.dtype.kind != "f":
+            a = a.astype(np.float64)
+        ok = end < len(a)
+        # reduceat over [s, e + 1) pairs (the odd results, from e + 1 on, are not used) needs
+        # e + 1 to be a row: a stride ending on the last row is reduced on its own
+        bulk = ok & (end + 1 < len(a))
+        if bulk.any():
+            s0, e1, t0 = start[bulk], end[bulk] + 1, toe[bulk]
             idx = np.column_stack([s0, e1]).ravel()
-            kidx = np.column_stack([t0, e1]).ravel()
-            if idx[-1] == len(a):
-                idx, kidx = idx[:-1], kidx[:-1]
-            if np.any(idx >= len(a)) or np.any(kidx >= len(a)):  # (strides out of order)
-                a = np.concatenate([a, np.full((1, a.shape[1]), np.nan, a.dtype)])
             hi = np.maximum.reduceat(a, idx, axis=0)[::2].astype(np.float64)
             lo = np.minimum.reduceat(a, idx, axis=0)[::2].astype(np.float64)
-            rom[ok] = (hi - lo)[:, :3]
-            peak[ok] = np.maximum.reduceat(a[:, 1], kidx)[::2]
+            rom[bulk] = (hi - lo)[:, :3]
+            kidx = np.column_stack([t0, e1]).ravel()
+            peak[bulk] = np.maximum.reduceat(a[:, 1], kidx)[::2]
+        for k in np.flatnonzero(ok & ~bulk):
+            seg = a[start[k] :]
+            rom[k] = (seg.max(axis=0).astype(np.float64) - seg.min(axis=0))[:3]
+            peak[k] = a[toe[k] :, 1].max()
     return peak.tolist(), [(h, k, a) for h, k, a in rom.tolist()]
 
 
@@ -535,5 +486,57 @@ def analyse_session(
         [(r.start_idx, r.stop_idx) for r in ranges],
         t_s=t_s,
     )
-    rows = with_stride_measures(rows, session_stride_measures(session, hs))
-    return SessionAnalysis(rows, joints, ranges, stored_path(session.path), problem)
+    rows = with_stride_measures(rows, session.foot_stride_measures(hs))
+    return SessionAnalysis(rows, joints, ranges, stored_path(session.exclusions_key), problem)
+
+
+@dataclass(frozen=True)
+class BilateralAnalysis:
+    """Both legs of a bilateral session: each side's own stride analysis (its exclusions
+    applied) and the bilateral measures of their events on the session's common time line
+    (``gaitmon.dsp.bilateral``; definitions in ``docs/bilateral.md``)."""
+
+    sides: dict[str, SessionAnalysis]
+    heel_strike_s: dict[str, np.ndarray]  # every detected heel strike, common seconds
+    toe_off_s: dict[str, np.ndarray]
+    gait: BilateralGait  # the rows of excluded strides set to NaN; symmetry over the rest
+
+
+def analyse_bilateral(bilateral: Bilateral) -> BilateralAnalysis:
+    """Each side analysed as one unit (``analyse_session``: its stride exclusions), its events
+    mapped to common time by the session's clock fits, then ``dsp.bilateral.bilateral_gait``.
+    A heel strike's row counts when the stride it opens is included on its side; cadence is
+    measured from both legs' steps."""
+    from gaitmon.dsp.bilateral import bilateral_gait, keep_rows
+
+    per: dict[str, SessionAnalysis] = {}
+    hs_s: dict[str, np.ndarray] = {}
+    to_s: dict[str, np.ndarray] = {}
+    included: dict[str, set[int]] = {}
+    for side in ("L", "R"):
+        if side not in bilateral.units:
+            hs_s[side] = to_s[side] = np.empty(0)
+            included[side] = set()
+            continue
+        s = bilateral.unit(side)
+        an = analyse_session(s)
+        per[side] = an
+        t = s.read("timeline/t_s") if s.n_samples else np.empty(0)
+        hs, to = s.heel_strike_idx, s.toe_off_idx
+        hs = hs[hs < len(t)]
+        to = to[to < len(t)]
+        hs_s[side] = bilateral.common_s(side, t[hs])
+        to_s[side] = bilateral.common_s(side, t[to])
+        included[side] = {r.stride.start_idx for r in an.rows if r.included}
+    gait = bilateral_gait(hs_s["L"], to_s["L"], hs_s["R"], to_s["R"])
+    keep = []
+    for side, sg in (("L", gait.left), ("R", gait.right)):
+        if side not in per:
+            keep.append(np.zeros(len(sg), bool))
+            continue
+        # bilateral_gait sorts the times; rows map back to the heel strikes in that order
+        hs_rows = bilateral.unit(side).heel_strike_idx
+        order = np.argsort(hs_s[side], kind="stable")
+        rows_sorted = hs_rows[: len(hs_s[side])][order]
+        keep.append(np.array([int(r) in included[side] for r in rows_sorted], bool))
+    return BilateralAnalysis(per, hs_s, to_s, keep_rows(gait, keep[0], keep[1]))

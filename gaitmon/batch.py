@@ -10,11 +10,19 @@ row and its stride rows, or why it could not be reprocessed. A damaged file is a
 ("damaged" and one line), never an exception that stops the batch.
 
 Resuming: after each session the driver writes a small record (its outcome, the source's size
-and time, the settings, the output's size) under ``OUT/.gaitmon-batch/``, atomically. A rerun
-skips every session whose record matches and whose output is there whole; a session killed
-mid-way has no record (or only a ``.partial`` output) and is done again. The CSVs are written
-last, from every record, sorted by relative path, so two runs over the same files give the same
-bytes whatever the order the workers finished in.
+and time, the settings, the output's name and size) under ``OUT/.gaitmon-batch/``, atomically.
+A rerun skips every session whose record matches and whose output is there whole; a session
+killed mid-way has no record (or only a ``.partial`` output) and is done again. The CSVs are
+written last, from every record, sorted by relative path, so two runs over the same files give
+the same bytes whatever the order the workers finished in.
+
+De-identified (``deidentify=True``), nothing in ``OUT`` names a patient or dates a recording:
+the tables carry labels (``S0001``, ``P001``), the sessions are written as ``OUT/S0001.h5`` ...
+(their labels in the tables) and cleaned as a de-identified export is
+(:func:`gaitmon.io.session.deidentify.write_deidentified`), and the records, which hold the
+patient ids and paths a resume needs, go to the key folder beside ``OUT``
+(``OUT.gaitmon-key/``: the records, ``key.csv`` linking each label to its file and patient,
+and the work files of sessions in flight): keep it, share ``OUT``.
 """
 
 from __future__ import annotations
@@ -22,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import io
 import json
 import math
 import multiprocessing
@@ -48,6 +57,10 @@ from gaitmon.errors import DAMAGE_ERRORS, UserError
 from gaitmon.reprocessing import Reprocessing
 
 STATE_DIR = ".gaitmon-batch"  # in OUT: one record per finished session
+KEY_SUFFIX = ".gaitmon-key"  # de-identified: the folder beside OUT that re-identifies it
+KEY_CSV = "key.csv"
+RECORDS_DIR = "records"  # in the key folder
+WORK_DIR = "work"  # in the key folder: a session reprocessed, before it is de-identified
 SUMMARY_CSV = "summary.csv"
 STRIDES_CSV = "strides.csv"
 PARTIAL = ".partial"
@@ -82,6 +95,9 @@ class Task:
     src: str
     dst: str
     settings: Reprocessing | None = None  # None: each file's own settings
+    # de-identified: where the reprocessed file is written before it is cleaned into dst
+    # (in the key folder, so that a kill never leaves an identified file in OUT); "" = not
+    work: str = ""
 
 
 @dataclass(frozen=True)
@@ -133,6 +149,7 @@ def reprocess_one(task: Task) -> Outcome:
 
     bad_file: tuple[type[BaseException], ...] = (SessionError, *DAMAGE_ERRORS)
     src, dst = Path(task.src), Path(task.dst)
+    work = Path(task.work) if task.work else None
     t0, cpu0 = time.perf_counter(), time.thread_time()
     wrote = False
     try:
@@ -150,7 +167,14 @@ def reprocess_one(task: Task) -> Outcome:
         t1 = time.perf_counter()
         dst.parent.mkdir(parents=True, exist_ok=True)
         wrote = True
-        rewrite_processed(src, dst, config, overwrite=True)
+        if work is None:
+            rewrite_processed(src, dst, config, overwrite=True)
+        else:
+            from gaitmon.io.session.deidentify import write_deidentified
+
+            work.parent.mkdir(parents=True, exist_ok=True)
+            rewrite_processed(src, work, config, overwrite=True)
+            write_deidentified(work, dst)
         t2 = time.perf_counter()
         with open_session(dst) as new:
             t_s = new.read("timeline/t_s") if new.n_samples else None
@@ -163,7 +187,8 @@ def reprocess_one(task: Task) -> Outcome:
         t3 = time.perf_counter()
     except bad_file as exc:
         if wrote:  # only whole, analysed outputs stay in OUT
-            for p in (dst, partial_path(dst)):
+            extra = (work, partial_path(work)) if work is not None else ()
+            for p in (dst, partial_path(dst), *extra):
                 with contextlib.suppress(OSError):
                     p.unlink()
         return Outcome(task.rel, DAMAGED, _one_line(exc))
@@ -195,8 +220,19 @@ def find_sessions(root: Path, out: Path | None = None) -> list[str]:
     return sorted(found)
 
 
-def _record_path(out: Path, rel: str) -> Path:
-    return out / STATE_DIR / (rel + ".json")
+def key_dir(out: Path) -> Path:
+    """The key folder of a de-identified run into ``out``: beside it, never inside."""
+    out = Path(os.path.abspath(out))
+    return out.with_name(out.name + KEY_SUFFIX)
+
+
+def _state_dir(out: Path, deidentify: bool) -> Path:
+    """Where the records are: in OUT, or (de-identified) in the key folder beside it."""
+    return key_dir(out) / RECORDS_DIR if deidentify else out / STATE_DIR
+
+
+def _record_path(state: Path, rel: str) -> Path:
+    return state / (rel + ".json")
 
 
 def _source_stamp(src: Path) -> list[int]:
@@ -220,13 +256,14 @@ def _write_atomic(path: Path, data: bytes) -> None:
     os.replace(tmp, path)
 
 
-def _finished(task: Task, out: Path, fingerprint: str) -> Outcome | None:
+def _finished(task: Task, state: Path, fingerprint: str) -> Outcome | None:
     """The recorded outcome when ``task`` is done with these settings on this very source and
-    its output is there whole; else None (do it again)."""
+    its output is there whole, under the same name; else None (do it again)."""
     try:
-        rec = json.loads(_record_path(out, task.rel).read_text(encoding="utf-8"))
+        rec = json.loads(_record_path(state, task.rel).read_text(encoding="utf-8"))
         if (rec.get("version") != __version__ or rec.get("settings") != fingerprint
-                or rec.get("source") != _source_stamp(Path(task.src))):
+                or rec.get("source") != _source_stamp(Path(task.src))
+                or rec.get("output", task.dst) != task.dst):  # (a label may now be another's)
             return None
         outcome = Outcome.from_record(rec["outcome"])
         if outcome.status != OK or Path(task.dst).stat().st_size != rec.get("output_size"):
@@ -236,16 +273,17 @@ def _finished(task: Task, out: Path, fingerprint: str) -> Outcome | None:
         return None
 
 
-def _save_record(task: Task, out: Path, fingerprint: str, outcome: Outcome) -> None:
+def _save_record(task: Task, state: Path, fingerprint: str, outcome: Outcome) -> None:
     with contextlib.suppress(OSError):  # a missing source or output: the record says so
         rec = {
             "version": __version__,
             "settings": fingerprint,
             "source": _source_stamp(Path(task.src)),
+            "output": task.dst,
             "output_size": Path(task.dst).stat().st_size if outcome.status == OK else None,
             "outcome": outcome.as_record(),
         }
-        _write_atomic(_record_path(out, task.rel), json.dumps(rec).encode())
+        _write_atomic(_record_path(state, task.rel), json.dumps(rec).encode())
 
 
 # -- running ---------------------------------------------------------------------------------
@@ -305,6 +343,7 @@ class BatchResult:
     summary_csv: Path
     strides_csv: Path
     elapsed_s: float
+    key: Path | None = None  # de-identified: the key folder beside OUT (keep it, share OUT)
 
     def count(self, status: str) -> int:
         return sum(1 for o in self.outcomes if o.status == status)
@@ -333,6 +372,7 @@ def run_batch(
     rels = find_sessions(root_p, out_p)
     if not rels:
         raise UserError(f"no session files (*.h5) under {root_p}")
+    _check_same_kind(out_p, deidentify)
     client = dask_client(dask) if dask is not None else None  # (fails before any work)
     try:
         return _run(root_p, out_p, rels, settings, jobs, client, deidentify, progress, t0)
@@ -341,17 +381,45 @@ def run_batch(
             client.close()
 
 
+def _check_same_kind(out: Path, deidentify: bool) -> None:
+    """One OUT is de-identified throughout or not at all: a de-identified run into an OUT that
+    holds identified sessions (or the reverse) would mix them in what is shared."""
+    if deidentify and (out / STATE_DIR).is_dir():
+        raise UserError(
+            f"{out} holds a batch that was not de-identified (its sessions keep the patient "
+            "ids); give another OUT folder for --deidentify"
+        )
+    if not deidentify and key_dir(out).is_dir():
+        raise UserError(
+            f"{out} holds a de-identified batch (its key is {key_dir(out)}); add --deidentify "
+            "or give another OUT folder"
+        )
+
+
+def _tasks(root_p: Path, out_p: Path, rels: list[str], settings: Reprocessing | None,
+           deidentify: bool) -> list[Task]:
+    """Each session's task: OUT/<same path>, or, de-identified, OUT/<its label>.h5 (the
+    label of the tables, S0001 ... in path order) from a work file in the key folder."""
+    if not deidentify:
+        return [Task(rel, str(root_p / rel), str(out_p / rel), settings) for rel in rels]
+    work = key_dir(out_p) / WORK_DIR
+    return [Task(rel, str(root_p / rel), str(out_p / f"{label}.h5"), settings,
+                 str(work / f"{label}.h5"))
+            for rel, label in zip(rels, session_labels(len(rels)), strict=True)]  # fmt: skip
+
+
 def _run(
     root_p: Path, out_p: Path, rels: list[str], settings: Reprocessing | None, jobs: int,
     client: Any, deidentify: bool, progress: Progress | None, t0: float,
 ) -> BatchResult:  # fmt: skip
     out_p.mkdir(parents=True, exist_ok=True)
+    state = _state_dir(out_p, deidentify)
     fp = _fingerprint(settings)
-    tasks = [Task(rel, str(root_p / rel), str(out_p / rel), settings) for rel in rels]
+    tasks = _tasks(root_p, out_p, rels, settings, deidentify)
     results: dict[str, Outcome] = {}
     todo = []
     for t in tasks:
-        prev = _finished(t, out_p, fp)
+        prev = _finished(t, state, fp)
         if prev is None:
             todo.append(t)
         else:
@@ -365,7 +433,7 @@ def _run(
             progress(len(results) / total, f"{len(results)}/{total} sessions")
 
     def done(outcome: Outcome) -> None:
-        _save_record(by_rel[outcome.rel], out_p, fp, outcome)
+        _save_record(by_rel[outcome.rel], state, fp, outcome)
         # the stride rows stay in the record only: 10,000 ten-minute sessions hold ~5 million
         results[outcome.rel] = dataclasses.replace(outcome, strides=())
         report()
@@ -378,18 +446,23 @@ def _run(
             _run_local(todo, jobs, done)
     outcomes = tuple(results[r] for r in rels)
     summary_csv, strides_csv = write_tables(
-        outcomes, out_p, deidentify=deidentify, strides_of=lambda o: _recorded_strides(out_p, o)
+        outcomes, out_p, deidentify=deidentify, strides_of=lambda o: _recorded_strides(state, o)
     )
-    return BatchResult(outcomes, n_resumed, summary_csv, strides_csv, time.perf_counter() - t0)
+    key = None
+    if deidentify:
+        key = key_dir(out_p)
+        write_key(outcomes, tasks, key / KEY_CSV)
+    return BatchResult(outcomes, n_resumed, summary_csv, strides_csv, time.perf_counter() - t0,
+                       key)  # fmt: skip
 
 
-def _recorded_strides(out: Path, o: Outcome) -> tuple[tuple[str, ...], ...]:
+def _recorded_strides(state: Path, o: Outcome) -> tuple[tuple[str, ...], ...]:
     """A finished session's stride rows, read back from its record (JSON keeps every float's
     exact value, so the table is the same as from the worker's own result)."""
     if o.status != OK:
         return ()
     try:
-        rec = json.loads(_record_path(out, o.rel).read_text(encoding="utf-8"))
+        rec = json.loads(_record_path(state, o.rel).read_text(encoding="utf-8"))
         return Outcome.from_record(rec["outcome"]).strides
     except (OSError, ValueError, KeyError, TypeError):
         return ()
@@ -421,18 +494,24 @@ def _cell(name: str, value: Any) -> str:
     return " ".join(str(value).split())
 
 
+def session_labels(n: int) -> list[str]:
+    """The de-identified labels of n sessions in path order: S0001, S0002, ..."""
+    return [f"S{k + 1:04d}" for k in range(n)]
+
+
 def labels(outcomes: Iterable[Outcome], deidentify: bool) -> tuple[list[str], list[str]]:
     """(session label, patient label) per outcome: the relative path and patient id, or, de-
     identified, S0001... and P001... numbered in the order of the sorted paths (the same
     patient keeps one label within a run's tables)."""
     sessions, patients = [], []
     numbers: dict[str, str] = {}
-    for k, o in enumerate(outcomes):
+    outcomes = list(outcomes)
+    for o, label in zip(outcomes, session_labels(len(outcomes)), strict=True):
         if not deidentify:
             sessions.append(o.rel)
             patients.append(o.patient_id)
             continue
-        sessions.append(f"S{k + 1:04d}")
+        sessions.append(label)
         pid = o.patient_id.strip()
         if pid and pid not in numbers:
             numbers[pid] = f"P{len(numbers) + 1:03d}"
@@ -443,7 +522,7 @@ def labels(outcomes: Iterable[Outcome], deidentify: bool) -> tuple[list[str], li
 REMOVED = "[removed]"
 
 
-def _scrub(o: Outcome, label: str) -> str:
+def scrub_reason(o: Outcome, label: str) -> str:
     """The reason without the file's name or path (often a patient code) or the patient id:
     the name becomes the session's label."""
     reason = o.reason
@@ -476,7 +555,7 @@ def write_tables(
         ws.writerow(SUMMARY_COLUMNS)
         wr.writerow(STRIDES_COLUMNS)
         for o, session, patient in zip(outcomes, sessions, patients, strict=True):
-            reason = _scrub(o, session) if deidentify else o.reason
+            reason = scrub_reason(o, session) if deidentify else o.reason
             ok = o.status == OK
             values: list[Any] = [
                 session, patient, "" if deidentify else o.created_utc, o.duration_s,
@@ -493,3 +572,20 @@ def write_tables(
     for tmp, path in zip(tmps, paths, strict=True):
         os.replace(tmp, path)
     return paths
+
+
+KEY_COLUMNS = ("session", "file", "source", "patient", "patient_id")
+
+
+def write_key(outcomes: Sequence[Outcome], tasks: Sequence[Task], path: Path) -> Path:
+    """The key of a de-identified run (in the key folder, never in OUT): each session's label,
+    its file in OUT, its source under DIR, its patient label and patient id."""
+    sessions, patients = labels(outcomes, deidentify=True)
+    dst = {t.rel: Path(t.dst).name for t in tasks}
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(KEY_COLUMNS)
+    for o, session, patient in zip(outcomes, sessions, patients, strict=True):
+        w.writerow([session, dst[o.rel] if o.status == OK else "", o.rel, patient, o.patient_id])
+    _write_atomic(path, buf.getvalue().encode("utf-8"))
+    return path

@@ -20,6 +20,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "record": ("gaitmon.commands.record", "record a session from the unit or the simulator"),
     "info": ("gaitmon.commands.info", "summarise a session (recovers an interrupted one)"),
     "process": ("gaitmon.commands.process", "re-run the pipeline offline with new settings"),
+    "import": ("gaitmon.commands.import_xdf", "import a LabRecorder recording (.xdf) of gaitmon's "
+               "LSL streams as a session file"),
     "batch": ("gaitmon.commands.batch", "reprocess every session of a study (local or Dask)"),
     "bench": ("gaitmon.commands.bench", "measure pipeline speed and print the figures"),
     "export": ("gaitmon.commands.export", "export a recorded session to CSV, MATLAB .mat or C3D"),

@@ -408,11 +408,13 @@ def report_from_file(
     deidentify: bool = False,
     normative: NormativeBands | None = None,
     excluded_ranges: Sequence[tuple[int, int] | Exclusion] | None = None,
+    side: str | None = None,
 ) -> ReportData:
     """Open (recovering if needed), gather, close. Raises ``SessionError`` for a bad file.
 
-    ``excluded_ranges=None``: the exclusions stored for the session (as ``gaitmon report``)."""
-    with open_session(path) as s:
+    ``excluded_ranges=None``: the exclusions stored for the session (as ``gaitmon report``).
+    ``side``: "L" or "R", one leg of a bilateral file (required for one)."""
+    with open_session(path, side=side) as s:
         return gather_report(
             s, deidentify=deidentify, normative=normative, excluded_ranges=excluded_ranges
         )

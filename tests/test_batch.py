@@ -37,12 +37,17 @@ def patient(k: int) -> str:
     return f"PAT-{7000 + k % 7}X"  # 7 patients, some with several sessions
 
 
-def write_session(path: Path, seed: int, pid: str) -> None:
+def write_session(path: Path, seed: int, pid: str, *, operator: str = "", notes: str = "",
+                  markers: tuple[str, ...] = (), device: dict[str, object] | None = None) -> None:
     counts = simulate(N, GaitModel(GaitConfig(seed=seed)), realistic_sensors(seed)).counts
-    header = SessionHeader("raw", FS, meta=SessionMeta(patient_id=pid, side="R"),
+    header = SessionHeader("raw", FS, meta=SessionMeta(patient_id=pid, side="R",
+                                                       operator=operator, notes=notes),
+                           device=device or {},
                            config=PipelineConfig(), calibration=Calibration.identity(),
                            created_utc=f"2026-03-{1 + seed % 28:02d}T10:00:00Z")  # fmt: skip
     w = SessionWriter(path, header)
+    for k, label in enumerate(markers):
+        w.add_marker(label, 100 * (k + 1))
     seq = np.arange(N, dtype=np.int64)
     blk = SampleBlock(FrameKind.RAW, seq, 10.0 + seq / FS, 1.7e9,
                       lost_before=np.zeros(N, np.int64), adc=counts)  # fmt: skip
@@ -218,12 +223,16 @@ def test_a_damaged_file_is_a_row_and_the_batch_goes_on(study, tmp_path, capsys):
     assert {x["session"] for x in read_csv(out / "strides.csv")} == {r["session"] for r in others}
 
 
-def test_deidentified_tables_carry_no_patient_id_date_or_file_name(study, local_run, tmp_path):
+@pytest.fixture(scope="module")
+def deid_run(study, tmp_path_factory):
+    out = tmp_path_factory.mktemp("deid") / "shared"
+    return run_batch(study, out, SETTINGS, jobs=2, deidentify=True), out
+
+
+def test_deidentified_tables_carry_no_patient_id_date_or_file_name(study, local_run, deid_run):
     result, local_out = local_run
-    out = tmp_path / "copy"
-    shutil.copytree(local_out, out)  # the same outputs and records: a rerun resumes them all
-    deid = run_batch(study, out, SETTINGS, deidentify=True)
-    assert deid.n_resumed == N_SESSIONS
+    deid, out = deid_run
+    assert [o.status for o in deid.outcomes] == [OK] * N_SESSIONS
     summary = (out / "summary.csv").read_text(encoding="utf-8")
     strides = (out / "strides.csv").read_text(encoding="utf-8")
     data = (summary + strides).encode()
@@ -251,7 +260,114 @@ def test_deidentified_tables_carry_no_patient_id_date_or_file_name(study, local_
     assert strides.splitlines() == relabelled
 
 
-def test_the_command_writes_deidentified_csvs_and_reads_settings_json(study, tmp_path):
+# what a de-identified session file may differ in from the identified one (key -> why)
+CLEANED = {
+    "@attrs": "created_utc left out",
+    "session@attrs": "patient_id, operator, notes blanked",
+    "device@attrs": "serial, transport blanked",
+    "timeline/host_time_s": "the host clock from 0",
+    "timeline/host_time_s@attrs": "wall_offset_s left out",
+}
+
+
+def test_deidentified_batch_leaves_nothing_in_out_that_names_a_patient(study, local_run,
+                                                                       deid_run):
+    """Every byte of every file under OUT (the sessions too, not only the CSVs), searched for
+    the patient ids, the file names and the recording dates; the sessions hold the identified
+    run's data otherwise, value for value."""
+    result, local_out = local_run
+    deid, out = deid_run
+    files = sorted(p for p in out.rglob("*") if p.is_file())
+    names = sorted(p.relative_to(out).as_posix() for p in files)
+    assert names == sorted(["summary.csv", "strides.csv",
+                            *(f"S{k:04d}.h5" for k in range(1, N_SESSIONS + 1))])  # fmt: skip
+    secrets = {o.patient_id for o in result.outcomes} | {Path(o.rel).stem for o in result.outcomes}
+    secrets |= {o.created_utc[:10] for o in result.outcomes} | {"site-a", "site-b"}
+    for p in files:
+        blob = p.read_bytes()
+        found = [x for x in secrets if x.encode() in blob]
+        assert found == [], (p.name, found)
+    for k, o in enumerate(result.outcomes):
+        label = f"S{k + 1:04d}"
+        mine, theirs = contents(out / f"{label}.h5"), contents(local_out / o.rel)
+        assert set(mine) == set(theirs)
+        assert {key for key in mine if mine[key] != theirs[key]} <= set(CLEANED), label
+        with h5py.File(out / f"{label}.h5", "r") as f:
+            assert "created_utc" not in f.attrs
+            assert {k: f["session"].attrs[k] for k in ("patient_id", "operator", "notes")} == (
+                dict.fromkeys(("patient_id", "operator", "notes"), ""))
+            host = f["timeline/host_time_s"][...]
+            assert host[0] == 0.0 and "wall_offset_s" not in f["timeline/host_time_s"].attrs
+        with h5py.File(local_out / o.rel, "r") as f:
+            np.testing.assert_allclose(host, f["timeline/host_time_s"][...] - 10.0, atol=1e-9)
+        with open_session(out / f"{label}.h5") as s:  # still a session gaitmon reads
+            assert s.config.cutoff_hz == 5.0 and s.meta.patient_id == "" and s.n_samples == N
+    # the key: beside OUT, never in it; it links each label to its source and patient
+    assert deid.key == out.with_name("shared.gaitmon-key") and deid.key.is_dir()
+    key = read_csv(deid.key / "key.csv")
+    summary = read_csv(out / "summary.csv")
+    assert [(r["session"], r["file"], r["source"], r["patient_id"]) for r in key] == [
+        (f"S{k + 1:04d}", f"S{k + 1:04d}.h5", o.rel, o.patient_id)
+        for k, o in enumerate(result.outcomes)]
+    assert [r["patient"] for r in key] == [r["patient"] for r in summary]
+
+
+def test_a_deidentified_rerun_resumes_and_the_kinds_of_out_are_never_mixed(study, local_run,
+                                                                            deid_run, tmp_path):
+    from gaitmon.errors import UserError
+
+    _, out = deid_run
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    again = run_batch(study, out, SETTINGS, deidentify=True)
+    assert again.n_resumed == N_SESSIONS
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    _, local_out = local_run
+    with pytest.raises(UserError, match="not de-identified"):
+        run_batch(study, local_out, SETTINGS, deidentify=True)
+    with pytest.raises(UserError, match="add --deidentify"):
+        run_batch(study, out, SETTINGS)
+
+
+def test_deidentified_sessions_lose_operator_notes_serial_and_the_patient_in_markers(tmp_path,
+                                                                                      capsys):
+    """Typed texts: the patient id and operator inside marker labels, notes, the unit's serial
+    and its Bluetooth address; none of their bytes is left anywhere in the file (HDF5 keeps
+    a rewritten attribute's old bytes in free space: the file is copied afresh)."""
+    src = tmp_path / "in"
+    src.mkdir()
+    pid, operator, notes = "PAT-9911Q", "Dr Zed Quorum", "lives at 12 Elm Road"
+    address = "00:1A:7D:DA:71:13"
+    write_session(src / "zed.h5", 7, pid, operator=operator, notes=notes,
+                  markers=(f"{pid} sits", f"{operator} says stop", "turn"),
+                  device={"name": "gaitmon-unit", "firmware": "1.2", "serial": 48213,
+                          "transport": address, "side": "R"})  # fmt: skip
+    with h5py.File(src / "zed.h5", "r") as f:  # (the identified file does hold them)
+        assert f["device"].attrs["serial"] == 48213
+    raw = (src / "zed.h5").read_bytes()
+    assert all(x.encode() in raw for x in (pid, operator, notes, address))
+    out = tmp_path / "out"
+    result = run_batch(src, out, SETTINGS, deidentify=True)
+    assert [o.status for o in result.outcomes] == [OK]
+    blob = (out / "S0001.h5").read_bytes()
+    for secret in (pid, operator, notes, address, "Elm Road", "Quorum", "2026-03"):
+        assert secret.encode() not in blob, secret
+    with open_session(out / "S0001.h5") as s:
+        assert [m.label for m in s.markers] == ["[removed] sits", "[removed] says stop", "turn"]
+        assert [m.sample_idx for m in s.markers] == [100, 200, 300]
+    with h5py.File(out / "S0001.h5", "r") as f:
+        dev = dict(f["device"].attrs)
+        assert dev["serial"] == "" and dev["transport"] == "" and dev["firmware"] == "1.2"
+    assert list(out.iterdir()) and not any(p.suffix == ".partial" for p in out.rglob("*"))
+    assert not any((result.key / "work").iterdir())  # no work file left in the key either
+    # info says what was removed instead of printing blanks
+    from gaitmon.cli import main
+
+    assert main(["info", str(out / "S0001.h5")]) == 0
+    text = capsys.readouterr().out
+    assert "recorded     date removed," in text and "serial - via -" in text
+
+
+def test_the_command_writes_deidentified_csvs_and_reads_settings_json(study, tmp_path, capsys):
     sub = tmp_path / "sub"
     sub.mkdir()
     src = sorted(study.rglob("*.h5"))[0]
@@ -263,14 +379,18 @@ def test_the_command_writes_deidentified_csvs_and_reads_settings_json(study, tmp
     rc = main(["batch", str(sub), "-o", str(out), "--settings", str(settings), "--r", "0.2",
                "--deidentify", "-q"])  # fmt: skip
     assert rc == 0
-    with open_session(out / src.name) as s:
+    with open_session(out / "S0001.h5") as s:  # (named by its label, not its file name)
         assert (s.config.cutoff_hz, s.config.tilt_method, s.config.r) == (3.5, "paper", 0.2)
+    assert not (out / src.name).exists()
     for name in ("summary.csv", "strides.csv"):
         data = (out / name).read_bytes()
         assert src.stem.encode() not in data and b"PAT-" not in data and b"tilt" not in data
     rows = read_csv(out / "summary.csv")
     assert [(r["session"], r["status"]) for r in rows] == [("S0001", "ok"), ("S0002", "damaged")]
     assert "S0002" in rows[1]["reason"]
+    err = capsys.readouterr().err  # a run's log names sessions by their labels too
+    assert "gaitmon batch: damaged: S0002: " in err
+    assert "tilt" not in err and src.stem not in err and "PAT-" not in err
 
 
 @pytest.mark.parametrize(

@@ -1,6 +1,9 @@
 """gaitmon export --format bids: the Motion-BIDS layout checked against the specification.
 
-The bids-validator (a Deno tool) is not used. These tests check what it would: the layout and
+The official bids-validator (a Deno tool) is not used. Where the Python ``bids-validator``
+package is installed (it brings ``bidsschematools``, the BIDS schema as data), two tests also
+check every file name with it and the files against the schema's own tables; they are skipped
+without it. The other tests check what the validator would: the layout and
 file names (entity order of the BIDS schema, rules/entities.yaml), the TSV headers and the
 JSON fields against the tables of the BIDS 1.9 motion page (channel types, components,
 required sidecar fields, TrackSysParity: TrackingSystemName == the tracksys entity), and the
@@ -160,6 +163,93 @@ def test_channels_tsv_and_motion_json_follow_the_spec(raw, tmp_path):
     assert side["GaitmonAngles"]["source"] == "smoothed" and side["GaitmonAngles"]["method"]
     assert "DeviceSerialNumber" not in side  # de-identified by default
     assert "5 lost frames" in side["SubjectArtefactDescription"]
+
+
+# ---- the BIDS tools' own rules (when installed: bids-validator, which brings bidsschematools) ---
+
+
+def _study_with_every_kind_of_file(src: Path, out: Path) -> list[str]:
+    """A dataset with a session level, a subject without one and a dated scan (not
+    de-identified): every kind of file the export writes; their dataset paths ("/sub-...")."""
+    assert _export(src, out, "--subject", "07", "--session", "pre") == 0
+    assert _export(src, out, "--subject", "08") == 0
+    assert _export(src, out, "--subject", "09", "--session", "post", "--no-deidentify") == 0
+    return sorted("/" + p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
+
+
+def test_every_file_name_passes_the_python_bids_validator(raw, tmp_path):
+    """bids_validator.BIDSValidator checks a path against the BIDS schema's file rules
+    (bidsschematools): entities, their order, the datatype folder, suffix and extension."""
+    bids_validator = pytest.importorskip("bids_validator")
+    src, _ = raw
+    paths = _study_with_every_kind_of_file(src, tmp_path / "study")
+    assert "/sub-09/ses-post/sub-09_ses-post_scans.tsv" in paths and len(paths) == 19
+    validator = bids_validator.BIDSValidator()
+    assert [p for p in paths if not validator.is_bids(p)] == []
+    # and it does refuse what BIDS forbids, so passing says something
+    for bad in ("/sub-07/motion/sub-07_tracksys-IMU_task-walk_motion.tsv",  # entity order
+                "/sub-07/motion/sub-08_task-walk_tracksys-IMU_motion.tsv",  # folder != file
+                "/sub-07/motion/sub-07_task-walk_tracksys-IMU_motion.csv",
+                "/sub-P-1/motion/sub-P-1_task-walk_tracksys-IMU_motion.tsv"):  # fmt: skip
+        assert not validator.is_bids(bad), bad
+
+
+def _schema_name(key: str) -> str:
+    """A column's name from its schema key (``type__channels`` -> ``type``)."""
+    return key.split("__")[0]
+
+
+def test_the_motion_files_meet_the_bids_schema_tables(raw, tmp_path):
+    """The machine-readable BIDS schema (bidsschematools; the validator's own rules) as the
+    reference instead of this file's tables: required sidecar fields and their types, the
+    channels.tsv columns (initial ones in order, every other one defined) and their allowed
+    values, events.tsv's initial columns and sorted onsets."""
+    schema = pytest.importorskip("bidsschematools.schema").load_schema()
+    src, _ = raw
+    out = tmp_path / "study"
+    _study_with_every_kind_of_file(src, out)
+    rules, objects = schema.rules, schema.objects
+    chan_rule = rules.tabular_data.motion.motionChannels
+    events_rule = rules.tabular_data.events.Events
+    required_fields = {f for group in rules.sidecars.motion.values()
+                       for f, level in group["fields"].items()
+                       if (level if isinstance(level, str) else level["level"]) == "required"}
+    assert {"SamplingFrequency", "TaskName"} <= required_fields  # (the schema read as meant)
+    types = {"number": (int, float), "integer": (int,), "string": (str,)}
+    for motion_json in out.rglob("*_motion.json"):
+        side = json.loads(motion_json.read_text(encoding="utf-8"))
+        assert required_fields <= set(side), motion_json.name
+        for key, value in side.items():
+            if key in objects.metadata and objects.metadata[key].get("type") in types:
+                assert isinstance(value, types[objects.metadata[key]["type"]]), key
+                assert value >= objects.metadata[key].get("minimum", value), key
+    for channels_tsv in out.rglob("*_channels.tsv"):
+        head = _header(channels_tsv)
+        initial = [_schema_name(k) for k in chan_rule.initial_columns]
+        assert head[: len(initial)] == initial
+        required = [_schema_name(k) for k, lv in chan_rule.columns.items() if lv == "required"]
+        assert set(required) <= set(head)
+        assert set(head) <= {_schema_name(k) for k in chan_rule.columns}  # allowed_if_defined
+        keys = {_schema_name(k): k for k in chan_rule.columns}
+        rows = _tsv(channels_tsv)
+        for column in head:
+            definition = objects.columns[keys[column]]
+            for row in rows:
+                value = row[column]
+                # n/a is every TSV column's missing value (and the spec's component table
+                # lists it: "channels that have no corresponding spatial axis")
+                if value != "n/a" and "enum" in definition:
+                    assert value in definition["enum"], (column, value)
+                if value != "n/a" and definition.get("type") == "number":
+                    float(value)
+        n_columns = {len(r) for r in _motion_rows(
+            channels_tsv.with_name(channels_tsv.name.replace("_channels.tsv", "_motion.tsv")))}
+        assert n_columns == {len(rows)}  # no header row: every row is data of every channel
+    for events_tsv in out.rglob("*_events.tsv"):
+        head = _header(events_tsv)
+        assert head[:2] == list(events_rule.initial_columns) == ["onset", "duration"]
+        onsets = [float(e["onset"]) for e in _tsv(events_tsv)]
+        assert onsets == sorted(onsets) and min(onsets, default=0) >= -60
 
 
 # ---- the values ------------------------------------------------------------------------------

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from gaitmon.dsp.calibration import Calibration
-from gaitmon.dsp.channels import DEFAULT_TABLE, GYRO_IDX
+from gaitmon.dsp.channels import DEFAULT_TABLE
 from gaitmon.dsp.gait import Stride
 from gaitmon.dsp.pipeline import Pipeline
 from gaitmon.io.device import SampleBlock
@@ -156,33 +156,6 @@ def test_a_closed_recording_stores_the_smoothed_angles_of_its_whole_raw_record(
     assert np.abs(joint - want["smoothed/joint_deg"]).max() <= 0.011
 
 
-def test_the_foot_imu_is_read_a_block_at_a_time_with_the_whole_array_values(
-    counts, tmp_path, monkeypatch
-):
-    import gaitmon.analysis as analysis
-    from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, SEGMENTS
-
-    path = tmp_path / "foot.h5"
-    _write(path, counts, calibrate_at=(4_321, 20_000))
-    monkeypatch.setattr(analysis, "FOOT_IMU_BLOCK_ROWS", 3000)  # 10 blocks
-    with open_session(path) as s:
-        got = analysis.foot_imu(s)
-        # the previous code: the whole record at once, a bias per row
-        foot = SEGMENTS.index("foot")
-        table = s.header.table
-        cols = [int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])]
-        c = np.asarray(s.read("raw/adc"))[:, cols].astype(np.float64)
-        phys = (c - table.zero_counts[cols]) * table.units_per_count[cols]
-        bias = np.full(N, float(s.calibration.gyro_bias_rad_s[foot]))
-        for row, cal in sorted(s.calibration_changes, key=lambda x: x[0]):
-            bias[max(0, row):] = float(cal.gyro_bias_rad_s[foot])
-        assert len(s.calibration_changes) == 2
-    assert got is not None
-    for k, want in enumerate((phys[:, 0], phys[:, 1], phys[:, 2] - bias)):
-        assert np.array_equal(got[k], want), k
-    assert not np.array_equal(got[2], phys[:, 2])  # (the biases were really removed)
-
-
 def _strides(n_rows: int, rng: np.random.Generator) -> list[Stride]:
     out = []
     a = 3
@@ -266,38 +239,6 @@ def test_cycle_statistics_a_block_of_strides_at_a_time_equal_those_of_every_cycl
     assert np.array_equal(sd, want_sd, equal_nan=True)
     assert np.array_equal(kept, whole[evenly_chosen(len(whole), 40)])
     assert len(kept) == min(40, len(whole))
-
-
-def test_stride_measures_a_block_of_strides_at_a_time_equal_those_of_the_whole_record(
-    counts, tmp_path, monkeypatch
-):
-    """The stride length and clearance come from each block of strides' own rows of the foot
-    IMU: the values of stride_measures over the whole record, to the bit."""
-    import gaitmon.analysis as analysis
-    from gaitmon.dsp.stride_length import stride_measures
-
-    path = tmp_path / "strides.h5"
-    _write(path, counts, calibrate_at=(7_777,))
-    with open_session(path) as s:
-        hs = s.heel_strike_idx
-        want = stride_measures(*analysis.foot_imu(s), FS, hs)  # type: ignore[misc]
-        monkeypatch.setattr(analysis, "STRIDE_BLOCK", 16)
-        monkeypatch.setattr(analysis, "FOOT_IMU_BLOCK_ROWS", 999)
-        asked: list[tuple[int, int]] = []
-        real = analysis.foot_imu
-
-        def spy(session, start=0, stop=None):
-            asked.append((start, stop))
-            return real(session, start, stop)
-
-        monkeypatch.setattr(analysis, "foot_imu", spy)
-        got = analysis.session_stride_measures(s, hs)
-    assert len(hs) > 100 and len(asked) >= 6
-    assert max(b - a for a, b in asked) < N / 3  # (each block reads its own rows only)
-    assert np.isfinite(want.stride_length_m).sum() > 50
-    for name in ("heel_strike_idx", "stride_length_m", "foot_clearance_m", "stride_time_s",
-                 "foot_flat_idx"):
-        assert np.array_equal(getattr(got, name), getattr(want, name), equal_nan=True), name
 
 
 def test_a_journal_read_lets_the_mapped_pages_go_behind_the_rows_gathered(

@@ -204,6 +204,9 @@ def test_the_export_dialog_exports_the_angles_shown(qtbot, win, session_file, tm
         with qtbot.waitSignal(dlg.export_finished, timeout=WAIT_MS):
             dlg.export_button.click()
         dlg.close()
+        # the window's status line says what was written, in words (it printed a tuple of paths)
+        status = win.statusBar().currentMessage()
+        assert status.startswith("Exported ") and f"to {out.name}" in status, status
         meta = json.loads(out.with_suffix(".meta.json").read_text())
         assert meta["angles"] == {"source": angles, "method": METHOD[angles],
                                   "live_method": METHOD["live"]}  # fmt: skip
@@ -217,7 +220,7 @@ def test_the_reprocess_dialog_offers_the_live_method_and_q_r_only_for_the_papers
     qtbot, win, session_file
 ):
     from gaitmon.commands.process import PAPER_ONLY as CLI_PAPER_ONLY
-    from gaitmon.review.model import PAPER_ONLY
+    from gaitmon.reprocessing import PAPER_ONLY
 
     assert PAPER_ONLY == CLI_PAPER_ONLY  # the dialog follows gaitmon process's rule
     open_and_wait(qtbot, win, session_file)

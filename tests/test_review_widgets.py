@@ -143,6 +143,164 @@ def test_export_dialog_cancel_leaves_no_file(qtbot, session: Path, tmp_path: Pat
     assert sorted(p.name for p in tmp_path.iterdir()) == []  # no output, no temporary file
 
 
+# ---- export dialog: BIDS ------------------------------------------------------------------------
+
+# gaitmon export's default without --deidentify/--no-deidentify, format by format (its --help:
+# "default: on for bids, off for the others")
+CLI_DEIDENTIFY_DEFAULT = {"csv": False, "mat": False, "c3d": False, "strides": False,
+                          "bids": True}  # fmt: skip
+
+
+def _tree_text(root: Path) -> str:
+    """Every path under ``root`` and every file's bytes (as text), to search for the patient."""
+    parts = []
+    for p in sorted(root.rglob("*")):
+        parts.append(p.relative_to(root).as_posix())
+        if p.is_file():
+            parts.append(p.read_bytes().decode("utf-8", errors="replace"))
+    return "\n".join(parts)
+
+
+def _bids_files(root: Path, sub: str, ses: str | None, task: str = "walk") -> set[str]:
+    folder = f"sub-{sub}/" + (f"ses-{ses}/" if ses else "") + "motion/"
+    stem = f"sub-{sub}" + (f"_ses-{ses}" if ses else "") + f"_task-{task}_tracksys-IMU_"
+    return {"README", "dataset_description.json", "participants.tsv",
+            *(folder + stem + s for s in ("motion.tsv", "channels.tsv", "motion.json",
+                                          "events.tsv", "events.json"))}  # fmt: skip
+
+
+def _export_bids(qtbot, dlg, out: Path):
+    dlg.output_edit.setText(str(out))
+    with qtbot.waitSignal(dlg.export_finished, timeout=60_000) as sig:
+        qtbot.mouseClick(dlg.export_button, Qt.MouseButton.LeftButton)
+    return sig.args[0]
+
+
+def test_export_dialog_deidentify_defaults_agree_with_the_command_line(qtbot, session) -> None:
+    from gaitmon.cli import build_parser
+    from gaitmon.io.export import FORMATS
+
+    dlg = _dialog(qtbot, session)
+    assert set(CLI_DEIDENTIFY_DEFAULT) == set(FORMATS)
+    for fmt in ("bids", "csv", "mat", "c3d", "strides", "bids"):  # there and back again
+        dlg.set_format(fmt)
+        assert dlg.deidentify_check.isChecked() is CLI_DEIDENTIFY_DEFAULT[fmt], fmt
+        assert FORMATS[fmt].deidentify_default is CLI_DEIDENTIFY_DEFAULT[fmt], fmt
+        assert dlg.bids_box.isVisibleTo(dlg) is (fmt == "bids"), fmt
+    # the command line leaves the choice to the format (None) unless told
+    args = build_parser("export").parse_args(["export", str(session), "--format", "bids"])
+    assert args.deidentify is None
+
+
+def test_export_dialog_bids_asks_for_a_folder_not_a_file(qtbot, session, tmp_path) -> None:
+    dlg = _dialog(qtbot, session)
+    dlg.output_edit.setText(str(tmp_path / "mine.csv"))
+    dlg.set_format("bids")
+    folder = Path(dlg.output_edit.text())
+    assert dlg.save_label.text() == "Folder" and folder.suffix == ""
+    assert folder.parent == session.parent and session.stem not in folder.name  # de-identified
+    assert (dlg.subject_edit.text(), dlg.session_edit.text(), dlg.task_edit.text()) == (
+        "01", "", "walk")
+    dlg.output_edit.setText(str(tmp_path / "study"))
+    dlg.set_format("csv")  # back to a file: the file chosen before, not the folder
+    assert dlg.output_edit.text() == str(tmp_path / "mine.csv")
+    dlg.set_format("bids")
+    assert dlg.output_edit.text() == str(tmp_path / "study")
+
+
+def test_export_dialog_writes_a_deidentified_bids_dataset(qtbot, session, tmp_path) -> None:
+    dlg = _dialog(qtbot, session)
+    dlg.set_format("bids")
+    dlg.session_edit.setText("pre")
+    out = tmp_path / "study"
+    result = _export_bids(qtbot, dlg, out)
+    got = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
+    assert got == _bids_files(out, "01", "pre")  # no scans.tsv: it would date the recording
+    assert {p.relative_to(out).as_posix() for p in result.paths} == got
+    assert "files in" in dlg.status_label.text()
+    text = _tree_text(out)
+    assert PATIENT not in text and PATIENT.replace("-", "") not in text
+    motion = out / "sub-01/ses-pre/motion/sub-01_ses-pre_task-walk_tracksys-IMU_motion.tsv"
+    chans = (out / "sub-01/ses-pre/motion/sub-01_ses-pre_task-walk_tracksys-IMU_channels.tsv")
+    lines = motion.read_text().splitlines()
+    n_channels = len(chans.read_text().splitlines()) - 1
+    with open_session(session) as s:
+        t = s.read("timeline/t_s")
+        knee = s.read("processed/joint_deg")[:, 1]
+    # one row per 1/fs from the first sample (lost frames are n/a rows), no header
+    assert len(lines) == round((t[-1] - t[0]) * 100) + 1
+    assert all(len(line.split("\t")) == n_channels for line in lines)
+    names = [r.split("\t")[0] for r in chans.read_text().splitlines()[1:]]
+    assert float(lines[0].split("\t")[names.index("knee_flexion")]) == pytest.approx(
+        knee[0], abs=6e-5)
+
+
+def test_export_dialog_bids_subject_from_a_map_file(qtbot, session, tmp_path) -> None:
+    mapping = tmp_path / "subjects.tsv"
+    mapping.write_text(f"patient_id\tlabel\nsomeone-else\t03\n{PATIENT}\t07\n")
+    dlg = _dialog(qtbot, session)
+    dlg.set_format("bids")
+    dlg.subject_map_edit.setText(str(mapping))
+    assert not dlg.subject_edit.isEnabled()  # the map decides the label
+    out = tmp_path / "study"
+    _export_bids(qtbot, dlg, out)
+    assert {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()} == (
+        _bids_files(out, "07", None))
+    assert PATIENT not in _tree_text(out)
+    # a patient the map does not know: the command line's message, one line, nothing written
+    mapping.write_text("patient_id\tlabel\nsomeone-else\t03\n")
+    dlg.output_edit.setText(str(tmp_path / "other"))
+    with qtbot.waitSignal(dlg.export_failed, timeout=60_000) as sig:
+        dlg.export_button.click()
+    assert "no row" in sig.args[0] and "\n" not in sig.args[0] and PATIENT not in sig.args[0]
+    assert not (tmp_path / "other").exists()
+
+
+def test_export_dialog_bids_patient_id_only_when_ticked(qtbot, session, tmp_path) -> None:
+    dlg = _dialog(qtbot, session)
+    dlg.set_format("bids")
+    assert not dlg.patient_id_warning.isVisibleTo(dlg)
+    qtbot.mouseClick(dlg.patient_id_check, Qt.MouseButton.LeftButton)
+    assert dlg.patient_id_check.isChecked() and dlg.patient_id_warning.isVisibleTo(dlg)
+    assert "identify the patient" in dlg.patient_id_warning.text()
+    assert not dlg.subject_edit.isEnabled() and not dlg.subject_map_edit.isEnabled()
+    out = tmp_path / "named"
+    _export_bids(qtbot, dlg, out)
+    label = PATIENT.replace("-", "")  # letters and digits of the id, as --subject-from-patient-id
+    assert {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()} == (
+        _bids_files(out, label, None))
+    # asked for: the label is the id, but the other identifying fields are still left out
+    motion_json = next(out.rglob("*_motion.json")).read_text()
+    assert PATIENT not in motion_json
+    qtbot.mouseClick(dlg.patient_id_check, Qt.MouseButton.LeftButton)
+    assert not dlg.patient_id_warning.isVisibleTo(dlg) and dlg.subject_edit.isEnabled()
+
+
+@pytest.mark.parametrize(("field", "value", "option"), [
+    ("subject_edit", "P-01", "--subject"), ("session_edit", "a b", "--session"),
+    ("task_edit", "walk_fast", "--task"),
+])  # fmt: skip
+def test_export_dialog_bad_bids_label_is_the_command_lines_message(
+    qtbot, session, tmp_path, capsys, field, value, option
+) -> None:
+    from gaitmon.cli import main
+
+    assert main(["export", str(session), "--format", "bids", "-o", str(tmp_path / "cli"), "-q",
+                 option, value]) == 2  # fmt: skip
+    cli_message = capsys.readouterr().err.strip()
+    dlg = _dialog(qtbot, session)
+    dlg.set_format("bids")
+    getattr(dlg, field).setText(value)
+    dlg.output_edit.setText(str(tmp_path / "gui"))
+    with qtbot.waitSignal(dlg.export_failed, timeout=5_000) as sig:
+        dlg.export_button.click()
+    message = sig.args[0]
+    assert "letters and digits" in message and "\n" not in message
+    assert cli_message.endswith(message)  # the same words, from the same check
+    assert not dlg.is_running and dlg.status_label.text() == message
+    assert not (tmp_path / "gui").exists() and not (tmp_path / "cli").exists()
+
+
 # ---- plot export ------------------------------------------------------------------------------
 
 

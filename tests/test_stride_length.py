@@ -237,3 +237,24 @@ def test_bad_input_is_one_clear_message():
         stride_lengths(np.stack([ax, ax]), az, gy, FS, hs)
     assert len(stride_lengths(ax, az, gy, FS, hs[:1])) == 0  # one heel strike: no stride
     assert len(stride_lengths(ax, az, gy, FS, np.empty(0, np.int64))) == 0
+
+
+def test_streaming_waits_for_a_long_foot_flat_search_after_a_long_stride():
+    """After a long stride (a pause, a missed heel strike) a heel strike's foot-flat search
+    (60 % of the stride before it) reaches past the next heel strike's: the tracker waits for
+    all of it, so it finds the same foot-flat as the whole record (it used to take the shorter
+    still run it had seen)."""
+    n = 1000
+    gy = np.full(n, 2.0)  # moving, except in the still runs below
+    for a, b in ((205, 220), (260, 340), (435, 446), (700, 760)):
+        gy[a:b] = 0.0
+    ax, az = np.full(n, G), np.zeros(n)
+    hs = np.array([0, 200, 230, 690])  # 200's search: 120 rows; 230's: 18
+    whole = stride_measures(ax, az, gy, FS, hs)
+    assert 262 <= whole.foot_flat_idx[1, 0] < 320  # the longest still run it sees
+    tr = StrideLengthTracker(FS)
+    parts = [tr.push(ax[a : a + 10], az[a : a + 10], gy[a : a + 10], hs[hs < a + 10])
+             for a in range(0, n, 10)]  # fmt: skip
+    parts.append(tr.finish())
+    flats = np.concatenate([p.foot_flat_idx for p in parts])
+    np.testing.assert_array_equal(flats, whole.foot_flat_idx)

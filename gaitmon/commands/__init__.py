@@ -85,3 +85,37 @@ class Progress:
         else:
             sys.stderr.write(f"{self.label}: {pct}%{tail}\n")
         sys.stderr.flush()
+
+
+def add_side(p: argparse.ArgumentParser) -> None:
+    """``--side L|R``: the leg to take from a file that records both legs."""
+    p.add_argument(
+        "--side", choices=("L", "R"), default=None,
+        help="of a session that records both legs (bilateral): the leg to use",
+    )  # fmt: skip
+
+
+def check_side(path: str | os.PathLike[str], side: str | None) -> None:
+    """One line (UserError) when a bilateral file comes without ``--side``, or ``--side``
+    with a one-unit file."""
+    from gaitmon.errors import UserError
+    from gaitmon.io.session.parts import BOTH_LEGS, is_bilateral
+
+    both = is_bilateral(path)
+    name = Path(path).name
+    if both and side is None:
+        raise UserError(BOTH_LEGS.format(name=name))
+    if side is not None and not both and Path(path).exists():
+        raise UserError(f"{name} records one unit; leave --side out")
+
+
+def refuse_both_legs(path: str | os.PathLike[str] | None, command: str) -> None:
+    """For a command that has no ``--side`` yet: one line when given a bilateral file."""
+    from gaitmon.errors import UserError
+    from gaitmon.io.session.parts import is_bilateral
+
+    if path is not None and is_bilateral(path):
+        raise UserError(
+            f"{Path(path).name} records both legs; gaitmon {command} takes one-unit sessions "
+            "only yet (gaitmon info shows both legs; gaitmon report and export take --side L|R)"
+        )

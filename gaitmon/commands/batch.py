@@ -32,7 +32,7 @@ EPILOG = """\
 examples:
   gaitmon batch study/ -o study-4hz/ --cutoff-hz 4           # a local process pool
   gaitmon batch study/ -o study-paper/ --settings '{"method": "paper", "r": 0.1}'
-  gaitmon batch study/ -o again/ --deidentify --jobs 2      # each file's own settings
+  gaitmon batch study/ -o shared/ --deidentify --jobs 2     # key in shared.gaitmon-key/
   gaitmon batch study/ -o out/ --dask tcp://scheduler:8786  # on a Dask distributed cluster
 """
 
@@ -54,8 +54,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="run on an existing Dask distributed cluster (its scheduler's address, "
                    "e.g. tcp://host:8786); needs pip install 'gaitmon[dask]'")
     p.add_argument("--deidentify", action="store_true",
-                   help="the CSVs carry numbered labels (S0001, P001) instead of file names and "
-                   "patient ids, and no dates")
+                   help="nothing in OUT names a patient or dates a recording: the CSVs carry "
+                   "numbered labels (S0001, P001) instead of file names and patient ids, the "
+                   "sessions are written as OUT/S0001.h5 ... without patient id, operator, "
+                   "notes, serial or date, and the key (labels to files and patients, and the "
+                   "resume records) goes to OUT.gaitmon-key beside OUT: keep it, share OUT")
     add_quiet(p)
 
 
@@ -77,7 +80,7 @@ def _base_settings(text: str | None) -> Reprocessing | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gaitmon.batch import DAMAGED, OK, SKIPPED, run_batch
+    from gaitmon.batch import DAMAGED, OK, SKIPPED, labels, run_batch, scrub_reason
 
     base = _base_settings(args.settings)
     settings = reprocessing_from_args(args, base)
@@ -92,9 +95,12 @@ def run(args: argparse.Namespace) -> int:
     )  # fmt: skip
     if progress is not None and progress.shown and progress.tty and progress.last < 100:
         sys.stderr.write("\n")
-    for o in result.outcomes:
+    # de-identified, a log of the run names sessions by their labels too (the key has the rest)
+    names, _ = labels(result.outcomes, args.deidentify)
+    for o, name in zip(result.outcomes, names, strict=True):
         if o.status != OK:
-            print(f"gaitmon batch: {o.status}: {o.rel}: {o.reason}", file=sys.stderr)
+            reason = scrub_reason(o, name) if args.deidentify else o.reason
+            print(f"gaitmon batch: {o.status}: {name}: {reason}", file=sys.stderr)
     if not args.quiet:
         n = len(result.outcomes)
         how = settings.describe() if given else "each file's own settings"
@@ -102,7 +108,8 @@ def run(args: argparse.Namespace) -> int:
             f"gaitmon batch: {n} sessions ({result.count(OK)} ok, {result.count(DAMAGED)} "
             f"damaged, {result.count(SKIPPED)} skipped; {result.n_resumed} already done) with "
             f"{how} in "
-            f"{result.elapsed_s:.1f} s; wrote {result.summary_csv} and {result.strides_csv}",
+            f"{result.elapsed_s:.1f} s; wrote {result.summary_csv} and {result.strides_csv}"
+            + (f"; the key (keep it, do not share it) is in {result.key}" if result.key else ""),
             file=sys.stderr,
         )
     return 0

@@ -35,6 +35,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="session lengths for --suite offline, size and memory (default 1min,10min,1h,8h; "
         "memory: 1h,8h and one run unless --lengths / --repeat are given)",
     )
+    p.add_argument(
+        "--only",
+        default="",
+        help="--suite offline: comma-separated of info, csv, mat, c3d, report (each with its "
+        "reference); --suite memory: of its tasks (ref_floor, ref_raw, review, process, "
+        "recover, info, report, close); default: all",
+    )
 
 
 def _best_of(fn: Callable[[], object], repeat: int) -> float:
@@ -65,12 +72,13 @@ def run(args: argparse.Namespace) -> int:
     if args.suite == "offline":
         from gaitmon.commands.bench_offline import suite
 
-        return suite(args.lengths.split(","), args.repeat)
+        return suite(args.lengths.split(","), args.repeat, only=args.only)
     if args.suite == "memory":
         from gaitmon.commands.bench_memory import suite as memory_suite
 
         lengths = args.lengths if args.lengths != "1min,10min,1h,8h" else "1h,8h"
-        return memory_suite(lengths.split(","), args.repeat if args.repeat != 3 else 1)
+        return memory_suite(lengths.split(","), args.repeat if args.repeat != 3 else 1,
+                            set(filter(None, args.only.split(","))))  # fmt: skip
     if args.suite == "size":
         from gaitmon.commands.bench_size import suite as size_suite
 

@@ -271,15 +271,26 @@ def main(argv: list[str] | None = None) -> int:
     return suite(args.lengths.split(","), args.repeat, set(filter(None, args.skip.split(","))))
 
 
-def suite(lengths: list[str], repeat: int, skip: set[str] | None = None) -> int:
+def suite(lengths: list[str], repeat: int, skip: set[str] | None = None, only: str = "") -> int:
+    """``only``: comma-separated tasks of ROWS to run (each with its reference), "" for all."""
+    from gaitmon.errors import UserError
+
     bad = [n for n in lengths if n not in LENGTHS_H]
     if bad:
-        from gaitmon.errors import UserError
-
         raise UserError(f"unknown length {bad[0]!r} (choose from {', '.join(LENGTHS_H)})")
+    tasks = [t for t, _, _ in ROWS]
+    wanted = [t for t in only.split(",") if t]
+    unknown = [t for t in wanted if t not in tasks]
+    if unknown:
+        raise UserError(f"unknown task {unknown[0]!r} for --only (choose from {', '.join(tasks)})")
+    if repeat < 1:
+        raise UserError("--repeat must be at least 1")
+    skip = set(skip or ())
+    if wanted:
+        skip |= {x for t, ref, _ in ROWS if t not in wanted for x in (t, ref) if x}
     print(f"gaitmon bench --suite offline: {', '.join(lengths)}; {repeat} runs each "
           f"({os.cpu_count()} CPUs)", flush=True)
-    results = run_suite(lengths, repeat, skip or set())
+    results = run_suite(lengths, repeat, skip)
     print_table(results, lengths, repeat)
     return 0
 

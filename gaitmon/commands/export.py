@@ -6,7 +6,14 @@ import argparse
 import sys
 import time
 
-from gaitmon.commands import Progress, add_force, add_quiet, damaged_file_guard
+from gaitmon.commands import (
+    Progress,
+    add_force,
+    add_quiet,
+    add_side,
+    check_side,
+    damaged_file_guard,
+)
 from gaitmon.errors import UserError
 from gaitmon.io.export.registry import FORMATS
 
@@ -38,6 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = DESCRIPTION
     parser.epilog = EPILOG
     parser.add_argument("file", metavar="FILE", help="session file (.h5)")
+    add_side(parser)
     parser.add_argument("--format", required=True, choices=tuple(FORMATS),
                         help="output format: " + "; ".join(
                             f"{f.name}: {f.description}" for f in FORMATS.values()))
@@ -69,6 +77,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from gaitmon.io.export import ExportError, export_session, session_length
 
+    check_side(args.file, args.side)
     t0 = time.perf_counter()
     progress = None
     options = {k: getattr(args, k) for k in BIDS_OPTIONS if getattr(args, k) is not None}
@@ -77,12 +86,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"{given}: only for --format bids")
     try:
         with damaged_file_guard(args.file):
-            if not args.quiet and session_length(args.file) >= PROGRESS_MIN_SAMPLES:
+            if not args.quiet and session_length(args.file, args.side) >= PROGRESS_MIN_SAMPLES:
                 progress = Progress(f"exporting {args.format}")
             result = export_session(
                 args.file, args.format, args.output,
                 deidentify=args.deidentify, force=args.force, progress=progress,
-                angles=args.angles, options=options or None,
+                angles=args.angles, options=options or None, side=args.side,
             )
     except (ExportError, UserError) as exc:
         if progress is not None and progress.shown and progress.tty:

@@ -41,20 +41,23 @@ def progress_printer(label: str) -> Callable[[float], None]:
 def run(args: argparse.Namespace) -> int:
     from gaitmon.analysis import analyse_session
     from gaitmon.io.session import SessionError, journal_path, open_session
+    from gaitmon.io.session.parts import is_bilateral
 
+    if is_bilateral(args.file):
+        return _run_bilateral(args.file)
     interrupted = journal_path(args.file).exists()
     try:
         with (
             open_session(args.file, progress=progress_printer("recovering")) as s,
             damaged_file_guard(args.file),
         ):
-            _print(s, analyse_session(s), interrupted)
+            print("\n".join(_lines(s, analyse_session(s), interrupted)))
     except SessionError as exc:
         raise UserError(str(exc)) from None
     return 0
 
 
-def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
+def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     fs = s.sample_rate_hz
     rows = an.rows
     summ = an.summary()
@@ -67,8 +70,8 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
     lost = sum(g.n_lost for g in s.gaps)
     lines = [
         f"{s.path.name}: gaitmon session, format {s.attrs.get('format_version')}, {state}",
-        f"  recorded     {s.created_utc}, {s.duration_s:.1f} s, {s.n_samples} frames at "
-        f"{fs:g} Hz, mode {s.mode} ({mode})",
+        f"  recorded     {s.created_utc or 'date removed'}, {s.duration_s:.1f} s, "
+        f"{s.n_samples} frames at {fs:g} Hz, mode {s.mode} ({mode})",
         f"  patient      {s.meta.patient_id or '-'}   side {s.meta.side or '-'}   "
         f"operator {s.meta.operator or '-'}",
     ]
@@ -76,7 +79,7 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
         lines.append(f"  notes        {s.meta.notes}")
     lines += [
         f"  device       {dev.get('name', '?')} firmware {dev.get('firmware', '?')} serial "
-        f"{dev.get('serial', '?')} via {dev.get('transport', '?')}",
+        f"{dev.get('serial') or '-'} via {dev.get('transport') or '-'}",
         f"  link         {count(lost, 'frame')} lost in {count(len(s.gaps), 'gap')}, "
         f"{count(s.link.get('crc_failures', 0), 'CRC failure')}, "
         f"{count(s.link.get('reconnects', 0), 'reconnect')}",
@@ -155,4 +158,29 @@ def _print(s: Session, an: SessionAnalysis, interrupted: bool) -> None:
         lines.append(f"  markers      {len(s.markers)}: {shown}{more}")
     for p in s.problems:
         lines.append(f"  note         {p}")
-    print("\n".join(lines))
+    return lines
+
+
+def _run_bilateral(path: str) -> int:
+    from gaitmon.analysis import analyse_bilateral
+    from gaitmon.commands.info_bilateral import bilateral_lines, header_lines
+    from gaitmon.io.session import SessionError
+    from gaitmon.io.session.bilateral import open_bilateral
+    from gaitmon.io.session.parts import parts_of
+
+    interrupted = bool(parts_of(path))
+    try:
+        with (
+            open_bilateral(path, progress=progress_printer("recovering")) as b,
+            damaged_file_guard(path),
+        ):
+            an = analyse_bilateral(b)
+            out = header_lines(b, interrupted)
+            for side, unit in b.units.items():
+                out.append(f"{'left' if side == 'L' else 'right'} leg ({side}):")
+                out += ["  " + ln for ln in _lines(unit, an.sides[side], False)[1:]]
+            out += bilateral_lines(an)
+            print("\n".join(out))
+    except SessionError as exc:
+        raise UserError(str(exc)) from None
+    return 0

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gaitmon.commands import add_force, add_quiet
+from gaitmon.commands import add_force, add_quiet, refuse_both_legs
 from gaitmon.errors import UserError
 from gaitmon.reprocessing import (
     FSR_MAX_COUNTS,
@@ -80,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.io.session.reprocess import recorded_config, rewrite_processed
 
     src, dst = Path(args.file), Path(args.output)
+    refuse_both_legs(src, "process")
     if dst.exists() and dst.resolve() == src.resolve():
         raise UserError("NEW must be a different file: the original recording is never modified")
     if dst.exists() and not args.force:

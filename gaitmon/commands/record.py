@@ -13,20 +13,33 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from gaitmon.commands import add_force, add_quiet
-from gaitmon.commands.simulate import add_simulator_options, sim_config_from_args
+from gaitmon.commands import add_force, add_quiet, record_lsl
+from gaitmon.commands.simulate import (
+    add_bilateral_options,
+    add_simulator_options,
+    sim_config_from_args,
+)
 from gaitmon.errors import UserError
 from gaitmon.text import count
 
 if TYPE_CHECKING:
     from gaitmon.engine import Engine, RecordingStatus
     from gaitmon.io.device import LinkStats
+    from gaitmon.io.session import SessionMeta
+    from gaitmon.lsl.outlets import LslOutlets
 
 EPILOG = """\
 examples:
   gaitmon record --simulate --duration 10 -o s.h5
+  gaitmon record --simulate-bilateral --duration 60 -o both.h5
+  gaitmon record --ports /dev/rfcomm0,/dev/rfcomm1 --duration 600 -o both.h5 --patient P017
   gaitmon record --port /dev/rfcomm0 --mode joint --duration 60 -o walk.h5 --patient P017
+  gaitmon record --simulate --duration 600 -o s.h5 --lsl-control LabControl --lsl-markers Stim
+  gaitmon record --simulate --lsl --duration 60 -o walk.h5   (LabRecorder sees the streams)
 
+With --lsl-control the unit streams while gaitmon waits for 'start' on the LSL marker stream,
+and the recording ends on 'stop'; --lsl-markers records a marker stream's samples on the rows
+sampled at their timestamps (docs/lsl.md).
 The recording is crash-safe: if the process dies, the next `gaitmon info FILE` recovers it.
 Ctrl-C stops early and still leaves a complete file.
 """
@@ -44,6 +57,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.epilog = EPILOG
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--simulate", action="store_true", help="record from the simulated unit")
+    src.add_argument(
+        "--simulate-bilateral",
+        action="store_true",
+        help="record both legs from a simulated pair of units into one session "
+        "(docs/bilateral.md)",
+    )
+    src.add_argument(
+        "--ports",
+        metavar="LEFT,RIGHT",
+        help="record both legs: the left and the right unit's ports, into one session",
+    )
     src.add_argument(
         "--port",
         metavar="PORT",
@@ -74,22 +98,33 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="zero the standing pose first (the subject must stand still for 1.5 s)",
     )
     add_quiet(p, "no progress lines on standard error")
+    lsl = p.add_argument_group("Lab Streaming Layer output (needs gaitmon[lsl]; docs/lsl.md)")
+    lsl.add_argument(
+        "--lsl",
+        action="store_true",
+        help="also stream the angles, the gait events (and in raw mode the raw counts) to LSL "
+        "for LabRecorder; off by default (no LSL socket is opened without it)",
+    )
+    lsl.add_argument(
+        "--lsl-patient-id",
+        action="store_true",
+        help="let the patient id (--patient) into the LSL streams' description (default: left out)",
+    )
     p.add_argument(
         "--status-lines",
         action="store_true",
         help=argparse.SUPPRESS,  # for tests: 'ROWS <n> <monotonic s>' on stdout per block
     )
+    record_lsl.add_arguments(p)
     sim = p.add_argument_group("simulated unit (with --simulate)")
     add_simulator_options(sim, side=False)
+    add_bilateral_options(
+        p.add_argument_group("simulated pair of units (with --simulate-bilateral)"), serve=False
+    )
 
 
 def run(args: argparse.Namespace) -> int:
-    from gaitmon.dsp.pipeline import PipelineConfig
-    from gaitmon.engine import Engine, EngineError
-    from gaitmon.io.device import Device
-    from gaitmon.io.ports import make_transport
-    from gaitmon.io.session import SessionMeta, journal_path
-    from gaitmon.io.transport import InProcessTransport, LinkError, Transport
+    from gaitmon.io.session import SessionMeta
 
     if args.port is not None and not args.port.strip():
         raise UserError("--port needs a port name; `gaitmon ports` lists the ports")
@@ -103,6 +138,42 @@ def run(args: argparse.Namespace) -> int:
     meta = SessionMeta(
         patient_id=args.patient, side=args.side, operator=args.operator, notes=args.notes
     )
+    if args.lsl_patient_id and not args.lsl:
+        raise UserError("--lsl-patient-id needs --lsl")
+    if args.lsl:
+        from gaitmon.lsl.outlets import require_pylsl
+
+        require_pylsl()  # before anything starts: one line saying what to install
+    defaults = argparse.ArgumentParser()
+    add_bilateral_options(defaults, serve=False)
+    pair_options = vars(defaults.parse_args([]))
+    given = [n for n, v in pair_options.items() if getattr(args, n, v) != v]
+    if given and not args.simulate_bilateral:
+        names = ", ".join("--" + n.replace("_", "-") for n in given)
+        raise UserError(f"{names}: only with --simulate-bilateral")
+    if args.simulate_bilateral or args.ports is not None:
+        from gaitmon.commands import record_bilateral
+
+        return record_bilateral.run(args, out, meta)
+    lsl = record_lsl.open_inputs(args)  # the streams are found before the unit is touched
+    try:
+        return _record(args, out, meta, lsl)
+    finally:
+        if lsl is not None:
+            lsl.close()
+
+
+def _record(
+    args: argparse.Namespace, out: Path, meta: SessionMeta, lsl: record_lsl.LslInputs | None
+) -> int:
+    from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.engine import Engine, EngineError
+    from gaitmon.io.device import Device
+    from gaitmon.io.ports import make_transport
+    from gaitmon.io.session import journal_path
+    from gaitmon.io.transport import InProcessTransport, LinkError, Transport
+
+    control = lsl.control if lsl is not None else None
     unit = None
     transport: Transport
     if args.simulate:
@@ -119,21 +190,37 @@ def run(args: argparse.Namespace) -> int:
     # The file and its journal are created once the unit is identified and before the first
     # frame is requested, so nothing received is ever outside the file (a crash during start-up
     # lost everything received until the file existed: seconds on a loaded machine). With
-    # --zero the stream must run first (zeroing needs data); the recording starts after it.
+    # --zero the stream must run first (zeroing needs data); the recording starts after it,
+    # and with --lsl-control once the start word arrives.
     started_early = False
+    later = args.zero or control is not None
+    outlets: LslOutlets | None = None
 
-    def record_from_the_first_frame() -> None:
-        nonlocal started_early
-        engine.start_recording(out, meta, overwrite=args.force)
-        started_early = True
+    def before_stream() -> None:
+        nonlocal started_early, outlets
+        if not later:
+            engine.start_recording(out, meta, overwrite=args.force)
+            started_early = True
+        if args.lsl:  # the outlets exist before the first frame: a recorder misses none
+            from gaitmon.lsl.outlets import LslOutlets
+
+            try:
+                outlets = LslOutlets.attach(engine, meta, allow_patient_id=args.lsl_patient_id)
+            except Exception as exc:  # liblsl could not open its sockets
+                raise EngineError(f"could not open the LSL streams: {exc}") from None
+            if not args.quiet:
+                names = ", ".join(repr(n) for n in outlets.names)
+                print(f"gaitmon record: streaming to LSL as {names}", file=sys.stderr)
 
     try:
-        engine.start(before_stream=None if args.zero else record_from_the_first_frame)
+        engine.start(before_stream=before_stream)
     except (EngineError, LinkError) as exc:
         if started_early:  # an empty file of a recording that never began
             for p in (out, journal_path(out)):
                 with contextlib.suppress(OSError):
                     p.unlink()
+        if outlets is not None:
+            outlets.detach()
         raise UserError(str(exc)) from None
 
     stop = threading.Event()
@@ -146,10 +233,14 @@ def run(args: argparse.Namespace) -> int:
     stall_s = STALL_S if args.simulate else STALL_PORT_S
     stalled_at_s: float | None = None
     try:
+        if lsl is not None:
+            record_lsl.start_markers(lsl, engine)
         if args.zero:
             _zero(engine, stop)
         if stop.is_set():  # Ctrl-C while zeroing: the user wants no recording at all
             raise UserError("stopped before the recording started; nothing was recorded")
+        if control is not None:
+            record_lsl.wait_for_start(control, engine, stop, stall_s, args.quiet)
         if not started_early:
             try:
                 engine.start_recording(out, meta, overwrite=args.force)
@@ -167,6 +258,9 @@ def run(args: argparse.Namespace) -> int:
         while True:
             if stop.wait(0.01):
                 reason = "user"
+                break
+            if control is not None and control.stopped.is_set():
+                reason = f"remote: {control.words.stop!r} on LSL stream {control.name!r}"
                 break
             # only counters here: a display snapshot (ring-buffer copies) is not needed
             rec = engine.recording
@@ -195,6 +289,8 @@ def run(args: argparse.Namespace) -> int:
         status = engine.stop_recording(reason)  # after a write error the file is closed already
         stats = engine.device.stats
         engine.stop()
+        if outlets is not None:  # after the engine's last event; a recorder takes the rest
+            outlets.detach(linger_s=0.5)
         for s, h in old.items():
             signal.signal(s, h)
     if unit is not None and status.rows and not status.error:
@@ -216,6 +312,9 @@ def run(args: argparse.Namespace) -> int:
         f"{count(d.crc_failures, 'CRC failure')}, {count(stats.reconnects, 'reconnect')}",
         file=sys.stderr,
     )
+    markers = record_lsl.summary(lsl, engine)
+    if markers:
+        print(f"gaitmon record: {markers}", file=sys.stderr)
     return 0
 
 

@@ -15,12 +15,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from gaitmon.commands import add_force, add_quiet, damaged_file_guard
+from gaitmon.commands import add_force, add_quiet, add_side, check_side, damaged_file_guard
 from gaitmon.errors import UserError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="FILE", help="session file (.h5)")
+    add_side(p)
     p.add_argument("-o", "--output", required=True, metavar="PDF", help="report to write (.pdf)")
     p.add_argument(
         "--normative",
@@ -92,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.normative import NormativeError, load_normative
     from gaitmon.report import report_from_file
 
+    check_side(args.file, args.side)
     out, png = pdf_outputs(args, "report")
     normative = None
     if args.normative:
@@ -101,7 +103,9 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"normative band: {exc}") from None
     try:
         with damaged_file_guard(args.file):
-            data = report_from_file(args.file, deidentify=args.deidentify, normative=normative)
+            data = report_from_file(
+                args.file, deidentify=args.deidentify, normative=normative, side=args.side
+            )
     except SessionError as exc:
         raise UserError(str(exc)) from None
 

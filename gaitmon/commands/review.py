@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from gaitmon.commands import refuse_both_legs
 from gaitmon.errors import UserError
 
 
@@ -17,5 +18,9 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.ui import launch
 
     if args.file is not None and not Path(args.file).exists():
-        raise UserError(f"{args.file} does not exist; check the file name and folder")
+        from gaitmon.io.session.parts import parts_of
+
+        if not parts_of(args.file):
+            raise UserError(f"{args.file} does not exist; check the file name and folder")
+    refuse_both_legs(args.file, "review")
     return launch("gaitmon.ui.review.window", args)

@@ -38,17 +38,30 @@ only; the stride length holds on slopes). The foot is still for at least ~50 ms 
 leg length, height or other anthropometry is needed.
 
 The same stride needs only the samples from its heel strike to the foot-flat after the next one
-(``stride_data_end``): :class:`StrideLengthTracker` gives each stride as soon as those have
+(or to the end of its own foot-flat search, if a long stride before makes it end later:
+``stride_data_end``): :class:`StrideLengthTracker` gives each stride as soon as those have
 arrived, with the same numbers as :func:`stride_measures` on the whole record.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gaitmon.dsp.channels import STANDARD_GRAVITY_MS2
+from gaitmon.dsp.channels import (
+    ACC_X_IDX,
+    ACC_Z_IDX,
+    GYRO_IDX,
+    SEGMENTS,
+    STANDARD_GRAVITY_MS2,
+)
+
+if TYPE_CHECKING:
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.dsp.channels import ChannelTable
 
 STILL_GYRO_RAD_S = 0.35
 STILL_ACC_MS2 = 0.8
@@ -56,6 +69,21 @@ STILL_HALF_WIDTH = 2  # samples either side that must be still too
 MIN_STILL_SAMPLES = 3
 SEARCH_FRACTION = 0.6  # of a stride, after its heel strike (foot-flat ends by ~40 %)
 MAX_STRIDE_S = 3.0
+# Raise with any change to the method that changes its numbers (the constants above are part of
+# METHOD already): stored measures computed by another version are then recomputed when read
+# (gaitmon.io.session.stored_strides).
+METHOD_VERSION = 1
+METHOD: dict[str, float | int | str] = {
+    "method": "foot IMU strapdown with zero-velocity updates",
+    "version": METHOD_VERSION,
+    "still_gyro_rad_s": STILL_GYRO_RAD_S,
+    "still_acc_ms2": STILL_ACC_MS2,
+    "still_half_width": STILL_HALF_WIDTH,
+    "min_still_samples": MIN_STILL_SAMPLES,
+    "search_fraction": SEARCH_FRACTION,
+    "max_stride_s": MAX_STRIDE_S,
+    "standard_gravity_ms2": STANDARD_GRAVITY_MS2,
+}
 
 
 @dataclass(frozen=True)
@@ -100,9 +128,11 @@ def search_spans(heel_strike_idx: np.ndarray) -> np.ndarray:
 
 
 def stride_data_end(heel_strike_idx: np.ndarray, j: int) -> int:
-    """Exclusive end of the samples stride j (heel strike j to j + 1) needs."""
+    """Exclusive end of the samples stride j (heel strike j to j + 1) needs: the end of both
+    its foot-flat searches (after a long stride, heel strike j's reaches past j + 1's)."""
     hs = np.asarray(heel_strike_idx, dtype=np.int64)
-    return int(hs[j + 1] + search_spans(hs)[j + 1])
+    spans = search_spans(hs)
+    return int(max(hs[j] + spans[j], hs[j + 1] + spans[j + 1]))
 
 
 def _moving_max(x: np.ndarray, half: int) -> np.ndarray:
@@ -221,6 +251,74 @@ def stride_measures(
     )
 
 
+# strides computed at a time over a long record (~37 minutes of walking; a few MB of samples)
+STRIDES_PER_BLOCK = 2048
+
+
+def record_stride_measures(
+    read_foot: Callable[[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]],
+    n_rows: int, fs_hz: float, heel_strike_idx: np.ndarray,
+    strides_per_block: int = STRIDES_PER_BLOCK,
+) -> StrideMeasures:  # fmt: skip
+    """:func:`stride_measures` of a record of ``n_rows`` samples read a block of strides at a
+    time: ``read_foot(a, b)`` gives the foot board's acc x, acc z and gyro of rows [a, b). The
+    same numbers as :func:`stride_measures` over the whole record (each stride sees the same
+    samples: from the heel strike before its first, which sets that one's search span, to the
+    end of the last foot-flat search), with memory bounded by the block instead of the record."""
+    hs = np.asarray(heel_strike_idx, dtype=np.int64)
+    if hs.ndim != 1 or np.any(np.diff(hs) <= 0):
+        raise ValueError("heel strikes must be a 1-D increasing array of sample indices")
+    if strides_per_block < 1:
+        raise ValueError(f"strides_per_block must be >= 1, got {strides_per_block}")
+    n_strides = max(len(hs) - 1, 0)
+    if n_strides == 0:
+        empty = np.empty(0)
+        return stride_measures(empty, empty, empty, fs_hz, hs)
+    spans = search_spans(hs)
+    parts: list[StrideMeasures] = []
+    for j0 in range(0, n_strides, strides_per_block):
+        j1 = min(n_strides, j0 + strides_per_block)  # strides j0 .. j1 - 1: heel strikes j0 .. j1
+        lo = max(j0 - 1, 0)  # the heel strike before sets j0's search span
+        sub = hs[lo : j1 + 1]
+        a = min(max(int(sub[0]), 0), n_rows)
+        b = max(a, min(n_rows, int(np.max(hs[j0 : j1 + 1] + spans[j0 : j1 + 1]))))
+        m = stride_measures(*read_foot(a, b), fs_hz, sub - a)
+        keep = slice(j0 - lo, None)
+        ff = m.foot_flat_idx[keep]
+        parts.append(StrideMeasures(
+            heel_strike_idx=m.heel_strike_idx[keep] + a,
+            stride_length_m=m.stride_length_m[keep],
+            foot_clearance_m=m.foot_clearance_m[keep],
+            stride_time_s=m.stride_time_s[keep],
+            foot_flat_idx=np.where(ff >= 0, ff + a, -1),
+        ))  # fmt: skip
+    return StrideMeasures(
+        heel_strike_idx=hs[:n_strides],
+        stride_length_m=np.concatenate([p.stride_length_m for p in parts]),
+        foot_clearance_m=np.concatenate([p.foot_clearance_m for p in parts]),
+        stride_time_s=np.diff(hs).astype(np.float64) / fs_hz,
+        foot_flat_idx=np.concatenate([p.foot_flat_idx for p in parts]),
+    )
+
+
+def foot_imu_from_counts(
+    adc: np.ndarray, first_row: int, table: ChannelTable, calibration: Calibration,
+    calibration_changes: Sequence[tuple[int, Calibration]],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """The foot board's acc x, acc z (m/s^2, unfiltered) and gyro (rad/s, the calibration in
+    force at each row removed: ``calibration`` from row 0, each change from its row on), float64,
+    of the raw counts ``adc`` (M, 14) of rows ``first_row`` .. ``first_row + M``, as the live
+    pipeline sees them."""
+    foot = SEGMENTS.index("foot")
+    cols = [int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])]
+    counts = np.asarray(adc)[:, cols].astype(np.float64)
+    phys = (counts - table.zero_counts[cols]) * table.units_per_count[cols]
+    bias = np.full(len(phys), float(calibration.gyro_bias_rad_s[foot]))
+    for row, cal in sorted(calibration_changes, key=lambda x: x[0]):
+        bias[max(0, row - first_row):] = float(cal.gyro_bias_rad_s[foot])
+    return phys[:, 0], phys[:, 1], phys[:, 2] - bias
+
+
 def stride_lengths(
     acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_y_rad_s: np.ndarray, fs_hz: float,
     heel_strike_idx: np.ndarray,
@@ -303,7 +401,8 @@ class StrideLengthTracker:
         # with the samples they need, relative to the buffer's start.
         lo = max(done[0] - 1, 0)
         sub = hs[lo : done[-1] + 2]
-        end = min(int(sub[-1] + search_spans(sub)[-1]), self._n_seen)
+        # (the first heel strike's span, taken from the stride after it, ends before the next)
+        end = min(int(np.max(sub + search_spans(sub))), self._n_seen)
         m = stride_measures(*self._padded(end), self.fs_hz, sub - self._buf_start)
         keep = slice(done[0] - lo, None)
         ff = m.foot_flat_idx[keep]

@@ -2,7 +2,9 @@
 
 ``Engine`` (``core``) wires the parts: display ring buffers (``buffers``), the frozen values a
 viewer pulls (``snapshot``), the single recorder thread (``recorder``), the engine thread's map
-of its samples to file rows (``rows``) and the live gait panel (``live_gait``).
+of its samples to file rows (``rows``), markers stamped with a host time placed on the sample
+taken at that instant (``markers``), the live gait panel (``live_gait``) and what its
+listeners get after each block (``taps``: ``Engine.add_listener``).
 """
 
 from gaitmon.engine.buffers import RingBuffer

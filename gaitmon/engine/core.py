@@ -15,7 +15,8 @@ This module owns the lifecycle (start, stop, the engine thread's loop), recordin
 stop, zeroing, settings and snapshots. The parts it wires together live beside it: display
 buffers (``buffers``), snapshot types (``snapshot``), the recorder thread (``recorder``), the
 map of engine samples to file rows (``rows``), the live gait panel (``live_gait``) and the
-force-sensor check's findings (``sensor_checks``).
+force-sensor check's findings (``sensor_checks``). Listeners (``add_listener``: the Lab
+Streaming Layer outlets, say) get each processed block as a plain value (``taps``).
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ from gaitmon.engine.buffers import (
     with_gap_rows,
 )
 from gaitmon.engine.live_gait import LiveGait, UnitGaitEvents, shift_stride
+from gaitmon.engine.markers import TimedMarkerCounts, TimedMarkers
 from gaitmon.engine.recorder import Recorder
 from gaitmon.engine.sensor_checks import SensorChecks
 from gaitmon.engine.snapshot import (
@@ -54,6 +56,7 @@ from gaitmon.engine.snapshot import (
     RecordingStatus,
     Snapshot,
 )
+from gaitmon.engine.taps import BlockListener, Taps
 from gaitmon.io.device import Device, DeviceError, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
 from gaitmon.io.transport import LinkError
@@ -137,6 +140,7 @@ class Engine:
         self._recorder_queue_blocks = recorder_queue_blocks
         self._lock = threading.Lock()  # guards the small mutable state below
         self._markers: deque[tuple[float, str]] = deque(maxlen=512)
+        self._timed = TimedMarkers(self.fs_hz)  # markers stamped with a host time, waiting
         self._gait = LiveGait(self.fs_hz, cycle_strides)
         # stride lengths from the foot IMU (the gait panel's speed); its sample 0 is the engine
         # index _spatial_base
@@ -150,6 +154,7 @@ class Engine:
         self._identity: Identity | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
+        self._taps = Taps(self.mode.value, self.fs_hz, self._note_error)  # add_listener
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -194,6 +199,8 @@ class Engine:
         if self._thread is not None:
             self._thread.join(timeout=5.0)
             self._thread = None
+            if self._taps:  # the engine thread is gone: this thread tells them the end
+                self._taps.engine_stopped()
         with contextlib.suppress(Exception):
             self.device.close()
 
@@ -264,6 +271,10 @@ class Engine:
         """
         with self._lock:
             rec = self._recorder
+        if rec is not None:  # the engine thread places the markers waiting, before "stop"
+            self._timed.flush(self._thread)
+        with self._lock:
+            rec = self._recorder
             self._recorder = None
         if rec is None:
             return self._last_recording
@@ -309,12 +320,48 @@ class Engine:
     def recording(self) -> RecordingStatus:
         return self._recording_status(self._recorder)
 
-    def add_marker(self, label: str = "") -> None:
+    def add_marker(self, label: str = "", host_time_s: float | None = None) -> None:
+        """A marker on the latest sample (the next row of a recording), or with
+        ``host_time_s`` (``time.monotonic()``'s clock) on the sample taken at that instant,
+        placed once that sample has been processed (``engine/markers.py``). One stamped before
+        the recording's first row or after its last is not recorded (``timed_markers``)."""
+        if host_time_s is not None:
+            self._timed.add(label, float(host_time_s))
+            return
         t = self._latest_t()
         with self._lock:
             self._markers.append((t, label))
+            self._taps.marker(label)
             if self._recorder is not None:
                 self._recorder.put(("marker", label))
+
+    @property
+    def timed_markers(self) -> TimedMarkerCounts:
+        """What became of the markers given a host time: recorded, outside a recording."""
+        return self._timed.counts
+
+    def _place_timed_markers(self) -> None:
+        """The engine thread: markers whose sample has been processed go to the display and,
+        on a row of the recording, to the recorder (``engine/markers.py``)."""
+        with self._timed.placing() as placed:
+            if not placed:
+                return
+            with self._lock:  # the recorder cannot stop in between: a marker precedes "stop"
+                rec = self._recorder
+                rows = self._timed.rows(placed, None if rec is None else rec.row_map)
+                for m, row in zip(placed, rows, strict=True):
+                    if m.k is not None:
+                        self._markers.append((m.k / self.fs_hz, m.label))
+                    if rec is not None and row is not None:
+                        rec.put(("marker", (m.label, row)))
+
+    def add_listener(self, listener: BlockListener) -> None:
+        """Call ``listener(BlockOut)`` on the engine thread after each block (``taps``)."""
+        self._taps.add(listener)
+
+    def remove_listener(self, listener: BlockListener) -> None:
+        """No more calls from the next block on (one already under way may still finish)."""
+        self._taps.remove(listener)
 
     # -- settings and calibration --------------------------------------------------------
 
@@ -425,6 +472,10 @@ class Engine:
                         self._block_failed(block, exc)
                     except Exception as again:
                         self._note_error(f"processing error: {type(again).__name__}: {again}")
+            try:
+                self._place_timed_markers()
+            except Exception as exc:  # a marker must never stop acquisition
+                self._note_error(f"marker error: {type(exc).__name__}: {exc}")
             if now - last_link_push >= 1.0:
                 last_link_push = now
                 with self._lock:
@@ -516,18 +567,26 @@ class Engine:
         cols["idx"] = np.arange(start_idx, start_idx + len(block), dtype=np.float64)
         self._ring.append(with_gap_rows(cols, lost, self.fs_hz, self._ring.capacity))
         st.samples += len(block)
+        self._timed.add_block(
+            start_idx, np.rint(t_s * self.fs_hz).astype(np.int64), block.host_time_s
+        )
         with self._lock:
             self._health.rate_times.append((float(block.host_time_s[-1]), st.samples))
             self._gait.add(hs_idx, to_idx, strides, restarts, self._ring, st.samples)
             self._gait.add_lengths(lengths)
             self._checks.add(faults, offset, st.samples, self._ring)
+        if self._taps:
+            path = str(rec.writer.path) if first and rec is not None else ""
+            self._taps.block(block, start_idx, t_s, lost, cols, (hs_idx, to_idx),
+                             self._ring.times_of, gap_reason, (cfg, cal), (rec, path))  # fmt: skip
 
     def _stride_lengths(
         self, adc: np.ndarray, p: PipelineBlock, hs_idx: np.ndarray, start_idx: int
     ) -> list[tuple[int, float]]:
         """Feed the foot board's samples (unfiltered acceleration, the pipeline's
-        bias-corrected gyro: what gaitmon.analysis.foot_imu reads from a file) to the stride
-        length tracker; the strides it finished, (opening heel strike, m), engine indices."""
+        bias-corrected gyro: what gaitmon.dsp.stride_length.foot_imu_from_counts makes of a
+        file's raw counts) to the stride length tracker; the strides it finished, (opening
+        heel strike, m), engine indices."""
         tr = self._spatial
         if self._spatial_base + tr.n_seen != start_idx:  # samples not processed: start afresh
             tr.reset()

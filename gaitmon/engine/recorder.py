@@ -162,8 +162,11 @@ class Recorder:
             try:
                 if kind == "append":
                     self._append(w, *payload)
-                elif kind == "marker":
-                    w.add_marker(payload)
+                elif kind == "marker":  # a label (the next row), or (label, row)
+                    if isinstance(payload, tuple):
+                        w.add_marker(payload[0], payload[1])
+                    else:
+                        w.add_marker(payload)
                 elif kind == "config":
                     w.log_config(payload)
                 elif kind == "calibration":

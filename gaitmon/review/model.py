@@ -61,9 +61,6 @@ REPROCESSED_SERIES = (
     "processed/fsr_counts",
     "processed/phase",
 )
-# the settings only the paper's tilt filter reads (as ``gaitmon process`` refuses them without
-# --method paper): the reprocess dialog offers them for that method only
-PAPER_ONLY = ("q_angle", "q_gyro", "r")
 MAX_GAP_SHADE = 20_000  # gaps beyond this are too many to shade one by one (noisy link)
 
 

@@ -63,11 +63,11 @@ class ExportResult:
     problems: tuple[str, ...] = ()  # what the session reader noticed (e.g. not stopped cleanly)
 
 
-def session_length(src_path: str | os.PathLike[str]) -> int:
+def session_length(src_path: str | os.PathLike[str], side: str | None = None) -> int:
     """Rows in a session file (raises ExportError for a bad file)."""
     from gaitmon.io.export.source import open_source
 
-    with open_source(Path(src_path)) as src:
+    with open_source(Path(src_path), side=side) as src:
         return src.n
 
 
@@ -83,6 +83,7 @@ def export_session(
     chunk_rows: int | None = None,
     angles: str = "smoothed",
     options: Mapping[str, Any] | None = None,
+    side: str | None = None,
 ) -> ExportResult:
     """Export one session file; returns the files written. Raises ExportError (one line).
 
@@ -93,6 +94,7 @@ def export_session(
     ``angles``: "smoothed" (the zero-lag offline estimate, where the session has one) or
     "live" (the causal filter's, as shown while recording); the metadata names the method.
     ``deidentify``: None for the format's default (BIDS: de-identified; the others: not).
+    ``side``: "L" or "R", one leg of a bilateral file (required for one).
     ``options``: the format's own options (BIDS: subject, subject_map,
     subject_from_patient_id, session, task; see :class:`.bids_labels.BidsOptions`).
     """
@@ -105,11 +107,14 @@ def export_session(
     form = FORMATS[fmt]
     deidentify = form.deidentify_default if deidentify is None else bool(deidentify)
     src_path = Path(src_path)
+    # one leg of a bilateral file: both.h5 --side L -> both_L.csv
+    named = src_path if side is None else src_path.with_name(
+        f"{src_path.stem}_{side}{src_path.suffix}")  # fmt: skip
     out_path = (Path(out) if out is not None
-                else default_output(src_path, fmt, deidentify=deidentify))
+                else default_output(named, fmt, deidentify=deidentify))
     form.check_available()
     writer = form.writer(options)
-    with open_source(src_path, angles) as src:
+    with open_source(src_path, angles, side) as src:
         scrub = Scrubber(src.group_attrs("session"), deidentify)
         if deidentify:  # times count from the recording's start; none says when it was made
             src.shift_host_time()

@@ -79,7 +79,7 @@ class BidsOptions:
             if not pid:
                 raise ExportError(
                     f"the session has no patient id to look up in {self.subject_map.name}; "
-                    "give --subject LABEL"
+                    "give a subject label instead (--subject LABEL)"
                 )
             if pid not in table:
                 # the id itself is not repeated: a message may end up in a log
@@ -93,7 +93,7 @@ class BidsOptions:
             if not label:
                 raise ExportError(
                     "the session's patient id has no letters or digits to use as a subject "
-                    "label; give --subject LABEL"
+                    "label; give a subject label instead (--subject LABEL)"
                 )
             return label
         return DEFAULT_SUBJECT

@@ -254,7 +254,9 @@ class Source:
 
 
 @contextlib.contextmanager
-def open_source(path: Path, angles: str = "smoothed") -> Iterator[Source]:
+def open_source(
+    path: Path, angles: str = "smoothed", side: str | None = None
+) -> Iterator[Source]:
     """Open through gaitmon.io.session, which validates the file and first recovers an
     interrupted recording from its journal, so bad files are judged in one place. ``angles``:
     the session's smoothed (where it has them; else its only, live, angles) or live angles."""
@@ -265,7 +267,7 @@ def open_source(path: Path, angles: str = "smoothed") -> Iterator[Source]:
     if angles not in ("smoothed", "live"):
         raise ExportError(f"unknown angles {angles!r}; use smoothed or live")
     try:
-        session = open_session(path)
+        session = open_session(path, side=side)  # side: one leg of a bilateral file
         if angles in session.angle_sources:
             session.use_angles(angles)
     except SessionError as exc:

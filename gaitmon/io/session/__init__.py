@@ -10,15 +10,20 @@ package:
 * :mod:`.rows` - blocks to rows (pipeline and device blocks, the timeline);
 * :mod:`.h5file` - the low-level HDF5 layout writer and fsync helpers;
 * :mod:`.writer` - :class:`SessionWriter`, crash-safe recording (HDF5 + journal);
-* :mod:`.recovery` - :func:`replay_pipeline` and :func:`recover_session`;
+* :mod:`.recovery` - :func:`replay_pipeline`, :func:`recover_session`, :func:`build_session`
+  (a whole file from rows in memory: the XDF import);
 * :mod:`.reader` - :func:`open_session` / :class:`Session`, :class:`Marker`, :class:`Gap`;
 * :mod:`.reprocess` - :func:`rewrite_processed`, a raw session re-run into a new file;
 * :mod:`.smoothed` - the ``/smoothed`` zero-lag angles of raw sessions (the readers' default);
 * :mod:`.stored_overview` - ``/overview``, the joint angles' min/max for a long session's first
   view;
 * :mod:`.truth` - the ``/truth`` group of simulated sessions;
+* :mod:`.parts`, :mod:`.combine`, :mod:`.bilateral` - bilateral sessions (both legs): the two
+  units' parts while recording, combining them into one file with their clock fits, and
+  :func:`~.bilateral.open_bilateral` (one leg: ``open_session(path, side="L")``);
 * :mod:`.exclusions` - the user's excluded ranges, kept beside the recording in
-  ``FILE.review.json`` (analysis state: the recording itself is never modified).
+  ``FILE.review.json`` (analysis state: the recording itself is never modified);
+* :mod:`.deidentify` - a de-identified copy of a session file (``gaitmon batch --deidentify``).
 
 Importing the package imports none of them (:mod:`gaitmon.lazy`): ``gaitmon info`` reads a file
 without loading the writer, the device link or reprocessing.
@@ -42,7 +47,7 @@ if TYPE_CHECKING:
         per_sample_datasets,
     )
     from gaitmon.io.session.reader import Gap, Marker, Session, open_session
-    from gaitmon.io.session.recovery import recover_session, replay_pipeline
+    from gaitmon.io.session.recovery import build_session, recover_session, replay_pipeline
     from gaitmon.io.session.reprocess import RewriteResult, rewrite_processed
     from gaitmon.io.session.rows import rows_from_pipeline
     from gaitmon.io.session.truth import read_truth
@@ -66,6 +71,7 @@ __getattr__ = lazy_exports(__name__, {
     "Marker": "reader",
     "Session": "reader",
     "open_session": "reader",
+    "build_session": "recovery",
     "recover_session": "recovery",
     "replay_pipeline": "recovery",
     "RewriteResult": "reprocess",
@@ -91,6 +97,7 @@ __all__ = [
     "SessionHeader",
     "SessionMeta",
     "SessionWriter",
+    "build_session",
     "device_info",
     "journal_path",
     "open_session",

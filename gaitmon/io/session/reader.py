@@ -35,6 +35,7 @@ from gaitmon.io.session.layout import (
     per_sample_datasets,
     stored_datasets,
 )
+from gaitmon.io.session.parts import BOTH_LEGS, SIDE_NAMES, parts_of
 from gaitmon.io.session.smoothed import (
     ANGLE_SOURCES,
     SMOOTHED,
@@ -121,8 +122,14 @@ class Session:
     :class:`SessionError`.
     """
 
-    def __init__(self, path: Path, f: h5py.File, problems: Sequence[str] = ()) -> None:
+    def __init__(
+        self, path: Path, f: h5py.File | h5py.Group, problems: Sequence[str] = (), *,
+        side: str = "",
+    ) -> None:  # fmt: skip
         self.path = path
+        # one unit of a bilateral file: f is its group /units/<side> (the whole single-unit
+        # layout), and closing the session closes the file
+        self.unit_side = side
         self._f = f
         self.problems: list[str] = list(problems)
         name = path.name
@@ -137,6 +144,8 @@ class Session:
                 f"{name} is not a gaitmon session (format is {_s(a['format'])!r}); "
                 "pick a file recorded by gaitmon"
             )
+        if bool(a.get("bilateral", False)) and not side:
+            raise SessionError(BOTH_LEGS.format(name=name))
         version = int(a.get("format_version", 0))
         if version > FORMAT_VERSION:
             raise SessionError(
@@ -245,6 +254,7 @@ class Session:
         self._bias_rows: list[tuple[int, np.ndarray]] | None = None
         self.smoothed_stored = stored_smoothed(f, self.n_samples)
         self._smoothed: dict[str, np.ndarray] | None = None
+        self._stride_cache: dict[bytes, Any] = {}  # heel strikes -> their stride measures
         sm = f.get("smoothed")
         self._smoothed_method = (
             _s(sm.attrs.get("method", "")) if self.smoothed_stored and sm is not None else ""
@@ -337,9 +347,9 @@ class Session:
         return self._smoothed
 
     @property
-    def h5(self) -> h5py.File:
-        """The open HDF5 file (metadata and tables; per-sample series through :meth:`read_range`,
-        which decodes whatever the file stores)."""
+    def h5(self) -> h5py.File | h5py.Group:
+        """The open HDF5 file, or a bilateral file's unit group (metadata and tables; per-sample
+        series through :meth:`read_range`, which decodes whatever the file stores)."""
         return self._f
 
     def _check_name(self, name: str) -> None:
@@ -463,11 +473,52 @@ class Session:
 
         return PeakPyramid.from_level0(got[0], got[1], self.n_samples, BASE_STEP)
 
+    def foot_stride_measures(self, heel_strike_idx: np.ndarray | None = None) -> Any:
+        """Stride length and foot clearance (:class:`gaitmon.dsp.stride_length.StrideMeasures`)
+        of the strides between ``heel_strike_idx`` (default: the recorded heel strikes), from
+        the foot IMU: stored in ``/strides`` when computed from exactly these inputs, else
+        computed (:mod:`gaitmon.io.session.stored_strides`); None without raw counts. The
+        last two results are kept (review compares the recorded events with a reprocessing's),
+        so analysing again with other exclusions costs nothing."""
+        from gaitmon.io.session.stored_strides import StrideInputs, stride_measures_of
+
+        if self.mode != "raw" or not self.n_samples:
+            return None
+        hs = np.asarray(self.heel_strike_idx if heel_strike_idx is None else heel_strike_idx,
+                        dtype=np.int64)  # fmt: skip
+        key = hs.tobytes()
+        if key in self._stride_cache:
+            return self._stride_cache[key]
+        inputs = StrideInputs(self.n_samples, self.sample_rate_hz, self.header.table,
+                              self.calibration, self.calibration_changes)  # fmt: skip
+        try:
+            m = stride_measures_of(
+                self._f, lambda a, b: self.read_range(a, b, ["raw/adc"])["raw/adc"], inputs, hs
+            )
+        except (OSError, RuntimeError, KeyError) as e:
+            raise SessionError(
+                f"{self.path.name} is damaged: cannot read the foot sensor's raw counts "
+                f"({_short_error(e)})"
+            ) from e
+        # the newest before and this one (the recorded events and a reprocessing's), swapped
+        # in whole, so that a reader on another thread never sees it change size
+        self._stride_cache = {**dict(list(self._stride_cache.items())[-1:]), key: m}
+        return m
+
     def exclusions(self) -> tuple[list[Exclusion], str]:
         """(ranges, problem): the row ranges the user excluded in review (stored beside the
         recording, see :mod:`gaitmon.io.session.exclusions`), merged and clipped to the data.
         ``problem`` is a one-line reason when the side file could not be used, else ""."""
-        return load_exclusions(self.path, self.created_utc, self.n_samples)
+        return load_exclusions(self.exclusions_key, self.created_utc, self.n_samples)
+
+    @property
+    def exclusions_key(self) -> Path:
+        """The path the exclusions are kept for (``FILE.review.json`` beside it): the file, or
+        for one leg of a bilateral file ``FILE.L`` / ``FILE.R`` (rows are per unit, so each
+        leg keeps its own)."""
+        if self.unit_side:
+            return self.path.with_name(f"{self.path.name}.{self.unit_side}")
+        return self.path
 
     def truth(self, start: int, stop: int) -> Truth:
         """The simulator's ground truth of rows ``start:stop`` (see
@@ -480,7 +531,7 @@ class Session:
 
     def close(self) -> None:
         with contextlib.suppress(Exception):
-            self._f.close()
+            self._f.file.close()
 
     def __enter__(self) -> Session:
         return self
@@ -581,13 +632,20 @@ def open_session(
     *,
     recover: bool = True,
     progress: Callable[[float], bool | None] | None = None,
+    side: str | None = None,
 ) -> Session:
     """Open a session for reading, first recovering it if a journal says it was interrupted.
 
     If the journal itself is unusable, the HDF5 file is opened as it is (flushed every 100 ms
     while recording) and :attr:`Session.problems` says so.
+
+    A bilateral file (both legs, ``gaitmon.io.session.bilateral``) is opened one unit at a
+    time: ``side="L"`` or ``"R"`` gives that leg's session; without a side it is refused with
+    a one-line message rather than silently giving one leg.
     """
     path = Path(path)
+    if side is not None:
+        return _open_unit(path, side, progress)
     jpath = journal_path(path)
     if jpath.exists() and recover:
         if _being_recorded(jpath):
@@ -620,5 +678,41 @@ def open_session(
                     raise
                 return _read_session(path, [f"not recovered: {e}"])
     elif not path.exists():
+        if parts_of(path):  # an interrupted bilateral recording
+            raise SessionError(BOTH_LEGS.format(name=path.name))
         raise SessionError(f"{path.name} does not exist; check the file name and folder")
     return _read_session(path)
+
+
+def _open_unit(
+    path: Path, side: str, progress: Callable[[float], bool | None] | None
+) -> Session:
+    """One leg of a bilateral session (its parts recovered and combined first if the recording
+    was interrupted)."""
+    from gaitmon.io.session.combine import finish_parts
+
+    if side not in SIDE_NAMES:
+        raise SessionError(f"side must be L or R, got {side!r}")
+    finish_parts(path, progress)
+    if not path.exists():
+        raise SessionError(f"{path.name} does not exist; check the file name and folder")
+    f = _open_h5(path)
+    try:
+        if not bool(f.attrs.get("bilateral", False)):
+            raise SessionError(
+                f"{path.name} holds one unit, not both legs; open it without a side"
+            )
+        if f"units/{side}" not in f:
+            sides = [s for s in str(_s(f.attrs.get("sides", ""))).split() if s in SIDE_NAMES]
+            raise SessionError(
+                f"{path.name} has no {SIDE_NAMES[side]} leg (it has "
+                f"{' and '.join(SIDE_NAMES[s] for s in sides) or 'none'})"
+            )
+        return Session(path, f[f"units/{side}"], side=side)
+    except SessionError:
+        f.close()
+        raise
+    except Exception as e:  # damaged metadata can fail in many ways inside h5py/numpy
+        with contextlib.suppress(Exception):
+            f.close()
+        raise SessionError(f"{path.name} is damaged ({_short_error(e)})") from e

@@ -282,10 +282,13 @@ def _build_recovered(
     progress: Callable[[float], bool | None] | None,
     *,
     in_memory: bool = False,
+    imported_from: str = "",
 ) -> h5py.File | None:
     """Write the recovered session to ``tmp``; ``in_memory``: build it in memory instead and
-    return the open file (the caller closes it), for reading while the disk is full. A raw
-    recording written to disk has ``contents.rows`` let go before its smoothed angles are
+    return the open file (the caller closes it), for reading while the disk is full.
+    ``imported_from``: the rows come from another recording of the same streams (an XDF
+    file, :func:`build_session`), not from a journal: the file is complete, not recovered. A
+    raw recording written to disk has ``contents.rows`` let go before its smoothed angles are
     computed (memory)."""
     hdr = contents.header
     assert hdr is not None and contents.rows is not None
@@ -293,6 +296,7 @@ def _build_recovered(
     n = len(rows)
     fs = header.sample_rate_hz
     mode = header.mode
+    # raw: a fresh pipeline from row 0 (the live one may have run before the recording)
     h5 = _H5File(tmp, hdr, mode="w", reprocessed=mode == "raw", in_memory=in_memory)
     ok = False
     try:
@@ -385,13 +389,64 @@ def _build_recovered(
             ds = h5.f["raw/adc"]
             store_smoothed(h5.f, lambda a, b: ds[a:b], n, header.table, header.calibration,
                            cal_changes, lost, fs)  # fmt: skip
-        h5.finish(complete=False, recovered=True, stop_reason="recovered", fs_hz=fs)
+            from gaitmon.io.session.stored_strides import store_strides
+
+            h5.drain()  # the chunk being filled: the stride measures read every row
+            store_strides(h5.f, header.table, header.calibration, fs)
+        if imported_from:
+            h5.f.attrs["imported_from"] = imported_from
+            h5.finish(complete=True, recovered=False, stop_reason=f"imported from {imported_from}",
+                      fs_hz=fs)  # fmt: skip
+        else:
+            h5.finish(complete=False, recovered=True, stop_reason="recovered", fs_hz=fs)
         report(n)
         ok = True
     finally:
         if not (ok and in_memory):
             h5.close()
     return h5.f if in_memory else None
+
+
+def build_session(
+    path: str | os.PathLike[str],
+    contents: JournalContents,
+    changes: Sequence[tuple[int, PipelineConfig | Calibration]],
+    *,
+    imported_from: str,
+    overwrite: bool = False,
+    progress: Callable[[float], bool | None] | None = None,
+) -> Path:
+    """Write a whole session file from rows held in memory as a journal would hold them
+    (``contents``: header, rows of the mode's :data:`gaitmon.io.journal.ROW_DTYPES`, gaps,
+    markers; ``changes``: settings and calibrations from their rows on): the recovery's own
+    path, so the processed series, events, ``/smoothed`` and ``/overview`` are what a
+    recording of the same rows holds. Used by the XDF import (``imported_from`` names the
+    source). Written as ``PATH.partial`` and moved into place. Raises :class:`SessionError`."""
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise SessionError(f"{path} already exists; choose another name")
+    if not path.parent.is_dir():
+        raise SessionError(f"folder {path.parent} does not exist")
+    if contents.header is None or contents.rows is None:
+        raise SessionError("no header or no rows to write")
+    try:
+        header = SessionHeader.from_dict(contents.header)
+    except (KeyError, TypeError, ValueError) as e:
+        raise SessionError(f"bad session header ({e})") from e
+    tmp = path.with_name(path.name + ".partial")
+    try:
+        _build_recovered(tmp, header, contents, list(changes), progress,
+                         imported_from=imported_from)  # fmt: skip
+        os.replace(tmp, path)
+    except Cancelled:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    except (OSError, RuntimeError) as e:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise SessionError(f"cannot write {path}: {_short_error(e)}") from e
+    return path
 
 
 def _device_chunks(rows: np.ndarray, kind: FrameKind) -> Iterator[ReplayChunk]:

@@ -31,6 +31,7 @@ from gaitmon.io.session.recovery import replay_pipeline
 from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
 from gaitmon.io.session.smoothed import store_smoothed
 from gaitmon.io.session.stored_overview import write_overview
+from gaitmon.io.session.stored_strides import store_strides
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
 COPY_SHARE = 0.25
@@ -227,4 +228,5 @@ def _rewrite(
         )
         cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
         write_overview(f)  # the joint angles changed: so did their overview
+        store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
     report(1.0)

@@ -374,6 +374,9 @@ class SessionWriter:
             self._write_markers(final=True)
             if self._kind == FrameKind.RAW and self._rows:
                 self._store_smoothed()
+                from gaitmon.io.session.stored_strides import store_strides
+
+                store_strides(self._h5.f, self.header.table, self.header.calibration, self._fs)
             self._h5.finish(complete=True, recovered=False, stop_reason=stop_reason, fs_hz=self._fs)
             self._bytes = self._h5.size_bytes()
             self._h5.close()

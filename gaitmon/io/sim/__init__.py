@@ -8,6 +8,10 @@
 * ``unit``       -- ``SimulatedUnit``: speaks ``gaitmon.io.protocol`` through ``write``/``read``,
   paced by a clock, with fault injection, a fault ledger and ground truth;
 * ``pty``        -- ``PtySimulator``: the unit behind a pseudo-terminal for pyserial clients;
+* ``clock``      -- ``SampleClock``: when a unit's samples are taken on a common time line
+  (start offset, crystal drift in ppm);
+* ``bilateral``  -- two units, one per leg, from one walk (``BilateralConfig``, ``BilateralSim``,
+  its truth on the common time base, ``serve_pair_on_ptys``); docs/simulator.md;
 * ``config``     -- ``SimConfig``: what a user chooses about the simulator, as one frozen value,
   and ``build_unit`` / ``serve_on_pty`` that make the unit from it;
 * ``patterns``   -- the gait patterns by name;
@@ -26,6 +30,15 @@ from typing import TYPE_CHECKING
 from gaitmon.lazy import lazy_exports
 
 if TYPE_CHECKING:
+    from gaitmon.io.sim.bilateral import (
+        BilateralConfig,
+        BilateralPty,
+        BilateralSim,
+        BilateralTruth,
+        UnitSpec,
+        serve_pair_on_ptys,
+    )
+    from gaitmon.io.sim.clock import SampleClock
     from gaitmon.io.sim.config import SimConfig, build_unit, serve_on_pty
     from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
     from gaitmon.io.sim.patterns import PATTERNS
@@ -37,20 +50,30 @@ __getattr__ = lazy_exports(__name__, {
     "GaitConfig": "kinematics", "GaitModel": "kinematics", "PATTERNS": "patterns",
     "SensorConfig": "sensors", "SensorModel": "sensors",
     "FaultConfig": "unit", "FaultLedger": "unit", "GroundTruth": "unit", "SimulatedUnit": "unit",
+    "SampleClock": "clock", "BilateralConfig": "bilateral", "BilateralPty": "bilateral",
+    "BilateralSim": "bilateral", "BilateralTruth": "bilateral", "UnitSpec": "bilateral",
+    "serve_pair_on_ptys": "bilateral",
 })  # fmt: skip
 
 
 __all__ = [
     "PATTERNS",
+    "BilateralConfig",
+    "BilateralPty",
+    "BilateralSim",
+    "BilateralTruth",
     "FaultConfig",
     "FaultLedger",
     "GaitConfig",
     "GaitModel",
     "GroundTruth",
+    "SampleClock",
     "SensorConfig",
     "SensorModel",
     "SimConfig",
     "SimulatedUnit",
+    "UnitSpec",
     "build_unit",
     "serve_on_pty",
+    "serve_pair_on_ptys",
 ]

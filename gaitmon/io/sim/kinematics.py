@@ -271,20 +271,31 @@ class GaitModel:
         if self._horizon_s >= need:
             return
         while self._horizon_s < need:
-            z = self._rng.standard_normal(512)
-            d = cfg.stride_s * np.clip(1.0 + cfg.stride_cv * z, 0.5, 1.5)
-            self._durations_s = np.concatenate([self._durations_s, d])
+            self._extend_schedule()
             self._rebuild()
 
-    def _rebuild(self) -> None:
+    def _extend_schedule(self) -> None:
+        """Draw the next 512 stride durations (a subclass may take them from elsewhere)."""
         cfg = self.config
-        s = cfg.stance_frac
+        z = self._rng.standard_normal(512)
+        d = cfg.stride_s * np.clip(1.0 + cfg.stride_cv * z, 0.5, 1.5)
+        self._durations_s = np.concatenate([self._durations_s, d])
+
+    def _schedule(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """(first toe off, heel strikes k = 1, 2, ..., toe offs of strides k = 1, 2, ...) in
+        device seconds, before any stop on request: the knots of the phase.
+        (``gaitmon.io.sim.bilateral`` takes them from the walk both legs share.)"""
+        s = self.config.stance_frac
         d = self._durations_s
         # The first "stride" starts at mid-stance: it covers (1 - START_PHASE) of the cycle.
         first_to = self._t_walk_s + d[0] * s * (TOE_OFF_PHASE - START_PHASE) / TOE_OFF_PHASE
         first_hs = first_to + d[0] * (1.0 - s)
         hs = first_hs + np.concatenate([[0.0], np.cumsum(d[1:])])  # heel strike k = 1, 2, ...
         to = hs + s * np.concatenate([d[1:], [d[-1]]])  # toe off of stride k
+        return float(first_to), hs, to
+
+    def _rebuild(self) -> None:
+        first_to, hs, to = self._schedule()
         self._hs_times = hs
         self._to_times = np.concatenate([[first_to], to])
         t_knots = [0.0, self._t_walk_s, first_to] if self._t_walk_s > 0 else [0.0, first_to]

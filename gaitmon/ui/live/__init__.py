@@ -6,6 +6,7 @@
   sensors (slots);
 * ``recording`` -- start / stop a recording, markers (slots);
 * ``processing`` -- the Settings dialog and the tilt filter menu, applied live (slots);
+* ``lsl``       -- Device ▸ Stream to LSL and its patient-id permission (slots);
 * ``jobs``      -- connect and zero off the GUI thread (one in-order ``QtWorker``);
 * ``status``    -- status bar, banners and gait panel: what a snapshot says, shown;
 * ``prefs``     -- what the window remembers (QSettings);

@@ -117,6 +117,14 @@ ACTIONS: tuple[ActionSpec, ...] = (
                    menu=SIMULATOR, separator_before=i == 0, args=(key,))
         for i, (key, text, tip) in enumerate(SIM_FSR_FAULTS)
     ),
+    ActionSpec("lsl", "Stream to LSL", "set_lsl_streaming", None,
+               "Publish the angles, the gait events (and in raw mode the raw counts) as Lab "
+               "Streaming Layer streams while connected, for LabRecorder (needs gaitmon[lsl]; "
+               "docs/lsl.md). Remembered", checkable=True, menu=DEVICE, separator_before=True),
+    ActionSpec("lsl_patient_id", "Patient id in LSL streams", "set_lsl_patient_id", None,
+               "Let the patient id (the last one entered for a recording) into the LSL "
+               "streams' description (off: left out). Remembered", checkable=True,
+               menu=DEVICE),
     ActionSpec("quit", "Quit", "close", "Ctrl+Q", menu=DEVICE, separator_before=True),
     ActionSpec("record", "Record", "toggle_recording", "Ctrl+R",
                "Start / stop recording a session (Ctrl+R)", menu=SESSION),

@@ -66,6 +66,8 @@ class LiveWindowBase(QMainWindow):
     _closing: bool
     _restore_timer: QTimer | None
     _tick: Callable[[], object]  # MainWindow's ~30 Hz display update
+    _lsl_connected: Callable[[], None]  # LslSlots: stream if Device ▸ Stream to LSL is on
+    _lsl_stop: Callable[[], None]  # LslSlots: close the LSL outlets, if open
 
     def notify(self, text: str, timeout_ms: int = 10_000) -> None:
         """A one-line message in the status bar."""

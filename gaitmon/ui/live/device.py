@@ -109,6 +109,7 @@ class DeviceSlots(LiveWindowBase):
         self._update_controls()
         self.timer.start()
         self._tick()
+        self._lsl_connected()
 
     @guarded
     def disconnect_device(self) -> None:
@@ -125,7 +126,10 @@ class DeviceSlots(LiveWindowBase):
         try:
             status = conn.engine.stop_recording() if was_recording else None
         finally:
-            conn.close()
+            try:
+                conn.close()
+            finally:
+                self._lsl_stop()  # after the engine's end: its last event went out
         self.status.disconnected()
         self._update_controls()
         if status is not None:

@@ -51,6 +51,7 @@ from gaitmon.ui.live.actions import (
 from gaitmon.ui.live.device import DeviceSlots
 from gaitmon.ui.live.guide import GuideBar
 from gaitmon.ui.live.jobs import DeviceJobs
+from gaitmon.ui.live.lsl import LslSlots
 from gaitmon.ui.live.prefs import Prefs
 from gaitmon.ui.live.processing import ProcessingSlots
 from gaitmon.ui.live.recording import RecordingSlots
@@ -65,7 +66,7 @@ REFRESH_HZ = 30.0
 GAIT_PANEL_EVERY = 3  # ticks between gait-panel updates
 
 
-class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots):
+class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots, LslSlots):
     """The live monitor. ``settings`` is injected so tests can isolate it; ``sim``: the
     simulated device's settings (default: SimConfig())."""
 
@@ -94,6 +95,7 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots):
         self._closing = False
         self._ticks = 0
         self._restore_timer = None
+        self.lsl_outlets = None
         self.colours = current_colours()
         configure_pyqtgraph(self.colours)
 
@@ -174,6 +176,8 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots):
         self.act_four_phases = acts["four_phases"]
         self.act_engineering = acts["engineering"]
         self.act_guide = acts["guide"]
+        self.act_lsl = acts["lsl"]
+        self.act_lsl_patient = acts["lsl_patient_id"]
         self._actions = acts
 
     def _build_toolbars(self) -> None:
@@ -355,6 +359,7 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots):
         state = p.s.value("window/state")
         self.state_restored = bool(state is not None and self.restoreState(state))
         self._restore_view()  # after the layout: the clinical view hides the raw dock
+        self._restore_lsl()
 
     def _update_controls(self) -> None:
         super()._update_controls()

@@ -1,4 +1,5 @@
-"""The export dialog: a session to CSV, MATLAB .mat or C3D, on a worker with Cancel.
+"""The export dialog: a session to CSV, MATLAB .mat, C3D, per-stride CSV or a BIDS dataset,
+on a worker with Cancel.
 
 ``gaitmon.io.export.export_session`` does the work (the same code as ``gaitmon export``) on a
 :class:`gaitmon.ui.jobs.QtWorker`. It reports ``progress(fraction)`` as it goes and asks
@@ -14,6 +15,14 @@ worker touches no widget. One worker per export; it ends when the export's respo
 
 The review window passes the angles it shows (``angles``: smoothed | live, and their method):
 the export holds those angles, names them in the dialog and in its metadata ("angles").
+
+De-identification starts at each format's own default, as ``gaitmon export`` has it
+(:attr:`Format.deidentify_default`: on for BIDS, off for the others). For BIDS the output is a
+dataset folder, and the dialog asks what ``gaitmon export --format bids`` takes: the subject
+label (``01``, a label typed, a subject map file, or the patient id only when its box is ticked,
+with a warning), the session and the task. The labels are checked by
+:class:`gaitmon.io.export.bids_labels.BidsOptions`, as on the command line, before the worker
+starts, so a bad label is the command line's one-line message.
 """
 
 from __future__ import annotations
@@ -31,6 +40,7 @@ from PySide6.QtWidgets import (
     QDialogButtonBox,
     QFileDialog,
     QFormLayout,
+    QGroupBox,
     QHBoxLayout,
     QLabel,
     QLineEdit,
@@ -41,13 +51,15 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.errors import Cancelled
-from gaitmon.io.export import FORMATS, ExportError, ExportResult, export_session
+from gaitmon.io.export import FORMATS, ExportError, ExportResult, default_output, export_session
+from gaitmon.io.export.bids_labels import DEFAULT_SUBJECT, DEFAULT_TASK, BidsOptions
 from gaitmon.jobs import Response, Ticket
 from gaitmon.ui.jobs import QtWorker
 
 
 class ExportDialog(QDialog):
-    """Pick a format, an output file and de-identification; Export runs in a worker thread."""
+    """Pick a format, an output (a file, or a folder for BIDS) and de-identification; Export
+    runs in a worker thread."""
 
     export_finished = Signal(object)  # ExportResult
     export_failed = Signal(str)  # one-line message ("cancelled" included)
@@ -72,6 +84,11 @@ class ExportDialog(QDialog):
         self._worker: QtWorker | None = None  # while an export runs
         self._cancel = threading.Event()
         self.result_: ExportResult | None = None
+        # the output last chosen for a file format and for a folder format (BIDS), so that
+        # switching between them does not turn a folder into a file name or back
+        self._file_output = ""
+        self._folder_output = ""
+        self._format_shown: str | None = None
         self._build()
         self._on_format_changed()
 
@@ -92,6 +109,7 @@ class ExportDialog(QDialog):
         out_row.addWidget(self.browse_button)
         self.deidentify_check = QCheckBox("De-identify (leave out patient ID, operator and notes)")
         self.overwrite_check = QCheckBox("Replace existing files")
+        self._build_bids()
         what = "zero-lag, offline" if self.angles == "smoothed" else "as shown while recording"
         if self.angle_method:
             text = f"{self.angle_method} ({what}), as shown in review"
@@ -109,9 +127,11 @@ class ExportDialog(QDialog):
         form.addRow("Session", self.source_label)
         form.addRow("Angles", self.angles_label)
         form.addRow("Format", self.format_combo)
-        form.addRow("Save as", out_row)
+        self.save_label = QLabel("Save as")
+        form.addRow(self.save_label, out_row)
         form.addRow("", self.deidentify_check)
         form.addRow("", self.overwrite_check)
+        form.addRow(self.bids_box)
         self.progress_bar = QProgressBar()
         self.progress_bar.setRange(0, 1000)
         self.progress_bar.setTextVisible(True)
@@ -136,9 +156,51 @@ class ExportDialog(QDialog):
         layout.addWidget(self.buttons)
         self._set_running(False)
 
+    def _build_bids(self) -> None:
+        """The BIDS options (shown for BIDS only): subject, session and task labels."""
+        self.bids_box = QGroupBox("BIDS dataset")
+        self.subject_edit = QLineEdit(DEFAULT_SUBJECT)
+        self.subject_edit.setToolTip("letters and digits; the files are named sub-<label>")
+        self.subject_map_edit = QLineEdit()
+        self.subject_map_edit.setPlaceholderText("none: the label above is used")
+        self.subject_map_edit.setToolTip(
+            "a file of 'patient_id<TAB>label' rows you keep: this session's label is looked "
+            "up by its patient id (the id itself is not written)"
+        )
+        self.subject_map_edit.textChanged.connect(self._on_subject_source_changed)
+        self.subject_map_button = QPushButton("Choose…")
+        self.subject_map_button.clicked.connect(self._browse_subject_map)
+        map_row = QHBoxLayout()
+        map_row.addWidget(self.subject_map_edit, 1)
+        map_row.addWidget(self.subject_map_button)
+        self.patient_id_check = QCheckBox("Use the patient ID as the subject label")
+        self.patient_id_check.toggled.connect(self._on_subject_source_changed)
+        self.patient_id_warning = QLabel(
+            "⚠ The dataset will identify the patient: the patient ID becomes its folder and "
+            "file names (sub-<patient ID>), whatever De-identify says."
+        )
+        self.patient_id_warning.setWordWrap(True)
+        self.patient_id_warning.setStyleSheet("color: #b00020;")
+        self.session_edit = QLineEdit()
+        self.session_edit.setPlaceholderText("none (no ses- level)")
+        self.task_edit = QLineEdit(DEFAULT_TASK)
+        form = QFormLayout(self.bids_box)
+        form.addRow("Subject", self.subject_edit)
+        form.addRow("Subject map", map_row)
+        form.addRow("", self.patient_id_check)
+        form.addRow("", self.patient_id_warning)
+        form.addRow("Session", self.session_edit)
+        form.addRow("Task", self.task_edit)
+        self._on_subject_source_changed()
+
     @property
     def fmt(self) -> str:
         return str(self.format_combo.currentData())
+
+    @property
+    def is_folder(self) -> bool:
+        """The chosen format writes a folder (BIDS), not a file."""
+        return FORMATS[self.fmt].folder
 
     def set_format(self, fmt: str) -> None:
         idx = self.format_combo.findData(fmt)
@@ -148,19 +210,82 @@ class ExportDialog(QDialog):
 
     @Slot()
     def _on_format_changed(self) -> None:
+        form = FORMATS[self.fmt]
+        shown = self._format_shown
         current = self.output_edit.text().strip()
-        base = Path(current) if current else self.session_path
-        self.output_edit.setText(str(base.with_suffix(FORMATS[self.fmt].suffix)))
+        if shown is not None and current:  # remember what was chosen for that kind of output
+            if FORMATS[shown].folder:
+                self._folder_output = current
+            else:
+                self._file_output = current
+        if form.folder:
+            # gaitmon export's own default folder unless one was chosen: never a file name
+            text = self._folder_output or str(
+                default_output(self.session_path, form.name, deidentify=form.deidentify_default)
+            )
+        else:
+            base = Path(self._file_output) if self._file_output else self.session_path
+            text = str(base.with_suffix(form.suffix))
+        self.output_edit.setText(text)
+        self.save_label.setText("Folder" if form.folder else "Save as")
+        # each format starts de-identified or not as gaitmon export does without --deidentify
+        self.deidentify_check.setChecked(form.deidentify_default)
+        self.bids_box.setVisible(form.name == "bids")
+        self._format_shown = form.name
+        self.adjustSize()
+
+    @Slot()
+    def _on_subject_source_changed(self) -> None:
+        from_pid = self.patient_id_check.isChecked()
+        has_map = bool(self.subject_map_edit.text().strip())
+        running = self.is_running
+        self.subject_edit.setEnabled(not running and not from_pid and not has_map)
+        self.subject_map_edit.setEnabled(not running and not from_pid)
+        self.subject_map_button.setEnabled(not running and not from_pid)
+        self.patient_id_warning.setVisible(from_pid)
 
     @Slot()
     def _browse(self) -> None:
+        if self.is_folder:
+            path = QFileDialog.getExistingDirectory(
+                self, "Export to the BIDS dataset folder", self.output_edit.text()
+            )
+            if path:
+                self.output_edit.setText(path)
+            return
         ext = FORMATS[self.fmt].suffix
         path, _ = QFileDialog.getSaveFileName(
             self, "Export to", self.output_edit.text(), f"{self.fmt.upper()} (*{ext})"
         )
         if path:
             p = Path(path)
-            self.output_edit.setText(str(p if p.suffix.lower() == ext else p.with_suffix(ext)))
+            self.output_edit.setText(str(p if p.name.lower().endswith(ext) else p.with_suffix(ext)))
+
+    @Slot()
+    def _browse_subject_map(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(
+            self, "Subject map (patient_id <TAB> label)", str(self.session_path.parent),
+            "Subject map (*.tsv *.csv *.txt);;All files (*)",
+        )
+        if path:
+            self.subject_map_edit.setText(path)
+
+    def bids_options(self) -> dict[str, object]:
+        """What ``gaitmon export --format bids`` would be given: one subject source (the
+        patient id only if its box is ticked), the session if typed, the task."""
+        options: dict[str, object] = {}
+        map_text = self.subject_map_edit.text().strip()
+        if self.patient_id_check.isChecked():
+            options["subject_from_patient_id"] = True
+        elif map_text:
+            options["subject_map"] = Path(map_text)
+        else:
+            options["subject"] = self.subject_edit.text().strip() or DEFAULT_SUBJECT
+        session = self.session_edit.text().strip()
+        if session:
+            options["session"] = session
+        options["task"] = self.task_edit.text().strip() or DEFAULT_TASK
+        return options
 
     def _set_running(self, running: bool) -> None:
         for w in (
@@ -171,9 +296,13 @@ class ExportDialog(QDialog):
             self.overwrite_check,
             self.export_button,
             self.close_button,
+            self.patient_id_check,
+            self.session_edit,
+            self.task_edit,
         ):
             w.setEnabled(not running)
         self.cancel_button.setEnabled(running)
+        self._on_subject_source_changed()
 
     # -- the worker -----------------------------------------------------------------------------
 
@@ -187,8 +316,17 @@ class ExportDialog(QDialog):
             return
         out_text = self.output_edit.text().strip()
         if not out_text:
-            self._fail("choose a file to export to")
+            self._fail("choose a folder to export to" if self.is_folder
+                       else "choose a file to export to")  # fmt: skip
             return
+        options: dict[str, object] | None = None
+        if self.fmt == "bids":
+            options = self.bids_options()
+            try:  # the command line's checks and messages (letters and digits only, ...)
+                BidsOptions.from_mapping(options)
+            except ExportError as exc:
+                self._fail(str(exc))
+                return
         # the request: everything the worker needs, captured now (it never reads widgets)
         src, fmt, out = self.session_path, self.fmt, Path(out_text)
         deidentify = self.deidentify_check.isChecked()
@@ -203,7 +341,8 @@ class ExportDialog(QDialog):
 
         def job(ticket: Ticket) -> ExportResult:
             return export_fn(src, fmt, out, deidentify=deidentify, force=force, angles=angles,
-                             progress=ticket.progress, cancel=cancel.is_set)  # fmt: skip
+                             progress=ticket.progress, cancel=cancel.is_set,
+                             options=options)  # fmt: skip
 
         self._worker = QtWorker("export", latest=False, parent=self)
         self._worker.progressed.connect(self._on_progress)
@@ -238,7 +377,10 @@ class ExportDialog(QDialog):
         if exc is None and result is not None:
             self.result_ = result
             self.progress_bar.setValue(1000)
-            names = ", ".join(p.name for p in result.paths)
+            if FORMATS[self.fmt].folder and result.paths:
+                names = f"{len(result.paths)} files in {self.output_edit.text().strip()}"
+            else:
+                names = ", ".join(p.name for p in result.paths)
             note = f" (note: {'; '.join(result.problems)})" if result.problems else ""
             self.status_label.setText(f"Exported {result.n_samples} samples to {names}{note}")
             self.export_finished.emit(result)

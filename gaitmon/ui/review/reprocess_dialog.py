@@ -13,7 +13,7 @@ from PySide6.QtWidgets import QComboBox, QFormLayout, QLabel, QVBoxLayout, QWidg
 
 from gaitmon.dsp.estimate import METHODS
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.review.model import PAPER_ONLY
+from gaitmon.reprocessing import PAPER_ONLY
 from gaitmon.ui.dialogs import SettingsDialog
 
 # the methods offered, the default first

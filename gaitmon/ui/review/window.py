@@ -475,8 +475,10 @@ class ReviewWindow(ReviewJobs):
         doc = self.doc
         dlg = ExportDialog(doc.path, self, angles=doc.angle_source,
                            angle_method=doc.angle_method_of(doc.angle_source))  # fmt: skip
+        # the status line repeats the dialog's own summary ("Exported N samples to 8 files in
+        # DIR"), not the tuple of paths
         dlg.export_finished.connect(
-            lambda r: self.status.message(f"Exported {getattr(r, 'paths', r)}", 10_000)
+            lambda _r: self.status.message(dlg.status_label.text(), 10_000)
         )
         dlg.open()
         self._export_dialog = dlg

@@ -1,0 +1,148 @@
+"""``gaitmon record``'s Lab Streaming Layer inputs: ``--lsl-markers NAME`` records an external
+marker stream into the session, ``--lsl-control NAME`` starts and stops the recording from a
+marker stream. Without these options pylsl is not even imported."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from gaitmon.errors import UserError
+
+if TYPE_CHECKING:
+    from gaitmon.engine import Engine
+    from gaitmon.lsl.control import RemoteControl
+    from gaitmon.lsl.inlet import MarkerInlet
+
+DEFAULT_TIMEOUT_S = 5.0
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("Lab Streaming Layer input (needs gaitmon[lsl]; docs/lsl.md)")
+    g.add_argument(
+        "--lsl-markers",
+        metavar="NAME",
+        help="record the LSL marker stream NAME (e.g. a stimulator's triggers) as markers, "
+        "each on the row sampled at its timestamp",
+    )
+    g.add_argument(
+        "--lsl-control",
+        metavar="NAME",
+        help="wait for a start word on the LSL marker stream NAME before recording, stop on "
+        "its stop word (--duration still bounds the recording)",
+    )
+    g.add_argument(
+        "--lsl-start-word", metavar="WORD", help="the word that starts (default: start)"
+    )
+    g.add_argument("--lsl-stop-word", metavar="WORD", help="the word that stops (default: stop)")
+    g.add_argument(
+        "--lsl-timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT_S,
+        metavar="S",
+        help=f"seconds to look for the LSL streams (default {DEFAULT_TIMEOUT_S:g})",
+    )
+
+
+@dataclass
+class LslInputs:
+    markers: MarkerInlet | None = None
+    control: RemoteControl | None = None
+
+    def close(self) -> None:
+        for part in (self.markers, self.control):
+            if part is not None:
+                with contextlib.suppress(Exception):
+                    part.close()
+
+
+def open_inputs(args: argparse.Namespace) -> LslInputs | None:
+    """Find the streams the options name (before the unit is touched: a wrong name costs
+    nothing); None without LSL options. The inlets start pulling with ``start``."""
+    words_given = args.lsl_start_word is not None or args.lsl_stop_word is not None
+    if args.lsl_control is None and words_given:
+        raise UserError("--lsl-start-word and --lsl-stop-word need --lsl-control NAME")
+    if args.lsl_markers is None and args.lsl_control is None:
+        return None
+    if not (args.lsl_timeout > 0 and args.lsl_timeout <= 3600):
+        raise UserError(
+            f"--lsl-timeout must be a positive number of seconds, at most 3600; "
+            f"got {args.lsl_timeout}"
+        )
+    from gaitmon.lsl.control import ControlWords, RemoteControl
+    from gaitmon.lsl.inlet import MarkerInlet, import_pylsl, resolve_marker_stream
+
+    pylsl = import_pylsl()
+    out = LslInputs()
+    try:
+        if args.lsl_control is not None:
+            words = ControlWords(args.lsl_start_word or "start", args.lsl_stop_word or "stop")
+            info = resolve_marker_stream(pylsl, args.lsl_control, args.lsl_timeout, "--lsl-control")
+            out.control = RemoteControl(pylsl, info, words, open_timeout_s=args.lsl_timeout)
+            out.control.start()  # a start word sent while the unit connects still counts
+        if args.lsl_markers is not None:
+            info = resolve_marker_stream(pylsl, args.lsl_markers, args.lsl_timeout, "--lsl-markers")
+            out.markers = MarkerInlet(pylsl, info, open_timeout_s=args.lsl_timeout)
+    except BaseException:
+        out.close()
+        raise
+    return out
+
+
+def start_markers(inputs: LslInputs, engine: Engine) -> None:
+    """Every sample of the marker stream from now on goes to the engine, at its instant."""
+    if inputs.markers is None:
+        return
+
+    def to_engine(label: str, host_time_s: float) -> None:
+        engine.add_marker(label, host_time_s=host_time_s)
+
+    inputs.markers.start(to_engine)
+
+
+def wait_for_start(
+    control: RemoteControl, engine: Engine, stop: threading.Event, stall_s: float, quiet: bool
+) -> None:
+    """Block until the start word arrives (the unit streams meanwhile), Ctrl-C, or the unit
+    falls silent for ``stall_s``; the last two raise UserError (nothing was recorded)."""
+    if not quiet:
+        print(
+            f"gaitmon record: the unit is streaming; waiting for {control.words.start!r} on the "
+            f"LSL stream {control.name!r} (Ctrl-C to quit)",
+            file=sys.stderr,
+            flush=True,
+        )
+    seen, last_data = engine.samples_total, time.monotonic()
+    while not control.started.is_set():
+        if stop.wait(0.01):
+            raise UserError(
+                f"stopped before {control.words.start!r} arrived on {control.name!r}; "
+                "nothing was recorded"
+            )
+        now = time.monotonic()
+        if engine.samples_total != seen:
+            seen, last_data = engine.samples_total, now
+        elif now - last_data > stall_s:
+            raise UserError(
+                f"the unit sent no data for {stall_s:g} s while waiting for "
+                f"{control.words.start!r}; nothing was recorded (check the unit's power and link)"
+            )
+
+
+def summary(inputs: LslInputs | None, engine: Engine) -> str:
+    """What became of the external markers, for the command's last lines ("" without)."""
+    if inputs is None or inputs.markers is None:
+        return ""
+    c = engine.timed_markers
+    text = f"{c.recorded} of {inputs.markers.received} markers from LSL stream "
+    text += f"{inputs.markers.name!r} recorded"
+    if c.outside:
+        text += f"; {c.outside} stamped outside the recording (not recorded)"
+    if inputs.markers.error:
+        text += f"; last inlet error: {inputs.markers.error}"
+    return text

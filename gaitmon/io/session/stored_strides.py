@@ -1,0 +1,182 @@
+"""``/strides``: each stride's length and foot clearance from the foot IMU, stored at close.
+
+The foot IMU's strapdown with zero-velocity updates (:mod:`gaitmon.dsp.stride_length`) costs
+~0.35 CPU s per recorded hour plus reading every raw count (~0.07 s per hour): most of
+``gaitmon info`` and the report of a long session, and it was paid on every analysis. Its
+result depends only on the raw counts of the foot board, the channel table, the foot gyro bias
+in force at each row, the sample rate and the heel strikes, none of which a user's exclusions
+touch, so it is computed once, where ``/smoothed`` and ``/overview`` are (close, recovery,
+``gaitmon process``), and stored:
+
+    /strides/heel_strike_idx   (J,) int64     the heel strikes the strides run between
+    /strides/stride_length_m   (J - 1,) float64
+    /strides/foot_clearance_m  (J - 1,) float64
+    /strides/foot_flat_idx     (J - 1, 2) int64
+    /strides.attrs["computed_from"]   JSON: method and its constants, sample rate, rows, the
+                                       foot channels' conversion, the foot gyro bias at each row
+
+:func:`stride_measures_of` (through ``Session.foot_stride_measures``) is the one way every
+reader gets them: from ``/strides`` when it was computed from exactly these inputs (the same
+``computed_from`` and the same heel strikes), else computed on the fly by the same function that
+stored them (:func:`compute`). So a file written before ``/strides`` existed, a store made with
+other heel strikes (``gaitmon process`` with other settings, review's in-memory reprocessing),
+another rate or another method version all give the numbers of the computation itself.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import h5py
+import numpy as np
+
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, GYRO_IDX, SEGMENTS, ChannelTable
+from gaitmon.dsp.stride_length import (
+    METHOD,
+    StrideMeasures,
+    foot_imu_from_counts,
+    record_stride_measures,
+)
+from gaitmon.io.session.codec import COMPRESSION
+from gaitmon.io.session.layout import stored_datasets
+
+log = logging.getLogger("gaitmon.session")
+
+GROUP = "strides"
+_FOOT = SEGMENTS.index("foot")
+_FOOT_COLS = (int(ACC_X_IDX[_FOOT]), int(ACC_Z_IDX[_FOOT]), int(GYRO_IDX[_FOOT]))
+
+ReadCounts = Callable[[int, int], np.ndarray]  # rows [a, b) of /raw/adc
+
+
+@dataclass(frozen=True)
+class StrideInputs:
+    """What the measures of a record depend on besides its raw counts' values and the heel
+    strikes: ``Session.foot_stride_measures`` fills it from the reader, the close path from
+    what it wrote."""
+
+    n_rows: int
+    fs_hz: float
+    table: ChannelTable
+    calibration: Calibration
+    calibration_changes: Sequence[tuple[int, Calibration]]
+
+    def stamp(self) -> str:
+        """The ``computed_from`` a stored ``/strides`` must carry to be used (JSON)."""
+        changes = sorted(self.calibration_changes, key=lambda x: x[0])  # as they are applied
+        return json.dumps({
+            "method": METHOD,
+            "sample_rate_hz": float(self.fs_hz),
+            "n_rows": int(self.n_rows),
+            "zero_counts": [float(self.table.zero_counts[c]) for c in _FOOT_COLS],
+            "units_per_count": [float(self.table.units_per_count[c]) for c in _FOOT_COLS],
+            "gyro_bias_rad_s": [[0, float(self.calibration.gyro_bias_rad_s[_FOOT])],
+                                *[[int(r), float(c.gyro_bias_rad_s[_FOOT])] for r, c in changes]],
+        }, sort_keys=True)  # fmt: skip
+
+
+def heel_strikes_used(heel_strike_idx: np.ndarray, n_rows: int) -> np.ndarray:
+    """The heel strikes the measures run between: distinct, sorted, inside the record."""
+    hs = np.unique(np.asarray(heel_strike_idx, dtype=np.int64))
+    return hs[hs < n_rows]
+
+
+def compute(read_counts: ReadCounts, inputs: StrideInputs, hs: np.ndarray) -> StrideMeasures:
+    """The measures of the strides between heel strikes ``hs`` (:func:`heel_strikes_used`),
+    computed from the raw counts a block of strides at a time: the one computation behind
+    both the stored and the computed-when-read measures."""
+
+    def read_foot(a: int, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return foot_imu_from_counts(read_counts(a, b), a, inputs.table, inputs.calibration,
+                                    inputs.calibration_changes)  # fmt: skip
+
+    return record_stride_measures(read_foot, inputs.n_rows, inputs.fs_hz, hs)
+
+
+def read_stored(f: h5py.File, inputs: StrideInputs, hs: np.ndarray) -> StrideMeasures | None:
+    """The stored measures if ``/strides`` was computed from these inputs and heel strikes,
+    else None (none stored, stale or damaged)."""
+    g = f.get(GROUP)
+    if not isinstance(g, h5py.Group):
+        return None
+    try:
+        stamp = g.attrs.get("computed_from", "")
+        if (stamp.decode() if isinstance(stamp, bytes) else str(stamp)) != inputs.stamp():
+            return None
+        stored_hs = np.asarray(g["heel_strike_idx"][()], dtype=np.int64)
+        if not np.array_equal(stored_hs, hs):
+            return None
+        length = np.asarray(g["stride_length_m"][()], dtype=np.float64)
+        clearance = np.asarray(g["foot_clearance_m"][()], dtype=np.float64)
+        flats = np.asarray(g["foot_flat_idx"][()], dtype=np.int64)
+    except (OSError, RuntimeError, ValueError, KeyError, TypeError):
+        return None  # a damaged store: computed instead
+    k = max(len(hs) - 1, 0)
+    if length.shape != (k,) or clearance.shape != (k,) or flats.shape != (k, 2):
+        return None
+    return StrideMeasures(
+        heel_strike_idx=hs[:k],
+        stride_length_m=length,
+        foot_clearance_m=clearance,
+        stride_time_s=np.diff(hs).astype(np.float64) / inputs.fs_hz,
+        foot_flat_idx=flats,
+    )
+
+
+def stride_measures_of(
+    f: h5py.File, read_counts: ReadCounts, inputs: StrideInputs, heel_strike_idx: np.ndarray
+) -> StrideMeasures:
+    """Stride length and foot clearance of the strides between ``heel_strike_idx`` (repeats
+    and rows past the record dropped): stored, or computed (module doc)."""
+    hs = heel_strikes_used(heel_strike_idx, inputs.n_rows)
+    got = read_stored(f, inputs, hs)
+    return got if got is not None else compute(read_counts, inputs, hs)
+
+
+def write_strides(f: h5py.File, inputs: StrideInputs, hs: np.ndarray, m: StrideMeasures) -> None:
+    """Store (or replace) ``/strides`` in ``f`` (open for writing)."""
+    if GROUP in f:
+        del f[GROUP]
+    g = f.create_group(GROUP)
+    opts = COMPRESSION if int(f.attrs.get("format_version", 1)) >= 2 else {}
+    for name, data in (("heel_strike_idx", hs), ("stride_length_m", m.stride_length_m),
+                       ("foot_clearance_m", m.foot_clearance_m),
+                       ("foot_flat_idx", m.foot_flat_idx)):  # fmt: skip
+        g.create_dataset(name, data=data, **(opts if len(data) else {}))
+    g.attrs["computed_from"] = inputs.stamp()
+
+
+def _text(x: Any) -> str:
+    return x.decode("utf-8") if isinstance(x, bytes) else str(x)
+
+
+def store_strides(
+    f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float
+) -> None:
+    """Compute and store ``/strides`` of the raw-mode session open (writable) in ``f``, from
+    what the file holds: called where a session is finished (close, recovery, ``gaitmon
+    process``) once its raw counts, events and calibration changes are all written. Data the
+    method rejects only leave the measures to be computed when read (logged); a write error
+    raises as any write of the close does."""
+    if _text(f.attrs.get("mode", "")) != "raw" or "raw/adc" not in f:
+        return
+    try:
+        # the rows every per-sample dataset has: what the reader will call the record
+        version = int(f.attrs.get("format_version", 1))
+        n = min(f[p].shape[0] for p in stored_datasets("raw", version))
+        changes = [(int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
+                   for r in f["calibration/changes"][()]]  # fmt: skip
+        inputs = StrideInputs(n, float(fs_hz), table, calibration, changes)
+        hs = heel_strikes_used(f["events/heel_strike"][()], n)
+        adc = f["raw/adc"]
+        m = compute(lambda a, b: adc[a:b], inputs, hs)
+    except (ValueError, FloatingPointError, KeyError, TypeError) as e:
+        log.warning("stride measures not stored in %s: %s", f.filename, e)
+        return
+    write_strides(f, inputs, hs, m)
+
