@@ -37,7 +37,6 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
 
 from gaitmon.commands.bench_offline import LENGTHS_H, _cache_dir, _peak_rss_mb
 
@@ -129,45 +128,9 @@ def _record_killed(name: str, out: str) -> None:
 
 
 def _review(src: Path, out: Path) -> dict[str, float]:
-    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-    from PySide6.QtCore import QSettings
-    from PySide6.QtWidgets import QApplication
+    from gaitmon.ui.review.measure import review_memory
 
-    from gaitmon.ui.review.window import ReviewWindow
-
-    app = QApplication.instance() or QApplication([])
-    win = ReviewWindow(QSettings(str(out / "s.ini"), QSettings.Format.IniFormat))
-    win.resize(1600, 1000)
-    win.show()
-    app.processEvents()
-    tl = win.timeline
-
-    def wait(cond: Any, timeout: float = 600.0) -> None:
-        t_end = time.monotonic() + timeout
-        while not cond():
-            app.processEvents()
-            if time.monotonic() > t_end:
-                raise TimeoutError
-            time.sleep(0.002)
-
-    t0 = time.process_time()
-    win.open_file(src)
-    wait(lambda: tl.applied_requests > 0)
-    tl.glw.viewport().repaint()
-    wait(lambda: win.analysis is not None)
-    first = {"cpu_s": time.process_time() - t0, "rss_mb": _peak_rss_mb()}
-    done: list[int] = []
-    win.analysis_done.connect(lambda: done.append(1))
-    for angles in ("live", "smoothed"):
-        done.clear()
-        win.act[f"angles_{angles}"].trigger()
-        wait(lambda a=angles: win.doc is not None and win.doc.angle_source == a and bool(done))
-    both = _peak_rss_mb()
-    errors = list(win.errors)
-    win.close()
-    if errors:
-        raise RuntimeError(f"review window errors: {errors}")
-    return {**first, "both_rss_mb": both}
+    return review_memory(src, out, _peak_rss_mb)
 
 
 def _close(name: str, out: Path) -> dict[str, float]:
