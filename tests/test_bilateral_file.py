@@ -187,7 +187,8 @@ def test_each_leg_keeps_its_own_exclusions(
         g = an.gait.left
         inside = (g.heel_strike_s > lo + 1.2) & (g.heel_strike_s < hi - 1.2)
         assert inside.any() and not np.isfinite(g.stride_s[inside]).any()
-        assert np.isfinite(g.stride_s[~inside]).sum() >= 2  # those outside still count
+        # those outside still count (a 12-s walk: first, last and the turn leave one or two)
+        assert np.isfinite(g.stride_s[~inside]).sum() >= 1
     assert main(["info", str(copy)]) == 0
     assert "user-excluded range from both.h5.L.review.json" in capsys.readouterr().out
 
