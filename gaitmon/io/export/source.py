@@ -274,7 +274,8 @@ def open_source(
         raise ExportError(str(exc)) from None
     try:
         yield Source(session)
-    except (KeyError, ValueError, TypeError, SessionError) as exc:
+    except (KeyError, ValueError, TypeError, SessionError, RuntimeError) as exc:
+        # (h5py raises RuntimeError for damaged object headers: "Can't get deprecated info")
         raise ExportError(f"{path.name} is damaged ({exc})") from None
     finally:
         session.close()
