@@ -28,10 +28,11 @@ from damaged_corpus import make_corpus  # noqa: E402
 GAITMON = [sys.executable, "-m", "gaitmon"]
 
 
-# Plain h5py over every object, attribute and dataset of a file: run in a child process, so that a file
-# on which libhdf5 itself crashes (a bit flip in a variable-length string's global heap: a
-# segfault inside HDF5's attribute read, seen once in CI) is named instead of taking the test
-# run down. The child prints each file before walking it; after a crash the next child resumes.
+# Plain h5py over every object, attribute and dataset of a file: run in a child process, so
+# that a file on which libhdf5 itself crashes (a bit flip in a variable-length string's global
+# heap: a segfault inside HDF5's attribute read, seen once in CI) is named instead of taking
+# the test run down. The child prints each file before walking it; after a crash the next
+# child resumes.
 _WALK = """
 import sys, h5py
 def visit(name, obj):
