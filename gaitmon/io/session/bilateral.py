@@ -25,7 +25,7 @@ import h5py
 import numpy as np
 
 from gaitmon.dsp.clock_fit import ClockFit
-from gaitmon.io.session.combine import combine_parts, finish_parts
+from gaitmon.io.session.combine import combine_parts
 from gaitmon.io.session.h5file import _short_error
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.parts import (
@@ -36,7 +36,7 @@ from gaitmon.io.session.parts import (
     part_path,
     parts_of,
 )
-from gaitmon.io.session.reader import Session, _open_h5, open_session
+from gaitmon.io.session.reader import Session, open_combined_h5, open_session
 
 __all__ = [
     "SIDES",
@@ -112,10 +112,7 @@ def open_bilateral(
     """Open a bilateral session (recovering and combining its parts first if the recording
     was interrupted). ``SessionError`` with one line for anything else."""
     path = Path(path)
-    finish_parts(path, progress)
-    if not path.exists():
-        raise SessionError(f"{path.name} does not exist; check the file name and folder")
-    f = _open_h5(path)
+    f = open_combined_h5(path, progress)
     try:
         if not bool(f.attrs.get("bilateral", False)):
             raise SessionError(f"{path.name} holds one unit, not both legs")

@@ -616,8 +616,14 @@ def _read_session(path: Path, problems: Sequence[str] = ()) -> Session:
 
 
 def _session_of(path: Path, f: h5py.File, problems: Sequence[str] = ()) -> Session:
+    return _built(path, f, lambda: Session(path, f, problems))
+
+
+def _built(path: Path, f: h5py.File, make: Callable[[], Session]) -> Session:
+    """``make()``, a Session over the open ``f``; on failure ``f`` is closed and the failure is
+    one SessionError line."""
     try:
-        return Session(path, f, problems)
+        return make()
     except SessionError:
         f.close()
         raise
@@ -625,6 +631,19 @@ def _session_of(path: Path, f: h5py.File, problems: Sequence[str] = ()) -> Sessi
         with contextlib.suppress(Exception):
             f.close()
         raise SessionError(f"{path.name} is damaged ({_short_error(e)})") from e
+
+
+def open_combined_h5(
+    path: Path, progress: Callable[[float], bool | None] | None = None
+) -> h5py.File:
+    """A bilateral session's file, open for reading, after its parts (an interrupted
+    recording's) are recovered and combined. Whether it is bilateral is the caller's check."""
+    from gaitmon.io.session.combine import finish_parts
+
+    finish_parts(path, progress)
+    if not path.exists():
+        raise SessionError(f"{path.name} does not exist; check the file name and folder")
+    return _open_h5(path)
 
 
 def open_session(
@@ -689,15 +708,11 @@ def _open_unit(
 ) -> Session:
     """One leg of a bilateral session (its parts recovered and combined first if the recording
     was interrupted)."""
-    from gaitmon.io.session.combine import finish_parts
-
     if side not in SIDE_NAMES:
         raise SessionError(f"side must be L or R, got {side!r}")
-    finish_parts(path, progress)
-    if not path.exists():
-        raise SessionError(f"{path.name} does not exist; check the file name and folder")
-    f = _open_h5(path)
-    try:
+    f = open_combined_h5(path, progress)
+
+    def make() -> Session:
         if not bool(f.attrs.get("bilateral", False)):
             raise SessionError(
                 f"{path.name} holds one unit, not both legs; open it without a side"
@@ -709,10 +724,5 @@ def _open_unit(
                 f"{' and '.join(SIDE_NAMES[s] for s in sides) or 'none'})"
             )
         return Session(path, f[f"units/{side}"], side=side)
-    except SessionError:
-        f.close()
-        raise
-    except Exception as e:  # damaged metadata can fail in many ways inside h5py/numpy
-        with contextlib.suppress(Exception):
-            f.close()
-        raise SessionError(f"{path.name} is damaged ({_short_error(e)})") from e
+
+    return _built(path, f, make)
