@@ -45,8 +45,10 @@ def test_record_writes_one_file_with_both_units_and_their_clock_fits(both: Path)
             assert u["session"].attrs["side"] == side and u["session"].attrs["patient_id"] == "P9"
             seg = f[f"sync/{side}/segments"][()]
             # host seconds per unit second: 1/4 at 4x real time, give or take the crystal
-            assert len(seg) == 1 and seg["host_s_per_unit_s"][0] == pytest.approx(0.25, rel=1e-3)
-        assert f["sync"].attrs["host_s_per_common_s"] == pytest.approx(0.25, rel=1e-3)
+            # (50 ppm) and a loaded machine's scheduler: a reader that lags more at the end
+            # of the 3 wall seconds than at the start stretches the line by a few ms (0.1 %)
+            assert len(seg) == 1 and seg["host_s_per_unit_s"][0] == pytest.approx(0.25, rel=1e-2)
+        assert f["sync"].attrs["host_s_per_common_s"] == pytest.approx(0.25, rel=1e-2)
 
 
 def test_info_prints_both_legs_and_the_symmetry(

@@ -30,7 +30,9 @@ from gaitmon.lsl.layout import EventWord, parse_event  # noqa: E402
 from gaitmon.lsl.outlets import LslOutlets  # noqa: E402
 
 STREAMS = ("angles", "events", "raw")
-SETTLE_S = 2.0  # the sample clock fit learns the rate first: its first 2 s are left out of jitter
+# the sample clock fit learns the rate over its first 10 s of samples (trust_s, docs/lsl.md):
+# those are left out of the jitter (on a loaded machine its slews then reach ~1 ms)
+SETTLE_K = 1000
 
 
 def _desc_channels(info) -> list[tuple[str, str, str]]:
@@ -79,7 +81,7 @@ def streamed(tmp_path_factory):
             time.sleep(0.02)
         eng.add_marker("turn")
         eng.apply_config(eng.config.replace(cutoff_hz=5.0))  # goes out as a config event
-        while eng.samples_total < 1600 and time.monotonic() < deadline:
+        while eng.samples_total < 2200 and time.monotonic() < deadline:
             pull()
             time.sleep(0.02)
         eng.stop()  # the recording stops, then the engine (the last event goes out)
@@ -108,7 +110,7 @@ def streamed(tmp_path_factory):
 def test_inlet_receives_every_sample(streamed):
     received, _infos, _path, outlets, total = streamed
     angles, ts = received["angles"]
-    assert total >= 1600
+    assert total >= 2200
     assert outlets.samples_pushed == total
     assert len(ts) >= 0.99 * total
     assert angles.shape[1] == len(layout.ANGLE_CHANNELS) == 7
@@ -124,7 +126,8 @@ def test_timestamps_follow_the_sample_clock_within_a_millisecond(streamed):
     raw, ts = received["raw"]
     seq = raw[:, 0].astype(np.float64)
     assert np.all(np.diff(ts) > 0)  # from the first sample: never back (XDF readers need it)
-    late = seq >= seq[0] + SETTLE_S * 100 * 2  # fs 100 Hz at speed 2: samples per host second
+    late = seq >= seq[0] + SETTLE_K
+    assert late.sum() >= 1000
     coef = np.polyfit(seq[late], ts[late], 1)
     resid = ts[late] - np.polyval(coef, seq[late])
     assert np.abs(resid).max() <= 1e-3, np.abs(resid).max()
@@ -143,9 +146,11 @@ def test_angles_equal_the_recorded_live_angles_on_the_same_rows(streamed):
         seq = s.read("timeline/seq")
         rows = np.searchsorted(seq, raw[:, 0])
         ok = (rows < len(seq)) & (seq[np.minimum(rows, len(seq) - 1)] == raw[:, 0])
-        # the file holds the streamed samples from row 0 until the recording stopped (the
-        # engine streams on for a block or two while it stops)
-        assert ok[: ok.sum()].all() and ok.mean() > 0.95
+        # every recorded row was streamed (the outlets opened before the first block), and
+        # what was streamed beyond them came after the recording stopped (the engine streams
+        # on for a block or more while it stops, longer on a busy machine)
+        assert ok.sum() == len(seq) and ok[: ok.sum()].all()
+        assert (raw[~ok, 0] > seq[-1]).all()
         rows = rows[ok]
         joints = s.read("processed/joint_deg")[rows]
         tilts = s.read("processed/tilt_deg")[rows]
