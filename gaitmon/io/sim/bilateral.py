@@ -370,8 +370,8 @@ class BilateralSim:
     ) -> None:
         self.config = config or BilateralConfig()
         self.walk = BilateralWalk(self.config)
-        epoch = clock() if epoch is None else epoch
-        self.epoch = epoch
+        given = epoch
+        epoch = clock() if given is None else given
         units = []
         for side in SIDES:
             spec = self.config.unit_spec(side)
@@ -391,6 +391,13 @@ class BilateralSim:
                     epoch=epoch,
                 )
             )
+        if given is None:
+            # common time 0 is now, once both are built: the first unit of a fresh process
+            # takes seconds to build (imports), which at 4x ate the standing time
+            epoch = clock()
+            for u in units:
+                u._t0 = epoch
+        self.epoch = epoch
         self.left, self.right = units
 
     def unit(self, side: str) -> SimulatedUnit:
