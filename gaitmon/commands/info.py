@@ -165,7 +165,7 @@ def _run_bilateral(path: str) -> int:
     from gaitmon.analysis import analyse_bilateral
     from gaitmon.commands.info_bilateral import bilateral_lines, header_lines
     from gaitmon.io.session import SessionError
-    from gaitmon.io.session.bilateral import open_bilateral
+    from gaitmon.io.session.bilateral import missing_lines, open_bilateral
     from gaitmon.io.session.parts import parts_of
 
     interrupted = bool(parts_of(path))
@@ -179,7 +179,9 @@ def _run_bilateral(path: str) -> int:
             for side, unit in b.units.items():
                 out.append(f"{'left' if side == 'L' else 'right'} leg ({side}):")
                 out += ["  " + ln for ln in _lines(unit, an.sides[side], False)[1:]]
-            out += bilateral_lines(an)
+            out += bilateral_lines(an, b.missing)
+            for line in missing_lines(path, b.missing):
+                print(f"gaitmon info: warning: {line}", file=sys.stderr)
             print("\n".join(out))
     except SessionError as exc:
         raise UserError(str(exc)) from None

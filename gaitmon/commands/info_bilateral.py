@@ -3,10 +3,12 @@ stance / swing, double and single support, symmetry ratio and index; ``docs/bila
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gaitmon.io.session.parts import SIDE_NAMES
 from gaitmon.text import count
 
 if TYPE_CHECKING:
@@ -23,13 +25,18 @@ def header_lines(b: Bilateral, interrupted: bool) -> list[str]:
     if interrupted:
         state += " (the recording was interrupted; its parts recovered and combined now)"
     a = b.attrs
+    legs = "both legs"
+    if b.missing:
+        legs = " and ".join(f"{SIDE_NAMES[s]} leg" for s in b.sides) + " only: " + " and ".join(
+            f"the {SIDE_NAMES[s]} leg is missing" for s in b.missing)
     lines = [
-        f"{b.path.name}: gaitmon bilateral session (both legs), format "
+        f"{b.path.name}: gaitmon bilateral session ({legs}), format "
         f"{a.get('format_version')}, {state}",
         f"  recorded     {a.get('created_utc') or 'date removed'}, "
         f"{float(a.get('duration_s', 0.0)):.1f} s on the common time line, units "
         + " and ".join(f"{s} serial {b.unit(s).device.get('serial') or '-'}" for s in b.sides),
     ]
+    lines += [f"  missing      {SIDE_NAMES[s]} leg ({s}): {why}" for s, why in b.missing.items()]
     ppm = ", ".join(
         f"{s} {(b.host_s_per_common_s / b.sync[s].mean_slope - 1.0) * 1e6:+.1f}" for s in b.sides
     )
@@ -42,9 +49,13 @@ def header_lines(b: Bilateral, interrupted: bool) -> list[str]:
     return lines
 
 
-def bilateral_lines(an: BilateralAnalysis) -> list[str]:
+def bilateral_lines(an: BilateralAnalysis, missing: Iterable[str] = ()) -> list[str]:
     g = an.gait
     lines = ["both legs (on the common time line; each side's excluded strides left out):"]
+    gone = [f"the {SIDE_NAMES[s]} leg" for s in missing]
+    if gone:
+        lines.append(f"  gait         {' and '.join(gone)} is missing: no bilateral measures")
+        return lines
     n = {s.side: int(np.isfinite(s.stride_s).sum()) for s in (g.left, g.right)}
     if not (n["L"] and n["R"]):
         lines.append("  gait         too few strides on both legs to compare")

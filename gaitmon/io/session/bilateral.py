@@ -43,6 +43,8 @@ __all__ = [
     "Bilateral",
     "combine_parts",
     "is_bilateral",
+    "missing_legs",
+    "missing_lines",
     "open_bilateral",
     "part_path",
     "parts_of",
@@ -86,6 +88,11 @@ class Bilateral:
     def common_s(self, side: str, unit_s: np.ndarray | float) -> np.ndarray:
         host = self.sync[side].host_at(unit_s)
         return np.asarray((host - self.host_t0_s) / self.host_s_per_common_s)
+
+    @property
+    def missing(self) -> dict[str, str]:
+        """The legs missing from the file (a part that could not be recovered), and why."""
+        return missing_of(self.attrs)
 
     @property
     def complete(self) -> bool:
@@ -141,6 +148,32 @@ def open_bilateral(
                 u.close()
         raise
     return Bilateral(path, units, sync, t0, scale, attrs)
+
+
+def missing_of(attrs: Any) -> dict[str, str]:
+    """``{side: why}`` of a bilateral file's root attributes (``missing``, ``missing_<side>``)."""
+    sides = _text(attrs.get("missing", "")).split()
+    return {s: _text(attrs.get(f"missing_{s}", "")) for s in sides if s in SIDES}
+
+
+def missing_lines(path: str | os.PathLike[str], missing: dict[str, str]) -> list[str]:
+    """One line per missing leg, naming it and saying where its bytes are."""
+    name = Path(path).name
+    return [f"{name}: the {SIDE_NAMES[s]} leg ({s}) is missing: {why}" for s, why in
+            missing.items()]  # fmt: skip
+
+
+def missing_legs(path: str | os.PathLike[str]) -> list[str]:
+    """:func:`missing_lines` of a combined file (none if it cannot be read)."""
+    try:
+        with h5py.File(path, "r") as f:
+            return missing_lines(path, missing_of(f.attrs))
+    except (OSError, RuntimeError, ValueError):
+        return []
+
+
+def _text(x: Any) -> str:
+    return x.decode("utf-8", "replace") if isinstance(x, bytes) else str(x)
 
 
 def pick_side_message(path: str | os.PathLike[str]) -> str:

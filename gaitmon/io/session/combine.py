@@ -25,9 +25,9 @@ from gaitmon import __version__
 from gaitmon.dsp.clock_fit import WINDOW_S, ClockFit, fit_clock
 from gaitmon.io.journal import journal_path
 from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _short_error
-from gaitmon.io.session.header import SessionError
+from gaitmon.io.session.header import DamagedSource, SessionError
 from gaitmon.io.session.layout import FORMAT, FORMAT_VERSION
-from gaitmon.io.session.parts import SIDE_NAMES, parts_of
+from gaitmon.io.session.parts import SIDE_NAMES, SIDES, damaged_path, parts_of
 
 SYNC_METHOD = (
     "host receive time against the unit's /timeline/t_s: one lower-envelope line per window "
@@ -89,28 +89,72 @@ def _part_info(part: Path) -> tuple[dict[str, Any], ClockFit]:
                 "last": float(t[-1]) if n else np.nan,
                 "serial": f["device"].attrs.get("serial", ""),
             }
+    except (PermissionError, FileNotFoundError) as e:  # the bytes may be fine: try again later
+        raise SessionError(f"cannot read {part.name} ({_short_error(e)})") from e
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as e:
-        raise SessionError(f"{part.name} is damaged ({_short_error(e)})") from e
+        raise DamagedSource(f"{part.name} is damaged ({_short_error(e)})") from e
     return info, fit_clock(t, h)
+
+
+def _usable(
+    path: Path, parts: dict[str, Path], progress: Progress
+) -> tuple[dict[str, dict[str, Any]], dict[str, ClockFit], dict[str, str]]:
+    """(info, clock fit) of each part that can be recovered and read, and why each other leg
+    is missing. A part whose bytes are damaged is set aside (``damaged_path``) with its
+    journal, never deleted; anything that may pass (a recording still running, a full disk)
+    raises ``SessionError`` and leaves the parts as they are."""
+    info: dict[str, dict[str, Any]] = {}
+    fits: dict[str, ClockFit] = {}
+    damaged: dict[str, str] = {}
+    for side, p in parts.items():
+        try:
+            _ready(p, progress)
+            info[side], fits[side] = _part_info(p)
+        except DamagedSource as e:
+            damaged[side] = str(e)
+        except SessionError as e:
+            raise SessionError(f"{path.name}, {SIDE_NAMES[side]} leg: {e}") from e
+        except (ValueError, KeyError, TypeError, IndexError) as e:  # a journal that lies
+            damaged[side] = f"cannot recover {p.name} ({_short_error(e)})"
+    if damaged and not info:
+        raise SessionError(
+            f"{path.name}: neither leg can be recovered ("
+            + "; ".join(f"{SIDE_NAMES[s]}: {why}" for s, why in damaged.items())
+            + "); the parts are kept beside it"
+        )
+    missing: dict[str, str] = {}
+    for side in SIDES:
+        aside = damaged_path(path, side)
+        if side in damaged:
+            try:
+                for src, dst in ((parts[side], aside), (journal_path(parts[side]),
+                                                        journal_path(aside))):  # fmt: skip
+                    if src.exists():
+                        os.replace(src, dst)
+            except OSError as e:
+                raise SessionError(
+                    f"{path.name}: cannot set the damaged {SIDE_NAMES[side]} part aside "
+                    f"({_short_error(e)}); the parts are kept beside it"
+                ) from e
+            missing[side] = f"{damaged[side]}; its bytes are kept in {aside.name}"
+        elif side not in parts and aside.exists():  # set aside before an interrupted combine
+            missing[side] = f"its part was damaged; its bytes are kept in {aside.name}"
+    return info, fits, missing
 
 
 def combine_parts(path: str | os.PathLike[str], progress: Progress = None) -> Path:
     """Combine the parts beside ``path`` into the one session file ``path`` (module doc).
-    ``SessionError`` if there is no part, or one cannot be recovered or read (the parts are
-    kept then)."""
+
+    A part that cannot be recovered (its bytes damaged) does not block the other: the file
+    holds the intact leg, names the other in its ``missing`` attributes, and the damaged part
+    is set aside as ``FILE.<side>.partial.damaged`` (never deleted). ``SessionError`` if there
+    is no part, neither can be recovered, or one cannot be recovered now (a full disk: the
+    parts are kept then)."""
     path = Path(path)
     parts = parts_of(path)
     if not parts:
         raise SessionError(f"{path.name} has no recorded parts to combine")
-    for side, p in parts.items():
-        try:
-            _ready(p, progress)
-        except SessionError as e:
-            raise SessionError(f"{path.name}, {SIDE_NAMES[side]} leg: {e}") from e
-    info: dict[str, dict[str, Any]] = {}
-    fits: dict[str, ClockFit] = {}
-    for side, p in parts.items():
-        info[side], fits[side] = _part_info(p)
+    info, fits, missing = _usable(path, parts, progress)
     usable = {side: fit for side, fit in fits.items() if len(fit.x0_s)}
     if usable:
         # common time 0: the first sample of the unit that started first; its seconds are the
@@ -132,17 +176,20 @@ def combine_parts(path: str | os.PathLike[str], progress: Progress = None) -> Pa
             a["format"] = FORMAT
             a["format_version"] = FORMAT_VERSION
             a["bilateral"] = True
-            a["sides"] = " ".join(parts)
+            a["sides"] = " ".join(info)
+            a["missing"] = " ".join(missing)
+            for side, why in missing.items():
+                a[f"missing_{side}"] = why
             a["created_utc"] = created[0] if created else ""
             a["sample_rate_hz"] = first["fs"]
             a["software_version"] = __version__
             a["mode"] = first["mode"]
-            a["complete"] = len(parts) == 2 and all(i["complete"] for i in info.values())
+            a["complete"] = len(info) == 2 and all(i["complete"] for i in info.values())
             a["recovered"] = any(i["recovered"] for i in info.values())
             a["duration_s"] = (host_end - host_t0) / scale + 1.0 / first["fs"] if usable else 0.0
             units = dst.create_group("units")
-            for side, p in parts.items():
-                with h5py.File(p, "r") as src:
+            for side in info:
+                with h5py.File(parts[side], "r") as src:
                     src.copy(src["/"], units, name=side)
             sync = dst.create_group("sync")
             sync.attrs["host_t0_s"] = host_t0
@@ -168,9 +215,9 @@ def combine_parts(path: str | os.PathLike[str], progress: Progress = None) -> Pa
             f"cannot write {path.name} ({_short_error(e)}); its parts are kept beside it and "
             "are combined when it is next opened"
         ) from e
-    for p in parts.values():
+    for side in info:
         with contextlib.suppress(OSError):
-            p.unlink()
+            parts[side].unlink()
     return path
 
 

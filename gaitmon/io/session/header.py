@@ -25,6 +25,11 @@ class SessionError(Exception):
     """A session file could not be written, read or recovered; one-line, actionable message."""
 
 
+class DamagedSource(SessionError):
+    """The recorded bytes themselves are damaged (a journal that is not one, settings that do not
+    parse): trying again cannot help, unlike a full disk or a recording still running."""
+
+
 def _utc_now() -> str:
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 

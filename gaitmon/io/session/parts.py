@@ -30,6 +30,13 @@ def part_path(path: str | os.PathLike[str], side: str) -> Path:
     return Path(f"{os.fspath(path)}.{side}.partial")
 
 
+def damaged_path(path: str | os.PathLike[str], side: str) -> Path:
+    """Where a part that cannot be recovered is set aside, bytes untouched, for a specialist:
+    ``FILE.<side>.partial.damaged`` (its journal beside it, ``….damaged.journal``)."""
+    p = part_path(path, side)
+    return p.with_name(p.name + ".damaged")
+
+
 def parts_of(path: str | os.PathLike[str]) -> dict[str, Path]:
     """The parts left beside ``path`` (a part whose file or journal exists), by side."""
     out = {}

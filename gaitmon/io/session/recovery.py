@@ -35,7 +35,7 @@ from gaitmon.io.journal import (
 )
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.h5file import _fsync_path, _H5File, _short_error
-from gaitmon.io.session.header import SessionError, SessionHeader
+from gaitmon.io.session.header import DamagedSource, SessionError, SessionHeader
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _field_names
 from gaitmon.io.session.rows import (
     LazyRows,
@@ -239,7 +239,7 @@ def _recover_locked(
     except OSError as e:
         raise SessionError(f"cannot read {jpath.name}: {_short_error(e)}") from e
     if contents.header is None or contents.rows is None:
-        raise SessionError(
+        raise DamagedSource(
             f"cannot recover {name}: its journal {jpath.name} is unusable ({contents.problem})"
         )
     contents.header = _with_identity(path, contents.header)
@@ -247,7 +247,7 @@ def _recover_locked(
         header = SessionHeader.from_dict(contents.header)
         changes = _journal_changes(contents)
     except (KeyError, TypeError, ValueError) as e:
-        raise SessionError(f"cannot recover {name}: bad settings in its journal ({e})") from e
+        raise DamagedSource(f"cannot recover {name}: bad settings in its journal ({e})") from e
 
     tmp = path.with_name(path.name + ".recovering")
     with contextlib.suppress(FileNotFoundError):
