@@ -1,7 +1,9 @@
 """``gaitmon process FILE -o NEW``: re-run the pipeline offline from the raw counts.
 
 The original file is never modified: NEW is a copy whose ``/processed`` series, ``/events`` and
-``/config`` come from the new settings. The settings given apply to the whole recording;
+``/config`` come from the new settings. A session of both legs is reprocessed unit by unit
+(:mod:`gaitmon.io.session.reprocess_both`): into a file of both legs, or with ``--side`` one
+leg into a one-unit file. The settings given apply to the whole recording;
 standing calibrations logged during it are replayed at their rows. The work itself is
 :func:`gaitmon.io.session.reprocess.rewrite_processed`; this module only turns the command line
 into a :class:`PipelineConfig` and prints.
@@ -16,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gaitmon.commands import add_force, add_quiet, refuse_both_legs
+from gaitmon.commands import add_force, add_quiet
 from gaitmon.errors import UserError
 from gaitmon.reprocessing import (
     FSR_MAX_COUNTS,
@@ -29,6 +31,7 @@ from gaitmon.reprocessing import (
 )
 
 if TYPE_CHECKING:
+    from gaitmon.dsp.pipeline import PipelineConfig
     from gaitmon.io.session import Session
 
 # the settings and their checks are gaitmon.reprocessing's, shared with ``gaitmon batch``
@@ -69,6 +72,13 @@ def reprocessing_from_args(
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="FILE", help="a raw-mode session file (.h5)")
     p.add_argument("-o", "--output", required=True, metavar="NEW", help="the new session file")
+    p.add_argument(
+        "--side",
+        choices=("L", "R"),
+        default="",
+        help="of a session of both legs: reprocess this leg only, into a one-unit file "
+        "(default: both legs, into a file of both legs)",
+    )
     add_settings_arguments(p)
     add_force(p, "NEW")
     add_quiet(p, "no progress or summary lines (warnings are still shown)")
@@ -77,10 +87,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from gaitmon.commands.info import progress_printer
     from gaitmon.io.session import SessionError, open_session
+    from gaitmon.io.session.parts import is_bilateral
     from gaitmon.io.session.reprocess import recorded_config, rewrite_processed
 
     src, dst = Path(args.file), Path(args.output)
-    refuse_both_legs(src, "process")
+    both = is_bilateral(src)
+    if args.side and not both:
+        raise UserError(f"{src.name} holds one unit; leave out --side")
     if dst.exists() and dst.resolve() == src.resolve():
         raise UserError("NEW must be a different file: the original recording is never modified")
     if dst.exists() and not args.force:
@@ -90,43 +103,72 @@ def run(args: argparse.Namespace) -> int:
     settings = reprocessing_from_args(args)
     changes = dict(settings.changes)
     quiet = bool(args.quiet)
-    try:
-        recorded = recorded_config(src, progress=None if quiet else progress_printer("recovering"))
-        config = settings.apply(recorded)
-        result = rewrite_processed(
-            src, dst, config, progress=None if quiet else progress_printer("reprocessing"),
-            overwrite=args.force,
-        )
-        with open_session(src, recover=False) as before, open_session(dst) as after:
-            n_before, n_after = len(before.heel_strike_idx), len(after.heel_strike_idx)
-            after_method = after.angle_method
-            stuck = [name for name in ("heel", "toe") if _switches(before, name)
-                     and not _switches(after, name)]  # fmt: skip
-    except SessionError as exc:
-        raise UserError(str(exc)) from None
     settings_text = ", ".join(f"{k}={v:g}" for k, v in changes.items()) or (
         "the recorded settings")
+    done: list[str] = []
+    warnings: list[str] = []
+    try:
+        if both:
+            from gaitmon.io.session.reprocess_both import rewrite_bilateral
+
+            results = rewrite_bilateral(
+                src, dst, settings.apply, side=args.side or None, overwrite=args.force,
+                progress=None if quiet else progress_printer("reprocessing"),
+            )  # fmt: skip
+            for side, result in results.items():
+                with open_session(src, side=side) as before, open_session(
+                    dst, side=None if args.side else side
+                ) as after:
+                    label = f"{dst.name} ({side})"
+                    done.append(_done(side + ": ", result.n_frames, after, result.config))
+                    warnings += _warnings(before, after, label, settings_text)
+        else:
+            recorded = recorded_config(
+                src, progress=None if quiet else progress_printer("recovering")
+            )
+            config = settings.apply(recorded)
+            result = rewrite_processed(
+                src, dst, config, progress=None if quiet else progress_printer("reprocessing"),
+                overwrite=args.force,
+            )
+            with open_session(src, recover=False) as before, open_session(dst) as after:
+                done.append(_done("", result.n_frames, after, config))
+                warnings += _warnings(before, after, dst.name, settings_text)
+    except SessionError as exc:
+        raise UserError(str(exc)) from None
     if not quiet:
-        print(f"gaitmon process: wrote {dst} ({result.n_frames} frames, {n_after} heel "
-              f"strikes) with {settings_text}; angles: {after_method} "
-              f"(live: {config.tilt_method_label})",
-              file=sys.stderr)
-    if stuck:  # the FSR check then takes the events from the foot gyro
-        print(
-            f"gaitmon process: warning: with {settings_text} the {' and '.join(stuck)} "
-            f"sensor{'s' if len(stuck) > 1 else ''} never switch between loaded and unloaded "
-            f"in {dst.name}, so the gait events come from the foot gyro; check --fsr-threshold "
-            "and --cutoff-hz",
-            file=sys.stderr,
-        )
-    elif n_after < 2 <= n_before:  # settings that run but find no strides are almost always wrong
-        print(
-            f"gaitmon process: warning: {dst.name} has {n_after} heel strikes with {settings_text} "
-            f"(the recording has {n_before}), so no strides; check --fsr-threshold and "
-            "--cutoff-hz",
-            file=sys.stderr,
-        )
+        what = f"the {args.side} leg of {src.name}, as one unit" if args.side else (
+            "both legs" if both else "")
+        print(f"gaitmon process: wrote {dst}{f' ({what})' if what else ''} with {settings_text}; "
+              + "; ".join(done), file=sys.stderr)  # fmt: skip
+    for line in warnings:
+        print(f"gaitmon process: warning: {line}", file=sys.stderr)
     return 0
+
+
+def _done(label: str, n_frames: int, after: Session, config: PipelineConfig) -> str:
+    return (f"{label}{n_frames} frames, {len(after.heel_strike_idx)} heel strikes, angles: "
+            f"{after.angle_method} (live: {config.tilt_method_label})")  # fmt: skip
+
+
+def _warnings(before: Session, after: Session, name: str, settings_text: str) -> list[str]:
+    """Settings that run but leave the events to the foot gyro, or find no strides."""
+    n_before, n_after = len(before.heel_strike_idx), len(after.heel_strike_idx)
+    stuck = [sensor for sensor in ("heel", "toe") if _switches(before, sensor)
+             and not _switches(after, sensor)]  # fmt: skip
+    if stuck:  # the FSR check then takes the events from the foot gyro
+        return [
+            f"with {settings_text} the {' and '.join(stuck)} "
+            f"sensor{'s' if len(stuck) > 1 else ''} never switch between loaded and unloaded "
+            f"in {name}, so the gait events come from the foot gyro; check --fsr-threshold "
+            "and --cutoff-hz"
+        ]
+    if n_after < 2 <= n_before:  # settings that run but find no strides are almost always wrong
+        return [
+            f"{name} has {n_after} heel strikes with {settings_text} (the recording has "
+            f"{n_before}), so no strides; check --fsr-threshold and --cutoff-hz"
+        ]
+    return []
 
 
 def _switches(session: Session, sensor: str) -> bool:

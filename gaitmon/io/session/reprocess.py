@@ -12,7 +12,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -93,6 +93,27 @@ def rewrite_processed(
     with a one-line message. ``src`` is never modified.
     """
     src, dst = Path(src), Path(dst)
+    check_destination(src, dst, overwrite)
+    report = _reporter(progress)
+    check_cancel = _canceller(cancel)
+    report(0.0)
+    tmp = partial_path(dst)
+    with _building(tmp, dst):
+        with open_session(src) as s:
+            unit = UnitInputs.of(s)
+            _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
+        with h5py.File(tmp, "r+") as f:
+            rewrite_unit(f, unit, config, lambda f: report(COPY_SHARE + (1.0 - COPY_SHARE) * f),
+                         check_cancel)  # fmt: skip
+        check_cancel()
+        os.replace(tmp, dst)
+    report(1.0)
+    return RewriteResult(dst, unit.n, config)
+
+
+def check_destination(src: Path, dst: Path, overwrite: bool) -> None:
+    """``SessionError`` unless ``dst`` may be written: not the recording itself, not an
+    existing file (unless ``overwrite``), in a folder that exists."""
     if dst.exists() and dst.resolve() == src.resolve():
         raise SessionError(
             f"{dst.name} is the recording itself: write the reprocessed session to another "
@@ -103,38 +124,29 @@ def rewrite_processed(
     if not dst.parent.is_dir():
         raise SessionError(f"folder {dst.parent} does not exist")
 
+
+def _reporter(progress: Progress | None) -> Progress:
     def report(fraction: float) -> None:
         if progress is not None:
             progress(min(1.0, max(0.0, fraction)))
 
+    return report
+
+
+def _canceller(cancel: Cancel | None) -> Callable[[], None]:
     def check_cancel() -> None:
         if cancel is not None and cancel():
             raise Cancelled
 
-    report(0.0)
-    tmp = partial_path(dst)
+    return check_cancel
+
+
+@contextlib.contextmanager
+def _building(tmp: Path, dst: Path) -> Iterator[None]:
+    """The partial file ``tmp`` is deleted if building it fails or is cancelled; a write
+    failure becomes one ``SessionError`` line."""
     try:
-        with open_session(src) as s:
-            _check_raw(s)
-            calibration_log: list[tuple[int, Calibration]] = list(s.calibration_changes)
-            calibration = s.calibration
-            table = s.header.table  # the unit's own conversion, as recovery and review use
-            n = s.n_samples
-            lost = lost_before_from_gaps(s.gaps, n)
-            _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
-        _rewrite(
-            tmp,
-            n,
-            calibration,
-            config,
-            calibration_log,
-            table,
-            lost,
-            lambda f: report(COPY_SHARE + (1.0 - COPY_SHARE) * f),
-            check_cancel,
-        )
-        check_cancel()
-        os.replace(tmp, dst)
+        yield
     except (Cancelled, SessionError):
         with contextlib.suppress(OSError):
             tmp.unlink()
@@ -143,8 +155,25 @@ def rewrite_processed(
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise SessionError(f"cannot write {dst}: {getattr(exc, 'strerror', None) or exc}") from None
-    report(1.0)
-    return RewriteResult(dst, n, config)
+
+
+@dataclass(frozen=True)
+class UnitInputs:
+    """What the replay of one unit takes from its recording (read before it is copied)."""
+
+    n: int
+    calibration: Calibration
+    calibration_log: list[tuple[int, Calibration]]
+    table: ChannelTable  # the unit's own conversion, as recovery and review use
+    lost: np.ndarray
+    config: PipelineConfig  # the settings it was recorded with
+
+    @classmethod
+    def of(cls, s: Session) -> UnitInputs:
+        _check_raw(s)
+        n = s.n_samples
+        return cls(n, s.calibration, list(s.calibration_changes), s.header.table,
+                   lost_before_from_gaps(s.gaps, n), s.config)  # fmt: skip
 
 
 def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], None]) -> None:
@@ -159,74 +188,73 @@ def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], Non
             check_cancel()
 
 
-def _rewrite(
-    tmp: Path,
-    n: int,
-    calibration: Calibration,
+def rewrite_unit(
+    f: h5py.Group,
+    unit: UnitInputs,
     config: PipelineConfig,
-    calibration_log: list[tuple[int, Calibration]],
-    table: ChannelTable,
-    lost: np.ndarray,
     report: Progress,
     check_cancel: Callable[[], None],
 ) -> None:
-    with h5py.File(tmp, "r+") as f:
-        v2 = int(f.attrs.get("format_version", 1)) >= 2
-        proc = f["processed"]
-        # the raw counts are read a chunk at a time (the copy holds the recording's own)
-        adc = LazyRows(f["raw/adc"], n)
-        hs: list[np.ndarray] = []
-        to: list[np.ndarray] = []
-        replay = replay_pipeline(
-            adc,
-            config,
-            calibration,
-            calibration_log,
-            table=table,
-            chunk_rows=REPLAY_CHUNK_ROWS,
-            lost_before=lost,
-        )
-        faults: list[tuple[int, int, str, str]] = []
-        for start, rows, hs_rows, to_rows, found in replay:
-            faults += found
-            stop = start + len(rows["processed/joint_deg"])
-            for path, data in rows.items():
-                if path in f:  # (format 2 derives the joints and gyro rates on read)
-                    f[path][start:stop] = encode(path, data) if v2 else data
-            hs.append(hs_rows)
-            to.append(to_rows)
-            report(stop / max(n, 1))
-            check_cancel()
-        proc.attrs["reprocessed"] = True
-        proc.attrs["source"] = "pc"
-        proc.attrs["tilt_method"] = config.tilt_method_label
-        store_smoothed(f, adc.rows, n, table, calibration, calibration_log, lost, config.fs_hz)
-        ev = f["events"]
-        for name, parts in (("heel_strike", hs), ("toe_off", to)):
-            data = np.concatenate(parts) if parts else np.empty(0, np.int64)
-            del ev[name]
-            ev.create_dataset(name, data=data.astype(np.int64), maxshape=(None,), chunks=True)
-        if "fsr_faults" in ev:  # (a file written before the table existed has none)
-            del ev["fsr_faults"]
-        ev.create_dataset(
-            "fsr_faults",
-            data=np.array(faults, dtype=_TABLES["events/fsr_faults"]),
-            maxshape=(None,),
-            chunks=(_TABLE_CHUNK_ROWS,),
-        )
-        cfg = f["config"]
-        for key, value in config.as_dict().items():
-            cfg.attrs[key] = value
-        cfg.attrs["event_delay_samples"] = config.event_delay_samples
-        # the new settings hold for the whole file: no changes during the recording
-        del cfg["changes"]
-        cfg.create_dataset(
-            "changes",
-            data=np.array([], dtype=_TABLES["config/changes"]),
-            maxshape=(None,),
-            chunks=(_TABLE_CHUNK_ROWS,),
-        )
-        cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
-        write_overview(f)  # the joint angles changed: so did their overview
-        store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
+    """Reprocess the one unit whose layout is rooted at ``f`` (a one-unit file, or a bilateral
+    file's ``/units/<side>``) in place with ``config``."""
+    n, calibration, calibration_log = unit.n, unit.calibration, unit.calibration_log
+    table, lost = unit.table, unit.lost
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
+    proc = f["processed"]
+    # the raw counts are read a chunk at a time (the copy holds the recording's own)
+    adc = LazyRows(f["raw/adc"], n)
+    hs: list[np.ndarray] = []
+    to: list[np.ndarray] = []
+    replay = replay_pipeline(
+        adc,
+        config,
+        calibration,
+        calibration_log,
+        table=table,
+        chunk_rows=REPLAY_CHUNK_ROWS,
+        lost_before=lost,
+    )
+    faults: list[tuple[int, int, str, str]] = []
+    for start, rows, hs_rows, to_rows, found in replay:
+        faults += found
+        stop = start + len(rows["processed/joint_deg"])
+        for path, data in rows.items():
+            if path in f:  # (format 2 derives the joints and gyro rates on read)
+                f[path][start:stop] = encode(path, data) if v2 else data
+        hs.append(hs_rows)
+        to.append(to_rows)
+        report(stop / max(n, 1))
+        check_cancel()
+    proc.attrs["reprocessed"] = True
+    proc.attrs["source"] = "pc"
+    proc.attrs["tilt_method"] = config.tilt_method_label
+    store_smoothed(f, adc.rows, n, table, calibration, calibration_log, lost, config.fs_hz)
+    ev = f["events"]
+    for name, parts in (("heel_strike", hs), ("toe_off", to)):
+        data = np.concatenate(parts) if parts else np.empty(0, np.int64)
+        del ev[name]
+        ev.create_dataset(name, data=data.astype(np.int64), maxshape=(None,), chunks=True)
+    if "fsr_faults" in ev:  # (a file written before the table existed has none)
+        del ev["fsr_faults"]
+    ev.create_dataset(
+        "fsr_faults",
+        data=np.array(faults, dtype=_TABLES["events/fsr_faults"]),
+        maxshape=(None,),
+        chunks=(_TABLE_CHUNK_ROWS,),
+    )
+    cfg = f["config"]
+    for key, value in config.as_dict().items():
+        cfg.attrs[key] = value
+    cfg.attrs["event_delay_samples"] = config.event_delay_samples
+    # the new settings hold for the whole file: no changes during the recording
+    del cfg["changes"]
+    cfg.create_dataset(
+        "changes",
+        data=np.array([], dtype=_TABLES["config/changes"]),
+        maxshape=(None,),
+        chunks=(_TABLE_CHUNK_ROWS,),
+    )
+    cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
+    write_overview(f)  # the joint angles changed: so did their overview
+    store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
     report(1.0)

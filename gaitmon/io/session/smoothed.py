@@ -166,7 +166,7 @@ def store_smoothed(
             name, shape=(n, cols), dtype=dtype, chunks=(min(CHUNK_ROWS, max(1, n)), cols),
             **(COMPRESSION if v2 else {}),
         )  # fmt: skip
-    writers = {path: _AlignedWriter(ds, v2) for path, ds in out.items()}
+    writers = {path: _AlignedWriter(ds, v2, path) for path, ds in out.items()}
     for s0, part in smoothed_blocks(counts, n, table, calibration, calibration_changes,
                                     _restarts(lost_before, n, fs_hz), fs_hz):  # fmt: skip
         tilt, joint = _tilt_joint_deg(part)
@@ -182,9 +182,11 @@ class _AlignedWriter:
     """Writes consecutive row blocks to a chunked dataset in whole chunks (the rows of a chunk
     split between two blocks wait for the next one): a compressed chunk is written once."""
 
-    def __init__(self, ds: h5py.Dataset, encoded: bool) -> None:
+    def __init__(self, ds: h5py.Dataset, encoded: bool, path: str = "") -> None:
         self._ds = ds
-        self._path = ds.name.lstrip("/")
+        # the codec's name of the series: relative to the unit's root (a bilateral file's
+        # /units/<side>/smoothed/... is smoothed/...)
+        self._path = path or ds.name.lstrip("/")
         self._encoded = encoded
         self._rows = ds.chunks[0] if ds.chunks else 1
         self._start = 0  # first row not yet written
