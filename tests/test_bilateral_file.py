@@ -239,7 +239,7 @@ def test_parts_left_beside_a_combined_file_are_removed(both: Path, tmp_path: Pat
         (["--simulate", "--asymmetry", "hemiparetic"], "--asymmetry: only with --simulate-bilat"),
         (["--simulate-bilateral", "--speed", "max"], "--speed max is not available"),
         (["--simulate-bilateral", "--side", "L"], "--side names the leg of one unit"),
-        (["--simulate-bilateral", "--zero"], "--zero is not available with"),
+        (["--simulate-bilateral", "--lsl-markers", "Stim"], "--lsl-markers are not available with"),
     ],
 )
 def test_bilateral_record_options_are_checked(

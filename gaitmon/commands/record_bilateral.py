@@ -8,11 +8,13 @@ FILE; at the stop the parts are combined into FILE with both units' clock fits
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
@@ -21,8 +23,10 @@ from gaitmon.errors import UserError
 from gaitmon.text import count
 
 if TYPE_CHECKING:
+    from gaitmon.engine import Engine
     from gaitmon.engine.pair import EnginePair
     from gaitmon.io.session import SessionMeta
+    from gaitmon.lsl.outlets import LslOutlets
 
 STALL_S = 10.0  # as gaitmon record: no frame from a unit this long ends the recording
 STALL_PORT_S = 30.0
@@ -32,10 +36,11 @@ def _refuse_single_options(args: argparse.Namespace) -> None:
     both = "--simulate-bilateral" if args.simulate_bilateral else "--ports"
     if args.side:
         raise UserError(f"--side names the leg of one unit; with {both} both legs are recorded")
-    if args.zero:
-        raise UserError(f"--zero is not available with {both} yet; leave it out")
     if any(getattr(args, n, None) is not None for n in ("lsl_control", "lsl_markers")):
-        raise UserError(f"the LSL options are not available with {both} yet; leave them out")
+        raise UserError(
+            f"--lsl-control and --lsl-markers are not available with {both} yet; leave them "
+            "out (--lsl streams both legs)"
+        )
     if args.simulate_bilateral and math.isinf(args.speed):
         raise UserError(
             "--speed max is not available with --simulate-bilateral: the units' clocks are "
@@ -78,10 +83,24 @@ def run(args: argparse.Namespace, out: Path, meta: SessionMeta) -> int:
         for t, label in transports
     )
     pair = EnginePair(left, right)
+    outlets: dict[str, LslOutlets] = {}
+    before_stream = _lsl_opener(args, meta, outlets) if args.lsl else None
+    stop = threading.Event()
     try:
-        pair.start(out, meta, overwrite=args.force)
+        # with --zero both units stream first (zeroing needs data), and both parts start
+        # after it, with each unit's calibration in its header
+        pair.start(out, meta, overwrite=args.force, record=not args.zero,
+                   before_stream=before_stream)  # fmt: skip
+        if args.zero:
+            _zero(pair, stop)
     except (EngineError, LinkError) as exc:
+        pair.stop("error: start-up failed")
+        _close_outlets(outlets)
         raise UserError(str(exc)) from None
+    except BaseException:
+        pair.stop("error: start-up failed")
+        _close_outlets(outlets)
+        raise
 
     for side, eng in pair.engines.items():  # a unit says which leg it is configured for
         said = eng.identity.side if eng.identity is not None else ""
@@ -92,7 +111,6 @@ def run(args: argparse.Namespace, out: Path, meta: SessionMeta) -> int:
                 "check the order of --ports (left first)",
                 file=sys.stderr,
             )
-    stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
@@ -103,6 +121,7 @@ def run(args: argparse.Namespace, out: Path, meta: SessionMeta) -> int:
     try:
         statuses = pair.stop(reason)
     finally:
+        _close_outlets(outlets, linger_s=0.5)  # after the last event; a recorder takes the rest
         for s, h in old.items():
             signal.signal(s, h)
     if sim is not None:
@@ -121,6 +140,10 @@ def run(args: argparse.Namespace, out: Path, meta: SessionMeta) -> int:
         errors.append(str(exc))
     if errors:
         raise UserError("; ".join(errors))
+    from gaitmon.io.session.bilateral import missing_legs
+
+    for line in missing_legs(out):
+        print(f"gaitmon record: warning: {line}", file=sys.stderr)
     if stalled:
         raise UserError(stalled)
     for side, eng in pair.engines.items():
@@ -134,6 +157,49 @@ def run(args: argparse.Namespace, out: Path, meta: SessionMeta) -> int:
     print(f"gaitmon record: wrote both legs to {out} ({out.stat().st_size / 1e6:.1f} MB)",
           file=sys.stderr)  # fmt: skip
     return 0
+
+
+def _zero(pair: EnginePair, stop: threading.Event) -> None:
+    """Both units zeroed from the same moment, or one line naming the leg that could not be."""
+    from gaitmon.engine import EngineError
+
+    try:
+        pair.zero(stop)
+    except EngineError as exc:
+        raise EngineError(f"{exc}; nothing was recorded") from None
+    if stop.is_set():
+        raise EngineError("stopped before the recording started; nothing was recorded")
+    print("gaitmon record: standing pose zeroed on both legs", file=sys.stderr)
+    pair.start_recording()
+
+
+def _lsl_opener(
+    args: argparse.Namespace, meta: SessionMeta, outlets: dict[str, LslOutlets]
+) -> Callable[[str, Engine], None]:
+    """Each unit's outlets, opened before its first frame: the side in their names, source
+    ids and descriptions, each with its own sample clock (``docs/lsl.md``)."""
+    from gaitmon.engine import EngineError
+    from gaitmon.lsl.outlets import LslOutlets
+
+    def open_outlets(side: str, engine: Engine) -> None:
+        side_meta = dataclasses.replace(meta, side=side)
+        try:
+            outlets[side] = LslOutlets.attach(
+                engine, side_meta, allow_patient_id=args.lsl_patient_id, leg=side
+            )
+        except Exception as exc:  # liblsl could not open its sockets
+            raise EngineError(f"could not open the {side} unit's LSL streams: {exc}") from None
+        if not args.quiet:
+            names = ", ".join(repr(n) for n in outlets[side].names)
+            print(f"gaitmon record: streaming to LSL as {names}", file=sys.stderr)
+
+    return open_outlets
+
+
+def _close_outlets(outlets: dict[str, LslOutlets], linger_s: float = 0.0) -> None:
+    for o in outlets.values():
+        o.detach(linger_s=linger_s)
+    outlets.clear()
 
 
 def _wait(

@@ -15,19 +15,23 @@ import contextlib
 import dataclasses
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
+from gaitmon.dsp.calibration import Calibration
 from gaitmon.engine.core import Engine, EngineError
 from gaitmon.engine.snapshot import RecordingStatus
 from gaitmon.io.journal import journal_path
 from gaitmon.io.session.combine import combine_parts
 from gaitmon.io.session.h5file import _being_recorded
 from gaitmon.io.session.header import SessionError, SessionMeta
-from gaitmon.io.session.parts import SIDES, part_path, parts_of
+from gaitmon.io.session.parts import SIDE_NAMES, SIDES, part_path, parts_of
 
 # closing a part computes its smoothed angles and overview (an hour: tens of seconds on a busy
 # machine); both must be closed before they can be combined
 STOP_TIMEOUT_S = 300.0
+# as `gaitmon record --zero` for one unit: a subject still settling gets this long
+ZERO_TIMEOUT_S = 10.0
 
 
 class EnginePair:
@@ -37,11 +41,22 @@ class EnginePair:
         self.engines = {"L": left, "R": right}
         self._start: dict[str, tuple[int, int]] = {}  # samples, frames lost at the start
         self.path: Path | None = None
+        self._meta = SessionMeta()
 
-    def start(self, path: str | Path, meta: SessionMeta | None = None, *,
-              overwrite: bool = False) -> None:  # fmt: skip
-        """Start both units, each recording into its part from its first frame.
-        ``EngineError`` (both stopped, nothing left behind) if either cannot start."""
+    def start(
+        self,
+        path: str | Path,
+        meta: SessionMeta | None = None,
+        *,
+        overwrite: bool = False,
+        record: bool = True,
+        before_stream: Callable[[str, Engine], None] | None = None,
+    ) -> None:
+        """Start both units, each recording into its part from its first frame (``record``
+        False: streaming only, until :meth:`start_recording`, e.g. after :meth:`zero`).
+        ``before_stream(side, engine)`` runs for each once it is identified, before its first
+        frame (the LSL outlets open there). ``EngineError`` (both stopped, nothing left
+        behind) if either cannot start."""
         path = Path(path)
         old = parts_of(path)
         if old and not overwrite:
@@ -53,29 +68,86 @@ class EnginePair:
             for q in (p, journal_path(p)):
                 with contextlib.suppress(FileNotFoundError):
                     q.unlink()
-        meta = meta or SessionMeta()
+        self.path = path
+        self._meta = meta or SessionMeta()
         started: list[str] = []
         try:
             for side in SIDES:
                 eng = self.engines[side]
-                part = part_path(path, side)
-                side_meta = dataclasses.replace(meta, side=side)
 
-                def record(e: Engine = eng, p: Path = part, m: SessionMeta = side_meta) -> None:
-                    e.start_recording(p, m, overwrite=True)
+                def hook(s: str = side, e: Engine = eng) -> None:
+                    if record:
+                        self._record(s)
+                    if before_stream is not None:
+                        before_stream(s, e)
 
-                eng.start(before_stream=record)
+                eng.start(before_stream=hook)
                 started.append(side)
-                self._start[side] = (eng.samples_total, eng.device.stats.decoder.frames_lost)
+                if record:
+                    self._start[side] = (eng.samples_total, eng.device.stats.decoder.frames_lost)
         except BaseException:
-            for side in started:
-                self.engines[side].stop()
+            self._abandon(started)
+            raise
+
+    def _record(self, side: str) -> None:
+        assert self.path is not None
+        meta = dataclasses.replace(self._meta, side=side)
+        self.engines[side].start_recording(part_path(self.path, side), meta, overwrite=True)
+
+    def _abandon(self, started: list[str]) -> None:
+        """A start that failed: the units stopped, the parts (still empty) deleted."""
+        for side in started:
+            self.engines[side].stop_recording("error: start-up failed")
+            self.engines[side].stop()
+        if self.path is not None:
             for side in SIDES:
-                for q in (part_path(path, side), journal_path(part_path(path, side))):
+                for q in (part_path(self.path, side), journal_path(part_path(self.path, side))):
                     with contextlib.suppress(OSError):
                         q.unlink()
+
+    def start_recording(self) -> None:
+        """Both parts from the next block on (after a ``start(record=False)``); the
+        calibration a :meth:`zero` left waiting is each part's header's."""
+        try:
+            for side in SIDES:
+                eng = self.engines[side]
+                self._record(side)
+                self._start[side] = (eng.samples_total, eng.device.stats.decoder.frames_lost)
+        except BaseException:
+            self._abandon(list(SIDES))
             raise
-        self.path = path
+
+    def zero(
+        self, stop: threading.Event | None = None, timeout_s: float = ZERO_TIMEOUT_S,
+        window_s: float = 1.5,
+    ) -> dict[str, Calibration]:  # fmt: skip
+        """The standing calibration of both units from the same moment: each unit's last
+        ``window_s`` of data, taken one right after the other, retried (the subject settling,
+        the first seconds of data) until both succeed in the same try. ``EngineError`` naming
+        the leg (or legs) never still in any try after ``timeout_s``; an empty dict if ``stop``
+        is set first."""
+        deadline = time.monotonic() + timeout_s
+        worked: set[str] = set()  # the legs that were still at some try
+        last_error: dict[str, str] = {}
+        while stop is None or not stop.is_set():
+            cals: dict[str, Calibration] = {}
+            errors: dict[str, str] = {}
+            for side in SIDES:
+                try:
+                    cals[side] = self.engines[side].zero(window_s)
+                    worked.add(side)
+                except EngineError as exc:
+                    errors[side] = last_error[side] = str(exc)
+            if not errors:
+                return cals
+            if time.monotonic() > deadline:
+                # the leg that never zeroed, not one that did while it waited for the other
+                never = [s for s in SIDES if s not in worked] or list(errors)
+                raise EngineError("; ".join(
+                    f"could not zero the {SIDE_NAMES[s]} leg ({s}): {last_error[s]}" for s in never
+                ))  # fmt: skip
+            time.sleep(0.02)  # the simulator may run faster than real time
+        return {}
 
     def recorded_s(self, side: str) -> float:
         """Seconds of that unit's clock since the recording started (received + lost)."""

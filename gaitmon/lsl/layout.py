@@ -1,7 +1,8 @@
 """The Lab Streaming Layer streams gaitmon publishes: the one contract between the outlets, the
 XDF import and ``docs/lsl.md``. Pure (no pylsl): names, types, channels, units, event words.
 
-Three streams per connected unit (``unit`` is the unit's serial number, or "sim"):
+Three streams per connected unit (``unit`` is the unit's serial number, or "sim"; a unit of
+a pair recording both legs adds its leg, L or R, to the names and source ids):
 
 * ``angles``: the joint angles and segment tilts the live view shows, float32 at the unit's
   rate (100 Hz); a channel the mode does not produce is NaN. Degrees, clinical signs.
@@ -55,14 +56,16 @@ RAW_CHANNELS: tuple[StreamChannel, ...] = (
 )
 
 
-def stream_name(unit: str, stream: str) -> str:
-    """``gaitmon <unit> <stream>``, e.g. "gaitmon sim angles"."""
-    return f"gaitmon {unit} {stream}"
+def stream_name(unit: str, stream: str, leg: str = "") -> str:
+    """``gaitmon <unit> <stream>``, e.g. "gaitmon sim angles"; a unit of a pair (both legs)
+    says its leg: ``gaitmon <unit> <leg> <stream>``, e.g. "gaitmon sim L angles"."""
+    return f"gaitmon {unit} {leg} {stream}" if leg else f"gaitmon {unit} {stream}"
 
 
-def source_id(unit: str, stream: str) -> str:
-    """Stable across restarts, so LSL recorders reconnect to the same stream."""
-    return f"gaitmon-{unit}-{stream}"
+def source_id(unit: str, stream: str, leg: str = "") -> str:
+    """Stable across restarts, so LSL recorders reconnect to the same stream:
+    ``gaitmon-<unit>-<stream>``, or ``gaitmon-<unit>-<leg>-<stream>`` for a unit of a pair."""
+    return f"gaitmon-{unit}-{leg}-{stream}" if leg else f"gaitmon-{unit}-{stream}"
 
 
 class EventWord(enum.StrEnum):

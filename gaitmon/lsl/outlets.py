@@ -18,7 +18,9 @@ What a stream says about itself (its XML description): ``acquisition`` (manufact
 "gaitmon", the unit's model, serial number and firmware, gaitmon's version), ``channels`` (one
 ``channel`` per channel with its label, unit and type) and ``gaitmon`` (``mode``, ``fs_hz``,
 ``side``; ``subject_id`` only if the user allowed the patient id out; on the raw stream
-``header``: the session header as JSON, the patient id blanked unless allowed). Later changes
+``header``: the session header as JSON, the patient id blanked unless allowed). A unit of a pair
+(both legs, ``leg``) has its leg in its names, source ids and ``side``, and its own sample
+clock, as every ``LslOutlets`` has. Later changes
 of the filter settings or the calibration go out on the events stream (``config <json>``,
 ``calibration <json>``), so a LabRecorder file is enough to rebuild the session.
 """
@@ -107,6 +109,7 @@ class LslOutlets:
         *,
         allow_patient_id: bool = False,
         unit: str | None = None,
+        leg: str = "",
     ) -> None:
         from gaitmon.io.session import SessionMeta
 
@@ -116,6 +119,7 @@ class LslOutlets:
         self.meta = meta or SessionMeta()
         self.allow_patient_id = allow_patient_id
         self.unit = unit or unit_label(engine)
+        self.leg = leg  # "L" / "R" for a unit of a pair: in the names and source ids
         self.mode = engine.mode.value
         self.fs_hz = float(engine.fs_hz)
         self.clock = SampleClock(self.fs_hz)
@@ -135,27 +139,29 @@ class LslOutlets:
     def names(self) -> list[str]:
         """The stream names, e.g. ``gaitmon sim angles``."""
         kinds = ["angles", "events"] + (["raw"] if self.raw is not None else [])
-        return [layout.stream_name(self.unit, s) for s in kinds]
+        return [layout.stream_name(self.unit, s, self.leg) for s in kinds]
 
     def _info(self, stream: str) -> Any:
         pylsl = self._pylsl
+        name = layout.stream_name(self.unit, stream, self.leg)
+        sid = layout.source_id(self.unit, stream, self.leg)
         if stream == "angles":
             channels = layout.ANGLE_CHANNELS
             info = pylsl.StreamInfo(
-                layout.stream_name(self.unit, stream), layout.ANGLES_TYPE, len(channels),
-                self.fs_hz, pylsl.cf_float32, layout.source_id(self.unit, stream),
+                name, layout.ANGLES_TYPE, len(channels),
+                self.fs_hz, pylsl.cf_float32, sid,
             )  # fmt: skip
         elif stream == "raw":
             channels = layout.RAW_CHANNELS
             info = pylsl.StreamInfo(
-                layout.stream_name(self.unit, stream), layout.RAW_TYPE, len(channels),
-                self.fs_hz, pylsl.cf_int32, layout.source_id(self.unit, stream),
+                name, layout.RAW_TYPE, len(channels),
+                self.fs_hz, pylsl.cf_int32, sid,
             )  # fmt: skip
         else:
             channels = (layout.StreamChannel("event", "", "Marker"),)
             info = pylsl.StreamInfo(
-                layout.stream_name(self.unit, stream), layout.EVENTS_TYPE, 1,
-                pylsl.IRREGULAR_RATE, pylsl.cf_string, layout.source_id(self.unit, stream),
+                name, layout.EVENTS_TYPE, 1,
+                pylsl.IRREGULAR_RATE, pylsl.cf_string, sid,
             )  # fmt: skip
         desc = info.desc()
         ident = self.engine.identity
@@ -169,7 +175,7 @@ class LslOutlets:
         g = desc.append_child("gaitmon")
         g.append_child_value("mode", self.mode)
         g.append_child_value("fs_hz", repr(self.fs_hz))
-        g.append_child_value("side", self.meta.side or (ident.side if ident else ""))
+        g.append_child_value("side", self.leg or self.meta.side or (ident.side if ident else ""))
         if self.allow_patient_id and self.meta.patient_id:
             g.append_child_value("subject_id", self.meta.patient_id)
         if stream == "raw":
@@ -257,9 +263,10 @@ class LslOutlets:
         *,
         allow_patient_id: bool = False,
         unit: str | None = None,
+        leg: str = "",
     ) -> LslOutlets:
         """Open the outlets and feed them from ``engine`` from its next block on."""
-        outlets = cls(engine, meta, allow_patient_id=allow_patient_id, unit=unit)
+        outlets = cls(engine, meta, allow_patient_id=allow_patient_id, unit=unit, leg=leg)
         engine.add_listener(outlets)
         return outlets
 
