@@ -21,29 +21,35 @@ from gaitmon.cli import main
 from gaitmon.io.session import open_session
 from gaitmon.io.session.bilateral import open_bilateral, parts_of
 
-RECORD = ["record", "--simulate-bilateral", "--duration", "12", "--speed", "4", "-q",
+RECORD = ["record", "--simulate-bilateral", "--duration", "16", "--speed", "4", "-q",
           "--standing-s", "10"]  # fmt: skip
 
 
 @pytest.fixture(scope="module")
 def zeroed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("bizero") / "both.h5"
-    # 10 s standing (2.5 s of wall time at 4x): time to zero both on a loaded machine
+    # 10 s standing (2.5 s of wall time at 4x): time to zero both on a loaded machine; then
+    # 16 s recorded: 5 s or more of walking after the zeroing
     assert main([*RECORD, "--zero", "-o", str(out), "--asymmetry", "hemiparetic"]) == 0
     return out
 
 
-def test_zero_stores_each_units_own_standing_offsets(zeroed: Path) -> None:
+def test_zero_stores_each_units_own_standing_offsets_and_gyro_bias(zeroed: Path) -> None:
     mounted = {}
     offsets = {}
     for side in "LR":
         with open_session(zeroed, side=side) as s:
             offsets[side] = np.degrees(s.calibration.tilt_offset_rad)
+            bias = s.calibration.gyro_bias_rad_s
             assert s.calibration_changes == []  # zeroed before the first row: the header's
             knee = s.read("processed/joint_deg")[:, 1]
             assert 30.0 < knee.max() < 80.0  # zeroed knee flexion in swing (stiff on L)
         with h5py.File(zeroed, "r") as f:
             mounted[side] = f[f"units/{side}/truth"].attrs["mount_offset_deg"]
+            # the gyros' true bias on the first row (it drifts over minutes, not seconds): one
+            # unit's window straddling its own earlier zeroing read twice the bias (was 0.04)
+            true_bias = f[f"units/{side}/truth/gyro_bias_rad_s"][0]
+        np.testing.assert_allclose(bias, true_bias, atol=0.004, err_msg=side)
     for side in "LR":
         np.testing.assert_allclose(offsets[side], mounted[side], atol=0.5)
     # the two units' boards were mounted differently: a calibration on the wrong leg would fail

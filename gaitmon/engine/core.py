@@ -372,27 +372,28 @@ class Engine:
         with self._lock:
             self._pending.config = config
 
-    def zero(self, window_s: float = 1.5) -> Calibration:
-        """Standing calibration from the last ``window_s`` of data; refuses while moving."""
+    def zero(self, window_s: float = 1.5, *, apply: bool = True) -> Calibration:
+        """Standing calibration from the last ``window_s`` of data; refuses while moving.
+        ``apply=False`` (raw mode) only computes it; ``use_calibration`` applies it."""
         if self.mode is not Mode.RAW:
             try:
                 self.device.zero()
             except (DeviceError, LinkError) as exc:
                 raise EngineError(f"the unit refused to zero: {exc}") from exc
             return self.calibration
-        n = int(window_s * self.fs_hz)
-        data = self._ring.latest(n)
+        data = self._ring.latest(n := int(window_s * self.fs_hz))
         if len(data["t_s"]) < n or np.isnan(data["acc_ms2"]).any():
-            raise EngineError(
-                f"need {window_s:g} s of data from the unit to zero; wait a moment and retry"
-            )
+            raise EngineError(f"need {window_s:g} s of data from the unit to zero; wait and retry")
         # the ring holds bias-corrected rates: add the bias in force back to see the true rate
         gyro = data["gyro_rad_s"] + self.calibration.gyro_bias_rad_s
         try:
             cal = standing_calibration(data["acc_ms2"], gyro, fs_hz=self.fs_hz)
         except CalibrationError as exc:
             raise EngineError(str(exc)) from exc
-        with self._lock:
+        return self.use_calibration(cal) if apply else cal
+
+    def use_calibration(self, cal: Calibration) -> Calibration:
+        with self._lock:  # from the next block on (logged in a running recording)
             self._pending.calibration = cal
         return cal
 

@@ -133,13 +133,13 @@ class EnginePair:
             cals: dict[str, Calibration] = {}
             errors: dict[str, str] = {}
             for side in SIDES:
-                try:
-                    cals[side] = self.engines[side].zero(window_s)
+                try:  # computed only: a window straddling an applied change would mix biases
+                    cals[side] = self.engines[side].zero(window_s, apply=False)
                     worked.add(side)
                 except EngineError as exc:
                     errors[side] = last_error[side] = str(exc)
             if not errors:
-                return cals
+                return {s: self.engines[s].use_calibration(c) for s, c in cals.items()}
             if time.monotonic() > deadline:
                 # the leg that never zeroed, not one that did while it waited for the other
                 never = [s for s in SIDES if s not in worked] or list(errors)
