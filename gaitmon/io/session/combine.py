@@ -6,8 +6,10 @@ recording. :func:`combine_parts` recovers a part from its journal first if it wa
 recording (``gaitmon.dsp.clock_fit.fit_clock``), copies each part's whole layout under
 ``/units/<side>`` with h5py's group copy (nothing is re-processed) and writes ``/sync``. The
 combined file is written as ``FILE.combining``, synced and moved over ``FILE``; the parts are
-deleted last, so an interrupted combine loses nothing. ``docs/file-format.md`` ("Bilateral
-sessions") is the reference.
+deleted last, so an interrupted combine loses nothing. A part whose bytes cannot be recovered
+does not block the other: it is set aside unchanged (``FILE.<side>.partial.damaged``) and the
+file holds the intact leg, naming the other in its ``missing`` attributes.
+``docs/file-format.md`` ("Bilateral sessions") is the reference.
 """
 
 from __future__ import annotations
