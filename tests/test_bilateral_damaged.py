@@ -157,3 +157,28 @@ def test_neither_leg_recoverable_is_one_line_and_keeps_both_parts(
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "neither leg can be recovered" in err
     assert {p.name: _digest(p) for p in tmp_path.iterdir()} == before
+
+
+def test_a_finished_part_with_a_damaged_object_header_is_set_aside(
+    killed: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A part whose file opens but one of whose objects' headers is damaged (the group copy
+    into the combined file would fail on it): set aside like any other damaged part."""
+    import h5py.h5o
+
+    out = _copy_parts(killed, tmp_path)
+    part = part_path(out, "R")
+    with open_session(part) as s:  # recovered in place from its journal: a finished part
+        assert s.recovered
+    assert not journal_path(part).exists()
+    with h5py.File(part, "r") as f:
+        addr = h5py.h5o.get_info(f["events"].id).addr
+    with part.open("r+b") as fh:  # the /events group's header: its version byte and more
+        fh.seek(addr)
+        fh.write(b"\xff" * 16)
+    digest = _digest(part)
+    assert main(["info", str(out)]) == 0
+    cap = capsys.readouterr()
+    assert "the right leg (R) is missing" in cap.err and "Traceback" not in cap.err
+    assert "(left leg only: the right leg is missing)" in cap.out
+    assert _digest(tmp_path / "both.h5.R.partial.damaged") == digest

@@ -71,6 +71,11 @@ def _ready(part: Path, progress: Progress) -> None:
     recover_session(part, progress)
 
 
+def _touch(_name: str, obj: Any) -> None:
+    """Read an object's attributes (None: ``visititems`` goes on to the next object)."""
+    dict(obj.attrs)
+
+
 def _part_info(part: Path) -> tuple[dict[str, Any], ClockFit]:
     try:
         with h5py.File(part, "r") as f:
@@ -91,6 +96,9 @@ def _part_info(part: Path) -> tuple[dict[str, Any], ClockFit]:
                 "last": float(t[-1]) if n else np.nan,
                 "serial": f["device"].attrs.get("serial", ""),
             }
+            # every object's header and attributes, as the group copy will read them (a
+            # damaged header fails here, and the part is set aside, not the combine stopped)
+            f.visititems(_touch)
     except (PermissionError, FileNotFoundError) as e:  # the bytes may be fine: try again later
         raise SessionError(f"cannot read {part.name} ({_short_error(e)})") from e
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as e:
@@ -210,7 +218,7 @@ def combine_parts(path: str | os.PathLike[str], progress: Progress = None) -> Pa
         _fsync_path(tmp)
         os.replace(tmp, path)
         _fsync_path(path.parent, directory=True)
-    except OSError as e:
+    except (OSError, RuntimeError, ValueError, KeyError) as e:  # h5py's, as its errors come
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise SessionError(
