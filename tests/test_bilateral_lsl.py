@@ -108,3 +108,58 @@ def test_record_bilateral_lsl_publishes_each_leg_on_its_own_clock(tmp_path: Path
         # within 100 ppm of that unit's own rate (the two are 800 ppm apart)
         assert slope[side] / nominal - 1 == pytest.approx(0.0, abs=100e-6), side
     assert (slope["L"] / slope["R"] - 1) * 1e6 == pytest.approx(-800, abs=150)
+
+
+def test_each_legs_events_say_the_sessions_file_on_their_own_streams(tmp_path: Path) -> None:
+    """In process: EnginePair streams first (record=False, as with --zero), the inlets open,
+    then both parts start; each leg's events stream says recording_start with the session's
+    file name (not its part's), and the two legs' streams are distinct."""
+    from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.engine import Engine
+    from gaitmon.engine.pair import EnginePair
+    from gaitmon.io.device import Device
+    from gaitmon.io.session import SessionMeta
+    from gaitmon.io.sim.bilateral import BilateralConfig, BilateralSim
+    from gaitmon.io.transport import InProcessTransport
+    from gaitmon.lsl.layout import EventWord, parse_event
+    from gaitmon.lsl.outlets import LslOutlets
+
+    unit_id = f"test{uuid.uuid4().hex[:8]}"
+    sim = BilateralSim(BilateralConfig(speed=SPEED))
+    pair = EnginePair(*(Engine(Device(InProcessTransport(u)), "raw", PipelineConfig())
+                        for u in sim.units))  # fmt: skip
+    outlets: dict[str, LslOutlets] = {}
+
+    def open_outlets(side: str, engine: Engine) -> None:
+        outlets[side] = LslOutlets.attach(engine, SessionMeta(side=side), unit=unit_id, leg=side)
+
+    out = tmp_path / "both.h5"
+    pair.start(out, record=False, before_stream=open_outlets)
+    try:
+        inlets = {}
+        for side in "LR":
+            found = pylsl.resolve_byprop("source_id", layout.source_id(unit_id, "events", side),
+                                         1, 10.0)  # fmt: skip
+            assert found, side
+            inlets[side] = pylsl.StreamInlet(found[0], recover=False)
+            inlets[side].open_stream(timeout=10.0)
+            assert inlets[side].info().name() == f"gaitmon {unit_id} {side} events"
+        pair.start_recording()
+        words: dict[str, list[str]] = {"L": [], "R": []}
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and not all(
+            any(w.startswith("recording_start") for w in ws) for ws in words.values()
+        ):
+            for side, inlet in inlets.items():
+                data, _ts = inlet.pull_chunk(timeout=0.1)
+                words[side] += [d[0] for d in data]
+    finally:
+        pair.stop()
+        for o in outlets.values():
+            o.detach()
+    pair.finish()
+    for side in "LR":
+        starts = [parse_event(w) for w in words[side] if w.startswith("recording_start")]
+        assert starts == [(EventWord.RECORDING_START, "both.h5")], (side, words[side])
+    with open_bilateral(out) as b:
+        assert b.sides == ("L", "R")

@@ -219,6 +219,9 @@ class LslOutlets:
             events.append((k0, event_text(EventWord.RECORDING_STOP)))
         if out.recording_started:
             name = Path(out.recording_started).name
+            part = f".{self.leg}.partial"  # a leg's part: the session's file is what counts
+            if self.leg and name.endswith(part):
+                name = name[: -len(part)]
             events.append((k0, event_text(EventWord.RECORDING_START, name)))
         if out.config is not None:
             events.append((k0, event_text(EventWord.CONFIG, json.dumps(out.config.as_dict()))))
