@@ -37,7 +37,7 @@ def both(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def pdf(both: Path) -> Path:
+def pdf(qapp: object, both: Path) -> Path:  # qapp: pytest-qt's application, not the report's
     out = both.with_name("report.pdf")
     assert main(["report", str(both), "-o", str(out), "-q"]) == 0
     return out
@@ -148,7 +148,7 @@ def test_table_numbers_are_analyse_bilaterals_and_show_the_hemiparetic_step(
     assert sr == pytest.approx(g.symmetry_of("step_s").ratio, abs=5e-4)
 
 
-def test_both_legs_curves_are_the_one_leg_reports_and_are_drawn(both: Path) -> None:
+def test_both_legs_curves_are_the_one_leg_reports_and_are_drawn(qapp: object, both: Path) -> None:
     from PySide6.QtGui import QImage
 
     from gaitmon.report import report_from_file
@@ -192,7 +192,7 @@ def test_pdf_is_two_small_pages_with_both_legs(pdf: Path) -> None:
 
 
 @needs_poppler
-def test_side_still_gives_one_leg_and_deidentify_hides_who(both: Path) -> None:
+def test_side_still_gives_one_leg_and_deidentify_hides_who(qapp: object, both: Path) -> None:
     one = both.with_name("left.pdf")
     assert main(["report", str(both), "--side", "L", "-o", str(one), "-q"]) == 0
     text = _text(one)
@@ -241,3 +241,34 @@ def test_a_heading_that_does_not_fit_under_the_head_moves_to_the_next_page() -> 
     assert pages[1][0] == (22.0, heading)
     # what fits stays
     assert [len(pg) for pg in paginate([heading, row], 270.0, 22.0, 282.0)] == [2]
+
+
+def test_gap_sizes_past_the_listing_limit_are_counted_not_listed_empty(
+    qapp: object, both: Path
+) -> None:
+    """More short gaps than MAX_LISTED: a size the list has no room left for says how many
+    gaps of it there are (it read "2 frames (20 ms) lost at  s; and 15 more gaps ...")."""
+    import dataclasses
+
+    from PySide6.QtGui import QImage, QPainter
+
+    from gaitmon.report import GapSpan, report_from_file
+    from gaitmon.ui.report_pdf import sheet
+    from gaitmon.ui.report_pdf.page import Page
+
+    data = report_from_file(both, side="L")
+    one = [GapSpan(0.1 * k, 0.1 * k + 0.01, 0.01, 1, "lost") for k in range(sheet.MAX_LISTED + 5)]
+    two = [GapSpan(50.0 + k, 50.02 + k, 0.02, 2, "lost") for k in range(15)]
+    data = dataclasses.replace(data, gaps=tuple(one + two))
+    img = QImage(800, 1100, QImage.Format.Format_RGB32)
+    painter = QPainter(img)
+    try:
+        p = Page(painter, img, img.width() / 210.0)
+        for b in sheet._gap_list(p, data):
+            b.draw(p, 0.0)
+    finally:
+        painter.end()
+    text = " ".join(box[5] for box in p.boxes)
+    assert "lost at  s" not in text and " at s;" not in text.replace("  ", " ")
+    assert "5 more gaps of this size" in text
+    assert "15 gaps of 2 frames (20 ms) each (0.30 s in total), not listed one by one" in text

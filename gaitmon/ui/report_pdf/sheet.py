@@ -438,9 +438,14 @@ def _gap_list(p: Page, data: ReportData) -> list[Block]:
             shown = of_size[: max(0, left)]
             left -= len(shown)
             dur = of_size[0].duration_s
-            text = (f"{count(n, 'frame')} ({fmt(1000 * dur, 0)} ms) lost at "
-                    + ", ".join(fmt(g.from_s, 2) for g in shown) + " s")  # fmt: skip
-            if len(shown) < len(of_size):
+            if not shown:  # the list's room is spent: this size only counted
+                text = (f"{count(len(of_size), 'gap')} of {count(n, 'frame')} "
+                        f"({fmt(1000 * dur, 0)} ms) each ({fmt(len(of_size) * dur, 2)} s in "
+                        "total), not listed one by one")  # fmt: skip
+            else:
+                text = (f"{count(n, 'frame')} ({fmt(1000 * dur, 0)} ms) lost at "
+                        + ", ".join(fmt(g.from_s, 2) for g in shown) + " s")  # fmt: skip
+            if shown and len(shown) < len(of_size):
                 more = len(of_size) - len(shown)
                 text += (f"; and {count(more, 'more gap')} of this size "
                          f"({fmt(more * dur, 2)} s in total), not listed one by one")  # fmt: skip
