@@ -31,7 +31,7 @@ from gaitmon.report_bilateral import (
 )
 from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.cycle_plot import CurveStyle, draw_cycles
-from gaitmon.ui.report_pdf.output import render_a4_image, write_a4_pdf, write_png
+from gaitmon.ui.report_pdf.output import pdf_title, render_a4_image, write_a4_pdf, write_png
 from gaitmon.ui.report_pdf.page import MUTED, NORM, PAGE_H_MM, PAGE_W_MM, Page, fmt
 from gaitmon.ui.report_pdf.sheet import (
     CONTINUED_TOP_MM,
@@ -235,14 +235,9 @@ def write_bilateral_pdf(data: BilateralReportData, path: str | os.PathLike[str],
                         dpi: int = 600) -> Path:  # fmt: skip
     """Write the A4 PDF (atomically, as the one-leg report)."""
     h = data.left.header
-    who = h.patient_id if h.patient_id and not h.deidentified else ""
-    return write_a4_pdf(
-        path,
-        lambda painter, device, new_page: paint_bilateral_report(painter, device, data, new_page),
-        creator=data.software,
-        title="Gait analysis report, both legs" + (f" {who}" if who else ""),
-        dpi=dpi,
-    )
+    title = pdf_title("Gait analysis report, both legs", h.patient_id, h.deidentified)
+    return write_a4_pdf(path, lambda painter, device, new_page: paint_bilateral_report(
+        painter, device, data, new_page), creator=data.software, title=title, dpi=dpi)  # fmt: skip
 
 
 def render_bilateral_image(data: BilateralReportData, dpi: float = 150.0) -> QImage:
