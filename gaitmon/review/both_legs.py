@@ -1,0 +1,102 @@
+"""The review window's Both legs panel, computed without Qt (so a worker and tests run it).
+
+The numbers are :func:`gaitmon.analysis.analyse_bilateral`'s, the one place the bilateral
+measures are computed (``gaitmon info`` prints the same, to the same digits): per side, the
+step time, stance, swing, initial and terminal double support and single support (% of the
+stride and seconds); the symmetry table (SR = left / right, SI = 2 |L - R| / (L + R)); the
+measured cadence. Each side's excluded strides are left out as ``analyse_bilateral`` leaves
+them out; the leg shown in review passes the ranges in force there, the other leg's are the
+ones stored for it (``FILE.L|R.review.json``). Definitions: ``docs/bilateral.md``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gaitmon.analysis import BilateralAnalysis, analyse_bilateral
+from gaitmon.io.session.bilateral import open_bilateral
+
+if TYPE_CHECKING:
+    from gaitmon.dsp.bilateral import SideGait, Symmetry
+    from gaitmon.io.session.exclusions import Exclusion
+
+# the per-side table: (label, SideGait measure, shown as % of the stride too)
+PER_SIDE: tuple[tuple[str, str, bool], ...] = (
+    ("step time", "step_s", False),
+    ("stance", "stance_s", True),
+    ("swing", "swing_s", True),
+    ("initial double support", "initial_double_support_s", True),
+    ("terminal double support", "terminal_double_support_s", True),
+    ("single support", "single_support_s", True),
+)
+
+
+def fmt(v: float, digits: int, unit: str = "") -> str:
+    """A figure as ``gaitmon info`` prints it ("-" where it is undefined)."""
+    return "-" if not np.isfinite(v) else f"{v:.{digits}f}{unit}"
+
+
+def side_cell(sg: SideGait, measure: str, pct: bool) -> str:
+    """``59.7 % (0.656 s)`` (a phase of the stride) or ``0.506 s`` (the step time)."""
+    secs = fmt(sg.mean(measure), 3, " s")
+    return f"{fmt(sg.pct_mean(measure), 1, ' %')} ({secs})" if pct else secs
+
+
+@dataclass(frozen=True)
+class BothLegs:
+    """The bilateral measures of one bilateral file, with the exclusions they were made with."""
+
+    path: Path
+    analysis: BilateralAnalysis
+
+    @property
+    def n_strides(self) -> dict[str, int]:
+        """Strides that count, per side (those with a stride time after the exclusions)."""
+        g = self.analysis.gait
+        return {s.side: int(np.isfinite(s.stride_s).sum()) for s in (g.left, g.right)}
+
+    @property
+    def comparable(self) -> bool:
+        """Both legs have a stride that counts: there is something to compare."""
+        n = self.n_strides
+        return bool(n["L"] and n["R"])
+
+    @property
+    def cadence_steps_min(self) -> float:
+        return self.analysis.gait.cadence_steps_min
+
+    def per_side_rows(self) -> list[tuple[str, str, str]]:
+        """(measure, left, right) cells of the per-side table."""
+        g = self.analysis.gait
+        return [(label, side_cell(g.left, m, pct), side_cell(g.right, m, pct))
+                for label, m, pct in PER_SIDE]  # fmt: skip
+
+    @property
+    def symmetry(self) -> tuple[Symmetry, ...]:
+        return self.analysis.gait.symmetry
+
+    def symmetry_rows(self) -> list[tuple[str, str, str, str, str]]:
+        """(measure, left, right, SR, SI) cells of the symmetry table."""
+        return [(r.label, fmt(r.left, 3, " s"), fmt(r.right, 3, " s"), fmt(r.ratio, 3),
+                 fmt(r.index_pct, 1, " %")) for r in self.symmetry]  # fmt: skip
+
+    def excluded_by_user(self) -> dict[str, int]:
+        """Strides each side leaves out for a range the user excluded."""
+        return {s: a.n_user_excluded for s, a in self.analysis.sides.items()}
+
+
+def both_legs(
+    path: str | Path, side: str = "", exclusions: Sequence[Exclusion] | None = None
+) -> BothLegs:
+    """Open the bilateral file at ``path`` (its own handles, closed before returning) and
+    analyse both legs, ``side``'s with ``exclusions`` (the ranges in force in review) when
+    given. Raises :class:`gaitmon.io.session.SessionError`."""
+    path = Path(path)
+    given = {side: list(exclusions)} if side and exclusions is not None else None
+    with open_bilateral(path) as b:
+        return BothLegs(path, analyse_bilateral(b, exclusions=given))
