@@ -131,17 +131,17 @@ def test_an_exclusion_on_the_left_is_kept_for_the_left_and_changes_only_its_numb
     assert after is not None and after is not before
     assert after.n_strides["L"] == before.n_strides["L"] - 3
     assert after.n_strides["R"] == before.n_strides["R"]
-    rights = [r[2] for r in after.per_side_rows()]
-    assert rights == [r[2] for r in before.per_side_rows()]
-    assert win.both_legs.cell(win.both_legs.symmetry_table, "step time", 2) == \
-        before.symmetry_rows()[0][2]  # fmt: skip
+    # (a right heel strike's row counts by the right stride it opens: none was excluded)
+    assert [r[3:5] for r in after.rows()] == [r[3:5] for r in before.rows()]
+    assert [r[1:3] for r in after.rows()] != [r[1:3] for r in before.rows()]
+    assert win.both_legs.cell("step time", "Right s") == before.rows()[0][4]
     # and it is what analyse_bilateral makes of the kept file (nothing held only in the window)
     with open_bilateral(both) as b:
         ref = analyse_bilateral(b)
     assert ref.sides["L"].n_user_excluded == 3 and ref.sides["R"].n_user_excluded == 0
-    assert after.symmetry_rows() == BothLegs(both, ref).symmetry_rows()
-    assert after.per_side_rows() == BothLegs(both, ref).per_side_rows()
-    assert after.symmetry_rows() != before.symmetry_rows()  # the left means moved
+    assert after.rows() == BothLegs(both, ref).rows()
+    shown = [tuple(win.both_legs.table.item(r, c).text() for c in range(7)) for r in range(7)]
+    assert shown == after.rows()
     # the right leg shows no exclusion; back on the left, the range is there again
     with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
         win.act["leg_R"].trigger()
@@ -163,32 +163,39 @@ def test_the_both_legs_table_is_what_analyse_bilateral_gives_and_info_prints(
     g = ref.gait
     # SR and SI of every measure, to the digits shown, and as numbers within that rounding
     for row in g.symmetry:
-        sr = panel.cell(panel.symmetry_table, row.label, 3)
+        sr = panel.cell(row.label, "SR (L/R)")
         assert sr == f"{row.ratio:.3f}"
         assert float(sr) == pytest.approx(row.left / row.right, abs=5e-4)
-        assert panel.cell(panel.symmetry_table, row.label, 4) == f"{row.index_pct:.1f} %"
+        assert panel.cell(row.label, "SI") == f"{row.index_pct:.1f} %"
     step = g.symmetry_of("step_s")
     assert 0.78 < step.ratio < 0.92  # the hemiparetic left step: 0.85 of the right
-    # the same lines as gaitmon info prints them
+    # the same figures as gaitmon info prints them
     capsys.readouterr()
     assert main(["info", str(both)]) == 0
-    out = capsys.readouterr().out
-    labels = [panel.symmetry_table.item(r, 0).text()
-              for r in range(panel.symmetry_table.rowCount())]  # fmt: skip
-    assert len(labels) == len(g.symmetry) == 6
-    for label in labels:
-        # info's symmetry row: "               step time     0.506 s   0.593 s   0.854     15.8 %"
-        line = next(ln for ln in out.splitlines()
-                    if ln.startswith(" " * 15) and ln.strip().startswith(label + " "))  # fmt: skip
-        shown = [panel.cell(panel.symmetry_table, label, c) for c in (1, 2, 3, 4)]
+    lines = capsys.readouterr().out.splitlines()
+
+    def cells(label: str) -> list[str]:
+        return [panel.cell(label, c) for c in ("Left %", "Left s", "Right %", "Right s")]
+
+    for row in g.symmetry:  # "               step time     0.506 s   0.593 s   0.854     15.8 %"
+        line = next(ln for ln in lines
+                    if ln.startswith(" " * 15) and ln.strip().startswith(row.label + " "))
+        shown = [panel.cell(row.label, c) for c in ("Left s", "Right s", "SR (L/R)", "SI")]
         assert " ".join(shown).split() == line.split()[-7:]
-    stance = next(ln for ln in out.splitlines() if ln.strip().startswith("stance   "))
-    assert (f"L {panel.cell(panel.side_table, 'stance', 1)}, "
-            f"R {panel.cell(panel.side_table, 'stance', 2)}") in stance  # fmt: skip
+    l_s, r_s = cells("step time")[1::2]
+    assert any(ln.startswith("  step time    ") and f"L {l_s}, R {r_s}" in ln for ln in lines)
+    for label, printed in (("stance", "  stance "), ("swing", "  swing "),
+                           ("initial double support", "  double supp. initial "),
+                           ("terminal double support", " " * 15 + "terminal "),
+                           ("single support", "  single supp. ")):  # fmt: skip
+        lp, ls, rp, rs = cells(label)
+        assert any(ln.startswith(printed) and f"L {lp} ({ls}), R {rp} ({rs})" in ln
+                   for ln in lines), label  # fmt: skip
+    out = "\n".join(lines)
     cadence = next(ln for ln in out.splitlines() if ln.strip().startswith("cadence  ")
                    and "measured" in ln)  # fmt: skip
-    assert f"cadence      {round(g.cadence_steps_min)} steps/min" in cadence
-    assert f"cadence <b>{round(g.cadence_steps_min)}</b> steps/min" in panel.headline.text()
+    assert f"cadence      {g.cadence_steps_min:.0f} steps/min" in cadence
+    assert f"cadence <b>{g.cadence_steps_min:.0f}</b> steps/min" in panel.headline.text()
 
 
 def test_export_report_and_filters_take_the_leg_shown(qtbot, win, both, tmp_path,
@@ -275,3 +282,19 @@ def test_review_command_takes_a_side(both, tmp_path, monkeypatch, capsys) -> Non
     assert main(["review", str(one), "--side", "L"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "records one unit; leave --side out" in err
+
+
+def test_the_ranges_in_force_count_even_when_no_file_keeps_them(both) -> None:
+    """(Qt-free) The leg shown counts the window's ranges as given, e.g. when the folder is
+    read-only and nothing could be written; the other leg counts what is kept for it."""
+    from gaitmon.io.session.exclusions import Exclusion
+    from gaitmon.review.both_legs import both_legs
+
+    with open_session(both, side="R") as s:
+        n = s.n_samples
+    plain = both_legs(both, "R", [])
+    given = both_legs(both, "R", [Exclusion(n // 3, 2 * n // 3, "turn")])
+    assert not list(both.parent.glob("*.review.json"))  # nothing was written
+    assert given.analysis.sides["R"].n_user_excluded > 0
+    assert given.n_strides["R"] < plain.n_strides["R"]
+    assert given.n_strides["L"] == plain.n_strides["L"]

@@ -22,29 +22,25 @@ from gaitmon.analysis import BilateralAnalysis, analyse_bilateral
 from gaitmon.io.session.bilateral import open_bilateral
 
 if TYPE_CHECKING:
-    from gaitmon.dsp.bilateral import SideGait, Symmetry
+    from gaitmon.dsp.bilateral import Symmetry
     from gaitmon.io.session.exclusions import Exclusion
 
-# the per-side table: (label, SideGait measure, shown as % of the stride too)
-PER_SIDE: tuple[tuple[str, str, bool], ...] = (
+# the table's rows: (label, SideGait measure, shown as % of the stride too)
+MEASURES: tuple[tuple[str, str, bool], ...] = (
     ("step time", "step_s", False),
+    ("stride time", "stride_s", False),
     ("stance", "stance_s", True),
     ("swing", "swing_s", True),
     ("initial double support", "initial_double_support_s", True),
     ("terminal double support", "terminal_double_support_s", True),
     ("single support", "single_support_s", True),
 )
+COLUMNS = ("Measure", "Left %", "Left s", "Right %", "Right s", "SR (L/R)", "SI")
 
 
 def fmt(v: float, digits: int, unit: str = "") -> str:
     """A figure as ``gaitmon info`` prints it ("-" where it is undefined)."""
     return "-" if not np.isfinite(v) else f"{v:.{digits}f}{unit}"
-
-
-def side_cell(sg: SideGait, measure: str, pct: bool) -> str:
-    """``59.7 % (0.656 s)`` (a phase of the stride) or ``0.506 s`` (the step time)."""
-    secs = fmt(sg.mean(measure), 3, " s")
-    return f"{fmt(sg.pct_mean(measure), 1, ' %')} ({secs})" if pct else secs
 
 
 @dataclass(frozen=True)
@@ -70,20 +66,26 @@ class BothLegs:
     def cadence_steps_min(self) -> float:
         return self.analysis.gait.cadence_steps_min
 
-    def per_side_rows(self) -> list[tuple[str, str, str]]:
-        """(measure, left, right) cells of the per-side table."""
-        g = self.analysis.gait
-        return [(label, side_cell(g.left, m, pct), side_cell(g.right, m, pct))
-                for label, m, pct in PER_SIDE]  # fmt: skip
-
     @property
     def symmetry(self) -> tuple[Symmetry, ...]:
         return self.analysis.gait.symmetry
 
-    def symmetry_rows(self) -> list[tuple[str, str, str, str, str]]:
-        """(measure, left, right, SR, SI) cells of the symmetry table."""
-        return [(r.label, fmt(r.left, 3, " s"), fmt(r.right, 3, " s"), fmt(r.ratio, 3),
-                 fmt(r.index_pct, 1, " %")) for r in self.symmetry]  # fmt: skip
+    def rows(self) -> list[tuple[str, ...]]:
+        """The table's cells, one row a measure (:data:`COLUMNS`): each side's mean as % of
+        the stride (the phases of the stride only) and in seconds, then SR and SI (the
+        measures of the symmetry table only: one side's terminal double support is the
+        other's initial one)."""
+        g = self.analysis.gait
+        sym = {r.measure: r for r in g.symmetry}
+        out = []
+        for label, m, pct in MEASURES:
+            cells = [label]
+            for sg in (g.left, g.right):
+                cells += [fmt(sg.pct_mean(m), 1, " %") if pct else "", fmt(sg.mean(m), 3, " s")]
+            r = sym.get(m)
+            cells += ["", ""] if r is None else [fmt(r.ratio, 3), fmt(r.index_pct, 1, " %")]
+            out.append(tuple(cells))
+        return out
 
     def excluded_by_user(self) -> dict[str, int]:
         """Strides each side leaves out for a range the user excluded."""

@@ -1,8 +1,9 @@
 """The review window's Both legs tab: the bilateral measures of a file that records both legs.
 
-Two tables side by side: per side (step time, stance, swing, initial and terminal double
-support, single support: % of the stride and seconds) and the symmetry table (left, right,
-SR = L / R, SI), above them the measured cadence and the strides that count. The cells are
+One table, a row a measure (step and stride time, stance, swing, initial and terminal double
+support, single support): each side's mean as % of the stride and in seconds, and the symmetry
+ratio SR = L / R and index SI; above it the measured cadence and the strides that count. The
+cells are
 :class:`gaitmon.review.both_legs.BothLegs`'s (the numbers ``gaitmon info`` prints);
 :class:`~gaitmon.ui.review.legs.LegsControl` computes them on a worker.
 """
@@ -14,7 +15,6 @@ import html
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (
     QAbstractItemView,
-    QHBoxLayout,
     QHeaderView,
     QLabel,
     QTableWidget,
@@ -23,19 +23,21 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gaitmon.review.both_legs import BothLegs, fmt
+from gaitmon.review.both_legs import COLUMNS, BothLegs, fmt
 
 NOTE = ("SR = left / right of the means (1 symmetric); SI = 2 |L − R| / (L + R) (0 % "
         "symmetric). On the common time line, from the recorded gait events; each leg's "
         "excluded strides are left out (the leg shown: the exclusions in force here; the "
         "other: those kept for it).")  # fmt: skip
-SYMMETRY_TIPS = (
-    "Measure (mean over the strides that count)",
-    "Left leg's mean",
-    "Right leg's mean",
-    "Symmetry ratio: left / right (1 is symmetric)",
+TIPS = (
+    "Mean over the strides that count",
+    "Left leg: % of its stride time (phases of the stride)",
+    "Left leg: mean, seconds",
+    "Right leg: % of its stride time (phases of the stride)",
+    "Right leg: mean, seconds",
+    "Symmetry ratio: left / right of the means (1 is symmetric)",
     "Symmetry index: 2 |L − R| / (L + R) × 100 % (0 is symmetric; it does not say which side "
-    "is larger)",
+    "is larger). None for terminal double support: one leg's is the other's initial one",
 )
 
 
@@ -50,6 +52,7 @@ def _table(headers: tuple[str, ...], tips: tuple[str, ...] = ()) -> QTableWidget
     t.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
     t.setSelectionMode(QAbstractItemView.SelectionMode.NoSelection)
     t.setAlternatingRowColors(True)
+    t.setWordWrap(False)
     h = t.horizontalHeader()
     h.setSectionResizeMode(0, QHeaderView.ResizeMode.ResizeToContents)
     for i in range(1, len(headers)):
@@ -57,7 +60,7 @@ def _table(headers: tuple[str, ...], tips: tuple[str, ...] = ()) -> QTableWidget
     return t
 
 
-def _fill(t: QTableWidget, rows: list[tuple[str, ...]]) -> None:
+def _fill(t: QTableWidget, rows: list[tuple[str, ...]]) -> None:  # cells right-aligned
     t.setRowCount(len(rows))
     for r, cells in enumerate(rows):
         for c, text in enumerate(cells):
@@ -76,21 +79,14 @@ class BothLegsPanel(QWidget):
         self.headline = QLabel()
         self.headline.setWordWrap(True)
         self.headline.setTextFormat(Qt.TextFormat.RichText)
-        self.side_table = _table(("Per side", "Left", "Right"),
-                                 ("% of the stride (mean seconds)", "Left leg", "Right leg"))
-        self.symmetry_table = _table(("Symmetry", "Left", "Right", "SR (L/R)", "SI"),
-                                     SYMMETRY_TIPS)  # fmt: skip
+        self.table = _table(COLUMNS, TIPS)
         self.note = QLabel(NOTE)
         self.note.setWordWrap(True)
         self.note.setStyleSheet("color: gray")
-        tables = QHBoxLayout()
-        tables.setContentsMargins(0, 0, 0, 0)
-        tables.addWidget(self.side_table, 4)
-        tables.addWidget(self.symmetry_table, 5)
         v = QVBoxLayout(self)
         v.setContentsMargins(2, 2, 2, 2)
         v.addWidget(self.headline)
-        v.addLayout(tables, 1)
+        v.addWidget(self.table, 1)
         v.addWidget(self.note)
         self.show_message("")
 
@@ -98,8 +94,7 @@ class BothLegsPanel(QWidget):
         """No figures: empty tables and ``text`` (computing, a failure, a one-unit file)."""
         self.result = None
         self.headline.setText(html.escape(text))
-        _fill(self.side_table, [])
-        _fill(self.symmetry_table, [])
+        _fill(self.table, [])
 
     def set_result(self, both: BothLegs) -> None:
         self.result = both
@@ -120,14 +115,14 @@ class BothLegsPanel(QWidget):
             f"(measured: both legs' steps); strides that count: left <b>{n['L']}</b>, right "
             f"<b>{n['R']}</b>{tail}"
         )
-        _fill(self.side_table, list(both.per_side_rows()))
-        _fill(self.symmetry_table, list(both.symmetry_rows()))
+        _fill(self.table, both.rows())
 
-    def cell(self, table: QTableWidget, measure: str, column: int) -> str:
-        """The text of ``measure``'s row at ``column`` (tests and screen readers)."""
-        for r in range(table.rowCount()):
-            first = table.item(r, 0)
+    def cell(self, measure: str, column: str) -> str:
+        """The text shown for ``measure`` (e.g. "step time") in ``column`` (e.g. "SR (L/R)")."""
+        t, c = self.table, COLUMNS.index(column)
+        for r in range(t.rowCount()):
+            first = t.item(r, 0)
             if first is not None and first.text() == measure:
-                item = table.item(r, column)
+                item = t.item(r, c)
                 return item.text() if item is not None else ""
         raise KeyError(f"no row {measure!r}")

@@ -63,7 +63,11 @@ class LegBar(QWidget):
             self.group.addButton(b)
             self.buttons[side] = b
             h.addWidget(b)
-        self.hint = QLabel("the Both legs tab below compares them")
+        # the leg shown stands out: the chooser is the one thing that says which leg this is
+        self.setStyleSheet("QToolButton { padding: 2px 12px; } QToolButton:checked { "
+                           "background: palette(highlight); color: palette(highlighted-text); "
+                           "font-weight: bold; }")  # fmt: skip
+        self.hint = QLabel("the Both legs tab below compares them (symmetry, measured cadence)")
         self.hint.setStyleSheet("color: gray")
         h.addWidget(self.hint)
         h.addStretch(1)
