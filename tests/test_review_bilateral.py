@@ -105,6 +105,24 @@ def test_switching_to_the_right_leg_shows_its_traces_strides_and_cycles(
     assert win.timeline.trace_points("knee", "processed/joint_deg", 1) > 100
 
 
+def test_the_other_leg_opens_on_the_same_stretch_and_angles(qtbot, win, both) -> None:
+    open_and_wait(qtbot, win, both)
+    assert win.doc.angle_source == "smoothed"
+    with qtbot.waitSignal(win.angles_changed, timeout=WAIT_MS):
+        win.act["angles_live"].trigger()
+    win.timeline.set_view(4.0, 8.0)
+    # the right leg opens (smoothed, as any file), then shows the live angles as the left did
+    with qtbot.waitSignal(win.angles_changed, timeout=WAIT_MS):
+        win.act["leg_R"].trigger()
+    assert win.doc.side == "R" and win.doc.angle_source == "live"
+    assert win.act["angles_live"].isChecked()
+    # the same moments: left 4 s and 8 s on the common time line, as right unit times
+    with open_bilateral(both) as b:
+        t_r = b.unit("R").read("timeline/t_s")
+        want = np.interp(b.common_s("L", np.array([4.0, 8.0])), b.common_s("R", t_r), t_r)
+    assert win.timeline.view_range() == pytest.approx(tuple(want), abs=0.01)
+
+
 def test_an_exclusion_on_the_left_is_kept_for_the_left_and_changes_only_its_numbers(
     qtbot, win, both
 ) -> None:

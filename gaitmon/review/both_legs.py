@@ -12,7 +12,7 @@ ones stored for it (``FILE.L|R.review.json``). Definitions: ``docs/bilateral.md`
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -49,6 +49,9 @@ class BothLegs:
 
     path: Path
     analysis: BilateralAnalysis
+    # per side: (first, last unit time s, and both on the common time line): the unit's clock
+    # as a line, to show the other leg at the same moment (its wander is well under a ms)
+    clock: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
 
     @property
     def n_strides(self) -> dict[str, int]:
@@ -87,6 +90,16 @@ class BothLegs:
             out.append(tuple(cells))
         return out
 
+    def moved_to(self, side: str, other: str, t_s: float) -> float:
+        """``side``'s unit time ``t_s`` as ``other``'s unit time at the same moment (the
+        common time line); unchanged when a side's clock is not known."""
+        if side not in self.clock or other not in self.clock:
+            return t_s
+        a0, a1, c0, c1 = self.clock[side]
+        common = c0 + (t_s - a0) * ((c1 - c0) / (a1 - a0) if a1 > a0 else 1.0)
+        b0, b1, d0, d1 = self.clock[other]
+        return b0 + (common - d0) * ((b1 - b0) / (d1 - d0) if d1 > d0 else 1.0)
+
     def excluded_by_user(self) -> dict[str, int]:
         """Strides each side leaves out for a range the user excluded."""
         return {s: a.n_user_excluded for s, a in self.analysis.sides.items()}
@@ -101,4 +114,12 @@ def both_legs(
     path = Path(path)
     given = {side: list(exclusions)} if side and exclusions is not None else None
     with open_bilateral(path) as b:
-        return BothLegs(path, analyse_bilateral(b, exclusions=given))
+        clock = {}
+        for s in b.sides:
+            u = b.unit(s)
+            if u.n_samples > 1:
+                t = u.read("timeline/t_s")
+                ends = np.array([t[0], t[-1]], dtype=np.float64)
+                c = b.common_s(s, ends)
+                clock[s] = (float(ends[0]), float(ends[1]), float(c[0]), float(c[1]))
+        return BothLegs(path, analyse_bilateral(b, exclusions=given), clock)

@@ -2,8 +2,10 @@
 
 The review window shows one leg at a time (a :class:`gaitmon.review.model.Document` is one
 unit): its traces, strides, cycles and exclusions (``FILE.L|R.review.json``). :class:`LegBar`
-is the chooser above the timeline (Left leg / Right leg, shown for a bilateral file only);
-choosing a leg reopens the file on that leg. :class:`LegsControl` keeps the Both legs tab
+is the chooser above the timeline (Left leg / Right leg, shown for a bilateral file only).
+Choosing a leg reopens the file on that leg, with the same angles and the same moment in view
+(the view's times moved through the common time line: each unit counts from its own start).
+:class:`LegsControl` keeps the Both legs tab
 (:class:`~gaitmon.ui.review.both_legs_panel.BothLegsPanel`) up to date: the bilateral measures
 are computed on their own worker (``review-bilateral``) when a leg is opened and whenever its
 exclusions change.
@@ -33,6 +35,7 @@ from gaitmon.review.model import Document
 from gaitmon.ui import one_line
 from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.review.both_legs_panel import BothLegsPanel
+from gaitmon.ui.review.timeline import Timeline
 
 NOT_SAVED = ("Not for a file that records both legs yet: gaitmon can reprocess one-unit sessions "
              "only (gaitmon process says the same). The reprocessed leg is shown here until "
@@ -100,13 +103,17 @@ class LegsControl(QObject):
 
     computed = Signal()
 
-    def __init__(self, bar: LegBar, panel: BothLegsPanel, tabs: QTabWidget,
+    def __init__(self, bar: LegBar, panel: BothLegsPanel, tabs: QTabWidget, timeline: Timeline,
                  current: Callable[[], Document | None],
-                 open_leg: Callable[[Path, str], None], parent: QObject) -> None:  # fmt: skip
+                 open_leg: Callable[[Path, str], None], set_angles: Callable[[str], None],
+                 parent: QObject) -> None:  # fmt: skip
         super().__init__(parent)
-        self.bar, self.panel, self.tabs = bar, panel, tabs
+        self.bar, self.panel, self.tabs, self.timeline = bar, panel, tabs, timeline
         self._current = current
         self._open_leg = open_leg
+        self._set_angles = set_angles
+        # what the other leg opens with: (file, angles, time range in view)
+        self._carry: tuple[Path, str, tuple[float, float]] | None = None
         self.worker = QtWorker("review-bilateral", latest=True, parent=self)
         bar.leg_chosen.connect(self.show_leg)
 
@@ -116,6 +123,11 @@ class LegsControl(QObject):
         if doc is None or not doc.bilateral or side == doc.side or side not in doc.sides:
             self.bar.set_document(doc)  # the chooser goes back to the leg shown
             return
+        x0, x1 = self.timeline.view_range()
+        both = self.panel.result
+        if both is not None and both.path == doc.path:  # the same moment on the other's clock
+            x0, x1 = (both.moved_to(doc.side, side, x) for x in (x0, x1))
+        self._carry = (doc.path, doc.angle_source, (x0, x1))
         self._open_leg(doc.path, side)
 
     def document_set(self, doc: Document | None) -> None:
@@ -130,6 +142,11 @@ class LegsControl(QObject):
             self.panel.show_message("")
             return
         self.panel.show_message("Computing both legs' measures…")
+        carry, self._carry = self._carry, None
+        if carry is not None and carry[0] == doc.path:
+            self.timeline.set_view(*carry[2])
+            if carry[1] != doc.angle_source and carry[1] in doc.angle_sources:
+                self._set_angles(carry[1])
         self.refresh(doc)
 
     def update_actions(self, act: dict[str, QAction], save_tip: str) -> None:

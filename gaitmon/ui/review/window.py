@@ -148,8 +148,8 @@ class ReviewWindow(ReviewJobs):
         self.tabs = QTabWidget()
         self.tabs.addTab(left, "Strides")
         self.tabs.addTab(self.both_legs, "Both legs")
-        self.legs = LegsControl(self.leg_bar, self.both_legs, self.tabs, lambda: self.doc,
-                                self.open_file, self)  # fmt: skip
+        self.legs = LegsControl(self.leg_bar, self.both_legs, self.tabs, self.timeline,
+                                lambda: self.doc, self.open_file, self.set_angles, self)
         self.tabs.setTabVisible(1, False)
         bottom = QSplitter(Qt.Orientation.Horizontal)
         bottom.addWidget(self.tabs)
