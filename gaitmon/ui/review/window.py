@@ -18,10 +18,8 @@ data folder when the recording's folder is read-only (both owned by
 :mod:`gaitmon.io.session.exclusions`, so ``gaitmon info`` and the report see them too). The
 recording itself is never written.
 
-A file that records both legs is shown one leg at a time (:mod:`~gaitmon.ui.review.legs`: the
-leg chooser above the timeline, and a Both legs tab with the bilateral measures). Everything
-that works on "the file" works on the leg shown: its exclusions (``FILE.L|R.review.json``),
-export and report (``--side``), the Filters view; saving a reprocessed leg is not offered.
+A file that records both legs is shown one leg at a time (:mod:`~gaitmon.ui.review.legs`): its
+exclusions (``FILE.L|R.review.json``), export, report and Filters view are that leg's.
 """
 
 from __future__ import annotations
@@ -400,7 +398,6 @@ class ReviewWindow(ReviewJobs):
         doc = self.doc
         assert doc is not None
         try:
-            # one leg of a bilateral file keeps its own (FILE.L.review.json)
             sp = excl.save(doc.exclusions_key, doc.exclusions, doc.session.created_utc,
                            doc.n_rows, doc.t_s)  # fmt: skip
             where = (f"kept in {sp.name}" if sp.parent == doc.path.parent
@@ -477,7 +474,6 @@ class ReviewWindow(ReviewJobs):
 
         # the angles shown are the ones exported (and named in the export's metadata)
         doc = self.doc
-        # of a bilateral file, the leg shown (gaitmon export --side)
         dlg = ExportDialog(doc.path, self, angles=doc.angle_source,
                            angle_method=doc.angle_method_of(doc.angle_source),
                            side=doc.side or None)  # fmt: skip
