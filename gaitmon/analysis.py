@@ -16,7 +16,7 @@ it overlaps a range the user excluded (e.g. a turn). Strides longer than
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -502,11 +502,16 @@ class BilateralAnalysis:
     gait: BilateralGait  # the rows of excluded strides set to NaN; symmetry over the rest
 
 
-def analyse_bilateral(bilateral: Bilateral) -> BilateralAnalysis:
+def analyse_bilateral(
+    bilateral: Bilateral, *, exclusions: Mapping[str, Sequence[Exclusion]] | None = None
+) -> BilateralAnalysis:
     """Each side analysed as one unit (``analyse_session``: its stride exclusions), its events
     mapped to common time by the session's clock fits, then ``dsp.bilateral.bilateral_gait``.
     A heel strike's row counts when the stride it opens is included on its side; cadence is
-    measured from both legs' steps."""
+    measured from both legs' steps.
+
+    ``exclusions``: a side's ranges in force (review passes the leg it shows, as it has them);
+    a side not given has the ranges stored for it (``FILE.L|R.review.json``)."""
     from gaitmon.dsp.bilateral import bilateral_gait, keep_rows
 
     per: dict[str, SessionAnalysis] = {}
@@ -519,7 +524,7 @@ def analyse_bilateral(bilateral: Bilateral) -> BilateralAnalysis:
             included[side] = set()
             continue
         s = bilateral.unit(side)
-        an = analyse_session(s)
+        an = analyse_session(s, exclusions=None if exclusions is None else exclusions.get(side))
         per[side] = an
         t = s.read("timeline/t_s") if s.n_samples else np.empty(0)
         hs, to = s.heel_strike_idx, s.toe_off_idx

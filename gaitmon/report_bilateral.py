@@ -81,7 +81,7 @@ def symmetry_lines(an: BilateralAnalysis) -> tuple[SymmetryLine, ...]:
         ratio = row.ratio if row else symmetry_ratio(lv, rv)
         index = row.index_pct if row else symmetry_index_pct(lv, rv)
         lp, rp = ((np.nan, np.nan) if m in NO_PCT
-                  else (g.left.mean_pct(m), g.right.mean_pct(m)))  # fmt: skip
+                  else (g.left.pct_mean(m), g.right.pct_mean(m)))  # fmt: skip
         out.append(SymmetryLine(m, lv, rv, lp, rp, ratio, index))
     return tuple(out)
 

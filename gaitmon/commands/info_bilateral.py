@@ -62,7 +62,7 @@ def bilateral_lines(an: BilateralAnalysis) -> list[str]:
         parts = []
         for s, sg in sides:
             parts.append(
-                f"{s} {_f(sg.mean_pct(measure), 1, ' %')} ({_f(sg.mean(measure), 3, ' s')})"
+                f"{s} {_f(sg.pct_mean(measure), 1, ' %')} ({_f(sg.mean(measure), 3, ' s')})"
             )
         return ", ".join(parts)
 

@@ -103,15 +103,15 @@ class SideGait:
         """A per-stride measure as % of its stride time."""
         return np.asarray(100.0 * getattr(self, measure) / self.stride_s)
 
-    def mean_pct(self, measure: str) -> float:
-        """Mean of :meth:`pct` over the rows where it is defined (NaN if none is)."""
-        v = self.pct(measure)
-        v = v[np.isfinite(v)]
-        return float(v.mean()) if len(v) else float("nan")
-
     def mean(self, measure: str) -> float:
         """Mean over the rows where the measure is defined (NaN if none is)."""
         v = np.asarray(getattr(self, measure), dtype=np.float64)
+        v = v[np.isfinite(v)]
+        return float(v.mean()) if len(v) else float("nan")
+
+    def pct_mean(self, measure: str) -> float:
+        """Mean of :meth:`pct` over the rows where it is defined (NaN if none is)."""
+        v = self.pct(measure)
         v = v[np.isfinite(v)]
         return float(v.mean()) if len(v) else float("nan")
 
