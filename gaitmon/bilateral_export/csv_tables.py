@@ -15,7 +15,7 @@ import contextlib
 import json
 from pathlib import Path
 
-from gaitmon.bilateral_export import Job, analysed, meta_header, write_atomic
+from gaitmon.bilateral_export.job import Job, analysed, meta_header, write_atomic
 from gaitmon.bilateral_export.tables import (
     HEEL_STRIKE_COLUMNS,
     SYMMETRY_COLUMNS,

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from gaitmon.bilateral_export import Job, analysed, leg_sources, meta_header, write_atomic
+from gaitmon.bilateral_export.job import Job, analysed, leg_sources, meta_header, write_atomic
 from gaitmon.bilateral_export.tables import (
     HEEL_STRIKE_COLUMNS,
     PCT_MEASURES,
