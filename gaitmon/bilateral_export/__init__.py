@@ -19,44 +19,15 @@ reused, not copied. Documented in docs/bilateral.md ("Exports") and docs/file-fo
 
 from __future__ import annotations
 
-import os
-from collections.abc import Mapping
-from pathlib import Path
-from typing import Any
-
 from gaitmon.bilateral_export.job import Job
-from gaitmon.io.export import ExportError, ExportResult, default_output
-from gaitmon.io.export.errors import Cancel, Progress
-from gaitmon.io.export.registry import FORMATS
-
-BILATERAL_FORMATS = ("csv", "strides", "mat", "c3d", "bids")
+from gaitmon.io.export import ExportResult
 
 
-def export_bilateral(
-    src_path: str | os.PathLike[str],
-    fmt: str,
-    out: str | os.PathLike[str] | None = None,
-    *,
-    deidentify: bool | None = None,
-    force: bool = False,
-    progress: Progress | None = None,
-    cancel: Cancel | None = None,
-    chunk_rows: int | None = None,
-    angles: str = "smoothed",
-    options: Mapping[str, Any] | None = None,
-) -> ExportResult:
-    """Export both legs of a bilateral session and its bilateral measures (arguments as
-    :func:`gaitmon.io.export.export_session`). Raises ExportError (one line)."""
-    if fmt not in FORMATS:
-        raise ExportError(f"unknown format {fmt!r} (choose from {', '.join(FORMATS)})")
-    form = FORMATS[fmt]
-    deid = form.deidentify_default if deidentify is None else bool(deidentify)
-    src_path = Path(src_path)
-    if src_path.is_dir():
-        raise ExportError(f"{src_path} is a directory, not a session file")
-    base = Path(out) if out is not None else default_output(src_path, fmt, deidentify=deid)
-    form.check_available()
-    job = Job(src_path, fmt, base, deid, force, progress, cancel, chunk_rows, angles, options)
+def export_bilateral(job: Job) -> ExportResult:
+    """Export both legs of a bilateral session and its bilateral measures; called by
+    :func:`gaitmon.io.export.export_session` for a file of both legs without a side. Raises
+    ExportError (one line)."""
+    fmt = job.fmt
     if fmt in ("csv", "strides"):
         from gaitmon.bilateral_export.csv_tables import export_csv
         return export_csv(job)

@@ -1,17 +1,15 @@
-"""One export of both legs: what was asked (:class:`Job`), and what every format shares: the
+"""One export of both legs (:class:`Job`, the request), and what every format shares: the
 session opened and analysed, each leg as the one-leg exporters read it, atomic writing, and
 the side files' header."""
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gaitmon.io.export import ExportError
-from gaitmon.io.export.errors import Cancel, Progress
+from gaitmon.io.export import ExportError, ExportRequest
 from gaitmon.io.export.registry import FORMATS
 
 if TYPE_CHECKING:
@@ -21,38 +19,8 @@ if TYPE_CHECKING:
     from gaitmon.io.session.bilateral import Bilateral
 
 
-@dataclass(frozen=True)
-class Job:
-    """One export of both legs: what ``export_bilateral`` was asked."""
-
-    src_path: Path
-    fmt: str
-    out: Path  # the output name the legs' and tables' names are made from
-    deidentify: bool
-    force: bool
-    progress: Progress | None
-    cancel: Cancel | None
-    chunk_rows: int | None
-    angles: str
-    options: Mapping[str, Any] | None
-
-    def named(self, tag: str) -> Path:
-        """``out`` with ``_tag`` before the format's suffix: out.csv -> out_L.csv,
-        out.strides.csv -> out_L.strides.csv (as ``--side L`` names it)."""
-        suffix = FORMATS[self.fmt].suffix
-        name = self.out.name
-        if suffix and name.endswith(suffix) and name != suffix:
-            stem, ext = name[: -len(suffix)], suffix
-        else:
-            stem, ext = self.out.stem, self.out.suffix
-        return self.out.with_name(f"{stem}_{tag}{ext}")
-
-    def stage(self, lo: float, hi: float) -> Progress | None:
-        """Progress of one stage, mapped onto [lo, hi] of the whole."""
-        progress = self.progress
-        if progress is None:
-            return None
-        return lambda f: progress(lo + (hi - lo) * float(f))
+# one export of both legs, as export_session resolved it
+Job = ExportRequest
 
 
 @contextlib.contextmanager

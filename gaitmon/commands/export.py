@@ -82,8 +82,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.io.export import ExportError, export_session, session_length
     from gaitmon.io.session.parts import is_bilateral
 
-    # a bilateral file without --side: both legs and the bilateral measures
-    both = args.side is None and is_bilateral(args.file)
+    both = args.side is None and is_bilateral(args.file)  # both legs are exported
     if not both:
         check_side(args.file, args.side)
     t0 = time.perf_counter()
@@ -97,20 +96,12 @@ def run(args: argparse.Namespace) -> int:
             rows = session_length(args.file, "L" if both else args.side)
             if not args.quiet and rows >= PROGRESS_MIN_SAMPLES:
                 progress = Progress(f"exporting {args.format}")
-            if both:
-                from gaitmon.bilateral_export import export_bilateral
-
-                result = export_bilateral(
-                    args.file, args.format, args.output, deidentify=args.deidentify,
-                    force=args.force, progress=progress, angles=args.angles,
-                    options=options or None,
-                )
-            else:
-                result = export_session(
-                    args.file, args.format, args.output,
-                    deidentify=args.deidentify, force=args.force, progress=progress,
-                    angles=args.angles, options=options or None, side=args.side,
-                )
+            # a bilateral file without --side: both legs and the bilateral measures
+            result = export_session(
+                args.file, args.format, args.output,
+                deidentify=args.deidentify, force=args.force, progress=progress,
+                angles=args.angles, options=options or None, side=args.side,
+            )
     except (ExportError, UserError) as exc:
         if progress is not None and progress.shown and progress.tty:
             sys.stderr.write("\n")
