@@ -86,6 +86,24 @@ def test_csv_writes_each_leg_as_its_side_export_does(
         assert got == want
 
 
+def test_strides_writes_each_legs_per_stride_csv_and_the_tables(
+    both: Path, tmp_path: Path, csv_out: Path
+) -> None:
+    out = tmp_path / "s.strides.csv"
+    assert _export(both, "--format", "strides", "-o", str(out)) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "s_L.strides.csv", "s_L.strides.meta.json", "s_R.strides.csv", "s_R.strides.meta.json",
+        "s_bilateral.strides.csv", "s_bilateral.strides.meta.json", "s_symmetry.strides.csv"]
+    for side in ("L", "R"):
+        one = tmp_path / "one" / f"{side}.strides.csv"
+        one.parent.mkdir(exist_ok=True)
+        assert _export(both, "--format", "strides", "--side", side, "-o", str(one)) == 0
+        assert (tmp_path / f"s_{side}.strides.csv").read_bytes() == one.read_bytes()
+    # the bilateral tables are the csv export's
+    assert (tmp_path / "s_bilateral.strides.csv").read_bytes() == csv_out.with_name(
+        "walk_bilateral.csv").read_bytes()
+
+
 def test_bilateral_csv_rows_are_analyse_bilaterals(
     csv_out: Path, analysis: dict[str, object]
 ) -> None:
@@ -252,6 +270,34 @@ def test_c3d_is_one_file_of_both_legs_on_the_common_time_line(
             assert np.isnan(got[frames < c_s[0] - 1.0 / fs]).all()  # before it started
 
 
+def test_a_long_c3d_is_split_into_parts_on_the_same_time_line(
+    both: Path, tmp_path: Path, analysis: dict[str, object], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    ezc3d = pytest.importorskip("ezc3d")
+    from gaitmon.io.export import c3d as one_leg_c3d
+
+    monkeypatch.setattr(one_leg_c3d, "C3D_MAX_PART_S", 5.0)  # 500-frame parts
+    out = tmp_path / "both.c3d"
+    assert _export(both, "--format", "c3d", "-o", str(out)) == 0
+    parts = sorted(tmp_path.glob("both_part*.c3d"))
+    common = analysis["common"]
+    n_frames = int(np.floor(max(float(v[-1]) for v in common.values()) * 100.0)) + 1  # type: ignore[attr-defined]
+    assert len(parts) == -(-n_frames // 500) >= 3 and not out.exists()
+    strikes: list[float] = []
+    frames = 0
+    for k, part in enumerate(parts):
+        p = ezc3d.c3d(str(part))["parameters"]
+        assert float(p["GAITMON"]["PART_START_S"]["value"][0]) == pytest.approx(5.0 * k)
+        frames += int(p["POINT"]["FRAMES"]["value"][0])
+        times = np.asarray(p["EVENT"]["TIMES"]["value"])
+        t = times[0] * 60 + times[1] + 5.0 * k
+        strikes += [float(x) for x, ctx, lab in zip(t, p["EVENT"]["CONTEXTS"]["value"],
+                                                    p["EVENT"]["LABELS"]["value"], strict=True)
+                    if ctx == "Left" and lab == "Foot Strike"]  # fmt: skip
+    assert frames == n_frames
+    np.testing.assert_allclose(strikes, analysis["an"].heel_strike_s["L"], atol=1e-5)  # type: ignore[attr-defined]
+
+
 # ---- bids -----------------------------------------------------------------------------------
 
 
@@ -279,7 +325,17 @@ def test_bids_has_two_tracking_systems_and_one_events_file(
         n_chan = len((folder / f"sub-03_task-walk_tracksys-imu{s}_channels.tsv")
                      .read_text().splitlines()) - 1  # fmt: skip
         assert {len(ln.split("\t")) for ln in lines[s]} == {n_chan}
+    schema = pytest.importorskip("bidsschematools.schema").load_schema()
+    required = {f for group in schema.rules.sidecars.motion.values()
+                for f, level in group["fields"].items()
+                if (level if isinstance(level, str) else level["level"]) == "required"}
+    assert {"SamplingFrequency", "TaskName"} <= required  # (the schema read as meant)
+    for s in ("L", "R"):
+        sidecar = json.loads((folder / f"sub-03_task-walk_tracksys-imu{s}_motion.json")
+                             .read_text())  # fmt: skip
+        assert required <= set(sidecar)
     ev = _rows_tsv(folder / "sub-03_task-walk_events.tsv")
+    assert list(ev[0])[:2] == list(schema.rules.tabular_data.events.Events.initial_columns)
     onsets = [float(e["onset"]) for e in ev]
     assert onsets == sorted(onsets)
     an = analysis["an"]
@@ -311,9 +367,15 @@ def test_deidentified_exports_hold_no_patient_id_anywhere(
     assert len(written) >= (1 if fmt in ("mat", "c3d") else 5)
     tokens = {p.name.split("_")[0].split(".")[0] for p in written if fmt != "bids"}
     assert len(tokens) <= 1  # the legs and the tables share one random name
+    with h5py.File(both, "r") as f:  # when each unit's recording was made, to the second
+        created = {str(f[f"units/{s}"].attrs["created_utc"])[:19] for s in ("L", "R")}
+    assert all(len(c) == 19 for c in created)
     for p in written:
-        assert PATIENT.encode() not in p.read_bytes(), p.name
+        data = p.read_bytes()
+        assert PATIENT.encode() not in data, p.name
         assert PATIENT not in str(p.relative_to(tmp_path))
+        for c in created:
+            assert c.encode() not in data and c.replace("T", " ").encode() not in data, p.name
 
 
 def test_without_deidentify_the_patient_is_kept(both: Path, tmp_path: Path) -> None:
