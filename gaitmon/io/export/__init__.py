@@ -11,8 +11,9 @@ so an error, a cancel or Ctrl-C never leaves a half-written file under the final
 
 :func:`export_session` is the one entry point, for ``gaitmon export`` and the review window's
 export dialog alike. A file of both legs without a side goes to :mod:`gaitmon.bilateral_export`
-(a higher layer: it needs the analysis), imported by name, as the strides format is. Importing this package is cheap (no numpy): the format modules are loaded
-when an export runs, so the command-line parser can list :data:`FORMATS`.
+(a higher layer: it needs the analysis), imported by name, as the strides format is.
+Importing this package is cheap (no numpy): the format modules are loaded when an export
+runs, so the command-line parser can list :data:`FORMATS`.
 """
 
 from __future__ import annotations
