@@ -539,9 +539,13 @@ def analyse_bilateral(
         if side not in per:
             keep.append(np.zeros(len(sg), bool))
             continue
-        # bilateral_gait sorts the times; rows map back to the heel strikes in that order
-        hs_rows = bilateral.unit(side).heel_strike_idx
-        order = np.argsort(hs_s[side], kind="stable")
-        rows_sorted = hs_rows[: len(hs_s[side])][order]
+        rows_sorted = heel_strike_rows(bilateral.unit(side), hs_s[side])
         keep.append(np.array([int(r) in included[side] for r in rows_sorted], bool))
     return BilateralAnalysis(per, hs_s, to_s, keep_rows(gait, keep[0], keep[1]))
+
+
+def heel_strike_rows(unit: Session, heel_strike_s: np.ndarray) -> np.ndarray:
+    """The unit's row of each of ``bilateral_gait``'s rows for this side: it sorts the heel
+    strikes' common times, so its rows map back to the unit's heel strikes in that order."""
+    order = np.argsort(heel_strike_s, kind="stable")
+    return np.asarray(unit.heel_strike_idx[: len(heel_strike_s)][order])

@@ -31,7 +31,8 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
     # 1.5 s standing (default 5, of which the recording keeps what is left once the units
     # connect: a warm process connects sooner and kept 3 of the 12 s walking, 3 strides)
     rc = main(["record", "--simulate-bilateral", "--duration", "12", "--speed", "4",
-               "--asymmetry", "hemiparetic", "--standing-s", "1.5", "-o", str(out), "-q"])  # fmt: skip
+               "--asymmetry", "hemiparetic", "--standing-s", "1.5", "-o", str(out),
+               "-q"])  # fmt: skip
     assert rc == 0
     return out
 
