@@ -16,7 +16,7 @@ it overlaps a range the user excluded (e.g. a turn). Strides longer than
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -502,11 +502,16 @@ class BilateralAnalysis:
     gait: BilateralGait  # the rows of excluded strides set to NaN; symmetry over the rest
 
 
-def analyse_bilateral(bilateral: Bilateral) -> BilateralAnalysis:
+def analyse_bilateral(
+    bilateral: Bilateral, *, exclusions: Mapping[str, Sequence[Exclusion]] | None = None
+) -> BilateralAnalysis:
     """Each side analysed as one unit (``analyse_session``: its stride exclusions), its events
     mapped to common time by the session's clock fits, then ``dsp.bilateral.bilateral_gait``.
     A heel strike's row counts when the stride it opens is included on its side; cadence is
-    measured from both legs' steps."""
+    measured from both legs' steps.
+
+    ``exclusions``: a side's ranges in force (review passes the leg it shows, as it has them);
+    a side not given has the ranges stored for it (``FILE.L|R.review.json``)."""
     from gaitmon.dsp.bilateral import bilateral_gait, keep_rows
 
     per: dict[str, SessionAnalysis] = {}
@@ -519,7 +524,7 @@ def analyse_bilateral(bilateral: Bilateral) -> BilateralAnalysis:
             included[side] = set()
             continue
         s = bilateral.unit(side)
-        an = analyse_session(s)
+        an = analyse_session(s, exclusions=None if exclusions is None else exclusions.get(side))
         per[side] = an
         t = s.read("timeline/t_s") if s.n_samples else np.empty(0)
         hs, to = s.heel_strike_idx, s.toe_off_idx
@@ -534,9 +539,13 @@ def analyse_bilateral(bilateral: Bilateral) -> BilateralAnalysis:
         if side not in per:
             keep.append(np.zeros(len(sg), bool))
             continue
-        # bilateral_gait sorts the times; rows map back to the heel strikes in that order
-        hs_rows = bilateral.unit(side).heel_strike_idx
-        order = np.argsort(hs_s[side], kind="stable")
-        rows_sorted = hs_rows[: len(hs_s[side])][order]
+        rows_sorted = heel_strike_rows(bilateral.unit(side), hs_s[side])
         keep.append(np.array([int(r) in included[side] for r in rows_sorted], bool))
     return BilateralAnalysis(per, hs_s, to_s, keep_rows(gait, keep[0], keep[1]))
+
+
+def heel_strike_rows(unit: Session, heel_strike_s: np.ndarray) -> np.ndarray:
+    """The unit's row of each of ``bilateral_gait``'s rows for this side: it sorts the heel
+    strikes' common times, so its rows map back to the unit's heel strikes in that order."""
+    order = np.argsort(heel_strike_s, kind="stable")
+    return np.asarray(unit.heel_strike_idx[: len(heel_strike_s)][order])

@@ -24,10 +24,12 @@ from gaitmon import __version__
 from gaitmon.analysis import (
     REASONS,
     USER,
+    SessionAnalysis,
     SpatialSummary,
     StrideRow,
     analyse_session,
     cycles,
+    evenly_chosen,
     spatial_summary,
     summary,
 )
@@ -121,6 +123,19 @@ class Losses:
 
 
 @dataclass(frozen=True, eq=False)
+class CycleCurves:
+    """What a cycle plot draws of one leg (Qt-free): the mean ± SD of every included stride
+    and a bounded, evenly chosen set of them drawn faint (the statistics use them all)."""
+
+    label: str  # "" for the one-leg report; "left" / "right" for the bilateral one
+    mean_deg: np.ndarray  # (101, 3) hip / knee / ankle
+    sd_deg: np.ndarray  # (101, 3), NaN with fewer than 2 strides
+    faint_deg: np.ndarray  # (m, 101, 3), m <= the limit asked for
+    n: int  # included strides (the mean's n)
+    toe_off_pct: float  # mean stance % (NaN without strides)
+
+
+@dataclass(frozen=True, eq=False)
 class ReportData:
     header: ReportHeader
     summary: GaitSummary
@@ -156,6 +171,12 @@ class ReportData:
     @property
     def n_included(self) -> int:
         return int(self.cycles_deg.shape[0])
+
+    def curves(self, max_faint: int, label: str = "") -> CycleCurves:
+        """The cycle plot's curves: the mean ± SD and at most ``max_faint`` strides."""
+        faint = self.cycles_deg[evenly_chosen(self.n_included, max_faint)]
+        return CycleCurves(label, self.mean_deg, self.sd_deg, faint, self.n_included,
+                           self.toe_off_pct)  # fmt: skip
 
 
 def _recorded(created_utc: str) -> str:
@@ -300,12 +321,15 @@ def gather_report(
     normative: NormativeBands | None = None,
     excluded_ranges: Sequence[tuple[int, int] | Exclusion] | None = None,
     now_utc: _dt.datetime | None = None,
+    analysis: SessionAnalysis | None = None,
 ) -> ReportData:
     """Everything the report shows, from an open session.
 
     ``excluded_ranges=None`` applies the exclusions stored for the session (made in review);
     the review window passes the ranges in force there (as :class:`Exclusion` s, so their
     labels are the reasons the report gives; bare row pairs get the default label).
+    ``analysis``: the session's stride analysis when the caller has it already (the bilateral
+    report passes each leg's from ``analyse_bilateral``); it replaces ``excluded_ranges``.
     """
     # the stride analysis exactly as ``gaitmon info`` and the review window do it; the joint
     # angles are read once (a whole-session read) and serve the strides and the cycles
@@ -315,7 +339,7 @@ def gather_report(
         else [r if isinstance(r, Exclusion) else Exclusion(int(r[0]), int(r[1]))
               for r in excluded_ranges]
     )  # fmt: skip
-    an = analyse_session(session, exclusions=given)
+    an = analysis if analysis is not None else analyse_session(session, exclusions=given)
     rows, joints = an.rows, an.joints_deg
     summ = summary(rows)
     if joints is not None and rows:

@@ -1,8 +1,9 @@
 """The bilateral session file from the command line, and the one clock fit.
 
 ``gaitmon record --simulate-bilateral`` writes one file; ``gaitmon info`` prints both legs and the
-bilateral block; the commands that take one unit ask for ``--side`` (or say they cannot take
-both legs yet) in one line; a one-unit file opens exactly as before.
+bilateral block; ``gaitmon export`` exports both legs (or one, with ``--side``); the commands
+that take one unit say in one line that they cannot take both legs yet; a one-unit file opens
+exactly as before.
 """
 
 from __future__ import annotations
@@ -69,16 +70,15 @@ def test_info_prints_both_legs_and_the_symmetry(
     assert 0.78 < sr < 0.92  # the affected (left) leg's step is 0.85 of the other's
 
 
-@pytest.mark.parametrize("command", [["report", "-o", "r.pdf"], ["export", "--format", "csv"]])
-def test_one_unit_commands_ask_for_a_side(
-    both: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], command: list[str]
-) -> None:
-    args = [command[0], str(both), *[str(tmp_path / a) if a.endswith(".pdf") else a
-                                     for a in command[1:]]]  # fmt: skip
-    assert main(args) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0
-    assert "records both legs; pick one with --side L or --side R" in err
+# (gaitmon report FILE of both legs makes the bilateral report: tests/test_report_bilateral.py)
+
+
+def test_export_without_a_side_exports_both_legs(both: Path, tmp_path: Path) -> None:
+    """(It was refused; tests/test_bilateral_export.py checks the files' contents.)"""
+    out = tmp_path / "b.csv"
+    assert main(["export", str(both), "--format", "csv", "-o", str(out), "-q"]) == 0
+    assert {p.name for p in tmp_path.glob("*.csv")} == {
+        "b_L.csv", "b_R.csv", "b_bilateral.csv", "b_symmetry.csv"}
 
 
 def test_export_takes_one_side(both: Path, tmp_path: Path) -> None:
@@ -87,16 +87,6 @@ def test_export_takes_one_side(both: Path, tmp_path: Path) -> None:
     with open_session(both, side="L") as s:
         n = s.n_samples
     assert len(out.read_text().splitlines()) == n + 1
-
-
-@pytest.mark.parametrize("command", ["review"])  # (process takes both legs: its own tests)
-def test_commands_without_a_side_say_so(
-    both: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
-) -> None:
-    args = [command, str(both)]
-    assert main(args) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "records both legs" in err and command in err
 
 
 def test_side_on_a_one_unit_file_is_refused(

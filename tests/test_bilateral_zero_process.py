@@ -162,5 +162,5 @@ def test_process_side_is_checked(
     assert main(["process", str(zeroed), "--side", "R", "-o", str(one), "-q"]) == 0
     assert main(["process", str(one), "--side", "R", "-o", str(tmp_path / "x.h5")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == "gaitmon process: error: one.h5 holds one unit; leave out --side"
+    assert err == "gaitmon process: error: one.h5 records one unit; leave --side out"
     assert not (tmp_path / "x.h5").exists()

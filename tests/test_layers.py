@@ -24,8 +24,9 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("gaitmon.dsp",),
     ("gaitmon.io",),
     ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative", "gaitmon.reprocessing"),
-    ("gaitmon.report", "gaitmon.strides_export", "gaitmon.compare", "gaitmon.live",
-     "gaitmon.review", "gaitmon.lab", "gaitmon.batch", "gaitmon.lsl"),
+    ("gaitmon.report", "gaitmon.report_bilateral", "gaitmon.strides_export",
+     "gaitmon.bilateral_export", "gaitmon.compare",
+     "gaitmon.live", "gaitmon.review", "gaitmon.lab", "gaitmon.batch", "gaitmon.lsl"),
     ("gaitmon.ui",),
     ("gaitmon.commands", "gaitmon.cli", "gaitmon.__main__"),
 )

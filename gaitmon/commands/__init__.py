@@ -107,15 +107,3 @@ def check_side(path: str | os.PathLike[str], side: str | None) -> None:
         raise UserError(BOTH_LEGS.format(name=name))
     if side is not None and not both and Path(path).exists():
         raise UserError(f"{name} records one unit; leave --side out")
-
-
-def refuse_both_legs(path: str | os.PathLike[str] | None, command: str) -> None:
-    """For a command that has no ``--side`` yet: one line when given a bilateral file."""
-    from gaitmon.errors import UserError
-    from gaitmon.io.session.parts import is_bilateral
-
-    if path is not None and is_bilateral(path):
-        raise UserError(
-            f"{Path(path).name} records both legs; gaitmon {command} takes one-unit sessions "
-            "only yet (gaitmon info shows both legs; gaitmon report and export take --side L|R)"
-        )

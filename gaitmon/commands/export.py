@@ -21,7 +21,9 @@ DESCRIPTION = """\
 Export a recorded session (.h5) to CSV (+ a .meta.json side file), a MATLAB v5 .mat file
 (struct `session`, 1-based indices), C3D (angles as POINTs, raw channels as ANALOGs in
 physical units, Foot Strike / Foot Off events) or a Motion-BIDS dataset folder (-o DIR; one
-export adds one recording). Layouts: docs/file-format.md, "Export formats".
+export adds one recording). A session of both legs without --side: both legs and the
+bilateral measures (docs/bilateral.md, "Exports"). Layouts: docs/file-format.md, "Export
+formats".
 """
 
 EPILOG = """\
@@ -31,6 +33,8 @@ examples:
   gaitmon export walk.h5 --format c3d --deidentify # walk.c3d (walk_part001.c3d ... if > 10 min)
   gaitmon export walk.h5 --format bids -o study --subject 01 --session pre
   gaitmon export walk.h5 --format bids -o study --subject-map subjects.tsv
+  gaitmon export both.h5 --format csv              # both legs: both_L.csv, both_R.csv,
+                                                   # both_bilateral.csv, both_symmetry.csv
 """
 
 # --format bids only: option -> its name in export_session(options=...)
@@ -76,8 +80,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gaitmon.io.export import ExportError, export_session, session_length
+    from gaitmon.io.session.parts import is_bilateral
 
-    check_side(args.file, args.side)
+    both = args.side is None and is_bilateral(args.file)  # both legs are exported
+    if not both:
+        check_side(args.file, args.side)
     t0 = time.perf_counter()
     progress = None
     options = {k: getattr(args, k) for k in BIDS_OPTIONS if getattr(args, k) is not None}
@@ -86,8 +93,10 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"{given}: only for --format bids")
     try:
         with damaged_file_guard(args.file):
-            if not args.quiet and session_length(args.file, args.side) >= PROGRESS_MIN_SAMPLES:
+            rows = session_length(args.file, "L" if both else args.side)
+            if not args.quiet and rows >= PROGRESS_MIN_SAMPLES:
                 progress = Progress(f"exporting {args.format}")
+            # a bilateral file without --side: both legs and the bilateral measures
             result = export_session(
                 args.file, args.format, args.output,
                 deidentify=args.deidentify, force=args.force, progress=progress,

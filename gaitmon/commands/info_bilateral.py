@@ -72,11 +72,8 @@ def bilateral_lines(an: BilateralAnalysis, missing: Iterable[str] = ()) -> list[
     def pct(measure: str) -> str:
         parts = []
         for s, sg in sides:
-            v = sg.pct(measure)
-            v = v[np.isfinite(v)]
             parts.append(
-                f"{s} {_f(float(v.mean()) if len(v) else np.nan, 1, ' %')} "
-                f"({_f(sg.mean(measure), 3, ' s')})"
+                f"{s} {_f(sg.pct_mean(measure), 1, ' %')} ({_f(sg.mean(measure), 3, ' s')})"
             )
         return ", ".join(parts)
 

@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     src, dst = Path(args.file), Path(args.output)
     both = is_bilateral(src)
     if args.side and not both:
-        raise UserError(f"{src.name} holds one unit; leave out --side")
+        raise UserError(f"{src.name} records one unit; leave --side out")
     if dst.exists() and dst.resolve() == src.resolve():
         raise UserError("NEW must be a different file: the original recording is never modified")
     if dst.exists() and not args.force:

@@ -1,4 +1,6 @@
-"""``gaitmon report FILE -o report.pdf``: the one-page clinical PDF, headless.
+"""``gaitmon report FILE -o report.pdf``: the one-page clinical PDF, headless. Of a file that
+records both legs: the bilateral report (both legs' cycles on the same axes, the symmetry table;
+``docs/bilateral.md``), or one leg's with ``--side L|R``.
 
 The content is :mod:`gaitmon.report` (the same stride analysis as ``gaitmon info`` and the review
 window); the page is drawn by ``gaitmon.ui.report_pdf`` with Qt's own PDF writer. No
@@ -37,7 +39,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--png", metavar="PNG", help="also write the page as a PNG image")
     add_force(p, "existing output files")
     add_quiet(p, "no summary line")
-    p.epilog = "example: gaitmon report walk.h5 -o walk.pdf --normative docs/normative-example.csv"
+    p.epilog = (
+        "example: gaitmon report walk.h5 -o walk.pdf --normative docs/normative-example.csv; "
+        "a file of both legs gives the bilateral report (both legs, symmetry) unless --side "
+        "picks one"
+    )
 
 
 def _check_output(path: Path, force: bool) -> None:
@@ -90,10 +96,13 @@ def _use_offscreen_if_headless() -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gaitmon.io.session import SessionError
+    from gaitmon.io.session.parts import is_bilateral
     from gaitmon.normative import NormativeError, load_normative
     from gaitmon.report import report_from_file
 
-    check_side(args.file, args.side)
+    both = args.side is None and is_bilateral(args.file)
+    if not both:
+        check_side(args.file, args.side)
     out, png = pdf_outputs(args, "report")
     normative = None
     if args.normative:
@@ -103,13 +112,24 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"normative band: {exc}") from None
     try:
         with damaged_file_guard(args.file):
-            data = report_from_file(
-                args.file, deidentify=args.deidentify, normative=normative, side=args.side
-            )
+            if both:
+                from gaitmon.report_bilateral import bilateral_report_from_file
+
+                data: Any = bilateral_report_from_file(
+                    args.file, deidentify=args.deidentify, normative=normative
+                )
+            else:
+                data = report_from_file(
+                    args.file, deidentify=args.deidentify, normative=normative, side=args.side
+                )
     except SessionError as exc:
         raise UserError(str(exc)) from None
 
     def writers() -> tuple[Callable[..., Any], Callable[..., Any]]:
+        if both:
+            from gaitmon.ui.report_pdf.bilateral import write_bilateral_pdf, write_bilateral_png
+
+            return write_bilateral_pdf, write_bilateral_png
         from gaitmon.ui.report_pdf import write_report_pdf, write_report_png
 
         return write_report_pdf, write_report_png

@@ -1,17 +1,20 @@
-"""``gaitmon review [FILE]``: open the review window (Qt is imported only when a display exists)."""
+"""``gaitmon review [FILE] [--side L|R]``: open the review window (Qt is imported only when a
+display exists). A file that records both legs opens on its left leg, or on ``--side``'s; the
+window's leg chooser switches."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from gaitmon.commands import refuse_both_legs
+from gaitmon.commands import add_side
 from gaitmon.errors import UserError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="FILE", nargs="?", default=None,
                    help="session file (.h5) to open; File ▸ Open otherwise")  # fmt: skip
+    add_side(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -22,5 +25,11 @@ def run(args: argparse.Namespace) -> int:
 
         if not parts_of(args.file):
             raise UserError(f"{args.file} does not exist; check the file name and folder")
-    refuse_both_legs(args.file, "review")
+    if args.side is not None:
+        from gaitmon.io.session.parts import is_bilateral
+
+        if args.file is None:
+            raise UserError("--side goes with a FILE that records both legs; name the file")
+        if not is_bilateral(args.file):
+            raise UserError(f"{Path(args.file).name} records one unit; leave --side out")
     return launch("gaitmon.ui.review.window", args)

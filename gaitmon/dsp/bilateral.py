@@ -109,6 +109,12 @@ class SideGait:
         v = v[np.isfinite(v)]
         return float(v.mean()) if len(v) else float("nan")
 
+    def pct_mean(self, measure: str) -> float:
+        """Mean of :meth:`pct` over the rows where it is defined (NaN if none is)."""
+        v = self.pct(measure)
+        v = v[np.isfinite(v)]
+        return float(v.mean()) if len(v) else float("nan")
+
 
 @dataclass(frozen=True)
 class Symmetry:

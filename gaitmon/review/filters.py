@@ -38,7 +38,6 @@ from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter
 from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.lab_filters import ConstantRateTilt, TiltFilter, make_tilt_filter
 from gaitmon.io.session import SessionError, open_session
-from gaitmon.io.session.truth import read_truth
 
 WARMUP_S = 10.0
 MAX_RANGE_S = 600.0  # ten minutes per view: ~60 000 rows x filters, a second or two
@@ -129,6 +128,7 @@ class FiltersRequest:
     alignment: str = ALIGN_MOUNT
     standing_s: float = DEFAULT_STANDING_S
     warmup_s: float = WARMUP_S
+    side: str | None = None  # the leg of a bilateral file ("L" | "R"); None for one unit
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,7 +153,7 @@ def _wrapped_mean(x: np.ndarray) -> np.ndarray:
 def compute_filters(req: FiltersRequest) -> FiltersResult:
     """Run the chosen filters over the request's rows (plus warm-up) and score them."""
     _, kind, col = TARGETS[req.target]
-    with open_session(req.path, recover=False) as s:
+    with open_session(req.path, recover=False, side=req.side) as s:
         if (
             "processed/acc_ms2" not in s.dataset_names
             or "processed/gyro_rad_s" not in s.dataset_names
@@ -175,7 +175,7 @@ def compute_filters(req: FiltersRequest) -> FiltersResult:
         gyro = d["processed/gyro_rad_s"].astype(np.float64)
         t_s = d["timeline/t_s"][start - a0 :]
         z = accel_tilt(acc[:, :, 0], acc[:, :, 1])
-        truth_tilt, mount = read_truth(req.path, start, stop)
+        truth_tilt, mount = s.truth(start, stop)
         alignment = req.alignment
         note = ""
         truth_offset = np.zeros(len(SEGMENTS))
@@ -193,7 +193,7 @@ def compute_filters(req: FiltersRequest) -> FiltersResult:
             k = max(1, min(n, round(req.standing_s * fs)))
             st = s.read_range(0, k, ["processed/acc_ms2"])["processed/acc_ms2"].astype(np.float64)
             offset = _wrapped_mean(accel_tilt(st[:, :, 0], st[:, :, 1]))
-            tt, _ = read_truth(req.path, 0, k)
+            tt, _ = s.truth(0, k)
             if tt is not None:
                 ok = np.all(np.isfinite(tt), axis=1)
                 if ok.any():

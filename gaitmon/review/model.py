@@ -1,7 +1,9 @@
 """What the review window shows, computed without Qt (so workers and tests can run it).
 
 * :func:`open_document` - open a session (recovering an interrupted one, with progress and
-  cancel), read its timeline and build the whole-session overview of the knee angle;
+  cancel), read its timeline and build the whole-session overview of the knee angle; of a
+  bilateral file (both legs), one leg: the :class:`Document` is that leg's unit, and knows the
+  file's legs (:attr:`Document.sides`) so the window can offer the other;
 * :class:`Source` - a set of per-sample series with their events: the recorded series, or a
   reprocessed set held in memory (the recording is never modified), each with the angles of
   one *angle source*: "smoothed" (the zero-lag offline estimate stored beside a raw-mode
@@ -41,6 +43,7 @@ from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakPyramid, SessionOverview
 from gaitmon.io.session import Session, SessionError, open_session, replay_pipeline
 from gaitmon.io.session import exclusions as excl
+from gaitmon.io.session.parts import SIDE_NAMES, is_bilateral, sides_of
 from gaitmon.io.session.rows import lost_before_from_gaps
 from gaitmon.io.session.smoothed import SMOOTHED
 from gaitmon.text import num
@@ -143,6 +146,9 @@ class Document:
     gaps: tuple[np.ndarray, np.ndarray] = field(
         default_factory=lambda: (np.empty(0, np.int64), np.empty(0, np.int64))
     )
+    # of a bilateral file: the leg shown ("L" | "R") and the file's legs; "" and () for one unit
+    side: str = ""
+    sides: tuple[str, ...] = ()
     _views: dict[str, Session] = field(default_factory=dict, repr=False)
     _sources: dict[tuple[str, Replay | None], Source] = field(default_factory=dict, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
@@ -158,6 +164,22 @@ class Document:
     @property
     def n_rows(self) -> int:
         return len(self.t_s)
+
+    @property
+    def bilateral(self) -> bool:
+        """One leg of a file that records both: every per-file action takes :attr:`side`."""
+        return bool(self.side)
+
+    @property
+    def leg_name(self) -> str:
+        """"left leg" | "right leg" of a bilateral file; "" for a one-unit file."""
+        return f"{SIDE_NAMES[self.side]} leg" if self.side else ""
+
+    @property
+    def exclusions_key(self) -> Path:
+        """What the exclusions are kept for: the file, or one leg of it (``FILE.L`` keeps
+        ``FILE.L.review.json``), as every reader of the session finds them."""
+        return self.session.exclusions_key
 
     @property
     def fs_hz(self) -> float:
@@ -312,20 +334,27 @@ def build_overview(
     return src
 
 
-def open_document(path: str | Path, progress: Progress | None = None) -> Document:
+def open_document(
+    path: str | Path, progress: Progress | None = None, side: str | None = None
+) -> Document:
     """Open, recover if needed (``progress`` may cancel: the file is then shown as it is),
     read the timeline, and build the overview pyramid of the default angles (the smoothed ones
-    where the recording has them). Raises :class:`SessionError`."""
+    where the recording has them). Of a bilateral file, the leg ``side`` ("L" | "R"; None: its
+    first leg); ``side`` with a one-unit file is refused. Raises :class:`SessionError`."""
     path = Path(path)
     if path.is_dir():
         raise SessionError(f"{path.name} is a folder; pick a session file (.h5)")
+    if is_bilateral(path):
+        side = side or (sides_of(path) or ("L",))[0]
+    elif side is not None and path.exists():
+        raise SessionError(f"{path.name} records one unit; it has no {side} leg to show")
 
     def part(lo: float, hi: float) -> Progress | None:
         if progress is None:
             return None
         return lambda f: progress(lo + (hi - lo) * f)
 
-    s = open_session(path, progress=part(0.0, 0.7))
+    s = open_session(path, progress=part(0.0, 0.7), side=side)
     try:
         notes = list(s.problems)
         if progress is not None and progress(0.72) is False:
@@ -346,7 +375,8 @@ def open_document(path: str | Path, progress: Progress | None = None) -> Documen
                 spans.append((t_s[g.sample_idx - 1], t_s[g.sample_idx]))
             elif g.sample_idx >= n and n:
                 spans.append((t_s[-1], t_s[-1] + g.duration_s))
-        doc = Document(path, s, t_s, ranges, notes, s.angle_source, gaps=gaps)
+        doc = Document(path, s, t_s, ranges, notes, s.angle_source, gaps=gaps,
+                       side=s.unit_side, sides=sides_of(path) if s.unit_side else ())
         build_overview(doc, doc.angle_source, progress=part(0.72, 1.0))
         doc.gap_spans_s = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
         settle = [(t_s[a], t_s[b - 1]) for a, b in session_settling(s) if 0 <= a < b <= n]

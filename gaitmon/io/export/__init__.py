@@ -10,17 +10,20 @@ to temporary files that :mod:`.outputs` renames into place only when everything 
 so an error, a cancel or Ctrl-C never leaves a half-written file under the final name.
 
 :func:`export_session` is the one entry point, for ``gaitmon export`` and the review window's
-export dialog alike. Importing this package is cheap (no numpy): the format modules are loaded
-when an export runs, so the command-line parser can list :data:`FORMATS`.
+export dialog alike. A file of both legs without a side goes to :mod:`gaitmon.bilateral_export`
+(a higher layer: it needs the analysis), imported by name, as the strides format is.
+Importing this package is cheap (no numpy): the format modules are loaded when an export
+runs, so the command-line parser can list :data:`FORMATS`.
 """
 
 from __future__ import annotations
 
+import importlib
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from gaitmon.io.export.deidentify import ANONYMOUS, REDACTED
 from gaitmon.io.export.errors import Cancel, ExportCancelled, ExportError, Progress
@@ -42,6 +45,7 @@ __all__ = [
     "Cancel",
     "ExportCancelled",
     "ExportError",
+    "ExportRequest",
     "ExportResult",
     "Format",
     "Progress",
@@ -61,6 +65,41 @@ class ExportResult:
     n_samples: int
     mode: str
     problems: tuple[str, ...] = ()  # what the session reader noticed (e.g. not stopped cleanly)
+
+
+@dataclass(frozen=True)
+class ExportRequest:
+    """One export as :func:`export_session` resolved it (its output name and
+    de-identification decided): what the export of both legs is given."""
+
+    src_path: Path
+    fmt: str
+    out: Path  # the output name (both legs: their files' names are made from it)
+    deidentify: bool
+    force: bool
+    progress: Progress | None
+    cancel: Cancel | None
+    chunk_rows: int | None
+    angles: str
+    options: Mapping[str, Any] | None
+
+    def named(self, tag: str) -> Path:
+        """``out`` with ``_tag`` before the format's suffix: out.csv -> out_L.csv,
+        out.strides.csv -> out_L.strides.csv (as ``--side L`` names it)."""
+        suffix = FORMATS[self.fmt].suffix
+        name = self.out.name
+        if suffix and name.endswith(suffix) and name != suffix:
+            stem, ext = name[: -len(suffix)], suffix
+        else:
+            stem, ext = self.out.stem, self.out.suffix
+        return self.out.with_name(f"{stem}_{tag}{ext}")
+
+    def stage(self, lo: float, hi: float) -> Progress | None:
+        """Progress of one stage, mapped onto [lo, hi] of the whole."""
+        progress = self.progress
+        if progress is None:
+            return None
+        return lambda f: progress(lo + (hi - lo) * float(f))
 
 
 def session_length(src_path: str | os.PathLike[str], side: str | None = None) -> int:
@@ -94,19 +133,32 @@ def export_session(
     ``angles``: "smoothed" (the zero-lag offline estimate, where the session has one) or
     "live" (the causal filter's, as shown while recording); the metadata names the method.
     ``deidentify``: None for the format's default (BIDS: de-identified; the others: not).
-    ``side``: "L" or "R", one leg of a bilateral file (required for one).
+    ``side``: "L" or "R", one leg of a bilateral file; None for a bilateral file: both legs
+    and the bilateral measures (:mod:`gaitmon.bilateral_export`; docs/bilateral.md).
     ``options``: the format's own options (BIDS: subject, subject_map,
     subject_from_patient_id, session, task; see :class:`.bids_labels.BidsOptions`).
     """
     from gaitmon.io.export.deidentify import Scrubber
     from gaitmon.io.export.outputs import AtomicOutputs, check_outputs, make_folders
     from gaitmon.io.export.source import open_source
+    from gaitmon.io.session.parts import is_bilateral
 
     if fmt not in FORMATS:
         raise ExportError(f"unknown format {fmt!r} (choose from {', '.join(FORMATS)})")
     form = FORMATS[fmt]
     deidentify = form.deidentify_default if deidentify is None else bool(deidentify)
     src_path = Path(src_path)
+    if side is None and is_bilateral(src_path):
+        # both legs and their bilateral measures: a higher layer (it needs the analysis),
+        # imported by name as the strides format is
+        form.check_available()
+        request = ExportRequest(
+            src_path, fmt,
+            Path(out) if out is not None else default_output(src_path, fmt, deidentify=deidentify),
+            deidentify, force, progress, cancel, chunk_rows, angles, options,
+        )  # fmt: skip
+        both = importlib.import_module("gaitmon.bilateral_export")
+        return cast("ExportResult", both.export_bilateral(request))
     # one leg of a bilateral file: both.h5 --side L -> both_L.csv
     named = src_path if side is None else src_path.with_name(
         f"{src_path.stem}_{side}{src_path.suffix}")  # fmt: skip

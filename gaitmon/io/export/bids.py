@@ -24,7 +24,7 @@ import io
 import json
 import re
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -169,9 +169,11 @@ class Names:
         ses = "" if self.session is None else f"_ses-{self.session}"
         return f"sub-{self.subject}{ses}"
 
-    def motion(self, suffix: str) -> Path:
-        """``motion/<prefix>_task-<t>_tracksys-IMU_<suffix>``: entities in the BIDS order."""
-        name = f"{self.prefix}_task-{self.task}_tracksys-{TRACKSYS}_{suffix}"
+    def motion(self, suffix: str, tracksys: str | None = TRACKSYS) -> Path:
+        """``motion/<prefix>_task-<t>_tracksys-IMU_<suffix>``: entities in the BIDS order
+        (``tracksys`` None: a file of the recording's every tracking system, no entity)."""
+        system = "" if tracksys is None else f"_tracksys-{tracksys}"
+        name = f"{self.prefix}_task-{self.task}{system}_{suffix}"
         return self.folder / "motion" / name
 
     @property
@@ -196,7 +198,7 @@ class BidsWriter:
         self.names = names
         files = [names.motion(s) for s in ("motion.tsv", "channels.tsv", "motion.json",
                                            "events.tsv", "events.json")]
-        if not scrub.enabled and _acq_time(src):
+        if not scrub.enabled and acq_time(src):
             files.append(names.scans)
         files.append(out / "participants.tsv")
         files += [p for p in (out / "dataset_description.json", out / "README")
@@ -221,22 +223,22 @@ class BidsWriter:
         n_rows = int(frame[-1]) + 1 if len(frame) else 0
         write_motion_tsv(src, chans, frame, tmp[names.motion("motion.tsv")], progress, cancel,
                          TSV_CHUNK_FRAMES if chunk_rows is None else chunk_rows)
-        _write_text(tmp[names.motion("channels.tsv")], _channels_tsv(src, chans))
+        write_text(tmp[names.motion("channels.tsv")], channels_tsv(src, chans))
         sidecar = motion_sidecar(src, chans, n_rows, frame, scrub, names.task)
-        _write_json(tmp[names.motion("motion.json")], sidecar)
-        _write_text(tmp[names.motion("events.tsv")], _events_tsv(events(src, scrub, frame)))
-        _write_json(tmp[names.motion("events.json")], EVENTS_JSON)
+        write_json(tmp[names.motion("motion.json")], sidecar)
+        write_text(tmp[names.motion("events.tsv")], events_tsv(events(src, scrub, frame)))
+        write_json(tmp[names.motion("events.json")], EVENTS_JSON)
         if names.scans in tmp:
             row = {"filename": names.motion("motion.tsv").relative_to(names.folder).as_posix(),
-                   "acq_time": _acq_time(src)}
-            _write_text(tmp[names.scans], _merge_tsv(names.scans, row))
+                   "acq_time": acq_time(src)}
+            write_text(tmp[names.scans], merge_tsv(names.scans, row))
         participants = names.root / "participants.tsv"
-        _write_text(tmp[participants],
-                    _merge_tsv(participants, {"participant_id": f"sub-{names.subject}"}))
+        write_text(tmp[participants],
+                    merge_tsv(participants, {"participant_id": f"sub-{names.subject}"}))
         if names.root / "dataset_description.json" in tmp:
-            _write_json(tmp[names.root / "dataset_description.json"], dataset_description())
+            write_json(tmp[names.root / "dataset_description.json"], dataset_description())
         if names.root / "README" in tmp:
-            _write_text(tmp[names.root / "README"], README_TEXT)
+            write_text(tmp[names.root / "README"], README_TEXT)
 
 
 def configure(options: Mapping[str, Any] | None) -> BidsWriter:
@@ -247,24 +249,44 @@ def configure(options: Mapping[str, Any] | None) -> BidsWriter:
 # ---- _motion.tsv ----------------------------------------------------------------------------
 
 
+# reader(f0, f1) -> read(path): a series on grid rows [f0, f1), (f1 - f0, columns), NaN missing
+GridReader = Callable[[int, int], Callable[[str], np.ndarray]]
+
+
 def write_motion_tsv(src: Source, chans: list[Channel], frame: np.ndarray, out: Path,
                      progress: Progress | None, cancel: Cancel | None, chunk: int) -> None:
     """Rows on the 1/fs grid, ``chunk`` grid rows at a time (memory does not grow with the
     session); a lost frame, or a value that is not finite, is ``n/a``."""
+
+    def placed(f0: int, f1: int) -> Callable[[str], np.ndarray]:
+        r0, r1 = (int(i) for i in np.searchsorted(frame, [f0, f1]))
+
+        def read(path: str) -> np.ndarray:
+            rows = np.asarray(src.read(path, r0, r1)).reshape(r1 - r0, -1)
+            v = np.full((f1 - f0, rows.shape[1]), np.nan)
+            v[frame[r0:r1] - f0] = rows.astype(np.float64)
+            return v
+
+        return read
+
     n_rows = int(frame[-1]) + 1 if len(frame) else 0
+    write_grid_tsv(chans, n_rows, placed, out, progress, cancel, chunk)
+
+
+def write_grid_tsv(chans: list[Channel], n_rows: int, reader: GridReader, out: Path,
+                   progress: Progress | None, cancel: Cancel | None, chunk: int) -> None:
+    """``n_rows`` rows of ``chans``, read by ``reader`` ``chunk`` rows at a time; a value that
+    is not finite is ``n/a``."""
     paths = list(dict.fromkeys(c.path for c in chans))
     with open(out, "wb") as f:
         for f0 in range(0, n_rows, max(1, chunk)):
             f1 = min(n_rows, f0 + max(1, chunk))
-            r0, r1 = (int(i) for i in np.searchsorted(frame, [f0, f1]))
-            at = frame[r0:r1] - f0
-            blocks = {p: np.asarray(src.read(p, r0, r1)).reshape(r1 - r0, -1) for p in paths}
+            read = reader(f0, f1)
+            blocks = {p: read(p) for p in paths}
             cols = []
             for c in chans:
-                v = np.full(f1 - f0, np.nan)
-                x = blocks[c.path][:, c.column].astype(np.float64)
-                v[at] = np.where(np.isfinite(x), x, np.nan)
-                cols.append(Column(v, c.decimals))
+                x = blocks[c.path][:, c.column]
+                cols.append(Column(np.where(np.isfinite(x), x, np.nan), c.decimals))
             f.write(_tsv_lines(format_block(cols)))
             step(progress, cancel, f1 / n_rows)
     if n_rows == 0:
@@ -283,12 +305,12 @@ CHANNEL_COLUMNS = ("name", "component", "type", "tracked_point", "units", "sampl
                    "status", "status_description", "description")
 
 
-def _channels_tsv(src: Source, chans: list[Channel]) -> str:
+def channels_tsv(src: Source, chans: list[Channel]) -> str:
     rows = ["\t".join(CHANNEL_COLUMNS)]
     for c in chans:
         cells = (c.name, c.component, c.type, c.tracked_point, c.units, f"{src.fs_hz:g}",
                  c.status, c.status_description, c.description)
-        rows.append("\t".join(_cell(x) for x in cells))
+        rows.append("\t".join(tsv_cell(x) for x in cells))
     return "\n".join(rows) + "\n"
 
 
@@ -371,12 +393,12 @@ def events(src: Source, scrub: Scrubber, frame: np.ndarray) -> list[Event]:
                 for r in src.events(kind).tolist()]
     for mk in markers(src, scrub):
         r = int(frame[mk["sample_idx"]])
-        out.append(Event(r / fs, 0.0, "marker", r, _cell(mk["label"])))
+        out.append(Event(r / fs, 0.0, "marker", r, tsv_cell(mk["label"])))
     by_row: dict[int, list[dict[str, Any]]] = {}
     for g in gaps(src, scrub):
         by_row.setdefault(g["sample_idx"], []).append(g)
     for row, gs in by_row.items():
-        reason = _cell(" | ".join(dict.fromkeys(g["reason"] for g in gs)))
+        reason = tsv_cell(" | ".join(dict.fromkeys(g["reason"] for g in gs)))
         if 0 < row < src.n:
             first = int(frame[row - 1]) + 1
             out.append(Event(first / fs, (int(frame[row]) - first) / fs, "gap", first, reason))
@@ -388,7 +410,7 @@ def events(src: Source, scrub: Scrubber, frame: np.ndarray) -> list[Event]:
     return sorted(out, key=lambda e: (e.onset_s, order[e.trial_type]))
 
 
-def _events_tsv(evs: list[Event]) -> str:
+def events_tsv(evs: list[Event]) -> str:
     rows = ["\t".join(EVENTS_COLUMNS)]
     for e in evs:
         rows.append("\t".join((f"{e.onset_s:.6f}", f"{e.duration_s:.6f}", e.trial_type,
@@ -436,15 +458,15 @@ operator, notes, device serial or recording date is written. No _scans.tsv is wr
 """
 
 
-def _acq_time(src: Source) -> str:
+def acq_time(src: Source) -> str:
     """The recording's start as a BIDS date-time, or "" if the file has none usable."""
     created = as_text(src.attrs.get("created_utc", "")).strip()
     return created if _ISO_UTC.fullmatch(created) else ""
 
 
-def _merge_tsv(path: Path, row: dict[str, str]) -> str:
-    """``path``'s rows plus ``row`` (replacing the row with the same first cell), sorted;
-    columns are the file's (a new column is added, ``n/a`` where unknown)."""
+def merge_tsv(path: Path, row: dict[str, str], *more: dict[str, str]) -> str:
+    """``path``'s rows plus ``row`` (and ``more``; each replacing the row with the same first
+    cell), sorted; columns are the file's (a new column is added, ``n/a`` where unknown)."""
     columns = list(row)
     rows: dict[str, dict[str, str]] = {}
     if path.exists():
@@ -461,26 +483,27 @@ def _merge_tsv(path: Path, row: dict[str, str]) -> str:
                         rows[key] = {c: (r.get(c) or NA) for c in have}
         except (OSError, UnicodeDecodeError, csv.Error) as exc:
             raise ExportError(f"cannot read {path}: {exc}") from None
-    rows[row[columns[0]]] = row
+    for r in (row, *more):
+        rows[r[columns[0]]] = r
     buf = io.StringIO()
     buf.write("\t".join(columns) + "\n")
     for key in sorted(rows):
-        buf.write("\t".join(_cell(rows[key].get(c, NA)) for c in columns) + "\n")
+        buf.write("\t".join(tsv_cell(rows[key].get(c, NA)) for c in columns) + "\n")
     return buf.getvalue()
 
 
-def _cell(text: str) -> str:
+def tsv_cell(text: str) -> str:
     """A TSV cell: no tabs or line breaks; ``n/a`` for an empty one."""
     text = re.sub(r"[\t\r\n]+", " ", str(text)).strip()
     return text or NA
 
 
-def _write_text(path: Path, text: str) -> None:
+def write_text(path: Path, text: str) -> None:
     with open(path, "w", encoding="utf-8", newline="\n") as f:
         f.write(text)
 
 
-def _write_json(path: Path, data: Any) -> None:
+def write_json(path: Path, data: Any) -> None:
     with open(path, "w", encoding="utf-8") as f:
         json.dump(data, f, indent=2, ensure_ascii=False, default=json_default)
         f.write("\n")

@@ -11,7 +11,7 @@ docs/file-format.md, "Export formats".
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -57,7 +57,7 @@ def write(src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
     ev_frame = plan.frame[rows] if len(rows) else np.zeros(0, np.int64)
     specs = (_c3d_part_spec(src, plan, k, scrub, deidentify, events, ev_frame)
              for k in range(len(outputs)))
-    _write_c3d_parts(specs, outputs, progress, cancel)
+    write_c3d_parts(specs, outputs, progress, cancel)
 
 
 def _event_rows(events: list[C3dEvent]) -> np.ndarray:
@@ -92,8 +92,20 @@ def _c3d_plan(src: Source, events: np.ndarray | None = None,
             "cannot place them in C3D frames"
         )
     n_frames = int(frame[-1]) + 1
-    part = max(1, min(65_535, round(max_part_s * src.fs_hz)))
+    part = part_frames(src.fs_hz, max_part_s)
     ev = np.sort(frame[events]) if events is not None and len(events) else np.zeros(0, np.int64)
+    return C3dPlan(frame, n_frames, part, split_parts(n_frames, part, ev))
+
+
+def part_frames(fs_hz: float, max_part_s: float | None = None) -> int:
+    """Frames in a part of at most ``max_part_s`` (default C3D_MAX_PART_S) seconds."""
+    max_part_s = C3D_MAX_PART_S if max_part_s is None else max_part_s
+    return max(1, min(65_535, round(max_part_s * fs_hz)))
+
+
+def split_parts(n_frames: int, part: int, ev: np.ndarray) -> tuple[tuple[int, int], ...]:
+    """[first, stop) frames of each part: at most ``part`` frames and C3D_MAX_EVENTS events
+    (``ev``: the sorted frames of every event)."""
     parts = []
     a = 0
     while a < n_frames:
@@ -103,7 +115,7 @@ def _c3d_plan(src: Source, events: np.ndarray | None = None,
             b = max(a + 1, int(ev[i0 + C3D_MAX_EVENTS]))  # the 256th event starts the next part
         parts.append((a, b))
         a = b
-    return C3dPlan(frame, n_frames, part, tuple(parts))
+    return tuple(parts)
 
 
 def _c3d_events(src: Source, scrub: Scrubber, side: str) -> list[C3dEvent]:
@@ -129,87 +141,136 @@ def _c3d_part_spec(src: Source, plan: C3dPlan, part_no: int, scrub: Scrubber,
     local = plan.frame[r0:r1] - f0
     side = session_side(src)
 
+    def on_frames(path: str) -> np.ndarray:
+        # Frames with no received sample (lost frames) are NaN: invalid points, NaN analogs
+        rows = np.asarray(src.read(path, r0, r1), np.float64).reshape(r1 - r0, -1)
+        out = np.full((nf, rows.shape[1]), np.nan)
+        out[local] = rows
+        return out
+
     c = C3dSpec()
-    point_labels: list[str] = []
-    point_desc: list[str] = []
-    point_blocks: list[np.ndarray] = []
-    if src.has("processed/joint_deg"):
-        point_labels += [side + p for p in C3D_JOINT_POINTS]
-        point_desc += [f"{j} (X sagittal; Y, Z not measured = 0), deg" for j in JOINT_LABELS]
-        point_blocks.append(np.asarray(src.read("processed/joint_deg", r0, r1), np.float64))
-    if src.has("processed/tilt_deg"):
-        point_labels += [
-            ("" if p == "BodyTilt" else side) + p for p in C3D_TILT_POINTS
-        ]
-        point_desc += [f"{s} tilt from vertical (X sagittal), deg" for s in SEGMENTS]
-        point_blocks.append(np.asarray(src.read("processed/tilt_deg", r0, r1), np.float64))
-    n_pts = len(point_labels)
-    # Frames with no received sample (lost frames) are invalid points: residual -1, as the
-    # C3D spec marks them (readers then show gaps; ezc3d returns NaN).
-    pts = np.zeros((4, n_pts, nf))
-    pts[3] = 1.0
-    residuals = np.full((1, n_pts, nf), -1.0)
-    if n_pts:
-        vals = np.concatenate(point_blocks, axis=1)  # (rows, n_pts)
-        pts[0][:, local] = vals.T
-        residuals[0][:, local] = 0.0
-        # a NaN angle (e.g. the unit's invalid value) is missing too
-        residuals[0][np.isnan(pts[0])] = -1.0
-        pts[0][np.isnan(pts[0])] = 0.0
-    c.set_value("POINT", "RATE", np.array([fs]))
-    c.set_value("POINT", "LABELS", point_labels)
-    c.set_value("POINT", "DESCRIPTIONS", point_desc)
-    c.set_value("POINT", "UNITS", ["mm"])
-    c.points, c.residuals = pts, residuals
-    if n_pts:
-        c.add_parameter("POINT", "ANGLES", point_labels, "points that are angles")
-        c.add_parameter("POINT", "ANGLE_UNITS", "deg", "unit of angle points")
-        c.add_parameter("POINT", "TYPE_GROUPS", ["ANGLES"], "point type groups")
-
-    analog_labels: list[str] = []
-    analog_units: list[str] = []
-    analog_desc: list[str] = []
-    analog_blocks: list[np.ndarray] = []
-    if src.has("raw/adc"):
-        table = _physical_table(src)
-        analog_blocks.append(table.to_physical(src.read("raw/adc", r0, r1)))
-        analog_labels += list(src.channel_names)
-        analog_units += [c.unit for c in table.channels]
-        analog_desc += [f"ADC channel {i} in physical units" for i in range(len(table.channels))]
-    if src.has("processed/fsr_counts"):
-        analog_blocks.append(np.asarray(src.read("processed/fsr_counts", r0, r1), np.float64))
-        analog_labels += ["heel_fsr_lp", "toe_fsr_lp"]
-        analog_units += ["count", "count"]
-        analog_desc += ["low-passed heel FSR", "low-passed toe FSR"]
-    n_an = len(analog_labels)
-    an = np.full((1, n_an, nf), np.nan)
-    if n_an:
-        an[0][:, local] = np.concatenate(analog_blocks, axis=1).T
-    c.set_value("ANALOG", "RATE", np.array([fs]))
-    c.set_value("ANALOG", "LABELS", analog_labels)
-    c.set_value("ANALOG", "DESCRIPTIONS", analog_desc)
-    c.set_value("ANALOG", "UNITS", analog_units)
-    c.analogs = an
-    if n_an:
-        c.add_parameter("ANALOG", "SCALE", np.ones(n_an), "data stored in physical units")
-        c.add_int_parameter("ANALOG", "OFFSET", [0] * n_an)
-    if n_pts == 0 and n_an == 0:
+    put_points(c, fs, nf, leg_points(src, on_frames, side, ""))
+    put_analogs(c, fs, nf, leg_analogs(src, on_frames, ""))
+    if not c.points.shape[1] and not c.analogs.shape[1]:
         raise ExportError(f"{src.path.name}: nothing to put in a C3D file (no angles, no raw)")
-
-    c.add_int_parameter("TRIAL", "ACTUAL_START_FIELD", [1, 0], "first frame")
-    c.add_int_parameter("TRIAL", "ACTUAL_END_FIELD", [nf & 0xFFFF, nf >> 16], "last frame")
-    t_part0 = f0 / fs
-
-    # Events: time from frame 1 (time 0.0) of this part, as (whole minutes, seconds). Built
-    # in one go: ezc3d's add_event rewrites the whole group per event (quadratic).
     subject = (ANONYMOUS if deidentify
                else as_text(src.group_attrs("session").get("patient_id", "")) or ANONYMOUS)
     # events are in row order, so in frame order (ev_frame): this part's are one slice
     e0, e1 = (int(i) for i in np.searchsorted(ev_frame, [f0, f1]))
-    evs = [(int(fr) - f0, *events[k][1:]) for k, fr in
-           zip(range(e0, e1), ev_frame[e0:e1].tolist(), strict=True)]
+    put_events(c, nf, subject, [((int(fr) - f0) / fs, *events[k][1:]) for k, fr in
+                                zip(range(e0, e1), ev_frame[e0:e1].tolist(), strict=True)])
+    session = scrub.session({**{k: "" for k in IDENTIFYING_FIELDS},
+                             **src.group_attrs("session")})
+    device = scrub.device(src.group_attrs("device"))
+    put_gaitmon(c, src, scrub, deidentify, side or "unknown", device_text(device), session,
+                (part_no, len(plan.parts), f0 / fs))
+    return c
+
+
+@dataclass(frozen=True)
+class Channels:
+    """Channels of a C3D file on the part's frames: (n channels, frames), NaN where missing."""
+
+    labels: list[str]
+    descriptions: list[str]
+    units: list[str]
+    values: np.ndarray  # (n, frames)
+
+
+def leg_points(src: Source, read: Callable[[str], np.ndarray], side: str,
+               body_prefix: str) -> Channels:
+    """One unit's angle points (``read(path)``: the series on the part's frames, NaN where
+    missing); joint and segment points take ``side`` before their name, the trunk's
+    ``body_prefix`` (one unit: none, as Plug-in Gait names it; both legs: its side's)."""
+    labels: list[str] = []
+    desc: list[str] = []
+    blocks: list[np.ndarray] = []
+    if src.has("processed/joint_deg"):
+        labels += [side + p for p in C3D_JOINT_POINTS]
+        desc += [f"{j} (X sagittal; Y, Z not measured = 0), deg" for j in JOINT_LABELS]
+        blocks.append(read("processed/joint_deg"))
+    if src.has("processed/tilt_deg"):
+        labels += [(body_prefix if p == "BodyTilt" else side) + p for p in C3D_TILT_POINTS]
+        desc += [f"{s} tilt from vertical (X sagittal), deg" for s in SEGMENTS]
+        blocks.append(read("processed/tilt_deg"))
+    return Channels(labels, desc, ["deg"] * len(labels), _stack(blocks))
+
+
+def leg_analogs(src: Source, read: Callable[[str], np.ndarray], prefix: str) -> Channels:
+    """One unit's analogs: the ADC channels in physical units, the low-passed force sensors."""
+    labels: list[str] = []
+    units: list[str] = []
+    desc: list[str] = []
+    blocks: list[np.ndarray] = []
+    if src.has("raw/adc"):
+        table = _physical_table(src)
+        blocks.append(table.to_physical(read("raw/adc")))
+        labels += [prefix + name for name in src.channel_names]
+        units += [c.unit for c in table.channels]
+        desc += [f"ADC channel {i} in physical units" for i in range(len(table.channels))]
+    if src.has("processed/fsr_counts"):
+        blocks.append(read("processed/fsr_counts"))
+        labels += [prefix + "heel_fsr_lp", prefix + "toe_fsr_lp"]
+        units += ["count", "count"]
+        desc += ["low-passed heel FSR", "low-passed toe FSR"]
+    return Channels(labels, desc, units, _stack(blocks))
+
+
+def _stack(blocks: list[np.ndarray]) -> np.ndarray:
+    return np.concatenate(blocks, axis=1).T if blocks else np.zeros((0, 0))
+
+
+def put_points(c: C3dSpec, fs: float, nf: int, *groups: Channels) -> None:
+    """The POINT group and data: angles in X; a missing (NaN) value is an invalid point
+    (residual -1, as the C3D spec marks them: readers show gaps, ezc3d returns NaN)."""
+    labels = [x for g in groups for x in g.labels]
+    n_pts = len(labels)
+    pts = np.zeros((4, n_pts, nf))
+    pts[3] = 1.0
+    residuals = np.full((1, n_pts, nf), -1.0)
+    if n_pts:
+        vals = np.concatenate([g.values for g in groups if g.labels], axis=0)
+        ok = np.isfinite(vals)
+        pts[0][ok] = vals[ok]
+        residuals[0][ok] = 0.0
+    c.set_value("POINT", "RATE", np.array([fs]))
+    c.set_value("POINT", "LABELS", labels)
+    c.set_value("POINT", "DESCRIPTIONS", [x for g in groups for x in g.descriptions])
+    c.set_value("POINT", "UNITS", ["mm"])
+    c.points, c.residuals = pts, residuals
+    if n_pts:
+        c.add_parameter("POINT", "ANGLES", labels, "points that are angles")
+        c.add_parameter("POINT", "ANGLE_UNITS", "deg", "unit of angle points")
+        c.add_parameter("POINT", "TYPE_GROUPS", ["ANGLES"], "point type groups")
+
+
+def put_analogs(c: C3dSpec, fs: float, nf: int, *groups: Channels) -> None:
+    """The ANALOG group and data, one sample per frame, in physical units (NaN: missing)."""
+    labels = [x for g in groups for x in g.labels]
+    n_an = len(labels)
+    an = np.full((1, n_an, nf), np.nan)
+    if n_an:
+        an[0] = np.concatenate([g.values for g in groups if g.labels], axis=0)
+    c.set_value("ANALOG", "RATE", np.array([fs]))
+    c.set_value("ANALOG", "LABELS", labels)
+    c.set_value("ANALOG", "DESCRIPTIONS", [x for g in groups for x in g.descriptions])
+    c.set_value("ANALOG", "UNITS", [x for g in groups for x in g.units])
+    c.analogs = an
+    if n_an:
+        c.add_parameter("ANALOG", "SCALE", np.ones(n_an), "data stored in physical units")
+        c.add_int_parameter("ANALOG", "OFFSET", [0] * n_an)
+
+
+def put_events(c: C3dSpec, nf: int, subject: str,
+               evs: list[tuple[float, str, str, str, int]]) -> None:
+    """The trial's frames, the EVENT group (``evs``: time from frame 1, context, label,
+    description, icon id) and the event contexts Left, Right, General."""
+    c.add_int_parameter("TRIAL", "ACTUAL_START_FIELD", [1, 0], "first frame")
+    c.add_int_parameter("TRIAL", "ACTUAL_END_FIELD", [nf & 0xFFFF, nf >> 16], "last frame")
+    # Events: time from frame 1 (time 0.0) of this part, as (whole minutes, seconds). Built
+    # in one go: ezc3d's add_event rewrites the whole group per event (quadratic).
     if evs:
-        times = np.array([_c3d_time(e[0] / fs) for e in evs]).T  # (2, n)
+        times = np.array([_c3d_time(e[0]) for e in evs]).T  # (2, n)
         c.add_int_parameter("EVENT", "USED", [len(evs)])
         c.add_parameter("EVENT", "TIMES", times)
         c.add_parameter("EVENT", "CONTEXTS", [e[1] for e in evs])
@@ -222,34 +283,39 @@ def _c3d_part_spec(src: Source, plan: C3dPlan, part_no: int, scrub: Scrubber,
     c.add_parameter("EVENT_CONTEXT", "DESCRIPTIONS", ["Left side", "Right side", "For all"])
     c.add_int_parameter("EVENT_CONTEXT", "USED", [3])
     c.add_int_parameter("EVENT_CONTEXT", "ICON_IDS", [0, 1, 2])
-
     c.add_int_parameter("SUBJECTS", "USED", [1])
     c.add_parameter("SUBJECTS", "NAMES", [subject])
+
+
+def device_text(device: dict[str, object]) -> str:
+    return " ".join(f"{k}={as_text(device[k])}" for k in ("name", "serial", "firmware")
+                    if k in device)  # fmt: skip
+
+
+def put_gaitmon(c: C3dSpec, src: Source, scrub: Scrubber, deidentify: bool, side: str,
+                device: str, session: dict[str, object], part: tuple[int, int, float]) -> None:
+    """The MANUFACTURER group and gaitmon's own (mode, side, date, device, which part of
+    the session: (0-based part, parts, session time of its frame 1), identity)."""
     c.add_parameter("MANUFACTURER", "COMPANY", "gaitmon")
     c.add_parameter("MANUFACTURER", "SOFTWARE", "gaitmon export")
     c.add_parameter("MANUFACTURER", "VERSION_LABEL", str(__version__))
-
-    session = scrub.session({**{k: "" for k in IDENTIFYING_FIELDS},
-                             **src.group_attrs("session")})
-    device = scrub.device(src.group_attrs("device"))
     _c3d_text(c, "GAITMON", "MODE", src.mode or "unknown")
-    _c3d_text(c, "GAITMON", "SIDE", side or "unknown")
+    _c3d_text(c, "GAITMON", "SIDE", side)
     _c3d_text(c, "GAITMON", "CREATED_UTC", as_text(scrub.root(src.attrs).get("created_utc", "")))
-    _c3d_text(c, "GAITMON", "DEVICE", " ".join(
-        f"{k}={as_text(device[k])}" for k in ("name", "serial", "firmware") if k in device))
+    _c3d_text(c, "GAITMON", "DEVICE", device)
+    part_no, n_parts, t_part0_s = part
     c.add_parameter("GAITMON", "PART", float(part_no + 1), "1-based part of the session")
-    c.add_parameter("GAITMON", "N_PARTS", float(len(plan.parts)))
-    c.add_parameter("GAITMON", "PART_START_S", float(t_part0),
+    c.add_parameter("GAITMON", "N_PARTS", float(n_parts))
+    c.add_parameter("GAITMON", "PART_START_S", float(t_part0_s),
                     "session time of this part's frame 1")
     c.add_parameter("GAITMON", "DEIDENTIFIED", float(bool(deidentify)))
     _c3d_text(c, "GAITMON", "ANGLE_CONVENTION", as_text(src.attrs.get("angle_convention", "")))
     if not deidentify:
         for k in IDENTIFYING_FIELDS:
             _c3d_text(c, "GAITMON", k.upper(), as_text(session.get(k, "")))
-    return c
 
 
-def _write_c3d_parts(specs: Iterator[C3dSpec], paths: list[Path],
+def write_c3d_parts(specs: Iterator[C3dSpec], paths: list[Path],
                      progress: Progress | None, cancel: Cancel | None) -> None:
     """Write the parts one at a time (each part's rows are read only when it is built)."""
     for k, (spec, path) in enumerate(zip(specs, paths, strict=True)):

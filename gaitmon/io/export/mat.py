@@ -41,7 +41,7 @@ def write(src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
     _write_mat(src, out, scrub, deidentify, progress, cancel)
 
 
-def _cell(strings: list[str] | tuple[str, ...]) -> np.ndarray:
+def mat_cell(strings: list[str] | tuple[str, ...]) -> np.ndarray:
     """A MATLAB cell array of char (column), as scipy.io.savemat wants it."""
     arr = np.empty((len(strings), 1), dtype=object)
     for i, s in enumerate(strings):
@@ -49,22 +49,22 @@ def _cell(strings: list[str] | tuple[str, ...]) -> np.ndarray:
     return arr
 
 
-def _mat_value(v: Any) -> Any:
+def mat_value(v: Any) -> Any:
     """Plain metadata -> something savemat stores sensibly (None -> [], lists -> arrays/cells)."""
     if v is None:
         return np.zeros((0, 0))
     if isinstance(v, dict):
-        return {_mat_name(k): _mat_value(x) for k, x in v.items()}
+        return {_mat_name(k): mat_value(x) for k, x in v.items()}
     if isinstance(v, list):
         if v and all(isinstance(x, dict) for x in v):
             # list of records -> struct of column arrays
             keys = list(v[0].keys())
-            return {_mat_name(k): _mat_value([x.get(k) for x in v]) for k in keys}
+            return {_mat_name(k): mat_value([x.get(k) for x in v]) for k in keys}
         if all(isinstance(x, str) for x in v):
-            return _cell(v)
+            return mat_cell(v)
         if all(isinstance(x, bool | int | float) for x in v):
             return np.asarray(v, dtype=np.float64).reshape(-1, 1)
-        return _cell([json.dumps(x, default=json_default) for x in v])
+        return mat_cell([json.dumps(x, default=json_default) for x in v])
     if isinstance(v, bool):
         return np.uint8(v)
     return v
@@ -147,9 +147,10 @@ def _array_header(dtype: np.dtype, shape: tuple[int, ...]) -> tuple[bytes, int]:
 
 
 def _splice(raw: bytes, order: list[str], big: dict[str, Series], src: Source, f: Any,
-            progress: Progress | None, cancel: Cancel | None) -> None:
+            progress: Progress | None, cancel: Cancel | None, header: bool = True) -> None:
     """Write scipy's MAT file of the small fields with the per-sample arrays added to the
-    struct, each streamed column by column from the session (MAT arrays are column-major)."""
+    struct, each streamed column by column from the session (MAT arrays are column-major).
+    ``header``: the file's 128-byte header first (False: a further variable of the file)."""
     head, pos = raw[:128], 128
     kind, start, _ = _element(raw, pos)
     assert kind == _MI_MATRIX
@@ -177,7 +178,8 @@ def _splice(raw: bytes, order: list[str], big: dict[str, Series], src: Source, f
             size += len(hdr) + nbytes + _pad8(nbytes)
         else:
             size += len(by_name[k])
-    f.write(head)
+    if header:
+        f.write(head)
     f.write(struct.pack("<II", _MI_MATRIX, size))
     for part in (flags, dims, name, fnl_el, names_el):
         f.write(part)
@@ -212,8 +214,16 @@ def _stream_columns(s: Series, src: Source, f: Any, base: int) -> None:
 
 def _write_mat(src: Source, out: Path, scrub: Scrubber, deidentify: bool,
                progress: Progress | None, cancel: Cancel | None) -> None:
-    from scipy.io import savemat
+    session, big = session_struct(src, scrub, deidentify)
+    with open(out, "wb") as f:
+        write_struct(f, "session", session, big, src, progress, cancel)
+    step(progress, cancel, 1.0)
 
+
+def session_struct(src: Source, scrub: Scrubber,
+                   deidentify: bool) -> tuple[dict[str, Any], dict[str, Series]]:
+    """The ``session`` struct's fields in order (the per-sample arrays as placeholders, to be
+    streamed by :func:`write_struct`) and those arrays' series."""
     series = src.series
     total = _mat_bytes(src)
     if total > MAT_V5_MAX_BYTES:
@@ -225,7 +235,7 @@ def _write_mat(src: Source, out: Path, scrub: Scrubber, deidentify: bool,
     session: dict[str, Any] = {}
     head = export_header(src, "mat", deidentify)
     for k, v in head.items():
-        session[k] = _mat_value(v)
+        session[k] = mat_value(v)
     session["index_base"] = 1.0
     session["t0_s"] = 0.0
     labels: dict[str, Any] = {}
@@ -233,7 +243,7 @@ def _write_mat(src: Source, out: Path, scrub: Scrubber, deidentify: bool,
     for s in series:
         session[s.key] = _STREAMED
         big[s.key] = s
-        labels[s.key] = _cell(s.columns) if s.key != "acc_ms2" else _cell(s.labels)
+        labels[s.key] = mat_cell(s.columns) if s.key != "acc_ms2" else mat_cell(s.labels)
     session["labels"] = labels
     session["units"] = {s.key: s.unit for s in series}
     t = src.read("timeline/t_s").astype(np.float64) if src.n else np.zeros(0)
@@ -247,22 +257,30 @@ def _write_mat(src: Source, out: Path, scrub: Scrubber, deidentify: bool,
     session["markers"] = {
         "sample_idx": np.array([m["sample_idx"] + 1 for m in mks], float).reshape(-1, 1),
         "t_s": np.array([m["t_s"] for m in mks], float).reshape(-1, 1),
-        "label": _cell([m["label"] for m in mks]),
+        "label": mat_cell([m["label"] for m in mks]),
     }
     gps = gaps(src, scrub)
     session["gaps"] = {
         "sample_idx": np.array([g["sample_idx"] + 1 for g in gps], float).reshape(-1, 1),
         "n_lost": np.array([g["n_lost"] for g in gps], float).reshape(-1, 1),
         "duration_s": np.array([g["duration_s"] for g in gps], float).reshape(-1, 1),
-        "reason": _cell([g["reason"] for g in gps]),
+        "reason": mat_cell([g["reason"] for g in gps]),
     }
-    session["meta"] = _mat_value(_one_based(metadata(src, scrub)))
+    session["meta"] = mat_value(_one_based(metadata(src, scrub)))
+    return session, big
+
+
+def write_struct(f: Any, name: str, session: dict[str, Any], big: dict[str, Series],
+                 src: Source, progress: Progress | None, cancel: Cancel | None,
+                 header: bool = True) -> None:
+    """One struct variable ``name`` of a MAT v5 file, to the open binary file ``f``; the
+    first variable of a file with ``header``, the file's header before it."""
+    from scipy.io import savemat
+
     small = {k: v for k, v in session.items() if v is not _STREAMED}
     buf = io.BytesIO()
-    savemat(buf, {"session": small}, format="5", oned_as="column",
+    savemat(buf, {name: small}, format="5", oned_as="column",
             long_field_names=True, do_compression=False)
-    with open(out, "wb") as f:
-        _splice(buf.getvalue(), list(session), big, src, f, progress, cancel)
-    step(progress, cancel, 1.0)
+    _splice(buf.getvalue(), list(session), big, src, f, progress, cancel, header)
 
 

@@ -378,13 +378,20 @@ def json_safe(v: Any) -> Any:
     return v
 
 
-def export_header(src: Source, fmt: str, deidentify: bool) -> dict[str, Any]:
-    head: dict[str, Any] = {
+def export_header_fields(fmt: str, deidentify: bool) -> dict[str, Any]:
+    """What every export says of itself (format, version, by, when, de-identified)."""
+    return {
         "format": f"gaitmon-export-{fmt}",
         "export_version": EXPORT_VERSION,
         "exported_by": f"gaitmon {__version__}",
         "exported_utc": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "deidentified": bool(deidentify),
+    }
+
+
+def export_header(src: Source, fmt: str, deidentify: bool) -> dict[str, Any]:
+    head: dict[str, Any] = {
+        **export_header_fields(fmt, deidentify),
         "mode": src.mode,
         "sample_rate_hz": src.fs_hz,
         "n_samples": src.n,

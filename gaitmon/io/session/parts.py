@@ -57,3 +57,17 @@ def is_bilateral(path: str | os.PathLike[str]) -> bool:
             return bool(f.attrs.get("bilateral", False))
     except (OSError, RuntimeError, ValueError):
         return False
+
+
+def sides_of(path: str | os.PathLike[str]) -> tuple[str, ...]:
+    """The legs a combined bilateral file holds, in file order (("L", "R") for both); () for a
+    one-unit file, a missing one or one that cannot be read."""
+    try:
+        with h5py.File(path, "r") as f:
+            if not bool(f.attrs.get("bilateral", False)):
+                return ()
+            sides = f.attrs.get("sides", "")
+            text = sides.decode() if isinstance(sides, bytes) else str(sides)
+            return tuple(s for s in text.split() if s in SIDES and f"units/{s}" in f)
+    except (OSError, RuntimeError, ValueError):
+        return ()

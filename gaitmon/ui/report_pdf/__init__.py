@@ -26,7 +26,7 @@ from PySide6.QtGui import QImage
 
 from gaitmon.report import ReportData
 from gaitmon.ui.report_pdf.cycle_plot import draw_cycle_plot
-from gaitmon.ui.report_pdf.output import render_a4_image, write_a4_pdf, write_png
+from gaitmon.ui.report_pdf.output import pdf_title, render_a4_image, write_a4_pdf, write_png
 from gaitmon.ui.report_pdf.page import ensure_gui_app, nice_ticks
 from gaitmon.ui.report_pdf.sheet import paint_report
 
@@ -43,14 +43,10 @@ __all__ = [
 
 def write_report_pdf(data: ReportData, path: str | os.PathLike[str], *, dpi: int = 600) -> Path:
     """Write the A4 PDF (atomically: a temporary file renamed at the end)."""
-    who = data.header.patient_id if data.header.patient_id and not data.header.deidentified else ""
-    return write_a4_pdf(
-        path,
-        lambda painter, device, new_page: paint_report(painter, device, data, new_page),
-        creator=data.software,
-        title="Gait analysis report" + (f" {who}" if who else ""),
-        dpi=dpi,
-    )
+    h = data.header
+    title = pdf_title("Gait analysis report", h.patient_id, h.deidentified)
+    return write_a4_pdf(path, lambda painter, device, new_page: paint_report(
+        painter, device, data, new_page), creator=data.software, title=title, dpi=dpi)  # fmt: skip
 
 
 def render_report_image(data: ReportData, dpi: float = 150.0) -> QImage:

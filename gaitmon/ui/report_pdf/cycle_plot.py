@@ -1,17 +1,24 @@
 """One joint's cycle plot on the report page: stride curves, mean ± SD band, the optional
 reference band, toe off, axes and labels, drawn with QPainter as vector paths (sharp at any zoom
 in the PDF, and no widget needed).
+
+:func:`draw_cycles` draws one or more curve sets (:class:`gaitmon.report.CycleCurves`) on the
+same axes, each in its :class:`CurveStyle`: the one-leg report draws one
+(:func:`draw_cycle_plot`), the bilateral report the left and the right leg.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from PySide6.QtCore import QPointF, QRectF, Qt
-from PySide6.QtGui import QBrush, QColor, QPainter, QPainterPath
+from PySide6.QtGui import QBrush, QColor, QFontMetricsF, QPainter, QPainterPath
 
-from gaitmon.report import JOINT_AXIS_LABELS, JOINT_TITLES, ReportData
+from gaitmon.analysis import evenly_chosen
+from gaitmon.normative import NormativeBands
+from gaitmon.report import JOINT_AXIS_LABELS, JOINT_TITLES, CycleCurves, ReportData
 from gaitmon.ui.report_pdf.page import (
     BAND,
     GRID,
@@ -37,9 +44,22 @@ MAX_FAINT_STRIDES = 50
 def faint_strides(n: int, limit: int = MAX_FAINT_STRIDES) -> np.ndarray:
     """Indices of the strides drawn faint: all of them up to ``limit``, else ``limit`` spread
     evenly from the first to the last."""
-    if n <= limit:
-        return np.arange(n)
-    return np.unique(np.round(np.linspace(0, n - 1, limit)).astype(np.int64))
+    return evenly_chosen(n, limit)
+
+
+@dataclass(frozen=True)
+class CurveStyle:
+    """How one curve set is drawn. Strokes are opaque (see ``page.STRIDE``); the band is a
+    translucent fill."""
+
+    mean: QColor
+    band: QColor
+    stride: QColor
+    toe_off: QColor
+    toe_off_label: str = "toe off"
+
+
+ONE_LEG = CurveStyle(MEAN, BAND, STRIDE, TOE_OFF)
 
 
 def line_path(xs: np.ndarray, ys: np.ndarray, to_px: ToPixels) -> QPainterPath:
@@ -75,15 +95,17 @@ def band_path(xs: np.ndarray, lo: np.ndarray, hi: np.ndarray, to_px: ToPixels) -
     return path
 
 
-def _y_range(data: ReportData, j: int) -> tuple[float, float]:
-    # the curves drawn (not the strides left undrawn) and the band set the range
-    parts = [data.cycles_deg[faint_strides(data.n_included), :, j].ravel()]
-    mean, sd = data.mean_deg[:, j], data.sd_deg[:, j]
-    parts += [mean - np.nan_to_num(sd), mean + np.nan_to_num(sd)]
-    if data.normative is not None and np.all(np.isfinite(data.normative.mean_deg[:, j])):
-        nm, ns = data.normative.mean_deg[:, j], data.normative.sd_deg[:, j]
+def _y_range(sets: Sequence[CycleCurves], normative: NormativeBands | None,
+             j: int) -> tuple[float, float]:  # fmt: skip
+    # the curves drawn (not the strides left undrawn) and the bands set the range
+    parts = []
+    for c in sets:
+        mean, sd = c.mean_deg[:, j], np.nan_to_num(c.sd_deg[:, j])
+        parts += [c.faint_deg[:, :, j].ravel(), mean - sd, mean + sd]
+    if normative is not None and np.all(np.isfinite(normative.mean_deg[:, j])):
+        nm, ns = normative.mean_deg[:, j], normative.sd_deg[:, j]
         parts += [nm - ns, nm + ns]
-    v = np.concatenate(parts)
+    v = np.concatenate(parts) if parts else np.empty(0)
     v = v[np.isfinite(v)]
     if v.size == 0:
         return (-10.0, 10.0)
@@ -95,22 +117,31 @@ def _y_range(data: ReportData, j: int) -> tuple[float, float]:
 def draw_cycle_plot(
     p: Page, data: ReportData, j: int, x: float, y: float, w: float, h: float
 ) -> None:
-    """One joint's cycle plot in the box (x, y, w, h) mm, axes and labels included."""
+    """One joint's cycle plot of the one-leg report in the box (x, y, w, h) mm."""
+    c = data.curves(MAX_FAINT_STRIDES)
+    draw_cycles(p, [(c, ONE_LEG)], data.normative, j, x, y, w, h, f"n = {c.n}")
+
+
+def draw_cycles(
+    p: Page, sets: Sequence[tuple[CycleCurves, CurveStyle]], normative: NormativeBands | None,
+    j: int, x: float, y: float, w: float, h: float, n_text: str,
+) -> None:  # fmt: skip
+    """Joint ``j``'s cycle plot in the box (x, y, w, h) mm, axes and labels included: every
+    set's faint strides, then every set's band, then every mean over them all."""
     left, bottom, top = 12.5, 9.0, 6.0
     px, py, pw, ph = x + left, y + top, w - left - 1.5, h - top - bottom
-    n = data.n_included
     p.text(x + left, y, pw * 0.5, 5.0, JOINT_TITLES[j], 9.5, bold=True)
     p.text(
         x + left + pw * 0.5,
         y,
         pw * 0.5,
         5.0,
-        f"n = {n}",
+        n_text,
         7.0,
         colour=MUTED,
         align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
     )
-    lo, hi = _y_range(data, j)
+    lo, hi = _y_range([c for c, _ in sets], normative, j)
     ticks = nice_ticks(lo, hi, 5)
     lo, hi = min(lo, float(ticks[0])), max(hi, float(ticks[-1]))
 
@@ -139,8 +170,8 @@ def draw_cycle_plot(
             colour=MUTED,
             align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
         )
-    for c in range(0, 101, 20):
-        xx = px + pw * c / 100.0
+    for pct in range(0, 101, 20):
+        xx = px + pw * pct / 100.0
         painter.setPen(p.pen(GRID, 0.15))
         painter.drawLine(QPointF(p.mm(xx), p.mm(py)), QPointF(p.mm(xx), p.mm(py + ph)))
         p.text(
@@ -148,7 +179,7 @@ def draw_cycle_plot(
             py + ph + 0.6,
             10.0,
             3.6,
-            str(c),
+            str(pct),
             6.5,
             colour=MUTED,
             align=Qt.AlignmentFlag.AlignHCenter | Qt.AlignmentFlag.AlignTop,
@@ -179,33 +210,48 @@ def draw_cycle_plot(
     painter.save()
     painter.setClipRect(p.rect(px, py, pw, ph))
     painter.setRenderHint(QPainter.RenderHint.Antialiasing, True)
-    xs = np.linspace(0.0, 100.0, data.mean_deg.shape[0])
     painter.setBrush(Qt.BrushStyle.NoBrush)
-    if data.normative is not None and np.all(np.isfinite(data.normative.mean_deg[:, j])):
-        nm, ns = data.normative.mean_deg[:, j], data.normative.sd_deg[:, j]
-        nx = data.normative.cycle_pct
+    if normative is not None and np.all(np.isfinite(normative.mean_deg[:, j])):
+        nm, ns = normative.mean_deg[:, j], normative.sd_deg[:, j]
+        nx = normative.cycle_pct
         painter.fillPath(band_path(nx, nm - ns, nm + ns, to_px), QBrush(NORM))
         painter.setPen(p.pen(QColor("#7a7a7a"), 0.2, Qt.PenStyle.DashLine))
         painter.drawPath(line_path(nx, nm, to_px))
-    painter.setPen(p.pen(STRIDE, 0.12))
-    strides = QPainterPath()  # one path for all strides: one PDF drawing operation, not n
-    for k in faint_strides(n):
-        strides.addPath(line_path(xs, data.cycles_deg[k, :, j], to_px))
-    painter.drawPath(strides)
-    if n:
-        mean, sd = data.mean_deg[:, j], data.sd_deg[:, j]
-        painter.fillPath(band_path(xs, mean - sd, mean + sd, to_px), QBrush(BAND))
-        painter.setPen(p.pen(MEAN, 0.45))
-        painter.drawPath(line_path(xs, mean, to_px))
-    if np.isfinite(data.toe_off_pct):
-        xx = p.mm(px + pw * data.toe_off_pct / 100.0)
-        painter.setPen(p.pen(TOE_OFF, 0.25, Qt.PenStyle.DashLine))
-        painter.drawLine(QPointF(xx, p.mm(py)), QPointF(xx, p.mm(py + ph)))
+    for c, style in sets:
+        xs = np.linspace(0.0, 100.0, c.mean_deg.shape[0])
+        painter.setPen(p.pen(style.stride, 0.12))
+        strides = QPainterPath()  # one path for all strides: one PDF drawing operation, not n
+        for k in range(len(c.faint_deg)):
+            strides.addPath(line_path(xs, c.faint_deg[k, :, j], to_px))
+        painter.drawPath(strides)
+    for c, style in sets:
+        if c.n:
+            xs = np.linspace(0.0, 100.0, c.mean_deg.shape[0])
+            mean, sd = c.mean_deg[:, j], c.sd_deg[:, j]
+            painter.fillPath(band_path(xs, mean - sd, mean + sd, to_px), QBrush(style.band))
+    for c, style in sets:
+        if c.n:
+            xs = np.linspace(0.0, 100.0, c.mean_deg.shape[0])
+            painter.setPen(p.pen(style.mean, 0.45))
+            painter.drawPath(line_path(xs, c.mean_deg[:, j], to_px))
+        if np.isfinite(c.toe_off_pct):
+            xx = p.mm(px + pw * c.toe_off_pct / 100.0)
+            painter.setPen(p.pen(style.toe_off, 0.25, Qt.PenStyle.DashLine))
+            painter.drawLine(QPointF(xx, p.mm(py)), QPointF(xx, p.mm(py + ph)))
     painter.restore()
-    if np.isfinite(data.toe_off_pct):
-        tx = px + pw * data.toe_off_pct / 100.0
-        p.text(tx + 0.8, py + 0.3, 14.0, 3.4, "toe off", 6.0, colour=TOE_OFF)
-    if not n:
+    # the toe-off labels one under the other, each beside its line (left of it when another
+    # line lies just to its right)
+    shown = [(c, s) for c, s in sets if np.isfinite(c.toe_off_pct)]
+    for k, (c, style) in enumerate(sorted(shown, key=lambda cs: cs[0].toe_off_pct)):
+        tx = px + pw * c.toe_off_pct / 100.0
+        lw = QFontMetricsF(p.font(6.0), p.dev).horizontalAdvance(style.toe_off_label) / p.k + 0.6
+        lx = tx + 0.6 if k == len(shown) - 1 else tx - 0.6 - lw
+        ly = py + 0.3 + 3.4 * k
+        # a veil over the curves, so that a curve passing under the label leaves it legible
+        p.fill(lx, ly + 0.2, lw, 3.0, QColor(255, 255, 255, 200))
+        p.text(lx + 0.3, ly, lw, 3.4, style.toe_off_label, 6.0, colour=style.toe_off,
+               elide=False)  # fmt: skip
+    if not any(c.n for c, _ in sets):
         p.text(
             px,
             py,

@@ -179,7 +179,10 @@ def paginate(blocks: Sequence[Block], first_top: float, next_top: float,
     below ``bottom`` (a block taller than a page is placed alone at the top of one)."""
     pages: list[list[tuple[float, Block]]] = [[]]
     y = first_top
-    top = first_top
+    # where a page's flow starts: only there does a block too tall for the rest of a page stay
+    # (on page 0 the flow starts below the fixed head, so a block that does not fit below it
+    # moves on to page 1 like anywhere else)
+    top = min(first_top, next_top)
     k = 0
     while k < len(blocks):
         b = blocks[k]

@@ -61,6 +61,11 @@ def write_a4_pdf(path: str | os.PathLike[str], paint: Paint, *, creator: str, ti
     return path
 
 
+def pdf_title(what: str, patient_id: str, deidentified: bool) -> str:
+    """The PDF's title: ``what`` and the patient identifier, unless withheld."""
+    return what + (f" {patient_id}" if patient_id and not deidentified else "")
+
+
 def render_a4_image(paint: Paint, dpi: float = 150.0) -> QImage:
     """The first page as an image, antialiased, on white."""
     ensure_gui_app()

@@ -19,7 +19,7 @@ from PySide6.QtGui import QColor, QPaintDevice, QPainter
 
 from gaitmon.analysis import FIRST, GAP, LAST, MAX_GAP_S, SETTLING, USER
 from gaitmon.dsp.pipeline import SETTLE_S
-from gaitmon.normative import CAVEAT, DEVIATION_LABEL
+from gaitmon.normative import CAVEAT, DEVIATION_LABEL, NormativeBands
 from gaitmon.report import JOINT_TITLES, GapSpan, ReportData, ReportHeader
 from gaitmon.text import count, no_gait_events
 from gaitmon.ui.report_pdf import flow
@@ -50,7 +50,7 @@ CONTINUED_TOP_MM = 22.0  # where the flow starts on a continuation page
 MAX_LISTED = 400
 
 
-def _kv_rows(
+def kv_rows(
     p: Page,
     x: float,
     y: float,
@@ -68,7 +68,7 @@ def _kv_rows(
     return y + len(rows) * row_h
 
 
-def _table(
+def table(
     p: Page,
     x: float,
     y: float,
@@ -129,27 +129,26 @@ def paint_report(
     p = Page(painter, device, device.width() / PAGE_W_MM)
     painter.setRenderHint(QPainter.RenderHint.TextAntialiasing, True)
     painter.fillRect(p.rect(0, 0, PAGE_W_MM, PAGE_H_MM), QColor("#ffffff"))
-    y = _title(p, data)
-    y = _header_grid(p, data.header, y)
+    y = title(p, data.software, data.generated_utc, "one leg")
+    y = header_grid(p, header_cells(data.header), y)
     y = _cycle_plots(p, data, y)
     y = _summary_and_stride_statistics(p, data, y)
     blocks = [
-        *_session_notes(p, data),
-        *_data_quality(p, data),
-        *_markers(p, data),
-        *_settings_and_conventions(p, data),
+        *session_notes(p, data),
+        *data_quality(p, data),
+        *markers(p, data),
+        *settings_and_conventions(p, data),
     ]
     bottom = FOOTER_MM - 3.0
     pages = flow.paginate(blocks, y, CONTINUED_TOP_MM, bottom)
     last_y = pages[-1][-1][0] + pages[-1][-1][1].height_mm if pages[-1] else y
-    flow.paint_pages(p, pages, new_page, lambda: _continued(p, data),
-                     lambda k, n: _footer(p, k, n), last=lambda: _comments(p, last_y))
+    flow.paint_pages(p, pages, new_page, lambda: continued(p, data.header),
+                     lambda k, n: footer(p, k, n), last=lambda: comments(p, last_y))
     return p
 
 
-def _continued(p: Page, data: ReportData) -> None:
+def continued(p: Page, h: ReportHeader) -> None:
     """The head of a continuation page: whose report it is."""
-    h = data.header
     who = h.patient_id or "no patient ID"
     p.text(LEFT_MM, 11.0, WIDTH_MM * 0.6, 6.0, "Gait analysis report (continued)", 11.0,
            bold=True, colour=ACCENT)  # fmt: skip
@@ -159,7 +158,8 @@ def _continued(p: Page, data: ReportData) -> None:
     p.hline(LEFT_MM, RIGHT_MM, 18.0, ACCENT, 0.6)
 
 
-def _title(p: Page, data: ReportData) -> float:
+def title(p: Page, software: str, generated_utc: str, what: str) -> float:
+    """The report's title line: ``what`` is "one leg" or "both legs"."""
     y = 11.0
     p.text(LEFT_MM, y, WIDTH_MM * 0.6, 8.0, "Gait analysis report", 16.0, bold=True, colour=ACCENT)
     p.text(
@@ -167,7 +167,7 @@ def _title(p: Page, data: ReportData) -> float:
         y + 0.6,
         WIDTH_MM * 0.5,
         4.0,
-        "wearable sagittal gait unit · one leg",
+        f"wearable sagittal gait unit{'s' if what == 'both legs' else ''} · {what}",
         7.5,
         colour=MUTED,
         align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
@@ -177,7 +177,7 @@ def _title(p: Page, data: ReportData) -> float:
         y + 4.2,
         WIDTH_MM * 0.5,
         4.0,
-        f"{data.software} · report {data.generated_utc}",
+        f"{software} · report {generated_utc}",
         7.0,
         colour=MUTED,
         align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
@@ -187,7 +187,7 @@ def _title(p: Page, data: ReportData) -> float:
     return y + 2.5
 
 
-def _header_grid(p: Page, h: ReportHeader, y: float) -> float:
+def header_cells(h: ReportHeader) -> list[tuple[str, str]]:
     """Who, when and how was recorded: the identifier only, never a name."""
     side = {"left": "Left", "right": "Right"}.get(h.side, "not recorded")
     cells = [
@@ -208,6 +208,11 @@ def _header_grid(p: Page, h: ReportHeader, y: float) -> float:
         ("FILE", h.file_name or ("withheld (de-identified)" if h.deidentified else "–")),
         ("RECORDING", h.state + (" · de-identified report" if h.deidentified else "")),
     ]
+    return cells
+
+
+def header_grid(p: Page, cells: Sequence[tuple[str, str]], y: float) -> float:
+    """The header's nine cells, three to a row; the first two in large type."""
     col_w = WIDTH_MM / 3
     p.fill(LEFT_MM, y, WIDTH_MM, 3 * 8.6 + 1.0, SHADE)
     for k, (label, value) in enumerate(cells):
@@ -260,16 +265,12 @@ def _reference_lines(p: Page, data: ReportData, y: float) -> float:
     return p.wrapped(LEFT_MM, y - 1.0, WIDTH_MM, text, 7.0, colour=MUTED) - 1.0
 
 
-def _summary_and_stride_statistics(p: Page, data: ReportData, y: float) -> float:
-    """Two columns: the gait summary, and per-joint stride statistics."""
-    colw = (WIDTH_MM - 8.0) / 2
-    xa, xb = LEFT_MM, LEFT_MM + colw + 8.0
-    ya = p.section(xa, y, colw, "Summary")
-    yb = p.section(xb, y, colw, "Stride statistics (deg, mean ± SD)")
+def summary_rows(data: ReportData, *, derived_cadence: bool = True) -> list[tuple[str, str]]:
+    """The gait summary's lines (the derived cadence left out where it is measured)."""
     s = data.summary
     n_all = len(data.rows)
     cv = f" (CV {fmt(s.stride_time_cv_pct)} %)" if np.isfinite(s.stride_time_cv_pct) else ""
-    summary_rows = [
+    rows = [
         ("Strides analysed", f"{s.n_strides} of {n_all} ({n_all - s.n_strides} excluded)"),
         ("Stride time", fmt_pm(s.stride_time_mean_s, s.stride_time_sd_s, 2, "s") + cv),
         (
@@ -280,16 +281,24 @@ def _summary_and_stride_statistics(p: Page, data: ReportData, y: float) -> float
         ("Stance / swing time",
          f"{fmt_stat(data.stance_time, 2, 's')} / {fmt_stat(data.swing_time, 2, 's')}"),
     ]  # fmt: skip
+    if not derived_cadence:
+        del rows[2]
     sp = data.spatial
     if sp is not None and sp.n_strides:
-        summary_rows.append((
+        rows.append((
             "Stride length, speed",
             f"{fmt_pm(sp.stride_length_mean_m, sp.stride_length_sd_m, 2, 'm')}, "
             f"{fmt_pm(sp.speed_mean_m_s, sp.speed_sd_m_s, 2, 'm/s')}",
         ))  # fmt: skip
-    ya = _kv_rows(p, xa, ya, colw, summary_rows, label_w=29.0)
+    return rows
+
+
+def joint_statistics(p: Page, data: ReportData, x: float, y: float, w: float,
+                     note: bool = True) -> float:  # fmt: skip
+    """Per-joint ROM, maximum and minimum (and the deviation from the band, if one is drawn),
+    the peak knee flexion in swing and (``note``) what ROM means; returns the y below."""
     header: tuple[str, ...] = ("Joint", "ROM", "Maximum", "Minimum")
-    widths: tuple[float, ...] = (colw * 0.22, colw * 0.26, colw * 0.26, colw * 0.26)
+    widths: tuple[float, ...] = (w * 0.22, w * 0.26, w * 0.26, w * 0.26)
     table_rows: list[tuple[str, ...]] = [
         (JOINT_TITLES[j], fmt_stat(data.rom[j]), fmt_stat(data.peak[j]), fmt_stat(data.trough[j]))
         for j in range(3)
@@ -297,36 +306,39 @@ def _summary_and_stride_statistics(p: Page, data: ReportData, y: float) -> float
     band = data.normative
     if band is not None:  # the deviation from the band: one more column, no more height
         header += ("Dev.*",)
-        widths = (colw * 0.14, colw * 0.24, colw * 0.24, colw * 0.24, colw * 0.14)
+        widths = (w * 0.14, w * 0.24, w * 0.24, w * 0.24, w * 0.14)
         table_rows = [(*r, fmt(float(data.deviation_deg[j])))
                       for j, r in enumerate(table_rows)]  # fmt: skip
-    yb = _table(p, xb, yb, widths, header, table_rows)
-    yb += 1.0
-    yb = _kv_rows(
-        p,
-        xb,
-        yb,
-        colw,
-        [("Peak knee flexion in swing", fmt_stat(data.knee_peak_swing, 1, "deg"))],
-        label_w=40.0,
-    )
-    yb += 0.6
-    yb += p.wrapped(
-        xb,
-        yb,
-        colw,
-        "ROM = maximum − minimum within each stride; maximum and "
-        "minimum from the time-normalised stride."
-        + ("" if band is None else
-           f" *{DEVIATION_LABEL[0].upper()}{DEVIATION_LABEL[1:]}: RMS distance of the mean "
-           f"cycle from the mean of {band.label}."),
-        6.5,
-        colour=MUTED,
-    )
+    y = table(p, x, y, widths, header, table_rows)
+    y += 1.0
+    y = kv_rows(p, x, y, w, [("Peak knee flexion in swing", fmt_stat(data.knee_peak_swing, 1,
+                                                                       "deg"))], label_w=40.0)
+    if note:
+        y += 0.6
+        y += p.wrapped(x, y, w, rom_note(band), 6.5, colour=MUTED)
+    return y
+
+
+def rom_note(band: NormativeBands | None) -> str:
+    return ("ROM = maximum − minimum within each stride; maximum and minimum from the "
+            "time-normalised stride."
+            + ("" if band is None else
+               f" *{DEVIATION_LABEL[0].upper()}{DEVIATION_LABEL[1:]}: RMS distance of the mean "
+               f"cycle from the mean of {band.label}."))  # fmt: skip
+
+
+def _summary_and_stride_statistics(p: Page, data: ReportData, y: float) -> float:
+    """Two columns: the gait summary, and per-joint stride statistics."""
+    colw = (WIDTH_MM - 8.0) / 2
+    xa, xb = LEFT_MM, LEFT_MM + colw + 8.0
+    ya = p.section(xa, y, colw, "Summary")
+    yb = p.section(xb, y, colw, "Stride statistics (deg, mean ± SD)")
+    ya = kv_rows(p, xa, ya, colw, summary_rows(data), label_w=29.0)
+    yb = joint_statistics(p, data, xb, yb, colw)
     return max(ya, yb) + 5.0
 
 
-def _session_notes(p: Page, data: ReportData) -> list[Block]:
+def session_notes(p: Page, data: ReportData) -> list[Block]:
     """The notes typed in the record form, in full."""
     if not data.session_notes:
         return []
@@ -353,7 +365,9 @@ def _link_line(data: ReportData) -> str:
     return link
 
 
-def _data_quality(p: Page, data: ReportData) -> list[Block]:
+def data_quality(
+    p: Page, data: ReportData, title: str = "Data quality: gaps, losses and exclusions"
+) -> list[Block]:
     """Gaps, losses and exclusions: the counts, then every gap and excluded range."""
     lo = data.losses
     names = {
@@ -369,7 +383,7 @@ def _data_quality(p: Page, data: ReportData) -> list[Block]:
         rows.append(("Excluded ranges", f"{count(len(data.excluded_spans), 'range')} chosen "
                      "in review (listed below)"))  # fmt: skip
     rows += [("Note", note) for note in (*data.notes, *lo.problems)]
-    blocks = [flow.heading(p, LEFT_MM, WIDTH_MM, "Data quality: gaps, losses and exclusions")]
+    blocks = [flow.heading(p, LEFT_MM, WIDTH_MM, title)]
     for k, (label, value) in enumerate(rows):
         blocks += flow.kv_row(p, LEFT_MM, WIDTH_MM, label, value, shaded=k % 2 == 0)
     blocks += _gap_list(p, data)
@@ -424,9 +438,14 @@ def _gap_list(p: Page, data: ReportData) -> list[Block]:
             shown = of_size[: max(0, left)]
             left -= len(shown)
             dur = of_size[0].duration_s
-            text = (f"{count(n, 'frame')} ({fmt(1000 * dur, 0)} ms) lost at "
-                    + ", ".join(fmt(g.from_s, 2) for g in shown) + " s")  # fmt: skip
-            if len(shown) < len(of_size):
+            if not shown:  # the list's room is spent: this size only counted
+                text = (f"{count(len(of_size), 'gap')} of {count(n, 'frame')} "
+                        f"({fmt(1000 * dur, 0)} ms) each ({fmt(len(of_size) * dur, 2)} s in "
+                        "total), not listed one by one")  # fmt: skip
+            else:
+                text = (f"{count(n, 'frame')} ({fmt(1000 * dur, 0)} ms) lost at "
+                        + ", ".join(fmt(g.from_s, 2) for g in shown) + " s")  # fmt: skip
+            if shown and len(shown) < len(of_size):
                 more = len(of_size) - len(shown)
                 text += (f"; and {count(more, 'more gap')} of this size "
                          f"({fmt(more * dur, 2)} s in total), not listed one by one")  # fmt: skip
@@ -454,7 +473,7 @@ def _excluded_list(p: Page, data: ReportData) -> list[Block]:
     ]
 
 
-def _markers(p: Page, data: ReportData) -> list[Block]:
+def markers(p: Page, data: ReportData, title: str = "Markers") -> list[Block]:
     """Every marker, time and label, in two columns (read across)."""
     if not data.markers:
         return []
@@ -469,16 +488,21 @@ def _markers(p: Page, data: ReportData) -> list[Block]:
         rows.append((fmt(a.t_s, 2), a.label or "(no label)", "",
                      fmt(b.t_s, 2) if b else "", (b.label or "(no label)") if b else ""))
     return [
-        flow.heading(p, LEFT_MM, WIDTH_MM, f"Markers ({len(ms)})"),
+        flow.heading(p, LEFT_MM, WIDTH_MM, f"{title} ({len(ms)})"),
         *flow.table(p, LEFT_MM, cols, rows),
         flow.gap(3.0),
     ]
 
 
-def _settings_and_conventions(p: Page, data: ReportData) -> list[Block]:
+def settings_and_conventions(
+    p: Page, data: ReportData, settings: Sequence[tuple[str, str]] | None = None,
+    conventions: Sequence[str] | None = None,
+) -> list[Block]:  # fmt: skip
+    """The settings and conventions (``data``'s unless given) and the reference band."""
     blocks = [flow.heading(p, LEFT_MM, WIDTH_MM, "Settings and conventions in force")]
-    rows = list(data.settings)
-    rows += [("Conventions" if k == 0 else "", line) for k, line in enumerate(data.conventions)]
+    rows = list(data.settings if settings is None else settings)
+    conv = data.conventions if conventions is None else conventions
+    rows += [("Conventions" if k == 0 else "", line) for k, line in enumerate(conv)]
     if data.normative is not None:
         nb = data.normative
         rows.append(("Reference band", f"{nb.label}; source: {nb.source}; licence: {nb.licence}"))
@@ -487,7 +511,7 @@ def _settings_and_conventions(p: Page, data: ReportData) -> list[Block]:
     return blocks
 
 
-def _comments(p: Page, y: float) -> None:
+def comments(p: Page, y: float) -> None:
     """The clinician's comments, in the space left above the footer of the last page."""
     painter = p.p
     fy = FOOTER_MM
@@ -509,7 +533,7 @@ def _comments(p: Page, y: float) -> None:
         )
 
 
-def _footer(p: Page, page: int, n_pages: int) -> None:
+def footer(p: Page, page: int, n_pages: int) -> None:
     fy = FOOTER_MM
     p.hline(LEFT_MM, RIGHT_MM, fy, RULE, 0.25)
     p.text(

@@ -22,8 +22,10 @@ from gaitmon.ui.actions import make_action
 
 # when an action is enabled: always, with a document, with a selected range, with a raw-mode
 # document (reprocessing needs the raw counts), with a reprocessed series, with a document that
-# has two angle sources (smoothed and live: raw mode)
-Enabled = Literal["always", "document", "selection", "raw", "reprocessed", "angles"]
+# has two angle sources (smoothed and live: raw mode), with one leg of a bilateral file shown
+Enabled = Literal[
+    "always", "document", "selection", "raw", "reprocessed", "angles", "bilateral"
+]
 SEPARATOR = "-"
 RECENT = "@recent"  # the Open recent submenu, filled by the window when it is shown
 
@@ -102,6 +104,13 @@ ANGLES = (
       tip="The causal filter's angles, as the live window showed them (they lag a little)",
       checkable=True, enabled="angles", group="angles"),
 )  # fmt: skip
+LEGS = tuple(
+    A(f"leg_{side}", f"&{name} leg", "show_leg", (side,), shortcut=f"Alt+{side}",
+      tip=f"Of a file that records both legs: show the {name.lower()} leg (its traces, strides, "
+      "cycles and exclusions)", checkable=True, enabled="bilateral", group="legs")
+    for side, name in (("L", "Left"), ("R", "Right"))
+)  # fmt: skip
+LEG_MENU = "&Leg"
 COMPARE = A(
     "compare", "Show recorded under reprocessed", "set_compare",
     tip="After a reprocessing, draw the recorded series (grey, dashed) for comparison",
@@ -140,8 +149,8 @@ ANGLES_MENU = "&Angles"
 MENUS: tuple[tuple[str, tuple[MenuItem, ...]], ...] = (
     ("&File", (OPEN, OPEN_FOLDER, RECENT, CLOSE, SEPARATOR, COMPARE_SESSIONS, SEPARATOR, EXPORT,
                REPORT, SAVE_REPROCESSED, SEPARATOR, QUIT)),
-    ("&View", ((ANGLES_MENU, ANGLES), SEPARATOR, WHOLE, ZOOM_IN, ZOOM_OUT, LEFT, RIGHT, FIT,
-               SEPARATOR, *LANES, *METHODS, COMPARE, SEPARATOR, FILTERS)),
+    ("&View", ((ANGLES_MENU, ANGLES), (LEG_MENU, LEGS), SEPARATOR, WHOLE, ZOOM_IN, ZOOM_OUT,
+               LEFT, RIGHT, FIT, SEPARATOR, *LANES, *METHODS, COMPARE, SEPARATOR, FILTERS)),
     ("&Analysis", (EXCLUDE, INCLUDE, CLEAR_EXCLUSIONS, CLEAR_SELECTION, SEPARATOR, REPROCESS,
                    REVERT, SEPARATOR, NORMATIVE, NO_NORMATIVE)),
     ("&Help", (ABOUT,)),

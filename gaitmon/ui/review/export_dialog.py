@@ -14,7 +14,9 @@ waits for (Cancel is a flag the request reads, not :meth:`QtWorker.cancel`), so 
 worker touches no widget. One worker per export; it ends when the export's response arrives.
 
 The review window passes the angles it shows (``angles``: smoothed | live, and their method):
-the export holds those angles, names them in the dialog and in its metadata ("angles").
+the export holds those angles, names them in the dialog and in its metadata ("angles"). Of a
+file that records both legs it passes the leg shown (``side``: "L" | "R"), exported as
+``gaitmon export --side`` does it (default names ``FILE_L.csv`` ...).
 
 De-identification starts at each format's own default, as ``gaitmon export`` has it
 (:attr:`Format.deidentify_default`: on for BIDS, off for the others). For BIDS the output is a
@@ -72,10 +74,15 @@ class ExportDialog(QDialog):
         export_fn: Callable[..., ExportResult] | None = None,
         angles: str = "smoothed",
         angle_method: str = "",
+        side: str | None = None,
     ) -> None:
         super().__init__(parent)
         self.setWindowTitle("Export session")
         self.session_path = Path(session_path)
+        # one leg of a bilateral file (None: a one-unit file); named as export names it
+        self.side = side
+        p = self.session_path
+        self._named = p if side is None else p.with_name(f"{p.stem}_{side}{p.suffix}")
         # the angles exported: the review's (smoothed where the session has them, else live)
         self.angles = angles
         self.angle_method = angle_method
@@ -95,7 +102,8 @@ class ExportDialog(QDialog):
     # -- layout -------------------------------------------------------------------------------
 
     def _build(self) -> None:
-        self.source_label = QLabel(str(self.session_path))
+        leg = {"L": " — left leg", "R": " — right leg"}.get(self.side or "", "")
+        self.source_label = QLabel(f"{self.session_path}{leg}")
         self.source_label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
         self.format_combo = QComboBox()
         for f in FORMATS.values():
@@ -221,10 +229,10 @@ class ExportDialog(QDialog):
         if form.folder:
             # gaitmon export's own default folder unless one was chosen: never a file name
             text = self._folder_output or str(
-                default_output(self.session_path, form.name, deidentify=form.deidentify_default)
+                default_output(self._named, form.name, deidentify=form.deidentify_default)
             )
         else:
-            base = Path(self._file_output) if self._file_output else self.session_path
+            base = Path(self._file_output) if self._file_output else self._named
             text = str(base.with_suffix(form.suffix))
         self.output_edit.setText(text)
         self.save_label.setText("Folder" if form.folder else "Save as")
@@ -332,6 +340,7 @@ class ExportDialog(QDialog):
         deidentify = self.deidentify_check.isChecked()
         force = self.overwrite_check.isChecked()
         angles = self.angles
+        side = self.side
         self._cancel.clear()
         self.result_ = None
         self.progress_bar.setValue(0)
@@ -342,7 +351,7 @@ class ExportDialog(QDialog):
         def job(ticket: Ticket) -> ExportResult:
             return export_fn(src, fmt, out, deidentify=deidentify, force=force, angles=angles,
                              progress=ticket.progress, cancel=cancel.is_set,
-                             options=options)  # fmt: skip
+                             options=options, side=side)  # fmt: skip
 
         self._worker = QtWorker("export", latest=False, parent=self)
         self._worker.progressed.connect(self._on_progress)

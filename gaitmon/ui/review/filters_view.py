@@ -10,7 +10,7 @@ simulator's ground truth, tabulates each filter's RMSE against it. The computati
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +37,6 @@ from PySide6.QtWidgets import (
 
 from gaitmon.dsp.lab_filters import TILT_FILTERS
 from gaitmon.io.session import SessionError, open_session
-from gaitmon.io.session.truth import read_truth
 from gaitmon.jobs import Response, Ticket
 from gaitmon.review.filters import (
     ALIGN_MOUNT,
@@ -58,6 +57,16 @@ from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.theme import Colours, current_colours
 
 
+def filters_window(colours: Colours, on_failed: Callable[[str], None]) -> FiltersView:
+    """The review window's Filters window (a top-level window of its own)."""
+    fw = FiltersView(None, colours)
+    fw.setWindowFlag(Qt.WindowType.Window, True)
+    fw.setWindowTitle("gaitmon — filters")
+    fw.resize(1100, 650)
+    fw.failed.connect(on_failed)
+    return fw
+
+
 class FiltersView(QWidget):
     """Controls on the left, the overlay plot and the RMSE table on the right."""
 
@@ -67,6 +76,7 @@ class FiltersView(QWidget):
     def __init__(self, parent: QWidget | None = None, colours: Colours | None = None) -> None:
         super().__init__(parent)
         self._path: Path | None = None
+        self._side: str | None = None  # the leg of a bilateral file, None for one unit
         self._fs_hz = 100.0
         self._n_rows = 0
         self._t_s = np.empty(0)
@@ -198,11 +208,17 @@ class FiltersView(QWidget):
 
     # -- session ------------------------------------------------------------------------------
 
-    def load_session(self, path: str | os.PathLike[str]) -> None:
-        """Show a session (opened read-only here; the review window keeps its own handle)."""
-        self._path = Path(path)
+    @property
+    def source(self) -> tuple[Path | None, str | None]:
+        """(file, leg) shown: the leg is None for a one-unit file."""
+        return self._path, self._side
+
+    def load_session(self, path: str | os.PathLike[str], side: str | None = None) -> None:
+        """Show a session (opened read-only here; the review window keeps its own handle); of
+        a bilateral file, the leg ``side`` ("L" | "R")."""
+        self._path, self._side = Path(path), side
         try:
-            with open_session(self._path, recover=False) as s:
+            with open_session(self._path, recover=False, side=side) as s:
                 self._fs_hz = s.sample_rate_hz
                 self._n_rows = s.n_samples
                 self._t_s = s.read("timeline/t_s")
@@ -210,6 +226,10 @@ class FiltersView(QWidget):
                 raw = "processed/acc_ms2" in s.dataset_names
                 self._zeroed = bool(np.any(s.calibration.tilt_offset_rad))
                 mode = s.mode
+                try:
+                    truth, mount = s.truth(0, 1)
+                except SessionError:
+                    truth, mount = None, None
         except SessionError as exc:
             self._set_enabled(False)
             self._fail(str(exc))
@@ -221,10 +241,6 @@ class FiltersView(QWidget):
                 "signals the filters need; record in mode raw to compare filters"
             )
             return
-        try:
-            truth, mount = read_truth(self._path, 0, 1)
-        except SessionError:
-            truth, mount = None, None
         self._has_truth, self._has_mount = truth is not None, mount is not None
         self._set_enabled(True)
         for spin in (self.start_spin, self.stop_spin):
@@ -319,6 +335,7 @@ class FiltersView(QWidget):
         names = self.checked_filters()
         return FiltersRequest(
             path=self._path,
+            side=self._side,
             start_row=a,
             stop_row=b,
             target=self.target_combo.currentIndex(),

@@ -99,9 +99,9 @@ class ReportReady:
 # -- requests (run on a worker thread) ----------------------------------------------------------
 
 
-def open_request(path: Path) -> Callable[[Ticket], Opened]:
+def open_request(path: Path, side: str | None = None) -> Callable[[Ticket], Opened]:
     def job(ticket: Ticket) -> Opened:
-        return Opened(path, open_document(path, progress=ticket.progress))
+        return Opened(path, open_document(path, progress=ticket.progress, side=side))
 
     return job
 
@@ -255,19 +255,22 @@ class ReviewJobs(QMainWindow):
     # -- opening ---------------------------------------------------------------------------------
 
     @guarded
-    def open_file(self, path: str | Path) -> None:
-        """Open ``path`` in the background (recovering it first if it was interrupted)."""
+    def open_file(self, path: str | Path, side: str | None = None) -> None:
+        """Open ``path`` in the background (recovering it first if it was interrupted); of a
+        file that records both legs, the leg ``side`` ("L" | "R"; None: the left)."""
         path = Path(path)
         self.status.hide_problem()
         self.timeline.loader.cancel()
         recovering = journal_path(path).exists()
-        label = f"Recovering {path.name}" if recovering else f"Opening {path.name}"
+        leg = {"L": " (left leg)", "R": " (right leg)"}.get(side or "", "")
+        label = f"Recovering {path.name}" if recovering else f"Opening {path.name}{leg}"
         self._start_job(label)
         self.status.message(
             f"{label}…" + (" (the recording was interrupted; rebuilding it from its journal)"
                            if recovering else ""),
         )  # fmt: skip
-        self.job.submit(open_request(path), functools.partial(self._opened, path), Opened.close)
+        self.job.submit(open_request(path, side), functools.partial(self._opened, path),
+                        Opened.close)  # fmt: skip
 
     @guarded
     def _opened(self, path: Path, response: Response[Opened]) -> None:
@@ -419,7 +422,7 @@ class ReviewJobs(QMainWindow):
     def save_reprocessed(self, path: str | Path) -> None:
         """Write a new session file with the reprocessed settings, with progress and Cancel."""
         doc = self.doc
-        if doc is None or doc.reprocessed is None:
+        if doc is None or doc.reprocessed is None or doc.bilateral:  # (not offered: legs.py)
             return
         dst = Path(path)
         self._start_job(f"Saving {dst.name}")

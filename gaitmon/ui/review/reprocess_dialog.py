@@ -20,6 +20,22 @@ from gaitmon.ui.dialogs import SettingsDialog
 METHOD_ORDER = ("gait-aware", "paper")
 
 
+def review_notes(smoothed: bool, bilateral: bool) -> tuple[str, str]:
+    """(note, angles note) of the dialog as review opens it: with the smoothed angles shown or
+    not, for a one-unit file or one leg of a bilateral file (which cannot be saved yet)."""
+    keep = ("a file that records both legs cannot be saved reprocessed yet: the result is "
+            "shown until the file is closed." if bilateral else
+            "use File ▸ Save reprocessed as… to keep the result.")  # fmt: skip
+    note = ("Recomputes the live filter's angles, the gait events, the foot sensors and the gait "
+            "phases from the recorded raw counts (the whole session, standing calibrations "
+            f"replayed). The recording is not modified; {keep}")  # fmt: skip
+    angles_note = ("<i>Shown now: the smoothed angles (zero-lag, offline). They depend on the "
+                   "raw counts and the calibration only, not on these settings, so they stay as "
+                   "recorded; the events, foot sensors and phases come from the reprocessing. "
+                   "View ▸ Angles ▸ Live shows the reprocessed filter's angles.</i>")  # fmt: skip
+    return note, angles_note if smoothed else ""
+
+
 class ReprocessDialog(SettingsDialog):
     """Settings and live filter of a reprocessing; :attr:`config` once accepted."""
 

@@ -17,6 +17,9 @@ User exclusions are kept beside the recording in ``FILE.review.json``, or in the
 data folder when the recording's folder is read-only (both owned by
 :mod:`gaitmon.io.session.exclusions`, so ``gaitmon info`` and the report see them too). The
 recording itself is never written.
+
+A file that records both legs is shown one leg at a time (:mod:`~gaitmon.ui.review.legs`): its
+exclusions (``FILE.L|R.review.json``), export, report and Filters view are that leg's.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from PySide6.QtCore import QSettings, Qt, QTimer
 from PySide6.QtGui import QAction, QCloseEvent, QDragEnterEvent, QDropEvent
-from PySide6.QtWidgets import QFileDialog, QLabel, QSplitter, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QFileDialog, QLabel, QSplitter, QTabWidget, QVBoxLayout, QWidget
 
 from gaitmon import __version__
 from gaitmon.io.session import exclusions as excl
@@ -39,17 +42,21 @@ from gaitmon.text import count, no_gait_events, num
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.jobs import QtWorker
+from gaitmon.ui.review import recent
 from gaitmon.ui.review.actions import (
     ANGLES_MENU,
     RECENT,
+    SAVE_REPROCESSED,
     available,
     build_actions,
     build_menus,
     update_enabled,
 )
+from gaitmon.ui.review.both_legs_panel import BothLegsPanel
 from gaitmon.ui.review.compare_actions import SessionComparer
 from gaitmon.ui.review.cycles import CyclePlots
 from gaitmon.ui.review.jobs import ReviewJobs
+from gaitmon.ui.review.legs import NOT_SAVED, LegBar, LegsControl
 from gaitmon.ui.review.status import StatusArea
 from gaitmon.ui.review.strides import StrideTable, SummaryLabel, summary_html
 from gaitmon.ui.review.timeline import Timeline
@@ -63,7 +70,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("gaitmon.ui.review")
 
-MAX_RECENT = 8
 FILE_FILTER = "gaitmon sessions (*.h5 *.hdf5);;All files (*)"
 
 
@@ -82,7 +88,6 @@ class ReviewWindow(ReviewJobs):
         self._job_label = ""
         self._angles_label = ""
         self._filters_window: FiltersView | None = None
-        self._filters_path: Path | None = None
         self._export_dialog: ExportDialog | None = None
         self._settings_dialog: ReprocessDialog | None = None
         self.colours: Colours = current_colours()
@@ -127,6 +132,8 @@ class ReviewWindow(ReviewJobs):
         self.summary.setMinimumWidth(250)
         self.cycles = CyclePlots(self.colours)
         self.cycles.setMinimumWidth(300)
+        self.leg_bar = LegBar()
+        self.both_legs = BothLegsPanel()
 
         left = QWidget()
         lv = QVBoxLayout(left)
@@ -135,8 +142,15 @@ class ReviewWindow(ReviewJobs):
                        "statistics")  # fmt: skip
         lv.addWidget(title)
         lv.addWidget(self.table, 1)
+        # the strides of the leg shown | both legs' measures (a bilateral file only)
+        self.tabs = QTabWidget()
+        self.tabs.addTab(left, "Strides")
+        self.tabs.addTab(self.both_legs, "Both legs")
+        self.legs = LegsControl(self.leg_bar, self.both_legs, self.tabs, self.timeline,
+                                lambda: self.doc, self.open_file, self.set_angles, self)
+        self.tabs.setTabVisible(1, False)
         bottom = QSplitter(Qt.Orientation.Horizontal)
-        bottom.addWidget(left)
+        bottom.addWidget(self.tabs)
         bottom.addWidget(self.summary)
         bottom.addWidget(self.cycles)
         bottom.setStretchFactor(0, 5)
@@ -157,6 +171,7 @@ class ReviewWindow(ReviewJobs):
         v.setSpacing(3)
         v.addWidget(self.status.banner_box)
         v.addWidget(self.status.notes)
+        v.addWidget(self.leg_bar)
         v.addWidget(split, 1)
         self.setCentralWidget(central)
 
@@ -190,7 +205,9 @@ class ReviewWindow(ReviewJobs):
             "raw": doc is not None and doc.session.mode == "raw",
             "reprocessed": doc is not None and doc.reprocessed is not None,
             "angles": doc is not None and len(doc.angle_sources) > 1,
+            "bilateral": doc is not None and doc.bilateral,
         })  # fmt: skip
+        self.legs.update_actions(self.act, SAVE_REPROCESSED.tip)
 
     def _show_angles(self) -> None:
         """The angles shown: checked in View ▸ Angles, named in the status bar."""
@@ -216,9 +233,11 @@ class ReviewWindow(ReviewJobs):
         s = doc.session
         who = s.meta.patient_id or "no patient id"
         state = "complete" if s.complete else ("recovered" if s.recovered else "incomplete")
-        self.setWindowTitle(f"gaitmon — review — {doc.path.name}")
+        leg = f" — {doc.leg_name}" if doc.bilateral else ""
+        self.setWindowTitle(f"gaitmon — review — {doc.path.name}{leg}")
         self.status.message(
-            f"{doc.path.name}: {who}, side {s.meta.side or '-'}, {count(doc.n_rows, 'frame')} "
+            f"{doc.path.name}{leg}: {who}, side {s.meta.side or '-'}, "
+            f"{count(doc.n_rows, 'frame')} "
             f"({num(s.duration_s or doc.n_rows / doc.fs_hz, 0)} s), mode {s.mode}, {state}; "
             f"{count(len(s.gaps), 'gap')}, {count(len(s.markers), 'marker')}"
             + (f"; no gait events: {no_gait_events(s.mode)}" if no_gait_events(s.mode) else ""),
@@ -229,6 +248,7 @@ class ReviewWindow(ReviewJobs):
         self.status.show_notes(doc.shown_notes())
         self.timeline.set_fsr_threshold(doc.current.config.fsr_threshold)
         self.timeline.set_document(doc)
+        self.legs.document_set(doc)
         self._update_actions()
         self._show_angles()
         self.run_analysis()
@@ -239,6 +259,7 @@ class ReviewWindow(ReviewJobs):
         self.analysis = self.before = None
         self.analyser.cancel()
         self.angles_job.cancel()
+        self.legs.drop()
         self.timeline.clear()
         # the workers may still be reading the old file: close it once they are idle
         self.timeline.loader.wait_idle(5.0)
@@ -256,37 +277,20 @@ class ReviewWindow(ReviewJobs):
         self.job.cancel()
         self._drop_document()
         self.setWindowTitle("gaitmon — review")
+        self.legs.document_set(None)
         self._update_actions()
         self._show_angles()
 
     # -- recent files, drag and drop -------------------------------------------------------------
 
     def recent_files(self) -> list[str]:
-        value = self.settings.value("review/recent", [])
-        if isinstance(value, str):
-            return [value]
-        return [str(v) for v in value] if isinstance(value, list) else []
+        return recent.recent_files(self.settings)
 
     def _add_recent(self, path: Path) -> None:
-        p = str(path.resolve())
-        items = [p, *(r for r in self.recent_files() if r != p)][:MAX_RECENT]
-        self.settings.setValue("review/recent", items)
+        recent.add_recent(self.settings, path)
 
     def _fill_recent(self) -> None:
-        self.recent_menu.clear()
-        items = self.recent_files()
-        if not items:
-            a = self.recent_menu.addAction("(none yet)")
-            a.setEnabled(False)
-            return
-        for p in items:
-            a = self.recent_menu.addAction(Path(p).name)
-            a.setToolTip(p)
-            a.setStatusTip(p)
-            a.triggered.connect(functools.partial(self.open_file, p))
-        self.recent_menu.addSeparator()
-        clear = self.recent_menu.addAction("Clear the list")
-        clear.triggered.connect(lambda: self.settings.setValue("review/recent", []))
+        recent.fill_recent(self.recent_menu, self.settings, self.open_file)
 
     def dragEnterEvent(self, ev: QDragEnterEvent) -> None:
         if ev.mimeData().hasUrls() and any(u.isLocalFile() for u in ev.mimeData().urls()):
@@ -311,6 +315,10 @@ class ReviewWindow(ReviewJobs):
         self.timeline.centre_on(t0, t1)
         self.timeline.highlight_span(t0, t1)
         self.timeline.set_cursor(t0)
+
+    def show_leg(self, side: str, on: bool = True) -> None:  # View ▸ Leg: reopen on that leg
+        if on:
+            self.legs.show_leg(side)
 
     def show_whole(self) -> None:
         if self.doc is not None and self.doc.n_rows:
@@ -390,8 +398,8 @@ class ReviewWindow(ReviewJobs):
         doc = self.doc
         assert doc is not None
         try:
-            sp = excl.save(doc.path, doc.exclusions, doc.session.created_utc, doc.n_rows,
-                           doc.t_s)  # fmt: skip
+            sp = excl.save(doc.exclusions_key, doc.exclusions, doc.session.created_utc,
+                           doc.n_rows, doc.t_s)  # fmt: skip
             where = (f"kept in {sp.name}" if sp.parent == doc.path.parent
                      else f"kept in {sp} (the recording's folder is read-only)")  # fmt: skip
         except OSError as e:
@@ -401,6 +409,7 @@ class ReviewWindow(ReviewJobs):
         self.timeline.refresh_shading()
         self._update_actions()
         self.run_analysis()
+        self.legs.exclusions_changed(doc)
 
     # -- reprocessing ----------------------------------------------------------------------------
 
@@ -408,21 +417,10 @@ class ReviewWindow(ReviewJobs):
     def reprocess_dialog(self) -> None:
         if self.doc is None:
             return
-        from gaitmon.ui.review.reprocess_dialog import ReprocessDialog
+        from gaitmon.ui.review.reprocess_dialog import ReprocessDialog, review_notes
 
-        smoothed = self.doc.angle_source == "smoothed"
-        dlg = ReprocessDialog(
-            self,
-            self.doc.current.config,
-            note="Recomputes the live filter's angles, the gait events, the foot sensors and "
-            "the gait phases from the recorded raw counts (the whole session, standing "
-            "calibrations replayed). The recording is not modified; use File ▸ Save "
-            "reprocessed as… to keep the result.",
-            angles_note="<i>Shown now: the smoothed angles (zero-lag, offline). They depend "
-            "on the raw counts and the calibration only, not on these settings, so they stay "
-            "as recorded; the events, foot sensors and phases come from the reprocessing. View "
-            "▸ Angles ▸ Live shows the reprocessed filter's angles.</i>" if smoothed else "",
-        )
+        note, angles_note = review_notes(self.doc.angle_source == "smoothed", self.doc.bilateral)
+        dlg = ReprocessDialog(self, self.doc.current.config, note=note, angles_note=angles_note)
         dlg.accepted.connect(lambda: self._reprocess_accepted(dlg))
         dlg.open()
         self._settings_dialog = dlg
@@ -442,6 +440,9 @@ class ReviewWindow(ReviewJobs):
     def save_reprocessed_dialog(self) -> None:
         doc = self.doc
         if doc is None or doc.reprocessed is None:
+            return
+        if doc.bilateral:
+            self.status.message(NOT_SAVED, 10_000)
             return
         suggestion = doc.path.with_name(doc.path.stem + "_reprocessed.h5")
         path, _ = QFileDialog.getSaveFileName(
@@ -474,7 +475,8 @@ class ReviewWindow(ReviewJobs):
         # the angles shown are the ones exported (and named in the export's metadata)
         doc = self.doc
         dlg = ExportDialog(doc.path, self, angles=doc.angle_source,
-                           angle_method=doc.angle_method_of(doc.angle_source))  # fmt: skip
+                           angle_method=doc.angle_method_of(doc.angle_source),
+                           side=doc.side or None)  # fmt: skip
         # the status line repeats the dialog's own summary ("Exported N samples to 8 files in
         # DIR"), not the tuple of paths
         dlg.export_finished.connect(
@@ -485,9 +487,12 @@ class ReviewWindow(ReviewJobs):
 
     @guarded
     def report_dialog(self) -> None:
-        if self.doc is None:
+        doc = self.doc
+        if doc is None:
             return
-        suggestion = self.doc.path.with_suffix(".pdf")
+        # the report is of the leg shown: both.h5 -> both_L.pdf, as export names its files
+        stem = f"{doc.path.stem}_{doc.side}" if doc.bilateral else doc.path.stem
+        suggestion = doc.path.with_name(stem + ".pdf")
         path, _ = QFileDialog.getSaveFileName(
             self, "Save the report as", str(suggestion), "PDF (*.pdf)"
         )
@@ -499,20 +504,14 @@ class ReviewWindow(ReviewJobs):
         doc = self.doc
         if doc is None:
             return
-        from gaitmon.ui.review.filters_view import FiltersView
+        from gaitmon.ui.review.filters_view import filters_window
 
         if self._filters_window is None:
-            fw = FiltersView(None, self.colours)
-            fw.setWindowFlag(Qt.WindowType.Window, True)
-            fw.setWindowTitle("gaitmon — filters")
-            fw.resize(1100, 650)
-            fw.failed.connect(lambda m: self.status.message(f"Filters: {m}", 10_000))
-            self._filters_window = fw
-            self._filters_path = None
+            self._filters_window = filters_window(
+                self.colours, lambda m: self.status.message(f"Filters: {m}", 10_000))
         fw = self._filters_window
-        if self._filters_path != doc.path:
-            fw.load_session(doc.path)
-            self._filters_path = doc.path
+        if fw.source != (doc.path, doc.side or None):  # the leg shown, of a bilateral file
+            fw.load_session(doc.path, side=doc.side or None)
         fw.set_range(*self.timeline.view_range())
         fw.show()
         fw.raise_()
@@ -574,6 +573,7 @@ class ReviewWindow(ReviewJobs):
         if self._filters_window is not None:
             self._filters_window.close()
         self.comparer.shutdown()
+        self.legs.shutdown()
         self.job.stop()
         self.analyser.stop()
         self.angles_job.stop()
@@ -595,5 +595,6 @@ def run(args: Any) -> int:
     win = ReviewWindow(QSettings())
     win.show()
     if getattr(args, "file", None):
-        QTimer.singleShot(0, functools.partial(win.open_file, args.file))
+        side = getattr(args, "side", None)
+        QTimer.singleShot(0, functools.partial(win.open_file, args.file, side))
     return exec_until_closed(app, win)

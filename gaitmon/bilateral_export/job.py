@@ -1,0 +1,101 @@
+"""One export of both legs (:class:`Job`, the request), and what every format shares: the
+session opened and analysed, each leg as the one-leg exporters read it, atomic writing, and
+the side files' header."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from gaitmon.io.export import ExportError, ExportRequest
+from gaitmon.io.export.registry import FORMATS
+
+if TYPE_CHECKING:
+    from gaitmon.analysis import BilateralAnalysis
+    from gaitmon.bilateral_export.tables import BilateralTables
+    from gaitmon.io.export.source import Source
+    from gaitmon.io.session.bilateral import Bilateral
+
+
+# one export of both legs, as export_session resolved it
+Job = ExportRequest
+
+
+@contextlib.contextmanager
+def analysed(job: Job) -> Iterator[tuple[Bilateral, BilateralAnalysis, BilateralTables]]:
+    """The session opened as both legs, its analysis and its tables."""
+    from gaitmon.analysis import analyse_bilateral
+    from gaitmon.bilateral_export.tables import bilateral_tables
+    from gaitmon.io.session import SessionError
+    from gaitmon.io.session.bilateral import open_bilateral
+
+    try:
+        b = open_bilateral(job.src_path)
+    except SessionError as exc:
+        raise ExportError(str(exc)) from None
+    with b:
+        if set(b.sides) != {"L", "R"}:
+            raise ExportError(f"{job.src_path.name} holds one leg only; export it with --side")
+        an = analyse_bilateral(b)
+        yield b, an, bilateral_tables(b, an)
+
+
+@contextlib.contextmanager
+def leg_sources(job: Job) -> Iterator[dict[str, Source]]:
+    """Each leg as the one-leg exporters read it (angles as asked; host clock from 0 when
+    de-identified, as ``export_session`` does)."""
+    from gaitmon.io.export.source import open_source
+
+    with contextlib.ExitStack() as stack:
+        srcs = {s: stack.enter_context(open_source(job.src_path, job.angles, s))
+                for s in ("L", "R")}  # fmt: skip
+        if job.deidentify:
+            for src in srcs.values():
+                src.shift_host_time()
+        yield srcs
+
+
+def write_atomic(job: Job, finals: list[Path], write: Callable[[list[Path]], None],
+                 folders: list[Path] | None = None, shared: frozenset[Path] = frozenset(),
+                 ) -> list[Path]:
+    """Check ``finals``, call ``write`` with their temporary names, rename them into place;
+    nothing is left under a final name if anything fails. ``folders``: made for the
+    outputs (removed again on failure if empty); ``shared``: files several exports add a row
+    to (they may exist without --force)."""
+    from gaitmon.io.export.outputs import AtomicOutputs, check_outputs
+
+    atomic = AtomicOutputs()
+    try:
+        check_outputs([p for p in finals if p not in shared], job.src_path, job.force)
+        check_outputs([p for p in finals if p in shared], job.src_path, True)
+        tmps = [atomic.tmp(p, FORMATS[job.fmt].temp_suffix) for p in finals]
+        write(tmps)
+        return atomic.commit()
+    except OSError as exc:
+        atomic.discard(folders)
+        raise ExportError(f"cannot write {exc.filename or job.out}: {exc.strerror or exc}"
+                          ) from None
+    except BaseException:
+        atomic.discard(folders)
+        raise
+
+
+def meta_header(job: Job, b: Bilateral) -> dict[str, Any]:
+    """What every bilateral side file says of the export and of the common time line."""
+    from gaitmon.io.export.source import export_header_fields
+
+    head = export_header_fields(f"bilateral-{job.fmt}", job.deidentify)
+    if not job.deidentify:
+        head["source_file"] = job.src_path.name
+    head["common_time"] = {
+        "definition": "common_s = (host(side, t_s) - host_t0_s) / host_s_per_common_s: each "
+                      "unit's clock fit (/sync) mapped onto one time line, 0 at the first "
+                      "sample of the unit that started first (docs/bilateral.md)",
+        "host_s_per_common_s": b.host_s_per_common_s,
+        "clock_ppm": {s: (b.host_s_per_common_s / b.sync[s].mean_slope - 1.0) * 1e6
+                      for s in b.sides},
+        "receive_delay_p95_ms": {s: b.sync[s].residual_p95_ms for s in b.sides},
+    }  # fmt: skip
+    return head

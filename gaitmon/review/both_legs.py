@@ -1,0 +1,125 @@
+"""The review window's Both legs panel, computed without Qt (so a worker and tests run it).
+
+The numbers are :func:`gaitmon.analysis.analyse_bilateral`'s, the one place the bilateral
+measures are computed (``gaitmon info`` prints the same, to the same digits): per side, the
+step time, stance, swing, initial and terminal double support and single support (% of the
+stride and seconds); the symmetry table (SR = left / right, SI = 2 |L - R| / (L + R)); the
+measured cadence. Each side's excluded strides are left out as ``analyse_bilateral`` leaves
+them out; the leg shown in review passes the ranges in force there, the other leg's are the
+ones stored for it (``FILE.L|R.review.json``). Definitions: ``docs/bilateral.md``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gaitmon.analysis import BilateralAnalysis, analyse_bilateral
+from gaitmon.io.session.bilateral import open_bilateral
+
+if TYPE_CHECKING:
+    from gaitmon.dsp.bilateral import Symmetry
+    from gaitmon.io.session.exclusions import Exclusion
+
+# the table's rows: (label, SideGait measure, shown as % of the stride too)
+MEASURES: tuple[tuple[str, str, bool], ...] = (
+    ("step time", "step_s", False),
+    ("stride time", "stride_s", False),
+    ("stance", "stance_s", True),
+    ("swing", "swing_s", True),
+    ("initial double support", "initial_double_support_s", True),
+    ("terminal double support", "terminal_double_support_s", True),
+    ("single support", "single_support_s", True),
+)
+COLUMNS = ("Measure", "Left %", "Left s", "Right %", "Right s", "SR (L/R)", "SI")
+
+
+def fmt(v: float, digits: int, unit: str = "") -> str:
+    """A figure as ``gaitmon info`` prints it ("-" where it is undefined)."""
+    return "-" if not np.isfinite(v) else f"{v:.{digits}f}{unit}"
+
+
+@dataclass(frozen=True)
+class BothLegs:
+    """The bilateral measures of one bilateral file, with the exclusions they were made with."""
+
+    path: Path
+    analysis: BilateralAnalysis
+    # per side: (first, last unit time s, and both on the common time line): the unit's clock
+    # as a line, to show the other leg at the same moment (its wander is well under a ms)
+    clock: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
+
+    @property
+    def n_strides(self) -> dict[str, int]:
+        """Strides that count, per side (those with a stride time after the exclusions)."""
+        g = self.analysis.gait
+        return {s.side: int(np.isfinite(s.stride_s).sum()) for s in (g.left, g.right)}
+
+    @property
+    def comparable(self) -> bool:
+        """Both legs have a stride that counts: there is something to compare."""
+        n = self.n_strides
+        return bool(n["L"] and n["R"])
+
+    @property
+    def cadence_steps_min(self) -> float:
+        return self.analysis.gait.cadence_steps_min
+
+    @property
+    def symmetry(self) -> tuple[Symmetry, ...]:
+        return self.analysis.gait.symmetry
+
+    def rows(self) -> list[tuple[str, ...]]:
+        """The table's cells, one row a measure (:data:`COLUMNS`): each side's mean as % of
+        the stride (the phases of the stride only) and in seconds, then SR and SI (the
+        measures of the symmetry table only: one side's terminal double support is the
+        other's initial one)."""
+        g = self.analysis.gait
+        sym = {r.measure: r for r in g.symmetry}
+        out = []
+        for label, m, pct in MEASURES:
+            cells = [label]
+            for sg in (g.left, g.right):
+                cells += [fmt(sg.pct_mean(m), 1, " %") if pct else "", fmt(sg.mean(m), 3, " s")]
+            r = sym.get(m)
+            cells += ["", ""] if r is None else [fmt(r.ratio, 3), fmt(r.index_pct, 1, " %")]
+            out.append(tuple(cells))
+        return out
+
+    def moved_to(self, side: str, other: str, t_s: float) -> float:
+        """``side``'s unit time ``t_s`` as ``other``'s unit time at the same moment (the
+        common time line); unchanged when a side's clock is not known."""
+        if side not in self.clock or other not in self.clock:
+            return t_s
+        a0, a1, c0, c1 = self.clock[side]
+        common = c0 + (t_s - a0) * ((c1 - c0) / (a1 - a0) if a1 > a0 else 1.0)
+        b0, b1, d0, d1 = self.clock[other]
+        return b0 + (common - d0) * ((b1 - b0) / (d1 - d0) if d1 > d0 else 1.0)
+
+    def excluded_by_user(self) -> dict[str, int]:
+        """Strides each side leaves out for a range the user excluded."""
+        return {s: a.n_user_excluded for s, a in self.analysis.sides.items()}
+
+
+def both_legs(
+    path: str | Path, side: str = "", exclusions: Sequence[Exclusion] | None = None
+) -> BothLegs:
+    """Open the bilateral file at ``path`` (its own handles, closed before returning) and
+    analyse both legs, ``side``'s with ``exclusions`` (the ranges in force in review) when
+    given. Raises :class:`gaitmon.io.session.SessionError`."""
+    path = Path(path)
+    given = {side: list(exclusions)} if side and exclusions is not None else None
+    with open_bilateral(path) as b:
+        clock = {}
+        for s in b.sides:
+            u = b.unit(s)
+            if u.n_samples > 1:
+                t = u.read("timeline/t_s")
+                ends = np.array([t[0], t[-1]], dtype=np.float64)
+                c = b.common_s(s, ends)
+                clock[s] = (float(ends[0]), float(ends[1]), float(c[0]), float(c[1]))
+        return BothLegs(path, analyse_bilateral(b, exclusions=given), clock)

@@ -1,0 +1,128 @@
+"""The review window's Both legs tab: the bilateral measures of a file that records both legs.
+
+One table, a row a measure (step and stride time, stance, swing, initial and terminal double
+support, single support): each side's mean as % of the stride and in seconds, and the symmetry
+ratio SR = L / R and index SI; above it the measured cadence and the strides that count. The
+cells are
+:class:`gaitmon.review.both_legs.BothLegs`'s (the numbers ``gaitmon info`` prints);
+:class:`~gaitmon.ui.review.legs.LegsControl` computes them on a worker.
+"""
+
+from __future__ import annotations
+
+import html
+
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import (
+    QAbstractItemView,
+    QHeaderView,
+    QLabel,
+    QTableWidget,
+    QTableWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+from gaitmon.review.both_legs import COLUMNS, BothLegs, fmt
+
+NOTE = ("SR = left / right of the means (1 symmetric); SI = 2 |L − R| / (L + R) (0 % "
+        "symmetric). On the common time line, from the recorded gait events; each leg's "
+        "excluded strides are left out (the leg shown: the exclusions in force here; the "
+        "other: those kept for it).")  # fmt: skip
+TIPS = (
+    "Mean over the strides that count",
+    "Left leg: % of its stride time (phases of the stride)",
+    "Left leg: mean, seconds",
+    "Right leg: % of its stride time (phases of the stride)",
+    "Right leg: mean, seconds",
+    "Symmetry ratio: left / right of the means (1 is symmetric)",
+    "Symmetry index: 2 |L − R| / (L + R) × 100 % (0 is symmetric; it does not say which side "
+    "is larger). None for terminal double support: one leg's is the other's initial one",
+)
+
+
+def _table(headers: tuple[str, ...], tips: tuple[str, ...] = ()) -> QTableWidget:
+    t = QTableWidget(0, len(headers))
+    t.setHorizontalHeaderLabels(list(headers))
+    for i, tip in enumerate(tips):
+        item = t.horizontalHeaderItem(i)
+        if item is not None:
+            item.setToolTip(tip)
+    t.verticalHeader().setVisible(False)
+    t.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
+    t.setSelectionMode(QAbstractItemView.SelectionMode.NoSelection)
+    t.setAlternatingRowColors(True)
+    t.setWordWrap(False)
+    h = t.horizontalHeader()
+    h.setSectionResizeMode(0, QHeaderView.ResizeMode.ResizeToContents)
+    for i in range(1, len(headers)):
+        h.setSectionResizeMode(i, QHeaderView.ResizeMode.Stretch)
+    return t
+
+
+def _fill(t: QTableWidget, rows: list[tuple[str, ...]]) -> None:  # cells right-aligned
+    t.setRowCount(len(rows))
+    for r, cells in enumerate(rows):
+        for c, text in enumerate(cells):
+            item = QTableWidgetItem(text)
+            if c:
+                item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+            t.setItem(r, c, item)
+
+
+class BothLegsPanel(QWidget):
+    """The tab's widgets; :meth:`set_result` fills them, :meth:`show_message` says why not."""
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.result: BothLegs | None = None
+        self.headline = QLabel()
+        self.headline.setWordWrap(True)
+        self.headline.setTextFormat(Qt.TextFormat.RichText)
+        self.table = _table(COLUMNS, TIPS)
+        self.note = QLabel(NOTE)
+        self.note.setWordWrap(True)
+        self.note.setStyleSheet("color: gray")
+        v = QVBoxLayout(self)
+        v.setContentsMargins(2, 2, 2, 2)
+        v.addWidget(self.headline)
+        v.addWidget(self.table, 1)
+        v.addWidget(self.note)
+        self.show_message("")
+
+    def show_message(self, text: str) -> None:
+        """No figures: empty tables and ``text`` (computing, a failure, a one-unit file)."""
+        self.result = None
+        self.headline.setText(html.escape(text))
+        _fill(self.table, [])
+
+    def set_result(self, both: BothLegs) -> None:
+        self.result = both
+        n = both.n_strides
+        if not both.comparable:
+            self.show_message(
+                f"Too few strides on both legs to compare (strides that count: left {n['L']}, "
+                f"right {n['R']})."
+            )
+            self.result = both
+            return
+        user = both.excluded_by_user()
+        excluded = ", ".join(f"{'left' if s == 'L' else 'right'} {k}"
+                             for s, k in user.items() if k)  # fmt: skip
+        tail = f"; left out for a range you excluded: {excluded}" if excluded else ""
+        self.headline.setText(
+            f"<b>Both legs</b> — cadence <b>{fmt(both.cadence_steps_min, 0)}</b> steps/min "
+            f"(measured: both legs' steps); strides that count: left <b>{n['L']}</b>, right "
+            f"<b>{n['R']}</b>{tail}"
+        )
+        _fill(self.table, both.rows())
+
+    def cell(self, measure: str, column: str) -> str:
+        """The text shown for ``measure`` (e.g. "step time") in ``column`` (e.g. "SR (L/R)")."""
+        t, c = self.table, COLUMNS.index(column)
+        for r in range(t.rowCount()):
+            first = t.item(r, 0)
+            if first is not None and first.text() == measure:
+                item = t.item(r, c)
+                return item.text() if item is not None else ""
+        raise KeyError(f"no row {measure!r}")
