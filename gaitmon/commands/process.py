@@ -138,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(str(exc)) from None
     if not quiet:
         what = f"the {args.side} leg of {src.name}, as one unit" if args.side else (
-            "both legs" if both else "")
+            ("both legs" if len(done) == 2 else "the one leg the file holds") if both else "")
         print(f"gaitmon process: wrote {dst}{f' ({what})' if what else ''} with {settings_text}; "
               + "; ".join(done), file=sys.stderr)  # fmt: skip
     for line in warnings:
