@@ -39,7 +39,7 @@ def test_record_bilateral_lsl_publishes_each_leg_on_its_own_clock(tmp_path: Path
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
     proc = subprocess.Popen(
         [sys.executable, "-m", "gaitmon", "record", "--simulate-bilateral", "--lsl",
-         "--duration", "30", "--speed", str(SPEED), "--serials", f"{serials['L']},{serials['R']}",
+         "--duration", "60", "--speed", str(SPEED), "--serials", f"{serials['L']},{serials['R']}",
          "--drift-ppm", f"{PPM['L']:g},{PPM['R']:g}", "-o", str(out)],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, text=True,
     )  # fmt: skip
@@ -105,7 +105,7 @@ def test_record_bilateral_lsl_publishes_each_leg_on_its_own_clock(tmp_path: Path
           {s: round((1 / (slope[s] * FS_HZ * SPEED) - 1) * 1e6, 1) for s in slope})  # fmt: skip
     for side in "LR":
         nominal = 1.0 / (FS_HZ * SPEED * (1 + PPM[side] * 1e-6))
-        # within 300 ppm of that unit's own rate (the two are 800 ppm apart; 5 s of stamps at
+        # within 300 ppm of that unit's own rate (the two are 800 ppm apart; 12 s of stamps at
         # 4x on a loaded machine: measured 9-86 ppm off, more in a full test run): a stamp
         # that ignored the unit's drift would be 400 ppm off, one clock for both 0 ppm apart
         assert slope[side] / nominal - 1 == pytest.approx(0.0, abs=300e-6), side
