@@ -106,7 +106,7 @@ def test_record_bilateral_lsl_publishes_each_leg_on_its_own_clock(tmp_path: Path
     for side in "LR":
         nominal = 1.0 / (FS_HZ * SPEED * (1 + PPM[side] * 1e-6))
         # within 300 ppm of that unit's own rate (the two are 800 ppm apart; 12 s of stamps at
-        # 4x on a loaded machine: measured 9-86 ppm off, more in a full test run): a stamp
+        # 4x, three busy processes: 2-14 ppm off; 5 s of stamps were up to 183 off): a stamp
         # that ignored the unit's drift would be 400 ppm off, one clock for both 0 ppm apart
         assert slope[side] / nominal - 1 == pytest.approx(0.0, abs=300e-6), side
     assert (slope["L"] / slope["R"] - 1) * 1e6 == pytest.approx(-800, abs=400)
