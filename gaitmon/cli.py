@@ -51,10 +51,17 @@ def open_live_monitor(args: argparse.Namespace) -> int:
     The simulator options given here also apply when the simulated device is picked in the
     window; they become a SimConfig at this edge, never an argparse namespace inside the UI.
     """
+    from gaitmon.commands.live_pair import pair_from_args
     from gaitmon.commands.simulate import sim_config_from_args
     from gaitmon.ui import run_app  # imports no Qt until a display is known to be there
 
-    return run_app(sim_config_from_args(args), connect_simulated=bool(args.simulate))
+    pair_sim, pair = pair_from_args(args)
+    return run_app(
+        sim_config_from_args(args),
+        connect_simulated=bool(args.simulate),
+        pair_sim=pair_sim,
+        pair=pair,
+    )
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -76,6 +83,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         from gaitmon.commands.simulate import add_simulator_options
 
         add_simulator_options(parser.add_argument_group("simulated unit (with --simulate)"))
+        from gaitmon.commands.live_pair import add_pair_options
+
+        add_pair_options(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (module_path, help_text) in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)

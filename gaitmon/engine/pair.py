@@ -57,19 +57,7 @@ class EnginePair:
         ``before_stream(side, engine)`` runs for each once it is identified, before its first
         frame (the LSL outlets open there). ``EngineError`` (both stopped, nothing left
         behind) if either cannot start."""
-        path = Path(path)
-        old = parts_of(path)
-        if old and not overwrite:
-            raise EngineError(
-                f"the parts of an interrupted recording of {path.name} are beside it; "
-                f"`gaitmon info {path.name}` recovers them, or overwrite them"
-            )
-        for p in old.values():
-            for q in (p, journal_path(p)):
-                with contextlib.suppress(FileNotFoundError):
-                    q.unlink()
-        self.path = path
-        self._meta = meta or SessionMeta()
+        self._target(path, meta, overwrite)
         started: list[str] = []
         try:
             for side in SIDES:
@@ -89,32 +77,62 @@ class EnginePair:
             self._abandon(started)
             raise
 
+    def _target(self, path: str | Path, meta: SessionMeta | None, overwrite: bool) -> None:
+        """The file to record to; the parts of an interrupted recording of it are refused
+        (``EngineError``) unless ``overwrite``, then deleted."""
+        path = Path(path)
+        old = parts_of(path)
+        if old and not overwrite:
+            raise EngineError(
+                f"the parts of an interrupted recording of {path.name} are beside it; "
+                f"`gaitmon info {path.name}` recovers them, or overwrite them"
+            )
+        for p in old.values():
+            for q in (p, journal_path(p)):
+                with contextlib.suppress(FileNotFoundError):
+                    q.unlink()
+        self.path = path
+        self._meta = meta or SessionMeta()
+
     def _record(self, side: str) -> None:
         assert self.path is not None
         meta = dataclasses.replace(self._meta, side=side)
         self.engines[side].start_recording(part_path(self.path, side), meta, overwrite=True)
 
-    def _abandon(self, started: list[str]) -> None:
-        """A start that failed: the units stopped, the parts (still empty) deleted."""
+    def _abandon(self, started: list[str], *, streaming: bool = False) -> None:
+        """A start that failed: the units stopped (``streaming``: they stream on, only their
+        recordings stopped), the parts (still empty) deleted."""
         for side in started:
             self.engines[side].stop_recording("error: start-up failed")
-            self.engines[side].stop()
+            if not streaming:
+                self.engines[side].stop()
         if self.path is not None:
             for side in SIDES:
                 for q in (part_path(self.path, side), journal_path(part_path(self.path, side))):
                     with contextlib.suppress(OSError):
                         q.unlink()
 
-    def start_recording(self) -> None:
+    def start_recording(self, path: str | Path | None = None, meta: SessionMeta | None = None,
+                        *, overwrite: bool = False) -> None:  # fmt: skip
         """Both parts from the next block on (after a ``start(record=False)``); the
-        calibration a :meth:`zero` left waiting is each part's header's."""
+        calibration a :meth:`zero` left waiting is each part's header's. With ``path``: both
+        engines already stream on their own (the live window's, started with ``Engine.start``)
+        and record into ``path``; if either cannot start, neither records and both stream on
+        (``EngineError``)."""
+        if path is not None:
+            self._target(path, meta, overwrite)
+        started: list[str] = []
         try:
             for side in SIDES:
                 eng = self.engines[side]
                 self._record(side)
+                started.append(side)
                 self._start[side] = (eng.samples_total, eng.device.stats.decoder.frames_lost)
         except BaseException:
-            self._abandon(list(SIDES))
+            if path is None:
+                self._abandon(list(SIDES))
+            else:
+                self._abandon(started, streaming=True)
             raise
 
     def zero(
@@ -162,6 +180,16 @@ class EnginePair:
         """Finish both parts (at once: closing a long part computes its smoothed angles) and
         stop both engines (idempotent). A part not finished within ``timeout_s`` says so in
         its status's ``error``; its recorder finishes in the background."""
+        out = self.stop_recording(reason, timeout_s)
+        for side in SIDES:
+            self.engines[side].stop()
+        return out
+
+    def stop_recording(self, reason: str = "user", timeout_s: float = STOP_TIMEOUT_S) -> dict[
+        str, RecordingStatus
+    ]:
+        """Finish both parts at once, the engines streaming on (the live window); as
+        :meth:`stop` otherwise."""
         out: dict[str, RecordingStatus] = {}
 
         def finish(side: str) -> None:
@@ -173,8 +201,6 @@ class EnginePair:
             t.start()
         for t in threads:
             t.join()
-        for side in SIDES:
-            self.engines[side].stop()
         return out
 
     def finish(self, timeout_s: float = STOP_TIMEOUT_S) -> Path:

@@ -16,7 +16,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from gaitmon.io.sim.bilateral import BilateralConfig
     from gaitmon.io.sim.config import SimConfig
+    from gaitmon.live.pair import PairSource
 
 XCB_HINT = (
     "install the X11 client libraries Qt needs, e.g. on Debian/Ubuntu: sudo apt install "
@@ -113,7 +115,16 @@ def launch(module: str, *args: object, **kwargs: object) -> int:
     return int(window_module.run(*args, **kwargs))
 
 
-def run_app(sim: SimConfig | None = None, *, connect_simulated: bool = False) -> int:
+def run_app(
+    sim: SimConfig | None = None,
+    *,
+    connect_simulated: bool = False,
+    pair_sim: BilateralConfig | None = None,
+    pair: PairSource | None = None,
+) -> int:
     """Open the live monitor; ``sim``: the simulated device's settings (default: SimConfig()),
-    ``connect_simulated``: connect to it at once."""
-    return launch("gaitmon.ui.live", sim, connect_simulated=connect_simulated)
+    ``connect_simulated``: connect to it at once; ``pair``: connect both legs at once
+    (``pair_sim``: the simulated pair's settings)."""
+    return launch(
+        "gaitmon.ui.live", sim, connect_simulated=connect_simulated, pair_sim=pair_sim, pair=pair
+    )

@@ -136,3 +136,16 @@ def pen(colour: QColor, *, dashed: bool = False) -> QPen:
     if dashed:
         p.setStyle(Qt.PenStyle.DashLine)
     return p
+
+
+def side_colours(colours: Colours) -> dict[str, QColor]:
+    """The left and right legs' trace colours (both-legs live view): orange and purple.
+
+    Neither hue is one of the paper's (red accelerometer and heel, green Kalman and toe, blue
+    gyro integration), so a leg's colour never reads as a method's. Orange / purple are the
+    Okabe-Ito pair that colour-blind readers tell apart: with red-green blindness orange looks
+    ochre and purple blue, with blue-yellow blindness they differ in lightness (the left leg's
+    is the lighter one in both themes)."""
+    if colours.dark:
+        return {"L": _c("#ffa94d"), "R": _c("#c28bf0")}
+    return {"L": _c("#d98200"), "R": _c("#7e3fa8")}

@@ -91,6 +91,12 @@ ACTIONS: tuple[ActionSpec, ...] = (
                "Connect to the selected unit (Ctrl+K)", menu=DEVICE),
     ActionSpec("refresh", "Refresh ports", "refresh_ports", "F5",
                "Look for serial ports again (F5)", menu=DEVICE),
+    ActionSpec("pair_sim", "Connect simulated pair (both legs)", "connect_simulated_pair", None,
+               "Two simulated units, left and right leg, walking one walk on two "
+               "pseudo-terminals: both legs in one window (docs/bilateral.md)", menu=DEVICE,
+               separator_before=True),
+    ActionSpec("pair_ports", "Connect two units (both legs)…", "connect_two_ports", None,
+               "Pick the left and the right unit's ports and connect both legs", menu=DEVICE),
     ActionSpec("zero", "Zero", "zero", "Ctrl+0",
                "Zero the standing pose: the subject stands upright and still, leg straight "
                "(Ctrl+0)", menu=DEVICE, separator_before=True),
@@ -106,6 +112,12 @@ ACTIONS: tuple[ActionSpec, ...] = (
                menu=SIMULATOR, separator_before=True, args=(3.0,)),
     ActionSpec("restore", "Restore link now", "restore_simulated_link", None,
                "End a simulated drop-out", menu=SIMULATOR),
+    *(
+        ActionSpec(f"cut_{side}", f"Cut {name} leg's link for 3 s", "cut_pair_link", None,
+                   f"Both legs: the simulated {name} unit's port vanishes for 3 s; the other "
+                   "leg records on", menu=SIMULATOR, args=(side, 3.0))
+        for side, name in (("L", "left"), ("R", "right"))
+    ),
     ActionSpec("sim_stand", "Stand still", "set_simulated_standing", None,
                "The simulated subject stops at the next step and stands upright and still "
                "until Walk again: time to zero", menu=SIMULATOR, separator_before=True,

@@ -33,7 +33,9 @@ from PySide6.QtWidgets import (
 
 from gaitmon import __version__
 from gaitmon.engine import Mode
+from gaitmon.io.sim.bilateral import BilateralConfig
 from gaitmon.io.sim.config import SimConfig
+from gaitmon.live.pair import PairSource
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SettingsDialog, shortcuts_dialog
 from gaitmon.ui.live.actions import (
@@ -52,6 +54,7 @@ from gaitmon.ui.live.device import DeviceSlots
 from gaitmon.ui.live.guide import GuideBar
 from gaitmon.ui.live.jobs import DeviceJobs
 from gaitmon.ui.live.lsl import LslSlots
+from gaitmon.ui.live.pair_slots import PairSlots
 from gaitmon.ui.live.prefs import Prefs
 from gaitmon.ui.live.processing import ProcessingSlots
 from gaitmon.ui.live.recording import RecordingSlots
@@ -66,9 +69,10 @@ REFRESH_HZ = 30.0
 GAIT_PANEL_EVERY = 3  # ticks between gait-panel updates
 
 
-class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots, LslSlots):
+class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots, LslSlots):
     """The live monitor. ``settings`` is injected so tests can isolate it; ``sim``: the
-    simulated device's settings (default: SimConfig())."""
+    simulated device's settings (default: SimConfig()); ``pair_sim``: the simulated pair's
+    (both legs, :mod:`.pair_slots`); ``pair``: connect both legs to it at once."""
 
     def __init__(
         self,
@@ -78,10 +82,13 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots, LslSlo
         autoconnect: str | None = None,
         mode: Mode | str | None = None,
         confirm_close: bool = True,
+        pair_sim: BilateralConfig | None = None,
+        pair: PairSource | None = None,
     ) -> None:
         super().__init__()
         self.prefs = Prefs(settings)
         self.sim = sim
+        self._init_pair(pair_sim)
         self.confirm_close = confirm_close
         self.conn = None
         self.errors = []
@@ -116,6 +123,8 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots, LslSlo
         self.timer.timeout.connect(self._tick)
         if autoconnect is not None:
             QTimer.singleShot(0, functools.partial(self.connect_device, autoconnect))
+        elif pair is not None:
+            QTimer.singleShot(0, functools.partial(self.connect_pair, pair))
 
     # the status view's widgets, by the names the window has always had
     @property
@@ -445,6 +454,9 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots, LslSlo
 
     @guarded
     def _tick(self) -> None:
+        if self.pair is not None:  # both legs: .pair_slots
+            self._tick_pair()
+            return
         conn = self.conn
         if conn is None:
             return
@@ -561,8 +573,15 @@ class MainWindow(DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots, LslSlo
         ev.accept()
 
 
-def run(sim: SimConfig | None = None, *, connect_simulated: bool = False) -> int:
-    """Open the live monitor (``connect_simulated``: connect straight to the simulated unit)."""
+def run(
+    sim: SimConfig | None = None,
+    *,
+    connect_simulated: bool = False,
+    pair_sim: BilateralConfig | None = None,
+    pair: PairSource | None = None,
+) -> int:
+    """Open the live monitor (``connect_simulated``: connect straight to the simulated unit;
+    ``pair``: to both legs)."""
     from gaitmon.live.connection import SIMULATED_PORT
     from gaitmon.ui.app import exec_until_closed, make_application
 
@@ -571,6 +590,8 @@ def run(sim: SimConfig | None = None, *, connect_simulated: bool = False) -> int
         QSettings(),
         sim=sim,
         autoconnect=SIMULATED_PORT if connect_simulated else None,
+        pair_sim=pair_sim,
+        pair=pair,
     )
     win.show()
     return exec_until_closed(app, win)

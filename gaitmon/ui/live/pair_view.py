@@ -1,0 +1,211 @@
+"""The live window's both-legs view: the overlaid plots, the two legs' link health, the live
+bilateral measures and both gait panels.
+
+It only displays. :class:`PairView` takes both legs' snapshots each tick (the window's
+:mod:`.pair_slots` pulls them); each leg's link is graded by the one-leg window's own logic
+(:class:`gaitmon.live.health.HealthTracker`, :func:`gaitmon.live.health.link_view`), and each
+leg's Gait panel is the one-leg window's :class:`~gaitmon.ui.live.status.GaitPanel`, fed that
+leg's snapshot: the same stride measures, computed once, by the engine. The measured cadence
+and the step times come from :class:`gaitmon.live.pair.LiveBilateral`
+(``dsp.bilateral.bilateral_gait``, as ``gaitmon info`` on the recorded file).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import (
+    QGridLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QSizePolicy,
+    QSplitter,
+    QVBoxLayout,
+    QWidget,
+)
+
+from gaitmon.dsp.bilateral import BilateralGait
+from gaitmon.engine import Snapshot
+from gaitmon.live.health import HealthTracker, link_view
+from gaitmon.live.pair import SIDE_NAMES, SIDES
+from gaitmon.ui.live.status import GaitPanel, banner_style
+from gaitmon.ui.plots.bilateral import BilateralPlots
+from gaitmon.ui.theme import Colours, side_colours
+
+MEASURES = (
+    ("cadence", "Cadence (measured)", "steps/min: 60 / the mean step time of both legs, over "
+     "their last steps (measured: both legs are recorded)"),
+    ("step", "Step time L · R", "s: from the other foot's heel strike to this foot's, mean of "
+     "the last steps of each leg"),
+    ("symmetry", "Step symmetry", "symmetry ratio L / R of the step times (1 = symmetric) and "
+     "symmetry index 2|L−R|/(L+R) (docs/bilateral.md)"),
+    ("double", "Double support L · R", "initial double support, % of the stride: from the "
+     "leg's heel strike to the other foot's toe off"),
+)  # fmt: skip
+
+
+class LegStatus(QWidget):
+    """One leg's header: its name in its colour, link state, health, and its link banner."""
+
+    def __init__(self, side: str, colours: Colours, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.side = side
+        self.colours = colours
+        self.health = HealthTracker()
+        colour = side_colours(colours)[side].name()
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.setSpacing(2)
+        self.title = QLabel(
+            f"<b><span style='color:{colour}'>■</span> {SIDE_NAMES[side].capitalize()} leg</b>"
+        )
+        self.state_label = QLabel("—")
+        self.health_label = QLabel("")
+        self.health_label.setWordWrap(True)
+        self.banner = QLabel()
+        self.banner.setWordWrap(True)
+        self.banner.setVisible(False)
+        for w in (self.title, self.state_label, self.health_label, self.banner):
+            lay.addWidget(w)
+        self.state_text = ""
+
+    def reset(self) -> None:
+        self.health.reset()
+        self.banner.setVisible(False)
+        self.state_text = ""
+
+    def show(self, snap: Snapshot, port: str) -> None:  # type: ignore[override]
+        link = snap.link
+        view = link_view(
+            snap.link_state,
+            snap.link_reason,
+            snap.seconds_to_reconnect,
+            snap.last_data_age_s,
+            port,
+            attempt=link.transport.attempt + 1 if link is not None else 1,
+            device=link.transport.port if link is not None else "",
+        )
+        c = self.colours
+        colour = {"ok": c.ok, "warn": c.warn}.get(view.grade, c.alert)
+        self.state_text = view.pill
+        self.state_label.setText(f"<span style='color:{colour}'>●</span> {view.pill}")
+        self.state_label.setToolTip(view.tooltip or "Link state")
+        if view.banner:
+            self.banner.setText(view.banner)
+            self.banner.setToolTip(view.tooltip)
+            if self.banner.property("grade") != view.grade:
+                self.banner.setStyleSheet(banner_style(c, view.grade))
+                self.banner.setProperty("grade", view.grade)
+            self.banner.setVisible(True)
+        elif self.banner.isVisible():
+            self.banner.setVisible(False)
+        if link is None:
+            return
+        d = link.decoder
+        h = self.health.update(
+            time.monotonic(), d.frames_ok, d.frames_lost, d.crc_failures, snap.frame_rate_hz,
+            snap.last_data_age_s, reconnects=link.reconnects,
+            link_up=snap.link_state == "connected", errors=snap.engine_errors + link.rx_errors,
+            last_error=snap.engine_error or link.rx_error,
+        )  # fmt: skip
+        text = f"{h.text} · {snap.samples_total:,} samples"
+        if self.health_label.text() != text:
+            self.health_label.setText(text)
+        if self.health_label.property("grade") != h.grade:
+            hc = {"ok": "palette(window-text)", "lossy": c.warn}.get(h.grade, c.alert)
+            weight = "normal" if h.grade == "ok" else "bold"
+            self.health_label.setStyleSheet(f"color: {hc}; font-weight: {weight}")
+            self.health_label.setProperty("grade", h.grade)
+        self.health_label.setToolTip(h.tooltip)
+
+
+class PairView(QWidget):
+    """Plots on the left; both legs' measures, link health and gait panels on the right."""
+
+    def __init__(self, colours: Colours, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.colours = colours
+        lay = QHBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        split = QSplitter(Qt.Orientation.Horizontal)
+        lay.addWidget(split)
+        self.plots = BilateralPlots(colours)
+        split.addWidget(self.plots)
+
+        side = QWidget()
+        col = QVBoxLayout(side)
+        col.setContentsMargins(4, 0, 0, 0)
+        box = QGroupBox("Both legs")
+        grid = QGridLayout(box)
+        grid.setHorizontalSpacing(10)
+        big = self.font()
+        big.setPointSizeF(big.pointSizeF() * 1.3)
+        big.setBold(True)
+        self.values: dict[str, QLabel] = {}
+        for r, (key, label, tip) in enumerate(MEASURES):
+            name = QLabel(label)
+            name.setToolTip(tip)
+            value = QLabel("—")
+            value.setFont(big)
+            value.setToolTip(tip)
+            value.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+            grid.addWidget(name, r, 0)
+            grid.addWidget(value, r, 1)
+            self.values[key] = value
+        col.addWidget(box)
+        legs = QHBoxLayout()
+        self.status: dict[str, LegStatus] = {}
+        self.panels: dict[str, GaitPanel] = {}
+        for s in SIDES:
+            leg = QVBoxLayout()
+            self.status[s] = LegStatus(s, colours)
+            self.panels[s] = GaitPanel(colours)
+            self.panels[s].cycles.setMinimumHeight(240)
+            leg.addWidget(self.status[s])
+            leg.addWidget(self.panels[s], 1)
+            legs.addLayout(leg, 1)
+        col.addLayout(legs, 1)
+        side.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Expanding)
+        split.addWidget(side)
+        split.setStretchFactor(0, 3)
+        split.setStretchFactor(1, 2)
+        self.split = split
+
+    def clear(self) -> None:
+        self.plots.clear_data()
+        for s in SIDES:
+            self.status[s].reset()
+            self.panels[s].clear()
+        for v in self.values.values():
+            v.setText("—")
+
+    def show_links(self, snaps: dict[str, Snapshot], ports: dict[str, str]) -> None:
+        for side, snap in snaps.items():
+            self.status[side].show(snap, ports[side])
+
+    def show_gait(self, snaps: dict[str, Snapshot], gait: BilateralGait) -> None:
+        """Both gait panels and the bilateral measures (the slowly changing part: ~10 Hz)."""
+        for side, snap in snaps.items():
+            self.panels[side].show_snapshot(snap)
+
+        def fmt(x: float, spec: str) -> str:
+            return f"{x:{spec}}" if math.isfinite(x) else "—"
+
+        v = self.values
+        v["cadence"].setText(fmt(gait.cadence_steps_min, ".0f") + " steps/min"
+                             if math.isfinite(gait.cadence_steps_min) else "—")  # fmt: skip
+        step = gait.symmetry_of("step_s")
+        v["step"].setText(f"{fmt(step.left, '.2f')} · {fmt(step.right, '.2f')} s")
+        v["symmetry"].setText(
+            f"SR {fmt(step.ratio, '.2f')} · SI {fmt(step.index_pct, '.0f')} %"
+        )
+        ds = []
+        for s in SIDES:
+            pct = gait.side(s).pct("initial_double_support_s")
+            pct = pct[np.isfinite(pct)]
+            ds.append(float(pct.mean()) if len(pct) else math.nan)
+        v["double"].setText(f"{fmt(ds[0], '.0f')} · {fmt(ds[1], '.0f')} %")

@@ -1,0 +1,238 @@
+"""Both legs in the real live window: the simulated pair on two pseudo-terminals, reached through
+the real SerialTransport and decoder, driven as a user does (Device menu, Record, Simulator ▸
+Cut left leg's link). What is asserted is what is drawn and written; the references are the
+engines' own snapshots, the simulator's configuration and the recorded file read back."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QPointF, QSettings, Qt
+
+from gaitmon.cli import main
+from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.io.sim.bilateral import BilateralConfig
+from gaitmon.live.pair import PairSource
+from gaitmon.ui.live import MainWindow
+
+WAIT_MS = 30_000
+KNEE = 1
+
+
+@pytest.fixture
+def no_leaked_threads():
+    def ours():
+        return [t for t in threading.enumerate() if t.name.startswith("gaitmon")]
+
+    before = set(ours())
+    yield
+    deadline = time.monotonic() + 5.0
+    while time.monotonic() < deadline:
+        if not [t for t in ours() if t not in before and t.is_alive()]:
+            return
+        time.sleep(0.05)
+    pytest.fail("gaitmon threads left running")
+
+
+def open_window(qtbot, tmp_path, config, *, via_menu=False):
+    settings = QSettings(str(tmp_path / "gaitmon.ini"), QSettings.Format.IniFormat)
+    win = MainWindow(
+        settings,
+        pair_sim=config,
+        pair=None if via_menu else PairSource(sim=config),
+        mode="raw",
+        confirm_close=False,
+    )
+    win.show()
+    if via_menu:
+        assert win._actions["pair_sim"].isEnabled()
+        win._actions["pair_sim"].trigger()
+    qtbot.waitUntil(lambda: win.pair is not None, timeout=WAIT_MS)
+    return win
+
+
+def close_window(win):
+    win.close()
+    assert win.pair is None and win.conn is None
+    assert win.errors == []
+
+
+def samples(win, side):
+    return win.pair.engines[side].samples_total
+
+
+def lines_across(path, x):
+    """Drawn line segments of ``path`` that pass over ``x`` (a break leaves none)."""
+    n = 0
+    for i in range(1, path.elementCount()):
+        e, prev = path.elementAt(i), path.elementAt(i - 1)
+        if e.isLineTo() and min(prev.x, e.x) < x < max(prev.x, e.x):
+            n += 1
+    return n
+
+
+def path_points(path):
+    pts = np.array([(path.elementAt(i).x, path.elementAt(i).y)
+                    for i in range(path.elementCount())])  # fmt: skip
+    return pts[:, 0], pts[:, 1]
+
+
+def test_both_legs_are_drawn_and_measured_from_their_own_engines(
+    qtbot, tmp_path, no_leaked_threads
+):
+    config = BilateralConfig(standing_s=1.0, asymmetry="hemiparetic", affected="L", speed=2.0)
+    win = open_window(qtbot, tmp_path, config, via_menu=True)
+    try:
+        view = win.pair_view
+        assert view.isVisible() and not win.live.isVisible() and not win.gait_dock.isVisible()
+        assert not win.phase_combo.isVisible()  # the one-leg legend says nothing here
+        # walk until each leg's panel has its strides and the measures have both legs' steps
+        qtbot.waitUntil(
+            lambda: min(samples(win, "L"), samples(win, "R")) >= 2400, timeout=60_000
+        )
+        qtbot.waitUntil(lambda: view.values["symmetry"].text().startswith("SR 0."))
+        win.set_paused(True)  # nothing is drawn any more: compare what is shown
+        qtbot.wait(50)
+        snaps = win.pair_snapshots
+        plots = view.plots
+        for side in ("L", "R"):
+            for j in range(3):
+                assert plots.curve_points(side, j) >= 500, (side, j)
+        # the right leg's knee trace is the right engine's knee series, value for value
+        knee_r = snaps["R"].series["joint_kalman_deg"][:, KNEE]
+        x, y = path_points(plots.curve_path("R", KNEE))
+        assert len(knee_r) <= 1400  # 10 s of the unit's clock: drawn without decimation
+        np.testing.assert_allclose(y, knee_r[np.isfinite(knee_r)])
+        np.testing.assert_allclose(np.diff(x), 0.01, atol=1e-6)  # at its samples' times
+        _, y_left = path_points(plots.curve_path("L", KNEE))
+        assert not np.array_equal(y_left[: len(y)], y[: len(y_left)])
+        # both legs end "now" on the host clock (within a tick, the link and the pause)
+        for side in ("L", "R"):
+            right_edge = plots.curve_path(side, KNEE).boundingRect().right()
+            assert -0.5 < right_edge <= 0.05, (side, right_edge)
+        # the hemiparetic left knee swings less: its peak is lower than the right's
+        assert np.nanmax(snaps["L"].series["joint_kalman_deg"][:, KNEE]) < 0.8 * np.nanmax(knee_r)
+        # the measures: the step times' ratio and the measured cadence, as configured
+        gait = win.pair_model.gait()
+        step = gait.symmetry_of("step_s")
+        assert step.ratio == pytest.approx(config.step_time_ratio, abs=0.03)
+        assert gait.cadence_steps_min == pytest.approx(config.cadence_steps_min, abs=3.0)
+        shown_sr = float(view.values["symmetry"].text().split()[1])  # "SR 0.85 · SI 16 %"
+        assert shown_sr == pytest.approx(config.step_time_ratio, abs=0.03)
+        # each leg's gait panel shows its own engine's strides (the one-leg panel)
+        for side in ("L", "R"):
+            shown = view.panels[side].values["strides"].text()
+            assert int(shown) == pytest.approx(snaps[side].gait.n_strides, abs=1)
+            assert int(shown) >= 5
+        assert view.status["L"].state_text == view.status["R"].state_text == "Connected"
+        assert "0 lost" in view.status["R"].health_label.text()
+    finally:
+        close_window(win)
+
+
+def test_a_cut_on_the_left_leg_shows_there_and_the_right_leg_draws_on(
+    qtbot, tmp_path, no_leaked_threads
+):
+    win = open_window(qtbot, tmp_path, BilateralConfig(standing_s=1.0, speed=2.0))
+    try:
+        view = win.pair_view
+        plots = view.plots
+        qtbot.waitUntil(lambda: min(samples(win, "L"), samples(win, "R")) >= 600, timeout=WAIT_MS)
+        win._actions["cut_L"].trigger()
+        qtbot.waitUntil(
+            lambda: view.status["L"].state_text.startswith("Reconnecting"), timeout=WAIT_MS
+        )
+        qtbot.waitUntil(lambda: win.pair_snapshots["L"].last_data_age_s > 1.0, timeout=WAIT_MS)
+        qtbot.wait(100)
+        # the left leg: its time runs on, shaded red, its line stops; the right draws on
+        assert plots.lost_path("L", "knee").contains(QPointF(-0.3, 30.0))
+        assert plots.curve_path("L", KNEE).boundingRect().right() < -0.6
+        assert plots.curve_path("R", KNEE).boundingRect().right() > -0.3
+        assert plots.lost_path("R", "knee") is None
+        assert plots.lost_label("L") == "left leg: no data" and plots.lost_label("R") == ""
+        # in the contact strip, only the left row is red
+        assert plots.lost_path("L", "contact").contains(QPointF(-0.3, 1.5))
+        assert not plots.lost_path("L", "contact").contains(QPointF(-0.3, 0.5))
+        assert view.status["R"].state_text == "Connected"
+        assert view.status["L"].banner.isVisible() and not view.status["R"].banner.isVisible()
+        qtbot.waitUntil(lambda: view.status["L"].state_text == "Connected", timeout=WAIT_MS)
+        at = samples(win, "L")
+        qtbot.waitUntil(lambda: samples(win, "L") >= at + 300, timeout=WAIT_MS)
+        win.set_paused(True)
+        qtbot.wait(50)
+        snaps = win.pair_snapshots
+        s = snaps["L"].series
+        lost = np.flatnonzero(s["lost"] > 0)
+        assert len(lost) >= 250  # >= ~1.3 s at 200 Hz went nowhere and are rows on screen
+        now = win.pair_model.x_now("L")
+        mid = (s["t_s"][lost[0]] + s["t_s"][lost[-1]]) / 2 - now
+        assert lines_across(plots.curve_path("L", KNEE), mid) == 0  # broken across the gap
+        assert plots.lost_path("L", "knee").contains(QPointF(mid, 30.0))
+        # the right leg lost nothing, and its line runs through that time
+        assert not (snaps["R"].series["lost"] > 0).any()
+        assert win.pair.engines["R"].device.stats.decoder.frames_lost == 0
+        assert lines_across(plots.curve_path("R", KNEE), mid) == 1
+        assert win.pair.engines["L"].device.stats.reconnects >= 1
+        assert win.pair.engines["R"].device.stats.reconnects == 0
+    finally:
+        close_window(win)
+
+
+def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leaked_threads):
+    win = open_window(qtbot, tmp_path, BilateralConfig(standing_s=1.0, speed=2.0))
+    target = tmp_path / "both.h5"
+    try:
+        qtbot.waitUntil(lambda: min(samples(win, "L"), samples(win, "R")) >= 100, timeout=WAIT_MS)
+        win.act_record.trigger()
+        dlg = win.session_dialog
+        assert dlg is not None and dlg.isVisible() and not dlg.side.isEnabled()
+        dlg.patient.setText("P017")
+        dlg.path.setText(str(target))
+        dlg.path.textEdited.emit(str(target))
+        qtbot.mouseClick(dlg.buttons.buttons()[0], Qt.MouseButton.LeftButton)
+        assert win.recording and win.act_record.text() == "Stop"
+        start = {s: samples(win, s) for s in ("L", "R")}
+        qtbot.waitUntil(lambda: samples(win, "L") >= start["L"] + 200, timeout=WAIT_MS)
+        win.marker_edit.setText("turn")
+        win.act_marker.trigger()
+        qtbot.waitUntil(
+            lambda: min(samples(win, s) - start[s] for s in ("L", "R")) >= 500, timeout=WAIT_MS
+        )
+        qtbot.waitUntil(lambda: "REC both legs" in win.rec_label.text())
+        win.act_record.trigger()  # stop: both parts finished and combined
+        assert not win.recording and win.act_record.text() == "Record"
+        assert target.exists() and not list(tmp_path.glob("both.h5.*.partial"))
+        # acquisition goes on after the stop
+        after = samples(win, "R")
+        qtbot.waitUntil(lambda: samples(win, "R") >= after + 50, timeout=WAIT_MS)
+        win.disconnect_device()
+        # the one-leg window is back as it was
+        assert win.pair is None and not win.pair_view.isVisible() and win.live.isVisible()
+        assert win.gait_dock.isVisible() and win.phase_combo.isVisible()
+        assert win._actions["pair_sim"].isEnabled()
+    finally:
+        close_window(win)
+    with open_bilateral(target) as both:
+        assert set(both.units) == {"L", "R"} and both.complete
+        for side in ("L", "R"):
+            unit = both.units[side]
+            assert unit.meta.side == side and unit.meta.patient_id == "P017"
+            assert unit.n_samples >= 500
+            assert [m.label for m in unit.markers] == ["turn"]
+            assert both.sync[side] is not None
+
+
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (["--asymmetry", "hemiparetic"], "only with --simulate-bilateral"),
+        (["--simulate", "--simulate-bilateral"], "choose one"),
+        (["--ports", "/dev/rfcomm0"], "two different ports"),
+        (["--simulate-bilateral", "--speed", "max"], "--speed max"),
+    ],
+)
+def test_the_both_legs_options_refuse_a_bad_combination_in_one_line(argv, says, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert says in err and len(err.strip().splitlines()) == 1
