@@ -184,6 +184,11 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
     target = tmp_path / "both.h5"
     try:
         qtbot.waitUntil(lambda: min(samples(win, "L"), samples(win, "R")) >= 100, timeout=WAIT_MS)
+        assert not win.act_engineering.isEnabled()  # one leg's traces: not in this view
+        old_view = win.pair_view
+        win._restyle_pair_view()  # what a theme change does: a new view that draws on
+        assert win.pair_view is not old_view and win.pair_view.isVisible()
+        qtbot.waitUntil(lambda: win.pair_view.plots.curve_points("R", KNEE) > 100)
         win.act_record.trigger()
         dlg = win.session_dialog
         assert dlg is not None and dlg.isVisible() and not dlg.side.isEnabled()
@@ -210,6 +215,7 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
         # the one-leg window is back as it was
         assert win.pair is None and not win.pair_view.isVisible() and win.live.isVisible()
         assert win.gait_dock.isVisible() and win.phase_combo.isVisible()
+        assert win.act_engineering.isEnabled()
         assert win._actions["pair_sim"].isEnabled()
     finally:
         close_window(win)

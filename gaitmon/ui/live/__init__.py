@@ -7,6 +7,10 @@
 * ``recording`` -- start / stop a recording, markers (slots);
 * ``processing`` -- the Settings dialog and the tilt filter menu, applied live (slots);
 * ``lsl``       -- Device ▸ Stream to LSL and its patient-id permission (slots);
+* ``pair_slots`` -- both legs: connect a pair of units, their update, Record into one file,
+  markers, zero, the simulated pair's link cuts (slots);
+* ``pair_view`` -- both legs' view: overlaid plots, each leg's link health and Gait panel,
+  the live bilateral measures;
 * ``jobs``      -- connect and zero off the GUI thread (one in-order ``QtWorker``);
 * ``status``    -- status bar, banners and gait panel: what a snapshot says, shown;
 * ``prefs``     -- what the window remembers (QSettings);

@@ -253,6 +253,22 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
                 w.setVisible(True)
             self._legend_shown = []
 
+    def _restyle_pair_view(self) -> None:
+        """A theme change: curves are created once per theme, so a new view in the new shades
+        (its traces fill again from the next tick)."""
+        old = self.pair_view
+        if old is None:
+            return
+        parent = old.parentWidget()
+        layout = parent.layout() if parent is not None else None
+        if layout is None:
+            return
+        view = PairView(self.colours)
+        layout.replaceWidget(old, view)
+        view.setVisible(old.isVisible())
+        old.deleteLater()
+        self.pair_view = view
+
     @guarded
     def toggle_connect(self) -> None:
         if self.pair is not None:
@@ -500,6 +516,7 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
         for name in PAIR_ACTIONS:
             self._actions[name].setEnabled(idle)
         simulated = pair is not None and pair.simulated
+        self._actions["engineering"].setEnabled(pair is None)  # one leg's traces and sensors
         for name in CUT_ACTIONS:
             self._actions[name].setEnabled(simulated)
         if pair is None:

@@ -544,6 +544,7 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
         self.live.set_fsr_threshold(self.config.fsr_threshold)
         self.live.set_angle_method(old_live.angle_method)
         self.live.set_engineering(old_live.engineering)
+        self._restyle_pair_view()
 
     def shutdown(self) -> None:
         """Stop everything this window started (idempotent); the window stays open."""
