@@ -56,7 +56,7 @@ from gaitmon.ui.live.views import ViewSlots
 
 log = logging.getLogger("gaitmon.ui")
 
-GAIT_EVERY = 3  # ticks between updates of the gait panels and the measures (~10 Hz)
+GAIT_EVERY = 3  # ticks between updates of each gait panel and of the measures (~10 Hz)
 PAIR_ACTIONS = ("pair_sim", "pair_ports")
 CUT_ACTIONS = ("cut_L", "cut_R")
 
@@ -319,8 +319,12 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
         if view.plots.layered:
             view.plots.viewport().repaint()
         self._pair_ticks += 1
-        if self._pair_ticks % GAIT_EVERY == 0:
-            view.show_gait(snaps, self.pair_model.gait())
+        # the slowly changing part at ~10 Hz, one piece a tick: no tick pays for all three
+        part = self._pair_ticks % GAIT_EVERY
+        if part < len(SIDES):
+            view.show_panel(SIDES[part], snaps[SIDES[part]])
+        else:
+            view.show_measures(self.pair_model.gait())
         self.pair_snapshots = snaps
 
     # -- recording --------------------------------------------------------------------------

@@ -187,10 +187,12 @@ class PairView(QWidget):
         for side, snap in snaps.items():
             self.status[side].show(snap, ports[side])
 
-    def show_gait(self, snaps: dict[str, Snapshot], gait: BilateralGait) -> None:
-        """Both gait panels and the bilateral measures (the slowly changing part: ~10 Hz)."""
-        for side, snap in snaps.items():
-            self.panels[side].show_snapshot(snap)
+    def show_panel(self, side: str, snap: Snapshot) -> None:
+        """One leg's Gait panel (the slowly changing part: ~10 Hz)."""
+        self.panels[side].show_snapshot(snap)
+
+    def show_measures(self, gait: BilateralGait) -> None:
+        """The live bilateral measures (~10 Hz)."""
 
         def fmt(x: float, spec: str) -> str:
             return f"{x:{spec}}" if math.isfinite(x) else "—"
