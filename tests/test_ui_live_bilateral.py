@@ -229,6 +229,53 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
             assert both.sync[side] is not None
 
 
+def test_connect_two_units_by_their_ports_from_the_device_menu(
+    qtbot, tmp_path, monkeypatch, no_leaked_threads
+):
+    """Device ▸ Connect two units: the ports picked are the two units' serial ports (here a
+    simulated pair's pseudo-terminals, as ``gaitmon simulate --pty --bilateral`` serves them):
+    first one port for both legs (refused in one line), then the left and the right one."""
+    from PySide6.QtWidgets import QDialog
+
+    from gaitmon.io.ports import PortInfo
+    from gaitmon.io.sim.bilateral import serve_pair_on_ptys
+    from gaitmon.ui.live import pair_slots
+
+    pty = serve_pair_on_ptys(BilateralConfig(standing_s=1.0, speed=2.0))
+    left, right = (str(p) for p in pty.link_paths)
+    ports = [PortInfo(right, "unit R", "n/a"), PortInfo(left, "unit L", "n/a")]
+    monkeypatch.setattr(pair_slots, "available_ports", lambda: ports)
+    picks = iter([(right, right), (left, right)])  # first the same port twice: refused
+
+    def exec_(dlg):
+        lp, rp = next(picks)
+        for side, path in (("L", lp), ("R", rp)):
+            dlg.combos[side].setCurrentIndex(dlg.combos[side].findData(path))
+        return QDialog.DialogCode.Accepted
+
+    monkeypatch.setattr(pair_slots.TwoPortsDialog, "exec", exec_)
+    settings = QSettings(str(tmp_path / "gaitmon.ini"), QSettings.Format.IniFormat)
+    win = MainWindow(settings, mode="raw", confirm_close=False)
+    win.show()
+    try:
+        win._actions["pair_ports"].trigger()
+        assert win.pair is None and "two different ports" in win.statusBar().currentMessage()
+        win._actions["pair_ports"].trigger()
+        qtbot.waitUntil(lambda: win.pair is not None, timeout=WAIT_MS)
+        assert win.pair.source.ports == (left, right) and not win.pair.simulated
+        # each engine reads its own unit: the left engine's unit is the left one (#1001)
+        assert win.pair.engines["L"].identity.serial == 1001
+        assert win.pair.engines["R"].identity.serial == 1002
+        qtbot.waitUntil(lambda: min(samples(win, "L"), samples(win, "R")) >= 200, timeout=WAIT_MS)
+        assert win.pair_view.plots.curve_points("L", KNEE) > 100
+        assert not win._actions["cut_L"].isEnabled()  # real ports: no simulator to cut
+        assert win.pair_view.status["L"].state_text == "Connected"
+    finally:
+        close_window(win)
+        pty.stop()
+        pty.sim.close()
+
+
 @pytest.mark.parametrize(
     ("argv", "says"),
     [

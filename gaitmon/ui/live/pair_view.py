@@ -78,7 +78,7 @@ class LegStatus(QWidget):
         self.banner.setVisible(False)
         self.state_text = ""
 
-    def show(self, snap: Snapshot, port: str) -> None:  # type: ignore[override]
+    def show_link(self, snap: Snapshot, port: str) -> None:
         link = snap.link
         view = link_view(
             snap.link_state,
@@ -185,7 +185,7 @@ class PairView(QWidget):
 
     def show_links(self, snaps: dict[str, Snapshot], ports: dict[str, str]) -> None:
         for side, snap in snaps.items():
-            self.status[side].show(snap, ports[side])
+            self.status[side].show_link(snap, ports[side])
 
     def show_panel(self, side: str, snap: Snapshot) -> None:
         """One leg's Gait panel (the slowly changing part: ~10 Hz)."""
