@@ -155,8 +155,12 @@ def test_a_cut_on_the_left_leg_shows_there_and_the_right_leg_draws_on(
         assert plots.lost_path("L", "contact").contains(QPointF(-0.3, 1.5))
         assert not plots.lost_path("L", "contact").contains(QPointF(-0.3, 0.5))
         assert view.status["R"].state_text == "Connected"
-        assert view.status["L"].banner.isVisible() and not view.status["R"].banner.isVisible()
+        # the window's link banner names the leg whose link is down, and only that one
+        banner = win.link_banner.text()
+        assert win.link_banner.isVisible() and banner.startswith("Left leg: ")
+        assert "Right leg" not in banner
         qtbot.waitUntil(lambda: view.status["L"].state_text == "Connected", timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: not win.link_banner.isVisible())
         at = samples(win, "L")
         qtbot.waitUntil(lambda: samples(win, "L") >= at + 300, timeout=WAIT_MS)
         win.set_paused(True)

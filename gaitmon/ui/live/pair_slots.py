@@ -51,7 +51,7 @@ from gaitmon.ui.live.guide import GuideState
 from gaitmon.ui.live.pair_view import PairView
 from gaitmon.ui.live.prefs import default_session_folder
 from gaitmon.ui.live.recording import RecordingSlots
-from gaitmon.ui.live.status import fmt_bytes, fmt_elapsed
+from gaitmon.ui.live.status import banner_style, fmt_bytes, fmt_elapsed
 from gaitmon.ui.live.views import ViewSlots
 
 log = logging.getLogger("gaitmon.ui")
@@ -308,6 +308,7 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
         window_s = 0.05 if paused else self.window_s
         snaps = {side: eng.snapshot(window_s) for side, eng in pair.engines.items()}
         view.show_links(snaps, {s: pair.port_name(s) for s in SIDES})
+        self._show_pair_banner(view)
         self._show_pair_recording(snaps)
         self._show_guide_state(all(s.calibrated for s in snaps.values()))
         if paused:
@@ -326,6 +327,22 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
         else:
             view.show_measures(self.pair_model.gait())
         self.pair_snapshots = snaps
+
+    def _show_pair_banner(self, view: PairView) -> None:
+        """The window's link banner (above the plots, as with one leg), a line per leg."""
+        text, grade, tip = view.banner()
+        banner = self.status.link_banner
+        if not text:
+            if banner.isVisible():
+                banner.setVisible(False)
+            return
+        if banner.text() != text:
+            banner.setText(text)
+            banner.setToolTip(tip)
+        if banner.property("grade") != grade:
+            banner.setStyleSheet(banner_style(self.colours, grade))
+            banner.setProperty("grade", grade)
+        banner.setVisible(True)
 
     # -- recording --------------------------------------------------------------------------
 

@@ -30,9 +30,9 @@ from PySide6.QtWidgets import (
 
 from gaitmon.dsp.bilateral import BilateralGait
 from gaitmon.engine import Snapshot
-from gaitmon.live.health import HealthTracker, link_view
+from gaitmon.live.health import HealthTracker, LinkView, link_view
 from gaitmon.live.pair import SIDE_NAMES, SIDES
-from gaitmon.ui.live.status import GaitPanel, banner_style
+from gaitmon.ui.live.status import GaitPanel
 from gaitmon.ui.plots.bilateral import BilateralPlots
 from gaitmon.ui.theme import Colours, side_colours
 
@@ -49,7 +49,9 @@ MEASURES = (
 
 
 class LegStatus(QWidget):
-    """One leg's header: its name in its colour, link state, health, and its link banner."""
+    """One leg's header: its name in its colour, link state and health. Its link banner's text
+    (``link``) goes into the window's banner above the plots, named by leg, so a link down on
+    one leg does not shift that leg's column against the other's."""
 
     def __init__(self, side: str, colours: Colours, parent: QWidget | None = None) -> None:
         super().__init__(parent)
@@ -66,16 +68,14 @@ class LegStatus(QWidget):
         self.state_label = QLabel("—")
         self.health_label = QLabel("")
         self.health_label.setWordWrap(True)
-        self.banner = QLabel()
-        self.banner.setWordWrap(True)
-        self.banner.setVisible(False)
-        for w in (self.title, self.state_label, self.health_label, self.banner):
+        self.link: LinkView | None = None  # the last link view shown
+        for w in (self.title, self.state_label, self.health_label):
             lay.addWidget(w)
         self.state_text = ""
 
     def reset(self) -> None:
         self.health.reset()
-        self.banner.setVisible(False)
+        self.link = None
         self.state_text = ""
 
     def show_link(self, snap: Snapshot, port: str) -> None:
@@ -94,15 +94,7 @@ class LegStatus(QWidget):
         self.state_text = view.pill
         self.state_label.setText(f"<span style='color:{colour}'>●</span> {view.pill}")
         self.state_label.setToolTip(view.tooltip or "Link state")
-        if view.banner:
-            self.banner.setText(view.banner)
-            self.banner.setToolTip(view.tooltip)
-            if self.banner.property("grade") != view.grade:
-                self.banner.setStyleSheet(banner_style(c, view.grade))
-                self.banner.setProperty("grade", view.grade)
-            self.banner.setVisible(True)
-        elif self.banner.isVisible():
-            self.banner.setVisible(False)
+        self.link = view
         if link is None:
             return
         d = link.decoder
@@ -186,6 +178,19 @@ class PairView(QWidget):
     def show_links(self, snaps: dict[str, Snapshot], ports: dict[str, str]) -> None:
         for side, snap in snaps.items():
             self.status[side].show_link(snap, ports[side])
+
+    def banner(self) -> tuple[str, str, str]:
+        """(text, grade, tooltip) of the legs' link banners, one line per leg that has one
+        ("" when none): the worst grade colours it."""
+        lines, tips, grades = [], [], []
+        for side in SIDES:
+            view = self.status[side].link
+            if view is not None and view.banner:
+                lines.append(f"{SIDE_NAMES[side].capitalize()} leg: {view.banner}")
+                tips.append(f"{SIDE_NAMES[side].capitalize()} leg: {view.tooltip}")
+                grades.append(view.grade)
+        grade = "alert" if "alert" in grades else "warn" if grades else "ok"
+        return "<br>".join(lines), grade, "\n".join(tips)
 
     def show_panel(self, side: str, snap: Snapshot) -> None:
         """One leg's Gait panel (the slowly changing part: ~10 Hz)."""
