@@ -280,6 +280,22 @@ def test_connect_two_units_by_their_ports_from_the_device_menu(
         pty.sim.close()
 
 
+def test_zero_both_legs_while_the_subject_stands(qtbot, tmp_path, no_leaked_threads):
+    win = open_window(qtbot, tmp_path, BilateralConfig(standing_s=8.0))
+    try:
+        engines = win.pair.engines
+        qtbot.waitUntil(lambda: min(samples(win, "L"), samples(win, "R")) >= 200, timeout=WAIT_MS)
+        assert not any(e.snapshot(0.1).calibrated for e in engines.values())
+        win.act_zero.trigger()
+        qtbot.waitUntil(lambda: "zeroed on both legs" in win.statusBar().currentMessage(),
+                        timeout=WAIT_MS)  # fmt: skip
+        qtbot.waitUntil(lambda: all(e.snapshot(0.1).calibrated for e in engines.values()))
+        qtbot.waitUntil(lambda: win.guide.state.zeroed)  # the step bar moves on to Record
+        assert win.act_zero.isEnabled()
+    finally:
+        close_window(win)
+
+
 @pytest.mark.parametrize(
     ("argv", "says"),
     [

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -71,6 +72,18 @@ class PairConnectRequest:
 
     def __call__(self, ticket: Ticket) -> PairConnection:
         return open_pair(self.source, self.mode, self.config)
+
+
+class _Unwanted(threading.Event):
+    """Set once nobody wants the request's answer (the window closing): ends a zero's
+    retries early."""
+
+    def __init__(self, ticket: Ticket) -> None:
+        super().__init__()
+        self.ticket = ticket
+
+    def is_set(self) -> bool:
+        return not self.ticket.wanted
 
 
 class TwoPortsDialog(QDialog):
@@ -478,16 +491,16 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
             return
         self.act_zero.setEnabled(False)
         self.notify("Zeroing both legs: the subject stands upright and still…", 0)
-        engines = dict(pair.engines)
+        both = pair.pair
 
         def run(ticket: Ticket) -> list[str]:
-            refused = []
-            for side, eng in engines.items():
-                try:
-                    eng.zero()
-                except EngineError as exc:
-                    refused.append(f"{SIDE_NAMES[side]} leg: {one_line(exc)}")
-            return refused
+            # both units from the same standing moment, retried while the subject settles
+            # (up to 10 s), as `gaitmon record --simulate-bilateral --zero` does
+            try:
+                both.zero(stop=_Unwanted(ticket))
+            except EngineError as exc:
+                return [one_line(exc)]
+            return []
 
         self.jobs.worker.submit(run, self._pair_zeroed)
 
@@ -497,7 +510,7 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
         if response.error is not None:
             self.report_exception("zero", response.error)
         elif response.value:
-            self.notify(f"Zero refused. {'; '.join(response.value)}", 30_000)
+            self.notify(f"Zero refused: {'; '.join(response.value)}", 30_000)
         else:
             self.notify("Standing pose zeroed on both legs: angles now read 0 in this pose.")
 
