@@ -143,9 +143,9 @@ def side_colours(colours: Colours) -> dict[str, QColor]:
 
     Neither hue is one of the paper's (red accelerometer and heel, green Kalman and toe, blue
     gyro integration), so a leg's colour never reads as a method's. Orange / purple are the
-    Okabe-Ito pair that colour-blind readers tell apart: with red-green blindness orange looks
-    ochre and purple blue, with blue-yellow blindness they differ in lightness (the left leg's
-    is the lighter one in both themes)."""
+    Okabe-Ito pair that colour-blind readers tell apart. Simulated (Machado et al. 2009, full
+    severity), red-green blindness turns them ochre and blue (CIELAB distance ~100 in both
+    themes, as without it), blue-yellow blindness salmon and mauve (49 light, 35 dark)."""
     if colours.dark:
         return {"L": _c("#ffa94d"), "R": _c("#c28bf0")}
     return {"L": _c("#d98200"), "R": _c("#7e3fa8")}
