@@ -71,3 +71,23 @@ def test_without_pyarrow_the_csv_row_runs_alone_and_says_how_to_install_it(
                         "(pip install '.[bench]' to measure pyarrow's write_csv beside it)")
     assert ran == ["csv"]
     assert "| CSV export | 1.00 |" in out
+
+
+@pytest.mark.parametrize(("argv", "want"), [
+    ([], (["1h", "8h"], 1)),
+    (["--lengths", "1min,10min,1h,8h", "--repeat", "3"], (["1min", "10min", "1h", "8h"], 3)),
+    (["--lengths", "8h"], (["8h"], 1)),
+])
+def test_memory_suite_takes_the_lengths_and_runs_asked_for(
+    monkeypatch: pytest.MonkeyPatch, argv: list[str], want: tuple[list[str], int]
+) -> None:
+    """An explicit ``--lengths 1min,10min,1h,8h --repeat 3`` (the other suites' defaults)
+    was taken for no option and became 1h,8h, one run."""
+    from gaitmon.cli import main
+    from gaitmon.commands import bench_memory
+
+    got: list[tuple[list[str], int]] = []
+    monkeypatch.setattr(bench_memory, "suite",
+                        lambda lengths, repeat, only=None: got.append((lengths, repeat)) or 0)
+    assert main(["bench", "--suite", "memory", *argv]) == 0
+    assert got == [want]

@@ -220,11 +220,13 @@ def _run(task: str, name: str, outdir: Path) -> dict[str, float]:
 
 
 def suite(lengths: list[str], repeat: int, only: set[str] | None = None) -> int:
+    from gaitmon.errors import UserError
+
     bad = [n for n in lengths if n not in LENGTHS_H]
     if bad:
-        from gaitmon.errors import UserError
-
         raise UserError(f"unknown length {bad[0]!r} (choose from {', '.join(LENGTHS_H)})")
+    if repeat < 1:
+        raise UserError("--repeat must be at least 1")
     tasks = [(t, label) for t, label in TASKS if not only or t in only]
     print(f"gaitmon bench --suite memory: {', '.join(lengths)}; peak RSS (VmHWM) of a fresh "
           f"process per run, median of {repeat} ({os.cpu_count()} CPUs)", flush=True)
