@@ -2,10 +2,13 @@
 
 Only the visible range is ever read. A change of the detail range (pan, zoom, overview drag,
 a stride picked in the table) becomes a :class:`~gaitmon.review.view.ViewRequest` for the rows
-in view; the view worker answers it (:func:`gaitmon.review.view.load_view`, from
+in view, answered by :func:`gaitmon.review.view.load_view` (from
 :class:`gaitmon.io.overview.SessionOverview`: raw rows when few, min/max decimated otherwise, at
-most ~2 points per pixel) and the response is applied on the GUI thread, unless a newer request
-overtook it. Until then the previous data stay drawn (x is time, so they pan with the view).
+most ~2 points per pixel). A request that reads little (rows within the point budget, or a
+pyramid already built: :func:`~gaitmon.review.view.answers_quickly`) is answered at once, in
+the range change, so the new range is painted once, with its data; the others go to the view
+worker and the response is applied on the GUI thread, unless a newer request overtook it.
+Until then the previous data stay drawn (x is time, so they pan with the view).
 
 Each lane's traces are drawn by one `TraceSet` (see :mod:`gaitmon.ui.plots`); gaps, user
 exclusions, the selection and the picked stride are shaded by one
