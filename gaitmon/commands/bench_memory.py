@@ -38,7 +38,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from gaitmon.commands.bench_offline import LENGTHS_H, _cache_dir, _peak_rss_mb
+from gaitmon.commands.bench_offline import LENGTHS_H, _cache_dir, _peak_rss_mb, load_average
 
 GOAL_MB = 400.0
 # (task, what the line says); "ref_" tasks are the references
@@ -229,7 +229,8 @@ def suite(lengths: list[str], repeat: int, only: set[str] | None = None) -> int:
         raise UserError("--repeat must be at least 1")
     tasks = [(t, label) for t, label in TASKS if not only or t in only]
     print(f"gaitmon bench --suite memory: {', '.join(lengths)}; peak RSS (VmHWM) of a fresh "
-          f"process per run, median of {repeat} ({os.cpu_count()} CPUs)", flush=True)
+          f"process per run, median of {repeat} ({os.cpu_count()} CPUs; {load_average()})",
+          flush=True)  # fmt: skip
     res: dict[tuple[str, str], dict[str, float]] = {}
     with tempfile.TemporaryDirectory(prefix="gaitmon-bench-mem-") as d:
         outdir = Path(d)
@@ -268,6 +269,7 @@ def suite(lengths: list[str], repeat: int, only: set[str] | None = None) -> int:
         if task == "close":
             row("  (its process just before the close: the writer, the bench's simulator)",
                 "before_close_mb", task)
+    print(f"at the end: {load_average()}")
     return 0
 
 

@@ -340,10 +340,20 @@ def suite(lengths: list[str], repeat: int, skip: set[str] | None = None, only: s
     if wanted:
         skip |= {x for t, ref, _ in ROWS if t not in wanted for x in (t, ref) if x}
     print(f"gaitmon bench --suite offline: {', '.join(lengths)}; {repeat} runs each "
-          f"({os.cpu_count()} CPUs)", flush=True)
+          f"({os.cpu_count()} CPUs; {load_average()})", flush=True)
     results = run_suite(lengths, repeat, skip)
     print_table(results, lengths, repeat)
+    print(f"at the end: {load_average()}")
     return 0
+
+
+def load_average() -> str:
+    """The machine's load average (1, 5, 15 min), to print beside figures of a shared machine."""
+    try:
+        one, five, fifteen = os.getloadavg()
+    except OSError:
+        return "load average unknown"
+    return f"load average {one:.2f}, {five:.2f}, {fifteen:.2f}"
 
 
 if __name__ == "__main__":
