@@ -1,7 +1,7 @@
 """Review window on an 8-hour session: first view, pan/zoom frame times; naive plots beside it.
 
     .venv/bin/python benchmarks/bench_review.py [--hours 8] [--keep DIR] [--formats 1,2]
-        [--repeat 3] [--pyqtgraph]
+        [--repeat 3] [--pyqtgraph] [--baseline OTHER_TREE]
 
 Builds a synthetic session by tiling the walking part of a 40-s simulator recording (so the
 data and the events are real pipeline output) up to the requested length, written with h5py
@@ -14,6 +14,8 @@ fresh processes, alternating, side by side. Offscreen:
   repaint with the new data (p50/p95); View ▸ Angles ▸ Live and back to Smoothed, each timed
   from the click to the lanes and the stride analysis of those angles (the session stores its
   smoothed angles in ``/smoothed``, tiled like the rest, as every recording does);
+* the GUI thread's CPU time per pan step (``time.thread_time``: what the pans cost the GUI
+  thread, much less swayed by other processes than the wall time);
 * peak RSS of the process (the window with the session open);
 * with ``--pyqtgraph``: naive (14 raw channels, every row handed to pyqtgraph) and pyqtgraph's
   clip-to-view + peak auto-downsampling of the same 14 channels.
@@ -35,7 +37,8 @@ import h5py
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+# --baseline: the child runs another tree's gaitmon (this file's benchmark code)
+sys.path.insert(0, os.environ.get("GAITMON_BENCH_CODE") or str(ROOT))
 
 from gaitmon.io.session import CHUNK_ROWS, FORMAT_VERSION  # noqa: E402
 
@@ -157,13 +160,17 @@ def bench_review(path: Path, app) -> dict[str, float]:
     analysed = time.perf_counter() - t0
     n_strides = len(win.analysis.rows)
 
+    gui_cpu: list[float] = []
+
     def step(t_a: float, t_b: float) -> float:
         n0 = tl.applied_requests
+        c = time.thread_time()  # the GUI thread's CPU (the view worker's is not counted)
         s = time.perf_counter()
         tl.set_view(t_a, t_b)
         app.processEvents()
         wait(lambda: tl.applied_requests > n0 and not tl.loader.busy)
         tl.glw.viewport().repaint()
+        gui_cpu.append(time.thread_time() - c)
         return time.perf_counter() - s
 
     pans = []
@@ -172,15 +179,18 @@ def bench_review(path: Path, app) -> dict[str, float]:
     for _ in range(60):
         x0 += 3.0
         pans.append(step(x0, x0 + 30.0))
+    pan_cpu = gui_cpu[:]
     zooms = []
     centre = total / 2
     widths = [w for w in (10, 30, 120, 600, 1800, 3600, 4 * 3600) if w < total] + [total]
     for w in widths * 3:
         zooms.append(step(max(0, centre - w / 2), min(total, centre + w / 2)))
     whole_pans = []
+    gui_cpu.clear()
     for k in range(20):
         wide = min(7200.0, total / 4)  # 2 h (of 8 h); a quarter of a shorter session
         whole_pans.append(step(k * wide / 120, k * wide / 120 + wide))
+    pan2h_cpu = gui_cpu[:]
     switches = {}
     done: list[int] = []
     win.analysis_done.connect(lambda: done.append(1))
@@ -203,6 +213,9 @@ def bench_review(path: Path, app) -> dict[str, float]:
         "zoom_p95_ms": 1e3 * pct(zooms, 0.95),
         "pan2h_p50_ms": 1e3 * statistics.median(whole_pans),
         "pan2h_p95_ms": 1e3 * pct(whole_pans, 0.95),
+        "pan_cpu_p50_ms": 1e3 * statistics.median(pan_cpu),
+        "pan_cpu_p95_ms": 1e3 * pct(pan_cpu, 0.95),
+        "pan2h_cpu_p50_ms": 1e3 * statistics.median(pan2h_cpu),
         "to_live_s": switches["live"],
         "to_smoothed_s": switches["smoothed"],
     }
@@ -270,12 +283,13 @@ def _child(path: Path) -> None:
     print(json.dumps({**r, "rss_mb": rss}), flush=True)
 
 
-def _run_child(path: Path) -> dict[str, float]:
+def _run_child(path: Path, code: Path | None = None) -> dict[str, float]:
     import json
     import subprocess
 
+    env = dict(os.environ, GAITMON_BENCH_CODE=str(code or ROOT))
     r = subprocess.run([sys.executable, __file__, "--child", str(path)], capture_output=True,
-                       text=True, check=False)  # fmt: skip
+                       text=True, check=False, env=env)  # fmt: skip
     if r.returncode != 0:
         raise RuntimeError(r.stderr[-2000:])
     out: dict[str, float] = json.loads(r.stdout.strip().splitlines()[-1])
@@ -287,10 +301,13 @@ ROWS = (
     ("stride analysis done (s)", "analysis_s", "{:.2f}"),
     ("pan 30-s view p50 (ms)", "pan_p50_ms", "{:.1f}"),
     ("pan 30-s view p95 (ms)", "pan_p95_ms", "{:.1f}"),
+    ("pan 30-s view, GUI thread CPU p50 (ms)", "pan_cpu_p50_ms", "{:.1f}"),
+    ("pan 30-s view, GUI thread CPU p95 (ms)", "pan_cpu_p95_ms", "{:.1f}"),
     ("zoom 10 s .. 8 h p50 (ms)", "zoom_p50_ms", "{:.1f}"),
     ("zoom 10 s .. 8 h p95 (ms)", "zoom_p95_ms", "{:.1f}"),
     ("pan 2-h view p50 (ms)", "pan2h_p50_ms", "{:.1f}"),
     ("pan 2-h view p95 (ms)", "pan2h_p95_ms", "{:.1f}"),
+    ("pan 2-h view, GUI thread CPU p50 (ms)", "pan2h_cpu_p50_ms", "{:.1f}"),
     ("View > Angles > Live (s)", "to_live_s", "{:.2f}"),
     ("and back to Smoothed (s)", "to_smoothed_s", "{:.2f}"),
     ("peak RSS (MB)", "rss_mb", "{:.0f}"),
@@ -308,6 +325,9 @@ def main() -> int:
                     help="runs per format, alternating, each in a fresh process (median)")
     ap.add_argument("--pyqtgraph", action="store_true",
                     help="also plot the 14 raw channels with pyqtgraph (clip-to-view and naive)")
+    ap.add_argument("--baseline", type=Path, default=None,
+                    help="another source tree (e.g. `git worktree add /tmp/base main`): its "
+                    "gaitmon measured beside this one's, alternating, with a ratio column")
     ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child is not None:
@@ -326,21 +346,38 @@ def main() -> int:
                   f"{path.stat().st_size / 1e6:.0f} MB in {time.perf_counter() - s:.1f} s",
                   flush=True)  # fmt: skip
         paths[v] = path
-    runs: dict[int, list[dict[str, float]]] = {v: [] for v in formats}
+    # columns: (format, code tree); with --baseline each format runs the other tree's gaitmon
+    # then this one's, alternating, so their ratio is measured under the same load
+    codes: list[Path | None] = [args.baseline, None] if args.baseline else [None]
+    cols = [(v, c) for v in formats for c in codes]
+    runs: dict[tuple[int, Path | None], list[dict[str, float]]] = {col: [] for col in cols}
+
+    def name(col: tuple[int, Path | None]) -> str:
+        v, c = col
+        return f"format {v}" + ("" if not args.baseline else
+                                f", {'baseline' if c else 'this tree'}")  # fmt: skip
+
     for k in range(args.repeat):
-        for v in formats:
-            r = _run_child(paths[v])
-            runs[v].append(r)
-            print(f"  run {k + 1} format {v}: first view {r['first_view_s']:.2f} s, pan p95 "
-                  f"{r['pan_p95_ms']:.0f} ms, 2-h pan p95 {r['pan2h_p95_ms']:.0f} ms, "
-                  f"RSS {r['rss_mb']:.0f} MB", flush=True)  # fmt: skip
+        for col in cols:
+            r = _run_child(paths[col[0]], col[1])
+            runs[col].append(r)
+            print(f"  run {k + 1} {name(col)}: first view {r['first_view_s']:.2f} s, pan p50 / "
+                  f"p95 {r['pan_p50_ms']:.0f} / {r['pan_p95_ms']:.0f} ms (GUI CPU p50 "
+                  f"{r['pan_cpu_p50_ms']:.1f} ms), 2-h pan p95 {r['pan2h_p95_ms']:.0f} ms, "
+                  f"RSS {r['rss_mb']:.0f} MB; load {os.getloadavg()[0]:.1f}",
+                  flush=True)  # fmt: skip
     print(f"\nreview window, {args.hours:g} h session, offscreen 1600x1000, median of "
-          f"{args.repeat} runs (fresh process each), {runs[formats[0]][0]['strides']:.0f} strides")
-    print("| | " + " | ".join(f"format {v} ({paths[v].stat().st_size / 2**20:.0f} MB)"
-                             for v in formats) + " |")  # fmt: skip
-    print("|---|" + "---|" * len(formats))
+          f"{args.repeat} runs (fresh process each), {runs[cols[0]][0]['strides']:.0f} strides"
+          + (f"; baseline: {args.baseline}" if args.baseline else ""))
+    print("| | " + " | ".join(f"{name(c)} ({paths[c[0]].stat().st_size / 2**20:.0f} MB)"
+                             for c in cols)
+          + (" | ratio |" if args.baseline else " |"))  # fmt: skip
+    print("|---|" + "---|" * (len(cols) + bool(args.baseline)))
     for label, key, fmt in ROWS:
-        cells = [fmt.format(statistics.median(r[key] for r in runs[v])) for v in formats]
+        med = [statistics.median(r[key] for r in runs[c]) for c in cols]
+        cells = [fmt.format(m) for m in med]
+        if args.baseline:
+            cells.append(f"{med[-1] / med[-2]:.2f}×" if med[-2] else "–")
         print(f"| {label} | " + " | ".join(cells) + " |")
     if args.pyqtgraph:
         from PySide6.QtWidgets import QApplication

@@ -48,6 +48,19 @@ def test_step_band_is_top_exactly_over_the_runs():
     assert area == pytest.approx(6.0 * (3 + 2))
 
 
+def test_step_runs_are_the_spans_step_band_draws_at_its_top():
+    from gaitmon.ui.plots import step_runs
+
+    x = np.arange(10.0)
+    mask = np.array([0, 0, 1, 1, 1, 0, 0, 1, 1, 0], dtype=bool)
+    x0, x1 = step_runs(x, mask)  # the same runs as above, by hand: [2, 5] and [7, 9]
+    np.testing.assert_array_equal(x0, [2, 7])
+    np.testing.assert_array_equal(x1, [5, 9])
+    x0, x1 = step_runs(x, np.ones(10, bool))  # on to the end: up to the last sample
+    assert (x0.tolist(), x1.tolist()) == ([0.0], [9.0])
+    assert [len(a) for a in step_runs(x[:0], mask[:0])] == [0, 0]
+
+
 def test_health_is_quiet_then_lossy_then_alert():
     h = HealthTracker(recent_s=5.0, no_data_alert_s=2.0)
     ok = h.update(0.0, 1000, 0, 0, 100.0, 0.01)

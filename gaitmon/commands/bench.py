@@ -14,12 +14,15 @@ import numpy as np
 
 from gaitmon.errors import UserError
 
+ALL_LENGTHS = "1min,10min,1h,8h"
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--hours", type=float, default=8.0, help="length of the synthetic record (default 8 h)"
     )
-    p.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
+    p.add_argument("--repeat", type=int, default=None,
+                   help="best of N runs (default 3; --suite memory: 1)")
     p.add_argument(
         "--suite",
         choices=("pipeline", "offline", "size", "memory"),
@@ -31,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--lengths",
-        default="1min,10min,1h,8h",
+        default=None,
         help="session lengths for --suite offline, size and memory (default 1min,10min,1h,8h; "
         "memory: 1h,8h and one run unless --lengths / --repeat are given)",
     )
@@ -69,20 +72,23 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.dsp.kalman import TiltKalman
     from gaitmon.dsp.pipeline import Pipeline
 
-    if args.suite == "offline":
-        from gaitmon.commands.bench_offline import suite
-
-        return suite(args.lengths.split(","), args.repeat, only=args.only)
     if args.suite == "memory":
         from gaitmon.commands.bench_memory import suite as memory_suite
 
-        lengths = args.lengths if args.lengths != "1min,10min,1h,8h" else "1h,8h"
-        return memory_suite(lengths.split(","), args.repeat if args.repeat != 3 else 1,
+        # (an explicit --lengths 1min,10min,1h,8h or --repeat 3 is what it says: the defaults
+        # are told apart by None)
+        lengths = args.lengths or "1h,8h"
+        return memory_suite(lengths.split(","), 1 if args.repeat is None else args.repeat,
                             set(filter(None, args.only.split(","))))  # fmt: skip
+    args.repeat = 3 if args.repeat is None else args.repeat
+    if args.suite == "offline":
+        from gaitmon.commands.bench_offline import suite
+
+        return suite((args.lengths or ALL_LENGTHS).split(","), args.repeat, only=args.only)
     if args.suite == "size":
         from gaitmon.commands.bench_size import suite as size_suite
 
-        return size_suite(args.lengths.split(","), args.repeat)
+        return size_suite((args.lengths or ALL_LENGTHS).split(","), args.repeat)
     if not 0 < args.hours <= 24:
         raise UserError(f"--hours must be above 0 and at most 24, got {args.hours}")
     if args.repeat < 1:

@@ -38,7 +38,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from gaitmon.commands.bench_offline import LENGTHS_H, _cache_dir, _peak_rss_mb
+from gaitmon.commands.bench_offline import LENGTHS_H, _cache_dir, _peak_rss_mb, load_average
 
 GOAL_MB = 400.0
 # (task, what the line says); "ref_" tasks are the references
@@ -220,14 +220,17 @@ def _run(task: str, name: str, outdir: Path) -> dict[str, float]:
 
 
 def suite(lengths: list[str], repeat: int, only: set[str] | None = None) -> int:
+    from gaitmon.errors import UserError
+
     bad = [n for n in lengths if n not in LENGTHS_H]
     if bad:
-        from gaitmon.errors import UserError
-
         raise UserError(f"unknown length {bad[0]!r} (choose from {', '.join(LENGTHS_H)})")
+    if repeat < 1:
+        raise UserError("--repeat must be at least 1")
     tasks = [(t, label) for t, label in TASKS if not only or t in only]
     print(f"gaitmon bench --suite memory: {', '.join(lengths)}; peak RSS (VmHWM) of a fresh "
-          f"process per run, median of {repeat} ({os.cpu_count()} CPUs)", flush=True)
+          f"process per run, median of {repeat} ({os.cpu_count()} CPUs; {load_average()})",
+          flush=True)  # fmt: skip
     res: dict[tuple[str, str], dict[str, float]] = {}
     with tempfile.TemporaryDirectory(prefix="gaitmon-bench-mem-") as d:
         outdir = Path(d)
@@ -246,21 +249,27 @@ def suite(lengths: list[str], repeat: int, only: set[str] | None = None) -> int:
                 each = ", ".join(f"{r['rss_mb']:.0f}" for r in runs)
                 print(f"    {name:5s} {task:10s} peak RSS {m['rss_mb']:6.0f} MB  "
                       f"{m['cpu_s']:6.2f} CPU s{extra}  (runs: {each})", flush=True)
+    per_h = "1h" in lengths and "8h" in lengths
     print(f"\npeak RSS, MB (2^20 bytes), median of {repeat} fresh process(es); goal <= "
-          f"{GOAL_MB:.0f} MB")
-    print("| what | " + " | ".join(lengths) + " |")
-    print("|---|" + "---|" * len(lengths))
-    for task, label in tasks:
-        cells = [f"{res[(task, n)]['rss_mb']:.0f}" for n in lengths]
+          f"{GOAL_MB:.0f} MB" + ("; per h = (8 h - 1 h) / 7, the growth per hour of session"
+                                 if per_h else ""))  # fmt: skip
+    print("| what | " + " | ".join(lengths) + (" | per h |" if per_h else " |"))
+    print("|---|" + "---|" * (len(lengths) + per_h))
+
+    def row(label: str, key: str, task: str) -> None:
+        cells = [f"{res[(task, n)][key]:.0f}" for n in lengths]
+        if per_h:
+            cells.append(f"{(res[(task, '8h')][key] - res[(task, '1h')][key]) / 7:+.1f}")
         print(f"| {label} | " + " | ".join(cells) + " |")
+
+    for task, label in tasks:
+        row(label, "rss_mb", task)
         if task == "review":
-            cells = [f"{res[(task, n)]['both_rss_mb']:.0f}" for n in lengths]
-            print("| review window: then View ▸ Angles ▸ Live and back | " + " | ".join(cells)
-                  + " |")
+            row("review window: then View ▸ Angles ▸ Live and back", "both_rss_mb", task)
         if task == "close":
-            cells = [f"{res[(task, n)]['before_close_mb']:.0f}" for n in lengths]
-            print("|   (its process just before the close: the writer, the bench's simulator) | "
-                  + " | ".join(cells) + " |")
+            row("  (its process just before the close: the writer, the bench's simulator)",
+                "before_close_mb", task)
+    print(f"at the end: {load_average()}")
     return 0
 
 

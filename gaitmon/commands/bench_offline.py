@@ -4,7 +4,10 @@ Each figure is the median of ``--repeat`` runs, each in a fresh Python process (
 memory is its own), over synthetic sessions of 1 min, 10 min, 1 h and 8 h, printed beside a
 reference measured in the same run on the same data:
 
-* CSV export vs pyarrow's ``write_csv`` of the same columns (read from the same session);
+* CSV export vs pyarrow's ``write_csv`` of the same columns (read from the same session: the
+  series' columns, the event and gap columns and the marker labels; pyarrow writes its own
+  float text, shortest round-trip, so its file is ~20 % smaller than the fixed decimals);
+  without pyarrow (``pip install '.[bench]'``) the CSV row runs alone and says so;
 * MAT export vs ``scipy.io.savemat`` of the same arrays;
 * ``info``, C3D export and the PDF report, against their own 1-minute figure (the fixed cost).
 
@@ -65,7 +68,8 @@ def write_session(path: Path, hours: float) -> int:
     """A raw session of ``hours`` written directly (seconds for 8 hours, not 8 hours)."""
     from gaitmon.io.session import SessionWriter
 
-    tmp = path.with_suffix(".tmp.h5")
+    # one temporary name per process: two benchmarks (sharing the cache) may build the same one
+    tmp = path.with_suffix(f".{os.getpid()}.tmp.h5")
     with SessionWriter(tmp, bench_header()) as w:
         n = append_synthetic(w, hours)
     tmp.replace(path)
@@ -115,9 +119,15 @@ def session_file(name: str) -> Path:
 # ---- one measurement, in its own process ----
 
 
-def _all_columns(src_path: Path) -> tuple[list[str], list[Any]]:
-    from gaitmon.io.export.csv import _csv_columns
-    from gaitmon.io.export.source import open_source
+def _all_columns(src_path: Path) -> tuple[list[str], list[Any], dict[int, str]]:
+    """Every column of the CSV export: its names, the arrays of all but the last (the
+    series' columns, then heel_strike, toe_off and gap_lost_frames as int64) and the last,
+    the marker labels, as {row: text} (an empty cell on every other row)."""
+    import numpy as np
+
+    from gaitmon.io.export.csv import CSV_EXTRA_COLUMNS, MARKER_PLACEHOLDER, _csv_columns
+    from gaitmon.io.export.deidentify import Scrubber
+    from gaitmon.io.export.source import gaps, markers, open_source
 
     names: list[str] = []
     arrays: list[Any] = []
@@ -127,7 +137,49 @@ def _all_columns(src_path: Path) -> tuple[list[str], list[Any]]:
             for i, c in enumerate(s.columns):
                 names.append(c)
                 arrays.append(a[:, i])
-    return names, arrays
+        scrub = Scrubber(src.group_attrs("session"), False)
+        n = src.n
+        for kind in ("heel_strike", "toe_off"):
+            col = np.zeros(n, np.int64)
+            col[src.events(kind)] = 1
+            arrays.append(col)
+        lost = np.zeros(n, np.int64)
+        for g in gaps(src, scrub):
+            if g["sample_idx"] < n:
+                lost[g["sample_idx"]] += g["n_lost"]
+        arrays.append(lost)
+        labels: dict[int, list[str]] = {}
+        for mk in markers(src, scrub):
+            labels.setdefault(mk["sample_idx"], []).append(
+                mk["label"].strip() or MARKER_PLACEHOLDER)
+    names += list(CSV_EXTRA_COLUMNS)
+    return names, arrays, {r: " | ".join(labels[r]) for r in sorted(labels)}
+
+
+def _pyarrow_table(src_path: Path) -> Any:
+    """The CSV export's columns (:func:`_all_columns`) as a pyarrow table: numbers as read,
+    the marker column a dictionary of its labels (null, i.e. an empty cell, elsewhere)."""
+    import numpy as np
+    import pyarrow as pa  # type: ignore[import-untyped,import-not-found,unused-ignore]
+
+    names, arrays, marked = _all_columns(src_path)
+    idx = np.full(len(arrays[0]), -1, np.int32)
+    idx[list(marked)] = np.arange(len(marked), dtype=np.int32)
+    marker = pa.DictionaryArray.from_arrays(pa.array(idx, mask=idx < 0),
+                                            pa.array(list(marked.values()), pa.string()))
+    cols = [pa.array(a) for a in arrays]
+    del arrays
+    return pa.Table.from_arrays([*cols, marker], names=names)
+
+
+def pyarrow_missing() -> str:
+    """"" when pyarrow (the CSV row's reference) can be imported, else the one line to print."""
+    import importlib.util
+
+    if importlib.util.find_spec("pyarrow") is not None:
+        return ""
+    return ("pyarrow is not installed: the CSV row runs without its reference "
+            "(pip install '.[bench]' to measure pyarrow's write_csv beside it)")
 
 
 def _task(task: str, src: Path, out: Path) -> list[Path]:
@@ -136,14 +188,10 @@ def _task(task: str, src: Path, out: Path) -> list[Path]:
 
         return list(export_session(src, task, out / f"x.{task}", force=True).paths)
     if task == "csv_pyarrow":
-        # the reference only: pyarrow is not a dependency of gaitmon (pip install pyarrow)
-        import pyarrow as pa  # type: ignore[import-untyped,import-not-found,unused-ignore]
+        # the reference only: pyarrow is not a dependency of gaitmon (pip install '.[bench]')
         import pyarrow.csv as pacsv  # type: ignore[import-untyped,import-not-found,unused-ignore]
 
-        names, arrays = _all_columns(src)
-        table = pa.Table.from_arrays([pa.array(a) for a in arrays], names=names)
-        del arrays
-        pacsv.write_csv(table, out / "ref.csv")
+        pacsv.write_csv(_pyarrow_table(src), out / "ref.csv")
         return [out / "ref.csv"]
     if task == "mat_savemat":
         from scipy.io import savemat
@@ -286,13 +334,26 @@ def suite(lengths: list[str], repeat: int, skip: set[str] | None = None, only: s
     if repeat < 1:
         raise UserError("--repeat must be at least 1")
     skip = set(skip or ())
+    if "csv_pyarrow" not in skip and (not wanted or "csv" in wanted) and pyarrow_missing():
+        print(pyarrow_missing(), flush=True)
+        skip.add("csv_pyarrow")
     if wanted:
         skip |= {x for t, ref, _ in ROWS if t not in wanted for x in (t, ref) if x}
     print(f"gaitmon bench --suite offline: {', '.join(lengths)}; {repeat} runs each "
-          f"({os.cpu_count()} CPUs)", flush=True)
+          f"({os.cpu_count()} CPUs; {load_average()})", flush=True)
     results = run_suite(lengths, repeat, skip)
     print_table(results, lengths, repeat)
+    print(f"at the end: {load_average()}")
     return 0
+
+
+def load_average() -> str:
+    """The machine's load average (1, 5, 15 min), to print beside figures of a shared machine."""
+    try:
+        one, five, fifteen = os.getloadavg()
+    except OSError:
+        return "load average unknown"
+    return f"load average {one:.2f}, {five:.2f}, {fifteen:.2f}"
 
 
 if __name__ == "__main__":

