@@ -8,6 +8,8 @@ one row at a time (here against single-row blocks, which re-solve nothing beyond
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -48,3 +50,31 @@ def test_the_windowed_solve_is_the_row_at_a_time_result(walk) -> None:
     rows = np.vstack([k.process(ax[i : i + 1], az[i : i + 1], w[i : i + 1])
                       for i in range(len(ax))])  # fmt: skip
     np.testing.assert_array_equal(whole, rows)
+
+
+def test_a_segment_near_the_wrap_with_impacts_is_the_row_at_a_time_result() -> None:
+    """Every path of the rule: a segment held near +-180 deg (its accelerometer tilt crosses
+    the wrap back and forth while the gyro sees a slow sway), single-sample impacts, and a
+    stretch where the accelerometer stays a turn off for a while; in blocks that cut the
+    solve's windows anywhere."""
+    fs, n = 100.0, 4000
+    t = np.arange(n) / fs
+    rng = np.random.default_rng(7)
+    tilt = np.pi - 0.05 + 0.12 * np.sin(2 * np.pi * 0.7 * t)  # radians, across +-pi
+    w = np.gradient(tilt, 1 / fs) + rng.normal(0, 0.01, n)
+    g = 9.81
+    ax, az = g * np.cos(tilt), g * np.sin(tilt)
+    ax, az = ax + rng.normal(0, 0.3, n), az + rng.normal(0, 0.3, n)
+    hits = rng.choice(np.arange(50, n - 50), 60, replace=False)
+    ax[hits] *= -1.0  # an impact: the accelerometer tilt a half turn off for one sample
+    az[hits] *= -1.0
+    ax[2000:2040], az[2000:2040] = -ax[2000:2040], -az[2000:2040]  # and for 0.4 s
+    cols = [np.tile(a[:, None], (1, 4)) for a in (ax, az, w)]
+    whole = mk.GaitAwareKalman(fs).process(*cols)
+    k = mk.GaitAwareKalman(fs)
+    rows = np.vstack([k.process(*(c[i : i + 1] for c in cols)) for i in range(n)])
+    np.testing.assert_array_equal(whole, rows)
+    k = mk.GaitAwareKalman(fs)  # and in blocks that split the windows anywhere
+    cuts = np.r_[0, np.sort(rng.choice(np.arange(1, n), 40, replace=False)), n]
+    parts = np.vstack([k.process(*(c[a:b] for c in cols)) for a, b in itertools.pairwise(cuts)])
+    np.testing.assert_array_equal(whole, parts)

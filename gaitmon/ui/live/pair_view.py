@@ -32,7 +32,7 @@ from gaitmon.dsp.bilateral import BilateralGait
 from gaitmon.engine import Snapshot
 from gaitmon.live.health import HealthTracker, LinkView, link_view
 from gaitmon.live.pair import SIDE_NAMES, SIDES
-from gaitmon.ui.live.status import GaitPanel
+from gaitmon.ui.live.status import GaitPanel, value_rows
 from gaitmon.ui.plots.bilateral import BilateralPlots
 from gaitmon.ui.theme import Colours, side_colours
 
@@ -133,21 +133,7 @@ class PairView(QWidget):
         col.setContentsMargins(4, 0, 0, 0)
         box = QGroupBox("Both legs")
         grid = QGridLayout(box)
-        grid.setHorizontalSpacing(10)
-        big = self.font()
-        big.setPointSizeF(big.pointSizeF() * 1.3)
-        big.setBold(True)
-        self.values: dict[str, QLabel] = {}
-        for r, (key, label, tip) in enumerate(MEASURES):
-            name = QLabel(label)
-            name.setToolTip(tip)
-            value = QLabel("—")
-            value.setFont(big)
-            value.setToolTip(tip)
-            value.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
-            grid.addWidget(name, r, 0)
-            grid.addWidget(value, r, 1)
-            self.values[key] = value
+        self.values = value_rows(grid, MEASURES, self, scale=1.3)
         col.addWidget(box)
         legs = QHBoxLayout()
         self.status: dict[str, LegStatus] = {}

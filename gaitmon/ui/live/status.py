@@ -223,6 +223,30 @@ GAIT_ROWS = (
 )  # fmt: skip
 
 
+def value_rows(
+    grid: QGridLayout, rows: tuple[tuple[str, str, str], ...] | list[tuple[str, str, str]],
+    widget: QWidget, *, scale: float,
+) -> dict[str, QLabel]:  # fmt: skip
+    """A name / large bold value row per ``(key, label, tooltip)`` in ``grid``; the value
+    labels by key (they show "—" until set)."""
+    grid.setHorizontalSpacing(10)
+    big = widget.font()
+    big.setPointSizeF(big.pointSizeF() * scale)
+    big.setBold(True)
+    values: dict[str, QLabel] = {}
+    for r, (key, label, tip) in enumerate(rows):
+        name = QLabel(label)
+        name.setToolTip(tip)
+        value = QLabel("—")
+        value.setFont(big)
+        value.setToolTip(tip)
+        value.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+        grid.addWidget(name, r, 0)
+        grid.addWidget(value, r, 1)
+        values[key] = value
+    return values
+
+
 class GaitPanel(QWidget):
     """The gait dock: the latest stride's figures and the mean ± SD gait cycle."""
 
@@ -232,21 +256,7 @@ class GaitPanel(QWidget):
         g = QVBoxLayout(self)
         g.setContentsMargins(4, 4, 4, 4)
         grid = QGridLayout()
-        grid.setHorizontalSpacing(10)
-        self.values: dict[str, QLabel] = {}
-        big = self.font()
-        big.setPointSizeF(big.pointSizeF() * 1.5)
-        big.setBold(True)
-        for r, (key, label, tip) in enumerate(GAIT_ROWS):
-            name = QLabel(label)
-            name.setToolTip(tip)
-            value = QLabel("—")
-            value.setFont(big)
-            value.setToolTip(tip)
-            value.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
-            grid.addWidget(name, r, 0)
-            grid.addWidget(value, r, 1)
-            self.values[key] = value
+        self.values = value_rows(grid, GAIT_ROWS, self, scale=1.5)
         g.addLayout(grid)
         self.events_label = QLabel()  # where the gait events come from
         self.events_label.setWordWrap(True)
