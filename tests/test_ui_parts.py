@@ -223,6 +223,35 @@ def test_live_cycle_band_is_mean_plus_minus_the_sample_sd(qtbot):
     assert len(plots.upper[1].yData) == 0 and len(plots.lower[1].yData) == 0
 
 
+@pytest.mark.parametrize("height", [300, 700])
+def test_live_cycle_axis_labels_fit_their_plots(qtbot, height):
+    """Each cycle plot's y-axis label is no longer than its plot is tall (rotated, it runs
+    along the axis): in a short panel (the both-legs view's 300 px) the long clinical label
+    overlapped the next plot's; there the plot says "knee (deg)", and the long one when tall."""
+    from PySide6.QtGui import QFontMetrics
+
+    from gaitmon.ui.plots import CyclePlots
+    from gaitmon.ui.theme import current_colours
+
+    plots = CyclePlots(current_colours())
+    qtbot.addWidget(plots)
+    plots.resize(380, height)
+    plots.show()
+    qtbot.waitExposed(plots)
+    qtbot.wait(50)
+    for p in plots._plots:
+        axis = p.getAxis("left")
+        text = axis.labelText
+        width = QFontMetrics(axis.label.font()).horizontalAdvance(f"{text} ({axis.labelUnits})"
+                                                                  if axis.labelUnits else text)
+        assert width <= p.vb.height(), (text, width, p.vb.height())
+    labels = [p.getAxis("left").labelText for p in plots._plots]
+    if height >= 700:  # room for the clinical names
+        assert labels == ["hip flexion (deg)", "knee flexion (deg)", "ankle dorsiflexion (deg)"]
+    else:
+        assert labels == ["hip (deg)", "knee (deg)", "ankle (deg)"]
+
+
 def test_every_live_action_row_names_a_window_slot_once():
     from gaitmon.ui.live import MainWindow
     from gaitmon.ui.live.actions import ACTIONS

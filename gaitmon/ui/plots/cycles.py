@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtGui import QColor
+from PySide6.QtGui import QColor, QFontMetrics
 from PySide6.QtWidgets import QWidget
 
 from gaitmon.dsp.gait import cycle_mean_sd
@@ -35,9 +35,13 @@ class CyclePlots(CountingPlotWidget):
         band_colour.setAlpha(60)
         band_pen = pen(band_colour)
         cur_pen = pg.mkPen(colours.current, width=2)
+        self._plots: list[pg.PlotItem] = []
+        self._short_labels = False
         for j, (key, label, yr) in enumerate(JOINTS):
             p = self.addPlot(row=j, col=0)
             style_plot(p, colours, f"{label} (deg)", yr, bottom=False)
+            self._plots.append(p)
+            p.vb.sigResized.connect(self._fit_labels)
             p.setMouseEnabled(x=False, y=False)
             p.setXRange(0, 100, padding=0)
             ax = p.getAxis("bottom")
@@ -46,7 +50,8 @@ class CyclePlots(CountingPlotWidget):
                 ax.setHeight(None)
                 ax.setLabel("gait cycle (% of stride, from heel strike)")
             p.setToolTip(
-                f"{key.capitalize()} over the gait cycle in degrees: band = mean ± SD of the last "
+                f"{key.capitalize()} over the gait cycle in degrees ({label} +): band = mean ± SD "
+                "of the last "
                 "strides, line = the current stride so far, dashed = mean toe off."
             )
             lower = pg.PlotCurveItem(pen=band_pen)
@@ -63,6 +68,23 @@ class CyclePlots(CountingPlotWidget):
             self.mean_curves.append(mean)
             self.current.append(cur)
             self.toe_off_lines.append(toe)
+
+    def _fit_labels(self, *_: object) -> None:
+        """Each y axis says "knee flexion (deg)" where the plot is tall enough for it, else
+        "knee (deg)" (the sign is in the tooltip): labels longer than their plot overlap the
+        next plot's (three cycle plots in a short panel, as in the both-legs view)."""
+        if len(self._plots) < len(JOINTS):  # still being built
+            return
+        axis = self._plots[0].getAxis("left")
+        metrics = QFontMetrics(axis.label.font())
+        height = min(p.vb.height() for p in self._plots)
+        longest = max(metrics.horizontalAdvance(f"{label} (deg)") for _k, label, _r in JOINTS)
+        short = longest > height - 4
+        if short == self._short_labels:
+            return
+        self._short_labels = short
+        for p, (key, label, _yr) in zip(self._plots, JOINTS, strict=True):
+            p.getAxis("left").setLabel(f"{key if short else label} (deg)")
 
     def clear_data(self) -> None:
         self._shown_strides = -1
