@@ -1,5 +1,7 @@
 import os
 import pathlib
+import threading
+import time
 from collections.abc import Callable
 
 import pytest
@@ -185,6 +187,25 @@ def assert_stored():
         assert worst <= tol + slack, f"{name}: off by {worst} > {tol} (+{slack})"
 
     return check
+
+
+@pytest.fixture
+def no_leaked_threads():
+    """Fails the test if a gaitmon thread it started is still running 5 s after it."""
+
+    def ours() -> list[threading.Thread]:
+        return [t for t in threading.enumerate() if t.name.startswith("gaitmon")]
+
+    before = set(ours())
+    yield
+    deadline = time.monotonic() + 5.0
+    left: list[threading.Thread] = []
+    while time.monotonic() < deadline:
+        left = [t for t in ours() if t not in before and t.is_alive()]
+        if not left:
+            return
+        time.sleep(0.05)
+    pytest.fail(f"gaitmon threads left running: {[t.name for t in left]}")
 
 
 def _review_threads() -> list:

@@ -3,8 +3,6 @@ the real SerialTransport, the link cut from the window as a user does (Device â–
 Cut link). What is asserted is what a clinician sees: the drawn paths, the shading, the gait
 panel; the reference is the recorded file read back by ``analysis.analyse_session``."""
 
-import threading
-import time
 
 import numpy as np
 import pytest
@@ -18,21 +16,6 @@ from gaitmon.ui.live import MainWindow
 from gaitmon.ui.plots.traces import FSR_RANGE
 
 WAIT_MS = 30_000
-
-
-@pytest.fixture
-def no_leaked_threads():
-    def ours():
-        return [t for t in threading.enumerate() if t.name.startswith("gaitmon")]
-
-    before = set(ours())
-    yield
-    deadline = time.monotonic() + 5.0
-    while time.monotonic() < deadline:
-        if not [t for t in ours() if t not in before and t.is_alive()]:
-            return
-        time.sleep(0.05)
-    pytest.fail("gaitmon threads left running")
 
 
 def open_window(qtbot, tmp_path, sim):

@@ -4,8 +4,6 @@ banner within 5 strides, the gait panel counting on from the foot gyro, cleared 
 connection). The simulated unit runs on a pseudo-terminal behind the real serial transport;
 strides are counted from the simulator's truth, never from what the window computes."""
 
-import threading
-import time
 
 import numpy as np
 import pytest
@@ -18,21 +16,6 @@ from gaitmon.ui.live import MainWindow
 WAIT_MS = 30_000
 PAPER = "Kalman (paper, seed 000)"
 GAIT_AWARE = "gait-aware Kalman"
-
-
-@pytest.fixture
-def no_leaked_threads():
-    def ours():
-        return [t for t in threading.enumerate() if t.name.startswith("gaitmon")]
-
-    before = set(ours())
-    yield
-    deadline = time.monotonic() + 5.0
-    while time.monotonic() < deadline:
-        if not [t for t in ours() if t not in before and t.is_alive()]:
-            return
-        time.sleep(0.05)
-    pytest.fail("gaitmon threads left running")
 
 
 @pytest.fixture

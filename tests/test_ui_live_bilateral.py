@@ -3,8 +3,6 @@ the real SerialTransport and decoder, driven as a user does (Device menu, Record
 Cut left leg's link). What is asserted is what is drawn and written; the references are the
 engines' own snapshots, the simulator's configuration and the recorded file read back."""
 
-import threading
-import time
 
 import numpy as np
 import pytest
@@ -18,21 +16,6 @@ from gaitmon.ui.live import MainWindow
 
 WAIT_MS = 30_000
 KNEE = 1
-
-
-@pytest.fixture
-def no_leaked_threads():
-    def ours():
-        return [t for t in threading.enumerate() if t.name.startswith("gaitmon")]
-
-    before = set(ours())
-    yield
-    deadline = time.monotonic() + 5.0
-    while time.monotonic() < deadline:
-        if not [t for t in ours() if t not in before and t.is_alive()]:
-            return
-        time.sleep(0.05)
-    pytest.fail("gaitmon threads left running")
 
 
 def open_window(qtbot, tmp_path, config, *, via_menu=False):

@@ -7,7 +7,6 @@ a gaitmon thread outlives it.
 """
 
 import threading
-import time
 
 import h5py
 import numpy as np
@@ -19,23 +18,6 @@ from gaitmon.live.connection import SIMULATED_PORT
 from gaitmon.ui.live import MainWindow
 
 WAIT_MS = 15_000
-
-
-def _gaitmon_threads():
-    return [t for t in threading.enumerate() if t.name.startswith("gaitmon")]
-
-
-@pytest.fixture
-def no_leaked_threads():
-    before = set(_gaitmon_threads())
-    yield
-    deadline = time.monotonic() + 5.0
-    while time.monotonic() < deadline:
-        left = [t for t in _gaitmon_threads() if t not in before and t.is_alive()]
-        if not left:
-            return
-        time.sleep(0.05)
-    pytest.fail(f"threads left running: {[t.name for t in left]}")
 
 
 @pytest.fixture

@@ -12,6 +12,10 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from gaitmon.engine import Snapshot
 
 NO_DATA_ALERT_S = 2.0
 
@@ -147,3 +151,17 @@ def link_view(
             )
         return LinkView("connected", "Connected", "", "ok")
     return LinkView("disconnected", "Disconnected", "", "ok")
+
+
+def snapshot_link_view(snap: Snapshot, port: str) -> LinkView:
+    """:func:`link_view` of one engine snapshot (with its link's next attempt and device)."""
+    link = snap.link
+    return link_view(
+        snap.link_state,
+        snap.link_reason,
+        snap.seconds_to_reconnect,
+        snap.last_data_age_s,
+        port,
+        attempt=link.transport.attempt + 1 if link is not None else 1,
+        device=link.transport.port if link is not None else "",
+    )

@@ -30,7 +30,7 @@ from PySide6.QtWidgets import (
 
 from gaitmon.dsp.bilateral import BilateralGait
 from gaitmon.engine import Snapshot
-from gaitmon.live.health import HealthTracker, LinkView, link_view
+from gaitmon.live.health import HealthTracker, LinkView, snapshot_link_view
 from gaitmon.live.pair import SIDE_NAMES, SIDES
 from gaitmon.ui.live.status import GaitPanel, value_rows
 from gaitmon.ui.plots.bilateral import BilateralPlots
@@ -80,15 +80,7 @@ class LegStatus(QWidget):
 
     def show_link(self, snap: Snapshot, port: str) -> None:
         link = snap.link
-        view = link_view(
-            snap.link_state,
-            snap.link_reason,
-            snap.seconds_to_reconnect,
-            snap.last_data_age_s,
-            port,
-            attempt=link.transport.attempt + 1 if link is not None else 1,
-            device=link.transport.port if link is not None else "",
-        )
+        view = snapshot_link_view(snap, port)
         c = self.colours
         colour = {"ok": c.ok, "warn": c.warn}.get(view.grade, c.alert)
         self.state_text = view.pill

@@ -19,7 +19,7 @@ from PySide6.QtWidgets import QGridLayout, QLabel, QSizePolicy, QStatusBar, QVBo
 
 from gaitmon.engine import Mode, RecordingStatus, Snapshot
 from gaitmon.engine.snapshot import EVENTS_FSR, EVENTS_GYRO, EVENTS_UNIT, FsrFaultNotice
-from gaitmon.live.health import HealthTracker, link_view
+from gaitmon.live.health import HealthTracker, snapshot_link_view
 from gaitmon.text import no_gait_events
 from gaitmon.ui.plots import CyclePlots
 from gaitmon.ui.theme import Colours
@@ -116,15 +116,7 @@ class StatusView:
         """Link state, health, sample count and zeroing of one snapshot (``port``: as named in
         the banner)."""
         link = snap.link
-        view = link_view(
-            snap.link_state,
-            snap.link_reason,
-            snap.seconds_to_reconnect,
-            snap.last_data_age_s,
-            port,
-            attempt=link.transport.attempt + 1 if link is not None else 1,
-            device=link.transport.port if link is not None else "",
-        )
+        view = snapshot_link_view(snap, port)
         if view.banner:
             self.link_banner.setText(view.banner)
             self.link_banner.setToolTip(view.tooltip)
