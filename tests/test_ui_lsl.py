@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 import pytest
-from test_ui_window import WAIT_MS, make_window, no_leaked_threads, ui_settings  # noqa: F401
+from test_ui_window import WAIT_MS, make_window, ui_settings  # noqa: F401
 
 pylsl = pytest.importorskip("pylsl")
 
