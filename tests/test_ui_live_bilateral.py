@@ -103,11 +103,13 @@ def test_both_legs_are_drawn_and_measured_from_their_own_engines(
         assert gait.cadence_steps_min == pytest.approx(config.cadence_steps_min, abs=3.0)
         shown_sr = float(view.values["symmetry"].text().split()[1])  # "SR 0.85 · SI 16 %"
         assert shown_sr == pytest.approx(config.step_time_ratio, abs=0.03)
-        # each leg's gait panel shows its own engine's strides (the one-leg panel)
+        # each leg's gait panel shows its own engine's strides (the one-leg panel). It is
+        # refreshed one piece a tick (~10 Hz), so it may lag the last tick's snapshot, never
+        # lead it: on a loaded machine the ticks slow down, and it lagged by 2 strides at 2x
         for side in ("L", "R"):
-            shown = view.panels[side].values["strides"].text()
-            assert int(shown) == pytest.approx(snaps[side].gait.n_strides, abs=1)
-            assert int(shown) >= 5
+            shown = int(view.panels[side].values["strides"].text())
+            assert 0 <= snaps[side].gait.n_strides - shown <= 3, (side, shown)
+            assert shown >= 5
         assert view.status["L"].state_text == view.status["R"].state_text == "Connected"
         assert "0 lost" in view.status["R"].health_label.text()
     finally:
