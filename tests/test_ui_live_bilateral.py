@@ -7,6 +7,7 @@ engines' own snapshots, the simulator's configuration and the recorded file read
 import numpy as np
 import pytest
 from PySide6.QtCore import QPointF, QSettings, Qt
+from test_truth_live_window import lines_across
 
 from gaitmon.cli import main
 from gaitmon.io.session.bilateral import open_bilateral
@@ -43,16 +44,6 @@ def close_window(win):
 
 def samples(win, side):
     return win.pair.engines[side].samples_total
-
-
-def lines_across(path, x):
-    """Drawn line segments of ``path`` that pass over ``x`` (a break leaves none)."""
-    n = 0
-    for i in range(1, path.elementCount()):
-        e, prev = path.elementAt(i), path.elementAt(i - 1)
-        if e.isLineTo() and min(prev.x, e.x) < x < max(prev.x, e.x):
-            n += 1
-    return n
 
 
 def path_points(path):
