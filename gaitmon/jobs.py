@@ -117,6 +117,7 @@ class Worker:
         self._last_id = 0  # the newest request id handed out
         self._stale_upto = 0  # requests with an id up to this one are stale
         self._running: int | None = None
+        self._handing = False  # the worker thread is handing a response to ``post``
         self._stopping = False
         self._busy_told = False  # consumer thread only
         self._thread = threading.Thread(target=self._loop, name=f"gaitmon-{name}", daemon=True)
@@ -163,10 +164,11 @@ class Worker:
         self._tell_busy()
 
     def wait_idle(self, timeout_s: float = 10.0) -> bool:
-        """Block until nothing runs or waits (the responses may still be in ``post``'s queue)."""
+        """Block until nothing runs or waits and the last response was handed to ``post`` (it may
+        still be in ``post``'s queue)."""
         deadline = time.monotonic() + timeout_s
         with self._cond:
-            while self._running is not None or self._queue:
+            while self._running is not None or self._queue or self._handing:
                 left = deadline - time.monotonic()
                 if left <= 0:
                     return False
@@ -231,8 +233,16 @@ class Worker:
             with self._cond:
                 self._running = None
                 stopping = self._stopping
+                self._handing = not stopping
                 self._cond.notify_all()
             if stopping:  # nobody will read it: dispose of it here
                 self._dispose(request, response)
                 return
-            self._post(functools.partial(self._deliver, request, response))
+            try:
+                self._post(functools.partial(self._deliver, request, response))
+            finally:
+                # idle only once ``post`` returned: until then this thread may hold what ``post``
+                # reaches (a QtWorker it holds only weakly), and the consumer may be waiting on it
+                with self._cond:
+                    self._handing = False
+                    self._cond.notify_all()

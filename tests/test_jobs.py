@@ -160,6 +160,25 @@ def test_stop_disposes_of_a_result_that_arrives_afterwards() -> None:
         w.submit(job, lambda r: None)
 
 
+def test_wait_idle_returns_only_once_the_last_response_was_handed_to_post() -> None:
+    """A worker thread still inside ``post`` holds what ``post`` reaches (a QtWorker's strong
+    reference): ``wait_idle`` returned before ``post`` did, and a QtWorker dropped just then was
+    kept alive by the worker thread (one CI failure)."""
+    handed: list[Callable[[], None]] = []
+
+    def slow_post(fn: Callable[[], None]) -> None:
+        threading.Event().wait(0.3)
+        handed.append(fn)
+
+    w = Worker("handing", post=slow_post)
+    try:
+        w.submit(lambda t: 7, lambda r: None)
+        assert w.wait_idle(5.0)
+        assert len(handed) == 1
+    finally:
+        w.stop(5.0)
+
+
 def test_a_qt_worker_is_freed_by_its_last_reference_not_by_a_garbage_collection(qapp) -> None:
     """No reference cycle through the core: a QtWorker in a cycle would be freed by whichever
     thread runs the next collection, where PySide's destructor can deadlock with the GUI's."""
