@@ -59,7 +59,8 @@ RECORDER = textwrap.dedent(
     i = 0
     while i < N_MAX:
         n = int(rng.integers(1, 4))
-        for cut in (CONFIG_ROW, CAL_ROW, GAP_ROW):
+        # (a block also starts at every 50th row, where a marker is added)
+        for cut in (CONFIG_ROW, CAL_ROW, GAP_ROW, 50 * (i // 50 + 1)):
             if i < cut < i + n:
                 n = cut - i
         b = min(N_MAX, i + n)
