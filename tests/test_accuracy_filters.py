@@ -199,6 +199,31 @@ def test_smoother_is_the_rts_smoother():
     np.testing.assert_allclose(bias, ref[:, 1], atol=1e-9)
 
 
+def test_constant_variance_smoother_reuses_one_factor_and_is_the_rts_smoother():
+    """The gravity pass's constant variances: one cached Cholesky factor per length serves
+    every segment and window; the numbers are the hand-written RTS loop's, and exactly the
+    per-sample path's (the same LAPACK factorisation and substitution)."""
+    from gaitmon.dsp import smoother
+
+    rng = np.random.default_rng(8)
+    n = 700
+    t = np.arange(n) * DT
+    true = 0.4 * np.sin(2 * np.pi * 1.1 * t)
+    smoother._constant_factor.cache_clear()
+    for k in range(3):  # three "segments" with their own data, one matrix
+        w = np.gradient(true, DT) + 0.02 * k + 0.01 * rng.standard_normal(n)
+        z = true + 0.05 * rng.standard_normal(n)
+        ref = rts_reference(z, w, np.full(n, 3e-4), np.full(n, 1e-7), 1e-8, DT)
+        theta, bias = smooth_map(z, w, 3e-4, 1e-7, 1e-8, DT)
+        np.testing.assert_allclose(theta, ref[:, 0], atol=1e-9)
+        np.testing.assert_allclose(bias, ref[:, 1], atol=1e-9)
+        general = smooth_map(z, w, np.full(n, 3e-4), np.full(n, 1e-7), 1e-8, DT)
+        np.testing.assert_array_equal(theta, general[0])
+        np.testing.assert_array_equal(bias, general[1])
+    info = smoother._constant_factor.cache_info()
+    assert (info.misses, info.hits) == (1, 2)
+
+
 def test_smoother_windows_agree_with_one_solve():
     # the bias random walk ties data minutes apart together: windows need minutes of overlap
     sb = simulate(30000, GaitModel(GaitConfig(seed=22)), SensorConfig(seed=22))

@@ -20,6 +20,7 @@ any chunking.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,15 +78,20 @@ class FsrMonitor:
         self._seen += len(block)
         self._hs.extend(int(i) for i in gyro_hs_idx)
         self._to.extend(int(i) for i in gyro_to_idx)
+        if any(a > b for a, b in itertools.pairwise(self._to[-len(gyro_to_idx) - 1 :])):
+            self._to.sort()  # (the detector gives them in time order)
         # a stride HS_k .. HS_k+1 is checked once the loaded flags reach its closing heel strike
         strides: list[tuple[int, int, int]] = []
-        while len(self._hs) >= 2 and self._hs[1] + 2 * self.tol <= self._seen:
-            hs0, hs1 = self._hs[0], self._hs[1]
-            self._to = [t for t in self._to if t > hs0]
-            to = next((t for t in self._to if t < hs1), None)
-            if to is not None:
-                strides.append((hs0, to, hs1))
-            self._hs.pop(0)
+        n_hs = len(self._hs)
+        k = t = 0  # the strides' first heel strike; the first toe-off not yet passed
+        while n_hs - k >= 2 and self._hs[k + 1] + 2 * self.tol <= self._seen:
+            hs0, hs1 = self._hs[k], self._hs[k + 1]
+            while t < len(self._to) and self._to[t] <= hs0:
+                t += 1
+            if t < len(self._to) and self._to[t] < hs1:  # its toe-off: the first after hs0
+                strides.append((hs0, self._to[t], hs1))
+            k += 1
+        del self._hs[:k], self._to[:t]
         new = self._check(np.array(strides, dtype=np.int64).reshape(-1, 3)) if strides else []
         keep = max(self._start, (self._hs[0] if self._hs else self._seen) - 3 * self.tol)
         self._loaded = self._loaded[keep - self._start :]
@@ -118,9 +124,10 @@ class FsrMonitor:
                 "never unloads": (swing_n > 0) & (swing > 0.9 * swing_n),
                 "disagrees with the foot gyro": near == 0,
             }
+        faulty = set(self.faulty)
         for k in range(len(st)):
             for sensor in SENSORS:
-                if sensor in self.faulty:
+                if sensor in faulty:
                     continue
                 for reason in _REASONS:
                     key = (sensor, reason)
@@ -139,6 +146,7 @@ class FsrMonitor:
                         )  # fmt: skip
                         self.faults.append(fault)
                         found.append(fault)
+                        faulty.add(sensor)
                         break
         return found
 

@@ -58,8 +58,10 @@ the same floating-point operations in the same order and gives bit-for-bit the s
 
 Wrap. z is unwrapped by continuity (carried across blocks), so the state stays continuous through
 +-pi; where a trusted sample's innovation would still lie beyond +-pi (the accelerometer tilt
-jumps when the board's y axis nears the vertical), z is re-anchored by whole turns and the block
-re-solved from that sample, which is paper 000's wrap(z - theta-) (``_solve_wrapped``).
+jumps when the board's y axis nears the vertical, and the foot's at impacts), z is re-anchored by
+whole turns and that segment re-solved from that sample, which is paper 000's wrap(z - theta-)
+(``_solve_wrapped``: the turns are predicted from one solve and verified by the next, so a block
+is solved about once, plus once more for the foot).
 """
 
 from __future__ import annotations
@@ -73,7 +75,8 @@ from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.channels import SEGMENTS, STANDARD_GRAVITY_MS2
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
-# rows solved at a time by GaitAwareKalman (see its _solve_wrapped)
+# the fewest rows GaitAwareKalman solves at a time where its predicted re-anchorings miss
+# (see its _solve_wrapped)
 _SOLVE_ROWS = 256
 
 
@@ -341,30 +344,34 @@ def solve_scheduled(
     from scipy.linalg.blas import dtbsv  # lazy: scipy only where a filter is run
 
     was_1d = np.ndim(z) == 1
-    k0, k1, z, w = (np.asarray(a, dtype=np.float64).reshape(len(a), -1).T for a in (k0, k1, z, w))
-    s, n = z.shape  # segment-major from here on
-    m = 2 * n + 2  # unknowns per segment: the carried (theta, b), then (theta_k, b_k)
-    a = np.zeros((4, s, m))
-    a[0] = 1.0
+    k0, k1, z, w = (np.asarray(a, dtype=np.float64).reshape(len(a), -1) for a in (k0, k1, z, w))
+    n, s = z.shape
+    # unknowns per segment: the carried (theta, b), then (theta_k, b_k); segment-major. The band
+    # (BLAS lower storage, band[r, j] = A(j + r, j); the unit diagonal, row 0, is not read) is
+    # held as buf[segment, step, (theta, b), r], which is its Fortran order: it is written
+    # through a (r, step, unknown, segment) view straight from the (N, S) inputs, no copies.
+    buf = np.zeros((s, n + 1, 2, 4))
+    ab = buf.transpose(3, 1, 2, 0)
     c0 = 1.0 - k0
-    a[2, :, 0 : 2 * n : 2] = -c0  # theta_k <- theta_{k-1}
-    a[3, :, 0 : 2 * n : 2] = k1  # b_k <- theta_{k-1}
+    np.negative(c0, out=ab[2, :n, 0])  # theta_k <- theta_{k-1}
+    ab[3, :n, 0] = k1  # b_k <- theta_{k-1}
     if h_bias is None:
-        a[1, :, 1 : 2 * n : 2] = c0 * dt_s  # theta_k <- b_{k-1}
-        a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
+        np.multiply(c0, dt_s, out=ab[1, :n, 1])  # theta_k <- b_{k-1}
+        ab[2, :n, 1] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
     else:
-        h = np.asarray(h_bias, dtype=np.float64).reshape(n, -1).T
-        a[1, :, 1 : 2 * n : 2] = c0 * dt_s + k0 * h
-        a[2, :, 1 : 2 * n : 2] = -(1.0 + k1 * dt_s - k1 * h)
-    x = np.empty((s, m))
-    x[:, 0] = theta0
-    x[:, 1] = bias0
+        h = np.asarray(h_bias, dtype=np.float64).reshape(n, -1)
+        ab[1, :n, 1] = c0 * dt_s + k0 * h
+        ab[2, :n, 1] = -(1.0 + k1 * dt_s - k1 * h)
+    x = np.empty((s, n + 1, 2))
+    xt = x.transpose(1, 2, 0)
+    xt[0, 0] = theta0
+    xt[0, 1] = bias0
     wdt = w * dt_s
-    x[:, 2::2] = c0 * wdt + k0 * z
-    x[:, 3::2] = k1 * (z - wdt)
-    band = np.asfortranarray(a.reshape(4, s * m))
-    y = dtbsv(3, band, x.reshape(-1), lower=1, diag=1, overwrite_x=1).reshape(s, m)
-    theta, bias = y[:, 2::2].T, y[:, 3::2].T
+    xt[1:, 0] = c0 * wdt + k0 * z
+    xt[1:, 1] = k1 * (z - wdt)
+    band = buf.reshape(s * (2 * n + 2), 4).T
+    y = dtbsv(3, band, x.reshape(-1), lower=1, diag=1, overwrite_x=1).reshape(s, n + 1, 2)
+    theta, bias = y[:, 1:, 0].T, y[:, 1:, 1].T
     if was_1d:
         return theta[:, 0].copy(), bias[:, 0].copy()
     return theta, bias
@@ -511,40 +518,63 @@ class GaitAwareKalman:
         """Solve, then honour the wrap of the innovation (paper 000's wrap(z - theta-)).
 
         Where a trusted sample's innovation against the unwrapped z lies beyond +-pi (the
-        accelerometer tilt jumped across +-pi while the segment did not, e.g. with its y axis
-        near vertical), z is re-anchored by whole turns from that sample on and the rest of the
-        block is solved again from the state before it: the same arithmetic as a block that
-        starts there, so the result stays the same in any chunking. ``turns`` is updated.
+        accelerometer tilt jumped across +-pi while the segment did not: the foot's at impacts,
+        about twice a stride; or a segment with its y axis near vertical), z is re-anchored by
+        whole turns and the block solved again from the state before that sample: the same
+        arithmetic as a block that starts there. ``turns`` is updated.
 
-        The block is solved ``_SOLVE_ROWS`` rows at a time (again the same arithmetic as blocks
-        of that size), so that a re-anchoring re-solves at most that many rows: the foot's
-        accelerometer tilt does this about twice a stride, and re-solving the rest of a
-        16384-row block each time made the batch pipeline 7x slower (0.09 M frames/s against
-        0.62 M on the simulated walk of ``gaitmon bench``; bit-for-bit the same result).
+        A trusted sample's turn is the one that puts its innovation within +-pi, so the result
+        does not depend on how the re-anchorings are found, only that every one is. After a
+        solve the first offending sample's turn is exact (the state before it is); the later
+        ones are predicted from that solve, whose state the wrong turns moved little (at an
+        impact the gain is small), so one more solve usually finds them all right. A solve
+        from a re-anchored sample that still finds one shrinks the rows solved at a time
+        (to ``_SOLVE_ROWS`` at least), so a stretch where predictions fail costs at most a
+        few rows per re-anchoring; a clean solve widens them again.
         """
         assert self._theta is not None and self._bias is not None
+        theta0, bias0 = self._theta, self._bias
         out = np.empty_like(z)
         bias = np.empty_like(z)
         n = len(z)
-        i0, th0, b0 = 0, self._theta, self._bias
-        while i0 < n:
-            i1 = min(n, i0 + _SOLVE_ROWS)
-            z_unw = z[i0:i1] + TWO_PI * turns[i0:i1]
-            h = None if h_bias is None else h_bias[i0:i1]
-            th, b = solve_scheduled(th0, b0, k0[i0:i1], k1[i0:i1], z_unw, w[i0:i1], self.dt_s, h)
-            out[i0:i1], bias[i0:i1] = th, b
+
+        def solve(
+            i0: int, i1: int, cols: slice, th0: np.ndarray, b0: np.ndarray
+        ) -> tuple[np.ndarray, np.ndarray]:
+            """Solve rows [i0, i1) of ``cols`` from (th0, b0): (offending samples, innovations)."""
+            rows = slice(i0, i1)
+            z_unw = z[rows, cols] + TWO_PI * turns[rows, cols]
+            h = None if h_bias is None else h_bias[rows, cols]
+            th, b = solve_scheduled(th0, b0, k0[rows, cols], k1[rows, cols], z_unw, w[rows, cols],
+                                    self.dt_s, h)  # fmt: skip
+            out[rows, cols], bias[rows, cols] = th, b
             prev_th = np.vstack([th0, th[:-1]])
             prev_b = np.vstack([b0, b[:-1]])
-            e = z_unw - (prev_th + (w[i0:i1] - prev_b) * self.dt_s)
+            e = z_unw - (prev_th + (w[rows, cols] - prev_b) * self.dt_s)
             if h is not None:
                 e = e - h * prev_b
-            bad = (k0[i0:i1] > 0) & (np.abs(e) > np.pi)
-            rows = np.flatnonzero(bad.any(axis=1))
-            if len(rows) == 0:
-                i0, th0, b0 = i1, th[-1], b[-1]
-                continue
-            j = i0 + int(rows[0])
-            turns[j:] -= np.where(bad[rows[0]], np.floor(e[rows[0]] / TWO_PI + 0.5), 0.0)
-            th0, b0 = (out[j - 1], bias[j - 1]) if j > 0 else (self._theta, self._bias)
-            i0 = j
+            return (k0[rows, cols] > 0) & (np.abs(e) > np.pi), e
+
+        bad, e = solve(0, n, slice(None), theta0, bias0)
+        # each segment's re-anchorings are its own: the others are final after the first solve
+        for c in np.flatnonzero(bad.any(axis=0)):
+            col = slice(c, c + 1)
+            i0, i1, span, anchored = 0, n, n, False
+            bad_c, e_c = bad[:, col], e[:, col]
+            while True:
+                first = np.flatnonzero(bad_c[:, 0])
+                if len(first):
+                    if anchored:  # the prediction missed one: solve fewer rows at a time
+                        span = max(_SOLVE_ROWS, span // 4)
+                    turns[i0:i1, col] -= np.where(bad_c, np.floor(e_c / TWO_PI + 0.5), 0.0)
+                    i0, anchored = i0 + int(first[0]), True
+                elif i1 < n:
+                    i0, span, anchored = i1, min(n, 4 * span), False
+                else:
+                    break
+                th0, b0 = (
+                    (out[i0 - 1, col], bias[i0 - 1, col]) if i0 > 0 else (theta0[col], bias0[col])
+                )
+                i1 = min(n, i0 + span)
+                bad_c, e_c = solve(i0, i1, col, th0, b0)
         return out, bias
