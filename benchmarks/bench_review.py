@@ -143,6 +143,8 @@ def bench_review(path: Path, app) -> dict[str, float]:
     app.processEvents()
     tl = win.timeline
 
+    # (like gaitmon.ui.review.measure's wait, on purpose not imported from it: with --baseline
+    # this code drives an older tree's gaitmon, which may not have it)
     def wait(cond, timeout=120.0):
         t_end = time.perf_counter() + timeout
         while not cond():

@@ -1,7 +1,8 @@
 """Retake the README's pictures of the live monitor (issue 15: the clinical view and the guided
 start), of a link cut (issue 11) and of a dead foot sensor (issue 13).
 
-    python benchmarks/screenshots.py [--out assets] [--only live_fsr_fault|live_clinical]
+    python benchmarks/screenshots.py [--out assets]
+        [--only live_fsr_fault|live_clinical|live_bilateral]
 
 Starts ``Xvfb :97`` when no ``DISPLAY`` is set, then:
 
@@ -15,7 +16,9 @@ Starts ``Xvfb :97`` when no ``DISPLAY`` is set, then:
 - ``live_guided_start.png``: a first run (fresh settings: the clinical view) just connected to
   the walking simulated subject: the guided start's "Stand still, then Zero" is the step to do;
 - ``screenshot.png``: the same window after the steps were done with the guide's own buttons
-  (Device ▸ Simulator ▸ Stand still, Zero, Walk again) and 10 s of walking: Record is next.
+  (Device ▸ Simulator ▸ Stand still, Zero, Walk again) and 10 s of walking: Record is next;
+- ``live-bilateral.png``: the live window at its default size on a simulated pair of units
+  (Device ▸ Connect simulated pair), a hemiparetic walk with the left leg affected, 20 s in.
 
 The pictures are the windows' own rendering (``QWidget.grab``), so ``QT_QPA_PLATFORM=offscreen``
 takes the same pictures where no X server can run.
@@ -138,10 +141,29 @@ def live_clinical(app, out: Path, tmp: Path) -> None:  # type: ignore[no-untyped
     win.close()
 
 
+def live_bilateral(app, out: Path, tmp: Path) -> None:  # type: ignore[no-untyped-def]
+    from PySide6.QtCore import QSettings
+
+    from gaitmon.io.sim.bilateral import BilateralConfig
+    from gaitmon.ui.live import MainWindow
+
+    settings = QSettings(str(tmp / "pair.ini"), QSettings.Format.IniFormat)
+    config = BilateralConfig(standing_s=1.0, asymmetry="hemiparetic", affected="L")
+    win = MainWindow(settings, pair_sim=config, mode="raw", confirm_close=False)
+    win.resize(1400, 860)
+    win.show()
+    win._actions["pair_sim"].trigger()  # Device ▸ Connect simulated pair
+    wait(app, lambda: win.pair is not None
+         and min(e.samples_total for e in win.pair.engines.values()) >= 2000)  # fmt: skip
+    pause(app, 1.0)
+    save(win, out / "live-bilateral.png")
+    win.close()
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "assets")
-    ap.add_argument("--only", choices=["live_fsr_fault", "live_clinical"],
+    ap.add_argument("--only", choices=["live_fsr_fault", "live_clinical", "live_bilateral"],
                     help="take only this picture (live_clinical: screenshot.png and "
                     "live_guided_start.png)")  # fmt: skip
     args = ap.parse_args()
@@ -162,6 +184,9 @@ def main() -> int:
             return 0
         if args.only == "live_clinical":
             live_clinical(app, args.out, tmp)
+            return 0
+        if args.only == "live_bilateral":
+            live_bilateral(app, args.out, tmp)
             return 0
         settings = QSettings(str(tmp / "gaitmon.ini"), QSettings.Format.IniFormat)
         settings.setValue("view/engineering", True)  # every trace breaks at the gap
@@ -200,6 +225,7 @@ def main() -> int:
             print(f"wrote {args.out / 'report.png'}")
         live_fsr_fault(app, args.out, tmp)
         live_clinical(app, args.out, tmp)
+        live_bilateral(app, args.out, tmp)
         return 0
     finally:
         if xvfb is not None:

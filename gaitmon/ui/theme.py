@@ -138,14 +138,19 @@ def pen(colour: QColor, *, dashed: bool = False) -> QPen:
     return p
 
 
-def side_colours(colours: Colours) -> dict[str, QColor]:
-    """The left and right legs' trace colours (both-legs live view): orange and purple.
+# the left and right legs' colours: (light theme and print, dark theme)
+_SIDE_HEX = {"L": ("#d98200", "#ffa94d"), "R": ("#7e3fa8", "#c28bf0")}
+
+
+def side_colours(colours: Colours | None = None) -> dict[str, QColor]:
+    """The left and right legs' trace colours: orange and purple, in the live view (``colours``:
+    its theme) and, with ``None``, on paper (the light theme's: the bilateral report).
 
     Neither hue is one of the paper's (red accelerometer and heel, green Kalman and toe, blue
     gyro integration), so a leg's colour never reads as a method's. Orange / purple are the
     Okabe-Ito pair that colour-blind readers tell apart. Simulated (Machado et al. 2009, full
     severity), red-green blindness turns them ochre and blue (CIELAB distance ~100 in both
-    themes, as without it), blue-yellow blindness salmon and mauve (49 light, 35 dark)."""
-    if colours.dark:
-        return {"L": _c("#ffa94d"), "R": _c("#c28bf0")}
-    return {"L": _c("#d98200"), "R": _c("#7e3fa8")}
+    themes, as without it), blue-yellow blindness salmon and mauve (49 light, 35 dark); in
+    grey print orange is the lighter."""
+    dark = colours is not None and colours.dark
+    return {side: _c(hexes[1] if dark else hexes[0]) for side, hexes in _SIDE_HEX.items()}

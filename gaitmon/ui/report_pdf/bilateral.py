@@ -9,9 +9,9 @@ pages as the one-leg report does: session notes, each leg's data quality (gaps, 
 exclusions), markers, settings and conventions, the clinician's comments. Content from
 :mod:`gaitmon.report_bilateral` (Qt-free); this module only lays it out.
 
-Left and right are Okabe and Ito's colour-blind-safe orange and reddish purple: neither is one of
-the paper's trace colours (red, green, blue), and the pair stays apart for the common colour
-vision deficiencies and in grey print (orange is the lighter).
+Left and right are the live view's orange and purple (``gaitmon.ui.theme.side_colours``, its
+light theme): neither is one of the paper's trace colours (red, green, blue), and the pair stays
+apart for the common colour vision deficiencies and in grey print (orange is the lighter).
 """
 
 from __future__ import annotations
@@ -53,13 +53,14 @@ from gaitmon.ui.report_pdf.sheet import (
     table,
     title,
 )
+from gaitmon.ui.theme import side_colours
 
-# Okabe & Ito (2008), "Color Universal Design": orange and reddish purple
-LEFT_COLOUR = QColor("#E69F00")
-RIGHT_COLOUR = QColor("#CC79A7")
+# the live view's left and right colours on paper (one definition: gaitmon.ui.theme)
+LEFT_COLOUR = side_colours()["L"]
+RIGHT_COLOUR = side_colours()["R"]
 # darker shades of the same hues for text and thin dashed lines on white
-LEFT_INK = QColor("#A86F00")
-RIGHT_INK = QColor("#A2437B")
+LEFT_INK = LEFT_COLOUR.darker(130)
+RIGHT_INK = RIGHT_COLOUR.darker(125)
 
 
 def _tint(c: QColor, alpha: int) -> QColor:
