@@ -126,12 +126,14 @@ def _check_against_truth(sim: BilateralSim, out: Path) -> dict[str, float]:
     }
 
 
-@pytest.mark.parametrize("asymmetry", ["none", "hemiparetic"])
-def test_both_legs_one_file_meet_the_goals(tmp_path: Path, asymmetry: str) -> None:
+def test_both_legs_one_file_meet_the_goals(tmp_path: Path) -> None:
+    """On the hemiparetic walk (the symmetric walk's step ratio is checked with the cut below:
+    the alignment and double-support goals do not depend on the walk, and each run costs 30 s)."""
+    asymmetry = "hemiparetic"
     sim, out = _record(tmp_path, _config(GOAL_SPEED, asymmetry=asymmetry), 60.0)
     assert out.exists() and not parts_of(out)
     got = _check_against_truth(sim, out)
-    print(asymmetry, got)
+    print(got)
     assert got["align_p95_ms"] <= 10.0, got
     assert got["side_diff_ms"] <= 5.0, got
     assert 0.0 <= got["offset_ms"] <= 40.0, got  # one sample late, plus the link's delay
@@ -140,8 +142,7 @@ def test_both_legs_one_file_meet_the_goals(tmp_path: Path, asymmetry: str) -> No
     assert abs(got["sr"] - got["sr_true"]) <= 0.02, got
     # (the fitted relative drift is printed, not held: 60 s at 2x is 30 s of host time, where
     # 1 ms of host jitter is 35 ppm; benchmarks/bilateral_record.py measures it over an hour)
-    if asymmetry == "hemiparetic":
-        assert got["sr"] < 0.9  # the affected left leg's shorter step is seen
+    assert got["sr"] < 0.9  # the affected left leg's shorter step is seen
 
 
 def test_one_link_cut_for_5_s_leaves_a_gap_on_that_side_only(tmp_path: Path) -> None:
@@ -161,8 +162,9 @@ def test_one_link_cut_for_5_s_leaves_a_gap_on_that_side_only(tmp_path: Path) -> 
         assert lost_r >= 450, right_u.gaps  # the 5 s (500 frames) cut, on the right only
         assert any(g.duration_s >= 4.5 for g in right_u.gaps)
         an = analyse_bilateral(b)
-    # both legs' measures still come out, from the strides either side of the cut
-    assert np.isfinite(an.gait.symmetry_of("step_s").ratio)
+    # both legs' measures still come out, from the strides either side of the cut, and the
+    # symmetric walk's step ratio is 1 (1.0000 true over an hour; +-0.003 on 60-s runs)
+    assert abs(an.gait.symmetry_of("step_s").ratio - 1.0) <= 0.02
 
 
 def test_a_bilateral_file_opens_one_side_at_a_time(tmp_path: Path) -> None:
