@@ -202,6 +202,15 @@ class PipelineConfig:
     def replace(self, **changes: Any) -> PipelineConfig:
         return replace(self, **changes)
 
+    def reads_fsrs_as(self, other: PipelineConfig) -> bool:
+        """Whether ``other`` reads the force sensors the same way (threshold, hysteresis,
+        low-pass, minimum contact), so that a sensor it flagged as faulty is faulty here too."""
+        return all(getattr(self, k) == getattr(other, k) for k in _FSR_KEYS)
+
+
+_FSR_KEYS = ("fs_hz", "cutoff_hz", "filter_order", "fsr_threshold", "fsr_hysteresis",
+             "min_contact_s")  # fmt: skip
+
 
 @dataclass(frozen=True)
 class PipelineBlock:
@@ -321,13 +330,17 @@ class Pipeline:
         same way; new FSR settings (threshold, hysteresis, low-pass, minimum contact) are
         checked from scratch, since they may be what made a sensor look faulty."""
         new = Pipeline(config, self.calibration, self.table)
-        fsr_keys = ("fs_hz", "cutoff_hz", "filter_order", "fsr_threshold", "fsr_hysteresis",
-                    "min_contact_s")  # fmt: skip
-        same = all(getattr(config, k) == getattr(self.config, k) for k in fsr_keys)
-        if same and config.fsr_check and self.fsr_faults:
-            new._fsr_monitor.faults = [FsrFault(f.sensor, f.reason, 0, 0) for f in self.fsr_faults]
-            new._switch_idx = 0
+        if config.reads_fsrs_as(self.config):
+            new.flag_fsr_faults([(f.sensor, f.reason) for f in self.fsr_faults])
         return new
+
+    def flag_fsr_faults(self, flagged: Sequence[tuple[str, str]]) -> None:
+        """Force sensors (sensor, reason) known to be faulty before this pipeline's first
+        sample (flagged by the pipeline before it, or when the recording started): gait events
+        from the foot gyro from the first sample on. Nothing without the FSR check."""
+        if flagged and self.config.fsr_check and self._n_seen == 0:
+            self._fsr_monitor.faults = [FsrFault(s, r, 0, 0) for s, r in flagged]
+            self._switch_idx = 0
 
     def _restart(self, at: int) -> None:
         """A long gap ends at absolute index ``at``: see the module doc."""

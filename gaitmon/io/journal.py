@@ -62,6 +62,7 @@ class RecordType(enum.IntEnum):
     CONFIG = 7
     CALIBRATION = 8
     LINK = 9
+    FSR_FAULT = 10
 
 
 BLOCK_TYPES: dict[str, RecordType] = {
@@ -203,6 +204,7 @@ class JournalContents:
     gaps: list[dict[str, Any]] = field(default_factory=list)
     changes: list[tuple[RecordType, dict[str, Any]]] = field(default_factory=list)
     links: list[dict[str, Any]] = field(default_factory=list)
+    fsr_faults: list[dict[str, Any]] = field(default_factory=list)
     valid_bytes: int = 0
     total_bytes: int = 0
     problem: str = ""
@@ -218,6 +220,7 @@ _JSON_KEYS: dict[RecordType, tuple[str, ...]] = {
     RecordType.CONFIG: ("sample_idx", "config"),
     RecordType.CALIBRATION: ("sample_idx", "calibration"),
     RecordType.LINK: ("sample_idx", "totals"),
+    RecordType.FSR_FAULT: ("sample_idx", "stride_start_idx", "sensor", "reason"),
 }
 
 
@@ -324,6 +327,8 @@ def _parse(mm: mmap.mmap, size: int) -> JournalContents:
                     out.gaps.append(obj)
                 elif rtype == RecordType.LINK:
                     out.links.append(obj)
+                elif rtype == RecordType.FSR_FAULT:
+                    out.fsr_faults.append(obj)
                 else:
                     out.changes.append((RecordType(rtype), obj))
             # else: a record type from a later version, CRC-valid: skip it

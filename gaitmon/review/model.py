@@ -41,7 +41,13 @@ from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakPyramid, SessionOverview
-from gaitmon.io.session import Session, SessionError, open_session, replay_pipeline
+from gaitmon.io.session import (
+    Session,
+    SessionError,
+    flagged_at_start,
+    open_session,
+    replay_pipeline,
+)
 from gaitmon.io.session import exclusions as excl
 from gaitmon.io.session.parts import SIDE_NAMES, is_bilateral, sides_of
 from gaitmon.io.session.rows import lost_before_from_gaps
@@ -466,9 +472,12 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
     faults: list[FsrFault] = []
+    # sensors flagged before the recording started stay flagged if read the same way (as live)
+    flagged = (flagged_at_start((f.decided_idx, f.sensor, f.reason) for f in s.fsr_faults)
+               if config.reads_fsrs_as(s.config) else ())  # fmt: skip
     for start, rows, hs_rows, to_rows, fault_rows in replay_pipeline(
         adc, config, s.calibration, list(s.calibration_changes), table=s.header.table,
-        lost_before=lost_before_from_gaps(s.gaps, n),
+        lost_before=lost_before_from_gaps(s.gaps, n), flagged_at_start=flagged,
     ):  # fmt: skip
         stop = start + len(rows[JOINT])
         for name in REPROCESSED_SERIES:

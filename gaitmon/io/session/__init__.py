@@ -47,7 +47,12 @@ if TYPE_CHECKING:
         per_sample_datasets,
     )
     from gaitmon.io.session.reader import Gap, Marker, Session, open_session
-    from gaitmon.io.session.recovery import build_session, recover_session, replay_pipeline
+    from gaitmon.io.session.recovery import (
+        build_session,
+        flagged_at_start,
+        recover_session,
+        replay_pipeline,
+    )
     from gaitmon.io.session.reprocess import RewriteResult, rewrite_processed
     from gaitmon.io.session.rows import rows_from_pipeline
     from gaitmon.io.session.truth import read_truth
@@ -72,6 +77,7 @@ __getattr__ = lazy_exports(__name__, {
     "Session": "reader",
     "open_session": "reader",
     "build_session": "recovery",
+    "flagged_at_start": "recovery",
     "recover_session": "recovery",
     "replay_pipeline": "recovery",
     "RewriteResult": "reprocess",
@@ -99,6 +105,7 @@ __all__ = [
     "SessionWriter",
     "build_session",
     "device_info",
+    "flagged_at_start",
     "journal_path",
     "open_session",
     "per_sample_datasets",

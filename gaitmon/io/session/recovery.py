@@ -11,7 +11,7 @@ import contextlib
 import itertools
 import json
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -71,6 +71,7 @@ def replay_pipeline(
     table: ChannelTable = DEFAULT_TABLE,
     chunk_rows: int = _RECOVERY_CHUNK_ROWS,
     lost_before: np.ndarray | LazyRows | None = None,
+    flagged_at_start: Sequence[tuple[str, str]] = (),
 ) -> Iterator[ReplayChunk]:
     """Run the pipeline over a whole recording from row 0, applying logged changes at their rows.
 
@@ -82,6 +83,9 @@ def replay_pipeline(
     :func:`lost_before_from_gaps`) lets the pipeline restart after a long gap as it did live.
     Use it for recovery and for ``gaitmon process``. ``adc`` is only sliced a chunk at a time
     (a :class:`gaitmon.io.session.rows.LazyRows` reads each from the file or journal then).
+    ``flagged_at_start``: force sensors (sensor, reason) known faulty when the recording started
+    (:func:`flagged_at_start`): flagged from row 0 and listed among the first chunk's faults,
+    as the live recorder did.
     """
     n = len(adc)
     ordered = sorted(
@@ -92,6 +96,8 @@ def replay_pipeline(
     cuts.update(i for i, _, _ in ordered if i < n)
     bounds = sorted(cuts)
     pipeline = Pipeline(config, calibration, table)
+    pipeline.flag_fsr_faults(flagged_at_start)
+    at_start = [(0, 0, f.sensor, f.reason) for f in pipeline.fsr_faults]  # (as seeded)
     base = 0
     k = 0
     for a, b in itertools.pairwise(bounds):
@@ -105,8 +111,16 @@ def replay_pipeline(
             k += 1
         blk = pipeline.process(adc[a:b], None if lost_before is None else lost_before[a:b])
         faults = fault_rows(blk.fsr_faults, blk.start_idx, a)
+        if a == 0:
+            faults = at_start + faults
         yield ReplayChunk(a, rows_from_pipeline(blk), blk.heel_strike_idx + base,
                           blk.toe_off_idx + base, faults)  # fmt: skip
+
+
+def flagged_at_start(rows: Iterable[tuple[int, str, str]]) -> tuple[tuple[str, str], ...]:
+    """(sensor, reason) of the ``/events/fsr_faults`` rows (decided row, sensor, reason) known
+    at row 0: flagged before the recording started."""
+    return tuple(dict.fromkeys((str(s), str(r)) for row, s, r in rows if int(row) == 0))
 
 
 def _journal_changes(
@@ -322,6 +336,9 @@ def _build_recovered(
                     table=header.table,
                     lost_before=LazyRows(rows["lost_before"], dtype=np.int64),
                     chunk_rows=RECOVERY_REPLAY_ROWS,
+                    flagged_at_start=flagged_at_start(
+                        (f["sample_idx"], f["sensor"], f["reason"]) for f in contents.fsr_faults
+                    ),
                 )
             )
         else:

@@ -27,7 +27,7 @@ from gaitmon.io.session.codec import encode
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.reader import Session, open_session
-from gaitmon.io.session.recovery import replay_pipeline
+from gaitmon.io.session.recovery import flagged_at_start, replay_pipeline
 from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
 from gaitmon.io.session.smoothed import store_smoothed
 from gaitmon.io.session.stored_overview import write_overview
@@ -167,13 +167,15 @@ class UnitInputs:
     table: ChannelTable  # the unit's own conversion, as recovery and review use
     lost: np.ndarray
     config: PipelineConfig  # the settings it was recorded with
+    fsr_flagged_at_start: tuple[tuple[str, str], ...] = ()  # force sensors faulty from row 0
 
     @classmethod
     def of(cls, s: Session) -> UnitInputs:
         _check_raw(s)
         n = s.n_samples
+        flagged = flagged_at_start((f.decided_idx, f.sensor, f.reason) for f in s.fsr_faults)
         return cls(n, s.calibration, list(s.calibration_changes), s.header.table,
-                   lost_before_from_gaps(s.gaps, n), s.config)  # fmt: skip
+                   lost_before_from_gaps(s.gaps, n), s.config, flagged)  # fmt: skip
 
 
 def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], None]) -> None:
@@ -213,6 +215,8 @@ def rewrite_unit(
         table=table,
         chunk_rows=REPLAY_CHUNK_ROWS,
         lost_before=lost,
+        # (sensors flagged before the recording stay flagged if read the same way: as live)
+        flagged_at_start=unit.fsr_flagged_at_start if config.reads_fsrs_as(unit.config) else (),
     )
     faults: list[tuple[int, int, str, str]] = []
     for start, rows, hs_rows, to_rows, found in replay:

@@ -217,9 +217,12 @@ class SessionWriter:
                 raise ValueError("raw mode needs the pipeline block of the same samples")
             rec["adc"] = samples.adc
             rows = rows_from_pipeline(processed)
-            self._staged_tables["events/fsr_faults"] += fault_rows(
-                processed.fsr_faults, processed.start_idx, self._rows
-            )
+            faults = fault_rows(processed.fsr_faults, processed.start_idx, self._rows)
+            for decided, first, sensor, reason in faults:  # (those at row 0 seed recovery)
+                self._write_journal(encode_json(RecordType.FSR_FAULT, {
+                    "sample_idx": decided, "stride_start_idx": first, "sensor": sensor,
+                    "reason": reason}))  # fmt: skip
+            self._staged_tables["events/fsr_faults"] += faults
         else:
             if processed is not None:
                 raise ValueError(f"{self.header.mode} mode takes no pipeline block")
