@@ -145,6 +145,7 @@ def reprocess_one(task: Task) -> Outcome:
     Runs in a worker: imports what it needs, opens its own files, returns plain values.
     """
     from gaitmon.io.session import SessionError, open_session
+    from gaitmon.io.session.parts import is_bilateral
     from gaitmon.io.session.reprocess import partial_path, rewrite_processed
 
     bad_file: tuple[type[BaseException], ...] = (SessionError, *DAMAGE_ERRORS)
@@ -153,6 +154,9 @@ def reprocess_one(task: Task) -> Outcome:
     t0, cpu0 = time.perf_counter(), time.thread_time()
     wrote = False
     try:
+        if is_bilateral(src):  # a good file: not "damaged" (open_session refuses both legs)
+            return Outcome(task.rel, SKIPPED, "a session of both legs: gaitmon batch reprocesses "
+                           "one-unit sessions; use gaitmon process FILE -o NEW for both legs")
         with open_session(src) as s:  # (recovers an interrupted recording first)
             if s.mode != "raw":
                 return Outcome(task.rel, SKIPPED, f"{s.mode}-mode recording: it holds the "

@@ -441,3 +441,18 @@ def test_a_run_interrupted_mid_way_resumes_to_the_same_tables(study, tmp_path):
     assert resumed.n_resumed == 2 and resumed.count(OK) == 4
     for name in ("summary.csv", "strides.csv"):
         assert (out / name).read_bytes() == (tmp_path / "clean" / name).read_bytes()
+
+
+def test_a_both_legs_session_is_skipped_with_the_reason_not_called_damaged(study, tmp_path):
+    """A good file of both legs was reported "damaged" (``open_session`` refuses both legs)."""
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    src = sorted(study.rglob("*.h5"))[0]
+    shutil.copyfile(src, sub / src.name)
+    assert main(["record", "--simulate-bilateral", "--duration", "8", "--speed", "8", "-o",
+                 str(sub / "both.h5"), "-q"]) == 0  # fmt: skip
+    result = run_batch(sub, tmp_path / "out")
+    by_rel = {o.rel: o for o in result.outcomes}
+    assert by_rel["both.h5"].status == "skipped"
+    assert "both legs" in by_rel["both.h5"].reason and "gaitmon process" in by_rel["both.h5"].reason
+    assert by_rel[src.name].status == OK
