@@ -185,8 +185,10 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
             lambda: min(samples(win, s) - start[s] for s in ("L", "R")) >= 500, timeout=WAIT_MS
         )
         qtbot.waitUntil(lambda: "REC both legs" in win.rec_label.text())
-        win.act_record.trigger()  # stop: both parts finished and combined
+        win.act_record.trigger()  # stop: both parts finished and combined, on the worker
         assert not win.recording and win.act_record.text() == "Record"
+        qtbot.waitUntil(lambda: not win.saving, timeout=WAIT_MS)
+        assert "Recording saved: both legs" in win.statusBar().currentMessage()
         assert target.exists() and not list(tmp_path.glob("both.h5.*.partial"))
         # acquisition goes on after the stop
         after = samples(win, "R")

@@ -116,6 +116,8 @@ def test_record_two_seconds_with_a_marker(qtbot, window, tmp_path):
     win.act_record.trigger()  # stop
     stopped = samples(win)
     assert not win.recording
+    # the file is finished on the device worker, the window drawing on meanwhile
+    qtbot.waitUntil(lambda: not win.saving, timeout=WAIT_MS)
     assert "Recording saved" in win.statusBar().currentMessage()
 
     with h5py.File(target, "r") as f:
@@ -425,3 +427,40 @@ def test_a_connect_finishing_after_the_window_closed_is_closed_not_leaked(
     # the connection was opened after the close and closed again; no thread outlives it
     assert len(opened) == 1 and not opened[0].engine.running
     assert win.conn is None and win.errors == []
+
+
+def test_stop_finishes_the_file_off_the_gui_thread_and_the_window_draws_on(
+    qtbot, window, tmp_path
+):
+    """Stop used to finish the file on the GUI thread: 0.9 s of smoothing and stride store
+    for an hour's recording, 7 s for 8 hours, with the window frozen. Here the close is held
+    back (a slow disk) and the window must go on drawing meanwhile."""
+    win = window
+    qtbot.waitUntil(lambda: samples(win) >= 50, timeout=WAIT_MS)
+    target = tmp_path / "slow.h5"
+    _start_recording(qtbot, win, target)
+    qtbot.waitUntil(lambda: "REC" in win.rec_label.text(), timeout=WAIT_MS)
+    engine = win.conn.engine
+    release = threading.Event()
+    real_stop = engine.stop_recording
+
+    def slow_close(*args, **kwargs):
+        release.wait(10.0)
+        return real_stop(*args, **kwargs)
+
+    engine.stop_recording = slow_close
+    try:
+        win.act_record.trigger()  # Stop
+        assert win.saving and not win.recording
+        assert not win.act_record.isEnabled()  # no new recording until this file is done
+        assert "Saving" in win.rec_label.text()
+        shown = int(win.samples_label.property("samples"))
+        qtbot.waitUntil(lambda: int(win.samples_label.property("samples")) >= shown + 50,
+                        timeout=WAIT_MS)  # fmt: skip
+    finally:
+        release.set()
+    qtbot.waitUntil(lambda: not win.saving, timeout=WAIT_MS)
+    assert win.act_record.isEnabled() and win.act_record.text() == "Record"
+    assert "Recording saved" in win.statusBar().currentMessage()
+    with h5py.File(target, "r") as f:
+        assert bool(f.attrs["complete"])

@@ -18,6 +18,7 @@ from PySide6.QtWidgets import QComboBox, QLineEdit, QMainWindow, QMenu
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import Engine, Snapshot
 from gaitmon.io.sim.config import SimConfig
+from gaitmon.jobs import Response
 from gaitmon.live.connection import Connection
 from gaitmon.ui import one_line
 from gaitmon.ui.dialogs import SessionDialog
@@ -63,6 +64,7 @@ class LiveWindowBase(QMainWindow):
     sim_fsr_actions: dict[str, QAction]  # Device ▸ Simulator: foot-sensor faults, by key
     _connecting: bool
     _recording: bool
+    _saving: bool  # a stopped recording's file is being finished on the device worker
     _closing: bool
     _restore_timer: QTimer | None
     _tick: Callable[[], object]  # MainWindow's ~30 Hz display update
@@ -80,6 +82,29 @@ class LiveWindowBase(QMainWindow):
         self.errors.append(msg)
         self.notify(msg)
 
+    def _begin_saving(self, save: Callable[[], str]) -> None:
+        """Finish a stopped recording's file on the device worker (``save`` returns the line to
+        show): on a long session that takes seconds (the smoother, the stride store), and the
+        window keeps drawing meanwhile; Record waits until the file is done."""
+        self._saving = True
+        self._update_controls()
+        self.status.rec_label.setText("Saving the recording…")
+        self.jobs.worker.submit(lambda ticket: save(), self._saved)
+
+    def _saved(self, response: Response[str]) -> None:
+        self._saving = False
+        self.status.rec_label.setText("")
+        self._update_controls()
+        if response.error is not None:
+            self.report_exception("saving the recording", response.error)
+        elif response.value:
+            self.notify(response.value, 30_000)
+
+    def _wait_saved(self, timeout_s: float = 120.0) -> None:
+        """Before disconnecting or closing: let a Stop's file be finished (its line is shown)."""
+        if self._saving:
+            self.jobs.worker.wait_idle(timeout_s)
+
     @property
     def engine(self) -> Engine | None:
         return self.conn.engine if self.conn is not None else None
@@ -87,6 +112,11 @@ class LiveWindowBase(QMainWindow):
     @property
     def recording(self) -> bool:
         return self._recording
+
+    @property
+    def saving(self) -> bool:
+        """A stopped recording's file is still being finished."""
+        return self._saving
 
     @property
     def window_s(self) -> float:
@@ -112,6 +142,7 @@ class LiveWindowBase(QMainWindow):
         self.act_refresh.setEnabled(not connected and not busy)
         for a in (self.act_zero, self.act_record, self.act_marker):
             a.setEnabled(connected)
+        self.act_record.setEnabled(connected and not self._saving)
         self.act_record.setText("Stop" if self._recording else "Record")
         self.act_record.setToolTip(
             "Stop recording (Ctrl+R)" if self._recording else "Record a session (Ctrl+R)"

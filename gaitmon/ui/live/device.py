@@ -116,6 +116,7 @@ class DeviceSlots(LiveWindowBase):
         conn = self.conn
         if conn is None:
             return
+        self._wait_saved()  # a Stop's file is finished before its engine goes
         self.timer.stop()
         self.conn = None
         if self._restore_timer is not None:

@@ -295,6 +295,7 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
         if pair is None:
             super().disconnect_device()
             return
+        self._wait_saved()  # a Stop's file is finished (and combined) before the units go
         self.timer.stop()
         for t in self._pair_cut_timers.values():
             t.stop()
@@ -425,30 +426,21 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
 
     @guarded
     def stop_pair_recording(self) -> None:
-        if self.pair is None or not self._recording:
+        pair = self.pair
+        if pair is None or not self._recording:
             return
-        self.notify(self._finish_pair_recording(), 30_000)
+        self._recording = False
+        self._begin_saving(lambda: _save_pair(pair, "user"))  # (combining takes seconds)
 
     def _finish_pair_recording(self, reason: str = "user") -> str:
-        """Stop both parts and combine them into the one file; what happened, in one line."""
+        """Stop both parts and combine them into the one file, here (a disconnect, a recorder
+        that gave up); what happened, in one line."""
         pair = self.pair
         assert pair is not None
         self._recording = False
         self._update_controls()
         self.status.rec_label.setText("")
-        statuses = pair.pair.stop_recording(reason)
-        errors = [f"{SIDE_NAMES[s]} leg: {st.error}" for s, st in statuses.items() if st.error]
-        try:
-            path = pair.pair.finish()
-        except Exception as exc:  # the parts stay; the next open of the file combines them
-            errors.append(one_line(exc))
-            path = None
-        if errors:
-            return f"Recording stopped with an error: {'; '.join(errors)}"
-        assert path is not None
-        rows = " · ".join(f"{s} {statuses[s].rows:,}" for s in SIDES)
-        return (f"Recording saved: both legs in {path} ({rows} frames, "
-                f"{fmt_bytes(path.stat().st_size)}).")  # fmt: skip
+        return _save_pair(pair, reason)
 
     def _show_pair_recording(self, snaps: dict[str, Snapshot]) -> None:
         if not self._recording:
@@ -577,3 +569,20 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
         state = GuideState(connected=True, connecting=False, zeroed=bool(zeroed),
                            recording=self._recording, simulated=False)  # fmt: skip
         self.guide.show_state(state)
+
+
+def _save_pair(pair: PairConnection, reason: str) -> str:
+    """Stop both parts and combine them into the one file (any thread); the line to show."""
+    statuses = pair.pair.stop_recording(reason)
+    errors = [f"{SIDE_NAMES[s]} leg: {st.error}" for s, st in statuses.items() if st.error]
+    try:
+        path = pair.pair.finish()
+    except Exception as exc:  # the parts stay; the next open of the file combines them
+        errors.append(one_line(exc))
+        path = None
+    if errors:
+        return f"Recording stopped with an error: {'; '.join(errors)}"
+    assert path is not None
+    rows = " · ".join(f"{s} {statuses[s].rows:,}" for s in SIDES)
+    return (f"Recording saved: both legs in {path} ({rows} frames, "
+            f"{fmt_bytes(path.stat().st_size)}).")  # fmt: skip

@@ -91,17 +91,16 @@ class RecordingSlots(LiveWindowBase):
         if conn is None or not self._recording:
             return
         self._recording = False
-        status = conn.engine.stop_recording()
-        self._update_controls()
-        self.status.rec_label.setText("")
-        if status.error:
-            self.notify(f"Recording stopped with an error: {status.error}", 30_000)
-        else:
-            self.notify(
-                f"Recording saved: {status.path} ({status.rows:,} frames, "
-                f"{fmt_bytes(status.file_bytes)}, {fmt_elapsed(status.elapsed_s)})",
-                30_000,
-            )
+        engine = conn.engine
+
+        def save() -> str:  # on the device worker
+            status = engine.stop_recording()
+            if status.error:
+                return f"Recording stopped with an error: {status.error}"
+            size, took = fmt_bytes(status.file_bytes), fmt_elapsed(status.elapsed_s)
+            return f"Recording saved: {status.path} ({status.rows:,} frames, {size}, {took})"
+
+        self._begin_saving(save)
 
     def _show_recording(self, snap: Snapshot, conn: Connection) -> None:
         """The recording line of the status bar; finish the file if the recorder gave up."""

@@ -99,6 +99,7 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
         self.settings_dialog: SettingsDialog | None = None
         self._connecting = False
         self._recording = False
+        self._saving = False
         self._closing = False
         self._ticks = 0
         self._restore_timer = None
@@ -550,6 +551,7 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
         """Stop everything this window started (idempotent); the window stays open."""
         self._closing = True
         self.timer.stop()
+        self._wait_saved()  # a recording just stopped: its file is finished first
         # a connect still running is closed when it finishes; a zero's answer is dropped
         self.jobs.stop()
         self.disconnect_device()
