@@ -207,9 +207,10 @@ def test_a_settings_change_goes_out_at_the_files_row(streamed):
         for (w, rest), t in zip(words, ev_ts, strict=True)
         if w is EventWord.CONFIG
     ]
-    assert len(changes) == 1
-    cfg, t = changes[0]
-    assert cfg["cutoff_hz"] == 5.0
+    # the settings in force when the inlet subscribed (it may have missed earlier changes),
+    # then the change
+    assert [c["cutoff_hz"] for c, _t in changes] == [4.0, 5.0]
+    t = changes[1][1]
     with open_session(path) as s:
         seq = s.read("timeline/seq")
         (row, logged), = s.config_changes
@@ -390,3 +391,44 @@ def test_a_labrecorder_file_of_the_streams_imports_as_the_recorded_session(strea
         assert seq_imp[turn[0].sample_idx] == seq_rec[row_rec]
         (row_c, _cfg), = [c for c in imp.config_changes if c[1].cutoff_hz == 5.0]
         assert seq_imp[row_c] == seq_rec[rec.config_changes[0][0]]
+
+
+def test_a_late_subscriber_gets_the_calibration_in_force():
+    """LabRecorder subscribing after a Zero: the zero's ``calibration`` event went out before
+    it listened, and the stream descriptions still hold the calibration the outlets opened with,
+    so the one in force goes out again when the events stream gains a consumer."""
+    import json
+
+    unit_id = f"test{uuid.uuid4().hex[:8]}"
+    unit = SimulatedUnit(GaitConfig(seed=6, standing_s=4.0), speed=2.0)
+    got: list[tuple[str, float]] = []
+    with PtySimulator(unit) as sim:
+        eng = Engine(Device(SerialTransport(str(sim.link_path))), "raw", transport_label="pty")
+        holder: dict[str, LslOutlets] = {}
+        eng.start(before_stream=lambda: holder.setdefault(
+            "o", LslOutlets.attach(eng, SessionMeta(side="R"), unit=unit_id)))  # fmt: skip
+        try:
+            deadline = time.monotonic() + 30
+            while eng.samples_total < 200 and time.monotonic() < deadline:
+                time.sleep(0.02)
+            zeroed = eng.zero()  # standing still: the calibration changes, nobody listens yet
+            while eng.calibration != zeroed and time.monotonic() < deadline:
+                time.sleep(0.02)
+            found = pylsl.resolve_byprop("source_id", layout.source_id(unit_id, "events"), 1, 10)
+            assert found
+            inlet = pylsl.StreamInlet(found[0], max_buflen=60, recover=False)
+            inlet.open_stream(timeout=10.0)
+            end = time.monotonic() + 5.0
+            while time.monotonic() < end and not any(
+                parse_event(e)[0] is EventWord.CALIBRATION for e, _t in got
+            ):
+                data, ts = inlet.pull_chunk(timeout=0.1)
+                got += [(d[0], t) for d, t in zip(data, ts, strict=True)]
+        finally:
+            eng.stop()
+            holder["o"].detach()
+    cals = [json.loads(parse_event(e)[1]) for e, _t in got
+            if parse_event(e)[0] is EventWord.CALIBRATION]  # fmt: skip
+    assert cals, [parse_event(e)[0] for e, _t in got]
+    assert cals[0] == zeroed.as_dict()
+    assert any(abs(v) > 1e-6 for v in zeroed.tilt_offset_rad)  # (a real change, not zeros)

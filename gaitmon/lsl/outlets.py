@@ -22,7 +22,10 @@ What a stream says about itself (its XML description): ``acquisition`` (manufact
 (both legs, ``leg``) has its leg in its names, source ids and ``side``, and its own sample
 clock, as every ``LslOutlets`` has. Later changes
 of the filter settings or the calibration go out on the events stream (``config <json>``,
-``calibration <json>``), so a LabRecorder file is enough to rebuild the session.
+``calibration <json>``), so a LabRecorder file is enough to rebuild the session; and when the
+events stream gains a consumer (LabRecorder subscribing after a Zero), the ones in force go out
+again, since the descriptions still say what they were when the outlets opened (the XDF import
+skips a repeat that changes nothing).
 """
 
 from __future__ import annotations
@@ -127,6 +130,7 @@ class LslOutlets:
         self._lock = threading.Lock()
         self._closed = False
         self._k_end = 0  # the sample clock just after the last sample pushed
+        self._consumers = False  # the events stream had a consumer at the last push
         self.samples_pushed = 0
         self.events_pushed = 0
         self.angles = pylsl.StreamOutlet(self._info("angles"))
@@ -223,10 +227,19 @@ class LslOutlets:
             if self.leg and name.endswith(part):
                 name = name[: -len(part)]
             events.append((k0, event_text(EventWord.RECORDING_START, name)))
-        if out.config is not None:
-            events.append((k0, event_text(EventWord.CONFIG, json.dumps(out.config.as_dict()))))
-        if out.calibration is not None:
-            cal = json.dumps(out.calibration.as_dict())
+        config, calibration = out.config, out.calibration
+        if self.clock.ready:
+            consumers = self.events.have_consumers()
+            if consumers and not self._consumers:
+                # a consumer just subscribed (LabRecorder starting to record): it missed the
+                # changes made before, and the stream descriptions still hold the settings and
+                # calibration the outlets opened with, so the ones in force go out now
+                config, calibration = self.engine.config, self.engine.calibration
+            self._consumers = consumers
+        if config is not None:
+            events.append((k0, event_text(EventWord.CONFIG, json.dumps(config.as_dict()))))
+        if calibration is not None:
+            cal = json.dumps(calibration.as_dict())
             events.append((k0, event_text(EventWord.CALIBRATION, cal)))
         events += [(k0, event_text(EventWord.MARKER, m)) for m in out.markers]
         if n:
