@@ -185,8 +185,10 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
             lambda: min(samples(win, s) - start[s] for s in ("L", "R")) >= 500, timeout=WAIT_MS
         )
         qtbot.waitUntil(lambda: "REC both legs" in win.rec_label.text())
+        assert not win.port_combo.isEnabled() and not win.mode_combo.isEnabled()
         win.act_record.trigger()  # stop: both parts finished and combined, on the worker
         assert not win.recording and win.act_record.text() == "Record"
+        assert win.saving and not win.act_record.isEnabled()  # no new recording meanwhile
         qtbot.waitUntil(lambda: not win.saving, timeout=WAIT_MS)
         assert "Recording saved: both legs" in win.statusBar().currentMessage()
         assert target.exists() and not list(tmp_path.glob("both.h5.*.partial"))

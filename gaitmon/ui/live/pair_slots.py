@@ -551,7 +551,11 @@ class PairSlots(DeviceSlots, RecordingSlots, ViewSlots):
         self.act_connect.setEnabled(True)
         for a in (self.act_zero, self.act_record, self.act_marker):
             a.setEnabled(True)
+        self.act_record.setEnabled(not self._saving)  # a Stop's file is finished first
         self.act_record.setText("Stop" if self._recording else "Record")
+        # the one-unit port and mode choices do not apply while both legs are connected
+        for w in (self.port_combo, self.mode_combo, self.act_refresh):
+            w.setEnabled(False)
         self.sim_menu.setEnabled(simulated)
         # the one-leg simulator's actions do not apply to a pair (it cannot stand on request)
         for name, act in self._actions.items():
