@@ -44,7 +44,7 @@ from gaitmon.io.overview import PeakPyramid, SessionOverview
 from gaitmon.io.session import (
     Session,
     SessionError,
-    flagged_at_start,
+    flags_kept,
     open_session,
     replay_pipeline,
 )
@@ -472,12 +472,10 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
     faults: list[FsrFault] = []
-    # sensors flagged before the recording started stay flagged if read the same way (as live)
-    flagged = (flagged_at_start((f.decided_idx, f.sensor, f.reason) for f in s.fsr_faults)
-               if config.reads_fsrs_as(s.config) else ())  # fmt: skip
     for start, rows, hs_rows, to_rows, fault_rows in replay_pipeline(
         adc, config, s.calibration, list(s.calibration_changes), table=s.header.table,
-        lost_before=lost_before_from_gaps(s.gaps, n), flagged_at_start=flagged,
+        lost_before=lost_before_from_gaps(s.gaps, n),
+        flagged_at_start=flags_kept(s.fsr_faults, s.config, config),
     ):  # fmt: skip
         stop = start + len(rows[JOINT])
         for name in REPROCESSED_SERIES:

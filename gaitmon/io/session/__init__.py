@@ -50,6 +50,7 @@ if TYPE_CHECKING:
     from gaitmon.io.session.recovery import (
         build_session,
         flagged_at_start,
+        flags_kept,
         recover_session,
         replay_pipeline,
     )
@@ -78,6 +79,7 @@ __getattr__ = lazy_exports(__name__, {
     "open_session": "reader",
     "build_session": "recovery",
     "flagged_at_start": "recovery",
+    "flags_kept": "recovery",
     "recover_session": "recovery",
     "replay_pipeline": "recovery",
     "RewriteResult": "reprocess",
@@ -106,6 +108,7 @@ __all__ = [
     "build_session",
     "device_info",
     "flagged_at_start",
+    "flags_kept",
     "journal_path",
     "open_session",
     "per_sample_datasets",

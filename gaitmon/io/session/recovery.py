@@ -20,6 +20,7 @@ import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE, ChannelTable
+from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import ContactEdges
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.errors import Cancelled
@@ -121,6 +122,17 @@ def flagged_at_start(rows: Iterable[tuple[int, str, str]]) -> tuple[tuple[str, s
     """(sensor, reason) of the ``/events/fsr_faults`` rows (decided row, sensor, reason) known
     at row 0: flagged before the recording started."""
     return tuple(dict.fromkeys((str(s), str(r)) for row, s, r in rows if int(row) == 0))
+
+
+def flags_kept(
+    faults: Iterable[FsrFault], recorded: PipelineConfig, config: PipelineConfig
+) -> tuple[tuple[str, str], ...]:
+    """The sensors a recording had flagged from row 0 that a reprocessing with ``config`` keeps
+    flagged: all of them when it reads the force sensors as ``recorded`` did (as
+    ``Pipeline.successor``), none otherwise (other settings may be what made one look dead)."""
+    if not config.reads_fsrs_as(recorded):
+        return ()
+    return flagged_at_start((f.decided_idx, f.sensor, f.reason) for f in faults)
 
 
 def _journal_changes(

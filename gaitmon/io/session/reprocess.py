@@ -21,13 +21,14 @@ import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import ChannelTable
+from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
 from gaitmon.io.session.codec import encode
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.reader import Session, open_session
-from gaitmon.io.session.recovery import flagged_at_start, replay_pipeline
+from gaitmon.io.session.recovery import flags_kept, replay_pipeline
 from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
 from gaitmon.io.session.smoothed import store_smoothed
 from gaitmon.io.session.stored_overview import write_overview
@@ -167,15 +168,14 @@ class UnitInputs:
     table: ChannelTable  # the unit's own conversion, as recovery and review use
     lost: np.ndarray
     config: PipelineConfig  # the settings it was recorded with
-    fsr_flagged_at_start: tuple[tuple[str, str], ...] = ()  # force sensors faulty from row 0
+    fsr_faults: tuple[FsrFault, ...] = ()  # those from row 0 stay flagged (flags_kept)
 
     @classmethod
     def of(cls, s: Session) -> UnitInputs:
         _check_raw(s)
         n = s.n_samples
-        flagged = flagged_at_start((f.decided_idx, f.sensor, f.reason) for f in s.fsr_faults)
         return cls(n, s.calibration, list(s.calibration_changes), s.header.table,
-                   lost_before_from_gaps(s.gaps, n), s.config, flagged)  # fmt: skip
+                   lost_before_from_gaps(s.gaps, n), s.config, tuple(s.fsr_faults))  # fmt: skip
 
 
 def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], None]) -> None:
@@ -215,8 +215,7 @@ def rewrite_unit(
         table=table,
         chunk_rows=REPLAY_CHUNK_ROWS,
         lost_before=lost,
-        # (sensors flagged before the recording stay flagged if read the same way: as live)
-        flagged_at_start=unit.fsr_flagged_at_start if config.reads_fsrs_as(unit.config) else (),
+        flagged_at_start=flags_kept(unit.fsr_faults, unit.config, config),
     )
     faults: list[tuple[int, int, str, str]] = []
     for start, rows, hs_rows, to_rows, found in replay:
