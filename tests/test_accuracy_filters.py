@@ -391,3 +391,17 @@ def test_live_peak_swing_knee_flexion_is_within_the_goal_with_the_standing_zero(
     assert len(errs) >= 15
     assert abs(errs.mean()) <= 3.0
     assert np.percentile(np.abs(errs), 95) <= 3.0
+
+
+def test_smoothing_a_record_leaves_no_factor_cached():
+    """The constant-variance factors serve one record's blocks, then are let go (a review
+    window living on would otherwise keep ~10 MB each)."""
+    from gaitmon.dsp import smoother
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.io.session.smoothed import smoothed_blocks
+
+    counts = simulate(3000, GaitModel(GaitConfig(seed=3)), SensorConfig(seed=3)).counts
+    blocks = list(smoothed_blocks(lambda a, b: counts[a:b], len(counts), DEFAULT_TABLE,
+                                  Calibration.identity(), [], np.empty(0), FS))  # fmt: skip
+    assert [a for a, _t in blocks] == [0] and blocks[0][1].shape == (3000, 4)
+    assert smoother._constant_factor.cache_info().currsize == 0

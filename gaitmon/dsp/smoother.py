@@ -215,6 +215,11 @@ def _constant_factor(n: int, r: float, qa: float, q_bias: float, dt_s: float) ->
     return cb
 
 
+def release_factors() -> None:
+    """Drop the cached factors (``_constant_factor``) once a record is smoothed."""
+    _constant_factor.cache_clear()
+
+
 def smooth_map(
     z: np.ndarray, gyro_rad_s: np.ndarray, r: np.ndarray | float, qa: np.ndarray | float,
     q_bias: float, dt_s: float, theta_prior: float | None = None,

@@ -90,12 +90,19 @@ def smoothed_blocks(
 
     cuts = sorted({0, n, *(int(r) for r in restarts if 0 < r < n)})
     block, overlap = SMOOTH_BLOCK_ROWS, SMOOTH_OVERLAP_ROWS
-    for a, b in itertools.pairwise(cuts):
-        step = b - a if b - a <= block + 2 * overlap else block
-        for s0 in range(a, b, step):
-            s1 = min(b, s0 + step)
-            r0, r1 = max(a, s0 - overlap), min(b, s1 + overlap)
-            yield s0, smooth(r0, r1)[s0 - r0 : s1 - r0]
+    try:
+        for a, b in itertools.pairwise(cuts):
+            step = b - a if b - a <= block + 2 * overlap else block
+            for s0 in range(a, b, step):
+                s1 = min(b, s0 + step)
+                r0, r1 = max(a, s0 - overlap), min(b, s1 + overlap)
+                yield s0, smooth(r0, r1)[s0 - r0 : s1 - r0]
+    finally:
+        # the smoother's cached factors (~10 MB each) serve this record's blocks; a review
+        # window or batch worker living on does not keep them
+        from gaitmon.dsp.smoother import release_factors
+
+        release_factors()
 
 
 def _restarts(lost_before: np.ndarray, n: int, fs_hz: float) -> np.ndarray:
