@@ -454,6 +454,7 @@ def test_stop_finishes_the_file_off_the_gui_thread_and_the_window_draws_on(
         assert win.saving and not win.recording
         assert not win.act_record.isEnabled()  # no new recording until this file is done
         assert "Saving" in win.rec_label.text()
+        assert "saving the file" in win.statusBar().currentMessage()  # not "Recording to …"
         shown = int(win.samples_label.property("samples"))
         qtbot.waitUntil(lambda: int(win.samples_label.property("samples")) >= shown + 50,
                         timeout=WAIT_MS)  # fmt: skip

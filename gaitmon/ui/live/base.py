@@ -89,6 +89,7 @@ class LiveWindowBase(QMainWindow):
         self._saving = True
         self._update_controls()
         self.status.rec_label.setText("Saving the recording…")
+        self.notify("Recording stopped; saving the file…", 0)  # (not "Recording to …")
         self.jobs.worker.submit(lambda ticket: save(), self._saved)
 
     def _saved(self, response: Response[str]) -> None:
