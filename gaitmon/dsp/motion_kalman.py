@@ -50,18 +50,16 @@ covariance; see docs/filters.md). The update is paper 000's, with K from the sch
 
     theta = theta- + K0 e ; b = b- + K1 e ;  e = z - theta- - h b-   (h = lag for z~, else 0)
 
-Speed and chunking. With K known per sample the filter is a linear recursion with time-varying
-coefficients. It is solved as one lower-triangular banded system (bandwidth 3, unknowns
-theta_0, b_0, theta_1, b_1, ...) by BLAS ``dtbsv``, which substitutes strictly in time order;
-the state carried from the previous block enters as two identity rows, so any chunking performs
-the same floating-point operations in the same order and gives bit-for-bit the same output.
+Speed and chunking. The motion windows, the gains and the gravity reference depend on the data
+only, not on the state: they are computed for a whole block at once (numpy). What is left is
+the update itself, a two-state recursion in time order, run by a compiled loop
+(:func:`gaitmon.dsp.kernels.scheduled_update`); the state carried from the previous block is its
+start, so any chunking performs the same floating-point operations in the same order and gives
+bit-for-bit the same output.
 
-Wrap. z is unwrapped by continuity (carried across blocks), so the state stays continuous through
-+-pi; where a trusted sample's innovation would still lie beyond +-pi (the accelerometer tilt
-jumps when the board's y axis nears the vertical, and the foot's at impacts), z is re-anchored by
-whole turns and that segment re-solved from that sample, which is paper 000's wrap(z - theta-)
-(``_solve_wrapped``: the turns are predicted from one solve and verified by the next, so a block
-is solved about once, plus once more for the foot).
+Wrap. The state stays continuous through +-pi; an innovation beyond +-pi (the accelerometer tilt
+jumps by a turn when the board's y axis nears the vertical, and the foot's at impacts) is taken
+modulo 2 pi, which is paper 000's wrap(z - theta-).
 """
 
 from __future__ import annotations
@@ -75,9 +73,6 @@ from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.channels import SEGMENTS, STANDARD_GRAVITY_MS2
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
-# the fewest rows GaitAwareKalman solves at a time where its predicted re-anchorings miss
-# (see its _solve_wrapped)
-_SOLVE_ROWS = 256
 
 
 @dataclass(frozen=True)
@@ -328,52 +323,35 @@ class GravityReference:
 def solve_scheduled(
     theta0: np.ndarray | float, bias0: np.ndarray | float, k0: np.ndarray, k1: np.ndarray,
     z: np.ndarray, w: np.ndarray, dt_s: float, h_bias: np.ndarray | None = None,
+    wrap: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Run theta/b through the scheduled update; returns (theta, bias), shaped like ``z``.
 
-    theta_k = (1 - K0) (theta_{k-1} + (w_k - b_{k-1}) dt) + K0 z_k - K0 h_k b_{k-1}
-    b_k     = b_{k-1} + K1 (z_k - theta_{k-1} - (w_k - b_{k-1}) dt - h_k b_{k-1})
+    theta_k = theta_{k-1} + (w_k - b_{k-1}) dt + K0 e_k ;  b_k = b_{k-1} + K1 e_k
+    e_k     = z_k - theta_{k-1} - (w_k - b_{k-1}) dt - h_k b_{k-1}
 
     where the measurement is z_k = theta_k + h_k b_k (``h_bias``, shaped like z; None = 0, the
-    paper's).
-
-    as a unit lower-triangular banded system (see the module doc). (N,) inputs are one segment;
-    (N, S) inputs run S segments as S independent blocks of one system (one BLAS call): no
-    coefficient links one block to the next, so each column is computed exactly as alone.
+    paper's). With ``wrap``, an innovation beyond +-pi is taken modulo 2 pi (see the module
+    doc). (N,) inputs are one segment; (N, S) inputs run S independent segments. The loop is
+    compiled (:mod:`gaitmon.dsp.kernels`): it runs in time order, so any chunking gives the same
+    bits.
     """
-    from scipy.linalg.blas import dtbsv  # lazy: scipy only where a filter is run
+    from gaitmon.dsp.kernels import scheduled_update  # lazy: numba only where a filter is run
 
     was_1d = np.ndim(z) == 1
-    k0, k1, z, w = (np.asarray(a, dtype=np.float64).reshape(len(a), -1) for a in (k0, k1, z, w))
-    n, s = z.shape
-    # unknowns per segment: the carried (theta, b), then (theta_k, b_k); segment-major. The band
-    # (BLAS lower storage, band[r, j] = A(j + r, j); the unit diagonal, row 0, is not read) is
-    # held as buf[segment, step, (theta, b), r], which is its Fortran order: it is written
-    # through a (r, step, unknown, segment) view straight from the (N, S) inputs, no copies.
-    buf = np.zeros((s, n + 1, 2, 4))
-    ab = buf.transpose(3, 1, 2, 0)
-    c0 = 1.0 - k0
-    np.negative(c0, out=ab[2, :n, 0])  # theta_k <- theta_{k-1}
-    ab[3, :n, 0] = k1  # b_k <- theta_{k-1}
-    if h_bias is None:
-        np.multiply(c0, dt_s, out=ab[1, :n, 1])  # theta_k <- b_{k-1}
-        ab[2, :n, 1] = -(1.0 + k1 * dt_s)  # b_k <- b_{k-1}
-    else:
-        h = np.asarray(h_bias, dtype=np.float64).reshape(n, -1)
-        ab[1, :n, 1] = c0 * dt_s + k0 * h
-        ab[2, :n, 1] = -(1.0 + k1 * dt_s - k1 * h)
-    x = np.empty((s, n + 1, 2))
-    xt = x.transpose(1, 2, 0)
-    xt[0, 0] = theta0
-    xt[0, 1] = bias0
-    wdt = w * dt_s
-    xt[1:, 0] = c0 * wdt + k0 * z
-    xt[1:, 1] = k1 * (z - wdt)
-    band = buf.reshape(s * (2 * n + 2), 4).T
-    y = dtbsv(3, band, x.reshape(-1), lower=1, diag=1, overwrite_x=1).reshape(s, n + 1, 2)
-    theta, bias = y[:, 1:, 0].T, y[:, 1:, 1].T
+    n = len(z)
+    k0, k1, z, w = (np.ascontiguousarray(a, dtype=np.float64).reshape(n, -1)
+                    for a in (k0, k1, z, w))  # fmt: skip
+    s = z.shape[1]
+    h = (np.zeros((n, s)) if h_bias is None
+         else np.ascontiguousarray(h_bias, dtype=np.float64).reshape(n, s))  # fmt: skip
+    th0 = np.ascontiguousarray(np.broadcast_to(np.asarray(theta0, dtype=np.float64), (s,)))
+    b0 = np.ascontiguousarray(np.broadcast_to(np.asarray(bias0, dtype=np.float64), (s,)))
+    theta = np.empty((n, s))
+    bias = np.empty((n, s))
+    scheduled_update(th0, b0, k0, k1, z, w, h, float(dt_s), bool(wrap), theta, bias)
     if was_1d:
-        return theta[:, 0].copy(), bias[:, 0].copy()
+        return theta[:, 0], bias[:, 0]
     return theta, bias
 
 
@@ -430,8 +408,6 @@ class GaitAwareKalman:
                 grav.reset()
         self._theta: np.ndarray | None = None
         self._bias: np.ndarray | None = None
-        self._last_z: np.ndarray | None = None  # last wrapped z, for unwrapping
-        self._turns: np.ndarray | None = None  # 2 pi turns added to it
 
     def restart(self) -> None:
         """Start the angle again from the next measurement, keeping the learnt gyro bias (after
@@ -442,7 +418,6 @@ class GaitAwareKalman:
             if grav is not None:
                 grav.reset()
         self._theta = None
-        self._last_z = self._turns = None
 
     @property
     def bias_rad_s(self) -> np.ndarray | None:
@@ -500,81 +475,8 @@ class GaitAwareKalman:
             self._theta = z[0].copy()
             if self._bias is None:  # a restart keeps the learnt bias
                 self._bias = np.zeros(s)
-            self._last_z = z[0].copy()
-            self._turns = np.zeros(s)
-        assert self._bias is not None and self._last_z is not None and self._turns is not None
-        # unwrap by continuity from the last sample of the previous block
-        steps = -np.rint(np.diff(np.vstack([self._last_z, z]), axis=0) / TWO_PI)
-        turns = self._turns + np.cumsum(steps, axis=0)
-        out, bias = self._solve_wrapped(k0, k1, z, turns, w, h_bias)
-        self._last_z, self._turns = z[-1].copy(), turns[-1].copy()
+        assert self._bias is not None
+        out, bias = solve_scheduled(self._theta, self._bias, k0, k1, z, w, self.dt_s, h_bias,
+                                    wrap=True)  # fmt: skip
         self._theta, self._bias = out[-1].copy(), bias[-1].copy()
         return out[:, 0] if was_1d else out
-
-    def _solve_wrapped(
-        self, k0: np.ndarray, k1: np.ndarray, z: np.ndarray, turns: np.ndarray, w: np.ndarray,
-        h_bias: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-        """Solve, then honour the wrap of the innovation (paper 000's wrap(z - theta-)).
-
-        Where a trusted sample's innovation against the unwrapped z lies beyond +-pi (the
-        accelerometer tilt jumped across +-pi while the segment did not: the foot's at impacts,
-        about twice a stride; or a segment with its y axis near vertical), z is re-anchored by
-        whole turns and the block solved again from the state before that sample: the same
-        arithmetic as a block that starts there. ``turns`` is updated.
-
-        A trusted sample's turn is the one that puts its innovation within +-pi, so the result
-        does not depend on how the re-anchorings are found, only that every one is. After a
-        solve the first offending sample's turn is exact (the state before it is); the later
-        ones are predicted from that solve, whose state the wrong turns moved little (at an
-        impact the gain is small), so one more solve usually finds them all right. A solve
-        from a re-anchored sample that still finds one shrinks the rows solved at a time
-        (to ``_SOLVE_ROWS`` at least), so a stretch where predictions fail costs at most a
-        few rows per re-anchoring; a clean solve widens them again.
-        """
-        assert self._theta is not None and self._bias is not None
-        theta0, bias0 = self._theta, self._bias
-        out = np.empty_like(z)
-        bias = np.empty_like(z)
-        n = len(z)
-
-        def solve(
-            i0: int, i1: int, cols: slice, th0: np.ndarray, b0: np.ndarray
-        ) -> tuple[np.ndarray, np.ndarray]:
-            """Solve rows [i0, i1) of ``cols`` from (th0, b0): (offending samples, innovations)."""
-            rows = slice(i0, i1)
-            z_unw = z[rows, cols] + TWO_PI * turns[rows, cols]
-            h = None if h_bias is None else h_bias[rows, cols]
-            th, b = solve_scheduled(th0, b0, k0[rows, cols], k1[rows, cols], z_unw, w[rows, cols],
-                                    self.dt_s, h)  # fmt: skip
-            out[rows, cols], bias[rows, cols] = th, b
-            prev_th = np.vstack([th0, th[:-1]])
-            prev_b = np.vstack([b0, b[:-1]])
-            e = z_unw - (prev_th + (w[rows, cols] - prev_b) * self.dt_s)
-            if h is not None:
-                e = e - h * prev_b
-            return (k0[rows, cols] > 0) & (np.abs(e) > np.pi), e
-
-        bad, e = solve(0, n, slice(None), theta0, bias0)
-        # each segment's re-anchorings are its own: the others are final after the first solve
-        for c in np.flatnonzero(bad.any(axis=0)):
-            col = slice(c, c + 1)
-            i0, i1, span, anchored = 0, n, n, False
-            bad_c, e_c = bad[:, col], e[:, col]
-            while True:
-                first = np.flatnonzero(bad_c[:, 0])
-                if len(first):
-                    if anchored:  # the prediction missed one: solve fewer rows at a time
-                        span = max(_SOLVE_ROWS, span // 4)
-                    turns[i0:i1, col] -= np.where(bad_c, np.floor(e_c / TWO_PI + 0.5), 0.0)
-                    i0, anchored = i0 + int(first[0]), True
-                elif i1 < n:
-                    i0, span, anchored = i1, min(n, 4 * span), False
-                else:
-                    break
-                th0, b0 = (
-                    (out[i0 - 1, col], bias[i0 - 1, col]) if i0 > 0 else (theta0[col], bias0[col])
-                )
-                i1 = min(n, i0 + span)
-                bad_c, e_c = solve(i0, i1, col, th0, b0)
-        return out, bias
