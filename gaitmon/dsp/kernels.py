@@ -1,14 +1,17 @@
 """Compiled inner loops (numba): the recursions that no vectorised numpy form computes well.
 
-Only what is strictly sequential lives here: the scheduled Kalman update of the gait-aware filter
-is a two-state recursion whose wrap rule depends on the state before each sample. Everything that
-can be computed for a whole block at once (motion windows, gains, the gravity reference) stays in
-numpy. Each kernel is compiled on its first call and cached on disk beside this module (or in the
-user's cache directory where that is not writable), so later runs start at once.
+Only loops that numpy cannot do in a few passes live here: the gait-aware filter's update is a
+two-state recursion whose wrap rule depends on the state before each sample (and its per-sample
+choice of measurement and gain, fused into the same loop); the smoother's banded substitutions
+are recursions too. What vectorises (the accelerometer tilt, the gravity reference's trigonometry
+and low-pass) stays in numpy. Each kernel is compiled on its first call and cached on disk beside
+this module (or in the user's cache directory where that is not writable), so later runs start at
+once.
 
 numba is the dependency for this because the alternatives were measured and were slower: the same
 recursion as one banded triangular system per block (BLAS ``dtbsv``) with the wrap rule applied
-by predicted re-solves cost 0.09 s per recorded hour for 4 segments; this loop costs ~0.01 s.
+by predicted re-solves cost 0.09 s per recorded hour for 4 segments, and the motion windows and
+gain choice another 0.05 s in numpy passes; this loop costs ~0.02 s for all of it.
 """
 
 from __future__ import annotations
@@ -21,31 +24,154 @@ from numba import njit
 _TWO_PI = 2.0 * math.pi
 
 
+MODE_GATED, MODE_WEIGHTED, MODE_GRAVITY = 0, 1, 2  # how a segment's measurement is chosen
+
+
 @njit(cache=True, nogil=True)
-def scheduled_update(
-    theta0: np.ndarray, bias0: np.ndarray, k0: np.ndarray, k1: np.ndarray, z: np.ndarray,
-    w: np.ndarray, h: np.ndarray, dt_s: float, wrap: bool, theta: np.ndarray, bias: np.ndarray,
+def gait_aware_update(
+    dev: np.ndarray, w: np.ndarray, z_acc: np.ndarray, z_grav: np.ndarray, tail: np.ndarray,
+    n_win: np.ndarray, mode: np.ndarray, static_acc: np.ndarray, static_rate: np.ndarray,
+    k_static: np.ndarray, k_grav: np.ndarray, lag: np.ndarray, r_static: np.ndarray,
+    r_moving: np.ndarray, acc_scale: np.ndarray, rate_scale: np.ndarray, log_r: np.ndarray,
+    gains: np.ndarray, dt_s: float, start: bool, theta: np.ndarray, bias: np.ndarray,
+    theta_out: np.ndarray,
 ) -> None:  # fmt: skip
-    """The scheduled update of S independent segments, in time order; writes ``theta``, ``bias``.
+    """The gait-aware filter over one block (gaitmon.dsp.motion_kalman, module doc), per
+    segment column in time order; writes ``theta_out`` (N, S) and carries the state.
 
-    All arrays are (N, S) float64 but ``theta0``, ``bias0`` (S,), the state before row 0. Per
-    sample (paper 000's prediction and update, with the measurement z = theta + h b):
+    Inputs (N, S): ``dev`` = | |a| - g |, the gyro rate ``w``, the accelerometer tilt
+    ``z_acc`` and the gravity tilt ``z_grav`` (read only where ``mode`` is gravity). Per
+    segment (S,): the motion window ``n_win`` and its thresholds, the static and gravity gains
+    (S, 2), the gravity tilt's lag, and the weighted mode's R = r_moving (1 + (dev/acc_scale)^2)
+    (1 + (rate/rate_scale)^2 if rate_scale > 0) whose gain is read off the table ``gains``
+    (M, S, 2) at ``log_r`` (M,), linearly between knots. State: ``tail`` (n_max - 1, 2, S), the
+    last samples' (dev, |w|) (-inf before the first); ``start`` sets theta from the first
+    sample's measurement; ``theta``, ``bias`` (S,).
+    """
+    n, s = dev.shape
+    m = tail.shape[0]  # n_max - 1
+    n_knots = len(log_r)
+    # the motion windows: the maxima of the last n_win samples (the tail before row 0)
+    win_d = np.empty((n, s))
+    win_r = np.empty((n, s))
+    ext_d = np.empty(m + n)  # (tail, this block) of one segment
+    ext_r = np.empty(m + n)
+    for c in range(s):
+        for t in range(m):
+            ext_d[t] = tail[t, 0, c]
+            ext_r[t] = tail[t, 1, c]
+        for k in range(n):
+            ext_d[m + k] = dev[k, c]
+            ext_r[m + k] = abs(w[k, c])
+        nw = n_win[c]
+        for k in range(n):
+            md = ext_d[m + k]
+            mr = ext_r[m + k]
+            for j in range(m + k - nw + 1, m + k):
+                md = max(md, ext_d[j])
+                mr = max(mr, ext_r[j])
+            win_d[k, c] = md
+            win_r[k, c] = mr
+        for t in range(m):  # the tail for the next block
+            tail[t, 0, c] = ext_d[n + t]
+            tail[t, 1, c] = ext_r[n + t]
+    # the update, the segments side by side (their recursions overlap in the CPU)
+    for k in range(n):
+        for c in range(s):
+            md = win_d[k, c]
+            mr = win_r[k, c]
+            static = md < static_acc[c] and mr < static_rate[c]
+            z = z_acc[k, c]
+            h = 0.0
+            md_ = mode[c]
+            if static:
+                k0 = k_static[c, 0]
+                k1 = k_static[c, 1]
+            elif md_ == MODE_GRAVITY:
+                z = z_grav[k, c]
+                h = lag[c]
+                k0 = k_grav[c, 0]
+                k1 = k_grav[c, 1]
+            elif md_ == MODE_GATED:
+                k0 = 0.0
+                k1 = 0.0
+            else:
+                rr = r_moving[c] * (1.0 + (md / acc_scale[c]) ** 2)
+                if rate_scale[c] > 0.0:
+                    rr *= 1.0 + (mr / rate_scale[c]) ** 2
+                if not math.isfinite(rr):
+                    k0 = 0.0
+                    k1 = 0.0
+                else:
+                    lr = math.log10(rr)
+                    if lr <= log_r[0]:
+                        k0 = gains[0, c, 0]
+                        k1 = gains[0, c, 1]
+                    elif lr >= log_r[n_knots - 1]:
+                        k0 = gains[n_knots - 1, c, 0]
+                        k1 = gains[n_knots - 1, c, 1]
+                    else:
+                        i = min(int((lr - log_r[0]) / (log_r[1] - log_r[0])), n_knots - 2)
+                        while i > 0 and log_r[i] > lr:
+                            i -= 1
+                        while log_r[i + 1] < lr:
+                            i += 1
+                        f = (lr - log_r[i]) / (log_r[i + 1] - log_r[i])
+                        k0 = gains[i, c, 0] + f * (gains[i + 1, c, 0] - gains[i, c, 0])
+                        k1 = gains[i, c, 1] + f * (gains[i + 1, c, 1] - gains[i, c, 1])
+            if start and k == 0:  # the angle starts at the first measurement (wrapped)
+                theta[c] = z - _TWO_PI * math.floor(z / _TWO_PI + 0.5)
+            b = bias[c]
+            pred = theta[c] + (w[k, c] - b) * dt_s
+            e = z - pred - h * b
+            if abs(e) > math.pi:  # paper 000's wrap(z - theta-)
+                e -= _TWO_PI * math.floor(e / _TWO_PI + 0.5)
+            theta[c] = pred + k0 * e
+            bias[c] = b + k1 * e
+            theta_out[k, c] = theta[c]
 
-        pred = theta + (w - b) dt ;  e = z - pred - h b ;  theta = pred + K0 e ;  b = b + K1 e
 
-    With ``wrap`` an innovation beyond +-pi is taken modulo 2 pi into [-pi, pi) (paper 000's
-    wrap(z - theta-)): the accelerometer tilt jumps by a turn where the segment does not.
+@njit(cache=True, nogil=True)
+def constant_map_solve(
+    cb: np.ndarray, inv_diag: np.ndarray, z: np.ndarray, w: np.ndarray, w_meas: float, v: float,
+    dt_s: float, prior_z: np.ndarray, prior_w: float, x: np.ndarray,
+) -> None:  # fmt: skip
+    """The smoother's normal equations A x = g of S segments at once, for constant variances,
+    given the banded Cholesky factor of A (``cb``: LAPACK's upper band form, cb[2 + i - j, j] =
+    U[i, j], A = U^T U; ``inv_diag`` = 1 / cb[2]), with g built on the fly from the data
+    (z, w: (N, S)); writes x (2N, S): theta_k = x[2k], b_k = x[2k + 1].
+
+    g is :func:`gaitmon.dsp.smoother._normal_rhs` for constant weights: the measurement
+    ``w_meas`` z_k on theta_k, each transition's v (w_k dt) on theta_(k-1), b_(k-1) and theta_k
+    (v = 1 / q_angle), and the prior ``prior_w`` ``prior_z`` on theta_0. The two substitutions
+    are LAPACK's ``dpbtrs`` (U^T y = g, then U x = y); the S segments share the factor and run
+    side by side, so their dependency chains overlap.
     """
     n, s = z.shape
-    for c in range(s):
-        th = theta0[c]
-        b = bias0[c]
-        for k in range(n):
-            pred = th + (w[k, c] - b) * dt_s
-            e = z[k, c] - pred - h[k, c] * b
-            if wrap and abs(e) > math.pi:
-                e -= _TWO_PI * math.floor(e / _TWO_PI + 0.5)
-            th = pred + k0[k, c] * e
-            b = b + k1[k, c] * e
-            theta[k, c] = th
-            bias[k, c] = b
+    m = 2 * n
+    for j in range(m):  # forward: U^T y = g, y in x
+        k = j // 2
+        for c in range(s):
+            if j % 2 == 0:  # theta_k
+                g = w_meas * z[k, c]
+                if k == 0:
+                    g += prior_w * prior_z[c]
+                else:
+                    g += v * (w[k, c] * dt_s)
+                if k + 1 < n:
+                    g -= v * (w[k + 1, c] * dt_s)
+            else:  # b_k
+                g = v * dt_s * (w[k + 1, c] * dt_s) if k + 1 < n else 0.0
+            if j >= 1:
+                g -= cb[1, j] * x[j - 1, c]
+            if j >= 2:
+                g -= cb[0, j] * x[j - 2, c]
+            x[j, c] = g * inv_diag[j]
+    for j in range(m - 1, -1, -1):  # backward: U x = y
+        for c in range(s):
+            t = x[j, c]
+            if j + 1 < m:
+                t -= cb[1, j + 1] * x[j + 1, c]
+            if j + 2 < m:
+                t -= cb[0, j + 2] * x[j + 2, c]
+            x[j, c] = t * inv_diag[j]

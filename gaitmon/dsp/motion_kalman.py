@@ -50,12 +50,12 @@ covariance; see docs/filters.md). The update is paper 000's, with K from the sch
 
     theta = theta- + K0 e ; b = b- + K1 e ;  e = z - theta- - h b-   (h = lag for z~, else 0)
 
-Speed and chunking. The motion windows, the gains and the gravity reference depend on the data
-only, not on the state: they are computed for a whole block at once (numpy). What is left is
-the update itself, a two-state recursion in time order, run by a compiled loop
-(:func:`gaitmon.dsp.kernels.scheduled_update`); the state carried from the previous block is its
-start, so any chunking performs the same floating-point operations in the same order and gives
-bit-for-bit the same output.
+Speed and chunking. The accelerometer tilt, | |a| - g | and the gravity reference are computed
+for a whole block at once (numpy). The motion windows, the choice of measurement and gain and
+the update itself run in one compiled loop in time order
+(:func:`gaitmon.dsp.kernels.gait_aware_update`); the state carried from the previous block (the
+windows' last samples, the angle and the bias) is its start, so any chunking performs the same
+floating-point operations in the same order and gives bit-for-bit the same output.
 
 Wrap. The state stays continuous through +-pi; an innovation beyond +-pi (the accelerometer tilt
 jumps by a turn when the board's y axis nears the vertical, and the foot's at impacts) is taken
@@ -69,7 +69,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from gaitmon.dsp.angles import TWO_PI, wrap_angle
+from gaitmon.dsp.angles import TWO_PI
 from gaitmon.dsp.channels import SEGMENTS, STANDARD_GRAVITY_MS2
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
@@ -236,39 +236,6 @@ def measurement_variance(
     return np.where(static, tuning.r_static, moving)
 
 
-class MotionWindow:
-    """Causal sliding maxima of | |a| - g | and |omega| over the last ``n`` samples, any chunking.
-
-    Before the first sample there is nothing: the first n - 1 windows are shorter.
-    """
-
-    def __init__(self, n: int) -> None:
-        self.n = int(n)
-        self.reset()
-
-    def reset(self) -> None:
-        self._tail: np.ndarray | None = None  # (n - 1, 2, S) last samples of (dev, rate)
-
-    def process(
-        self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """(N, S) inputs -> (dev, rate) window maxima, (N, S) each."""
-        x = np.stack(
-            [np.abs(np.hypot(acc_x_ms2, acc_z_ms2) - STANDARD_GRAVITY_MS2), np.abs(gyro_rad_s)],
-            axis=1,
-        )  # (N, 2, S)
-        if self._tail is None:
-            # -inf: windows that reach before the first sample ignore that part
-            self._tail = np.full((self.n - 1, *x.shape[1:]), -np.inf)
-        ext = np.concatenate([self._tail, x], axis=0)
-        n = len(x)
-        out = ext[self.n - 1 :].copy()
-        for lag in range(1, self.n):  # max of shifted copies: exact, and fast for short windows
-            np.maximum(out, ext[self.n - 1 - lag : self.n - 1 - lag + n], out=out)
-        self._tail = ext[len(ext) - (self.n - 1) :]
-        return out[:, 0], out[:, 1]
-
-
 class GravityReference:
     """Causal gravity-referenced tilt of S segments (module doc, "Gravity measurement").
 
@@ -320,41 +287,6 @@ class GravityReference:
         return np.asarray(tilt - self.lag_s * self.offset_rad_s)
 
 
-def solve_scheduled(
-    theta0: np.ndarray | float, bias0: np.ndarray | float, k0: np.ndarray, k1: np.ndarray,
-    z: np.ndarray, w: np.ndarray, dt_s: float, h_bias: np.ndarray | None = None,
-    wrap: bool = False,
-) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """Run theta/b through the scheduled update; returns (theta, bias), shaped like ``z``.
-
-    theta_k = theta_{k-1} + (w_k - b_{k-1}) dt + K0 e_k ;  b_k = b_{k-1} + K1 e_k
-    e_k     = z_k - theta_{k-1} - (w_k - b_{k-1}) dt - h_k b_{k-1}
-
-    where the measurement is z_k = theta_k + h_k b_k (``h_bias``, shaped like z; None = 0, the
-    paper's). With ``wrap``, an innovation beyond +-pi is taken modulo 2 pi (see the module
-    doc). (N,) inputs are one segment; (N, S) inputs run S independent segments. The loop is
-    compiled (:mod:`gaitmon.dsp.kernels`): it runs in time order, so any chunking gives the same
-    bits.
-    """
-    from gaitmon.dsp.kernels import scheduled_update  # lazy: numba only where a filter is run
-
-    was_1d = np.ndim(z) == 1
-    n = len(z)
-    k0, k1, z, w = (np.ascontiguousarray(a, dtype=np.float64).reshape(n, -1)
-                    for a in (k0, k1, z, w))  # fmt: skip
-    s = z.shape[1]
-    h = (np.zeros((n, s)) if h_bias is None
-         else np.ascontiguousarray(h_bias, dtype=np.float64).reshape(n, s))  # fmt: skip
-    th0 = np.ascontiguousarray(np.broadcast_to(np.asarray(theta0, dtype=np.float64), (s,)))
-    b0 = np.ascontiguousarray(np.broadcast_to(np.asarray(bias0, dtype=np.float64), (s,)))
-    theta = np.empty((n, s))
-    bias = np.empty((n, s))
-    scheduled_update(th0, b0, k0, k1, z, w, h, float(dt_s), bool(wrap), theta, bias)
-    if was_1d:
-        return theta[:, 0], bias[:, 0]
-    return theta, bias
-
-
 class GaitAwareKalman:
     """The gait-aware causal tilt filter for several segments at once (see the module doc).
 
@@ -376,48 +308,63 @@ class GaitAwareKalman:
         self.segments = tuple(segments)
         table = tuning or SEGMENT_TUNING
         self.tunings = tuple(table[s] if s in table else tuning_for(s) for s in self.segments)
-        # segments that share a tuning are run together (one window, one gain look-up)
+        from gaitmon.dsp.kernels import MODE_GATED, MODE_GRAVITY, MODE_WEIGHTED
+
+        tuns = self.tunings
+        dt = self.dt_s
+        # segments that share a live gravity tuning share one gravity reference
         groups: dict[SegmentTuning, list[int]] = {}
-        for j, t in enumerate(self.tunings):
-            groups.setdefault(t, []).append(j)
-        self._groups = [(t, np.array(cols)) for t, cols in groups.items()]
-        self._windows = [MotionWindow(t.window_samples(self.fs_hz)) for t, _ in self._groups]
-        self._static_gain = [
-            steady_state_gain(t.r_static, self.dt_s, t.q_angle, t.q_bias) for t, _ in self._groups
-        ]
+        for j, t in enumerate(tuns):
+            if t.live_gravity_hz is not None:
+                groups.setdefault(t, []).append(j)
         self._gravity = [
-            None
-            if t.live_gravity_hz is None
-            else GravityReference(t.live_gravity_hz, self.fs_hz, len(cols))
-            for t, cols in self._groups
+            (GravityReference(t.live_gravity_hz, self.fs_hz, len(cols)), np.array(cols))
+            for t, cols in groups.items()
+            if t.live_gravity_hz is not None
         ]
-        # gravity groups: the steady-state gain of z~ = theta + lag b
-        self._gravity_gain = [
-            None
-            if g is None
-            else gravity_gain(t.r_live_gravity, self.dt_s, t.q_angle, t.q_bias, g.lag_s)
-            for (t, _), g in zip(self._groups, self._gravity, strict=True)
-        ]
+        lag = np.zeros(len(tuns))
+        for grav, cols in self._gravity:
+            lag[cols] = grav.lag_s
+        # per segment, what the compiled update reads (gaitmon.dsp.kernels.gait_aware_update)
+        self._mode = np.array([
+            MODE_GRAVITY if t.live_gravity_hz is not None
+            else MODE_GATED if t.r_moving is None else MODE_WEIGHTED
+            for t in tuns
+        ], dtype=np.int64)  # fmt: skip
+        self._n_win = np.array([t.window_samples(self.fs_hz) for t in tuns], dtype=np.int64)
+        self._lag = lag
+        self._per_segment = {
+            name: np.array([float(getattr(t, name) or 0.0) for t in tuns])
+            for name in ("static_acc_ms2", "static_rate_rad_s", "r_static", "r_moving",
+                         "acc_scale_ms2", "moving_rate_scale_rad_s")
+        }  # fmt: skip
+        self._k_static = np.array([steady_state_gain(t.r_static, dt, t.q_angle, t.q_bias)
+                                   for t in tuns]).reshape(len(tuns), 2)  # fmt: skip
+        self._k_grav = np.array([
+            gravity_gain(t.r_live_gravity, dt, t.q_angle, t.q_bias, lag[j])
+            if t.live_gravity_hz is not None else np.zeros(2)
+            for j, t in enumerate(tuns)
+        ]).reshape(len(tuns), 2)  # fmt: skip
+        self._log_r = _gain_table(dt, tuns[0].q_angle, tuns[0].q_bias)[0] if tuns else np.zeros(2)
+        self._gains = np.ascontiguousarray(
+            np.stack([_gain_table(dt, t.q_angle, t.q_bias)[1] for t in tuns], axis=1)
+            if tuns else np.zeros((2, 0, 2))
+        )  # fmt: skip
         self.reset()
 
     def reset(self) -> None:
-        for win in self._windows:
-            win.reset()
-        for grav in self._gravity:
-            if grav is not None:
-                grav.reset()
-        self._theta: np.ndarray | None = None
+        self.restart()
         self._bias: np.ndarray | None = None
 
     def restart(self) -> None:
         """Start the angle again from the next measurement, keeping the learnt gyro bias (after
         a link outage the old angle and motion windows are stale; the bias is not)."""
-        for win in self._windows:
-            win.reset()
-        for grav in self._gravity:
-            if grav is not None:
-                grav.reset()
-        self._theta = None
+        # the motion windows' last samples (dev, |w|): none yet
+        self._tail = np.full((max(1, int(self._n_win.max(initial=1))) - 1, 2,
+                              len(self.segments)), -np.inf)  # fmt: skip
+        for grav, _ in self._gravity:
+            grav.reset()
+        self._theta: np.ndarray | None = None
 
     @property
     def bias_rad_s(self) -> np.ndarray | None:
@@ -428,9 +375,8 @@ class GaitAwareKalman:
         delta = np.broadcast_to(np.asarray(delta_rad_s, dtype=np.float64), (len(self.segments),))
         if self._bias is not None:
             self._bias = self._bias + delta
-        for grav, (_, cols) in zip(self._gravity, self._groups, strict=True):
-            if grav is not None:
-                grav.offset_rad_s = grav.offset_rad_s - delta[cols]
+        for grav, cols in self._gravity:
+            grav.offset_rad_s = grav.offset_rad_s - delta[cols]
 
     def process(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
@@ -446,37 +392,23 @@ class GaitAwareKalman:
         out = np.empty((n, s))
         if n == 0:
             return out[:, 0] if was_1d else out
-        z = np.arctan2(az, ax)
-        k0 = np.empty((n, s))
-        k1 = np.empty((n, s))
-        h_bias = np.zeros((n, s)) if any(g is not None for g in self._gravity) else None
-        for (tun, cols), win, k_static, grav, k_grav in zip(
-            self._groups, self._windows, self._static_gain, self._gravity, self._gravity_gain,
-            strict=True,
-        ):  # fmt: skip
-            dev, rate = win.process(ax[:, cols], az[:, cols], w[:, cols])
-            static = (dev < tun.static_acc_ms2) & (rate < tun.static_rate_rad_s)
-            if grav is not None and k_grav is not None and h_bias is not None:
-                # quasi-static: the accelerometer tilt as the foot's; otherwise the gravity tilt
-                z_grav = grav.process(ax[:, cols], az[:, cols], w[:, cols])
-                z[:, cols] = np.where(static, z[:, cols], wrap_angle(z_grav))
-                k0[:, cols] = np.where(static, k_static[0], k_grav[0])
-                k1[:, cols] = np.where(static, k_static[1], k_grav[1])
-                h_bias[:, cols] = np.where(static, 0.0, grav.lag_s)
-            elif tun.r_moving is None:  # gated: the static gain or nothing
-                k0[:, cols] = np.where(static, k_static[0], 0.0)
-                k1[:, cols] = np.where(static, k_static[1], 0.0)
-            else:
-                k = steady_state_gain(
-                    measurement_variance(dev, rate, tun), self.dt_s, tun.q_angle, tun.q_bias
-                )
-                k0[:, cols], k1[:, cols] = k[..., 0], k[..., 1]
-        if self._theta is None:
-            self._theta = z[0].copy()
-            if self._bias is None:  # a restart keeps the learnt bias
-                self._bias = np.zeros(s)
-        assert self._bias is not None
-        out, bias = solve_scheduled(self._theta, self._bias, k0, k1, z, w, self.dt_s, h_bias,
-                                    wrap=True)  # fmt: skip
-        self._theta, self._bias = out[-1].copy(), bias[-1].copy()
+        from gaitmon.dsp.kernels import gait_aware_update  # lazy: numba only where run
+
+        z_acc = np.arctan2(az, ax)
+        dev = np.abs(np.hypot(ax, az) - STANDARD_GRAVITY_MS2)
+        z_grav = np.zeros((n, s))
+        for grav, cols in self._gravity:
+            z_grav[:, cols] = grav.process(ax[:, cols], az[:, cols], w[:, cols])
+        start = self._theta is None
+        theta = np.zeros(s) if self._theta is None else self._theta.copy()
+        bias = np.zeros(s) if self._bias is None else self._bias.copy()  # a restart keeps it
+        ps = self._per_segment
+        gait_aware_update(
+            dev, np.ascontiguousarray(w), z_acc, z_grav, self._tail, self._n_win, self._mode,
+            ps["static_acc_ms2"], ps["static_rate_rad_s"], self._k_static, self._k_grav,
+            self._lag, ps["r_static"], ps["r_moving"], ps["acc_scale_ms2"],
+            ps["moving_rate_scale_rad_s"], self._log_r, self._gains, self.dt_s, start, theta,
+            bias, out,
+        )  # fmt: skip
+        self._theta, self._bias = theta, bias
         return out[:, 0] if was_1d else out

@@ -242,6 +242,10 @@ class PipelineBlock:
     gyro_toe_off_idx: tuple[int, ...] = ()
     fsr_faults: tuple[FsrFault, ...] = ()  # sensors flagged in this block
     event_source: str = "fsr"  # where heel_strike_idx / toe_off_idx come from: fsr | foot gyro
+    # (N, 4) the tilt filter's own angle (rad): continuous (not wrapped), before the standing
+    # offsets; with the gait-aware filter it is the offline smoother's first pass
+    # (gaitmon.dsp.smoother.CausalFirstPass), which `gaitmon process` takes from here
+    tilt_kalman_continuous_rad: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
 
     @property
     def n(self) -> int:
@@ -255,6 +259,7 @@ _PER_SAMPLE = (
     ("tilt_acc_rad", (4,), np.float64),
     ("tilt_gyro_rad", (4,), np.float64),
     ("tilt_kalman_rad", (4,), np.float64),
+    ("tilt_kalman_continuous_rad", (4,), np.float64),
     ("joint_acc_rad", (3,), np.float64),
     ("joint_gyro_rad", (3,), np.float64),
     ("joint_kalman_rad", (3,), np.float64),
@@ -460,6 +465,7 @@ class Pipeline:
         o["acc_ms2"][sl, :, 1] = az
         o["gyro_rad_s"][sl] = gyro
         o["fsr_counts"][sl] = fsr
+        o["tilt_kalman_continuous_rad"][sl] = tilt_kalman
         for name, tilt in (
             ("acc", tilt_acc),
             ("gyro", tilt_gyro),
