@@ -472,7 +472,7 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
     faults: list[FsrFault] = []
-    for start, rows, hs_rows, to_rows, fault_rows in replay_pipeline(
+    for start, rows, hs_rows, to_rows, fault_rows, _ in replay_pipeline(
         adc, config, s.calibration, list(s.calibration_changes), table=s.header.table,
         lost_before=lost_before_from_gaps(s.gaps, n),
         flagged_at_start=flags_kept(s.fsr_faults, s.config, config),

@@ -7,6 +7,7 @@ would) and replaces the file atomically.
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import itertools
 import json
@@ -22,6 +23,7 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE, ChannelTable
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import ContactEdges
+from gaitmon.dsp.motion_kalman import GaitAwareKalman
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.errors import Cancelled
 from gaitmon.io.journal import (
@@ -29,6 +31,7 @@ from gaitmon.io.journal import (
     IDENTITY_IN_FILE,
     N_COMMON_FIELDS,
     JournalContents,
+    JournalRows,
     RecordType,
     journal_lock,
     journal_path,
@@ -46,6 +49,7 @@ from gaitmon.io.session.rows import (
     fault_rows,
     rows_from_pipeline,
 )
+from gaitmon.io.session.smoothed import KeptFirstPass
 
 # rows replayed at a time by a recovery: the pipeline's block for 65 536 rows (the default,
 # ``gaitmon process``'s cancel points) is ~50 MB with its temporaries; chunking does not change
@@ -61,6 +65,10 @@ class ReplayChunk(NamedTuple):
     heel_strike: np.ndarray  # rows
     toe_off: np.ndarray  # rows
     fsr_faults: list[tuple[int, int, str, str]]  # /events/fsr_faults records flagged here
+    # (rows, 4) the offline smoother's first pass of these rows (rad), where the replayed
+    # pipeline's filter is it (the gait-aware filter, no change of settings since row 0; see
+    # gaitmon.dsp.smoother.CausalFirstPass); else None
+    first_pass_rad: np.ndarray | None = None
 
 
 def replay_pipeline(
@@ -98,6 +106,7 @@ def replay_pipeline(
     bounds = sorted(cuts)
     pipeline = Pipeline(config, calibration, table)
     pipeline.flag_fsr_faults(flagged_at_start)
+    first_pass = isinstance(pipeline.kalman, GaitAwareKalman)  # until new settings start
     at_start = [(0, 0, f.sensor, f.reason) for f in pipeline.fsr_faults]  # (as seeded)
     base = 0
     k = 0
@@ -109,13 +118,15 @@ def replay_pipeline(
             else:
                 pipeline = pipeline.successor(change)
                 base = a
+                first_pass = False
             k += 1
         blk = pipeline.process(adc[a:b], None if lost_before is None else lost_before[a:b])
         faults = fault_rows(blk.fsr_faults, blk.start_idx, a)
         if a == 0:
             faults = at_start + faults
         yield ReplayChunk(a, rows_from_pipeline(blk), blk.heel_strike_idx + base,
-                          blk.toe_off_idx + base, faults)  # fmt: skip
+                          blk.toe_off_idx + base, faults,
+                          blk.tilt_kalman_continuous_rad if first_pass else None)  # fmt: skip
 
 
 def flagged_at_start(rows: Iterable[tuple[int, str, str]]) -> tuple[tuple[str, str], ...]:
@@ -148,26 +159,40 @@ def _journal_changes(
     return out
 
 
-def _timeline_from_rows(
-    lost_before: np.ndarray, gaps: Sequence[Mapping[str, Any]], fs: float
-) -> np.ndarray:
-    """The live writer's t_s, computed for all rows at once (see :class:`_Timeline`)."""
-    n = len(lost_before)
-    if n == 0:
-        return np.empty(0)
-    per_row: dict[int, float] = {}
-    for g in gaps:  # gaps at the same row add up, in journal order, as the writer does
-        idx = int(g["sample_idx"])
-        per_row[idx] = per_row.get(idx, 0.0) + float(g["duration_s"])
-    t = np.empty(n)
-    tl = _Timeline(fs)
-    starts = sorted(i for i in per_row if 0 < i < n)
-    bounds = [0, *starts, n]
-    for a, b in itertools.pairwise(bounds):
-        if a == b:
-            continue
-        t[a:b] = tl.times(lost_before[a:b], per_row.get(a) if a else None)
-    return t
+class _ChunkedTimeline:
+    """The live writer's t_s (see :class:`_Timeline`), computed a block of rows at a time in row
+    order (a whole 8-hour record's would be 23 MB beside the journal's rows), remembering the
+    times of the rows in ``keep`` (the markers') and of the last row. Any cut gives the same
+    times: ``k`` is an integer count and each gap row starts a block of its own."""
+
+    def __init__(
+        self, lost_before: LazyRows, gaps: Sequence[Mapping[str, Any]], fs: float,
+        keep: Iterable[int] = (),
+    ) -> None:  # fmt: skip
+        self._lost = lost_before
+        self._per_row: dict[int, float] = {}
+        for g in gaps:  # gaps at the same row add up, in journal order, as the writer does
+            idx = int(g["sample_idx"])
+            self._per_row[idx] = self._per_row.get(idx, 0.0) + float(g["duration_s"])
+        self._tl = _Timeline(fs)
+        self._next = 0
+        self._keep = sorted(set(int(i) for i in keep))
+        self.kept: dict[int, float] = {}
+        self.last: float | None = None  # the time of the last row given
+
+    def rows(self, a: int, b: int) -> np.ndarray:
+        if a != self._next:
+            raise ValueError(f"timeline rows {a}:{b} asked after row {self._next}")
+        cuts = sorted({a, b, *(i for i in self._per_row if a < i < b)})
+        parts = [self._tl.times(self._lost[x:y], self._per_row.get(x) if x else None)
+                 for x, y in itertools.pairwise(cuts) if y > x]  # fmt: skip
+        t = np.concatenate(parts) if parts else np.empty(0)
+        for i in self._keep[bisect.bisect_left(self._keep, a) : bisect.bisect_left(self._keep, b)]:
+            self.kept[i] = float(t[i - a])
+        self._next = b
+        if len(t):
+            self.last = float(t[-1])
+        return t
 
 
 def recover_session(
@@ -280,6 +305,7 @@ def _recover_locked(
         tmp.unlink()  # left by a recovery that was itself interrupted
     try:
         _build_recovered(tmp, header, contents, changes, progress)
+        contents.rows = None  # (the journal's map goes with them: then it can be deleted)
         _fsync_path(tmp)
         os.replace(tmp, path)
         _fsync_path(path.parent, directory=True)
@@ -325,13 +351,17 @@ def _build_recovered(
     # raw: a fresh pipeline from row 0 (the live one may have run before the recording)
     h5 = _H5File(tmp, hdr, mode="w", reprocessed=mode == "raw", in_memory=in_memory)
     ok = False
+    kept: KeptFirstPass | None = None
     try:
         if contents.wall_offset_s is not None:
             h5.set_wall_offset(contents.wall_offset_s)
         # the journal's columns are read a chunk at a time (no whole-session copies)
         seq = LazyRows(rows["seq"])
         host = LazyRows(rows["host_time_s"])
-        t_s = _timeline_from_rows(rows["lost_before"], contents.gaps, fs)
+        lost_rows = LazyRows(rows["lost_before"], dtype=np.int64)
+        timeline = _ChunkedTimeline(lost_rows, contents.gaps, fs,
+                                    (int(m["sample_idx"]) for m in contents.markers))  # fmt: skip
+        lost_at: list[tuple[np.ndarray, np.ndarray]] = []  # rows with frames lost before them
 
         def report(done: int) -> None:
             if progress is not None and progress(done / n if n else 1.0) is False:
@@ -346,7 +376,7 @@ def _build_recovered(
                     header.calibration,
                     changes,
                     table=header.table,
-                    lost_before=LazyRows(rows["lost_before"], dtype=np.int64),
+                    lost_before=lost_rows,
                     chunk_rows=RECOVERY_REPLAY_ROWS,
                     flagged_at_start=flagged_at_start(
                         (f["sample_idx"], f["sensor"], f["reason"]) for f in contents.fsr_faults
@@ -355,20 +385,30 @@ def _build_recovered(
             )
         else:
             chunks = _device_chunks(rows, FrameKind.TILT if mode == "tilt" else FrameKind.JOINT)
-        for a, proc, hs, to, faults in chunks:
+        # the replayed pipeline's filter is the smoother's first pass: kept for it
+        if mode == "raw" and n and not in_memory:
+            kept = KeptFirstPass(str(Path(tmp).parent))
+        for a, proc, hs, to, faults, first_pass in chunks:
             b = a + len(proc["processed/joint_deg"])
+            if kept is not None:
+                kept.add(a, first_pass)
             cols = {
                 "timeline/seq": seq[a:b],
                 "timeline/host_time_s": host[a:b],
-                "timeline/t_s": t_s[a:b],
+                "timeline/t_s": timeline.rows(a, b),
                 **proc,
             }
             if mode == "raw":
                 cols["raw/adc"] = adc[a:b]
+                lost_chunk = lost_rows[a:b]
+                nz = np.flatnonzero(lost_chunk)
+                lost_at.append((nz + a, lost_chunk[nz]))
             h5.append_rows(cols, b - a)
             h5.append_events("heel_strike", hs)
             h5.append_events("toe_off", to)
             h5.append_table("events/fsr_faults", faults)
+            if isinstance(rows, JournalRows):  # rows in order: the map's pages read go
+                rows.release_before(b)
             report(b)
 
         h5.append_table(
@@ -381,11 +421,7 @@ def _build_recovered(
         markers = []
         for m in contents.markers:
             idx = int(m["sample_idx"])
-            t = (
-                float(t_s[idx])
-                if idx < n
-                else _extrapolated_t(float(t_s[-1]) if n else None, idx, n, fs)
-            )
+            t = timeline.kept[idx] if idx < n else _extrapolated_t(timeline.last, idx, n, fs)
             markers.append((idx, t, str(m["label"])))
         h5.append_table("markers", markers)
         cfg_log = [
@@ -411,13 +447,16 @@ def _build_recovered(
             cal_changes = [(i, c) for i, c in changes if isinstance(c, Calibration)]
             # the journal's rows (~50 bytes a row) are let go first: the smoother reads the
             # counts back from the new file a block at a time, as a recorder's close does
-            lost = np.asarray(rows["lost_before"], dtype=np.int64)
             contents.rows = None
-            del rows, adc, seq, host, chunks
+            del rows, adc, seq, host, chunks, lost_rows, timeline  # (they view the rows)
+            lost = np.zeros(n, dtype=np.int64)
+            for at, count in lost_at:
+                lost[at] = count
             h5.drain()
             ds = h5.f["raw/adc"]
             store_smoothed(h5.f, lambda a, b: ds[a:b], n, header.table, header.calibration,
-                           cal_changes, lost, fs)  # fmt: skip
+                           cal_changes, lost, fs,
+                           None if kept is None else kept.first_pass)  # fmt: skip
             from gaitmon.io.session.stored_strides import store_strides
 
             h5.drain()  # the chunk being filled: the stride measures read every row
@@ -431,6 +470,8 @@ def _build_recovered(
         report(n)
         ok = True
     finally:
+        if kept is not None:
+            kept.close()
         if not (ok and in_memory):
             h5.close()
     return h5.f if in_memory else None
@@ -478,7 +519,7 @@ def build_session(
     return path
 
 
-def _device_chunks(rows: np.ndarray, kind: FrameKind) -> Iterator[ReplayChunk]:
+def _device_chunks(rows: np.ndarray | JournalRows, kind: FrameKind) -> Iterator[ReplayChunk]:
     edges = ContactEdges() if kind == FrameKind.JOINT else None
     names = _field_names(rows.dtype)[N_COMMON_FIELDS:]
     empty = np.empty(0, np.int64)

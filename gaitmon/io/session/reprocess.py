@@ -30,7 +30,7 @@ from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _
 from gaitmon.io.session.reader import Session, open_session
 from gaitmon.io.session.recovery import flags_kept, replay_pipeline
 from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
-from gaitmon.io.session.smoothed import store_smoothed
+from gaitmon.io.session.smoothed import KeptFirstPass, store_smoothed
 from gaitmon.io.session.stored_overview import write_overview
 from gaitmon.io.session.stored_strides import store_strides
 
@@ -218,20 +218,24 @@ def rewrite_unit(
         flagged_at_start=flags_kept(unit.fsr_faults, unit.config, config),
     )
     faults: list[tuple[int, int, str, str]] = []
-    for start, rows, hs_rows, to_rows, found in replay:
-        faults += found
-        stop = start + len(rows["processed/joint_deg"])
-        for path, data in rows.items():
-            if path in f:  # (format 2 derives the joints and gyro rates on read)
-                f[path][start:stop] = encode(path, data) if v2 else data
-        hs.append(hs_rows)
-        to.append(to_rows)
-        report(stop / max(n, 1))
-        check_cancel()
-    proc.attrs["reprocessed"] = True
-    proc.attrs["source"] = "pc"
-    proc.attrs["tilt_method"] = config.tilt_method_label
-    store_smoothed(f, adc.rows, n, table, calibration, calibration_log, lost, config.fs_hz)
+    # the pipeline's filter is the smoother's first pass: kept, so it runs once
+    with KeptFirstPass(os.path.dirname(f.file.filename) or None) as kept:
+        for start, rows, hs_rows, to_rows, found, first_pass in replay:
+            faults += found
+            stop = start + len(rows["processed/joint_deg"])
+            kept.add(start, first_pass)
+            for path, data in rows.items():
+                if path in f:  # (format 2 derives the joints and gyro rates on read)
+                    f[path][start:stop] = encode(path, data) if v2 else data
+            hs.append(hs_rows)
+            to.append(to_rows)
+            report(stop / max(n, 1))
+            check_cancel()
+        proc.attrs["reprocessed"] = True
+        proc.attrs["source"] = "pc"
+        proc.attrs["tilt_method"] = config.tilt_method_label
+        store_smoothed(f, adc.rows, n, table, calibration, calibration_log, lost, config.fs_hz,
+                       kept.first_pass)  # fmt: skip
     ev = f["events"]
     for name, parts in (("heel_strike", hs), ("toe_off", to)):
         data = np.concatenate(parts) if parts else np.empty(0, np.int64)

@@ -50,12 +50,17 @@ def smoothed_method_label() -> str:
 # ~140 MB per hour of record, so an 8-hour record in one go peaked at ~1.3 GB (close, recovery,
 # gaitmon process). The difference to one pass falls ~40-fold per 15 s of context (measured on
 # 20 simulated minutes in blocks of 5: 0.2 deg with 15 s, 0.005 with 30 s, 3e-5 with 60 s);
-# 2 minutes put it below float32, far below the 0.01 deg the angles are stored at.
-SMOOTH_BLOCK_ROWS = 180_000  # 30 min at 100 Hz: ~80 MB for the smoother with its context
+# 2 minutes put it below float32, far below the 0.01 deg the angles are stored at. The four
+# segments of a block are smoothed side by side: 15-min blocks hold ~25 MB (30-min ones, ~50 MB,
+# put recovery's peak RSS of an 8-hour record at 380-420 MB, with the compiled filters' runtime).
+SMOOTH_BLOCK_ROWS = 90_000  # 15 min at 100 Hz
 SMOOTH_OVERLAP_ROWS = 12_000  # 120 s
 
 
 Counts = Callable[[int, int], np.ndarray]  # rows a:b of the raw counts
+# the smoother's first pass of rows a:b (rad, (b - a, 4)), given their raw counts: a
+# gaitmon.dsp.smoother.CausalFirstPass's rows, or the same tilts kept from a replay
+FirstPass = Callable[[int, int, np.ndarray], np.ndarray]
 
 
 def smoothed_blocks(
@@ -66,6 +71,7 @@ def smoothed_blocks(
     calibration_changes: list[tuple[int, Calibration]],
     restarts: np.ndarray,
     fs_hz: float,
+    first_pass: FirstPass | None = None,
 ) -> Iterator[tuple[int, np.ndarray]]:
     """(first row, tilts in rad (rows, 4) float64) of a raw record of ``n`` rows, block after
     block in row order; ``counts(a, b)`` gives rows a:b of the raw counts, asked for one block
@@ -75,10 +81,16 @@ def smoothed_blocks(
     The record is smoothed in pieces split at the ``restarts`` rows (after a long gap, where
     the live pipeline restarts, :func:`gaitmon.dsp.pipeline.restart_rows`): the segments moved
     while no data came, so nothing links the angle before a gap to the one after it. A long
-    piece is smoothed in blocks with :data:`SMOOTH_OVERLAP_ROWS` of context either side."""
-    from gaitmon.dsp.smoother import smooth_record_tilts
+    piece is smoothed in blocks with :data:`SMOOTH_OVERLAP_ROWS` of context either side.
 
-    changes = sorted((max(0, int(r)), c) for r, c in calibration_changes)
+    The smoother's first pass, the causal filter, runs over the whole record in row order as
+    the live pipeline does (:class:`gaitmon.dsp.smoother.CausalFirstPass`); ``first_pass``
+    gives those tilts where they are known already (a replay of the pipeline kept them)."""
+    from gaitmon.dsp.smoother import CausalFirstPass, smooth_record_tilts
+
+    changes = sorted(((max(0, int(r)), c) for r, c in calibration_changes), key=lambda x: x[0])
+    if first_pass is None:
+        first_pass = CausalFirstPass(table, calibration, changes, restarts, fs_hz).rows
 
     def smooth(a: int, b: int) -> np.ndarray:
         in_force = calibration
@@ -86,7 +98,8 @@ def smoothed_blocks(
             if r <= a:
                 in_force = c
         cals = [(0, in_force), *[(r - a, c) for r, c in changes if a < r < b]]
-        return smooth_record_tilts(counts(a, b), table, cals, fs_hz)
+        rows = counts(a, b)
+        return smooth_record_tilts(rows, table, cals, fs_hz, first_pass(a, b, rows))
 
     cuts = sorted({0, n, *(int(r) for r in restarts if 0 < r < n)})
     block, overlap = SMOOTH_BLOCK_ROWS, SMOOTH_OVERLAP_ROWS
@@ -103,6 +116,59 @@ def smoothed_blocks(
         from gaitmon.dsp.smoother import release_factors
 
         release_factors()
+
+
+class KeptFirstPass:
+    """The smoother's first pass kept from a replay of the pipeline (``ReplayChunk.first_pass_rad``,
+    bit for bit what :class:`gaitmon.dsp.smoother.CausalFirstPass` computes), so the smoother
+    does not run the filter again. The rows wait in an unnamed temporary file in ``directory``
+    (float64: 32 bytes a row, 92 MB for 8 hours), not in memory; it is gone once closed (a
+    context manager). A replay chunk without it (another filter, new settings) ends the
+    keeping: :attr:`first_pass` is then None and the smoother runs its own."""
+
+    def __init__(self, directory: str | None = None) -> None:
+        import tempfile
+
+        self._file = tempfile.TemporaryFile(dir=directory)  # noqa: SIM115 (closed by close)
+        self._n = 0
+        self._valid = True
+
+    def __enter__(self) -> KeptFirstPass:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def add(self, start: int, tilt_rad: np.ndarray | None) -> None:
+        """Rows ``start:start + len(tilt_rad)`` (start = the rows kept so far)."""
+        if not self._valid:
+            return
+        if tilt_rad is None:
+            self.close()
+            return
+        if start != self._n:
+            raise ValueError(f"first-pass rows from {start} given after {self._n} rows")
+        data = np.ascontiguousarray(tilt_rad, dtype=np.float64)
+        self._file.seek(self._n * _ROW_BYTES)
+        self._file.write(data.tobytes())
+        self._n += len(data)
+
+    @property
+    def first_pass(self) -> FirstPass | None:
+        return self._rows if self._valid else None
+
+    def _rows(self, a: int, b: int, counts: np.ndarray | None = None) -> np.ndarray:
+        if not 0 <= a <= b <= self._n:
+            raise ValueError(f"first-pass rows {a}:{b} asked of {self._n} kept")
+        self._file.seek(a * _ROW_BYTES)
+        return np.frombuffer(self._file.read((b - a) * _ROW_BYTES)).reshape(b - a, 4)
+
+    def close(self) -> None:
+        self._valid = False
+        self._file.close()
+
+
+_ROW_BYTES = 4 * 8
 
 
 def _restarts(lost_before: np.ndarray, n: int, fs_hz: float) -> np.ndarray:
@@ -151,12 +217,13 @@ def store_smoothed(
     calibration_changes: list[tuple[int, Calibration]],
     lost_before: np.ndarray,
     fs_hz: float,
+    first_pass: FirstPass | None = None,
 ) -> None:
     """Compute and store (or replace) ``/smoothed`` of a raw record of ``n`` rows in a file open
     for writing, a block at a time (``counts(a, b)``: rows a:b of the raw counts): the same
     datasets, values and chunks as :func:`write_smoothed` of :func:`smoothed_angles`, without
     the whole series in memory (an 8-hour record: ~80 MB of angles, several times that while
-    they were quantised at once)."""
+    they were quantised at once). ``first_pass``: see :func:`smoothed_blocks`."""
     from gaitmon.io.session.codec import COMPRESSION, JOINT_OF, RESOLUTION
 
     v2 = int(f.attrs.get("format_version", 1)) >= 2
@@ -175,7 +242,8 @@ def store_smoothed(
         )  # fmt: skip
     writers = {path: _AlignedWriter(ds, v2, path) for path, ds in out.items()}
     for s0, part in smoothed_blocks(counts, n, table, calibration, calibration_changes,
-                                    _restarts(lost_before, n, fs_hz), fs_hz):  # fmt: skip
+                                    _restarts(lost_before, n, fs_hz), fs_hz,
+                                    first_pass):  # fmt: skip
         tilt, joint = _tilt_joint_deg(part)
         for path, data in (("smoothed/tilt_deg", tilt), ("smoothed/joint_deg", joint)):
             if path in writers:
