@@ -397,6 +397,33 @@ def test_recovery_rebuilds_the_live_file(tmp_path):
         assert bool(f["processed"].attrs["reprocessed"]) is True
 
 
+def test_recovery_takes_the_smoothers_first_pass_from_its_replay_and_matches_the_close(
+    tmp_path, monkeypatch
+):
+    """With no change of settings the replayed pipeline's filter is the smoother's first pass:
+    recovery keeps it instead of running the filter again, and its /smoothed equals the one the
+    live recorder's close computed from the raw counts (a new calibration at row 1800, gaps)."""
+    import gaitmon.dsp.smoother as smoother
+
+    live = tmp_path / "live.h5"
+    crashed = tmp_path / "crashed.h5"
+    _record_raw(live, cal_row=1800, copy_to=crashed)
+    ran: list[tuple[int, int]] = []
+    real = smoother.CausalFirstPass.rows
+
+    def counting(self, a, b, counts):
+        ran.append((a, b))
+        return real(self, a, b, counts)
+
+    monkeypatch.setattr(smoother.CausalFirstPass, "rows", counting)
+    with open_session(crashed) as s, open_session(live) as ref:
+        assert s.recovered and s.smoothed_stored and ref.smoothed_stored
+        assert ran == []  # taken from the replay
+        s.use_angles("smoothed")
+        ref.use_angles("smoothed")
+        assert np.array_equal(s.read("processed/tilt_deg"), ref.read("processed/tilt_deg"))
+
+
 def test_recovery_with_a_damaged_journal_tail_keeps_what_came_before(tmp_path):
     path = tmp_path / "s.h5"
     w, *_ = _record_raw(path, close=False)

@@ -21,10 +21,9 @@ import math
 import numpy as np
 from numba import njit
 
+from gaitmon.dsp.motion_kalman import MODE_GATED, MODE_GRAVITY
+
 _TWO_PI = 2.0 * math.pi
-
-
-MODE_GATED, MODE_WEIGHTED, MODE_GRAVITY = 0, 1, 2  # how a segment's measurement is chosen
 
 
 @njit(cache=True, nogil=True)

@@ -73,6 +73,9 @@ from gaitmon.dsp.angles import TWO_PI
 from gaitmon.dsp.channels import SEGMENTS, STANDARD_GRAVITY_MS2
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
+# how a segment's measurement is chosen while it moves (gaitmon.dsp.kernels.gait_aware_update):
+# none (the foot's gate), the accelerometer tilt weighted by the motion, the gravity tilt
+MODE_GATED, MODE_WEIGHTED, MODE_GRAVITY = 0, 1, 2
 
 
 @dataclass(frozen=True)
@@ -308,8 +311,6 @@ class GaitAwareKalman:
         self.segments = tuple(segments)
         table = tuning or SEGMENT_TUNING
         self.tunings = tuple(table[s] if s in table else tuning_for(s) for s in self.segments)
-        from gaitmon.dsp.kernels import MODE_GATED, MODE_GRAVITY, MODE_WEIGHTED
-
         tuns = self.tunings
         dt = self.dt_s
         # segments that share a live gravity tuning share one gravity reference

@@ -113,8 +113,8 @@ def gravity_tilt(
     from scipy.ndimage import uniform_filter1d  # lazy
 
     theta = np.asarray(theta_rad, dtype=np.float64)
-    # laid out along the last axis for the filters, one buffer per quantity (a 30-min block of
-    # 4 segments is 6.5 MB per float64 array)
+    # laid out along the last axis for the filters, one buffer per quantity (a 15-min block of
+    # 4 segments with its context: 3.6 MB per float64 array)
     th_t = theta.T
     turn = th_t * (1.0 / TWO_PI)
     np.rint(turn, out=turn)

@@ -421,7 +421,7 @@ def _build_recovered(
         markers = []
         for m in contents.markers:
             idx = int(m["sample_idx"])
-            t = timeline.kept[idx] if idx < n else _extrapolated_t(timeline.last, idx, n, fs)
+            t = timeline.kept[idx] if 0 <= idx < n else _extrapolated_t(timeline.last, idx, n, fs)
             markers.append((idx, t, str(m["label"])))
         h5.append_table("markers", markers)
         cfg_log = [
