@@ -21,15 +21,14 @@ import math
 import numpy as np
 from numba import njit
 
-from gaitmon.dsp.motion_kalman import MODE_GATED, MODE_GRAVITY
-
 _TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True, nogil=True)
 def gait_aware_update(
     dev: np.ndarray, w: np.ndarray, z_acc: np.ndarray, z_grav: np.ndarray, tail: np.ndarray,
-    n_win: np.ndarray, mode: np.ndarray, static_acc: np.ndarray, static_rate: np.ndarray,
+    n_win: np.ndarray, gravity: np.ndarray, gated: np.ndarray, static_acc: np.ndarray,
+    static_rate: np.ndarray,
     k_static: np.ndarray, k_grav: np.ndarray, lag: np.ndarray, r_static: np.ndarray,
     r_moving: np.ndarray, acc_scale: np.ndarray, rate_scale: np.ndarray, log_r: np.ndarray,
     gains: np.ndarray, dt_s: float, start: bool, theta: np.ndarray, bias: np.ndarray,
@@ -39,9 +38,11 @@ def gait_aware_update(
     segment column in time order; writes ``theta_out`` (N, S) and carries the state.
 
     Inputs (N, S): ``dev`` = | |a| - g |, the gyro rate ``w``, the accelerometer tilt
-    ``z_acc`` and the gravity tilt ``z_grav`` (read only where ``mode`` is gravity). Per
-    segment (S,): the motion window ``n_win`` and its thresholds, the static and gravity gains
-    (S, 2), the gravity tilt's lag, and the weighted mode's R = r_moving (1 + (dev/acc_scale)^2)
+    ``z_acc`` and the gravity tilt ``z_grav`` (read only for the ``gravity`` segments). Per
+    segment (S,): whether it takes the gravity tilt while moving, or nothing (``gated``), or
+    else the accelerometer tilt weighted by the motion; the motion window ``n_win`` and its
+    thresholds, the static and gravity gains (S, 2), the gravity tilt's lag, and the weighted
+    segments' R = r_moving (1 + (dev/acc_scale)^2)
     (1 + (rate/rate_scale)^2 if rate_scale > 0) whose gain is read off the table ``gains``
     (M, S, 2) at ``log_r`` (M,), linearly between knots. State: ``tail`` (n_max - 1, 2, S), the
     last samples' (dev, |w|) (-inf before the first); ``start`` sets theta from the first
@@ -82,16 +83,15 @@ def gait_aware_update(
             static = md < static_acc[c] and mr < static_rate[c]
             z = z_acc[k, c]
             h = 0.0
-            md_ = mode[c]
             if static:
                 k0 = k_static[c, 0]
                 k1 = k_static[c, 1]
-            elif md_ == MODE_GRAVITY:
+            elif gravity[c]:
                 z = z_grav[k, c]
                 h = lag[c]
                 k0 = k_grav[c, 0]
                 k1 = k_grav[c, 1]
-            elif md_ == MODE_GATED:
+            elif gated[c]:
                 k0 = 0.0
                 k1 = 0.0
             else:

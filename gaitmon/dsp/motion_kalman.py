@@ -73,9 +73,6 @@ from gaitmon.dsp.angles import TWO_PI
 from gaitmon.dsp.channels import SEGMENTS, STANDARD_GRAVITY_MS2
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
-# how a segment's measurement is chosen while it moves (gaitmon.dsp.kernels.gait_aware_update):
-# none (the foot's gate), the accelerometer tilt weighted by the motion, the gravity tilt
-MODE_GATED, MODE_WEIGHTED, MODE_GRAVITY = 0, 1, 2
 
 
 @dataclass(frozen=True)
@@ -327,11 +324,11 @@ class GaitAwareKalman:
         for grav, cols in self._gravity:
             lag[cols] = grav.lag_s
         # per segment, what the compiled update reads (gaitmon.dsp.kernels.gait_aware_update)
-        self._mode = np.array([
-            MODE_GRAVITY if t.live_gravity_hz is not None
-            else MODE_GATED if t.r_moving is None else MODE_WEIGHTED
-            for t in tuns
-        ], dtype=np.int64)  # fmt: skip
+        # while moving: the gravity tilt, or nothing (the foot's gate), or else the
+        # accelerometer tilt weighted by the motion
+        self._gravity_on = np.array([t.live_gravity_hz is not None for t in tuns], dtype=bool)
+        self._gated = np.array([t.live_gravity_hz is None and t.r_moving is None for t in tuns],
+                               dtype=bool)  # fmt: skip
         self._n_win = np.array([t.window_samples(self.fs_hz) for t in tuns], dtype=np.int64)
         self._lag = lag
         self._per_segment = {
@@ -405,7 +402,8 @@ class GaitAwareKalman:
         bias = np.zeros(s) if self._bias is None else self._bias.copy()  # a restart keeps it
         ps = self._per_segment
         gait_aware_update(
-            dev, np.ascontiguousarray(w), z_acc, z_grav, self._tail, self._n_win, self._mode,
+            dev, np.ascontiguousarray(w), z_acc, z_grav, self._tail, self._n_win,
+            self._gravity_on, self._gated,
             ps["static_acc_ms2"], ps["static_rate_rad_s"], self._k_static, self._k_grav,
             self._lag, ps["r_static"], ps["r_moving"], ps["acc_scale_ms2"],
             ps["moving_rate_scale_rad_s"], self._log_r, self._gains, self.dt_s, start, theta,
