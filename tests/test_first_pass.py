@@ -71,3 +71,82 @@ def test_a_replay_with_another_filter_or_after_new_settings_offers_no_first_pass
     mixed = list(replay_pipeline(counts[:3000], PipelineConfig(), cal0, [(1500, new)],
                                  chunk_rows=1000))  # fmt: skip
     assert [ch.first_pass_rad is not None for ch in mixed] == [True, True, False, False]
+
+
+def _recorded(path, counts, lost):
+    """A raw session written as the recorder writes it (a gap, no new settings)."""
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionWriter
+
+    pipe = Pipeline()
+    with SessionWriter(path, SessionHeader("raw")) as w:
+        for a in range(0, len(counts), 500):
+            b = min(len(counts), a + 500)
+            blk = SampleBlock(FrameKind.RAW, np.arange(a, b, dtype=np.int64),
+                              np.arange(a, b) / 100.0, 1.7e9, lost_before=lost[a:b],
+                              adc=counts[a:b])  # fmt: skip
+            w.append(blk, pipe.process(counts[a:b], lost[a:b]))
+
+
+def test_process_without_a_temporary_file_computes_the_first_pass_to_the_same_numbers(
+    record, tmp_path, monkeypatch
+) -> None:
+    """`process` keeps the pipeline's filter for the smoother in a temporary file; where none
+    can be made, or writing it fails half-way (a full disk), the smoother runs the filter
+    itself: the same /smoothed, and no error."""
+    import tempfile
+
+    from gaitmon.io.session import open_session
+    from gaitmon.io.session.reprocess import rewrite_processed
+
+    counts, lost, _, _ = record
+    src = tmp_path / "rec.h5"
+    _recorded(src, counts, lost)
+
+    def smoothed(path):
+        with open_session(path) as s:
+            s.use_angles("smoothed")
+            return s.read("processed/tilt_deg")
+
+    import gaitmon.dsp.smoother as smoother
+
+    ran: list[int] = []
+    real_rows = smoother.CausalFirstPass.rows
+    with monkeypatch.context() as mp:
+        mp.setattr(smoother.CausalFirstPass, "rows",
+                   lambda self, a, b, c: (ran.append(a), real_rows(self, a, b, c))[1])
+        rewrite_processed(src, tmp_path / "kept.h5", PipelineConfig())
+        assert ran == []  # kept from the replay
+        rewrite_processed(src, tmp_path / "paper.h5", PipelineConfig(tilt_method="paper"))
+        assert ran  # the replay's filter is another: the smoother runs its own
+    want = smoothed(tmp_path / "kept.h5")
+    np.testing.assert_array_equal(smoothed(tmp_path / "paper.h5"), want)  # not a setting of it
+
+    def no_temp(*a, **k):
+        raise OSError(28, "No space left on device")
+
+    with monkeypatch.context() as mp:
+        mp.setattr(tempfile, "TemporaryFile", no_temp)
+        rewrite_processed(src, tmp_path / "none.h5", PipelineConfig())
+    np.testing.assert_array_equal(smoothed(tmp_path / "none.h5"), want)
+
+    real = tempfile.TemporaryFile
+
+    class FillsUp:
+        def __init__(self, f):
+            self._f, self._written = f, 0
+
+        def write(self, data):
+            self._written += len(data)
+            if self._written > 100_000:
+                raise OSError(28, "No space left on device")
+            return self._f.write(data)
+
+        def __getattr__(self, name):
+            return getattr(self._f, name)
+
+    with monkeypatch.context() as mp:
+        mp.setattr(tempfile, "TemporaryFile", lambda *a, **k: FillsUp(real(*a, **k)))
+        rewrite_processed(src, tmp_path / "full.h5", PipelineConfig())
+    np.testing.assert_array_equal(smoothed(tmp_path / "full.h5"), want)

@@ -18,10 +18,12 @@ sessions hold the unit's own angles only: there is nothing to smooth.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
+import logging
 from collections.abc import Callable, Iterator
-from typing import Any
+from typing import IO, Any
 
 import h5py
 import numpy as np
@@ -56,6 +58,8 @@ def smoothed_method_label() -> str:
 SMOOTH_BLOCK_ROWS = 90_000  # 15 min at 100 Hz
 SMOOTH_OVERLAP_ROWS = 12_000  # 120 s
 
+
+log = logging.getLogger(__name__)
 
 Counts = Callable[[int, int], np.ndarray]  # rows a:b of the raw counts
 # the smoother's first pass of rows a:b (rad, (b - a, 4)), given their raw counts: a
@@ -123,15 +127,19 @@ class KeptFirstPass:
     bit for bit what :class:`gaitmon.dsp.smoother.CausalFirstPass` computes), so the smoother
     does not run the filter again. The rows wait in an unnamed temporary file in ``directory``
     (float64: 32 bytes a row, 92 MB for 8 hours), not in memory; it is gone once closed (a
-    context manager). A replay chunk without it (another filter, new settings) ends the
-    keeping: :attr:`first_pass` is then None and the smoother runs its own."""
+    context manager). A replay chunk without it (another filter, new settings), or a temporary
+    file that cannot be made or written (a full disk), ends the keeping: :attr:`first_pass` is
+    then None and the smoother runs its own, to the same numbers."""
 
     def __init__(self, directory: str | None = None) -> None:
         import tempfile
 
-        self._file = tempfile.TemporaryFile(dir=directory)  # noqa: SIM115 (closed by close)
         self._n = 0
-        self._valid = True
+        self._file: IO[bytes] | None = None
+        try:
+            self._file = tempfile.TemporaryFile(dir=directory)  # noqa: SIM115 (closed by close)
+        except OSError as e:
+            log.info("the smoother's first pass is computed again (no temporary file: %s)", e)
 
     def __enter__(self) -> KeptFirstPass:
         return self
@@ -141,7 +149,7 @@ class KeptFirstPass:
 
     def add(self, start: int, tilt_rad: np.ndarray | None) -> None:
         """Rows ``start:start + len(tilt_rad)`` (start = the rows kept so far)."""
-        if not self._valid:
+        if self._file is None:
             return
         if tilt_rad is None:
             self.close()
@@ -149,23 +157,30 @@ class KeptFirstPass:
         if start != self._n:
             raise ValueError(f"first-pass rows from {start} given after {self._n} rows")
         data = np.ascontiguousarray(tilt_rad, dtype=np.float64)
-        self._file.seek(self._n * _ROW_BYTES)
-        self._file.write(data.tobytes())
+        try:
+            self._file.seek(self._n * _ROW_BYTES)
+            self._file.write(data.tobytes())
+        except OSError as e:
+            log.info("the smoother's first pass is computed again (temporary file: %s)", e)
+            self.close()
+            return
         self._n += len(data)
 
     @property
     def first_pass(self) -> FirstPass | None:
-        return self._rows if self._valid else None
+        return None if self._file is None else self._rows
 
     def _rows(self, a: int, b: int, counts: np.ndarray | None = None) -> np.ndarray:
-        if not 0 <= a <= b <= self._n:
+        if self._file is None or not 0 <= a <= b <= self._n:
             raise ValueError(f"first-pass rows {a}:{b} asked of {self._n} kept")
         self._file.seek(a * _ROW_BYTES)
         return np.frombuffer(self._file.read((b - a) * _ROW_BYTES)).reshape(b - a, 4)
 
     def close(self) -> None:
-        self._valid = False
-        self._file.close()
+        if self._file is not None:
+            with contextlib.suppress(OSError):
+                self._file.close()
+            self._file = None
 
 
 _ROW_BYTES = 4 * 8
