@@ -53,8 +53,12 @@ def test_raw_mode_streams_processes_and_finds_strides():
     assert not np.isnan(s["joint_kalman_deg"]).any()
     assert snap.link is not None and snap.link.decoder.frames_lost == 0
     assert snap.link.decoder.crc_failures == 0
-    # 27 s of walking at 110 steps/min ~ 24 strides; the panel counts them as they complete
-    hs_true, _ = unit.truth(0, eng.samples_total).heel_strike_idx, None
+    # 27 s of walking at 110 steps/min ~ 24 strides; the panel counts them as they complete.
+    # The engine's row 0 is the first sample streamed: the unit's clock runs from its start,
+    # and what it produced before START_STREAM (a first call that loads the filters' compiled
+    # loop can take a few tenths of a second, several hundred samples at speed 20) is not sent
+    first = int(unit.frame_log()[1][0])
+    hs_true = unit.truth(first, first + eng.samples_total).heel_strike_idx
     assert abs(snap.gait.n_strides - (len(hs_true) - 1)) <= 2
     assert snap.gait.cadence_derived_steps_per_min == pytest.approx(110.0, rel=0.08)
     assert snap.gait.cycles_deg.shape[1:] == (101, 3)
@@ -137,3 +141,30 @@ def test_settings_apply_live_and_bad_ones_are_refused():
         wait_for(lambda: eng.samples_total > n + 200, what="data after the change")
     with pytest.raises(ValueError, match="Nyquist"):
         PipelineConfig(cutoff_hz=70.0)
+
+
+def test_the_filters_compiled_loop_is_ready_before_the_unit_streams():
+    """The gait-aware filter's loop (numba) is compiled, or loaded from its cache, by
+    Engine.start before it asks the unit for frames: the first run after an install compiles
+    for a few seconds, which must not happen on the first block while frames queue up. In a
+    fresh interpreter (this one has run the filter already)."""
+    import subprocess
+    import sys
+
+    code = """
+from gaitmon.dsp import kernels
+from gaitmon.engine import Engine
+from gaitmon.io.device import Device
+from gaitmon.io.sim import SimulatedUnit
+from gaitmon.io.transport import InProcessTransport
+
+assert not kernels.gait_aware_update.signatures
+seen = []
+eng = Engine(Device(InProcessTransport(SimulatedUnit())), "raw", transport_label="simulated")
+eng.start(before_stream=lambda: seen.append(len(kernels.gait_aware_update.signatures)))
+eng.stop()
+print(seen)
+"""
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["[1]"], r.stdout

@@ -89,6 +89,14 @@ def bridge_max_samples(fs_hz: float) -> int:
     return round(BRIDGE_MAX_S * fs_hz)
 
 
+def warm_up(config: PipelineConfig, table: ChannelTable = DEFAULT_TABLE) -> None:
+    """Run a throwaway pipeline of ``config`` over two still rows, so that its filter's compiled
+    loop (gaitmon.dsp.kernels) is compiled (the first run after an install, a few seconds) or
+    loaded from its cache now, not on the first block a unit streams."""
+    rows = np.rint(np.tile(table.zero_counts, (2, 1))).astype(np.uint16)
+    Pipeline(config, table=table).process(rows)
+
+
 def restart_rows(lost_before: np.ndarray, fs_hz: float) -> np.ndarray:
     """Rows where the pipeline restarts: the first row after a loss longer than the bridge."""
     lost = np.asarray(lost_before, dtype=np.int64)

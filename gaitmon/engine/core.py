@@ -36,7 +36,7 @@ import numpy as np
 from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, SEGMENTS
 from gaitmon.dsp.fsr_check import FsrFault
-from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, restart_rows
+from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, restart_rows, warm_up
 from gaitmon.dsp.stride_length import StrideLengthTracker
 from gaitmon.engine.buffers import (
     RingBuffer,
@@ -170,6 +170,9 @@ class Engine:
         exist before any data does (a crash can then lose nothing already received)."""
         if self._thread is not None:
             return
+        # the filter's compiled loop, compiled or loaded before any data flows (the first run
+        # after an install compiles for a few seconds: not while the unit's frames queue up)
+        warm_up(self.config, self._pipeline.table)
         try:
             self.device.connect()
             self._identity = self.device.identify()
