@@ -135,10 +135,16 @@ class ChannelTable:
     def full_scale_counts(self) -> np.ndarray:
         return np.array([c.full_scale_counts for c in self.channels])
 
-    def to_physical(self, counts: np.ndarray) -> np.ndarray:
-        """(N, 14) counts -> (N, 14) float64 in each channel's unit (m/s^2, rad/s, count)."""
+    def to_physical(self, counts: np.ndarray, channels: np.ndarray | None = None) -> np.ndarray:
+        """(N, 14) counts -> (N, 14) float64 in each channel's unit (m/s^2, rad/s, count); with
+        ``channels`` (indices), only those columns (the same numbers)."""
         counts = np.asarray(counts)
-        return (counts.astype(np.float64) - self.zero_counts) * self.units_per_count
+        if channels is None:
+            return (counts.astype(np.float64) - self.zero_counts) * self.units_per_count
+        x = counts[:, channels].astype(np.float64)
+        x -= self.zero_counts[channels]
+        x *= self.units_per_count[channels]
+        return x
 
     def to_counts(self, physical: np.ndarray) -> np.ndarray:
         """(N, 14) physical -> (N, 14) uint16 counts, rounded and saturated to the ADC range."""

@@ -285,7 +285,7 @@ def smooth_map(
         w2 = np.asarray(gyro_rad_s, dtype=np.float64).reshape(z2.shape)
         prior = z2[0] if theta_prior is None else np.full(z2.shape[1], float(theta_prior))
         x = np.empty((2 * n, z2.shape[1]))
-        w_meas = float(_measurement_weights(np.array([float(r)]))[0])
+        w_meas = 1.0 / float(r) if np.isfinite(r) else 0.0  # (no measurement: weight 0)
         constant_map_solve(cb, inv_diag, z2, w2, w_meas, 1.0 / float(qa), float(dt_s),
                            np.ascontiguousarray(prior), 1.0 / _PRIOR_THETA_VAR, x)  # fmt: skip
         theta, bias = x[0::2], x[1::2]
@@ -413,18 +413,12 @@ def smooth_record_tilts(
     n = len(counts)
     starts = [max(0, int(r)) for r, _ in calibrations] + [n]
 
-    def physical(ch: np.ndarray) -> np.ndarray:  # channels ch, as ChannelTable.to_physical
-        x = counts[:, ch].astype(np.float64)
-        x -= table.zero_counts[ch]
-        x *= table.units_per_count[ch]
-        return x
-
     ranges = list(zip(calibrations, starts[:-1], starts[1:], strict=True))
-    gyro = physical(GYRO_IDX)
+    gyro = table.to_physical(counts, GYRO_IDX)
     for (_, cal), a, b in ranges:
         gyro[a:b] -= cal.gyro_bias_rad_s
-    out = smooth_tilts(physical(ACC_X_IDX), physical(ACC_Z_IDX), gyro, fs_hz, SEGMENTS,
-                       first_pass=first_pass)  # fmt: skip
+    ax, az = table.to_physical(counts, ACC_X_IDX), table.to_physical(counts, ACC_Z_IDX)
+    out = smooth_tilts(ax, az, gyro, fs_hz, SEGMENTS, first_pass=first_pass)
     for (_, cal), a, b in ranges:
         out[a:b] -= cal.tilt_offset_rad
     return np.asarray(wrap_angle(out))

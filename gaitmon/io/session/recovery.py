@@ -385,8 +385,9 @@ def _build_recovered(
             )
         else:
             chunks = _device_chunks(rows, FrameKind.TILT if mode == "tilt" else FrameKind.JOINT)
-        # the replayed pipeline's filter is the smoother's first pass: kept for it
-        if mode == "raw" and n and not in_memory:
+        # the replayed pipeline's filter is the smoother's first pass: kept for it (where both
+        # run at the same rate: the smoother takes the header's, the pipeline its settings')
+        if mode == "raw" and n and not in_memory and header.config.fs_hz == fs:
             kept = KeptFirstPass(str(Path(tmp).parent))
         for a, proc, hs, to, faults, first_pass in chunks:
             b = a + len(proc["processed/joint_deg"])
