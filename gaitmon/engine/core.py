@@ -64,7 +64,7 @@ from gaitmon.engine.snapshot import (
     RecordingStatus,
     Snapshot,
 )
-from gaitmon.engine.stream import StreamHealth, StreamPosition
+from gaitmon.engine.stream import StreamHealth, StreamPosition, UnitClockMark
 from gaitmon.engine.taps import BlockListener, Taps
 from gaitmon.io.device import Device, DeviceError, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
@@ -201,6 +201,15 @@ class Engine:
     @property
     def samples_total(self) -> int:
         return self._stream.samples
+
+    def clock_mark(self) -> UnitClockMark:
+        """The unit's clock now, to measure from (``seconds_since``)."""
+        return UnitClockMark(self._stream.samples, self.device.stats.decoder.frames_lost)
+
+    def seconds_since(self, mark: UnitClockMark) -> float:
+        """Seconds of the unit's clock since ``mark``: samples processed and frames lost."""
+        lost = self.device.stats.decoder.frames_lost - mark.frames_lost
+        return (self._stream.samples - mark.samples + lost) / self.fs_hz
 
     # -- recording ------------------------------------------------------------------------
 

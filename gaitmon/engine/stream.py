@@ -6,7 +6,8 @@ recording's timeline counts them (``true_times``). Frames of a block that is not
 (another mode's frames) are carried as lost before the next one that is (``not_processed``).
 Only the engine thread writes a ``StreamPosition``; other threads read ``samples`` and
 ``last_data_s``, each a single value, without a lock. ``StreamHealth`` is what the engine
-thread counts for a viewer: errors and the frame rate.
+thread counts for a viewer: errors and the frame rate. ``UnitClockMark`` is a moment of the
+unit's clock that a caller keeps (``Engine.clock_mark``, ``Engine.seconds_since``).
 """
 
 from __future__ import annotations
@@ -23,6 +24,14 @@ from gaitmon.io.device import SampleBlock
 def lost_in(block: SampleBlock) -> int:
     """Frames lost before the samples of ``block``, all told."""
     return 0 if block.lost_before is None else int(block.lost_before.sum())
+
+
+@dataclass(frozen=True)
+class UnitClockMark:
+    """A moment of a unit's clock: samples processed and frames its link lost until then."""
+
+    samples: int = 0
+    frames_lost: int = 0
 
 
 @dataclass
