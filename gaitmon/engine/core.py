@@ -52,7 +52,6 @@ from gaitmon.engine.messages import (
     AppendBlock,
     LogCalibration,
     LogConfig,
-    Stop,
     UpdateLink,
 )
 from gaitmon.engine.recorder import Recorder
@@ -206,8 +205,10 @@ class Engine:
         """The unit's clock now, to measure from (``seconds_since``)."""
         return UnitClockMark(self._stream.samples, self.device.stats.decoder.frames_lost)
 
-    def seconds_since(self, mark: UnitClockMark) -> float:
-        """Seconds of the unit's clock since ``mark``: samples processed and frames lost."""
+    def seconds_since(self, mark: UnitClockMark | None = None) -> float:
+        """Seconds of the unit's clock since ``mark`` (None: since the start): samples
+        processed and frames lost."""
+        mark = mark or UnitClockMark()
         lost = self.device.stats.decoder.frames_lost - mark.frames_lost
         return (self._stream.samples - mark.samples + lost) / self.fs_hz
 
@@ -270,22 +271,7 @@ class Engine:
             self._recorder = None
         if rec is None:
             return self._last_recording
-        with contextlib.suppress(Exception):
-            rec.put(UpdateLink(self.device.stats))
-        rec.put(Stop(reason))  # control items are never refused, even by a full queue
-        rec.thread.join(timeout=max(0.0, timeout_s))
-        status = self._recording_status(rec)
-        if rec.alive and not status.error:
-            name = Path(status.path).name
-            status = dataclasses.replace(
-                status,
-                error=(
-                    f"the recording to {name} was not finished after {timeout_s:g} s (slow "
-                    "disk?); it finishes in the background, and if gaitmon quits first the "
-                    "file is recovered from its journal when next opened"
-                ),
-            )
-        self._last_recording = dataclasses.replace(status, active=False)
+        self._last_recording = rec.finish(reason, timeout_s, lambda: self.device.stats)
         return self._last_recording
 
     def _recording_status(self, rec: Recorder | None) -> RecordingStatus:

@@ -1,16 +1,17 @@
-"""The engines of one recording, one per unit: two units, one per leg, into one bilateral session.
+"""Units recorded into one session: two units, one per leg, into one bilateral session.
 
-An :class:`EngineGroup` runs each unit's :class:`Engine` (its own Device, link health,
-reconnection, gaps and recorder thread) through the same steps: start, record, zero together,
-measure the unit's clock since the recording started, stop. The engines are keyed by side
-("L", "R"). Two or more record an ordinary crash-safe recording each beside the target,
-``FILE.L.partial`` / ``FILE.R.partial`` (``gaitmon.io.session.bilateral.part_path``), and at the
-stop :meth:`EngineGroup.finish` combines them into ``FILE`` (``combine_parts``: both layouts
-under ``/units/<side>`` and the clock fits under ``/sync``). A link lost on one leg is a gap in
-that leg's part only; the other leg records on. If the process dies, the parts and their
-journals stay, and the next reader of ``FILE`` recovers and combines them. A group of one unit
-records straight into ``FILE``, as ``Engine.start_recording`` does. :class:`EnginePair` is the
-two-leg group, built from its left and right engines.
+Each leg has its own :class:`Engine` (its own Device, link health, reconnection, gaps and
+recorder thread) writing an ordinary crash-safe recording of its own beside the target,
+``FILE.L.partial`` / ``FILE.R.partial`` (``gaitmon.io.session.bilateral.part_path``). At the stop
+:meth:`EnginePair.finish` combines them into ``FILE`` (``combine_parts``: both layouts under
+``/units/<side>`` and the clock fits under ``/sync``). A link lost on one leg is a gap in that
+leg's part only; the other leg records on. If the process dies, the parts and their journals
+stay, and the next reader of ``FILE`` recovers and combines them.
+
+:class:`EngineGroup` runs its units' engines, keyed by side, through the same steps (start,
+record, zero together, the unit's clock since the recording started, stop, finish);
+:class:`EnginePair` is the two-leg group. A group of one unit records straight into ``FILE``,
+as ``Engine.start_recording`` does: one leg is the one-unit case.
 """
 
 from __future__ import annotations
@@ -21,16 +22,19 @@ import threading
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.engine.core import Engine, EngineError
 from gaitmon.engine.snapshot import RecordingStatus
-from gaitmon.engine.stream import UnitClockMark
 from gaitmon.io.journal import journal_path
 from gaitmon.io.session.combine import combine_parts
 from gaitmon.io.session.h5file import _being_recorded
 from gaitmon.io.session.header import SessionError, SessionMeta
 from gaitmon.io.session.parts import SIDE_NAMES, SIDES, part_path, parts_of
+
+if TYPE_CHECKING:
+    from gaitmon.engine.stream import UnitClockMark
 
 # closing a part computes its smoothed angles and overview (an hour: tens of seconds on a busy
 # machine); both must be closed before they can be combined
@@ -195,7 +199,7 @@ class EngineGroup:
 
     def recorded_s(self, side: str) -> float:
         """Seconds of that unit's clock since the recording started (received + lost)."""
-        return self.engines[side].seconds_since(self._start.get(side, UnitClockMark()))
+        return self.engines[side].seconds_since(self._start.get(side))
 
     def stop(self, reason: str = "user", timeout_s: float = STOP_TIMEOUT_S) -> dict[
         str, RecordingStatus

@@ -14,6 +14,7 @@ import itertools
 import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, TypedDict, Unpack, assert_never
@@ -155,6 +156,31 @@ class Recorder:
             dropped_blocks=self.dropped_blocks,
             error=error,
         )
+
+    def finish(
+        self, reason: str, timeout_s: float, link_stats: Callable[[], LinkStats]
+    ) -> RecordingStatus:
+        """The caller's thread, once the engine thread hands over no more blocks: the link's
+        last statistics and the stop go in, and the final status comes back after up to
+        ``timeout_s``. A recorder not finished by then (a stalled disk) carries on in the
+        background, and the status says so in ``error`` (if the process ends first, the
+        journal keeps every row handed over; the next open recovers the file)."""
+        with contextlib.suppress(Exception):  # a vanished device: the file keeps the last ones
+            self.put(UpdateLink(link_stats()))
+        self.put(Stop(reason))  # control messages are never refused, even by a full queue
+        self.thread.join(timeout=max(0.0, timeout_s))
+        status = self.status()
+        if self.alive and not status.error:
+            name = Path(status.path).name
+            status = dataclasses.replace(
+                status,
+                error=(
+                    f"the recording to {name} was not finished after {timeout_s:g} s (slow "
+                    "disk?); it finishes in the background, and if gaitmon quits first the "
+                    "file is recovered from its journal when next opened"
+                ),
+            )
+        return dataclasses.replace(status, active=False)
 
     # -- the engine thread (and the caller's, for control messages) ----------------------
 
