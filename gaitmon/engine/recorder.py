@@ -2,8 +2,7 @@
 
 The engine thread hands it messages (``engine.messages``) through a queue and never waits for
 it: sample blocks are bounded (a stalled disk drops blocks, counted), control messages
-(settings, calibration, marker, link statistics, stop) never are. ``RecordingWriter`` is what
-the thread needs of the session writer (``gaitmon.io.session.SessionWriter``; the tests' fakes).
+(settings, calibration, marker, link statistics, stop) never are.
 """
 
 from __future__ import annotations
@@ -17,12 +16,12 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol, TypedDict, Unpack, assert_never
+from typing import TYPE_CHECKING, TypedDict, Unpack, assert_never
 
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
-from gaitmon.dsp.pipeline import PipelineBlock, PipelineConfig
+from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine.messages import (
     AddMarker,
     AppendBlock,
@@ -34,35 +33,10 @@ from gaitmon.engine.messages import (
 )
 from gaitmon.engine.rows import RowMap, slice_pipeline, slice_samples
 from gaitmon.engine.snapshot import RecordingStatus
-from gaitmon.io.device import LinkStats, SampleBlock
+from gaitmon.io.device import LinkStats
 
 if TYPE_CHECKING:
-    from gaitmon.io.session.header import SessionHeader
-
-
-class RecordingWriter(Protocol):
-    """What the recorder thread uses of a session writer (``SessionWriter`` is one)."""
-
-    @property
-    def header(self) -> SessionHeader: ...
-    @property
-    def path(self) -> Path: ...
-    @property
-    def rows(self) -> int: ...
-    @property
-    def bytes_written(self) -> int: ...
-    def append(
-        self, samples: SampleBlock, processed: PipelineBlock | None = None, *,
-        event_offset: int = 0,
-    ) -> None: ...  # fmt: skip
-    def add_marker(self, label: str, sample_idx: int | None = None) -> None: ...
-    def add_gap(self, n_lost: int, duration_s: float, reason: str) -> None: ...
-    def log_config(self, config: PipelineConfig) -> None: ...
-    def log_calibration(self, cal: Calibration) -> None: ...
-    def update_link(self, stats: LinkStats) -> None: ...
-    def maybe_flush(self) -> None: ...
-    def close(self, *, stop_reason: str = "user") -> None: ...
-    def abort(self, exc: BaseException) -> str: ...
+    from gaitmon.io.session.writer import SessionWriter
 
 
 @dataclass(frozen=True)
@@ -102,7 +76,7 @@ class Recorder:
 
     def __init__(
         self,
-        writer: RecordingWriter,
+        writer: SessionWriter,
         queue_max: int,
         header_config: PipelineConfig | None = None,
         header_calibration: Calibration | None = None,
@@ -205,7 +179,7 @@ class Recorder:
             self._progress = dataclasses.replace(self._progress, **changes)
 
     @staticmethod
-    def _append(w: RecordingWriter, msg: AppendBlock) -> None:
+    def _append(w: SessionWriter, msg: AppendBlock) -> None:
         """Write a block, logging a gap at each row where frames were lost before it
         (``first_gap_reason``, if given, is the reason of a gap before the block's first row)."""
         samples, processed, offset = msg.samples, msg.processed, msg.event_offset
