@@ -149,7 +149,12 @@ def test_a_registered_method_is_run_by_estimate_tilt(throwaway, walk):
 def test_the_registry_lists_the_apps_choices_as_before():
     assert live_names() == ("gait-aware", "paper")
     assert [m.name for m in methods(live=False)] == [
-        "accelerometer", "gyro", "complementary", "complementary-adaptive", "constant-rate"]
+        "accelerometer",
+        "gyro",
+        "complementary",
+        "complementary-adaptive",
+        "constant-rate",
+    ]
     assert get_method("paper").label == "Kalman (paper, seed 000)"
     assert get_method("gait-aware").label == "gait-aware Kalman"
     assert get_method("gait-aware").offline_label == "gait-aware Kalman + RTS smoother"
@@ -222,5 +227,7 @@ def test_the_live_menu_reads_the_registry():
     from gaitmon.ui.live.actions import TILT_METHODS
 
     assert [(k, t) for k, t, _ in TILT_METHODS] == [
-        ("gait-aware", "Gait-aware Kalman (default)"), ("paper", "Kalman (paper, seed 000)")]
+        ("gait-aware", "Gait-aware Kalman (default)"),
+        ("paper", "Kalman (paper, seed 000)"),
+    ]
     assert all(tip for _, _, tip in TILT_METHODS)

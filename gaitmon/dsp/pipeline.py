@@ -66,10 +66,10 @@ from gaitmon.dsp.channels import (
     N_CHANNELS,
     ChannelTable,
 )
+from gaitmon.dsp.events import FALLBACK, PRIMARY, EventInput, EventStage, get_event_source
 from gaitmon.dsp.filters import Butterworth, GyroIntegrator
 from gaitmon.dsp.fsr_check import FsrFault, FsrMonitor
 from gaitmon.dsp.gait import GaitEventDetector, Stride, StrideTracker
-from gaitmon.dsp.gyro_events import GyroEventDetector, GyroEventRule
 from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.methods import DEFAULT_METHOD, TiltInput, TiltMethod, TiltStage, get_method
 
@@ -310,17 +310,17 @@ class Pipeline:
             cfg.fsr_threshold, cfg.fsr_hysteresis, cfg.min_contact_s, cfg.fs_hz
         )
         self._strides = StrideTracker(cfg.fs_hz)
-        self._event_delay = self.config.event_delay_samples
         self._n_seen = 0
         self._bridge = bridge_max_samples(self.config.fs_hz)
         self._settle_n = round(SETTLE_S * self.config.fs_hz)
         self._settle_until = 0  # the start-up is the first stride's exclusion (gaitmon.analysis)
-        self._event_floor = 0  # events are never dated before the last restart
-        rule = GyroEventRule(fs_hz=self.config.fs_hz)
-        self._gyro_events = GyroEventDetector(rule)
+        # the event sources (gaitmon.dsp.events): the force sensors, and the foot gyro that
+        # checks them and takes over once one is flagged
+        self._fsr_events: EventStage = get_event_source(PRIMARY).stage(cfg)
+        self._gyro_events: EventStage = get_event_source(FALLBACK).stage(cfg)
         tol = round(0.15 * self.config.fs_hz)
         # the gyro's closing heel strike is decided at most this long after it (module doc)
-        delay = rule.latency + rule.search + tol
+        delay = self._gyro_events.latency_samples + tol
         self._fsr_monitor = FsrMonitor(self.config.fs_hz, tolerance_s=0.15, decision_delay=delay)
         self._switch_idx: int | None = None  # events from the gyro from this index on
 
@@ -351,11 +351,13 @@ class Pipeline:
         self._detector.restart()
         self._strides.reset()
         self._settle_until = at + self._settle_n
-        self._event_floor = at
+        self._fsr_events.restart(at)
+        self._gyro_events.restart(at)
 
     @property
     def event_source(self) -> str:
-        return "foot gyro" if self._switch_idx is not None else "fsr"
+        """The registered event source (gaitmon.dsp.events) the events come from now."""
+        return FALLBACK if self._switch_idx is not None else PRIMARY
 
     @property
     def fsr_faults(self) -> tuple[FsrFault, ...]:
@@ -478,23 +480,23 @@ class Pipeline:
         o["heel_loaded"][sl] = gait.heel_loaded
         o["toe_loaded"][sl] = gait.toe_loaded
         o["phase"][sl] = gait.phase
-        # back-dating by a constant keeps the order in which events are confirmed
-        hs_idx = np.maximum(gait.heel_strike_idx - self._event_delay, self._event_floor)
-        to_idx = np.maximum(gait.toe_off_idx - self._event_delay, self._event_floor)
+        ev_in = EventInput(gait, gyro)
+        fsr_ev = self._fsr_events.process(ev_in)
+        hs_idx, to_idx = fsr_ev.heel_strike_idx, fsr_ev.toe_off_idx
         if self.config.fsr_check:
-            hs_idx, to_idx = self._cross_check(gait.heel_loaded, gait.toe_loaded, gyro[:, 3],
-                                               hs_idx, to_idx, gyro_ev)  # fmt: skip
+            hs_idx, to_idx = self._cross_check(ev_in, hs_idx, to_idx, gyro_ev)
         hs.append(hs_idx)
         to.append(to_idx)
         strides.extend(self._strides.process(hs_idx, to_idx))
 
     def _cross_check(
-        self, heel_loaded: np.ndarray, toe_loaded: np.ndarray, foot_gyro: np.ndarray,
-        hs_idx: np.ndarray, to_idx: np.ndarray,
+        self, ev_in: EventInput, hs_idx: np.ndarray, to_idx: np.ndarray,
         gyro_ev: tuple[list[int], list[int], list[FsrFault]],
     ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """Foot-gyro events, the FSR check, and the events the strides are built from."""
-        g_hs, g_to = self._gyro_events.process(foot_gyro)
+        g = self._gyro_events.process(ev_in)
+        g_hs, g_to = g.heel_strike_idx, g.toe_off_idx
+        heel_loaded, toe_loaded = ev_in.contacts.heel_loaded, ev_in.contacts.toe_loaded
         gyro_ev[0].extend(int(i) for i in g_hs)
         gyro_ev[1].extend(int(i) for i in g_to)
         faults = self._fsr_monitor.process(heel_loaded, toe_loaded, g_hs, g_to)

@@ -199,14 +199,22 @@ def peak_knee_errors_deg(tilt: np.ndarray, kin: Any) -> np.ndarray:
 
 
 def _events(gait: Any, counts: np.ndarray, cal: Calibration, n: int, acc: Accuracy) -> None:
-    from gaitmon.dsp.gyro_events import gyro_gait_events, match_events
-    from gaitmon.dsp.pipeline import Pipeline
+    """Every registered event source's heel strikes (gaitmon.dsp.events) against the truth."""
+    from gaitmon.dsp.events import EventRecord, event_sources
+    from gaitmon.dsp.filters import Butterworth
+    from gaitmon.dsp.gait import GaitEventDetector
+    from gaitmon.dsp.gyro_events import match_events
+    from gaitmon.dsp.pipeline import PipelineConfig
 
     true_hs, _ = gait.events(0, n)
-    gyro = cal.apply_gyro(DEFAULT_TABLE.to_physical(counts)[:, GYRO_IDX])[:, 3]
-    hs, _ = gyro_gait_events(gyro, FS)
-    fsr_hs = Pipeline(calibration=cal).process(counts).heel_strike_idx
-    for key, det in (("gyro", hs), ("fsr", fsr_hs)):
+    cfg = PipelineConfig()
+    ph = DEFAULT_TABLE.to_physical(counts)
+    fsr = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order).process(ph[:, FSR_IDX])
+    contacts = GaitEventDetector(cfg.fsr_threshold, cfg.fsr_hysteresis, cfg.min_contact_s,
+                                 cfg.fs_hz).process(fsr)  # fmt: skip
+    record = EventRecord(contacts, cal.apply_gyro(ph[:, GYRO_IDX]), FS)
+    for source in event_sources():
+        key, det = source.lab_key, source.offline(record, cfg).heel_strike_idx
         err, _ = match_events(det, true_hs[true_hs > SKIP], tolerance=int(0.2 * FS))
         acc.hs_err_ms[key] = np.concatenate([acc.hs_err_ms.get(key, np.empty(0)),
                                              np.abs(err) * 1000.0 / FS])  # fmt: skip
@@ -393,13 +401,15 @@ def table_rows(acc: Accuracy) -> list[tuple[str, ...]]:
     for trial, r in acc.broad_rmse_deg.items():
         rows.append(_row(f"BROAD {trial} (real, not walking): planar tilt RMS, deg",
                          {k: _f(r[k]) for k in keys}, "(walking goal ≤ 5 / ≤ 2.5)"))  # fmt: skip
-    for key, label in (("gyro", "foot-gyro"), ("fsr", "FSR (reference)")):
-        e = acc.hs_err_ms.get(key, np.empty(0))
+    from gaitmon.dsp.events import event_sources
+
+    for source in event_sources():
+        e = acc.hs_err_ms.get(source.lab_key, np.empty(0))
         if len(e):
             fig = f"{np.median(e):.0f} / {np.percentile(e, 95):.0f}"
             rows.append(_row(
-                f"{label} heel strike vs simulator truth |error| median / p95, ms",
-                {"live": fig}, "≤ 20 / 40" if key == "gyro" else "(reference)",
+                f"{source.lab_label} heel strike vs simulator truth |error| median / p95, ms",
+                {"live": fig}, source.lab_goal,
             ))  # fmt: skip
     for case, strides in acc.fault_strides.items():
         rows.append(_row(f"FSR fault ({case}): strides until flagged",
