@@ -13,10 +13,25 @@ import pytest
 from conftest import write_simulated_session
 
 from gaitmon.dsp.angles import accel_tilt
-from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX, SEGMENTS
+from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, FSR_IDX, GYRO_IDX, SEGMENTS
 from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter
 from gaitmon.dsp.estimate import estimate_tilt
+from gaitmon.dsp.events import (
+    FALLBACK,
+    PRIMARY,
+    EventInput,
+    EventRecord,
+    Events,
+    EventSettings,
+    event_sources,
+    get_event_source,
+    register_event_source,
+    unregister_event_source,
+)
+from gaitmon.dsp.events.foot_gyro import FootGyro
 from gaitmon.dsp.filters import Butterworth
+from gaitmon.dsp.gait import GaitEventDetector
+from gaitmon.dsp.gyro_events import gyro_gait_events
 from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.methods import (
     REGISTRY,
@@ -31,6 +46,7 @@ from gaitmon.dsp.methods import (
 from gaitmon.dsp.motion_kalman import GaitAwareKalman
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.dsp.smoother import smooth_tilt
+from gaitmon.engine.snapshot import EVENTS_FSR, EVENTS_GYRO
 
 FS = 100.0
 NAME = "test-acc-only"
@@ -231,3 +247,110 @@ def test_the_live_menu_reads_the_registry():
         ("paper", "Kalman (paper, seed 000)"),
     ]
     assert all(tip for _, _, tip in TILT_METHODS)
+
+
+# --------------------------------------------------------------------------------------------
+# event sources (gaitmon.dsp.events)
+
+
+@dataclass(frozen=True)
+class _ShankGyro(FootGyro):
+    """A throw-away source: the foot gyro's rule on the shank gyro."""
+
+    name: ClassVar[str] = "test shank gyro"
+    label: ClassVar[str] = "the shank gyro (test)"
+    lab_key: ClassVar[str] = "shank"
+    lab_label: ClassVar[str] = "shank-gyro (test)"
+    lab_goal: ClassVar[str] = "(test)"
+
+    def offline(self, record: EventRecord, settings: EventSettings) -> Events:
+        return Events(*gyro_gait_events(record.gyro_rad_s[:, 2], record.fs_hz))
+
+
+def test_the_event_sources_are_the_pipelines(walk):
+    assert [s.name for s in event_sources()] == ["foot gyro", "fsr"]
+    assert (PRIMARY, FALLBACK) == ("fsr", "foot gyro")
+    assert (EVENTS_FSR, EVENTS_GYRO) == (PRIMARY, FALLBACK)
+    cfg = PipelineConfig()
+    blk = Pipeline(cfg).process(walk)
+    assert blk.event_source == PRIMARY
+    ph = DEFAULT_TABLE.to_physical(walk)
+    fsr = Butterworth(4.0, FS, 2).process(ph[:, FSR_IDX])
+    contacts = GaitEventDetector(fs_hz=FS).process(fsr)
+    record = EventRecord(contacts, ph[:, GYRO_IDX], FS)
+    # the force sensors' events are the detector's, moved back by the low-pass delay
+    fsr_ev = get_event_source("fsr").offline(record, cfg)
+    np.testing.assert_array_equal(fsr_ev.heel_strike_idx, blk.heel_strike_idx)
+    np.testing.assert_array_equal(
+        fsr_ev.heel_strike_idx, contacts.heel_strike_idx - cfg.event_delay_samples
+    )
+    # the foot gyro's streaming stage, block by block, decides what the pipeline reports
+    stage = get_event_source("foot gyro").stage(cfg)
+    hs = [stage.process(EventInput(contacts, ph[a : a + 97, GYRO_IDX])).heel_strike_idx
+          for a in range(0, len(walk), 97)]  # fmt: skip
+    np.testing.assert_array_equal(np.concatenate(hs), blk.gyro_heel_strike_idx)
+    np.testing.assert_array_equal(
+        get_event_source("foot gyro").offline(record, cfg).heel_strike_idx,
+        gyro_gait_events(ph[:, GYRO_IDX[3]], FS)[0],
+    )
+
+
+def test_a_registered_event_source_is_judged_by_lab_accuracy(walk):
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.io.sim import GaitConfig, GaitModel
+    from gaitmon.lab.accuracy import Accuracy, _events, table_rows
+
+    register_event_source(_ShankGyro())
+    try:
+        with pytest.raises(ValueError, match="registered already"):
+            register_event_source(_ShankGyro())
+        acc = Accuracy()
+        gait = GaitModel(GaitConfig(seed=11, standing_s=2.0))
+        _events(gait, walk, Calibration.identity(), len(walk), acc)
+        assert sorted(acc.hs_err_ms) == ["fsr", "gyro", "shank"]
+        assert len(acc.hs_err_ms["shank"]) > 5
+        rows = [r for r in table_rows_without_methods(acc, table_rows) if "shank" in r[0]]
+        assert rows and rows[0][-1] == "(test)"
+    finally:
+        unregister_event_source(_ShankGyro.name)
+    assert _ShankGyro.name not in [s.name for s in event_sources()]
+
+
+def table_rows_without_methods(acc, table_rows):
+    """The event rows of the lab table for an Accuracy with no tilt figures."""
+    for k in ("paper", "live", "offline"):
+        acc.joint_rmse_deg.setdefault("normal", {})[k] = np.zeros(3)
+        acc.peak_knee_err_deg.setdefault("normal", {})[k] = 0.0
+        acc.peak_knee_strides_deg.setdefault("normal", {})[k] = np.zeros(1)
+    return table_rows(acc)
+
+
+def test_mypy_checks_the_stage_wiring(tmp_path):
+    """The stage seam is typed: a stage fed the wrong block is a mypy error, not a crash."""
+    pytest.importorskip("mypy")
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    snippet = tmp_path / "wiring.py"
+    snippet.write_text(
+        "import numpy as np\n"
+        "from gaitmon.dsp.events import EventInput, EventStage\n"
+        "from gaitmon.dsp.filters import Butterworth\n"
+        "from gaitmon.dsp.methods import TiltInput, TiltStage, get_method\n"
+        "from gaitmon.dsp.pipeline import PipelineConfig\n"
+        "def wire(block: TiltInput, events: EventStage) -> None:\n"
+        "    stage: TiltStage = get_method('paper').causal_stage(PipelineConfig())\n"
+        "    tilt: np.ndarray = stage.process(block)\n"
+        "    events.process(block)\n"  # line 9: a tilt block into an event stage
+        "    bad: TiltStage = Butterworth(4.0, 100.0, 2)\n"  # line 10: not a tilt stage
+    )
+    proc = subprocess.run(
+        [sys.executable, "-m", "mypy", "--config-file", str(root / "pyproject.toml"),
+         str(snippet)],
+        cwd=root, capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
+    report = proc.stdout + proc.stderr
+    errors = [ln for ln in report.splitlines() if ": error:" in ln]
+    assert [int(ln.split(":")[1]) for ln in errors] == [9, 10], report
