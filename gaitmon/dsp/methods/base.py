@@ -182,6 +182,40 @@ class TiltMethod:
         return self.tip
 
 
+class BiasTracking(Protocol):
+    """A tilt filter that tracks the gyro bias (TiltKalman, GaitAwareKalman)."""
+
+    def reset(self) -> None: ...
+
+    def restart(self) -> None: ...
+
+    @property
+    def bias_rad_s(self) -> np.ndarray | None: ...
+
+    def shift_bias(self, delta_rad_s: np.ndarray | float) -> None: ...
+
+
+class KalmanStage:
+    """The shared half of a stage around a bias-tracking filter ``kf``: a subclass says how a
+    :class:`TiltInput` feeds it (``process``); reset, restart and the bias are the filter's."""
+
+    def __init__(self, kf: BiasTracking) -> None:
+        self.kf = kf
+
+    def reset(self) -> None:
+        self.kf.reset()
+
+    def restart(self) -> None:
+        self.kf.restart()
+
+    @property
+    def bias_rad_s(self) -> np.ndarray | None:
+        return self.kf.bias_rad_s
+
+    def shift_bias(self, delta_rad_s: np.ndarray | float) -> None:
+        self.kf.shift_bias(delta_rad_s)
+
+
 class LabFilterStage:
     """A :class:`TiltFilter` as a pipeline stage: fed the low-passed accelerometer tilt (as
     paper 000 feeds its Kalman filter). Filters without a bias state report none."""

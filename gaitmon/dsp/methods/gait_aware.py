@@ -13,31 +13,19 @@ from typing import ClassVar
 
 import numpy as np
 
-from gaitmon.dsp.methods.base import TiltInput, TiltMethod, TiltSettings, TiltStage
+from gaitmon.dsp.methods.base import KalmanStage, TiltInput, TiltMethod, TiltSettings, TiltStage
 from gaitmon.dsp.motion_kalman import GaitAwareKalman
 
 
-class GaitAwareStage:
+class GaitAwareStage(KalmanStage):
     """GaitAwareKalman fed the raw accelerometer (it judges the motion on it)."""
 
     def __init__(self, kf: GaitAwareKalman) -> None:
-        self.kf = kf
+        super().__init__(kf)
+        self.kf: GaitAwareKalman = kf
 
     def process(self, block: TiltInput, /) -> np.ndarray:
         return self.kf.process(block.acc_x_ms2, block.acc_z_ms2, block.gyro_rad_s)
-
-    def reset(self) -> None:
-        self.kf.reset()
-
-    def restart(self) -> None:
-        self.kf.restart()
-
-    @property
-    def bias_rad_s(self) -> np.ndarray | None:
-        return self.kf.bias_rad_s
-
-    def shift_bias(self, delta_rad_s: np.ndarray | float) -> None:
-        self.kf.shift_bias(delta_rad_s)
 
 
 @dataclass(frozen=True)

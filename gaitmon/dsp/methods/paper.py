@@ -15,6 +15,7 @@ import numpy as np
 
 from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.methods.base import (
+    KalmanStage,
     ParamSpec,
     TiltFilter,
     TiltInput,
@@ -24,27 +25,15 @@ from gaitmon.dsp.methods.base import (
 )
 
 
-class PaperStage:
+class PaperStage(KalmanStage):
     """TiltKalman on the low-passed accelerometer tilt, as paper 000 runs it."""
 
     def __init__(self, kf: TiltKalman) -> None:
-        self.kf = kf
+        super().__init__(kf)
+        self.kf: TiltKalman = kf
 
     def process(self, block: TiltInput, /) -> np.ndarray:
         return self.kf.process(block.acc_tilt_rad, block.gyro_rad_s)
-
-    def reset(self) -> None:
-        self.kf.reset()
-
-    def restart(self) -> None:
-        self.kf.restart()
-
-    @property
-    def bias_rad_s(self) -> np.ndarray | None:
-        return self.kf.bias_rad_s
-
-    def shift_bias(self, delta_rad_s: np.ndarray | float) -> None:
-        self.kf.shift_bias(delta_rad_s)
 
 
 @dataclass(frozen=True)
