@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gaitmon.dsp.methods import DEFAULT_METHOD, get_method, live_names, method_label
+from gaitmon.dsp.methods import DEFAULT_METHOD, get_method, method_label
 
 __all__ = ["DEFAULT_METHOD", "check_method", "estimate_tilt", "method_label"]
 
@@ -26,11 +26,6 @@ __all__ = ["DEFAULT_METHOD", "check_method", "estimate_tilt", "method_label"]
 def check_method(method: str, offline: bool = False) -> None:
     """ValueError unless the app offers ``method`` (and, with ``offline``, its offline pass)."""
     get_method(method, offline, live=True)
-
-
-def offered() -> tuple[str, ...]:
-    """The methods the app offers, the default first."""
-    return live_names()
 
 
 def estimate_tilt(

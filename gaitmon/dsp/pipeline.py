@@ -20,6 +20,8 @@ Per block, in the paper's order:
    (gaitmon.dsp.gyro_events, ~0.75 s behind), each FSR checked against the gyro's strides
    (gaitmon.dsp.fsr_check). Once a sensor is flagged, the events and strides come from the gyro
    from the flag's ``decided_idx`` on (``event_source`` says which), and the flag is reported.
+   Both are event sources of the registry (gaitmon.dsp.events: ``PRIMARY`` "fsr", ``FALLBACK``
+   "foot gyro"), fed a typed :class:`EventInput` per block.
 
 Why gait-aware is the default: on the simulator's truth its joint angles are 3-6x closer than the
 paper's filter (``gaitmon lab accuracy``, README).

@@ -1,10 +1,11 @@
 """The review's Reprocess dialog: the processing settings
-(:class:`gaitmon.ui.dialogs.SettingsDialog`) plus the live tilt filter to replay with,
-gait-aware or the paper's.
+(:class:`gaitmon.ui.dialogs.SettingsDialog`) plus the live tilt filter to replay with, one of
+the app's tilt methods (the registry, gaitmon.dsp.methods: gait-aware or the paper's).
 
 As ``gaitmon process`` refuses ``--q-angle``, ``--q-gyro`` and ``--r`` without ``--method paper``
 (they tune the paper's Kalman filter only and would silently change nothing), the dialog enables
-those fields for the paper's method only and keeps the recorded values otherwise.
+a setting only for the methods that read it (``TiltMethod.reads_settings``) and keeps the
+recorded value otherwise.
 """
 
 from __future__ import annotations
