@@ -37,10 +37,12 @@ from gaitmon.dsp.methods import (
     REGISTRY,
     TiltFilter,
     TiltMethod,
+    feeds_smoother,
     get_method,
     live_names,
     methods,
     register,
+    smoothing_method,
     unregister,
 )
 from gaitmon.dsp.motion_kalman import GaitAwareKalman
@@ -174,6 +176,9 @@ def test_the_registry_lists_the_apps_choices_as_before():
     assert get_method("paper").label == "Kalman (paper, seed 000)"
     assert get_method("gait-aware").label == "gait-aware Kalman"
     assert get_method("gait-aware").offline_label == "gait-aware Kalman + RTS smoother"
+    # the files' smoothed angles are the default's offline pass, fed its causal filter
+    assert smoothing_method().offline_label == "gait-aware Kalman + RTS smoother"
+    assert feeds_smoother("gait-aware") and not feeds_smoother("paper")
     with pytest.raises(ValueError, match="registered already"):
         register(get_method("paper"))
     with pytest.raises(ValueError, match="unknown tilt method"):
