@@ -5,7 +5,8 @@
 primary and fallback sources from the registry, the engine's status names them by it, and
 ``gaitmon lab accuracy`` judges every registered source.
 
-A new source: a file beside these with an :class:`EventSource` subclass, and one line below.
+A new source: a file beside these with an :class:`EventSource` subclass, and one line below
+(and, for the pipeline to take its events from it, its name as ``PRIMARY`` or ``FALLBACK``).
 """
 
 from __future__ import annotations
@@ -22,8 +23,6 @@ from gaitmon.dsp.events.foot_gyro import FootGyro
 from gaitmon.dsp.events.fsr import ForceSensors
 from gaitmon.dsp.events.registry import (
     EVENT_SOURCES,
-    FALLBACK,
-    PRIMARY,
     event_sources,
     get_event_source,
     register_event_source,
@@ -36,6 +35,11 @@ for _source in (
     ForceSensors(),
 ):
     register_event_source(_source)
+
+# where the pipeline takes its events from, and the source it switches to from the row a force
+# sensor is flagged faulty (with PipelineConfig.fsr_check)
+PRIMARY = ForceSensors.name
+FALLBACK = FootGyro.name
 
 __all__ = [
     "EVENT_SOURCES",

@@ -1,16 +1,11 @@
-"""The one list of gait-event sources; the pipeline, the engine's status and the lab read it.
-
-``PRIMARY`` is where the pipeline takes its events from; ``FALLBACK`` the source it switches to
-from the row a force sensor is flagged faulty (with ``PipelineConfig.fsr_check``).
-"""
+"""The one list of gait-event sources; the pipeline, the engine's status and the lab read it
+(gaitmon.dsp.events fills it and names the pipeline's ``PRIMARY`` and ``FALLBACK``)."""
 
 from __future__ import annotations
 
 from gaitmon.dsp.events.base import EventSource
 
 EVENT_SOURCES: dict[str, EventSource] = {}
-PRIMARY = "fsr"
-FALLBACK = "foot gyro"
 
 
 def register_event_source(source: EventSource) -> EventSource:
