@@ -201,11 +201,7 @@ def _tilt_method(session: Session) -> str:
     :mod:`gaitmon.io.session.smoothed`), and the live filter's with the settings it reads."""
     c = session.config
     live = session.angle_method_of("live")
-    if c.tilt_method == "paper":
-        live = (f"{live} ({c.kalman_form} form) Q_angle {c.q_angle:g}, Q_gyro {c.q_gyro:g}, "
-                f"R {c.r:g}")  # fmt: skip
-    else:
-        live = f"{live} (accelerometer weighted by the segment's motion; docs/filters.md)"
+    live = f"{live} {c.method.describe(c)}"  # the method's own words (gaitmon.dsp.methods)
     if session.angle_source == "live":
         return live
     return f"{session.angle_method} (zero-lag, offline); live view: {live}"

@@ -22,7 +22,6 @@ from gaitmon.commands import add_force, add_quiet
 from gaitmon.errors import UserError
 from gaitmon.reprocessing import (
     FSR_MAX_COUNTS,
-    METHODS,
     PAPER_ONLY,
     SETTINGS,
     Reprocessing,
@@ -49,13 +48,18 @@ def add_settings_arguments(p: argparse.ArgumentParser, default: str = "as record
             default=None,
             help=f"{help_text}; default: {default}",
         )
+    from gaitmon.dsp.methods import DEFAULT_METHOD, methods
+
+    offered = methods(live=True)
     p.add_argument(
         "--method",
-        choices=METHODS,
+        choices=tuple(m.name for m in offered),
         default=None,
-        help="tilt filter: gait-aware (default for new recordings) or paper ('Kalman (paper, "
-        f"seed 000)'); default: {default}",
-    )
+        help="tilt filter: " + " or ".join(
+            f"{m.name} (default for new recordings)" if m.name == DEFAULT_METHOD
+            else f"{m.name} ('{m.label}')" for m in offered
+        ) + f"; default: {default}",
+    )  # fmt: skip
 
 
 def reprocessing_from_args(

@@ -5,6 +5,9 @@ segment's tilt by a named method, gaitmon.dsp.estimate), ``gyro_gait_events`` (h
 toe off from the foot gyro, gaitmon.dsp.gyro_events) and ``stride_lengths`` /
 ``stride_measures`` / ``StrideLengthTracker`` (stride length, gait speed and foot clearance from
 the foot IMU, gaitmon.dsp.stride_length).
+
+Tilt methods and gait-event sources are plugins, one class per file, each listed once in its
+registry: gaitmon.dsp.methods and gaitmon.dsp.events.
 """
 
 from __future__ import annotations

@@ -57,6 +57,7 @@ from gaitmon.engine.messages import (
 from gaitmon.engine.recorder import Recorder
 from gaitmon.engine.sensor_checks import SensorChecks
 from gaitmon.engine.snapshot import (
+    EVENTS_GYRO,
     EVENTS_UNIT,
     UNIT_ANGLE_METHOD,
     Mode,
@@ -468,7 +469,7 @@ class Engine:
         if cfg is not None:
             self._pipeline = self._pipeline.successor(cfg)
             with self._lock:
-                self._checks.pipeline_rebuilt(self._pipeline.event_source == "foot gyro")
+                self._checks.pipeline_rebuilt(self._pipeline.event_source == EVENTS_GYRO)
             self._phase_lag = cfg.phase_lag_samples
             st.pipeline_offset = start_idx
             if rec is not None and not (first and cfg is rec.header_config):
@@ -574,6 +575,6 @@ class Engine:
             self._pipeline = self._pipeline.successor(self.config)
             st.pipeline_offset = st.samples
             with self._lock:
-                self._checks.pipeline_rebuilt(self._pipeline.event_source == "foot gyro")
+                self._checks.pipeline_rebuilt(self._pipeline.event_source == EVENTS_GYRO)
             if rec is not None:
                 rec.put(LogConfig(self.config))

@@ -23,7 +23,7 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE, ChannelTable
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import ContactEdges
-from gaitmon.dsp.motion_kalman import GaitAwareKalman
+from gaitmon.dsp.methods import feeds_smoother
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.errors import Cancelled
 from gaitmon.io.journal import (
@@ -106,7 +106,7 @@ def replay_pipeline(
     bounds = sorted(cuts)
     pipeline = Pipeline(config, calibration, table)
     pipeline.flag_fsr_faults(flagged_at_start)
-    first_pass = isinstance(pipeline.kalman, GaitAwareKalman)  # until new settings start
+    first_pass = feeds_smoother(pipeline.method.name)  # until new settings start
     at_start = [(0, 0, f.sensor, f.reason) for f in pipeline.fsr_faults]  # (as seeded)
     base = 0
     k = 0

@@ -42,9 +42,9 @@ ANGLE_SOURCES = ("smoothed", "live")
 
 
 def smoothed_method_label() -> str:
-    from gaitmon.dsp.estimate import DEFAULT_METHOD, method_label
+    from gaitmon.dsp.methods import smoothing_method
 
-    return method_label(DEFAULT_METHOD, offline=True)
+    return str(smoothing_method().offline_label)
 
 
 # Pieces longer than this are smoothed in blocks of it, each with SMOOTH_OVERLAP_ROWS of context

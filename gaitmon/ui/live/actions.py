@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import QMainWindow, QMenu
 
-from gaitmon.dsp.estimate import DEFAULT_METHOD, METHODS
+from gaitmon.dsp.methods import DEFAULT_METHOD, methods
 from gaitmon.engine import Mode
 from gaitmon.ui.actions import make_action
 from gaitmon.ui.plots import METHOD_LABELS
@@ -45,17 +45,12 @@ SHORTCUTS = [
     ("Ctrl+Q", "quit"),
 ]
 
-# the tilt filters the PC pipeline offers (PipelineConfig.tilt_method): key, menu text, tip
+# the tilt filters the PC pipeline offers (PipelineConfig.tilt_method; the method registry,
+# gaitmon.dsp.methods): key, menu text, tip
 TILT_METHODS = tuple(
-    (key, f"{label[0].upper()}{label[1:]}" + (" (default)" if key == DEFAULT_METHOD else ""),
-     tip)
-    for key, label, tip in (
-        ("gait-aware", METHODS["gait-aware"], "Trusts the accelerometer by how much each "
-         "segment moves: 2-3.5x closer to the simulator's truth than the paper's filter "
-         "(docs/filters.md)"),
-        ("paper", METHODS["paper"], "The source paper's Kalman filter exactly as published "
-         "(Q_angle, Q_gyro and R in Settings)"),
-    )
+    (m.name, f"{m.label[0].upper()}{m.label[1:]}" + (" (default)" if m.name == DEFAULT_METHOD
+                                                     else ""), m.tip)
+    for m in methods(live=True)
 )  # fmt: skip
 # the simulated unit's foot-sensor faults: key, menu text, tip
 SIM_FSR_FAULTS = (
