@@ -17,7 +17,9 @@ import pytest
 
 
 @pytest.fixture(scope="module")
-def outputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
+def outputs(tmp_path_factory: pytest.TempPathFactory, qapp: object) -> dict[str, object]:
+    # qapp: ``gaitmon report`` would otherwise make a bare QGuiApplication for the rest of
+    # the run, which the widget tests after this one cannot use
     return golden.collect(tmp_path_factory.mktemp("golden"))
 
 
