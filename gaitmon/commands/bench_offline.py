@@ -184,7 +184,7 @@ def pyarrow_missing() -> str:
 
 def _task(task: str, src: Path, out: Path) -> list[Path]:
     if task in ("csv", "mat", "c3d"):
-        from gaitmon.io.export import export_session
+        from gaitmon.export import export_session
 
         return list(export_session(src, task, out / f"x.{task}", force=True).paths)
     if task == "csv_pyarrow":

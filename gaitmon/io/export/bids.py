@@ -242,7 +242,7 @@ class BidsWriter:
 
 
 def configure(options: Mapping[str, Any] | None) -> BidsWriter:
-    """The writer of one export (registry: a format module with options provides this)."""
+    """The writer of one export (the BIDS plugin, :mod:`gaitmon.export.bids`, asks for it)."""
     return BidsWriter(BidsOptions.from_mapping(options))
 
 
