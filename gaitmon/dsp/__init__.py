@@ -9,6 +9,7 @@ the foot IMU, gaitmon.dsp.stride_length).
 
 from __future__ import annotations
 
+from types import ModuleType
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -21,15 +22,23 @@ def __getattr__(name: str) -> object:
     """A name of the package, imported from its module on first use (PEP 562): a plain
     import here, so the layer test sees the arrow; later lookups find it in the package."""
     if name == "estimate_tilt":
-        from gaitmon.dsp import estimate as module
-    elif name == "gyro_gait_events":
-        from gaitmon.dsp import gyro_events as module
-    elif name in ("stride_lengths", "stride_measures", "StrideLengthTracker"):
-        from gaitmon.dsp import stride_length as module
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        from gaitmon.dsp import estimate
+
+        return _keep(name, estimate)
+    if name == "gyro_gait_events":
+        from gaitmon.dsp import gyro_events
+
+        return _keep(name, gyro_events)
+    if name in ("stride_lengths", "stride_measures", "StrideLengthTracker"):
+        from gaitmon.dsp import stride_length
+
+        return _keep(name, stride_length)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _keep(name: str, module: ModuleType) -> object:
     value = getattr(module, name)
-    globals()[name] = value
+    globals()[name] = value  # found once; later lookups are plain
     return value
 
 

@@ -29,6 +29,7 @@ Importing the package imports none of them (its ``__getattr__``): ``gaitmon info
 without loading the writer, the device link or reprocessing.
 """
 
+from types import ModuleType
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -62,12 +63,18 @@ def __getattr__(name: str) -> object:
     """A name of the package, imported from its module on first use (PEP 562): a plain
     import here, so the layer test sees the arrow; later lookups find it in the package."""
     if name == "journal_path":
-        from gaitmon.io import journal as module
-    elif name == "Exclusion":
-        from gaitmon.io.session import exclusions as module
-    elif name in ("SessionError", "SessionHeader", "SessionMeta", "device_info"):
-        from gaitmon.io.session import header as module
-    elif name in (
+        from gaitmon.io import journal
+
+        return _keep(name, journal)
+    if name == "Exclusion":
+        from gaitmon.io.session import exclusions
+
+        return _keep(name, exclusions)
+    if name in ("SessionError", "SessionHeader", "SessionMeta", "device_info"):
+        from gaitmon.io.session import header
+
+        return _keep(name, header)
+    if name in (
         "ANGLE_CONVENTION",
         "CHUNK_ROWS",
         "FORMAT",
@@ -76,29 +83,45 @@ def __getattr__(name: str) -> object:
         "MODES",
         "per_sample_datasets",
     ):
-        from gaitmon.io.session import layout as module
-    elif name in ("Gap", "Marker", "Session", "open_session"):
-        from gaitmon.io.session import reader as module
-    elif name in (
+        from gaitmon.io.session import layout
+
+        return _keep(name, layout)
+    if name in ("Gap", "Marker", "Session", "open_session"):
+        from gaitmon.io.session import reader
+
+        return _keep(name, reader)
+    if name in (
         "build_session",
         "flagged_at_start",
         "flags_kept",
         "recover_session",
         "replay_pipeline",
     ):
-        from gaitmon.io.session import recovery as module
-    elif name in ("RewriteResult", "rewrite_processed"):
-        from gaitmon.io.session import reprocess as module
-    elif name == "rows_from_pipeline":
-        from gaitmon.io.session import rows as module
-    elif name == "read_truth":
-        from gaitmon.io.session import truth as module
-    elif name == "SessionWriter":
-        from gaitmon.io.session import writer as module
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        from gaitmon.io.session import recovery
+
+        return _keep(name, recovery)
+    if name in ("RewriteResult", "rewrite_processed"):
+        from gaitmon.io.session import reprocess
+
+        return _keep(name, reprocess)
+    if name == "rows_from_pipeline":
+        from gaitmon.io.session import rows
+
+        return _keep(name, rows)
+    if name == "read_truth":
+        from gaitmon.io.session import truth
+
+        return _keep(name, truth)
+    if name == "SessionWriter":
+        from gaitmon.io.session import writer
+
+        return _keep(name, writer)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _keep(name: str, module: ModuleType) -> object:
     value = getattr(module, name)
-    globals()[name] = value
+    globals()[name] = value  # found once; later lookups are plain
     return value
 
 

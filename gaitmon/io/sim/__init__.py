@@ -25,6 +25,7 @@ scipy.
 
 from __future__ import annotations
 
+from types import ModuleType
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -48,18 +49,30 @@ def __getattr__(name: str) -> object:
     """A name of the package, imported from its module on first use (PEP 562): a plain
     import here, so the layer test sees the arrow; later lookups find it in the package."""
     if name in ("SimConfig", "build_unit", "serve_on_pty"):
-        from gaitmon.io.sim import config as module
-    elif name in ("GaitConfig", "GaitModel"):
-        from gaitmon.io.sim import kinematics as module
-    elif name == "PATTERNS":
-        from gaitmon.io.sim import patterns as module
-    elif name in ("SensorConfig", "SensorModel"):
-        from gaitmon.io.sim import sensors as module
-    elif name in ("FaultConfig", "FaultLedger", "GroundTruth", "SimulatedUnit"):
-        from gaitmon.io.sim import unit as module
-    elif name == "SampleClock":
-        from gaitmon.io.sim import clock as module
-    elif name in (
+        from gaitmon.io.sim import config
+
+        return _keep(name, config)
+    if name in ("GaitConfig", "GaitModel"):
+        from gaitmon.io.sim import kinematics
+
+        return _keep(name, kinematics)
+    if name == "PATTERNS":
+        from gaitmon.io.sim import patterns
+
+        return _keep(name, patterns)
+    if name in ("SensorConfig", "SensorModel"):
+        from gaitmon.io.sim import sensors
+
+        return _keep(name, sensors)
+    if name in ("FaultConfig", "FaultLedger", "GroundTruth", "SimulatedUnit"):
+        from gaitmon.io.sim import unit
+
+        return _keep(name, unit)
+    if name == "SampleClock":
+        from gaitmon.io.sim import clock
+
+        return _keep(name, clock)
+    if name in (
         "BilateralConfig",
         "BilateralPty",
         "BilateralSim",
@@ -67,11 +80,15 @@ def __getattr__(name: str) -> object:
         "UnitSpec",
         "serve_pair_on_ptys",
     ):
-        from gaitmon.io.sim import bilateral as module
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        from gaitmon.io.sim import bilateral
+
+        return _keep(name, bilateral)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _keep(name: str, module: ModuleType) -> object:
     value = getattr(module, name)
-    globals()[name] = value
+    globals()[name] = value  # found once; later lookups are plain
     return value
 
 
