@@ -26,7 +26,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("gaitmon.dsp",),
     ("gaitmon.io",),
     ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative", "gaitmon.reprocessing"),
-    ("gaitmon.report", "gaitmon.report_bilateral", "gaitmon.export", "gaitmon.compare",
+    ("gaitmon.report", "gaitmon.report_content", "gaitmon.export", "gaitmon.compare",
      "gaitmon.live", "gaitmon.review", "gaitmon.lab", "gaitmon.batch", "gaitmon.lsl"),
     ("gaitmon.ui",),
     ("gaitmon.commands", "gaitmon.cli", "gaitmon.__main__"),
