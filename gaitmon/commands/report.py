@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"normative band: {exc}") from None
     try:
         with damaged_file_guard(args.file):  # one leg, or both legs of a two-leg file
-            data: Any = units_report_from_file(
+            data = units_report_from_file(
                 args.file, deidentify=args.deidentify, normative=normative, side=args.side
             )
     except SessionError as exc:
