@@ -723,7 +723,7 @@ def test_cancel_that_never_fires_changes_nothing(tmp_path):
 def test_listing_the_formats_loads_no_format_module():
     """The command-line parser reads FORMATS; that must not import numpy or a writer."""
     code = ("import sys, gaitmon.export as e;"
-            "assert list(e.FORMATS) == ['csv', 'mat', 'c3d', 'strides', 'bids'];"
+            "assert set(e.FORMATS) >= {'csv', 'mat', 'c3d', 'strides', 'bids'};"
             "print(sorted(m for m in sys.modules if m in ('numpy', 'scipy', 'ezc3d')"
             " or m.startswith('h5py') or m.startswith('gaitmon.analysis')"
             " or m.startswith('gaitmon.io.export.') and m.rsplit('.', 1)[1] in e.FORMATS))")
