@@ -19,7 +19,6 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format, output_name
 from gaitmon.export.registry import FORMATS
@@ -72,7 +71,7 @@ def export_session(
     cancel: Cancel | None = None,
     chunk_rows: int | None = None,
     angles: str = "smoothed",
-    options: Mapping[str, Any] | None = None,
+    options: Mapping[str, object] | None = None,
     side: str | None = None,
 ) -> ExportResult:
     """Export one session file; returns the files written. Raises ExportError (one line).

@@ -16,7 +16,7 @@ import secrets
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from gaitmon.io.export.deidentify import DEIDENTIFIED_STEM
 from gaitmon.io.export.errors import Cancel, ExportError, Progress
@@ -49,7 +49,7 @@ class ExportRequest:
     cancel: Cancel | None
     chunk_rows: int | None
     angles: str
-    options: Mapping[str, Any] | None
+    options: Mapping[str, object] | None
     # the session's units to export: (None,) a one-leg file, ("L",) one leg of a two-leg
     # file, ("L", "R") both legs
     units: tuple[str | None, ...] = (None,)
@@ -97,7 +97,7 @@ class Format:
     def check_available(self) -> None:
         """Raise ExportError if an optional package the writer needs is not installed."""
 
-    def unit_writer(self, options: Mapping[str, Any] | None) -> FormatWriter:
+    def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
         """The writer of one unit for one export (a fresh one: it may keep its plan)."""
         raise NotImplementedError
 
@@ -113,7 +113,7 @@ class Format:
         raise ExportError(f"{self.name.upper()} export cannot write a session of both legs; "
                           "export each leg with --side L or R")  # fmt: skip
 
-    def no_options(self, options: Mapping[str, Any] | None) -> None:
+    def no_options(self, options: Mapping[str, object] | None) -> None:
         """Refuse options for a format that takes none."""
         if options:
             raise ExportError(f"{self.name.upper()} export takes no options ({', '.join(options)})")

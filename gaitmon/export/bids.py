@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class BidsFormat(Format):
-    def unit_writer(self, options: Mapping[str, Any] | None) -> FormatWriter:
+    def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
         from gaitmon.io.export.bids import configure
 
         return configure(options)

@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format, write_atomic
 from gaitmon.io.export.errors import step
@@ -32,7 +32,7 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class C3dFormat(Format):
-    def unit_writer(self, options: Mapping[str, Any] | None) -> FormatWriter:
+    def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
         from gaitmon.io.export import c3d
 
         self.no_options(options)

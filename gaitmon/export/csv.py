@@ -16,7 +16,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format, export_unit, write_atomic
 from gaitmon.io.export.errors import step
@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class CsvFormat(Format):
-    def unit_writer(self, options: Mapping[str, Any] | None) -> FormatWriter:
+    def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
         from gaitmon.io.export import csv
 
         self.no_options(options)

@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class MatFormat(Format):
-    def unit_writer(self, options: Mapping[str, Any] | None) -> FormatWriter:
+    def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
         from gaitmon.io.export import mat
 
         self.no_options(options)

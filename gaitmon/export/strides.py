@@ -17,7 +17,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format
 from gaitmon.export.csv import export_legs_and_tables
@@ -73,7 +73,7 @@ class StridesWriter:
 
 @dataclass(frozen=True)
 class StridesFormat(Format):
-    def unit_writer(self, options: Mapping[str, Any] | None) -> FormatWriter:
+    def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
         self.no_options(options)
         return StridesWriter()
 

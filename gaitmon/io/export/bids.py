@@ -241,7 +241,7 @@ class BidsWriter:
             write_text(tmp[names.root / "README"], README_TEXT)
 
 
-def configure(options: Mapping[str, Any] | None) -> BidsWriter:
+def configure(options: Mapping[str, object] | None) -> BidsWriter:
     """The writer of one export (the BIDS plugin, :mod:`gaitmon.export.bids`, asks for it)."""
     return BidsWriter(BidsOptions.from_mapping(options))
 
