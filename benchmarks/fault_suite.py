@@ -499,7 +499,7 @@ def row_damaged(quick: bool, corpus_module: str | None) -> list[Row]:
             )
         ]
     from gaitmon.cli import main
-    from gaitmon.io.export import FORMATS
+    from gaitmon.export import FORMATS
 
     hang_s = 120.0
     with tempfile.TemporaryDirectory() as d:

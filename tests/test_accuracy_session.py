@@ -105,7 +105,7 @@ def test_export_writes_the_smoothed_angles_by_default_and_names_them(walk, tmp_p
     import csv
     import json
 
-    from gaitmon.io.export import export_session
+    from gaitmon.export import export_session
 
     def knee(angles):
         out = tmp_path / f"{angles}.csv"

@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 from test_export import FS, LOST_AT, N_LOST, OPERATOR, PATIENT, write_session
 
+from gaitmon import export as ex
 from gaitmon.cli import main
-from gaitmon.io import export as ex
 
 # BIDS schema rules/entities.yaml: the order entities appear in a file name (the ones used here)
 ENTITY_ORDER = ("sub", "ses", "task", "tracksys", "acq", "run")

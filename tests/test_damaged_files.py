@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from gaitmon.cli import main
-from gaitmon.io.export import FORMATS
+from gaitmon.export import FORMATS
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))

@@ -91,7 +91,7 @@ def test_info_report_and_export_honour_the_exclusions_made_in_review(walk, capsy
         sp.write_text("{not json", encoding="utf-8")
         text = _info(capsys, walk)
         assert f"  strides      {before} included" in text and "unreadable" in text
-        from gaitmon.io.export import export_session
+        from gaitmon.export import export_session
 
         res = export_session(walk, "csv", tmp_path / "damaged.csv")
         assert any("unreadable" in p for p in res.problems)  # said, not silently dropped

@@ -332,7 +332,7 @@ def test_cli_errors_are_one_line(qapp, session: Path, tmp_path: Path, capsys) ->
 def test_report_content_modules_are_qt_free() -> None:
     code = (
         "import sys, gaitmon.report, gaitmon.normative, gaitmon.commands.report, "
-        "gaitmon.report_bilateral\n"
+        "gaitmon.report_content\n"
         "print([m for m in ('PySide6', 'pyqtgraph', 'shiboken6') if m in sys.modules])\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -20,7 +20,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtGui import QImage
 
 from gaitmon.dsp.lab_filters import TILT_FILTERS, make_tilt_filter
-from gaitmon.io.export import export_session
+from gaitmon.export import export_session
 from gaitmon.io.session import open_session
 
 PATIENT = "P-0042"
@@ -178,7 +178,7 @@ def _export_bids(qtbot, dlg, out: Path):
 
 def test_export_dialog_deidentify_defaults_agree_with_the_command_line(qtbot, session) -> None:
     from gaitmon.cli import build_parser
-    from gaitmon.io.export import FORMATS
+    from gaitmon.export import FORMATS
 
     dlg = _dialog(qtbot, session)
     assert set(CLI_DEIDENTIFY_DEFAULT) == set(FORMATS)

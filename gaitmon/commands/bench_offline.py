@@ -184,7 +184,7 @@ def pyarrow_missing() -> str:
 
 def _task(task: str, src: Path, out: Path) -> list[Path]:
     if task in ("csv", "mat", "c3d"):
-        from gaitmon.io.export import export_session
+        from gaitmon.export import export_session
 
         return list(export_session(src, task, out / f"x.{task}", force=True).paths)
     if task == "csv_pyarrow":
@@ -207,16 +207,17 @@ def _task(task: str, src: Path, out: Path) -> list[Path]:
         import contextlib
         import io
 
-        from gaitmon.cli import main
+        from gaitmon.commands import info, run_command
 
         with contextlib.redirect_stdout(io.StringIO()):
-            if main(["info", str(src)]) != 0:
+            if run_command(info.add_arguments, info.run, [str(src)]) != 0:
                 raise SystemExit(1)
         return []
     if task == "report":
-        from gaitmon.cli import main
+        from gaitmon.commands import report, run_command
 
-        if main(["report", str(src), "-o", str(out / "r.pdf"), "--force"]) != 0:
+        if run_command(report.add_arguments, report.run,
+                       [str(src), "-o", str(out / "r.pdf"), "--force"]) != 0:
             raise SystemExit(1)
         return [out / "r.pdf"]
     raise SystemExit(f"unknown task {task}")

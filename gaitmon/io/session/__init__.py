@@ -25,13 +25,12 @@ package:
   ``FILE.review.json`` (analysis state: the recording itself is never modified);
 * :mod:`.deidentify` - a de-identified copy of a session file (``gaitmon batch --deidentify``).
 
-Importing the package imports none of them (:mod:`gaitmon.lazy`): ``gaitmon info`` reads a file
+Importing the package imports none of them (its ``__getattr__``): ``gaitmon info`` reads a file
 without loading the writer, the device link or reprocessing.
 """
 
+from types import ModuleType
 from typing import TYPE_CHECKING
-
-from gaitmon.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from gaitmon.io.journal import journal_path
@@ -59,35 +58,72 @@ if TYPE_CHECKING:
     from gaitmon.io.session.truth import read_truth
     from gaitmon.io.session.writer import SessionWriter
 
-__getattr__ = lazy_exports(__name__, {
-    "journal_path": "gaitmon.io.journal",
-    "Exclusion": "exclusions",
-    "SessionError": "header",
-    "SessionHeader": "header",
-    "SessionMeta": "header",
-    "device_info": "header",
-    "ANGLE_CONVENTION": "layout",
-    "CHUNK_ROWS": "layout",
-    "FORMAT": "layout",
-    "FORMAT_VERSION": "layout",
-    "LINK_TOTALS": "layout",
-    "MODES": "layout",
-    "per_sample_datasets": "layout",
-    "Gap": "reader",
-    "Marker": "reader",
-    "Session": "reader",
-    "open_session": "reader",
-    "build_session": "recovery",
-    "flagged_at_start": "recovery",
-    "flags_kept": "recovery",
-    "recover_session": "recovery",
-    "replay_pipeline": "recovery",
-    "RewriteResult": "reprocess",
-    "rewrite_processed": "reprocess",
-    "rows_from_pipeline": "rows",
-    "read_truth": "truth",
-    "SessionWriter": "writer",
-})  # fmt: skip
+
+def __getattr__(name: str) -> object:
+    """A name of the package, imported from its module on first use (PEP 562): a plain
+    import here, so the layer test sees the arrow; later lookups find it in the package."""
+    if name == "journal_path":
+        from gaitmon.io import journal
+
+        return _keep(name, journal)
+    if name == "Exclusion":
+        from gaitmon.io.session import exclusions
+
+        return _keep(name, exclusions)
+    if name in ("SessionError", "SessionHeader", "SessionMeta", "device_info"):
+        from gaitmon.io.session import header
+
+        return _keep(name, header)
+    if name in (
+        "ANGLE_CONVENTION",
+        "CHUNK_ROWS",
+        "FORMAT",
+        "FORMAT_VERSION",
+        "LINK_TOTALS",
+        "MODES",
+        "per_sample_datasets",
+    ):
+        from gaitmon.io.session import layout
+
+        return _keep(name, layout)
+    if name in ("Gap", "Marker", "Session", "open_session"):
+        from gaitmon.io.session import reader
+
+        return _keep(name, reader)
+    if name in (
+        "build_session",
+        "flagged_at_start",
+        "flags_kept",
+        "recover_session",
+        "replay_pipeline",
+    ):
+        from gaitmon.io.session import recovery
+
+        return _keep(name, recovery)
+    if name in ("RewriteResult", "rewrite_processed"):
+        from gaitmon.io.session import reprocess
+
+        return _keep(name, reprocess)
+    if name == "rows_from_pipeline":
+        from gaitmon.io.session import rows
+
+        return _keep(name, rows)
+    if name == "read_truth":
+        from gaitmon.io.session import truth
+
+        return _keep(name, truth)
+    if name == "SessionWriter":
+        from gaitmon.io.session import writer
+
+        return _keep(name, writer)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _keep(name: str, module: ModuleType) -> object:
+    value = getattr(module, name)
+    globals()[name] = value  # found once; later lookups are plain
+    return value
+
 
 __all__ = [
     "ANGLE_CONVENTION",

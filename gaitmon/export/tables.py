@@ -1,4 +1,4 @@
-"""The bilateral tables every export of both legs writes: one row per heel strike, and symmetry.
+"""The two-leg tables every export of both legs writes: one row per heel strike, and symmetry.
 
 Every number comes from :func:`gaitmon.analysis.analyse_bilateral` (the one analysis ``gaitmon
 info`` prints): the heel strikes' common times, the rows that count, the symmetry table and the

@@ -1,40 +1,50 @@
-"""C3D of both legs: one file, both units on one frame grid on the common time line.
+"""The C3D format: angles as POINTs, raw channels as ANALOGs, gait events as EVENTs (the
+one-unit writer: :mod:`gaitmon.io.export.c3d`); both legs in one file on one frame grid.
 
-Points and analogs are each unit's, as the one-leg C3D has them, named with their side as
-Plug-in Gait does (``LKneeAngles``, ``RKneeAngles``; the trunk ``LBodyTilt`` / ``RBodyTilt``:
-each unit has its own trunk sensor; analogs ``L_<channel>``, ``R_<channel>``), resampled onto
-the common grid (:mod:`.grid`). Heel strikes and toe offs are ``Foot Strike`` / ``Foot Off``
-events in the ``Left`` / ``Right`` contexts (as Vicon Nexus and pyCGM2 read them), at their
-exact common times (``analyse_bilateral``'s); clinician markers in ``General``. Parts as the
-one-leg C3D (600 s, 255 events).
+For both legs, points and analogs are each unit's, as the one-unit C3D has them, named with
+their side as Plug-in Gait does (``LKneeAngles``, ``RKneeAngles``; the trunk ``LBodyTilt`` /
+``RBodyTilt``: each unit has its own trunk sensor; analogs ``L_<channel>``, ``R_<channel>``),
+resampled onto the common grid (:mod:`.grid`). Heel strikes and toe offs are ``Foot Strike`` /
+``Foot Off`` events in the ``Left`` / ``Right`` contexts (as Vicon Nexus and pyCGM2 read
+them), at their exact common times (``analyse_bilateral``'s); clinician markers in
+``General``. Parts as the one-unit C3D (600 s, 255 events).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from gaitmon.bilateral_export.grid import CommonGrid, grid_of, on_grid
-from gaitmon.bilateral_export.job import Job, analysed, leg_sources, write_atomic
-from gaitmon.io.export import ExportResult, c3d_part_path
-from gaitmon.io.export.c3d import (
-    device_text,
-    leg_analogs,
-    leg_points,
-    part_frames,
-    put_analogs,
-    put_events,
-    put_gaitmon,
-    put_points,
-    split_parts,
-    write_c3d_parts,
-)
-from gaitmon.io.export.c3d_file import C3dSpec
-from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
+from gaitmon.export.base import ExportRequest, ExportResult, Format, write_atomic
 from gaitmon.io.export.errors import step
-from gaitmon.io.export.source import Source, as_text, markers
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from gaitmon.export.grid import CommonGrid
+    from gaitmon.io.export.c3d_file import C3dSpec
+    from gaitmon.io.export.deidentify import Scrubber
+    from gaitmon.io.export.source import Source
+    from gaitmon.io.export.writer import FormatWriter
+
+
+@dataclass(frozen=True)
+class C3dFormat(Format):
+    def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
+        from gaitmon.io.export import c3d
+
+        self.no_options(options)
+        return c3d
+
+    def export_units(self, request: ExportRequest) -> ExportResult:
+        return export_c3d(request)
+
+
+# ezc3d adds ".c3d" to a temporary name not ending in it
+C3D = C3dFormat("c3d", ".c3d", "C3D (Mokka, Nexus, btk; angles as points, events)",
+                temp_suffix=".c3d")
 
 CONTEXT = {"L": "Left", "R": "Right"}
 # (common time s, context, label, description, icon id) of one event
@@ -44,6 +54,8 @@ Event = tuple[float, str, str, str, int]
 def events(an_hs: dict[str, np.ndarray], an_to: dict[str, np.ndarray], grid: CommonGrid,
            srcs: dict[str, Source], scrub: Scrubber) -> list[Event]:
     """Both legs' gait events and the markers, by time (strikes before offs at one time)."""
+    from gaitmon.io.export.source import markers
+
     out: list[Event] = []
     for side in ("L", "R"):
         out += [(float(t), CONTEXT[side], "Foot Strike", "heel strike", 1) for t in an_hs[side]]
@@ -60,8 +72,25 @@ def events(an_hs: dict[str, np.ndarray], an_to: dict[str, np.ndarray], grid: Com
     return sorted(out, key=lambda e: e[0])
 
 
-def _part_spec(job: Job, grid: CommonGrid, srcs: dict[str, Source], part: tuple[int, int],
-               part_no: int, n_parts: int, evs: list[Event], scrub: Scrubber) -> C3dSpec:
+def _part_spec(job: ExportRequest, grid: CommonGrid, srcs: dict[str, Source],
+               part: tuple[int, int], part_no: int, n_parts: int, evs: list[Event],
+               scrub: Scrubber) -> C3dSpec:
+    import numpy as np
+
+    from gaitmon.export.grid import on_grid
+    from gaitmon.io.export.c3d import (
+        device_text,
+        leg_analogs,
+        leg_points,
+        put_analogs,
+        put_events,
+        put_gaitmon,
+        put_points,
+    )
+    from gaitmon.io.export.c3d_file import C3dSpec
+    from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS
+    from gaitmon.io.export.source import as_text
+
     f0, f1 = part
     nf = f1 - f0
     fs = grid.fs_hz
@@ -90,7 +119,16 @@ def _part_spec(job: Job, grid: CommonGrid, srcs: dict[str, Source], part: tuple[
     return c
 
 
-def export_c3d(job: Job) -> ExportResult:
+def export_c3d(job: ExportRequest) -> ExportResult:
+    """One file (or its parts) of both legs on the common grid."""
+    import numpy as np
+
+    from gaitmon.export.grid import grid_of
+    from gaitmon.export.legs import analysed, leg_sources
+    from gaitmon.io.export.c3d import part_frames, split_parts, write_c3d_parts
+    from gaitmon.io.export.deidentify import Scrubber
+    from gaitmon.io.export.outputs import c3d_part_path
+
     with analysed(job) as (b, an, _), leg_sources(job) as srcs:
         grid = grid_of(b, srcs)
         scrub = Scrubber(srcs["L"].group_attrs("session"), job.deidentify)

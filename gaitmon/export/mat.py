@@ -1,6 +1,7 @@
-"""MAT of both legs: one v5 file with the structs ``L``, ``R`` and ``bilateral``.
+"""The MATLAB format: one v5 file with the struct ``session`` for one unit (the writer:
+:mod:`gaitmon.io.export.mat`); for both legs the structs ``L``, ``R`` and ``bilateral``.
 
-``L`` and ``R`` are each the one-leg export's ``session`` struct (built and streamed by
+``L`` and ``R`` are each the one-unit export's ``session`` struct (built and streamed by
 :mod:`gaitmon.io.export.mat`), with ``t_common_s``, every row's time on the session's common
 time line, and ``events.heel_strike_t_common_s`` / ``toe_off_t_common_s``. ``bilateral`` holds
 the per-heel-strike table (``heel_strikes``, one field a column, ``unit_row_idx`` 1-based),
@@ -11,31 +12,53 @@ common time line's clock figures.
 from __future__ import annotations
 
 import io
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from gaitmon.bilateral_export.job import Job, analysed, leg_sources, meta_header, write_atomic
-from gaitmon.bilateral_export.tables import (
-    HEEL_STRIKE_COLUMNS,
-    PCT_MEASURES,
-    SYMMETRY_COLUMNS,
-    TIME_MEASURES,
-    BilateralTables,
-)
-from gaitmon.io.export import ExportResult
-from gaitmon.io.export.deidentify import Scrubber
+from gaitmon.export.base import ExportRequest, ExportResult, Format, write_atomic
 from gaitmon.io.export.errors import step
-from gaitmon.io.export.mat import mat_cell, mat_value, session_struct, write_struct
-from gaitmon.io.export.source import json_safe
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from gaitmon.export.tables import BilateralTables
+    from gaitmon.io.export.writer import FormatWriter
+
+
+@dataclass(frozen=True)
+class MatFormat(Format):
+    def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
+        from gaitmon.io.export import mat
+
+        self.no_options(options)
+        return mat
+
+    def export_units(self, request: ExportRequest) -> ExportResult:
+        return export_mat(request)
+
+
+MAT = MatFormat("mat", ".mat", "MATLAB .mat (struct 'session', 1-based indices)")
 
 
 def _column(v: Any) -> np.ndarray:
+    import numpy as np
+
     return np.asarray(v, np.float64).reshape(-1, 1)
 
 
 def bilateral_struct(tables: BilateralTables, head: dict[str, Any]) -> dict[str, Any]:
+    """The ``bilateral`` struct: the two-leg tables, their columns and the time line."""
+    from gaitmon.export.tables import (
+        HEEL_STRIKE_COLUMNS,
+        PCT_MEASURES,
+        SYMMETRY_COLUMNS,
+        TIME_MEASURES,
+    )
+    from gaitmon.io.export.mat import mat_cell, mat_value
+    from gaitmon.io.export.source import json_safe
+
     t = tables.heel_strikes
     hs: dict[str, Any] = {
         "side": mat_cell([str(s) for s in t.side]),
@@ -74,8 +97,14 @@ def bilateral_struct(tables: BilateralTables, head: dict[str, Any]) -> dict[str,
     }
 
 
-def export_mat(job: Job) -> ExportResult:
+def export_mat(job: ExportRequest) -> ExportResult:
+    """One file with the structs ``L``, ``R`` and ``bilateral``."""
+    import numpy as np
     from scipy.io import savemat
+
+    from gaitmon.export.legs import analysed, leg_sources, meta_header
+    from gaitmon.io.export.deidentify import Scrubber
+    from gaitmon.io.export.mat import session_struct, write_struct
 
     with analysed(job) as (b, _, tables), leg_sources(job) as srcs:
         def write(tmps: list[Path]) -> None:

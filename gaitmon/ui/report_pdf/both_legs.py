@@ -1,5 +1,5 @@
-"""The bilateral report on A4 pages: both legs of one session (``gaitmon report FILE`` of a
-bilateral file, without ``--side``).
+"""The report renderer's two-leg section: the report of both legs of one session on A4 pages
+(``gaitmon report FILE`` of a two-leg file, without ``--side``).
 
 Page 1: the title and header, the three cycle plots with the left and right legs' mean ± SD
 on the same axes (the one-leg report's plot, :func:`~gaitmon.ui.report_pdf.cycle_plot.
@@ -7,7 +7,8 @@ draw_cycles`, given two curve sets) and a legend, the symmetry table with the me
 and each leg's stride counts, and each leg's summary side by side. Then, flowing onto further
 pages as the one-leg report does: session notes, each leg's data quality (gaps, losses,
 exclusions), markers, settings and conventions, the clinician's comments. Content from
-:mod:`gaitmon.report_bilateral` (Qt-free); this module only lays it out.
+:mod:`gaitmon.report` (Qt-free; its types in :mod:`gaitmon.report_content`); this module only
+lays it out.
 
 Left and right are the live view's orange and purple (``gaitmon.ui.theme.side_colours``, its
 light theme): neither is one of the paper's trace colours (red, green, blue), and the pair stays
@@ -23,7 +24,7 @@ from pathlib import Path
 from PySide6.QtGui import QColor, QImage, QPaintDevice, QPainter
 
 from gaitmon.normative import CAVEAT
-from gaitmon.report_bilateral import (
+from gaitmon.report_content import (
     MAX_FAINT_PER_SIDE,
     SIDE_NAMES,
     TABLE_HEADER,

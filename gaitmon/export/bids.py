@@ -1,52 +1,53 @@
-"""BIDS of both legs: one Motion-BIDS recording with two tracking systems, on one time line.
+"""The BIDS format: a session as one recording of a Motion-BIDS dataset (the one-unit writer:
+:mod:`gaitmon.io.export.bids`); both legs as one recording with two tracking systems.
 
-Each unit is a tracking system, ``tracksys-imuL`` and ``tracksys-imuR``, with its own
-``_motion.tsv``, ``_channels.tsv`` and ``_motion.json`` (the one-leg export's channels and
-sidecar). Both ``_motion.tsv`` are on the common grid (:mod:`.grid`): row k of either is common
-time k / SamplingFrequency, so a row of one is the same instant as that row of the other. One
-``_events.tsv`` (no tracksys entity: it belongs to both) holds both legs' heel strikes and toe
-offs at their common times (``analyse_bilateral``'s), markers, and each leg's gaps, with a
-``side`` column.
+For both legs, each unit is a tracking system, ``tracksys-imuL`` and ``tracksys-imuR``, with
+its own ``_motion.tsv``, ``_channels.tsv`` and ``_motion.json`` (the one-unit export's channels
+and sidecar). Both ``_motion.tsv`` are on the common grid (:mod:`.grid`): row k of either is
+common time k / SamplingFrequency, so a row of one is the same instant as that row of the
+other. One ``_events.tsv`` (no tracksys entity: it belongs to both) holds both legs' heel
+strikes and toe offs at their common times (``analyse_bilateral``'s), markers, and each leg's
+gaps, with a ``side`` column.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from gaitmon.bilateral_export.grid import CommonGrid, LegOnGrid, grid_of, on_grid
-from gaitmon.bilateral_export.job import Job, analysed, leg_sources, meta_header, write_atomic
-from gaitmon.io.export import ExportResult
-from gaitmon.io.export.bids import (
-    EVENTS_JSON,
-    NA,
-    README_TEXT,
-    TSV_CHUNK_FRAMES,
-    Names,
-    acq_time,
-    channels,
-    channels_tsv,
-    dataset_description,
-    merge_tsv,
-    motion_sidecar,
-    tsv_cell,
-    write_grid_tsv,
-    write_json,
-    write_text,
-)
-from gaitmon.io.export.bids_labels import BidsOptions
-from gaitmon.io.export.deidentify import Scrubber
+from gaitmon.export.base import ExportRequest, ExportResult, Format, write_atomic
 from gaitmon.io.export.errors import ExportError, step
-from gaitmon.io.export.outputs import make_folders
-from gaitmon.io.export.source import Source, as_text, gaps, json_safe, markers
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from gaitmon.export.grid import CommonGrid, LegOnGrid
+    from gaitmon.io.export.bids import Names
+    from gaitmon.io.export.deidentify import Scrubber
+    from gaitmon.io.export.source import Source
+    from gaitmon.io.export.writer import FormatWriter
+
+
+@dataclass(frozen=True)
+class BidsFormat(Format):
+    def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
+        from gaitmon.io.export.bids import configure
+
+        return configure(options)
+
+    def export_units(self, request: ExportRequest) -> ExportResult:
+        return export_bids(request)
+
+
+BIDS = BidsFormat("bids", "", "BIDS motion dataset folder (Motion-BIDS; de-identified by "
+                  "default)", folder=True, deidentify_default=True)
 
 TRACKSYS = {"L": "imuL", "R": "imuR"}
 EVENTS_COLUMNS = ("onset", "duration", "trial_type", "sample", "side", "label")
-EVENTS_JSON_BOTH: dict[str, Any] = {
-    **EVENTS_JSON,
+EVENTS_JSON_BOTH: dict[str, Any] = {  # beside the one-unit export's EVENTS_JSON
     "onset": {"Description": "time of the event on the session's common time line, from row "
                              "0 of both _motion.tsv files", "Units": "s"},
     "sample": {"Description": "0-based row of both _motion.tsv files nearest the onset (first "
@@ -69,6 +70,9 @@ Event = tuple[float, float, str, int | None, str, str]
 
 def _events(grid: CommonGrid, an_hs: dict[str, np.ndarray], an_to: dict[str, np.ndarray],
             srcs: dict[str, Source], scrub: Scrubber) -> list[Event]:
+    from gaitmon.io.export.bids import NA, tsv_cell
+    from gaitmon.io.export.source import markers
+
     out: list[Event] = []
     for side in ("L", "R"):
         for kind, times in (("heel_strike", an_hs[side]), ("toe_off", an_to[side])):
@@ -91,6 +95,9 @@ def _events(grid: CommonGrid, an_hs: dict[str, np.ndarray], an_to: dict[str, np.
 
 def _gaps(leg: LegOnGrid, src: Source, scrub: Scrubber, grid: CommonGrid) -> list[Event]:
     """A leg's gaps inside its recording: the n/a rows between the rows around them."""
+    from gaitmon.io.export.bids import tsv_cell
+    from gaitmon.io.export.source import gaps
+
     c = leg.common_s
     out: list[Event] = []
     for g in gaps(src, scrub):
@@ -104,6 +111,8 @@ def _gaps(leg: LegOnGrid, src: Source, scrub: Scrubber, grid: CommonGrid) -> lis
 
 
 def _events_tsv(evs: list[Event]) -> str:
+    from gaitmon.io.export.bids import NA
+
     rows = ["\t".join(EVENTS_COLUMNS)]
     for e in evs:
         rows.append("\t".join((f"{e[0]:.6f}", f"{e[1]:.6f}", e[2],
@@ -111,7 +120,29 @@ def _events_tsv(evs: list[Event]) -> str:
     return "\n".join(rows) + "\n"
 
 
-def export_bids(job: Job) -> ExportResult:
+def export_bids(job: ExportRequest) -> ExportResult:
+    """One recording with two tracking systems on the common grid."""
+    from gaitmon.export.grid import grid_of, on_grid
+    from gaitmon.export.legs import analysed, leg_sources, meta_header
+    from gaitmon.io.export.bids import (
+        EVENTS_JSON,
+        README_TEXT,
+        TSV_CHUNK_FRAMES,
+        Names,
+        acq_time,
+        channels,
+        channels_tsv,
+        dataset_description,
+        merge_tsv,
+        write_grid_tsv,
+        write_json,
+        write_text,
+    )
+    from gaitmon.io.export.bids_labels import BidsOptions
+    from gaitmon.io.export.deidentify import Scrubber
+    from gaitmon.io.export.outputs import make_folders
+    from gaitmon.io.export.source import as_text
+
     options = BidsOptions.from_mapping(job.options)
     with analysed(job) as (b, an, _), leg_sources(job) as srcs:
         grid = grid_of(b, srcs)
@@ -149,7 +180,7 @@ def export_bids(job: Job) -> ExportResult:
                 write_json(sidecar, _sidecar(src, chans[side], grid, leg, scrub, names, head))
             write_text(tmp[names.motion("events.tsv", None)],
                        _events_tsv(_events(grid, an.heel_strike_s, an.toe_off_s, srcs, scrub)))
-            write_json(tmp[names.motion("events.json", None)], EVENTS_JSON_BOTH)
+            write_json(tmp[names.motion("events.json", None)], {**EVENTS_JSON, **EVENTS_JSON_BOTH})
             if dated:
                 rows = [{"filename": per_leg[s][0].relative_to(names.folder).as_posix(),
                          "acq_time": dated} for s in srcs]  # fmt: skip
@@ -173,6 +204,11 @@ def export_bids(job: Job) -> ExportResult:
 def _sidecar(src: Source, chans: list[Any], grid: CommonGrid, leg: LegOnGrid, scrub: Scrubber,
              names: Names, head: dict[str, Any]) -> dict[str, Any]:
     """The one-leg sidecar, for this tracking system on the common grid."""
+    import numpy as np
+
+    from gaitmon.io.export.bids import NA, motion_sidecar
+    from gaitmon.io.export.source import json_safe
+
     have = np.isfinite(leg.resample(np.ones((len(leg.common_s), 1)), 0, 0, grid.n_frames))[:, 0]
     frames = np.flatnonzero(have)
     side = motion_sidecar(src, chans, grid.n_frames, frames, scrub, names.task)

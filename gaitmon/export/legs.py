@@ -1,33 +1,28 @@
-"""One export of both legs (:class:`Job`, the request), and what every format shares: the
-session opened and analysed, each leg as the one-leg exporters read it, atomic writing, and
-the side files' header."""
+"""What the exports of a session of both legs share: the session opened as both legs and
+analysed (its two-leg tables, :mod:`.tables`), each leg as the one-unit writers read it, and
+the header of the two-leg side files (the common time line)."""
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator
-from pathlib import Path
+from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
-from gaitmon.io.export import ExportError, ExportRequest
-from gaitmon.io.export.registry import FORMATS
+from gaitmon.export.base import ExportRequest
+from gaitmon.io.export.errors import ExportError
 
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis
-    from gaitmon.bilateral_export.tables import BilateralTables
+    from gaitmon.export.tables import BilateralTables
     from gaitmon.io.export.source import Source
     from gaitmon.io.session.bilateral import Bilateral
 
 
-# one export of both legs, as export_session resolved it
-Job = ExportRequest
-
-
 @contextlib.contextmanager
-def analysed(job: Job) -> Iterator[tuple[Bilateral, BilateralAnalysis, BilateralTables]]:
+def analysed(job: ExportRequest) -> Iterator[tuple[Bilateral, BilateralAnalysis, BilateralTables]]:
     """The session opened as both legs, its analysis and its tables."""
     from gaitmon.analysis import analyse_bilateral
-    from gaitmon.bilateral_export.tables import bilateral_tables
+    from gaitmon.export.tables import bilateral_tables
     from gaitmon.io.session import SessionError
     from gaitmon.io.session.bilateral import open_bilateral
 
@@ -43,7 +38,7 @@ def analysed(job: Job) -> Iterator[tuple[Bilateral, BilateralAnalysis, Bilateral
 
 
 @contextlib.contextmanager
-def leg_sources(job: Job) -> Iterator[dict[str, Source]]:
+def leg_sources(job: ExportRequest) -> Iterator[dict[str, Source]]:
     """Each leg as the one-leg exporters read it (angles as asked; host clock from 0 when
     de-identified, as ``export_session`` does)."""
     from gaitmon.io.export.source import open_source
@@ -57,32 +52,7 @@ def leg_sources(job: Job) -> Iterator[dict[str, Source]]:
         yield srcs
 
 
-def write_atomic(job: Job, finals: list[Path], write: Callable[[list[Path]], None],
-                 folders: list[Path] | None = None, shared: frozenset[Path] = frozenset(),
-                 ) -> list[Path]:
-    """Check ``finals``, call ``write`` with their temporary names, rename them into place;
-    nothing is left under a final name if anything fails. ``folders``: made for the
-    outputs (removed again on failure if empty); ``shared``: files several exports add a row
-    to (they may exist without --force)."""
-    from gaitmon.io.export.outputs import AtomicOutputs, check_outputs
-
-    atomic = AtomicOutputs()
-    try:
-        check_outputs([p for p in finals if p not in shared], job.src_path, job.force)
-        check_outputs([p for p in finals if p in shared], job.src_path, True)
-        tmps = [atomic.tmp(p, FORMATS[job.fmt].temp_suffix) for p in finals]
-        write(tmps)
-        return atomic.commit()
-    except OSError as exc:
-        atomic.discard(folders)
-        raise ExportError(f"cannot write {exc.filename or job.out}: {exc.strerror or exc}"
-                          ) from None
-    except BaseException:
-        atomic.discard(folders)
-        raise
-
-
-def meta_header(job: Job, b: Bilateral) -> dict[str, Any]:
+def meta_header(job: ExportRequest, b: Bilateral) -> dict[str, Any]:
     """What every bilateral side file says of the export and of the common time line."""
     from gaitmon.io.export.source import export_header_fields
 

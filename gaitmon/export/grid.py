@@ -1,4 +1,5 @@
-"""One frame grid on the common time line, and each leg's rows resampled onto it.
+"""The common frame grid of a session of both legs, and each leg's rows resampled onto it
+(the C3D and BIDS exports of both legs share it).
 
 Frame k of the grid is at common time k / fs (the units' sample rate), from 0 (the first
 sample of the unit that started first) to the last sample of the unit that stopped last. Each
@@ -17,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gaitmon.io.export import ExportError
+from gaitmon.io.export.errors import ExportError
 
 if TYPE_CHECKING:
     from gaitmon.io.export.source import Source
