@@ -206,8 +206,13 @@ class Timeline(QWidget):
         self.readout.setText("Open a session: File ▸ Open, or drop a .h5 file here.")
 
     def set_document(self, doc: Document) -> None:
+        """Show ``doc``, and follow its events: its exclusions shaded, its series redrawn."""
         self.clear()
         self.doc = doc
+        self.set_fsr_threshold(doc.current.config.fsr_threshold)
+        doc.events.exclusions.connect(lambda _e: self.refresh_shading())
+        doc.events.angles.connect(lambda _e: self._source_changed(doc))
+        doc.events.settings.connect(lambda _e: self._source_changed(doc))
         self._fitted_y = False
         n = doc.n_rows
         t0 = float(doc.t_s[0]) if n else 0.0
@@ -235,6 +240,11 @@ class Timeline(QWidget):
         self.set_cursor(t0)
         self.set_view(t0, min(t1, t0 + INITIAL_VIEW_S))
         self._schedule()
+
+    def _source_changed(self, doc: Document) -> None:
+        # the threshold line is the one in force in the series shown (a reprocessing's)
+        self.set_fsr_threshold(doc.current.config.fsr_threshold)
+        self.series_changed()
 
     def series_changed(self) -> None:
         """Other series are shown (the angles switched, a reprocessing): redraw the overview
