@@ -183,7 +183,12 @@ def build_actions(window: QMainWindow, specs: tuple[ActionSpec, ...] = SPECS) ->
     for spec in specs:
         if not all(available(m) for m in spec.requires):
             continue
-        method: Callable[..., Any] = functools.reduce(getattr, spec.slot.split("."), window)
+        owner: object = window
+        for name in spec.slot.split("."):  # "part.method": a part's slot
+            owner = getattr(owner, name)
+        if not callable(owner):
+            raise TypeError(f"action {spec.name}: {spec.slot} is not a slot")
+        method: Callable[..., object] = owner
         slot = functools.partial(method, *spec.args) if spec.args else method
         action = make_action(
             window, spec.text, slot, spec.shortcut, spec.tip, spec.checkable, spec.checked

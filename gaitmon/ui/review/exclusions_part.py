@@ -6,6 +6,8 @@ document's event themselves."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from PySide6.QtCore import QObject
 
@@ -26,7 +28,7 @@ class ExclusionsPart(Part):
 
     def document_set(self, doc: Document | None) -> None:
         if doc is not None:
-            doc.events.exclusions.connect(lambda e, d=doc: self._changed(d, e))
+            doc.events.exclusions.connect(functools.partial(self._changed, doc))
 
     def _changed(self, doc: Document, event: ExclusionsChanged) -> None:
         sp = event.kept_in

@@ -52,7 +52,7 @@ from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.plots import FSR_RANGE, TILT_RANGES_DEG, step_runs
 from gaitmon.ui.plots import vertical_lines as _vlines
 from gaitmon.ui.review.lanes import Lane
-from gaitmon.ui.review.timeline_build import build_lanes
+from gaitmon.ui.review.timeline_build import Plots, build_plots
 from gaitmon.ui.theme import Colours
 
 EVENTS_MAX_S = 180.0  # wider views would be solid with event lines
@@ -117,14 +117,34 @@ class Timeline(QWidget):
         lay.addLayout(top)
         lay.addWidget(self.glw, 1)
 
-        self.lanes: dict[str, Lane] = {}
         self._marker_labels: list[pg.TextItem] = []
-        # the overview strip, its region and cursor, the lanes and the FSR threshold line
-        build_lanes(self)
+        self._connect(build_plots(self.glw, colours))
         self._load_timer = QTimer(self)
         self._load_timer.setSingleShot(True)
         self._load_timer.setInterval(0)  # coalesce the range changes of one event-loop pass
         self._load_timer.timeout.connect(self._request_view)
+
+    def _connect(self, plots: Plots) -> None:
+        """Keep the plots built and connect them to the timeline's slots."""
+        assert plots.strip and plots.overview_cursor and plots.threshold_line
+        self.lanes: dict[str, Lane] = plots.lanes
+        self.strip, self.overview_cursor = plots.strip, plots.overview_cursor
+        self.threshold_line = plots.threshold_line
+        # overview: the knee over the whole session, the detail range as a draggable region
+        self.overview, self.region = self.strip.plot, self.strip.region
+        self.region.sigRegionChanged.connect(self._region_moved)
+        self.overview.getViewBox().clicked.connect(self._overview_clicked)
+        for lane in self.lanes.values():
+            vb = lane.plot.getViewBox()
+            vb.selection_dragged.connect(self._selection_dragged)
+            vb.clicked.connect(self.set_cursor)
+        for line in (self.overview_cursor, *(ln.cursor for ln in self.lanes.values())):
+            if line is not None:
+                line.sigPositionChanged.connect(lambda ln: self.set_cursor(ln.value()))
+        self.set_lane_visible("raw", False)
+        self.master.sigXRangeChanged.connect(self._detail_range_changed)
+        self.master.sigYRangeChanged.connect(self._place_marker_labels)
+        self._update_bottom_axes()
 
     @property
     def master(self) -> pg.PlotItem:

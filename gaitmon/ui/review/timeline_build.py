@@ -1,10 +1,11 @@
-"""How the review timeline is built: the whole-session overview strip and the detail lanes
-(hip, knee, ankle, segment tilt, foot sensors, raw counts), each with its traces, shading and
-cursor line, connected to the :class:`~gaitmon.ui.review.timeline.Timeline` that owns them."""
+"""How the review timeline's plots are built: the whole-session overview strip and the detail
+lanes (hip, knee, ankle, segment tilt, foot sensors, raw counts), each with its traces, shading
+and cursor line (:func:`build_plots`); the :class:`~gaitmon.ui.review.timeline.Timeline` that
+owns them connects them to its slots."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
 
 import pyqtgraph as pg
 from PySide6.QtGui import QColor
@@ -14,21 +15,30 @@ from gaitmon.review.model import JOINT
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet
 from gaitmon.ui.review.lanes import Lane, TraceSpec, lane_plot, line_pen
 from gaitmon.ui.review.overview_plot import OverviewPlot
-from gaitmon.ui.theme import pen
-
-if TYPE_CHECKING:
-    from gaitmon.ui.review.timeline import Timeline
+from gaitmon.ui.theme import Colours, pen
 
 RAW_RANGE = (-100.0, 4200.0)
 
 
-def _plot(tl: Timeline, row: int) -> pg.PlotItem:
+@dataclass
+class Plots:
+    """The plots of one timeline, as built (not yet connected)."""
+
+    glw: pg.GraphicsLayoutWidget
+    colours: Colours
+    lanes: dict[str, Lane] = field(default_factory=dict)  # x-linked, in order from the top
+    strip: OverviewPlot | None = None
+    overview_cursor: pg.InfiniteLine | None = None
+    threshold_line: pg.InfiniteLine | None = None  # the FSR lane's contact threshold
+
+
+def _plot(tl: Plots, row: int) -> pg.PlotItem:
     p = lane_plot(tl.colours)
     tl.glw.addItem(p, row=row, col=0)
     return p
 
 
-def _lane(tl: Timeline, key: str, title: str, yrange: tuple[float, float], tip: str) -> Lane:
+def _lane(tl: Plots, key: str, title: str, yrange: tuple[float, float], tip: str) -> Lane:
     row = len(tl.lanes) + 1
     p = _plot(tl, row)
     p.setMouseEnabled(x=True, y=False)
@@ -41,27 +51,23 @@ def _lane(tl: Timeline, key: str, title: str, yrange: tuple[float, float], tip: 
     p.addItem(ts, ignoreBounds=True)
     if tl.lanes:
         p.setXLink(next(iter(tl.lanes.values())).plot)
-    vb = p.getViewBox()
-    vb.selection_dragged.connect(tl._selection_dragged)
-    vb.clicked.connect(tl.set_cursor)
     lane.cursor = cursor_line(tl, p)
     tl.lanes[key] = lane
     return lane
 
 
-def cursor_line(tl: Timeline, p: pg.PlotItem) -> pg.InfiniteLine:
+def cursor_line(tl: Plots, p: pg.PlotItem) -> pg.InfiniteLine:
     line = pg.InfiniteLine(
         pos=0.0, angle=90, movable=True, pen=pg.mkPen(tl.colours.current, width=1)
     )
     line.setHoverPen(pg.mkPen(tl.colours.marker, width=2))
     line.setZValue(20)
     line.setVisible(False)
-    line.sigPositionChanged.connect(lambda ln: tl.set_cursor(ln.value()))
     p.addItem(line, ignoreBounds=True)
     return line
 
 
-def _add(tl: Timeline, lane: Lane, spec: TraceSpec, dashed: bool = False) -> None:
+def _add(tl: Plots, lane: Lane, spec: TraceSpec, dashed: bool = False) -> None:
     colour = QColor(spec.colour)
     if spec.before:
         colour = QColor(tl.colours.foreground)
@@ -71,17 +77,13 @@ def _add(tl: Timeline, lane: Lane, spec: TraceSpec, dashed: bool = False) -> Non
     lane.specs.append((spec, tr))
 
 
-def build_lanes(tl: Timeline) -> None:
-    """Build ``tl`` 's overview strip and lanes (hip, knee, ankle, tilt, FSR, raw) and connect
-    them to its slots."""
+def build_plots(glw: pg.GraphicsLayoutWidget, colours: Colours) -> Plots:
+    """The overview strip (row 0 of ``glw``) and the lanes under it."""
+    tl = Plots(glw, colours)
     c = tl.colours
     # overview: the knee over the whole session, the detail range as a draggable region
     tl.strip = OverviewPlot(_plot(tl, 0), c)
-    tl.overview = tl.strip.plot
-    tl.region = tl.strip.region
-    tl.region.sigRegionChanged.connect(tl._region_moved)
-    tl.overview.getViewBox().clicked.connect(tl._overview_clicked)
-    tl.overview_cursor = cursor_line(tl, tl.overview)
+    tl.overview_cursor = cursor_line(tl, tl.strip.plot)
 
     for j, (key, _label, yr) in enumerate(JOINTS):
         sign = "dorsiflexion" if key == "ankle" else "flexion"
@@ -139,11 +141,8 @@ def build_lanes(tl: Timeline) -> None:
             col = c.heel if ch.segment == "heel" else c.toe
         _add(tl, lane, TraceSpec("raw/adc", ch.index, col))
     lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
-    tl.set_lane_visible("raw", False)
     for lane in tl.lanes.values():
         lane.missing = pg.TextItem("", color=c.foreground, anchor=(0.5, 0.5))
         lane.missing.setVisible(False)
         lane.plot.addItem(lane.missing, ignoreBounds=True)
-    tl.master.sigXRangeChanged.connect(tl._detail_range_changed)
-    tl.master.sigYRangeChanged.connect(tl._place_marker_labels)
-    tl._update_bottom_axes()
+    return tl
