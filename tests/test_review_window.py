@@ -496,3 +496,58 @@ def test_gcd_band_deviation_in_summary_and_caveat_in_tooltips(qtbot, win, sessio
     assert win.banner_box.isVisible()
     assert "bad.gcd: line 3 (variable KneeFlexExt)" in win.banner.text()
     assert win.strides.normative is None
+
+
+def test_every_view_follows_the_documents_exclusions_event(qtbot, win, session_file):
+    """An exclusion made through the document alone (no window slot is called) reaches the
+    stride table, the summary, the timeline's shading and the status bar: they listen to its
+    event; and it is kept where ``gaitmon report`` reads it."""
+    from gaitmon.io.session import exclusions, open_session
+
+    open_and_wait(qtbot, win, session_file)
+    rows = win.analysis.rows
+    n_before = win.analysis.summary.n_strides
+    a, b = rows[7].stride.start_idx + 3, rows[8].stride.end_idx - 3
+    with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
+        win.doc.exclude(a, b, "turn")
+    model = win.table.model()
+    last = model.columnCount() - 1
+    assert [model.index(r, last).data() for r in (6, 7, 8, 9)] == [
+        "included", "excluded: excluded range", "excluded: excluded range", "included"
+    ]
+    assert win.analysis.summary.n_strides == n_before - 2
+    assert f"{n_before - 2}" in win.summary.text()
+    shaded = win.timeline.lanes["knee"].shade.spans("excluded")
+    t = win.doc.t_s
+    assert len(shaded) == 1 and shaded[0][0] == pytest.approx(t[a], abs=1e-6)
+    assert win.statusBar().currentMessage() == "1 excluded range, kept in walk.h5.review.json"
+    with open_session(session_file) as s:
+        assert exclusions.read(s) == ([exclusions.Exclusion(a, b, "turn")], "")
+    with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
+        win.doc.clear_exclusions()
+    assert win.analysis.summary.n_strides == n_before
+    assert len(win.timeline.lanes["knee"].shade.spans("excluded")) == 0
+
+
+def test_a_report_being_prepared_takes_the_exclusions_made_meanwhile(
+    qtbot, win, session_file, tmp_path, monkeypatch
+):
+    """The report job listens to the document: ranges excluded while the report is gathered
+    are in the report written."""
+    import gaitmon.ui.report_pdf as report_pdf
+
+    written = []
+
+    def fake_pdf(data, path):
+        written.append(data)
+        return path
+
+    monkeypatch.setattr(report_pdf, "write_report_pdf", fake_pdf)
+    open_and_wait(qtbot, win, session_file)
+    rows = win.analysis.rows
+    a, b = rows[4].stride.start_idx + 3, rows[4].stride.end_idx - 3
+    with qtbot.waitSignal(win.report_written, timeout=WAIT_MS):
+        win.jobs.write_report(tmp_path / "r.pdf")
+        win.doc.exclude(a, b, "stumble")  # before the report's answer can arrive
+    assert len(written) == 1
+    assert [(s.reason, s.n_strides) for s in written[0].excluded_spans] == [("stumble", 1)]

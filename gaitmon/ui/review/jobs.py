@@ -8,8 +8,9 @@ Cancel) and ``angles_job`` (the overview of the other angle source, smoothed | l
 before the window switches to it); the stride analysis runs in
 :mod:`~gaitmon.ui.review.strides_part`. Each returns a frozen response (:class:`Opened`,
 :class:`Reprocessed`, ...) that :class:`ReviewJobs` applies on the GUI thread, by changing the
-document (a reprocessing shown, the angles switched): the views follow its events. A response
-overtaken by a newer request or a Cancel never arrives.
+document (a reprocessing shown, the angles switched): the views follow its events. A report
+being prepared listens too: when the exclusions change it is gathered again, with them. A
+response overtaken by a newer request or a Cancel never arrives.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from PySide6.QtCore import QObject, Signal
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.session import SessionError, journal_path, rewrite_processed
 from gaitmon.jobs import Response, Ticket
+from gaitmon.review.events import ExclusionsChanged
 from gaitmon.review.model import (
     Document,
     Replay,
@@ -184,6 +186,7 @@ class ReviewJobs(Part):
         self.normative: Callable[[], NormativeBands | None] = lambda: None
         self._job_label = ""
         self._angles_label = ""
+        self._report_path: Path | None = None  # the report being prepared, if any
         self.job = QtWorker("review-job", latest=True, parent=self)  # open, reprocess, save
         self.job.progressed.connect(self._job_progress)
         self.angles_job = QtWorker("review-angles", latest=True, parent=self)
@@ -191,7 +194,18 @@ class ReviewJobs(Part):
 
     # -- progress --------------------------------------------------------------------------------
 
+    def document_set(self, doc: Document | None) -> None:
+        if doc is not None:
+            doc.events.exclusions.connect(self._exclusions_changed)
+
+    def _exclusions_changed(self, _event: ExclusionsChanged) -> None:
+        # a report being prepared is gathered again: it leaves out the ranges in force when it
+        # is written (the request overtaken never arrives)
+        if self._report_path is not None:
+            self.write_report(self._report_path)
+
     def _start_job(self, label: str) -> None:
+        self._report_path = None  # (a new job overtakes a report being prepared)
         self._job_label = label
         self.status.show_progress(label, 0.0)
 
@@ -209,6 +223,7 @@ class ReviewJobs(Part):
             self.angles_job.cancel()
             self._show_angles()
         self.job.cancel()
+        self._report_path = None
         self.timeline.loader.cancel()
         self.status.hide_progress()
         if was.startswith("Recovering"):
@@ -367,6 +382,7 @@ class ReviewJobs(Part):
         if self.doc is None:
             return
         self._start_job("Preparing the report")
+        self._report_path = Path(path)
         self.job.submit(
             report_request(self.doc, self.normative()),
             functools.partial(self._report_ready, Path(path)),
@@ -376,6 +392,7 @@ class ReviewJobs(Part):
     def _report_ready(self, path: Path, response: Response[ReportReady]) -> None:
         from gaitmon.ui.report_pdf import write_report_pdf
 
+        self._report_path = None
         self.hide_progress()
         if response.error is not None:
             self.status.show_problem(f"Cannot make the report: {one_line(response.error)}")

@@ -297,6 +297,7 @@ class ReviewWindow(QMainWindow):
         doc.events.settings.connect(lambda _e: self._source_changed())
         self.timeline.set_document(doc)
         self.exclusions.document_set(doc)
+        self.jobs.document_set(doc)
         self.legs.document_set(doc)
         self._update_actions()
         self._show_angles()
