@@ -23,7 +23,7 @@ from gaitmon.io.journal import journal_path
 from gaitmon.io.session.codec import GYRO, JOINT_OF, decode, derived, gyro_from_counts
 from gaitmon.io.session.codec import joints_from_stored_tilts as _joints_of
 from gaitmon.io.session.exclusions import Exclusion
-from gaitmon.io.session.exclusions import load as load_exclusions
+from gaitmon.io.session.exclusions import read as read_exclusions
 from gaitmon.io.session.h5file import _being_recorded, _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta
 from gaitmon.io.session.layout import (
@@ -509,7 +509,7 @@ class Session:
         """(ranges, problem): the row ranges the user excluded in review (stored beside the
         recording, see :mod:`gaitmon.io.session.exclusions`), merged and clipped to the data.
         ``problem`` is a one-line reason when the side file could not be used, else ""."""
-        return load_exclusions(self.exclusions_key, self.created_utc, self.n_samples)
+        return read_exclusions(self)
 
     @property
     def exclusions_key(self) -> Path:
