@@ -112,6 +112,21 @@ class StatusView:
         self.health_label.setText("")
         self.rec_label.setText("")
 
+    def show_banner(self, text: str, grade: str, tip: str) -> None:
+        """The link banner as given (both legs: a line per leg; "": hidden)."""
+        banner = self.link_banner
+        if not text:
+            if banner.isVisible():
+                banner.setVisible(False)
+            return
+        if banner.text() != text:
+            banner.setText(text)
+            banner.setToolTip(tip)
+        if banner.property("grade") != grade:
+            banner.setStyleSheet(banner_style(self.colours, grade))
+            banner.setProperty("grade", grade)
+        banner.setVisible(True)
+
     def show_link(self, snap: Snapshot, port: str) -> None:
         """Link state, health, sample count and zeroing of one snapshot (``port``: as named in
         the banner)."""
