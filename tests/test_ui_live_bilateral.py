@@ -228,7 +228,7 @@ def test_connect_two_units_by_their_ports_from_the_device_menu(
     pty = serve_pair_on_ptys(BilateralConfig(standing_s=1.0, speed=2.0))
     left, right = (str(p) for p in pty.link_paths)
     ports = [PortInfo(right, "unit R", "n/a"), PortInfo(left, "unit L", "n/a")]
-    monkeypatch.setattr(pair_slots, "available_ports", lambda: ports)
+    monkeypatch.setattr(pair_part, "available_ports", lambda: ports)
     picks = iter([(right, right), (left, right)])  # first the same port twice: refused
 
     def exec_(dlg):
