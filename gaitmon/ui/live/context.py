@@ -17,7 +17,7 @@ from collections.abc import Callable
 from PySide6.QtWidgets import QStatusBar
 
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.engine import Engine, Snapshot
+from gaitmon.engine import Engine, EngineError, Snapshot
 from gaitmon.live.connection import Connection
 from gaitmon.live.pair import PairConnection
 from gaitmon.ui import one_line
@@ -82,6 +82,16 @@ class LiveContext:
         msg = f"Unexpected error ({where}): {one_line(exc)}"
         self.errors.append(msg)
         self.notify(msg)
+
+    def connect_failed(self, exc: BaseException | None, what: str) -> None:
+        """A connect that did not open (``what``: "connect", "connect both legs"): said in one
+        line; a traceback in the log when it is not the engine's own refusal."""
+        self.status.set_state_pill("Disconnected", "ok")
+        self.controls_changed()
+        if exc is not None and not isinstance(exc, EngineError):
+            log.error("%s failed", what, exc_info=exc)
+        why = one_line(exc) if exc is not None else "unknown reason"
+        self.notify(f"Could not {what}: {why}", 30_000)
 
     def wait_saved(self, timeout_s: float = 120.0) -> None:
         """Before disconnecting or closing: let a Stop's file be finished (its line is shown)."""

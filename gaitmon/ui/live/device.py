@@ -183,12 +183,7 @@ class DevicePart:
         exc = response.error
         conn = response.value
         if exc is not None or conn is None:
-            ctx.status.set_state_pill("Disconnected", "ok")
-            ctx.controls_changed()
-            why = one_line(exc) if exc is not None else "unknown reason"
-            if exc is not None and not isinstance(exc, EngineError):
-                log.error("connect failed", exc_info=exc)
-            ctx.notify(f"Could not connect: {why}", 30_000)
+            ctx.connect_failed(exc, "connect")
             return
         if ctx.closing:
             conn.close()

@@ -201,12 +201,7 @@ class PairPart:
         ctx.connecting = False
         pair, exc = response.value, response.error
         if exc is not None or pair is None:
-            ctx.status.set_state_pill("Disconnected", "ok")
-            ctx.controls_changed()
-            if exc is not None and not isinstance(exc, EngineError):
-                log.error("connecting both legs failed", exc_info=exc)
-            why = one_line(exc) if exc is not None else "unknown reason"
-            ctx.notify(f"Could not connect both legs: {why}", 30_000)
+            ctx.connect_failed(exc, "connect both legs")
             return
         if ctx.closing:
             pair.close()

@@ -2,7 +2,7 @@
 bilateral measures and both gait panels.
 
 It only displays. :class:`PairView` takes both legs' snapshots each tick (the window's
-:mod:`.pair_slots` pulls them); each leg's link is graded by the one-leg window's own logic
+:mod:`.pair_part` pulls them); each leg's link is graded by the one-leg window's own logic
 (:class:`gaitmon.live.health.HealthTracker`, :func:`gaitmon.live.health.link_view`), and each
 leg's Gait panel is the one-leg window's :class:`~gaitmon.ui.live.status.GaitPanel`, fed that
 leg's snapshot: the same stride measures, computed once, by the engine. The measured cadence
