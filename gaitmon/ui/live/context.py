@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
+from typing import Protocol, TypeVar
 
 from PySide6.QtWidgets import QStatusBar
 
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import Engine, EngineError, Snapshot
+from gaitmon.jobs import Response
 from gaitmon.live.connection import Connection
 from gaitmon.live.pair import PairConnection
 from gaitmon.ui import one_line
@@ -27,6 +29,13 @@ from gaitmon.ui.live.status import StatusView
 from gaitmon.ui.theme import Colours
 
 log = logging.getLogger("gaitmon.ui")
+
+
+class _Closable(Protocol):
+    def close(self) -> None: ...
+
+
+C = TypeVar("C", bound=_Closable)  # what a connect opens: a Connection, a PairConnection
 
 
 class LiveContext:
@@ -83,9 +92,21 @@ class LiveContext:
         self.errors.append(msg)
         self.notify(msg)
 
-    def connect_failed(self, exc: BaseException | None, what: str) -> None:
-        """A connect that did not open (``what``: "connect", "connect both legs"): said in one
-        line; a traceback in the log when it is not the engine's own refusal."""
+    def opened(self, response: Response[C], what: str) -> C | None:
+        """A connect's answer (one unit or both legs): what opened, or None when it failed
+        (said in one line: ``what`` is "connect", "connect both legs") or nobody wants it any
+        more (the window is closing: closed at once)."""
+        self.connecting = False
+        opened = response.value
+        if response.error is not None or opened is None:
+            self._connect_failed(response.error, what)
+            return None
+        if self.closing:
+            opened.close()
+            return None
+        return opened
+
+    def _connect_failed(self, exc: BaseException | None, what: str) -> None:
         self.status.set_state_pill("Disconnected", "ok")
         self.controls_changed()
         if exc is not None and not isinstance(exc, EngineError):

@@ -179,14 +179,8 @@ class DevicePart:
     @guarded
     def _connected(self, response: Response[Connection]) -> None:
         ctx = self.ctx
-        ctx.connecting = False
-        exc = response.error
-        conn = response.value
-        if exc is not None or conn is None:
-            ctx.connect_failed(exc, "connect")
-            return
-        if ctx.closing:
-            conn.close()
+        conn = ctx.opened(response, "connect")
+        if conn is None:
             return
         ctx.conn = conn
         ctx.prefs.set("device/last_port", conn.port)

@@ -198,13 +198,8 @@ class PairPart:
     @guarded
     def _connected(self, response: Response[PairConnection]) -> None:
         ctx = self.ctx
-        ctx.connecting = False
-        pair, exc = response.value, response.error
-        if exc is not None or pair is None:
-            ctx.connect_failed(exc, "connect both legs")
-            return
-        if ctx.closing:
-            pair.close()
+        pair = ctx.opened(response, "connect both legs")
+        if pair is None:
             return
         ctx.pair = pair
         self.model.reset()
