@@ -266,6 +266,16 @@ def test_every_live_action_row_names_a_window_slot_once():
         assert any(callable(getattr(o, spec.slot, None)) for o in owners), spec.slot
 
 
+def test_the_live_window_is_composed_of_parts_not_a_stack_of_mixins():
+    from PySide6.QtWidgets import QMainWindow
+
+    from gaitmon.ui.live.window import PART_TYPES, MainWindow
+
+    assert MainWindow.__bases__ == (QMainWindow,)
+    for part in PART_TYPES:  # plain objects that own their widgets, not window subclasses
+        assert part.__bases__ == (object,), part
+
+
 @pytest.mark.parametrize("nan_pct", [1.0, 30.0])
 def test_a_line_broken_at_nans_draws_what_pyqtgraphs_finite_connect_draws(qtbot, nan_pct):
     """The live plots build NaN-broken lines (the gyro integration off scale, lost rows) one
