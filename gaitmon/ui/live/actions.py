@@ -1,14 +1,16 @@
 """The live monitor's actions declared as data: one row per action, the window builds from it.
 
-Each :class:`ActionSpec` names the window slot it calls, its shortcut, tooltip and the menu it
-sits in (table order is menu order). :func:`build_actions` makes the ``QAction`` objects with the
-shared :func:`gaitmon.ui.actions.make_action`; :func:`build_menus` lays out the menu bar. The
-keyboard help (F1) is the :data:`SHORTCUTS` list; a test checks each key in it is bound.
+Each :class:`ActionSpec` names the slot it calls (a method of the window or of one of its
+parts), its shortcut, tooltip and the menu it sits in (table order is menu order).
+:func:`build_actions` makes the ``QAction`` objects with the shared
+:func:`gaitmon.ui.actions.make_action`; :func:`build_menus` lays out the menu bar. The keyboard
+help (F1) is the :data:`SHORTCUTS` list; a test checks each key in it is bound.
 """
 
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from PySide6.QtGui import QAction
@@ -67,8 +69,8 @@ SESSION, VIEW, HELP = "&Session", "&View", "&Help"
 
 @dataclass(frozen=True)
 class ActionSpec:
-    """One window action. ``slot`` is the name of a window method, called with ``args`` first
-    (and, when ``checkable``, the new state last)."""
+    """One window action. ``slot`` is the name of a window or part method, called with
+    ``args`` first (and, when ``checkable``, the new state last)."""
 
     name: str
     text: str
@@ -170,18 +172,23 @@ ACTIONS: tuple[ActionSpec, ...] = (
 
 
 def build_actions(
-    window: QMainWindow, specs: tuple[ActionSpec, ...] = ACTIONS
+    window: QMainWindow,
+    find_slot: Callable[[str], Callable[..., object]],
+    specs: tuple[ActionSpec, ...] = ACTIONS,
 ) -> dict[str, QAction]:
-    """The window's actions by name, each calling ``window.<slot>(*args)``."""
+    """The window's actions by name, each calling ``find_slot(<slot>)(*args)``: looked up when
+    triggered, so the window's parts can be built with the actions they use."""
     actions: dict[str, QAction] = {}
     for spec in specs:
-        slot = getattr(window, spec.slot)
-        if spec.args:
-            slot = functools.partial(slot, *spec.args)
+        slot = functools.partial(_call, find_slot, spec.slot, *spec.args)
         actions[spec.name] = make_action(
             window, spec.text, slot, spec.shortcut, spec.tooltip, checkable=spec.checkable
         )
     return actions
+
+
+def _call(find_slot: Callable[[str], Callable[..., object]], name: str, *args: object) -> object:
+    return find_slot(name)(*args)
 
 
 def build_menus(
