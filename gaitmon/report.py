@@ -35,7 +35,8 @@ from gaitmon.analysis import (
 )
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
-from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
+from gaitmon.finish import Session, open_session
+from gaitmon.io.session import ANGLE_CONVENTION, Exclusion
 from gaitmon.normative import NormativeBands, deviation_deg
 from gaitmon.text import count, no_gait_events, num
 
@@ -198,7 +199,7 @@ def _stat(name: str, values: Sequence[float]) -> JointStat:
 
 def _tilt_method(session: Session) -> str:
     """The method behind the angles analysed here (the session's, see
-    :mod:`gaitmon.io.session.smoothed`), and the live filter's with the settings it reads."""
+    :mod:`gaitmon.finish.smoothed`), and the live filter's with the settings it reads."""
     c = session.config
     live = session.angle_method_of("live")
     if c.tilt_method == "paper":

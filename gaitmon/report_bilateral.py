@@ -19,7 +19,7 @@ import numpy as np
 from gaitmon import __version__
 from gaitmon.analysis import BilateralAnalysis, analyse_bilateral
 from gaitmon.dsp.bilateral import MEASURE_LABELS, symmetry_index_pct, symmetry_ratio
-from gaitmon.io.session.bilateral import Bilateral, open_bilateral
+from gaitmon.finish.bilateral import Bilateral, open_bilateral
 from gaitmon.normative import NormativeBands
 from gaitmon.report import CycleCurves, ReportData, gather_report
 

@@ -15,8 +15,8 @@ from gaitmon.io.export.registry import FORMATS
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis
     from gaitmon.bilateral_export.tables import BilateralTables
+    from gaitmon.finish.bilateral import Bilateral
     from gaitmon.io.export.source import Source
-    from gaitmon.io.session.bilateral import Bilateral
 
 
 # one export of both legs, as export_session resolved it
@@ -28,8 +28,8 @@ def analysed(job: Job) -> Iterator[tuple[Bilateral, BilateralAnalysis, Bilateral
     """The session opened as both legs, its analysis and its tables."""
     from gaitmon.analysis import analyse_bilateral
     from gaitmon.bilateral_export.tables import bilateral_tables
+    from gaitmon.finish.bilateral import open_bilateral
     from gaitmon.io.session import SessionError
-    from gaitmon.io.session.bilateral import open_bilateral
 
     try:
         b = open_bilateral(job.src_path)

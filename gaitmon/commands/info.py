@@ -16,7 +16,7 @@ from gaitmon.text import count, no_gait_events, num
 
 if TYPE_CHECKING:
     from gaitmon.analysis import SessionAnalysis
-    from gaitmon.io.session import Session
+    from gaitmon.finish import Session
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -40,7 +40,8 @@ def progress_printer(label: str) -> Callable[[float], None]:
 
 def run(args: argparse.Namespace) -> int:
     from gaitmon.analysis import analyse_session
-    from gaitmon.io.session import SessionError, journal_path, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import SessionError, journal_path
     from gaitmon.io.session.parts import is_bilateral
 
     if is_bilateral(args.file):
@@ -164,8 +165,8 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
 def _run_bilateral(path: str) -> int:
     from gaitmon.analysis import analyse_bilateral
     from gaitmon.commands.info_bilateral import bilateral_lines, header_lines
+    from gaitmon.finish.bilateral import missing_lines, open_bilateral
     from gaitmon.io.session import SessionError
-    from gaitmon.io.session.bilateral import missing_lines, open_bilateral
     from gaitmon.io.session.parts import parts_of
 
     interrupted = bool(parts_of(path))

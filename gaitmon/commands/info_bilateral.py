@@ -13,7 +13,7 @@ from gaitmon.text import count
 
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis
-    from gaitmon.io.session.bilateral import Bilateral
+    from gaitmon.finish.bilateral import Bilateral
 
 
 def _f(v: float, digits: int, unit: str = "") -> str:

@@ -25,7 +25,8 @@ import h5py
 import numpy as np
 
 from gaitmon.dsp.clock_fit import ClockFit
-from gaitmon.io.session.combine import combine_parts
+from gaitmon.finish.combine import combine_parts
+from gaitmon.finish.session import Session, open_combined_h5, open_session
 from gaitmon.io.session.h5file import _short_error
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.parts import (
@@ -36,7 +37,6 @@ from gaitmon.io.session.parts import (
     part_path,
     parts_of,
 )
-from gaitmon.io.session.reader import Session, open_combined_h5, open_session
 
 __all__ = [
     "SIDES",

@@ -99,7 +99,8 @@ def import_xdf(
 
     Raises :class:`UserError` with a one-line message for every problem of the input or the
     output."""
-    from gaitmon.io.session import SessionError, build_session
+    from gaitmon.finish import build_session
+    from gaitmon.io.session import SessionError
 
     src = Path(src)
     out = default_output(src) if dst is None else Path(dst)

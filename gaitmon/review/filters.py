@@ -37,7 +37,8 @@ from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter
 from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.lab_filters import ConstantRateTilt, TiltFilter, make_tilt_filter
-from gaitmon.io.session import SessionError, open_session
+from gaitmon.finish import open_session
+from gaitmon.io.session import SessionError
 
 WARMUP_S = 10.0
 MAX_RANGE_S = 600.0  # ten minutes per view: ~60 000 rows x filters, a second or two

@@ -40,18 +40,13 @@ from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
+from gaitmon.finish import Session, flags_kept, open_session, replay_pipeline
 from gaitmon.io.overview import PeakPyramid, SessionOverview
-from gaitmon.io.session import (
-    Session,
-    SessionError,
-    flags_kept,
-    open_session,
-    replay_pipeline,
-)
+from gaitmon.io.session import SessionError
 from gaitmon.io.session import exclusions as excl
+from gaitmon.io.session.layout import SMOOTHED
 from gaitmon.io.session.parts import SIDE_NAMES, is_bilateral, sides_of
 from gaitmon.io.session.rows import lost_before_from_gaps
-from gaitmon.io.session.smoothed import SMOOTHED
 from gaitmon.text import num
 
 Progress = Callable[[float], bool | None]

@@ -57,7 +57,7 @@ def fault_rows(
 class LazyRows:
     """The first ``n`` rows of an array-like (an h5py dataset, a field of a structured array)
     read only when sliced, as C-contiguous copies: a whole recording's raw counts handed to
-    :func:`gaitmon.io.session.recovery.replay_pipeline` or the smoother without reading them
+    :func:`gaitmon.finish.recovery.replay_pipeline` or the smoother without reading them
     all into memory at once."""
 
     def __init__(self, data: Any, n: int | None = None, dtype: Any = None) -> None:

@@ -26,7 +26,8 @@ from PySide6.QtWidgets import QMainWindow
 
 from gaitmon.analysis import stride_start_times
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.session import SessionError, journal_path, rewrite_processed
+from gaitmon.finish import rewrite_processed
+from gaitmon.io.session import SessionError, journal_path
 from gaitmon.jobs import Response, Ticket
 from gaitmon.review.model import (
     Analysis,
