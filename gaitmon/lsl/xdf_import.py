@@ -116,7 +116,7 @@ def import_xdf(
     notes: list[str] = []
     if unit.raw is not None:
         raw = _raw_stream(name, unit.raw, unit.serial)
-        header = _header_of(raw, "raw", notes).as_dict()
+        header: dict[str, Any] = _header_of(raw, "raw", notes).as_dict()
         session = _rows(raw, float(header["sample_rate_hz"]))
     else:
         session, header = _tilt_session(name, unit, notes)

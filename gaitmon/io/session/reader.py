@@ -14,7 +14,7 @@ import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Self
+from typing import TYPE_CHECKING, Any, Self, cast
 
 import h5py
 import numpy as np
@@ -51,6 +51,7 @@ from gaitmon.io.session.series import (
     _py,
     _s,
     _sample_rate,
+    number,
 )
 from gaitmon.io.session.truth import Truth, truth_from_file
 
@@ -134,7 +135,7 @@ class StoredSession:
         ]
 
         cfg_attrs = {k: _py(v) for k, v in f["config"].attrs.items()}
-        self.event_delay_samples = int(cfg_attrs.pop("event_delay_samples", 0))
+        self.event_delay_samples = int(number(cfg_attrs.pop("event_delay_samples", 0)))
         self.config = PipelineConfig.from_stored(cfg_attrs)
         self.config_changes: list[tuple[int, PipelineConfig]] = [
             (int(r["sample_idx"]), PipelineConfig.from_stored(json.loads(_s(r["json"]))))
@@ -188,9 +189,9 @@ class StoredSession:
             self.problems.append(
                 f"datasets have different lengths; using the first {self.n_samples} rows"
             )
-        if self.complete and int(self.attrs.get("n_samples", -1)) != self.n_samples:
+        if self.complete and int(number(self.attrs.get("n_samples", -1))) != self.n_samples:
             self.problems.append("n_samples attribute does not match the data")
-        self.duration_s = float(self.attrs.get("duration_s", 0.0))
+        self.duration_s = float(number(self.attrs.get("duration_s", 0.0)))
         if not (self.complete or self.recovered) and self.n_samples:
             # an unfinished file's attribute still says 0: its last row's time says how long
             with contextlib.suppress(OSError, RuntimeError, ValueError, TypeError):
@@ -224,7 +225,7 @@ class StoredSession:
         known = {c.name for c in CHANNELS}
         try:
             channels = (
-                tuple(ChannelSpec(**c) for c in self.channels)
+                tuple(ChannelSpec(**cast("dict[str, Any]", c)) for c in self.channels)
                 if all(c.get("name") in known for c in self.channels)
                 else CHANNELS
             )

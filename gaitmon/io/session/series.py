@@ -27,6 +27,12 @@ AttrValue: TypeAlias = "str | int | float | bool | list[AttrValue]"
 Index: TypeAlias = "int | slice | tuple[int | slice, ...] | npt.NDArray[np.integer] | list[int]"
 
 
+def number(value: AttrValue) -> str | int | float:
+    """An attribute that should hold a number, for ``int()`` / ``float()`` (which fail on
+    anything else as they always did: the reader turns that into a damaged-file message)."""
+    return cast("str | int | float", value)
+
+
 class SeriesSource(Protocol):
     """The reader a :class:`SeriesView` slices (a stored session)."""
 
@@ -118,7 +124,7 @@ def _sample_rate(name: str, value: object) -> float:
     if value is None:
         raise SessionError(f"{name} is damaged: it has no sample rate")
     try:
-        fs = float(value)
+        fs = float(value) if isinstance(value, int | float | str) else float("nan")
     except (TypeError, ValueError):
         fs = float("nan")
     if not (math.isfinite(fs) and 0 < fs <= MAX_SAMPLE_RATE_HZ):
