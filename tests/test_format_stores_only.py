@@ -72,10 +72,10 @@ def test_the_format_reader_computes_nothing_the_finishing_session_computes(tmp_p
     import h5py
     import numpy as np
     import pytest
+    from conftest import write_simulated_session
 
     from gaitmon.finish import Session, open_session
     from gaitmon.io.session import SessionError, StoredSession, read_stored
-    from conftest import write_simulated_session
 
     path = write_simulated_session(tmp_path / "s.h5", n=1500)
     with h5py.File(path, "r+") as f:

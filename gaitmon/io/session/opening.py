@@ -44,8 +44,7 @@ def open_h5(path: Path) -> h5py.File:
                 "pick another session file recorded by gaitmon"
             ) from e
         raise SessionError(
-            f"{path.name} is not a gaitmon session ({why}); pick a session file recorded by "
-            "gaitmon"
+            f"{path.name} is not a gaitmon session ({why}); pick a session file recorded by gaitmon"
         ) from e
 
 
@@ -79,9 +78,7 @@ def unit_session_of(path: Path, f: h5py.File, side: str, cls: type[S]) -> S:
 
     def make() -> S:
         if not bool(f.attrs.get("bilateral", False)):
-            raise SessionError(
-                f"{path.name} holds one unit, not both legs; open it without a side"
-            )
+            raise SessionError(f"{path.name} holds one unit, not both legs; open it without a side")
         if f"units/{side}" not in f:
             sides = [s for s in str(_s(f.attrs.get("sides", ""))).split() if s in SIDE_NAMES]
             raise SessionError(

@@ -68,9 +68,7 @@ class SeriesView:
             return self._s.read_range(a, b, [self.name])[self.name]
         return self._s.read(self.name)[key]
 
-    def __array__(
-        self, dtype: npt.DTypeLike | None = None, copy: bool | None = None
-    ) -> np.ndarray:
+    def __array__(self, dtype: npt.DTypeLike | None = None, copy: bool | None = None) -> np.ndarray:
         a = self._s.read(self.name)
         return a if dtype is None else a.astype(dtype)
 
@@ -160,4 +158,3 @@ def _check_per_sample(name: str, path: str, ds: h5py.Dataset) -> None:
             f"{name} is damaged: /{path} holds {ds.dtype} rows of shape {tuple(ds.shape[1:])} "
             f"instead of {dtype} rows of shape {row_shape}"
         )
-
