@@ -1,7 +1,7 @@
 """User exclusions (e.g. a turn): part of a session's analysis state, kept in ``FILE.review.json``.
 
 The review window writes them; ``gaitmon info``, ``gaitmon report``, export and review all read
-them (through :meth:`gaitmon.io.session.Session.exclusions`), so every report of one recording
+them (through :meth:`gaitmon.io.session.StoredSession.exclusions`), so every report of one recording
 leaves out the same strides. The recording itself is never modified. The side file holds row
 ranges (and their times, for a human reader), plus the recording's ``created_utc`` and
 ``n_samples`` so that ranges written for another recording of the same name are not applied by
