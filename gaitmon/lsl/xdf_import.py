@@ -5,7 +5,7 @@ counts, and its description the session header (settings, calibration, device, s
 the ``events`` stream's markers, gap reasons and later ``config``/``calibration`` changes,
 that is everything a raw-mode recording holds. The rows are laid out as a recording's journal
 would hold them (frame counter jumps are frames lost: gaps) and the file is written by
-:func:`gaitmon.io.session.build_session`, the recovery's own path: the pipeline replayed from
+:func:`gaitmon.finish.build_session`, the recovery's own path: the pipeline replayed from
 row 0 with the settings changes at their rows, the events, ``/smoothed`` and ``/overview``,
 exactly as a recording of the same counts.
 

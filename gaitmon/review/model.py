@@ -16,7 +16,7 @@
 * :func:`analyse` - strides with exclusions, summary and cycle-normalised curves for a source
   (:func:`gaitmon.analysis.analyse_session`, as ``gaitmon info`` and the report use);
 * :func:`reprocess` - the pipeline replayed over ``raw/adc`` with new settings
-  (:func:`gaitmon.io.session.replay_pipeline`, as ``gaitmon process`` does).
+  (:func:`gaitmon.finish.replay_pipeline`, as ``gaitmon process`` does).
 """
 
 from __future__ import annotations

@@ -148,7 +148,7 @@ def angles_request(doc: Document, angles: str) -> Callable[[Ticket], AnglesReady
 
 def save_request(src: Path, dst: Path, config: PipelineConfig) -> Callable[[Ticket], Saved]:
     """A new session file: the recording's raw counts reprocessed with ``config``
-    (:func:`gaitmon.io.session.rewrite_processed`, as ``gaitmon process``); its progress goes to
+    (:func:`gaitmon.finish.rewrite_processed`, as ``gaitmon process``); its progress goes to
     the window's bar, and Cancel (the request no longer wanted) makes it delete the partial
     file and raise :class:`gaitmon.errors.Cancelled`."""
 
