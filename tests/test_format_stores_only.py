@@ -92,3 +92,66 @@ def test_the_format_reader_computes_nothing_the_finishing_session_computes(tmp_p
         assert smoothed.shape == live.shape == (1500, 4)
         assert not np.array_equal(smoothed, live)  # the smoother's, not the live filter's
         assert s.foot_stride_measures() is not None
+
+
+def _record(path: Path, n: int = 3000):
+    """A raw recording of ``n`` simulated rows, not yet closed."""
+    import numpy as np
+
+    from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionWriter
+    from gaitmon.io.sim.sensors import simulate
+
+    counts = simulate(n).counts
+    w = SessionWriter(path, SessionHeader("raw"))
+    pipe = Pipeline()
+    for a in range(0, n, 100):
+        seq = np.arange(a, min(n, a + 100), dtype=np.int64)
+        blk = SampleBlock(FrameKind.RAW, seq, seq / 100.0, 1.7e9,
+                          lost_before=np.zeros(len(seq), np.int64), adc=counts[seq])  # fmt: skip
+        w.append(blk, pipe.process(counts[seq]))
+    return w
+
+
+def test_the_writer_stores_only_and_the_finishing_close_adds_smoothed_and_strides(tmp_path):
+    import h5py
+
+    from gaitmon.finish import close_recording
+    from gaitmon.io.session import journal_path
+
+    plain, finished = tmp_path / "plain.h5", tmp_path / "finished.h5"
+    _record(plain).close()
+    close_recording(_record(finished))
+    for path, derived in ((plain, False), (finished, True)):
+        assert not journal_path(path).exists()
+        with h5py.File(path, "r") as f:
+            assert bool(f.attrs["complete"]) and int(f.attrs["n_samples"]) == 3000
+            assert ("smoothed" in f, "strides" in f) == (derived, derived)
+
+
+def test_a_close_that_fails_while_deriving_keeps_the_journal_and_recovery_finishes(tmp_path):
+    """Crash safety is the writer's: the derived datasets are written before the file is
+    marked complete, so a failure there (a full disk) leaves the journal, and the next open
+    recovers the file with them stored."""
+    import h5py
+    import pytest
+
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import SessionError, journal_path
+
+    def full_disk(f, header, fs_hz):
+        raise OSError(28, "No space left on device")
+
+    path = tmp_path / "s.h5"
+    w = _record(path)
+    with pytest.raises(SessionError, match="disk full or write error"):
+        w.close(derive=full_disk)
+    assert journal_path(path).exists()
+    with h5py.File(path, "r") as f:
+        assert not bool(f.attrs.get("complete", False))
+    with open_session(path) as s:
+        assert s.recovered and s.n_samples == 3000 and s.smoothed_stored
+        assert s.foot_stride_measures() is not None
+    assert not journal_path(path).exists()

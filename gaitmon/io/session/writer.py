@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import logging
 import os
 import time
 from collections.abc import Callable
@@ -63,8 +62,6 @@ from gaitmon.io.session.rows import (
     fault_rows,
     rows_from_pipeline,
 )
-
-log = logging.getLogger("gaitmon.session")
 
 # What the finishing layer adds to a raw recording at its close, from the rows the file holds
 # (the open file, the recording's header, its sample rate): see SessionWriter.close.
