@@ -383,7 +383,7 @@ class SessionWriter:
         assert self._h5 is not None and self._journal is not None
         try:
             self._write_staged()
-            self._h5.drain()  # the chunk being filled, so that the smoother reads every row
+            self._h5.drain()  # the chunk being filled, so that derive reads every row
             self._write_markers(final=True)
             if derive is not None and self._kind == FrameKind.RAW and self._rows:
                 derive(self._h5.f, self.header, self._fs)
