@@ -42,8 +42,9 @@ from gaitmon.analysis import (
 from gaitmon.dsp.bilateral import symmetry_index_pct, symmetry_ratio
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.gait import cycle_mean_sd
-from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
-from gaitmon.io.session.bilateral import Bilateral, open_bilateral
+from gaitmon.finish import Session, open_session
+from gaitmon.finish.bilateral import Bilateral, open_bilateral
+from gaitmon.io.session import ANGLE_CONVENTION, Exclusion
 from gaitmon.normative import NormativeBands, deviation_deg
 from gaitmon.report_content import (
     MAX_FAINT_PER_SIDE,
@@ -98,7 +99,7 @@ def _stat(name: str, values: Sequence[float]) -> JointStat:
 
 def _tilt_method(session: Session) -> str:
     """The method behind the angles analysed here (the session's, see
-    :mod:`gaitmon.io.session.smoothed`), and the live filter's with the settings it reads."""
+    :mod:`gaitmon.finish.smoothed`), and the live filter's with the settings it reads."""
     c = session.config
     live = session.angle_method_of("live")
     live = f"{live} {c.method.describe(c)}"  # the method's own words (gaitmon.dsp.methods)

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.session import SessionError, open_session
-from gaitmon.io.session.reprocess import rewrite_processed
+from gaitmon.finish import open_session
+from gaitmon.finish.reprocess import rewrite_processed
+from gaitmon.io.session import SessionError
 
 OFFLINE = "gait-aware Kalman + RTS smoother"
 

@@ -23,7 +23,7 @@ import pytest
 from gaitmon.analysis import REASONS, analyse_bilateral
 from gaitmon.cli import main
 from gaitmon.export.tables import NO_STRIDE, PCT_MEASURES, TIME_MEASURES
-from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.finish.bilateral import open_bilateral
 
 PATIENT = "P9X7"
 

@@ -19,8 +19,8 @@ import pytest
 
 from gaitmon.cli import main
 from gaitmon.export import FORMATS
+from gaitmon.finish import open_session
 from gaitmon.io.journal import journal_path
-from gaitmon.io.session import open_session
 
 PATIENT = "PSECRET17"
 OPERATOR = "DrOpSecret"

@@ -14,8 +14,9 @@ import pytest
 
 from gaitmon.engine import Engine, EngineError
 from gaitmon.engine.pair import EngineGroup, EnginePair
+from gaitmon.finish import open_session
 from gaitmon.io.device import Device
-from gaitmon.io.session import SessionMeta, open_session
+from gaitmon.io.session import SessionMeta
 from gaitmon.io.session.parts import parts_of
 from gaitmon.io.sim import GaitConfig, SimulatedUnit
 from gaitmon.io.transport import InProcessTransport

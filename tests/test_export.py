@@ -598,6 +598,7 @@ RECORD_SCRIPT = r"""
 import os, sys
 import numpy as np
 from gaitmon.dsp.pipeline import Pipeline
+from gaitmon.finish import close_recording
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
@@ -622,7 +623,7 @@ for a in range(0, n, 50):
 if crash:
     w.flush()
     os._exit(0)  # like kill -9: no close, the journal stays
-w.close()
+close_recording(w)
 """
 
 

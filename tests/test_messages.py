@@ -25,7 +25,7 @@ import pytest
 from PySide6.QtCore import QSettings
 
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 from gaitmon.text import count, no_gait_events, num
 
 WAIT_MS = 20_000

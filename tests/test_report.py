@@ -25,7 +25,7 @@ import pytest
 
 from gaitmon.analysis import analyse_strides, summary
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
+from gaitmon.finish import close_recording, open_session
 from gaitmon.normative import load_normative
 from gaitmon.report import REDACTED, gather_report, report_from_file
 
@@ -383,6 +383,7 @@ def _long_session(path: Path, minutes: float) -> Path:
         w.append(SampleBlock(FrameKind.RAW, seq, 1000.0 + seq / 100.0, 1.7e9,
                              lost_before=np.zeros(n, np.int64), adc=counts),
                  Pipeline().process(counts))
+        close_recording(w)  # /smoothed and /strides stored, as the recorder closes
     return path
 
 

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
-from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.finish import open_session
+from gaitmon.finish.bilateral import open_bilateral
 
 needs_poppler = pytest.mark.skipif(
     shutil.which("pdftotext") is None or shutil.which("pdfinfo") is None,

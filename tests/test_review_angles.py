@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from gaitmon.analysis import STRIDE_COLUMNS, analyse_session
-from gaitmon.io.session import open_session
+from gaitmon.finish import close_recording, open_session
 
 WAIT_MS = 30_000
 JOINT = "processed/joint_deg"
@@ -89,7 +89,7 @@ KNEE_PEAK_COL, KNEE_ROM_COL = (  # by name: the table's columns are analysis.STR
 def _stored(path, angles="smoothed", name=JOINT):
     """A series of ``angles`` as the file stores it, through the session reader (format 2
     stores the tilts quantised, the joints are derived: docs/file-format.md, "Storage")."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(path) as s:
         s.use_angles(angles)
@@ -294,7 +294,7 @@ def test_a_flagged_force_sensor_is_a_visible_note(qtbot, win, tmp_path):
         w.append(SampleBlock(FrameKind.RAW, seq, seq / fs, 1.7e9,
                              lost_before=np.zeros(len(seq), np.int64), adc=adc),
                  pipe.process(adc))  # fmt: skip
-    w.close()
+    close_recording(w)
     with open_session(path) as s:
         faults = s.fsr_faults
     assert [(f.sensor, f.reason) for f in faults] == [("heel", "never loads")]

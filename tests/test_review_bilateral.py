@@ -18,8 +18,8 @@ from PySide6.QtCore import Qt
 
 from gaitmon.analysis import analyse_bilateral, analyse_session
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
-from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.finish import open_session
+from gaitmon.finish.bilateral import open_bilateral
 from gaitmon.review.both_legs import BothLegs
 
 WAIT_MS = 30_000

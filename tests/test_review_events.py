@@ -11,7 +11,8 @@ from dataclasses import fields
 import pytest
 
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.session import exclusions, open_session
+from gaitmon.finish import open_session
+from gaitmon.io.session import exclusions
 from gaitmon.report import gather_report
 from gaitmon.review.events import (
     AnglesChanged,

@@ -21,7 +21,7 @@ from PySide6.QtGui import QImage
 
 from gaitmon.dsp.lab_filters import TILT_FILTERS, make_tilt_filter
 from gaitmon.export import export_session
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 
 PATIENT = "P-0042"
 
@@ -380,7 +380,7 @@ def _view(qtbot):
 
 def _knee_rmse_by_hand(session: Path) -> dict[str, float]:
     """Accelerometer and gyro-integration knee angles vs the simulator's true knee angle."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(session) as s:  # (the format derives the gyro, quantises the acc)
         acc = s.read("processed/acc_ms2").astype(np.float64)

@@ -27,7 +27,7 @@ WAIT_MS = 20_000
 def _series(path, name, angles):
     """A per-sample series as the session reader gives it with ``angles`` (smoothed | live):
     the session format derives and decodes them (docs/file-format.md, "Storage")."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(path) as s:
         s.use_angles(angles)
@@ -209,7 +209,7 @@ def test_info_and_report_count_the_strides_the_review_window_counts(
 ):
     """Exclusions made in the window (two ranges, by its own action) reach the command line:
     ``gaitmon info`` and ``gaitmon report`` include exactly the strides the window does."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
     from gaitmon.report import gather_report
 
     open_and_wait(qtbot, win, session_file)
@@ -370,6 +370,7 @@ def test_report_normative_band_plot_export_and_filters_are_wired(
 
 def test_an_interrupted_recording_is_recovered_with_progress(qtbot, win, recorded, tmp_path):
     from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.finish import close_recording
     from gaitmon.io.device import SampleBlock
     from gaitmon.io.protocol import FrameKind
     from gaitmon.io.session import SessionHeader, SessionWriter, journal_path
@@ -387,7 +388,7 @@ def test_an_interrupted_recording_is_recovered_with_progress(qtbot, win, recorde
     w.flush()
     for src, dst in ((live, crashed), (journal_path(live), journal_path(crashed))):
         shutil.copyfile(src, dst)  # file + journal as a kill -9 would leave them
-    w.close()
+    close_recording(w)
     fractions = []
     win.jobs.job.progressed.connect(fractions.append)
     open_and_wait(qtbot, win, crashed)
@@ -428,7 +429,7 @@ def test_save_reprocessed_shows_its_progress_on_the_bar(qtbot, win, session_file
 def test_cancel_while_saving_reprocessed_leaves_no_file(
     qtbot, win, session_file, tmp_path, monkeypatch
 ):
-    from gaitmon.io.session.reprocess import partial_path
+    from gaitmon.finish.reprocess import partial_path
     from gaitmon.ui.review import jobs
 
     reached, release = threading.Event(), threading.Event()
@@ -502,7 +503,8 @@ def test_every_view_follows_the_documents_exclusions_event(qtbot, win, session_f
     """An exclusion made through the document alone (no window slot is called) reaches the
     stride table, the summary, the timeline's shading and the status bar: they listen to its
     event; and it is kept where ``gaitmon report`` reads it."""
-    from gaitmon.io.session import exclusions, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import exclusions
 
     open_and_wait(qtbot, win, session_file)
     rows = win.analysis.rows

@@ -9,7 +9,7 @@ import pytest
 from PySide6.QtCore import QPointF, QSettings
 
 from gaitmon.analysis import analyse_session
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import SIMULATED_PORT
 from gaitmon.ui.live import MainWindow

@@ -10,7 +10,7 @@ from PySide6.QtCore import QPointF, QSettings, Qt
 from test_truth_live_window import lines_across
 
 from gaitmon.cli import main
-from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.finish.bilateral import open_bilateral
 from gaitmon.io.sim.bilateral import BilateralConfig
 from gaitmon.live.pair import PairSource
 from gaitmon.ui.live import MainWindow

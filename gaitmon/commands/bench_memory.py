@@ -135,6 +135,7 @@ def _review(src: Path, out: Path) -> dict[str, float]:
 
 def _close(name: str, out: Path) -> dict[str, float]:
     from gaitmon.commands.bench_offline import append_synthetic, bench_header
+    from gaitmon.finish.closing import close_recording
     from gaitmon.io.session import SessionWriter
 
     path = out / "closing.h5"
@@ -147,7 +148,7 @@ def _close(name: str, out: Path) -> dict[str, float]:
     if not _reset_peak():
         raise RuntimeError("cannot reset the peak RSS counter (/proc/self/clear_refs)")
     t0 = time.process_time()
-    w.close()
+    close_recording(w)
     cpu = time.process_time() - t0
     rss = _peak_rss_mb()
     path.unlink()

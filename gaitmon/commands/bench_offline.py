@@ -66,12 +66,18 @@ def _format_key() -> str:
 
 def write_session(path: Path, hours: float) -> int:
     """A raw session of ``hours`` written directly (seconds for 8 hours, not 8 hours)."""
+    from gaitmon.finish.closing import close_recording
     from gaitmon.io.session import SessionWriter
 
     # one temporary name per process: two benchmarks (sharing the cache) may build the same one
     tmp = path.with_suffix(f".{os.getpid()}.tmp.h5")
-    with SessionWriter(tmp, bench_header()) as w:
+    w = SessionWriter(tmp, bench_header())
+    try:
         n = append_synthetic(w, hours)
+    except BaseException:
+        w.close(stop_reason="error")
+        raise
+    close_recording(w)
     tmp.replace(path)
     return n
 

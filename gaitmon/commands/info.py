@@ -17,8 +17,8 @@ from gaitmon.text import count, no_gait_events, num
 
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis, SessionAnalysis
-    from gaitmon.io.session import Session
-    from gaitmon.io.session.bilateral import Bilateral
+    from gaitmon.finish import Session
+    from gaitmon.finish.bilateral import Bilateral
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -42,7 +42,8 @@ def progress_printer(label: str) -> Callable[[float], None]:
 
 def run(args: argparse.Namespace) -> int:
     from gaitmon.analysis import analyse_session
-    from gaitmon.io.session import SessionError, journal_path, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import SessionError, journal_path
     from gaitmon.io.session.parts import is_bilateral
 
     if is_bilateral(args.file):
@@ -167,8 +168,8 @@ def _run_units(path: str) -> int:
     """A session of both legs: its header, each leg as a one-unit session, and the two-leg
     measures (step time, stance / swing, double and single support, symmetry; docs/bilateral.md)."""
     from gaitmon.analysis import analyse_bilateral
+    from gaitmon.finish.bilateral import missing_lines, open_bilateral
     from gaitmon.io.session import SessionError
-    from gaitmon.io.session.bilateral import missing_lines, open_bilateral
     from gaitmon.io.session.parts import parts_of
 
     interrupted = bool(parts_of(path))

@@ -2,10 +2,10 @@
 
 The original file is never modified: NEW is a copy whose ``/processed`` series, ``/events`` and
 ``/config`` come from the new settings. A session of both legs is reprocessed unit by unit
-(:mod:`gaitmon.io.session.reprocess_both`): into a file of both legs, or with ``--side`` one
+(:mod:`gaitmon.finish.reprocess_both`): into a file of both legs, or with ``--side`` one
 leg into a one-unit file. The settings given apply to the whole recording;
 standing calibrations logged during it are replayed at their rows. The work itself is
-:func:`gaitmon.io.session.reprocess.rewrite_processed`; this module only turns the command line
+:func:`gaitmon.finish.reprocess.rewrite_processed`; this module only turns the command line
 into a :class:`PipelineConfig` and prints.
 """
 
@@ -31,7 +31,7 @@ from gaitmon.reprocessing import (
 
 if TYPE_CHECKING:
     from gaitmon.dsp.pipeline import PipelineConfig
-    from gaitmon.io.session import Session
+    from gaitmon.finish import Session
 
 # the settings and their checks are gaitmon.reprocessing's, shared with ``gaitmon batch``
 __all__ = ["FSR_MAX_COUNTS", "PAPER_ONLY", "SETTINGS", "add_settings_arguments", "check_settings",
@@ -90,9 +90,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gaitmon.commands.info import progress_printer
-    from gaitmon.io.session import SessionError, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.finish.reprocess import recorded_config, rewrite_processed
+    from gaitmon.io.session import SessionError
     from gaitmon.io.session.parts import is_bilateral
-    from gaitmon.io.session.reprocess import recorded_config, rewrite_processed
 
     src, dst = Path(args.file), Path(args.output)
     both = is_bilateral(src)
@@ -113,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     warnings: list[str] = []
     try:
         if both:
-            from gaitmon.io.session.reprocess_both import rewrite_bilateral
+            from gaitmon.finish.reprocess_both import rewrite_bilateral
 
             results = rewrite_bilateral(
                 src, dst, settings.apply, side=args.side or None, overwrite=args.force,

@@ -448,7 +448,7 @@ def _record_units(args: argparse.Namespace, out: Path, meta: SessionMeta) -> int
         for s, h in old.items():
             signal.signal(s, h)
     if sim is not None:
-        from gaitmon.io.session.bilateral import part_path
+        from gaitmon.io.session.parts import part_path
         from gaitmon.io.sim.truth import attach_ground_truth
 
         for side, unit in zip(("L", "R"), sim.units, strict=True):
@@ -463,7 +463,7 @@ def _record_units(args: argparse.Namespace, out: Path, meta: SessionMeta) -> int
         errors.append(str(exc))
     if errors:
         raise UserError("; ".join(errors))
-    from gaitmon.io.session.bilateral import missing_legs
+    from gaitmon.finish.bilateral import missing_legs
 
     for line in missing_legs(out):
         print(f"gaitmon record: warning: {line}", file=sys.stderr)

@@ -2,7 +2,7 @@
 
 Each leg has its own :class:`Engine` (its own Device, link health, reconnection, gaps and
 recorder thread) writing an ordinary crash-safe recording of its own beside the target,
-``FILE.L.partial`` / ``FILE.R.partial`` (``gaitmon.io.session.bilateral.part_path``). At the stop
+``FILE.L.partial`` / ``FILE.R.partial`` (``gaitmon.finish.bilateral.part_path``). At the stop
 :meth:`EnginePair.finish` combines them into ``FILE`` (``combine_parts``: both layouts under
 ``/units/<side>`` and the clock fits under ``/sync``). A link lost on one leg is a gap in that
 leg's part only; the other leg records on. If the process dies, the parts and their journals
@@ -27,8 +27,8 @@ from typing import TYPE_CHECKING
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.engine.core import Engine, EngineError
 from gaitmon.engine.snapshot import RecordingStatus
+from gaitmon.finish.combine import combine_parts
 from gaitmon.io.journal import journal_path
-from gaitmon.io.session.combine import combine_parts
 from gaitmon.io.session.h5file import _being_recorded
 from gaitmon.io.session.header import SessionError, SessionMeta
 from gaitmon.io.session.parts import SIDE_NAMES, SIDES, part_path, parts_of

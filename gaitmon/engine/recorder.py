@@ -205,6 +205,7 @@ class Recorder:
             w.append(slice_samples(samples, a, b), part_p, event_offset=offset)
 
     def _run(self) -> None:
+        from gaitmon.finish.closing import close_recording
         from gaitmon.io.session import SessionError
 
         w = self.writer
@@ -237,7 +238,7 @@ class Recorder:
                 elif isinstance(msg, UpdateLink):
                     w.update_link(msg.stats)
                 elif isinstance(msg, Stop):
-                    w.close(stop_reason=msg.reason)
+                    close_recording(w, stop_reason=msg.reason)
                     self._publish(rows=w.rows, file_bytes=w.bytes_written, finished=True)
                     return
                 else:
@@ -249,7 +250,7 @@ class Recorder:
                 if isinstance(exc, (SessionError, OSError)):
                     self._publish(error=str(exc))
                     with contextlib.suppress(Exception):
-                        w.close(stop_reason=f"error: {exc}")
+                        close_recording(w, stop_reason=f"error: {exc}")
                 else:
                     # a bug, not the disk: the writer's state is unknown, so do not finish the
                     # file; the journal (the truth) stays and the next open recovers every row

@@ -21,8 +21,8 @@ import numpy as np
 from gaitmon.io.export.errors import ExportError
 
 if TYPE_CHECKING:
+    from gaitmon.finish.bilateral import Bilateral
     from gaitmon.io.export.source import Source
-    from gaitmon.io.session.bilateral import Bilateral
 
 MAX_ROW_SPACING = 1.5  # samples between two rows that a frame may be interpolated across
 

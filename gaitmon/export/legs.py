@@ -14,8 +14,8 @@ from gaitmon.io.export.errors import ExportError
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis
     from gaitmon.export.tables import BilateralTables
+    from gaitmon.finish.bilateral import Bilateral
     from gaitmon.io.export.source import Source
-    from gaitmon.io.session.bilateral import Bilateral
 
 
 @contextlib.contextmanager
@@ -23,8 +23,8 @@ def analysed(job: ExportRequest) -> Iterator[tuple[Bilateral, BilateralAnalysis,
     """The session opened as both legs, its analysis and its tables."""
     from gaitmon.analysis import analyse_bilateral
     from gaitmon.export.tables import bilateral_tables
+    from gaitmon.finish.bilateral import open_bilateral
     from gaitmon.io.session import SessionError
-    from gaitmon.io.session.bilateral import open_bilateral
 
     try:
         b = open_bilateral(job.src_path)

@@ -21,7 +21,7 @@ import numpy as np
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis
     from gaitmon.dsp.bilateral import Symmetry
-    from gaitmon.io.session.bilateral import Bilateral
+    from gaitmon.finish.bilateral import Bilateral
 
 # (column, what it is); seconds on the common time line, % of the row's stride time
 TIME_MEASURES: tuple[tuple[str, str], ...] = (

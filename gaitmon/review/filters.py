@@ -37,7 +37,8 @@ from gaitmon.dsp.angles import accel_tilt, joint_angles, wrap_angle
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.dsp.lab_filters import TiltFilter, make_tilt_filter
 from gaitmon.dsp.methods import ParamSpec, by_lab_name
-from gaitmon.io.session import SessionError, open_session
+from gaitmon.finish import open_session
+from gaitmon.io.session import SessionError
 
 WARMUP_S = 10.0
 MAX_RANGE_S = 600.0  # ten minutes per view: ~60 000 rows x filters, a second or two

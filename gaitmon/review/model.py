@@ -19,7 +19,7 @@
 * :func:`analyse` - strides with exclusions, summary and cycle-normalised curves for a source
   (:func:`gaitmon.analysis.analyse_session`, as ``gaitmon info`` and the report use);
 * :func:`reprocess` - the pipeline replayed over ``raw/adc`` with new settings
-  (:func:`gaitmon.io.session.replay_pipeline`, as ``gaitmon process`` does).
+  (:func:`gaitmon.finish.replay_pipeline`, as ``gaitmon process`` does).
 """
 
 from __future__ import annotations
@@ -43,18 +43,13 @@ from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
+from gaitmon.finish import Session, flags_kept, open_session, replay_pipeline
 from gaitmon.io.overview import PeakPyramid, SessionOverview
-from gaitmon.io.session import (
-    Session,
-    SessionError,
-    flags_kept,
-    open_session,
-    replay_pipeline,
-)
+from gaitmon.io.session import SessionError
 from gaitmon.io.session import exclusions as excl
+from gaitmon.io.session.layout import SMOOTHED
 from gaitmon.io.session.parts import SIDE_NAMES, is_bilateral, sides_of
 from gaitmon.io.session.rows import lost_before_from_gaps
-from gaitmon.io.session.smoothed import SMOOTHED
 from gaitmon.review.events import (
     AnglesChanged,
     DocumentEvents,

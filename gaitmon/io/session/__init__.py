@@ -1,26 +1,26 @@
 """Session files: the one owner of the session file format of ``docs/file-format.md``.
 
-Every read and write of a session file (and of its analysis state beside it) goes through this
-package:
+The format stores and reads; it computes nothing the pipeline makes (the finishing layer,
+:mod:`gaitmon.finish`, recovers, reprocesses and derives ``/smoothed`` and ``/strides``, and
+its :func:`gaitmon.finish.open_session` is how a session is opened by path). Every read and
+write of a session file (and of its analysis state beside it) goes through this package:
 
-* :mod:`.layout` - format name and version, modes, dataset paths, dtypes, chunking;
+* :mod:`.layout` - format name and version, modes, dataset paths, dtypes, chunking, the
+  ``/smoothed`` paths;
 * :mod:`.codec` - how format 2 stores each series (exact, quantised, derived on read);
 * :mod:`.header` - :class:`SessionMeta`, :class:`SessionHeader`, :func:`device_info`,
   :class:`SessionError`;
 * :mod:`.rows` - blocks to rows (pipeline and device blocks, the timeline);
 * :mod:`.h5file` - the low-level HDF5 layout writer and fsync helpers;
 * :mod:`.writer` - :class:`SessionWriter`, crash-safe recording (HDF5 + journal);
-* :mod:`.recovery` - :func:`replay_pipeline`, :func:`recover_session`, :func:`build_session`
-  (a whole file from rows in memory: the XDF import);
-* :mod:`.reader` - :func:`open_session` / :class:`Session`, :class:`Marker`, :class:`Gap`;
-* :mod:`.reprocess` - :func:`rewrite_processed`, a raw session re-run into a new file;
-* :mod:`.smoothed` - the ``/smoothed`` zero-lag angles of raw sessions (the readers' default);
+* :mod:`.reader` - :class:`StoredSession`, what a file stores; :mod:`.series` -
+  :class:`Marker`, :class:`Gap`, the series view and the checks of a file's edge;
+  :mod:`.opening` - a file opened as it is (:func:`read_stored`);
 * :mod:`.stored_overview` - ``/overview``, the joint angles' min/max for a long session's first
   view;
 * :mod:`.truth` - the ``/truth`` group of simulated sessions;
-* :mod:`.parts`, :mod:`.combine`, :mod:`.bilateral` - bilateral sessions (both legs): the two
-  units' parts while recording, combining them into one file with their clock fits, and
-  :func:`~.bilateral.open_bilateral` (one leg: ``open_session(path, side="L")``);
+* :mod:`.parts` - the two units' parts of a recording of both legs (combined by
+  :mod:`gaitmon.finish.combine`);
 * :mod:`.exclusions` - the user's excluded ranges, kept beside the recording in
   ``FILE.review.json`` (analysis state: the recording itself is never modified);
 * :mod:`.deidentify` - a de-identified copy of a session file (``gaitmon batch --deidentify``).
@@ -45,16 +45,10 @@ if TYPE_CHECKING:
         MODES,
         per_sample_datasets,
     )
-    from gaitmon.io.session.reader import Gap, Marker, Session, open_session
-    from gaitmon.io.session.recovery import (
-        build_session,
-        flagged_at_start,
-        flags_kept,
-        recover_session,
-        replay_pipeline,
-    )
-    from gaitmon.io.session.reprocess import RewriteResult, rewrite_processed
+    from gaitmon.io.session.opening import read_stored
+    from gaitmon.io.session.reader import StoredSession
     from gaitmon.io.session.rows import rows_from_pipeline
+    from gaitmon.io.session.series import AttrValue, Gap, Marker
     from gaitmon.io.session.truth import read_truth
     from gaitmon.io.session.writer import SessionWriter
 
@@ -86,24 +80,18 @@ def __getattr__(name: str) -> object:
         from gaitmon.io.session import layout
 
         return _keep(name, layout)
-    if name in ("Gap", "Marker", "Session", "open_session"):
+    if name in ("AttrValue", "Gap", "Marker"):
+        from gaitmon.io.session import series
+
+        return _keep(name, series)
+    if name == "StoredSession":
         from gaitmon.io.session import reader
 
         return _keep(name, reader)
-    if name in (
-        "build_session",
-        "flagged_at_start",
-        "flags_kept",
-        "recover_session",
-        "replay_pipeline",
-    ):
-        from gaitmon.io.session import recovery
+    if name == "read_stored":
+        from gaitmon.io.session import opening
 
-        return _keep(name, recovery)
-    if name in ("RewriteResult", "rewrite_processed"):
-        from gaitmon.io.session import reprocess
-
-        return _keep(name, reprocess)
+        return _keep(name, opening)
     if name == "rows_from_pipeline":
         from gaitmon.io.session import rows
 
@@ -132,25 +120,19 @@ __all__ = [
     "FORMAT_VERSION",
     "LINK_TOTALS",
     "MODES",
+    "AttrValue",
     "Exclusion",
     "Gap",
     "Marker",
-    "RewriteResult",
-    "Session",
     "SessionError",
     "SessionHeader",
     "SessionMeta",
     "SessionWriter",
-    "build_session",
+    "StoredSession",
     "device_info",
-    "flagged_at_start",
-    "flags_kept",
     "journal_path",
-    "open_session",
     "per_sample_datasets",
+    "read_stored",
     "read_truth",
-    "recover_session",
-    "replay_pipeline",
-    "rewrite_processed",
     "rows_from_pipeline",
 ]

@@ -2,7 +2,7 @@
 
 This module is their one owner: the review document changes them through :func:`write`, and
 the document, ``gaitmon info``, ``gaitmon report`` and export all read them through :func:`read`
-(:meth:`gaitmon.io.session.Session.exclusions` calls it), so every report of one recording
+(:meth:`gaitmon.io.session.StoredSession.exclusions` calls it), so every report of one recording
 leaves out the same strides. The recording itself is never modified. The side file holds row
 ranges (and their times, for a human reader), plus the recording's ``created_utc`` and
 ``n_samples`` so that ranges written for another recording of the same name are not applied by

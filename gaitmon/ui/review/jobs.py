@@ -25,7 +25,8 @@ from typing import TYPE_CHECKING
 from PySide6.QtCore import QObject, Signal
 
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.session import SessionError, journal_path, rewrite_processed
+from gaitmon.finish import rewrite_processed
+from gaitmon.io.session import SessionError, journal_path
 from gaitmon.jobs import Response, Ticket
 from gaitmon.review.events import ExclusionsChanged
 from gaitmon.review.model import (
@@ -127,7 +128,7 @@ def angles_request(doc: Document, angles: str) -> Callable[[Ticket], AnglesReady
 
 def save_request(src: Path, dst: Path, config: PipelineConfig) -> Callable[[Ticket], Saved]:
     """A new session file: the recording's raw counts reprocessed with ``config``
-    (:func:`gaitmon.io.session.rewrite_processed`, as ``gaitmon process``); its progress goes to
+    (:func:`gaitmon.finish.rewrite_processed`, as ``gaitmon process``); its progress goes to
     the window's bar, and Cancel (the request no longer wanted) makes it delete the partial
     file and raise :class:`gaitmon.errors.Cancelled`."""
 

@@ -26,6 +26,7 @@ from gaitmon.dsp.gait import ContactEdges
 from gaitmon.dsp.methods import feeds_smoother
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.errors import Cancelled
+from gaitmon.finish.smoothed import KeptFirstPass
 from gaitmon.io.journal import (
     IDENTITY_FIELDS,
     IDENTITY_IN_FILE,
@@ -49,7 +50,6 @@ from gaitmon.io.session.rows import (
     fault_rows,
     rows_from_pipeline,
 )
-from gaitmon.io.session.smoothed import KeptFirstPass
 
 # rows replayed at a time by a recovery: the pipeline's block for 65 536 rows (the default,
 # ``gaitmon process``'s cancel points) is ~50 MB with its temporaries; chunking does not change
@@ -443,7 +443,7 @@ def _build_recovered(
         h5.append_table("link/crc_failures", crc_log)
         h5.set_link_totals(totals)
         if mode == "raw" and n and not in_memory:  # in memory, the reader computes them if asked
-            from gaitmon.io.session.smoothed import store_smoothed
+            from gaitmon.finish.smoothed import store_smoothed
 
             cal_changes = [(i, c) for i, c in changes if isinstance(c, Calibration)]
             # the journal's rows (~50 bytes a row) are let go first: the smoother reads the
@@ -458,7 +458,7 @@ def _build_recovered(
             store_smoothed(h5.f, lambda a, b: ds[a:b], n, header.table, header.calibration,
                            cal_changes, lost, fs,
                            None if kept is None else kept.first_pass)  # fmt: skip
-            from gaitmon.io.session.stored_strides import store_strides
+            from gaitmon.finish.strides import store_strides
 
             h5.drain()  # the chunk being filled: the stride measures read every row
             store_strides(h5.f, header.table, header.calibration, fs)

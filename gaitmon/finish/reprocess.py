@@ -24,15 +24,15 @@ from gaitmon.dsp.channels import ChannelTable
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
+from gaitmon.finish.recovery import flags_kept, replay_pipeline
+from gaitmon.finish.session import Session, open_session
+from gaitmon.finish.smoothed import KeptFirstPass, store_smoothed
+from gaitmon.finish.strides import store_strides
 from gaitmon.io.session.codec import encode
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
-from gaitmon.io.session.reader import Session, open_session
-from gaitmon.io.session.recovery import flags_kept, replay_pipeline
 from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
-from gaitmon.io.session.smoothed import KeptFirstPass, store_smoothed
 from gaitmon.io.session.stored_overview import write_overview
-from gaitmon.io.session.stored_strides import store_strides
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
 COPY_SHARE = 0.25

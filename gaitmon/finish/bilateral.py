@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,7 +25,8 @@ import h5py
 import numpy as np
 
 from gaitmon.dsp.clock_fit import ClockFit
-from gaitmon.io.session.combine import combine_parts
+from gaitmon.finish.combine import combine_parts
+from gaitmon.finish.session import Session, open_combined_h5, open_session
 from gaitmon.io.session.h5file import _short_error
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.parts import (
@@ -36,7 +37,6 @@ from gaitmon.io.session.parts import (
     part_path,
     parts_of,
 )
-from gaitmon.io.session.reader import Session, open_combined_h5, open_session
 
 __all__ = [
     "SIDES",
@@ -150,7 +150,7 @@ def open_bilateral(
     return Bilateral(path, units, sync, t0, scale, attrs)
 
 
-def missing_of(attrs: Any) -> dict[str, str]:
+def missing_of(attrs: Mapping[str, object]) -> dict[str, str]:
     """``{side: why}`` of a bilateral file's root attributes (``missing``, ``missing_<side>``)."""
     sides = _text(attrs.get("missing", "")).split()
     return {s: _text(attrs.get(f"missing_{s}", "")) for s in sides if s in SIDES}
@@ -172,7 +172,7 @@ def missing_legs(path: str | os.PathLike[str]) -> list[str]:
         return []
 
 
-def _text(x: Any) -> str:
+def _text(x: object) -> str:
     return x.decode("utf-8", "replace") if isinstance(x, bytes) else str(x)
 
 

@@ -3,7 +3,7 @@
 ``gaitmon process both.h5 -o new.h5`` reprocesses every unit of the file: ``new.h5`` is a copy
 of the whole bilateral file (``/sync`` and the common time base unchanged: the clock fits come
 from the receive times, which reprocessing does not touch) in which each ``/units/<side>`` is
-rewritten in place by :func:`gaitmon.io.session.reprocess.rewrite_unit`, the same code a
+rewritten in place by :func:`gaitmon.finish.reprocess.rewrite_unit`, the same code a
 one-unit file goes through. ``side="L"`` reprocesses one leg into a one-unit file: that unit's
 layout copied to the root of a new file (its attributes with it), then rewritten the same way.
 As for one unit, the new file is built as ``NEW.partial`` and moved into place; the original is
@@ -19,10 +19,8 @@ from pathlib import Path
 import h5py
 
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.session.bilateral import open_bilateral
-from gaitmon.io.session.header import SessionError
-from gaitmon.io.session.parts import SIDE_NAMES
-from gaitmon.io.session.reprocess import (
+from gaitmon.finish.bilateral import open_bilateral
+from gaitmon.finish.reprocess import (
     COPY_SHARE,
     Cancel,
     Progress,
@@ -36,6 +34,8 @@ from gaitmon.io.session.reprocess import (
     partial_path,
     rewrite_unit,
 )
+from gaitmon.io.session.header import SessionError
+from gaitmon.io.session.parts import SIDE_NAMES
 
 Configure = Callable[[PipelineConfig], PipelineConfig]  # a unit's recorded settings -> new
 
@@ -52,7 +52,7 @@ def rewrite_bilateral(
 ) -> dict[str, RewriteResult]:
     """Write ``dst``: the bilateral session ``src`` with every unit (or only ``side``, as a
     one-unit file) reprocessed with ``configure(its recorded settings)``. Progress, Cancel and
-    errors as :func:`gaitmon.io.session.reprocess.rewrite_processed`; by side, what each unit
+    errors as :func:`gaitmon.finish.reprocess.rewrite_processed`; by side, what each unit
     became."""
     src, dst = Path(src), Path(dst)
     check_destination(src, dst, overwrite)

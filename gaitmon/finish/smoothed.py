@@ -33,13 +33,6 @@ from gaitmon.dsp.channels import ChannelTable
 from gaitmon.io.session.layout import CHUNK_ROWS
 from gaitmon.io.session.rows import lost_before_from_gaps
 
-# the live series a smoothed one stands in for
-SMOOTHED: dict[str, str] = {
-    "processed/tilt_deg": "smoothed/tilt_deg",
-    "processed/joint_deg": "smoothed/joint_deg",
-}
-ANGLE_SOURCES = ("smoothed", "live")
-
 
 def smoothed_method_label() -> str:
     from gaitmon.dsp.methods import smoothing_method
@@ -356,15 +349,3 @@ def smooth_into(
     ds = f["raw/adc"]
     store_smoothed(f, lambda a, b: ds[a:b], n, table, calibration, changes, lost, fs_hz)
 
-
-def stored_smoothed(f: h5py.File, n_samples: int) -> bool:
-    """Whether ``f`` holds a complete ``/smoothed`` for its ``n_samples`` rows (format 2
-    stores the tilts only: the joint angles are derived from them)."""
-    from gaitmon.io.session.codec import JOINT_OF
-
-    v2 = int(f.attrs.get("format_version", 1)) >= 2
-    return all(
-        p in f and isinstance(f[p], h5py.Dataset) and f[p].shape[0] == n_samples
-        for p in SMOOTHED.values()
-        if not (v2 and p in JOINT_OF)
-    )

@@ -66,7 +66,7 @@ def _ready(part: Path, progress: Progress) -> None:
         if done:
             jpath.unlink()
             return
-    from gaitmon.io.session.recovery import recover_session
+    from gaitmon.finish.recovery import recover_session
 
     recover_session(part, progress)
 
