@@ -8,7 +8,7 @@
 * ``unit``       -- ``SimulatedUnit``: speaks ``gaitmon.io.protocol`` through ``write``/``read``,
   paced by a clock, with fault injection, a fault ledger and ground truth;
 * ``pty``        -- ``PtySimulator``: the unit behind a pseudo-terminal for pyserial clients;
-* ``clock``      -- ``SampleClock``: when a unit's samples are taken on a common time line
+* ``clock``      -- ``CrystalClock``: when a unit's samples are taken on a common time line
   (start offset, crystal drift in ppm);
 * ``bilateral``  -- two units, one per leg, from one walk (``BilateralConfig``, ``BilateralSim``,
   its truth on the common time base, ``serve_pair_on_ptys``); docs/simulator.md;
@@ -38,7 +38,7 @@ if TYPE_CHECKING:
         UnitSpec,
         serve_pair_on_ptys,
     )
-    from gaitmon.io.sim.clock import SampleClock
+    from gaitmon.io.sim.clock import CrystalClock
     from gaitmon.io.sim.config import SimConfig, build_unit, serve_on_pty
     from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
     from gaitmon.io.sim.patterns import PATTERNS
@@ -50,7 +50,7 @@ __getattr__ = lazy_exports(__name__, {
     "GaitConfig": "kinematics", "GaitModel": "kinematics", "PATTERNS": "patterns",
     "SensorConfig": "sensors", "SensorModel": "sensors",
     "FaultConfig": "unit", "FaultLedger": "unit", "GroundTruth": "unit", "SimulatedUnit": "unit",
-    "SampleClock": "clock", "BilateralConfig": "bilateral", "BilateralPty": "bilateral",
+    "CrystalClock": "clock", "BilateralConfig": "bilateral", "BilateralPty": "bilateral",
     "BilateralSim": "bilateral", "BilateralTruth": "bilateral", "UnitSpec": "bilateral",
     "serve_pair_on_ptys": "bilateral",
 })  # fmt: skip
@@ -62,12 +62,12 @@ __all__ = [
     "BilateralPty",
     "BilateralSim",
     "BilateralTruth",
+    "CrystalClock",
     "FaultConfig",
     "FaultLedger",
     "GaitConfig",
     "GaitModel",
     "GroundTruth",
-    "SampleClock",
     "SensorConfig",
     "SensorModel",
     "SimConfig",

@@ -29,7 +29,7 @@ Sample n belongs to device time n / fs. With ``speed`` = 1 the unit runs in real
 ``speed=math.inf`` ("as fast as possible") device time only advances when there is work: each
 read() produces up to ``afap_block`` samples while streaming, or as many ticks as pending
 REQUEST_FRAME / ZERO need. The number of samples ever produced is computed from the clock, never
-by sleeping per sample, so it cannot drift. With a ``sample_clock`` (one unit of a bilateral
+by sleeping per sample, so it cannot drift. With a ``crystal_clock`` (one unit of a bilateral
 pair, ``bilateral.py``) sample n is taken at common time ``offset + n / (fs (1 + ppm 1e-6))``
 (``clock.py``), common time running ``speed`` times as fast as ``clock`` from ``epoch``.
 
@@ -90,7 +90,7 @@ from gaitmon.dsp.calibration import CalibrationError, standing_calibration
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
 from gaitmon.io import protocol as P
-from gaitmon.io.sim.clock import SampleClock
+from gaitmon.io.sim.clock import CrystalClock
 from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import SensorBlock, SensorConfig, SensorModel
 
@@ -204,14 +204,14 @@ class SimulatedUnit:
         afap_block: int = 100,
         zero_samples: int = 100,
         gait_model: GaitModel | None = None,
-        sample_clock: SampleClock | None = None,
+        crystal_clock: CrystalClock | None = None,
         epoch: float | None = None,
     ) -> None:
         if not speed > 0:
             raise ValueError(f"speed must be > 0 (math.inf = as fast as possible), got {speed}")
         # gait_model: the leg's motion when it is not the unit's own (a bilateral pair's legs
         # share one walk, gaitmon.io.sim.bilateral); its config replaces ``gait``.
-        # sample_clock: when each sample is taken on the common time line (gaitmon.io.sim.clock);
+        # crystal_clock: when each sample is taken on the common time line (gaitmon.io.sim.clock);
         # epoch: the ``clock()`` reading at common time 0 (a pair shares it; default: now).
         if gait_model is not None:
             gait = gait_model.config
@@ -231,7 +231,7 @@ class SimulatedUnit:
         self.afap_block = afap_block
         self.zero_samples = zero_samples
         self.gait = gait_model or GaitModel(self.gait_config)
-        self.sample_clock = sample_clock
+        self.crystal_clock = crystal_clock
         self.sensors = SensorModel(self.gait, self.sensor_config)
         self.pipeline = Pipeline(pipeline_config or PipelineConfig(fs_hz=self.fs_hz))
         self.ledger = FaultLedger()
@@ -314,10 +314,11 @@ class SimulatedUnit:
             if math.isinf(self.speed):
                 return 0.0
             n_next = self.sensors.position + 1
-            if self.sample_clock is None:
+            if self.crystal_clock is None:
                 t_next = self._t0 + n_next / (self.fs_hz * self.speed)
             else:
-                t_next = self._t0 + self.sample_clock.common_time_s(n_next, self.fs_hz) / self.speed
+                common_s = self.crystal_clock.common_time_s(n_next, self.fs_hz)
+                t_next = self._t0 + common_s / self.speed
             return max(0.0, t_next - self._clock())
 
     def close(self) -> None:
@@ -445,10 +446,10 @@ class SimulatedUnit:
         if math.isinf(self.speed):
             return
         elapsed = self._clock() - self._t0
-        if self.sample_clock is None:
+        if self.crystal_clock is None:
             due = math.floor(elapsed * self.fs_hz * self.speed)
         else:
-            due = self.sample_clock.samples_due(elapsed * self.speed, self.fs_hz)
+            due = self.crystal_clock.samples_due(elapsed * self.speed, self.fs_hz)
         self._tick(due - self.sensors.position)
 
     def _advance_afap(self, max_bytes: int | None) -> None:
