@@ -33,7 +33,7 @@ from gaitmon.analysis import (
     spatial_summary,
     summary,
 )
-from gaitmon.dsp.channels import SEGMENTS
+from gaitmon.dsp.channel_table import JOINTS, SEGMENTS
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
 from gaitmon.normative import NormativeBands, deviation_deg
@@ -47,7 +47,7 @@ JOINT_AXIS_LABELS: tuple[str, ...] = (
     "knee flexion (deg)",
     "ankle dorsiflexion (deg)",
 )
-JOINT_TITLES: tuple[str, ...] = ("Hip", "Knee", "Ankle")
+JOINT_TITLES: tuple[str, ...] = tuple(j.capitalize() for j in JOINTS)  # Hip, Knee, Ankle
 REDACTED = "[removed]"
 EXCLUSION_ORDER: tuple[str, ...] = REASONS
 _SIDES = {"L": "left", "R": "right"}
