@@ -36,7 +36,7 @@ from gaitmon.io.session import SessionError, open_session
 from gaitmon.io.session.bilateral import open_bilateral, part_path, parts_of
 from gaitmon.io.sim.bilateral import BilateralConfig, BilateralPty, BilateralSim, UnitSpec
 from gaitmon.io.sim.clock import CrystalClock
-from gaitmon.io.sim.unit import FaultConfig
+from gaitmon.io.sim.faults import FaultConfig
 
 SPEED = 4.0
 # the goals' recordings run at 2x: every ms of host jitter in the clock fit counts `speed`

@@ -28,8 +28,8 @@ from gaitmon.io.sim.bilateral import (
     serve_pair_on_ptys,
 )
 from gaitmon.io.sim.clock import CrystalClock
+from gaitmon.io.sim.faults import FaultConfig
 from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
-from gaitmon.io.sim.unit import FaultConfig
 
 FS = 100.0
 EVENT_TOL_S = 0.010  # measured: |error| <= 7.7 ms (heel strike), 5.0 ms (toe off); bias ~ +2.7 ms

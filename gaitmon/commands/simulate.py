@@ -305,7 +305,7 @@ def bilateral_config_from_args(args: argparse.Namespace) -> BilateralConfig:
             )
     from gaitmon.io.sim.bilateral import BilateralConfig, UnitSpec, side_seed
     from gaitmon.io.sim.clock import CrystalClock
-    from gaitmon.io.sim.unit import FaultConfig
+    from gaitmon.io.sim.faults import FaultConfig
 
     try:
         specs = [

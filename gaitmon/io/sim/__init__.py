@@ -3,10 +3,11 @@
 * ``kinematics`` -- normative sagittal gait (hip/knee/ankle, segment tilts, sensor-point motion);
 * ``contact``    -- the foot on the ground: foot-flat, the hip above it, where each stride lands;
 * ``jets``       -- values with their time derivatives, and the gait's curves built from them;
-* ``sensors``    -- the 14 ADC channels in counts (gravity, linear acceleration, impacts, gyro
-  bias/drift, mounting offsets, FSR loading, noise, 12-bit quantisation);
+* ``sensors``    -- the channel table's ADC channels in counts (gravity, linear acceleration,
+  impacts, gyro bias/drift, mounting offsets, FSR loading, noise, 12-bit quantisation);
 * ``unit``       -- ``SimulatedUnit``: speaks ``gaitmon.io.protocol`` through ``write``/``read``,
-  paced by a clock, with fault injection, a fault ledger and ground truth;
+  paced by a clock, with fault injection and ground truth;
+* ``faults``     -- ``FaultConfig`` (what goes wrong on the link) and the ``FaultLedger``;
 * ``pty``        -- ``PtySimulator``: the unit behind a pseudo-terminal for pyserial clients;
 * ``clock``      -- ``CrystalClock``: when a unit's samples are taken on a common time line
   (start offset, crystal drift in ppm);
@@ -40,16 +41,18 @@ if TYPE_CHECKING:
     )
     from gaitmon.io.sim.clock import CrystalClock
     from gaitmon.io.sim.config import SimConfig, build_unit, serve_on_pty
+    from gaitmon.io.sim.faults import FaultConfig, FaultLedger
     from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
     from gaitmon.io.sim.patterns import PATTERNS
     from gaitmon.io.sim.sensors import SensorConfig, SensorModel
-    from gaitmon.io.sim.unit import FaultConfig, FaultLedger, GroundTruth, SimulatedUnit
+    from gaitmon.io.sim.unit import GroundTruth, SimulatedUnit
 
 __getattr__ = lazy_exports(__name__, {
     "SimConfig": "config", "build_unit": "config", "serve_on_pty": "config",
     "GaitConfig": "kinematics", "GaitModel": "kinematics", "PATTERNS": "patterns",
     "SensorConfig": "sensors", "SensorModel": "sensors",
-    "FaultConfig": "unit", "FaultLedger": "unit", "GroundTruth": "unit", "SimulatedUnit": "unit",
+    "FaultConfig": "faults", "FaultLedger": "faults",
+    "GroundTruth": "unit", "SimulatedUnit": "unit",
     "CrystalClock": "clock", "BilateralConfig": "bilateral", "BilateralPty": "bilateral",
     "BilateralSim": "bilateral", "BilateralTruth": "bilateral", "UnitSpec": "bilateral",
     "serve_pair_on_ptys": "bilateral",

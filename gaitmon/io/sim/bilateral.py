@@ -63,11 +63,12 @@ import numpy as np
 from gaitmon.dsp.bilateral import BilateralGait, bilateral_gait
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.sim.clock import CrystalClock
+from gaitmon.io.sim.faults import FaultConfig
 from gaitmon.io.sim.kinematics import START_PHASE, TOE_OFF_PHASE, GaitConfig, GaitModel
 from gaitmon.io.sim.patterns import PATTERNS
 from gaitmon.io.sim.pty import PtySimulator
 from gaitmon.io.sim.sensors import SensorConfig
-from gaitmon.io.sim.unit import FaultConfig, SimulatedUnit
+from gaitmon.io.sim.unit import SimulatedUnit
 
 SIDES = ("L", "R")
 LEADING = "R"  # the leg that steps off first
