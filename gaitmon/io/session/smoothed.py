@@ -29,6 +29,7 @@ import h5py
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import ChannelTable
 from gaitmon.io.session.layout import CHUNK_ROWS
 from gaitmon.io.session.rows import lost_before_from_gaps
@@ -213,8 +214,8 @@ def smoothed_angles(
     a file block by block instead)."""
     counts = np.asarray(adc)
     n = len(counts)
-    tilt_deg = np.empty((n, 4), np.float32)
-    joint_deg = np.empty((n, 3), np.float32)
+    tilt_deg = np.empty((n, N_SEGMENTS), np.float32)
+    joint_deg = np.empty((n, N_JOINTS), np.float32)
     for s0, part in smoothed_blocks(lambda a, b: counts[a:b], n, table, calibration,
                                     calibration_changes, _restarts(lost_before, n, fs_hz),
                                     fs_hz):  # fmt: skip
@@ -244,7 +245,7 @@ def store_smoothed(
     v2 = int(f.attrs.get("format_version", 1)) >= 2
     grp = f.require_group("smoothed")
     out: dict[str, h5py.Dataset] = {}
-    for path, cols in (("smoothed/tilt_deg", 4), ("smoothed/joint_deg", 3)):
+    for path, cols in (("smoothed/tilt_deg", N_SEGMENTS), ("smoothed/joint_deg", N_JOINTS)):
         name = path.split("/", 1)[1]
         if name in grp:
             del grp[name]
