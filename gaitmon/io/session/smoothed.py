@@ -175,7 +175,7 @@ class KeptFirstPass:
         if self._file is None or not 0 <= a <= b <= self._n:
             raise ValueError(f"first-pass rows {a}:{b} asked of {self._n} kept")
         self._file.seek(a * _ROW_BYTES)
-        return np.frombuffer(self._file.read((b - a) * _ROW_BYTES)).reshape(b - a, 4)
+        return np.frombuffer(self._file.read((b - a) * _ROW_BYTES)).reshape(b - a, N_SEGMENTS)
 
     def close(self) -> None:
         if self._file is not None:
@@ -184,7 +184,7 @@ class KeptFirstPass:
             self._file = None
 
 
-_ROW_BYTES = 4 * 8
+_ROW_BYTES = N_SEGMENTS * 8
 
 
 def _restarts(lost_before: np.ndarray, n: int, fs_hz: float) -> np.ndarray:
