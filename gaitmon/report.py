@@ -33,7 +33,7 @@ from gaitmon.analysis import (
     spatial_summary,
     summary,
 )
-from gaitmon.dsp.channel_table import JOINTS, SEGMENTS
+from gaitmon.dsp.channel_table import JOINT_TABLE, JOINTS, SEGMENTS
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
 from gaitmon.normative import NormativeBands, deviation_deg
@@ -42,11 +42,7 @@ from gaitmon.text import count, no_gait_events, num
 N_POINTS = 101
 _CYCLE_CHUNK = 2048  # strides normalised per call
 # axis labels with units and the clinical sign words (positive direction named)
-JOINT_AXIS_LABELS: tuple[str, ...] = (
-    "hip flexion (deg)",
-    "knee flexion (deg)",
-    "ankle dorsiflexion (deg)",
-)
+JOINT_AXIS_LABELS: tuple[str, ...] = tuple(f"{j.label} (deg)" for j in JOINT_TABLE)
 JOINT_TITLES: tuple[str, ...] = tuple(j.capitalize() for j in JOINTS)  # Hip, Knee, Ankle
 REDACTED = "[removed]"
 EXCLUSION_ORDER: tuple[str, ...] = REASONS

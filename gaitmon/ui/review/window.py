@@ -36,6 +36,7 @@ from PySide6.QtGui import QAction, QCloseEvent, QDragEnterEvent, QDropEvent
 from PySide6.QtWidgets import QFileDialog, QLabel, QSplitter, QTabWidget, QVBoxLayout, QWidget
 
 from gaitmon import __version__
+from gaitmon.dsp.channel_table import JOINTS
 from gaitmon.io.session import exclusions as excl
 from gaitmon.review.model import Document, angles_caption
 from gaitmon.text import count, no_gait_events, num
@@ -463,7 +464,7 @@ class ReviewWindow(ReviewJobs):
         attach_export_action(tl.overview, self, "overview.png")
         for key, lane in tl.lanes.items():
             attach_export_action(lane.plot, self, f"{key}.png")
-        for plot, key in zip(self.cycles.plots, ("hip", "knee", "ankle"), strict=True):
+        for plot, key in zip(self.cycles.plots, JOINTS, strict=True):
             attach_export_action(plot, self, f"cycle_{key}.png")
 
     @guarded
