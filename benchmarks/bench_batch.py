@@ -29,13 +29,14 @@ import numpy as np
 from gaitmon.batch import OK, Outcome, run_batch
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.finish import open_session
+from gaitmon.finish.recovery import replay_pipeline
+from gaitmon.finish.reprocess import REPLAY_CHUNK_ROWS
+from gaitmon.finish.smoothed import smoothed_angles
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.protocol import FrameKind
-from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter, open_session
-from gaitmon.io.session.recovery import replay_pipeline
-from gaitmon.io.session.reprocess import REPLAY_CHUNK_ROWS
+from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
 from gaitmon.io.session.rows import lost_before_from_gaps
-from gaitmon.io.session.smoothed import smoothed_angles
 from gaitmon.io.sim import GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import realistic_sensors, simulate
 from gaitmon.reprocessing import Reprocessing

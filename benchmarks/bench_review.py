@@ -49,7 +49,7 @@ def build_session(path: Path, hours: float, version: int = FORMAT_VERSION) -> in
     own dtype and filters, then its /overview computed as a closing recorder does) or 1
     (every series decoded and stored as float32, uncompressed, as format 1 did)."""
     from gaitmon.cli import main as cli_main
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
     from gaitmon.io.session.codec import COMPRESSION
     from gaitmon.io.session.stored_overview import write_overview
 

@@ -18,10 +18,11 @@ import numpy as np
 
 import gaitmon.io.session.h5file as session_h5
 from gaitmon.dsp.pipeline import Pipeline
+from gaitmon.finish import open_session, recover_session
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.journal import MAGIC, ROW_DTYPES, RecordType, encode_json, journal_path
 from gaitmon.io.protocol import FrameKind
-from gaitmon.io.session import SessionHeader, SessionWriter, open_session, recover_session
+from gaitmon.io.session import SessionHeader, SessionWriter
 from gaitmon.io.sim.sensors import simulate
 
 FS = 100.0

@@ -29,9 +29,9 @@ from gaitmon.analysis import analyse_bilateral
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import Engine
 from gaitmon.engine.pair import EnginePair
+from gaitmon.finish.bilateral import open_bilateral
 from gaitmon.io.device import Device
 from gaitmon.io.ports import make_transport
-from gaitmon.io.session.bilateral import open_bilateral
 from gaitmon.io.sim.bilateral import (
     DEFAULT_LEFT,
     DEFAULT_RIGHT,

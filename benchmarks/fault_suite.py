@@ -171,8 +171,8 @@ def row_decoder(quick: bool) -> list[Row]:
 
 def _one_cut(outage_s: float, tmp: Path) -> dict[str, float | int | str]:
     from gaitmon.engine import Engine
+    from gaitmon.finish import open_session
     from gaitmon.io.device import Device
-    from gaitmon.io.session import open_session
     from gaitmon.io.sim import GaitConfig, SimulatedUnit
     from gaitmon.io.sim.pty import PtySimulator
     from gaitmon.io.transport import LinkState, SerialTransport
@@ -369,7 +369,7 @@ ENGINE_DISK_FULL = textwrap.dedent("""
 
 
 def row_diskfull(quick: bool) -> list[Row]:
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with tempfile.TemporaryDirectory() as d:
         out = Path(d) / "full.h5"
@@ -499,7 +499,7 @@ def row_damaged(quick: bool, corpus_module: str | None) -> list[Row]:
             )
         ]
     from gaitmon.cli import main
-    from gaitmon.io.export import FORMATS
+    from gaitmon.export import FORMATS
 
     hang_s = 120.0
     with tempfile.TemporaryDirectory() as d:
@@ -596,7 +596,7 @@ def _rss_mb(pid: int) -> float | None:
 
 
 def row_soak(quick: bool, speed: float) -> list[Row]:
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     hours = 0.15 if quick else 3.0
     duration_s = hours * 3600

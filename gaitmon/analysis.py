@@ -35,8 +35,9 @@ from gaitmon.dsp.pipeline import BRIDGE_MAX_S, settling_ranges
 if TYPE_CHECKING:
     from gaitmon.dsp.bilateral import BilateralGait
     from gaitmon.dsp.stride_length import StrideMeasures
-    from gaitmon.io.session import Exclusion, Session
-    from gaitmon.io.session.bilateral import Bilateral
+    from gaitmon.finish import Session
+    from gaitmon.finish.bilateral import Bilateral
+    from gaitmon.io.session import Exclusion
 
 MAX_GAP_S = BRIDGE_MAX_S  # gaps up to 5 frames at 100 Hz are bridged and leave a stride usable
 

@@ -4,7 +4,7 @@
 paths and a frozen :class:`~gaitmon.reprocessing.Reprocessing`: picklable, so a local process or
 a Dask worker can take it) run by :func:`reprocess_one`, which opens its own files (h5py objects
 cannot travel between processes), writes ``OUT/<same relative path>`` through
-:func:`gaitmon.io.session.reprocess.rewrite_processed` (as ``gaitmon process`` does: built as
+:func:`gaitmon.finish.reprocess.rewrite_processed` (as ``gaitmon process`` does: built as
 ``.partial``, moved into place) and returns a small :class:`Outcome`: the session's summary
 row and its stride rows, or why it could not be reprocessed. A damaged file is an outcome
 ("damaged" and one line), never an exception that stops the batch.
@@ -144,9 +144,10 @@ def reprocess_one(task: Task) -> Outcome:
 
     Runs in a worker: imports what it needs, opens its own files, returns plain values.
     """
-    from gaitmon.io.session import SessionError, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.finish.reprocess import partial_path, rewrite_processed
+    from gaitmon.io.session import SessionError
     from gaitmon.io.session.parts import is_bilateral
-    from gaitmon.io.session.reprocess import partial_path, rewrite_processed
 
     bad_file: tuple[type[BaseException], ...] = (SessionError, *DAMAGE_ERRORS)
     src, dst = Path(task.src), Path(task.dst)

@@ -15,34 +15,83 @@ from collections.abc import Callable, Sequence
 from gaitmon import __version__
 from gaitmon.errors import UserError
 
-# name -> (module path, help). Modules define add_arguments(parser) and run(args) -> int.
-SUBCOMMANDS: dict[str, tuple[str, str]] = {
-    "record": ("gaitmon.commands.record", "record a session from the unit or the simulator"),
-    "info": ("gaitmon.commands.info", "summarise a session (recovers an interrupted one)"),
-    "process": ("gaitmon.commands.process", "re-run the pipeline offline with new settings"),
-    "import": ("gaitmon.commands.import_xdf", "import a LabRecorder recording (.xdf) of gaitmon's "
-               "LSL streams as a session file"),
-    "batch": ("gaitmon.commands.batch", "reprocess every session of a study (local or Dask)"),
-    "bench": ("gaitmon.commands.bench", "measure pipeline speed and print the figures"),
-    "export": ("gaitmon.commands.export", "export a recorded session to CSV, MATLAB .mat or C3D"),
-    "report": ("gaitmon.commands.report", "write the one-page clinical report (PDF) of a session"),
-    "compare": ("gaitmon.commands.compare", "compare sessions of one patient (PDF): cycles, "
-                "measures and changes"),
-    "lab": ("gaitmon.commands.lab", "reproduce the papers' filter experiments as reports"),
-    "ports": ("gaitmon.commands.ports", "list serial ports a unit could be on"),
-    "simulate": ("gaitmon.commands.simulate", "run a simulated gait unit on a pseudo-terminal"),
-    "review": ("gaitmon.commands.review", "open the review window: timeline, strides, gait cycles"),
+# name -> help. Each module (loaded by _load) defines add_arguments(parser) and run(args) -> int.
+SUBCOMMANDS: dict[str, str] = {
+    "record": "record a session from the unit or the simulator",
+    "info": "summarise a session (recovers an interrupted one)",
+    "process": "re-run the pipeline offline with new settings",
+    "import": "import a LabRecorder recording (.xdf) of gaitmon's LSL streams as a session file",
+    "batch": "reprocess every session of a study (local or Dask)",
+    "bench": "measure pipeline speed and print the figures",
+    "export": "export a recorded session to CSV, MATLAB .mat or C3D",
+    "report": "write the one-page clinical report (PDF) of a session",
+    "compare": "compare sessions of one patient (PDF): cycles, measures and changes",
+    "lab": "reproduce the papers' filter experiments as reports",
+    "ports": "list serial ports a unit could be on",
+    "simulate": "run a simulated gait unit on a pseudo-terminal",
+    "review": "open the review window: timeline, strides, gait cycles",
 }
 
 
 Run = Callable[[argparse.Namespace], int]
 
 
-def _load(module_path: str) -> tuple[Callable[[argparse.ArgumentParser], None], Run]:
-    import importlib
+def _load(name: str) -> tuple[Callable[[argparse.ArgumentParser], None], Run]:
+    """The subcommand's ``add_arguments`` and ``run``: its module, imported here plainly
+    (only the one being run is loaded; the layer test sees each arrow)."""
+    if name == "record":
+        from gaitmon.commands import record
 
-    mod = importlib.import_module(module_path)
-    return mod.add_arguments, mod.run
+        return record.add_arguments, record.run
+    if name == "info":
+        from gaitmon.commands import info
+
+        return info.add_arguments, info.run
+    if name == "process":
+        from gaitmon.commands import process
+
+        return process.add_arguments, process.run
+    if name == "import":
+        from gaitmon.commands import import_xdf
+
+        return import_xdf.add_arguments, import_xdf.run
+    if name == "batch":
+        from gaitmon.commands import batch
+
+        return batch.add_arguments, batch.run
+    if name == "bench":
+        from gaitmon.commands import bench
+
+        return bench.add_arguments, bench.run
+    if name == "export":
+        from gaitmon.commands import export
+
+        return export.add_arguments, export.run
+    if name == "report":
+        from gaitmon.commands import report
+
+        return report.add_arguments, report.run
+    if name == "compare":
+        from gaitmon.commands import compare
+
+        return compare.add_arguments, compare.run
+    if name == "lab":
+        from gaitmon.commands import lab
+
+        return lab.add_arguments, lab.run
+    if name == "ports":
+        from gaitmon.commands import ports
+
+        return ports.add_arguments, ports.run
+    if name == "simulate":
+        from gaitmon.commands import simulate
+
+        return simulate.add_arguments, simulate.run
+    if name == "review":
+        from gaitmon.commands import review
+
+        return review.add_arguments, review.run
+    raise KeyError(name)
 
 
 def open_live_monitor(args: argparse.Namespace) -> int:
@@ -53,15 +102,24 @@ def open_live_monitor(args: argparse.Namespace) -> int:
     """
     from gaitmon.commands.live_pair import pair_from_args
     from gaitmon.commands.simulate import sim_config_from_args
-    from gaitmon.ui import run_app  # imports no Qt until a display is known to be there
+    from gaitmon.ui import launch  # imports no Qt until a display is known to be there
 
     pair_sim, pair = pair_from_args(args)
-    return run_app(
+    # the window's run: sim, the simulated device's settings; connect_simulated: connect to
+    # it at once; pair: connect both legs at once (pair_sim: the simulated pair's settings)
+    return launch(
+        _live_window,
         sim_config_from_args(args),
         connect_simulated=bool(args.simulate),
         pair_sim=pair_sim,
         pair=pair,
     )
+
+
+def _live_window() -> Callable[..., int]:
+    from gaitmon.ui.live import run
+
+    return run
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -87,10 +145,10 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
         add_pair_options(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, (module_path, help_text) in SUBCOMMANDS.items():
+    for name, help_text in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         if name == command:
-            add_arguments, run = _load(module_path)
+            add_arguments, run = _load(name)
             add_arguments(p)
             p.set_defaults(_run=run)
     return parser

@@ -264,7 +264,8 @@ def _analyse_file(path: Path) -> _Analysed:
     """Open, analyse, close; CompareError for a file that cannot be compared."""
     from gaitmon.analysis import analyse_session
     from gaitmon.dsp.gait import cycle_mean_sd
-    from gaitmon.io.session import SessionError, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import SessionError
 
     name = path.name
     if not path.exists():
@@ -453,7 +454,8 @@ def _recording(f: Path) -> Recording:
 
 def _header_only(f: Path) -> tuple[str, _dt.datetime | None, str, float]:
     """What can be read of a file that cannot be compared (nothing, for a damaged one)."""
-    from gaitmon.io.session import SessionError, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import SessionError
 
     try:
         with open_session(f, recover=False) as s:

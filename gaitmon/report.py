@@ -1,6 +1,7 @@
-"""What goes into the clinical report, gathered from a session (Qt-free).
+"""What goes into the clinical report, gathered from a session of one or more units (Qt-free).
 
-This module owns the *content* of the report: the header (patient identifier, never a
+This module gathers the *content* of the report (its types: :mod:`gaitmon.report_content`):
+the header (patient identifier, never a
 name), the session notes typed when recording, the gait summary, the per-stride statistics,
 the cycle-normalised mean ± SD curves, the filter settings and angle conventions in force, the
 gaps (each one's times), losses and excluded ranges (times and reason), and the markers (time
@@ -8,6 +9,13 @@ and label). Nothing is shortened here: the layout wraps text and continues on fu
 The stride analysis is ``gaitmon.analysis`` (the same as ``gaitmon info`` and the review
 window), so the three always agree. Drawing it is ``gaitmon.ui.report_pdf`` (Qt); ``gaitmon
 report`` wires the two together headless.
+
+A session of both legs: each leg is the one-unit report's content (:func:`gather_report`, its
+stride exclusions from ``FILE.L.review.json`` / ``FILE.R.review.json``), built on the stride
+analysis that :func:`gaitmon.analysis.analyse_bilateral` made of it, so the per-leg lines, the
+curves and the symmetry table rest on one analysis. The symmetry table's numbers are
+``analyse_bilateral``'s only, with the digits ``gaitmon info`` prints (definitions in
+``docs/bilateral.md``). :func:`units_report_from_file` gathers either.
 """
 
 from __future__ import annotations
@@ -16,27 +24,47 @@ import datetime as _dt
 import os
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from gaitmon import __version__
 from gaitmon.analysis import (
     REASONS,
     USER,
+    BilateralAnalysis,
     SessionAnalysis,
-    SpatialSummary,
     StrideRow,
+    analyse_bilateral,
     analyse_session,
     cycles,
-    evenly_chosen,
     spatial_summary,
     summary,
 )
+from gaitmon.dsp.bilateral import symmetry_index_pct, symmetry_ratio
 from gaitmon.dsp.channel_table import JOINT_TABLE, JOINTS, SEGMENTS
-from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
-from gaitmon.io.session import ANGLE_CONVENTION, Exclusion, Session, open_session
+from gaitmon.dsp.gait import cycle_mean_sd
+from gaitmon.finish import Session, open_session
+from gaitmon.finish.bilateral import Bilateral, open_bilateral
+from gaitmon.io.session import ANGLE_CONVENTION, Exclusion
 from gaitmon.normative import NormativeBands, deviation_deg
+from gaitmon.report_content import (
+    MAX_FAINT_PER_SIDE,
+    NO_PCT,
+    SIDE_NAMES,
+    SIDES,
+    TABLE_HEADER,
+    TABLE_MEASURES,
+    BilateralReportData,
+    CycleCurves,
+    ExcludedSpan,
+    GapSpan,
+    JointStat,
+    Losses,
+    MarkerItem,
+    ReportData,
+    ReportHeader,
+    SymmetryLine,
+    cell,
+)
 from gaitmon.text import count, no_gait_events, num
 
 N_POINTS = 101
@@ -46,133 +74,6 @@ JOINT_AXIS_LABELS: tuple[str, ...] = tuple(f"{j.label} (deg)" for j in JOINT_TAB
 JOINT_TITLES: tuple[str, ...] = tuple(j.capitalize() for j in JOINTS)  # Hip, Knee, Ankle
 REDACTED = "[removed]"
 EXCLUSION_ORDER: tuple[str, ...] = REASONS
-_SIDES = {"L": "left", "R": "right"}
-
-
-@dataclass(frozen=True)
-class ReportHeader:
-    patient_id: str  # identifier only; REDACTED when de-identified, "" when none was entered
-    side: str  # "left", "right" or ""
-    operator: str
-    recorded_utc: str  # "2026-11-22 04:10 UTC" (or "" when unknown)
-    duration_s: float
-    n_samples: int
-    sample_rate_hz: float
-    mode: str  # raw / tilt / joint
-    device: str  # "gaitmon-sim firmware 1.0.0, serial 1"
-    file_name: str  # "" when de-identified
-    state: str  # complete / recovered / incomplete
-    deidentified: bool
-
-
-@dataclass(frozen=True)
-class JointStat:
-    """Mean ± SD over the included strides of one per-stride figure (deg)."""
-
-    name: str
-    mean_deg: float
-    sd_deg: float
-    n: int
-
-
-@dataclass(frozen=True)
-class GapSpan:
-    """Lost data: samples from ``from_s`` up to (not including) ``to_s`` are missing."""
-
-    from_s: float  # time of the first missing sample
-    to_s: float  # time of the first sample after the gap
-    duration_s: float  # to_s - from_s (n_lost / fs)
-    n_lost: int
-    reason: str
-
-
-@dataclass(frozen=True)
-class ExcludedSpan:
-    """A range the user excluded in review, with the strides it left out."""
-
-    from_s: float
-    to_s: float
-    reason: str  # the label given to the range
-    n_strides: int  # strides excluded because they overlap it
-
-
-@dataclass(frozen=True)
-class MarkerItem:
-    t_s: float
-    label: str
-
-
-@dataclass(frozen=True)
-class Losses:
-    frames_lost: int
-    n_gaps: int
-    outages: int  # gaps whose reason is a lost link
-    outage_s: float  # total duration of those
-    longest_gap_s: float
-    crc_failures: int
-    reconnects: int
-    queue_overflow_frames: int
-    invalid_values: int
-    excluded: dict[str, int]  # exclusion reason -> strides (in EXCLUSION_ORDER)
-    excluded_ranges: tuple[tuple[int, int], ...]  # rows the user excluded
-    problems: tuple[str, ...]  # what the session reader noticed
-
-
-@dataclass(frozen=True, eq=False)
-class CycleCurves:
-    """What a cycle plot draws of one leg (Qt-free): the mean ± SD of every included stride
-    and a bounded, evenly chosen set of them drawn faint (the statistics use them all)."""
-
-    label: str  # "" for the one-leg report; "left" / "right" for the bilateral one
-    mean_deg: np.ndarray  # (101, 3) hip / knee / ankle
-    sd_deg: np.ndarray  # (101, 3), NaN with fewer than 2 strides
-    faint_deg: np.ndarray  # (m, 101, 3), m <= the limit asked for
-    n: int  # included strides (the mean's n)
-    toe_off_pct: float  # mean stance % (NaN without strides)
-
-
-@dataclass(frozen=True, eq=False)
-class ReportData:
-    header: ReportHeader
-    summary: GaitSummary
-    rows: tuple[StrideRow, ...]
-    cycles_deg: np.ndarray  # (k, 101, 3) included strides, hip / knee / ankle
-    mean_deg: np.ndarray  # (101, 3)
-    sd_deg: np.ndarray  # (101, 3), NaN with fewer than 2 strides
-    toe_off_pct: float  # mean stance % (NaN without strides)
-    rom: tuple[JointStat, JointStat, JointStat]  # per-stride range of motion
-    peak: tuple[JointStat, JointStat, JointStat]  # per-stride maximum
-    trough: tuple[JointStat, JointStat, JointStat]  # per-stride minimum
-    knee_peak_swing: JointStat  # peak knee flexion between toe off and the next heel strike
-    stance_time: JointStat  # seconds (mean ± SD)
-    swing_time: JointStat
-    settings: tuple[tuple[str, str], ...]  # (label, value) lines
-    conventions: tuple[str, ...]
-    losses: Losses
-    normative: NormativeBands | None = None
-    # per joint, RMS distance of ``mean_deg`` from the band's mean (gaitmon.normative.
-    # deviation_deg); NaN without a band, a joint the band lacks, or no included strides
-    deviation_deg: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
-    notes: tuple[str, ...] = field(default=())  # why a section is empty, etc.
-    session_notes: str = ""  # typed in the record form; REDACTED when de-identified
-    markers: tuple[MarkerItem, ...] = field(default=())
-    gaps: tuple[GapSpan, ...] = field(default=())
-    excluded_spans: tuple[ExcludedSpan, ...] = field(default=())
-    generated_utc: str = ""
-    software: str = f"gaitmon {__version__}"
-    # stride length, gait speed, foot clearance (gaitmon.analysis.spatial_summary); n 0 when the
-    # session has no foot IMU data
-    spatial: SpatialSummary | None = None
-
-    @property
-    def n_included(self) -> int:
-        return int(self.cycles_deg.shape[0])
-
-    def curves(self, max_faint: int, label: str = "") -> CycleCurves:
-        """The cycle plot's curves: the mean ± SD and at most ``max_faint`` strides."""
-        faint = self.cycles_deg[evenly_chosen(self.n_included, max_faint)]
-        return CycleCurves(label, self.mean_deg, self.sd_deg, faint, self.n_included,
-                           self.toe_off_pct)  # fmt: skip
 
 
 def _recorded(created_utc: str) -> str:
@@ -194,14 +95,10 @@ def _stat(name: str, values: Sequence[float]) -> JointStat:
 
 def _tilt_method(session: Session) -> str:
     """The method behind the angles analysed here (the session's, see
-    :mod:`gaitmon.io.session.smoothed`), and the live filter's with the settings it reads."""
+    :mod:`gaitmon.finish.smoothed`), and the live filter's with the settings it reads."""
     c = session.config
     live = session.angle_method_of("live")
-    if c.tilt_method == "paper":
-        live = (f"{live} ({c.kalman_form} form) Q_angle {c.q_angle:g}, Q_gyro {c.q_gyro:g}, "
-                f"R {c.r:g}")  # fmt: skip
-    else:
-        live = f"{live} (accelerometer weighted by the segment's motion; docs/filters.md)"
+    live = f"{live} {c.method.describe(c)}"  # the method's own words (gaitmon.dsp.methods)
     if session.angle_source == "live":
         return live
     return f"{session.angle_method} (zero-lag, offline); live view: {live}"
@@ -370,7 +267,7 @@ def gather_report(
     state = "complete" if session.complete else ("recovered" if session.recovered else "incomplete")
     header = ReportHeader(
         patient_id=REDACTED if deidentify else meta.patient_id,
-        side=_SIDES.get(meta.side or str(dev.get("side", "")), ""),
+        side=SIDE_NAMES.get(meta.side or str(dev.get("side", "")), ""),
         operator=(REDACTED if meta.operator else "") if deidentify else meta.operator,
         # de-identified: no date (the report counts from the recording's start, as exports do)
         recorded_utc=REDACTED if deidentify else _recorded(session.created_utc),
@@ -438,3 +335,145 @@ def report_from_file(
         return gather_report(
             s, deidentify=deidentify, normative=normative, excluded_ranges=excluded_ranges
         )
+
+
+# ---- a session of both legs ----
+
+
+def symmetry_lines(an: BilateralAnalysis) -> tuple[SymmetryLine, ...]:
+    """The table's rows from ``analyse_bilateral``: its symmetry rows where it has them (SR
+    and SI of the means), the same definitions for terminal double support."""
+    g = an.gait
+    have = {row.measure: row for row in g.symmetry}
+    out = []
+    for m in TABLE_MEASURES:
+        lv, rv = g.left.mean(m), g.right.mean(m)
+        row = have.get(m)
+        ratio = row.ratio if row else symmetry_ratio(lv, rv)
+        index = row.index_pct if row else symmetry_index_pct(lv, rv)
+        lp, rp = ((np.nan, np.nan) if m in NO_PCT
+                  else (g.left.pct_mean(m), g.right.pct_mean(m)))  # fmt: skip
+        out.append(SymmetryLine(m, lv, rv, lp, rp, ratio, index))
+    return tuple(out)
+
+
+def _clocks(b: Bilateral) -> str:
+    ppm = ", ".join(f"{s} {(b.host_s_per_common_s / b.sync[s].mean_slope - 1.0) * 1e6:+.1f}"
+                    for s in b.sides)  # fmt: skip
+    delay = ", ".join(f"{s} {cell(b.sync[s].residual_p95_ms, 1)}" for s in b.sides)
+    return (f"{ppm} ppm against the common time line; receive delay above the fit, p95: "
+            f"{delay} ms")  # fmt: skip
+
+
+def gather_bilateral_report(
+    b: Bilateral,
+    *,
+    deidentify: bool = False,
+    normative: NormativeBands | None = None,
+    now_utc: _dt.datetime | None = None,
+) -> BilateralReportData:
+    """Everything the bilateral report shows, from an open bilateral session."""
+    missing = [SIDE_NAMES[s] for s in SIDES if s not in b.units]
+    if missing:
+        from gaitmon.io.session import SessionError
+
+        raise SessionError(f"{b.path.name} has no {' or '.join(missing)} leg; make a one-leg "
+                           "report with --side")  # fmt: skip
+    an = analyse_bilateral(b)
+    now = now_utc or _dt.datetime.now(_dt.UTC)
+    sides = {}
+    for s in SIDES:
+        sides[s] = gather_report(b.unit(s), deidentify=deidentify, normative=normative,
+                                 now_utc=now, analysis=an.sides[s])  # fmt: skip
+    curves = (sides["L"].curves(MAX_FAINT_PER_SIDE, "left"),
+              sides["R"].curves(MAX_FAINT_PER_SIDE, "right"))  # fmt: skip
+    g = an.gait
+    counted = {s: int(np.isfinite(g.side(s).stride_s).sum()) for s in SIDES}
+    dev = b.unit("L").device
+    kind = f"{dev.get('name', '?')} firmware {dev.get('firmware', '?')}"
+    serials = ", ".join(f"{s} {b.unit(s).device.get('serial', '?')}" for s in SIDES)
+    units = kind if deidentify else f"serials {serials} ({kind})"
+    state = "complete" if b.complete else ("recovered" if b.recovered else "incomplete")
+    conventions = (
+        sides["L"].conventions[0],
+        "Cycle: 0 % and 100 % are successive heel strikes of the same leg, for each leg; "
+        "strides time-normalised to 101 points; SD is the sample SD (n − 1).",
+        "Both legs' events are on the session's common time line (each unit's clock fitted to "
+        "the host's receive times). Step time X: from the other leg's heel strike to X's. "
+        "Initial double support: X's heel strike to the other leg's toe off; single support: "
+        "to the other leg's heel strike; terminal double support: to X's toe off. Percentages "
+        "are of each stride's time, averaged over the strides counted.",
+        "Cadence is measured: 60 / the mean step time of both legs. Symmetry ratio SR = left / "
+        "right of the means (1 symmetric); symmetry index SI = 2 |L − R| / (L + R) × 100 % "
+        "(0 % symmetric). A stride counts when it is included on its own leg.",
+    )
+    return BilateralReportData(
+        sides=sides,
+        curves=curves,
+        symmetry=symmetry_lines(an),
+        cadence_steps_min=g.cadence_steps_min,
+        strides_counted=counted,
+        strides_total={s: len(an.sides[s].rows) for s in SIDES},
+        units=units,
+        duration_s=float(b.attrs.get("duration_s", 0.0)),
+        state=state,
+        file_name="" if deidentify else b.path.name,
+        clocks=_clocks(b),
+        conventions=conventions,
+        normative=normative,
+        generated_utc=now.strftime("%Y-%m-%d %H:%M UTC"),
+        notes=() if counted["L"] and counted["R"] else
+        ("Too few strides on both legs to compare: the symmetry table is empty.",),
+    )
+
+
+def bilateral_report_from_file(
+    path: str | os.PathLike[str],
+    *,
+    deidentify: bool = False,
+    normative: NormativeBands | None = None,
+) -> BilateralReportData:
+    """Open (recovering and combining an interrupted recording if needed), gather, close.
+    Raises ``SessionError`` for a bad file."""
+    with open_bilateral(path) as b:
+        return gather_bilateral_report(b, deidentify=deidentify, normative=normative)
+
+
+def units_report_from_file(
+    path: str | os.PathLike[str],
+    *,
+    deidentify: bool = False,
+    normative: NormativeBands | None = None,
+    side: str | None = None,
+) -> ReportData | BilateralReportData:
+    """The report of a session of one or more units: one unit's (a one-leg file, or ``side``
+    of a two-leg file) or both legs'. Raises ``SessionError`` for a bad file."""
+    from gaitmon.io.session.parts import is_bilateral
+
+    if side is None and is_bilateral(path):
+        return bilateral_report_from_file(path, deidentify=deidentify, normative=normative)
+    return report_from_file(path, deidentify=deidentify, normative=normative, side=side)
+
+
+__all__ = [
+    "MAX_FAINT_PER_SIDE",
+    "REDACTED",
+    "TABLE_HEADER",
+    "TABLE_MEASURES",
+    "BilateralReportData",
+    "CycleCurves",
+    "ExcludedSpan",
+    "GapSpan",
+    "JointStat",
+    "Losses",
+    "MarkerItem",
+    "ReportData",
+    "ReportHeader",
+    "SymmetryLine",
+    "bilateral_report_from_file",
+    "gather_bilateral_report",
+    "gather_report",
+    "report_from_file",
+    "symmetry_lines",
+    "units_report_from_file",
+]

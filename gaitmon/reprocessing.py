@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from gaitmon.dsp.methods import get_method, live_names, methods
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import UserError
 
@@ -26,9 +27,17 @@ SETTINGS = {
     "fsr_threshold": "FSR contact threshold (ADC counts)",
 }
 # settings that only the paper's filter reads: given with the gait-aware filter they would
-# silently change nothing
-PAPER_ONLY = ("q_angle", "q_gyro", "r")
-METHODS = ("gait-aware", "paper")
+# silently change nothing (each method says which settings it reads: gaitmon.dsp.methods)
+PAPER_ONLY = get_method("paper").reads_settings
+
+
+def method_only_settings() -> dict[str, tuple[str, ...]]:
+    """Settings that only some of the app's tilt methods read -> the methods that read them."""
+    out: dict[str, tuple[str, ...]] = {}
+    for m in methods(live=True):
+        for name in m.reads_settings:
+            out[name] = (*out.get(name, ()), m.name)
+    return out
 
 # The FSR channels are 12-bit ADC counts: a threshold at or above the top is never crossed.
 FSR_MAX_COUNTS = 4095
@@ -71,8 +80,8 @@ class Reprocessing:
         unknown = sorted(set(changes) - set(SETTINGS))
         if unknown:
             raise UserError(f"unknown setting {unknown[0]!r}; known: {', '.join(SETTINGS)}")
-        if method is not None and method not in METHODS:
-            raise UserError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+        if method is not None and method not in live_names():
+            raise UserError(f"method must be one of {', '.join(live_names())}, got {method!r}")
         values = {k: float(changes[k]) for k in SETTINGS if k in changes}
         check_settings(values)
         return cls(tuple(values.items()), method)
@@ -106,11 +115,14 @@ class Reprocessing:
             config = recorded.replace(**changes, **choices)
         except ValueError as exc:
             raise UserError(f"bad setting: {exc}") from None
-        paper_only = [option(k) for k in PAPER_ONLY if k in changes]
-        if paper_only and config.tilt_method != "paper":
+        only = method_only_settings()
+        unread = [k for k in only if k in changes and config.tilt_method not in only[k]]
+        if unread:
+            owner = get_method(only[unread[0]][0])
             raise UserError(
-                f"{', '.join(paper_only)} tune the paper's Kalman filter, which this "
-                f"reprocessing does not use ({config.tilt_method_label}); add --method paper"
+                f"{', '.join(option(k) for k in unread)} tune {owner.noun_phrase}, which this "
+                f"reprocessing does not use ({config.tilt_method_label}); add --method "
+                f"{owner.name}"
             )
         return config
 

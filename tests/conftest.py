@@ -121,6 +121,7 @@ def write_simulated_session(path: pathlib.Path, *, pattern: str = "normal", seed
 
     from gaitmon.dsp.calibration import Calibration
     from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+    from gaitmon.finish import close_recording
     from gaitmon.io.device import SampleBlock
     from gaitmon.io.protocol import FrameKind
     from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
@@ -141,7 +142,7 @@ def write_simulated_session(path: pathlib.Path, *, pattern: str = "normal", seed
         blk = SampleBlock(FrameKind.RAW, seq, seq / fs, 1.7e9,
                           lost_before=np.zeros(len(adc), np.int64), adc=adc)  # fmt: skip
         w.append(blk, pipe.process(adc))
-    w.close()
+    close_recording(w)
     return path
 
 

@@ -396,7 +396,7 @@ def test_smoothing_a_record_leaves_no_factor_cached():
     window living on would otherwise keep ~10 MB each)."""
     from gaitmon.dsp import smoother
     from gaitmon.dsp.calibration import Calibration
-    from gaitmon.io.session.smoothed import smoothed_blocks
+    from gaitmon.finish.smoothed import smoothed_blocks
 
     counts = simulate(3000, GaitModel(GaitConfig(seed=3)), SensorConfig(seed=3)).counts
     blocks = list(smoothed_blocks(lambda a, b: counts[a:b], len(counts), DEFAULT_TABLE,

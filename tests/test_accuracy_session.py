@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.session import SessionError, open_session
-from gaitmon.io.session.reprocess import rewrite_processed
+from gaitmon.finish import open_session
+from gaitmon.finish.reprocess import rewrite_processed
+from gaitmon.io.session import SessionError
 
 OFFLINE = "gait-aware Kalman + RTS smoother"
 
@@ -105,7 +106,7 @@ def test_export_writes_the_smoothed_angles_by_default_and_names_them(walk, tmp_p
     import csv
     import json
 
-    from gaitmon.io.export import export_session
+    from gaitmon.export import export_session
 
     def knee(angles):
         out = tmp_path / f"{angles}.csv"

@@ -19,10 +19,11 @@ from gaitmon.batch import OK, SUMMARY_MEASURES, run_batch
 from gaitmon.cli import main
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.finish import close_recording, open_session
+from gaitmon.finish.reprocess import rewrite_processed
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.protocol import FrameKind
-from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter, open_session
-from gaitmon.io.session.reprocess import rewrite_processed
+from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
 from gaitmon.io.sim import GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import realistic_sensors, simulate
 from gaitmon.reprocessing import Reprocessing
@@ -52,7 +53,7 @@ def write_session(path: Path, seed: int, pid: str, *, operator: str = "", notes:
     blk = SampleBlock(FrameKind.RAW, seq, 10.0 + seq / FS, 1.7e9,
                       lost_before=np.zeros(N, np.int64), adc=counts)  # fmt: skip
     w.append(blk, Pipeline(PipelineConfig()).process(counts))
-    w.close()
+    close_recording(w)
 
 
 @pytest.fixture(scope="module")

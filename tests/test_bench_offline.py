@@ -13,7 +13,7 @@ import pytest
 from test_export import write_session
 
 from gaitmon.commands import bench_offline
-from gaitmon.io.export import export_session
+from gaitmon.export import export_session
 from gaitmon.io.export.outputs import csv_meta_path
 
 

@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 from test_export import FS, LOST_AT, N_LOST, OPERATOR, PATIENT, write_session
 
+from gaitmon import export as ex
 from gaitmon.cli import main
-from gaitmon.io import export as ex
 
 # BIDS schema rules/entities.yaml: the order entities appear in a file name (the ones used here)
 ENTITY_ORDER = ("sub", "ses", "task", "tracksys", "acq", "run")
@@ -327,7 +327,7 @@ def test_unit_modes_export_the_angles_they_have(tmp_path, mode):
 
 def test_a_real_recording_with_lost_frames_matches_the_session_reader(tmp_path,
                                                                       record_simulated):
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     src = record_simulated(tmp_path / "lossy.h5", "--loss-pct", "3", duration_s=8)
     assert _export(src, tmp_path / "d") == 0

@@ -25,9 +25,9 @@ import numpy as np
 import pytest
 
 from gaitmon.cli import main
+from gaitmon.finish import open_session
+from gaitmon.finish.bilateral import open_bilateral, part_path, parts_of
 from gaitmon.io.journal import journal_path
-from gaitmon.io.session import open_session
-from gaitmon.io.session.bilateral import open_bilateral, part_path, parts_of
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 from gaitmon.analysis import REASONS, analyse_bilateral
-from gaitmon.bilateral_export.tables import NO_STRIDE, PCT_MEASURES, TIME_MEASURES
 from gaitmon.cli import main
-from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.export.tables import NO_STRIDE, PCT_MEASURES, TIME_MEASURES
+from gaitmon.finish.bilateral import open_bilateral
 
 PATIENT = "P9X7"
 
@@ -410,3 +410,30 @@ def test_a_damaged_bilateral_file_is_one_line(
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "bad.h5 is damaged" in err
     assert [p.name for p in tmp_path.iterdir()] == ["bad.h5"]
+
+
+def test_a_format_that_cannot_write_both_legs_says_so_in_one_line(
+    both: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A new format that writes one unit only (no ``export_units``) refuses both legs instead
+    of falling through to another format's export; one leg of the file it writes."""
+    from dataclasses import dataclass
+
+    from gaitmon import export as ex
+    from gaitmon.export.base import Format
+    from gaitmon.io.export import csv as csv_writer
+
+    @dataclass(frozen=True)
+    class OneUnitOnly(Format):
+        def unit_writer(self, options: object) -> object:  # type: ignore[override]
+            return csv_writer
+
+    monkeypatch.setitem(ex.FORMATS, "oneunit", OneUnitOnly("oneunit", ".one.csv", "a test"))
+    with pytest.raises(ex.ExportError) as err:
+        ex.export_session(both, "oneunit", tmp_path / "o.one.csv")
+    assert str(err.value) == ("ONEUNIT export cannot write a session of both legs; export "
+                              "each leg with --side L or R")
+    assert list(tmp_path.iterdir()) == []
+    got = ex.export_session(both, "oneunit", tmp_path / "o.one.csv", side="L")
+    want = ex.export_session(both, "csv", tmp_path / "w.csv", side="L")
+    assert got.paths[0].read_bytes() == want.paths[0].read_bytes()

@@ -17,8 +17,8 @@ import pytest
 from gaitmon.cli import main
 from gaitmon.dsp.clock_fit import envelope_line, fit_clock
 from gaitmon.engine.markers import RecentEnvelope
-from gaitmon.io.session import open_session
-from gaitmon.io.session.bilateral import open_bilateral, parts_of
+from gaitmon.finish import open_session
+from gaitmon.finish.bilateral import open_bilateral, parts_of
 
 
 @pytest.fixture(scope="module")
@@ -212,7 +212,7 @@ def test_record_from_two_ports(tmp_path: Path, capsys: pytest.CaptureFixture[str
 def test_parts_left_beside_a_combined_file_are_removed(both: Path, tmp_path: Path) -> None:
     import shutil
 
-    from gaitmon.io.session.bilateral import part_path
+    from gaitmon.finish.bilateral import part_path
 
     copy = tmp_path / "both.h5"
     shutil.copy(both, copy)

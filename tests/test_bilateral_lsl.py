@@ -23,7 +23,7 @@ import pytest
 
 pylsl = pytest.importorskip("pylsl")
 
-from gaitmon.io.session.bilateral import open_bilateral  # noqa: E402
+from gaitmon.finish.bilateral import open_bilateral  # noqa: E402
 from gaitmon.lsl import layout  # noqa: E402
 
 FS_HZ, SPEED = 100.0, 4.0

@@ -30,10 +30,11 @@ from gaitmon.analysis import analyse_bilateral
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import Engine
 from gaitmon.engine.pair import EnginePair
+from gaitmon.finish import open_session
+from gaitmon.finish.bilateral import open_bilateral, part_path, parts_of
 from gaitmon.io.device import Device
 from gaitmon.io.ports import make_transport
-from gaitmon.io.session import SessionError, open_session
-from gaitmon.io.session.bilateral import open_bilateral, part_path, parts_of
+from gaitmon.io.session import SessionError
 from gaitmon.io.sim.bilateral import BilateralConfig, BilateralPty, BilateralSim, UnitSpec
 from gaitmon.io.sim.clock import CrystalClock
 from gaitmon.io.sim.faults import FaultConfig

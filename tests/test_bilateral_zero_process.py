@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
-from gaitmon.io.session.bilateral import open_bilateral, parts_of
+from gaitmon.finish import open_session
+from gaitmon.finish.bilateral import open_bilateral, parts_of
 
 RECORD = ["record", "--simulate-bilateral", "--duration", "16", "--speed", "4", "-q",
           "--standing-s", "10"]  # fmt: skip

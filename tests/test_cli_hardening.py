@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from gaitmon.cli import build_parser, main
+from gaitmon.finish import open_session
 from gaitmon.io.journal import journal_path
-from gaitmon.io.session import open_session
 
 GAITMON = [sys.executable, "-m", "gaitmon"]
 ROOT = Path(__file__).resolve().parents[1]

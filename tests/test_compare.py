@@ -19,7 +19,7 @@ from gaitmon.compare import (
     list_recordings,
     pooled_sd,
 )
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 from gaitmon.io.sim import GaitConfig, GaitModel
 from gaitmon.report import gather_report
 

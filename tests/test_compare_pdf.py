@@ -13,7 +13,7 @@ from conftest import write_simulated_session
 
 from gaitmon.analysis import analyse_session
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 
 MM = 72 / 25.4
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from gaitmon.cli import main
-from gaitmon.io.export import FORMATS
+from gaitmon.export import FORMATS
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -188,7 +188,8 @@ def test_a_subset_as_processes_never_hangs_or_shows_a_traceback(corpus, tmp_path
 
 
 def test_sample_rate_and_event_order_are_judged_at_the_files_edge(corpus):
-    from gaitmon.io.session import SessionError, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import SessionError
 
     by_name = {p.name: p for p, _ in corpus}
     for name, words in (("fs_0.h5", "sample rate"), ("fs_nan.h5", "sample rate"),

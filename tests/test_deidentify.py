@@ -18,9 +18,9 @@ import h5py
 import pytest
 
 from gaitmon.cli import main
-from gaitmon.io.export import FORMATS
+from gaitmon.export import FORMATS
+from gaitmon.finish import open_session
 from gaitmon.io.journal import journal_path
-from gaitmon.io.session import open_session
 
 PATIENT = "PSECRET17"
 OPERATOR = "DrOpSecret"

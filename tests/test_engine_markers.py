@@ -144,7 +144,7 @@ def _wait(cond, timeout_s=60.0):
 
 def _taken(path):
     """When each row's sample was taken (host clock), from the file's timeline alone."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(path) as s:
         host = np.asarray(s.read("timeline/host_time_s"))

@@ -9,6 +9,7 @@ from gaitmon.dsp.gait import Stride
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.engine.buffers import RingBuffer
 from gaitmon.engine.live_gait import LiveGait
+from gaitmon.engine.messages import AppendBlock, Stop
 from gaitmon.engine.recorder import Recorder
 from gaitmon.engine.rows import RowMap
 from gaitmon.io.device import SampleBlock
@@ -94,8 +95,8 @@ class FakeWriter:
 def test_the_recorder_reports_rows_bytes_and_a_clean_finish():
     w = FakeWriter()
     rec = Recorder(w, queue_max=10)
-    assert rec.put_block(("append", (raw_block(0, 7), None, 0, "", "")))
-    rec.put(("stop", "user"))
+    assert rec.put_block(AppendBlock(raw_block(0, 7)))
+    rec.put(Stop("user"))
     rec.thread.join(5)
     assert not rec.alive
     assert rec.progress.rows == 7 and rec.progress.file_bytes == 700
@@ -107,13 +108,13 @@ def test_the_recorder_counts_refused_blocks_and_reports_a_write_error():
     gate = threading.Event()
     w = FakeWriter(fail_on_append=True, gate=gate)
     rec = Recorder(w, queue_max=1)
-    block = ("append", (raw_block(0, 5), None, 0, "", ""))
+    block = AppendBlock(raw_block(0, 5))
     assert rec.put_block(block)
     # the first block is with the (held) writer or waiting: either way at most one more fits
     refused = sum(not rec.put_block(block) for _ in range(3))
     assert refused >= 2 and rec.dropped_blocks == refused
     gate.set()
-    rec.put(("stop", "user"))
+    rec.put(Stop("user"))
     rec.thread.join(5)
     assert rec.progress.error == "No space left on device" and rec.progress.finished
     assert w.closed_with.startswith("error: ")

@@ -9,8 +9,8 @@ import numpy as np
 
 import gaitmon.engine.taps as taps
 from gaitmon.engine import Engine
+from gaitmon.finish import open_session
 from gaitmon.io.device import Device
-from gaitmon.io.session import open_session
 from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
 from gaitmon.io.transport import InProcessTransport
 

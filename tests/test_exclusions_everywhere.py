@@ -16,8 +16,9 @@ from gaitmon.analysis import analyse_strides
 from gaitmon.cli import main
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
-from gaitmon.io.session import SessionError, exclusions, open_session, replay_pipeline
-from gaitmon.io.session.reprocess import partial_path, rewrite_processed
+from gaitmon.finish import open_session, replay_pipeline
+from gaitmon.finish.reprocess import partial_path, rewrite_processed
+from gaitmon.io.session import SessionError, exclusions
 from gaitmon.report import gather_report
 
 pytestmark = pytest.mark.timeout(120)
@@ -91,7 +92,7 @@ def test_info_report_and_export_honour_the_exclusions_made_in_review(walk, capsy
         sp.write_text("{not json", encoding="utf-8")
         text = _info(capsys, walk)
         assert f"  strides      {before} included" in text and "unreadable" in text
-        from gaitmon.io.export import export_session
+        from gaitmon.export import export_session
 
         res = export_session(walk, "csv", tmp_path / "damaged.csv")
         assert any("unreadable" in p for p in res.problems)  # said, not silently dropped
@@ -143,7 +144,7 @@ def test_a_read_only_folder_keeps_them_in_the_user_store_where_info_sees_them(
 def test_rewrite_processed_reports_progress_and_writes_what_the_command_writes(
     walk, tmp_path, monkeypatch, assert_stored
 ):
-    import gaitmon.io.session.reprocess as rp
+    import gaitmon.finish.reprocess as rp
 
     monkeypatch.setattr(rp, "COPY_CHUNK_BYTES", 64 << 10)  # several chunks for a short file
     monkeypatch.setattr(rp, "REPLAY_CHUNK_ROWS", 500)
@@ -200,7 +201,7 @@ def test_rewrite_processed_converts_with_the_recordings_own_channel_table(
 
 
 def test_rewrite_processed_cancelled_midway_keeps_nothing(walk, tmp_path, monkeypatch):
-    import gaitmon.io.session.reprocess as rp
+    import gaitmon.finish.reprocess as rp
 
     monkeypatch.setattr(rp, "COPY_CHUNK_BYTES", 64 << 10)
     monkeypatch.setattr(rp, "REPLAY_CHUNK_ROWS", 500)

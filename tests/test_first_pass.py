@@ -16,7 +16,8 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig, restart_rows
 from gaitmon.dsp.smoother import CausalFirstPass
-from gaitmon.io.session.recovery import replay_pipeline
+from gaitmon.finish import close_recording
+from gaitmon.finish.recovery import replay_pipeline
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
 
@@ -87,6 +88,7 @@ def _recorded(path, counts, lost):
                               np.arange(a, b) / 100.0, 1.7e9, lost_before=lost[a:b],
                               adc=counts[a:b])  # fmt: skip
             w.append(blk, pipe.process(counts[a:b], lost[a:b]))
+        close_recording(w)  # /smoothed and /strides stored, as the recorder closes
 
 
 def test_process_without_a_temporary_file_computes_the_first_pass_to_the_same_numbers(
@@ -97,8 +99,8 @@ def test_process_without_a_temporary_file_computes_the_first_pass_to_the_same_nu
     itself: the same /smoothed, and no error."""
     import tempfile
 
-    from gaitmon.io.session import open_session
-    from gaitmon.io.session.reprocess import rewrite_processed
+    from gaitmon.finish import open_session
+    from gaitmon.finish.reprocess import rewrite_processed
 
     counts, lost, _, _ = record
     src = tmp_path / "rec.h5"

@@ -11,11 +11,12 @@ import pytest
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import FSR_IDX
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.finish import close_recording, open_session
+from gaitmon.finish.reprocess import rewrite_processed
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.journal import journal_path
 from gaitmon.io.protocol import FrameKind
-from gaitmon.io.session import SessionHeader, SessionWriter, open_session
-from gaitmon.io.session.reprocess import rewrite_processed
+from gaitmon.io.session import SessionHeader, SessionWriter
 from gaitmon.io.sim import GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import realistic_sensors, simulate
 
@@ -50,7 +51,7 @@ def record(path, counts, crash_copy=None):
         w.flush()
         for src, dst in ((path, crash_copy), (journal_path(path), journal_path(crash_copy))):
             shutil.copyfile(src, dst)
-    w.close()
+    close_recording(w)
 
 
 def test_the_flagged_sensor_is_in_the_file_live_recovered_and_reprocessed(counts, tmp_path):

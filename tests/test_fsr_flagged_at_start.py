@@ -16,16 +16,11 @@ import numpy as np
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import FSR_IDX
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.finish import flagged_at_start, open_session, replay_pipeline
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.journal import journal_path
 from gaitmon.io.protocol import FrameKind
-from gaitmon.io.session import (
-    SessionHeader,
-    SessionWriter,
-    flagged_at_start,
-    open_session,
-    replay_pipeline,
-)
+from gaitmon.io.session import SessionHeader, SessionWriter
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
 
@@ -112,7 +107,7 @@ def test_flagged_at_start_takes_the_faults_known_at_row_0_once() -> None:
 
 
 def test_process_keeps_the_flag_with_the_same_force_sensor_settings_only(tmp_path) -> None:
-    from gaitmon.io.session import rewrite_processed
+    from gaitmon.finish import rewrite_processed
 
     path = tmp_path / "flagged.h5"
     live_hs = _live_recording(path, _dead_heel_counts())

@@ -1,12 +1,15 @@
 """The layer contract, checked from the source: arrows only point down, and no import circle.
 
-    base (gaitmon, errors, jobs, lazy, text) <- dsp <- io <- engine / analysis / normative
-        / reprocessing <- report / live / review / lab / batch <- ui <- commands / cli
+    base (gaitmon, errors, jobs, text) <- dsp <- io (link, simulator, session format)
+        <- engine / analysis / normative / reprocessing / finish / io.export
+        <- report / export / live / review / lab / batch <- ui <- commands / cli
 
 A module may import its own layer and the layers below it, never one above. Every import
 counts, also one inside a function (a lazy import is still an arrow) or under ``TYPE_CHECKING``
 (a type is a dependency too). Only ``gaitmon.ui`` imports Qt. Circles are looked for between
-modules, whatever their layers.
+modules, whatever their layers. An import by name (``importlib.import_module``, ``__import__``,
+a loader given a module path as a string) is an arrow this reader cannot see, so there must be
+none in ``gaitmon/``: lazy imports are plain ``import`` statements inside a function.
 """
 
 from __future__ import annotations
@@ -20,12 +23,16 @@ import gaitmon
 ROOT = Path(gaitmon.__file__).resolve().parent
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("gaitmon", "gaitmon.errors", "gaitmon.jobs", "gaitmon.lazy", "gaitmon.text"),
+    ("gaitmon", "gaitmon.errors", "gaitmon.jobs", "gaitmon.text"),
     ("gaitmon.dsp",),
-    ("gaitmon.io",),
-    ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative", "gaitmon.reprocessing"),
-    ("gaitmon.report", "gaitmon.report_bilateral", "gaitmon.strides_export",
-     "gaitmon.bilateral_export", "gaitmon.compare",
+    # the exports' de-identification rules are pure data, also used by the format's
+    # de-identified copy
+    ("gaitmon.io", "gaitmon.io.export.deidentify"),
+    # gaitmon.finish: recovery, reprocessing and what is derived from a file's rows, above the
+    # format that only stores and reads; the exports' file writers open sessions through it
+    ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative", "gaitmon.reprocessing",
+     "gaitmon.finish", "gaitmon.io.export"),
+    ("gaitmon.report", "gaitmon.report_content", "gaitmon.export", "gaitmon.compare",
      "gaitmon.live", "gaitmon.review", "gaitmon.lab", "gaitmon.batch", "gaitmon.lsl"),
     ("gaitmon.ui",),
     ("gaitmon.commands", "gaitmon.cli", "gaitmon.__main__"),
@@ -71,6 +78,26 @@ def imports_of(name: str, path: Path, known: Iterable[str]) -> set[str]:
             resolved.add(m.split(".")[0])
     resolved.discard(name)
     return resolved
+
+
+# calls that import a module named by a string: arrows an import reader cannot follow
+BY_NAME = frozenset({"import_module", "__import__", "lazy_exports", "exec_module"})
+
+
+def imports_by_name(path: Path) -> list[str]:
+    """Each call in ``path`` that imports a module by name, as "file:line: call"."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Call):
+            f = node.func
+            called = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", None)
+            if called in BY_NAME:
+                out.append(f"{path.name}:{node.lineno}: {called}()")
+        elif isinstance(node, ast.ImportFrom) and node.module == "importlib":
+            # ``from importlib import import_module as load`` hides the call's name
+            out += [f"{path.name}:{node.lineno}: from importlib import {a.name}"
+                    for a in node.names if a.name in BY_NAME]  # fmt: skip
+    return sorted(out, key=lambda hit: int(hit.split(":")[1]))
 
 
 def import_graph() -> dict[str, set[str]]:
@@ -175,3 +202,47 @@ def test_the_import_reader_resolves_relative_and_from_imports(tmp_path: Path) ->
     got = imports_of("gaitmon.dsp.m", src, known)
     assert got == {"gaitmon.dsp.kalman", "gaitmon.io.session", "gaitmon.dsp.angles", "PySide6",
                    "gaitmon.engine"}  # fmt: skip
+
+
+def test_no_module_imports_by_name() -> None:
+    found = [hit for path in module_names().values() for hit in imports_by_name(path)]
+    assert found == []
+
+
+def test_the_by_name_reader_finds_every_spelling(tmp_path: Path) -> None:
+    src = tmp_path / "m.py"
+    src.write_text(
+        "import importlib\n"
+        "from importlib import import_module as load\n"
+        "def f():\n    return importlib.import_module('gaitmon.engine')\n"
+        "def g():\n    return __import__('gaitmon.ui')\n"
+        "__getattr__ = lazy_exports(__name__, {'Session': 'reader'})\n"
+        "import importlib.util\n"
+        "def h():\n    return importlib.util.find_spec('PySide6')\n"  # locates, imports nothing
+        "def k():\n    from gaitmon.engine import Engine\n    return Engine\n",
+        encoding="utf-8",
+    )
+    assert imports_by_name(src) == [
+        "m.py:2: from importlib import import_module",
+        "m.py:4: import_module()",
+        "m.py:6: __import__()",
+        "m.py:7: lazy_exports()",
+    ]
+
+
+def test_a_lazy_plain_import_is_an_arrow_the_contract_sees(tmp_path: Path) -> None:
+    """The shape that replaced imports by name (a module ``__getattr__`` or a loader function
+    with a plain import inside) is read as an arrow, so an upward one fails the contract."""
+    src = tmp_path / "m.py"
+    src.write_text(
+        "def __getattr__(name):\n"
+        "    if name == 'Engine':\n"
+        "        from gaitmon.engine import core as module\n"
+        "    return getattr(module, name)\n",
+        encoding="utf-8",
+    )
+    got = imports_of("gaitmon.dsp.m", src, ["gaitmon.engine", "gaitmon.engine.core"])
+    assert got == {"gaitmon.engine.core"}
+    assert violations({"gaitmon.dsp.m": got}) == [
+        "gaitmon.dsp.m imports gaitmon.engine.core, a higher layer"
+    ]

@@ -24,7 +24,7 @@ import pytest
 pylsl = pytest.importorskip("pylsl")
 
 from gaitmon.cli import main  # noqa: E402
-from gaitmon.io.session import open_session  # noqa: E402
+from gaitmon.finish import open_session  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FS_HZ = 100.0

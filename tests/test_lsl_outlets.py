@@ -19,8 +19,9 @@ import pytest
 pylsl = pytest.importorskip("pylsl")
 
 from gaitmon.engine import Engine  # noqa: E402
+from gaitmon.finish import open_session  # noqa: E402
 from gaitmon.io.device import Device  # noqa: E402
-from gaitmon.io.session import SessionMeta, open_session  # noqa: E402
+from gaitmon.io.session import SessionMeta  # noqa: E402
 from gaitmon.io.session.codec import tolerance  # noqa: E402
 from gaitmon.io.sim import GaitConfig, SimulatedUnit  # noqa: E402
 from gaitmon.io.sim.pty import PtySimulator  # noqa: E402

@@ -16,9 +16,10 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE
 from gaitmon.dsp.gait import Stride
 from gaitmon.dsp.pipeline import Pipeline
+from gaitmon.finish import close_recording, open_session
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.protocol import FrameKind
-from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter, open_session
+from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
 from gaitmon.io.session.codec import encode
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
@@ -39,7 +40,7 @@ def counts() -> np.ndarray:
 
 @pytest.fixture
 def small_blocks(monkeypatch):
-    import gaitmon.io.session.smoothed as sm
+    import gaitmon.finish.smoothed as sm
 
     monkeypatch.setattr(sm, "SMOOTH_BLOCK_ROWS", 7000)
     monkeypatch.setattr(sm, "SMOOTH_OVERLAP_ROWS", 1500)
@@ -53,7 +54,7 @@ def test_smoothed_angles_stored_block_by_block_equal_the_whole_series_written_at
     """store_smoothed (the close, recovery and ``process``) writes the values, dtypes and
     chunks write_smoothed(smoothed_angles(...)) wrote, asking for one block of counts at a
     time; with a restart after a long gap and a calibration change inside a block."""
-    import gaitmon.io.session.smoothed as sm
+    import gaitmon.finish.smoothed as sm
 
     lost = np.zeros(N, np.int64)
     lost[17_123] = 500  # a 5-s gap: the smoother starts afresh there
@@ -105,7 +106,7 @@ class _Recorder:
 def test_the_smoothed_angles_are_written_in_whole_chunks():
     """A compressed chunk written twice is decompressed and compressed again: the writer holds
     the rows of a chunk split between two blocks until it is full."""
-    from gaitmon.io.session.smoothed import _AlignedWriter
+    from gaitmon.finish.smoothed import _AlignedWriter
 
     n, chunk = 10_000, 512
     ds = _Recorder(n, chunk)
@@ -134,6 +135,7 @@ def _write(path: Path, counts: np.ndarray, *, calibrate_at: tuple[int, ...] = ()
                               10.0 + np.arange(a, b) / FS, 1.7e9,
                               lost_before=np.zeros(b - a, np.int64), adc=counts[a:b])
             w.append(blk, pipe.process(counts[a:b]))
+        close_recording(w)  # /smoothed and /strides stored, as the recorder closes
 
 
 def test_a_closed_recording_stores_the_smoothed_angles_of_its_whole_raw_record(
@@ -142,7 +144,7 @@ def test_a_closed_recording_stores_the_smoothed_angles_of_its_whole_raw_record(
     """The close smooths from the file a block at a time: the stored tilts are those of the
     whole record's smoothed_angles (same blocks), quantised, and the readers' joint angles
     equal the whole-array ones within the storage's 0.01 deg."""
-    import gaitmon.io.session.smoothed as sm
+    import gaitmon.finish.smoothed as sm
 
     path = tmp_path / "closed.h5"
     _write(path, counts, calibrate_at=(12_000,))
@@ -263,7 +265,7 @@ def test_a_journal_s_rows_are_read_from_its_map_when_sliced_and_its_pages_let_go
     w.flush()
     jpath = tmp_path / "copy.journal"
     jpath.write_bytes(journal_path(tmp_path / "live.h5").read_bytes())
-    w.close()
+    close_recording(w)
     released: list[int] = []
     real = journal._release
     monkeypatch.setattr(journal, "_release", lambda mm, upto: (released.append(upto),

@@ -25,7 +25,7 @@ import pytest
 from PySide6.QtCore import QSettings
 
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 from gaitmon.text import count, no_gait_events, num
 
 WAIT_MS = 20_000
@@ -202,13 +202,13 @@ def test_pause_banner_leaves_the_legend_and_the_gait_dock_alone(qtbot, tmp_path)
             legends = [w for w in (win.phase_legend, *win.method_boxes.values())]
             dock = win.gait_dock.width()
             widths.append(dock)
-            win.set_paused(True)
+            win.view_part.set_paused(True)
             _settle(qtbot)
             assert win.pause_label.isVisible()
             for w in legends:  # not squeezed below what its text needs
                 assert w.width() >= w.sizeHint().width(), (w, w.width(), w.sizeHint().width())
             assert win.gait_dock.width() == dock
-            win.set_paused(False)
+            win.view_part.set_paused(False)
             _settle(qtbot)
             assert win.gait_dock.width() == dock
         finally:

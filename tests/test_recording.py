@@ -15,9 +15,9 @@ import pytest
 
 from gaitmon.cli import main
 from gaitmon.engine import Engine
+from gaitmon.finish import open_session
 from gaitmon.io.device import Device
 from gaitmon.io.protocol import channel_table_crc
-from gaitmon.io.session import open_session
 from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
 from gaitmon.io.transport import InProcessTransport
 

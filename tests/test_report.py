@@ -25,7 +25,7 @@ import pytest
 
 from gaitmon.analysis import analyse_strides, summary
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
+from gaitmon.finish import close_recording, open_session
 from gaitmon.normative import load_normative
 from gaitmon.report import REDACTED, gather_report, report_from_file
 
@@ -332,7 +332,7 @@ def test_cli_errors_are_one_line(qapp, session: Path, tmp_path: Path, capsys) ->
 def test_report_content_modules_are_qt_free() -> None:
     code = (
         "import sys, gaitmon.report, gaitmon.normative, gaitmon.commands.report, "
-        "gaitmon.report_bilateral\n"
+        "gaitmon.report_content\n"
         "print([m for m in ('PySide6', 'pyqtgraph', 'shiboken6') if m in sys.modules])\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -383,6 +383,7 @@ def _long_session(path: Path, minutes: float) -> Path:
         w.append(SampleBlock(FrameKind.RAW, seq, 1000.0 + seq / 100.0, 1.7e9,
                              lost_before=np.zeros(n, np.int64), adc=counts),
                  Pipeline().process(counts))
+        close_recording(w)  # /smoothed and /strides stored, as the recorder closes
     return path
 
 

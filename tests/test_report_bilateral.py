@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
-from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.finish import open_session
+from gaitmon.finish.bilateral import open_bilateral
 
 needs_poppler = pytest.mark.skipif(
     shutil.which("pdftotext") is None or shutil.which("pdfinfo") is None,
@@ -119,7 +119,7 @@ def test_table_numbers_are_analyse_bilaterals_and_show_the_hemiparetic_step(
     both: Path, pdf: Path
 ) -> None:
     from gaitmon.analysis import analyse_bilateral
-    from gaitmon.report_bilateral import bilateral_report_from_file
+    from gaitmon.report import bilateral_report_from_file
 
     with open_bilateral(both) as b:
         g = analyse_bilateral(b).gait
@@ -154,9 +154,8 @@ def test_table_numbers_are_analyse_bilaterals_and_show_the_hemiparetic_step(
 def test_both_legs_curves_are_the_one_leg_reports_and_are_drawn(qapp: object, both: Path) -> None:
     from PySide6.QtGui import QImage
 
-    from gaitmon.report import report_from_file
-    from gaitmon.report_bilateral import MAX_FAINT_PER_SIDE, bilateral_report_from_file
-    from gaitmon.ui.report_pdf.bilateral import STYLES, render_bilateral_image
+    from gaitmon.report import MAX_FAINT_PER_SIDE, bilateral_report_from_file, report_from_file
+    from gaitmon.ui.report_pdf.both_legs import STYLES, render_bilateral_image
 
     data = bilateral_report_from_file(both)
     assert [c.label for c in data.curves] == ["left", "right"]
@@ -211,8 +210,7 @@ def test_side_still_gives_one_leg_and_deidentify_hides_who(qapp: object, both: P
 def test_each_legs_exclusions_are_honoured(both: Path, tmp_path: Path) -> None:
     from gaitmon.analysis import analyse_bilateral
     from gaitmon.io.session.exclusions import Exclusion, save
-    from gaitmon.report import report_from_file
-    from gaitmon.report_bilateral import bilateral_report_from_file
+    from gaitmon.report import bilateral_report_from_file, report_from_file
 
     before = bilateral_report_from_file(both)
     copy = tmp_path / "both.h5"

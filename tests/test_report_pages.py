@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 from gaitmon.cli import main
-from gaitmon.io.session import Exclusion, open_session
+from gaitmon.finish import open_session
+from gaitmon.io.session import Exclusion
 from gaitmon.io.session import exclusions as excl
 from gaitmon.report import report_from_file
 from gaitmon.text import num

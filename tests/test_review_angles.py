@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from gaitmon.analysis import STRIDE_COLUMNS, analyse_session
-from gaitmon.io.session import open_session
+from gaitmon.finish import close_recording, open_session
 
 WAIT_MS = 30_000
 JOINT = "processed/joint_deg"
@@ -89,7 +89,7 @@ KNEE_PEAK_COL, KNEE_ROM_COL = (  # by name: the table's columns are analysis.STR
 def _stored(path, angles="smoothed", name=JOINT):
     """A series of ``angles`` as the file stores it, through the session reader (format 2
     stores the tilts quantised, the joints are derived: docs/file-format.md, "Storage")."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(path) as s:
         s.use_angles(angles)
@@ -184,7 +184,7 @@ def test_a_tilt_mode_session_has_no_angle_switch(qtbot, win, tilt_file, tmp_path
     assert not win.act["angles_live"].isEnabled()
     assert win.act["angles_live"].isChecked()
     assert "the unit's own" in win.status.angles.text()
-    win.set_angles("smoothed")  # e.g. a stale shortcut: refused in one line, nothing breaks
+    win.jobs.set_angles("smoothed")  # e.g. a stale shortcut: refused in one line, nothing breaks
     assert win.doc.angle_source == "live" and win.act["angles_live"].isChecked()
     assert "has only" in win.statusBar().currentMessage()
 
@@ -195,8 +195,8 @@ def test_the_export_dialog_exports_the_angles_shown(qtbot, win, session_file, tm
     for angles in ("smoothed", "live"):
         if angles == "live":
             pick_angles(qtbot, win, "live")
-        win.export_dialog()
-        dlg = win._export_dialog
+        win.outputs.export_dialog()
+        dlg = win.outputs.export
         assert METHOD[angles] in dlg.angles_label.text()
         dlg.set_format("csv")
         out = tmp_path / f"{angles}.csv"
@@ -224,8 +224,8 @@ def test_the_reprocess_dialog_offers_the_live_method_and_q_r_only_for_the_papers
 
     assert PAPER_ONLY == CLI_PAPER_ONLY  # the dialog follows gaitmon process's rule
     open_and_wait(qtbot, win, session_file)
-    win.reprocess_dialog()
-    dlg = win._settings_dialog
+    win.outputs.reprocess_dialog()
+    dlg = win.outputs.settings_dialog
     assert dlg.method == "gait-aware"  # as recorded
     assert "do not depend on these settings" in dlg.angles_note.text().replace("\n", " ") or (
         "not on these settings" in dlg.angles_note.text())
@@ -241,8 +241,8 @@ def test_the_reprocess_dialog_offers_the_live_method_and_q_r_only_for_the_papers
     assert dlg.config.tilt_method == "paper" and dlg.config.r == pytest.approx(0.1)
     assert win.doc.reprocessed.config == dlg.config
     # back to gait-aware: R is the one in force again (the gait-aware filter does not read it)
-    win.reprocess_dialog()
-    dlg = win._settings_dialog
+    win.outputs.reprocess_dialog()
+    dlg = win.outputs.settings_dialog
     assert dlg.method == "paper" and dlg.edits["r"].text() == "0.1"  # starts from the current
     dlg.edits["r"].setText("0.02")
     dlg.method_combo.setCurrentIndex(dlg.method_combo.findData("gait-aware"))
@@ -258,7 +258,7 @@ def test_reprocessing_in_smoothed_view_keeps_the_smoothed_angles_and_takes_its_e
     open_and_wait(qtbot, win, session_file)
     cfg = win.doc.recorded.config.replace(tilt_method="paper", r=0.05, fsr_threshold=1400.0)
     with qtbot.waitSignal(win.analysis_done, timeout=60_000):
-        win.start_reprocess(cfg)
+        win.jobs.start_reprocess(cfg)
     rep = win.doc.reprocessed
     assert rep is not None and rep.angles == "smoothed"
     np.testing.assert_array_equal(rep.read_rows(JOINT, 0, rep.n_rows), smoothed)
@@ -294,7 +294,7 @@ def test_a_flagged_force_sensor_is_a_visible_note(qtbot, win, tmp_path):
         w.append(SampleBlock(FrameKind.RAW, seq, seq / fs, 1.7e9,
                              lost_before=np.zeros(len(seq), np.int64), adc=adc),
                  pipe.process(adc))  # fmt: skip
-    w.close()
+    close_recording(w)
     with open_session(path) as s:
         faults = s.fsr_faults
     assert [(f.sensor, f.reason) for f in faults] == [("heel", "never loads")]
@@ -307,11 +307,11 @@ def test_a_flagged_force_sensor_is_a_visible_note(qtbot, win, tmp_path):
     # reprocessed: the note is the reprocessing's own check (the same settings flag the same
     # sensor at the same row, as gaitmon process stores it); back to the recording's after
     with qtbot.waitSignal(win.analysis_done, timeout=60_000):
-        win.start_reprocess(win.doc.recorded.config)
+        win.jobs.start_reprocess(win.doc.recorded.config)
     assert win.doc.replay.fsr_faults == tuple(faults)
     assert f"reprocessed: {faults[0].message()}" in win.status.notes.text()
     with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
-        win.revert_reprocessing()
+        win.jobs.revert_reprocessing()
     assert "reprocessed" not in win.status.notes.text() and note in win.status.notes.text()
 
 
@@ -332,7 +332,7 @@ def test_the_report_from_review_analyses_and_names_the_angles_shown(
     open_and_wait(qtbot, win, session_file)
     pick_angles(qtbot, win, "live")
     with qtbot.waitSignal(win.report_written, timeout=60_000):
-        win.write_report(tmp_path / "live.pdf")
+        win.jobs.write_report(tmp_path / "live.pdf")
     assert f"angles: {METHOD['live']}" in win.statusBar().currentMessage()
     source, data = made[-1]
     assert source == "live"
@@ -380,7 +380,7 @@ def test_cancel_while_switching_keeps_the_angles_shown(qtbot, win, session_file,
     qtbot.waitUntil(win.status.cancel_button.isVisible, timeout=WAIT_MS)
     qtbot.mouseClick(win.status.cancel_button, Qt.MouseButton.LeftButton)
     release.set()
-    assert win.angles_job.wait_idle(30)
+    assert win.jobs.angles_job.wait_idle(30)
     qtbot.wait(100)  # a response that still arrived would be applied by now
     assert win.doc.angle_source == "smoothed"
     assert win.act["angles_smoothed"].isChecked() and not win.act["angles_live"].isChecked()

@@ -18,8 +18,8 @@ from PySide6.QtCore import Qt
 
 from gaitmon.analysis import analyse_bilateral, analyse_session
 from gaitmon.cli import main
-from gaitmon.io.session import open_session
-from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.finish import open_session
+from gaitmon.finish.bilateral import open_bilateral
 from gaitmon.review.both_legs import BothLegs
 
 WAIT_MS = 30_000
@@ -225,7 +225,7 @@ def test_export_report_and_filters_take_the_leg_shown(qtbot, win, both, tmp_path
     n_r, an_r, _ = reference(both, "R")
     # export: the right leg, named as gaitmon export --side R names it
     win.act["export"].trigger()
-    dlg = win._export_dialog
+    dlg = win.outputs.export
     assert dlg.side == "R" and Path(dlg.output_edit.text()).name == "both_R.csv"
     dlg.output_edit.setText(str(tmp_path / "right.csv"))
     with qtbot.waitSignal(dlg.export_finished, timeout=WAIT_MS):
@@ -244,15 +244,15 @@ def test_export_report_and_filters_take_the_leg_shown(qtbot, win, both, tmp_path
     asked = []
     monkeypatch.setattr(QFileDialog, "getSaveFileName",
                         lambda *a: asked.append(a[2]) or ("", ""))  # fmt: skip
-    win.report_dialog()
+    win.outputs.report_dialog()
     assert Path(asked[0]).name == "both_R.pdf"
     with qtbot.waitSignal(win.report_written, timeout=60_000):
-        win.write_report(tmp_path / "r.pdf")
+        win.jobs.write_report(tmp_path / "r.pdf")
     assert got[0].header.side == "right"
     assert got[0].summary.n_strides == an_r.n_included
     # filters: the right unit's signals and its own simulator truth
     win.act["filters"].trigger()
-    fw = win._filters_window
+    fw = win.outputs.filters_window
     assert fw is not None and fw.source == (both, "R")
     fw.wait_idle()
     assert fw._has_truth and fw._n_rows == n_r
@@ -267,10 +267,10 @@ def test_a_reprocessed_leg_cannot_be_saved_and_the_action_says_why(qtbot, win, b
     assert not save.isEnabled() and "both legs" in save.toolTip()
     config = PipelineConfig(**{**win.doc.session.config.as_dict(), "cutoff_hz": 6.0})
     with qtbot.waitSignal(win.reprocessed, timeout=WAIT_MS):
-        win.start_reprocess(config)
+        win.jobs.start_reprocess(config)
     assert win.doc.reprocessed is not None  # the leg is reprocessed in memory ...
     assert not save.isEnabled() and "both legs" in save.toolTip()  # ... but not saved
-    win.save_reprocessed_dialog()  # no dialog, no error: a line in the status bar
+    win.outputs.save_reprocessed_dialog()  # no dialog, no error: a line in the status bar
     assert not win.banner_box.isVisible()
 
 
@@ -283,9 +283,9 @@ def test_a_one_unit_file_shows_no_leg_chooser(qtbot, win, tmp_path, record_simul
     assert not win.act["leg_L"].isEnabled() and not win.act["leg_R"].isEnabled()
     assert win.act["save_reprocessed"].toolTip().startswith("Write a new session file")
     win.act["export"].trigger()
-    assert win._export_dialog.side is None
-    assert Path(win._export_dialog.output_edit.text()).name == "one.csv"
-    win._export_dialog.reject()
+    assert win.outputs.export.side is None
+    assert Path(win.outputs.export.output_edit.text()).name == "one.csv"
+    win.outputs.export.reject()
 
 
 def test_review_command_takes_a_side(both, tmp_path, monkeypatch, capsys) -> None:

@@ -12,7 +12,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFileDialog
 
 from gaitmon.compare import MEASURES
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 from gaitmon.report import gather_report
 
 WAIT_MS = 20_000

@@ -16,8 +16,8 @@ import pytest
 from PySide6.QtCore import QSettings
 from PySide6.QtGui import QPainterPath
 
+from gaitmon.finish import open_session
 from gaitmon.io.overview import SessionOverview
-from gaitmon.io.session import open_session
 
 WAIT_MS = 20_000
 

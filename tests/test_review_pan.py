@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from conftest import write_simulated_session
 
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 from gaitmon.review.model import JOINT
 
 WAIT_MS = 20_000

@@ -20,8 +20,8 @@ from PySide6.QtCore import Qt
 from PySide6.QtGui import QImage
 
 from gaitmon.dsp.lab_filters import TILT_FILTERS, make_tilt_filter
-from gaitmon.io.export import export_session
-from gaitmon.io.session import open_session
+from gaitmon.export import export_session
+from gaitmon.finish import open_session
 
 PATIENT = "P-0042"
 
@@ -178,7 +178,7 @@ def _export_bids(qtbot, dlg, out: Path):
 
 def test_export_dialog_deidentify_defaults_agree_with_the_command_line(qtbot, session) -> None:
     from gaitmon.cli import build_parser
-    from gaitmon.io.export import FORMATS
+    from gaitmon.export import FORMATS
 
     dlg = _dialog(qtbot, session)
     assert set(CLI_DEIDENTIFY_DEFAULT) == set(FORMATS)
@@ -380,7 +380,7 @@ def _view(qtbot):
 
 def _knee_rmse_by_hand(session: Path) -> dict[str, float]:
     """Accelerometer and gyro-integration knee angles vs the simulator's true knee angle."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(session) as s:  # (the format derives the gyro, quantises the acc)
         acc = s.read("processed/acc_ms2").astype(np.float64)

@@ -27,7 +27,7 @@ WAIT_MS = 20_000
 def _series(path, name, angles):
     """A per-sample series as the session reader gives it with ``angles`` (smoothed | live):
     the session format derives and decodes them (docs/file-format.md, "Storage")."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(path) as s:
         s.use_angles(angles)
@@ -145,7 +145,7 @@ def test_overview_and_detail_hold_points_and_keep_the_peaks(qtbot, win, session_
     assert r.bottom() == pytest.approx(float(in_view.max()), abs=0.5)
     # zoom out to the whole session: the view is reloaded and still holds every peak
     n_applied = tl.applied_requests
-    win.show_whole()
+    win.nav.show_whole()
     qtbot.waitUntil(lambda: tl.applied_requests > n_applied, timeout=WAIT_MS)
     r = next(tr for s, tr in tl.lanes["knee"].specs if s.method == "kalman").path.boundingRect()
     assert r.bottom() == pytest.approx(float(knee.max()), abs=1e-3)
@@ -209,7 +209,7 @@ def test_info_and_report_count_the_strides_the_review_window_counts(
 ):
     """Exclusions made in the window (two ranges, by its own action) reach the command line:
     ``gaitmon info`` and ``gaitmon report`` include exactly the strides the window does."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
     from gaitmon.report import gather_report
 
     open_and_wait(qtbot, win, session_file)
@@ -266,7 +266,7 @@ def test_recent_files_and_drag_and_drop(qtbot, win, session_file):
     with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
         win.dropEvent(ev)
     assert win.recent_files() == [str(session_file.resolve())]
-    win._fill_recent()
+    win.recent_menu.aboutToShow.emit()
     names = [a.text() for a in win.recent_menu.actions()]
     assert "walk.h5" in names
 
@@ -279,8 +279,8 @@ def test_reprocessing_matches_gaitmon_process_and_leaves_the_recording(
     n_before = len(win.doc.recorded.heel_strike_idx)
     cfg = win.doc.recorded.config.replace(cutoff_hz=6.0, fsr_threshold=1400.0)
     with qtbot.waitSignal(win.analysis_done, timeout=60_000):
-        win.start_reprocess(cfg)
-    assert win.doc.reprocessed is not None and win.before is not None
+        win.jobs.start_reprocess(cfg)
+    assert win.doc.reprocessed is not None and win.strides.before is not None
     # the independent path: the gaitmon process command on the same file
     ref = tmp_path / "ref.h5"
     assert cli_main(["process", str(session_file), "-o", str(ref), "--cutoff-hz", "6",
@@ -309,7 +309,7 @@ def test_reprocessing_matches_gaitmon_process_and_leaves_the_recording(
     x, _ = win.cycles.before[1].getData()
     assert len(x) == 101
     assert _md5(session_file) == digest
-    win.revert_reprocessing()
+    win.jobs.revert_reprocessing()
     assert win.doc.reprocessed is None
 
 
@@ -329,8 +329,8 @@ def test_review_command_without_a_display_is_one_line(tmp_path, recorded):
 def test_pipeline_config_in_the_dialog_is_the_recorded_one(qtbot, win, session_file):
     open_and_wait(qtbot, win, session_file)
     assert win.doc.recorded.config == PipelineConfig(**win.doc.session.config.as_dict())
-    win.reprocess_dialog()
-    dlg = win._settings_dialog
+    win.outputs.reprocess_dialog()
+    dlg = win.outputs.settings_dialog
     assert dlg.edits["cutoff_hz"].text() == f"{win.doc.session.config.cutoff_hz:g}"
     dlg.reject()
 
@@ -343,15 +343,15 @@ def test_report_normative_band_plot_export_and_filters_are_wired(
     open_and_wait(qtbot, win, session_file)
     # normative band: the example file drawn behind the cycle plots (101 points per joint)
     example = os.path.join(os.path.dirname(__file__), "..", "docs", "normative-example.csv")
-    win.load_normative(example)
-    assert win.normative is not None and not win.banner_box.isVisible()
+    win.strides.load_normative(example)
+    assert win.strides.normative is not None and not win.banner_box.isVisible()
     x, y = win.cycles.norm_mean[1].getData()
     assert len(x) == 101
-    np.testing.assert_allclose(y, win.normative.mean_deg[:, 1])
+    np.testing.assert_allclose(y, win.strides.normative.mean_deg[:, 1])
     # report: a PDF with the exclusions in force
     pdf = tmp_path / "report.pdf"
     with qtbot.waitSignal(win.report_written, timeout=60_000):
-        win.write_report(pdf)
+        win.jobs.write_report(pdf)
     assert pdf.read_bytes()[:5] == b"%PDF-"
     # right-click ▸ Save plot as PNG / SVG on every lane
     for lane in win.timeline.lanes.values():
@@ -360,16 +360,17 @@ def test_report_normative_band_plot_export_and_filters_are_wired(
     # menus hold the other parts
     file_texts = [a.text() for a in win.file_menu.actions()]
     assert "&Export…" in file_texts and "&Report (PDF)…" in file_texts
-    win.export_dialog()
-    assert win._export_dialog.isVisible()
-    win._export_dialog.reject()
-    win.show_filters()
-    assert win._filters_window is not None and win._filters_window.isVisible()
-    win._filters_window.wait_idle()
+    win.outputs.export_dialog()
+    assert win.outputs.export.isVisible()
+    win.outputs.export.reject()
+    win.outputs.show_filters()
+    assert win.outputs.filters_window is not None and win.outputs.filters_window.isVisible()
+    win.outputs.filters_window.wait_idle()
 
 
 def test_an_interrupted_recording_is_recovered_with_progress(qtbot, win, recorded, tmp_path):
     from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.finish import close_recording
     from gaitmon.io.device import SampleBlock
     from gaitmon.io.protocol import FrameKind
     from gaitmon.io.session import SessionHeader, SessionWriter, journal_path
@@ -387,9 +388,9 @@ def test_an_interrupted_recording_is_recovered_with_progress(qtbot, win, recorde
     w.flush()
     for src, dst in ((live, crashed), (journal_path(live), journal_path(crashed))):
         shutil.copyfile(src, dst)  # file + journal as a kill -9 would leave them
-    w.close()
+    close_recording(w)
     fractions = []
-    win.job.progressed.connect(fractions.append)
+    win.jobs.job.progressed.connect(fractions.append)
     open_and_wait(qtbot, win, crashed)
     assert not journal_path(crashed).exists()
     assert win.doc.session.recovered and win.doc.n_rows == len(adc)
@@ -403,7 +404,7 @@ def _reprocessed(qtbot, win, session_file):
     open_and_wait(qtbot, win, session_file)
     cfg = win.doc.recorded.config.replace(cutoff_hz=6.0, fsr_threshold=1400.0)
     with qtbot.waitSignal(win.analysis_done, timeout=60_000):
-        win.start_reprocess(cfg)
+        win.jobs.start_reprocess(cfg)
     assert win.doc.reprocessed is not None
 
 
@@ -414,10 +415,10 @@ def test_save_reprocessed_shows_its_progress_on_the_bar(qtbot, win, session_file
     seen: list[tuple[int, bool]] = []  # (bar value, bar shown) at each progress report
     finished: list[str] = []
     # connected after the window's own slot: sees the bar as that slot left it
-    win.job.progressed.connect(lambda f: seen.append((bar.value(), bar.isVisible())))
+    win.jobs.job.progressed.connect(lambda f: seen.append((bar.value(), bar.isVisible())))
     win.saved.connect(finished.append)
     with qtbot.waitSignal(win.saved, timeout=60_000):
-        win.save_reprocessed(out)
+        win.jobs.save_reprocessed(out)
     assert finished == [str(out)]
     assert any(value > 0 and shown for value, shown in seen)  # it moved while it ran
     assert not bar.isVisible() and f"Saved {out}" in win.statusBar().currentMessage()
@@ -428,7 +429,7 @@ def test_save_reprocessed_shows_its_progress_on_the_bar(qtbot, win, session_file
 def test_cancel_while_saving_reprocessed_leaves_no_file(
     qtbot, win, session_file, tmp_path, monkeypatch
 ):
-    from gaitmon.io.session.reprocess import partial_path
+    from gaitmon.finish.reprocess import partial_path
     from gaitmon.ui.review import jobs
 
     reached, release = threading.Event(), threading.Event()
@@ -448,13 +449,13 @@ def test_cancel_while_saving_reprocessed_leaves_no_file(
     monkeypatch.setattr(jobs, "rewrite_processed", gated)
     _reprocessed(qtbot, win, session_file)
     out = tmp_path / "cancelled.h5"
-    win.save_reprocessed(out)
+    win.jobs.save_reprocessed(out)
     qtbot.waitUntil(reached.is_set, timeout=30_000)
     assert partial_path(out).exists()  # midway: the copy is being written
     assert win.status.cancel_button.isVisible()
     qtbot.mouseClick(win.status.cancel_button, Qt.MouseButton.LeftButton)  # GUI thread is free
     release.set()
-    assert win.job.wait_idle(30)
+    assert win.jobs.job.wait_idle(30)
     assert not out.exists() and not partial_path(out).exists()
     assert sorted(p.name for p in tmp_path.iterdir() if "cancelled" in p.name) == []
     assert not win.status.progress.isVisible()
@@ -468,7 +469,7 @@ def test_gcd_band_deviation_in_summary_and_caveat_in_tooltips(qtbot, win, sessio
     open_and_wait(qtbot, win, session_file)
     assert "GVS-like" not in win.summary.text()
     gcd = os.path.join(os.path.dirname(__file__), "data", "gcd", "vicon_style_normal.gcd")
-    win.load_normative(gcd)
+    win.strides.load_normative(gcd)
     assert not win.banner_box.isVisible()
     # the band is drawn: the knee of this file is 0, 1, ..., 100 after resampling 51 -> 101
     x, y = win.cycles.norm_mean[1].getData()
@@ -486,13 +487,69 @@ def test_gcd_band_deviation_in_summary_and_caveat_in_tooltips(qtbot, win, sessio
         assert "vicon_style_normal (GCD)" in tip and "thigh relative to the trunk" in tip
     assert "licence: not stated" in win.cycles.title.toolTip()
     # removed: no deviation, no caveat
-    win.set_normative(None)
+    win.strides.set_normative(None)
     assert "GVS-like" not in win.summary.text() and not win.summary.toolTip()
     assert "thigh relative" not in win.cycles.plots[0].toolTip()
     # a bad GCD: one line naming the line, the band in force is kept
     bad = tmp_path / "bad.gcd"
     bad.write_text("!KneeFlexExt 3\n1 2\nx 2\n", encoding="utf-8")
-    win.load_normative(bad)
+    win.strides.load_normative(bad)
     assert win.banner_box.isVisible()
     assert "bad.gcd: line 3 (variable KneeFlexExt)" in win.banner.text()
-    assert win.normative is None
+    assert win.strides.normative is None
+
+
+def test_every_view_follows_the_documents_exclusions_event(qtbot, win, session_file):
+    """An exclusion made through the document alone (no window slot is called) reaches the
+    stride table, the summary, the timeline's shading and the status bar: they listen to its
+    event; and it is kept where ``gaitmon report`` reads it."""
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import exclusions
+
+    open_and_wait(qtbot, win, session_file)
+    rows = win.analysis.rows
+    n_before = win.analysis.summary.n_strides
+    a, b = rows[7].stride.start_idx + 3, rows[8].stride.end_idx - 3
+    with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
+        win.doc.exclude(a, b, "turn")
+    model = win.table.model()
+    last = model.columnCount() - 1
+    assert [model.index(r, last).data() for r in (6, 7, 8, 9)] == [
+        "included", "excluded: excluded range", "excluded: excluded range", "included"
+    ]
+    assert win.analysis.summary.n_strides == n_before - 2
+    assert f"{n_before - 2}" in win.summary.text()
+    shaded = win.timeline.lanes["knee"].shade.spans("excluded")
+    t = win.doc.t_s
+    assert len(shaded) == 1 and shaded[0][0] == pytest.approx(t[a], abs=1e-6)
+    assert win.statusBar().currentMessage() == "1 excluded range, kept in walk.h5.review.json"
+    with open_session(session_file) as s:
+        assert exclusions.read(s) == ([exclusions.Exclusion(a, b, "turn")], "")
+    with qtbot.waitSignal(win.analysis_done, timeout=WAIT_MS):
+        win.doc.clear_exclusions()
+    assert win.analysis.summary.n_strides == n_before
+    assert len(win.timeline.lanes["knee"].shade.spans("excluded")) == 0
+
+
+def test_a_report_being_prepared_takes_the_exclusions_made_meanwhile(
+    qtbot, win, session_file, tmp_path, monkeypatch
+):
+    """The report job listens to the document: ranges excluded while the report is gathered
+    are in the report written."""
+    import gaitmon.ui.report_pdf as report_pdf
+
+    written = []
+
+    def fake_pdf(data, path):
+        written.append(data)
+        return path
+
+    monkeypatch.setattr(report_pdf, "write_report_pdf", fake_pdf)
+    open_and_wait(qtbot, win, session_file)
+    rows = win.analysis.rows
+    a, b = rows[4].stride.start_idx + 3, rows[4].stride.end_idx - 3
+    with qtbot.waitSignal(win.report_written, timeout=WAIT_MS):
+        win.jobs.write_report(tmp_path / "r.pdf")
+        win.doc.exclude(a, b, "stumble")  # before the report's answer can arrive
+    assert len(written) == 1
+    assert [(s.reason, s.n_strides) for s in written[0].excluded_spans] == [("stumble", 1)]

@@ -20,10 +20,11 @@ import pytest
 
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import Engine
+from gaitmon.finish import open_session, replay_pipeline
 from gaitmon.io.device import Device
 from gaitmon.io.journal import journal_path
 from gaitmon.io.protocol import Command, FrameKind, encode_command
-from gaitmon.io.session import SessionWriter, open_session, replay_pipeline
+from gaitmon.io.session import SessionWriter
 from gaitmon.io.sim import GaitConfig, SimulatedUnit
 from gaitmon.io.sim.truth import attach_ground_truth, row_samples
 from gaitmon.io.transport import InProcessTransport

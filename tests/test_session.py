@@ -18,6 +18,7 @@ import pytest
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import CHANNELS
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.finish import close_recording, open_session, recover_session
 from gaitmon.io.decoder import DecoderStats
 from gaitmon.io.device import LinkStats, SampleBlock
 from gaitmon.io.journal import journal_path
@@ -32,8 +33,6 @@ from gaitmon.io.session import (
     SessionMeta,
     SessionWriter,
     device_info,
-    open_session,
-    recover_session,
 )
 from gaitmon.io.session.rows import _device_rows
 from gaitmon.io.sim.sensors import simulate
@@ -123,7 +122,7 @@ def _record_raw(path, *, config_change_row=None, cal_row=None, close=True, copy_
         for src, dst in ((path, copy_to), (journal_path(path), journal_path(copy_to))):
             shutil.copyfile(src, dst)
     if close:
-        w.close(stop_reason="duration")
+        close_recording(w, stop_reason="duration")
     return w, seq, host, cfg0, cfg1
 
 
@@ -648,7 +647,7 @@ def test_the_file_holds_whole_chunks_and_the_journal_the_rest(tmp_path):
     w.flush()
     for src, dst in ((path, crashed), (journal_path(path), journal_path(crashed))):
         shutil.copyfile(src, dst)
-    w.close()
+    close_recording(w)
     with h5py.File(crashed, "r") as f:  # the file as the crash left it
         assert f["raw/adc"].shape[0] == 2 * CHUNK_ROWS
         assert np.array_equal(f["raw/adc"][()], counts[: 2 * CHUNK_ROWS])
@@ -685,6 +684,6 @@ def test_a_live_recording_is_not_recovered_under_the_writer(tmp_path):
     with pytest.raises(SessionError, match="being recorded right now"):
         recover_session(path)
     assert journal_path(path).exists()
-    w.close()
+    close_recording(w)
     with open_session(path) as s:
         assert s.complete and s.n_samples == 3

@@ -22,8 +22,9 @@ import pytest
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.finish import open_session
 from gaitmon.io.journal import journal_path
-from gaitmon.io.session import SessionError, open_session
+from gaitmon.io.session import SessionError
 from gaitmon.io.sim.sensors import simulate
 
 N_MAX = 1000
@@ -40,6 +41,7 @@ RECORDER = textwrap.dedent(
     from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
     from gaitmon.io.device import SampleBlock
     from gaitmon.io.protocol import FrameKind
+    from gaitmon.finish import close_recording
     from gaitmon.io.session import SessionHeader, SessionWriter
     from gaitmon.io.sim.sensors import simulate
 
@@ -84,7 +86,7 @@ RECORDER = textwrap.dedent(
         w.append(blk, pipe.process(counts[i:b]), event_offset=offset)
         i = b
         print("ROWS", i, time.monotonic(), flush=True)
-    w.close()
+    close_recording(w)
     print("DONE", flush=True)
     """
 ).format(N_MAX=N_MAX, CONFIG_ROW=CONFIG_ROW, CAL_ROW=CAL_ROW, GAP_ROW=GAP_ROW)
@@ -301,7 +303,8 @@ def _check_recovery_refused_while_still_full(path):
     recover = textwrap.dedent(
         """
         import resource, signal, sys
-        from gaitmon.io.session import SessionError, recover_session
+        from gaitmon.finish import recover_session
+        from gaitmon.io.session import SessionError
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (200000, 200000))
         try:

@@ -13,6 +13,7 @@ import pytest
 
 from gaitmon.cli import main
 from gaitmon.dsp.pipeline import Pipeline
+from gaitmon.finish import close_recording, open_session
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.overview import PeakPyramid
 from gaitmon.io.protocol import FrameKind
@@ -22,7 +23,6 @@ from gaitmon.io.session import (
     SessionHeader,
     SessionMeta,
     SessionWriter,
-    open_session,
     per_sample_datasets,
 )
 from gaitmon.io.session.layout import resolution
@@ -49,6 +49,7 @@ def walk(tmp_path_factory) -> tuple[Path, np.ndarray, Pipeline]:
                               10.0 + np.arange(a, b) / FS, 1.7e9,
                               lost_before=np.zeros(b - a, np.int64), adc=counts[a:b])
             w.append(blk, pipe.process(counts[a:b]))
+        close_recording(w)  # /smoothed and /strides stored, as the recorder closes
     return path, counts, Pipeline()
 
 
@@ -254,7 +255,7 @@ def test_a_crash_of_a_format_1_recording_is_recovered_into_format_2(tmp_path):
     w.flush()
     shutil.copyfile(live, crashed)
     raw = journal_path(live).read_bytes()
-    w.close()
+    close_recording(w)
     # the header record as the format-1 gaitmon wrote it
     assert raw[: len(MAGIC)] == MAGIC
     length = struct.unpack_from("<I", raw, len(MAGIC) + 1)[0]
@@ -286,7 +287,7 @@ def test_long_reads_are_decoded_a_block_at_a_time_with_the_same_result(walk, mon
 def test_a_long_record_is_smoothed_in_blocks_with_the_same_angles(monkeypatch):
     """The smoother runs over a long record in blocks with context either side (its memory
     grew ~140 MB per hour): the angles stay those of one pass, well inside 0.01 deg."""
-    import gaitmon.io.session.smoothed as sm
+    import gaitmon.finish.smoothed as sm
     from gaitmon.dsp.calibration import Calibration
     from gaitmon.dsp.channels import DEFAULT_TABLE
 

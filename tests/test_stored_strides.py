@@ -1,5 +1,5 @@
 """The per-stride foot-IMU measures stored at close (``/strides``,
-gaitmon.io.session.stored_strides): the stored and the block-wise paths give exactly the numbers
+gaitmon.finish.strides): the stored and the block-wise paths give exactly the numbers
 of the whole-record computation, a stale store is never used, and files without one still get
 them."""
 
@@ -17,8 +17,8 @@ from gaitmon.cli import main
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX
 from gaitmon.dsp.gyro_events import gyro_gait_events
 from gaitmon.dsp.stride_length import StrideMeasures, record_stride_measures, stride_measures
-from gaitmon.io.session import open_session
-from gaitmon.io.session import stored_strides as st
+from gaitmon.finish import close_recording, open_session
+from gaitmon.finish import strides as st
 
 FS = 100.0
 FIELDS = ("heel_strike_idx", "stride_length_m", "foot_clearance_m", "stride_time_s",
@@ -319,7 +319,7 @@ def test_recovery_stores_them(tmp_path, monkeypatch):
     w.flush()
     shutil.copyfile(live, crashed)  # a kill -9 here: the file and its journal
     shutil.copyfile(journal_path(live), journal_path(crashed))
-    w.close()
+    close_recording(w)
     with h5py.File(crashed, "r") as f:
         assert "strides" not in f
     calls = computed_count(monkeypatch)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from gaitmon.analysis import analyse_session
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 
 
 @pytest.fixture(scope="module")

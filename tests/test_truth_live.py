@@ -16,8 +16,8 @@ from gaitmon.dsp.gait import Phase
 from gaitmon.dsp.pipeline import SETTLE_S, Pipeline, PipelineConfig, settling_ranges
 from gaitmon.engine import Engine
 from gaitmon.engine.buffers import with_gap_rows
+from gaitmon.finish import open_session, rewrite_processed
 from gaitmon.io.device import Device
-from gaitmon.io.session import open_session, rewrite_processed
 from gaitmon.io.sim import FaultConfig, GaitConfig, GaitModel, SensorConfig, SimulatedUnit
 from gaitmon.io.sim.sensors import simulate
 from gaitmon.io.transport import InProcessTransport

@@ -9,7 +9,7 @@ import pytest
 from PySide6.QtCore import QPointF, QSettings
 
 from gaitmon.analysis import analyse_session
-from gaitmon.io.session import open_session
+from gaitmon.finish import open_session
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import SIMULATED_PORT
 from gaitmon.ui.live import MainWindow
@@ -44,7 +44,7 @@ def lines_across(path, x):
 
 
 def cut_and_reconnect(qtbot, win, seconds, during=None):
-    win.cut_simulated_link(seconds)
+    win.device_part.cut_simulated_link(seconds)
     qtbot.waitUntil(lambda: win.state_text.startswith("Reconnecting"), timeout=WAIT_MS)
     if during is not None:
         during()
@@ -159,7 +159,7 @@ def test_gyro_integration_stays_inside_its_plot_and_says_when_off_scale(
             lambda: win.last_snapshot is not None and len(win.last_snapshot.series["t_s"]) >= 300,
             timeout=WAIT_MS,
         )
-        win.set_paused(True)  # the window stops drawing; we draw one snapshot ourselves
+        win.view_part.set_paused(True)  # the window stops drawing; we draw one snapshot ourselves
         snap = win.last_snapshot
         n = len(snap.series["t_s"])
         # a drift of -60 deg/s from 0: leaves the body plot (+-25) and wraps at -180 deg

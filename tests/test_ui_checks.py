@@ -85,7 +85,7 @@ def test_the_tilt_filter_is_shown_chosen_from_the_menu_applied_live_and_remember
         assert win.tilt_actions["paper"].isChecked()
         assert not win.tilt_actions["gait-aware"].isChecked()
         assert win.live.title_text(0).endswith(f"· {PAPER}")
-        win.connect_device(SIMULATED_PORT)
+        win.device_part.connect_device(SIMULATED_PORT)
         qtbot.waitUntil(lambda: win.engine is not None, timeout=WAIT_MS)
         assert win.engine.config.tilt_method == "paper"
         assert win.engine.config.cutoff_hz == 3.0
@@ -154,7 +154,7 @@ def test_a_dying_heel_sensor_is_on_screen_within_5_strides_and_strides_go_on(
         # a new connection starts with working sensors and no banner
         win.disconnect_device()
         assert not banner.isVisible()
-        win.connect_device(SIMULATED_PORT)
+        win.device_part.connect_device(SIMULATED_PORT)
         qtbot.waitUntil(lambda: win.engine is not None, timeout=WAIT_MS)
         qtbot.waitUntil(lambda: win.engine.samples_total >= 100, timeout=WAIT_MS)
         qtbot.wait(200)

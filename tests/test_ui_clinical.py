@@ -127,7 +127,7 @@ def test_guided_start_follows_the_real_state_and_its_buttons_do_the_steps(qtbot,
         qtbot.wait(200)  # a few display ticks
         assert guide.states == [DONE, CURRENT, WAITING]
 
-        win.set_simulated_standing(True)
+        win.device_part.set_simulated_standing(True)
         at = win.engine.samples_total
         qtbot.waitUntil(lambda: win.engine.samples_total >= at + 500, timeout=WAIT_MS)
         qtbot.waitUntil(zero.isEnabled, timeout=WAIT_MS)
@@ -150,7 +150,7 @@ def test_guided_start_follows_the_real_state_and_its_buttons_do_the_steps(qtbot,
         win.act_guide.trigger()  # Help ▸ Guided start brings it back, every step done
         assert guide.isVisible() and guide.states == [DONE, DONE, DONE]
         assert "Recording" in guide.hint_text
-        win.stop_recording()
+        win.recording_part.stop_recording()
         assert target.exists()
         win.disconnect_device()
         assert guide.states == [CURRENT, WAITING, WAITING]  # not connected: not zeroed either

@@ -44,7 +44,7 @@ def test_reconnect_banner_counts_down_in_plain_words(qtbot, window):
     win = window
     qtbot.waitUntil(lambda: win.engine.samples_total >= 50, timeout=WAIT_MS)
     transport = win.engine.device.transport
-    win.cut_simulated_link(30.0)  # the port is gone until restored below
+    win.device_part.cut_simulated_link(30.0)  # the port is gone until restored below
     qtbot.waitUntil(lambda: win.link_banner.isVisible(), timeout=WAIT_MS)
 
     # Refresh as the window's timer does and compare with the transport at that moment:
@@ -72,7 +72,7 @@ def test_reconnect_banner_counts_down_in_plain_words(qtbot, window):
             # whole seconds, rounded up; the refresh was a few ms before `now`
             assert shown in (math.ceil(left), math.ceil(left) + 1), (text, left)
             assert pill == f"Reconnecting ({shown} s)"
-    win.restore_simulated_link()
+    win.device_part.restore_simulated_link()
     qtbot.waitUntil(lambda: win.state_text == "Connected", timeout=WAIT_MS)
     qtbot.waitUntil(lambda: not win.link_banner.isVisible(), timeout=WAIT_MS)
 

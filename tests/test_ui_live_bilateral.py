@@ -10,7 +10,7 @@ from PySide6.QtCore import QPointF, QSettings, Qt
 from test_truth_live_window import lines_across
 
 from gaitmon.cli import main
-from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.finish.bilateral import open_bilateral
 from gaitmon.io.sim.bilateral import BilateralConfig
 from gaitmon.live.pair import PairSource
 from gaitmon.ui.live import MainWindow
@@ -66,7 +66,7 @@ def test_both_legs_are_drawn_and_measured_from_their_own_engines(
             lambda: min(samples(win, "L"), samples(win, "R")) >= 2400, timeout=60_000
         )
         qtbot.waitUntil(lambda: view.values["symmetry"].text().startswith("SR 0."))
-        win.set_paused(True)  # nothing is drawn any more: compare what is shown
+        win.view_part.set_paused(True)  # nothing is drawn any more: compare what is shown
         qtbot.wait(50)
         snaps = win.pair_snapshots
         plots = view.plots
@@ -139,7 +139,7 @@ def test_a_cut_on_the_left_leg_shows_there_and_the_right_leg_draws_on(
         qtbot.waitUntil(lambda: not win.link_banner.isVisible())
         at = samples(win, "L")
         qtbot.waitUntil(lambda: samples(win, "L") >= at + 300, timeout=WAIT_MS)
-        win.set_paused(True)
+        win.view_part.set_paused(True)
         qtbot.wait(50)
         snaps = win.pair_snapshots
         s = snaps["L"].series
@@ -166,7 +166,7 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
         qtbot.waitUntil(lambda: min(samples(win, "L"), samples(win, "R")) >= 100, timeout=WAIT_MS)
         assert not win.act_engineering.isEnabled()  # one leg's traces: not in this view
         old_view = win.pair_view
-        win._restyle_pair_view()  # what a theme change does: a new view that draws on
+        win.pair_part.restyle()  # what a theme change does: a new view that draws on
         assert win.pair_view is not old_view and win.pair_view.isVisible()
         qtbot.waitUntil(lambda: win.pair_view.plots.curve_points("R", KNEE) > 100)
         win.act_record.trigger()
@@ -223,12 +223,12 @@ def test_connect_two_units_by_their_ports_from_the_device_menu(
 
     from gaitmon.io.ports import PortInfo
     from gaitmon.io.sim.bilateral import serve_pair_on_ptys
-    from gaitmon.ui.live import pair_slots
+    from gaitmon.ui.live import pair_part
 
     pty = serve_pair_on_ptys(BilateralConfig(standing_s=1.0, speed=2.0))
     left, right = (str(p) for p in pty.link_paths)
     ports = [PortInfo(right, "unit R", "n/a"), PortInfo(left, "unit L", "n/a")]
-    monkeypatch.setattr(pair_slots, "available_ports", lambda: ports)
+    monkeypatch.setattr(pair_part, "available_ports", lambda: ports)
     picks = iter([(right, right), (left, right)])  # first the same port twice: refused
 
     def exec_(dlg):
@@ -237,7 +237,7 @@ def test_connect_two_units_by_their_ports_from_the_device_menu(
             dlg.combos[side].setCurrentIndex(dlg.combos[side].findData(path))
         return QDialog.DialogCode.Accepted
 
-    monkeypatch.setattr(pair_slots.TwoPortsDialog, "exec", exec_)
+    monkeypatch.setattr(pair_part.TwoPortsDialog, "exec", exec_)
     settings = QSettings(str(tmp_path / "gaitmon.ini"), QSettings.Format.IniFormat)
     win = MainWindow(settings, mode="raw", confirm_close=False)
     win.show()

@@ -255,13 +255,25 @@ def test_live_cycle_axis_labels_fit_their_plots(qtbot, height):
 def test_every_live_action_row_names_a_window_slot_once():
     from gaitmon.ui.live import MainWindow
     from gaitmon.ui.live.actions import ACTIONS
+    from gaitmon.ui.live.window import PART_TYPES
 
     names = [spec.name for spec in ACTIONS]
     assert len(names) == len(set(names))
     shortcuts = [spec.shortcut for spec in ACTIONS if spec.shortcut]
     assert len(shortcuts) == len(set(shortcuts))  # no key does two things
-    for spec in ACTIONS:
-        assert callable(getattr(MainWindow, spec.slot, None)), spec.slot
+    for spec in ACTIONS:  # a slot of the window or of one of its parts
+        owners = (MainWindow, *PART_TYPES)
+        assert any(callable(getattr(o, spec.slot, None)) for o in owners), spec.slot
+
+
+def test_the_live_window_is_composed_of_parts_not_a_stack_of_mixins():
+    from PySide6.QtWidgets import QMainWindow
+
+    from gaitmon.ui.live.window import PART_TYPES, MainWindow
+
+    assert MainWindow.__bases__ == (QMainWindow,)
+    for part in PART_TYPES:  # plain objects that own their widgets, not window subclasses
+        assert part.__bases__ == (object,), part
 
 
 @pytest.mark.parametrize("nan_pct", [1.0, 30.0])

@@ -146,7 +146,7 @@ def test_cut_link_shows_reconnecting_then_recovers(qtbot, window):
     win = window
     qtbot.waitUntil(lambda: samples(win) >= 100, timeout=WAIT_MS)
     assert win.act_cut.isEnabled()
-    win.cut_simulated_link(1.0)
+    win.device_part.cut_simulated_link(1.0)
     qtbot.waitUntil(lambda: win.state_text.startswith("Reconnecting"), timeout=WAIT_MS)
     assert win.link_banner.isVisible()
     assert "Connection to the unit lost — reconnecting" in win.link_banner.text()
@@ -417,7 +417,7 @@ def test_a_connect_finishing_after_the_window_closed_is_closed_not_leaked(
 
     monkeypatch.setattr(connection, "open_connection", slow_open)
     win = make_window(qtbot, ui_settings, autoconnect=False)
-    win.connect_device(SIMULATED_PORT)
+    win.device_part.connect_device(SIMULATED_PORT)
     assert win.jobs.busy and win.state_text == "Connecting…"
     # closing before the worker has even started the connect would simply drop it (nothing to
     # close): this test is about a connect that is already under way

@@ -57,7 +57,7 @@ def imported(recording) -> Path:
 
 
 def test_counts_timeline_and_gaps_as_recorded(source, imported):
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(source) as a, open_session(imported) as b:
         assert b.mode == "raw" and b.complete and not b.recovered
@@ -80,7 +80,7 @@ def test_processed_series_equal_the_live_recording(source, imported):
     by block as it arrived, restarts after the long gap included: the same numbers."""
     import h5py
 
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with h5py.File(source, "r") as fa, h5py.File(imported, "r") as fb:
         names: list[str] = []
@@ -106,7 +106,7 @@ def test_processed_series_equal_the_live_recording(source, imported):
 def test_markers_on_their_rows(source, imported):
     """gaitmon's markers on their rows; the stimulator's (its clock 40 s off the recording
     computer's, 27.6 s off gaitmon's) on the rows it was placed at: the clocks synchronised."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(imported) as b:
         got = sorted((m.sample_idx, m.label) for m in b.markers)
@@ -135,7 +135,7 @@ def test_review_report_and_export_read_it(source, imported, tmp_path):
     """The imported file opens in review (the model the window shows), gives the source's
     report (strides, losses, cycles) and exports."""
     from gaitmon.cli import main
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
     from gaitmon.report import gather_report
     from gaitmon.review.model import open_document
 
@@ -165,7 +165,7 @@ def test_settings_change_applies_from_its_row(source, tmp_path):
     settings in force changes nothing."""
     from gaitmon.cli import main
     from gaitmon.dsp.pipeline import PipelineConfig
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(source) as s:
         t_s = s.read("timeline/t_s")
@@ -190,7 +190,7 @@ def test_calibration_change_applies_from_its_row(source, tmp_path):
     tilts are relative to the new offsets, in the live and the smoothed angles alike."""
     from gaitmon.cli import main
     from gaitmon.dsp.calibration import Calibration
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(source) as s:
         t_s = s.read("timeline/t_s")
@@ -270,7 +270,7 @@ def test_truncated_file(recording, tmp_path, capsys):
     rc, err = _run(["import", str(cut), "--partial"], capsys)
     assert rc == 0, err
     assert "cut short" in err
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(tmp_path / "cut.h5") as s:
         assert 500 < s.n_samples < 2900
@@ -294,7 +294,7 @@ def test_joint_angles_without_raw_stream_said_in_one_line(source, tmp_path, caps
 def test_tilt_mode_imports_the_units_tilts(record_simulated, tmp_path, capsys):
     """A unit in tilt mode streams only its angles: the import is a tilt-mode session with the
     unit's tilts (to the file's 0.01 degree), the source's gaps and no accelerometer tilts."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     src = record_simulated(tmp_path / "tilt.h5", "--mode", "tilt", "--loss-pct", "2",
                            "--side", "R", duration_s=20)  # fmt: skip
@@ -321,7 +321,7 @@ def test_readme_example_file_imports(tmp_path, capsys):
     import shutil
 
     from gaitmon.cli import main
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     example = Path(__file__).resolve().parents[1] / "docs" / "example-walk.xdf"
     xdf = Path(shutil.copy(example, tmp_path / "example-walk.xdf"))
@@ -338,7 +338,7 @@ def test_control_frames_and_a_counter_restart_are_no_gaps(source, tmp_path, caps
     """The unit's control frames share the frame counter (a jump with no time lost), and a
     unit that restarts starts it again: neither is a gap, the timestamps say no data frame was
     missed; the rows, gaps and processed series stay the recording's."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     streams = gaitmon_streams(source)
     counter = streams[0].time_series[:, 0]
@@ -364,7 +364,7 @@ def test_review_window_opens_the_import(qtbot, review_win, source, imported, tmp
     """The real review window on the imported file: the source's strides in its table, the
     markers of both streams labelled on the timeline, no error."""
     from gaitmon.analysis import analyse_session
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with qtbot.waitSignal(review_win.analysis_done, timeout=60_000):
         review_win.open_file(imported)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from xdf_writer import Stream, write_xdf
 
+from gaitmon.finish import close_recording
 from gaitmon.lsl.layout import (
     ANGLE_CHANNELS,
     ANGLES_TYPE,
@@ -84,6 +85,7 @@ def write_source(
             blk = SampleBlock(FrameKind.RAW, seq[a:b], seq[a:b] / FS, 1.7e9,
                               lost_before=lost[a:b], adc=adc[a:b])  # fmt: skip
             w.append(blk, pipe.process(adc[a:b], lost[a:b]))
+        close_recording(w)  # /smoothed and /strides stored, as the recorder closes
     return path
 
 
@@ -108,7 +110,7 @@ def gaitmon_streams(src: Path, unit: str = "4242", *, offset_s: float = GAITMON_
     them: timestamps on the gaitmon host's clock (its sample clock: row time + start) and
     clock offsets mapping it onto the recording computer's. ``events``: (row time offset in s
     from row 0 on the gaitmon clock, text) added to the event stream."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     with open_session(src) as s:
         adc = s.read("raw/adc").astype(np.int32) if raw else None
@@ -178,7 +180,7 @@ def labrecorder_file(
     """The LabRecorder file of ``source``: gaitmon's three streams, an EEG stream, and a
     stimulator's markers (named "Stimulator", on a clock 40 s off) placed at the
     recording-clock times of ``stim_rows``."""
-    from gaitmon.io.session import open_session
+    from gaitmon.finish import open_session
 
     streams = gaitmon_streams(source)
     with open_session(source) as s:

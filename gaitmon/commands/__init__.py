@@ -11,7 +11,7 @@ import argparse
 import contextlib
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 # what analysing a damaged file's contents can raise (gaitmon.errors: batch jobs use it too)
@@ -107,3 +107,17 @@ def check_side(path: str | os.PathLike[str], side: str | None) -> None:
         raise UserError(BOTH_LEGS.format(name=name))
     if side is not None and not both and Path(path).exists():
         raise UserError(f"{name} records one unit; leave --side out")
+
+
+def run_command(add_arguments: Callable[[argparse.ArgumentParser], None],
+                run: Callable[[argparse.Namespace], int], argv: list[str]) -> int:
+    """Run a subcommand's module in this process as ``gaitmon`` would, without reaching up to
+    the command line (``gaitmon bench`` measures commands this way); a UserError is exit 2."""
+    from gaitmon.errors import UserError
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    try:
+        return int(run(parser.parse_args(argv)) or 0)
+    except UserError:
+        return 2

@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.dsp.channels import DEFAULT_TABLE
     from gaitmon.dsp.kalman import TiltKalman
     from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
-    from gaitmon.io.session.smoothed import FirstPass, KeptFirstPass, smoothed_blocks
+    from gaitmon.finish.smoothed import FirstPass, KeptFirstPass, smoothed_blocks
 
     if args.suite == "memory":
         from gaitmon.commands.bench_memory import suite as memory_suite
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
 
     # batch: offline reprocessing of the whole record, streamed as `process`, `batch` and
     # recovery replay it (a chunk at a time; any chunking gives the same numbers)
-    from gaitmon.io.session.reprocess import REPLAY_CHUNK_ROWS
+    from gaitmon.finish.reprocess import REPLAY_CHUNK_ROWS
 
     def stream(config: PipelineConfig | None = None, kept: KeptFirstPass | None = None) -> None:
         p = Pipeline(config)

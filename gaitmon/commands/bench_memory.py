@@ -135,6 +135,7 @@ def _review(src: Path, out: Path) -> dict[str, float]:
 
 def _close(name: str, out: Path) -> dict[str, float]:
     from gaitmon.commands.bench_offline import append_synthetic, bench_header
+    from gaitmon.finish.closing import close_recording
     from gaitmon.io.session import SessionWriter
 
     path = out / "closing.h5"
@@ -147,7 +148,7 @@ def _close(name: str, out: Path) -> dict[str, float]:
     if not _reset_peak():
         raise RuntimeError("cannot reset the peak RSS counter (/proc/self/clear_refs)")
     t0 = time.process_time()
-    w.close()
+    close_recording(w)
     cpu = time.process_time() - t0
     rss = _peak_rss_mb()
     path.unlink()
@@ -187,13 +188,14 @@ def _task(task: str, name: str, out: Path) -> dict[str, float]:
     elif task == "review":
         return _review(src, out)
     elif task in ("process", "recover", "info", "report"):
-        from gaitmon.cli import main
+        from gaitmon.commands import info, process, report, run_command
 
-        argv = {"process": ["process", str(src), "-o", str(out / "new.h5"), "--force", "--quiet"],
-                "report": ["report", str(src), "-o", str(out / "r.pdf"), "--force"]}.get(
-                    task, ["info", str(src)])  # fmt: skip
+        command = {"process": process, "report": report}.get(task, info)
+        argv = {"process": [str(src), "-o", str(out / "new.h5"), "--force", "--quiet"],
+                "report": [str(src), "-o", str(out / "r.pdf"), "--force"]}.get(
+                    task, [str(src)])  # fmt: skip
         with contextlib.redirect_stdout(io.StringIO()):
-            if main(argv) != 0:
+            if run_command(command.add_arguments, command.run, argv) != 0:
                 raise SystemExit(1)
         if task == "recover" and journal_path(src).exists():
             raise RuntimeError("the recording was not recovered")

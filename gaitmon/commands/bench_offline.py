@@ -66,12 +66,18 @@ def _format_key() -> str:
 
 def write_session(path: Path, hours: float) -> int:
     """A raw session of ``hours`` written directly (seconds for 8 hours, not 8 hours)."""
+    from gaitmon.finish.closing import close_recording
     from gaitmon.io.session import SessionWriter
 
     # one temporary name per process: two benchmarks (sharing the cache) may build the same one
     tmp = path.with_suffix(f".{os.getpid()}.tmp.h5")
-    with SessionWriter(tmp, bench_header()) as w:
+    w = SessionWriter(tmp, bench_header())
+    try:
         n = append_synthetic(w, hours)
+    except BaseException:
+        w.close(stop_reason="error")
+        raise
+    close_recording(w)
     tmp.replace(path)
     return n
 
@@ -184,7 +190,7 @@ def pyarrow_missing() -> str:
 
 def _task(task: str, src: Path, out: Path) -> list[Path]:
     if task in ("csv", "mat", "c3d"):
-        from gaitmon.io.export import export_session
+        from gaitmon.export import export_session
 
         return list(export_session(src, task, out / f"x.{task}", force=True).paths)
     if task == "csv_pyarrow":
@@ -207,16 +213,17 @@ def _task(task: str, src: Path, out: Path) -> list[Path]:
         import contextlib
         import io
 
-        from gaitmon.cli import main
+        from gaitmon.commands import info, run_command
 
         with contextlib.redirect_stdout(io.StringIO()):
-            if main(["info", str(src)]) != 0:
+            if run_command(info.add_arguments, info.run, [str(src)]) != 0:
                 raise SystemExit(1)
         return []
     if task == "report":
-        from gaitmon.cli import main
+        from gaitmon.commands import report, run_command
 
-        if main(["report", str(src), "-o", str(out / "r.pdf"), "--force"]) != 0:
+        if run_command(report.add_arguments, report.run,
+                       [str(src), "-o", str(out / "r.pdf"), "--force"]) != 0:
             raise SystemExit(1)
         return [out / "r.pdf"]
     raise SystemExit(f"unknown task {task}")

@@ -37,6 +37,7 @@ def write_timed(path: Path, hours: float, version: int) -> dict[str, float]:
     import numpy as np
 
     from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.finish.closing import close_recording
     from gaitmon.io.device import SampleBlock
     from gaitmon.io.protocol import FrameKind
     from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
@@ -71,7 +72,7 @@ def write_timed(path: Path, hours: float, version: int) -> dict[str, float]:
         append_cpu += time.process_time() - t0
         host += (b - a) / FS_HZ
     t0 = time.process_time()
-    w.close()
+    close_recording(w)
     close_cpu = time.process_time() - t0
     return {"rows": n, "append_cpu_s": append_cpu, "close_cpu_s": close_cpu}
 

@@ -15,7 +15,7 @@ from gaitmon.commands import (
     damaged_file_guard,
 )
 from gaitmon.errors import UserError
-from gaitmon.io.export.registry import FORMATS
+from gaitmon.export.registry import FORMATS
 
 DESCRIPTION = """\
 Export a recorded session (.h5) to CSV (+ a .meta.json side file), a MATLAB v5 .mat file
@@ -79,7 +79,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gaitmon.io.export import ExportError, export_session, session_length
+    from gaitmon.export import ExportError, export_session, session_length
     from gaitmon.io.session.parts import is_bilateral
 
     both = args.side is None and is_bilateral(args.file)  # both legs are exported

@@ -1,11 +1,12 @@
-"""``gaitmon info FILE``: what a session holds; recovers an interrupted recording first."""
+"""``gaitmon info FILE``: what a session of one or both legs holds; recovers an interrupted
+recording first."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -15,8 +16,9 @@ from gaitmon.errors import UserError
 from gaitmon.text import count, no_gait_events, num
 
 if TYPE_CHECKING:
-    from gaitmon.analysis import SessionAnalysis
-    from gaitmon.io.session import Session
+    from gaitmon.analysis import BilateralAnalysis, SessionAnalysis
+    from gaitmon.finish import Session
+    from gaitmon.finish.bilateral import Bilateral
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -40,11 +42,12 @@ def progress_printer(label: str) -> Callable[[float], None]:
 
 def run(args: argparse.Namespace) -> int:
     from gaitmon.analysis import analyse_session
-    from gaitmon.io.session import SessionError, journal_path, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import SessionError, journal_path
     from gaitmon.io.session.parts import is_bilateral
 
     if is_bilateral(args.file):
-        return _run_bilateral(args.file)
+        return _run_units(args.file)
     interrupted = journal_path(args.file).exists()
     try:
         with (
@@ -161,11 +164,12 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     return lines
 
 
-def _run_bilateral(path: str) -> int:
+def _run_units(path: str) -> int:
+    """A session of both legs: its header, each leg as a one-unit session, and the two-leg
+    measures (step time, stance / swing, double and single support, symmetry; docs/bilateral.md)."""
     from gaitmon.analysis import analyse_bilateral
-    from gaitmon.commands.info_bilateral import bilateral_lines, header_lines
+    from gaitmon.finish.bilateral import missing_lines, open_bilateral
     from gaitmon.io.session import SessionError
-    from gaitmon.io.session.bilateral import missing_lines, open_bilateral
     from gaitmon.io.session.parts import parts_of
 
     interrupted = bool(parts_of(path))
@@ -175,14 +179,102 @@ def _run_bilateral(path: str) -> int:
             damaged_file_guard(path),
         ):
             an = analyse_bilateral(b)
-            out = header_lines(b, interrupted)
+            out = _units_header_lines(b, interrupted)
             for side, unit in b.units.items():
                 out.append(f"{'left' if side == 'L' else 'right'} leg ({side}):")
                 out += ["  " + ln for ln in _lines(unit, an.sides[side], False)[1:]]
-            out += bilateral_lines(an, b.missing)
+            out += _both_legs_lines(an, b.missing)
             for line in missing_lines(path, b.missing):
                 print(f"gaitmon info: warning: {line}", file=sys.stderr)
             print("\n".join(out))
     except SessionError as exc:
         raise UserError(str(exc)) from None
     return 0
+
+
+# ---- a session of both legs ----
+
+
+def _f(v: float, digits: int, unit: str = "") -> str:
+    return "-" if not np.isfinite(v) else f"{v:.{digits}f}{unit}"
+
+
+def _units_header_lines(b: Bilateral, interrupted: bool) -> list[str]:
+    from gaitmon.io.session.parts import SIDE_NAMES
+
+    state = "complete" if b.complete else ("recovered" if b.recovered else "incomplete")
+    if interrupted:
+        state += " (the recording was interrupted; its parts recovered and combined now)"
+    a = b.attrs
+    legs = "both legs"
+    if b.missing:
+        legs = " and ".join(f"{SIDE_NAMES[s]} leg" for s in b.sides) + " only: " + " and ".join(
+            f"the {SIDE_NAMES[s]} leg is missing" for s in b.missing)
+    lines = [
+        f"{b.path.name}: gaitmon bilateral session ({legs}), format "
+        f"{a.get('format_version')}, {state}",
+        f"  recorded     {a.get('created_utc') or 'date removed'}, "
+        f"{float(a.get('duration_s', 0.0)):.1f} s on the common time line, units "
+        + " and ".join(f"{s} serial {b.unit(s).device.get('serial') or '-'}" for s in b.sides),
+    ]
+    lines += [f"  missing      {SIDE_NAMES[s]} leg ({s}): {why}" for s, why in b.missing.items()]
+    ppm = ", ".join(
+        f"{s} {(b.host_s_per_common_s / b.sync[s].mean_slope - 1.0) * 1e6:+.1f}" for s in b.sides
+    )
+    delay = ", ".join(f"{s} {_f(b.sync[s].residual_p95_ms, 1)}" for s in b.sides)
+    lines.append(
+        f"  clocks       {ppm} ppm against the common time line "
+        f"({count(len(b.sync[b.sides[0]].x0_s), 'segment')}); receive delay above the fit, "
+        f"p95: {delay} ms"
+    )
+    return lines
+
+
+def _both_legs_lines(an: BilateralAnalysis, missing: Iterable[str] = ()) -> list[str]:
+    from gaitmon.io.session.parts import SIDE_NAMES
+
+    g = an.gait
+    lines = ["both legs (on the common time line; each side's excluded strides left out):"]
+    gone = [f"the {SIDE_NAMES[s]} leg" for s in missing]
+    if gone:
+        lines.append(f"  gait         {' and '.join(gone)} is missing: no bilateral measures")
+        return lines
+    n = {s.side: int(np.isfinite(s.stride_s).sum()) for s in (g.left, g.right)}
+    if not (n["L"] and n["R"]):
+        lines.append("  gait         too few strides on both legs to compare")
+        return lines
+    lines.append(
+        f"  cadence      {_f(g.cadence_steps_min, 0)} steps/min (measured: both legs' steps); "
+        f"strides L {n['L']}, R {n['R']}"
+    )
+    sides = (("L", g.left), ("R", g.right))
+    lines.append(
+        "  step time    " + ", ".join(f"{s} {_f(sg.mean('step_s'), 3, ' s')}" for s, sg in sides)
+    )
+
+    def pct(measure: str) -> str:
+        parts = []
+        for s, sg in sides:
+            parts.append(
+                f"{s} {_f(sg.pct_mean(measure), 1, ' %')} ({_f(sg.mean(measure), 3, ' s')})"
+            )
+        return ", ".join(parts)
+
+    lines.append(f"  stance       {pct('stance_s')} of the stride")
+    lines.append(f"  swing        {pct('swing_s')}")
+    lines.append(f"  double supp. initial {pct('initial_double_support_s')}")
+    lines.append(f"               terminal {pct('terminal_double_support_s')}")
+    lines.append(f"  single supp. {pct('single_support_s')}")
+    from gaitmon.dsp.bilateral import MEASURE_LABELS
+
+    lines.append("  symmetry     measure                   left      right     SR (L/R)  SI")
+    for row in g.symmetry:
+        lines.append(
+            f"               {MEASURE_LABELS[row.measure]:<25s} {_f(row.left, 3, ' s'):<9s} "
+            f"{_f(row.right, 3, ' s'):<9s} {_f(row.ratio, 3):<9s} {_f(row.index_pct, 1, ' %')}"
+        )
+    lines.append(
+        "               SR = left / right of the means (1 symmetric); SI = 2 |L - R| / (L + R)"
+        " (0 % symmetric)"
+    )
+    return lines

@@ -2,10 +2,10 @@
 
 The original file is never modified: NEW is a copy whose ``/processed`` series, ``/events`` and
 ``/config`` come from the new settings. A session of both legs is reprocessed unit by unit
-(:mod:`gaitmon.io.session.reprocess_both`): into a file of both legs, or with ``--side`` one
+(:mod:`gaitmon.finish.reprocess_both`): into a file of both legs, or with ``--side`` one
 leg into a one-unit file. The settings given apply to the whole recording;
 standing calibrations logged during it are replayed at their rows. The work itself is
-:func:`gaitmon.io.session.reprocess.rewrite_processed`; this module only turns the command line
+:func:`gaitmon.finish.reprocess.rewrite_processed`; this module only turns the command line
 into a :class:`PipelineConfig` and prints.
 """
 
@@ -22,7 +22,6 @@ from gaitmon.commands import add_force, add_quiet
 from gaitmon.errors import UserError
 from gaitmon.reprocessing import (
     FSR_MAX_COUNTS,
-    METHODS,
     PAPER_ONLY,
     SETTINGS,
     Reprocessing,
@@ -32,7 +31,7 @@ from gaitmon.reprocessing import (
 
 if TYPE_CHECKING:
     from gaitmon.dsp.pipeline import PipelineConfig
-    from gaitmon.io.session import Session
+    from gaitmon.finish import Session
 
 # the settings and their checks are gaitmon.reprocessing's, shared with ``gaitmon batch``
 __all__ = ["FSR_MAX_COUNTS", "PAPER_ONLY", "SETTINGS", "add_settings_arguments", "check_settings",
@@ -49,13 +48,18 @@ def add_settings_arguments(p: argparse.ArgumentParser, default: str = "as record
             default=None,
             help=f"{help_text}; default: {default}",
         )
+    from gaitmon.dsp.methods import DEFAULT_METHOD, methods
+
+    offered = methods(live=True)
     p.add_argument(
         "--method",
-        choices=METHODS,
+        choices=tuple(m.name for m in offered),
         default=None,
-        help="tilt filter: gait-aware (default for new recordings) or paper ('Kalman (paper, "
-        f"seed 000)'); default: {default}",
-    )
+        help="tilt filter: " + " or ".join(
+            f"{m.name} (default for new recordings)" if m.name == DEFAULT_METHOD
+            else f"{m.name} ('{m.label}')" for m in offered
+        ) + f"; default: {default}",
+    )  # fmt: skip
 
 
 def reprocessing_from_args(
@@ -86,9 +90,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gaitmon.commands.info import progress_printer
-    from gaitmon.io.session import SessionError, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.finish.reprocess import recorded_config, rewrite_processed
+    from gaitmon.io.session import SessionError
     from gaitmon.io.session.parts import is_bilateral
-    from gaitmon.io.session.reprocess import recorded_config, rewrite_processed
 
     src, dst = Path(args.file), Path(args.output)
     both = is_bilateral(src)
@@ -109,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     warnings: list[str] = []
     try:
         if both:
-            from gaitmon.io.session.reprocess_both import rewrite_bilateral
+            from gaitmon.finish.reprocess_both import rewrite_bilateral
 
             results = rewrite_bilateral(
                 src, dst, settings.apply, side=args.side or None, overwrite=args.force,

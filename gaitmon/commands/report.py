@@ -98,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     from gaitmon.io.session import SessionError
     from gaitmon.io.session.parts import is_bilateral
     from gaitmon.normative import NormativeError, load_normative
-    from gaitmon.report import report_from_file
+    from gaitmon.report import units_report_from_file
 
     both = args.side is None and is_bilateral(args.file)
     if not both:
@@ -111,23 +111,16 @@ def run(args: argparse.Namespace) -> int:
         except NormativeError as exc:
             raise UserError(f"normative band: {exc}") from None
     try:
-        with damaged_file_guard(args.file):
-            if both:
-                from gaitmon.report_bilateral import bilateral_report_from_file
-
-                data: Any = bilateral_report_from_file(
-                    args.file, deidentify=args.deidentify, normative=normative
-                )
-            else:
-                data = report_from_file(
-                    args.file, deidentify=args.deidentify, normative=normative, side=args.side
-                )
+        with damaged_file_guard(args.file):  # one leg, or both legs of a two-leg file
+            data = units_report_from_file(
+                args.file, deidentify=args.deidentify, normative=normative, side=args.side
+            )
     except SessionError as exc:
         raise UserError(str(exc)) from None
 
     def writers() -> tuple[Callable[..., Any], Callable[..., Any]]:
         if both:
-            from gaitmon.ui.report_pdf.bilateral import write_bilateral_pdf, write_bilateral_png
+            from gaitmon.ui.report_pdf.both_legs import write_bilateral_pdf, write_bilateral_png
 
             return write_bilateral_pdf, write_bilateral_png
         from gaitmon.ui.report_pdf import write_report_pdf, write_report_png

@@ -5,6 +5,7 @@ window's leg chooser switches."""
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 
 from gaitmon.commands import add_side
@@ -32,4 +33,10 @@ def run(args: argparse.Namespace) -> int:
             raise UserError("--side goes with a FILE that records both legs; name the file")
         if not is_bilateral(args.file):
             raise UserError(f"{Path(args.file).name} records one unit; leave --side out")
-    return launch("gaitmon.ui.review.window", args)
+    return launch(_review_window, args)
+
+
+def _review_window() -> Callable[..., int]:
+    from gaitmon.ui.review.window import run
+
+    return run

@@ -5,24 +5,45 @@ segment's tilt by a named method, gaitmon.dsp.estimate), ``gyro_gait_events`` (h
 toe off from the foot gyro, gaitmon.dsp.gyro_events) and ``stride_lengths`` /
 ``stride_measures`` / ``StrideLengthTracker`` (stride length, gait speed and foot clearance from
 the foot IMU, gaitmon.dsp.stride_length).
+
+Tilt methods and gait-event sources are plugins, one class per file, each listed once in its
+registry: gaitmon.dsp.methods and gaitmon.dsp.events.
 """
 
 from __future__ import annotations
 
+from types import ModuleType
 from typing import TYPE_CHECKING
-
-from gaitmon.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from gaitmon.dsp.estimate import estimate_tilt
     from gaitmon.dsp.gyro_events import gyro_gait_events
     from gaitmon.dsp.stride_length import StrideLengthTracker, stride_lengths, stride_measures
 
-__getattr__ = lazy_exports(__name__, {
-    "estimate_tilt": "estimate", "gyro_gait_events": "gyro_events",
-    "stride_lengths": "stride_length", "stride_measures": "stride_length",
-    "StrideLengthTracker": "stride_length",
-})  # fmt: skip
+
+def __getattr__(name: str) -> object:
+    """A name of the package, imported from its module on first use (PEP 562): a plain
+    import here, so the layer test sees the arrow; later lookups find it in the package."""
+    if name == "estimate_tilt":
+        from gaitmon.dsp import estimate
+
+        return _keep(name, estimate)
+    if name == "gyro_gait_events":
+        from gaitmon.dsp import gyro_events
+
+        return _keep(name, gyro_events)
+    if name in ("stride_lengths", "stride_measures", "StrideLengthTracker"):
+        from gaitmon.dsp import stride_length
+
+        return _keep(name, stride_length)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _keep(name: str, module: ModuleType) -> object:
+    value = getattr(module, name)
+    globals()[name] = value  # found once; later lookups are plain
+    return value
+
 
 __all__ = [
     "StrideLengthTracker",

@@ -1,4 +1,5 @@
-"""Every sagittal tilt filter gaitmon knows, behind one interface, for the lab and for a UI to list.
+"""Every sagittal tilt filter of the lab's form, read from the method registry
+(gaitmon.dsp.methods), for the lab and for the review's Filters view to list.
 
 A tilt filter is a streaming stage with
 
@@ -10,106 +11,52 @@ hinge axis, whose sign makes d(tilt)/dt = +gyro (see gaitmon.dsp.channels). Outp
 continuous angles (not wrapped); wrap them with gaitmon.dsp.angles.wrap_angle for display.
 Any chunking of the input gives the same output as one call on the whole record.
 
-``TILT_FILTERS`` maps a display name to a factory ``(dt_s) -> filter`` with the defaults below:
+``TILT_FILTERS`` maps a method's lab name to a factory ``(dt_s) -> filter`` with the method's
+default parameters (each in its own file of gaitmon.dsp.methods):
 
 * "accelerometer"             -- the accelerometer tilt itself (paper 000's red curve);
 * "gyro"                      -- integration of the rate from the first accelerometer tilt
                                  (paper 000's blue curve, without its display low-pass);
 * "complementary"             -- paper 003 at its 3 Hz cut-off;
 * "complementary (adaptive)"  -- paper 003 with the FFT-chosen cut-off (gaitmon.dsp.complementary);
-* "kalman (paper 000)"        -- gaitmon.dsp.kalman.TiltKalman with the paper's parameters;
+* "kalman (paper 000)"        -- the app's "paper" method, gaitmon.dsp.kalman.TiltKalman with the
+                                 paper's parameters;
 * "kalman constant-rate (paper 001)" -- paper 001's per-axis [angle, rate] model used on the
                                  accelerometer tilt as its angle measurement (q = 1, R = 0.3 rad^2,
                                  paper 000's R, because paper 001's R recipe needs a whole record).
+
+The app's default, the gait-aware filter, reads the raw accelerometer axes rather than their
+tilt, so it has no filter of this form (``gaitmon.dsp.estimate_tilt`` runs it).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Protocol, runtime_checkable
+from collections.abc import Callable, Iterator, Mapping
 
-import numpy as np
+from gaitmon.dsp.methods import TiltFilter, by_lab_name
+from gaitmon.dsp.methods.accelerometer import AccelerometerTilt
+from gaitmon.dsp.methods.constant_rate import ConstantRateTilt
+from gaitmon.dsp.methods.gyro import GyroTilt
 
-from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter
-from gaitmon.dsp.filters import GyroIntegrator, as_2d_pair
-from gaitmon.dsp.kalman import TiltKalman
-from gaitmon.dsp.kalman_models import LinearKalman, constant_rate_kalman
-
-
-@runtime_checkable
-class TiltFilter(Protocol):
-    def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray: ...
-
-    def reset(self) -> None: ...
+__all__ = ["TILT_FILTERS", "AccelerometerTilt", "ConstantRateTilt", "GyroTilt", "TiltFilter",
+           "make_tilt_filter"]  # fmt: skip
 
 
-class AccelerometerTilt:
-    """The accelerometer tilt passed through unchanged (the 'no filter' reference)."""
+class _LabFilters(Mapping[str, Callable[[float], TiltFilter]]):
+    """The lab's filters by name, read from the method registry when asked (so a method
+    registered later is listed too)."""
 
-    def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
-        z, _, was_1d = as_2d_pair(acc_tilt_rad, gyro_rad_s)
-        return z[:, 0].copy() if was_1d else z.copy()
+    def __getitem__(self, name: str) -> Callable[[float], TiltFilter]:
+        return by_lab_name()[name].lab_filter
 
-    def reset(self) -> None:
-        pass
+    def __iter__(self) -> Iterator[str]:
+        return iter(by_lab_name())
 
-
-class GyroTilt:
-    """theta(k) = theta(k-1) + omega(k) dt, theta(-1) = the first accelerometer tilt."""
-
-    def __init__(self, dt_s: float = 0.01) -> None:
-        self._integrator = GyroIntegrator(dt_s)
-        self._started = False
-
-    def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
-        z, w, was_1d = as_2d_pair(acc_tilt_rad, gyro_rad_s)
-        if not self._started and z.shape[0]:
-            self._started = True
-            tilt = self._integrator.process(w, initial_rad=z[0])
-        else:
-            tilt = self._integrator.process(w)
-        return tilt[:, 0] if was_1d else tilt
-
-    def reset(self) -> None:
-        self._integrator.reset()
-        self._started = False
+    def __len__(self) -> int:
+        return len(by_lab_name())
 
 
-class ConstantRateTilt:
-    """Paper 001's constant-rate Kalman model as a tilt filter, one axis per segment."""
-
-    def __init__(self, dt_s: float = 0.01, q: float = 1.0, r_rad2: float = 0.3) -> None:
-        self.dt_s, self.q, self.r_rad2 = float(dt_s), float(q), float(r_rad2)
-        self._kf: LinearKalman | None = None
-
-    def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
-        z, w, was_1d = as_2d_pair(acc_tilt_rad, gyro_rad_s)
-        if z.shape[0] == 0:
-            angles = z.copy()
-        else:
-            if self._kf is None:
-                x0 = np.zeros(2 * z.shape[1])
-                x0[0::2] = z[0]  # start from the first accelerometer tilt, as paper 000 does
-                self._kf = constant_rate_kalman(
-                    self.dt_s, self.r_rad2, self.q, n_axes=z.shape[1], x0=x0
-                )
-            angles = self._kf.process(z, w)[:, 0::2]
-        return angles[:, 0] if was_1d else angles
-
-    def reset(self) -> None:
-        self._kf = None
-
-
-TILT_FILTERS: dict[str, Callable[[float], TiltFilter]] = {
-    "accelerometer": lambda dt_s: AccelerometerTilt(),
-    "gyro": lambda dt_s: GyroTilt(dt_s),
-    "complementary": lambda dt_s: ComplementaryFilter(dt_s, cutoff_hz=3.0),
-    "complementary (adaptive)": lambda dt_s: ComplementaryFilter(
-        dt_s, cutoff_hz=3.0, adaptive=AdaptiveCutoff()
-    ),
-    "kalman (paper 000)": lambda dt_s: TiltKalman(dt_s),
-    "kalman constant-rate (paper 001)": lambda dt_s: ConstantRateTilt(dt_s),
-}
+TILT_FILTERS: Mapping[str, Callable[[float], TiltFilter]] = _LabFilters()
 
 
 def make_tilt_filter(name: str, dt_s: float = 0.01) -> TiltFilter:

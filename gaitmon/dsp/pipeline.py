@@ -7,17 +7,21 @@ Per block, in the paper's order:
 3. gyro rate minus the calibrated bias (the Kalman filter still tracks what is left);
 4. accelerometer tilt atan2(a_z, a_x) per segment;
 5. gyro-integrated tilt, passed through the same Butterworth to put it in phase (paper Fig. 4);
-6. the tilt filter per segment, chosen by ``PipelineConfig.tilt_method``: ``"gait-aware"`` (the
-   default, gaitmon.dsp.motion_kalman: the measurement trusted by the segment's motion, fed with
-   the raw accelerometer) or ``"paper"`` ("Kalman (paper, seed 000)", gaitmon.dsp.kalman, fed
-   with the low-passed accelerometer tilt exactly as published). The output series keep the
-   name ``tilt_kalman_rad`` / ``joint_kalman_rad`` whichever filter made them;
+6. the tilt filter per segment: the causal stage of the method ``PipelineConfig.tilt_method``
+   names in the registry (gaitmon.dsp.methods), fed a :class:`TiltInput` (raw and low-passed
+   accelerometer, gyro): ``"gait-aware"`` (the default, gaitmon.dsp.motion_kalman: the
+   measurement trusted by the segment's motion, read on the raw accelerometer) or ``"paper"``
+   ("Kalman (paper, seed 000)", gaitmon.dsp.kalman, on the low-passed accelerometer tilt
+   exactly as published). The output series keep the name ``tilt_kalman_rad`` /
+   ``joint_kalman_rad`` whichever filter made them;
 7. standing offsets removed, tilts wrapped to (-pi, pi], joint angles with clinical signs;
 8. heel/toe contacts, gait phase, heel-strike/toe-off events and strides from the FSRs;
 9. with ``fsr_check`` (default): heel strike and toe off from the foot gyro as well
    (gaitmon.dsp.gyro_events, ~0.75 s behind), each FSR checked against the gyro's strides
    (gaitmon.dsp.fsr_check). Once a sensor is flagged, the events and strides come from the gyro
    from the flag's ``decided_idx`` on (``event_source`` says which), and the flag is reported.
+   Both are event sources of the registry (gaitmon.dsp.events: ``PRIMARY`` "fsr", ``FALLBACK``
+   "foot gyro"), fed a typed :class:`EventInput` per block.
 
 Why gait-aware is the default: on the simulator's truth its joint angles are 3-6x closer than the
 paper's filter (``gaitmon lab accuracy``, README).
@@ -55,7 +59,7 @@ import numpy as np
 
 from gaitmon.dsp.angles import accel_tilt, joint_angles
 from gaitmon.dsp.calibration import Calibration
-from gaitmon.dsp.channel_table import N_FSR, N_JOINTS, N_SEGMENTS, SEGMENTS
+from gaitmon.dsp.channel_table import N_FSR, N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import (
     ACC_X_IDX,
     ACC_Z_IDX,
@@ -65,13 +69,12 @@ from gaitmon.dsp.channels import (
     N_CHANNELS,
     ChannelTable,
 )
-from gaitmon.dsp.estimate import DEFAULT_METHOD, check_method, method_label
+from gaitmon.dsp.events import FALLBACK, PRIMARY, EventInput, EventStage, get_event_source
 from gaitmon.dsp.filters import Butterworth, GyroIntegrator
 from gaitmon.dsp.fsr_check import FsrFault, FsrMonitor
 from gaitmon.dsp.gait import GaitEventDetector, Stride, StrideTracker
-from gaitmon.dsp.gyro_events import GyroEventDetector, GyroEventRule
 from gaitmon.dsp.kalman import TiltKalman
-from gaitmon.dsp.motion_kalman import GaitAwareKalman
+from gaitmon.dsp.methods import DEFAULT_METHOD, TiltInput, TiltMethod, TiltStage, get_method
 
 # long inputs are worked through in sub-blocks that stay in cache (same output, about 2x faster)
 _SUB_BLOCK = 16384
@@ -83,8 +86,6 @@ BRIDGE_MAX_S = 0.05
 # the paper's Q and R): measured on the simulator, the joint-angle error after a 3 s outage is
 # within 10 % of its walking level after 3 s (benchmarks/gap_settling.py, docs/gaps-and-time.md).
 SETTLE_S = 3.0
-
-_FOOT = SEGMENTS.index("foot")  # the foot gyro cross-checks the force sensors
 
 
 def bridge_max_samples(fs_hz: float) -> int:
@@ -153,7 +154,7 @@ class PipelineConfig:
     fsr_hysteresis: float = 50.0
     min_contact_s: float = 0.03
     compensate_event_delay: bool = True
-    tilt_method: str = DEFAULT_METHOD  # "gait-aware" | "paper" (gaitmon.dsp.estimate.METHODS)
+    tilt_method: str = DEFAULT_METHOD  # an app method of gaitmon.dsp.methods: gait-aware | paper
     fsr_check: bool = True  # cross-check the FSRs with the foot gyro, fall back to its events
     @classmethod
     def from_stored(cls, values: Mapping[str, Any]) -> PipelineConfig:
@@ -172,7 +173,12 @@ class PipelineConfig:
     @property
     def tilt_method_label(self) -> str:
         """The tilt filter's name for people: "Kalman (paper, seed 000)" or "gait-aware Kalman"."""
-        return method_label(self.tilt_method)
+        return self.method.label
+
+    @property
+    def method(self) -> TiltMethod:
+        """The tilt method ``tilt_method`` names (gaitmon.dsp.methods)."""
+        return get_method(self.tilt_method, live=True)
 
     def __post_init__(self) -> None:
         # Every value is checked with a message that names it, as the stages check them, but
@@ -180,7 +186,7 @@ class PipelineConfig:
         Butterworth.check(self.cutoff_hz, self.fs_hz, self.filter_order)
         TiltKalman.check(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
         GaitEventDetector(self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz)
-        check_method(self.tilt_method)
+        get_method(self.tilt_method, live=True)
 
     @property
     def dt_s(self) -> float:
@@ -296,48 +302,30 @@ class Pipeline:
         self.table = table
         self.reset()
 
-    @staticmethod
-    def _build_stages(cfg: PipelineConfig) -> dict[str, Any]:
-        def lowpass() -> Butterworth:
-            return Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
-
-        return {
-            "acc_lp": lowpass(),
-            "fsr_lp": lowpass(),
-            "gyro_tilt_lp": lowpass(),
-            "integrator": GyroIntegrator(1.0 / cfg.fs_hz),
-            "kalman": (
-                TiltKalman(1.0 / cfg.fs_hz, cfg.q_angle, cfg.q_gyro, cfg.r, cfg.kalman_form)
-                if cfg.tilt_method == "paper"
-                else GaitAwareKalman(cfg.fs_hz)
-            ),
-            "detector": GaitEventDetector(
-                cfg.fsr_threshold, cfg.fsr_hysteresis, cfg.min_contact_s, cfg.fs_hz
-            ),
-            "strides": StrideTracker(cfg.fs_hz),
-        }
-
     def reset(self) -> None:
         """Back to the just-constructed state (the calibration is kept)."""
-        st = self._build_stages(self.config)
-        self._acc_lp: Butterworth = st["acc_lp"]
-        self._fsr_lp: Butterworth = st["fsr_lp"]
-        self._gyro_tilt_lp: Butterworth = st["gyro_tilt_lp"]
-        self._integrator: GyroIntegrator = st["integrator"]
-        self._kalman: TiltKalman | GaitAwareKalman = st["kalman"]
-        self._detector: GaitEventDetector = st["detector"]
-        self._strides: StrideTracker = st["strides"]
-        self._event_delay = self.config.event_delay_samples
+        cfg = self.config
+        self._acc_lp = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
+        self._fsr_lp = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
+        self._gyro_tilt_lp = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
+        self._integrator = GyroIntegrator(1.0 / cfg.fs_hz)
+        self._method = cfg.method
+        self._kalman: TiltStage = self._method.causal_stage(cfg)
+        self._detector = GaitEventDetector(
+            cfg.fsr_threshold, cfg.fsr_hysteresis, cfg.min_contact_s, cfg.fs_hz
+        )
+        self._strides = StrideTracker(cfg.fs_hz)
         self._n_seen = 0
         self._bridge = bridge_max_samples(self.config.fs_hz)
         self._settle_n = round(SETTLE_S * self.config.fs_hz)
         self._settle_until = 0  # the start-up is the first stride's exclusion (gaitmon.analysis)
-        self._event_floor = 0  # events are never dated before the last restart
-        rule = GyroEventRule(fs_hz=self.config.fs_hz)
-        self._gyro_events = GyroEventDetector(rule)
+        # the event sources (gaitmon.dsp.events): the force sensors, and the foot gyro that
+        # checks them and takes over once one is flagged
+        self._fsr_events: EventStage = get_event_source(PRIMARY).stage(cfg)
+        self._gyro_events: EventStage = get_event_source(FALLBACK).stage(cfg)
         tol = round(0.15 * self.config.fs_hz)
         # the gyro's closing heel strike is decided at most this long after it (module doc)
-        delay = rule.latency + rule.search + tol
+        delay = self._gyro_events.latency_samples + tol
         self._fsr_monitor = FsrMonitor(self.config.fs_hz, tolerance_s=0.15, decision_delay=delay)
         self._switch_idx: int | None = None  # events from the gyro from this index on
 
@@ -368,11 +356,13 @@ class Pipeline:
         self._detector.restart()
         self._strides.reset()
         self._settle_until = at + self._settle_n
-        self._event_floor = at
+        self._fsr_events.restart(at)
+        self._gyro_events.restart(at)
 
     @property
     def event_source(self) -> str:
-        return "foot gyro" if self._switch_idx is not None else "fsr"
+        """The registered event source (gaitmon.dsp.events) the events come from now."""
+        return FALLBACK if self._switch_idx is not None else PRIMARY
 
     @property
     def fsr_faults(self) -> tuple[FsrFault, ...]:
@@ -396,8 +386,13 @@ class Pipeline:
         return self._n_seen
 
     @property
-    def kalman(self) -> TiltKalman | GaitAwareKalman:
-        """The tilt filter in use (``config.tilt_method``)."""
+    def method(self) -> TiltMethod:
+        """The tilt method in use (``config.tilt_method``)."""
+        return self._method
+
+    @property
+    def tilt_stage(self) -> TiltStage:
+        """The tilt method's causal stage this pipeline runs."""
         return self._kalman
 
     def process(
@@ -469,10 +464,9 @@ class Pipeline:
         tilt_gyro = self._gyro_tilt_lp.process(
             self._integrator.process(gyro, initial_rad=tilt_acc[0])
         )
-        if isinstance(self._kalman, TiltKalman):
-            tilt_kalman = self._kalman.process(tilt_acc, gyro)
-        else:  # the gait-aware filter judges the motion on the raw accelerometer
-            tilt_kalman = self._kalman.process(phys[:, ACC_X_IDX], phys[:, ACC_Z_IDX], gyro)
+        tilt_kalman = self._kalman.process(
+            TiltInput(phys[:, ACC_X_IDX], phys[:, ACC_Z_IDX], tilt_acc, gyro)
+        )
         o = out
         o["acc_ms2"][sl, :, 0] = ax
         o["acc_ms2"][sl, :, 1] = az
@@ -491,23 +485,23 @@ class Pipeline:
         o["heel_loaded"][sl] = gait.heel_loaded
         o["toe_loaded"][sl] = gait.toe_loaded
         o["phase"][sl] = gait.phase
-        # back-dating by a constant keeps the order in which events are confirmed
-        hs_idx = np.maximum(gait.heel_strike_idx - self._event_delay, self._event_floor)
-        to_idx = np.maximum(gait.toe_off_idx - self._event_delay, self._event_floor)
+        ev_in = EventInput(gait, gyro)
+        fsr_ev = self._fsr_events.process(ev_in)
+        hs_idx, to_idx = fsr_ev.heel_strike_idx, fsr_ev.toe_off_idx
         if self.config.fsr_check:
-            hs_idx, to_idx = self._cross_check(gait.heel_loaded, gait.toe_loaded, gyro[:, _FOOT],
-                                               hs_idx, to_idx, gyro_ev)  # fmt: skip
+            hs_idx, to_idx = self._cross_check(ev_in, hs_idx, to_idx, gyro_ev)
         hs.append(hs_idx)
         to.append(to_idx)
         strides.extend(self._strides.process(hs_idx, to_idx))
 
     def _cross_check(
-        self, heel_loaded: np.ndarray, toe_loaded: np.ndarray, foot_gyro: np.ndarray,
-        hs_idx: np.ndarray, to_idx: np.ndarray,
+        self, ev_in: EventInput, hs_idx: np.ndarray, to_idx: np.ndarray,
         gyro_ev: tuple[list[int], list[int], list[FsrFault]],
     ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """Foot-gyro events, the FSR check, and the events the strides are built from."""
-        g_hs, g_to = self._gyro_events.process(foot_gyro)
+        g = self._gyro_events.process(ev_in)
+        g_hs, g_to = g.heel_strike_idx, g.toe_off_idx
+        heel_loaded, toe_loaded = ev_in.contacts.heel_loaded, ev_in.contacts.toe_loaded
         gyro_ev[0].extend(int(i) for i in g_hs)
         gyro_ev[1].extend(int(i) for i in g_to)
         faults = self._fsr_monitor.process(heel_loaded, toe_loaded, g_hs, g_to)

@@ -71,7 +71,7 @@ SEARCH_FRACTION = 0.6  # of a stride, after its heel strike (foot-flat ends by ~
 MAX_STRIDE_S = 3.0
 # Raise with any change to the method that changes its numbers (the constants above are part of
 # METHOD already): stored measures computed by another version are then recomputed when read
-# (gaitmon.io.session.stored_strides).
+# (gaitmon.finish.strides).
 METHOD_VERSION = 1
 METHOD: dict[str, float | int | str] = {
     "method": "foot IMU strapdown with zero-velocity updates",

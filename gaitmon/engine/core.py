@@ -13,10 +13,12 @@ the tests and the desktop window all drive this same object.
 
 This module owns the lifecycle (start, stop, the engine thread's loop), recording start and
 stop, zeroing, settings and snapshots. The parts it wires together live beside it: display
-buffers (``buffers``), snapshot types (``snapshot``), the recorder thread (``recorder``), the
-map of engine samples to file rows (``rows``), the live gait panel (``live_gait``) and the
-force-sensor check's findings (``sensor_checks``). Listeners (``add_listener``: the Lab
-Streaming Layer outlets, say) get each processed block as a plain value (``taps``).
+buffers (``buffers``), snapshot types (``snapshot``), the engine thread's sample count and the
+unit's true clock (``stream``), the recorder thread (``recorder``) and its messages
+(``messages``), the map of engine samples to file rows (``rows``), the live gait panel and
+stride lengths (``live_gait``) and the force-sensor check's findings (``sensor_checks``).
+Listeners (``add_listener``: the Lab Streaming Layer outlets, say) get each processed block as
+a plain value (``taps``).
 """
 
 from __future__ import annotations
@@ -27,17 +29,15 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
-from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, SEGMENTS
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, restart_rows, warm_up
-from gaitmon.dsp.stride_length import StrideLengthTracker
 from gaitmon.engine.buffers import (
     RingBuffer,
     cols_from_device,
@@ -45,54 +45,37 @@ from gaitmon.engine.buffers import (
     on_event_time,
     with_gap_rows,
 )
-from gaitmon.engine.live_gait import LiveGait, UnitGaitEvents, shift_stride
+from gaitmon.engine.live_gait import FootStrideLengths, LiveGait, UnitGaitEvents, shift_stride
 from gaitmon.engine.markers import TimedMarkerCounts, TimedMarkers
+from gaitmon.engine.messages import (
+    AddMarker,
+    AppendBlock,
+    LogCalibration,
+    LogConfig,
+    UpdateLink,
+)
 from gaitmon.engine.recorder import Recorder
 from gaitmon.engine.sensor_checks import SensorChecks
 from gaitmon.engine.snapshot import (
+    EVENTS_GYRO,
     EVENTS_UNIT,
     UNIT_ANGLE_METHOD,
     Mode,
     RecordingStatus,
     Snapshot,
 )
+from gaitmon.engine.stream import StreamHealth, StreamPosition, UnitClockMark
 from gaitmon.engine.taps import BlockListener, Taps
 from gaitmon.io.device import Device, DeviceError, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
 from gaitmon.io.transport import LinkError
 
-_FOOT = SEGMENTS.index("foot")
-_FOOT_IMU_COLS = [int(ACC_X_IDX[_FOOT]), int(ACC_Z_IDX[_FOOT])]  # raw columns of the foot board
+if TYPE_CHECKING:
+    from gaitmon.io.session.header import SessionMeta
 
 
 class EngineError(Exception):
     """A one-line, actionable problem (no device data, a refused zeroing, ...)."""
-
-
-@dataclass
-class _Stream:
-    """The engine thread's place in the stream. Only the engine thread writes these (``start``
-    sets ``last_data_s`` before the thread runs); other threads read ``samples`` and
-    ``last_data_s``, each a single value, without a lock."""
-
-    samples: int = 0  # samples processed since start (the pipeline's index)
-    last_data_s: float = field(default_factory=time.monotonic)
-    pipeline_offset: int = 0  # engine sample index of the current pipeline's sample 0
-    block_start: int = 0  # _handle: engine index of the current block's first sample
-    handed_over: bool = False  # _handle: the current block is with the recorder
-    k_last: int | None = None  # unit sample periods from the first sample to the last (t_s * fs)
-    pending_lost: int = 0  # frames of blocks not processed, lost before the next one processed
-    reconnects_seen: int = 0
-
-
-@dataclass
-class _Health:
-    """What the engine thread counts for a viewer (under the engine's lock)."""
-
-    error: str = ""  # the last device or processing error (Snapshot.engine_error)
-    errors: int = 0  # blocks that could not be read or processed (Snapshot.engine_errors)
-    # (host time of a block's last sample, samples so far) of recent blocks: the frame rate
-    rate_times: deque[tuple[float, int]] = field(default_factory=lambda: deque(maxlen=64))
 
 
 @dataclass
@@ -134,7 +117,7 @@ class Engine:
         self.transport_label = transport_label
         self._pipeline = Pipeline(self.config, self.calibration)
         self._phase_lag = self.config.phase_lag_samples if self.mode is Mode.RAW else 0
-        self._stream = _Stream()
+        self._stream = StreamPosition()
         self._ring = RingBuffer(int(display_seconds * self.fs_hz))
         self._unit_events = UnitGaitEvents(self.fs_hz)  # events from the unit's contacts
         self._recorder_queue_blocks = recorder_queue_blocks
@@ -142,12 +125,9 @@ class Engine:
         self._markers: deque[tuple[float, str]] = deque(maxlen=512)
         self._timed = TimedMarkers(self.fs_hz)  # markers stamped with a host time, waiting
         self._gait = LiveGait(self.fs_hz, cycle_strides)
-        # stride lengths from the foot IMU (the gait panel's speed); its sample 0 is the engine
-        # index _spatial_base
-        self._spatial = StrideLengthTracker(self.fs_hz)
-        self._spatial_base = 0
+        self._spatial = FootStrideLengths(self.fs_hz)
         self._checks = SensorChecks()
-        self._health = _Health()
+        self._health = StreamHealth()
         self._pending = _Pending()
         self._recorder: Recorder | None = None
         self._last_recording = RecordingStatus()
@@ -222,10 +202,21 @@ class Engine:
     def samples_total(self) -> int:
         return self._stream.samples
 
+    def clock_mark(self) -> UnitClockMark:
+        """The unit's clock now, to measure from (``seconds_since``)."""
+        return UnitClockMark(self._stream.samples, self.device.stats.decoder.frames_lost)
+
+    def seconds_since(self, mark: UnitClockMark | None = None) -> float:
+        """Seconds of the unit's clock since ``mark`` (None: since the start): samples
+        processed and frames lost."""
+        mark = mark or UnitClockMark()
+        lost = self.device.stats.decoder.frames_lost - mark.frames_lost
+        return (self._stream.samples - mark.samples + lost) / self.fs_hz
+
     # -- recording ------------------------------------------------------------------------
 
     def start_recording(
-        self, path: str | Path, meta: Any = None, *, overwrite: bool = False
+        self, path: str | Path, meta: SessionMeta | None = None, *, overwrite: bool = False
     ) -> None:
         """Open a session file and record every sample from the next block on."""
         from gaitmon.io.session import (
@@ -281,43 +272,11 @@ class Engine:
             self._recorder = None
         if rec is None:
             return self._last_recording
-        with contextlib.suppress(Exception):
-            rec.put(("link", self.device.stats))
-        rec.put(("stop", reason))  # control items are never refused, even by a full queue
-        rec.thread.join(timeout=max(0.0, timeout_s))
-        status = self._recording_status(rec)
-        if rec.alive and not status.error:
-            name = Path(status.path).name
-            status = dataclasses.replace(
-                status,
-                error=(
-                    f"the recording to {name} was not finished after {timeout_s:g} s (slow "
-                    "disk?); it finishes in the background, and if gaitmon quits first the "
-                    "file is recovered from its journal when next opened"
-                ),
-            )
-        self._last_recording = dataclasses.replace(status, active=False)
+        self._last_recording = rec.finish(reason, timeout_s, lambda: self.device.stats)
         return self._last_recording
 
     def _recording_status(self, rec: Recorder | None) -> RecordingStatus:
-        if rec is None:
-            return self._last_recording
-        # alive before progress: a thread that ended normally published finished=True first
-        alive = rec.alive
-        progress = rec.progress
-        error = progress.error
-        if not error and not alive and not progress.finished:
-            error = "the recorder stopped unexpectedly"  # only a BaseException gets here
-        return RecordingStatus(
-            active=not error,
-            path=str(rec.writer.path),
-            started_monotonic_s=rec.started_monotonic_s,
-            elapsed_s=time.monotonic() - rec.started_monotonic_s,
-            rows=progress.rows,
-            file_bytes=progress.file_bytes,
-            dropped_blocks=rec.dropped_blocks,
-            error=error,
-        )
+        return self._last_recording if rec is None else rec.status()
 
     @property
     def recording(self) -> RecordingStatus:
@@ -336,7 +295,7 @@ class Engine:
             self._markers.append((t, label))
             self._taps.marker(label)
             if self._recorder is not None:
-                self._recorder.put(("marker", label))
+                self._recorder.put(AddMarker(label))
 
     @property
     def timed_markers(self) -> TimedMarkerCounts:
@@ -356,7 +315,7 @@ class Engine:
                     if m.k is not None:
                         self._markers.append((m.k / self.fs_hz, m.label))
                     if rec is not None and row is not None:
-                        rec.put(("marker", (m.label, row)))
+                        rec.put(AddMarker(m.label, row))
 
     def add_listener(self, listener: BlockListener) -> None:
         """Call ``listener(BlockOut)`` on the engine thread after each block (``taps``)."""
@@ -410,7 +369,7 @@ class Engine:
         with self._lock:
             hs, to = self._gait.events_since(t0)
             markers = tuple(m for m in self._markers if m[0] >= t0)
-            rates = list(self._health.rate_times)
+            rate = self._health.frame_rate_hz()
             gait = self._gait.status(series, self._stream.samples)
             rec = self._recording_status(self._recorder)
             engine_error, engine_errors = self._health.error, self._health.errors
@@ -420,9 +379,6 @@ class Engine:
         if self.mode is not Mode.RAW:
             method = UNIT_ANGLE_METHOD
             event_source = EVENTS_UNIT if self.mode is Mode.JOINT else ""
-        rate = 0.0
-        if len(rates) >= 2 and rates[-1][0] > rates[0][0]:
-            rate = (rates[-1][1] - rates[0][1]) / (rates[-1][0] - rates[0][0])
         try:
             link = self.device.stats
         except Exception:  # a vanished device must not break the viewer
@@ -485,12 +441,11 @@ class Engine:
                 with self._lock:
                     if self._recorder is not None:
                         with contextlib.suppress(Exception):
-                            self._recorder.put(("link", self.device.stats))
+                            self._recorder.put(UpdateLink(self.device.stats))
 
     def _note_error(self, text: str) -> None:
         with self._lock:
-            self._health.errors += 1
-            self._health.error = " ".join(text.split())[:300]
+            self._health.note_error(text)
 
     def _handle(self, block: SampleBlock) -> None:
         st = self._stream
@@ -514,15 +469,15 @@ class Engine:
         if cfg is not None:
             self._pipeline = self._pipeline.successor(cfg)
             with self._lock:
-                self._checks.pipeline_rebuilt(self._pipeline.event_source == "foot gyro")
+                self._checks.pipeline_rebuilt(self._pipeline.event_source == EVENTS_GYRO)
             self._phase_lag = cfg.phase_lag_samples
             st.pipeline_offset = start_idx
             if rec is not None and not (first and cfg is rec.header_config):
-                rec.put(("config", cfg))
+                rec.put(LogConfig(cfg))
         if cal is not None:
             self._pipeline.set_calibration(cal)
             if rec is not None and not (first and cal is rec.header_calibration):
-                rec.put(("calibration", cal))
+                rec.put(LogCalibration(cal))
         if block.kind != self.mode.frame_kind:
             # not this session's frames (a unit that restarted into its default kind before
             # the setup was sent again): neither shown nor recorded; the file gets a gap
@@ -532,15 +487,15 @@ class Engine:
             )
             if rec is not None:
                 rec.row_map.not_recorded(block, f"frames lost: {FrameKind(block.kind).name} frames")
-            st.pending_lost += len(block) + self._lost_sum(block)
+            st.not_processed(block)
             return
         reconnects = self.device.stats.transport.reconnects
         gap_reason = ""
         if reconnects != st.reconnects_seen:
             st.reconnects_seen = reconnects
             gap_reason = "link lost: reconnected"
-        lost = self._lost(block)
-        t_s = self._true_times(lost)
+        lost = st.lost(block)
+        t_s = st.true_times(lost, self.fs_hz)
         restarts = np.empty(0, np.int64)
         faults: tuple[FsrFault, ...] = ()
         offset = st.pipeline_offset
@@ -552,7 +507,7 @@ class Engine:
             to_idx = p.toe_off_idx + offset
             strides = [shift_stride(s, offset) for s in p.strides]
             restarts = p.restart_idx + offset
-            lengths = self._stride_lengths(block.adc, p, hs_idx, start_idx)
+            lengths = self._spatial.push(block.adc, p, hs_idx, start_idx, self._pipeline.table)
             if rec is not None:
                 if first and len(self._pipeline.fsr_faults) > len(p.fsr_faults):
                     # sensors flagged before the recording started are faulty in it from row 0
@@ -575,7 +530,7 @@ class Engine:
             start_idx, np.rint(t_s * self.fs_hz).astype(np.int64), block.host_time_s
         )
         with self._lock:
-            self._health.rate_times.append((float(block.host_time_s[-1]), st.samples))
+            self._health.block_done(float(block.host_time_s[-1]), st.samples)
             self._gait.add(hs_idx, to_idx, strides, restarts, self._ring, st.samples)
             self._gait.add_lengths(lengths)
             self._checks.add(faults, offset, st.samples, self._ring)
@@ -584,61 +539,13 @@ class Engine:
             self._taps.block(block, start_idx, t_s, lost, cols, (hs_idx, to_idx),
                              self._ring.times_of, gap_reason, (cfg, cal), (rec, path))  # fmt: skip
 
-    def _stride_lengths(
-        self, adc: np.ndarray, p: PipelineBlock, hs_idx: np.ndarray, start_idx: int
-    ) -> list[tuple[int, float]]:
-        """Feed the foot board's samples (unfiltered acceleration, the pipeline's
-        bias-corrected gyro: what gaitmon.dsp.stride_length.foot_imu_from_counts makes of a
-        file's raw counts) to the stride length tracker; the strides it finished, (opening
-        heel strike, m), engine indices."""
-        tr = self._spatial
-        if self._spatial_base + tr.n_seen != start_idx:  # samples not processed: start afresh
-            tr.reset()
-            self._spatial_base = start_idx
-        table = self._pipeline.table
-        cols = _FOOT_IMU_COLS
-        phys = (adc[:, cols].astype(np.float64) - table.zero_counts[cols]) * (
-            table.units_per_count[cols]
-        )
-        m = tr.push(phys[:, 0], phys[:, 1], p.gyro_rad_s[:, _FOOT], hs_idx - self._spatial_base)
-        base = self._spatial_base
-        return [(int(h) + base, float(v)) for h, v in zip(m.heel_strike_idx, m.stride_length_m,
-                                                           strict=True)]  # fmt: skip
-
-    @staticmethod
-    def _lost_sum(block: SampleBlock) -> int:
-        return 0 if block.lost_before is None else int(block.lost_before.sum())
-
-    def _lost(self, block: SampleBlock) -> np.ndarray:
-        """Frames lost before each sample of ``block``, with those of blocks not processed."""
-        st = self._stream
-        lost = (
-            np.zeros(len(block), np.int64)
-            if block.lost_before is None
-            else np.asarray(block.lost_before, np.int64).copy()
-        )
-        if st.k_last is None:
-            lost[0] = 0  # what came before the first sample is no gap
-        lost[0] += st.pending_lost
-        st.pending_lost = 0
-        return lost
-
-    def _true_times(self, lost: np.ndarray) -> np.ndarray:
-        """t_s: the unit's sample periods since the first sample, counting lost frames (as the
-        recording's timeline does; sequence numbers alone would count control frames too)."""
-        st = self._stream
-        k = np.cumsum(lost + 1)
-        k += -k[0] if st.k_last is None else st.k_last
-        st.k_last = int(k[-1])
-        return k / self.fs_hz
-
     def _hand_over(
         self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str
     ) -> None:
         """Queue a block for the recorder, with the frames not recorded before it as lost
         (see ``RowMap.outgoing``); if the queue is full, the row map notes the drop."""
         out, p_rows, first_reason = rec.row_map.outgoing(block, p, self._stream.pipeline_offset)
-        if rec.put_block(("append", (out, p_rows, 0, gap_reason, first_reason))):
+        if rec.put_block(AppendBlock(out, p_rows, 0, gap_reason, first_reason)):
             rec.row_map.handed_over(with_events=p is not None)
             return
         # the queue is full (a stalled disk)
@@ -668,6 +575,6 @@ class Engine:
             self._pipeline = self._pipeline.successor(self.config)
             st.pipeline_offset = st.samples
             with self._lock:
-                self._checks.pipeline_rebuilt(self._pipeline.event_source == "foot gyro")
+                self._checks.pipeline_rebuilt(self._pipeline.event_source == EVENTS_GYRO)
             if rec is not None:
-                rec.put(("config", self.config))
+                rec.put(LogConfig(self.config))

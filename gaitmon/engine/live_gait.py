@@ -1,12 +1,14 @@
 """Live gait for the display: event times, the last strides and their normalised cycles.
 
-Two owners, two objects:
+Three owners, three objects:
 
 - ``UnitGaitEvents`` turns the unit's own contact flags (TILT/JOINT modes) into events and
   strides at engine sample indices. Only the engine thread uses it, outside any lock.
 - ``LiveGait`` keeps what the gait panel and the event markers show. The engine thread writes
   it and a viewer's snapshot reads it, both with the engine's lock held: it has no lock of its
   own, and every method must be called under that lock.
+- ``FootStrideLengths`` measures stride lengths from the foot IMU (the panel's speed) in raw
+  mode. Only the engine thread uses it, outside any lock.
 """
 
 from __future__ import annotations
@@ -18,11 +20,16 @@ from collections.abc import Iterable
 import numpy as np
 
 from gaitmon.analysis import stride_exclusion
+from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, SEGMENTS, ChannelTable
 from gaitmon.dsp.gait import ContactEdges, Stride, StrideTracker, normalise_cycles
-from gaitmon.dsp.pipeline import settling_ranges
+from gaitmon.dsp.pipeline import PipelineBlock, settling_ranges
+from gaitmon.dsp.stride_length import StrideLengthTracker
 from gaitmon.engine.buffers import RingBuffer
 from gaitmon.engine.snapshot import GaitStatus
 from gaitmon.io.device import SampleBlock
+
+_FOOT = SEGMENTS.index("foot")
+_FOOT_IMU_COLS = [int(ACC_X_IDX[_FOOT]), int(ACC_Z_IDX[_FOOT])]  # raw columns of the foot board
 
 
 class UnitGaitEvents:
@@ -41,6 +48,35 @@ class UnitGaitEvents:
         else:
             hs_idx = to_idx = np.empty(0, np.int64)
         return hs_idx, to_idx, self._strides.process(hs_idx, to_idx)
+
+
+class FootStrideLengths:
+    """Stride lengths from the foot IMU, at engine sample indices (engine thread only)."""
+
+    def __init__(self, fs_hz: float) -> None:
+        self._tracker = StrideLengthTracker(fs_hz)
+        self._base = 0  # the engine index of the tracker's sample 0
+
+    def push(
+        self, adc: np.ndarray, p: PipelineBlock, hs_idx: np.ndarray, start_idx: int,
+        table: ChannelTable,
+    ) -> list[tuple[int, float]]:  # fmt: skip
+        """Feed the foot board's samples (unfiltered acceleration, the pipeline's
+        bias-corrected gyro: what gaitmon.dsp.stride_length.foot_imu_from_counts makes of a
+        file's raw counts) to the stride length tracker; the strides it finished, (opening
+        heel strike, m), engine indices."""
+        tr = self._tracker
+        if self._base + tr.n_seen != start_idx:  # samples not processed: start afresh
+            tr.reset()
+            self._base = start_idx
+        cols = _FOOT_IMU_COLS
+        phys = (adc[:, cols].astype(np.float64) - table.zero_counts[cols]) * (
+            table.units_per_count[cols]
+        )
+        m = tr.push(phys[:, 0], phys[:, 1], p.gyro_rad_s[:, _FOOT], hs_idx - self._base)
+        base = self._base
+        return [(int(h) + base, float(v)) for h, v in zip(m.heel_strike_idx, m.stride_length_m,
+                                                           strict=True)]  # fmt: skip
 
 
 class LiveGait:

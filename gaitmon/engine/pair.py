@@ -1,12 +1,17 @@
-"""Two units, one per leg, recorded into one bilateral session.
+"""Units recorded into one session: two units, one per leg, into one bilateral session.
 
 Each leg has its own :class:`Engine` (its own Device, link health, reconnection, gaps and
 recorder thread) writing an ordinary crash-safe recording of its own beside the target,
-``FILE.L.partial`` / ``FILE.R.partial`` (``gaitmon.io.session.bilateral.part_path``). At the stop
+``FILE.L.partial`` / ``FILE.R.partial`` (``gaitmon.finish.bilateral.part_path``). At the stop
 :meth:`EnginePair.finish` combines them into ``FILE`` (``combine_parts``: both layouts under
 ``/units/<side>`` and the clock fits under ``/sync``). A link lost on one leg is a gap in that
 leg's part only; the other leg records on. If the process dies, the parts and their journals
 stay, and the next reader of ``FILE`` recovers and combines them.
+
+:class:`EngineGroup` runs its units' engines, keyed by side, through the same steps (start,
+record, zero together, the unit's clock since the recording started, stop, finish);
+:class:`EnginePair` is the two-leg group. A group of one unit records straight into ``FILE``,
+as ``Engine.start_recording`` does: one leg is the one-unit case.
 """
 
 from __future__ import annotations
@@ -15,17 +20,21 @@ import contextlib
 import dataclasses
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.engine.core import Engine, EngineError
 from gaitmon.engine.snapshot import RecordingStatus
+from gaitmon.finish.combine import combine_parts
 from gaitmon.io.journal import journal_path
-from gaitmon.io.session.combine import combine_parts
 from gaitmon.io.session.h5file import _being_recorded
 from gaitmon.io.session.header import SessionError, SessionMeta
 from gaitmon.io.session.parts import SIDE_NAMES, SIDES, part_path, parts_of
+
+if TYPE_CHECKING:
+    from gaitmon.engine.stream import UnitClockMark
 
 # closing a part computes its smoothed angles and overview (an hour: tens of seconds on a busy
 # machine); both must be closed before they can be combined
@@ -34,14 +43,32 @@ STOP_TIMEOUT_S = 300.0
 ZERO_TIMEOUT_S = 10.0
 
 
-class EnginePair:
-    """The left and right engines of one bilateral recording (module doc)."""
+class EngineGroup:
+    """The engines of one recording, by side (module doc); one engine: a one-unit recording."""
 
-    def __init__(self, left: Engine, right: Engine) -> None:
-        self.engines = {"L": left, "R": right}
-        self._start: dict[str, tuple[int, int]] = {}  # samples, frames lost at the start
+    def __init__(self, engines: Mapping[str, Engine]) -> None:
+        if not engines:
+            raise ValueError("a recording needs at least one unit")
+        self.engines: dict[str, Engine] = dict(engines)
+        self._start: dict[str, UnitClockMark] = {}  # each unit's clock at the recording's start
         self.path: Path | None = None
         self._meta = SessionMeta()
+        self._overwrite = False
+        self._created: set[str] = set()  # the units whose recording this group created
+
+    @property
+    def sides(self) -> tuple[str, ...]:
+        return tuple(self.engines)
+
+    @property
+    def in_parts(self) -> bool:
+        """Each unit records a part, combined at the end (more than one unit)."""
+        return len(self.engines) > 1
+
+    def recording_path(self, side: str) -> Path:
+        """Where that unit records: its part, or the file itself for a one-unit group."""
+        assert self.path is not None
+        return part_path(self.path, side) if self.in_parts else self.path
 
     def start(
         self,
@@ -52,16 +79,14 @@ class EnginePair:
         record: bool = True,
         before_stream: Callable[[str, Engine], None] | None = None,
     ) -> None:
-        """Start both units, each recording into its part from its first frame (``record``
-        False: streaming only, until :meth:`start_recording`, e.g. after :meth:`zero`).
-        ``before_stream(side, engine)`` runs for each once it is identified, before its first
-        frame (the LSL outlets open there). ``EngineError`` (both stopped, nothing left
-        behind) if either cannot start."""
+        """Start every unit, each recording from its first frame (``record`` False: streaming
+        only, until :meth:`start_recording`, e.g. after :meth:`zero`). ``before_stream(side,
+        engine)`` runs for each once it is identified, before its first frame (the LSL outlets
+        open there). ``EngineError`` (all stopped, nothing left behind) if any cannot start."""
         self._target(path, meta, overwrite)
         started: list[str] = []
         try:
-            for side in SIDES:
-                eng = self.engines[side]
+            for side, eng in self.engines.items():
 
                 def hook(s: str = side, e: Engine = eng) -> None:
                     if record:
@@ -72,7 +97,7 @@ class EnginePair:
                 eng.start(before_stream=hook)
                 started.append(side)
                 if record:
-                    self._start[side] = (eng.samples_total, eng.device.stats.decoder.frames_lost)
+                    self._start[side] = eng.clock_mark()
         except BaseException:
             self._abandon(started)
             raise
@@ -81,7 +106,7 @@ class EnginePair:
         """The file to record to; the parts of an interrupted recording of it are refused
         (``EngineError``) unless ``overwrite``, then deleted."""
         path = Path(path)
-        old = parts_of(path)
+        old = parts_of(path) if self.in_parts else {}
         if old and not overwrite:
             raise EngineError(
                 f"the parts of an interrupted recording of {path.name} are beside it; "
@@ -93,44 +118,49 @@ class EnginePair:
                     q.unlink()
         self.path = path
         self._meta = meta or SessionMeta()
+        self._overwrite = overwrite
 
     def _record(self, side: str) -> None:
-        assert self.path is not None
-        meta = dataclasses.replace(self._meta, side=side)
-        self.engines[side].start_recording(part_path(self.path, side), meta, overwrite=True)
+        if self.in_parts:  # each part says its leg; an old part was deleted by _target
+            meta = dataclasses.replace(self._meta, side=side)
+            self.engines[side].start_recording(self.recording_path(side), meta, overwrite=True)
+        else:
+            eng = self.engines[side]
+            eng.start_recording(self.recording_path(side), self._meta, overwrite=self._overwrite)
+        self._created.add(side)
 
     def _abandon(self, started: list[str], *, streaming: bool = False) -> None:
         """A start that failed: the units stopped (``streaming``: they stream on, only their
-        recordings stopped), the parts (still empty) deleted."""
+        recordings stopped), the files this group created (still empty) deleted."""
         for side in started:
             self.engines[side].stop_recording("error: start-up failed")
             if not streaming:
                 self.engines[side].stop()
         if self.path is not None:
-            for side in SIDES:
-                for q in (part_path(self.path, side), journal_path(part_path(self.path, side))):
+            for side in self.engines if self.in_parts else self._created:
+                rpath = self.recording_path(side)
+                for q in (rpath, journal_path(rpath)):
                     with contextlib.suppress(OSError):
                         q.unlink()
 
     def start_recording(self, path: str | Path | None = None, meta: SessionMeta | None = None,
                         *, overwrite: bool = False) -> None:  # fmt: skip
-        """Both parts from the next block on (after a ``start(record=False)``); the
-        calibration a :meth:`zero` left waiting is each part's header's. With ``path``: both
-        engines already stream on their own (the live window's, started with ``Engine.start``)
-        and record into ``path``; if either cannot start, neither records and both stream on
-        (``EngineError``)."""
+        """Every unit from its next block on (after a ``start(record=False)``); the
+        calibration a :meth:`zero` left waiting is each one's header's. With ``path``: the
+        engines already stream on their own (the live window's, started with
+        ``Engine.start``) and record into ``path``; if any cannot start, none records and all
+        stream on (``EngineError``)."""
         if path is not None:
             self._target(path, meta, overwrite)
         started: list[str] = []
         try:
-            for side in SIDES:
-                eng = self.engines[side]
+            for side, eng in self.engines.items():
                 self._record(side)
                 started.append(side)
-                self._start[side] = (eng.samples_total, eng.device.stats.decoder.frames_lost)
+                self._start[side] = eng.clock_mark()
         except BaseException:
             if path is None:
-                self._abandon(list(SIDES))
+                self._abandon(list(self.engines))
             else:
                 self._abandon(started, streaming=True)
             raise
@@ -139,9 +169,9 @@ class EnginePair:
         self, stop: threading.Event | None = None, timeout_s: float = ZERO_TIMEOUT_S,
         window_s: float = 1.5,
     ) -> dict[str, Calibration]:  # fmt: skip
-        """The standing calibration of both units from the same moment: each unit's last
+        """The standing calibration of every unit from the same moment: each unit's last
         ``window_s`` of data, taken one right after the other, retried (the subject settling,
-        the first seconds of data) until both succeed in the same try. ``EngineError`` naming
+        the first seconds of data) until all succeed in the same try. ``EngineError`` naming
         the leg (or legs) never still in any try after ``timeout_s``; an empty dict if ``stop``
         is set first."""
         deadline = time.monotonic() + timeout_s
@@ -150,9 +180,9 @@ class EnginePair:
         while stop is None or not stop.is_set():
             cals: dict[str, Calibration] = {}
             errors: dict[str, str] = {}
-            for side in SIDES:
+            for side, eng in self.engines.items():
                 try:  # computed only: a window straddling an applied change would mix biases
-                    cals[side] = self.engines[side].zero(window_s, apply=False)
+                    cals[side] = eng.zero(window_s, apply=False)
                     worked.add(side)
                 except EngineError as exc:
                     errors[side] = last_error[side] = str(exc)
@@ -160,35 +190,32 @@ class EnginePair:
                 return {s: self.engines[s].use_calibration(c) for s, c in cals.items()}
             if time.monotonic() > deadline:
                 # the leg that never zeroed, not one that did while it waited for the other
-                never = [s for s in SIDES if s not in worked] or list(errors)
+                never = [s for s in self.engines if s not in worked] or list(errors)
                 raise EngineError("; ".join(
-                    f"could not zero the {SIDE_NAMES[s]} leg ({s}): {last_error[s]}" for s in never
+                    f"could not zero {_unit_name(s)}: {last_error[s]}" for s in never
                 ))  # fmt: skip
             time.sleep(0.02)  # the simulator may run faster than real time
         return {}
 
     def recorded_s(self, side: str) -> float:
         """Seconds of that unit's clock since the recording started (received + lost)."""
-        eng = self.engines[side]
-        n0, lost0 = self._start.get(side, (0, 0))
-        lost = eng.device.stats.decoder.frames_lost - lost0
-        return (eng.samples_total - n0 + lost) / eng.fs_hz
+        return self.engines[side].seconds_since(self._start.get(side))
 
     def stop(self, reason: str = "user", timeout_s: float = STOP_TIMEOUT_S) -> dict[
         str, RecordingStatus
     ]:
-        """Finish both parts (at once: closing a long part computes its smoothed angles) and
-        stop both engines (idempotent). A part not finished within ``timeout_s`` says so in
-        its status's ``error``; its recorder finishes in the background."""
+        """Finish every recording (at once: closing a long part computes its smoothed angles)
+        and stop the engines (idempotent). A recording not finished within ``timeout_s`` says
+        so in its status's ``error``; its recorder finishes in the background."""
         out = self.stop_recording(reason, timeout_s)
-        for side in SIDES:
-            self.engines[side].stop()
+        for eng in self.engines.values():
+            eng.stop()
         return out
 
     def stop_recording(self, reason: str = "user", timeout_s: float = STOP_TIMEOUT_S) -> dict[
         str, RecordingStatus
     ]:
-        """Finish both parts at once, the engines streaming on (the live window); as
+        """Finish every recording at once, the engines streaming on (the live window); as
         :meth:`stop` otherwise."""
         out: dict[str, RecordingStatus] = {}
 
@@ -196,7 +223,7 @@ class EnginePair:
             out[side] = self.engines[side].stop_recording(reason, timeout_s)
 
         threads = [threading.Thread(target=finish, args=(s,), name=f"gaitmon-stop-{s}")
-                   for s in SIDES]  # fmt: skip
+                   for s in self.engines]  # fmt: skip
         for t in threads:
             t.start()
         for t in threads:
@@ -204,14 +231,29 @@ class EnginePair:
         return out
 
     def finish(self, timeout_s: float = STOP_TIMEOUT_S) -> Path:
-        """Combine the parts into the one session file, once both recorders have let go of
-        them (waiting up to ``timeout_s``); ``SessionError`` if that fails (the parts are kept
-        then, and combined when the file is next opened)."""
+        """The one session file: the parts combined into it, once every recorder has let go of
+        its part (waiting up to ``timeout_s``); ``SessionError`` if that fails (the parts are
+        kept then, and combined when the file is next opened). A one-unit group's file is
+        finished by its stop already."""
         if self.path is None:
             raise SessionError("the pair was never started")
+        if not self.in_parts:
+            return self.path
         deadline = time.monotonic() + timeout_s
-        for side in SIDES:
-            jpath = journal_path(part_path(self.path, side))
+        for side in self.engines:
+            jpath = journal_path(self.recording_path(side))
             while jpath.exists() and _being_recorded(jpath) and time.monotonic() < deadline:
                 time.sleep(0.1)
         return combine_parts(self.path)
+
+
+class EnginePair(EngineGroup):
+    """The left and right engines of one bilateral recording (module doc)."""
+
+    def __init__(self, left: Engine, right: Engine) -> None:
+        super().__init__(dict(zip(SIDES, (left, right), strict=True)))
+
+
+def _unit_name(side: str) -> str:
+    """How an error names a unit: its leg, or (a one-unit group) none."""
+    return f"the {SIDE_NAMES[side]} leg ({side})" if side in SIDE_NAMES else "the unit"

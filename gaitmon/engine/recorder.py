@@ -1,8 +1,8 @@
 """The single recorder thread: the only code that touches a recording's session file.
 
-The engine thread hands it items through a queue and never waits for it: sample blocks are
-bounded (a stalled disk drops blocks, counted), control items (settings, calibration, marker,
-link statistics, stop) never are.
+The engine thread hands it messages (``engine.messages``) through a queue and never waits for
+it: sample blocks are bounded (a stalled disk drops blocks, counted), control messages
+(settings, calibration, marker, link statistics, stop) never are.
 """
 
 from __future__ import annotations
@@ -13,15 +13,30 @@ import itertools
 import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, TypedDict, Unpack, assert_never
 
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
-from gaitmon.dsp.pipeline import PipelineBlock, PipelineConfig
+from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.engine.messages import (
+    AddMarker,
+    AppendBlock,
+    LogCalibration,
+    LogConfig,
+    RecorderMessage,
+    Stop,
+    UpdateLink,
+)
 from gaitmon.engine.rows import RowMap, slice_pipeline, slice_samples
-from gaitmon.io.device import SampleBlock
+from gaitmon.engine.snapshot import RecordingStatus
+from gaitmon.io.device import LinkStats
+
+if TYPE_CHECKING:
+    from gaitmon.io.session.writer import SessionWriter
 
 
 @dataclass(frozen=True)
@@ -32,6 +47,15 @@ class RecorderProgress:
     file_bytes: int = 0
     error: str = ""  # why the recording stopped on its own ("" if it did not)
     finished: bool = False  # the thread ended on the stop item (not by a BaseException)
+
+
+class _ProgressChange(TypedDict, total=False):
+    """Fields of ``RecorderProgress`` that one publish replaces."""
+
+    rows: int
+    file_bytes: int
+    error: str
+    finished: bool
 
 
 class Recorder:
@@ -52,13 +76,13 @@ class Recorder:
 
     def __init__(
         self,
-        writer: Any,
+        writer: SessionWriter,
         queue_max: int,
         header_config: PipelineConfig | None = None,
         header_calibration: Calibration | None = None,
     ) -> None:
         self.writer = writer
-        self.queue: queue.Queue[tuple[str, Any]] = queue.Queue()
+        self.queue: queue.Queue[RecorderMessage] = queue.Queue()
         self.queue_max = queue_max
         self.header_config = header_config
         self.header_calibration = header_calibration
@@ -88,13 +112,57 @@ class Recorder:
         with self._lock:
             return self._dropped_blocks
 
-    # -- the engine thread (and the caller's, for control items) -------------------------
+    def status(self) -> RecordingStatus:
+        """The recording as a viewer sees it (``Engine.recording``)."""
+        # alive before progress: a thread that ended normally published finished=True first
+        alive = self.alive
+        progress = self.progress
+        error = progress.error
+        if not error and not alive and not progress.finished:
+            error = "the recorder stopped unexpectedly"  # only a BaseException gets here
+        return RecordingStatus(
+            active=not error,
+            path=str(self.writer.path),
+            started_monotonic_s=self.started_monotonic_s,
+            elapsed_s=time.monotonic() - self.started_monotonic_s,
+            rows=progress.rows,
+            file_bytes=progress.file_bytes,
+            dropped_blocks=self.dropped_blocks,
+            error=error,
+        )
 
-    def put(self, item: tuple[str, Any]) -> None:
-        """Queue a control item (never refused: they are few and small)."""
+    def finish(
+        self, reason: str, timeout_s: float, link_stats: Callable[[], LinkStats]
+    ) -> RecordingStatus:
+        """The caller's thread, once the engine thread hands over no more blocks: the link's
+        last statistics and the stop go in, and the final status comes back after up to
+        ``timeout_s``. A recorder not finished by then (a stalled disk) carries on in the
+        background, and the status says so in ``error`` (if the process ends first, the
+        journal keeps every row handed over; the next open recovers the file)."""
+        with contextlib.suppress(Exception):  # a vanished device: the file keeps the last ones
+            self.put(UpdateLink(link_stats()))
+        self.put(Stop(reason))  # control messages are never refused, even by a full queue
+        self.thread.join(timeout=max(0.0, timeout_s))
+        status = self.status()
+        if self.alive and not status.error:
+            name = Path(status.path).name
+            status = dataclasses.replace(
+                status,
+                error=(
+                    f"the recording to {name} was not finished after {timeout_s:g} s (slow "
+                    "disk?); it finishes in the background, and if gaitmon quits first the "
+                    "file is recovered from its journal when next opened"
+                ),
+            )
+        return dataclasses.replace(status, active=False)
+
+    # -- the engine thread (and the caller's, for control messages) ----------------------
+
+    def put(self, item: AddMarker | LogConfig | LogCalibration | UpdateLink | Stop) -> None:
+        """Queue a control message (never refused: they are few and small)."""
         self.queue.put_nowait(item)
 
-    def put_block(self, item: tuple[str, Any]) -> bool:
+    def put_block(self, item: AppendBlock) -> bool:
         """Queue a block; False (and counted) if ``queue_max`` blocks are already waiting."""
         with self._lock:
             if self._blocks_waiting >= self.queue_max:
@@ -106,21 +174,16 @@ class Recorder:
 
     # -- the recorder thread --------------------------------------------------------------
 
-    def _publish(self, **changes: Any) -> None:
+    def _publish(self, **changes: Unpack[_ProgressChange]) -> None:
         with self._lock:
             self._progress = dataclasses.replace(self._progress, **changes)
 
-    def _append(
-        self,
-        w: Any,
-        samples: SampleBlock,
-        processed: PipelineBlock | None,
-        offset: int,
-        gap_reason: str,
-        first_gap_reason: str = "",
-    ) -> None:
+    @staticmethod
+    def _append(w: SessionWriter, msg: AppendBlock) -> None:
         """Write a block, logging a gap at each row where frames were lost before it
         (``first_gap_reason``, if given, is the reason of a gap before the block's first row)."""
+        samples, processed, offset = msg.samples, msg.processed, msg.event_offset
+        gap_reason, first_gap_reason = msg.gap_reason, msg.first_gap_reason
         lost = samples.lost_before
         if lost is not None and w.rows == 0 and lost[0]:
             lost = lost.copy()  # frames lost before the first recorded row are not in the session
@@ -142,41 +205,44 @@ class Recorder:
             w.append(slice_samples(samples, a, b), part_p, event_offset=offset)
 
     def _run(self) -> None:
+        from gaitmon.finish.closing import close_recording
         from gaitmon.io.session import SessionError
 
         w = self.writer
         failed = False
         while True:
+            msg: RecorderMessage | None
             try:
-                kind, payload = self.queue.get(timeout=0.05)
+                msg = self.queue.get(timeout=0.05)
             except queue.Empty:
-                kind, payload = "tick", None
-            if kind == "append":
+                msg = None  # a tick: flush what is due
+            if isinstance(msg, AppendBlock):
                 with self._lock:
                     self._blocks_waiting -= 1
             if failed:
-                if kind == "stop":
+                if isinstance(msg, Stop):
                     self._publish(finished=True)
                     return
                 continue
             try:
-                if kind == "append":
-                    self._append(w, *payload)
-                elif kind == "marker":  # a label (the next row), or (label, row)
-                    if isinstance(payload, tuple):
-                        w.add_marker(payload[0], payload[1])
-                    else:
-                        w.add_marker(payload)
-                elif kind == "config":
-                    w.log_config(payload)
-                elif kind == "calibration":
-                    w.log_calibration(payload)
-                elif kind == "link":
-                    w.update_link(payload)
-                elif kind == "stop":
-                    w.close(stop_reason=payload)
+                if msg is None:
+                    pass
+                elif isinstance(msg, AppendBlock):
+                    self._append(w, msg)
+                elif isinstance(msg, AddMarker):
+                    w.add_marker(msg.label, msg.row)
+                elif isinstance(msg, LogConfig):
+                    w.log_config(msg.config)
+                elif isinstance(msg, LogCalibration):
+                    w.log_calibration(msg.calibration)
+                elif isinstance(msg, UpdateLink):
+                    w.update_link(msg.stats)
+                elif isinstance(msg, Stop):
+                    close_recording(w, stop_reason=msg.reason)
                     self._publish(rows=w.rows, file_bytes=w.bytes_written, finished=True)
                     return
+                else:
+                    assert_never(msg)
                 w.maybe_flush()
                 self._publish(rows=w.rows, file_bytes=w.bytes_written)
             except Exception as exc:  # any failure must stop the recording visibly
@@ -184,12 +250,12 @@ class Recorder:
                 if isinstance(exc, (SessionError, OSError)):
                     self._publish(error=str(exc))
                     with contextlib.suppress(Exception):
-                        w.close(stop_reason=f"error: {exc}")
+                        close_recording(w, stop_reason=f"error: {exc}")
                 else:
                     # a bug, not the disk: the writer's state is unknown, so do not finish the
                     # file; the journal (the truth) stays and the next open recovers every row
                     self._publish(error=w.abort(exc))
-                if kind == "stop":  # the stop itself failed: it is over all the same
+                if isinstance(msg, Stop):  # the stop itself failed: it is over all the same
                     self._publish(rows=w.rows, finished=True)
                     return
                 self._publish(rows=w.rows)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from gaitmon.dsp.pipeline import PipelineBlock
+from gaitmon.engine.stream import lost_in
 from gaitmon.io.device import SampleBlock
 
 _EVENT_KEYS = ("heel_strike_idx", "toe_off_idx")
@@ -108,8 +109,7 @@ class RowMap:
                 idx = getattr(p, k) + pipeline_offset
                 self.carry_events[k].extend(self.event_rows(idx[idx < start]).tolist())
         n = len(block)
-        n_lost = 0 if block.lost_before is None else int(block.lost_before.sum())
-        self.carry_lost += n + n_lost
+        self.carry_lost += n + lost_in(block)
         self.carry_reason = self.carry_reason or "frames lost: recorder queue full"
         self.drop_starts.append(start)
         self.drop_ends.append(start + n)
@@ -117,8 +117,7 @@ class RowMap:
 
     def not_recorded(self, block: SampleBlock, why: str) -> None:
         """A block that got no engine indices (not processed): its frames become a gap."""
-        lost = 0 if block.lost_before is None else int(block.lost_before.sum())
-        self.carry_lost += len(block) + lost
+        self.carry_lost += len(block) + lost_in(block)
         self.carry_reason = self.carry_reason or why
 
 

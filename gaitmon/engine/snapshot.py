@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gaitmon.dsp.events import FALLBACK, PRIMARY
 from gaitmon.io.device import LinkStats
 from gaitmon.io.protocol import FrameKind
 
@@ -33,8 +34,8 @@ class Mode(enum.StrEnum):
 # "the unit's own"; the unit runs the paper's Kalman filter on its own counts)
 UNIT_ANGLE_METHOD = "the unit's own Kalman"
 # Snapshot.event_source: where the gait events come from
-EVENTS_FSR = "fsr"  # the PC pipeline, from the force sensors
-EVENTS_GYRO = "foot gyro"  # the PC pipeline, after a force sensor was found faulty
+EVENTS_FSR = PRIMARY  # the PC pipeline, from the force sensors (gaitmon.dsp.events)
+EVENTS_GYRO = FALLBACK  # the PC pipeline, after a force sensor was found faulty
 EVENTS_UNIT = "unit"  # the unit's own foot contacts (joint mode); "" in tilt mode: no events
 
 

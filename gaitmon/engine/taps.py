@@ -25,6 +25,7 @@ from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
 if TYPE_CHECKING:
     from gaitmon.dsp.calibration import Calibration
     from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.engine.recorder import Recorder
     from gaitmon.io.device import SampleBlock
 
 _NO_INT = np.zeros(0, np.int64)
@@ -97,7 +98,7 @@ class Taps:
         self.listeners: tuple[BlockListener, ...] = ()
         self._markers: list[str] = []
         self._lock = threading.Lock()
-        self._recording: object | None = None  # the engine's Recorder last seen
+        self._recording: Recorder | None = None  # the engine's recorder last seen
 
     def __bool__(self) -> bool:
         return bool(self.listeners)
@@ -118,7 +119,7 @@ class Taps:
             with self._lock:
                 self._markers.append(label)
 
-    def _saw_recording(self, rec: object | None) -> bool:
+    def _saw_recording(self, rec: Recorder | None) -> bool:
         """Note the recording of this block; True if the one seen before has stopped."""
         stopped = self._recording is not None and rec is not self._recording
         self._recording = rec
@@ -129,7 +130,7 @@ class Taps:
         cols: dict[str, np.ndarray], events: tuple[np.ndarray, np.ndarray],
         times_of: Callable[[np.ndarray], np.ndarray], gap_reason: str,
         changes: tuple[PipelineConfig | None, Calibration | None],
-        recording: tuple[object | None, str],
+        recording: tuple[Recorder | None, str],
     ) -> None:  # fmt: skip
         """Tell the listeners about a processed block (the engine thread, after the block is
         shown and handed to the recorder). ``events``: heel-strike and toe-off engine indices

@@ -1,7 +1,9 @@
 """``gaitmon lab accuracy``: how close each tilt method gets to the truth, beside the goals.
 
-Methods: "Kalman (paper, seed 000)" (the pipeline with ``tilt_method="paper"``), the gait-aware
-Kalman (live, the pipeline's default) and the gait-aware RTS smoother (offline). Judges:
+Methods: every tilt method the app offers (the registry, gaitmon.dsp.methods), live, and
+offline where it has an offline pass: "Kalman (paper, seed 000)" (the pipeline with
+``tilt_method="paper"``), the gait-aware Kalman (live, the pipeline's default) and the
+gait-aware RTS smoother (offline). Judges:
 
 * the simulator with the realism options on (gaitmon.io.sim.sensors.realistic_sensors: soft
   tissue wobble, impacts along both axes, a faster gyro drift) over varied gait: normal, slow and
@@ -37,14 +39,48 @@ import numpy as np
 from gaitmon.dsp.angles import joint_angles, wrap_angle
 from gaitmon.dsp.calibration import Calibration, standing_calibration
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, FSR_IDX, GYRO_IDX, SEGMENTS
+from gaitmon.dsp.methods import methods
 from gaitmon.lab.report import Report
 
-METHODS = ("paper", "live", "offline")
-LABELS = {
-    "paper": "Kalman (paper, seed 000)",
-    "live": "gait-aware Kalman (live)",
-    "offline": "gait-aware + RTS smoother (offline)",
+
+@dataclass(frozen=True)
+class Column:
+    """One method column of the table: a registered tilt method, live or offline."""
+
+    key: str  # the table's key: "paper", "live", "offline", or a method's name
+    method: str  # its name in gaitmon.dsp.methods
+    offline: bool
+    label: str
+
+
+# the built-in methods keep the keys, headers and order the table has always had
+_BUILT_IN = {
+    ("paper", False): ("paper", "Kalman (paper, seed 000)"),
+    ("gait-aware", False): ("live", "gait-aware Kalman (live)"),
+    ("gait-aware", True): ("offline", "gait-aware + RTS smoother (offline)"),
 }
+
+
+def columns() -> tuple[Column, ...]:
+    """The table's method columns, read from the registry: each method the app offers, and its
+    offline pass where it has one."""
+    out = []
+    for m in methods(live=True):
+        for offline in (False, True) if m.has_offline else (False,):
+            key, label = _BUILT_IN.get((m.name, offline), (
+                f"{m.name} (offline)" if offline else m.name,
+                str(m.offline_label) if offline else m.label,
+            ))  # fmt: skip
+            out.append(Column(key, m.name, offline, label))
+    order = [k for k, _ in _BUILT_IN.values()]
+    return tuple(sorted(out, key=lambda c: order.index(c.key) if c.key in order else len(order)))
+
+
+def column(key: str) -> Column:
+    return next(c for c in columns() if c.key == key)
+
+
+LABELS = {c.key: c.label for c in columns()}
 # name -> (GaitConfig options, turns)
 SCENARIOS: dict[str, tuple[dict[str, Any], bool]] = {
     "normal": ({}, False),
@@ -118,17 +154,19 @@ def _calibrate(counts: np.ndarray) -> Calibration:
 
 
 def tilts(counts: np.ndarray, cal: Calibration, method: str) -> np.ndarray:
-    """(N, 4) zeroed tilts (rad) of a raw recording by one of METHODS."""
+    """(N, 4) zeroed tilts (rad) of a raw recording by the method of column ``method``
+    (:func:`columns`): live, the pipeline with that method; offline, its offline pass."""
+    from gaitmon.dsp.methods import get_method
     from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
-    from gaitmon.dsp.smoother import smooth_tilt
 
-    if method in ("paper", "live"):
-        cfg = PipelineConfig(tilt_method="paper" if method == "paper" else "gait-aware")
-        return Pipeline(cfg, cal).process(counts).tilt_kalman_rad
+    col = column(method)
+    if not col.offline:
+        return Pipeline(PipelineConfig(tilt_method=col.method), cal).process(counts).tilt_kalman_rad
+    m = get_method(col.method, offline=True)
     ph = DEFAULT_TABLE.to_physical(counts)
     gyro = cal.apply_gyro(ph[:, GYRO_IDX])
     cols = [
-        smooth_tilt(ph[:, ACC_X_IDX[j]], ph[:, ACC_Z_IDX[j]], gyro[:, j], FS, seg)
+        m.offline(ph[:, ACC_X_IDX[j]], ph[:, ACC_Z_IDX[j]], gyro[:, j], FS, seg)
         for j, seg in enumerate(SEGMENTS)
     ]
     raw = np.stack(cols, axis=1)
@@ -161,14 +199,22 @@ def peak_knee_errors_deg(tilt: np.ndarray, kin: Any) -> np.ndarray:
 
 
 def _events(gait: Any, counts: np.ndarray, cal: Calibration, n: int, acc: Accuracy) -> None:
-    from gaitmon.dsp.gyro_events import gyro_gait_events, match_events
-    from gaitmon.dsp.pipeline import Pipeline
+    """Every registered event source's heel strikes (gaitmon.dsp.events) against the truth."""
+    from gaitmon.dsp.events import EventRecord, event_sources
+    from gaitmon.dsp.filters import Butterworth
+    from gaitmon.dsp.gait import GaitEventDetector
+    from gaitmon.dsp.gyro_events import match_events
+    from gaitmon.dsp.pipeline import PipelineConfig
 
     true_hs, _ = gait.events(0, n)
-    gyro = cal.apply_gyro(DEFAULT_TABLE.to_physical(counts)[:, GYRO_IDX])[:, 3]
-    hs, _ = gyro_gait_events(gyro, FS)
-    fsr_hs = Pipeline(calibration=cal).process(counts).heel_strike_idx
-    for key, det in (("gyro", hs), ("fsr", fsr_hs)):
+    cfg = PipelineConfig()
+    ph = DEFAULT_TABLE.to_physical(counts)
+    fsr = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order).process(ph[:, FSR_IDX])
+    contacts = GaitEventDetector(cfg.fsr_threshold, cfg.fsr_hysteresis, cfg.min_contact_s,
+                                 cfg.fs_hz).process(fsr)  # fmt: skip
+    record = EventRecord(contacts, cal.apply_gyro(ph[:, GYRO_IDX]), FS)
+    for source in event_sources():
+        key, det = source.lab_key, source.offline(record, cfg).heel_strike_idx
         err, _ = match_events(det, true_hs[true_hs > SKIP], tolerance=int(0.2 * FS))
         acc.hs_err_ms[key] = np.concatenate([acc.hs_err_ms.get(key, np.empty(0)),
                                              np.abs(err) * 1000.0 / FS])  # fmt: skip
@@ -272,14 +318,13 @@ def _broad(root: Path, acc: Accuracy) -> None:
         valid[:200] = False
         gy = g100[:, 1] - g100[20:100, 1].mean()  # at rest in its first second
         out = {}
-        for method in METHODS:
+        for col in columns():
             est = estimate_tilt(
-                a100[:, 0], a100[:, 2], gy, FS, segment="foot",
-                method="paper" if method == "paper" else "gait-aware",
-                offline=method == "offline",
+                a100[:, 0], a100[:, 2], gy, FS, segment="foot", method=col.method,
+                offline=col.offline,
             )  # fmt: skip
             e = wrap_angle(est - ref)[valid]
-            out[method] = float(np.degrees(np.sqrt(np.mean(e**2))))
+            out[col.key] = float(np.degrees(np.sqrt(np.mean(e**2))))
         acc.broad_rmse_deg[trial] = out
 
 
@@ -299,7 +344,7 @@ def evaluate(
         acc.joint_rmse_deg[name] = {}
         acc.peak_knee_err_deg[name] = {}
         acc.peak_knee_strides_deg[name] = {}
-        for method in METHODS:
+        for method in (c.key for c in columns()):
             t = tilts(sb.counts, cal, method)
             acc.joint_rmse_deg[name][method] = joint_rmse_deg(t, sb.kinematics.joint_rad)
             strides = peak_knee_errors_deg(t, sb.kinematics)
@@ -320,49 +365,55 @@ def _f(x: float, d: int = 1) -> str:
     return "–" if not np.isfinite(x) else f"{x:.{d}f}"
 
 
-def table_rows(acc: Accuracy) -> list[tuple[str, str, str, str, str]]:
-    """(measure, paper, live, offline, goal) rows of the headline table."""
+def _row(measure: str, cells: dict[str, str], goal: str) -> tuple[str, ...]:
+    """(measure, one cell per method column, goal); columns without a figure stay empty."""
+    return (measure, *(cells.get(c.key, "") for c in columns()), goal)
+
+
+def table_rows(acc: Accuracy) -> list[tuple[str, ...]]:
+    """(measure, one cell per method column (:func:`columns`), goal) rows of the headline
+    table."""
     straight = [s for s in acc.joint_rmse_deg if "turn" not in s]
+    keys = [c.key for c in columns()]
     rows = []
 
     def joints(method: str, names: list[str] | None = None) -> str:
         return " / ".join(_f(v) for v in acc.mean_joint(method, names))
 
-    rows.append((
+    rows.append(_row(
         "simulator joint RMSE hip / knee / ankle, deg (mean of scenarios)",
-        joints("paper"), joints("live"), joints("offline"), "≤ 3 each live, ≤ 1.5 offline",
+        {k: joints(k) for k in keys}, "≤ 3 each live, ≤ 1.5 offline",
     ))  # fmt: skip
     if len(straight) < len(acc.joint_rmse_deg):
-        rows.append((
-            "  the same, straight walking only",
-            joints("paper", straight), joints("live", straight), joints("offline", straight), "",
-        ))  # fmt: skip
+        rows.append(_row("  the same, straight walking only",
+                         {k: joints(k, straight) for k in keys}, ""))  # fmt: skip
+
     def peak(method: str) -> str:
         lo, hi = acc.peak_range(method)
         mean, p95 = acc.mean_peak(method), acc.peak_p95(method)
         return f"{mean:+.1f} ({lo:+.1f} … {hi:+.1f}); p95 {p95:.1f}"
 
-    rows.append((
+    rows.append(_row(
         "simulator peak swing knee flexion error, deg: mean of scenarios (range of scenario "
         "means); p95 of the absolute error over all strides",
-        peak("paper"), peak("live"), peak("offline"), "±3 live, ±1.5 offline",
+        {k: peak(k) for k in keys}, "±3 live, ±1.5 offline",
     ))  # fmt: skip
     for trial, r in acc.broad_rmse_deg.items():
-        rows.append((
-            f"BROAD {trial} (real, not walking): planar tilt RMS, deg",
-            _f(r["paper"]), _f(r["live"]), _f(r["offline"]), "(walking goal ≤ 5 / ≤ 2.5)",
-        ))  # fmt: skip
-    for key, label in (("gyro", "foot-gyro"), ("fsr", "FSR (reference)")):
-        e = acc.hs_err_ms.get(key, np.empty(0))
+        rows.append(_row(f"BROAD {trial} (real, not walking): planar tilt RMS, deg",
+                         {k: _f(r[k]) for k in keys}, "(walking goal ≤ 5 / ≤ 2.5)"))  # fmt: skip
+    from gaitmon.dsp.events import event_sources
+
+    for source in event_sources():
+        e = acc.hs_err_ms.get(source.lab_key, np.empty(0))
         if len(e):
             fig = f"{np.median(e):.0f} / {np.percentile(e, 95):.0f}"
-            rows.append((
-                f"{label} heel strike vs simulator truth |error| median / p95, ms",
-                "", fig, "", "≤ 20 / 40" if key == "gyro" else "(reference)",
+            rows.append(_row(
+                f"{source.lab_label} heel strike vs simulator truth |error| median / p95, ms",
+                {"live": fig}, source.lab_goal,
             ))  # fmt: skip
     for case, strides in acc.fault_strides.items():
-        rows.append((f"FSR fault ({case}): strides until flagged", "", _f(strides, 0), "",
-                     "≤ 5"))  # fmt: skip
+        rows.append(_row(f"FSR fault ({case}): strides until flagged",
+                         {"live": _f(strides, 0)}, "≤ 5"))  # fmt: skip
     if acc.stride_err_pct:
         names = " / ".join(acc.stride_err_pct)
         for kind, label in (("length", "stride length"), ("speed", "gait speed")):
@@ -370,10 +421,10 @@ def table_rows(acc: Accuracy) -> list[tuple[str, str, str, str, str]]:
             def cell(mode: str, kind: str = kind) -> str:
                 return " / ".join(_median_p95(v[kind][mode]) for v in acc.stride_err_pct.values())
 
-            rows.append((
+            rows.append(_row(
                 f"simulator {label} |error| median (p95) over strides, % ({names}); "
                 "live: streamed, the pipeline's heel strikes; offline: whole record, foot gyro",
-                "", cell("live"), cell("offline"), "≤ 3 median",
+                {"live": cell("live"), "offline": cell("offline")}, "≤ 3 median",
             ))  # fmt: skip
     return rows
 
@@ -384,18 +435,19 @@ def _median_p95(e: np.ndarray) -> str:
 
 
 def format_table(acc: Accuracy) -> str:
-    head = ("measure", LABELS["paper"], LABELS["live"], LABELS["offline"], "goal")
+    cols = columns()
+    head = ("measure", *(c.label for c in cols), "goal")
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
     lines += ["| " + " | ".join(r) + " |" for r in table_rows(acc)]
     lines.append("")
     lines.append("Per scenario, joint RMSE hip / knee / ankle (deg) and peak knee error (deg):")
     lines.append("")
-    lines.append("| scenario | " + " | ".join(LABELS[m] for m in METHODS) + " |")
-    lines.append("|---|---|---|---|")
+    lines.append("| scenario | " + " | ".join(c.label for c in cols) + " |")
+    lines.append("|---|" + "---|" * len(cols))
     for name, per in acc.joint_rmse_deg.items():
         cells = [
             " / ".join(_f(v) for v in per[m]) + f" (peak {acc.peak_knee_err_deg[name][m]:+.1f})"
-            for m in METHODS
+            for m in (c.key for c in cols)
         ]
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     if acc.stride_err_pct:

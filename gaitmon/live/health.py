@@ -165,3 +165,24 @@ def snapshot_link_view(snap: Snapshot, port: str) -> LinkView:
         attempt=link.transport.attempt + 1 if link is not None else 1,
         device=link.transport.port if link is not None else "",
     )
+
+
+def snapshot_health(tracker: HealthTracker, snap: Snapshot, now_s: float) -> Health | None:
+    """``tracker`` fed one snapshot's link counters (one unit, or one leg of two); None when
+    the snapshot has no link (nothing to grade)."""
+    link = snap.link
+    if link is None:
+        return None
+    d = link.decoder
+    return tracker.update(
+        now_s,
+        d.frames_ok,
+        d.frames_lost,
+        d.crc_failures,
+        snap.frame_rate_hz,
+        snap.last_data_age_s,
+        reconnects=link.reconnects,
+        link_up=snap.link_state == "connected",
+        errors=snap.engine_errors + link.rx_errors,
+        last_error=snap.engine_error or link.rx_error,
+    )

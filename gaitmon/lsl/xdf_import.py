@@ -5,7 +5,7 @@ counts, and its description the session header (settings, calibration, device, s
 the ``events`` stream's markers, gap reasons and later ``config``/``calibration`` changes,
 that is everything a raw-mode recording holds. The rows are laid out as a recording's journal
 would hold them (frame counter jumps are frames lost: gaps) and the file is written by
-:func:`gaitmon.io.session.build_session`, the recovery's own path: the pipeline replayed from
+:func:`gaitmon.finish.build_session`, the recovery's own path: the pipeline replayed from
 row 0 with the settings changes at their rows, the events, ``/smoothed`` and ``/overview``,
 exactly as a recording of the same counts.
 
@@ -99,7 +99,8 @@ def import_xdf(
 
     Raises :class:`UserError` with a one-line message for every problem of the input or the
     output."""
-    from gaitmon.io.session import SessionError, build_session
+    from gaitmon.finish import build_session
+    from gaitmon.io.session import SessionError
 
     src = Path(src)
     out = default_output(src) if dst is None else Path(dst)
@@ -115,7 +116,7 @@ def import_xdf(
     notes: list[str] = []
     if unit.raw is not None:
         raw = _raw_stream(name, unit.raw, unit.serial)
-        header = _header_of(raw, "raw", notes).as_dict()
+        header: dict[str, Any] = _header_of(raw, "raw", notes).as_dict()
         session = _rows(raw, float(header["sample_rate_hz"]))
     else:
         session, header = _tilt_session(name, unit, notes)

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gaitmon.analysis import BilateralAnalysis, analyse_bilateral
-from gaitmon.io.session.bilateral import open_bilateral
+from gaitmon.finish.bilateral import open_bilateral
 
 if TYPE_CHECKING:
     from gaitmon.dsp.bilateral import Symmetry

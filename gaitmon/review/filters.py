@@ -1,8 +1,9 @@
 """Filter comparison on a recording, Qt-free: request in, result out (the Filters view's engine).
 
-Any of gaitmon's tilt filters (``gaitmon.dsp.lab_filters.TILT_FILTERS``, parameters editable
-where a filter has them) replayed over a range of a recording and, where the session holds the
-simulator's ground truth (``/truth``), scored against it (RMSE, mean and max error).
+Any of gaitmon's tilt filters (the method registry's, ``gaitmon.dsp.lab_filters.TILT_FILTERS``,
+parameters editable where a filter has them) replayed over a range of a recording and, where the
+session holds the simulator's ground truth (``/truth``),
+scored against it (RMSE, mean and max error).
 
 Inputs. The filters get exactly what the recording's own Kalman filter got: the accelerometer
 tilt atan2(a_z, a_x) of the low-passed accelerometer ``/processed/acc_ms2`` and the
@@ -26,7 +27,7 @@ One request covers at most ``MAX_RANGE_S`` of data, so an 8-hour recording stays
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -34,10 +35,10 @@ import numpy as np
 
 from gaitmon.dsp.angles import accel_tilt, joint_angles, wrap_angle
 from gaitmon.dsp.channels import SEGMENTS
-from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter
-from gaitmon.dsp.kalman import TiltKalman
-from gaitmon.dsp.lab_filters import ConstantRateTilt, TiltFilter, make_tilt_filter
-from gaitmon.io.session import SessionError, open_session
+from gaitmon.dsp.lab_filters import TiltFilter, make_tilt_filter
+from gaitmon.dsp.methods import ParamSpec, by_lab_name
+from gaitmon.finish import open_session
+from gaitmon.io.session import SessionError
 
 WARMUP_S = 10.0
 MAX_RANGE_S = 600.0  # ten minutes per view: ~60 000 rows x filters, a second or two
@@ -60,52 +61,47 @@ DEFAULT_FILTERS = ("accelerometer", "gyro", "kalman (paper 000)")
 # filter parameters (Qt-free)
 
 
-@dataclass(frozen=True)
-class Param:
-    key: str
-    label: str
-    default: float
-    minimum: float
-    maximum: float
-    decimals: int = 4
+# Parameters the view lets the user edit, with the methods' defaults (each method's
+# ``param_specs``, gaitmon.dsp.methods). Filters without any run with their defaults.
+Param = ParamSpec
 
 
-# Parameters the view lets the user edit, with the registry's defaults. Filters not listed here
-# (and any added to the registry later) run with their registry defaults.
-PARAMS: dict[str, tuple[Param, ...]] = {
-    "complementary": (Param("cutoff_hz", "cut-off (Hz)", 3.0, 0.01, 45.0, 3),),
-    "complementary (adaptive)": (Param("cutoff_hz", "initial cut-off (Hz)", 3.0, 0.2, 10.0, 3),),
-    "kalman (paper 000)": (
-        Param("q_angle", "Q angle", 0.001, 1e-7, 10.0, 6),
-        Param("q_gyro", "Q gyro", 0.003, 0.0, 10.0, 6),
-        Param("r", "R (rad²)", 0.3, 1e-6, 100.0, 4),
-    ),
-    "kalman constant-rate (paper 001)": (
-        Param("q", "q (spectral density)", 1.0, 1e-6, 1e6, 4),
-        Param("r_rad2", "R (rad²)", 0.3, 1e-6, 100.0, 4),
-    ),
-}
+def params_of(name: str) -> tuple[Param, ...]:
+    m = by_lab_name().get(name)
+    return () if m is None else m.param_specs
 
-_BUILDERS: dict[str, Callable[[float, Mapping[str, float]], TiltFilter]] = {
-    "complementary": lambda dt, p: ComplementaryFilter(dt, cutoff_hz=p["cutoff_hz"]),
-    "complementary (adaptive)": lambda dt, p: ComplementaryFilter(
-        dt, cutoff_hz=p["cutoff_hz"], adaptive=AdaptiveCutoff()
-    ),
-    "kalman (paper 000)": lambda dt, p: TiltKalman(dt, p["q_angle"], p["q_gyro"], p["r"]),
-    "kalman constant-rate (paper 001)": lambda dt, p: ConstantRateTilt(dt, p["q"], p["r_rad2"]),
-}
+
+class _Params(Mapping[str, tuple[Param, ...]]):
+    """The editable parameters by filter name, read from the method registry when asked."""
+
+    def __getitem__(self, name: str) -> tuple[Param, ...]:
+        specs = params_of(name)
+        if not specs:
+            raise KeyError(name)
+        return specs
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([n for n, m in by_lab_name().items() if m.param_specs])
+
+    def __len__(self) -> int:
+        return sum(1 for m in by_lab_name().values() if m.param_specs)
+
+
+PARAMS: Mapping[str, tuple[Param, ...]] = _Params()
 
 
 def default_params(name: str) -> dict[str, float]:
-    return {p.key: p.default for p in PARAMS.get(name, ())}
+    return {p.key: p.default for p in params_of(name)}
 
 
 def build_filter(name: str, dt_s: float, params: Mapping[str, float] | None = None) -> TiltFilter:
-    """A fresh filter: the registry's own when the parameters are the defaults (or none)."""
-    if not params or name not in _BUILDERS or dict(params) == default_params(name):
+    """A fresh filter: the registry's own when the parameters are the defaults (or none), else
+    the method cloned with them."""
+    m = by_lab_name().get(name)
+    if not params or m is None or not m.param_specs or dict(params) == default_params(name):
         return make_tilt_filter(name, dt_s)
     merged = {**default_params(name), **params}
-    return _BUILDERS[name](dt_s, merged)
+    return m.clone(**merged).lab_filter(dt_s)
 
 
 # --------------------------------------------------------------------------------------------

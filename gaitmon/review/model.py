@@ -13,10 +13,13 @@
   counts and the calibration only, not on the settings a reprocessing changes, so a reprocessed
   source with smoothed angles keeps the session's smoothed angles, and its events, force
   sensors and phases come from the reprocessing;
+* :class:`Document` emits change events (:mod:`gaitmon.review.events`): its exclusions (changed
+  only through it, and kept through :mod:`gaitmon.io.session.exclusions`, which every reader of
+  the session also reads), the angle source shown, and the settings of the series shown;
 * :func:`analyse` - strides with exclusions, summary and cycle-normalised curves for a source
   (:func:`gaitmon.analysis.analyse_session`, as ``gaitmon info`` and the report use);
 * :func:`reprocess` - the pipeline replayed over ``raw/adc`` with new settings
-  (:func:`gaitmon.io.session.replay_pipeline`, as ``gaitmon process`` does).
+  (:func:`gaitmon.finish.replay_pipeline`, as ``gaitmon process`` does).
 """
 
 from __future__ import annotations
@@ -40,18 +43,20 @@ from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import GaitSummary, cycle_mean_sd
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
+from gaitmon.finish import Session, flags_kept, open_session, replay_pipeline
 from gaitmon.io.overview import PeakPyramid, SessionOverview
-from gaitmon.io.session import (
-    Session,
-    SessionError,
-    flags_kept,
-    open_session,
-    replay_pipeline,
-)
+from gaitmon.io.session import SessionError
 from gaitmon.io.session import exclusions as excl
+from gaitmon.io.session.layout import SMOOTHED
 from gaitmon.io.session.parts import SIDE_NAMES, is_bilateral, sides_of
 from gaitmon.io.session.rows import lost_before_from_gaps
-from gaitmon.io.session.smoothed import SMOOTHED
+from gaitmon.review.events import (
+    AnglesChanged,
+    DocumentEvents,
+    ExclusionsChanged,
+    SettingsChanged,
+)
+from gaitmon.review.settings import PIPELINE_SETTINGS
 from gaitmon.text import num
 
 Progress = Callable[[float], bool | None]
@@ -135,13 +140,14 @@ class Document:
 
     Its sources are built on demand, one per (angle source, replay), and kept (with their
     overview pyramids): :attr:`recorded` and :attr:`reprocessed` are those of
-    :attr:`angle_source`. Sources may be built on worker threads; the angle source and the
-    replay are changed on one thread (the GUI's)."""
+    :attr:`angle_source`. Sources may be built on worker threads; the exclusions, the angle
+    source and the replay are changed on one thread (the GUI's), through the methods that emit
+    :attr:`events`."""
 
     path: Path
     session: Session
     t_s: np.ndarray  # (N,) true time of every row
-    exclusions: list[excl.Exclusion]
+    _exclusions: list[excl.Exclusion]  # read by exclusions; changed by set_exclusions
     notes: list[str]  # problems worth a line in the window (recovery, side file, ...)
     angle_source: str = "live"
     replay: Replay | None = None
@@ -158,6 +164,7 @@ class Document:
     _views: dict[str, Session] = field(default_factory=dict, repr=False)
     _sources: dict[tuple[str, Replay | None], Source] = field(default_factory=dict, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+    events: DocumentEvents = field(default_factory=DocumentEvents, repr=False)
 
     def __post_init__(self) -> None:
         s = self.session
@@ -170,6 +177,41 @@ class Document:
     @property
     def n_rows(self) -> int:
         return len(self.t_s)
+
+    # -- exclusions: changed here only, kept by gaitmon.io.session.exclusions -----------------
+
+    @property
+    def exclusions(self) -> list[excl.Exclusion]:
+        """The user's excluded ranges in force (a copy: change them with the methods below)."""
+        return list(self._exclusions)
+
+    def set_exclusions(self, ranges: Sequence[excl.Exclusion]) -> ExclusionsChanged:
+        """Put ``ranges`` in force, keep them (:func:`gaitmon.io.session.exclusions.write`,
+        where ``gaitmon report`` and ``info`` read them), and emit ``events.exclusions`` once.
+        When they cannot be kept they still apply until the file is closed (the event says
+        why)."""
+        self._exclusions = list(ranges)
+        try:
+            kept: Path | None = excl.write(self.session, self._exclusions, self.t_s)
+            problem = ""
+        except OSError as e:
+            kept, problem = None, str(e.strerror or e)
+        event = ExclusionsChanged(tuple(self._exclusions), kept, problem)
+        self.events.exclusions.emit(event)
+        return event
+
+    def exclude(self, start: int, stop: int, label: str = "excluded range") -> ExclusionsChanged:
+        """Leave rows ``[start, stop)`` out of the statistics (joined with touching ranges)."""
+        return self.set_exclusions(
+            excl.merge([*self._exclusions, excl.Exclusion(start, stop, label)])
+        )
+
+    def include(self, start: int, stop: int) -> ExclusionsChanged:
+        """Rows ``[start, stop)`` count again."""
+        return self.set_exclusions(excl.subtract(self._exclusions, start, stop))
+
+    def clear_exclusions(self) -> ExclusionsChanged:
+        return self.set_exclusions([])
 
     @property
     def bilateral(self) -> bool:
@@ -219,7 +261,9 @@ class Document:
                 f"{self.path.name} has no {angles!r} angles "
                 f"(it has {' and '.join(self.angle_sources)})"
             )
+        # emitted also when they were already shown: their overviews were just built
         self.angle_source = angles
+        self.events.angles.emit(AnglesChanged(angles, self.angle_method))
 
     def shown_notes(self) -> list[str]:
         """The notes worth a line now: the recording's problems, and each force sensor the
@@ -231,11 +275,14 @@ class Document:
                 *(f"reprocessed: {n}" for n in fsr_fault_notes(self.replay.fsr_faults, fs))]
 
     def set_replay(self, replay: Replay | None) -> None:
-        """The reprocessing to show (None: back to the recorded series)."""
+        """The reprocessing to show (None: back to the recorded series); emits
+        ``events.settings``."""
         self.replay = replay
         with self._lock:
             for key in [k for k in self._sources if k[1] not in (None, replay)]:
                 del self._sources[key]
+        config = self.session.config if replay is None else replay.config
+        self.events.settings.emit(SettingsChanged(config, replay is not None))
 
     def source(self, angles: str, replay: Replay | None = None) -> Source:
         """The recorded series (``replay`` None) or ``replay`` 's, with the angles of
@@ -308,6 +355,7 @@ class Document:
         return max(0, a), min(self.n_rows, b)
 
     def close(self) -> None:
+        self.events.disconnect_all()
         self.session.close()
 
 
@@ -372,7 +420,7 @@ def open_document(
             np.array([g.sample_idx for g in inner], dtype=np.int64),
             np.array([g.n_lost for g in inner], dtype=np.int64),
         )
-        ranges, problem = s.exclusions()
+        ranges, problem = excl.read(s)  # as gaitmon report and info read them
         if problem:
             notes.append(problem)
         spans = []
@@ -498,16 +546,9 @@ def reprocess(doc: Document, config: PipelineConfig, progress: Progress | None =
 
 def changed_settings(before: PipelineConfig, after: PipelineConfig) -> str:
     """``cutoff 4 → 6 Hz, R 0.3 → 0.1`` (the settings a reprocessing changed)."""
-    names = {
-        "cutoff_hz": ("cut-off", " Hz"),
-        "q_angle": ("Q_angle", ""),
-        "q_gyro": ("Q_gyro", ""),
-        "r": ("R", ""),
-        "fsr_threshold": ("FSR threshold", ""),
-    }
     parts = []
-    for key, (label, unit) in names.items():
-        a, b = getattr(before, key), getattr(after, key)
+    for setting in PIPELINE_SETTINGS:
+        a, b = getattr(before, setting.name), getattr(after, setting.name)
         if not math.isclose(a, b):
-            parts.append(f"{label} {a:g} → {b:g}{unit}")
+            parts.append(f"{setting.short} {a:g} → {b:g}{setting.unit}")
     return ", ".join(parts) or "the recorded settings"

@@ -1,6 +1,6 @@
 """Desktop user interface. The only package in gaitmon that imports Qt (PySide6, pyqtgraph).
 
-Importing this package does not import Qt: `launch` (behind `run_app` and `gaitmon review`)
+Importing this package does not import Qt: `launch` (behind the live monitor and `gaitmon review`)
 checks for a display first and loads the window lazily, so the command line keeps working on a
 headless machine.
 """
@@ -8,17 +8,11 @@ headless machine.
 from __future__ import annotations
 
 import ctypes
-import importlib
 import importlib.util
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from gaitmon.io.sim.bilateral import BilateralConfig
-    from gaitmon.io.sim.config import SimConfig
-    from gaitmon.live.pair import PairSource
 
 XCB_HINT = (
     "install the X11 client libraries Qt needs, e.g. on Debian/Ubuntu: sudo apt install "
@@ -95,9 +89,9 @@ def x_display_problem() -> str | None:
     return None
 
 
-def launch(module: str, *args: object, **kwargs: object) -> int:
-    """Run ``module.run(*args, **kwargs)`` (a gaitmon.ui module that opens a window) when a
-    window can open.
+def launch(load: Callable[[], Callable[..., int]], *args: object, **kwargs: object) -> int:
+    """Run ``load()(*args, **kwargs)`` when a window can open: ``load`` imports a gaitmon.ui
+    module that opens a window (plainly, inside it) and returns its ``run``.
 
     No display, or Qt not importable (PySide6 missing, or a system library it needs), is a
     one-line ``gaitmon.errors.UserError``; the module, and with it Qt, is imported only after the
@@ -109,22 +103,7 @@ def launch(module: str, *args: object, **kwargs: object) -> int:
     if problem is not None:
         raise UserError(problem)
     try:
-        window_module = importlib.import_module(module)
+        run = load()
     except ImportError as exc:  # PySide6 missing, or a system library Qt needs
         raise UserError(f"the desktop interface cannot start: {exc}") from None
-    return int(window_module.run(*args, **kwargs))
-
-
-def run_app(
-    sim: SimConfig | None = None,
-    *,
-    connect_simulated: bool = False,
-    pair_sim: BilateralConfig | None = None,
-    pair: PairSource | None = None,
-) -> int:
-    """Open the live monitor; ``sim``: the simulated device's settings (default: SimConfig()),
-    ``connect_simulated``: connect to it at once; ``pair``: connect both legs at once
-    (``pair_sim``: the simulated pair's settings)."""
-    return launch(
-        "gaitmon.ui.live", sim, connect_simulated=connect_simulated, pair_sim=pair_sim, pair=pair
-    )
+    return int(run(*args, **kwargs))

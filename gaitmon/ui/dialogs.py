@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.review.settings import PIPELINE_SETTINGS
 
 ERROR_STYLE = "color: palette(bright-text); background: #b3261e; padding: 4px; border-radius: 3px"
 
@@ -187,18 +188,8 @@ class SessionDialog(QDialog):
 # Settings
 # ------------------------------------------------------------------------------------------
 
-# field, label, tooltip
-SETTINGS_FIELDS = (
-    ("cutoff_hz", "Low-pass cut-off (Hz)", "Butterworth cut-off frequency in Hz (paper: 4 Hz)"),
-    ("q_angle", "Kalman Q_angle", "Process noise of the angle, rad² per s (paper: 0.001)"),
-    ("q_gyro", "Kalman Q_gyro", "Process noise of the gyro bias, (rad/s)² per s (paper: 0.003)"),
-    ("r", "Kalman R", "Accelerometer-tilt measurement noise, rad² (paper: 0.3)"),
-    (
-        "fsr_threshold",
-        "FSR contact threshold (counts)",
-        "A foot sensor is loaded above this many ADC counts (paper: 1000)",
-    ),
-)
+# (field, label, tooltip) of each setting, as named once in gaitmon.review.settings
+SETTINGS_FIELDS = tuple((f.name, f.label, f.tip) for f in PIPELINE_SETTINGS)
 
 
 class SettingsDialog(QDialog):
@@ -211,11 +202,11 @@ class SettingsDialog(QDialog):
         self.config: PipelineConfig | None = None
         self.edits: dict[str, QLineEdit] = {}
         form = QFormLayout()
-        for name, label, tip in SETTINGS_FIELDS:
-            edit = QLineEdit(f"{getattr(config, name):g}")
-            edit.setToolTip(tip)
-            self.edits[name] = edit
-            form.addRow(label, edit)
+        for f in PIPELINE_SETTINGS:
+            edit = QLineEdit(f"{getattr(config, f.name):g}")
+            edit.setToolTip(f.tip)
+            self.edits[f.name] = edit
+            form.addRow(f.label, edit)
         info = QLabel(
             note
             or "Applied live from the next block; a running recording logs the change. "
@@ -255,12 +246,12 @@ class SettingsDialog(QDialog):
     def parsed(self) -> PipelineConfig:
         """The config the fields describe; ValueError with a message naming the field."""
         changes: dict[str, float] = {}
-        for name, label, _tip in SETTINGS_FIELDS:
-            text = self.edits[name].text().strip().replace(",", ".")
+        for f in PIPELINE_SETTINGS:
+            text = self.edits[f.name].text().strip().replace(",", ".")
             try:
-                changes[name] = float(text)
+                changes[f.name] = float(text)
             except ValueError:
-                raise ValueError(f"{label}: {text!r} is not a number") from None
+                raise ValueError(f"{f.label}: {text!r} is not a number") from None
         if not 0.0 < changes["fsr_threshold"] < 4095.0:
             raise ValueError(
                 f"FSR contact threshold must be above 0 and below 4095 counts (12-bit ADC), "

@@ -241,8 +241,8 @@ class BidsWriter:
             write_text(tmp[names.root / "README"], README_TEXT)
 
 
-def configure(options: Mapping[str, Any] | None) -> BidsWriter:
-    """The writer of one export (registry: a format module with options provides this)."""
+def configure(options: Mapping[str, object] | None) -> BidsWriter:
+    """The writer of one export (the BIDS plugin, :mod:`gaitmon.export.bids`, asks for it)."""
     return BidsWriter(BidsOptions.from_mapping(options))
 
 

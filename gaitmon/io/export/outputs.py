@@ -1,4 +1,4 @@
-"""Where an export writes: default and derived output names, checks, and atomic writes.
+"""Where an export writes: derived output names, checks, and atomic writes.
 
 Every output is written to a temporary name beside it and renamed into place at the end, so an
 error, a cancel or Ctrl-C never leaves a half-written file under the final name.
@@ -8,27 +8,9 @@ from __future__ import annotations
 
 import contextlib
 import os
-import secrets
 from pathlib import Path
 
-from gaitmon.io.export.deidentify import DEIDENTIFIED_STEM
 from gaitmon.io.export.errors import ExportError
-from gaitmon.io.export.registry import FORMATS
-
-
-def default_output(
-    src_path: str | os.PathLike[str], fmt: str, *, deidentify: bool = False
-) -> Path:
-    """FILE with the format's extension (session.h5 -> session.csv); de-identified, a name
-    that carries nothing of the input's (often a patient code): deidentified-1f3a9c0e.csv,
-    random, beside the input."""
-    src = Path(src_path)
-    if deidentify:
-        token = secrets.token_hex(4)
-        return src.with_name(f"{DEIDENTIFIED_STEM}-{token}{FORMATS[fmt].suffix}")
-    if FORMATS[fmt].folder:  # a dataset folder beside the file: walk.h5 -> walk-bids
-        return src.with_name(f"{src.stem}-{fmt}")
-    return src.with_suffix(FORMATS[fmt].suffix)
 
 
 def csv_meta_path(csv_path: Path) -> Path:

@@ -28,7 +28,7 @@ from gaitmon.io.export.deidentify import Scrubber
 from gaitmon.io.export.errors import ExportError
 
 if TYPE_CHECKING:
-    from gaitmon.io.session import Session
+    from gaitmon.finish import Session
 
 EXPORT_VERSION = 1
 
@@ -258,7 +258,8 @@ def open_source(
     """Open through gaitmon.io.session, which validates the file and first recovers an
     interrupted recording from its journal, so bad files are judged in one place. ``angles``:
     the session's smoothed (where it has them; else its only, live, angles) or live angles."""
-    from gaitmon.io.session import SessionError, open_session
+    from gaitmon.finish import open_session
+    from gaitmon.io.session import SessionError
 
     if path.is_dir():
         raise ExportError(f"{path} is a directory, not a session file")

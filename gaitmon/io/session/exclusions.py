@@ -1,7 +1,8 @@
 """User exclusions (e.g. a turn): part of a session's analysis state, kept in ``FILE.review.json``.
 
-The review window writes them; ``gaitmon info``, ``gaitmon report``, export and review all read
-them (through :meth:`gaitmon.io.session.Session.exclusions`), so every report of one recording
+This module is their one owner: the review document changes them through :func:`write`, and
+the document, ``gaitmon info``, ``gaitmon report`` and export all read them through :func:`read`
+(:meth:`gaitmon.io.session.StoredSession.exclusions` calls it), so every report of one recording
 leaves out the same strides. The recording itself is never modified. The side file holds row
 ranges (and their times, for a human reader), plus the recording's ``created_utc`` and
 ``n_samples`` so that ranges written for another recording of the same name are not applied by
@@ -23,7 +24,7 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
     import numpy as np
@@ -37,6 +38,31 @@ class Exclusion:
     start_idx: int  # first row excluded
     stop_idx: int  # one past the last row excluded
     label: str = "excluded range"
+
+
+class Keyed(Protocol):
+    """What the exclusions of a recording (or of one leg of it) are kept by: an open session."""
+
+    @property
+    def exclusions_key(self) -> Path: ...  # FILE, or FILE.L / FILE.R for one leg
+    @property
+    def created_utc(self) -> str: ...
+    @property
+    def n_samples(self) -> int: ...
+
+
+def read(rec: Keyed) -> tuple[list[Exclusion], str]:
+    """(exclusions, problem) kept for ``rec``: the one reader of every caller (the review
+    document, ``gaitmon info``, ``gaitmon report``, export)."""
+    return load(rec.exclusions_key, rec.created_utc, rec.n_samples)
+
+
+def write(
+    rec: Keyed, ranges: Sequence[Exclusion], t_s: Sequence[float] | np.ndarray | None = None
+) -> Path:
+    """Keep ``ranges`` for ``rec`` (what :func:`read` gives back); returns the file written.
+    Raises OSError when neither the recording's folder nor the user store can be written."""
+    return save(rec.exclusions_key, ranges, rec.created_utc, rec.n_samples, t_s)
 
 
 def side_path(path: str | os.PathLike[str]) -> Path:

@@ -9,7 +9,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeAlias, cast
 
 from gaitmon import __version__
 from gaitmon.dsp.calibration import Calibration
@@ -48,10 +48,15 @@ class SessionMeta:
             raise ValueError(f"side must be 'L', 'R' or '', got {self.side!r}")
 
 
-def device_info(identity: Identity | None, transport: str) -> dict[str, Any]:
+# a /device attribute's value (None given for one is stored as "")
+DeviceValue: TypeAlias = str | int | float | bool
+
+
+def device_info(identity: Identity | None, transport: str) -> dict[str, DeviceValue]:
     """The ``/device`` attributes from the unit's IDENTITY answer and the transport's name."""
     if identity is None:
-        return dict.fromkeys(_DEVICE_KEYS, "") | {"transport": transport}
+        blank: dict[str, DeviceValue] = dict.fromkeys(_DEVICE_KEYS, "")
+        return blank | {"transport": transport}
     return {
         "name": identity.name,
         "firmware": identity.firmware,
@@ -70,7 +75,8 @@ class SessionHeader:
     mode: str  # "raw" | "tilt" | "joint"
     sample_rate_hz: float = 100.0
     meta: SessionMeta = field(default_factory=SessionMeta)
-    device: Mapping[str, Any] = field(default_factory=dict)
+    # str, int, float, bool or None (stored as ""): checked here, as a file's may be anything
+    device: Mapping[str, object] = field(default_factory=dict)
     config: PipelineConfig = field(default_factory=PipelineConfig)
     calibration: Calibration = field(default_factory=Calibration.identity)
     created_utc: str = field(default_factory=_utc_now)
@@ -87,7 +93,7 @@ class SessionHeader:
                 raise ValueError(f"device[{k!r}] must be a str or a number, got {type(v)}")
         object.__setattr__(self, "device", device)
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         """JSON-able form: the journal's header record, and what every file attribute is."""
         return {
             "format": FORMAT,
@@ -105,7 +111,10 @@ class SessionHeader:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> SessionHeader:
+    def from_dict(cls, record: Mapping[str, object]) -> SessionHeader:
+        """The header of :meth:`as_dict`'s form (a journal's header record, parsed): a damaged
+        one fails where the constructors it feeds check their arguments."""
+        d = cast("Mapping[str, Any]", record)
         return cls(
             mode=d["mode"],
             sample_rate_hz=float(d["sample_rate_hz"]),

@@ -138,3 +138,24 @@ def _field_names(dtype: np.dtype) -> tuple[str, ...]:
     names = dtype.names
     assert names is not None, f"{dtype} is not a structured dtype"
     return names
+
+
+# the live series a smoothed one stands in for (``/smoothed``: computed by gaitmon.finish.smoothed)
+SMOOTHED: dict[str, str] = {
+    "processed/tilt_deg": "smoothed/tilt_deg",
+    "processed/joint_deg": "smoothed/joint_deg",
+}
+ANGLE_SOURCES = ("smoothed", "live")
+
+
+def stored_smoothed(f: h5py.File | h5py.Group, n_samples: int) -> bool:
+    """Whether ``f`` holds a complete ``/smoothed`` for its ``n_samples`` rows (format 2
+    stores the tilts only: the joint angles are derived from them)."""
+    from gaitmon.io.session.codec import JOINT_OF
+
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
+    return all(
+        p in f and isinstance(f[p], h5py.Dataset) and f[p].shape[0] == n_samples
+        for p in SMOOTHED.values()
+        if not (v2 and p in JOINT_OF)
+    )

@@ -1,5 +1,10 @@
-"""Reading a session: :func:`open_session` (recovering an interrupted recording first) and
-:class:`Session` (metadata at open, per-sample data lazily)."""
+"""Reading what a session file stores: :class:`StoredSession` (metadata at open, per-sample
+data lazily, decoded from whatever the format stores).
+
+Opening by path (recovering an interrupted recording first, computing what a file does not
+store) is the finishing layer's :func:`gaitmon.finish.open_session`; :mod:`.opening` opens a
+file as it is.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +12,9 @@ import contextlib
 import copy
 import json
 import math
-import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, Self, cast
 
 import h5py
 import numpy as np
@@ -19,31 +23,42 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import CHANNELS, GYRO_IDX, ChannelSpec
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.journal import journal_path
 from gaitmon.io.session.codec import GYRO, JOINT_OF, decode, derived, gyro_from_counts
 from gaitmon.io.session.codec import joints_from_stored_tilts as _joints_of
 from gaitmon.io.session.exclusions import Exclusion
-from gaitmon.io.session.exclusions import load as load_exclusions
-from gaitmon.io.session.h5file import _being_recorded, _short_error
+from gaitmon.io.session.exclusions import read as read_exclusions
+from gaitmon.io.session.h5file import _short_error
 from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta
 from gaitmon.io.session.layout import (
     _PER_SAMPLE,
+    ANGLE_SOURCES,
     FORMAT,
     FORMAT_VERSION,
     MODES,
-    READER_CHUNK_CACHE_BYTES,
+    SMOOTHED,
     per_sample_datasets,
     stored_datasets,
-)
-from gaitmon.io.session.parts import BOTH_LEGS, SIDE_NAMES, parts_of
-from gaitmon.io.session.smoothed import (
-    ANGLE_SOURCES,
-    SMOOTHED,
-    smoothed_from_file,
-    smoothed_method_label,
     stored_smoothed,
 )
+from gaitmon.io.session.parts import BOTH_LEGS
+from gaitmon.io.session.series import (
+    AttrValue,
+    Gap,
+    Marker,
+    SeriesView,
+    _check_per_sample,
+    _event_rows,
+    _py,
+    _s,
+    _sample_rate,
+    number,
+)
 from gaitmon.io.session.truth import Truth, truth_from_file
+
+if TYPE_CHECKING:
+    from gaitmon.io.overview import PeakPyramid
+
+__all__ = ["Gap", "Marker", "SeriesView", "StoredSession"]
 
 # per-sample series a format-2 file stores encoded (read through SeriesView, not h5py)
 _CODED = frozenset(("processed/tilt_deg", "processed/tilt_acc_deg", "processed/tilt_gyro_deg",
@@ -54,70 +69,13 @@ _CODED = frozenset(("processed/tilt_deg", "processed/tilt_acc_deg", "processed/t
 _DECODE_ROWS = 1 << 18  # rows decoded at a time (64 chunks; ~4 MB of int16 tilts)
 
 
-class SeriesView:
-    """A per-sample series read by slicing (``view[a:b]``), decoded by the session reader."""
+class StoredSession:
+    """A session file opened for reading what it stores. Metadata is read at open; per-sample
+    data lazily.
 
-    def __init__(self, session: Session, name: str) -> None:
-        self._s = session
-        self.name = name
-        self.shape = session.shape_of(name)
-        self.dtype = np.dtype(_PER_SAMPLE[name][1])
-        self.ndim = len(self.shape)
-        self.file = session.h5
-
-    def __len__(self) -> int:
-        return self.shape[0]
-
-    def __getitem__(self, key: Any) -> np.ndarray:
-        if isinstance(key, slice) and key.step in (None, 1):
-            a, b, _ = key.indices(self.shape[0])
-            return self._s.read_range(a, b, [self.name])[self.name]
-        return self._s.read(self.name)[key]
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        a = self._s.read(self.name)
-        return a if dtype is None else a.astype(dtype)
-
-
-class Marker(NamedTuple):
-    sample_idx: int
-    t_s: float
-    label: str
-
-
-class Gap(NamedTuple):
-    sample_idx: int
-    n_lost: int
-    duration_s: float
-    reason: str
-
-
-def _s(x: Any) -> str:
-    if isinstance(x, bytes):
-        return x.decode("utf-8", errors="replace")
-    if isinstance(x, np.ndarray) and x.shape == ():
-        return _s(x[()])
-    return str(x)
-
-
-def _py(x: Any) -> Any:
-    """An HDF5 attribute value as plain Python."""
-    if isinstance(x, bytes):
-        return x.decode("utf-8", errors="replace")
-    if isinstance(x, np.ndarray):
-        return x.tolist() if x.shape else _py(x[()])
-    if isinstance(x, np.bool_):
-        return bool(x)
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.floating):
-        return float(x)
-    return x
-
-
-class Session:
-    """A session file opened for reading. Metadata is read at open; per-sample data lazily.
-
+    It computes nothing the pipeline makes: a raw session's smoothed angles that the file
+    does not store come from :meth:`_computed_smoothed`, which the finishing layer's session
+    (:class:`gaitmon.finish.Session`, what :func:`gaitmon.finish.open_session` gives) supplies.
     Use as a context manager, or call :meth:`close`. Every failure to read raises
     :class:`SessionError`.
     """
@@ -153,7 +111,7 @@ class Session:
                 "update gaitmon to open it"
             )
         self.format_version = max(1, version)
-        self.attrs: dict[str, Any] = {k: _py(v) for k, v in a.items()}
+        self.attrs: dict[str, AttrValue] = {k: _py(v) for k, v in a.items()}
         self.mode: str = str(self.attrs.get("mode", ""))
         if self.mode not in MODES:
             raise SessionError(f"{name} is damaged: unknown mode {self.mode!r}")
@@ -170,14 +128,14 @@ class Session:
         self.meta = SessionMeta(
             **{k: sess.get(k, "") for k in ("patient_id", "side", "operator", "notes")}
         )
-        self.device: dict[str, Any] = {k: _py(v) for k, v in f["device"].attrs.items()}
+        self.device: dict[str, AttrValue] = {k: _py(v) for k, v in f["device"].attrs.items()}
         ch = f["device/channels"][()]
-        self.channels: list[dict[str, Any]] = [
+        self.channels: list[dict[str, AttrValue]] = [
             {k: _py(row[k]) for k in ch.dtype.names} for row in ch
         ]
 
         cfg_attrs = {k: _py(v) for k, v in f["config"].attrs.items()}
-        self.event_delay_samples = int(cfg_attrs.pop("event_delay_samples", 0))
+        self.event_delay_samples = int(number(cfg_attrs.pop("event_delay_samples", 0)))
         self.config = PipelineConfig.from_stored(cfg_attrs)
         self.config_changes: list[tuple[int, PipelineConfig]] = [
             (int(r["sample_idx"]), PipelineConfig.from_stored(json.loads(_s(r["json"]))))
@@ -231,9 +189,9 @@ class Session:
             self.problems.append(
                 f"datasets have different lengths; using the first {self.n_samples} rows"
             )
-        if self.complete and int(self.attrs.get("n_samples", -1)) != self.n_samples:
+        if self.complete and int(number(self.attrs.get("n_samples", -1))) != self.n_samples:
             self.problems.append("n_samples attribute does not match the data")
-        self.duration_s = float(self.attrs.get("duration_s", 0.0))
+        self.duration_s = float(number(self.attrs.get("duration_s", 0.0)))
         if not (self.complete or self.recovered) and self.n_samples:
             # an unfinished file's attribute still says 0: its last row's time says how long
             with contextlib.suppress(OSError, RuntimeError, ValueError, TypeError):
@@ -243,7 +201,7 @@ class Session:
         if not self.complete and not self.recovered:
             self.problems.append("the recording was not stopped cleanly")
         # the angles every reader gets: the zero-lag smoother's (raw mode; stored in /smoothed,
-        # or computed on first read), or the live filter's (see gaitmon.io.session.smoothed)
+        # or computed on first read), or the live filter's (see gaitmon.finish.smoothed)
         self.live_angle_method = _s(proc.get("tilt_method", "")) or (
             self.config.tilt_method_label if self.mode == "raw" else "the unit's own"
         )
@@ -254,11 +212,11 @@ class Session:
         self._bias_rows: list[tuple[int, np.ndarray]] | None = None
         self.smoothed_stored = stored_smoothed(f, self.n_samples)
         self._smoothed: dict[str, np.ndarray] | None = None
-        self._stride_cache: dict[bytes, Any] = {}  # heel strikes -> their stride measures
         sm = f.get("smoothed")
+        # the stored method's name; a file without /smoothed: the finishing layer's
         self._smoothed_method = (
             _s(sm.attrs.get("method", "")) if self.smoothed_stored and sm is not None else ""
-        ) or smoothed_method_label()
+        )
 
     # -- access ----------------------------------------------------------------------------------
 
@@ -267,7 +225,7 @@ class Session:
         known = {c.name for c in CHANNELS}
         try:
             channels = (
-                tuple(ChannelSpec(**c) for c in self.channels)
+                tuple(ChannelSpec(**cast("dict[str, Any]", c)) for c in self.channels)
                 if all(c.get("name") in known for c in self.channels)
                 else CHANNELS
             )
@@ -315,7 +273,7 @@ class Session:
             )
         self.angle_source = source
 
-    def with_angles(self, source: str) -> Session:
+    def with_angles(self, source: str) -> Self:
         """This session reading the angles of ``source`` (see :meth:`use_angles`): a second
         view of the same open file, so readers on other threads can read one source while
         this session reads the other. Close this session, not the view."""
@@ -335,16 +293,17 @@ class Session:
     def _smoothed_series(self) -> dict[str, np.ndarray]:
         """The whole smoothed series of a file that does not store them, computed once."""
         if self._smoothed is None:
-            try:
-                self._smoothed = smoothed_from_file(
-                    self._f, self.header.table, self.calibration, self.sample_rate_hz
-                )
-            except (OSError, RuntimeError, ValueError, KeyError) as e:
-                raise SessionError(
-                    f"{self.path.name} is damaged: cannot compute the smoothed angles "
-                    f"({_short_error(e)}); read the live ones (review: Angles > live)"
-                ) from e
+            self._smoothed = self._computed_smoothed()
         return self._smoothed
+
+    def _computed_smoothed(self) -> dict[str, np.ndarray]:
+        """``{"smoothed/tilt_deg": ..., "smoothed/joint_deg": ...}`` of a raw session that does
+        not store them: the format stores and reads, it does not run the smoother (the
+        finishing layer's session computes them)."""
+        raise SessionError(
+            f"{self.path.name} does not store its smoothed angles; open it with "
+            "gaitmon.finish.open_session, which computes them, or read the live ones"
+        )
 
     @property
     def h5(self) -> h5py.File | h5py.Group:
@@ -451,7 +410,7 @@ class Session:
             self._bias_rows = rows
         return self._bias_rows
 
-    def stored_pyramid(self, name: str) -> Any:
+    def stored_pyramid(self, name: str) -> PeakPyramid | None:
         """The min/max pyramid of a joint series (under the current angle source) from the
         file's ``/overview`` (:mod:`gaitmon.io.session.stored_overview`), or None where the
         file has none: then build it from the rows."""
@@ -473,43 +432,11 @@ class Session:
 
         return PeakPyramid.from_level0(got[0], got[1], self.n_samples, BASE_STEP)
 
-    def foot_stride_measures(self, heel_strike_idx: np.ndarray | None = None) -> Any:
-        """Stride length and foot clearance (:class:`gaitmon.dsp.stride_length.StrideMeasures`)
-        of the strides between ``heel_strike_idx`` (default: the recorded heel strikes), from
-        the foot IMU: stored in ``/strides`` when computed from exactly these inputs, else
-        computed (:mod:`gaitmon.io.session.stored_strides`); None without raw counts. The
-        last two results are kept (review compares the recorded events with a reprocessing's),
-        so analysing again with other exclusions costs nothing."""
-        from gaitmon.io.session.stored_strides import StrideInputs, stride_measures_of
-
-        if self.mode != "raw" or not self.n_samples:
-            return None
-        hs = np.asarray(self.heel_strike_idx if heel_strike_idx is None else heel_strike_idx,
-                        dtype=np.int64)  # fmt: skip
-        key = hs.tobytes()
-        if key in self._stride_cache:
-            return self._stride_cache[key]
-        inputs = StrideInputs(self.n_samples, self.sample_rate_hz, self.header.table,
-                              self.calibration, self.calibration_changes)  # fmt: skip
-        try:
-            m = stride_measures_of(
-                self._f, lambda a, b: self.read_range(a, b, ["raw/adc"])["raw/adc"], inputs, hs
-            )
-        except (OSError, RuntimeError, KeyError) as e:
-            raise SessionError(
-                f"{self.path.name} is damaged: cannot read the foot sensor's raw counts "
-                f"({_short_error(e)})"
-            ) from e
-        # the newest before and this one (the recorded events and a reprocessing's), swapped
-        # in whole, so that a reader on another thread never sees it change size
-        self._stride_cache = {**dict(list(self._stride_cache.items())[-1:]), key: m}
-        return m
-
     def exclusions(self) -> tuple[list[Exclusion], str]:
         """(ranges, problem): the row ranges the user excluded in review (stored beside the
         recording, see :mod:`gaitmon.io.session.exclusions`), merged and clipped to the data.
         ``problem`` is a one-line reason when the side file could not be used, else ""."""
-        return load_exclusions(self.exclusions_key, self.created_utc, self.n_samples)
+        return read_exclusions(self)
 
     @property
     def exclusions_key(self) -> Path:
@@ -533,196 +460,8 @@ class Session:
         with contextlib.suppress(Exception):
             self._f.file.close()
 
-    def __enter__(self) -> Session:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-# No unit samples faster; a larger recorded rate is a damaged attribute (1e300 Hz overflows
-# the time grids of the exports).
-MAX_SAMPLE_RATE_HZ = 100_000.0
-
-
-def _sample_rate(name: str, value: Any) -> float:
-    """The recorded sample rate; a damaged one (0, NaN, negative, not a number) is said here,
-    at the file's edge, rather than as a ValueError deep inside the analysis."""
-    if value is None:
-        raise SessionError(f"{name} is damaged: it has no sample rate")
-    try:
-        fs = float(value)
-    except (TypeError, ValueError):
-        fs = float("nan")
-    if not (math.isfinite(fs) and 0 < fs <= MAX_SAMPLE_RATE_HZ):
-        raise SessionError(f"{name} is damaged: its sample rate is {value!r} Hz")
-    return fs
-
-
-def _event_rows(name: str, f: h5py.File, kind: str) -> np.ndarray:
-    """One event kind's rows: whole numbers from 0 on, strictly increasing (as every writer
-    stores them); anything else means the file was damaged after it was written."""
-    raw = f[f"events/{kind}"][()]
-    arr = np.asarray(raw)
-    label = kind.replace("_", " ") + "s"
-    if arr.ndim != 1 or arr.dtype.kind not in "iu":
-        raise SessionError(
-            f"{name} is damaged: /events/{kind} holds {arr.dtype} of shape {arr.shape}, "
-            "not row numbers"
-        )
-    rows = arr.astype(np.int64)
-    if len(rows) and (rows[0] < 0 or np.any(np.diff(rows) <= 0)):
-        raise SessionError(f"{name} is damaged: its {label} are out of order")
-    return rows
-
-
-def _check_per_sample(name: str, path: str, ds: h5py.Dataset) -> None:
-    """A per-sample dataset has the row shape and a numeric kind of the layout's table."""
-    spec = _PER_SAMPLE.get(path)
-    if spec is None:
-        return
-    row_shape, dtype, _ = spec
-    if ds.ndim == 0 or tuple(ds.shape[1:]) != row_shape or ds.dtype.kind not in "iuf":
-        raise SessionError(
-            f"{name} is damaged: /{path} holds {ds.dtype} rows of shape {tuple(ds.shape[1:])} "
-            f"instead of {dtype} rows of shape {row_shape}"
-        )
-
-
-def _open_h5(path: Path) -> h5py.File:
-    try:
-        return h5py.File(path, "r", rdcc_nbytes=READER_CHUNK_CACHE_BYTES, rdcc_nslots=1021)
-    except (OSError, RuntimeError, ValueError) as e:
-        why = _short_error(e)
-        if path.is_dir():
-            why = "a folder"
-        elif path.exists() and path.stat().st_size == 0:
-            why = "an empty file"
-        elif why == "not an HDF5 file":
-            pass
-        else:
-            raise SessionError(
-                f"{path.name} is damaged and cannot be opened ({why}); "
-                "pick another session file recorded by gaitmon"
-            ) from e
-        raise SessionError(
-            f"{path.name} is not a gaitmon session ({why}); pick a session file recorded by "
-            "gaitmon"
-        ) from e
-
-
-def _read_session(path: Path, problems: Sequence[str] = ()) -> Session:
-    return _session_of(path, _open_h5(path), problems)
-
-
-def _session_of(path: Path, f: h5py.File, problems: Sequence[str] = ()) -> Session:
-    return _built(path, f, lambda: Session(path, f, problems))
-
-
-def _built(path: Path, f: h5py.File, make: Callable[[], Session]) -> Session:
-    """``make()``, a Session over the open ``f``; on failure ``f`` is closed and the failure is
-    one SessionError line."""
-    try:
-        return make()
-    except SessionError:
-        f.close()
-        raise
-    except Exception as e:  # damaged metadata can fail in many ways inside h5py/numpy
-        with contextlib.suppress(Exception):
-            f.close()
-        raise SessionError(f"{path.name} is damaged ({_short_error(e)})") from e
-
-
-def open_combined_h5(
-    path: Path, progress: Callable[[float], bool | None] | None = None
-) -> h5py.File:
-    """A bilateral session's file, open for reading, after its parts (an interrupted
-    recording's) are recovered and combined. Whether it is bilateral is the caller's check."""
-    from gaitmon.io.session.combine import finish_parts
-
-    finish_parts(path, progress)
-    if not path.exists():
-        raise SessionError(f"{path.name} does not exist; check the file name and folder")
-    return _open_h5(path)
-
-
-def open_session(
-    path: str | os.PathLike[str],
-    *,
-    recover: bool = True,
-    progress: Callable[[float], bool | None] | None = None,
-    side: str | None = None,
-) -> Session:
-    """Open a session for reading, first recovering it if a journal says it was interrupted.
-
-    If the journal itself is unusable, the HDF5 file is opened as it is (flushed every 100 ms
-    while recording) and :attr:`Session.problems` says so.
-
-    A bilateral file (both legs, ``gaitmon.io.session.bilateral``) is opened one unit at a
-    time: ``side="L"`` or ``"R"`` gives that leg's session; without a side it is refused with
-    a one-line message rather than silently giving one leg.
-    """
-    path = Path(path)
-    if side is not None:
-        return _open_unit(path, side, progress)
-    jpath = journal_path(path)
-    if jpath.exists() and recover:
-        if _being_recorded(jpath):
-            raise SessionError(
-                f"{path.name} is being recorded right now; open it after the recording stops"
-            )
-        if path.exists():
-            # a clean stop or a finished recovery only had the journal's deletion left to do
-            done = False
-            with contextlib.suppress(SessionError), _read_session(path) as s:
-                done = s.complete or s.recovered
-            if done:
-                jpath.unlink()
-        if jpath.exists():
-            from gaitmon.io.session.recovery import (  # only when needed
-                recover_in_memory,
-                recover_session,
-            )
-
-            try:
-                recover_session(path, progress)
-            except SessionError as e:
-                # e.g. a full disk: read what the journal holds from memory, so a reader gets
-                # every row the recorder said was saved, right away (the file's own rows can
-                # stop short of them, in datasets of different lengths)
-                with contextlib.suppress(SessionError):
-                    f = recover_in_memory(path)
-                    return _session_of(path, f, [f"recovered in memory only: {e}"])
-                if not path.exists():
-                    raise
-                return _read_session(path, [f"not recovered: {e}"])
-    elif not path.exists():
-        if parts_of(path):  # an interrupted bilateral recording
-            raise SessionError(BOTH_LEGS.format(name=path.name))
-        raise SessionError(f"{path.name} does not exist; check the file name and folder")
-    return _read_session(path)
-
-
-def _open_unit(
-    path: Path, side: str, progress: Callable[[float], bool | None] | None
-) -> Session:
-    """One leg of a bilateral session (its parts recovered and combined first if the recording
-    was interrupted)."""
-    if side not in SIDE_NAMES:
-        raise SessionError(f"side must be L or R, got {side!r}")
-    f = open_combined_h5(path, progress)
-
-    def make() -> Session:
-        if not bool(f.attrs.get("bilateral", False)):
-            raise SessionError(
-                f"{path.name} holds one unit, not both legs; open it without a side"
-            )
-        if f"units/{side}" not in f:
-            sides = [s for s in str(_s(f.attrs.get("sides", ""))).split() if s in SIDE_NAMES]
-            raise SessionError(
-                f"{path.name} has no {SIDE_NAMES[side]} leg (it has "
-                f"{' and '.join(SIDE_NAMES[s] for s in sides) or 'none'})"
-            )
-        return Session(path, f[f"units/{side}"], side=side)
-
-    return _built(path, f, make)

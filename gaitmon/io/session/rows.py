@@ -6,9 +6,11 @@ The live writer and the recovery both turn blocks into rows here, so they write 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Protocol
 
+import h5py
 import numpy as np
+import numpy.typing as npt
 
 from gaitmon.dsp.angles import joint_angles, wrap_angle
 from gaitmon.dsp.fsr_check import FsrFault
@@ -57,10 +59,13 @@ def fault_rows(
 class LazyRows:
     """The first ``n`` rows of an array-like (an h5py dataset, a field of a structured array)
     read only when sliced, as C-contiguous copies: a whole recording's raw counts handed to
-    :func:`gaitmon.io.session.recovery.replay_pipeline` or the smoother without reading them
+    :func:`gaitmon.finish.recovery.replay_pipeline` or the smoother without reading them
     all into memory at once."""
 
-    def __init__(self, data: Any, n: int | None = None, dtype: Any = None) -> None:
+    def __init__(
+        self, data: np.ndarray | h5py.Dataset, n: int | None = None,
+        dtype: npt.DTypeLike | None = None,
+    ) -> None:  # fmt: skip
         self._data = data
         self._n = len(data) if n is None else int(n)
         self._dtype = dtype  # None: as stored
@@ -79,13 +84,27 @@ class LazyRows:
         return self.rows(a, b)
 
 
-def lost_before_from_gaps(gaps: Sequence[Any], n_rows: int) -> np.ndarray:
-    """Frames lost just before each row, from a session's gap table (gaps at one row add up)."""
+class GapRow(Protocol):
+    """A gap as a reader gives it (:class:`~gaitmon.io.session.series.Gap`)."""
+
+    @property
+    def sample_idx(self) -> int: ...
+
+    @property
+    def n_lost(self) -> int: ...
+
+
+def lost_before_from_gaps(gaps: Sequence[GapRow] | np.ndarray, n_rows: int) -> np.ndarray:
+    """Frames lost just before each row, from a session's gap table (gaps at one row add up):
+    a reader's gaps, or the file's ``/gaps`` table (a structured array)."""
     lost = np.zeros(n_rows, dtype=np.int64)
     for g in gaps:
-        idx = int(g.sample_idx if hasattr(g, "sample_idx") else g["sample_idx"])
+        if isinstance(g, np.void):  # a row of the table
+            idx, n_lost = int(g["sample_idx"]), int(g["n_lost"])
+        else:
+            idx, n_lost = int(g.sample_idx), int(g.n_lost)
         if 0 <= idx < n_rows:
-            lost[idx] += int(g.n_lost if hasattr(g, "n_lost") else g["n_lost"])
+            lost[idx] += n_lost
     return lost
 
 

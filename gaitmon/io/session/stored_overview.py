@@ -20,8 +20,6 @@ is read as before.
 
 from __future__ import annotations
 
-from typing import Any
-
 import h5py
 import numpy as np
 
@@ -102,7 +100,7 @@ def _bins(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _minmax_bins(np.asarray(y), BASE_STEP)
 
 
-def read_overview(f: h5py.File, path: str, n_rows: int) -> tuple[Any, Any] | None:
+def read_overview(f: h5py.File, path: str, n_rows: int) -> tuple[np.ndarray, np.ndarray] | None:
     """(mins, maxs) float32 of ``path``'s 16-row bins if the file stores them for ``n_rows``
     rows, else None."""
     g = f.get("overview")

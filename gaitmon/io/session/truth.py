@@ -3,7 +3,7 @@
 Only sessions recorded from the simulated unit have it; :mod:`gaitmon.io.sim.truth` computes
 what it holds (mapping every row back to the sample the unit generated) and writes it with
 :func:`write_truth` into the finished file. Readers get the true tilts with :func:`read_truth`
-or :meth:`gaitmon.io.session.Session.truth`.
+or :meth:`gaitmon.io.session.StoredSession.truth`.
 """
 
 from __future__ import annotations

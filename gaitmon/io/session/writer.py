@@ -8,7 +8,7 @@ compresses its datasets, so the file receives each 4096-row chunk once, whole, w
 (:class:`gaitmon.io.session.h5file._H5File` stages the chunk being filled: it is in the journal
 meanwhile, and a reader of the file as it is sees the whole chunks). A clean
 :meth:`SessionWriter.close` marks the file complete and deletes the journal. A journal found
-beside a file means the recording was interrupted (see :mod:`gaitmon.io.session.recovery`).
+beside a file means the recording was interrupted (see :mod:`gaitmon.finish.recovery`).
 
 Why writes are batched per flush rather than per block: an h5py resize + write costs tens of
 microseconds per dataset, and a block touches ~17 datasets, so per-block HDF5 writes at
@@ -20,12 +20,14 @@ from __future__ import annotations
 
 import contextlib
 import json
-import logging
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
+from types import TracebackType
 from typing import Any
 
+import h5py
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
@@ -61,7 +63,9 @@ from gaitmon.io.session.rows import (
     rows_from_pipeline,
 )
 
-log = logging.getLogger("gaitmon.session")
+# What the finishing layer adds to a raw recording at its close, from the rows the file holds
+# (the open file, the recording's header, its sample rate): see SessionWriter.close.
+Derive = Callable[[h5py.File, SessionHeader, float], None]
 
 
 class SessionWriter:
@@ -359,8 +363,14 @@ class SessionWriter:
             raise self._fail(e) from e
         self._dirty = False
 
-    def close(self, *, stop_reason: str = "user") -> None:
+    def close(self, *, stop_reason: str = "user", derive: Derive | None = None) -> None:
         """Finish the file (complete, n_samples, duration_s, stop_reason) and delete the journal.
+
+        ``derive`` adds what is computed from the stored rows (``/smoothed``, ``/strides``: the
+        finishing layer's, :func:`gaitmon.finish.close_recording`) to the file once every row,
+        event and marker is in it and before it is marked complete, so a crash meanwhile
+        leaves the journal for recovery; its write errors fail the close as any write does.
+        The writer itself stores only.
 
         After a write error this only releases the files (the journal stays for recovery).
         """
@@ -373,13 +383,10 @@ class SessionWriter:
         assert self._h5 is not None and self._journal is not None
         try:
             self._write_staged()
-            self._h5.drain()  # the chunk being filled, so that the smoother reads every row
+            self._h5.drain()  # the chunk being filled, so that derive reads every row
             self._write_markers(final=True)
-            if self._kind == FrameKind.RAW and self._rows:
-                self._store_smoothed()
-                from gaitmon.io.session.stored_strides import store_strides
-
-                store_strides(self._h5.f, self.header.table, self.header.calibration, self._fs)
+            if derive is not None and self._kind == FrameKind.RAW and self._rows:
+                derive(self._h5.f, self.header, self._fs)
             self._h5.finish(complete=True, recovered=False, stop_reason=stop_reason, fs_hz=self._fs)
             self._bytes = self._h5.size_bytes()
             self._h5.close()
@@ -414,7 +421,10 @@ class SessionWriter:
     def __enter__(self) -> SessionWriter:
         return self
 
-    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:  # fmt: skip
         if exc is None:
             self.close()
         else:
@@ -428,19 +438,6 @@ class SessionWriter:
             raise self._error
         if self._closed:
             raise SessionError(f"the recording to {self._path.name} is already stopped")
-
-    def _store_smoothed(self) -> None:
-        """``/smoothed``: the whole record's zero-lag angles, so that every reader analyses the
-        best estimate without computing it (a disk error fails the close as any write does:
-        the journal stays and recovery stores them; bad data only leaves them to be computed
-        when read)."""
-        from gaitmon.io.session.smoothed import smooth_into
-
-        assert self._h5 is not None
-        try:
-            smooth_into(self._h5.f, self.header.table, self.header.calibration, self._fs)
-        except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:
-            log.warning("smoothed angles not stored in %s: %s", self._path.name, e)
 
     def _write_journal(self, record: bytes) -> None:
         assert self._journal is not None

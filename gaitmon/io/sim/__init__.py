@@ -26,9 +26,8 @@ scipy.
 
 from __future__ import annotations
 
+from types import ModuleType
 from typing import TYPE_CHECKING
-
-from gaitmon.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from gaitmon.io.sim.bilateral import (
@@ -47,16 +46,56 @@ if TYPE_CHECKING:
     from gaitmon.io.sim.sensors import SensorConfig, SensorModel
     from gaitmon.io.sim.unit import GroundTruth, SimulatedUnit
 
-__getattr__ = lazy_exports(__name__, {
-    "SimConfig": "config", "build_unit": "config", "serve_on_pty": "config",
-    "GaitConfig": "kinematics", "GaitModel": "kinematics", "PATTERNS": "patterns",
-    "SensorConfig": "sensors", "SensorModel": "sensors",
-    "FaultConfig": "faults", "FaultLedger": "faults",
-    "GroundTruth": "unit", "SimulatedUnit": "unit",
-    "CrystalClock": "clock", "BilateralConfig": "bilateral", "BilateralPty": "bilateral",
-    "BilateralSim": "bilateral", "BilateralTruth": "bilateral", "UnitSpec": "bilateral",
-    "serve_pair_on_ptys": "bilateral",
-})  # fmt: skip
+
+def __getattr__(name: str) -> object:
+    """A name of the package, imported from its module on first use (PEP 562): a plain
+    import here, so the layer test sees the arrow; later lookups find it in the package."""
+    if name in ("SimConfig", "build_unit", "serve_on_pty"):
+        from gaitmon.io.sim import config
+
+        return _keep(name, config)
+    if name in ("GaitConfig", "GaitModel"):
+        from gaitmon.io.sim import kinematics
+
+        return _keep(name, kinematics)
+    if name == "PATTERNS":
+        from gaitmon.io.sim import patterns
+
+        return _keep(name, patterns)
+    if name in ("SensorConfig", "SensorModel"):
+        from gaitmon.io.sim import sensors
+
+        return _keep(name, sensors)
+    if name in ("FaultConfig", "FaultLedger"):
+        from gaitmon.io.sim import faults
+
+        return _keep(name, faults)
+    if name in ("GroundTruth", "SimulatedUnit"):
+        from gaitmon.io.sim import unit
+
+        return _keep(name, unit)
+    if name == "CrystalClock":
+        from gaitmon.io.sim import clock
+
+        return _keep(name, clock)
+    if name in (
+        "BilateralConfig",
+        "BilateralPty",
+        "BilateralSim",
+        "BilateralTruth",
+        "UnitSpec",
+        "serve_pair_on_ptys",
+    ):
+        from gaitmon.io.sim import bilateral
+
+        return _keep(name, bilateral)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _keep(name: str, module: ModuleType) -> object:
+    value = getattr(module, name)
+    globals()[name] = value  # found once; later lookups are plain
+    return value
 
 
 __all__ = [

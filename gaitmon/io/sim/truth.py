@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gaitmon.io.session.reader import open_session
+from gaitmon.io.session.opening import read_stored
 from gaitmon.io.session.truth import write_truth
 from gaitmon.io.sim.unit import SimulatedUnit
 
@@ -34,7 +34,7 @@ def row_samples(seq: np.ndarray, unit: SimulatedUnit) -> np.ndarray:
 
 def attach_ground_truth(path: str | Path, unit: SimulatedUnit) -> int:
     """Write ``/truth`` into a finished session file; returns the number of rows mapped."""
-    with open_session(path, recover=False) as s:
+    with read_stored(Path(path)) as s:
         seq = s.read("timeline/seq")
     samples = row_samples(seq, unit)
     valid = samples >= 0

@@ -1,20 +1,22 @@
 """The live monitor's actions declared as data: one row per action, the window builds from it.
 
-Each :class:`ActionSpec` names the window slot it calls, its shortcut, tooltip and the menu it
-sits in (table order is menu order). :func:`build_actions` makes the ``QAction`` objects with the
-shared :func:`gaitmon.ui.actions.make_action`; :func:`build_menus` lays out the menu bar. The
-keyboard help (F1) is the :data:`SHORTCUTS` list; a test checks each key in it is bound.
+Each :class:`ActionSpec` names the slot it calls (a method of the window or of one of its
+parts), its shortcut, tooltip and the menu it sits in (table order is menu order).
+:func:`build_actions` makes the ``QAction`` objects with the shared
+:func:`gaitmon.ui.actions.make_action`; :func:`build_menus` lays out the menu bar. The keyboard
+help (F1) is the :data:`SHORTCUTS` list; a test checks each key in it is bound.
 """
 
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import QMainWindow, QMenu
 
-from gaitmon.dsp.estimate import DEFAULT_METHOD, METHODS
+from gaitmon.dsp.methods import DEFAULT_METHOD, methods
 from gaitmon.engine import Mode
 from gaitmon.ui.actions import make_action
 from gaitmon.ui.plots import METHOD_LABELS
@@ -45,17 +47,12 @@ SHORTCUTS = [
     ("Ctrl+Q", "quit"),
 ]
 
-# the tilt filters the PC pipeline offers (PipelineConfig.tilt_method): key, menu text, tip
+# the tilt filters the PC pipeline offers (PipelineConfig.tilt_method; the method registry,
+# gaitmon.dsp.methods): key, menu text, tip
 TILT_METHODS = tuple(
-    (key, f"{label[0].upper()}{label[1:]}" + (" (default)" if key == DEFAULT_METHOD else ""),
-     tip)
-    for key, label, tip in (
-        ("gait-aware", METHODS["gait-aware"], "Trusts the accelerometer by how much each "
-         "segment moves: 2-3.5x closer to the simulator's truth than the paper's filter "
-         "(docs/filters.md)"),
-        ("paper", METHODS["paper"], "The source paper's Kalman filter exactly as published "
-         "(Q_angle, Q_gyro and R in Settings)"),
-    )
+    (m.name, f"{m.label[0].upper()}{m.label[1:]}" + (" (default)" if m.name == DEFAULT_METHOD
+                                                     else ""), m.tip)
+    for m in methods(live=True)
 )  # fmt: skip
 # the simulated unit's foot-sensor faults: key, menu text, tip
 SIM_FSR_FAULTS = (
@@ -72,8 +69,8 @@ SESSION, VIEW, HELP = "&Session", "&View", "&Help"
 
 @dataclass(frozen=True)
 class ActionSpec:
-    """One window action. ``slot`` is the name of a window method, called with ``args`` first
-    (and, when ``checkable``, the new state last)."""
+    """One window action. ``slot`` is the name of a window or part method, called with
+    ``args`` first (and, when ``checkable``, the new state last)."""
 
     name: str
     text: str
@@ -175,18 +172,23 @@ ACTIONS: tuple[ActionSpec, ...] = (
 
 
 def build_actions(
-    window: QMainWindow, specs: tuple[ActionSpec, ...] = ACTIONS
+    window: QMainWindow,
+    find_slot: Callable[[str], Callable[..., object]],
+    specs: tuple[ActionSpec, ...] = ACTIONS,
 ) -> dict[str, QAction]:
-    """The window's actions by name, each calling ``window.<slot>(*args)``."""
+    """The window's actions by name, each calling ``find_slot(<slot>)(*args)``: looked up when
+    triggered, so the window's parts can be built with the actions they use."""
     actions: dict[str, QAction] = {}
     for spec in specs:
-        slot = getattr(window, spec.slot)
-        if spec.args:
-            slot = functools.partial(slot, *spec.args)
+        slot = functools.partial(_call, find_slot, spec.slot, *spec.args)
         actions[spec.name] = make_action(
             window, spec.text, slot, spec.shortcut, spec.tooltip, checkable=spec.checkable
         )
     return actions
+
+
+def _call(find_slot: Callable[[str], Callable[..., object]], name: str, *args: object) -> object:
+    return find_slot(name)(*args)
 
 
 def build_menus(

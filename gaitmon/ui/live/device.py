@@ -1,20 +1,26 @@
-"""The live monitor's device slots: ports, connect / disconnect, zero, the simulator's link, its
-subject (stand still / walk again) and its foot sensors (dead heel, toe stuck loaded).
+"""The live window's device part: the Connection toolbar (ports, mode, Connect), connect /
+disconnect one unit, zero, the simulator's link, its subject (stand still / walk again) and its
+foot sensors (dead heel, toe stuck loaded).
 
 Connecting and zeroing block (the unit identifies itself, the engine checks the pose), so they
 are requests to :class:`~gaitmon.ui.live.jobs.DeviceJobs` whose typed responses arrive here on
-the GUI thread.
+the GUI thread. What the rest of the window does when a unit comes or goes (the display, LSL)
+is the window's: it hands :class:`DevicePart` those steps as callbacks.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 
-from PySide6.QtCore import Qt, QTimer
+from PySide6.QtCore import QSize, Qt, QTimer
+from PySide6.QtGui import QAction
+from PySide6.QtWidgets import QComboBox, QLabel, QMainWindow, QMenu, QToolBar, QToolButton
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.engine import EngineError, Mode
+from gaitmon.io.sim.config import SimConfig
 from gaitmon.jobs import Response
 from gaitmon.live.connection import (
     SIMULATED_LABEL,
@@ -24,14 +30,112 @@ from gaitmon.live.connection import (
 )
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
-from gaitmon.ui.live.base import LiveWindowBase
+from gaitmon.ui.live.actions import MODES, SIM_FSR_FAULTS
+from gaitmon.ui.live.context import LiveContext
 from gaitmon.ui.live.jobs import ConnectRequest
 
 log = logging.getLogger("gaitmon.ui")
 
+# the one-leg simulator's actions (a pair cannot stand on request, nor break a sensor)
+ONE_LEG_SIM_ACTIONS = ("cut", "restore", "sim_stand", "sim_walk",
+                       *(f"sim_{key}" for key, _text, _tip in SIM_FSR_FAULTS))  # fmt: skip
 
-class DeviceSlots(LiveWindowBase):
-    """Slots of the Device menu and the connection toolbar."""
+
+class DevicePart:
+    """Slots of the Device menu and the Connection toolbar, for one unit. ``started``: the
+    window's steps once a unit is connected; ``stopping`` / ``stopped``: before and after its
+    engine is closed (the display timer, the LSL outlets)."""
+
+    def __init__(
+        self,
+        ctx: LiveContext,
+        window: QMainWindow,
+        actions: dict[str, QAction],
+        sim_menu: QMenu,
+        *,
+        sim: SimConfig | None,
+        started: Callable[[], None],
+        stopping: Callable[[], None],
+        stopped: Callable[[], None],
+    ) -> None:
+        self.ctx = ctx
+        self.window = window
+        self.actions = actions
+        self.sim_menu = sim_menu
+        self.sim = sim  # the simulated unit's settings (default: SimConfig())
+        self.sim_fsr_actions = {key: actions[f"sim_{key}"] for key, _t, _tip in SIM_FSR_FAULTS}
+        self._started, self._stopping, self._stopped = started, stopping, stopped
+        self._restore_timer: QTimer | None = None
+        self.port_combo = QComboBox()
+        self.port_combo.setMinimumContentsLength(28)
+        self.port_combo.setSizeAdjustPolicy(
+            QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon
+        )
+        self.port_combo.setToolTip("The unit's serial port (Bluetooth SPP shows up as one)")
+        self.mode_combo = QComboBox()
+        for mode, text, tip in MODES:
+            self.mode_combo.addItem(text, mode.value)
+            self.mode_combo.setItemData(
+                self.mode_combo.count() - 1, tip, Qt.ItemDataRole.ToolTipRole
+            )
+        self.mode_combo.setToolTip("What the unit sends (choose before connecting)")
+
+    def report_exception(self, where: str, exc: BaseException) -> None:
+        self.ctx.report_exception(where, exc)
+
+    def build_toolbar(self) -> QToolBar:
+        """The Connection toolbar: Unit (ports, refresh), Mode, Connect."""
+        tb = QToolBar("Connection", self.window)
+        tb.setObjectName("toolbar-connection")
+        tb.setIconSize(QSize(16, 16))
+        tb.addWidget(QLabel(" Unit "))
+        tb.addWidget(self.port_combo)
+        refresh = QToolButton()
+        refresh.setDefaultAction(self.actions["refresh"])
+        refresh.setText("⟳")
+        tb.addWidget(refresh)
+        tb.addWidget(QLabel("  Mode "))
+        tb.addWidget(self.mode_combo)
+        self.connect_button = QToolButton()
+        self.connect_button.setDefaultAction(self.actions["connect"])
+        self.connect_button.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
+        self.connect_button.setMinimumWidth(90)
+        tb.addWidget(self.connect_button)
+        return tb
+
+    def restore(self, mode: Mode | str | None) -> None:
+        """The ports, the last port and the mode (``mode`` given: that one)."""
+        p = self.ctx.prefs
+        self.refresh_ports()
+        last = p.get("device/last_port", "")
+        idx = self.port_combo.findData(last) if last else -1
+        if idx >= 0:
+            self.port_combo.setCurrentIndex(idx)
+        mode_value = Mode(mode).value if mode is not None else p.get("device/mode", "raw")
+        self.mode_combo.setCurrentIndex(max(self.mode_combo.findData(mode_value), 0))
+
+    @property
+    def mode(self) -> Mode:
+        return Mode(self.mode_combo.currentData())
+
+    def update_controls(self) -> None:
+        ctx, acts = self.ctx, self.actions
+        connected, busy = ctx.connected, ctx.connecting
+        acts["connect"].setText(
+            "Connecting…" if busy else ("Disconnect" if connected else "Connect")
+        )
+        acts["connect"].setEnabled(not busy)
+        self.port_combo.setEnabled(not connected and not busy)
+        self.mode_combo.setEnabled(not connected and not busy)
+        acts["refresh"].setEnabled(not connected and not busy)
+        acts["zero"].setEnabled(connected)
+        one_sim = ctx.conn is not None and ctx.conn.simulated
+        pair_sim = ctx.pair is not None and ctx.pair.simulated
+        self.sim_menu.setEnabled(one_sim or pair_sim)
+        for name in ONE_LEG_SIM_ACTIONS:
+            acts[name].setEnabled(ctx.pair is None)
+        acts["cut"].setEnabled(one_sim)
+        acts["restore"].setEnabled(one_sim)
 
     @guarded
     def refresh_ports(self) -> None:
@@ -53,15 +157,9 @@ class DeviceSlots(LiveWindowBase):
         self.port_combo.setCurrentIndex(idx if idx >= 0 else 0)
 
     @guarded
-    def toggle_connect(self) -> None:
-        if self.conn is not None:
-            self.disconnect_device()
-        else:
-            self.connect_device()
-
-    @guarded
     def connect_device(self, port: str | None = None) -> None:
-        if self.conn is not None or self._connecting:
+        ctx = self.ctx
+        if ctx.connected or ctx.connecting:
             return
         if port is not None:
             idx = self.port_combo.findData(port)
@@ -69,110 +167,97 @@ class DeviceSlots(LiveWindowBase):
                 self.port_combo.setCurrentIndex(idx)
         port = port or self.port_combo.currentData()
         if not port:
-            self.notify("No port selected: choose the unit's port or the simulated device.")
+            ctx.notify("No port selected: choose the unit's port or the simulated device.")
             return
-        request = ConnectRequest(port, Mode(self.mode_combo.currentData()), self.config, self.sim)
-        self._connecting = True
-        self.status.set_state_pill("Connecting…", "warn")
-        self._update_controls()
-        self.notify(f"Connecting to {self.port_combo.currentText()}…", 0)
-        self.jobs.connect(request, self._connected)
+        request = ConnectRequest(port, self.mode, ctx.config, self.sim)
+        ctx.connecting = True
+        ctx.status.set_state_pill("Connecting…", "warn")
+        ctx.controls_changed()
+        ctx.notify(f"Connecting to {self.port_combo.currentText()}…", 0)
+        ctx.jobs.connect(request, self._connected)
 
     @guarded
     def _connected(self, response: Response[Connection]) -> None:
-        self._connecting = False
-        exc = response.error
-        conn = response.value
-        if exc is not None or conn is None:
-            self.status.set_state_pill("Disconnected", "ok")
-            self._update_controls()
-            why = one_line(exc) if exc is not None else "unknown reason"
-            if exc is not None and not isinstance(exc, EngineError):
-                log.error("connect failed", exc_info=exc)
-            self.notify(f"Could not connect: {why}", 30_000)
+        ctx = self.ctx
+        conn = ctx.opened(response, "connect")
+        if conn is None:
             return
-        if self._closing:
-            conn.close()
-            return
-        self.conn = conn
-        self.prefs.set("device/last_port", conn.port)
-        self.prefs.set("device/mode", conn.engine.mode.value)
-        self.status.connected()
+        ctx.conn = conn
+        ctx.prefs.set("device/last_port", conn.port)
+        ctx.prefs.set("device/mode", conn.engine.mode.value)
+        ctx.status.connected()
         for act in self.sim_fsr_actions.values():  # a new simulated unit has working sensors
             act.setChecked(False)
-        self.gait_panel.clear()
-        self.live.clear_data()
-        self.raw.clear_data()
         ident = conn.engine.identity
         who = f"{ident.name} {ident.firmware} #{ident.serial} ({ident.side})" if ident else ""
-        self.notify(f"Connected to {conn.label} {who}".strip())
-        self._update_controls()
-        self.timer.start()
-        self._tick()
-        self._lsl_connected()
+        ctx.notify(f"Connected to {conn.label} {who}".strip())
+        self._started()
 
     @guarded
     def disconnect_device(self) -> None:
-        conn = self.conn
+        ctx = self.ctx
+        conn = ctx.conn
         if conn is None:
             return
-        self._wait_saved()  # a Stop's file is finished before its engine goes
-        self.timer.stop()
-        self.conn = None
+        ctx.wait_saved()  # a Stop's file is finished before its engine goes
+        self._stopping()
+        ctx.conn = None
         if self._restore_timer is not None:
             self._restore_timer.stop()
             self._restore_timer = None
-        was_recording = self._recording
-        self._recording = False
+        was_recording = ctx.recording
+        ctx.recording = False
         try:
             status = conn.engine.stop_recording() if was_recording else None
         finally:
             try:
                 conn.close()
             finally:
-                self._lsl_stop()  # after the engine's end: its last event went out
-        self.status.disconnected()
-        self._update_controls()
+                self._stopped()  # after the engine's end: its last event went out
+        ctx.status.disconnected()
+        ctx.controls_changed()
         if status is not None:
-            self.notify(f"Recording saved: {status.path} ({status.rows} frames). Disconnected.")
+            ctx.notify(f"Recording saved: {status.path} ({status.rows} frames). Disconnected.")
         else:
-            self.notify("Disconnected.")
+            ctx.notify("Disconnected.")
 
     @guarded
     def zero(self) -> None:
-        conn = self.conn
+        ctx = self.ctx
+        conn = ctx.conn
         if conn is None:
-            self.notify("Connect to a unit before zeroing.")
+            ctx.notify("Connect to a unit before zeroing.")
             return
-        self.act_zero.setEnabled(False)
-        self.notify("Zeroing: the subject stands upright and still…", 0)
-        self.jobs.zero(conn.engine, self._zeroed)
+        self.actions["zero"].setEnabled(False)
+        ctx.notify("Zeroing: the subject stands upright and still…", 0)
+        ctx.jobs.zero(conn.engine, self._zeroed)
 
     @guarded
     def _zeroed(self, response: Response[Calibration]) -> None:
-        self._update_controls()
+        ctx = self.ctx
+        ctx.controls_changed()
         exc = response.error
         if exc is None:
-            self.statusBar().setToolTip("")
-            self.notify("Standing pose zeroed: angles now read 0 in this pose.")
+            ctx.status_bar.setToolTip("")
+            ctx.notify("Standing pose zeroed: angles now read 0 in this pose.")
         elif isinstance(exc, EngineError):
             # the clinician's sentence in the bar; the figures behind it in the tooltip
-            self.statusBar().setToolTip(getattr(exc.__cause__, "detail", "") or one_line(exc))
-            self.notify(f"Zero refused. {one_line(exc)}", 30_000)
+            ctx.status_bar.setToolTip(getattr(exc.__cause__, "detail", "") or one_line(exc))
+            ctx.notify(f"Zero refused. {one_line(exc)}", 30_000)
         else:
-            self.report_exception("zero", exc)
+            ctx.report_exception("zero", exc)
 
     @guarded
     def cut_simulated_link(self, duration_s: float = 3.0) -> None:
-        conn = self.conn
+        conn = self.ctx.conn
         if conn is None or conn.simulator is None:
-            self.notify("The link can only be cut on the simulated device.")
+            self.ctx.notify("The link can only be cut on the simulated device.")
             return
         conn.simulator.cut()
-        self.notify(f"Simulated link cut for {duration_s:g} s.")
+        self.ctx.notify(f"Simulated link cut for {duration_s:g} s.")
         if self._restore_timer is not None:
             self._restore_timer.stop()
-        t = QTimer(self)
+        t = QTimer(self.window)
         t.setSingleShot(True)
         t.timeout.connect(self.restore_simulated_link)
         t.start(round(duration_s * 1000))
@@ -180,42 +265,42 @@ class DeviceSlots(LiveWindowBase):
 
     @guarded
     def restore_simulated_link(self) -> None:
-        conn = self.conn
+        conn = self.ctx.conn
         if self._restore_timer is not None:
             self._restore_timer.stop()
             self._restore_timer = None
         if conn is None or conn.simulator is None:
             return
         conn.simulator.restore()
-        self.notify("Simulated link restored; the window reconnects by itself.")
+        self.ctx.notify("Simulated link restored; the window reconnects by itself.")
 
     @guarded
     def set_simulated_standing(self, standing: bool) -> None:
         """Device ▸ Simulator ▸ Stand still / Walk again (the simulated subject, in process)."""
-        conn = self.conn
+        conn = self.ctx.conn
         unit = conn.unit if conn is not None else None
         if unit is None:
-            self.notify("Only the simulated subject can be told to stand still or walk.")
+            self.ctx.notify("Only the simulated subject can be told to stand still or walk.")
             return
         if standing:
             stands_at_s = unit.stand_still()
             wait_s = max(0.0, stands_at_s - unit.device_time_s) / unit.speed
-            self.notify(
+            self.ctx.notify(
                 f"The simulated subject stops within {math.ceil(wait_s)} s and stands still "
                 "until Device ▸ Simulator ▸ Walk again: zero then."
             )
         else:
             unit.walk()
-            self.notify("The simulated subject walks again.")
+            self.ctx.notify("The simulated subject walks again.")
 
     @guarded
     def set_simulated_fsr_fault(self, key: str, on: bool) -> None:
         """Device ▸ Simulator ▸ Heel sensor dead / Toe sensor stuck loaded (checkable)."""
-        conn = self.conn
+        conn = self.ctx.conn
         unit = conn.unit if conn is not None else None
         if unit is None:
             self.sim_fsr_actions[key].setChecked(False)
-            self.notify("Only the simulated unit's foot sensors can be broken.")
+            self.ctx.notify("Only the simulated unit's foot sensors can be broken.")
             return
         heel_dead, toe_stuck = unit.foot_sensor_fault
         if key == "heel_dead":
@@ -225,7 +310,7 @@ class DeviceSlots(LiveWindowBase):
         unit.set_foot_sensor_fault(heel_dead, toe_stuck)
         faults = (("the heel sensor is dead", heel_dead), ("the toe sensor is stuck", toe_stuck))
         broken = [what for what, bad in faults if bad]
-        self.notify(
+        self.ctx.notify(
             f"Simulated foot sensors: {' and '.join(broken)}." if broken
             else "Simulated foot sensors work again."
         )  # fmt: skip

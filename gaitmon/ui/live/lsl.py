@@ -1,4 +1,4 @@
-"""The live monitor's Lab Streaming Layer slots: Device ▸ Stream to LSL and its patient-id
+"""The live window's Lab Streaming Layer part: Device ▸ Stream to LSL and its patient-id
 permission, both checkable and remembered.
 
 While the action is on and a unit is connected, :class:`gaitmon.lsl.outlets.LslOutlets`
@@ -15,7 +15,7 @@ from PySide6.QtGui import QAction
 
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
-from gaitmon.ui.live.base import LiveWindowBase
+from gaitmon.ui.live.context import LiveContext
 
 if TYPE_CHECKING:
     from gaitmon.lsl.outlets import LslOutlets
@@ -24,12 +24,18 @@ LSL_KEY = "lsl/enabled"
 LSL_PATIENT_KEY = "lsl/patient_id"
 
 
-class LslSlots(LiveWindowBase):
-    """Slots of Device ▸ Stream to LSL / Patient id in LSL streams."""
+class LslPart:
+    """Slots of Device ▸ Stream to LSL / Patient id in LSL streams; owns the outlets while
+    streaming. ``connected`` / ``stop`` are the window's calls when a unit comes and goes."""
 
-    act_lsl: QAction
-    act_lsl_patient: QAction
-    lsl_outlets: LslOutlets | None
+    def __init__(self, ctx: LiveContext, actions: dict[str, QAction]) -> None:
+        self.ctx = ctx
+        self.act_lsl = actions["lsl"]
+        self.act_lsl_patient = actions["lsl_patient_id"]
+        self.lsl_outlets: LslOutlets | None = None
+
+    def report_exception(self, where: str, exc: BaseException) -> None:
+        self.ctx.report_exception(where, exc)
 
     @property
     def lsl_streaming(self) -> bool:
@@ -46,41 +52,41 @@ class LslSlots(LiveWindowBase):
                 require_pylsl()
             except LslUnavailable as exc:
                 self.act_lsl.setChecked(False)
-                self.prefs.set(LSL_KEY, False)
-                self.notify(one_line(exc), 30_000)
+                self.ctx.prefs.set(LSL_KEY, False)
+                self.ctx.notify(one_line(exc), 30_000)
                 return
-        self.prefs.set(LSL_KEY, on)
+        self.ctx.prefs.set(LSL_KEY, on)
         if self.act_lsl.isChecked() != on:
             self.act_lsl.setChecked(on)
         if not on:
             if self.lsl_outlets is not None:
-                self._lsl_stop()
-                self.notify("Streaming to LSL stopped.")
+                self.stop()
+                self.ctx.notify("Streaming to LSL stopped.")
             return
-        if self.conn is None:
-            self.notify("Streaming to LSL starts when a unit is connected.")
+        if self.ctx.conn is None:
+            self.ctx.notify("Streaming to LSL starts when a unit is connected.")
             return
-        self._lsl_start()
+        self._start()
 
     @guarded
     def set_lsl_patient_id(self, on: bool) -> None:
         """Device ▸ Patient id in LSL streams (checkable, remembered): applies from the next
         start of streaming (a stream's description is fixed when it opens)."""
-        self.prefs.set(LSL_PATIENT_KEY, bool(on))
+        self.ctx.prefs.set(LSL_PATIENT_KEY, bool(on))
         if self.act_lsl_patient.isChecked() != bool(on):
             self.act_lsl_patient.setChecked(bool(on))
         if self.lsl_outlets is not None and self.lsl_outlets.allow_patient_id != bool(on):
-            self._lsl_stop()
-            self._lsl_start()  # the streams open again with the new description
+            self.stop()
+            self._start()  # the streams open again with the new description
 
-    def _restore_lsl(self) -> None:
+    def restore(self) -> None:
         self.lsl_outlets = None
-        self.act_lsl_patient.setChecked(self.prefs.get(LSL_PATIENT_KEY, False, bool))
-        self.act_lsl.setChecked(self.prefs.get(LSL_KEY, False, bool))
+        self.act_lsl_patient.setChecked(self.ctx.prefs.get(LSL_PATIENT_KEY, False, bool))
+        self.act_lsl.setChecked(self.ctx.prefs.get(LSL_KEY, False, bool))
 
-    def _lsl_start(self) -> None:
+    def _start(self) -> None:
         """Open the outlets on the connected engine (the action is on)."""
-        conn = self.conn
+        conn = self.ctx.conn
         if conn is None or self.lsl_outlets is not None:
             return
         from gaitmon.io.session import SessionMeta
@@ -88,29 +94,29 @@ class LslSlots(LiveWindowBase):
 
         ident = conn.engine.identity
         meta = SessionMeta(
-            patient_id=self.prefs.get("session/patient_id", ""),
-            side=self.prefs.get("session/side", "") or (ident.side if ident else ""),
+            patient_id=self.ctx.prefs.get("session/patient_id", ""),
+            side=self.ctx.prefs.get("session/side", "") or (ident.side if ident else ""),
         )
         allow = self.act_lsl_patient.isChecked()
         try:
             self.lsl_outlets = LslOutlets.attach(conn.engine, meta, allow_patient_id=allow)
         except LslUnavailable as exc:
             self.act_lsl.setChecked(False)
-            self.notify(one_line(exc), 30_000)
+            self.ctx.notify(one_line(exc), 30_000)
             return
         except Exception as exc:  # liblsl could not open its sockets: say so, keep going
             self.act_lsl.setChecked(False)
-            self.notify(f"Could not stream to LSL: {one_line(exc)}", 30_000)
+            self.ctx.notify(f"Could not stream to LSL: {one_line(exc)}", 30_000)
             return
         names = ", ".join(self.lsl_outlets.names)
-        self.notify(f"Streaming to LSL: {names}.")
+        self.ctx.notify(f"Streaming to LSL: {names}.")
 
-    def _lsl_stop(self) -> None:
+    def stop(self) -> None:
         outlets, self.lsl_outlets = self.lsl_outlets, None
         if outlets is not None:
             outlets.detach()
 
-    def _lsl_connected(self) -> None:
+    def connected(self) -> None:
         """A unit is connected: stream if the action is on."""
         if self.act_lsl.isChecked():
-            self._lsl_start()
+            self._start()

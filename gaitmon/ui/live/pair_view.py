@@ -2,7 +2,7 @@
 bilateral measures and both gait panels.
 
 It only displays. :class:`PairView` takes both legs' snapshots each tick (the window's
-:mod:`.pair_slots` pulls them); each leg's link is graded by the one-leg window's own logic
+:mod:`.pair_part` pulls them); each leg's link is graded by the one-leg window's own logic
 (:class:`gaitmon.live.health.HealthTracker`, :func:`gaitmon.live.health.link_view`), and each
 leg's Gait panel is the one-leg window's :class:`~gaitmon.ui.live.status.GaitPanel`, fed that
 leg's snapshot: the same stride measures, computed once, by the engine. The measured cadence
@@ -30,9 +30,14 @@ from PySide6.QtWidgets import (
 
 from gaitmon.dsp.bilateral import BilateralGait
 from gaitmon.engine import Snapshot
-from gaitmon.live.health import HealthTracker, LinkView, snapshot_link_view
+from gaitmon.live.health import (
+    HealthTracker,
+    LinkView,
+    snapshot_health,
+    snapshot_link_view,
+)
 from gaitmon.live.pair import SIDE_NAMES, SIDES
-from gaitmon.ui.live.status import GaitPanel, value_rows
+from gaitmon.ui.live.status import GaitPanel, show_health, value_rows
 from gaitmon.ui.plots.bilateral import BilateralPlots
 from gaitmon.ui.theme import Colours, side_colours
 
@@ -79,7 +84,6 @@ class LegStatus(QWidget):
         self.state_text = ""
 
     def show_link(self, snap: Snapshot, port: str) -> None:
-        link = snap.link
         view = snapshot_link_view(snap, port)
         c = self.colours
         colour = {"ok": c.ok, "warn": c.warn}.get(view.grade, c.alert)
@@ -87,24 +91,10 @@ class LegStatus(QWidget):
         self.state_label.setText(f"<span style='color:{colour}'>●</span> {view.pill}")
         self.state_label.setToolTip(view.tooltip or "Link state")
         self.link = view
-        if link is None:
-            return
-        d = link.decoder
-        h = self.health.update(
-            time.monotonic(), d.frames_ok, d.frames_lost, d.crc_failures, snap.frame_rate_hz,
-            snap.last_data_age_s, reconnects=link.reconnects,
-            link_up=snap.link_state == "connected", errors=snap.engine_errors + link.rx_errors,
-            last_error=snap.engine_error or link.rx_error,
-        )  # fmt: skip
-        text = f"{h.text} · {snap.samples_total:,} samples"
-        if self.health_label.text() != text:
-            self.health_label.setText(text)
-        if self.health_label.property("grade") != h.grade:
-            hc = {"ok": "palette(window-text)", "lossy": c.warn}.get(h.grade, c.alert)
-            weight = "normal" if h.grade == "ok" else "bold"
-            self.health_label.setStyleSheet(f"color: {hc}; font-weight: {weight}")
-            self.health_label.setProperty("grade", h.grade)
-        self.health_label.setToolTip(h.tooltip)
+        h = snapshot_health(self.health, snap, time.monotonic())
+        if h is not None:
+            text = f"{h.text} · {snap.samples_total:,} samples"
+            show_health(self.health_label, h, self.colours, text)
 
 
 class PairView(QWidget):

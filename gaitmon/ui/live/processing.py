@@ -1,41 +1,60 @@
-"""The live monitor's processing slots: the Settings dialog and the tilt filter
+"""The live window's processing part: the Settings dialog and the tilt filter
 (Device ▸ Tilt filter), both applied live through the engine's ``apply_config`` (a running
-recording logs the change) and remembered in the preferences.
+recording logs the change) and remembered in the preferences. The settings in force are the
+context's ``config``; the plots are told the FSR threshold and the filter's name.
 """
 
 from __future__ import annotations
 
-from PySide6.QtGui import QAction
+from PySide6.QtGui import QAction, QActionGroup
+from PySide6.QtWidgets import QMainWindow
 
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import EngineError, Mode
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SettingsDialog
-from gaitmon.ui.live.base import LiveWindowBase
+from gaitmon.ui.live.actions import TILT_METHODS
+from gaitmon.ui.live.context import LiveContext
+from gaitmon.ui.live.views import ViewPart
 
 
-class ProcessingSlots(LiveWindowBase):
-    """Slots of Device ▸ Settings… and Device ▸ Tilt filter."""
+class ProcessingPart:
+    """Slots of Device ▸ Settings… and Device ▸ Tilt filter; owns the settings dialog and the
+    tilt filter's exclusive action group."""
 
-    settings_dialog: SettingsDialog | None
-    tilt_actions: dict[str, QAction]
+    def __init__(
+        self, ctx: LiveContext, window: QMainWindow, actions: dict[str, QAction], view: ViewPart
+    ) -> None:
+        self.ctx = ctx
+        self.window = window
+        self.view = view
+        self.settings_dialog: SettingsDialog | None = None
+        self.tilt_actions = {key: actions[f"tilt_{key}"] for key, _text, _tip in TILT_METHODS}
+        self.tilt_group = QActionGroup(window)  # exclusive: one filter in force
+        for a in self.tilt_actions.values():
+            self.tilt_group.addAction(a)
+
+    def report_exception(self, where: str, exc: BaseException) -> None:
+        self.ctx.report_exception(where, exc)
 
     def _unit_computes(self) -> bool:
-        return self.conn is not None and self.conn.engine.mode is not Mode.RAW
+        conn = self.ctx.conn
+        return conn is not None and conn.engine.mode is not Mode.RAW
 
     def _apply_config(self, cfg: PipelineConfig, what: str) -> bool:
         """``cfg`` in force from the engine's next block, and remembered; False (and the
         reason in the status bar) if the engine refused it."""
-        if self.conn is not None:
+        ctx = self.ctx
+        if ctx.conn is not None:
             try:
-                self.conn.engine.apply_config(cfg)
+                ctx.conn.engine.apply_config(cfg)
             except EngineError as exc:
-                self.notify(f"{what} not applied: {one_line(exc)}", 30_000)
+                ctx.notify(f"{what} not applied: {one_line(exc)}", 30_000)
                 return False
-        self.config = cfg
-        self.prefs.save_pipeline_config(cfg)
-        self.live.set_fsr_threshold(cfg.fsr_threshold)
+        ctx.config = cfg
+        ctx.prefs.save_pipeline_config(cfg)
+        self.view.live.set_fsr_threshold(cfg.fsr_threshold)
         self.show_tilt_method()
         return True
 
@@ -47,7 +66,7 @@ class ProcessingSlots(LiveWindowBase):
                 "The unit computes the angles in this mode: these settings take effect when "
                 "gaitmon computes (mode “PC computes”). They are saved now."
             )
-        dlg = SettingsDialog(self, self.config, note=note)
+        dlg = SettingsDialog(self.window, self.ctx.config, note=note)
         dlg.accepted.connect(self._settings_accepted)
         self.settings_dialog = dlg
         dlg.open()
@@ -58,11 +77,11 @@ class ProcessingSlots(LiveWindowBase):
         if dlg is None or dlg.config is None:
             return
         # the tilt filter is chosen in its own menu, perhaps while the dialog was open
-        cfg = dlg.config.replace(tilt_method=self.config.tilt_method)
+        cfg = dlg.config.replace(tilt_method=self.ctx.config.tilt_method)
         if not self._apply_config(cfg, "Settings"):
             return
-        logged = " and logged in the recording" if self._recording else ""
-        self.notify(
+        logged = " and logged in the recording" if self.ctx.recording else ""
+        self.ctx.notify(
             f"Settings applied{logged}: cut-off {cfg.cutoff_hz:g} Hz, Q_angle {cfg.q_angle:g}, "
             f"Q_gyro {cfg.q_gyro:g}, R {cfg.r:g}, FSR threshold {cfg.fsr_threshold:g}."
         )
@@ -72,26 +91,27 @@ class ProcessingSlots(LiveWindowBase):
         """Device ▸ Tilt filter: the filter that makes the Kalman (green) angles."""
         if not on:
             return  # the group is exclusive: the other action's trigger does the work
-        if method == self.config.tilt_method:
+        if method == self.ctx.config.tilt_method:
             self.show_tilt_method()
             return
-        cfg = self.config.replace(tilt_method=method)
+        cfg = self.ctx.config.replace(tilt_method=method)
         if not self._apply_config(cfg, "Tilt filter"):
             self.show_tilt_method()  # the menu goes back to the filter in force
             return
         if self._unit_computes():
-            self.notify(
+            self.ctx.notify(
                 f"Tilt filter: {cfg.tilt_method_label}, saved; it takes effect when gaitmon "
                 "computes (mode “PC computes”): the unit computes the angles in this mode."
             )
         else:
-            logged = " (logged in the recording)" if self._recording else ""
-            self.notify(f"Tilt filter: {cfg.tilt_method_label}, from now on{logged}.")
+            logged = " (logged in the recording)" if self.ctx.recording else ""
+            self.ctx.notify(f"Tilt filter: {cfg.tilt_method_label}, from now on{logged}.")
 
     def show_tilt_method(self) -> None:
         """The menu's check mark and, until a snapshot says otherwise, the plots' titles."""
+        config = self.ctx.config
         for key, act in self.tilt_actions.items():
-            if act.isChecked() != (key == self.config.tilt_method):
-                act.setChecked(key == self.config.tilt_method)
-        if self.conn is None:
-            self.live.set_angle_method(self.config.tilt_method_label)
+            if act.isChecked() != (key == config.tilt_method):
+                act.setChecked(key == config.tilt_method)
+        if self.ctx.conn is None:
+            self.view.live.set_angle_method(config.tilt_method_label)

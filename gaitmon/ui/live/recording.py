@@ -1,53 +1,96 @@
-"""The live monitor's session slots: start / stop a recording, markers, a recorder that gave up.
+"""The live window's recording part: Record / Stop, the session dialog, markers, the file being
+finished after a Stop, a recorder that gave up, for one unit or both legs.
 
-The engine records; these slots ask for the session's details (:class:`SessionDialog`), start
-and stop it, remember the details for next time, and finish the file when the recorder stopped
-by itself (a full disk) while acquisition goes on.
+One leg is the one-unit case: the same slots record what is connected, one engine
+(:class:`~gaitmon.engine.Engine`) or both legs' :class:`~gaitmon.engine.pair.EnginePair` (each
+leg into its crash-safe part, combined into one file on Stop, the path ``gaitmon record
+--ports`` takes: ``docs/bilateral.md``); only the words and the dialog's side differ. The
+session's details are asked for with :class:`SessionDialog` and remembered for next time.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
+from PySide6.QtGui import QAction
+from PySide6.QtWidgets import QLineEdit, QMainWindow
+
 from gaitmon.engine import EngineError, Snapshot
-from gaitmon.live.connection import Connection
+from gaitmon.jobs import Response
+from gaitmon.live.pair import SIDE_NAMES, SIDES, PairConnection
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SessionDialog
-from gaitmon.ui.live.base import LiveWindowBase
+from gaitmon.ui.live.context import LiveContext
 from gaitmon.ui.live.prefs import default_session_folder
 from gaitmon.ui.live.status import fmt_bytes, fmt_elapsed
 
 
-class RecordingSlots(LiveWindowBase):
-    """Slots of the Session menu and toolbar."""
+class RecordingPart:
+    """Slots of the Session menu and toolbar; owns the marker field and the session dialog."""
+
+    def __init__(self, ctx: LiveContext, window: QMainWindow, actions: dict[str, QAction]) -> None:
+        self.ctx = ctx
+        self.window = window
+        self.actions = actions
+        self.session_dialog: SessionDialog | None = None
+        self._dialog_both = False  # the dialog open is for both legs
+        self.marker_edit = QLineEdit()
+        self.marker_edit.setPlaceholderText("marker label (optional)")
+        self.marker_edit.setToolTip(
+            "Optional label for the next marker; Enter or M (outside this field) drops it"
+        )
+        self.marker_edit.setMaximumWidth(190)
+        self.marker_edit.returnPressed.connect(lambda: self.add_marker())
+
+    def report_exception(self, where: str, exc: BaseException) -> None:
+        self.ctx.report_exception(where, exc)
+
+    def update_controls(self) -> None:
+        ctx, record = self.ctx, self.actions["record"]
+        self.actions["marker"].setEnabled(ctx.connected)
+        record.setEnabled(ctx.connected and not ctx.saving)  # a Stop's file is finished first
+        record.setText("Stop" if ctx.recording else "Record")
+        record.setToolTip(
+            "Stop recording (Ctrl+R)" if ctx.recording else "Record a session (Ctrl+R)"
+        )
 
     @guarded
     def toggle_recording(self) -> None:
-        if self._recording:
+        if self.ctx.recording:
             self.stop_recording()
         else:
             self.open_session_dialog()
 
     @guarded
     def open_session_dialog(self) -> None:
-        if self.conn is None:
-            self.notify("Connect to a unit before recording.")
+        ctx = self.ctx
+        if not ctx.connected:
+            ctx.notify("Connect to a unit before recording.")
             return
         if self.session_dialog is not None and self.session_dialog.isVisible():
             self.session_dialog.raise_()
             return
-        p = self.prefs
+        p = ctx.prefs
         folder = Path(p.get("session/folder", str(default_session_folder())))
-        ident = self.conn.engine.identity
-        side = p.get("session/side", "") or (ident.side if ident else "")
+        side = ""
+        if ctx.conn is not None:
+            ident = ctx.conn.engine.identity
+            side = p.get("session/side", "") or (ident.side if ident else "")
         dlg = SessionDialog(
-            self,
+            self.window,
             folder=folder,
             patient_id=p.get("session/patient_id", ""),
             side=side,
             operator=p.get("session/operator", ""),
         )
+        self._dialog_both = ctx.pair is not None
+        if self._dialog_both:
+            dlg.setWindowTitle("Record both legs")
+            dlg.side.clear()
+            dlg.side.addItem("Both legs (one unit each)", "")
+            dlg.side.setEnabled(False)
         dlg.accepted.connect(self._session_accepted)
         self.session_dialog = dlg
         dlg.open()
@@ -55,42 +98,64 @@ class RecordingSlots(LiveWindowBase):
     @guarded
     def _session_accepted(self) -> None:
         dlg = self.session_dialog
-        conn = self.conn
         if dlg is None or dlg.result_form is None:
             return
         form = dlg.result_form
-        if conn is None:
-            self.notify("The unit was disconnected; nothing is recorded.")
+        if not self.ctx.connected:
+            what = "units were" if self._dialog_both else "unit was"
+            self.ctx.notify(f"The {what} disconnected; nothing is recorded.")
             return
+        self.start_recording(form.path, form.patient_id, form.operator, form.notes, form.side)
+
+    def start_recording(
+        self, path: Path, patient_id: str = "", operator: str = "", notes: str = "",
+        side: str = "",
+    ) -> bool:  # fmt: skip
+        """What is connected into ``path`` (both legs: one session of two units); False with a
+        message if refused."""
+        ctx = self.ctx
         try:
             from gaitmon.io.session import SessionMeta
         except ImportError:
-            self.notify("Recording is not available in this installation (no session writer).")
-            return
-        meta = SessionMeta(
-            patient_id=form.patient_id, side=form.side, operator=form.operator, notes=form.notes
-        )
+            ctx.notify("Recording is not available in this installation (no session writer).")
+            return False
+        pair, conn = ctx.pair, ctx.conn
+        if pair is None and conn is None:
+            return False
+        both = pair is not None
+        meta = SessionMeta(patient_id=patient_id, side="" if both else side, operator=operator,
+                           notes=notes)  # fmt: skip
         try:
-            conn.engine.start_recording(form.path, meta)
+            if pair is not None:
+                pair.pair.start_recording(path, meta)
+            elif conn is not None:
+                conn.engine.start_recording(path, meta)
         except EngineError as exc:
-            self.notify(f"Could not start recording: {one_line(exc)}", 30_000)
-            return
-        p = self.prefs
-        p.set("session/folder", str(form.path.parent))
-        p.set("session/operator", form.operator)
-        p.set("session/side", form.side)
-        p.set("session/patient_id", form.patient_id)
-        self._recording = True
-        self.status.record_banner.setVisible(False)
-        self._update_controls()
-        self.notify(f"Recording to {form.path}")
+            ctx.notify(f"Could not start recording: {one_line(exc)}", 30_000)
+            return False
+        p = ctx.prefs
+        p.set("session/folder", str(path.parent))
+        p.set("session/operator", operator)
+        if not both:
+            p.set("session/side", side)
+        p.set("session/patient_id", patient_id)
+        ctx.recording = True
+        ctx.status.record_banner.setVisible(False)
+        ctx.controls_changed()
+        ctx.notify(f"Recording both legs to {path}" if both else f"Recording to {path}")
+        return True
 
     @guarded
     def stop_recording(self) -> None:
-        conn = self.conn
-        if conn is None or not self._recording:
+        ctx = self.ctx
+        pair, conn = ctx.pair, ctx.conn
+        if not ctx.recording or (pair is None and conn is None):
             return
-        self._recording = False
+        ctx.recording = False
+        if pair is not None:
+            self._begin_saving(lambda: save_pair(pair, "user"))  # (combining takes seconds)
+            return
+        assert conn is not None
         engine = conn.engine
 
         def save() -> str:  # on the device worker
@@ -102,33 +167,104 @@ class RecordingSlots(LiveWindowBase):
 
         self._begin_saving(save)
 
-    def _show_recording(self, snap: Snapshot, conn: Connection) -> None:
-        """The recording line of the status bar; finish the file if the recorder gave up."""
-        rec = snap.recording
-        if self._recording and not rec.active:
-            # the recorder stopped by itself (full disk, ...): finish the file, keep acquiring
-            status = conn.engine.stop_recording()
-            self._recording = False
-            self._update_controls()
+    def _begin_saving(self, save: Callable[[], str]) -> None:
+        """Finish a stopped recording's file on the device worker (``save`` returns the line to
+        show): on a long session that takes seconds (the smoother, the stride store), and the
+        window keeps drawing meanwhile; Record waits until the file is done."""
+        ctx = self.ctx
+        ctx.saving = True
+        ctx.controls_changed()
+        ctx.status.rec_label.setText("Saving the recording…")
+        ctx.notify("Recording stopped; saving the file…", 0)  # (not "Recording to …")
+        ctx.jobs.worker.submit(lambda ticket: save(), self._saved)
+
+    def _saved(self, response: Response[str]) -> None:
+        ctx = self.ctx
+        ctx.saving = False
+        ctx.status.rec_label.setText("")
+        ctx.controls_changed()
+        if response.error is not None:
+            ctx.report_exception("saving the recording", response.error)
+        elif response.value:
+            ctx.notify(response.value, 30_000)
+
+    def finish_pair_recording(self, reason: str = "user") -> str:
+        """Stop both parts and combine them into the one file, here (a disconnect, a recorder
+        that gave up); what happened, in one line."""
+        ctx = self.ctx
+        pair = ctx.pair
+        assert pair is not None
+        ctx.recording = False
+        ctx.controls_changed()
+        ctx.status.rec_label.setText("")
+        return save_pair(pair, reason)
+
+    def show_recording(self, snaps: dict[str, Snapshot]) -> None:
+        """The recording line of the status bar (each tick); finish the file if a recorder gave
+        up (a full disk), acquisition going on."""
+        ctx = self.ctx
+        if not ctx.recording:
+            return
+        stopped = [s for s, snap in snaps.items() if not snap.recording.active]
+        if stopped and ctx.pair is not None:
+            why = "; ".join(f"{SIDE_NAMES[s]} leg: {snaps[s].recording.error or 'stopped'}"
+                            for s in stopped)  # fmt: skip
+            done = self.finish_pair_recording("error")
+            msg = f"Recording stopped: {why}. Acquisition continues. {done}"
+        elif stopped and ctx.conn is not None:
+            rec = snaps[stopped[0]].recording
+            status = ctx.conn.engine.stop_recording()
+            ctx.recording = False
+            ctx.controls_changed()
             why = rec.error or status.error or "the recorder stopped"
             msg = (
                 f"Recording stopped: {why}. Acquisition continues; "
                 f"{status.rows} frames were saved in {Path(status.path).name}."
             )
-            self.status.show_recorder_stopped(msg)
-            self.notify(msg, 0)
+        elif ctx.pair is not None:
+            rec = snaps["L"].recording
+            size = sum(snap.recording.file_bytes for snap in snaps.values())
+            ctx.status.rec_label.setText(
+                f"<span style='color:{ctx.colours.alert}'>●</span> REC both legs "
+                f"{fmt_elapsed(rec.elapsed_s)} · {fmt_bytes(size)} · {Path(rec.path).name}"
+            )
             return
-        if self._recording:
-            self.status.show_recording(rec)
+        else:
+            for snap in snaps.values():
+                ctx.status.show_recording(snap.recording)
+            return
+        ctx.status.show_recorder_stopped(msg)
+        ctx.notify(msg, 0)
 
     @guarded
     def add_marker(self) -> None:
-        conn = self.conn
-        if conn is None:
-            self.notify("Connect to a unit before dropping markers.")
+        ctx = self.ctx
+        engines = ctx.engines
+        if not engines:
+            ctx.notify("Connect to a unit before dropping markers.")
             return
         label = self.marker_edit.text().strip()
-        conn.engine.add_marker(label)
+        for eng in engines.values():
+            eng.add_marker(label)
         self.marker_edit.clear()
-        where = " (saved in the recording)" if self._recording else ""
-        self.notify(f"Marker {label!r} dropped{where}." if label else f"Marker dropped{where}.")
+        where = ""
+        if ctx.recording:
+            where = " (saved in both legs' recording)" if ctx.pair else " (saved in the recording)"
+        ctx.notify(f"Marker {label!r} dropped{where}." if label else f"Marker dropped{where}.")
+
+
+def save_pair(pair: PairConnection, reason: str) -> str:
+    """Stop both parts and combine them into the one file (any thread); the line to show."""
+    statuses = pair.pair.stop_recording(reason)
+    errors = [f"{SIDE_NAMES[s]} leg: {st.error}" for s, st in statuses.items() if st.error]
+    try:
+        path = pair.pair.finish()
+    except Exception as exc:  # the parts stay; the next open of the file combines them
+        errors.append(one_line(exc))
+        path = None
+    if errors:
+        return f"Recording stopped with an error: {'; '.join(errors)}"
+    assert path is not None
+    rows = " · ".join(f"{s} {statuses[s].rows:,}" for s in SIDES)
+    return (f"Recording saved: both legs in {path} ({rows} frames, "
+            f"{fmt_bytes(path.stat().st_size)}).")  # fmt: skip

@@ -19,7 +19,12 @@ from PySide6.QtWidgets import QGridLayout, QLabel, QSizePolicy, QStatusBar, QVBo
 
 from gaitmon.engine import Mode, RecordingStatus, Snapshot
 from gaitmon.engine.snapshot import EVENTS_FSR, EVENTS_GYRO, EVENTS_UNIT, FsrFaultNotice
-from gaitmon.live.health import HealthTracker, snapshot_link_view
+from gaitmon.live.health import (
+    Health,
+    HealthTracker,
+    snapshot_health,
+    snapshot_link_view,
+)
 from gaitmon.text import no_gait_events
 from gaitmon.ui.plots import CyclePlots
 from gaitmon.ui.theme import Colours
@@ -38,6 +43,19 @@ def fmt_elapsed(s: float) -> str:
     h, rem = divmod(s, 3600)
     m, sec = divmod(rem, 60)
     return f"{h}:{m:02d}:{sec:02d}" if h else f"{m:02d}:{sec:02d}"
+
+
+def show_health(label: QLabel, h: Health, colours: Colours, text: str) -> None:
+    """A link's health in ``label``: ``text``, coloured by its grade, the details in the
+    tooltip (one unit's status bar, or one leg's header)."""
+    if label.text() != text:
+        label.setText(text)
+    if label.property("grade") != h.grade:  # re-styling is not free
+        colour = {"ok": "palette(window-text)", "lossy": colours.warn}.get(h.grade, colours.alert)
+        weight = "normal" if h.grade == "ok" else "bold"
+        label.setStyleSheet(f"color: {colour}; font-weight: {weight}")
+        label.setProperty("grade", h.grade)
+    label.setToolTip(h.tooltip)
 
 
 def banner_style(colours: Colours, grade: str) -> str:
@@ -112,46 +130,32 @@ class StatusView:
         self.health_label.setText("")
         self.rec_label.setText("")
 
+    def show_banner(self, text: str, grade: str, tip: str) -> None:
+        """The link banner as given (both legs: a line per leg; "": hidden)."""
+        banner = self.link_banner
+        if not text:
+            if banner.isVisible():
+                banner.setVisible(False)
+            return
+        if banner.text() != text:
+            banner.setText(text)
+        banner.setToolTip(tip)
+        if banner.property("grade") != grade:
+            banner.setStyleSheet(banner_style(self.colours, grade))
+            banner.setProperty("grade", grade)
+        banner.setVisible(True)
+
     def show_link(self, snap: Snapshot, port: str) -> None:
         """Link state, health, sample count and zeroing of one snapshot (``port``: as named in
         the banner)."""
-        link = snap.link
         view = snapshot_link_view(snap, port)
-        if view.banner:
-            self.link_banner.setText(view.banner)
-            self.link_banner.setToolTip(view.tooltip)
-            if self.link_banner.property("grade") != view.grade:
-                self.link_banner.setStyleSheet(banner_style(self.colours, view.grade))
-                self.link_banner.setProperty("grade", view.grade)
-            self.link_banner.setVisible(True)
-        elif self.link_banner.isVisible():
-            self.link_banner.setVisible(False)
+        self.show_banner(view.banner, view.grade, view.tooltip)
         self.set_state_pill(view.pill, view.grade)
         self.state_label.setToolTip(view.tooltip or "Link state")
 
-        if link is not None:
-            d = link.decoder
-            h = self.health.update(
-                time.monotonic(),
-                d.frames_ok,
-                d.frames_lost,
-                d.crc_failures,
-                snap.frame_rate_hz,
-                snap.last_data_age_s,
-                reconnects=link.reconnects,
-                link_up=snap.link_state == "connected",
-                errors=snap.engine_errors + link.rx_errors,
-                last_error=snap.engine_error or link.rx_error,
-            )
-            colour = {"ok": "palette(window-text)", "lossy": self.colours.warn}.get(
-                h.grade, self.colours.alert
-            )
-            weight = "normal" if h.grade == "ok" else "bold"
-            self.health_label.setText(h.text)
-            if self.health_label.property("grade") != h.grade:  # re-styling is not free
-                self.health_label.setStyleSheet(f"color: {colour}; font-weight: {weight}")
-                self.health_label.setProperty("grade", h.grade)
-            self.health_label.setToolTip(h.tooltip)
+        h = snapshot_health(self.health, snap, time.monotonic())
+        if h is not None:
+            show_health(self.health_label, h, self.colours, h.text)
         self.samples_label.setText(f"{snap.samples_total:,} samples")
         self.samples_label.setProperty("samples", snap.samples_total)
         if snap.mode is Mode.RAW:

@@ -1,30 +1,42 @@
-"""The live monitor's window shell: layout, toolbars, docks, and the wiring between them.
+"""The live monitor's window: it builds its parts, lays them out and wires them together.
 
 The window owns no data path. Acquisition, processing and recording run in the engine's
-threads; a QTimer (~30 Hz) pulls one `Snapshot` and hands it to the plots, the status view and
-the gait panel (:mod:`.status`). The actions are rows of a table (:mod:`.actions`); the device,
-session and processing slots are :mod:`.device`, :mod:`.recording` and :mod:`.processing`;
-blocking calls (connect, zero on the unit) go through :mod:`.jobs`. Every slot is wrapped so
-that an unexpected exception becomes one line in the status bar (and a traceback in the log
-file), never a crash.
+threads; a QTimer (~30 Hz) pulls one `Snapshot` and hands it to the parts that show it. The
+window is composed of parts (has-a), each owning its widgets and slots and receiving the
+shared :class:`~gaitmon.ui.live.context.LiveContext` by constructor:
+
+* :class:`~.device.DevicePart`         -- the Connection toolbar, one unit's connect / zero,
+  the simulator's menu;
+* :class:`~.recording.RecordingPart`   -- Record / Stop, the session dialog, markers (one unit
+  or both legs);
+* :class:`~.processing.ProcessingPart` -- Settings… and the tilt filter, applied live;
+* :class:`~.lsl.LslPart`               -- Stream to LSL;
+* :class:`~.views.ViewPart`            -- the one-leg plots, the Gait and Raw docks, the
+  display's options and the clinical / engineering views;
+* :class:`~.pair_part.PairPart`        -- both legs: connect, their view, zero, link cuts;
+* :class:`~.status.StatusView`         -- the status bar and the banners;
+* :class:`~.guide.GuideBar`            -- the guided start.
+
+The actions are rows of a table (:mod:`.actions`) whose slots the window finds on itself or a
+part. Every slot is wrapped so that an unexpected exception becomes one line in the status bar
+(and a traceback in the log file), never a crash.
 """
 
 from __future__ import annotations
 
 import functools
 import logging
+from collections.abc import Callable
+from typing import TYPE_CHECKING, cast
 
-from PySide6.QtCore import QEvent, QSettings, QSize, Qt, QTimer
-from PySide6.QtGui import QAction, QActionGroup, QCloseEvent
+from PySide6.QtCore import QEvent, QSettings, Qt, QTimer
+from PySide6.QtGui import QActionGroup, QCloseEvent
 from PySide6.QtWidgets import (
-    QCheckBox,
     QComboBox,
-    QDockWidget,
-    QHBoxLayout,
     QLabel,
     QLineEdit,
+    QMainWindow,
     QMessageBox,
-    QSizePolicy,
     QToolBar,
     QToolButton,
     QVBoxLayout,
@@ -32,47 +44,42 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon import __version__
-from gaitmon.engine import Mode
+from gaitmon.engine import Engine, Mode, Snapshot
 from gaitmon.io.sim.bilateral import BilateralConfig
 from gaitmon.io.sim.config import SimConfig
-from gaitmon.live.pair import PairSource
+from gaitmon.live.connection import Connection
+from gaitmon.live.pair import LiveBilateral, PairConnection, PairSource
 from gaitmon.ui.actions import guarded
-from gaitmon.ui.dialogs import SettingsDialog, shortcuts_dialog
-from gaitmon.ui.live.actions import (
-    METHOD_COLOURS,
-    MODES,
-    SHORTCUTS,
-    SIM_FSR_FAULTS,
-    SIMULATOR,
-    TILT_METHODS,
-    VIEW,
-    WINDOWS_S,
-    build_actions,
-    build_menus,
-)
-from gaitmon.ui.live.device import DeviceSlots
-from gaitmon.ui.live.guide import GuideBar
+from gaitmon.ui.dialogs import SessionDialog, SettingsDialog, shortcuts_dialog
+from gaitmon.ui.live.actions import ACTIONS, SHORTCUTS, SIMULATOR, VIEW, build_actions, build_menus
+from gaitmon.ui.live.context import LiveContext
+from gaitmon.ui.live.device import DevicePart
+from gaitmon.ui.live.guide import GuideBar, GuideState
 from gaitmon.ui.live.jobs import DeviceJobs
-from gaitmon.ui.live.lsl import LslSlots
-from gaitmon.ui.live.pair_slots import PairSlots
+from gaitmon.ui.live.lsl import LslPart
+from gaitmon.ui.live.pair_part import PairPart
+from gaitmon.ui.live.pair_view import PairView
 from gaitmon.ui.live.prefs import Prefs
-from gaitmon.ui.live.processing import ProcessingSlots
-from gaitmon.ui.live.recording import RecordingSlots
-from gaitmon.ui.live.status import GaitPanel, StatusView, banner_style
-from gaitmon.ui.live.views import ViewSlots
-from gaitmon.ui.plots import METHOD_LABELS, LivePlots, RawPlots
-from gaitmon.ui.theme import configure_pyqtgraph, current_colours
+from gaitmon.ui.live.processing import ProcessingPart
+from gaitmon.ui.live.recording import RecordingPart
+from gaitmon.ui.live.status import StatusView
+from gaitmon.ui.live.views import ViewPart
+from gaitmon.ui.plots import LivePlots
+from gaitmon.ui.theme import Colours, configure_pyqtgraph, current_colours
+
+if TYPE_CHECKING:
+    from gaitmon.lsl.outlets import LslOutlets
 
 log = logging.getLogger("gaitmon.ui")
 
 REFRESH_HZ = 30.0
-GAIT_PANEL_EVERY = 3  # ticks between gait-panel updates
+PART_TYPES = (DevicePart, RecordingPart, ProcessingPart, LslPart, ViewPart, PairPart)
 
 
-class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSlots, LslSlots):
+class MainWindow(QMainWindow):
     """The live monitor. ``settings`` is injected so tests can isolate it; ``sim``: the
     simulated device's settings (default: SimConfig()); ``pair_sim``: the simulated pair's
-    (both legs, :mod:`.pair_slots`); ``pair``: connect both legs to it at once."""
+    (both legs, :mod:`.pair_part`); ``pair``: connect both legs to it at once."""
 
     def __init__(
         self,
@@ -86,35 +93,57 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
         pair: PairSource | None = None,
     ) -> None:
         super().__init__()
-        self.prefs = Prefs(settings)
-        self.sim = sim
-        self._init_pair(pair_sim)
         self.confirm_close = confirm_close
-        self.conn = None
-        self.errors = []
-        self.config = self.prefs.pipeline_config()
-        self.jobs = DeviceJobs(self)
-        self.last_snapshot = None
-        self.session_dialog = None
-        self.settings_dialog: SettingsDialog | None = None
-        self._connecting = False
-        self._recording = False
-        self._saving = False
-        self._closing = False
-        self._ticks = 0
-        self._restore_timer = None
-        self.lsl_outlets = None
-        self.colours = current_colours()
-        configure_pyqtgraph(self.colours)
-
+        colours = current_colours()
+        configure_pyqtgraph(colours)
         self.setWindowTitle("gaitmon — live monitor")
         self.setDockNestingEnabled(True)
-        self.status = StatusView(self.statusBar(), self.colours)
-        self._build_actions()
+        self.status = StatusView(self.statusBar(), colours)
+        self.ctx = ctx = LiveContext(
+            Prefs(settings), colours, self.statusBar(), self.status, DeviceJobs(self)
+        )
+        ctx.controls_changed = self._update_controls
+        self.prefs, self.jobs, self.errors = ctx.prefs, ctx.jobs, ctx.errors
+
+        acts = self._actions = build_actions(self, self._slot)
+        self.act_connect, self.act_refresh = acts["connect"], acts["refresh"]
+        self.act_zero, self.act_record = acts["zero"], acts["record"]
+        self.act_marker, self.act_pause = acts["marker"], acts["pause"]
+        self.act_settings, self.act_reset_y = acts["settings"], acts["reset_y"]
+        self.act_cut, self.act_restore = acts["cut"], acts["restore"]
+        self.act_help, self.act_about, self.act_quit = acts["help"], acts["about"], acts["quit"]
+        self.act_four_phases, self.act_engineering = acts["four_phases"], acts["engineering"]
+        self.act_guide, self.act_lsl = acts["guide"], acts["lsl"]
+        self.act_lsl_patient = acts["lsl_patient_id"]
+        menus = build_menus(self, acts)
+        self.sim_menu = menus[SIMULATOR]
+
+        self.view_part = view = ViewPart(ctx, self, acts)
+        self.recording_part = RecordingPart(ctx, self, acts)
+        self.processing_part = ProcessingPart(ctx, self, acts, view)
+        self.lsl_part = LslPart(ctx, acts)
+        self.device_part = device = DevicePart(
+            ctx, self, acts, self.sim_menu, sim=sim,
+            started=self._started, stopping=self.timer_stop, stopped=self.lsl_part.stop,
+        )  # fmt: skip
+        self.pair_part = PairPart(
+            ctx, self, acts, pair_sim=pair_sim, mode=lambda: device.mode, view=view,
+            recording=self.recording_part, started=self._started, stopping=self.timer_stop,
+            show_guide=self._show_guide_state,
+        )  # fmt: skip
+        for spec in ACTIONS:  # every row's slot exists (found now, not when first triggered)
+            self._slot(spec.slot)
+        self.window_group = QActionGroup(self)
+        for a in view.window_actions.values():
+            self.window_group.addAction(a)
+        self._alias_part_widgets()
+
         self._build_toolbars()
         self._build_central()
-        self._build_docks()
-        self._build_menus()
+        view.add_docks()
+        menus[VIEW].addSeparator()
+        menus[VIEW].addAction(view.gait_dock.toggleViewAction())
+        menus[VIEW].addAction(view.raw_dock.toggleViewAction())
         self._restore_prefs(mode)
         self._update_controls()
 
@@ -123,11 +152,103 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
         self.timer.setTimerType(Qt.TimerType.PreciseTimer)
         self.timer.timeout.connect(self._tick)
         if autoconnect is not None:
-            QTimer.singleShot(0, functools.partial(self.connect_device, autoconnect))
+            QTimer.singleShot(0, functools.partial(device.connect_device, autoconnect))
         elif pair is not None:
-            QTimer.singleShot(0, functools.partial(self.connect_pair, pair))
+            QTimer.singleShot(0, functools.partial(self.pair_part.connect_pair, pair))
 
-    # the status view's widgets, by the names the window has always had
+    def _slot(self, name: str) -> Callable[..., object]:
+        """The slot an action row names: the window's own, else the first part's that has it."""
+        for owner in (self, self.device_part, self.recording_part, self.processing_part,
+                      self.lsl_part, self.view_part, self.pair_part):  # fmt: skip
+            fn = getattr(owner, name, None)
+            if callable(fn):
+                return cast("Callable[..., object]", fn)
+        raise AttributeError(f"no live window slot {name!r}")
+
+    def _alias_part_widgets(self) -> None:
+        """The parts' widgets by the names the window has always had (tests, tools)."""
+        d, r, v = self.device_part, self.recording_part, self.view_part
+        self.port_combo: QComboBox = d.port_combo
+        self.mode_combo: QComboBox = d.mode_combo
+        self.sim_fsr_actions = d.sim_fsr_actions
+        self.marker_edit: QLineEdit = r.marker_edit
+        self.tilt_actions = self.processing_part.tilt_actions
+        self.window_actions = v.window_actions
+        self.method_actions = v.method_actions
+        self.method_boxes = v.method_boxes
+        self.window_combo, self.phase_combo = v.window_combo, v.phase_combo
+        self.phase_legend, self.pause_label = v.phase_legend, v.pause_label
+        self.gait_panel, self.gait_dock, self.raw_dock = v.gait_panel, v.gait_dock, v.raw_dock
+        self.pair_model: LiveBilateral = self.pair_part.model
+
+    # -- the shared state, read-only, by the names the window has always had -------------------
+
+    @property
+    def conn(self) -> Connection | None:
+        return self.ctx.conn
+
+    @property
+    def pair(self) -> PairConnection | None:
+        return self.ctx.pair
+
+    @property
+    def engine(self) -> Engine | None:
+        return self.ctx.engine
+
+    @property
+    def colours(self) -> Colours:
+        return self.ctx.colours
+
+    @property
+    def last_snapshot(self) -> Snapshot | None:
+        return self.ctx.last_snapshot
+
+    @property
+    def recording(self) -> bool:
+        return self.ctx.recording
+
+    @property
+    def saving(self) -> bool:
+        """A stopped recording's file is still being finished."""
+        return self.ctx.saving
+
+    @property
+    def paused(self) -> bool:
+        return self.view_part.paused
+
+    @property
+    def window_s(self) -> float:
+        return self.view_part.window_s
+
+    @property
+    def state_text(self) -> str:
+        return self.status.state_text
+
+    @property
+    def live(self) -> LivePlots:
+        return self.view_part.live  # (a new one after a theme change)
+
+    @property
+    def session_dialog(self) -> SessionDialog | None:
+        return self.recording_part.session_dialog
+
+    @property
+    def settings_dialog(self) -> SettingsDialog | None:
+        return self.processing_part.settings_dialog
+
+    @property
+    def pair_view(self) -> PairView | None:
+        return self.pair_part.view
+
+    @property
+    def pair_snapshots(self) -> dict[str, Snapshot]:
+        return self.pair_part.snapshots
+
+    @property
+    def lsl_outlets(self) -> LslOutlets | None:
+        return self.lsl_part.lsl_outlets
+
+    # the status view's widgets
     @property
     def link_banner(self) -> QLabel:
         return self.status.link_banner
@@ -152,302 +273,136 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
     def samples_label(self) -> QLabel:
         return self.status.samples_label
 
+    def report_exception(self, where: str, exc: BaseException) -> None:
+        self.ctx.report_exception(where, exc)
+
+    def notify(self, text: str, timeout_ms: int = 10_000) -> None:
+        self.ctx.notify(text, timeout_ms)
+
     # ------------------------------------------------------------------------------------
     # construction
     # ------------------------------------------------------------------------------------
 
-    def _build_actions(self) -> None:
-        acts = build_actions(self)
-        self.window_actions: dict[float, QAction] = {w: acts[f"window_{w:g}"] for w in WINDOWS_S}
-        self.window_group = QActionGroup(self)
-        for a in self.window_actions.values():
-            self.window_group.addAction(a)
-        self.method_actions: dict[str, QAction] = {
-            key: acts[f"method_{key}"] for key, _ in METHOD_COLOURS
-        }
-        self.tilt_actions = {key: acts[f"tilt_{key}"] for key, _text, _tip in TILT_METHODS}
-        self.tilt_group = QActionGroup(self)  # exclusive: one filter in force
-        for a in self.tilt_actions.values():
-            self.tilt_group.addAction(a)
-        self.sim_fsr_actions = {key: acts[f"sim_{key}"] for key, _text, _tip in SIM_FSR_FAULTS}
-        self.act_connect = acts["connect"]
-        self.act_refresh = acts["refresh"]
-        self.act_zero = acts["zero"]
-        self.act_record = acts["record"]
-        self.act_marker = acts["marker"]
-        self.act_pause = acts["pause"]
-        self.act_settings = acts["settings"]
-        self.act_reset_y = acts["reset_y"]
-        self.act_cut = acts["cut"]
-        self.act_restore = acts["restore"]
-        self.act_help = acts["help"]
-        self.act_about = acts["about"]
-        self.act_quit = acts["quit"]
-        self.act_four_phases = acts["four_phases"]
-        self.act_engineering = acts["engineering"]
-        self.act_guide = acts["guide"]
-        self.act_lsl = acts["lsl"]
-        self.act_lsl_patient = acts["lsl_patient_id"]
-        self._actions = acts
-
     def _build_toolbars(self) -> None:
-        tb = QToolBar("Connection", self)
-        tb.setObjectName("toolbar-connection")
-        tb.setIconSize(QSize(16, 16))
-        self.addToolBar(tb)
-        self.port_combo = QComboBox()
-        self.port_combo.setMinimumContentsLength(28)
-        self.port_combo.setSizeAdjustPolicy(
-            QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon
-        )
-        self.port_combo.setToolTip("The unit's serial port (Bluetooth SPP shows up as one)")
-        tb.addWidget(QLabel(" Unit "))
-        tb.addWidget(self.port_combo)
-        refresh = QToolButton()
-        refresh.setDefaultAction(self.act_refresh)
-        refresh.setText("⟳")
-        tb.addWidget(refresh)
-        self.mode_combo = QComboBox()
-        for mode, text, tip in MODES:
-            self.mode_combo.addItem(text, mode.value)
-            self.mode_combo.setItemData(
-                self.mode_combo.count() - 1, tip, Qt.ItemDataRole.ToolTipRole
-            )
-        self.mode_combo.setToolTip("What the unit sends (choose before connecting)")
-        tb.addWidget(QLabel("  Mode "))
-        tb.addWidget(self.mode_combo)
-        self.connect_button = QToolButton()
-        self.connect_button.setDefaultAction(self.act_connect)
-        self.connect_button.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
-        self.connect_button.setMinimumWidth(90)
-        tb.addWidget(self.connect_button)
-
+        self.addToolBar(self.device_part.build_toolbar())
         tb2 = QToolBar("Session", self)
         tb2.setObjectName("toolbar-session")
         self.addToolBar(tb2)
-        tb2.addAction(self.act_zero)
+        tb2.addAction(self._actions["zero"])
         self.record_button = QToolButton()
-        self.record_button.setDefaultAction(self.act_record)
+        self.record_button.setDefaultAction(self._actions["record"])
         self.record_button.setMinimumWidth(70)
         tb2.addWidget(self.record_button)
         tb2.addSeparator()
-        self.marker_edit = QLineEdit()
-        self.marker_edit.setPlaceholderText("marker label (optional)")
-        self.marker_edit.setToolTip(
-            "Optional label for the next marker; Enter or M (outside this field) drops it"
-        )
-        self.marker_edit.setMaximumWidth(190)
-        self.marker_edit.returnPressed.connect(lambda: self.add_marker())
-        tb2.addWidget(self.marker_edit)
-        tb2.addAction(self.act_marker)
+        tb2.addWidget(self.recording_part.marker_edit)
+        tb2.addAction(self._actions["marker"])
         tb2.addSeparator()
-        tb2.addAction(self.act_pause)
-        self.window_combo = QComboBox()
-        for w in WINDOWS_S:
-            self.window_combo.addItem(f"{w:g} s", w)
-        self.window_combo.setToolTip("Time window shown (1 / 2 / 3)")
-        self.window_combo.currentIndexChanged.connect(self._window_combo_changed)
+        tb2.addAction(self._actions["pause"])
         tb2.addWidget(QLabel("  Window "))
-        tb2.addWidget(self.window_combo)
+        tb2.addWidget(self.view_part.window_combo)
         tb2.addSeparator()
-        tb2.addAction(self.act_engineering)  # a toggle button: the engineering view
-
-    def _legend_box(self, text: str, colour: str, checkable: bool) -> QWidget:
-        if checkable:
-            w: QWidget = QCheckBox(text)
-        else:
-            w = QLabel(f"<span style='color:{colour}'>■</span> {text}")
-        if checkable:
-            w.setStyleSheet(f"QCheckBox {{ color: {colour}; font-weight: 600; }}")
-        return w
+        tb2.addAction(self._actions["engineering"])  # a toggle button: the engineering view
 
     def _build_central(self) -> None:
-        c = self.colours
         central = QWidget()
         lay = QVBoxLayout(central)
         lay.setContentsMargins(4, 2, 4, 2)
         lay.setSpacing(2)
+        view, acts = self.view_part, self._actions
         lay.addWidget(self.status.link_banner)
         lay.addWidget(self.status.record_banner)
+        lay.addWidget(view.pause_label)
         lay.addWidget(self.status.fsr_banner)
-        self.guide = GuideBar(self.colours, (self.act_connect, self.act_zero, self.act_record))
+        self.guide = GuideBar(self.colours, (acts["connect"], acts["zero"], acts["record"]))
         lay.addWidget(self.guide)
-
-        bar = QHBoxLayout()
-        bar.setSpacing(12)
-        self.method_boxes: dict[str, QCheckBox] = {}
-        for key, colour in (("acc", c.acc), ("kalman", c.kalman), ("gyro", c.gyro)):
-            box = self._legend_box(METHOD_LABELS[key], colour.name(), True)
-            assert isinstance(box, QCheckBox)
-            box.setToolTip(f"Show or hide the {METHOD_LABELS[key].lower()} traces")
-            box.toggled.connect(lambda on, k=key: self.set_method(k, on))
-            self.method_boxes[key] = box
-            bar.addWidget(box)
-        bar.addSpacing(16)
-        bar.addWidget(self._legend_box("heel", c.heel.name(), False))
-        bar.addWidget(self._legend_box("toe", c.toe.name(), False))
-        self.phase_legend = QLabel()
-        bar.addWidget(self.phase_legend)
-        self.phase_combo = QComboBox()
-        self.phase_combo.addItem("stance / swing", False)
-        self.phase_combo.addItem("4 sub-phases", True)
-        self.phase_combo.setToolTip("How the gait phase is shaded on the FSR plot")
-        self.phase_combo.currentIndexChanged.connect(self._phase_combo_changed)
-        bar.addWidget(self.phase_combo)
-        events = QLabel("┃ heel strike  ┆ toe off")
-        events.setToolTip(
-            "Gait events from the foot sensors, drawn on the joint and FSR plots: heel strike "
-            "solid, toe off dashed"
-        )
-        bar.addWidget(events)
-        for label in (self.phase_legend, events):
-            # legends may be clipped on a narrow screen rather than force a wide window
-            label.setMinimumWidth(40)  # overrides the text's minimum: shrinks only if needed
-        bar.addStretch(1)
-        lay.addLayout(bar)
-        # a banner row of its own: in the legend's row it took the legend's width (clipping it)
-        # and widened the central area, squeezing the gait dock (kept so after a restart)
-        self.pause_label = QLabel("  ❚❚ Display paused: acquisition and recording continue  ")
-        self.pause_label.setStyleSheet(banner_style(self.colours, "warn"))
-        self.pause_label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
-        self.pause_label.setVisible(False)
-        lay.insertWidget(2, self.pause_label)
-
-        self.live = LivePlots(self.colours)
-        self.live.setToolTip("")
-        lay.addWidget(self.live, 1)
+        lay.addLayout(view.legend)
+        lay.addWidget(view.live, 1)
         self.setCentralWidget(central)
         self._central_layout = lay
 
-    def _build_docks(self) -> None:
-        self.gait_panel = GaitPanel(self.colours)
-        self.gait_dock = QDockWidget("Gait", self)
-        self.gait_dock.setObjectName("dock-gait")
-        self.gait_dock.setWidget(self.gait_panel)
-        self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.gait_dock)
-        # raw sensors (hidden by default)
-        self.raw = RawPlots(self.colours)
-        self.raw.setMinimumHeight(160)
-        self.raw_dock = QDockWidget("Raw sensors", self)
-        self.raw_dock.setObjectName("dock-raw")
-        self.raw_dock.setWidget(self.raw)
-        self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.raw_dock)
-        self.raw_dock.hide()
-        self.resize(1400, 860)
-        # the live plots get the room; the gait panel a column (a saved layout overrides this)
-        self.resizeDocks([self.gait_dock], [370], Qt.Orientation.Horizontal)
-        self.resizeDocks([self.raw_dock], [260], Qt.Orientation.Vertical)
-
-    def _build_menus(self) -> None:
-        menus = build_menus(self, self._actions)
-        self.sim_menu = menus[SIMULATOR]
-        view = menus[VIEW]
-        view.addSeparator()
-        view.addAction(self.gait_dock.toggleViewAction())
-        view.addAction(self.raw_dock.toggleViewAction())
-
     def _restore_prefs(self, mode: Mode | str | None) -> None:
-        p = self.prefs
-        self.refresh_ports()
-        last = p.get("device/last_port", "")
-        idx = self.port_combo.findData(last) if last else -1
-        if idx >= 0:
-            self.port_combo.setCurrentIndex(idx)
-        mode_value = Mode(mode).value if mode is not None else p.get("device/mode", "raw")
-        self.mode_combo.setCurrentIndex(max(self.mode_combo.findData(mode_value), 0))
-        window = p.get("view/window_s", 10.0, float)
-        if window not in WINDOWS_S:
-            window = 10.0
-        self.set_window(window)
-        for key in ("acc", "kalman", "gyro"):
-            self.set_method(key, p.get(f"view/method_{key}", True, bool))
-        self.set_four_phases(p.get("view/four_phases", True, bool))
-        self.live.set_fsr_threshold(self.config.fsr_threshold)
-        self.show_tilt_method()
+        p = self.ctx.prefs
+        self.device_part.restore(mode)
+        self.view_part.restore()
+        self.processing_part.show_tilt_method()
         geo = p.s.value("window/geometry")
         self.geometry_restored = bool(geo is not None and self.restoreGeometry(geo))
         state = p.s.value("window/state")
         self.state_restored = bool(state is not None and self.restoreState(state))
-        self._restore_view()  # after the layout: the clinical view hides the raw dock
-        self._restore_lsl()
+        self.view_part.restore_view()  # after the layout: the clinical view hides the raw dock
+        self.lsl_part.restore()
 
     def _update_controls(self) -> None:
-        super()._update_controls()
+        self.device_part.update_controls()
+        self.recording_part.update_controls()
+        self.pair_part.update_controls()
         if hasattr(self, "guide"):
             self._show_guide_state()
 
-    # ------------------------------------------------------------------------------------
-    # view options
-    # ------------------------------------------------------------------------------------
-
-    @guarded
-    def set_paused(self, paused: bool) -> None:
-        if self.act_pause.isChecked() != paused:
-            self.act_pause.setChecked(paused)
-        self.pause_label.setVisible(paused)
-        self.act_pause.setText("Resume" if paused else "Pause")
-
-    @guarded
-    def set_window(self, window_s: float) -> None:
-        window_s = float(window_s)
-        self.live.set_window(window_s)
-        self.raw.set_window(window_s)
-        a = self.window_actions.get(window_s)
-        if a is not None and not a.isChecked():
-            a.setChecked(True)
-        idx = self.window_combo.findData(window_s)
-        if idx >= 0 and self.window_combo.currentIndex() != idx:
-            self.window_combo.setCurrentIndex(idx)
-        self.prefs.set("view/window_s", window_s)
-        if self.paused and self.last_snapshot is not None:
-            self.live.update_from(self.last_snapshot)
-
-    def _window_combo_changed(self, index: int) -> None:
-        w = self.window_combo.itemData(index)
-        if w is not None and float(w) != self.window_s:
-            self.set_window(float(w))
-
-    @guarded
-    def set_method(self, method: str, on: bool) -> None:
-        on = bool(on)
-        self.live.set_method(method, on)
-        box = self.method_boxes[method]
-        if box.isChecked() != on:
-            box.setChecked(on)
-        a = self.method_actions[method]
-        if a.isChecked() != on:
-            a.setChecked(on)
-        self.prefs.set(f"view/method_{method}", on)
-        if on and self.last_snapshot is not None and self.paused:
-            self.live.update_from(self.last_snapshot)
-
-    @guarded
-    def set_four_phases(self, four: bool) -> None:
-        four = bool(four)
-        self.live.set_four_phases(four)
-        if self.act_four_phases.isChecked() != four:
-            self.act_four_phases.setChecked(four)
-        idx = 1 if four else 0
-        if self.phase_combo.currentIndex() != idx:
-            self.phase_combo.setCurrentIndex(idx)
-        c = self.colours
-        if four:
-            parts = [
-                f"<span style='color:{col.name()}'>█</span> {name}"
-                for col, name in zip(c.phases, ("loading", "foot flat", "push-off"), strict=True)
-            ]
-            text = " ".join(parts)
+    def _show_guide_state(self, zeroed: bool | None = None) -> None:
+        """Feed the step bar; ``zeroed`` from the snapshots (None: keep the last one seen while
+        connected)."""
+        ctx, shown = self.ctx, self.guide.state
+        if ctx.pair is not None:
+            # simulated=False: the pair cannot stand still on request, so no menu hint for it
+            state = GuideState(connected=True, connecting=False,
+                               zeroed=bool(shown.zeroed if zeroed is None else zeroed),
+                               recording=ctx.recording, simulated=False)  # fmt: skip
         else:
-            text = f"<span style='color:{c.stance.name()}'>█</span> stance"
-        self.phase_legend.setText(text)
-        self.prefs.set("view/four_phases", four)
+            conn = ctx.conn
+            if zeroed is None:
+                zeroed = conn is not None and shown.connected and shown.zeroed
+            state = GuideState(
+                connected=conn is not None,
+                connecting=ctx.connecting,
+                zeroed=bool(zeroed) and conn is not None,
+                recording=ctx.recording,
+                simulated=conn is not None and conn.simulated,
+            )
+        self.guide.show_state(state)
 
-    def _phase_combo_changed(self, index: int) -> None:
-        self.set_four_phases(bool(self.phase_combo.itemData(index)))
+    # ------------------------------------------------------------------------------------
+    # what the parts hand back: connected, going, one unit or both legs
+    # ------------------------------------------------------------------------------------
+
+    def _started(self) -> None:
+        """A unit (or both legs) connected: the display starts; LSL streams if it is on."""
+        if self.ctx.conn is not None:
+            self.view_part.clear_data()
+        self._update_controls()
+        self.timer.start()
+        self._tick()
+        if self.ctx.conn is not None:
+            self.lsl_part.connected()
+
+    def timer_stop(self) -> None:
+        self.timer.stop()
 
     @guarded
-    def reset_y_ranges(self) -> None:
-        self.live.reset_y_ranges()
+    def toggle_connect(self) -> None:
+        if self.ctx.connected:
+            self.disconnect_device()
+        else:
+            self.device_part.connect_device()
+
+    @guarded
+    def disconnect_device(self) -> None:
+        if self.ctx.pair is not None:
+            self.pair_part.disconnect_pair()
+        else:
+            self.device_part.disconnect_device()
+
+    @guarded
+    def zero(self) -> None:
+        if self.ctx.pair is not None:
+            self.pair_part.zero()
+        else:
+            self.device_part.zero()
+
+    @guarded
+    def show_guide(self) -> None:
+        """Help ▸ Guided start: the step bar again (after it was closed or recording began)."""
+        self.guide.reopen()
 
     # ------------------------------------------------------------------------------------
     # the ~30 Hz update
@@ -455,37 +410,23 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
 
     @guarded
     def _tick(self) -> None:
-        if self.pair is not None:  # both legs: .pair_slots
-            self._tick_pair()
+        ctx = self.ctx
+        if ctx.pair is not None:  # both legs: .pair_part
+            self.pair_part.tick()
             return
-        conn = self.conn
+        conn = ctx.conn
         if conn is None:
             return
-        eng = conn.engine
-        paused = self.paused
-        snap = eng.snapshot(0.05 if paused else self.window_s)
+        paused = self.view_part.paused
+        snap = conn.engine.snapshot(0.05 if paused else self.view_part.window_s)
         self.status.show_link(snap, "the simulated unit" if conn.simulated else conn.port)
         self.status.show_checks(snap)
-        self._show_recording(snap, conn)
+        self.recording_part.show_recording({"": snap})
         self._show_guide_state(snap.calibrated)
         if paused:
             return
-        self.last_snapshot = snap
-        self.live.set_angle_method(snap.angle_method)
-        self.live.update_from(snap)
-        # paint now, not after the rest of this tick and whatever else the event loop holds:
-        # the newest samples reach the screen a few ms sooner (the gait panel and the raw
-        # plots below do not hold them up). Painting the whole scene instead (not layered),
-        # the scene schedules its own repaint of the changed items: a second one would be
-        # redundant.
-        if self.live.layered:
-            self.live.viewport().repaint()
-        self._ticks += 1
-        # the gait panel changes slowly: 10 Hz is plenty to read and saves a third of its cost
-        if self.gait_dock.isVisible() and self._ticks % GAIT_PANEL_EVERY == 0:
-            self.gait_panel.show_snapshot(snap)
-        if self.raw_dock.isVisible():
-            self.raw.update_from(snap)
+        ctx.last_snapshot = snap
+        self.view_part.show(snap)
 
     # ------------------------------------------------------------------------------------
     # help
@@ -512,7 +453,8 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
 
     def changeEvent(self, ev: QEvent) -> None:
         super().changeEvent(ev)
-        if not getattr(self, "_closing", True) and ev.type() in (
+        ctx = getattr(self, "ctx", None)
+        if ctx is not None and not ctx.closing and ev.type() in (
             QEvent.Type.PaletteChange,
             QEvent.Type.ThemeChange,
         ):
@@ -523,42 +465,30 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
 
     def _apply_theme(self) -> None:
         colours = current_colours()
-        if colours.dark == self.colours.dark or not hasattr(self, "live"):
+        if colours.dark == self.ctx.colours.dark or not hasattr(self, "guide"):
             return
-        self.colours = colours
+        self.ctx.colours = colours
         configure_pyqtgraph(colours)
-        # curves are created once per theme: rebuild the plot widgets with the new shades
+        # curves are created once per theme: the parts rebuild their plots in the new shades
         self.status.colours = colours
-        old_live, old_raw = self.live, self.raw
-        self.live = LivePlots(colours)
-        self._central_layout.replaceWidget(old_live, self.live)
-        self.gait_panel.set_colours(colours)
+        old_live = self.view_part.set_colours(colours)
+        self._central_layout.replaceWidget(old_live, self.view_part.live)
+        old_live.deleteLater()
         self.guide.set_colours(colours)
-        self.raw = RawPlots(colours)
-        self.raw_dock.setWidget(self.raw)
-        for w in (old_live, old_raw):
-            w.deleteLater()
-        self.set_window(self.window_s if hasattr(old_live, "window_s") else 10.0)
-        for key, on in old_live.methods_on.items():
-            self.live.set_method(key, on)
-        self.set_four_phases(old_live.four_phases)
-        self.live.set_fsr_threshold(self.config.fsr_threshold)
-        self.live.set_angle_method(old_live.angle_method)
-        self.live.set_engineering(old_live.engineering)
-        self._restyle_pair_view()
+        self.pair_part.restyle()
 
     def shutdown(self) -> None:
         """Stop everything this window started (idempotent); the window stays open."""
-        self._closing = True
+        self.ctx.closing = True
         self.timer.stop()
-        self._wait_saved()  # a recording just stopped: its file is finished first
+        self.ctx.wait_saved()  # a recording just stopped: its file is finished first
         # a connect still running is closed when it finishes; a zero's answer is dropped
-        self.jobs.stop()
+        self.ctx.jobs.stop()
         self.disconnect_device()
 
     def closeEvent(self, ev: QCloseEvent) -> None:
         try:
-            if self._recording and self.confirm_close:
+            if self.ctx.recording and self.confirm_close:
                 answer = QMessageBox.question(
                     self,
                     "Quit gaitmon",
@@ -567,10 +497,10 @@ class MainWindow(PairSlots, DeviceSlots, RecordingSlots, ProcessingSlots, ViewSl
                 if answer != QMessageBox.StandardButton.Yes:
                     ev.ignore()
                     return
-            self.prefs.set("window/geometry", self.saveGeometry())
-            self.prefs.set("window/state", self.saveState())
+            self.ctx.prefs.set("window/geometry", self.saveGeometry())
+            self.ctx.prefs.set("window/state", self.saveState())
             self.shutdown()
-            self.prefs.s.sync()
+            self.ctx.prefs.s.sync()
         except Exception as exc:  # closing must always work
             log.error("error while closing", exc_info=exc)
         ev.accept()

@@ -27,6 +27,7 @@ from PySide6.QtGui import QColor, QPainterPath
 from PySide6.QtWidgets import QWidget
 
 from gaitmon.engine import Snapshot
+from gaitmon.live.pair import SIDE_NAMES, SIDES
 from gaitmon.ui.plots.live import SHADING_TIP, STALE_S
 from gaitmon.ui.plots.traces import (
     JOINTS,
@@ -43,8 +44,6 @@ from gaitmon.ui.plots.traces import (
 )
 from gaitmon.ui.theme import Colours, pen, side_colours
 
-SIDES = ("L", "R")
-SIDE_NAMES = {"L": "left", "R": "right"}
 CONTACT = "contact"
 CONTACT_RANGE = (0.0, 2.0)  # the left leg's row is 1..2, the right's 0..1
 CONTACT_STRIP_PX = 110

@@ -15,9 +15,11 @@ from PySide6.QtWidgets import QFileDialog, QWidget
 
 from gaitmon.compare import Comparison, Recording, compare_sessions, list_recordings
 from gaitmon.jobs import Response, Ticket
+from gaitmon.review.settings import ReviewKey
 from gaitmon.text import count
 from gaitmon.ui import one_line
 from gaitmon.ui.jobs import QtWorker
+from gaitmon.ui.review import recent
 from gaitmon.ui.review.compare_view import CompareView
 from gaitmon.ui.review.patient_list import PatientList
 from gaitmon.ui.review.status import StatusArea
@@ -49,7 +51,7 @@ class SessionComparer(QObject):
         self._label = ""
 
     def _folder(self) -> str:
-        return str(self.settings.value("review/last_folder", str(Path.home())))
+        return recent.folder(self.settings, ReviewKey.LAST_FOLDER)
 
     def _progress(self, fraction: float) -> None:
         self.status.show_progress(self._label, fraction)
@@ -125,7 +127,7 @@ class SessionComparer(QObject):
         if response.error is not None:
             self.status.show_problem(f"Cannot list the folder: {one_line(response.error)}")
             return
-        self.settings.setValue("review/last_folder", str(folder))
+        recent.remember(self.settings, ReviewKey.LAST_FOLDER, folder)
         if self.patients is None:
             self.patients = PatientList()
             self.patients.setWindowFlag(Qt.WindowType.Window, True)

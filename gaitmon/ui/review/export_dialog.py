@@ -1,7 +1,7 @@
 """The export dialog: a session to CSV, MATLAB .mat, C3D, per-stride CSV or a BIDS dataset,
 on a worker with Cancel.
 
-``gaitmon.io.export.export_session`` does the work (the same code as ``gaitmon export``) on a
+``gaitmon.export.export_session`` does the work (the same code as ``gaitmon export``) on a
 :class:`gaitmon.ui.jobs.QtWorker`. It reports ``progress(fraction)`` as it goes and asks
 ``cancel()`` at the same points; once Cancel was clicked it discards every temporary output and
 raises ``ExportCancelled`` (a :class:`gaitmon.errors.Cancelled`): nothing is left under the
@@ -53,7 +53,7 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.errors import Cancelled
-from gaitmon.io.export import FORMATS, ExportError, ExportResult, default_output, export_session
+from gaitmon.export import FORMATS, ExportError, ExportResult, default_output, export_session
 from gaitmon.io.export.bids_labels import DEFAULT_SUBJECT, DEFAULT_TASK, BidsOptions
 from gaitmon.jobs import Response, Ticket
 from gaitmon.ui.jobs import QtWorker

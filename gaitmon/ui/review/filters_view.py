@@ -36,7 +36,8 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.dsp.lab_filters import TILT_FILTERS
-from gaitmon.io.session import SessionError, open_session
+from gaitmon.finish import open_session
+from gaitmon.io.session import SessionError
 from gaitmon.jobs import Response, Ticket
 from gaitmon.review.filters import (
     ALIGN_MOUNT,

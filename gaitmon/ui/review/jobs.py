@@ -1,14 +1,16 @@
-"""The review window's background requests: open, analyse, reprocess, switch the angles shown,
-save reprocessed, report.
+"""The review window's background requests: open, reprocess, switch the angles shown, save
+reprocessed, report; and :class:`ReviewJobs`, the window's part that runs them.
 
 Each request is built on the GUI thread from everything it needs (a request never reads the
-window) and runs on one of the window's :class:`gaitmon.ui.jobs.QtWorker` s, newest wins:
+window) and runs on one of the part's :class:`gaitmon.ui.jobs.QtWorker` s, newest wins:
 ``job`` (open, reprocess, save, report: one at a time, with the status bar's progress bar and
-Cancel), ``analyser`` (the stride analysis, redone on every exclusion) and ``angles_job`` (the
-overview of the other angle source, smoothed | live, built before the window switches to it).
-Each returns a frozen response (:class:`Opened`, :class:`Analysed`, ...) that
-:class:`ReviewJobs` applies on the GUI thread; a response overtaken by a newer request or a
-Cancel never arrives.
+Cancel) and ``angles_job`` (the overview of the other angle source, smoothed | live, built
+before the window switches to it); the stride analysis runs in
+:mod:`~gaitmon.ui.review.strides_part`. Each returns a frozen response (:class:`Opened`,
+:class:`Reprocessed`, ...) that :class:`ReviewJobs` applies on the GUI thread, by changing the
+document (a reprocessing shown, the angles switched): the views follow its events. A report
+being prepared listens too: when the exclusions change it is gathered again, with them. A
+response overtaken by a newer request or a Cancel never arrives.
 """
 
 from __future__ import annotations
@@ -20,30 +22,27 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from PySide6.QtCore import QSettings, Signal
-from PySide6.QtGui import QAction
-from PySide6.QtWidgets import QMainWindow
+from PySide6.QtCore import QObject, Signal
 
-from gaitmon.analysis import stride_start_times
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.session import SessionError, journal_path, rewrite_processed
+from gaitmon.finish import rewrite_processed
+from gaitmon.io.session import SessionError, journal_path
 from gaitmon.jobs import Response, Ticket
+from gaitmon.review.events import ExclusionsChanged
 from gaitmon.review.model import (
-    Analysis,
     Document,
     Replay,
-    analyse,
     build_overview,
     changed_settings,
     open_document,
     reprocess,
 )
+from gaitmon.review.settings import ReviewKey
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.jobs import QtWorker
-from gaitmon.ui.review.cycles import CyclePlots
-from gaitmon.ui.review.status import StatusArea
-from gaitmon.ui.review.strides import StrideTable, SummaryLabel, summary_html
+from gaitmon.ui.review import recent
+from gaitmon.ui.review.part import Host, Part
 from gaitmon.ui.review.timeline import Timeline
 
 if TYPE_CHECKING:
@@ -65,12 +64,6 @@ class Opened:
 
     def close(self) -> None:
         self.doc.close()
-
-
-@dataclass(frozen=True)
-class Analysed:
-    analysis: Analysis  # the current series (reprocessed if there is one)
-    before: Analysis | None  # the recorded series after a reprocessing
 
 
 @dataclass(frozen=True)
@@ -106,18 +99,6 @@ def open_request(path: Path, side: str | None = None) -> Callable[[Ticket], Open
     return job
 
 
-def analyse_request(doc: Document) -> Callable[[Ticket], Analysed]:
-    ranges = list(doc.exclusions)
-    cur, rec = doc.current, doc.recorded
-
-    def job(ticket: Ticket) -> Analysed:
-        a = analyse(doc, cur, ranges)
-        b = analyse(doc, rec, ranges) if cur is not rec else None
-        return Analysed(a, b)
-
-    return job
-
-
 def reprocess_request(doc: Document, config: PipelineConfig) -> Callable[[Ticket], Reprocessed]:
     angles = doc.angle_source
 
@@ -147,7 +128,7 @@ def angles_request(doc: Document, angles: str) -> Callable[[Ticket], AnglesReady
 
 def save_request(src: Path, dst: Path, config: PipelineConfig) -> Callable[[Ticket], Saved]:
     """A new session file: the recording's raw counts reprocessed with ``config``
-    (:func:`gaitmon.io.session.rewrite_processed`, as ``gaitmon process``); its progress goes to
+    (:func:`gaitmon.finish.rewrite_processed`, as ``gaitmon process``); its progress goes to
     the window's bar, and Cancel (the request no longer wanted) makes it delete the partial
     file and raise :class:`gaitmon.errors.Cancelled`."""
 
@@ -175,65 +156,64 @@ def report_request(doc: Document, bands: NormativeBands | None) -> Callable[[Tic
     return job
 
 
-# -- the window's side ---------------------------------------------------------------------------
+# -- the window's part ---------------------------------------------------------------------------
 
 
-class ReviewJobs(QMainWindow):
+class ReviewJobs(Part):
     """The review window's requests and how their responses change it (see the module
-    docstring); :class:`gaitmon.ui.review.window.ReviewWindow` builds the widgets."""
+    docstring): a part of :class:`gaitmon.ui.review.window.ReviewWindow`, which passes what it
+    needs: the timeline (its loader is cancelled with the job), ``set_document`` (an opened
+    document shown), ``show_angles`` (the angles menu and caption back to those shown)."""
 
     document_opened = Signal(str)
     open_failed = Signal(str)
-    analysis_done = Signal()
     reprocessed = Signal()
     angles_changed = Signal(str)  # the angle source now shown: smoothed | live
     report_written = Signal(str)
     saved = Signal(str)
 
-    # built by the window
-    settings: QSettings
-    doc: Document | None
-    analysis: Analysis | None
-    before: Analysis | None
-    normative: NormativeBands | None
-    job: QtWorker
-    analyser: QtWorker
-    angles_job: QtWorker
-    status: StatusArea
-    timeline: Timeline
-    table: StrideTable
-    summary: SummaryLabel
-    cycles: CyclePlots
-    act: dict[str, QAction]
-    _job_label: str
-
-    # -- hooks the window provides ---------------------------------------------------------------
-
-    def report_exception(self, where: str, exc: BaseException) -> None:
-        raise NotImplementedError
-
-    def _set_document(self, doc: Document) -> None:
-        raise NotImplementedError
-
-    def _add_recent(self, path: Path) -> None:
-        raise NotImplementedError
-
-    def _update_actions(self) -> None:
-        raise NotImplementedError
-
-    def _show_angles(self) -> None:
-        raise NotImplementedError
+    def __init__(
+        self,
+        host: Host,
+        timeline: Timeline,
+        set_document: Callable[[Document], None],
+        show_angles: Callable[[], None],
+        parent: QObject | None = None,
+    ) -> None:
+        super().__init__(host, parent)
+        self.timeline = timeline
+        self._set_document = set_document
+        self._show_angles = show_angles
+        self.normative: Callable[[], NormativeBands | None] = lambda: None
+        self._job_label = ""
+        self._angles_label = ""
+        self._report_path: Path | None = None  # the report being prepared, if any
+        self.job = QtWorker("review-job", latest=True, parent=self)  # open, reprocess, save
+        self.job.progressed.connect(self._job_progress)
+        self.angles_job = QtWorker("review-angles", latest=True, parent=self)
+        self.angles_job.progressed.connect(self._angles_progress)
 
     # -- progress --------------------------------------------------------------------------------
 
+    def document_set(self, doc: Document | None) -> None:
+        if doc is not None:
+            doc.events.exclusions.connect(self._exclusions_changed)
+
+    def _exclusions_changed(self, _event: ExclusionsChanged) -> None:
+        # a report being prepared is gathered again: it leaves out the ranges in force when it
+        # is written (the request overtaken never arrives)
+        if self._report_path is not None:
+            self.write_report(self._report_path)
+
     def _start_job(self, label: str) -> None:
+        self._report_path = None  # (a new job overtakes a report being prepared)
         self._job_label = label
         self.status.show_progress(label, 0.0)
 
     def _job_progress(self, fraction: float) -> None:
         self.status.show_progress(self._job_label, fraction)
 
-    def _hide_progress(self) -> None:
+    def hide_progress(self) -> None:
         if not self.job.busy:
             self.status.hide_progress()
 
@@ -244,6 +224,7 @@ class ReviewJobs(QMainWindow):
             self.angles_job.cancel()
             self._show_angles()
         self.job.cancel()
+        self._report_path = None
         self.timeline.loader.cancel()
         self.status.hide_progress()
         if was.startswith("Recovering"):
@@ -274,7 +255,7 @@ class ReviewJobs(QMainWindow):
 
     @guarded
     def _opened(self, path: Path, response: Response[Opened]) -> None:
-        self._hide_progress()
+        self.hide_progress()
         exc = response.error
         if exc is not None or response.value is None:
             why = one_line(exc) if exc else "unknown error"
@@ -286,46 +267,9 @@ class ReviewJobs(QMainWindow):
             self.open_failed.emit(msg)
             return
         self._set_document(response.value.doc)
-        self._add_recent(path)
-        self.settings.setValue("review/last_folder", str(path.parent))
+        recent.add_recent(self.settings, path)
+        recent.remember(self.settings, ReviewKey.LAST_FOLDER, path.parent)
         self.document_opened.emit(str(path))
-
-    # -- analysis --------------------------------------------------------------------------------
-
-    def run_analysis(self) -> None:
-        if self.doc is not None:
-            doc = self.doc
-            self.analyser.submit(analyse_request(doc), functools.partial(self._analysed, doc))
-
-    @guarded
-    def _analysed(self, doc: Document, response: Response[Analysed]) -> None:
-        if doc is not self.doc:
-            return
-        if response.error is not None:
-            self.status.show_problem(f"Stride analysis failed: {one_line(response.error)}")
-            return
-        r = response.result()
-        a, b = r.analysis, r.before
-        self.analysis, self.before = a, b
-        self.table.set_rows(a.rows, stride_start_times(a.rows, doc.t_s))
-        self.refresh_summary()
-        self.cycles.set_analysis(a, b if self.act["compare"].isChecked() else None)
-        self.analysis_done.emit()
-
-    def refresh_summary(self) -> None:
-        """The summary panel from the analysis in force and the normative band, if any."""
-        doc = self.doc
-        if doc is None or self.analysis is None:
-            return
-        note = ""
-        if doc.reprocessed is not None:
-            note = changed_settings(doc.recorded.config, doc.reprocessed.config)
-        self.summary.setText(
-            summary_html(self.analysis, self.before, note, doc.session.mode, self.normative)
-        )
-        self.summary.setToolTip(
-            "" if self.normative is None else self.cycles.band_note(self.normative)
-        )
 
     # -- reprocessing ----------------------------------------------------------------------------
 
@@ -339,14 +283,14 @@ class ReviewJobs(QMainWindow):
 
     @guarded
     def _reprocessed(self, doc: Document, response: Response[Reprocessed]) -> None:
-        self._hide_progress()
+        self.hide_progress()
         if doc is not self.doc:
             return
         if response.error is not None:
             self.status.show_problem(f"Reprocessing failed: {one_line(response.error)}")
             return
         replay = response.result().replay
-        doc.set_replay(replay)
+        doc.set_replay(replay)  # the views follow the document's settings event
         kept = (" The smoothed angles shown are the recording's: they do not depend on these "
                 "settings (View ▸ Angles ▸ Live shows the reprocessed filter's)."
                 if doc.angle_source == "smoothed" else "")  # fmt: skip
@@ -355,13 +299,18 @@ class ReviewJobs(QMainWindow):
             f"{len(replay.heel_strike_idx)} heel strikes (recorded: "
             f"{len(doc.recorded.heel_strike_idx)}).{kept}", 15_000,
         )  # fmt: skip
-        self._source_changed()
         src = doc.reprocessed
         if src is not None and not src.overview.has_pyramid("processed/joint_deg"):
             # the angles were switched while it ran: build the shown ones' overview too
             self.angles_job.submit(angles_request(doc, doc.angle_source),
                                    functools.partial(self._angles_ready, doc))  # fmt: skip
         self.reprocessed.emit()
+
+    @guarded
+    def revert_reprocessing(self) -> None:
+        if self.doc is None or self.doc.reprocessed is None:
+            return
+        self.doc.set_replay(None)
 
     # -- the angles shown ------------------------------------------------------------------------
 
@@ -398,25 +347,12 @@ class ReviewJobs(QMainWindow):
             return
         angles = response.result().angles
         changed = angles != doc.angle_source
-        doc.use_angles(angles)
-        self._source_changed()
+        doc.use_angles(angles)  # the views follow the document's angles event
         if changed:
             what = ("the smoothed angles (zero-lag, offline)" if angles == "smoothed"
                     else "the live angles (as shown while recording)")  # fmt: skip
             self.status.message(f"Showing {what}: {doc.angle_method}", 10_000)
             self.angles_changed.emit(angles)
-
-    def _source_changed(self) -> None:
-        """The document's current series (recorded or reprocessed) changed: redraw, re-analyse."""
-        doc = self.doc
-        assert doc is not None
-        self.timeline.set_fsr_threshold(doc.current.config.fsr_threshold)
-        self._show_angles()
-        self.status.show_notes(doc.shown_notes())
-        self.timeline.series_changed()
-        self.timeline.set_compare(self.act["compare"].isChecked())
-        self._update_actions()
-        self.run_analysis()
 
     @guarded
     def save_reprocessed(self, path: str | Path) -> None:
@@ -430,7 +366,7 @@ class ReviewJobs(QMainWindow):
 
     @guarded
     def _saved(self, response: Response[Saved]) -> None:
-        self._hide_progress()
+        self.hide_progress()
         if response.error is not None:
             self.status.show_problem(f"Cannot save: {one_line(response.error)}")
             return
@@ -447,8 +383,9 @@ class ReviewJobs(QMainWindow):
         if self.doc is None:
             return
         self._start_job("Preparing the report")
+        self._report_path = Path(path)
         self.job.submit(
-            report_request(self.doc, self.normative),
+            report_request(self.doc, self.normative()),
             functools.partial(self._report_ready, Path(path)),
         )
 
@@ -456,7 +393,8 @@ class ReviewJobs(QMainWindow):
     def _report_ready(self, path: Path, response: Response[ReportReady]) -> None:
         from gaitmon.ui.report_pdf import write_report_pdf
 
-        self._hide_progress()
+        self._report_path = None
+        self.hide_progress()
         if response.error is not None:
             self.status.show_problem(f"Cannot make the report: {one_line(response.error)}")
             return
@@ -470,3 +408,12 @@ class ReviewJobs(QMainWindow):
             r.doc.reprocessed is not None) else ""  # fmt: skip
         self.status.message(f"Report written to {out}{note}; angles: {r.angle_method}", 15_000)
         self.report_written.emit(str(out))
+
+    def drop(self) -> None:
+        """Before the document closes: the angles job is not wanted any more."""
+        self.angles_job.cancel()
+        self.angles_job.wait_idle(5.0)
+
+    def shutdown(self) -> None:
+        self.job.stop()
+        self.angles_job.stop()

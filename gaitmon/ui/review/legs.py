@@ -98,8 +98,9 @@ class LegBar(QWidget):
 class LegsControl(QObject):
     """The leg chooser and the Both legs tab of one window. :meth:`document_set` shows them
     for a bilateral file (and asks for the measures of its file), :meth:`exclusions_changed`
-    asks again; only the answer for the document still shown is applied (``computed`` is
-    emitted then). Choosing a leg calls ``open_leg(path, side)``."""
+    (the document's exclusions event) asks again; only the answer for the document still
+    shown is applied (``computed`` is emitted then). Choosing a leg calls
+    ``open_leg(path, side)``."""
 
     computed = Signal()
 
@@ -130,7 +131,14 @@ class LegsControl(QObject):
         self._carry = (doc.path, doc.angle_source, (x0, x1))
         self._open_leg(doc.path, side)
 
+    def leg_chosen(self, side: str, on: bool = True) -> None:
+        """View ▸ Leg ▸ Left | Right: reopen on that leg."""
+        if on:
+            self.show_leg(side)
+
     def document_set(self, doc: Document | None) -> None:
+        """Show ``doc`` 's legs and ask for its file's measures, again whenever its exclusions
+        change (its event)."""
         self.worker.cancel()
         self.bar.set_document(doc)
         on = doc is not None and doc.bilateral
@@ -141,6 +149,7 @@ class LegsControl(QObject):
         if doc is None or not on:
             self.panel.show_message("")
             return
+        doc.events.exclusions.connect(lambda _e: self.exclusions_changed(doc))
         self.panel.show_message("Computing both legs' measures…")
         carry, self._carry = self._carry, None
         if carry is not None and carry[0] == doc.path:

@@ -8,8 +8,8 @@ layout: every plot in it) or any item in a scene.
 
 from __future__ import annotations
 
-import importlib
 import os
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -48,7 +48,11 @@ def _close_paths_explicitly(node: object) -> None:
 
 
 def _patch_svg_exporter() -> None:
-    module = importlib.import_module("pyqtgraph.exporters.SVGExporter")
+    # the package re-exports the class under the module's name, so the module is looked up in
+    # sys.modules after a plain import
+    import pyqtgraph.exporters.SVGExporter  # noqa: F401
+
+    module = sys.modules["pyqtgraph.exporters.SVGExporter"]
     original = getattr(module, "correctCoordinates", None)
     if original is None or getattr(original, "_gaitmon_patched", False):
         return

@@ -1,4 +1,5 @@
-"""The review window's Open recent list, kept in its QSettings (``review/recent``)."""
+"""What the review window remembers in its QSettings, by the keys named once in
+:class:`gaitmon.review.settings.ReviewKey`: the Open recent list and the last folders."""
 
 from __future__ import annotations
 
@@ -8,12 +9,23 @@ from pathlib import Path
 from PySide6.QtCore import QSettings
 from PySide6.QtWidgets import QMenu
 
+from gaitmon.review.settings import ReviewKey
+
 MAX_RECENT = 8
-KEY = "review/recent"
+KEY = ReviewKey.RECENT.key
+
+
+def folder(settings: QSettings, key: ReviewKey) -> str:
+    """A remembered folder (the home folder until one is)."""
+    return str(settings.value(key.key, key.default))
+
+
+def remember(settings: QSettings, key: ReviewKey, value: object) -> None:
+    settings.setValue(key.key, str(value) if key.kind is str else value)
 
 
 def recent_files(settings: QSettings) -> list[str]:
-    value = settings.value(KEY, [])
+    value = settings.value(KEY, ReviewKey.RECENT.default)
     if isinstance(value, str):
         return [value]
     return [str(v) for v in value] if isinstance(value, list) else []

@@ -1,23 +1,21 @@
 """The review's Reprocess dialog: the processing settings
-(:class:`gaitmon.ui.dialogs.SettingsDialog`) plus the live tilt filter to replay with,
-gait-aware or the paper's.
+(:class:`gaitmon.ui.dialogs.SettingsDialog`) plus the live tilt filter to replay with, one of
+the app's tilt methods (the registry, gaitmon.dsp.methods: gait-aware or the paper's).
 
 As ``gaitmon process`` refuses ``--q-angle``, ``--q-gyro`` and ``--r`` without ``--method paper``
 (they tune the paper's Kalman filter only and would silently change nothing), the dialog enables
-those fields for the paper's method only and keeps the recorded values otherwise.
+a setting only for the methods that read it (``TiltMethod.reads_settings``) and keeps the
+recorded value otherwise.
 """
 
 from __future__ import annotations
 
 from PySide6.QtWidgets import QComboBox, QFormLayout, QLabel, QVBoxLayout, QWidget
 
-from gaitmon.dsp.estimate import METHODS
+from gaitmon.dsp.methods import get_method, methods
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.reprocessing import PAPER_ONLY
+from gaitmon.reprocessing import method_only_settings
 from gaitmon.ui.dialogs import SettingsDialog
-
-# the methods offered, the default first
-METHOD_ORDER = ("gait-aware", "paper")
 
 
 def review_notes(smoothed: bool, bilateral: bool) -> tuple[str, str]:
@@ -46,8 +44,8 @@ class ReprocessDialog(SettingsDialog):
         super().__init__(parent, config, note=note)
         self.setWindowTitle("Reprocess with settings")
         self.method_combo = QComboBox()
-        for key in METHOD_ORDER:
-            self.method_combo.addItem(METHODS[key], key)
+        for m in methods(live=True):  # the app's tilt methods, the default first
+            self.method_combo.addItem(m.label, m.name)
         self.method_combo.setCurrentIndex(max(0, self.method_combo.findData(config.tilt_method)))
         self.method_combo.setToolTip(
             "The causal tilt filter replayed over the raw counts: its angles are the live ones "
@@ -63,7 +61,8 @@ class ReprocessDialog(SettingsDialog):
         self.angles_note.setWordWrap(True)
         self.angles_note.setVisible(bool(angles_note))
         lay.insertWidget(lay.count() - 2, self.angles_note)  # above the error line and buttons
-        self._tips = {name: self.edits[name].toolTip() for name in PAPER_ONLY}
+        self._only = method_only_settings()  # settings some methods read, by method
+        self._tips = {name: self.edits[name].toolTip() for name in self._only}
         self.method_combo.currentIndexChanged.connect(self._method_changed)
         self._method_changed()
 
@@ -72,13 +71,14 @@ class ReprocessDialog(SettingsDialog):
         return str(self.method_combo.currentData())
 
     def _method_changed(self, *_args: object) -> None:
-        paper = self.method == "paper"
-        for name in PAPER_ONLY:
+        for name, readers in self._only.items():
+            reads = self.method in readers
             edit = self.edits[name]
-            edit.setEnabled(paper)
-            edit.setToolTip(self._tips[name] if paper else
-                            "Tunes the paper's Kalman filter only: choose it above to change it")
-            if not paper:  # the recorded value: this filter does not read it
+            edit.setEnabled(reads)
+            edit.setToolTip(self._tips[name] if reads else
+                            f"Tunes {get_method(readers[0]).noun_phrase} only: choose it above "
+                            "to change it")  # fmt: skip
+            if not reads:  # the recorded value: this filter does not read it
                 edit.setText(f"{getattr(self.base, name):g}")
 
     def _defaults(self) -> None:

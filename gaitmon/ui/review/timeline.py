@@ -35,11 +35,11 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gaitmon.dsp.channels import CHANNELS, SEGMENTS
+from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Response
-from gaitmon.review.model import JOINT, Document, Source
+from gaitmon.review.model import Document, Source
 from gaitmon.review.view import (
     ViewData,
     ViewRequest,
@@ -49,17 +49,16 @@ from gaitmon.review.view import (
 )
 from gaitmon.text import no_gait_events
 from gaitmon.ui.jobs import QtWorker
-from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet, step_runs
+from gaitmon.ui.plots import FSR_RANGE, TILT_RANGES_DEG, step_runs
 from gaitmon.ui.plots import vertical_lines as _vlines
-from gaitmon.ui.review.lanes import Lane, TraceSpec, lane_plot, line_pen
-from gaitmon.ui.review.overview_plot import OverviewPlot
-from gaitmon.ui.theme import Colours, pen
+from gaitmon.ui.review.lanes import Lane
+from gaitmon.ui.review.timeline_build import Plots, build_plots
+from gaitmon.ui.theme import Colours
 
 EVENTS_MAX_S = 180.0  # wider views would be solid with event lines
 PHASE_MAX_ROWS = 30_000  # phase bands need every row; beyond this they are left out
 MIN_POINTS, MAX_POINTS = 600, 4000
 INITIAL_VIEW_S = 30.0
-RAW_RANGE = (-100.0, 4200.0)
 
 
 class Timeline(QWidget):
@@ -118,132 +117,31 @@ class Timeline(QWidget):
         lay.addLayout(top)
         lay.addWidget(self.glw, 1)
 
-        self.lanes: dict[str, Lane] = {}
-        self._build()
+        self._marker_labels: list[pg.TextItem] = []
+        self._connect(build_plots(self.glw, colours))
         self._load_timer = QTimer(self)
         self._load_timer.setSingleShot(True)
         self._load_timer.setInterval(0)  # coalesce the range changes of one event-loop pass
         self._load_timer.timeout.connect(self._request_view)
 
-    # -- construction --------------------------------------------------------------------------
-
-    def _plot(self, row: int) -> pg.PlotItem:
-        p = lane_plot(self.colours)
-        self.glw.addItem(p, row=row, col=0)
-        return p
-
-    def _lane(self, key: str, title: str, yrange: tuple[float, float], tip: str) -> Lane:
-        row = len(self.lanes) + 1
-        p = self._plot(row)
-        p.setMouseEnabled(x=True, y=False)
-        p.setYRange(*yrange, padding=0)
-        p.getAxis("left").setLabel(title)
-        p.setToolTip(tip)
-        ts = TraceSet((0.0, 1.0), yrange)
-        lane = Lane(key, title, yrange, p, ts)
-        p.addItem(lane.shade, ignoreBounds=True)
-        p.addItem(ts, ignoreBounds=True)
-        if self.lanes:
-            p.setXLink(next(iter(self.lanes.values())).plot)
-        vb = p.getViewBox()
-        vb.selection_dragged.connect(self._selection_dragged)
-        vb.clicked.connect(self.set_cursor)
-        lane.cursor = self._cursor_line(p)
-        self.lanes[key] = lane
-        return lane
-
-    def _cursor_line(self, p: pg.PlotItem) -> pg.InfiniteLine:
-        line = pg.InfiniteLine(
-            pos=0.0, angle=90, movable=True, pen=pg.mkPen(self.colours.current, width=1)
-        )
-        line.setHoverPen(pg.mkPen(self.colours.marker, width=2))
-        line.setZValue(20)
-        line.setVisible(False)
-        line.sigPositionChanged.connect(lambda ln: self.set_cursor(ln.value()))
-        p.addItem(line, ignoreBounds=True)
-        return line
-
-    def _add(self, lane: Lane, spec: TraceSpec, dashed: bool = False) -> None:
-        colour = QColor(spec.colour)
-        if spec.before:
-            colour = QColor(self.colours.foreground)
-            colour.setAlpha(110)
-        tr = lane.traces.add(Trace(line_pen(colour, dashed=dashed), series=spec.series,
-                                   column=spec.column, method=spec.method))  # fmt: skip
-        lane.specs.append((spec, tr))
-
-    def _build(self) -> None:
-        c = self.colours
+    def _connect(self, plots: Plots) -> None:
+        """Keep the plots built and connect them to the timeline's slots."""
+        assert plots.strip and plots.overview_cursor and plots.threshold_line
+        self.lanes: dict[str, Lane] = plots.lanes
+        self.strip, self.overview_cursor = plots.strip, plots.overview_cursor
+        self.threshold_line = plots.threshold_line
         # overview: the knee over the whole session, the detail range as a draggable region
-        self.strip = OverviewPlot(self._plot(0), c)
-        self.overview = self.strip.plot
-        self.region = self.strip.region
+        self.overview, self.region = self.strip.plot, self.strip.region
         self.region.sigRegionChanged.connect(self._region_moved)
         self.overview.getViewBox().clicked.connect(self._overview_clicked)
-        self.overview_cursor = self._cursor_line(self.overview)
-
-        for j, (key, _label, yr) in enumerate(JOINTS):
-            sign = "dorsiflexion" if key == "ankle" else "flexion"
-            lane = self._lane(
-                key, f"{key} (°)", yr,
-                f"{key.capitalize()} angle, {sign} positive (clinical convention). Green: Kalman; "
-                "red/blue (View menu): accelerometer / gyro integration. Grey lines: heel strike "
-                "(solid) and toe off (dashed).",
-            )  # fmt: skip
-            lane.events_hs = lane.traces.add(Trace(line_pen(c.event)))
-            lane.events_to = lane.traces.add(Trace(line_pen(c.event, dashed=True)))
-            self._add(lane, TraceSpec(JOINT, j, c.kalman, before=True), dashed=True)
-            self._add(lane, TraceSpec("processed/joint_gyro_deg", j, c.gyro, "gyro"))
-            self._add(lane, TraceSpec("processed/joint_acc_deg", j, c.acc, "acc"))
-            self._add(lane, TraceSpec(JOINT, j, c.kalman, "kalman"))
-            lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
-        lane = self._lane(
-            "tilt", "thigh tilt (°)", TILT_RANGES_DEG["thigh"],
-            "Segment tilt (choose the segment above): red accelerometer, green Kalman filter, "
-            "blue gyro integration (the papers' colours).",
-        )  # fmt: skip
-        self._add(lane, TraceSpec("processed/tilt_deg", 1, c.kalman, before=True), dashed=True)
-        self._add(lane, TraceSpec("processed/tilt_gyro_deg", 1, c.gyro))
-        self._add(lane, TraceSpec("processed/tilt_acc_deg", 1, c.acc))
-        self._add(lane, TraceSpec("processed/tilt_deg", 1, c.kalman))
-        lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
-        lane = self._lane(
-            "fsr", "FSR (counts)", FSR_RANGE,
-            "Foot sensors (low-passed ADC counts): heel red, toe green. Shading: gait phase "
-            "(loading, foot flat, push-off); lines: heel strike (red) and toe off (green).",
-        )  # fmt: skip
-        for k, colour in enumerate(c.phases, start=1):
-            lane.bands.append((lane.traces.add(Trace(brush=colour, fill_level=FSR_RANGE[0])), k))
-        lane.events_hs = lane.traces.add(Trace(line_pen(c.heel)))
-        lane.events_to = lane.traces.add(Trace(line_pen(c.toe, dashed=True)))
-        self._add(lane, TraceSpec("processed/fsr_counts", 0, c.heel, before=True), dashed=True)
-        self._add(lane, TraceSpec("processed/fsr_counts", 1, c.toe, before=True), dashed=True)
-        self._add(lane, TraceSpec("processed/fsr_counts", 0, c.heel))
-        self._add(lane, TraceSpec("processed/fsr_counts", 1, c.toe))
-        lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
-        self.threshold_line = pg.InfiniteLine(
-            pos=1000.0, angle=0, pen=pen(c.event, dashed=True), movable=False
-        )
-        lane.plot.addItem(self.threshold_line, ignoreBounds=True)
-        lane = self._lane(
-            "raw", "raw (counts)", RAW_RANGE,
-            "Raw ADC counts of the 14 channels (12 bit), coloured by segment; accelerometer x "
-            "solid, z faint, gyro darker; heel red, toe green.",
-        )  # fmt: skip
-        for ch in CHANNELS:
-            if ch.segment in SEGMENTS:
-                col = QColor(c.segments[SEGMENTS.index(ch.segment)])
-                col.setAlpha({"acc_x": 255, "acc_z": 110, "gyro": 190}.get(ch.kind, 255))
-            else:
-                col = c.heel if ch.segment == "heel" else c.toe
-            self._add(lane, TraceSpec("raw/adc", ch.index, col))
-        lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
-        self.set_lane_visible("raw", False)
         for lane in self.lanes.values():
-            lane.missing = pg.TextItem("", color=c.foreground, anchor=(0.5, 0.5))
-            lane.missing.setVisible(False)
-            lane.plot.addItem(lane.missing, ignoreBounds=True)
-        self._marker_labels: list[pg.TextItem] = []
+            vb = lane.plot.getViewBox()
+            vb.selection_dragged.connect(self._selection_dragged)
+            vb.clicked.connect(self.set_cursor)
+        for line in (self.overview_cursor, *(ln.cursor for ln in self.lanes.values())):
+            if line is not None:
+                line.sigPositionChanged.connect(lambda ln: self.set_cursor(ln.value()))
+        self.set_lane_visible("raw", False)
         self.master.sigXRangeChanged.connect(self._detail_range_changed)
         self.master.sigYRangeChanged.connect(self._place_marker_labels)
         self._update_bottom_axes()
@@ -328,8 +226,13 @@ class Timeline(QWidget):
         self.readout.setText("Open a session: File ▸ Open, or drop a .h5 file here.")
 
     def set_document(self, doc: Document) -> None:
+        """Show ``doc``, and follow its events: its exclusions shaded, its series redrawn."""
         self.clear()
         self.doc = doc
+        self.set_fsr_threshold(doc.current.config.fsr_threshold)
+        doc.events.exclusions.connect(lambda _e: self.refresh_shading())
+        doc.events.angles.connect(lambda _e: self._source_changed(doc))
+        doc.events.settings.connect(lambda _e: self._source_changed(doc))
         self._fitted_y = False
         n = doc.n_rows
         t0 = float(doc.t_s[0]) if n else 0.0
@@ -357,6 +260,11 @@ class Timeline(QWidget):
         self.set_cursor(t0)
         self.set_view(t0, min(t1, t0 + INITIAL_VIEW_S))
         self._schedule()
+
+    def _source_changed(self, doc: Document) -> None:
+        # the threshold line is the one in force in the series shown (a reprocessing's)
+        self.set_fsr_threshold(doc.current.config.fsr_threshold)
+        self.series_changed()
 
     def series_changed(self) -> None:
         """Other series are shown (the angles switched, a reprocessing): redraw the overview

@@ -1,0 +1,181 @@
+"""Bilateral sessions: both legs' units in one file, with their clock fits.
+
+A bilateral recording is written as two ordinary, crash-safe single-unit recordings beside the
+target (``FILE.L.partial``, ``FILE.R.partial``: :mod:`.parts`) and combined into ``FILE`` at
+the stop (:mod:`.combine`): each part's whole layout under ``/units/<side>``, and under
+``/sync/<side>`` the fit of that unit's clock against the host clock
+(``gaitmon.dsp.clock_fit``) with the session's common time base. ``docs/file-format.md``
+("Bilateral sessions") is the reference, ``docs/bilateral.md`` the measures.
+
+Reading: ``open_session(FILE, side="L")`` gives one leg as an ordinary :class:`Session`
+(rooted at its group); :func:`open_bilateral` gives both legs and the clock mapping. Both
+recover and combine left-over parts first (the process died before the combine).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from gaitmon.dsp.clock_fit import ClockFit
+from gaitmon.finish.combine import combine_parts
+from gaitmon.finish.session import Session, open_combined_h5, open_session
+from gaitmon.io.session.h5file import _short_error
+from gaitmon.io.session.header import SessionError
+from gaitmon.io.session.parts import (
+    BOTH_LEGS,
+    SIDE_NAMES,
+    SIDES,
+    is_bilateral,
+    part_path,
+    parts_of,
+)
+
+__all__ = [
+    "SIDES",
+    "Bilateral",
+    "combine_parts",
+    "is_bilateral",
+    "missing_legs",
+    "missing_lines",
+    "open_bilateral",
+    "part_path",
+    "parts_of",
+    "pick_side_message",
+]
+
+
+def _read_fit(g: h5py.Group) -> ClockFit:
+    seg = g["segments"][()]
+    return ClockFit(
+        np.asarray(seg["unit_start_s"], np.float64), np.asarray(seg["unit_stop_s"], np.float64),
+        np.asarray(seg["host_s"], np.float64), np.asarray(seg["host_s_per_unit_s"], np.float64),
+        float(g.attrs.get("residual_p50_ms", np.nan)),
+        float(g.attrs.get("residual_p95_ms", np.nan)),
+    )  # fmt: skip
+
+
+@dataclass
+class Bilateral:
+    """A bilateral session: both units (ordinary :class:`Session` s, by side) and the clock
+    mapping. ``common_s(side, unit_s)`` maps a unit's own time (``/timeline/t_s``, e.g. at an
+    event's row) onto the session's common time line: ``(host(unit_s) - host_t0_s) /
+    host_s_per_common_s`` (0 = the first sample of the unit that started first)."""
+
+    path: Path
+    units: dict[str, Session]
+    sync: dict[str, ClockFit]
+    host_t0_s: float
+    host_s_per_common_s: float
+    attrs: dict[str, Any]
+
+    @property
+    def sides(self) -> tuple[str, ...]:
+        return tuple(self.units)
+
+    def unit(self, side: str) -> Session:
+        if side not in self.units:
+            raise SessionError(f"{self.path.name} has no {SIDE_NAMES.get(side, side)} leg")
+        return self.units[side]
+
+    def common_s(self, side: str, unit_s: np.ndarray | float) -> np.ndarray:
+        host = self.sync[side].host_at(unit_s)
+        return np.asarray((host - self.host_t0_s) / self.host_s_per_common_s)
+
+    @property
+    def missing(self) -> dict[str, str]:
+        """The legs missing from the file (a part that could not be recovered), and why."""
+        return missing_of(self.attrs)
+
+    @property
+    def complete(self) -> bool:
+        return bool(self.attrs.get("complete", False))
+
+    @property
+    def recovered(self) -> bool:
+        return bool(self.attrs.get("recovered", False))
+
+    def close(self) -> None:
+        for u in self.units.values():
+            u.close()
+
+    def __enter__(self) -> Bilateral:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def open_bilateral(
+    path: str | os.PathLike[str], *, progress: Callable[[float], bool | None] | None = None
+) -> Bilateral:
+    """Open a bilateral session (recovering and combining its parts first if the recording
+    was interrupted). ``SessionError`` with one line for anything else."""
+    path = Path(path)
+    f = open_combined_h5(path, progress)
+    try:
+        if not bool(f.attrs.get("bilateral", False)):
+            raise SessionError(f"{path.name} holds one unit, not both legs")
+        sides = [s for s in str(f.attrs.get("sides", "")).split() if s in SIDES]
+        if not sides or any(f"sync/{s}/segments" not in f for s in sides):
+            raise SessionError(f"{path.name} is damaged: its units' clock fits are missing")
+        sync = {s: _read_fit(f[f"sync/{s}"]) for s in sides}
+        t0 = float(f["sync"].attrs["host_t0_s"])
+        scale = float(f["sync"].attrs["host_s_per_common_s"])
+        attrs = dict(f.attrs.items())
+    except SessionError:
+        raise
+    except (KeyError, OSError, RuntimeError, ValueError, TypeError) as e:
+        raise SessionError(f"{path.name} is damaged ({_short_error(e)})") from e
+    finally:
+        f.close()
+    if not (np.isfinite(scale) and scale > 0 and np.isfinite(t0)):
+        raise SessionError(f"{path.name} is damaged: its common time base is {t0}, {scale}")
+    units: dict[str, Session] = {}
+    try:
+        for s in sides:  # one file handle per unit: each closes its own
+            units[s] = open_session(path, side=s)
+    except Exception:
+        for u in units.values():
+            with contextlib.suppress(Exception):
+                u.close()
+        raise
+    return Bilateral(path, units, sync, t0, scale, attrs)
+
+
+def missing_of(attrs: Mapping[str, object]) -> dict[str, str]:
+    """``{side: why}`` of a bilateral file's root attributes (``missing``, ``missing_<side>``)."""
+    sides = _text(attrs.get("missing", "")).split()
+    return {s: _text(attrs.get(f"missing_{s}", "")) for s in sides if s in SIDES}
+
+
+def missing_lines(path: str | os.PathLike[str], missing: dict[str, str]) -> list[str]:
+    """One line per missing leg, naming it and saying where its bytes are."""
+    name = Path(path).name
+    return [f"{name}: the {SIDE_NAMES[s]} leg ({s}) is missing: {why}" for s, why in
+            missing.items()]  # fmt: skip
+
+
+def missing_legs(path: str | os.PathLike[str]) -> list[str]:
+    """:func:`missing_lines` of a combined file (none if it cannot be read)."""
+    try:
+        with h5py.File(path, "r") as f:
+            return missing_lines(path, missing_of(f.attrs))
+    except (OSError, RuntimeError, ValueError):
+        return []
+
+
+def _text(x: object) -> str:
+    return x.decode("utf-8", "replace") if isinstance(x, bytes) else str(x)
+
+
+def pick_side_message(path: str | os.PathLike[str]) -> str:
+    """The one line for a command that handles one unit and was given both legs."""
+    return BOTH_LEGS.format(name=Path(path).name)

@@ -1,0 +1,267 @@
+"""Reprocessing a raw session into a new file: the pipeline re-run from the raw counts.
+
+The original is never modified: the new file is a copy (written as ``NEW.partial`` and moved
+into place atomically) whose ``/processed`` series, ``/events`` and ``/config`` come from the
+new settings; standing calibrations logged during the recording are replayed at their rows.
+``gaitmon process`` and the review window's "Save reprocessed as…" both call
+:func:`rewrite_processed`, so they report progress and honour Cancel the same way.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channels import ChannelTable
+from gaitmon.dsp.fsr_check import FsrFault
+from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.errors import Cancelled
+from gaitmon.finish.recovery import flags_kept, replay_pipeline
+from gaitmon.finish.session import Session, open_session
+from gaitmon.finish.smoothed import KeptFirstPass, store_smoothed
+from gaitmon.finish.strides import store_strides
+from gaitmon.io.session.codec import encode
+from gaitmon.io.session.header import SessionError
+from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
+from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
+from gaitmon.io.session.stored_overview import write_overview
+
+# the copy is this share of the progress bar, the replay the rest (both are I/O bound)
+COPY_SHARE = 0.25
+COPY_CHUNK_BYTES = 4 << 20  # an 8-hour session (~400 MB) is ~100 cancel points
+REPLAY_CHUNK_ROWS = _RECOVERY_CHUNK_ROWS  # 65536 rows = 11 min at 100 Hz per cancel point
+
+Progress = Callable[[float], object]
+Cancel = Callable[[], bool]
+
+
+@dataclass(frozen=True)
+class RewriteResult:
+    path: Path  # the new session file
+    n_frames: int  # rows reprocessed
+    config: PipelineConfig  # the settings now in the file
+
+
+def partial_path(dst: str | os.PathLike[str]) -> Path:
+    """Where the new file is built before it is moved into place."""
+    p = Path(dst)
+    return p.with_name(p.name + ".partial")
+
+
+def _check_raw(s: Session) -> None:
+    if s.mode != "raw":
+        raise SessionError(
+            f"{s.path.name} holds the unit's own {s.mode} angles, not raw counts; only "
+            "raw-mode sessions can be reprocessed"
+        )
+
+
+def recorded_config(
+    src: str | os.PathLike[str], *, progress: Callable[[float], bool | None] | None = None
+) -> PipelineConfig:
+    """The settings a raw session was recorded with: what a reprocessing starts from.
+
+    Opens (recovering an interrupted recording first, reporting ``progress``); raises
+    :class:`SessionError` for a bad file or a session that holds no raw counts.
+    """
+    with open_session(src, progress=progress) as s:
+        _check_raw(s)
+        return s.config
+
+
+def rewrite_processed(
+    src: Path,
+    dst: Path,
+    config: PipelineConfig,
+    *,
+    progress: Progress | None = None,
+    cancel: Cancel | None = None,
+    overwrite: bool = False,
+) -> RewriteResult:
+    """Write ``dst``: a copy of the raw session ``src`` reprocessed with ``config``.
+
+    ``progress(fraction)`` goes from 0 to 1 (the copy, then the replay); ``cancel()`` is asked
+    between chunks, and when it answers True the partial file is deleted and
+    :class:`gaitmon.errors.Cancelled` raised. Every other failure raises :class:`SessionError`
+    with a one-line message. ``src`` is never modified.
+    """
+    src, dst = Path(src), Path(dst)
+    check_destination(src, dst, overwrite)
+    report = _reporter(progress)
+    check_cancel = _canceller(cancel)
+    report(0.0)
+    tmp = partial_path(dst)
+    with _building(tmp, dst):
+        with open_session(src) as s:
+            unit = UnitInputs.of(s)
+            _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
+        with h5py.File(tmp, "r+") as f:
+            rewrite_unit(f, unit, config, lambda f: report(COPY_SHARE + (1.0 - COPY_SHARE) * f),
+                         check_cancel)  # fmt: skip
+        check_cancel()
+        os.replace(tmp, dst)
+    report(1.0)
+    return RewriteResult(dst, unit.n, config)
+
+
+def check_destination(src: Path, dst: Path, overwrite: bool) -> None:
+    """``SessionError`` unless ``dst`` may be written: not the recording itself, not an
+    existing file (unless ``overwrite``), in a folder that exists."""
+    if dst.exists() and dst.resolve() == src.resolve():
+        raise SessionError(
+            f"{dst.name} is the recording itself: write the reprocessed session to another "
+            "file (the original recording is never modified)"
+        )
+    if dst.exists() and not overwrite:
+        raise SessionError(f"{dst} already exists; choose another name")
+    if not dst.parent.is_dir():
+        raise SessionError(f"folder {dst.parent} does not exist")
+
+
+def _reporter(progress: Progress | None) -> Progress:
+    def report(fraction: float) -> None:
+        if progress is not None:
+            progress(min(1.0, max(0.0, fraction)))
+
+    return report
+
+
+def _canceller(cancel: Cancel | None) -> Callable[[], None]:
+    def check_cancel() -> None:
+        if cancel is not None and cancel():
+            raise Cancelled
+
+    return check_cancel
+
+
+@contextlib.contextmanager
+def _building(tmp: Path, dst: Path) -> Iterator[None]:
+    """The partial file ``tmp`` is deleted if building it fails or is cancelled; a write
+    failure becomes one ``SessionError`` line."""
+    try:
+        yield
+    except (Cancelled, SessionError):
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    except (OSError, RuntimeError) as exc:  # h5py reports some write failures as RuntimeError
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise SessionError(f"cannot write {dst}: {getattr(exc, 'strerror', None) or exc}") from None
+
+
+@dataclass(frozen=True)
+class UnitInputs:
+    """What the replay of one unit takes from its recording (read before it is copied)."""
+
+    n: int
+    calibration: Calibration
+    calibration_log: list[tuple[int, Calibration]]
+    table: ChannelTable  # the unit's own conversion, as recovery and review use
+    lost: np.ndarray
+    config: PipelineConfig  # the settings it was recorded with
+    fsr_faults: tuple[FsrFault, ...] = ()  # those from row 0 stay flagged (flags_kept)
+
+    @classmethod
+    def of(cls, s: Session) -> UnitInputs:
+        _check_raw(s)
+        n = s.n_samples
+        return cls(n, s.calibration, list(s.calibration_changes), s.header.table,
+                   lost_before_from_gaps(s.gaps, n), s.config, tuple(s.fsr_faults))  # fmt: skip
+
+
+def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], None]) -> None:
+    """``shutil.copyfile`` in chunks, so a long copy reports progress and can be cancelled."""
+    total = max(1, src.stat().st_size)
+    done = 0
+    with open(src, "rb") as fin, open(tmp, "wb") as fout:
+        while chunk := fin.read(COPY_CHUNK_BYTES):
+            fout.write(chunk)
+            done += len(chunk)
+            report(done / total)
+            check_cancel()
+
+
+def rewrite_unit(
+    f: h5py.Group,
+    unit: UnitInputs,
+    config: PipelineConfig,
+    report: Progress,
+    check_cancel: Callable[[], None],
+) -> None:
+    """Reprocess the one unit whose layout is rooted at ``f`` (a one-unit file, or a bilateral
+    file's ``/units/<side>``) in place with ``config``."""
+    n, calibration, calibration_log = unit.n, unit.calibration, unit.calibration_log
+    table, lost = unit.table, unit.lost
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
+    proc = f["processed"]
+    # the raw counts are read a chunk at a time (the copy holds the recording's own)
+    adc = LazyRows(f["raw/adc"], n)
+    hs: list[np.ndarray] = []
+    to: list[np.ndarray] = []
+    replay = replay_pipeline(
+        adc,
+        config,
+        calibration,
+        calibration_log,
+        table=table,
+        chunk_rows=REPLAY_CHUNK_ROWS,
+        lost_before=lost,
+        flagged_at_start=flags_kept(unit.fsr_faults, unit.config, config),
+    )
+    faults: list[tuple[int, int, str, str]] = []
+    # the pipeline's filter is the smoother's first pass: kept, so it runs once
+    with KeptFirstPass(os.path.dirname(f.file.filename) or None) as kept:
+        for start, rows, hs_rows, to_rows, found, first_pass in replay:
+            faults += found
+            stop = start + len(rows["processed/joint_deg"])
+            kept.add(start, first_pass)
+            for path, data in rows.items():
+                if path in f:  # (format 2 derives the joints and gyro rates on read)
+                    f[path][start:stop] = encode(path, data) if v2 else data
+            hs.append(hs_rows)
+            to.append(to_rows)
+            report(stop / max(n, 1))
+            check_cancel()
+        proc.attrs["reprocessed"] = True
+        proc.attrs["source"] = "pc"
+        proc.attrs["tilt_method"] = config.tilt_method_label
+        store_smoothed(f, adc.rows, n, table, calibration, calibration_log, lost, config.fs_hz,
+                       kept.first_pass)  # fmt: skip
+    ev = f["events"]
+    for name, parts in (("heel_strike", hs), ("toe_off", to)):
+        data = np.concatenate(parts) if parts else np.empty(0, np.int64)
+        del ev[name]
+        ev.create_dataset(name, data=data.astype(np.int64), maxshape=(None,), chunks=True)
+    if "fsr_faults" in ev:  # (a file written before the table existed has none)
+        del ev["fsr_faults"]
+    ev.create_dataset(
+        "fsr_faults",
+        data=np.array(faults, dtype=_TABLES["events/fsr_faults"]),
+        maxshape=(None,),
+        chunks=(_TABLE_CHUNK_ROWS,),
+    )
+    cfg = f["config"]
+    for key, value in config.as_dict().items():
+        cfg.attrs[key] = value
+    cfg.attrs["event_delay_samples"] = config.event_delay_samples
+    # the new settings hold for the whole file: no changes during the recording
+    del cfg["changes"]
+    cfg.create_dataset(
+        "changes",
+        data=np.array([], dtype=_TABLES["config/changes"]),
+        maxshape=(None,),
+        chunks=(_TABLE_CHUNK_ROWS,),
+    )
+    cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
+    write_overview(f)  # the joint angles changed: so did their overview
+    store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
+    report(1.0)

@@ -1,0 +1,352 @@
+"""A raw-mode session's zero-lag angles: ``/smoothed``, the best estimate every reader uses.
+
+The live view can only use the causal filter (``/processed/tilt_deg`` and ``joint_deg``, what the
+clinician saw). A recorded session is analysed on the offline estimate: the RTS smoother over
+the gait-aware Kalman model (:mod:`gaitmon.dsp.smoother`) run over the whole record, with the
+calibration in force at each row and a fresh start after every long gap (as the live pipeline
+restarts there). It is computed once, when a recording is closed, recovered or reprocessed, and
+stored beside the live series:
+
+    /smoothed/tilt_deg   (N, 4) float32   zeroed segment tilts
+    /smoothed/joint_deg  (N, 3) float32   hip, knee, ankle (clinical signs)
+    /smoothed.attrs["method"]             e.g. "gait-aware Kalman + RTS smoother"
+
+A file without it (written before it existed, or a stop that could not finish it) gets the same
+numbers computed in memory when a reader asks (:func:`smoothed_from_file`). Tilt and joint mode
+sessions hold the unit's own angles only: there is nothing to smooth.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import json
+import logging
+from collections.abc import Callable, Iterator
+from typing import IO, Any
+
+import h5py
+import numpy as np
+
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
+from gaitmon.dsp.channels import ChannelTable
+from gaitmon.io.session.layout import CHUNK_ROWS
+from gaitmon.io.session.rows import lost_before_from_gaps
+
+
+def smoothed_method_label() -> str:
+    from gaitmon.dsp.methods import smoothing_method
+
+    return str(smoothing_method().offline_label)
+
+
+# Pieces longer than this are smoothed in blocks of it, each with SMOOTH_OVERLAP_ROWS of context
+# on either side (kept inside the piece) whose results are dropped: the smoother's memory is
+# ~140 MB per hour of record, so an 8-hour record in one go peaked at ~1.3 GB (close, recovery,
+# gaitmon process). The difference to one pass falls ~40-fold per 15 s of context (measured on
+# 20 simulated minutes in blocks of 5: 0.2 deg with 15 s, 0.005 with 30 s, 3e-5 with 60 s);
+# 2 minutes put it below float32, far below the 0.01 deg the angles are stored at. The four
+# segments of a block are smoothed side by side: 15-min blocks hold ~25 MB (30-min ones, ~50 MB,
+# put recovery's peak RSS of an 8-hour record at 380-420 MB, with the compiled filters' runtime).
+SMOOTH_BLOCK_ROWS = 90_000  # 15 min at 100 Hz
+SMOOTH_OVERLAP_ROWS = 12_000  # 120 s
+
+
+log = logging.getLogger(__name__)
+
+Counts = Callable[[int, int], np.ndarray]  # rows a:b of the raw counts
+# the smoother's first pass of rows a:b (rad, (b - a, 4)), given their raw counts: a
+# gaitmon.dsp.smoother.CausalFirstPass's rows, or the same tilts kept from a replay
+FirstPass = Callable[[int, int, np.ndarray], np.ndarray]
+
+
+def smoothed_blocks(
+    counts: Counts,
+    n: int,
+    table: ChannelTable,
+    calibration: Calibration,
+    calibration_changes: list[tuple[int, Calibration]],
+    restarts: np.ndarray,
+    fs_hz: float,
+    first_pass: FirstPass | None = None,
+) -> Iterator[tuple[int, np.ndarray]]:
+    """(first row, tilts in rad (rows, 4) float64) of a raw record of ``n`` rows, block after
+    block in row order; ``counts(a, b)`` gives rows a:b of the raw counts, asked for one block
+    with its context at a time (at most :data:`SMOOTH_BLOCK_ROWS` + 2 x
+    :data:`SMOOTH_OVERLAP_ROWS` rows), so memory does not grow with the session.
+
+    The record is smoothed in pieces split at the ``restarts`` rows (after a long gap, where
+    the live pipeline restarts, :func:`gaitmon.dsp.pipeline.restart_rows`): the segments moved
+    while no data came, so nothing links the angle before a gap to the one after it. A long
+    piece is smoothed in blocks with :data:`SMOOTH_OVERLAP_ROWS` of context either side.
+
+    The smoother's first pass, the causal filter, runs over the whole record in row order as
+    the live pipeline does (:class:`gaitmon.dsp.smoother.CausalFirstPass`); ``first_pass``
+    gives those tilts where they are known already (a replay of the pipeline kept them)."""
+    from gaitmon.dsp.smoother import CausalFirstPass, smooth_record_tilts
+
+    changes = sorted(((max(0, int(r)), c) for r, c in calibration_changes), key=lambda x: x[0])
+    if first_pass is None:
+        first_pass = CausalFirstPass(table, calibration, changes, restarts, fs_hz).rows
+
+    def smooth(a: int, b: int) -> np.ndarray:
+        in_force = calibration
+        for r, c in changes:
+            if r <= a:
+                in_force = c
+        cals = [(0, in_force), *[(r - a, c) for r, c in changes if a < r < b]]
+        rows = counts(a, b)
+        return smooth_record_tilts(rows, table, cals, fs_hz, first_pass(a, b, rows))
+
+    cuts = sorted({0, n, *(int(r) for r in restarts if 0 < r < n)})
+    block, overlap = SMOOTH_BLOCK_ROWS, SMOOTH_OVERLAP_ROWS
+    try:
+        for a, b in itertools.pairwise(cuts):
+            step = b - a if b - a <= block + 2 * overlap else block
+            for s0 in range(a, b, step):
+                s1 = min(b, s0 + step)
+                r0, r1 = max(a, s0 - overlap), min(b, s1 + overlap)
+                yield s0, smooth(r0, r1)[s0 - r0 : s1 - r0]
+    finally:
+        # the smoother's cached factors (~10 MB each) serve this record's blocks; a review
+        # window or batch worker living on does not keep them
+        from gaitmon.dsp.smoother import release_factors
+
+        release_factors()
+
+
+class KeptFirstPass:
+    """The smoother's first pass kept from a replay of the pipeline (``ReplayChunk.first_pass_rad``,
+    bit for bit what :class:`gaitmon.dsp.smoother.CausalFirstPass` computes), so the smoother
+    does not run the filter again. The rows wait in an unnamed temporary file in ``directory``
+    (float64: 32 bytes a row, 92 MB for 8 hours), not in memory; it is gone once closed (a
+    context manager). A replay chunk without it (another filter, new settings), or a temporary
+    file that cannot be made or written (a full disk), ends the keeping: :attr:`first_pass` is
+    then None and the smoother runs its own, to the same numbers."""
+
+    def __init__(self, directory: str | None = None) -> None:
+        import tempfile
+
+        self._n = 0
+        self._file: IO[bytes] | None = None
+        try:
+            self._file = tempfile.TemporaryFile(dir=directory)  # noqa: SIM115 (closed by close)
+        except OSError as e:
+            log.info("the smoother's first pass is computed again (no temporary file: %s)", e)
+
+    def __enter__(self) -> KeptFirstPass:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def add(self, start: int, tilt_rad: np.ndarray | None) -> None:
+        """Rows ``start:start + len(tilt_rad)`` (start = the rows kept so far)."""
+        if self._file is None:
+            return
+        if tilt_rad is None:
+            self.close()
+            return
+        if start != self._n:
+            raise ValueError(f"first-pass rows from {start} given after {self._n} rows")
+        data = np.ascontiguousarray(tilt_rad, dtype=np.float64)
+        try:
+            self._file.seek(self._n * _ROW_BYTES)
+            self._file.write(data.tobytes())
+        except OSError as e:
+            log.info("the smoother's first pass is computed again (temporary file: %s)", e)
+            self.close()
+            return
+        self._n += len(data)
+
+    @property
+    def first_pass(self) -> FirstPass | None:
+        return None if self._file is None else self._rows
+
+    def _rows(self, a: int, b: int, counts: np.ndarray | None = None) -> np.ndarray:
+        if self._file is None or not 0 <= a <= b <= self._n:
+            raise ValueError(f"first-pass rows {a}:{b} asked of {self._n} kept")
+        self._file.seek(a * _ROW_BYTES)
+        return np.frombuffer(self._file.read((b - a) * _ROW_BYTES)).reshape(b - a, N_SEGMENTS)
+
+    def close(self) -> None:
+        if self._file is not None:
+            with contextlib.suppress(OSError):
+                self._file.close()
+            self._file = None
+
+
+_ROW_BYTES = N_SEGMENTS * 8
+
+
+def _restarts(lost_before: np.ndarray, n: int, fs_hz: float) -> np.ndarray:
+    from gaitmon.dsp.pipeline import restart_rows
+
+    return restart_rows(lost_before[:n], fs_hz)
+
+
+def _tilt_joint_deg(part_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One block's tilts and joint angles in degrees, float32 (as stored and read)."""
+    from gaitmon.dsp.angles import joint_angles
+
+    return (np.degrees(part_rad).astype(np.float32),
+            np.degrees(joint_angles(part_rad)).astype(np.float32))  # fmt: skip
+
+
+def smoothed_angles(
+    adc: np.ndarray,
+    table: ChannelTable,
+    calibration: Calibration,
+    calibration_changes: list[tuple[int, Calibration]],
+    lost_before: np.ndarray,
+    fs_hz: float,
+) -> dict[str, np.ndarray]:
+    """``{"smoothed/tilt_deg": (N, 4), "smoothed/joint_deg": (N, 3)}`` float32 of a raw record
+    held in memory (:func:`smoothed_blocks`, collected; :func:`store_smoothed` writes them to
+    a file block by block instead)."""
+    counts = np.asarray(adc)
+    n = len(counts)
+    tilt_deg = np.empty((n, N_SEGMENTS), np.float32)
+    joint_deg = np.empty((n, N_JOINTS), np.float32)
+    for s0, part in smoothed_blocks(lambda a, b: counts[a:b], n, table, calibration,
+                                    calibration_changes, _restarts(lost_before, n, fs_hz),
+                                    fs_hz):  # fmt: skip
+        s1 = s0 + len(part)
+        tilt_deg[s0:s1], joint_deg[s0:s1] = _tilt_joint_deg(part)
+    return {"smoothed/tilt_deg": tilt_deg, "smoothed/joint_deg": joint_deg}
+
+
+def store_smoothed(
+    f: h5py.File,
+    counts: Counts,
+    n: int,
+    table: ChannelTable,
+    calibration: Calibration,
+    calibration_changes: list[tuple[int, Calibration]],
+    lost_before: np.ndarray,
+    fs_hz: float,
+    first_pass: FirstPass | None = None,
+) -> None:
+    """Compute and store (or replace) ``/smoothed`` of a raw record of ``n`` rows in a file open
+    for writing, a block at a time (``counts(a, b)``: rows a:b of the raw counts): the same
+    datasets, values and chunks as :func:`write_smoothed` of :func:`smoothed_angles`, without
+    the whole series in memory (an 8-hour record: ~80 MB of angles, several times that while
+    they were quantised at once). ``first_pass``: see :func:`smoothed_blocks`."""
+    from gaitmon.io.session.codec import COMPRESSION, JOINT_OF, RESOLUTION
+
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
+    grp = f.require_group("smoothed")
+    out: dict[str, h5py.Dataset] = {}
+    for path, cols in (("smoothed/tilt_deg", N_SEGMENTS), ("smoothed/joint_deg", N_JOINTS)):
+        name = path.split("/", 1)[1]
+        if name in grp:
+            del grp[name]
+        if v2 and path in JOINT_OF:
+            continue
+        dtype = RESOLUTION[path][0] if v2 and path in RESOLUTION else np.dtype(np.float32)
+        out[path] = grp.create_dataset(
+            name, shape=(n, cols), dtype=dtype, chunks=(min(CHUNK_ROWS, max(1, n)), cols),
+            **(COMPRESSION if v2 else {}),
+        )  # fmt: skip
+    writers = {path: _AlignedWriter(ds, v2, path) for path, ds in out.items()}
+    for s0, part in smoothed_blocks(counts, n, table, calibration, calibration_changes,
+                                    _restarts(lost_before, n, fs_hz), fs_hz,
+                                    first_pass):  # fmt: skip
+        tilt, joint = _tilt_joint_deg(part)
+        for path, data in (("smoothed/tilt_deg", tilt), ("smoothed/joint_deg", joint)):
+            if path in writers:
+                writers[path].write(s0, data)
+    for w in writers.values():
+        w.finish()
+    grp.attrs["method"] = smoothed_method_label()
+
+
+class _AlignedWriter:
+    """Writes consecutive row blocks to a chunked dataset in whole chunks (the rows of a chunk
+    split between two blocks wait for the next one): a compressed chunk is written once."""
+
+    def __init__(self, ds: h5py.Dataset, encoded: bool, path: str = "") -> None:
+        self._ds = ds
+        # the codec's name of the series: relative to the unit's root (a bilateral file's
+        # /units/<side>/smoothed/... is smoothed/...)
+        self._path = path or ds.name.lstrip("/")
+        self._encoded = encoded
+        self._rows = ds.chunks[0] if ds.chunks else 1
+        self._start = 0  # first row not yet written
+        self._pending: list[np.ndarray] = []
+
+    def write(self, s0: int, data: np.ndarray) -> None:
+        from gaitmon.io.session.codec import encode
+
+        assert s0 == self._start + sum(len(p) for p in self._pending)
+        self._pending.append(encode(self._path, data) if self._encoded else data)
+        end = s0 + len(data)
+        cut = end - end % self._rows  # rows up to here fill whole chunks
+        if cut > self._start:
+            rows = np.concatenate(self._pending) if len(self._pending) > 1 else self._pending[0]
+            k = cut - self._start
+            self._ds[self._start : cut] = rows[:k]
+            self._pending = [rows[k:]] if k < len(rows) else []
+            self._start = cut
+
+    def finish(self) -> None:
+        if self._pending:
+            rows = np.concatenate(self._pending)
+            self._ds[self._start : self._start + len(rows)] = rows
+            self._start += len(rows)
+            self._pending = []
+
+
+def _inputs(f: h5py.File) -> tuple[int, list[tuple[int, Calibration]], np.ndarray]:
+    """(rows, calibration changes, frames lost before each row) of a session file."""
+    n = min(f["raw/adc"].shape[0], f["timeline/t_s"].shape[0])
+    changes = [
+        (int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
+        for r in f["calibration/changes"][()]
+    ]
+    return n, changes, lost_before_from_gaps(f["gaps"][()], n)
+
+
+def _text(x: Any) -> str:
+    return x.decode("utf-8") if isinstance(x, bytes) else str(x)
+
+
+def smoothed_from_file(
+    f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float
+) -> dict[str, np.ndarray]:
+    """The smoothed angles of a raw-mode session file open in ``f`` (computed, not read)."""
+    n, changes, lost = _inputs(f)
+    return smoothed_angles(f["raw/adc"][:n], table, calibration, changes, lost, fs_hz)
+
+
+def write_smoothed(f: h5py.File, series: dict[str, np.ndarray]) -> None:
+    """Store (or replace) ``/smoothed`` in a file open for writing (format 2: the tilts
+    quantised and compressed, the joint angles derived from them on read)."""
+    from gaitmon.io.session.codec import COMPRESSION, JOINT_OF, encode
+
+    v2 = int(f.attrs.get("format_version", 1)) >= 2
+    grp = f.require_group("smoothed")
+    for path, data in series.items():
+        name = path.split("/", 1)[1]
+        if name in grp:
+            del grp[name]
+        if v2 and path in JOINT_OF:
+            continue
+        grp.create_dataset(
+            name, data=encode(path, data) if v2 else data,
+            chunks=(min(CHUNK_ROWS, max(1, len(data))), data.shape[1]),
+            **(COMPRESSION if v2 else {}),
+        )  # fmt: skip
+    grp.attrs["method"] = smoothed_method_label()
+
+
+def smooth_into(
+    f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float
+) -> None:
+    """Compute and store ``/smoothed`` of the raw-mode session open (writable) in ``f``, reading
+    its raw counts a block at a time."""
+    n, changes, lost = _inputs(f)
+    ds = f["raw/adc"]
+    store_smoothed(f, lambda a, b: ds[a:b], n, table, calibration, changes, lost, fs_hz)
+

@@ -1,0 +1,361 @@
+"""The tilt-method registry (gaitmon.dsp.methods): a method registered in one place is offered
+everywhere (``gaitmon process --method``, the reprocess dialog, ``gaitmon lab accuracy``,
+``estimate_tilt``), and the built-in methods give exactly the numbers of their own classes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import h5py
+import numpy as np
+import pytest
+from conftest import write_simulated_session
+
+from gaitmon.dsp.angles import accel_tilt
+from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, FSR_IDX, GYRO_IDX, SEGMENTS
+from gaitmon.dsp.complementary import AdaptiveCutoff, ComplementaryFilter
+from gaitmon.dsp.estimate import estimate_tilt
+from gaitmon.dsp.events import (
+    FALLBACK,
+    PRIMARY,
+    EventInput,
+    EventRecord,
+    Events,
+    EventSettings,
+    event_sources,
+    get_event_source,
+    register_event_source,
+    unregister_event_source,
+)
+from gaitmon.dsp.events.foot_gyro import FootGyro
+from gaitmon.dsp.filters import Butterworth
+from gaitmon.dsp.gait import GaitEventDetector
+from gaitmon.dsp.gyro_events import gyro_gait_events
+from gaitmon.dsp.kalman import TiltKalman
+from gaitmon.dsp.methods import (
+    REGISTRY,
+    TiltFilter,
+    TiltMethod,
+    feeds_smoother,
+    get_method,
+    live_names,
+    methods,
+    register,
+    smoothing_method,
+    unregister,
+)
+from gaitmon.dsp.motion_kalman import GaitAwareKalman
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.dsp.smoother import smooth_tilt
+from gaitmon.engine.snapshot import EVENTS_FSR, EVENTS_GYRO
+
+FS = 100.0
+NAME = "test-acc-only"
+LABEL = "accelerometer only (test)"
+
+
+class _PassThrough:
+    def process(self, acc_tilt_rad: np.ndarray, gyro_rad_s: np.ndarray) -> np.ndarray:
+        return np.array(acc_tilt_rad, dtype=np.float64, copy=True)
+
+    def reset(self) -> None:
+        pass
+
+
+@dataclass(frozen=True)
+class AccOnly(TiltMethod):
+    """A throw-away method: the accelerometer tilt, offered by the app."""
+
+    name: ClassVar[str] = NAME
+    label: ClassVar[str] = LABEL
+    live: ClassVar[bool] = True
+
+    def lab_filter(self, dt_s: float) -> TiltFilter:
+        return _PassThrough()
+
+
+@pytest.fixture
+def throwaway():
+    register(AccOnly())
+    try:
+        yield NAME
+    finally:
+        unregister(NAME)
+    assert NAME not in REGISTRY
+
+
+@pytest.fixture(scope="module")
+def walk():
+    from gaitmon.io.sim import GaitConfig, GaitModel
+    from gaitmon.io.sim.sensors import simulate
+
+    return simulate(2500, GaitModel(GaitConfig(seed=11, standing_s=2.0))).counts
+
+
+def test_a_registered_method_is_offered_by_process(throwaway, tmp_path, capsys):
+    from gaitmon.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["process", "--help"])
+    assert f"--method {{gait-aware,paper,{NAME}}}" in capsys.readouterr().out
+    src = write_simulated_session(tmp_path / "walk.h5", n=1500)
+    out = tmp_path / "acc.h5"
+    assert main(["process", str(src), "-o", str(out), "-q", "--method", NAME]) == 0
+    with h5py.File(out, "r") as f:
+        assert f["config"].attrs["tilt_method"] == NAME
+        assert f["processed"].attrs["tilt_method"] == LABEL
+        tilt, acc = f["processed/tilt_deg"][:], f["processed/tilt_acc_deg"][:]
+    with h5py.File(src, "r") as f:
+        recorded = f["processed/tilt_deg"][:]
+    np.testing.assert_array_equal(tilt, acc)  # the method passes the accelerometer tilt on
+    assert not np.allclose(recorded, acc, atol=0.5)  # the recording's gait-aware filter did not
+
+
+def test_an_unknown_method_is_refused_by_process(tmp_path, capsys):
+    from gaitmon.cli import main
+
+    src = write_simulated_session(tmp_path / "walk.h5", n=600)
+    with pytest.raises(SystemExit):
+        main(["process", str(src), "-o", str(tmp_path / "x.h5"), "--method", NAME])
+    assert "invalid choice" in capsys.readouterr().err
+
+
+def test_a_registered_method_is_in_the_reprocess_dialog(throwaway, qtbot):
+    from gaitmon.ui.review.reprocess_dialog import ReprocessDialog
+
+    dlg = ReprocessDialog(None, PipelineConfig())
+    qtbot.addWidget(dlg)
+    combo = dlg.method_combo
+    items = [(combo.itemText(i), combo.itemData(i)) for i in range(combo.count())]
+    assert items == [("gait-aware Kalman", "gait-aware"), ("Kalman (paper, seed 000)", "paper"),
+                     (LABEL, NAME)]  # fmt: skip
+    combo.setCurrentIndex(combo.findData(NAME))
+    assert dlg.method == NAME
+    assert not dlg.edits["r"].isEnabled()  # the paper's R: this method does not read it
+    assert dlg.parsed().tilt_method == NAME
+
+
+def test_a_registered_method_is_a_column_of_lab_accuracy(throwaway, walk):
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.lab.accuracy import Accuracy, columns, format_table, tilts
+
+    cols = columns()
+    assert [c.key for c in cols] == ["paper", "live", "offline", NAME]
+    assert cols[-1].label == LABEL and not cols[-1].offline
+    cal = Calibration.identity()
+    got = tilts(walk, cal, NAME)
+    np.testing.assert_array_equal(got, Pipeline(calibration=cal).process(walk).tilt_acc_rad)
+    acc = Accuracy()
+    for k in (c.key for c in cols):
+        acc.joint_rmse_deg.setdefault("normal", {})[k] = np.array([1.0, 2.0, 3.0])
+        acc.peak_knee_err_deg.setdefault("normal", {})[k] = 0.5
+        acc.peak_knee_strides_deg.setdefault("normal", {})[k] = np.array([0.5, -0.5])
+    head = format_table(acc).splitlines()[0]
+    assert head.endswith(f"| {LABEL} | goal |")
+
+
+def test_a_registered_method_is_run_by_estimate_tilt(throwaway, walk):
+    ph = DEFAULT_TABLE.to_physical(walk)
+    ax, az, w = ph[:, ACC_X_IDX[3]], ph[:, ACC_Z_IDX[3]], ph[:, GYRO_IDX[3]]
+    got = estimate_tilt(ax, az, w, FS, method=NAME)
+    np.testing.assert_array_equal(got, np.arctan2(az, ax))
+    with pytest.raises(ValueError, match="no offline"):
+        estimate_tilt(ax, az, w, FS, method=NAME, offline=True)
+
+
+def test_the_registry_lists_the_apps_choices_as_before():
+    assert live_names() == ("gait-aware", "paper")
+    assert [m.name for m in methods(live=False)] == [
+        "accelerometer",
+        "gyro",
+        "complementary",
+        "complementary-adaptive",
+        "constant-rate",
+    ]
+    assert get_method("paper").label == "Kalman (paper, seed 000)"
+    assert get_method("gait-aware").label == "gait-aware Kalman"
+    assert get_method("gait-aware").offline_label == "gait-aware Kalman + RTS smoother"
+    # the files' smoothed angles are the default's offline pass, fed its causal filter
+    assert smoothing_method().offline_label == "gait-aware Kalman + RTS smoother"
+    assert feeds_smoother("gait-aware") and not feeds_smoother("paper")
+    with pytest.raises(ValueError, match="registered already"):
+        register(get_method("paper"))
+    with pytest.raises(ValueError, match="unknown tilt method"):
+        PipelineConfig(tilt_method="complementary")  # lab-only: the app does not offer it
+
+
+def test_the_lab_filters_are_the_registrys_in_the_labs_order():
+    from gaitmon.dsp.lab_filters import TILT_FILTERS
+    from gaitmon.review.filters import PARAMS, build_filter
+
+    assert list(TILT_FILTERS) == [
+        "accelerometer", "gyro", "complementary", "complementary (adaptive)",
+        "kalman (paper 000)", "kalman constant-rate (paper 001)",
+    ]  # fmt: skip
+    assert list(PARAMS) == list(TILT_FILTERS)[2:]
+    rng = np.random.default_rng(3)
+    z, w = rng.normal(0, 0.3, 600), rng.normal(0, 1.0, 600)
+    for name, ref in (
+        ("complementary", ComplementaryFilter(0.01, cutoff_hz=3.0)),
+        ("complementary (adaptive)", ComplementaryFilter(0.01, cutoff_hz=3.0,
+                                                         adaptive=AdaptiveCutoff())),
+        ("kalman (paper 000)", TiltKalman(0.01)),
+    ):  # fmt: skip
+        np.testing.assert_array_equal(TILT_FILTERS[name](0.01).process(z, w), ref.process(z, w))
+    tuned = build_filter("kalman (paper 000)", 0.01, {"q_angle": 0.01, "q_gyro": 0.003, "r": 0.1})
+    np.testing.assert_array_equal(tuned.process(z, w), TiltKalman(0.01, 0.01, 0.003, 0.1)
+                                  .process(z, w))  # fmt: skip
+
+
+def test_get_params_and_clone():
+    paper = get_method("paper")
+    assert paper.get_params() == {"q_angle": 0.001, "q_gyro": 0.003, "r": 0.3}
+    tuned = paper.clone(r=0.1)
+    assert tuned.get_params()["r"] == 0.1 and paper.get_params()["r"] == 0.3
+    with pytest.raises(TypeError):
+        paper.clone(bogus=1.0)
+
+
+def test_estimate_tilt_by_the_registry_equals_the_classes(walk):
+    ph = DEFAULT_TABLE.to_physical(walk)
+    for j, seg in enumerate(SEGMENTS):
+        ax, az, w = ph[:, ACC_X_IDX[j]], ph[:, ACC_Z_IDX[j]], ph[:, GYRO_IDX[j]]
+        acc = Butterworth(4.0, FS, 2).process(np.stack([ax, az], axis=1))
+        paper = TiltKalman(dt_s=1.0 / FS).process(np.arctan2(acc[:, 1], acc[:, 0]), w)
+        np.testing.assert_array_equal(estimate_tilt(ax, az, w, FS, segment=seg, method="paper"),
+                                      paper)  # fmt: skip
+        live = GaitAwareKalman(FS, segments=(seg,)).process(ax, az, w)
+        np.testing.assert_array_equal(estimate_tilt(ax, az, w, FS, segment=seg), live)
+    ax, az, w = ph[:, ACC_X_IDX[2]], ph[:, ACC_Z_IDX[2]], ph[:, GYRO_IDX[2]]
+    np.testing.assert_array_equal(estimate_tilt(ax, az, w, FS, segment="shank", offline=True),
+                                  smooth_tilt(ax, az, w, FS, "shank"))  # fmt: skip
+
+
+def test_the_pipelines_tilt_stages_equal_the_classes(walk):
+    ph = DEFAULT_TABLE.to_physical(walk)
+    gyro = ph[:, GYRO_IDX]
+    acc = Butterworth(4.0, FS, 2).process(ph[:, np.concatenate([ACC_X_IDX, ACC_Z_IDX])])
+    paper = TiltKalman(0.01).process(accel_tilt(acc[:, :4], acc[:, 4:]), gyro)
+    got = Pipeline(PipelineConfig(tilt_method="paper")).process(walk)
+    np.testing.assert_array_equal(got.tilt_kalman_continuous_rad, paper)
+    live = GaitAwareKalman(FS).process(ph[:, ACC_X_IDX], ph[:, ACC_Z_IDX], gyro)
+    np.testing.assert_array_equal(Pipeline().process(walk).tilt_kalman_continuous_rad, live)
+
+
+def test_the_live_menu_reads_the_registry():
+    pytest.importorskip("PySide6")
+    from gaitmon.ui.live.actions import TILT_METHODS
+
+    assert [(k, t) for k, t, _ in TILT_METHODS] == [
+        ("gait-aware", "Gait-aware Kalman (default)"),
+        ("paper", "Kalman (paper, seed 000)"),
+    ]
+    assert all(tip for _, _, tip in TILT_METHODS)
+
+
+# --------------------------------------------------------------------------------------------
+# event sources (gaitmon.dsp.events)
+
+
+@dataclass(frozen=True)
+class _ShankGyro(FootGyro):
+    """A throw-away source: the foot gyro's rule on the shank gyro."""
+
+    name: ClassVar[str] = "test shank gyro"
+    label: ClassVar[str] = "the shank gyro (test)"
+    lab_key: ClassVar[str] = "shank"
+    lab_label: ClassVar[str] = "shank-gyro (test)"
+    lab_goal: ClassVar[str] = "(test)"
+
+    def offline(self, record: EventRecord, settings: EventSettings) -> Events:
+        return Events(*gyro_gait_events(record.gyro_rad_s[:, 2], record.fs_hz))
+
+
+def test_the_event_sources_are_the_pipelines(walk):
+    assert [s.name for s in event_sources()] == ["foot gyro", "fsr"]
+    assert (PRIMARY, FALLBACK) == ("fsr", "foot gyro")
+    assert (EVENTS_FSR, EVENTS_GYRO) == (PRIMARY, FALLBACK)
+    cfg = PipelineConfig()
+    blk = Pipeline(cfg).process(walk)
+    assert blk.event_source == PRIMARY
+    ph = DEFAULT_TABLE.to_physical(walk)
+    fsr = Butterworth(4.0, FS, 2).process(ph[:, FSR_IDX])
+    contacts = GaitEventDetector(fs_hz=FS).process(fsr)
+    record = EventRecord(contacts, ph[:, GYRO_IDX], FS)
+    # the force sensors' events are the detector's, moved back by the low-pass delay
+    fsr_ev = get_event_source("fsr").offline(record, cfg)
+    np.testing.assert_array_equal(fsr_ev.heel_strike_idx, blk.heel_strike_idx)
+    np.testing.assert_array_equal(
+        fsr_ev.heel_strike_idx, contacts.heel_strike_idx - cfg.event_delay_samples
+    )
+    # the foot gyro's streaming stage, block by block, decides what the pipeline reports
+    stage = get_event_source("foot gyro").stage(cfg)
+    hs = [stage.process(EventInput(contacts, ph[a : a + 97, GYRO_IDX])).heel_strike_idx
+          for a in range(0, len(walk), 97)]  # fmt: skip
+    np.testing.assert_array_equal(np.concatenate(hs), blk.gyro_heel_strike_idx)
+    np.testing.assert_array_equal(
+        get_event_source("foot gyro").offline(record, cfg).heel_strike_idx,
+        gyro_gait_events(ph[:, GYRO_IDX[3]], FS)[0],
+    )
+
+
+def test_a_registered_event_source_is_judged_by_lab_accuracy(walk):
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.io.sim import GaitConfig, GaitModel
+    from gaitmon.lab.accuracy import Accuracy, _events, table_rows
+
+    register_event_source(_ShankGyro())
+    try:
+        with pytest.raises(ValueError, match="registered already"):
+            register_event_source(_ShankGyro())
+        acc = Accuracy()
+        gait = GaitModel(GaitConfig(seed=11, standing_s=2.0))
+        _events(gait, walk, Calibration.identity(), len(walk), acc)
+        assert sorted(acc.hs_err_ms) == ["fsr", "gyro", "shank"]
+        assert len(acc.hs_err_ms["shank"]) > 5
+        rows = [r for r in table_rows_without_methods(acc, table_rows) if "shank" in r[0]]
+        assert rows and rows[0][-1] == "(test)"
+    finally:
+        unregister_event_source(_ShankGyro.name)
+    assert _ShankGyro.name not in [s.name for s in event_sources()]
+
+
+def table_rows_without_methods(acc, table_rows):
+    """The event rows of the lab table for an Accuracy with no tilt figures."""
+    for k in ("paper", "live", "offline"):
+        acc.joint_rmse_deg.setdefault("normal", {})[k] = np.zeros(3)
+        acc.peak_knee_err_deg.setdefault("normal", {})[k] = 0.0
+        acc.peak_knee_strides_deg.setdefault("normal", {})[k] = np.zeros(1)
+    return table_rows(acc)
+
+
+def test_mypy_checks_the_stage_wiring(tmp_path):
+    """The stage seam is typed: a stage fed the wrong block is a mypy error, not a crash."""
+    pytest.importorskip("mypy")
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    snippet = tmp_path / "wiring.py"
+    snippet.write_text(
+        "import numpy as np\n"
+        "from gaitmon.dsp.events import EventInput, EventStage\n"
+        "from gaitmon.dsp.filters import Butterworth\n"
+        "from gaitmon.dsp.methods import TiltInput, TiltStage, get_method\n"
+        "from gaitmon.dsp.pipeline import PipelineConfig\n"
+        "def wire(block: TiltInput, events: EventStage) -> None:\n"
+        "    stage: TiltStage = get_method('paper').causal_stage(PipelineConfig())\n"
+        "    tilt: np.ndarray = stage.process(block)\n"
+        "    events.process(block)\n"  # line 9: a tilt block into an event stage
+        "    bad: TiltStage = Butterworth(4.0, 100.0, 2)\n"  # line 10: not a tilt stage
+    )
+    proc = subprocess.run(
+        [sys.executable, "-m", "mypy", "--config-file", str(root / "pyproject.toml"),
+         str(snippet)],
+        cwd=root, capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
+    report = proc.stdout + proc.stderr
+    errors = [ln for ln in report.splitlines() if ": error:" in ln]
+    assert [int(ln.split(":")[1]) for ln in errors] == [9, 10], report
