@@ -3,7 +3,7 @@
     python benchmarks/bench_lsl_clock.py              # synthetic link + 20 s live over a pty
     python benchmarks/bench_lsl_clock.py --live-s 60  # a longer live run
 
-1. Synthetic (``gaitmon.lsl.clock`` alone, against the closed form): a unit whose crystal is
+1. Synthetic (``gaitmon.dsp.sample_clock`` alone, against the closed form): a unit whose crystal is
    off by -50, 0 or +50 ppm, 120 s, frames delivered in bursts of 1-20 with a 3 ms floor
    delay plus exponential jitter (mean 4 ms), a one-second stall now and then, 1 % of frames
    lost and a 3 s cut. It prints the error of each sample's timestamp, as stamped when its
@@ -28,9 +28,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 
 def synthetic() -> None:
-    from test_lsl_clock import FLOOR_S, FS, synthetic_link
+    from test_sample_clock import FLOOR_S, FS, synthetic_link
 
-    from gaitmon.lsl.clock import SampleClock
+    from gaitmon.dsp.sample_clock import SampleClock
 
     print("synthetic link, 120 s: error of the timestamps against the truth (ms)")
     print("| crystal | max after 5 s | p99 after 5 s | receive times: p99 | max | fitted ppm |")

@@ -39,7 +39,7 @@ from gaitmon.io.sim.bilateral import (
     BilateralPty,
     BilateralSim,
 )
-from gaitmon.io.sim.unit import FaultConfig
+from gaitmon.io.sim.faults import FaultConfig
 
 
 def _nearest(t: np.ndarray, ref: np.ndarray) -> np.ndarray:

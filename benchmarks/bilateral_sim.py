@@ -24,7 +24,7 @@ from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.io import protocol as P
 from gaitmon.io.decoder import FrameDecoder
 from gaitmon.io.sim.bilateral import DEFAULT_LEFT, DEFAULT_RIGHT, BilateralConfig, BilateralSim
-from gaitmon.io.sim.unit import FaultConfig
+from gaitmon.io.sim.faults import FaultConfig
 
 
 def main() -> None:

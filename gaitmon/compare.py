@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gaitmon.dsp.channel_table import JOINTS as TABLE_JOINTS
 from gaitmon.errors import Cancelled, UserError
 from gaitmon.text import count, no_gait_events
 
@@ -37,7 +38,7 @@ if TYPE_CHECKING:
     from gaitmon.analysis import SessionAnalysis
 
 N_POINTS = 101
-JOINTS: tuple[str, ...] = ("Hip", "Knee", "Ankle")
+JOINTS: tuple[str, ...] = tuple(j.capitalize() for j in TABLE_JOINTS)  # Hip, Knee, Ankle
 REDACTED = "[removed]"
 _CYCLE_CHUNK = 2048  # strides normalised per call (as the report: bounded temporaries)
 # what analysing a damaged file's contents can raise past the reader's checks

@@ -40,7 +40,7 @@ from gaitmon.analysis import (
     summary,
 )
 from gaitmon.dsp.bilateral import symmetry_index_pct, symmetry_ratio
-from gaitmon.dsp.channels import SEGMENTS
+from gaitmon.dsp.channel_table import JOINT_TABLE, JOINTS, SEGMENTS
 from gaitmon.dsp.gait import cycle_mean_sd
 from gaitmon.finish import Session, open_session
 from gaitmon.finish.bilateral import Bilateral, open_bilateral
@@ -70,12 +70,8 @@ from gaitmon.text import count, no_gait_events, num
 N_POINTS = 101
 _CYCLE_CHUNK = 2048  # strides normalised per call
 # axis labels with units and the clinical sign words (positive direction named)
-JOINT_AXIS_LABELS: tuple[str, ...] = (
-    "hip flexion (deg)",
-    "knee flexion (deg)",
-    "ankle dorsiflexion (deg)",
-)
-JOINT_TITLES: tuple[str, ...] = ("Hip", "Knee", "Ankle")
+JOINT_AXIS_LABELS: tuple[str, ...] = tuple(f"{j.label} (deg)" for j in JOINT_TABLE)
+JOINT_TITLES: tuple[str, ...] = tuple(j.capitalize() for j in JOINTS)  # Hip, Knee, Ankle
 REDACTED = "[removed]"
 EXCLUSION_ORDER: tuple[str, ...] = REASONS
 

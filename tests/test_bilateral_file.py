@@ -16,7 +16,7 @@ import pytest
 
 from gaitmon.cli import main
 from gaitmon.dsp.clock_fit import envelope_line, fit_clock
-from gaitmon.engine.markers import SampleClock
+from gaitmon.engine.markers import RecentEnvelope
 from gaitmon.finish import open_session
 from gaitmon.finish.bilateral import open_bilateral, parts_of
 
@@ -145,7 +145,7 @@ def test_fit_clock_finds_the_line_under_the_delays() -> None:
 def test_the_live_marker_clock_uses_the_same_fit() -> None:
     x, h = _stamps(3000, 100.0, 1.0, 50.0, seed=2)
     k = np.round(x * 100).astype(np.int64)
-    clock = SampleClock(100.0, window_s=30.0)
+    clock = RecentEnvelope(100.0, window_s=30.0)
     clock.add(k, h)
     a, b = envelope_line((k - k[-1]).astype(float), h - h[-1], 0.01, 100.0)
     got = clock.k_at(60.0)

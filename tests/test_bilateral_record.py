@@ -36,8 +36,8 @@ from gaitmon.io.device import Device
 from gaitmon.io.ports import make_transport
 from gaitmon.io.session import SessionError
 from gaitmon.io.sim.bilateral import BilateralConfig, BilateralPty, BilateralSim, UnitSpec
-from gaitmon.io.sim.clock import SampleClock
-from gaitmon.io.sim.unit import FaultConfig
+from gaitmon.io.sim.clock import CrystalClock
+from gaitmon.io.sim.faults import FaultConfig
 
 SPEED = 4.0
 # the goals' recordings run at 2x: every ms of host jitter in the clock fit counts `speed`
@@ -149,7 +149,7 @@ def test_both_legs_one_file_meet_the_goals(tmp_path: Path) -> None:
 def test_one_link_cut_for_5_s_leaves_a_gap_on_that_side_only(tmp_path: Path) -> None:
     right = UnitSpec(
         serial=1002,
-        clock=SampleClock(offset_s=0.0412, ppm=-22.0),
+        clock=CrystalClock(offset_s=0.0412, ppm=-22.0),
         faults=FaultConfig(seed=5, link_drops=((20.0, 5.0),)),
     )
     _sim, out = _record(tmp_path, _config(right=right), 45.0)

@@ -11,8 +11,9 @@ import pytest
 
 from gaitmon.io import protocol as p
 from gaitmon.io.device import Device, DeviceError, SampleBlock, SequenceUnwrapper
+from gaitmon.io.sim.faults import FaultConfig
 from gaitmon.io.sim.pty import PtySimulator
-from gaitmon.io.sim.unit import FaultConfig, SimulatedUnit
+from gaitmon.io.sim.unit import SimulatedUnit
 from gaitmon.io.transport import InProcessTransport, LinkState, ReconnectPolicy, SerialTransport
 
 pytestmark = pytest.mark.timeout(60)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gaitmon.engine.markers import SampleClock, SampleIndex, TimedMarkers, file_rows
+from gaitmon.engine.markers import RecentEnvelope, SampleIndex, TimedMarkers, file_rows
 from gaitmon.engine.rows import RowMap
 
 FS = 100.0
@@ -31,7 +31,7 @@ def _reads(n: int, t0: float, rate_ppm: float, seed: int, fs: float = FS):
 
 def test_the_clock_finds_when_a_sample_was_taken_not_when_it_was_read():
     k, host, taken = _reads(3000, 1000.0, rate_ppm=80.0, seed=1)
-    clock = SampleClock(FS, window_s=30.0)
+    clock = RecentEnvelope(FS, window_s=30.0)
     for a in range(0, len(k), 7):  # blocks as the engine gets them
         clock.add(k[a : a + 7], host[a : a + 7])
     # instants inside the data: the fitted k is the true sample within half a row, where the
@@ -46,7 +46,7 @@ def test_the_clock_finds_when_a_sample_was_taken_not_when_it_was_read():
 
 
 def test_before_a_second_of_data_the_clock_uses_the_nominal_rate():
-    clock = SampleClock(FS)
+    clock = RecentEnvelope(FS)
     assert clock.k_at(5.0) is None
     clock.add(np.arange(10), 50.0 + np.arange(10) / FS + 0.004)  # all read 4 ms late
     # the quickest read stands for the instant of taking (the link's least delay is unknown)

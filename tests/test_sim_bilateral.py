@@ -27,9 +27,9 @@ from gaitmon.io.sim.bilateral import (
     UnitSpec,
     serve_pair_on_ptys,
 )
-from gaitmon.io.sim.clock import SampleClock
+from gaitmon.io.sim.clock import CrystalClock
+from gaitmon.io.sim.faults import FaultConfig
 from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
-from gaitmon.io.sim.unit import FaultConfig
 
 FS = 100.0
 EVENT_TOL_S = 0.010  # measured: |error| <= 7.7 ms (heel strike), 5.0 ms (toe off); bias ~ +2.7 ms
@@ -39,7 +39,7 @@ def cmd(c: P.Command, arg: int = 0) -> bytes:
     return P.encode_command(c, arg)
 
 
-def common_time(clock: SampleClock, idx: np.ndarray) -> np.ndarray:
+def common_time(clock: CrystalClock, idx: np.ndarray) -> np.ndarray:
     """t = offset + n / (fs (1 + ppm 1e-6)), written out here, not taken from the simulator."""
     return clock.offset_s + idx / (FS * (1.0 + clock.ppm * 1e-6))
 
@@ -87,7 +87,7 @@ def symmetric():
     return record(BilateralConfig(speed=math.inf), 12000)  # 120 s each
 
 
-HEMI_CLOCKS = (SampleClock(0.731, 800.0), SampleClock(1.402, -500.0))  # drift exaggerated
+HEMI_CLOCKS = (CrystalClock(0.731, 800.0), CrystalClock(1.402, -500.0))  # drift exaggerated
 
 
 @pytest.fixture(scope="module")
@@ -103,14 +103,14 @@ def hemiparetic():
     return record(cfg, 9000)
 
 
-def measured_events(rec: dict, clocks: tuple[SampleClock, SampleClock]) -> dict:
+def measured_events(rec: dict, clocks: tuple[CrystalClock, CrystalClock]) -> dict:
     return {
         side: (common_time(c, rec[side]["hs_idx"]), common_time(c, rec[side]["to_idx"]))
         for side, c in zip("LR", clocks, strict=True)
     }
 
 
-def default_clocks() -> tuple[SampleClock, SampleClock]:
+def default_clocks() -> tuple[CrystalClock, CrystalClock]:
     cfg = BilateralConfig()
     return cfg.left.clock, cfg.right.clock
 
@@ -184,7 +184,7 @@ def test_pacing_follows_each_units_clock():
             return self.t
 
     fake = FakeClock()
-    clocks = (SampleClock(0.25, 5000.0), SampleClock(1.5, -3000.0))
+    clocks = (CrystalClock(0.25, 5000.0), CrystalClock(1.5, -3000.0))
     cfg = BilateralConfig(left=UnitSpec(1, clocks[0]), right=UnitSpec(2, clocks[1]))
     sim = BilateralSim(cfg, clock=fake)
     for t in (0.2, 1.0, 20.0, 30.0):
@@ -247,7 +247,7 @@ def test_hemiparetic_pair_has_the_configured_asymmetry(hemiparetic):
 def test_one_walk_drives_both_legs():
     """With perfect clocks the right leg is the single-unit gait with the same seed, and the
     left heel strike falls at the configured share of each right stride."""
-    perfect = SampleClock()
+    perfect = CrystalClock()
     cfg = BilateralConfig(
         seed=11,
         stride_cv=0.05,
@@ -274,8 +274,8 @@ def test_one_walk_drives_both_legs():
 def test_each_unit_has_its_own_faults():
     cfg = BilateralConfig(
         speed=math.inf,
-        left=UnitSpec(1, SampleClock(0.1, 10.0), faults=FaultConfig(seed=1, loss_pct=5.0)),
-        right=UnitSpec(2, SampleClock(0.2, -10.0), faults=FaultConfig(seed=2, corrupt_pct=3.0)),
+        left=UnitSpec(1, CrystalClock(0.1, 10.0), faults=FaultConfig(seed=1, loss_pct=5.0)),
+        right=UnitSpec(2, CrystalClock(0.2, -10.0), faults=FaultConfig(seed=2, corrupt_pct=3.0)),
     )
     sim = BilateralSim(cfg)
     for unit in sim.units:
@@ -304,11 +304,11 @@ def test_bad_settings_say_what_to_change():
     with pytest.raises(ValueError, match=r"stance .* must outlast"):
         BilateralConfig(asymmetry="hemiparetic", step_ratio=0.6)
     with pytest.raises(ValueError, match="clock offset"):
-        BilateralConfig(left=UnitSpec(1, SampleClock(6.0, 0.0)))
+        BilateralConfig(left=UnitSpec(1, CrystalClock(6.0, 0.0)))
     with pytest.raises(ValueError, match="different serial"):
         BilateralConfig(left=UnitSpec(5), right=UnitSpec(5))
     with pytest.raises(ValueError, match="ppm"):
-        SampleClock(0.0, 20000.0)
+        CrystalClock(0.0, 20000.0)
     with pytest.raises(ValueError, match="finite"):
         BilateralConfig(standing_s=math.inf)
     with pytest.raises(ValueError, match="asymmetry"):
@@ -389,7 +389,7 @@ def test_command_line_options_become_the_pairs_config():
                          "--serials", "7,8", "--seed", "3"])  # fmt: skip
     cfg = bilateral_config_from_args(args)
     assert (cfg.affected, cfg.step_time_ratio, cfg.stance_fraction("R")) == ("R", 0.85, 0.60)
-    assert cfg.left.clock == SampleClock(0.0, -5.0) and cfg.right.clock == SampleClock(1.0, 12.5)
+    assert cfg.left.clock == CrystalClock(0.0, -5.0) and cfg.right.clock == CrystalClock(1.0, 12.5)
     assert (cfg.left.serial, cfg.right.serial) == (7, 8)
     assert cfg.left.faults.loss_pct == cfg.right.faults.loss_pct == 2.0
     assert cfg.left.faults.seed != cfg.right.faults.seed  # each link loses its own frames

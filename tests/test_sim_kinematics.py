@@ -6,12 +6,8 @@ import numpy as np
 import pytest
 
 from gaitmon.dsp.angles import joint_angles
-from gaitmon.io.sim.kinematics import (
-    NORMATIVE_KEY_POINTS_DEG,
-    GaitConfig,
-    GaitModel,
-    normative_joint_deg,
-)
+from gaitmon.io.sim.gait_curves import NORMATIVE_KEY_POINTS_DEG, normative_joint_deg
+from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
 
 FS = 100.0
 

@@ -15,10 +15,11 @@ import serial
 from gaitmon.dsp.channels import DEFAULT_TABLE
 from gaitmon.io import protocol as P
 from gaitmon.io.decoder import FrameDecoder
+from gaitmon.io.sim.faults import FaultConfig
 from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
 from gaitmon.io.sim.pty import PtySimulator
 from gaitmon.io.sim.sensors import SensorConfig, SensorModel
-from gaitmon.io.sim.unit import FaultConfig, SimulatedUnit
+from gaitmon.io.sim.unit import SimulatedUnit
 
 FS = 100.0
 

@@ -304,14 +304,14 @@ def bilateral_config_from_args(args: argparse.Namespace) -> BilateralConfig:
                 f"--{name.replace('_', '-')} is not available with --bilateral yet; leave it out"
             )
     from gaitmon.io.sim.bilateral import BilateralConfig, UnitSpec, side_seed
-    from gaitmon.io.sim.clock import SampleClock
-    from gaitmon.io.sim.unit import FaultConfig
+    from gaitmon.io.sim.clock import CrystalClock
+    from gaitmon.io.sim.faults import FaultConfig
 
     try:
         specs = [
             UnitSpec(
                 serial=int(args.serials[i]),
-                clock=SampleClock(offset_s=args.clock_offset_s[i], ppm=args.drift_ppm[i]),
+                clock=CrystalClock(offset_s=args.clock_offset_s[i], ppm=args.drift_ppm[i]),
                 faults=FaultConfig(
                     seed=side_seed(args.seed, side, 4),
                     loss_pct=args.loss_pct,

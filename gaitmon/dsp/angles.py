@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from gaitmon.dsp.channel_table import JOINT_PAIRS as JOINT_PAIRS  # re-exported
+
 TWO_PI = 2.0 * np.pi
 
-# (distal-minus-proximal pairs) index into SEGMENTS = (body, thigh, shank, foot)
-JOINT_PAIRS: tuple[tuple[int, int], ...] = ((1, 0), (1, 2), (3, 2))  # (plus, minus) per joint
+# JOINT_PAIRS: (plus, minus) index into SEGMENTS per joint, from the channel table's joints
 _PLUS = np.array([p for p, _ in JOINT_PAIRS])
 _MINUS = np.array([m for _, m in JOINT_PAIRS])
 

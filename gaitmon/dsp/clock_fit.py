@@ -8,9 +8,12 @@ taken (plus the link's shortest delay)": the line is the **lower envelope** of t
 
 :func:`envelope_line` fits it: the line under all the points that is closest to them (an
 edge of their lower convex hull), so only the points read soonest count. The engine's markers
-(``engine.markers.SampleClock``) use it on the last 30 s live; :func:`fit_clock` uses it
-offline along the whole recording: one segment per minute of the unit's clock, each fitted over
-three minutes centred on it, so a slow wander of the crystal with temperature is followed too.
+(``engine.markers.RecentEnvelope``) use it on the last 30 s live, the sample clock
+(``dsp.sample_clock.SampleClock``, the LSL outlets' timestamps) its :func:`hull_slope`;
+:func:`fit_clock` uses it offline along the whole recording: one segment per minute of the
+unit's clock, each fitted over three minutes centred on it, so a slow wander of the crystal with
+temperature is followed too. Two types: :class:`ClockLine` (one line, in sample periods) and
+:class:`ClockFit` (a recording's fit, one line per segment, in the unit's seconds).
 Pure numpy.
 """
 
@@ -110,6 +113,20 @@ def envelope_line(
             b = float(slope)
     a = float(np.min(y - b * x))  # down to the envelope: the samples read soonest
     return a, b
+
+
+@dataclass(frozen=True)
+class ClockLine:
+    """One line of a unit's clock against the host's: ``host_s = offset_s + period_s * (k - k0)``
+    (``k`` the unit's sample periods; the live sample clock's map and fit,
+    :class:`gaitmon.dsp.sample_clock.SampleClock`)."""
+
+    k0: float
+    offset_s: float
+    period_s: float
+
+    def at(self, k: np.ndarray | float) -> np.ndarray:
+        return self.offset_s + self.period_s * (np.asarray(k, dtype=np.float64) - self.k0)
 
 
 @dataclass(frozen=True)

@@ -70,7 +70,7 @@ from functools import lru_cache
 import numpy as np
 
 from gaitmon.dsp.angles import TWO_PI
-from gaitmon.dsp.channels import SEGMENTS, STANDARD_GRAVITY_MS2
+from gaitmon.dsp.channel_table import SEGMENT_TABLE, SEGMENTS, STANDARD_GRAVITY_MS2
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
 
@@ -142,11 +142,9 @@ _WEIGHTED = SegmentTuning(
     static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0,
     live_gravity_hz=0.25,
 )  # fmt: skip
+_GATED = SegmentTuning(r_moving=1.0)
 SEGMENT_TUNING: dict[str, SegmentTuning] = {
-    "body": _WEIGHTED,
-    "thigh": _WEIGHTED,
-    "shank": _WEIGHTED,
-    "foot": SegmentTuning(r_moving=1.0),
+    s.name: _GATED if s.still_in_stance else _WEIGHTED for s in SEGMENT_TABLE
 }
 
 

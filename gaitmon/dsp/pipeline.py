@@ -59,6 +59,7 @@ import numpy as np
 
 from gaitmon.dsp.angles import accel_tilt, joint_angles
 from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channel_table import N_FSR, N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import (
     ACC_X_IDX,
     ACC_Z_IDX,
@@ -248,7 +249,7 @@ class PipelineBlock:
     heel_strike_idx: np.ndarray  # absolute indices confirmed in this block
     toe_off_idx: np.ndarray
     strides: tuple[Stride, ...] = field(default=())
-    kalman_bias_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(4))  # after the block
+    kalman_bias_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(N_SEGMENTS))  # after
     # (N,) bool: the filters are settling (the SETTLE_S after the start or a restart)
     settling: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     # absolute indices of the rows where the pipeline restarted after a long gap, this block
@@ -261,7 +262,9 @@ class PipelineBlock:
     # (N, 4) the tilt filter's own angle (rad): continuous (not wrapped), before the standing
     # offsets; with the gait-aware filter it is the offline smoother's first pass
     # (gaitmon.dsp.smoother.CausalFirstPass), which `gaitmon process` takes from here
-    tilt_kalman_continuous_rad: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    tilt_kalman_continuous_rad: np.ndarray = field(
+        default_factory=lambda: np.zeros((0, N_SEGMENTS))
+    )
 
     @property
     def n(self) -> int:
@@ -269,16 +272,16 @@ class PipelineBlock:
 
 
 _PER_SAMPLE = (
-    ("acc_ms2", (4, 2), np.float64),
-    ("gyro_rad_s", (4,), np.float64),
-    ("fsr_counts", (2,), np.float64),
-    ("tilt_acc_rad", (4,), np.float64),
-    ("tilt_gyro_rad", (4,), np.float64),
-    ("tilt_kalman_rad", (4,), np.float64),
-    ("tilt_kalman_continuous_rad", (4,), np.float64),
-    ("joint_acc_rad", (3,), np.float64),
-    ("joint_gyro_rad", (3,), np.float64),
-    ("joint_kalman_rad", (3,), np.float64),
+    ("acc_ms2", (N_SEGMENTS, 2), np.float64),
+    ("gyro_rad_s", (N_SEGMENTS,), np.float64),
+    ("fsr_counts", (N_FSR,), np.float64),
+    ("tilt_acc_rad", (N_SEGMENTS,), np.float64),
+    ("tilt_gyro_rad", (N_SEGMENTS,), np.float64),
+    ("tilt_kalman_rad", (N_SEGMENTS,), np.float64),
+    ("tilt_kalman_continuous_rad", (N_SEGMENTS,), np.float64),
+    ("joint_acc_rad", (N_JOINTS,), np.float64),
+    ("joint_gyro_rad", (N_JOINTS,), np.float64),
+    ("joint_kalman_rad", (N_JOINTS,), np.float64),
     ("heel_loaded", (), np.bool_),
     ("toe_loaded", (), np.bool_),
     ("phase", (), np.int8),
@@ -454,7 +457,7 @@ class Pipeline:
         cal = self.calibration
         phys = self.table.to_physical(adc)
         acc = self._acc_lp.process(phys[:, np.concatenate([ACC_X_IDX, ACC_Z_IDX])])
-        ax, az = acc[:, :4], acc[:, 4:]
+        ax, az = acc[:, :N_SEGMENTS], acc[:, N_SEGMENTS:]
         fsr = self._fsr_lp.process(phys[:, FSR_IDX])
         gyro = cal.apply_gyro(phys[:, GYRO_IDX])
         tilt_acc = accel_tilt(ax, az)

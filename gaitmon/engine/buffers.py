@@ -19,6 +19,7 @@ import threading
 import numpy as np
 
 from gaitmon.dsp.angles import joint_angles
+from gaitmon.dsp.channel_table import N_FSR, N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.gait import phase_from_contacts
 from gaitmon.dsp.pipeline import PipelineBlock
 from gaitmon.io.device import SampleBlock
@@ -31,15 +32,15 @@ SERIES: dict[str, tuple[int, ...]] = {
     "idx": (),  # engine sample index; NaN on a lost row
     "lost": (),  # 1 on a row standing for a lost frame
     "settling": (),  # 1 while the filters settle after a gap (raw mode)
-    "tilt_acc_deg": (4,),
-    "tilt_gyro_deg": (4,),
-    "tilt_kalman_deg": (4,),
-    "joint_acc_deg": (3,),
-    "joint_gyro_deg": (3,),
-    "joint_kalman_deg": (3,),
-    "acc_ms2": (4, 2),
-    "gyro_rad_s": (4,),
-    "fsr_counts": (2,),
+    "tilt_acc_deg": (N_SEGMENTS,),
+    "tilt_gyro_deg": (N_SEGMENTS,),
+    "tilt_kalman_deg": (N_SEGMENTS,),
+    "joint_acc_deg": (N_JOINTS,),
+    "joint_gyro_deg": (N_JOINTS,),
+    "joint_kalman_deg": (N_JOINTS,),
+    "acc_ms2": (N_SEGMENTS, 2),
+    "gyro_rad_s": (N_SEGMENTS,),
+    "fsr_counts": (N_FSR,),
     "heel_loaded": (),
     "toe_loaded": (),
     "phase": (),

@@ -7,8 +7,8 @@ knows, for every block it processes, each sample's host receive time and its pla
 unit's sample clock (``k``: sample periods since the first sample, lost frames counted, as the
 recording's timeline counts them). From these:
 
-* ``SampleClock`` fits host time against ``k`` over the last ``window_s``: a line through the
-  lower envelope of the receive times (``gaitmon.dsp.clock_fit.envelope_line``, the one fit
+* ``RecentEnvelope`` fits host time against ``k`` over the last ``window_s``: a line through
+  the lower envelope of the receive times (``gaitmon.dsp.clock_fit.envelope_line``, the one fit
   the bilateral sessions' offline clock mapping uses too), since a delay on the link only ever
   adds to a receive time and the frames of one read share the time of the last one. A marker
   at host time H is then at ``k = (H - a) / b``: the sample *taken* at H, not the one that
@@ -38,8 +38,10 @@ from gaitmon.dsp.clock_fit import MIN_FIT_SPAN_S, envelope_line
 from gaitmon.engine.rows import RowMap
 
 
-class SampleClock:
-    """Host receive time <-> the unit's sample clock ``k``, from the recent blocks."""
+class RecentEnvelope:
+    """Host receive time <-> the unit's sample clock ``k``, from the recent blocks: their lower
+    envelope, inverted to place markers (the clock that stamps samples is
+    ``gaitmon.dsp.sample_clock.SampleClock``)."""
 
     def __init__(self, fs_hz: float, window_s: float = 30.0) -> None:
         self.fs_hz = fs_hz
@@ -170,7 +172,7 @@ class TimedMarkers:
     engine thread place every marker still waiting (``flush``, ``placing``)."""
 
     def __init__(self, fs_hz: float, window_s: float = 30.0, max_pending: int = 4096) -> None:
-        self.clock = SampleClock(fs_hz, window_s)
+        self.clock = RecentEnvelope(fs_hz, window_s)
         self.index = SampleIndex()
         self._lock = threading.Lock()  # guards _pending, _counts, overflow
         self._pending: list[tuple[float, str]] = []

@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
+
 if TYPE_CHECKING:
     from gaitmon.dsp.calibration import Calibration
     from gaitmon.dsp.pipeline import PipelineConfig
@@ -165,8 +167,8 @@ def columns(cols: dict[str, np.ndarray], n: int) -> tuple[np.ndarray, np.ndarray
     joint = cols.get("joint_kalman_deg")
     tilt = cols.get("tilt_kalman_deg")
     return (
-        np.full((n, 3), np.nan) if joint is None else joint,
-        np.full((n, 4), np.nan) if tilt is None else tilt,
+        np.full((n, N_JOINTS), np.nan) if joint is None else joint,
+        np.full((n, N_SEGMENTS), np.nan) if tilt is None else tilt,
     )
 
 

@@ -29,6 +29,7 @@ import h5py
 import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import ChannelTable
 from gaitmon.io.session.layout import CHUNK_ROWS
 from gaitmon.io.session.rows import lost_before_from_gaps
@@ -167,7 +168,7 @@ class KeptFirstPass:
         if self._file is None or not 0 <= a <= b <= self._n:
             raise ValueError(f"first-pass rows {a}:{b} asked of {self._n} kept")
         self._file.seek(a * _ROW_BYTES)
-        return np.frombuffer(self._file.read((b - a) * _ROW_BYTES)).reshape(b - a, 4)
+        return np.frombuffer(self._file.read((b - a) * _ROW_BYTES)).reshape(b - a, N_SEGMENTS)
 
     def close(self) -> None:
         if self._file is not None:
@@ -176,7 +177,7 @@ class KeptFirstPass:
             self._file = None
 
 
-_ROW_BYTES = 4 * 8
+_ROW_BYTES = N_SEGMENTS * 8
 
 
 def _restarts(lost_before: np.ndarray, n: int, fs_hz: float) -> np.ndarray:
@@ -206,8 +207,8 @@ def smoothed_angles(
     a file block by block instead)."""
     counts = np.asarray(adc)
     n = len(counts)
-    tilt_deg = np.empty((n, 4), np.float32)
-    joint_deg = np.empty((n, 3), np.float32)
+    tilt_deg = np.empty((n, N_SEGMENTS), np.float32)
+    joint_deg = np.empty((n, N_JOINTS), np.float32)
     for s0, part in smoothed_blocks(lambda a, b: counts[a:b], n, table, calibration,
                                     calibration_changes, _restarts(lost_before, n, fs_hz),
                                     fs_hz):  # fmt: skip
@@ -237,7 +238,7 @@ def store_smoothed(
     v2 = int(f.attrs.get("format_version", 1)) >= 2
     grp = f.require_group("smoothed")
     out: dict[str, h5py.Dataset] = {}
-    for path, cols in (("smoothed/tilt_deg", 4), ("smoothed/joint_deg", 3)):
+    for path, cols in (("smoothed/tilt_deg", N_SEGMENTS), ("smoothed/joint_deg", N_JOINTS)):
         name = path.split("/", 1)[1]
         if name in grp:
             del grp[name]

@@ -26,12 +26,10 @@ from typing import TypedDict
 
 import numpy as np
 
-from gaitmon.dsp.channels import N_CHANNELS
+from gaitmon.dsp.channel_table import N_CHANNELS, N_JOINTS, N_SEGMENTS
 from gaitmon.io.decoder import DecoderStats, FrameDecoder
 from gaitmon.io.protocol import (
     DATA_KINDS,
-    N_JOINTS,
-    N_SEGMENTS,
     SAMPLE_RATE_HZ_DEFAULT,
     SEQ_MODULO,
     AckFrame,

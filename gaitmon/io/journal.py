@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from gaitmon.dsp.channel_table import N_CHANNELS, N_JOINTS, N_SEGMENTS
+
 try:
     import fcntl
 except ImportError:  # Windows
@@ -76,15 +78,19 @@ BLOCK_TYPES: dict[str, RecordType] = {
 _COMMON = [("seq", "<i8"), ("host_time_s", "<f8"), ("lost_before", "<u4")]
 N_COMMON_FIELDS = len(_COMMON)
 ROW_DTYPES: dict[RecordType, np.dtype] = {
-    RecordType.RAW: np.dtype([*_COMMON, ("adc", "<u2", (14,))]),
+    RecordType.RAW: np.dtype([*_COMMON, ("adc", "<u2", (N_CHANNELS,))]),
     RecordType.TILT: np.dtype(
-        [*_COMMON, ("acc_tilt_deg", "<f8", (4,)), ("kalman_tilt_deg", "<f8", (4,))]
+        [
+            *_COMMON,
+            ("acc_tilt_deg", "<f8", (N_SEGMENTS,)),
+            ("kalman_tilt_deg", "<f8", (N_SEGMENTS,)),
+        ]
     ),
     RecordType.JOINT: np.dtype(
         [
             *_COMMON,
-            ("acc_joint_deg", "<f8", (3,)),
-            ("kalman_joint_deg", "<f8", (3,)),
+            ("acc_joint_deg", "<f8", (N_JOINTS,)),
+            ("kalman_joint_deg", "<f8", (N_JOINTS,)),
             ("heel_loaded", "u1"),
             ("toe_loaded", "u1"),
             ("phase", "u1"),

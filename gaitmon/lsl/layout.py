@@ -21,7 +21,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-from gaitmon.dsp.channels import CHANNEL_NAMES, JOINTS, SEGMENTS
+from gaitmon.dsp.channel_table import CHANNEL_NAMES, JOINT_TABLE, JOINTS, SEGMENTS
 
 #: LSL stream type of each stream (the XDF meta-data conventions' content types)
 ANGLES_TYPE = "MoCap"
@@ -40,11 +40,7 @@ class StreamChannel:
     type: str
 
 
-JOINT_LABELS: dict[str, str] = {
-    "hip": "hip_flexion",
-    "knee": "knee_flexion",
-    "ankle": "ankle_dorsiflexion",
-}
+JOINT_LABELS: dict[str, str] = {j.name: j.key for j in JOINT_TABLE}  # hip -> hip_flexion
 
 ANGLE_CHANNELS: tuple[StreamChannel, ...] = tuple(
     StreamChannel(JOINT_LABELS[j], "degrees", "JointAngle") for j in JOINTS

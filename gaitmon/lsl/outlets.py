@@ -8,8 +8,8 @@ pylsl is not even imported, unless the user turned LSL on (``gaitmon record --ls
 window's Device ▸ Stream to LSL).
 
 Timestamps. Every sample is stamped with the unit's sample clock mapped onto LSL's clock,
-never with the moment it is sent: ``SampleClock`` (``gaitmon.lsl.clock``) fits host receive
-time (``time.monotonic``) against the sample counter, and the offset between
+never with the moment it is sent: ``SampleClock`` (``gaitmon.dsp.sample_clock``) fits host
+receive time (``time.monotonic``) against the sample counter, and the offset between
 ``time.monotonic`` and ``pylsl.local_clock`` is measured when the outlets open (on Linux both
 read CLOCK_MONOTONIC, but nothing here assumes it). An event is stamped at its sample: a heel
 strike the detector confirms 60 ms later still carries the time of its own sample.
@@ -42,9 +42,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from gaitmon import __version__
+from gaitmon.dsp.sample_clock import SampleClock
 from gaitmon.errors import UserError
 from gaitmon.lsl import layout
-from gaitmon.lsl.clock import SampleClock
 from gaitmon.lsl.layout import EventWord, event_text
 
 if TYPE_CHECKING:

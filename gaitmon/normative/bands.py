@@ -9,8 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from gaitmon.dsp.channel_table import JOINTS
+
 N_POINTS = 101  # 0, 1, ..., 100 % of the gait cycle
-JOINT_KEYS: tuple[str, ...] = ("hip", "knee", "ankle")  # column order of every (101, 3) array
+JOINT_KEYS: tuple[str, ...] = JOINTS  # hip, knee, ankle: column order of every (101, 3) array
 
 
 class NormativeError(ValueError):

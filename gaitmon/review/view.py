@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gaitmon.dsp.channels import SEGMENTS
+from gaitmon.dsp.channels import JOINTS, SEGMENTS
 from gaitmon.dsp.gait import PHASE_NAMES
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
@@ -120,7 +120,7 @@ def readout_html(doc: Document, cursor_t_s: float, segment: int) -> str:
     if src.has(JOINT):
         j = src.read_rows(JOINT, i, i + 1)[0]
         parts.append(" · ".join(f"{n} {num(v, 1, sign=True)}°" for n, v in
-                                zip(("hip", "knee", "ankle"), j, strict=True)))  # fmt: skip
+                                zip(JOINTS, j, strict=True)))  # fmt: skip
     if src.has("processed/tilt_deg"):
         v = src.read_rows("processed/tilt_deg", i, i + 1)[0, segment]
         parts.append(f"{SEGMENTS[segment]} tilt {num(v, 1, sign=True)}°")

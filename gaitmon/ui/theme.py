@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import pyqtgraph as pg
 from PySide6.QtGui import QColor, QGuiApplication, QPalette, QPen
 
+from gaitmon.dsp.channel_table import SEGMENT_TABLE
+
 
 @dataclass(frozen=True)
 class Colours:
@@ -29,7 +31,7 @@ class Colours:
     marker: QColor  # clinician markers
     current: QColor  # the current stride in the cycle overlay
     band: QColor  # mean +- SD bands and the review timeline's view region
-    segments: tuple[QColor, QColor, QColor, QColor]  # body, thigh, shank, foot (raw traces)
+    segments: tuple[QColor, ...]  # per SEGMENTS entry (raw traces), from the channel table
     phases: tuple[QColor, QColor, QColor]  # loading, foot flat, push-off shading
     stance: QColor  # stance shading in the two-phase view
 
@@ -95,7 +97,7 @@ def current_colours() -> Colours:
             marker=_c("#ffb000"),
             current=_c("#ffffff"),
             band=_c("#5ca8ff", 70),
-            segments=(_c("#c792ea"), _c("#ffb74d"), _c("#4dd0e1"), _c("#a1887f")),
+            segments=tuple(_c(s.colour_dark) for s in SEGMENT_TABLE),
             phases=(_c("#ff8a80", 60), _c("#b0bec5", 55), _c("#80d8ff", 60)),
             stance=_c("#b0bec5", 55),
         )
@@ -113,7 +115,7 @@ def current_colours() -> Colours:
         marker=_c("#b35c00"),
         current=_c("#111111"),
         band=_c("#1f5fd6", 55),
-        segments=(_c("#7b3fb5"), _c("#e07b00"), _c("#00838f"), _c("#6d4c41")),
+        segments=tuple(_c(s.colour_light) for s in SEGMENT_TABLE),
         phases=(_c("#ef9a9a", 95), _c("#b0bec5", 110), _c("#81d4fa", 110)),
         stance=_c("#b0bec5", 110),
     )

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from gaitmon import __version__
-from gaitmon.dsp.channels import DEFAULT_TABLE, SEGMENTS, ChannelSpec, ChannelTable
+from gaitmon.dsp.channels import DEFAULT_TABLE, JOINTS, SEGMENTS, ChannelSpec, ChannelTable
 from gaitmon.io.export.c3d_file import C3dSpec, write_c3d
 from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
 from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
@@ -32,8 +32,9 @@ C3D_MAX_PART_S = 600.0
 C3D_MAX_EVENTS = 255
 
 # C3D angle points named as in Vicon Plug-in Gait (X = sagittal component).
-C3D_JOINT_POINTS: tuple[str, ...] = ("HipAngles", "KneeAngles", "AnkleAngles")
-C3D_TILT_POINTS: tuple[str, ...] = ("BodyTilt", "ThighTilt", "ShankTilt", "FootTilt")
+# HipAngles, ...; BodyTilt, ThighTilt, ...: from the channel table
+C3D_JOINT_POINTS: tuple[str, ...] = tuple(f"{j.capitalize()}Angles" for j in JOINTS)
+C3D_TILT_POINTS: tuple[str, ...] = tuple(f"{s.capitalize()}Tilt" for s in SEGMENTS)
 
 # (row, context, label, description, icon id) of one C3D event
 C3dEvent = tuple[int, str, str, str, int]

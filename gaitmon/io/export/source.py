@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from gaitmon import __version__
-from gaitmon.dsp.channels import CHANNEL_NAMES, JOINTS, SEGMENTS
+from gaitmon.dsp.channel_table import CHANNEL_NAMES, JOINT_TABLE, SEGMENTS
 from gaitmon.io.export.deidentify import Scrubber
 from gaitmon.io.export.errors import ExportError
 
@@ -32,9 +32,7 @@ if TYPE_CHECKING:
 
 EXPORT_VERSION = 1
 
-JOINT_LABELS: tuple[str, ...] = ("hip_flexion", "knee_flexion", "ankle_dorsiflexion")
-
-assert len(JOINTS) == len(JOINT_LABELS) == 3 and len(SEGMENTS) == 4
+JOINT_LABELS: tuple[str, ...] = tuple(j.key for j in JOINT_TABLE)  # hip_flexion, ...
 
 
 @dataclass(frozen=True)

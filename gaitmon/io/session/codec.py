@@ -161,7 +161,7 @@ def gyro_from_counts(
     bias) in row order, the first at row 0), exactly as the pipeline computes them."""
     phys = to_physical(adc)[:, gyro_idx]
     n = len(phys)
-    out = np.empty((n, 4), np.float64)
+    out = np.empty((n, len(gyro_idx)), np.float64)
     bounds = [(max(0, r - start), b) for r, b in bias_at]
     for k, (a, bias) in enumerate(bounds):
         b = bounds[k + 1][0] if k + 1 < len(bounds) else n

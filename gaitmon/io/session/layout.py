@@ -21,6 +21,8 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
+from gaitmon.dsp.channel_table import N_CHANNELS, N_FSR, N_JOINTS, N_SEGMENTS, joint_convention
+
 FORMAT = "gaitmon-session"
 FORMAT_VERSION = 2  # what this gaitmon writes; it reads every version up to it
 # chunk cache of a reader, per dataset: ~30 decoded 4096-row chunks (format 2 chunks are
@@ -34,9 +36,8 @@ _RECOVERY_CHUNK_ROWS = 1 << 16
 
 ANGLE_CONVENTION = (
     "Segment tilts are sagittal, positive counter-clockwise seen from the subject's right side, "
-    "zero in the upright standing calibration pose. Hip flexion + = thigh - body; knee flexion "
-    "+ = thigh - shank; ankle dorsiflexion + = foot - shank; every difference wrapped to "
-    "(-180, 180] degrees."
+    f"zero in the upright standing calibration pose. {joint_convention()}; every difference "
+    "wrapped to (-180, 180] degrees."
 )
 
 _F4 = np.dtype("<f4")
@@ -47,16 +48,16 @@ _PER_SAMPLE: dict[str, tuple[tuple[int, ...], np.dtype, frozenset[str]]] = {
     "timeline/seq": ((), np.dtype("<i8"), frozenset(MODES)),
     "timeline/host_time_s": ((), np.dtype("<f8"), frozenset(MODES)),
     "timeline/t_s": ((), np.dtype("<f8"), frozenset(MODES)),
-    "raw/adc": ((14,), np.dtype("<u2"), frozenset({"raw"})),
-    "processed/tilt_deg": ((4,), _F4, frozenset({"raw", "tilt"})),
-    "processed/tilt_acc_deg": ((4,), _F4, frozenset({"raw", "tilt"})),
-    "processed/tilt_gyro_deg": ((4,), _F4, frozenset({"raw"})),
-    "processed/joint_deg": ((3,), _F4, frozenset(MODES)),
-    "processed/joint_acc_deg": ((3,), _F4, frozenset(MODES)),
-    "processed/joint_gyro_deg": ((3,), _F4, frozenset({"raw"})),
-    "processed/acc_ms2": ((4, 2), _F4, frozenset({"raw"})),
-    "processed/gyro_rad_s": ((4,), _F4, frozenset({"raw"})),
-    "processed/fsr_counts": ((2,), _F4, frozenset({"raw"})),
+    "raw/adc": ((N_CHANNELS,), np.dtype("<u2"), frozenset({"raw"})),
+    "processed/tilt_deg": ((N_SEGMENTS,), _F4, frozenset({"raw", "tilt"})),
+    "processed/tilt_acc_deg": ((N_SEGMENTS,), _F4, frozenset({"raw", "tilt"})),
+    "processed/tilt_gyro_deg": ((N_SEGMENTS,), _F4, frozenset({"raw"})),
+    "processed/joint_deg": ((N_JOINTS,), _F4, frozenset(MODES)),
+    "processed/joint_acc_deg": ((N_JOINTS,), _F4, frozenset(MODES)),
+    "processed/joint_gyro_deg": ((N_JOINTS,), _F4, frozenset({"raw"})),
+    "processed/acc_ms2": ((N_SEGMENTS, 2), _F4, frozenset({"raw"})),
+    "processed/gyro_rad_s": ((N_SEGMENTS,), _F4, frozenset({"raw"})),
+    "processed/fsr_counts": ((N_FSR,), _F4, frozenset({"raw"})),
     "processed/heel_loaded": ((), np.dtype("u1"), frozenset({"raw", "joint"})),
     "processed/toe_loaded": ((), np.dtype("u1"), frozenset({"raw", "joint"})),
     "processed/phase": ((), np.dtype("i1"), frozenset({"raw", "joint"})),

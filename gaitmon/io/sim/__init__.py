@@ -3,12 +3,13 @@
 * ``kinematics`` -- normative sagittal gait (hip/knee/ankle, segment tilts, sensor-point motion);
 * ``contact``    -- the foot on the ground: foot-flat, the hip above it, where each stride lands;
 * ``jets``       -- values with their time derivatives, and the gait's curves built from them;
-* ``sensors``    -- the 14 ADC channels in counts (gravity, linear acceleration, impacts, gyro
-  bias/drift, mounting offsets, FSR loading, noise, 12-bit quantisation);
+* ``sensors``    -- the channel table's ADC channels in counts (gravity, linear acceleration,
+  impacts, gyro bias/drift, mounting offsets, FSR loading, noise, 12-bit quantisation);
 * ``unit``       -- ``SimulatedUnit``: speaks ``gaitmon.io.protocol`` through ``write``/``read``,
-  paced by a clock, with fault injection, a fault ledger and ground truth;
+  paced by a clock, with fault injection and ground truth;
+* ``faults``     -- ``FaultConfig`` (what goes wrong on the link) and the ``FaultLedger``;
 * ``pty``        -- ``PtySimulator``: the unit behind a pseudo-terminal for pyserial clients;
-* ``clock``      -- ``SampleClock``: when a unit's samples are taken on a common time line
+* ``clock``      -- ``CrystalClock``: when a unit's samples are taken on a common time line
   (start offset, crystal drift in ppm);
 * ``bilateral``  -- two units, one per leg, from one walk (``BilateralConfig``, ``BilateralSim``,
   its truth on the common time base, ``serve_pair_on_ptys``); docs/simulator.md;
@@ -37,12 +38,13 @@ if TYPE_CHECKING:
         UnitSpec,
         serve_pair_on_ptys,
     )
-    from gaitmon.io.sim.clock import SampleClock
+    from gaitmon.io.sim.clock import CrystalClock
     from gaitmon.io.sim.config import SimConfig, build_unit, serve_on_pty
+    from gaitmon.io.sim.faults import FaultConfig, FaultLedger
     from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
     from gaitmon.io.sim.patterns import PATTERNS
     from gaitmon.io.sim.sensors import SensorConfig, SensorModel
-    from gaitmon.io.sim.unit import FaultConfig, FaultLedger, GroundTruth, SimulatedUnit
+    from gaitmon.io.sim.unit import GroundTruth, SimulatedUnit
 
 
 def __getattr__(name: str) -> object:
@@ -64,11 +66,15 @@ def __getattr__(name: str) -> object:
         from gaitmon.io.sim import sensors
 
         return _keep(name, sensors)
-    if name in ("FaultConfig", "FaultLedger", "GroundTruth", "SimulatedUnit"):
+    if name in ("FaultConfig", "FaultLedger"):
+        from gaitmon.io.sim import faults
+
+        return _keep(name, faults)
+    if name in ("GroundTruth", "SimulatedUnit"):
         from gaitmon.io.sim import unit
 
         return _keep(name, unit)
-    if name == "SampleClock":
+    if name == "CrystalClock":
         from gaitmon.io.sim import clock
 
         return _keep(name, clock)
@@ -98,12 +104,12 @@ __all__ = [
     "BilateralPty",
     "BilateralSim",
     "BilateralTruth",
+    "CrystalClock",
     "FaultConfig",
     "FaultLedger",
     "GaitConfig",
     "GaitModel",
     "GroundTruth",
-    "SampleClock",
     "SensorConfig",
     "SensorModel",
     "SimConfig",

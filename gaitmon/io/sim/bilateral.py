@@ -28,7 +28,7 @@ explicitly; both double supports must stay >= 2 % of the stride (``ValueError`` 
 Clocks
 ------
 Unit k's sample n is taken at common time ``offset_s + n / (fs (1 + ppm 1e-6))``
-(:class:`gaitmon.io.sim.clock.SampleClock`): defaults left 0.2537 s, +37 ppm; right 0.0412 s,
+(:class:`gaitmon.io.sim.clock.CrystalClock`): defaults left 0.2537 s, +37 ppm; right 0.0412 s,
 -22 ppm. Each leg's motion is the walk seen at its own samples' common times, so the two units'
 data disagree about time exactly as real units would. Faults (``FaultConfig``: loss, bursts,
 silences, link drops) are per unit, their times in that unit's device seconds (its sample index
@@ -62,12 +62,13 @@ import numpy as np
 
 from gaitmon.dsp.bilateral import BilateralGait, bilateral_gait
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.io.sim.clock import SampleClock
+from gaitmon.io.sim.clock import CrystalClock
+from gaitmon.io.sim.faults import FaultConfig
 from gaitmon.io.sim.kinematics import START_PHASE, TOE_OFF_PHASE, GaitConfig, GaitModel
 from gaitmon.io.sim.patterns import PATTERNS
 from gaitmon.io.sim.pty import PtySimulator
 from gaitmon.io.sim.sensors import SensorConfig
-from gaitmon.io.sim.unit import FaultConfig, SimulatedUnit
+from gaitmon.io.sim.unit import SimulatedUnit
 
 SIDES = ("L", "R")
 LEADING = "R"  # the leg that steps off first
@@ -88,7 +89,7 @@ class UnitSpec:
     """One unit of the pair: its serial number, sample clock, link faults and sensors."""
 
     serial: int
-    clock: SampleClock = field(default_factory=SampleClock)
+    clock: CrystalClock = field(default_factory=CrystalClock)
     faults: FaultConfig | None = None  # None: a clean link
     sensors: SensorConfig | None = None  # None: the default sensors, seeded per side
 
@@ -97,8 +98,8 @@ class UnitSpec:
             raise ValueError(f"serial number must fit in 32 bits, got {self.serial}")
 
 
-DEFAULT_LEFT = UnitSpec(serial=1001, clock=SampleClock(offset_s=0.2537, ppm=37.0))
-DEFAULT_RIGHT = UnitSpec(serial=1002, clock=SampleClock(offset_s=0.0412, ppm=-22.0))
+DEFAULT_LEFT = UnitSpec(serial=1001, clock=CrystalClock(offset_s=0.2537, ppm=37.0))
+DEFAULT_RIGHT = UnitSpec(serial=1002, clock=CrystalClock(offset_s=0.0412, ppm=-22.0))
 
 
 @dataclass(frozen=True)
@@ -288,11 +289,11 @@ class LegGaitModel(GaitModel):
     strikes and toe offs taken from the shared walk and mapped through the unit's clock."""
 
     def __init__(
-        self, config: GaitConfig, walk: BilateralWalk, side: str, clock: SampleClock
+        self, config: GaitConfig, walk: BilateralWalk, side: str, clock: CrystalClock
     ) -> None:
         self.shared = walk  # not .walk: that is GaitModel's method
         self.side = side
-        self.sample_clock = clock
+        self.crystal_clock = clock
         self._n_strides = 0
         super().__init__(config)
         t_walk, _, _, _ = walk.schedule(side, 3)
@@ -300,7 +301,7 @@ class LegGaitModel(GaitModel):
 
     def to_device_s(self, common_s: np.ndarray | float) -> np.ndarray:
         return np.asarray(
-            (np.asarray(common_s) - self.sample_clock.offset_s) * self.sample_clock.rate
+            (np.asarray(common_s) - self.crystal_clock.offset_s) * self.crystal_clock.rate
         )
 
     def _extend_schedule(self) -> None:
@@ -325,7 +326,7 @@ class SideTruth:
 
     side: str
     serial: int
-    clock: SampleClock
+    clock: CrystalClock
     heel_strike_s: np.ndarray
     toe_off_s: np.ndarray
     heel_strike_idx: np.ndarray
@@ -387,7 +388,7 @@ class BilateralSim:
                     side=side,
                     afap_block=afap_block,
                     gait_model=model,
-                    sample_clock=spec.clock,
+                    crystal_clock=spec.clock,
                     epoch=epoch,
                 )
             )

@@ -23,8 +23,10 @@ MAX_PPM = 10_000.0  # 1 %: far beyond any crystal, but lets tests exaggerate the
 
 
 @dataclass(frozen=True)
-class SampleClock:
-    """Offset (s) and crystal error (ppm) of one unit's sample clock; ``ValueError`` if bad."""
+class CrystalClock:
+    """How a simulated unit's crystal *produces* its sample times: its start offset (s) and its
+    error (ppm); ``ValueError`` if bad. (Not a sample clock: that is the host's estimate of a
+    unit's counter, ``gaitmon.dsp.sample_clock``.)"""
 
     offset_s: float = 0.0
     ppm: float = 0.0

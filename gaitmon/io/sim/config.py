@@ -15,10 +15,11 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from gaitmon.io.sim.faults import FaultConfig
     from gaitmon.io.sim.kinematics import GaitConfig
     from gaitmon.io.sim.pty import PtySimulator
     from gaitmon.io.sim.sensors import SensorConfig
-    from gaitmon.io.sim.unit import FaultConfig, SimulatedUnit
+    from gaitmon.io.sim.unit import SimulatedUnit
 
 SIDES = ("L", "R")
 
@@ -73,7 +74,7 @@ class SimConfig:
         )
 
     def fault_config(self) -> FaultConfig:
-        from gaitmon.io.sim.unit import FaultConfig
+        from gaitmon.io.sim.faults import FaultConfig
 
         return FaultConfig(seed=self.seed, loss_pct=self.loss_pct, corrupt_pct=self.corrupt_pct)
 

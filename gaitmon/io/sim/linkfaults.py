@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gaitmon.dsp.channels import N_CHANNELS
+from gaitmon.dsp.channel_table import N_CHANNELS, N_JOINTS, N_SEGMENTS
 from gaitmon.io import protocol as P
 
 _IDENT = P.Identity(name="gaitmon-faults", firmware="1.0.0", serial=77, side="R")
@@ -41,18 +41,21 @@ def random_frame(rng: np.random.Generator, seq: int, *, invalid: bool = False) -
             adc = rng.integers(0, 4096, N_CHANNELS)
             adc[int(rng.integers(N_CHANNELS))] = int(rng.integers(4096, 65536))
             return P.RawFrame(seq, adc)
-        return P.JointFrame(seq, np.zeros(3), np.zeros(3), False, False, int(rng.integers(4, 256)))
+        zero = np.zeros(N_JOINTS)
+        return P.JointFrame(seq, zero, zero, False, False, int(rng.integers(4, 256)))
     if u < 0.32:
         return P.RawFrame(seq, rng.integers(0, 4096, N_CHANNELS))
     if u < 0.64:
         return P.TiltFrame(
-            seq, rng.integers(-18000, 18000, 4) / 100, rng.integers(-9000, 9000, 4) / 100
+            seq,
+            rng.integers(-18000, 18000, N_SEGMENTS) / 100,
+            rng.integers(-9000, 9000, N_SEGMENTS) / 100,
         )
     if u < 0.96:
         return P.JointFrame(
             seq,
-            rng.integers(-9000, 9000, 3) / 100,
-            rng.integers(-9000, 9000, 3) / 100,
+            rng.integers(-9000, 9000, N_JOINTS) / 100,
+            rng.integers(-9000, 9000, N_JOINTS) / 100,
             bool(rng.integers(2)),
             bool(rng.integers(2)),
             int(rng.integers(4)),

@@ -57,6 +57,7 @@ from gaitmon.dsp.channels import (
     FSR_IDX,
     GYRO_IDX,
     N_CHANNELS,
+    SEGMENTS,
     STANDARD_GRAVITY_MS2,
     ChannelTable,
 )
@@ -70,6 +71,10 @@ from gaitmon.io.sim.kinematics import (
 )
 
 FSR_THRESHOLD_COUNTS = 1000  # the paper's contact threshold, for reference in tests and docs
+_PER_BOARD = (
+    "gyro_bias_rad_s", "mount_offset_rad", "impact_peak_ms2", "tissue_wobble_deg",
+    "tissue_acc_ms2", "turn_roll_deg",
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -80,14 +85,15 @@ class SensorConfig:
     acc_noise_ms2: float = 0.08
     gyro_noise_rad_s: float = 0.01
     gyro_bias_sd_rad_s: float = 0.05  # spread of the per-board constant bias
-    gyro_bias_rad_s: tuple[float, float, float, float] | None = None
+    gyro_bias_rad_s: tuple[float, ...] | None = None
     gyro_drift_amp_rad_s: float = 0.02  # slow sinusoidal drift on top of the constant bias
     gyro_drift_period_s: float = 900.0
     mount_offset_sd_rad: float = 3.0 * DEG
-    mount_offset_rad: tuple[float, float, float, float] | None = None
-    # Heel-strike transient along each board's x axis (body, thigh, shank, foot): the board
-    # ringing on its mount (impact_shape), no net velocity.
-    impact_peak_ms2: tuple[float, float, float, float] = (5.0, 10.0, 30.0, 50.0)
+    mount_offset_rad: tuple[float, ...] | None = None
+    # The per-board tuples hold one value per SEGMENTS entry (body, thigh, shank, foot).
+    # Heel-strike transient along each board's x axis: the board ringing on its mount
+    # (impact_shape), no net velocity.
+    impact_peak_ms2: tuple[float, ...] = (5.0, 10.0, 30.0, 50.0)
     impact_freq_hz: float = 20.0
     impact_decay_s: float = 0.02
     heel_peak_counts: float = 3000.0
@@ -96,8 +102,8 @@ class SensorConfig:
     fsr_floor_counts: float = 15.0
     fsr_noise_counts: float = 8.0
     # realism options (module doc); the defaults leave the samples as they always were
-    tissue_wobble_deg: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-    tissue_acc_ms2: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    tissue_wobble_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+    tissue_acc_ms2: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
     tissue_freq_hz: float = 12.0
     tissue_decay_s: float = 0.05
     impact_z_ratio: float = 0.0
@@ -106,7 +112,7 @@ class SensorConfig:
     turn_every_s: float = 0.0  # 0 = straight walking
     turn_s: float = 2.0
     turn_yaw_rad: float = np.pi / 2
-    turn_roll_deg: tuple[float, float, float, float] = (2.0, 5.0, 8.0, 15.0)
+    turn_roll_deg: tuple[float, ...] = (2.0, 5.0, 8.0, 15.0)
     # foot-sensor faults from these device times on (module doc); inf = never
     heel_dead_from_s: float = math.inf
     toe_stuck_from_s: float = math.inf
@@ -125,6 +131,10 @@ class SensorConfig:
                 raise ValueError(f"{name} must be > 0")
         if self.turn_every_s < 0 or (0 < self.turn_every_s <= self.turn_s):
             raise ValueError("turn_every_s must be 0 (no turns) or longer than turn_s")
+        for name in _PER_BOARD:
+            v = getattr(self, name)
+            if v is not None and len(v) != len(SEGMENTS):
+                raise ValueError(f"{name} needs one value per segment {SEGMENTS}, got {v}")
 
 
 def realistic_sensors(seed: int = 0, *, turns: bool = False) -> SensorConfig:
@@ -151,7 +161,7 @@ class SensorBlock:
 
     counts: np.ndarray  # (N, 14) uint16, what the ADC reads
     physical: np.ndarray  # (N, 14) float64, before quantisation (m/s^2, rad/s, counts)
-    gyro_bias_rad_s: np.ndarray  # (N, 4) true bias (constant + drift)
+    gyro_bias_rad_s: np.ndarray  # (N, N_SEGMENTS) true bias (constant + drift)
     kinematics: KinematicsBlock
 
     @property
@@ -222,18 +232,19 @@ class SensorModel:
     def __post_init__(self) -> None:
         cfg = self.config
         params = np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(2,)))
-        draws = params.standard_normal(12)
+        n = len(SEGMENTS)  # per board: mounting offset, gyro bias, drift phase
+        draws = params.standard_normal(3 * n)
         self.mount_offset_rad = (
-            np.clip(draws[0:4], -2.0, 2.0) * cfg.mount_offset_sd_rad
+            np.clip(draws[0:n], -2.0, 2.0) * cfg.mount_offset_sd_rad
             if cfg.mount_offset_rad is None
             else np.asarray(cfg.mount_offset_rad, dtype=np.float64)
         )
         self.gyro_bias0_rad_s = (
-            np.clip(draws[4:8], -2.5, 2.5) * cfg.gyro_bias_sd_rad_s
+            np.clip(draws[n : 2 * n], -2.5, 2.5) * cfg.gyro_bias_sd_rad_s
             if cfg.gyro_bias_rad_s is None
             else np.asarray(cfg.gyro_bias_rad_s, dtype=np.float64)
         )
-        self._drift_phase = np.mod(draws[8:12], 2.0 * np.pi)
+        self._drift_phase = np.mod(draws[2 * n : 3 * n], 2.0 * np.pi)
         self.reset()
 
     def reset(self) -> None:
@@ -266,7 +277,7 @@ class SensorModel:
         return heel[k], toe[k]
 
     def gyro_bias(self, t_s: np.ndarray) -> np.ndarray:
-        """(N,) device time -> (N, 4) true gyro bias in rad/s."""
+        """(N,) device time -> (N, N_SEGMENTS) true gyro bias in rad/s."""
         cfg = self.config
         t = np.asarray(t_s, dtype=np.float64)[:, None]
         drift = cfg.gyro_drift_amp_rad_s * np.sin(
@@ -361,13 +372,13 @@ class SensorModel:
         return np.where(i >= 0, t_s - hs[np.maximum(i, 0)], np.inf)
 
     def _wobble(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(N, 4) soft-tissue wobble angle (rad), its rate and its linear acceleration."""
+        """(N, N_SEGMENTS) soft-tissue wobble angle (rad), its rate and its linear acceleration."""
         cfg = self.config
         n = len(t_s)
         amp = np.radians(np.asarray(cfg.tissue_wobble_deg))
         acc = np.asarray(cfg.tissue_acc_ms2)
         if not (amp.any() or acc.any()):
-            zero = np.zeros((n, 4))
+            zero = np.zeros((n, len(SEGMENTS)))
             return zero, zero, zero
         d = self._since_heel_strike(t_s)
         d = np.where(d < 8.0 * cfg.tissue_decay_s, d, np.inf)[:, None]
@@ -384,7 +395,8 @@ class SensorModel:
         return angle, rate, acc * slide
 
     def _turns(self, t_s: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
-        """(N, 4) board roll (rad) and (N,) yaw rate (rad/s) in turns; (None, 0) without turns."""
+        """(N, N_SEGMENTS) board roll (rad) and (N,) yaw rate (rad/s) in turns; (None, 0)
+        without turns."""
         cfg = self.config
         if not cfg.turn_every_s:
             return None, np.zeros(len(t_s))
@@ -397,9 +409,9 @@ class SensorModel:
         return roll, yaw_rate
 
     def _impacts(self, t_s: np.ndarray) -> np.ndarray:
-        """(N, 4) heel-strike transients along each board's x axis."""
+        """(N, N_SEGMENTS) heel-strike transients along each board's x axis."""
         cfg = self.config
-        out = np.zeros((len(t_s), 4))
+        out = np.zeros((len(t_s), len(SEGMENTS)))
         if len(t_s) == 0:
             return out
         hs = self.gait.heel_strike_times_s(float(t_s[-1]))

@@ -29,7 +29,7 @@ Sample n belongs to device time n / fs. With ``speed`` = 1 the unit runs in real
 ``speed=math.inf`` ("as fast as possible") device time only advances when there is work: each
 read() produces up to ``afap_block`` samples while streaming, or as many ticks as pending
 REQUEST_FRAME / ZERO need. The number of samples ever produced is computed from the clock, never
-by sleeping per sample, so it cannot drift. With a ``sample_clock`` (one unit of a bilateral
+by sleeping per sample, so it cannot drift. With a ``crystal_clock`` (one unit of a bilateral
 pair, ``bilateral.py``) sample n is taken at common time ``offset + n / (fs (1 + ppm 1e-6))``
 (``clock.py``), common time running ``speed`` times as fast as ``clock`` from ``epoch``.
 
@@ -55,15 +55,8 @@ unit's own contacts follow them); the gait and its true events (``truth``) do no
 
 Faults and the ledger
 ---------------------
-``FaultConfig`` injects, on data frames: independent frame loss, bursts of consecutive losses,
-and corruption (1..max_bit_flips bit flips at random positions); on every frame: scheduled
-silences (nothing leaves the device) and link drops (the link is gone; ``pty.py`` removes the
-port). Every transmitted frame consumes a sequence number, so a lost frame is a gap the decoder
-can count. ``unit.ledger`` records each injected fault with its frame number (unwrapped), wire
-sequence number, sample index and kind. Frames still in the device's output queue when the
-link goes down (even partly read) are discarded and logged as ``link_down`` too, and queue
-overflow (nobody reading 1 MiB) as ``overflow``; so for an in-process transport the ledger is
-exact. Bytes already inside the OS pty buffer at a cut are beyond the unit's knowledge.
+``FaultConfig`` says what goes wrong on the link and ``unit.ledger`` (a ``FaultLedger``) records
+each fault injected, frame by frame: ``faults.py``.
 
 Ground truth
 ------------
@@ -81,8 +74,7 @@ import time
 from array import array
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
-from typing import NamedTuple
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -90,80 +82,14 @@ from gaitmon.dsp.calibration import CalibrationError, standing_calibration
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
 from gaitmon.io import protocol as P
-from gaitmon.io.sim.clock import SampleClock
+from gaitmon.io.sim.clock import CrystalClock
+from gaitmon.io.sim.faults import FaultConfig, FaultLedger, LedgerEntry, flip_bits
 from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import SensorBlock, SensorConfig, SensorModel
 
 DEVICE_NAME = "gaitmon-sim"
 FIRMWARE_VERSION = "1.0.0"
 _OUT_QUEUE_LIMIT_BYTES = 1 << 20  # a UART/Bluetooth buffer would overflow long before this
-
-
-@dataclass(frozen=True)
-class FaultConfig:
-    """What goes wrong on the link. Percentages are per frame; times are device seconds."""
-
-    seed: int = 0
-    loss_pct: float = 0.0
-    corrupt_pct: float = 0.0
-    max_bit_flips: int = 3
-    burst_pct: float = 0.0  # chance per data frame that a burst of losses starts
-    burst_len_frames: int = 10
-    silences: tuple[tuple[float, float], ...] = ()  # (start_s, duration_s): nothing is sent
-    link_drops: tuple[tuple[float, float], ...] = ()  # (start_s, duration_s): the link is gone
-
-    def __post_init__(self) -> None:
-        for name in ("loss_pct", "corrupt_pct", "burst_pct"):
-            v = getattr(self, name)
-            if not 0.0 <= v <= 100.0:
-                raise ValueError(f"{name} must be within 0..100 %, got {v}")
-        if self.max_bit_flips < 1 or self.burst_len_frames < 1:
-            raise ValueError("max_bit_flips and burst_len_frames must be >= 1")
-        for name in ("silences", "link_drops"):
-            for start, dur in getattr(self, name):
-                if start < 0 or dur <= 0:
-                    raise ValueError(f"{name}: start must be >= 0 and duration > 0 s")
-
-
-class LedgerEntry(NamedTuple):
-    frame_no: int  # unwrapped count of frames the device produced (0 = first)
-    seq: int  # what went on the wire: frame_no mod 2**16
-    sample_idx: int  # data frames: the sample it carries; answers: -1
-    kind: int  # protocol.FrameKind
-    fault: str  # loss | burst | silent | link_down | overflow | corrupt
-    bits: tuple[int, ...] = ()  # corrupt: flipped bit positions (byte * 8 + bit)
-
-
-@dataclass
-class FaultLedger:
-    """The exact record of what the unit produced and what it broke."""
-
-    frames_produced: int = 0  # every frame that consumed a sequence number
-    data_frames_produced: int = 0
-    bytes_queued: int = 0  # bytes that entered the output queue (intact or corrupted)
-    dropped: list[LedgerEntry] = field(default_factory=list)
-    corrupted: list[LedgerEntry] = field(default_factory=list)
-    discarded_bytes: int = 0  # queued bytes thrown away when the link went down / overflowed
-
-    def dropped_frame_nos(self, fault: str | None = None) -> list[int]:
-        return [e.frame_no for e in self.dropped if fault is None or e.fault == fault]
-
-    @property
-    def corrupted_frame_nos(self) -> list[int]:
-        return [e.frame_no for e in self.corrupted]
-
-    def summary(self) -> dict[str, int]:
-        by_fault: dict[str, int] = {}
-        for e in self.dropped:
-            by_fault[e.fault] = by_fault.get(e.fault, 0) + 1
-        return {
-            "frames_produced": self.frames_produced,
-            "data_frames_produced": self.data_frames_produced,
-            "dropped": len(self.dropped),
-            "corrupted": len(self.corrupted),
-            "discarded_bytes": self.discarded_bytes,
-            **{f"dropped_{k}": v for k, v in sorted(by_fault.items())},
-        }
 
 
 @dataclass(frozen=True)
@@ -204,14 +130,14 @@ class SimulatedUnit:
         afap_block: int = 100,
         zero_samples: int = 100,
         gait_model: GaitModel | None = None,
-        sample_clock: SampleClock | None = None,
+        crystal_clock: CrystalClock | None = None,
         epoch: float | None = None,
     ) -> None:
         if not speed > 0:
             raise ValueError(f"speed must be > 0 (math.inf = as fast as possible), got {speed}")
         # gait_model: the leg's motion when it is not the unit's own (a bilateral pair's legs
         # share one walk, gaitmon.io.sim.bilateral); its config replaces ``gait``.
-        # sample_clock: when each sample is taken on the common time line (gaitmon.io.sim.clock);
+        # crystal_clock: when each sample is taken on the common time line (gaitmon.io.sim.clock);
         # epoch: the ``clock()`` reading at common time 0 (a pair shares it; default: now).
         if gait_model is not None:
             gait = gait_model.config
@@ -231,7 +157,7 @@ class SimulatedUnit:
         self.afap_block = afap_block
         self.zero_samples = zero_samples
         self.gait = gait_model or GaitModel(self.gait_config)
-        self.sample_clock = sample_clock
+        self.crystal_clock = crystal_clock
         self.sensors = SensorModel(self.gait, self.sensor_config)
         self.pipeline = Pipeline(pipeline_config or PipelineConfig(fs_hz=self.fs_hz))
         self.ledger = FaultLedger()
@@ -314,10 +240,11 @@ class SimulatedUnit:
             if math.isinf(self.speed):
                 return 0.0
             n_next = self.sensors.position + 1
-            if self.sample_clock is None:
+            if self.crystal_clock is None:
                 t_next = self._t0 + n_next / (self.fs_hz * self.speed)
             else:
-                t_next = self._t0 + self.sample_clock.common_time_s(n_next, self.fs_hz) / self.speed
+                common_s = self.crystal_clock.common_time_s(n_next, self.fs_hz)
+                t_next = self._t0 + common_s / self.speed
             return max(0.0, t_next - self._clock())
 
     def close(self) -> None:
@@ -445,10 +372,10 @@ class SimulatedUnit:
         if math.isinf(self.speed):
             return
         elapsed = self._clock() - self._t0
-        if self.sample_clock is None:
+        if self.crystal_clock is None:
             due = math.floor(elapsed * self.fs_hz * self.speed)
         else:
-            due = self.sample_clock.samples_due(elapsed * self.speed, self.fs_hz)
+            due = self.crystal_clock.samples_due(elapsed * self.speed, self.fs_hz)
         self._tick(due - self.sensors.position)
 
     def _advance_afap(self, max_bytes: int | None) -> None:
@@ -635,7 +562,7 @@ class SimulatedUnit:
             else:
                 wire = P.encode_frame(self._data_frame(kind, no, block, pb, int(i)))
             if u[j, 2] * 100.0 < f.corrupt_pct:
-                wire, bits = self._corrupt(wire)
+                wire, bits = flip_bits(wire, self._bits_rng, self.faults.max_bit_flips)
                 self.ledger.corrupted.append(
                     LedgerEntry(no, no % P.SEQ_MODULO, sample, int(kind), "corrupt", bits)
                 )
@@ -658,14 +585,6 @@ class SimulatedUnit:
             toe_loaded=bool(pb.toe_loaded[i]),
             phase=int(pb.phase[i]),
         )
-
-    def _corrupt(self, wire: bytes) -> tuple[bytes, tuple[int, ...]]:
-        n_bits = int(self._bits_rng.integers(1, self.faults.max_bit_flips + 1))
-        bits = self._bits_rng.choice(len(wire) * 8, size=n_bits, replace=False)
-        b = bytearray(wire)
-        for bit in bits:
-            b[bit // 8] ^= 1 << (bit % 8)
-        return bytes(b), tuple(sorted(int(x) for x in bits))
 
     def _queue(self, wire: bytes, frame_no: int, sample_idx: int, kind: int) -> None:
         self._out += wire

@@ -51,15 +51,13 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from gaitmon.dsp.channel_table import JOINT_TABLE, SEGMENT_TABLE
 from gaitmon.ui.theme import Colours
 
 # y ranges cover normal and pathological walking with a calibrated (zeroed) unit
-TILT_RANGES_DEG = {"body": (-25, 25), "thigh": (-45, 50), "shank": (-75, 50), "foot": (-80, 60)}
-JOINTS = (
-    ("hip", "hip flexion", (-25, 55)),
-    ("knee", "knee flexion", (-10, 80)),
-    ("ankle", "ankle dorsiflexion", (-35, 35)),
-)
+# (from the channel table: gaitmon.dsp.channel_table)
+TILT_RANGES_DEG = {s.name: s.tilt_range_deg for s in SEGMENT_TABLE}
+JOINTS = tuple((j.name, j.label, j.range_deg) for j in JOINT_TABLE)
 FSR_RANGE = (-150.0, 4250.0)  # 12-bit ADC counts
 # (key, label, tilt series, joint series); drawn in this order, Kalman on top
 METHODS = (

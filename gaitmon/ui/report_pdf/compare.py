@@ -29,6 +29,7 @@ from PySide6.QtGui import (
 
 from gaitmon import __version__
 from gaitmon.compare import JOINTS, MEASURES, RULE_TEXT, Comparison, Measure, SessionResult
+from gaitmon.dsp.channel_table import JOINT_TABLE
 from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.cycle_plot import band_path, line_path
 from gaitmon.ui.report_pdf.flow import Block
@@ -58,7 +59,7 @@ SESSION_COLOURS: tuple[str, ...] = ("#1f5fd6", "#d1401f", "#2a9d3a", "#8e44ad", 
                                     "#138d90", "#8c564b", "#c2185b")  # fmt: skip
 WARN = QColor("#a4261b")
 BEYOND = QColor("#a4261b")
-AXIS_LABELS = ("hip flexion (deg)", "knee flexion (deg)", "ankle dorsiflexion (deg)")
+AXIS_LABELS = tuple(f"{j.label} (deg)" for j in JOINT_TABLE)  # hip flexion (deg), ...
 LATER_PER_TABLE = 2  # later sessions per measures table (each with its change columns)
 MARK = "*"  # a change beyond the between-stride variability
 

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from PySide6.QtWidgets import QFileDialog, QWidget
 
+from gaitmon.dsp.channel_table import JOINTS
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.review.actions import available
 from gaitmon.ui.review.cycles import CyclePlots
@@ -49,7 +50,7 @@ class Outputs(Part):
         attach_export_action(tl.overview, w, "overview.png")
         for key, lane in tl.lanes.items():
             attach_export_action(lane.plot, w, f"{key}.png")
-        for plot, key in zip(cycles.plots, ("hip", "knee", "ankle"), strict=True):
+        for plot, key in zip(cycles.plots, JOINTS, strict=True):
             attach_export_action(plot, w, f"cycle_{key}.png")
 
     @guarded

@@ -15,6 +15,7 @@ from PySide6.QtGui import QColor, QFont
 from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableView, QWidget
 
 from gaitmon.analysis import STRIDE_COLUMNS, StrideRow, spatial_summary, stride_cells
+from gaitmon.dsp.channel_table import JOINTS
 from gaitmon.review.model import Analysis
 from gaitmon.text import no_gait_events, num
 from gaitmon.ui.theme import Colours
@@ -212,7 +213,7 @@ def _deviation_html(a: Analysis, bands: NormativeBands | None) -> str:
 
     dev = deviation_deg(a.mean_deg, bands)
     per = " · ".join(f"{title} <b>{_f(float(d), '.1f')}</b>"
-                     for title, d in zip(("hip", "knee", "ankle"), dev, strict=True)
+                     for title, d in zip(JOINTS, dev, strict=True)
                      if math.isfinite(d))  # fmt: skip
     if not per:
         return ""

@@ -1,4 +1,4 @@
-"""The sample clock -> host clock map (gaitmon.lsl.clock) against a closed form.
+"""The sample clock -> host clock map (gaitmon.dsp.sample_clock) against a closed form.
 
 A synthetic unit makes sample k at T0 + k * P, with P = 1 / (fs (1 + ppm)): a crystal off by
 +-50 ppm. The link delivers samples in bursts (1-20 frames share one read time, that of the
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gaitmon.lsl.clock import SampleClock
+from gaitmon.dsp.sample_clock import SampleClock
 
 FS = 100.0
 FLOOR_S = 0.003

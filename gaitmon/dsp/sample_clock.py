@@ -1,5 +1,7 @@
-"""The unit's sample clock mapped onto the host's clock: a fit of host receive time against the
-sample counter, so that the jitter of the link never reaches a timestamp. Pure (numpy only).
+"""The sample clock: a unit's sample counter mapped onto the host's clock, live (``SampleClock``),
+a fit of host receive time against the counter, so that the jitter of the link never reaches a
+timestamp. Pure (numpy only). The LSL outlets stamp their samples with it; its lines are
+``gaitmon.dsp.clock_fit.ClockLine``, fitted by that module's lower envelope.
 
 What is fitted. ``k`` counts the unit's sample periods since its first sample, lost frames
 included (the engine's ``t_s * fs``); ``host_s`` is ``time.monotonic()`` when the bytes of
@@ -66,11 +68,9 @@ keeps the rate it had learnt (the same crystal), and the map steps once.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from gaitmon.dsp.clock_fit import hull_slope, lower_hull
+from gaitmon.dsp.clock_fit import ClockLine, hull_slope, lower_hull
 
 # a fitted rate this far from the nominal one is taken as it is even from a short span (a
 # simulator running at another speed than real time): no prior holds it
@@ -78,18 +78,6 @@ _FREE_BEYOND = 0.1
 # a sample this far below the line is news worth a refit at once (less is left to the next
 # scheduled one: a refit costs ~1 ms, and near-floor samples graze the line all the time)
 _NEWS_S = 50e-6
-
-
-@dataclass(frozen=True)
-class ClockFit:
-    """One fitted line: ``host_s = offset_s + period_s * (k - k0)``."""
-
-    k0: float
-    offset_s: float
-    period_s: float
-
-    def at(self, k: np.ndarray | float) -> np.ndarray:
-        return self.offset_s + self.period_s * (np.asarray(k, dtype=np.float64) - self.k0)
 
 
 class SampleClock:
@@ -128,8 +116,8 @@ class SampleClock:
         self._min_span_k = self._trust_k
         self._prior = rate_prior_ppm * 1e-6
         self.restarts = 0
-        self.fit: ClockFit | None = None  # the last fitted line (None before two buckets)
-        self._map: ClockFit | None = None
+        self.fit: ClockLine | None = None  # the last fitted line (None before two buckets)
+        self._map: ClockLine | None = None
         self._restarted = False
         self._reset_points()
 
@@ -256,7 +244,7 @@ class SampleClock:
             if self._map is None:  # no rate yet: the nominal one through the lowest point
                 period = 1.0 / self.fs_hz
                 i = int(np.argmin(self._bh - period * self._bk))
-                self._map = ClockFit(float(self._bk[i]), float(self._bh[i]), period)
+                self._map = ClockLine(float(self._bk[i]), float(self._bh[i]), period)
             return
         self.fit = fit
         m = self._map
@@ -282,17 +270,17 @@ class SampleClock:
         k_aim = self._aim_k
         period = (float(fit.at(k_aim)) - now) / (k_aim - k_anchor)
         # going back, the stamps still advance at half the sample period at least
-        self._map = ClockFit(k_anchor, now, max(period, 0.5 * fit.period_s))
+        self._map = ClockLine(k_anchor, now, max(period, 0.5 * fit.period_s))
 
-    def _learnt_rate_fit(self) -> ClockFit:
+    def _learnt_rate_fit(self) -> ClockLine:
         """The rate learnt before a restart, through the new points' least-delayed one."""
         assert self._map is not None
         period = self._map.period_s if self.fit is None else self.fit.period_s
         k, h = self._bk, self._bh
         i = int(np.argmin(h - period * k))
-        return ClockFit(float(k[i]), float(h[i]), period)
+        return ClockLine(float(k[i]), float(h[i]), period)
 
-    def _envelope(self) -> ClockFit | None:
+    def _envelope(self) -> ClockLine | None:
         """The lower envelope of the candidates (see the module doc)."""
         n = len(self._bk)
         if n < 2:
@@ -318,8 +306,8 @@ class SampleClock:
             if not lo <= period <= hi:
                 period = min(max(period, lo), hi)
                 i = int(np.argmin(h_arr - period * x_arr))
-                return ClockFit(k0, h[i] - period * x[i], period)
-        return ClockFit(k0, h[a] - period * x[a], period)
+                return ClockLine(k0, h[i] - period * x[i], period)
+        return ClockLine(k0, h[a] - period * x[a], period)
 
     # -- output -------------------------------------------------------------------------
 
@@ -328,7 +316,7 @@ class SampleClock:
         return self._map is not None
 
     @property
-    def current(self) -> ClockFit | None:
+    def current(self) -> ClockLine | None:
         """The map in force (None before the first sample)."""
         return self._map
 
