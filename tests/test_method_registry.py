@@ -112,6 +112,24 @@ def test_a_registered_method_is_offered_by_process(throwaway, tmp_path, capsys):
     assert not np.allclose(recorded, acc, atol=0.5)  # the recording's gait-aware filter did not
 
 
+def test_info_shows_the_settings_each_method_reads(throwaway, tmp_path, capsys):
+    """``gaitmon info``'s settings line: the paper's Kalman settings for the method that reads
+    them, the label alone for a method that reads none (TiltMethod.reads_settings)."""
+    from gaitmon.cli import main
+
+    src = write_simulated_session(tmp_path / "walk.h5", n=1200)
+    for method, shown in (
+        ("paper", "Kalman Q_angle 0.001 Q_gyro 0.003 R 0.3 ("),
+        (NAME, f"order 2, {LABEL}, FSR threshold"),
+    ):
+        out = tmp_path / f"{method}.h5"
+        assert main(["process", str(src), "-o", str(out), "-q", "--method", method]) == 0
+        capsys.readouterr()
+        assert main(["info", str(out)]) == 0
+        line = next(x for x in capsys.readouterr().out.splitlines() if "settings " in x)
+        assert shown in line, line
+
+
 def test_an_unknown_method_is_refused_by_process(tmp_path, capsys):
     from gaitmon.cli import main
 
