@@ -254,14 +254,15 @@ def test_live_cycle_axis_labels_fit_their_plots(qtbot, height):
 
 def test_every_live_action_row_names_a_window_slot_once():
     from gaitmon.ui.live import MainWindow
-    from gaitmon.ui.live.actions import ACTIONS
+    from gaitmon.ui.live.actions import window_actions
     from gaitmon.ui.live.window import PART_TYPES
 
-    names = [spec.name for spec in ACTIONS]
+    specs = window_actions()
+    names = [spec.name for spec in specs]
     assert len(names) == len(set(names))
-    shortcuts = [spec.shortcut for spec in ACTIONS if spec.shortcut]
+    shortcuts = [spec.shortcut for spec in specs if spec.shortcut]
     assert len(shortcuts) == len(set(shortcuts))  # no key does two things
-    for spec in ACTIONS:  # a slot of the window or of one of its parts
+    for spec in specs:  # a slot of the window or of one of its parts
         owners = (MainWindow, *PART_TYPES)
         assert any(callable(getattr(o, spec.slot, None)) for o in owners), spec.slot
 

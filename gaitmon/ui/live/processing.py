@@ -9,12 +9,13 @@ from __future__ import annotations
 from PySide6.QtGui import QAction, QActionGroup
 from PySide6.QtWidgets import QMainWindow
 
+from gaitmon.dsp.methods import live_names
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import EngineError, Mode
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SettingsDialog
-from gaitmon.ui.live.actions import TILT_METHODS
+from gaitmon.ui.live.actions import tilt_action
 from gaitmon.ui.live.context import LiveContext
 from gaitmon.ui.live.views import ViewPart
 
@@ -30,7 +31,8 @@ class ProcessingPart:
         self.window = window
         self.view = view
         self.settings_dialog: SettingsDialog | None = None
-        self.tilt_actions = {key: actions[f"tilt_{key}"] for key, _text, _tip in TILT_METHODS}
+        # the methods the registry offers, as when the window built its actions
+        self.tilt_actions = {key: actions[tilt_action(key)] for key in live_names()}
         self.tilt_group = QActionGroup(window)  # exclusive: one filter in force
         for a in self.tilt_actions.values():
             self.tilt_group.addAction(a)

@@ -51,7 +51,14 @@ from gaitmon.live.connection import Connection
 from gaitmon.live.pair import LiveBilateral, PairConnection, PairSource
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SessionDialog, SettingsDialog, shortcuts_dialog
-from gaitmon.ui.live.actions import ACTIONS, SHORTCUTS, SIMULATOR, VIEW, build_actions, build_menus
+from gaitmon.ui.live.actions import (
+    SHORTCUTS,
+    SIMULATOR,
+    VIEW,
+    build_actions,
+    build_menus,
+    window_actions,
+)
 from gaitmon.ui.live.context import LiveContext
 from gaitmon.ui.live.device import DevicePart
 from gaitmon.ui.live.guide import GuideBar, GuideState
@@ -105,7 +112,8 @@ class MainWindow(QMainWindow):
         ctx.controls_changed = self._update_controls
         self.prefs, self.jobs, self.errors = ctx.prefs, ctx.jobs, ctx.errors
 
-        acts = self._actions = build_actions(self, self._slot)
+        specs = window_actions()  # the tilt filters registered now
+        acts = self._actions = build_actions(self, self._slot, specs)
         self.act_connect, self.act_refresh = acts["connect"], acts["refresh"]
         self.act_zero, self.act_record = acts["zero"], acts["record"]
         self.act_marker, self.act_pause = acts["marker"], acts["pause"]
@@ -115,7 +123,7 @@ class MainWindow(QMainWindow):
         self.act_four_phases, self.act_engineering = acts["four_phases"], acts["engineering"]
         self.act_guide, self.act_lsl = acts["guide"], acts["lsl"]
         self.act_lsl_patient = acts["lsl_patient_id"]
-        menus = build_menus(self, acts)
+        menus = build_menus(self, acts, specs)
         self.sim_menu = menus[SIMULATOR]
 
         self.view_part = view = ViewPart(ctx, self, acts)
@@ -131,7 +139,7 @@ class MainWindow(QMainWindow):
             recording=self.recording_part, started=self._started, stopping=self.timer_stop,
             show_guide=self._show_guide_state,
         )  # fmt: skip
-        for spec in ACTIONS:  # every row's slot exists (found now, not when first triggered)
+        for spec in specs:  # every row's slot exists (found now, not when first triggered)
             self._slot(spec.slot)
         self.window_group = QActionGroup(self)
         for a in view.window_actions.values():
