@@ -49,6 +49,7 @@ from gaitmon.io.sim.bilateral import BilateralConfig
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import Connection
 from gaitmon.live.pair import LiveBilateral, PairConnection, PairSource
+from gaitmon.review.settings import LiveKey
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SessionDialog, SettingsDialog, shortcuts_dialog
 from gaitmon.ui.live.actions import (
@@ -333,9 +334,9 @@ class MainWindow(QMainWindow):
         self.device_part.restore(mode)
         self.view_part.restore()
         self.processing_part.show_tilt_method()
-        geo = p.s.value("window/geometry")
+        geo = p.get(LiveKey.GEOMETRY)
         self.geometry_restored = bool(geo is not None and self.restoreGeometry(geo))
-        state = p.s.value("window/state")
+        state = p.get(LiveKey.STATE)
         self.state_restored = bool(state is not None and self.restoreState(state))
         self.view_part.restore_view()  # after the layout: the clinical view hides the raw dock
         self.lsl_part.restore()
@@ -505,8 +506,8 @@ class MainWindow(QMainWindow):
                 if answer != QMessageBox.StandardButton.Yes:
                     ev.ignore()
                     return
-            self.ctx.prefs.set("window/geometry", self.saveGeometry())
-            self.ctx.prefs.set("window/state", self.saveState())
+            self.ctx.prefs.set(LiveKey.GEOMETRY, self.saveGeometry())
+            self.ctx.prefs.set(LiveKey.STATE, self.saveState())
             self.shutdown()
             self.ctx.prefs.s.sync()
         except Exception as exc:  # closing must always work
