@@ -300,6 +300,15 @@ def test_the_live_windows_saved_settings_load_by_the_keys_named_once(tmp_path):
     assert empty.s.value("pipeline/tilt_method") == "gait-aware"
 
 
+def test_the_settings_applied_message_names_every_setting_as_before():
+    from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.ui.live.processing import settings_text
+
+    assert settings_text(PipelineConfig(cutoff_hz=3.0, r=0.5, fsr_threshold=850.0)) == (
+        "cut-off 3 Hz, Q_angle 0.001, Q_gyro 0.003, R 0.5, FSR threshold 850"
+    )
+
+
 def test_every_live_action_row_names_a_window_slot_once():
     from gaitmon.ui.live import MainWindow
     from gaitmon.ui.live.actions import window_actions
