@@ -112,6 +112,24 @@ def test_a_registered_method_is_offered_by_process(throwaway, tmp_path, capsys):
     assert not np.allclose(recorded, acc, atol=0.5)  # the recording's gait-aware filter did not
 
 
+def test_info_shows_the_settings_each_method_reads(throwaway, tmp_path, capsys):
+    """``gaitmon info``'s settings line: the paper's Kalman settings for the method that reads
+    them, the label alone for a method that reads none (TiltMethod.reads_settings)."""
+    from gaitmon.cli import main
+
+    src = write_simulated_session(tmp_path / "walk.h5", n=1200)
+    for method, shown in (
+        ("paper", "Kalman Q_angle 0.001 Q_gyro 0.003 R 0.3 ("),
+        (NAME, f"order 2, {LABEL}, FSR threshold"),
+    ):
+        out = tmp_path / f"{method}.h5"
+        assert main(["process", str(src), "-o", str(out), "-q", "--method", method]) == 0
+        capsys.readouterr()
+        assert main(["info", str(out)]) == 0
+        line = next(x for x in capsys.readouterr().out.splitlines() if "settings " in x)
+        assert shown in line, line
+
+
 def test_an_unknown_method_is_refused_by_process(tmp_path, capsys):
     from gaitmon.cli import main
 
@@ -245,13 +263,65 @@ def test_the_pipelines_tilt_stages_equal_the_classes(walk):
 
 def test_the_live_menu_reads_the_registry():
     pytest.importorskip("PySide6")
-    from gaitmon.ui.live.actions import TILT_METHODS
+    from gaitmon.ui.live.actions import tilt_methods
 
-    assert [(k, t) for k, t, _ in TILT_METHODS] == [
+    assert [(k, t) for k, t, _ in tilt_methods()] == [
         ("gait-aware", "Gait-aware Kalman (default)"),
         ("paper", "Kalman (paper, seed 000)"),
     ]
-    assert all(tip for _, _, tip in TILT_METHODS)
+    assert all(tip for _, _, tip in tilt_methods())
+
+
+def test_a_method_registered_at_run_time_is_in_the_live_tilt_filter_menu(
+    qtbot, tmp_path, no_leaked_threads
+):
+    """The live window reads the registry when it is made, not when its modules were imported:
+    a method registered afterwards is in Device ▸ Tilt filter, chosen from there it is the
+    filter in force and remembered, and a window made after it is unregistered lists it no
+    more (and falls back to the default for the stored choice)."""
+    pytest.importorskip("PySide6")
+    from PySide6.QtCore import QSettings
+
+    from gaitmon.ui.live import MainWindow
+
+    settings = QSettings(str(tmp_path / "gaitmon.ini"), QSettings.Format.IniFormat)
+
+    def window() -> MainWindow:
+        win = MainWindow(settings, confirm_close=False)
+        qtbot.addWidget(win)
+        return win
+
+    def tilt_menu(win: MainWindow) -> dict[str, object]:
+        bar = {a.text(): a.menu() for a in win.menuBar().actions()}
+        device = {a.text(): a for a in bar["&Device"].actions()}
+        return {a.text(): a for a in device["Tilt filter"].menu().actions()}
+
+    def close(win: MainWindow) -> None:
+        win.close()
+        assert win.errors == []
+
+    win = window()
+    built_in = list(tilt_menu(win))
+    assert built_in == ["Gait-aware Kalman (default)", "Kalman (paper, seed 000)"]
+    close(win)
+    shown = "Accelerometer only (test)"  # the label, capitalised as the menu shows labels
+    register(AccOnly())  # after every module of the window was imported
+    try:
+        win = window()
+        menu = tilt_menu(win)
+        assert list(menu) == [*built_in, shown]
+        assert menu[shown].isCheckable() and not menu[shown].isChecked()
+        menu[shown].trigger()
+        assert win.ctx.config.tilt_method == NAME
+        assert [t for t, a in menu.items() if a.isChecked()] == [shown]
+        close(win)
+        assert settings.value("pipeline/tilt_method") == NAME
+    finally:
+        unregister(NAME)
+    win = window()
+    assert list(tilt_menu(win)) == built_in
+    assert win.ctx.config.tilt_method == "gait-aware"  # the stored one is gone: the default
+    close(win)
 
 
 # --------------------------------------------------------------------------------------------

@@ -252,16 +252,74 @@ def test_live_cycle_axis_labels_fit_their_plots(qtbot, height):
         assert labels == ["hip (deg)", "knee (deg)", "ankle (deg)"]
 
 
+# what the live window stored, by the key strings it has always used (issue 23 named them once,
+# in gaitmon.review.settings): a user's saved settings must still load
+STORED_BEFORE = {
+    "pipeline/cutoff_hz": 3.0, "pipeline/q_angle": 0.002, "pipeline/q_gyro": 0.004,
+    "pipeline/r": 0.5, "pipeline/fsr_threshold": 900.0, "pipeline/tilt_method": "paper",
+    "device/last_port": "/dev/ttyUSB3", "device/mode": "joint",
+    "session/folder": "/data/gait", "session/operator": "A. Nurse", "session/side": "L",
+    "session/patient_id": "P-0042",
+    "view/window_s": 30.0, "view/four_phases": False, "view/engineering": True,
+    "view/method_acc": False, "view/method_kalman": True, "view/method_gyro": False,
+    "lsl/enabled": True, "lsl/patient_id": False,
+}  # fmt: skip
+
+
+def test_the_live_windows_saved_settings_load_by_the_keys_named_once(tmp_path):
+    from PySide6.QtCore import QByteArray, QSettings
+
+    from gaitmon.review.settings import PIPELINE_SETTINGS, LiveKey
+    from gaitmon.ui.live.prefs import Prefs
+
+    ini = str(tmp_path / "gaitmon.ini")
+    old = QSettings(ini, QSettings.Format.IniFormat)
+    for key, value in STORED_BEFORE.items():
+        old.setValue(key, value)
+    old.setValue("window/geometry", QByteArray(b"\x01\xd9\xd0\xcb"))
+    old.sync()
+    named = [k.key for k in LiveKey] + [s.key for s in PIPELINE_SETTINGS]
+    assert len(named) == len(set(named))
+    assert set(named) == {*STORED_BEFORE, "window/geometry", "window/state"}
+    prefs = Prefs(QSettings(ini, QSettings.Format.IniFormat))  # read back from the file: text
+    got = {k.key: prefs.get(k) for k in LiveKey if k.kind is not object}
+    assert got == {k: v for k, v in STORED_BEFORE.items() if k in got}
+    assert [prefs.get(LiveKey.shown(t)) for t in ("acc", "kalman", "gyro")] == [False, True, False]
+    assert prefs.get(LiveKey.GEOMETRY) == QByteArray(b"\x01\xd9\xd0\xcb")
+    assert prefs.get(LiveKey.STATE) is None
+    cfg = prefs.pipeline_config()
+    assert (cfg.cutoff_hz, cfg.q_angle, cfg.q_gyro, cfg.r, cfg.fsr_threshold, cfg.tilt_method) == (
+        3.0, 0.002, 0.004, 0.5, 900.0, "paper")  # fmt: skip
+    # nothing stored: each key's default
+    empty = Prefs(QSettings(str(tmp_path / "new.ini"), QSettings.Format.IniFormat))
+    assert (empty.get(LiveKey.WINDOW_S), empty.get(LiveKey.MODE), empty.get(LiveKey.LSL)) == (
+        10.0, "raw", False)  # fmt: skip
+    assert empty.get(LiveKey.SESSION_FOLDER, "/home/x/gaitmon") == "/home/x/gaitmon"
+    empty.save_pipeline_config(cfg.replace(cutoff_hz=5.0, tilt_method="gait-aware"))
+    assert float(empty.s.value("pipeline/cutoff_hz")) == 5.0
+    assert empty.s.value("pipeline/tilt_method") == "gait-aware"
+
+
+def test_the_settings_applied_message_names_every_setting_as_before():
+    from gaitmon.dsp.pipeline import PipelineConfig
+    from gaitmon.ui.live.processing import settings_text
+
+    assert settings_text(PipelineConfig(cutoff_hz=3.0, r=0.5, fsr_threshold=850.0)) == (
+        "cut-off 3 Hz, Q_angle 0.001, Q_gyro 0.003, R 0.5, FSR threshold 850"
+    )
+
+
 def test_every_live_action_row_names_a_window_slot_once():
     from gaitmon.ui.live import MainWindow
-    from gaitmon.ui.live.actions import ACTIONS
+    from gaitmon.ui.live.actions import window_actions
     from gaitmon.ui.live.window import PART_TYPES
 
-    names = [spec.name for spec in ACTIONS]
+    specs = window_actions()
+    names = [spec.name for spec in specs]
     assert len(names) == len(set(names))
-    shortcuts = [spec.shortcut for spec in ACTIONS if spec.shortcut]
+    shortcuts = [spec.shortcut for spec in specs if spec.shortcut]
     assert len(shortcuts) == len(set(shortcuts))  # no key does two things
-    for spec in ACTIONS:  # a slot of the window or of one of its parts
+    for spec in specs:  # a slot of the window or of one of its parts
         owners = (MainWindow, *PART_TYPES)
         assert any(callable(getattr(o, spec.slot, None)) for o in owners), spec.slot
 

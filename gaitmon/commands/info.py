@@ -61,6 +61,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
+    from gaitmon.review.settings import PIPELINE_SETTINGS
+
     fs = s.sample_rate_hz
     rows = an.rows
     summ = an.summary()
@@ -134,9 +136,12 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     else:
         lines.append(f"  angles       {s.angle_method}")
     c = s.config
+    # a method that reads the Kalman settings is shown by them, the others by their label
+    read = [st for st in PIPELINE_SETTINGS if st.name in c.method.reads_settings]
     kalman = (
-        f"Kalman Q_angle {c.q_angle:g} Q_gyro {c.q_gyro:g} R {c.r:g} ({c.kalman_form} form)"
-        if c.tilt_method == "paper"
+        "Kalman " + " ".join(f"{st.short} {getattr(c, st.name):g}" for st in read)
+        + f" ({c.kalman_form} form)"
+        if read
         else c.tilt_method_label
     )
     lines.append(

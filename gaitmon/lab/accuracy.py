@@ -80,7 +80,11 @@ def column(key: str) -> Column:
     return next(c for c in columns() if c.key == key)
 
 
-LABELS = {c.key: c.label for c in columns()}
+def labels() -> dict[str, str]:
+    """The method columns' headers by key, read from the registry now."""
+    return {c.key: c.label for c in columns()}
+
+
 # name -> (GaitConfig options, turns)
 SCENARIOS: dict[str, tuple[dict[str, Any], bool]] = {
     "normal": ({}, False),

@@ -5,7 +5,12 @@
   window's stored preferences): each a :class:`PipelineSetting`, the
   :class:`gaitmon.dsp.pipeline.PipelineConfig` field it sets and how it is shown;
 * :class:`ReviewKey` - the review window's QSettings keys, with their types and defaults
-  (:func:`gaitmon.ui.review.prefs` reads and writes them).
+  (:mod:`gaitmon.ui.review.recent` reads and writes them);
+* :class:`LiveKey` - the live window's (:class:`gaitmon.ui.live.prefs.Prefs` reads and writes
+  them), beside its processing settings' keys (:attr:`PipelineSetting.key`,
+  ``LiveKey.TILT_METHOD``).
+
+The stored key strings never change: a user's saved settings must load in the next version.
 """
 
 from __future__ import annotations
@@ -44,21 +49,54 @@ PIPELINE_SETTINGS: tuple[PipelineSetting, ...] = (
 )  # fmt: skip
 
 
-class ReviewKey(Enum):
-    """A QSettings key of the review window: (key, type, default)."""
+class SettingsKey(Enum):
+    """A QSettings key of a window: (key, type, default); a window's keys subclass it."""
+
+    def __init__(self, key: str, kind: type, default: object) -> None:
+        self.key = key
+        self.kind = kind  # object: kept as Qt stores it (a window's geometry)
+        self._default = default
+
+    @property
+    def default(self) -> object:
+        """Its value when nothing is stored ("~": the user's home folder, read when asked;
+        None: the caller's, e.g. a PipelineConfig field's)."""
+        if self._default == "~":
+            return str(Path.home())
+        return list(self._default) if isinstance(self._default, tuple) else self._default
+
+
+class ReviewKey(SettingsKey):
+    """A QSettings key of the review window."""
 
     LAST_FOLDER = ("review/last_folder", str, "~")  # the folder of the last file opened
     NORMATIVE_FOLDER = ("review/normative_folder", str, "~")  # of the last normative band
     RECENT = ("review/recent", list, ())  # Open recent: full paths, newest first
 
-    def __init__(self, key: str, kind: type, default: object) -> None:
-        self.key = key
-        self.kind = kind
-        self._default = default
 
-    @property
-    def default(self) -> object:
-        """Its value when nothing is stored ("~": the user's home folder, read when asked)."""
-        if self._default == "~":
-            return str(Path.home())
-        return list(self._default) if isinstance(self._default, tuple) else self._default
+class LiveKey(SettingsKey):
+    """A QSettings key of the live window (the processing settings' own are
+    :attr:`PipelineSetting.key`)."""
+
+    TILT_METHOD = ("pipeline/tilt_method", str, None)  # Device ▸ Tilt filter
+    LAST_PORT = ("device/last_port", str, "")
+    MODE = ("device/mode", str, "raw")  # an engine Mode's value
+    SESSION_FOLDER = ("session/folder", str, None)  # the last recording's (default: Documents)
+    OPERATOR = ("session/operator", str, "")
+    SIDE = ("session/side", str, "")
+    PATIENT_ID = ("session/patient_id", str, "")
+    WINDOW_S = ("view/window_s", float, 10.0)  # the time window shown
+    FOUR_PHASES = ("view/four_phases", bool, True)
+    ENGINEERING = ("view/engineering", bool, False)  # off: the clinical view
+    SHOW_ACC = ("view/method_acc", bool, True)  # each method's traces shown
+    SHOW_KALMAN = ("view/method_kalman", bool, True)
+    SHOW_GYRO = ("view/method_gyro", bool, True)
+    LSL = ("lsl/enabled", bool, False)  # Device ▸ Stream to LSL
+    LSL_PATIENT_ID = ("lsl/patient_id", bool, False)  # the patient id in the streams
+    GEOMETRY = ("window/geometry", object, None)
+    STATE = ("window/state", object, None)  # docks and toolbars
+
+    @classmethod
+    def shown(cls, traces: str) -> LiveKey:
+        """The key remembering whether the "acc", "kalman" or "gyro" traces are shown."""
+        return {"acc": cls.SHOW_ACC, "kalman": cls.SHOW_KALMAN, "gyro": cls.SHOW_GYRO}[traces]

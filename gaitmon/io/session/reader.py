@@ -21,6 +21,7 @@ import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import CHANNELS, GYRO_IDX, ChannelSpec
+from gaitmon.dsp.events import FALLBACK, PRIMARY, get_event_source
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.io.session.codec import GYRO, JOINT_OF, decode, derived, gyro_from_counts
@@ -253,13 +254,15 @@ class StoredSession:
             return "none (tilt mode)"
         if self.mode == "joint":
             return "the unit's force sensors"
+        # the pipeline's event sources, as the registry names them (gaitmon.dsp.events)
+        primary, fallback = get_event_source(PRIMARY).label, get_event_source(FALLBACK).label
         if not self.config.fsr_check:
-            return "the force sensors (not cross-checked with the foot gyro)"
+            return f"{primary} (not cross-checked with {fallback})"
         if not self.fsr_faults:
-            return "the force sensors (cross-checked with the foot gyro: no fault)"
+            return f"{primary} (cross-checked with {fallback}: no fault)"
         first = min(self.fsr_faults, key=lambda x: x.decided_idx)
         why = "; ".join(f"{x.sensor} force sensor {x.reason}" for x in self.fsr_faults)
-        return (f"the force sensors, then the foot gyro from "
+        return (f"{primary}, then {fallback} from "
                 f"{first.decided_idx / self.sample_rate_hz:.1f} s ({why})")  # fmt: skip
 
     def use_angles(self, source: str) -> None:

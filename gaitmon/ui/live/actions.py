@@ -2,7 +2,8 @@
 
 Each :class:`ActionSpec` names the slot it calls (a method of the window or of one of its
 parts), its shortcut, tooltip and the menu it sits in (table order is menu order).
-:func:`build_actions` makes the ``QAction`` objects with the shared
+The Tilt filter menu's rows are read from the method registry when a window is built
+(:func:`window_actions`). :func:`build_actions` makes the ``QAction`` objects with the shared
 :func:`gaitmon.ui.actions.make_action`; :func:`build_menus` lays out the menu bar. The keyboard
 help (F1) is the :data:`SHORTCUTS` list; a test checks each key in it is bound.
 """
@@ -47,13 +48,17 @@ SHORTCUTS = [
     ("Ctrl+Q", "quit"),
 ]
 
-# the tilt filters the PC pipeline offers (PipelineConfig.tilt_method; the method registry,
-# gaitmon.dsp.methods): key, menu text, tip
-TILT_METHODS = tuple(
-    (m.name, f"{m.label[0].upper()}{m.label[1:]}" + (" (default)" if m.name == DEFAULT_METHOD
-                                                     else ""), m.tip)
-    for m in methods(live=True)
-)  # fmt: skip
+
+def tilt_methods() -> tuple[tuple[str, str, str], ...]:
+    """The tilt filters the PC pipeline offers (PipelineConfig.tilt_method), read from the
+    method registry (gaitmon.dsp.methods) when a window is built: key, menu text, tip."""
+    return tuple(
+        (m.name, f"{m.label[0].upper()}{m.label[1:]}" + (" (default)" if m.name == DEFAULT_METHOD
+                                                         else ""), m.tip)
+        for m in methods(live=True)
+    )  # fmt: skip
+
+
 # the simulated unit's foot-sensor faults: key, menu text, tip
 SIM_FSR_FAULTS = (
     ("heel_dead", "Heel sensor dead", "The simulated heel force sensor reads ~0 counts and "
@@ -99,11 +104,7 @@ ACTIONS: tuple[ActionSpec, ...] = (
                "(Ctrl+0)", menu=DEVICE, separator_before=True),
     ActionSpec("settings", "Settings…", "open_settings", "Ctrl+,",
                "Filter, Kalman and FSR settings", menu=DEVICE),
-    *(
-        ActionSpec(f"tilt_{key}", text, "set_tilt_method", None,
-                   f"{tip}. Applied live; remembered", checkable=True, menu=TILT, args=(key,))
-        for key, text, tip in TILT_METHODS
-    ),
+    # (the Tilt filter menu's rows follow here: tilt_method_actions)
     ActionSpec("cut", "Cut link for 3 s", "cut_simulated_link", "Ctrl+Shift+X",
                "Simulate a Bluetooth drop-out: the simulated unit's port vanishes for 3 s",
                menu=SIMULATOR, separator_before=True, args=(3.0,)),
@@ -171,13 +172,38 @@ ACTIONS: tuple[ActionSpec, ...] = (
 )  # fmt: skip
 
 
+def tilt_action(method: str) -> str:
+    """The name of the Device ▸ Tilt filter action that chooses ``method``."""
+    return f"tilt_{method}"
+
+
+def tilt_method_actions() -> tuple[ActionSpec, ...]:
+    """Device ▸ Tilt filter: one checkable row per method the registry offers now."""
+    return tuple(
+        ActionSpec(tilt_action(key), text, "set_tilt_method", None,
+                   f"{tip}. Applied live; remembered", checkable=True, menu=TILT, args=(key,))
+        for key, text, tip in tilt_methods()
+    )  # fmt: skip
+
+
+def window_actions() -> tuple[ActionSpec, ...]:
+    """Every row of a window being built: :data:`ACTIONS` with the Tilt filter menu's rows
+    after Settings…, read from the method registry now (a method registered at run time is
+    offered by the next window)."""
+    at = next(i for i, spec in enumerate(ACTIONS) if spec.name == "settings") + 1
+    return (*ACTIONS[:at], *tilt_method_actions(), *ACTIONS[at:])
+
+
 def build_actions(
     window: QMainWindow,
     find_slot: Callable[[str], Callable[..., object]],
-    specs: tuple[ActionSpec, ...] = ACTIONS,
+    specs: tuple[ActionSpec, ...] | None = None,
 ) -> dict[str, QAction]:
-    """The window's actions by name, each calling ``find_slot(<slot>)(*args)``: looked up when
-    triggered, so the window's parts can be built with the actions they use."""
+    """The window's actions by name (``specs``, else :func:`window_actions`), each calling
+    ``find_slot(<slot>)(*args)``: looked up when triggered, so the window's parts can be built
+    with the actions they use."""
+    if specs is None:
+        specs = window_actions()
     actions: dict[str, QAction] = {}
     for spec in specs:
         slot = functools.partial(_call, find_slot, spec.slot, *spec.args)
@@ -192,9 +218,10 @@ def _call(find_slot: Callable[[str], Callable[..., object]], name: str, *args: o
 
 
 def build_menus(
-    window: QMainWindow, actions: dict[str, QAction], specs: tuple[ActionSpec, ...] = ACTIONS
+    window: QMainWindow, actions: dict[str, QAction], specs: tuple[ActionSpec, ...]
 ) -> dict[str, QMenu]:
-    """The menu bar in table order; returns the menus by path (``"&Device/Simulator"``)."""
+    """The menu bar in table order (``specs``, the rows ``actions`` were built from); returns
+    the menus by path (``"&Device/Simulator"``)."""
     menus: dict[str, QMenu] = {}
     bar = window.menuBar()
 

@@ -28,6 +28,7 @@ from gaitmon.live.connection import (
     Connection,
     available_ports,
 )
+from gaitmon.review.settings import LiveKey
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.live.actions import MODES, SIM_FSR_FAULTS
@@ -107,11 +108,11 @@ class DevicePart:
         """The ports, the last port and the mode (``mode`` given: that one)."""
         p = self.ctx.prefs
         self.refresh_ports()
-        last = p.get("device/last_port", "")
+        last = p.get(LiveKey.LAST_PORT)
         idx = self.port_combo.findData(last) if last else -1
         if idx >= 0:
             self.port_combo.setCurrentIndex(idx)
-        mode_value = Mode(mode).value if mode is not None else p.get("device/mode", "raw")
+        mode_value = Mode(mode).value if mode is not None else p.get(LiveKey.MODE)
         self.mode_combo.setCurrentIndex(max(self.mode_combo.findData(mode_value), 0))
 
     @property
@@ -183,8 +184,8 @@ class DevicePart:
         if conn is None:
             return
         ctx.conn = conn
-        ctx.prefs.set("device/last_port", conn.port)
-        ctx.prefs.set("device/mode", conn.engine.mode.value)
+        ctx.prefs.set(LiveKey.LAST_PORT, conn.port)
+        ctx.prefs.set(LiveKey.MODE, conn.engine.mode.value)
         ctx.status.connected()
         for act in self.sim_fsr_actions.values():  # a new simulated unit has working sensors
             act.setChecked(False)

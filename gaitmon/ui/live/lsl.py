@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 from PySide6.QtGui import QAction
 
+from gaitmon.review.settings import LiveKey
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.live.context import LiveContext
@@ -20,8 +21,6 @@ from gaitmon.ui.live.context import LiveContext
 if TYPE_CHECKING:
     from gaitmon.lsl.outlets import LslOutlets
 
-LSL_KEY = "lsl/enabled"
-LSL_PATIENT_KEY = "lsl/patient_id"
 
 
 class LslPart:
@@ -52,10 +51,10 @@ class LslPart:
                 require_pylsl()
             except LslUnavailable as exc:
                 self.act_lsl.setChecked(False)
-                self.ctx.prefs.set(LSL_KEY, False)
+                self.ctx.prefs.set(LiveKey.LSL, False)
                 self.ctx.notify(one_line(exc), 30_000)
                 return
-        self.ctx.prefs.set(LSL_KEY, on)
+        self.ctx.prefs.set(LiveKey.LSL, on)
         if self.act_lsl.isChecked() != on:
             self.act_lsl.setChecked(on)
         if not on:
@@ -72,7 +71,7 @@ class LslPart:
     def set_lsl_patient_id(self, on: bool) -> None:
         """Device ▸ Patient id in LSL streams (checkable, remembered): applies from the next
         start of streaming (a stream's description is fixed when it opens)."""
-        self.ctx.prefs.set(LSL_PATIENT_KEY, bool(on))
+        self.ctx.prefs.set(LiveKey.LSL_PATIENT_ID, bool(on))
         if self.act_lsl_patient.isChecked() != bool(on):
             self.act_lsl_patient.setChecked(bool(on))
         if self.lsl_outlets is not None and self.lsl_outlets.allow_patient_id != bool(on):
@@ -81,8 +80,8 @@ class LslPart:
 
     def restore(self) -> None:
         self.lsl_outlets = None
-        self.act_lsl_patient.setChecked(self.ctx.prefs.get(LSL_PATIENT_KEY, False, bool))
-        self.act_lsl.setChecked(self.ctx.prefs.get(LSL_KEY, False, bool))
+        self.act_lsl_patient.setChecked(self.ctx.prefs.get(LiveKey.LSL_PATIENT_ID))
+        self.act_lsl.setChecked(self.ctx.prefs.get(LiveKey.LSL))
 
     def _start(self) -> None:
         """Open the outlets on the connected engine (the action is on)."""
@@ -94,8 +93,8 @@ class LslPart:
 
         ident = conn.engine.identity
         meta = SessionMeta(
-            patient_id=self.ctx.prefs.get("session/patient_id", ""),
-            side=self.ctx.prefs.get("session/side", "") or (ident.side if ident else ""),
+            patient_id=self.ctx.prefs.get(LiveKey.PATIENT_ID),
+            side=self.ctx.prefs.get(LiveKey.SIDE) or (ident.side if ident else ""),
         )
         allow = self.act_lsl_patient.isChecked()
         try:

@@ -9,12 +9,14 @@ from __future__ import annotations
 from PySide6.QtGui import QAction, QActionGroup
 from PySide6.QtWidgets import QMainWindow
 
+from gaitmon.dsp.methods import live_names
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import EngineError, Mode
+from gaitmon.review.settings import PIPELINE_SETTINGS
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SettingsDialog
-from gaitmon.ui.live.actions import TILT_METHODS
+from gaitmon.ui.live.actions import tilt_action
 from gaitmon.ui.live.context import LiveContext
 from gaitmon.ui.live.views import ViewPart
 
@@ -30,7 +32,8 @@ class ProcessingPart:
         self.window = window
         self.view = view
         self.settings_dialog: SettingsDialog | None = None
-        self.tilt_actions = {key: actions[f"tilt_{key}"] for key, _text, _tip in TILT_METHODS}
+        # the methods the registry offers, as when the window built its actions
+        self.tilt_actions = {key: actions[tilt_action(key)] for key in live_names()}
         self.tilt_group = QActionGroup(window)  # exclusive: one filter in force
         for a in self.tilt_actions.values():
             self.tilt_group.addAction(a)
@@ -81,10 +84,7 @@ class ProcessingPart:
         if not self._apply_config(cfg, "Settings"):
             return
         logged = " and logged in the recording" if self.ctx.recording else ""
-        self.ctx.notify(
-            f"Settings applied{logged}: cut-off {cfg.cutoff_hz:g} Hz, Q_angle {cfg.q_angle:g}, "
-            f"Q_gyro {cfg.q_gyro:g}, R {cfg.r:g}, FSR threshold {cfg.fsr_threshold:g}."
-        )
+        self.ctx.notify(f"Settings applied{logged}: {settings_text(cfg)}.")
 
     @guarded
     def set_tilt_method(self, method: str, on: bool = True) -> None:
@@ -115,3 +115,9 @@ class ProcessingPart:
                 act.setChecked(key == config.tilt_method)
         if self.ctx.conn is None:
             self.view.live.set_angle_method(config.tilt_method_label)
+
+
+def settings_text(cfg: PipelineConfig) -> str:
+    """The Settings dialog's values in force: "cut-off 4 Hz, Q_angle 0.001, …, FSR threshold
+    1000" (the settings table's short names and units)."""
+    return ", ".join(f"{s.short} {getattr(cfg, s.name):g}{s.unit}" for s in PIPELINE_SETTINGS)

@@ -19,6 +19,7 @@ from PySide6.QtWidgets import QLineEdit, QMainWindow
 from gaitmon.engine import EngineError, Snapshot
 from gaitmon.jobs import Response
 from gaitmon.live.pair import SIDE_NAMES, SIDES, PairConnection
+from gaitmon.review.settings import LiveKey
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SessionDialog
@@ -73,17 +74,17 @@ class RecordingPart:
             self.session_dialog.raise_()
             return
         p = ctx.prefs
-        folder = Path(p.get("session/folder", str(default_session_folder())))
+        folder = Path(p.get(LiveKey.SESSION_FOLDER, str(default_session_folder())))
         side = ""
         if ctx.conn is not None:
             ident = ctx.conn.engine.identity
-            side = p.get("session/side", "") or (ident.side if ident else "")
+            side = p.get(LiveKey.SIDE) or (ident.side if ident else "")
         dlg = SessionDialog(
             self.window,
             folder=folder,
-            patient_id=p.get("session/patient_id", ""),
+            patient_id=p.get(LiveKey.PATIENT_ID),
             side=side,
-            operator=p.get("session/operator", ""),
+            operator=p.get(LiveKey.OPERATOR),
         )
         self._dialog_both = ctx.pair is not None
         if self._dialog_both:
@@ -134,11 +135,11 @@ class RecordingPart:
             ctx.notify(f"Could not start recording: {one_line(exc)}", 30_000)
             return False
         p = ctx.prefs
-        p.set("session/folder", str(path.parent))
-        p.set("session/operator", operator)
+        p.set(LiveKey.SESSION_FOLDER, str(path.parent))
+        p.set(LiveKey.OPERATOR, operator)
         if not both:
-            p.set("session/side", side)
-        p.set("session/patient_id", patient_id)
+            p.set(LiveKey.SIDE, side)
+        p.set(LiveKey.PATIENT_ID, patient_id)
         ctx.recording = True
         ctx.status.record_banner.setVisible(False)
         ctx.controls_changed()

@@ -26,6 +26,7 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.engine import Snapshot
+from gaitmon.review.settings import LiveKey
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.live.actions import METHOD_COLOURS, WINDOWS_S
 from gaitmon.ui.live.context import LiveContext
@@ -33,7 +34,6 @@ from gaitmon.ui.live.status import GaitPanel, banner_style
 from gaitmon.ui.plots import METHOD_LABELS, LivePlots, RawPlots
 from gaitmon.ui.theme import Colours
 
-ENGINEERING_KEY = "view/engineering"
 GAIT_PANEL_EVERY = 3  # ticks between gait-panel updates
 
 
@@ -133,18 +133,18 @@ class ViewPart:
     def restore(self) -> None:
         """The window, traces and phases remembered (before the layout is restored)."""
         p = self.ctx.prefs
-        window = p.get("view/window_s", 10.0, float)
+        window = p.get(LiveKey.WINDOW_S)
         if window not in WINDOWS_S:
             window = 10.0
         self.set_window(window)
         for key in ("acc", "kalman", "gyro"):
-            self.set_method(key, p.get(f"view/method_{key}", True, bool))
-        self.set_four_phases(p.get("view/four_phases", True, bool))
+            self.set_method(key, p.get(LiveKey.shown(key)))
+        self.set_four_phases(p.get(LiveKey.FOUR_PHASES))
         self.live.set_fsr_threshold(self.ctx.config.fsr_threshold)
 
     def restore_view(self) -> None:
         """The view remembered (after the layout: the clinical view hides the raw dock)."""
-        self._apply_view(self.ctx.prefs.get(ENGINEERING_KEY, False, bool))
+        self._apply_view(self.ctx.prefs.get(LiveKey.ENGINEERING))
 
     @property
     def paused(self) -> bool:
@@ -181,7 +181,7 @@ class ViewPart:
         idx = self.window_combo.findData(window_s)
         if idx >= 0 and self.window_combo.currentIndex() != idx:
             self.window_combo.setCurrentIndex(idx)
-        self.ctx.prefs.set("view/window_s", window_s)
+        self.ctx.prefs.set(LiveKey.WINDOW_S, window_s)
         self._redraw_paused()
 
     def _window_combo_changed(self, index: int) -> None:
@@ -199,7 +199,7 @@ class ViewPart:
         a = self.method_actions[method]
         if a.isChecked() != on:
             a.setChecked(on)
-        self.ctx.prefs.set(f"view/method_{method}", on)
+        self.ctx.prefs.set(LiveKey.shown(method), on)
         if on:
             self._redraw_paused()
 
@@ -223,7 +223,7 @@ class ViewPart:
         else:
             text = f"<span style='color:{c.stance.name()}'>█</span> stance"
         self.phase_legend.setText(text)
-        self.ctx.prefs.set("view/four_phases", four)
+        self.ctx.prefs.set(LiveKey.FOUR_PHASES, four)
 
     def _phase_combo_changed(self, index: int) -> None:
         self.set_four_phases(bool(self.phase_combo.itemData(index)))
@@ -251,7 +251,7 @@ class ViewPart:
             a.setEnabled(on)
         if not on:
             self.raw_dock.setVisible(False)
-        self.ctx.prefs.set(ENGINEERING_KEY, on)
+        self.ctx.prefs.set(LiveKey.ENGINEERING, on)
         self._redraw_paused()
 
     def set_shown(self, on: bool) -> None:

@@ -49,9 +49,17 @@ from gaitmon.io.sim.bilateral import BilateralConfig
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import Connection
 from gaitmon.live.pair import LiveBilateral, PairConnection, PairSource
+from gaitmon.review.settings import LiveKey
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SessionDialog, SettingsDialog, shortcuts_dialog
-from gaitmon.ui.live.actions import ACTIONS, SHORTCUTS, SIMULATOR, VIEW, build_actions, build_menus
+from gaitmon.ui.live.actions import (
+    SHORTCUTS,
+    SIMULATOR,
+    VIEW,
+    build_actions,
+    build_menus,
+    window_actions,
+)
 from gaitmon.ui.live.context import LiveContext
 from gaitmon.ui.live.device import DevicePart
 from gaitmon.ui.live.guide import GuideBar, GuideState
@@ -105,7 +113,8 @@ class MainWindow(QMainWindow):
         ctx.controls_changed = self._update_controls
         self.prefs, self.jobs, self.errors = ctx.prefs, ctx.jobs, ctx.errors
 
-        acts = self._actions = build_actions(self, self._slot)
+        specs = window_actions()  # the tilt filters registered now
+        acts = self._actions = build_actions(self, self._slot, specs)
         self.act_connect, self.act_refresh = acts["connect"], acts["refresh"]
         self.act_zero, self.act_record = acts["zero"], acts["record"]
         self.act_marker, self.act_pause = acts["marker"], acts["pause"]
@@ -115,7 +124,7 @@ class MainWindow(QMainWindow):
         self.act_four_phases, self.act_engineering = acts["four_phases"], acts["engineering"]
         self.act_guide, self.act_lsl = acts["guide"], acts["lsl"]
         self.act_lsl_patient = acts["lsl_patient_id"]
-        menus = build_menus(self, acts)
+        menus = build_menus(self, acts, specs)
         self.sim_menu = menus[SIMULATOR]
 
         self.view_part = view = ViewPart(ctx, self, acts)
@@ -131,7 +140,7 @@ class MainWindow(QMainWindow):
             recording=self.recording_part, started=self._started, stopping=self.timer_stop,
             show_guide=self._show_guide_state,
         )  # fmt: skip
-        for spec in ACTIONS:  # every row's slot exists (found now, not when first triggered)
+        for spec in specs:  # every row's slot exists (found now, not when first triggered)
             self._slot(spec.slot)
         self.window_group = QActionGroup(self)
         for a in view.window_actions.values():
@@ -325,9 +334,9 @@ class MainWindow(QMainWindow):
         self.device_part.restore(mode)
         self.view_part.restore()
         self.processing_part.show_tilt_method()
-        geo = p.s.value("window/geometry")
+        geo = p.get(LiveKey.GEOMETRY)
         self.geometry_restored = bool(geo is not None and self.restoreGeometry(geo))
-        state = p.s.value("window/state")
+        state = p.get(LiveKey.STATE)
         self.state_restored = bool(state is not None and self.restoreState(state))
         self.view_part.restore_view()  # after the layout: the clinical view hides the raw dock
         self.lsl_part.restore()
@@ -497,8 +506,8 @@ class MainWindow(QMainWindow):
                 if answer != QMessageBox.StandardButton.Yes:
                     ev.ignore()
                     return
-            self.ctx.prefs.set("window/geometry", self.saveGeometry())
-            self.ctx.prefs.set("window/state", self.saveState())
+            self.ctx.prefs.set(LiveKey.GEOMETRY, self.saveGeometry())
+            self.ctx.prefs.set(LiveKey.STATE, self.saveState())
             self.shutdown()
             self.ctx.prefs.s.sync()
         except Exception as exc:  # closing must always work
