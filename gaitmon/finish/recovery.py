@@ -50,6 +50,7 @@ from gaitmon.io.session.rows import (
     fault_rows,
     rows_from_pipeline,
 )
+from gaitmon.values import JsonValue, scalar
 
 # rows replayed at a time by a recovery: the pipeline's block for 65 536 rows (the default,
 # ``gaitmon process``'s cancel points) is ~50 MB with its temporaries; chunking does not change
@@ -166,14 +167,14 @@ class _ChunkedTimeline:
     times: ``k`` is an integer count and each gap row starts a block of its own."""
 
     def __init__(
-        self, lost_before: LazyRows, gaps: Sequence[Mapping[str, Any]], fs: float,
+        self, lost_before: LazyRows, gaps: Sequence[Mapping[str, JsonValue]], fs: float,
         keep: Iterable[int] = (),
     ) -> None:  # fmt: skip
         self._lost = lost_before
         self._per_row: dict[int, float] = {}
         for g in gaps:  # gaps at the same row add up, in journal order, as the writer does
-            idx = int(g["sample_idx"])
-            self._per_row[idx] = self._per_row.get(idx, 0.0) + float(g["duration_s"])
+            idx = int(scalar(g["sample_idx"]))
+            self._per_row[idx] = self._per_row.get(idx, 0.0) + float(scalar(g["duration_s"]))
         self._tl = _Timeline(fs)
         self._next = 0
         self._keep = sorted(set(int(i) for i in keep))

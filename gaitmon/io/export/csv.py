@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -24,10 +23,12 @@ from gaitmon.io.export.source import (
     export_header,
     gaps,
     json_default,
+    json_rows,
     json_safe,
     markers,
     metadata,
 )
+from gaitmon.values import JsonObject
 
 CSV_CHUNK_ROWS = 32_768  # ~15 MB of text per chunk
 CSV_EXTRA_COLUMNS: tuple[str, ...] = ("heel_strike", "toe_off", "gap_lost_frames", "marker")
@@ -103,8 +104,8 @@ def _write_csv(src: Source, out: Path, scrub: Scrubber, progress: Progress | Non
         step(progress, cancel, 1.0)
 
 
-def _csv_meta(src: Source, scrub: Scrubber, deidentify: bool) -> dict[str, Any]:
-    cols = []
+def _csv_meta(src: Source, scrub: Scrubber, deidentify: bool) -> JsonObject:
+    cols: list[JsonObject] = []
     for s in _csv_columns(src):
         for c in s.columns:
             cols.append({"name": c, "unit": s.unit, "source": "/" + s.path,
@@ -129,8 +130,8 @@ def _csv_meta(src: Source, scrub: Scrubber, deidentify: bool) -> dict[str, Any]:
         "events": {"index_base": 0,
                    "heel_strike_idx": src.events("heel_strike").tolist(),
                    "toe_off_idx": src.events("toe_off").tolist()},
-        "markers": markers(src, scrub),
-        "gaps": gaps(src, scrub),
+        "markers": json_rows(markers(src, scrub)),
+        "gaps": json_rows(gaps(src, scrub)),
         **metadata(src, scrub),
     }
 
