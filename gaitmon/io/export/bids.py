@@ -33,12 +33,12 @@ import numpy as np
 from gaitmon import __version__
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.io.export.bids_labels import BidsOptions
-from gaitmon.io.export.csv_text import Column, format_block
+from gaitmon.io.export.csv_text import CsvColumn, format_block
 from gaitmon.io.export.deidentify import Scrubber
 from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
 from gaitmon.io.export.source import (
     JOINT_LABELS,
-    GapRow,
+    ExportedGap,
     Source,
     as_text,
     gaps,
@@ -287,7 +287,7 @@ def write_grid_tsv(chans: list[Channel], n_rows: int, reader: GridReader, out: P
             cols = []
             for c in chans:
                 x = blocks[c.path][:, c.column]
-                cols.append(Column(np.where(np.isfinite(x), x, np.nan), c.decimals))
+                cols.append(CsvColumn(np.where(np.isfinite(x), x, np.nan), c.decimals))
             f.write(_tsv_lines(format_block(cols)))
             step(progress, cancel, f1 / n_rows)
     if n_rows == 0:
@@ -395,7 +395,7 @@ def events(src: Source, scrub: Scrubber, frame: np.ndarray) -> list[Event]:
     for mk in markers(src, scrub):
         r = int(frame[mk["sample_idx"]])
         out.append(Event(r / fs, 0.0, "marker", r, tsv_cell(mk["label"])))
-    by_row: dict[int, list[GapRow]] = {}
+    by_row: dict[int, list[ExportedGap]] = {}
     for g in gaps(src, scrub):
         by_row.setdefault(g["sample_idx"], []).append(g)
     for row, gs in by_row.items():

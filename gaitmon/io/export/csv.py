@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gaitmon.io.export.csv_text import Column, decimals_of, format_block
+from gaitmon.io.export.csv_text import CsvColumn, decimals_of, format_block
 from gaitmon.io.export.deidentify import Scrubber
 from gaitmon.io.export.errors import Cancel, Progress, step
 from gaitmon.io.export.outputs import csv_meta_path
@@ -94,8 +94,8 @@ def _write_csv(src: Source, out: Path, scrub: Scrubber, progress: Progress | Non
                 if start <= idx < stop:
                     extra[idx - start, 2] = lost
             values = [b[:, i] for b in blocks for i in range(b.shape[1])]
-            columns = [Column(v, d) for v, d in zip(values, cols_dec, strict=True)]
-            columns += [Column(extra[:, i], None) for i in range(3)]
+            columns = [CsvColumn(v, d) for v, d in zip(values, cols_dec, strict=True)]
+            columns += [CsvColumn(extra[:, i], None) for i in range(3)]
             tails = {idx - start: _csv_cell(" | ".join(labels))
                      for idx, labels in marker_at.items() if start <= idx < stop}
             f.write(format_block(columns, tails))

@@ -340,7 +340,7 @@ def session_side(src: Source) -> str:
     return ""
 
 
-class MarkerRow(TypedDict):
+class ExportedMarker(TypedDict):
     """One exported marker (``sample_idx`` a 0-based session row)."""
 
     sample_idx: int
@@ -348,7 +348,7 @@ class MarkerRow(TypedDict):
     label: str
 
 
-class GapRow(TypedDict):
+class ExportedGap(TypedDict):
     """One exported gap: ``n_lost`` frames lost before row ``sample_idx`` (0-based)."""
 
     sample_idx: int
@@ -357,8 +357,8 @@ class GapRow(TypedDict):
     reason: str
 
 
-def markers(src: Source, scrub: Scrubber) -> list[MarkerRow]:
-    out: list[MarkerRow] = []
+def markers(src: Source, scrub: Scrubber) -> list[ExportedMarker]:
+    out: list[ExportedMarker] = []
     for m in src.table("markers"):
         idx = int(scalar(m.get("sample_idx", -1)))
         if 0 <= idx < src.n:
@@ -367,8 +367,8 @@ def markers(src: Source, scrub: Scrubber) -> list[MarkerRow]:
     return out
 
 
-def gaps(src: Source, scrub: Scrubber) -> list[GapRow]:
-    out: list[GapRow] = []
+def gaps(src: Source, scrub: Scrubber) -> list[ExportedGap]:
+    out: list[ExportedGap] = []
     for g in src.table("gaps"):
         idx = int(scalar(g.get("sample_idx", -1)))
         if 0 <= idx <= src.n:
@@ -378,7 +378,7 @@ def gaps(src: Source, scrub: Scrubber) -> list[GapRow]:
     return out
 
 
-def json_rows(rows: Sequence[MarkerRow] | Sequence[GapRow]) -> list[JsonObject]:
+def json_rows(rows: Sequence[ExportedMarker] | Sequence[ExportedGap]) -> list[JsonObject]:
     """Marker or gap rows as JSON objects (their values are text and numbers)."""
     return [cast("JsonObject", dict(r)) for r in rows]
 
