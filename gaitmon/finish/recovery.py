@@ -39,7 +39,7 @@ from gaitmon.io.journal import (
     read_journal,
 )
 from gaitmon.io.protocol import FrameKind
-from gaitmon.io.session.h5file import _fsync_path, _H5File, _short_error
+from gaitmon.io.session.h5file import TableRow, _fsync_path, _H5File, _short_error
 from gaitmon.io.session.header import DamagedSource, SessionError, SessionHeader
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _field_names
 from gaitmon.io.session.rows import (
@@ -432,7 +432,7 @@ def _build_recovered(
         cal_log = [(i, json.dumps(c.as_dict())) for i, c in changes if isinstance(c, Calibration)]
         h5.append_table("config/changes", cfg_log)
         h5.append_table("calibration/changes", cal_log)
-        crc_log: list[tuple[Any, ...]] = []
+        crc_log: list[TableRow] = []
         last_crc = 0
         totals: Mapping[str, Any] = {}
         for rec in contents.links:
