@@ -19,7 +19,7 @@ SLEEPY = {"sleep", "monotonic", "perf_counter", "time", "waitUntil", "waitSignal
           "waitExposed", "wait_for", "waitCallback"}  # fmt: skip
 TWO_LEG_NAMES = re.compile(r"Bilateral|Pair|Leg|Side")
 PUBLIC_PACKAGES = ("gaitmon/io/session", "gaitmon/io/export", "gaitmon/dsp/methods",
-                   "gaitmon/finish", "gaitmon/sessions")  # fmt: skip
+                   "gaitmon/finish", "gaitmon/sessions", "gaitmon/export")  # fmt: skip
 
 
 def _py(root: Path, sub: str) -> list[Path]:

@@ -736,7 +736,7 @@ def test_listing_the_formats_loads_no_format_module():
 def test_csv_text_equals_python_percent_formatting():
     """The vectorised CSV writer gives byte for byte what ``"%.Nf" % x`` / ``"%d" % x`` give,
     including rounding ties of the exact binary value, -0, NaN, inf and out-of-range values."""
-    from gaitmon.io.export.csv_text import Column, format_block
+    from gaitmon.io.export.csv_text import CsvColumn, format_block
 
     rng = np.random.default_rng(7)
     m = 5000
@@ -755,7 +755,7 @@ def test_csv_text_equals_python_percent_formatting():
         (np.arange(m, dtype=np.int64) * 10**9, None),
     ]
     tails = {3: '"a, b"', 10: ""}
-    got = format_block([Column(np.asarray(v), d) for v, d in cols], tails).decode()
+    got = format_block([CsvColumn(np.asarray(v), d) for v, d in cols], tails).decode()
     fmt = ",".join("%d" if d is None else f"%.{d}f" for _, d in cols) + ","
     want = "".join(fmt % tuple(float(np.asarray(v)[r]) for v, _ in cols) + tails.get(r, "")
                    + "\n" for r in range(m))

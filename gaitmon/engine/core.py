@@ -79,7 +79,7 @@ class EngineError(Exception):
 
 
 @dataclass
-class _Pending:
+class _PendingChanges:
     """Changes a caller asked for; the engine thread takes them at its next block (under the
     engine's lock), so a recording started meanwhile gets them in its header."""
 
@@ -128,7 +128,7 @@ class Engine:
         self._spatial = FootStrideLengths(self.fs_hz)
         self._checks = SensorChecks()
         self._health = StreamHealth()
-        self._pending = _Pending()
+        self._pending = _PendingChanges()
         self._recorder: Recorder | None = None
         self._last_recording = RecordingStatus()
         self._identity: Identity | None = None

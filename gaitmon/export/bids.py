@@ -25,10 +25,11 @@ if TYPE_CHECKING:
     import numpy as np
 
     from gaitmon.export.grid import CommonGrid, LegOnGrid
-    from gaitmon.io.export.bids import Names
+    from gaitmon.io.export.bids import Channel, Names
     from gaitmon.io.export.deidentify import Scrubber
     from gaitmon.io.export.source import Source
     from gaitmon.io.export.writer import FormatWriter
+    from gaitmon.values import JsonObject
 
 
 @dataclass(frozen=True)
@@ -47,7 +48,7 @@ BIDS = BidsFormat("bids", "", "BIDS motion dataset folder (Motion-BIDS; de-ident
 
 TRACKSYS = {"L": "imuL", "R": "imuR"}
 EVENTS_COLUMNS = ("onset", "duration", "trial_type", "sample", "side", "label")
-EVENTS_JSON_BOTH: dict[str, Any] = {  # beside the one-unit export's EVENTS_JSON
+EVENTS_JSON_BOTH: JsonObject = {  # beside the one-unit export's EVENTS_JSON
     "onset": {"Description": "time of the event on the session's common time line, from row "
                              "0 of both _motion.tsv files", "Units": "s"},
     "sample": {"Description": "0-based row of both _motion.tsv files nearest the onset (first "
@@ -201,8 +202,8 @@ def export_bids(job: ExportRequest) -> ExportResult:
     return ExportResult(tuple(written), n, mode, problems)
 
 
-def _sidecar(src: Source, chans: list[Any], grid: CommonGrid, leg: LegOnGrid, scrub: Scrubber,
-             names: Names, head: dict[str, Any]) -> dict[str, Any]:
+def _sidecar(src: Source, chans: list[Channel], grid: CommonGrid, leg: LegOnGrid,
+             scrub: Scrubber, names: Names, head: JsonObject) -> JsonObject:
     """The one-leg sidecar, for this tracking system on the common grid."""
     import numpy as np
 
@@ -221,5 +222,4 @@ def _sidecar(src: Source, chans: list[Any], grid: CommonGrid, leg: LegOnGrid, sc
                            "in the other tracking system's; this unit's samples resampled "
                            "linearly onto it by its clock fit; n/a where it has none")
     side["GaitmonTimeLine"] = json_safe(head["common_time"])
-    result: dict[str, Any] = scrub.value(side)
-    return result
+    return scrub.mapping(side)

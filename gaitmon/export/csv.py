@@ -24,6 +24,7 @@ from gaitmon.io.export.outputs import check_outputs, csv_meta_path
 
 if TYPE_CHECKING:
     from gaitmon.io.export.writer import FormatWriter
+    from gaitmon.values import JsonObject
 
 
 @dataclass(frozen=True)
@@ -71,7 +72,7 @@ def export_legs_and_tables(request: ExportRequest) -> ExportResult:
             results.append(export_unit(leg))
         with analysed(request) as (b, _, t):
             step(request.progress, request.cancel, 0.95)
-            meta = {
+            meta: JsonObject = {
                 **meta_header(request, b),
                 "cadence_steps_min": t.cadence_steps_min,
                 "heel_strikes": {"file": tables[0].name,

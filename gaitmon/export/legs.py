@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest
 from gaitmon.io.export.errors import ExportError
@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from gaitmon.export.tables import BilateralTables
     from gaitmon.finish.bilateral import Bilateral
     from gaitmon.io.export.source import Source
+    from gaitmon.values import JsonObject
 
 
 @contextlib.contextmanager
@@ -52,7 +53,7 @@ def leg_sources(job: ExportRequest) -> Iterator[dict[str, Source]]:
         yield srcs
 
 
-def meta_header(job: ExportRequest, b: Bilateral) -> dict[str, Any]:
+def meta_header(job: ExportRequest, b: Bilateral) -> JsonObject:
     """What every bilateral side file says of the export and of the common time line."""
     from gaitmon.io.export.source import export_header_fields
 

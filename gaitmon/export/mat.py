@@ -15,7 +15,7 @@ import io
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format, write_atomic
 from gaitmon.io.export.errors import step
@@ -24,7 +24,9 @@ if TYPE_CHECKING:
     import numpy as np
 
     from gaitmon.export.tables import BilateralTables
+    from gaitmon.io.export.mat import MatStruct, MatValue
     from gaitmon.io.export.writer import FormatWriter
+    from gaitmon.values import JsonObject, JsonValue
 
 
 @dataclass(frozen=True)
@@ -42,13 +44,13 @@ class MatFormat(Format):
 MAT = MatFormat("mat", ".mat", "MATLAB .mat (struct 'session', 1-based indices)")
 
 
-def _column(v: Any) -> np.ndarray:
+def _column(v: JsonValue | np.ndarray) -> np.ndarray:
     import numpy as np
 
     return np.asarray(v, np.float64).reshape(-1, 1)
 
 
-def bilateral_struct(tables: BilateralTables, head: dict[str, Any]) -> dict[str, Any]:
+def bilateral_struct(tables: BilateralTables, head: JsonObject) -> dict[str, MatValue]:
     """The ``bilateral`` struct: the two-leg tables, their columns and the time line."""
     from gaitmon.export.tables import (
         HEEL_STRIKE_COLUMNS,
@@ -60,7 +62,7 @@ def bilateral_struct(tables: BilateralTables, head: dict[str, Any]) -> dict[str,
     from gaitmon.io.export.source import json_safe
 
     t = tables.heel_strikes
-    hs: dict[str, Any] = {
+    hs: dict[str, MatValue] = {
         "side": mat_cell([str(s) for s in t.side]),
         "unit_row_idx": _column(t.unit_row + 1),
         "heel_strike_common_s": _column(t.heel_strike_s),
@@ -71,7 +73,7 @@ def bilateral_struct(tables: BilateralTables, head: dict[str, Any]) -> dict[str,
         "exclusion": mat_cell(list(t.exclusion)),
     }
     rows = tables.symmetry
-    sym = {
+    sym: dict[str, MatValue] = {
         "measure": mat_cell([r.measure for r in rows]),
         "left_mean_s": _column([r.left for r in rows]),
         "right_mean_s": _column([r.right for r in rows]),
@@ -81,7 +83,7 @@ def bilateral_struct(tables: BilateralTables, head: dict[str, Any]) -> dict[str,
         "n_right": _column([tables.n_counted["R"][r.measure] for r in rows]),
     }
 
-    def described(columns: tuple[tuple[str, str, str], ...]) -> dict[str, Any]:
+    def described(columns: tuple[tuple[str, str, str], ...]) -> JsonObject:
         names = {"unit_row": "unit_row_idx"}  # 1-based here, as every MAT index
         return {"units": {names.get(c, c): u for c, u, _ in columns},
                 "descriptions": {names.get(c, c): d for c, _, d in columns}}
@@ -114,14 +116,16 @@ def export_mat(job: ExportRequest) -> ExportResult:
                     session, big = session_struct(src, scrub, job.deidentify)
                     t = src.read("timeline/t_s").astype(np.float64) if src.n else np.zeros(0)
                     common = np.asarray(b.common_s(side, t), np.float64)
-                    fields = {}
+                    fields: MatStruct = {}
                     for key, v in session.items():
                         fields[key] = v
                         if key == "t_s":  # beside the unit's own time
                             fields["t_common_s"] = common.reshape(-1, 1)
+                    events = fields["events"]
+                    assert isinstance(events, dict)  # session_struct's events struct
                     for name in ("heel_strike", "toe_off"):
                         idx = src.events(name)
-                        fields["events"][f"{name}_t_common_s"] = common[idx].reshape(-1, 1)
+                        events[f"{name}_t_common_s"] = common[idx].reshape(-1, 1)
                     write_struct(f, side, fields, big, src, job.stage(0.45 * k, 0.45 * (k + 1)),
                                  job.cancel, header=k == 0)  # fmt: skip
                 buf = io.BytesIO()

@@ -19,7 +19,6 @@ import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import h5py
 import numpy as np
@@ -37,6 +36,7 @@ from gaitmon.io.session.parts import (
     part_path,
     parts_of,
 )
+from gaitmon.io.session.series import AttrValue, _py
 
 __all__ = [
     "SIDES",
@@ -74,7 +74,7 @@ class Bilateral:
     sync: dict[str, ClockFit]
     host_t0_s: float
     host_s_per_common_s: float
-    attrs: dict[str, Any]
+    attrs: dict[str, AttrValue]  # the file's root attributes
 
     @property
     def sides(self) -> tuple[str, ...]:
@@ -129,7 +129,7 @@ def open_bilateral(
         sync = {s: _read_fit(f[f"sync/{s}"]) for s in sides}
         t0 = float(f["sync"].attrs["host_t0_s"])
         scale = float(f["sync"].attrs["host_s_per_common_s"])
-        attrs = dict(f.attrs.items())
+        attrs = {k: _py(v) for k, v in f.attrs.items()}
     except SessionError:
         raise
     except (KeyError, OSError, RuntimeError, ValueError, TypeError) as e:

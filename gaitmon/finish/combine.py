@@ -43,7 +43,7 @@ SEGMENT_DTYPE = np.dtype([
 Progress = Callable[[float], bool | None] | None
 
 
-def _s(x: Any) -> str:
+def _s(x: object) -> str:
     return x.decode("utf-8", "replace") if isinstance(x, bytes) else str(x)
 
 

@@ -39,7 +39,7 @@ from gaitmon.io.journal import (
     read_journal,
 )
 from gaitmon.io.protocol import FrameKind
-from gaitmon.io.session.h5file import _fsync_path, _H5File, _short_error
+from gaitmon.io.session.h5file import TableRow, _fsync_path, _H5File, _short_error
 from gaitmon.io.session.header import DamagedSource, SessionError, SessionHeader
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _field_names
 from gaitmon.io.session.rows import (
@@ -50,6 +50,7 @@ from gaitmon.io.session.rows import (
     fault_rows,
     rows_from_pipeline,
 )
+from gaitmon.values import JsonValue, scalar
 
 # rows replayed at a time by a recovery: the pipeline's block for 65 536 rows (the default,
 # ``gaitmon process``'s cancel points) is ~50 MB with its temporaries; chunking does not change
@@ -166,14 +167,14 @@ class _ChunkedTimeline:
     times: ``k`` is an integer count and each gap row starts a block of its own."""
 
     def __init__(
-        self, lost_before: LazyRows, gaps: Sequence[Mapping[str, Any]], fs: float,
+        self, lost_before: LazyRows, gaps: Sequence[Mapping[str, JsonValue]], fs: float,
         keep: Iterable[int] = (),
     ) -> None:  # fmt: skip
         self._lost = lost_before
         self._per_row: dict[int, float] = {}
         for g in gaps:  # gaps at the same row add up, in journal order, as the writer does
-            idx = int(g["sample_idx"])
-            self._per_row[idx] = self._per_row.get(idx, 0.0) + float(g["duration_s"])
+            idx = int(scalar(g["sample_idx"]))
+            self._per_row[idx] = self._per_row.get(idx, 0.0) + float(scalar(g["duration_s"]))
         self._tl = _Timeline(fs)
         self._next = 0
         self._keep = sorted(set(int(i) for i in keep))
@@ -431,7 +432,7 @@ def _build_recovered(
         cal_log = [(i, json.dumps(c.as_dict())) for i, c in changes if isinstance(c, Calibration)]
         h5.append_table("config/changes", cfg_log)
         h5.append_table("calibration/changes", cal_log)
-        crc_log: list[tuple[Any, ...]] = []
+        crc_log: list[TableRow] = []
         last_crc = 0
         totals: Mapping[str, Any] = {}
         for rec in contents.links:

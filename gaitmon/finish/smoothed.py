@@ -23,7 +23,7 @@ import itertools
 import json
 import logging
 from collections.abc import Callable, Iterator
-from typing import IO, Any
+from typing import IO
 
 import h5py
 import numpy as np
@@ -308,7 +308,7 @@ def _inputs(f: h5py.File) -> tuple[int, list[tuple[int, Calibration]], np.ndarra
     return n, changes, lost_before_from_gaps(f["gaps"][()], n)
 
 
-def _text(x: Any) -> str:
+def _text(x: object) -> str:
     return x.decode("utf-8") if isinstance(x, bytes) else str(x)
 
 

@@ -29,7 +29,6 @@ import json
 import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import h5py
 import numpy as np
@@ -151,7 +150,7 @@ def write_strides(f: h5py.File, inputs: StrideInputs, hs: np.ndarray, m: StrideM
     g.attrs["computed_from"] = inputs.stamp()
 
 
-def _text(x: Any) -> str:
+def _text(x: object) -> str:
     return x.decode("utf-8") if isinstance(x, bytes) else str(x)
 
 

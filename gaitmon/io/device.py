@@ -214,7 +214,7 @@ class LinkStats:
 
 
 @dataclass
-class _Pending:
+class _PendingCommand:
     """What the caller's thread waits for; filled by the acquisition thread."""
 
     command: int
@@ -251,7 +251,7 @@ class Device:
         self._max_queued = max_queued_frames
         self._overflow = 0
         self._cond = threading.Condition()
-        self._pending: _Pending | None = None
+        self._pending: _PendingCommand | None = None
         self._cmd_lock = threading.Lock()  # one command in flight at a time
         self._kind = FrameKind.RAW
         self._streaming = False
@@ -306,14 +306,16 @@ class Device:
 
     # -- commands -------------------------------------------------------------------------
 
-    def _command(self, cmd: Command, arg: int = 0, *, timeout_s: float | None = None) -> _Pending:
+    def _command(
+        self, cmd: Command, arg: int = 0, *, timeout_s: float | None = None
+    ) -> _PendingCommand:
         if self._thread is None:
             raise DeviceError("device not connected: call connect() first")
         timeout_s = self.command_timeout_s if timeout_s is None else timeout_s
         wire = encode_command(cmd, arg)
         with self._cmd_lock:
             for _ in range(self.command_attempts):
-                pending = _Pending(int(cmd))
+                pending = _PendingCommand(int(cmd))
                 with self._cond:
                     self._pending = pending
                 try:

@@ -37,7 +37,9 @@ PAPER = {  # Table 1: (galat before, galat after, akurasi before, akurasi after)
 
 
 @dataclass(frozen=True)
-class Setup:
+class PhoneRotationSetup:
+    """The simulated phone rotations' sensor errors and the filter's process noise."""
+
     gyro_bias_deg_s: tuple[float, float, float] = (0.35, -0.3, 0.25)  # ENU x, y, z
     gyro_noise_deg_s: float = 0.5
     angle_noise_deg: float = 3.0
@@ -69,7 +71,7 @@ class AxisResult(TypedDict):
 
 
 def simulate_axis(
-    axis: int, angle_deg: float, duration_s: float, s: Setup
+    axis: int, angle_deg: float, duration_s: float, s: PhoneRotationSetup
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(t, true NED angles (N, 3) rad, NED gyro (N, 3) rad/s after the ENU mapping, Z (N, 3))."""
     dt = 1.0 / FS_HZ
@@ -100,7 +102,7 @@ def _before(gyro: np.ndarray, dt: float) -> np.ndarray:
 
 
 def run(out_dir: Path, quick: bool = False) -> Report:
-    s = Setup()
+    s = PhoneRotationSetup()
     dt = 1.0 / FS_HZ
     rep = Report(
         "Paper 001 -- 6-state constant-rate Kalman filter, roll/pitch/yaw", out_dir, "p001"

@@ -28,7 +28,9 @@ PAPER_RMSD_FILTER_DEG = 0.06
 
 
 @dataclass(frozen=True)
-class Setup:
+class ComplementarySetup:
+    """The complementary-filter study: rest and motion lengths, sensor errors, cut-off."""
+
     rest_s: float = 30.0
     tilt_deg: float = 12.0
     gyro_noise_deg_s: float = 0.4
@@ -47,7 +49,7 @@ def _sensors(
     rate_rad_s: np.ndarray,
     acc_lin_g: np.ndarray | float,
     acc_noise_g: float,
-    s: Setup,
+    s: ComplementarySetup,
     rng: np.random.Generator,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Accelerometer angle atan(Ay/Az) and gyro rate (deg/s) through the paper's ADC."""
@@ -61,7 +63,7 @@ def _sensors(
 
 
 def _rest_rmsd(
-    acc_noise_g: float, s: Setup, seed: int
+    acc_noise_g: float, s: ComplementarySetup, seed: int
 ) -> tuple[float, float, np.ndarray, dict[str, np.ndarray]]:
     n = round(s.rest_s * FS_HZ)
     rng = np.random.default_rng(seed)
@@ -79,7 +81,7 @@ def _rest_rmsd(
     return float(np.std(acc_d)), float(np.std(comp_d)), comp_d, traces
 
 
-def _calibrate_acc_noise(s: Setup, seed: int) -> float:
+def _calibrate_acc_noise(s: ComplementarySetup, seed: int) -> float:
     """Accelerometer noise (g) whose accelerometer-only RMSD at rest is the paper's 0.34 deg."""
     lo, hi = 0.0, 0.05
     for _ in range(30):
@@ -92,7 +94,7 @@ def _calibrate_acc_noise(s: Setup, seed: int) -> float:
 
 
 def _motion(
-    s: Setup,
+    s: ComplementarySetup,
     seed: int,
     freqs: tuple[float, ...] = (1.0, 3.0, 0.5),
     amps_deg: tuple[float, ...] = (20.0, 6.0, 30.0),
@@ -120,7 +122,7 @@ def _motion(
 
 
 def run(out_dir: Path, quick: bool = False) -> Report:
-    s = Setup(rest_s=10.0, motion_s=12.0) if quick else Setup()
+    s = ComplementarySetup(rest_s=10.0, motion_s=12.0) if quick else ComplementarySetup()
     seed = 3
     dt = 1.0 / FS_HZ
     noise_g = _calibrate_acc_noise(s, seed)

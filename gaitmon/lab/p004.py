@@ -42,7 +42,9 @@ PAPER = {  # Tables 1-2, "Rata-rata"
 
 
 @dataclass(frozen=True)
-class Setup:
+class NoisySinusoidSetup:
+    """The noisy sinusoids (gyro and accelerometer cases) and the runs per period."""
+
     f0_hz: float = 0.5
     duration_s: float = 10.0
     runs: int = 10
@@ -69,7 +71,9 @@ class Results(TypedDict):
 ExpFilterFactory = Callable[[float], ExponentialFilter]
 
 
-def _truth(kind: str, t: np.ndarray, s: Setup) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _truth(
+    kind: str, t: np.ndarray, s: NoisySinusoidSetup
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(x, dx/dt, d2x/dt2) of the sinusoid at times t."""
     w = 2.0 * np.pi * s.f0_hz
     amp = s.angle_amp_deg if kind == "gyroscope" else s.pos_amp_cm
@@ -77,7 +81,8 @@ def _truth(kind: str, t: np.ndarray, s: Setup) -> tuple[np.ndarray, np.ndarray, 
 
 
 def _run_case(
-    kind: str, period_s: float, s: Setup, seed: int, exp_filters: Mapping[str, ExpFilterFactory]
+    kind: str, period_s: float, s: NoisySinusoidSetup, seed: int,
+    exp_filters: Mapping[str, ExpFilterFactory],
 ) -> dict[str, np.ndarray]:
     """One seeded run: truth, Kalman estimate and every exponential-path estimate."""
     n = round(s.duration_s / period_s) + 1
@@ -115,7 +120,7 @@ def _rms(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a - b) ** 2)))
 
 
-def compute(s: Setup) -> Results:
+def compute(s: NoisySinusoidSetup) -> Results:
     """RMS errors [kind][filter] -> (runs, len(PERIODS_S)), plus run 1 at the smallest T."""
 
     def fixed_alpha(order: int) -> ExpFilterFactory:
@@ -155,7 +160,7 @@ def _finding(rms_k: np.ndarray, rms_e: np.ndarray) -> tuple[bool, bool]:
 
 
 def run(out_dir: Path, quick: bool = False) -> Report:
-    s = Setup(runs=3, duration_s=4.0) if quick else Setup()
+    s = NoisySinusoidSetup(runs=3, duration_s=4.0) if quick else NoisySinusoidSetup()
     res = compute(s)
     rms = res["rms"]
     rep = Report(
@@ -245,7 +250,7 @@ def _plot(
     unit: str,
     ex: dict[str, np.ndarray],
     rms: dict[str, np.ndarray],
-    s: Setup,
+    s: NoisySinusoidSetup,
 ) -> None:
     fig, ax = new_figure(3, 1, height_in=2.6)
     t = ex["t"]

@@ -4,7 +4,7 @@
   cancel), read its timeline and build the whole-session overview of the knee angle; of a
   bilateral file (both legs), one leg: the :class:`Document` is that leg's unit, and knows the
   file's legs (:attr:`Document.sides`) so the window can offer the other;
-* :class:`Source` - a set of per-sample series with their events: the recorded series, or a
+* :class:`ReviewSource` - a set of per-sample series with their events: the recorded series, or a
   reprocessed set held in memory (the recording is never modified), each with the angles of
   one *angle source*: "smoothed" (the zero-lag offline estimate stored beside a raw-mode
   recording, the default, as ``gaitmon info``, the report and export read) or "live" (the causal
@@ -78,7 +78,7 @@ REPROCESSED_SERIES = (
 MAX_GAP_SHADE = 20_000  # gaps beyond this are too many to shade one by one (noisy link)
 
 
-class Source:
+class ReviewSource:
     """Per-sample series plus their gait events, readable by row range from any thread."""
 
     def __init__(
@@ -162,7 +162,8 @@ class Document:
     side: str = ""
     sides: tuple[str, ...] = ()
     _views: dict[str, Session] = field(default_factory=dict, repr=False)
-    _sources: dict[tuple[str, Replay | None], Source] = field(default_factory=dict, repr=False)
+    _sources: dict[tuple[str, Replay | None], ReviewSource] = field(default_factory=dict,
+                                                                    repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
     events: DocumentEvents = field(default_factory=DocumentEvents, repr=False)
 
@@ -284,7 +285,7 @@ class Document:
         config = self.session.config if replay is None else replay.config
         self.events.settings.emit(SettingsChanged(config, replay is not None))
 
-    def source(self, angles: str, replay: Replay | None = None) -> Source:
+    def source(self, angles: str, replay: Replay | None = None) -> ReviewSource:
         """The recorded series (``replay`` None) or ``replay`` 's, with the angles of
         ``angles``; built once, from any thread."""
         key = (angles, replay)
@@ -295,7 +296,7 @@ class Document:
                 self._sources[key] = src
         return src
 
-    def _build_source(self, angles: str, replay: Replay | None) -> Source:
+    def _build_source(self, angles: str, replay: Replay | None) -> ReviewSource:
         view = self.session_view(angles)
         n = self.n_rows
 
@@ -305,7 +306,7 @@ class Document:
         if replay is None:  # (the file's /overview gives the knee pyramid, where it has one)
             s = self.session
             names = [p for p in s.dataset_names if not p.startswith("timeline/")]
-            return Source("recorded", read_session, names, n, s.heel_strike_idx,
+            return ReviewSource("recorded", read_session, names, n, s.heel_strike_idx,
                           s.toe_off_idx, s.config, self.gaps, angles,
                           s.angle_method_of(angles),
                           stored=view.stored_pyramid)  # fmt: skip
@@ -319,21 +320,21 @@ class Document:
 
         method = (self.angle_method_of(angles) if angles == "smoothed"
                   else replay.config.tilt_method_label)  # fmt: skip
-        return Source("reprocessed", read_replay, tuple(series), n, replay.heel_strike_idx,
+        return ReviewSource("reprocessed", read_replay, tuple(series), n, replay.heel_strike_idx,
                       replay.toe_off_idx, replay.config, self.gaps, angles, method,
                       stored=view.stored_pyramid if angles == "smoothed" else None)  # fmt: skip
 
     @property
-    def recorded(self) -> Source:
+    def recorded(self) -> ReviewSource:
         return self.source(self.angle_source)
 
     @property
-    def reprocessed(self) -> Source | None:
+    def reprocessed(self) -> ReviewSource | None:
         replay = self.replay
         return None if replay is None else self.source(self.angle_source, replay)
 
     @property
-    def current(self) -> Source:
+    def current(self) -> ReviewSource:
         return self.reprocessed or self.recorded
 
     def row_at(self, t_s: float) -> int:
@@ -379,7 +380,7 @@ def angles_caption(doc: Document) -> tuple[str, str]:
 
 def build_overview(
     doc: Document, angles: str, replay: Replay | None = None, progress: Progress | None = None
-) -> Source:
+) -> ReviewSource:
     """``doc.source(angles, replay)`` with its whole-session knee pyramid built (slow for a long
     recording, and for one whose smoothed angles are not stored: run it on a worker)."""
     src = doc.source(angles, replay)
@@ -479,7 +480,7 @@ class Analysis:
 
 
 def analyse(
-    doc: Document, source: Source, exclusions: Sequence[excl.Exclusion], n_points: int = 101
+    doc: Document, source: ReviewSource, exclusions: Sequence[excl.Exclusion], n_points: int = 101
 ) -> Analysis:
     # as read (float32), as gaitmon info and the report take them: the same figures to the last
     # digit (the stride figures and cycles are computed in float64 from these samples)

@@ -26,7 +26,7 @@ from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Ticket
-from gaitmon.review.model import JOINT, Document, Source
+from gaitmon.review.model import JOINT, Document, ReviewSource
 from gaitmon.text import num
 
 PHASE = "processed/phase"
@@ -37,12 +37,12 @@ def _lag(config: PipelineConfig) -> int:
     return config.phase_lag_samples
 
 
-def phase_lag(doc: Document, src: Source) -> int:
+def phase_lag(doc: Document, src: ReviewSource) -> int:
     """Rows by which ``src``'s phases lag its events (0 for the unit's own contacts)."""
     return _lag(src.config) if doc.session.mode == "raw" else 0
 
 
-def phase_on_event_time(doc: Document, src: Source, start: int, stop: int) -> np.ndarray:
+def phase_on_event_time(doc: Document, src: ReviewSource, start: int, stop: int) -> np.ndarray:
     """The phase of rows [start, stop) on the events' time base; -1 where not known (the end)."""
     lag = phase_lag(doc, src)
     out = np.full(max(0, stop - start), -1, dtype=np.int8)
@@ -72,7 +72,7 @@ class ViewData:
     phase: np.ndarray | None  # gait phase of every row in view (when asked for)
 
 
-def answers_quickly(req: ViewRequest, sources: Mapping[str, Source]) -> bool:
+def answers_quickly(req: ViewRequest, sources: Mapping[str, ReviewSource]) -> bool:
     """Whether every series of ``req`` is answered without a long read: from its rows when the
     range holds at most ``max_points`` of them (a few decoded chunks, mostly cached), or from
     a pyramid already built. Those the timeline answers at once, on its own thread; the rest
@@ -88,8 +88,8 @@ def load_view(
     request_id: int,
     req: ViewRequest,
     doc: Document,
-    sources: Mapping[str, Source],
-    current: Source,
+    sources: Mapping[str, ReviewSource],
+    current: ReviewSource,
     ticket: Ticket | None,
 ) -> ViewData:
     """Read the request's series (raises :class:`Cancelled` once the request is overtaken);

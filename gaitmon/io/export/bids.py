@@ -27,18 +27,18 @@ from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from gaitmon import __version__
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.io.export.bids_labels import BidsOptions
-from gaitmon.io.export.csv_text import Column, format_block
+from gaitmon.io.export.csv_text import CsvColumn, format_block
 from gaitmon.io.export.deidentify import Scrubber
 from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
 from gaitmon.io.export.source import (
     JOINT_LABELS,
+    ExportedGap,
     Source,
     as_text,
     gaps,
@@ -47,6 +47,7 @@ from gaitmon.io.export.source import (
     markers,
     session_side,
 )
+from gaitmon.values import JsonObject, JsonValue, scalar
 
 BIDS_VERSION = "1.9.0"
 TRACKSYS = "IMU"  # the tracksys entity and TrackingSystemName (they must agree)
@@ -127,7 +128,7 @@ def _fsr_faults(src: Source) -> dict[str, str]:
     out: dict[str, str] = {}
     for row in src.table("events/fsr_faults"):
         sensor = as_text(row.get("sensor", ""))
-        idx = int(row.get("sample_idx", 0))
+        idx = int(scalar(row.get("sample_idx", 0)))
         out.setdefault(sensor, f"{as_text(row.get('reason', ''))} (flagged from row {idx}; "
                                "events from the foot gyro from there)")
     return out
@@ -286,7 +287,7 @@ def write_grid_tsv(chans: list[Channel], n_rows: int, reader: GridReader, out: P
             cols = []
             for c in chans:
                 x = blocks[c.path][:, c.column]
-                cols.append(Column(np.where(np.isfinite(x), x, np.nan), c.decimals))
+                cols.append(CsvColumn(np.where(np.isfinite(x), x, np.nan), c.decimals))
             f.write(_tsv_lines(format_block(cols)))
             step(progress, cancel, f1 / n_rows)
     if n_rows == 0:
@@ -315,13 +316,13 @@ def channels_tsv(src: Source, chans: list[Channel]) -> str:
 
 
 def motion_sidecar(src: Source, chans: list[Channel], n_rows: int, frame: np.ndarray,
-                   scrub: Scrubber, task: str) -> dict[str, Any]:
+                   scrub: Scrubber, task: str) -> JsonObject:
     device = scrub.device(src.group_attrs("device"))
     counts = Counter(c.type for c in chans)
     lost = n_rows - len(frame)
     n_gaps = int(np.count_nonzero(np.diff(frame) > 1)) if len(frame) else 0
     angles = src.angles()
-    side = json_safe({
+    fields: JsonObject = {
         "TaskName": task,
         "TaskDescription": "gait recorded with a gaitmon wearable unit (planar IMUs on body, "
                            "thigh, shank and foot; heel and toe force sensors)",
@@ -343,19 +344,19 @@ def motion_sidecar(src: Source, chans: list[Channel], n_rows: int, frame: np.nda
         "GaitmonAngles": {**angles, "convention": as_text(src.attrs.get("angle_convention", ""))},
         "GaitmonRows": "row k of _motion.tsv is the time k / SamplingFrequency from the first "
                        "sample; a lost frame is a row of n/a",
-    })
+    }
+    side = {k: json_safe(v) for k, v in fields.items()}
     serial = device.get("serial", "")
     if not scrub.enabled and as_text(serial).strip():
         side["DeviceSerialNumber"] = as_text(serial)
-    result: dict[str, Any] = scrub.value(side)
-    return result
+    return scrub.mapping(side)
 
 
 # ---- events -----------------------------------------------------------------------------------
 
 EVENTS_COLUMNS = ("onset", "duration", "trial_type", "sample", "label")
 
-EVENTS_JSON: dict[str, Any] = {
+EVENTS_JSON: JsonObject = {
     "onset": {"Description": "time of the event from the first row of _motion.tsv "
                              "(= sample / SamplingFrequency)", "Units": "s"},
     "duration": {"Description": "0 for instantaneous events; for a gap, the time lost "
@@ -394,7 +395,7 @@ def events(src: Source, scrub: Scrubber, frame: np.ndarray) -> list[Event]:
     for mk in markers(src, scrub):
         r = int(frame[mk["sample_idx"]])
         out.append(Event(r / fs, 0.0, "marker", r, tsv_cell(mk["label"])))
-    by_row: dict[int, list[dict[str, Any]]] = {}
+    by_row: dict[int, list[ExportedGap]] = {}
     for g in gaps(src, scrub):
         by_row.setdefault(g["sample_idx"], []).append(g)
     for row, gs in by_row.items():
@@ -421,7 +422,7 @@ def events_tsv(evs: list[Event]) -> str:
 # ---- dataset-level files ----------------------------------------------------------------------
 
 
-def dataset_description() -> dict[str, Any]:
+def dataset_description() -> JsonObject:
     return {
         "Name": "gaitmon gait recordings",
         "BIDSVersion": BIDS_VERSION,
@@ -503,7 +504,7 @@ def write_text(path: Path, text: str) -> None:
         f.write(text)
 
 
-def write_json(path: Path, data: Any) -> None:
+def write_json(path: Path, data: JsonValue) -> None:
     with open(path, "w", encoding="utf-8") as f:
         json.dump(data, f, indent=2, ensure_ascii=False, default=json_default)
         f.write("\n")

@@ -12,7 +12,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from gaitmon.io.export.errors import ExportError
 
@@ -46,9 +46,11 @@ class BidsOptions:
     task: str = DEFAULT_TASK
 
     @classmethod
-    def from_mapping(cls, options: Mapping[str, Any] | None) -> BidsOptions:
-        """Options as given to ``export_session(options=...)``; None values are left out."""
-        given = {k: v for k, v in (options or {}).items() if v is not None}
+    def from_mapping(cls, options: Mapping[str, object] | None) -> BidsOptions:
+        """Options as given to ``export_session(options=...)`` (any values: the dataclass's
+        fields are checked below and by the label checks); None values are left out."""
+        # the fields' own types are what the command line and the export dialog give
+        given = cast("dict[str, Any]", {k: v for k, v in (options or {}).items() if v is not None})
         known = [f.name for f in fields(cls)]
         for key in given:
             if key not in known:

@@ -11,9 +11,10 @@ docs/file-format.md, "Export formats".
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 
@@ -24,6 +25,7 @@ from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
 from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
 from gaitmon.io.export.outputs import c3d_part_path
 from gaitmon.io.export.source import JOINT_LABELS, Source, as_text, markers, session_side
+from gaitmon.values import JsonValue
 
 # A C3D trial counts frames in 16-bit words (header and POINT:FRAMES); past 65535 frames
 # readers disagree (ezc3d 1.7 reads back only the first 65535), so long sessions are split.
@@ -288,13 +290,14 @@ def put_events(c: C3dSpec, nf: int, subject: str,
     c.add_parameter("SUBJECTS", "NAMES", [subject])
 
 
-def device_text(device: dict[str, object]) -> str:
+def device_text(device: Mapping[str, JsonValue]) -> str:
     return " ".join(f"{k}={as_text(device[k])}" for k in ("name", "serial", "firmware")
                     if k in device)  # fmt: skip
 
 
 def put_gaitmon(c: C3dSpec, src: Source, scrub: Scrubber, deidentify: bool, side: str,
-                device: str, session: dict[str, object], part: tuple[int, int, float]) -> None:
+                device: str, session: Mapping[str, JsonValue],
+                part: tuple[int, int, float]) -> None:
     """The MANUFACTURER group and gaitmon's own (mode, side, date, device, which part of
     the session: (0-based part, parts, session time of its frame 1), identity)."""
     c.add_parameter("MANUFACTURER", "COMPANY", "gaitmon")
@@ -342,5 +345,7 @@ def _physical_table(src: Source) -> ChannelTable:
     if len(rows) != len(src.channel_names):
         return DEFAULT_TABLE
     fields = ChannelSpec.__dataclass_fields__
-    return ChannelTable(tuple(ChannelSpec(**{k: r[k] for k in fields}) for r in rows))
+    # the table's columns are ChannelSpec's fields, as the session writer stores them
+    return ChannelTable(tuple(ChannelSpec(**cast("dict[str, Any]", {k: r[k] for k in fields}))
+                              for r in rows))
 

@@ -16,28 +16,32 @@ word as float32: 0 valid, -1 invalid) followed by one sample of every analog cha
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TypeAlias
 
 import numpy as np
+
+# A parameter's value, as ezc3d's add_parameter took it: text, lines of text, or numbers (a
+# number, a list of them, or an array that keeps its shape)
+C3dValue: TypeAlias = "str | Sequence[str] | float | Sequence[float] | np.ndarray"
 
 
 @dataclass
 class C3dSpec:
     """One C3D file as plain data: the parameters to set and the arrays."""
 
-    values: list[tuple[str, str, Any]] = field(default_factory=list)  # set existing param
-    params: list[tuple[str, str, Any, str]] = field(default_factory=list)  # add_parameter
+    values: list[tuple[str, str, C3dValue]] = field(default_factory=list)  # set existing param
+    params: list[tuple[str, str, C3dValue, str]] = field(default_factory=list)  # add_parameter
     int_params: list[tuple[str, str, list[int], str]] = field(default_factory=list)
     points: np.ndarray = field(default_factory=lambda: np.zeros((4, 0, 0)))
     residuals: np.ndarray = field(default_factory=lambda: np.zeros((1, 0, 0)))
     analogs: np.ndarray = field(default_factory=lambda: np.zeros((1, 0, 0)))
 
-    def set_value(self, group: str, name: str, value: Any) -> None:
+    def set_value(self, group: str, name: str, value: C3dValue) -> None:
         self.values.append((group, name, value))
 
-    def add_parameter(self, group: str, name: str, value: Any, desc: str = "") -> None:
+    def add_parameter(self, group: str, name: str, value: C3dValue, desc: str = "") -> None:
         self.params.append((group, name, value, desc))
 
     def add_int_parameter(self, group: str, name: str, values: list[int],
@@ -60,7 +64,7 @@ class _Param:
         self.name, self.kind, self.dims, self.data, self.desc = name, kind, dims, data, desc
 
 
-def _chars(values: Any) -> tuple[tuple[int, ...], bytes]:
+def _chars(values: str | Sequence[str]) -> tuple[tuple[int, ...], bytes]:
     """A string -> 1-D char array; a list of strings -> (width, n), each padded with spaces."""
     if isinstance(values, str):
         raw = values.encode("utf-8")
@@ -70,7 +74,7 @@ def _chars(values: Any) -> tuple[tuple[int, ...], bytes]:
     return (width, len(items)), b"".join(b.ljust(width, b" ") for b in items)
 
 
-def _value_param(name: str, value: Any, desc: str = "") -> _Param:
+def _value_param(name: str, value: C3dValue, desc: str = "") -> _Param:
     """A parameter from a value as ezc3d's add_parameter takes it: text, a list of text, or
     numbers (float; a numpy array keeps its shape, Fortran order as C3D wants)."""
     if isinstance(value, str) or (

@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from gaitmon.io.export.csv_text import Column, decimals_of, format_block
+from gaitmon.io.export.csv_text import CsvColumn, decimals_of, format_block
 from gaitmon.io.export.deidentify import Scrubber
 from gaitmon.io.export.errors import Cancel, Progress, step
 from gaitmon.io.export.outputs import csv_meta_path
@@ -24,10 +23,12 @@ from gaitmon.io.export.source import (
     export_header,
     gaps,
     json_default,
+    json_rows,
     json_safe,
     markers,
     metadata,
 )
+from gaitmon.values import JsonObject
 
 CSV_CHUNK_ROWS = 32_768  # ~15 MB of text per chunk
 CSV_EXTRA_COLUMNS: tuple[str, ...] = ("heel_strike", "toe_off", "gap_lost_frames", "marker")
@@ -93,8 +94,8 @@ def _write_csv(src: Source, out: Path, scrub: Scrubber, progress: Progress | Non
                 if start <= idx < stop:
                     extra[idx - start, 2] = lost
             values = [b[:, i] for b in blocks for i in range(b.shape[1])]
-            columns = [Column(v, d) for v, d in zip(values, cols_dec, strict=True)]
-            columns += [Column(extra[:, i], None) for i in range(3)]
+            columns = [CsvColumn(v, d) for v, d in zip(values, cols_dec, strict=True)]
+            columns += [CsvColumn(extra[:, i], None) for i in range(3)]
             tails = {idx - start: _csv_cell(" | ".join(labels))
                      for idx, labels in marker_at.items() if start <= idx < stop}
             f.write(format_block(columns, tails))
@@ -103,8 +104,8 @@ def _write_csv(src: Source, out: Path, scrub: Scrubber, progress: Progress | Non
         step(progress, cancel, 1.0)
 
 
-def _csv_meta(src: Source, scrub: Scrubber, deidentify: bool) -> dict[str, Any]:
-    cols = []
+def _csv_meta(src: Source, scrub: Scrubber, deidentify: bool) -> JsonObject:
+    cols: list[JsonObject] = []
     for s in _csv_columns(src):
         for c in s.columns:
             cols.append({"name": c, "unit": s.unit, "source": "/" + s.path,
@@ -129,8 +130,8 @@ def _csv_meta(src: Source, scrub: Scrubber, deidentify: bool) -> dict[str, Any]:
         "events": {"index_base": 0,
                    "heel_strike_idx": src.events("heel_strike").tolist(),
                    "toe_off_idx": src.events("toe_off").tolist()},
-        "markers": markers(src, scrub),
-        "gaps": gaps(src, scrub),
+        "markers": json_rows(markers(src, scrub)),
+        "gaps": json_rows(gaps(src, scrub)),
         **metadata(src, scrub),
     }
 

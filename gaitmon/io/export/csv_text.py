@@ -31,7 +31,7 @@ _SUB_BYTES = 2 * 1024 * 1024
 
 
 @dataclass(frozen=True)
-class Column:
+class CsvColumn:
     """One CSV column of a block: its values (1-D) and its decimals (None for ``%d``)."""
 
     values: np.ndarray
@@ -125,7 +125,7 @@ class _Cells:
     """One column of a block made ready to lay out: sign, integer and decimal parts, the
     field width, the cells % must write itself (special text) and rows it cannot do (slow)."""
 
-    def __init__(self, col: Column) -> None:
+    def __init__(self, col: CsvColumn) -> None:
         v = col.values
         m = v.shape[0]
         d = col.decimals
@@ -187,7 +187,7 @@ class _Cells:
 
 
 def format_block(
-    columns: Sequence[Column], tails: Mapping[int, str] | None = None
+    columns: Sequence[CsvColumn], tails: Mapping[int, str] | None = None
 ) -> bytes:
     """The CSV lines of one block: cells joined by ``,``, then ``,`` + tail + ``\\n`` per row.
 

@@ -18,7 +18,9 @@ nothing to import.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+
+from gaitmon.values import JsonObject, JsonValue
 
 REDACTED = "[removed]"  # what an identifying value becomes wherever else it appears
 ANONYMOUS = "anonymous"  # C3D subject name when there is none or it is withheld
@@ -33,7 +35,7 @@ class Scrubber:
 
     FIELDS = IDENTIFYING_FIELDS
 
-    def __init__(self, session_attrs: dict[str, Any], enabled: bool) -> None:
+    def __init__(self, session_attrs: Mapping[str, JsonValue], enabled: bool) -> None:
         """``session_attrs``: the /session attributes as plain values (Source.group_attrs)."""
         self.enabled = enabled
         values = [str(session_attrs.get(k, "")).strip() for k in self.FIELDS]
@@ -47,30 +49,34 @@ class Scrubber:
             s = s.replace(secret, REDACTED)
         return s
 
-    def value(self, v: Any) -> Any:
+    def value(self, v: JsonValue) -> JsonValue:
         if isinstance(v, str):
             return self.text(v)
         if isinstance(v, list):
             return [self.value(x) for x in v]
         if isinstance(v, dict):
-            return {k: self.value(x) for k, x in v.items()}
+            return self.mapping(v)
         return v
 
-    def session(self, attrs: dict[str, Any]) -> dict[str, Any]:
+    def mapping(self, attrs: Mapping[str, JsonValue]) -> JsonObject:
+        """:meth:`value` of a mapping, as a dict."""
+        return {k: self.value(x) for k, x in attrs.items()}
+
+    def session(self, attrs: Mapping[str, JsonValue]) -> JsonObject:
         out = dict(attrs)
         if self.enabled:
             for k in self.FIELDS:
                 out[k] = ""
-        return self.value(out) if self.enabled else out
+        return self.mapping(out) if self.enabled else out
 
-    def device(self, attrs: dict[str, Any]) -> dict[str, Any]:
+    def device(self, attrs: Mapping[str, JsonValue]) -> JsonObject:
         """The /device attributes without the unit's serial and transport."""
         if not self.enabled:
             return dict(attrs)
-        return self.value({k: v for k, v in attrs.items() if k not in DEVICE_FIELDS_DROPPED})
+        return self.mapping({k: v for k, v in attrs.items() if k not in DEVICE_FIELDS_DROPPED})
 
-    def root(self, attrs: dict[str, Any]) -> dict[str, Any]:
+    def root(self, attrs: Mapping[str, JsonValue]) -> JsonObject:
         """The file's root attributes without the recording's date and time."""
         if not self.enabled:
             return dict(attrs)
-        return self.value({k: v for k, v in attrs.items() if k not in ROOT_FIELDS_DROPPED})
+        return self.mapping({k: v for k, v in attrs.items() if k not in ROOT_FIELDS_DROPPED})

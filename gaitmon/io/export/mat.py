@@ -9,8 +9,9 @@ from __future__ import annotations
 import io
 import json
 import struct
+from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import BinaryIO, TypeAlias
 
 import numpy as np
 
@@ -25,10 +26,26 @@ from gaitmon.io.export.source import (
     markers,
     metadata,
 )
+from gaitmon.values import JsonValue, scalar
 
 # MATLAB's v5/v7 MAT formats cap one variable at 2 GB (v7.3 lifts it, but scipy cannot read
 # v7.3); the whole `session` struct is one variable, so it must fit. Margin for headers/names.
 MAT_V5_MAX_BYTES = 2**31 - 2**24
+
+# What a field of a MATLAB struct holds as scipy.io.savemat takes it: plain values, numpy arrays
+# and scalars, and nested structs
+MatValue: TypeAlias = "JsonValue | np.ndarray | np.generic | dict[str, MatValue]"
+
+
+class Placeholder(Enum):
+    """A per-sample field of the struct being built, streamed into the file by
+    :func:`write_struct` (never whole in memory)."""
+
+    STREAMED = "streamed"
+
+
+# A struct's fields in order, the per-sample arrays as placeholders
+MatStruct: TypeAlias = "dict[str, MatValue | Placeholder]"
 
 
 def planned_outputs(src: Source, scrub: Scrubber, out: Path) -> list[Path]:
@@ -49,7 +66,7 @@ def mat_cell(strings: list[str] | tuple[str, ...]) -> np.ndarray:
     return arr
 
 
-def mat_value(v: Any) -> Any:
+def mat_value(v: JsonValue) -> MatValue:
     """Plain metadata -> something savemat stores sensibly (None -> [], lists -> arrays/cells)."""
     if v is None:
         return np.zeros((0, 0))
@@ -86,18 +103,16 @@ def _mat_bytes(src: Source) -> int:
         total += src.n * len(s.columns) * size
     return total
 
-def _one_based(v: Any) -> Any:
+def _one_based(v: JsonValue) -> JsonValue:
     """Metadata with every ``*_idx`` field of its table rows made 1-based, as everywhere in
     the MAT file (tables are lists of row dicts; see source.METADATA_SECTIONS)."""
     if isinstance(v, dict):
         return {k: _one_based(x) for k, x in v.items()}
     if isinstance(v, list) and v and all(isinstance(row, dict) for row in v):
-        return [{k: int(x) + 1 if k.endswith("_idx") else x for k, x in row.items()}
+        return [{k: int(scalar(x)) + 1 if k.endswith("_idx") else x for k, x in row.items()}
                 for row in v]
     return v
 
-
-_STREAMED = object()  # placeholder of a per-sample field in the struct being built
 
 # MAT v5 element types and array classes (MATLAB "MAT-File Format", level 5)
 _MI_INT8, _MI_INT32, _MI_UINT32, _MI_MATRIX = 1, 5, 6, 14
@@ -146,7 +161,7 @@ def _array_header(dtype: np.dtype, shape: tuple[int, ...]) -> tuple[bytes, int]:
     return struct.pack("<II", _MI_MATRIX, total) + body, nbytes
 
 
-def _splice(raw: bytes, order: list[str], big: dict[str, Series], src: Source, f: Any,
+def _splice(raw: bytes, order: list[str], big: dict[str, Series], src: Source, f: BinaryIO,
             progress: Progress | None, cancel: Cancel | None, header: bool = True) -> None:
     """Write scipy's MAT file of the small fields with the per-sample arrays added to the
     struct, each streamed column by column from the session (MAT arrays are column-major).
@@ -198,7 +213,7 @@ def _splice(raw: bytes, order: list[str], big: dict[str, Series], src: Source, f
         step(progress, cancel, 0.2 + 0.8 * done / len(big))
 
 
-def _stream_columns(s: Series, src: Source, f: Any, base: int) -> None:
+def _stream_columns(s: Series, src: Source, f: BinaryIO, base: int) -> None:
     """Rows in blocks; each block's columns go to their place in the column-major array."""
     dtype = _series_dtype(s, src)
     n = src.n
@@ -221,7 +236,7 @@ def _write_mat(src: Source, out: Path, scrub: Scrubber, deidentify: bool,
 
 
 def session_struct(src: Source, scrub: Scrubber,
-                   deidentify: bool) -> tuple[dict[str, Any], dict[str, Series]]:
+                   deidentify: bool) -> tuple[MatStruct, dict[str, Series]]:
     """The ``session`` struct's fields in order (the per-sample arrays as placeholders, to be
     streamed by :func:`write_struct`) and those arrays' series."""
     series = src.series
@@ -232,52 +247,54 @@ def session_struct(src: Source, scrub: Scrubber,
             "2 GB MATLAB limit); export --format csv, or read the .h5 directly in MATLAB "
             "(h5read)"
         )
-    session: dict[str, Any] = {}
+    session: MatStruct = {}
     head = export_header(src, "mat", deidentify)
     for k, v in head.items():
         session[k] = mat_value(v)
     session["index_base"] = 1.0
     session["t0_s"] = 0.0
-    labels: dict[str, Any] = {}
+    labels: dict[str, MatValue] = {}
     big: dict[str, Series] = {}  # the per-sample arrays: streamed, never whole in memory
     for s in series:
-        session[s.key] = _STREAMED
+        session[s.key] = Placeholder.STREAMED
         big[s.key] = s
         labels[s.key] = mat_cell(s.columns) if s.key != "acc_ms2" else mat_cell(s.labels)
     session["labels"] = labels
     session["units"] = {s.key: s.unit for s in series}
     t = src.read("timeline/t_s").astype(np.float64) if src.n else np.zeros(0)
-    events: dict[str, Any] = {}
+    events: dict[str, MatValue] = {}
     for name in ("heel_strike", "toe_off"):
         idx = src.events(name)
         events[f"{name}_idx"] = (idx + 1).astype(np.float64).reshape(-1, 1)
         events[f"{name}_t_s"] = t[idx].reshape(-1, 1)
     session["events"] = events
     mks = markers(src, scrub)
-    session["markers"] = {
+    mk_struct: dict[str, MatValue] = {
         "sample_idx": np.array([m["sample_idx"] + 1 for m in mks], float).reshape(-1, 1),
         "t_s": np.array([m["t_s"] for m in mks], float).reshape(-1, 1),
         "label": mat_cell([m["label"] for m in mks]),
     }
+    session["markers"] = mk_struct
     gps = gaps(src, scrub)
-    session["gaps"] = {
+    gap_struct: dict[str, MatValue] = {
         "sample_idx": np.array([g["sample_idx"] + 1 for g in gps], float).reshape(-1, 1),
         "n_lost": np.array([g["n_lost"] for g in gps], float).reshape(-1, 1),
         "duration_s": np.array([g["duration_s"] for g in gps], float).reshape(-1, 1),
         "reason": mat_cell([g["reason"] for g in gps]),
     }
+    session["gaps"] = gap_struct
     session["meta"] = mat_value(_one_based(metadata(src, scrub)))
     return session, big
 
 
-def write_struct(f: Any, name: str, session: dict[str, Any], big: dict[str, Series],
+def write_struct(f: BinaryIO, name: str, session: MatStruct, big: dict[str, Series],
                  src: Source, progress: Progress | None, cancel: Cancel | None,
                  header: bool = True) -> None:
     """One struct variable ``name`` of a MAT v5 file, to the open binary file ``f``; the
     first variable of a file with ``header``, the file's header before it."""
     from scipy.io import savemat
 
-    small = {k: v for k, v in session.items() if v is not _STREAMED}
+    small = {k: v for k, v in session.items() if v is not Placeholder.STREAMED}
     buf = io.BytesIO()
     savemat(buf, {name: small}, format="5", oned_as="column",
             long_field_names=True, do_compression=False)

@@ -15,10 +15,10 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict, cast
 
 import numpy as np
 
@@ -26,6 +26,7 @@ from gaitmon import __version__
 from gaitmon.dsp.channel_table import CHANNEL_NAMES, JOINT_TABLE, SEGMENTS
 from gaitmon.io.export.deidentify import Scrubber
 from gaitmon.io.export.errors import ExportError
+from gaitmon.values import JsonObject, JsonValue, scalar
 
 if TYPE_CHECKING:
     from gaitmon.finish import Session
@@ -112,23 +113,25 @@ TIMELINE_SERIES: tuple[Series, ...] = (
 # ---- reading: a thin view over the session file ----
 
 
-def as_text(v: Any) -> str:
+def as_text(v: object) -> str:
     if isinstance(v, bytes):
         return v.decode("utf-8", errors="replace")
     return str(v)
 
 
-def plain(v: Any) -> Any:
+def plain(v: object) -> JsonValue:
     """HDF5 attribute value -> JSON-able Python value."""
     if isinstance(v, bytes):
         return as_text(v)
     if isinstance(v, np.ndarray):
-        return [plain(x) for x in v.tolist()] if v.dtype.kind in "OSU" else v.tolist()
+        as_list: list[JsonValue] = v.tolist()
+        return [plain(x) for x in as_list] if v.dtype.kind in "OSU" else as_list
     if isinstance(v, np.generic):
-        return v.item()
+        item: JsonValue = v.item()
+        return item
     if isinstance(v, list | tuple):
         return [plain(x) for x in v]
-    return v
+    return cast("JsonValue", v)  # str, int, float, bool: as h5py gives them
 
 
 class Source:
@@ -140,15 +143,15 @@ class Source:
         self.h5 = h5
         self.path = path
         self._session = session
-        self._attrs: dict[str, dict[str, Any]] = {}
+        self._attrs: dict[str, JsonObject] = {}
         # the ranges excluded in review are the session's analysis state: exported with it, and
         # a side file that could not be used is said, as info and the report say it
         self.exclusions, problem = session.exclusions()
         self.problems = (*session.problems, *([problem] if problem else []))
         self._events = {"heel_strike": session.heel_strike_idx, "toe_off": session.toe_off_idx}
-        self.attrs: dict[str, Any] = {k: plain(v) for k, v in h5.attrs.items()}
+        self.attrs: JsonObject = {k: plain(v) for k, v in h5.attrs.items()}
         self.mode = str(self.attrs.get("mode", ""))
-        self.fs_hz = float(self.attrs.get("sample_rate_hz", 100.0))
+        self.fs_hz = float(scalar(self.attrs.get("sample_rate_hz", 100.0)))
         if not self.fs_hz > 0 or not math.isfinite(self.fs_hz):
             raise ExportError(f"{path.name}: bad sample_rate_hz {self.fs_hz!r}")
         if "timeline/t_s" not in h5:
@@ -189,7 +192,7 @@ class Source:
             # through read(): a damaged (compressed) chunk is a one-line ExportError
             self.host_time_origin_s = float(self.read("timeline/host_time_s", 0, 1)[0])
 
-    def group_attrs(self, name: str) -> dict[str, Any]:
+    def group_attrs(self, name: str) -> JsonObject:
         """A group's attributes as plain values (read once: formats that write many parts
         ask for them per part)."""
         if name not in self._attrs:
@@ -238,7 +241,7 @@ class Source:
         idx = self._events[name]
         return idx[(idx >= 0) & (idx < self.n)]
 
-    def table(self, path: str) -> list[dict[str, Any]]:
+    def table(self, path: str) -> list[JsonObject]:
         """A compound dataset as a list of plain dicts (markers, gaps, changes)."""
         if path not in self.h5:
             return []
@@ -247,7 +250,7 @@ class Source:
             return []
         return [{k: plain(row[k]) for k in arr.dtype.names} for row in arr]
 
-    def channel_table(self) -> list[dict[str, Any]]:
+    def channel_table(self) -> list[JsonObject]:
         return self.table("device/channels")
 
 
@@ -282,18 +285,18 @@ def open_source(
 # ---- metadata and the tables every format exports ----
 
 
-def _session_fields(src: Source, scrub: Scrubber) -> dict[str, Any]:
-    session = {k: "" for k in ("patient_id", "side", "operator", "notes")}
+def _session_fields(src: Source, scrub: Scrubber) -> JsonObject:
+    session: JsonObject = {k: "" for k in ("patient_id", "side", "operator", "notes")}
     session.update(src.group_attrs("session"))
     return scrub.session(session)
 
 
-def _excluded_ranges(src: Source, scrub: Scrubber) -> list[dict[str, Any]]:
+def _excluded_ranges(src: Source, scrub: Scrubber) -> list[JsonObject]:
     return [{"start_idx": r.start_idx, "stop_idx": r.stop_idx, "label": r.label}
             for r in src.exclusions]  # fmt: skip
 
 
-def _wall_offset_s(src: Source, scrub: Scrubber) -> Any:
+def _wall_offset_s(src: Source, scrub: Scrubber) -> JsonValue:
     if scrub.enabled or not src.has("timeline/host_time_s"):  # it dates the recording
         return None
     return plain(src.h5["timeline/host_time_s"].attrs.get("wall_offset_s", None))
@@ -302,7 +305,7 @@ def _wall_offset_s(src: Source, scrub: Scrubber) -> Any:
 # Key -> builder of every metadata section, in output order (JSON side file, MAT session.meta).
 # A builder returns plain values; tables are lists of row dicts whose ``*_idx`` fields are
 # 0-based session rows (the MAT writer makes them 1-based). Scrubbing is applied to the whole.
-METADATA_SECTIONS: tuple[tuple[str, Callable[[Source, Scrubber], Any]], ...] = (
+METADATA_SECTIONS: tuple[tuple[str, Callable[[Source, Scrubber], JsonValue]], ...] = (
     ("root", lambda src, scrub: scrub.root(src.attrs)),
     ("session", _session_fields),
     ("device", lambda src, scrub: {**scrub.device(src.group_attrs("device")),
@@ -320,10 +323,10 @@ METADATA_SECTIONS: tuple[tuple[str, Callable[[Source, Scrubber], Any]], ...] = (
 )
 
 
-def metadata(src: Source, scrub: Scrubber) -> dict[str, Any]:
+def metadata(src: Source, scrub: Scrubber) -> JsonObject:
     """Everything but the per-sample series, as plain values (the JSON side file / MAT meta)."""
-    meta: dict[str, Any] = {key: build(src, scrub) for key, build in METADATA_SECTIONS}
-    return scrub.value(meta) if scrub.enabled else meta
+    meta: JsonObject = {key: build(src, scrub) for key, build in METADATA_SECTIONS}
+    return scrub.mapping(meta) if scrub.enabled else meta
 
 
 def session_side(src: Source) -> str:
@@ -335,38 +338,64 @@ def session_side(src: Source) -> str:
     return ""
 
 
-def markers(src: Source, scrub: Scrubber) -> list[dict[str, Any]]:
-    out = []
+class ExportedMarker(TypedDict):
+    """One exported marker (``sample_idx`` a 0-based session row)."""
+
+    sample_idx: int
+    t_s: float
+    label: str
+
+
+class ExportedGap(TypedDict):
+    """One exported gap: ``n_lost`` frames lost before row ``sample_idx`` (0-based)."""
+
+    sample_idx: int
+    n_lost: int
+    duration_s: float
+    reason: str
+
+
+def markers(src: Source, scrub: Scrubber) -> list[ExportedMarker]:
+    out: list[ExportedMarker] = []
     for m in src.table("markers"):
-        idx = int(m.get("sample_idx", -1))
+        idx = int(scalar(m.get("sample_idx", -1)))
         if 0 <= idx < src.n:
-            out.append({"sample_idx": idx, "t_s": float(m.get("t_s", math.nan)),
+            out.append({"sample_idx": idx, "t_s": float(scalar(m.get("t_s", math.nan))),
                         "label": scrub.text(as_text(m.get("label", "")))})
     return out
 
 
-def gaps(src: Source, scrub: Scrubber) -> list[dict[str, Any]]:
-    out = []
+def gaps(src: Source, scrub: Scrubber) -> list[ExportedGap]:
+    out: list[ExportedGap] = []
     for g in src.table("gaps"):
-        idx = int(g.get("sample_idx", -1))
+        idx = int(scalar(g.get("sample_idx", -1)))
         if 0 <= idx <= src.n:
-            out.append({"sample_idx": idx, "n_lost": int(g.get("n_lost", 0)),
-                        "duration_s": float(g.get("duration_s", math.nan)),
+            out.append({"sample_idx": idx, "n_lost": int(scalar(g.get("n_lost", 0))),
+                        "duration_s": float(scalar(g.get("duration_s", math.nan))),
                         "reason": scrub.text(as_text(g.get("reason", "")))})
     return out
 
 
-def json_default(o: Any) -> Any:
+def json_rows(rows: Sequence[ExportedMarker] | Sequence[ExportedGap]) -> list[JsonObject]:
+    """Marker or gap rows as JSON objects (their values are text and numbers)."""
+    return [cast("JsonObject", dict(r)) for r in rows]
+
+
+def json_default(o: object) -> JsonValue:
+    """``json.dump``'s ``default``: numpy values and bytes as JSON values (anything else is
+    not serialisable)."""
     if isinstance(o, np.generic):
-        return o.item()
+        item: JsonValue = o.item()
+        return item
     if isinstance(o, np.ndarray):
-        return o.tolist()
+        as_list: list[JsonValue] = o.tolist()
+        return as_list
     if isinstance(o, bytes):
         return as_text(o)
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
-def json_safe(v: Any) -> Any:
+def json_safe(v: JsonValue) -> JsonValue:
     """NaN/inf are not JSON; write them as null."""
     if isinstance(v, float) and not math.isfinite(v):
         return None
@@ -377,7 +406,7 @@ def json_safe(v: Any) -> Any:
     return v
 
 
-def export_header_fields(fmt: str, deidentify: bool) -> dict[str, Any]:
+def export_header_fields(fmt: str, deidentify: bool) -> JsonObject:
     """What every export says of itself (format, version, by, when, de-identified)."""
     return {
         "format": f"gaitmon-export-{fmt}",
@@ -388,8 +417,8 @@ def export_header_fields(fmt: str, deidentify: bool) -> dict[str, Any]:
     }
 
 
-def export_header(src: Source, fmt: str, deidentify: bool) -> dict[str, Any]:
-    head: dict[str, Any] = {
+def export_header(src: Source, fmt: str, deidentify: bool) -> JsonObject:
+    head: JsonObject = {
         **export_header_fields(fmt, deidentify),
         "mode": src.mode,
         "sample_rate_hz": src.fs_hz,

@@ -21,7 +21,6 @@ from __future__ import annotations
 import contextlib
 import os
 from pathlib import Path
-from typing import Any
 
 import h5py
 import numpy as np
@@ -40,7 +39,7 @@ _ROOT_TEXTS: tuple[str, ...] = ("stop_reason",)
 WALL_OFFSET_ATTR = "wall_offset_s"
 
 
-def _text(value: Any) -> str:
+def _text(value: object) -> str:
     return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
 
 

@@ -10,7 +10,7 @@ import contextlib
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias, cast
 
 import h5py
 import numpy as np
@@ -35,6 +35,9 @@ from gaitmon.io.session.layout import (
     stored_dtype,
 )
 
+# One row of a compound table (markers, gaps, changes, ...): its fields in the table's order
+TableRow: TypeAlias = "tuple[str | int | float | bool | np.generic, ...]"
+
 # HDF5 chunk cache of the writing side; 0 = none (the benchmark compares it with HDF5's 1 MB)
 WRITER_CHUNK_CACHE_BYTES = 0
 
@@ -43,7 +46,7 @@ class _H5File:
     """Creates the session layout and appends to it; knows nothing about journals."""
 
     def __init__(
-        self, path: Path, header: Mapping[str, Any], *, mode: str, reprocessed: bool,
+        self, path: Path, header: Mapping[str, object], *, mode: str, reprocessed: bool,
         in_memory: bool = False, version: int = FORMAT_VERSION,
     ) -> None:
         # no chunk cache: writes go straight to the file (see gaitmon.io.session.layout, "Chunking")
@@ -71,7 +74,9 @@ class _H5File:
         self.events_sorted = True
         self._last_event = {"heel_strike": -1, "toe_off": -1}
 
-    def _create(self, h: Mapping[str, Any], reprocessed: bool) -> None:
+    def _create(self, header: Mapping[str, object], reprocessed: bool) -> None:
+        # the header is SessionHeader.as_dict()'s form (its nested parts are dicts and lists)
+        h = cast("Mapping[str, Any]", header)
         f = self.f
         mode = h["mode"]
         a = f.attrs
@@ -230,7 +235,7 @@ class _H5File:
         ds[a:] = rows
         self.n_events[name] = a + len(rows)
 
-    def append_table(self, name: str, records: Sequence[tuple[Any, ...]]) -> None:
+    def append_table(self, name: str, records: Sequence[TableRow]) -> None:
         if not records:
             return
         ds = self.f[name]

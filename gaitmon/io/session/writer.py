@@ -25,7 +25,6 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
-from typing import Any
 
 import h5py
 import numpy as np
@@ -46,7 +45,13 @@ from gaitmon.io.journal import (
     without_identity,
 )
 from gaitmon.io.protocol import FrameKind
-from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _H5File, _short_error
+from gaitmon.io.session.h5file import (
+    TableRow,
+    _being_recorded,
+    _fsync_path,
+    _H5File,
+    _short_error,
+)
 from gaitmon.io.session.header import SessionError, SessionHeader
 from gaitmon.io.session.layout import (
     _TABLES,
@@ -143,7 +148,7 @@ class SessionWriter:
         self._staged: dict[str, list[np.ndarray]] = {p: [] for p in self._datasets}
         self._staged_rows = 0
         self._staged_events: dict[str, list[np.ndarray]] = {"heel_strike": [], "toe_off": []}
-        self._staged_tables: dict[str, list[tuple[Any, ...]]] = {k: [] for k in _TABLES}
+        self._staged_tables: dict[str, list[TableRow]] = {k: [] for k in _TABLES}
         self._pending_markers: list[tuple[int, str]] = []
         self._edges = ContactEdges() if header.mode == "joint" else None
         self._wall_offset_s: float | None = None
@@ -475,7 +480,7 @@ class SessionWriter:
         marker beyond the last row gets a time extrapolated at the nominal rate."""
         h5 = self._h5
         assert h5 is not None
-        ready: list[tuple[Any, ...]] = []
+        ready: list[TableRow] = []
         while self._pending_markers:
             idx, label = self._pending_markers[0]
             if idx < h5.rows:

@@ -120,13 +120,13 @@ def kv_row(p: Page, x: float, w: float, label: str, value: str, *, label_w: floa
 
 
 @dataclass(frozen=True)
-class Column:
+class TableColumn:
     title: str
     width_mm: float
     right: bool = False  # numbers are right-aligned
 
 
-def table(p: Page, x: float, columns: Sequence[Column], rows: Sequence[Sequence[str]],
+def table(p: Page, x: float, columns: Sequence[TableColumn], rows: Sequence[Sequence[str]],
           size_pt: float = 7.5) -> list[Block]:  # fmt: skip
     """A header row (repeated nowhere: kept with the first row) and one block per row; cells
     wrap inside their column and the row is as tall as its tallest cell."""
@@ -202,7 +202,7 @@ def paginate(blocks: Sequence[Block], first_top: float, next_top: float,
 
 __all__ = [
     "Block",
-    "Column",
+    "TableColumn",
     "gap",
     "heading",
     "kv_row",

@@ -24,7 +24,7 @@ from gaitmon.report import JOINT_TITLES, GapSpan, ReportData, ReportHeader
 from gaitmon.text import count, no_gait_events
 from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.cycle_plot import MAX_FAINT_STRIDES, draw_cycle_plot
-from gaitmon.ui.report_pdf.flow import Block, Column
+from gaitmon.ui.report_pdf.flow import Block, TableColumn
 from gaitmon.ui.report_pdf.page import (
     ACCENT,
     MARGIN_MM,
@@ -413,9 +413,9 @@ def _gap_list(p: Page, data: ReportData) -> list[Block]:
         listed, rest = _longest_first(long)
         blocks.append(flow.subheading(LEFT_MM, WIDTH_MM,
                                       f"Gaps longer than {1000 * MAX_GAP_S:.0f} ms (lost data)"))
-        cols = (Column("from (s)", 22.0, True), Column("to (s)", 22.0, True),
-                Column("duration (s)", 24.0, True), Column("frames lost", 22.0, True),
-                Column("cause", WIDTH_MM - 90.0))  # fmt: skip
+        cols = (TableColumn("from (s)", 22.0, True), TableColumn("to (s)", 22.0, True),
+                TableColumn("duration (s)", 24.0, True), TableColumn("frames lost", 22.0, True),
+                TableColumn("cause", WIDTH_MM - 90.0))  # fmt: skip
         blocks += flow.table(p, LEFT_MM, cols, [
             (fmt(g.from_s, 2), fmt(g.to_s, 2), fmt(g.duration_s, 2), str(g.n_lost), g.reason)
             for g in listed
@@ -456,8 +456,9 @@ def _gap_list(p: Page, data: ReportData) -> list[Block]:
 def _excluded_list(p: Page, data: ReportData) -> list[Block]:
     if not data.excluded_spans:
         return []
-    cols = (Column("from (s)", 22.0, True), Column("to (s)", 22.0, True),
-            Column("strides left out", 26.0, True), Column("reason", WIDTH_MM - 70.0))  # fmt: skip
+    cols = (TableColumn("from (s)", 22.0, True), TableColumn("to (s)", 22.0, True),
+            TableColumn("strides left out", 26.0, True),
+            TableColumn("reason", WIDTH_MM - 70.0))  # fmt: skip
     return [
         flow.gap(1.5),
         flow.subheading(LEFT_MM, WIDTH_MM, "Ranges excluded in review"),
@@ -478,8 +479,9 @@ def markers(p: Page, data: ReportData, title: str = "Markers") -> list[Block]:
     if not data.markers:
         return []
     half = (WIDTH_MM - 6.0) / 2
-    cols = (Column("time (s)", 20.0, True), Column("label", half - 20.0), Column("", 6.0),
-            Column("time (s)", 20.0, True), Column("label", half - 20.0))  # fmt: skip
+    cols = (TableColumn("time (s)", 20.0, True), TableColumn("label", half - 20.0),
+            TableColumn("", 6.0),
+            TableColumn("time (s)", 20.0, True), TableColumn("label", half - 20.0))  # fmt: skip
     ms = list(data.markers)
     rows = []
     for k in range(0, len(ms), 2):

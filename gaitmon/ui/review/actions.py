@@ -1,6 +1,6 @@
 """The review window's actions and menus, declared as data.
 
-Each :class:`ActionSpec` names an action (text, shortcut, tip, the slot it calls (a method of
+Each :class:`ReviewActionSpec` names an action (text, shortcut, tip, the slot it calls (a method of
 the window or of one of its parts, ``"part.method"``) and with which arguments), the optional
 modules it needs and when it is enabled. :data:`MENUS` lays them out; :func:`build_actions`
 and :func:`build_menus` turn the table into QActions (through
@@ -32,7 +32,9 @@ RECENT = "@recent"  # the Open recent submenu, filled by the window when it is s
 
 
 @dataclass(frozen=True)
-class ActionSpec:
+class ReviewActionSpec:
+    """One review-window action (the live window's are gaitmon.ui.live.actions.ActionSpec)."""
+
     name: str  # key in the window's action table
     text: str
     slot: str  # the slot it calls: the window's method, or "part.method" of one of its parts
@@ -46,7 +48,7 @@ class ActionSpec:
     group: str = ""  # checkable actions of one group are exclusive (a QActionGroup)
 
 
-A = ActionSpec
+A = ReviewActionSpec
 OPEN = A("open", "&Open…", "open_dialog", shortcut="Ctrl+O", tip="Open a recorded session (.h5)")
 CLOSE = A("close", "&Close", "close_document", shortcut="Ctrl+W", tip="Close the session",
           enabled="document")  # fmt: skip
@@ -149,7 +151,7 @@ NO_NORMATIVE = A("no_normative", "Remove normative band", "strides.set_normative
 ABOUT = A("about", "About", "show_about")
 
 # str: SEPARATOR or RECENT; (title, actions): a submenu
-MenuItem = ActionSpec | str | tuple[str, tuple[ActionSpec, ...]]
+MenuItem = ReviewActionSpec | str | tuple[str, tuple[ReviewActionSpec, ...]]
 ANGLES_MENU = "&Angles"
 MENUS: tuple[tuple[str, tuple[MenuItem, ...]], ...] = (
     ("&File", (OPEN, OPEN_FOLDER, RECENT, CLOSE, SEPARATOR, COMPARE_SESSIONS, SEPARATOR, EXPORT,
@@ -160,11 +162,11 @@ MENUS: tuple[tuple[str, tuple[MenuItem, ...]], ...] = (
                    REVERT, SEPARATOR, NORMATIVE, NO_NORMATIVE)),
     ("&Help", (ABOUT,)),
 )  # fmt: skip
-SPECS: tuple[ActionSpec, ...] = tuple(
+SPECS: tuple[ReviewActionSpec, ...] = tuple(
     spec
     for _title, items in MENUS
     for item in items
-    for spec in ((item,) if isinstance(item, ActionSpec)
+    for spec in ((item,) if isinstance(item, ReviewActionSpec)
                  else item[1] if isinstance(item, tuple) else ())
 )  # fmt: skip
 
@@ -176,7 +178,9 @@ def available(module: str) -> bool:
         return False
 
 
-def build_actions(window: QMainWindow, specs: tuple[ActionSpec, ...] = SPECS) -> dict[str, QAction]:
+def build_actions(
+    window: QMainWindow, specs: tuple[ReviewActionSpec, ...] = SPECS
+) -> dict[str, QAction]:
     """The window's actions, by name; an action whose modules are missing is left out."""
     out: dict[str, QAction] = {}
     groups: dict[str, QActionGroup] = {}
@@ -211,12 +215,12 @@ def build_menus(window: QMainWindow, actions: Mapping[str, QAction]) -> dict[str
             if item == SEPARATOR:
                 pending_separator = not menu.isEmpty()
                 continue
-            if isinstance(item, ActionSpec) and item.name not in actions:
+            if isinstance(item, ReviewActionSpec) and item.name not in actions:
                 continue
             if pending_separator:
                 menu.addSeparator()
                 pending_separator = False
-            if isinstance(item, ActionSpec):
+            if isinstance(item, ReviewActionSpec):
                 menu.addAction(actions[item.name])
             elif isinstance(item, tuple):
                 sub = menu.addMenu(item[0])

@@ -13,7 +13,7 @@ from PySide6.QtWidgets import QFileDialog, QWidget
 from gaitmon.dsp.channel_table import JOINTS
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.review.actions import available
-from gaitmon.ui.review.cycles import CyclePlots
+from gaitmon.ui.review.cycles import ReviewCyclePlots
 from gaitmon.ui.review.jobs import ReviewJobs
 from gaitmon.ui.review.legs import NOT_SAVED
 from gaitmon.ui.review.part import Host, Part
@@ -40,7 +40,7 @@ class Outputs(Part):
         self.export: ExportDialog | None = None
         self.settings_dialog: ReprocessDialog | None = None
 
-    def attach_plot_export(self, cycles: CyclePlots) -> None:
+    def attach_plot_export(self, cycles: ReviewCyclePlots) -> None:
         """Right-click any plot ▸ Save plot as PNG / SVG (the plot as shown)."""
         if not available("gaitmon.ui.review.plot_export"):
             return

@@ -26,7 +26,7 @@ from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.jobs import QtWorker
 from gaitmon.ui.review import recent
-from gaitmon.ui.review.cycles import CyclePlots
+from gaitmon.ui.review.cycles import ReviewCyclePlots
 from gaitmon.ui.review.part import Host, Part
 from gaitmon.ui.review.strides import StrideTable, SummaryLabel, summary_html
 from gaitmon.ui.theme import Colours
@@ -69,7 +69,7 @@ class StridesPart(Part):
         self.table = StrideTable(colours)
         self.summary = SummaryLabel()
         self.summary.setMinimumWidth(250)
-        self.cycles = CyclePlots(colours)
+        self.cycles = ReviewCyclePlots(colours)
         self.cycles.setMinimumWidth(300)
         self.analyser = QtWorker("review-analysis", latest=True, parent=self)
 

@@ -39,7 +39,7 @@ from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.errors import Cancelled
 from gaitmon.io.overview import PeakWindow
 from gaitmon.jobs import Response
-from gaitmon.review.model import Document, Source
+from gaitmon.review.model import Document, ReviewSource
 from gaitmon.review.view import (
     ViewData,
     ViewRequest,
@@ -512,7 +512,7 @@ class Timeline(QWidget):
         self.applied_requests += 1
         self.loaded.emit(resp.request_id)
 
-    def _draw_events(self, src: Source, req: ViewRequest) -> None:
+    def _draw_events(self, src: ReviewSource, req: ViewRequest) -> None:
         doc = self.doc
         assert doc is not None
         x0, x1 = self.view_range()
