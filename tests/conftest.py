@@ -1,12 +1,35 @@
+import atexit
 import os
 import pathlib
+import shutil
+import tempfile
 import threading
 import time
+import uuid
 from collections.abc import Callable
 
 import pytest
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+
+
+def _lsl_session_of_this_run() -> None:
+    """This test run's own LSL session (liblsl's ``[lab] SessionID``): its outlets answer, and
+    its resolvers see, only processes of the same session, so another run's streams on this
+    machine (a second checkout's tests, a lab's LabRecorder) are never found and ours never
+    reach them. Set before pylsl is first used; the ``gaitmon`` processes the tests start
+    inherit it. liblsl's logs stay off (gaitmon quiets them only without a config of the
+    user's). A user's own LSLAPICFG is kept."""
+    if os.environ.get("LSLAPICFG"):
+        return
+    folder = pathlib.Path(tempfile.mkdtemp(prefix="gaitmon-tests-lsl-"))
+    cfg = folder / "lsl_api.cfg"
+    cfg.write_text(f"[lab]\nSessionID = gaitmon-tests-{uuid.uuid4().hex}\n\n[log]\nlevel = -2\n")
+    os.environ["LSLAPICFG"] = str(cfg)
+    atexit.register(shutil.rmtree, folder, True)
+
+
+_lsl_session_of_this_run()
 
 QT_FIXTURES = {"qtbot", "qapp"}
 

@@ -4,27 +4,13 @@ import time
 
 import numpy as np
 import pytest
+from helpers import make_engine, wait_for
 
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.engine import Engine, EngineError, Mode, RingBuffer
+from gaitmon.engine import EngineError, Mode, RingBuffer
 from gaitmon.io.device import Device
 from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
 from gaitmon.io.transport import InProcessTransport
-
-
-def wait_for(pred, timeout_s=20.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not pred():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.01)
-
-
-def make_engine(mode="raw", speed=20.0, faults=None, standing_s=3.0, seed=3):
-    unit = SimulatedUnit(
-        GaitConfig(seed=seed, standing_s=standing_s), faults=faults, speed=speed
-    )
-    return unit, Engine(Device(InProcessTransport(unit)), mode, transport_label="simulated")
 
 
 def test_ring_buffer_returns_the_latest_samples_in_order():

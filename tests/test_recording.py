@@ -165,13 +165,16 @@ def test_disk_full_stops_recording_with_a_message_and_acquisition_carries_on(tmp
             time.sleep(0.02)
         err = eng.recording.error
         n1 = eng.samples_total
-        time.sleep(0.5)
+        t1 = time.monotonic()
+        while eng.samples_total <= n1 + 200 and time.monotonic() - t1 < 60:
+            time.sleep(0.02)
         n2 = eng.samples_total
         status = eng.stop_recording()
         eng.stop()
         print(json.dumps({{"error": err, "before": n1, "after": n2, "rows": status.rows}}))
     """)
-    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=90)
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=180)
     assert res.returncode == 0, res.stderr
     r = json.loads(res.stdout.strip().splitlines()[-1])
     assert "disk full or write error" in r["error"] and "\n" not in r["error"]
@@ -261,10 +264,14 @@ def test_link_outage_continues_the_same_session_with_a_gap(tmp_path):
             eng.start_recording(out)
             while eng.recording.rows < 100 and time.monotonic() < deadline:
                 time.sleep(0.02)
+            t_cut = time.monotonic()
             sim.cut()  # the port vanishes, as an RFCOMM link does
             time.sleep(1.0)
             sim.restore()
             rows_at_restore = eng.recording.rows
+            while eng.recording.rows == rows_at_restore and time.monotonic() < deadline:
+                time.sleep(0.005)
+            t_resumed = time.monotonic()  # the unit runs in real time: the outage's wall time
             while eng.recording.rows < rows_at_restore + 100 and time.monotonic() < deadline:
                 time.sleep(0.02)
             status = eng.stop_recording()
@@ -277,7 +284,9 @@ def test_link_outage_continues_the_same_session_with_a_gap(tmp_path):
     assert len(outage) == 1
     gap = outage[0]
     assert gap.reason.startswith("link lost")
-    assert 0.8 <= gap.duration_s <= 3.0  # ~1 s cut plus the reconnect backoff
+    # the 1 s cut plus the reconnect backoff, and what the engine had not read at the cut (a
+    # block, more on a loaded machine: measured, not assumed)
+    assert 0.8 <= gap.duration_s <= t_resumed - t_cut + 1.0
     i = gap.sample_idx
     assert seq[i] - seq[i - 1] - 1 == gap.n_lost  # the unit kept counting while unheard
     assert t_s[i] - t_s[i - 1] == pytest.approx((gap.n_lost + 1) / 100.0)

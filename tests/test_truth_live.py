@@ -10,34 +10,22 @@ import time
 
 import numpy as np
 import pytest
+from helpers import make_engine as _make_engine
+from helpers import wait_for
 
 from gaitmon.analysis import FIRST, GAP, SETTLING, analyse_session
 from gaitmon.dsp.gait import Phase
 from gaitmon.dsp.pipeline import SETTLE_S, Pipeline, PipelineConfig, settling_ranges
-from gaitmon.engine import Engine
 from gaitmon.engine.buffers import with_gap_rows
-from gaitmon.io.device import Device
 from gaitmon.io.session import open_session, rewrite_processed
-from gaitmon.io.sim import FaultConfig, GaitConfig, GaitModel, SensorConfig, SimulatedUnit
+from gaitmon.io.sim import FaultConfig, GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
-from gaitmon.io.transport import InProcessTransport
 
 FS = 100.0
 
 
-def wait_for(pred, timeout_s=60.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not pred():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.01)
-
-
-def make_engine(faults=None, standing_s=2.0, speed=10.0, seed=5, cv=0.005):
-    unit = SimulatedUnit(
-        GaitConfig(seed=seed, standing_s=standing_s, stride_cv=cv), faults=faults, speed=speed
-    )
-    return unit, Engine(Device(InProcessTransport(unit)), "raw", transport_label="simulated")
+def make_engine(faults=None, standing_s=2.0, speed=10.0):
+    return _make_engine(faults=faults, standing_s=standing_s, speed=speed, seed=5, stride_cv=0.005)
 
 
 @pytest.fixture(scope="module")
