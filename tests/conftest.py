@@ -214,14 +214,15 @@ def assert_stored():
 
 @pytest.fixture
 def no_leaked_threads():
-    """Fails the test if a gaitmon thread it started is still running 5 s after it."""
+    """Fails the test if a gaitmon thread it started is still running 30 s after it (a loaded
+    machine ends threads late, not never)."""
 
     def ours() -> list[threading.Thread]:
         return [t for t in threading.enumerate() if t.name.startswith("gaitmon")]
 
     before = set(ours())
     yield
-    deadline = time.monotonic() + 5.0
+    deadline = time.monotonic() + 30
     left: list[threading.Thread] = []
     while time.monotonic() < deadline:
         left = [t for t in ours() if t not in before and t.is_alive()]
@@ -255,7 +256,7 @@ def review_win(qtbot, tmp_path):
     yield w
     w.close()
     assert w.errors == []
-    deadline = time.monotonic() + 5
+    deadline = time.monotonic() + 30
     while [t for t in _review_threads() if t not in before and t.is_alive()]:
         if time.monotonic() > deadline:
             pytest.fail("review worker threads left running")

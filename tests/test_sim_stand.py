@@ -225,7 +225,7 @@ def test_live_window_simulator_menu_stands_the_subject_still_for_zeroing(qtbot, 
     finally:
         win.close()
     assert win.errors == []
-    deadline = time.monotonic() + 5
+    deadline = time.monotonic() + 30
     while time.monotonic() < deadline and any(
         t.name.startswith("gaitmon") for t in threading.enumerate()
     ):
