@@ -35,10 +35,14 @@ def numba_cache_dir() -> str:
     if explicit:
         return explicit
     try:
-        from platformdirs import user_cache_dir
+        import platformdirs
     except ModuleNotFoundError:  # an environment installed before gaitmon required platformdirs
-        from numba.misc.appdirs import user_cache_dir  # the same rules, vendored by numba
-    return os.path.join(user_cache_dir("gaitmon", False), "numba")
+        from numba.misc import appdirs  # the same rules, vendored by numba
+
+        folder = str(appdirs.user_cache_dir("gaitmon", False))  # type: ignore[no-untyped-call]
+    else:
+        folder = platformdirs.user_cache_dir("gaitmon", False)
+    return os.path.join(folder, "numba")
 
 
 def _cache_in_user_folder() -> None:
@@ -52,7 +56,8 @@ def _cache_in_user_folder() -> None:
         if (exc.name or "").partition(".")[0] in ("numba", "llvmlite"):
             raise UserError(NUMBA_MISSING) from None
         raise
-    reload_config()  # numba reads its settings once, at import: it may have been imported before
+    # numba reads its settings at import, and it may have been imported before this module
+    reload_config()  # type: ignore[no-untyped-call]
 
 
 _cache_in_user_folder()
