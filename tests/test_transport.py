@@ -346,14 +346,19 @@ def test_in_process_transport_moves_bytes_both_ways():
 
 
 def test_status_and_close_do_not_wait_for_a_slow_reopen():
-    """An RFCOMM connect can block for seconds; the window reads status ~30 times a second."""
+    """An RFCOMM connect can block for seconds; the window reads status ~30 times a second.
+    The slow connect here blocks until the test lets it go: status and close return while it
+    still blocks (however slow the machine, a wait for the port would never end)."""
     opened = []
+    connecting = threading.Event()
+    release = threading.Event()
 
     def factory(**kw):
         opened.append(time.monotonic())
         if len(opened) == 1:
             return FlakyPort()
-        time.sleep(1.5)  # the slow connect
+        connecting.set()
+        release.wait(120)  # the slow connect
         raise serial.SerialException(2, "could not open port: Host is down")
 
     t = SerialTransport(
@@ -362,17 +367,21 @@ def test_status_and_close_do_not_wait_for_a_slow_reopen():
     t.open()
     reader = threading.Thread(target=lambda: [t.read(0.05) for _ in range(40)], daemon=True)
     reader.start()
-    deadline = time.monotonic() + 30
-    while len(opened) < 2 and time.monotonic() < deadline:  # the reopen has begun
-        time.sleep(0.01)
-    time.sleep(0.1)
-    t0 = time.monotonic()
-    st = t.status
-    waited = time.monotonic() - t0
-    assert st.state == LinkState.RECONNECTING
-    assert waited < 0.5, f"status waited {waited:.2f} s for the port to open"
-    t.close()
-    reader.join(5)
+    try:
+        assert connecting.wait(60)  # the reopen has begun
+        got = []
+        status = threading.Thread(target=lambda: got.append(t.status), daemon=True)
+        status.start()
+        status.join(60)
+        assert got, "status waited for the port to open"
+        assert got[0].state == LinkState.RECONNECTING
+        closer = threading.Thread(target=t.close, daemon=True)
+        closer.start()
+        closer.join(60)
+        assert not closer.is_alive(), "close waited for the port to open"
+    finally:
+        release.set()
+    reader.join(60)
     assert not reader.is_alive()
     assert t.status.state == LinkState.CLOSED
 
