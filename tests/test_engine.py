@@ -4,7 +4,7 @@ import time
 
 import numpy as np
 import pytest
-from helpers import make_engine, wait_for
+from helpers import HeldClock, make_engine, wait_for
 
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.engine import EngineError, Mode, RingBuffer
@@ -103,10 +103,15 @@ def test_lost_frames_are_located_exactly_by_the_device():
 
 
 def test_zero_refuses_while_walking_and_accepts_standing():
-    _unit, eng = make_engine(speed=5.0, standing_s=4.0)
+    # the unit's time stands still until it streams, then at 3.2 s (of 4 s standing) until the
+    # zero is taken
+    clock = HeldClock(hold_s=0.0)
+    _unit, eng = make_engine(speed=5.0, standing_s=4.0, clock=clock)
     with eng:
-        wait_for(lambda: eng.samples_total >= 250, what="standing data")
+        clock.hold(3.2 / 5.0)
+        wait_for(lambda: eng.samples_total >= 300, what="standing data")
         cal = eng.zero()
+        clock.release()
         assert np.max(np.abs(np.degrees(cal.tilt_offset_rad))) < 15
         wait_for(lambda: eng.samples_total >= 1200, what="walking")
         with pytest.raises(EngineError, match="moving"):
