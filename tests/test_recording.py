@@ -26,8 +26,9 @@ GAITMON = [sys.executable, "-m", "gaitmon"]
 
 def test_record_command_writes_1000_frames_whose_events_match_the_truth(tmp_path, capsys):
     out = tmp_path / "s.h5"
-    # 4x real time: a busy machine delays the stop by a fraction of a second, not a whole block
-    code = main(["record", "--simulate", "--duration", "10", "-o", str(out), "--speed", "4",
+    # as fast as it is read, in the unit's blocks of 100: however busy the machine, the stop
+    # comes with the block that completes the 10 s asked for
+    code = main(["record", "--simulate", "--duration", "10", "-o", str(out), "--speed", "max",
                  "--standing-s", "2", "--patient", "P017", "--quiet"])
     assert code == 0
     with open_session(out, recover=False) as s:
@@ -115,7 +116,7 @@ def test_kill_9_mid_recording_loses_at_most_100_ms(tmp_path, seed):
     start = None
     assert proc.stdout is not None
     fd = proc.stdout.fileno()
-    give_up = time.monotonic() + 30
+    give_up = time.monotonic() + 120  # a loaded machine starts it slowly
     while True:
         ready, _, _ = select.select([fd], [], [], 0.005)
         if ready:
@@ -124,7 +125,11 @@ def test_kill_9_mid_recording_loses_at_most_100_ms(tmp_path, seed):
                 start = time.monotonic()
         if start is not None and time.monotonic() - start >= run_s:
             break
-        assert proc.poll() is None and time.monotonic() < give_up, "recorder did not start"
+        if proc.poll() is not None or time.monotonic() >= give_up:
+            proc.kill()
+            proc.wait(10)
+            proc.stdout.close()
+            raise AssertionError("recorder did not start")
     t_kill = time.monotonic()
     proc.send_signal(signal.SIGKILL)
     proc.wait(10)

@@ -367,9 +367,11 @@ def test_blocks_dropped_by_a_full_recorder_queue_are_gaps_in_a_true_timeline(tmp
         else:
             expected.append([row, end - start])
         dropped_before += end - start
+    told = (rm.record_offset, rm.drop_starts[:3], rm.drop_ends[:3], len(rm.drop_starts),
+            len(samples), status.rows, expected[:3])  # fmt: skip
     expected = [e for e in expected if e[0] < len(samples)]
-    assert [[int(r), int(missing[r - 1])] for r in gap_rows] == expected
-    assert sum(n for _r, n in expected) >= 20  # the stall's drops really are missing
+    assert [[int(r), int(missing[r - 1])] for r in gap_rows] == expected, told
+    assert sum(n for _r, n in expected) >= 20, told  # the stall's drops really are missing
     with open_session(out) as s:
         assert all(g.reason.startswith("frames lost") for g in s.gaps)
 
