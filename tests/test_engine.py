@@ -1,30 +1,17 @@
 """The headless engine driven by the simulated unit over the in-process transport."""
 
+import math
 import time
 
 import numpy as np
 import pytest
+from helpers import HeldClock, make_engine, wait_for
 
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.engine import Engine, EngineError, Mode, RingBuffer
+from gaitmon.engine import EngineError, Mode, RingBuffer
 from gaitmon.io.device import Device
 from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
 from gaitmon.io.transport import InProcessTransport
-
-
-def wait_for(pred, timeout_s=20.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not pred():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.01)
-
-
-def make_engine(mode="raw", speed=20.0, faults=None, standing_s=3.0, seed=3):
-    unit = SimulatedUnit(
-        GaitConfig(seed=seed, standing_s=standing_s), faults=faults, speed=speed
-    )
-    return unit, Engine(Device(InProcessTransport(unit)), mode, transport_label="simulated")
 
 
 def test_ring_buffer_returns_the_latest_samples_in_order():
@@ -84,7 +71,9 @@ def test_device_angle_modes_show_the_units_own_angles(mode):
 
 def test_lost_frames_are_located_exactly_by_the_device():
     faults = FaultConfig(seed=4, loss_pct=3.0, corrupt_pct=2.0, burst_pct=0.2)
-    unit = SimulatedUnit(GaitConfig(seed=4), faults=faults, speed=50.0)
+    # as fast as it is read: how many frames are lost is the faults' doing, never the machine's
+    # (at 50x real time a reader late by seconds let the unit's output queue overflow)
+    unit = SimulatedUnit(GaitConfig(seed=4), faults=faults, speed=math.inf)
     dev = Device(InProcessTransport(unit))
     lost = []
     seqs = []
@@ -117,10 +106,15 @@ def test_lost_frames_are_located_exactly_by_the_device():
 
 
 def test_zero_refuses_while_walking_and_accepts_standing():
-    _unit, eng = make_engine(speed=5.0, standing_s=4.0)
+    # the unit's time stands still until it streams, then at 3.2 s (of 4 s standing) until the
+    # zero is taken
+    clock = HeldClock(hold_s=0.0)
+    _unit, eng = make_engine(speed=5.0, standing_s=4.0, clock=clock)
     with eng:
-        wait_for(lambda: eng.samples_total >= 250, what="standing data")
+        clock.hold(3.2 / 5.0)
+        wait_for(lambda: eng.samples_total >= 300, what="standing data")
         cal = eng.zero()
+        clock.release()
         assert np.max(np.abs(np.degrees(cal.tilt_offset_rad))) < 15
         wait_for(lambda: eng.samples_total >= 1200, what="walking")
         with pytest.raises(EngineError, match="moving"):

@@ -3,33 +3,20 @@ sensors the pipeline found faulty (and when), and where the gait events come fro
 simulated unit over the in-process transport; the references are the simulator's own: the
 sample the sensor was broken at, its true heel strikes and its frame log."""
 
-import time
+import functools
 
 import numpy as np
 import pytest
+from helpers import make_engine as _make_engine
+from helpers import wait_for
 
 from gaitmon.dsp.channels import FSR_IDX
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.engine import Engine
-from gaitmon.io.device import Device
 from gaitmon.io.sim import GaitConfig, SimulatedUnit
 from gaitmon.io.sim.kinematics import GaitModel
 from gaitmon.io.sim.sensors import SensorConfig, SensorModel
-from gaitmon.io.transport import InProcessTransport
 
-
-def wait_for(pred, timeout_s=30.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not pred():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.01)
-
-
-def make_engine(mode="raw", speed=20.0, standing_s=2.0, seed=5, config=None):
-    unit = SimulatedUnit(GaitConfig(seed=seed, standing_s=standing_s), speed=speed)
-    eng = Engine(Device(InProcessTransport(unit)), mode, config, transport_label="simulated")
-    return unit, eng
+make_engine = functools.partial(_make_engine, standing_s=2.0, seed=5)
 
 
 def test_a_dead_heel_sensor_only_changes_the_counts_never_the_truth():

@@ -3,29 +3,12 @@ when nobody listens."""
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+from helpers import make_engine, wait_for
 
 import gaitmon.engine.taps as taps
-from gaitmon.engine import Engine
 from gaitmon.finish import open_session
-from gaitmon.io.device import Device
-from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
-from gaitmon.io.transport import InProcessTransport
-
-
-def wait_for(pred, timeout_s=30.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not pred():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.01)
-
-
-def make_engine(faults=None, standing_s=1.0):
-    unit = SimulatedUnit(GaitConfig(seed=3, standing_s=standing_s), faults=faults, speed=20.0)
-    return unit, Engine(Device(InProcessTransport(unit)), "raw", transport_label="simulated")
+from gaitmon.io.sim import FaultConfig
 
 
 def test_listener_gets_every_sample_with_the_files_clock_and_events(tmp_path):

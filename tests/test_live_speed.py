@@ -1,23 +1,15 @@
 """The live Gait panel's gait speed: the foot-IMU stride lengths of the last included strides,
 computed as the file's analysis computes them, against the simulator's truth."""
 
-import time
 
 import numpy as np
 import pytest
+from helpers import wait_for
 
 from gaitmon.engine import Engine
 from gaitmon.io.device import Device
 from gaitmon.io.sim import GaitConfig, SimulatedUnit
 from gaitmon.io.transport import InProcessTransport
-
-
-def wait_for(pred, timeout_s=60.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not pred():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.02)
 
 
 @pytest.mark.parametrize("pattern", ["normal", "stiff-knee"])

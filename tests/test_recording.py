@@ -26,8 +26,9 @@ GAITMON = [sys.executable, "-m", "gaitmon"]
 
 def test_record_command_writes_1000_frames_whose_events_match_the_truth(tmp_path, capsys):
     out = tmp_path / "s.h5"
-    # 4x real time: a busy machine delays the stop by a fraction of a second, not a whole block
-    code = main(["record", "--simulate", "--duration", "10", "-o", str(out), "--speed", "4",
+    # as fast as it is read, in the unit's blocks of 100: however busy the machine, the stop
+    # comes with the block that completes the 10 s asked for
+    code = main(["record", "--simulate", "--duration", "10", "-o", str(out), "--speed", "max",
                  "--standing-s", "2", "--patient", "P017", "--quiet"])
     assert code == 0
     with open_session(out, recover=False) as s:
@@ -115,7 +116,7 @@ def test_kill_9_mid_recording_loses_at_most_100_ms(tmp_path, seed):
     start = None
     assert proc.stdout is not None
     fd = proc.stdout.fileno()
-    give_up = time.monotonic() + 30
+    give_up = time.monotonic() + 120  # a loaded machine starts it slowly
     while True:
         ready, _, _ = select.select([fd], [], [], 0.005)
         if ready:
@@ -124,7 +125,11 @@ def test_kill_9_mid_recording_loses_at_most_100_ms(tmp_path, seed):
                 start = time.monotonic()
         if start is not None and time.monotonic() - start >= run_s:
             break
-        assert proc.poll() is None and time.monotonic() < give_up, "recorder did not start"
+        if proc.poll() is not None or time.monotonic() >= give_up:
+            proc.kill()
+            proc.wait(10)
+            proc.stdout.close()
+            raise AssertionError("recorder did not start")
     t_kill = time.monotonic()
     proc.send_signal(signal.SIGKILL)
     proc.wait(10)
@@ -165,13 +170,16 @@ def test_disk_full_stops_recording_with_a_message_and_acquisition_carries_on(tmp
             time.sleep(0.02)
         err = eng.recording.error
         n1 = eng.samples_total
-        time.sleep(0.5)
+        t1 = time.monotonic()
+        while eng.samples_total <= n1 + 200 and time.monotonic() - t1 < 60:
+            time.sleep(0.02)
         n2 = eng.samples_total
         status = eng.stop_recording()
         eng.stop()
         print(json.dumps({{"error": err, "before": n1, "after": n2, "rows": status.rows}}))
     """)
-    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=90)
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=180)
     assert res.returncode == 0, res.stderr
     r = json.loads(res.stdout.strip().splitlines()[-1])
     assert "disk full or write error" in r["error"] and "\n" not in r["error"]
@@ -261,10 +269,14 @@ def test_link_outage_continues_the_same_session_with_a_gap(tmp_path):
             eng.start_recording(out)
             while eng.recording.rows < 100 and time.monotonic() < deadline:
                 time.sleep(0.02)
+            t_cut = time.monotonic()
             sim.cut()  # the port vanishes, as an RFCOMM link does
             time.sleep(1.0)
             sim.restore()
             rows_at_restore = eng.recording.rows
+            while eng.recording.rows == rows_at_restore and time.monotonic() < deadline:
+                time.sleep(0.005)
+            t_resumed = time.monotonic()  # the unit runs in real time: the outage's wall time
             while eng.recording.rows < rows_at_restore + 100 and time.monotonic() < deadline:
                 time.sleep(0.02)
             status = eng.stop_recording()
@@ -277,7 +289,9 @@ def test_link_outage_continues_the_same_session_with_a_gap(tmp_path):
     assert len(outage) == 1
     gap = outage[0]
     assert gap.reason.startswith("link lost")
-    assert 0.8 <= gap.duration_s <= 3.0  # ~1 s cut plus the reconnect backoff
+    # the 1 s cut plus the reconnect backoff, and what the engine had not read at the cut (a
+    # block, more on a loaded machine: measured, not assumed)
+    assert 0.8 <= gap.duration_s <= t_resumed - t_cut + 1.0
     i = gap.sample_idx
     assert seq[i] - seq[i - 1] - 1 == gap.n_lost  # the unit kept counting while unheard
     assert t_s[i] - t_s[i - 1] == pytest.approx((gap.n_lost + 1) / 100.0)

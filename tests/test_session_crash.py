@@ -271,7 +271,7 @@ def test_write_error_stops_cleanly_and_keeps_everything_before(tmp_path, flush_s
         capture_output=True,
         text=True,
         env=_env(),
-        timeout=50,
+        timeout=240,
     )
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout.strip().splitlines()[-1])
@@ -318,7 +318,7 @@ def _check_recovery_refused_while_still_full(path):
         capture_output=True,
         text=True,
         env=_env(),
-        timeout=50,
+        timeout=240,
     )
     name = path.name
     # (the OS's words, or HDF5's translated: it can fail inside a compressed chunk write)

@@ -167,7 +167,7 @@ def test_gaitmon_simulate_stands_until_sigusr2_and_stands_again_on_sigusr1(tmp_p
     try:
         assert proc.stdout is not None
         port = proc.stdout.readline().strip()
-        with Device(SerialTransport(port)) as dev:
+        with Device(SerialTransport(port), command_timeout_s=5.0) as dev:  # a loaded machine
             dev.select_kind(p.FrameKind.RAW)
             dev.start_stream()
             standing = take(dev, 6.0)  # longer than the default 5 s of standing
@@ -225,7 +225,7 @@ def test_live_window_simulator_menu_stands_the_subject_still_for_zeroing(qtbot, 
     finally:
         win.close()
     assert win.errors == []
-    deadline = time.monotonic() + 5
+    deadline = time.monotonic() + 30
     while time.monotonic() < deadline and any(
         t.name.startswith("gaitmon") for t in threading.enumerate()
     ):

@@ -10,34 +10,23 @@ import time
 
 import numpy as np
 import pytest
+from helpers import HeldClock, wait_for
+from helpers import make_engine as _make_engine
 
 from gaitmon.analysis import FIRST, GAP, SETTLING, analyse_session
 from gaitmon.dsp.gait import Phase
 from gaitmon.dsp.pipeline import SETTLE_S, Pipeline, PipelineConfig, settling_ranges
-from gaitmon.engine import Engine
 from gaitmon.engine.buffers import with_gap_rows
 from gaitmon.finish import open_session, rewrite_processed
-from gaitmon.io.device import Device
-from gaitmon.io.sim import FaultConfig, GaitConfig, GaitModel, SensorConfig, SimulatedUnit
+from gaitmon.io.sim import FaultConfig, GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
-from gaitmon.io.transport import InProcessTransport
 
 FS = 100.0
 
 
-def wait_for(pred, timeout_s=60.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not pred():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.01)
-
-
-def make_engine(faults=None, standing_s=2.0, speed=10.0, seed=5, cv=0.005):
-    unit = SimulatedUnit(
-        GaitConfig(seed=seed, standing_s=standing_s, stride_cv=cv), faults=faults, speed=speed
-    )
-    return unit, Engine(Device(InProcessTransport(unit)), "raw", transport_label="simulated")
+def make_engine(faults=None, standing_s=2.0, speed=10.0, clock=None):
+    return _make_engine(faults=faults, standing_s=standing_s, speed=speed, seed=5,
+                        stride_cv=0.005, clock=clock)  # fmt: skip
 
 
 @pytest.fixture(scope="module")
@@ -140,12 +129,17 @@ def test_a_short_loss_is_bridged(walk):
 
 
 def test_zeroing_restarts_the_gyro_integration_from_the_zeroed_pose():
-    _unit, eng = make_engine(standing_s=6.0, speed=5.0)
+    # the unit's time is held inside its 6 s of standing (3 s, then 4 s after the zero): the
+    # zero and the readings after it are of standing however late a loaded machine gets there
+    clock = HeldClock(hold_s=0.0)
+    _unit, eng = make_engine(standing_s=6.0, speed=5.0, clock=clock)
     with eng:
-        wait_for(lambda: eng.samples_total >= 300, what="standing data")
+        clock.hold(3.0 / 5.0)
+        wait_for(lambda: eng.samples_total >= 290, what="standing data")
         before = eng.snapshot(0.5).series["joint_gyro_deg"][-1]
         eng.zero()
         at_zero = eng.samples_total
+        clock.hold(4.0 / 5.0)
         wait_for(lambda: eng.samples_total >= at_zero + 50, what="data after zeroing")
         after = eng.snapshot(0.3).series["joint_gyro_deg"]
     # the uncorrected bias made it drift before; right after Zero it reads the standing pose

@@ -31,7 +31,7 @@ def window(qtbot, tmp_path):
     yield win
     win.close()
     assert win.conn is None and win.errors == []
-    deadline = time.monotonic() + 5
+    deadline = time.monotonic() + 30
     while time.monotonic() < deadline:
         left = [t for t in threading.enumerate() if t.name.startswith("gaitmon")]
         if not set(left) - before:

@@ -4,9 +4,10 @@ Only loops that numpy cannot do in a few passes live here: the gait-aware filter
 two-state recursion whose wrap rule depends on the state before each sample (and its per-sample
 choice of measurement and gain, fused into the same loop); the smoother's banded substitutions
 are recursions too. What vectorises (the accelerometer tilt, the gravity reference's trigonometry
-and low-pass) stays in numpy. Each kernel is compiled on its first call and cached on disk beside
-this module (or in the user's cache directory where that is not writable), so later runs start at
-once.
+and low-pass) stays in numpy. Each kernel is compiled on its first call and cached on disk in the
+user's cache folder (:func:`numba_cache_dir`), so later runs start at once. Never beside this
+module: files pip does not know of, left in an installed package's ``__pycache__``, outlive its
+uninstall and hide a later editable install of gaitmon (``cannot import name '__version__'``).
 
 numba is the dependency for this because the alternatives were measured and were slower: the same
 recursion as one banded triangular system per block (BLAS ``dtbsv``) with the wrap rule applied
@@ -17,9 +18,51 @@ gain choice another 0.05 s in numpy passes; this loop costs ~0.02 s for all of i
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
-from numba import njit
+
+from gaitmon.errors import UserError
+
+NUMBA_MISSING = "gaitmon's filters need numba: pip install 'numba>=0.60'"
+
+
+def numba_cache_dir() -> str:
+    """Where numba caches the compiled loops: ``NUMBA_CACHE_DIR`` when the user set it, else
+    ``numba`` in gaitmon's folder of the user's cache (platformdirs: ~/.cache/gaitmon/numba on
+    Linux)."""
+    explicit = os.environ.get("NUMBA_CACHE_DIR", "")
+    if explicit:
+        return explicit
+    try:
+        import platformdirs
+    except ModuleNotFoundError:  # an environment installed before gaitmon required platformdirs
+        from numba.misc import appdirs  # the same rules, vendored by numba
+
+        folder = str(appdirs.user_cache_dir("gaitmon", False))  # type: ignore[no-untyped-call]
+    else:
+        folder = platformdirs.user_cache_dir("gaitmon", False)
+    return os.path.join(folder, "numba")
+
+
+def _cache_in_user_folder() -> None:
+    """Point numba's cache at :func:`numba_cache_dir` before the kernels below are decorated
+    (numba picks a function's cache folder then). The environment variable is numba's own
+    setting; child processes inherit it, so they share one cache."""
+    try:
+        os.environ["NUMBA_CACHE_DIR"] = numba_cache_dir()
+        from numba.core.config import reload_config
+    except ModuleNotFoundError as exc:
+        if (exc.name or "").partition(".")[0] in ("numba", "llvmlite"):
+            raise UserError(NUMBA_MISSING) from None
+        raise
+    # numba reads its settings at import, and it may have been imported before this module
+    reload_config()  # type: ignore[no-untyped-call]
+
+
+_cache_in_user_folder()
+
+from numba import njit  # noqa: E402  (after the cache folder is set)
 
 _TWO_PI = 2.0 * math.pi
 

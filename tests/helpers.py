@@ -1,0 +1,75 @@
+"""Helpers shared by the tests that drive a live engine: one copy each (imported as
+``from helpers import make_engine, wait_for``; pytest puts this folder on the path).
+
+Waits are on a condition with a generous deadline, never a fixed sleep: a loaded machine makes
+them slower, not wrong."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+
+from gaitmon.engine import Engine
+from gaitmon.io.device import Device
+from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
+from gaitmon.io.transport import InProcessTransport
+
+WAIT_S = 60.0  # long enough for a machine running other suites beside this one
+
+
+def wait_for(pred: Callable[[], object], timeout_s: float = WAIT_S, what: str = "condition",
+             poll_s: float = 0.005) -> None:  # fmt: skip
+    """Return as soon as ``pred()`` is true; AssertionError naming ``what`` after
+    ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not pred():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(poll_s)
+
+
+class HeldClock:
+    """A simulated unit's clock (``SimulatedUnit(clock=...)``) that runs with the wall clock but
+    stands still at ``hold_s`` until :meth:`hold` moves that point or :meth:`release`, then runs
+    on from there: the unit's time (``speed`` x this clock; its walk advances from its creation,
+    streamed or not) cannot pass a phase of the walk however late a loaded machine gets to the
+    step that needs it."""
+
+    def __init__(self, hold_s: float | None = None) -> None:
+        self._lock = threading.Lock()
+        self._t0 = time.monotonic()
+        self.hold_s = hold_s
+
+    def __call__(self) -> float:
+        with self._lock:
+            t = time.monotonic() - self._t0
+            return t if self.hold_s is None else min(t, self.hold_s)
+
+    def hold(self, hold_s: float) -> None:
+        """Run (with the wall clock) up to ``hold_s``, and stand still there."""
+        with self._lock:
+            self.hold_s = hold_s
+
+    def release(self) -> None:
+        with self._lock:
+            if self.hold_s is not None:  # on from the held time, not a jump to the wall's
+                self._t0 = min(self._t0, time.monotonic() - self.hold_s)
+                self.hold_s = None
+
+
+def make_engine(
+    mode: str = "raw", *, speed: float = 20.0, faults: FaultConfig | None = None,
+    standing_s: float = 3.0, seed: int = 3, stride_cv: float | None = None,
+    clock: Callable[[], float] | None = None, **engine_kw: object,
+) -> tuple[SimulatedUnit, Engine]:  # fmt: skip
+    """A simulated unit (``GaitConfig(seed, standing_s[, stride_cv])`` at ``speed`` times real
+    time on ``clock``, with ``faults``) and an engine on it over the in-process transport, not
+    started. ``engine_kw`` go to :class:`Engine` (``config``, ``recorder_queue_blocks``...)."""
+    gait = GaitConfig(seed=seed, standing_s=standing_s)
+    if stride_cv is not None:
+        gait = GaitConfig(seed=seed, standing_s=standing_s, stride_cv=stride_cv)
+    unit = SimulatedUnit(gait, faults=faults, speed=speed, clock=clock or time.monotonic)
+    eng = Engine(Device(InProcessTransport(unit)), mode, transport_label="simulated",
+                 **engine_kw)  # type: ignore[arg-type]  # fmt: skip
+    return unit, eng

@@ -1,0 +1,89 @@
+"""numba's compiled loops are cached in the user's cache folder, never in the installed package
+(files pip does not know of, left there, hide a later editable install), and a missing numba is
+one line that says what to install. Each test runs a fresh interpreter: numba picks a cache
+folder once per process."""
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import gaitmon
+
+PACKAGE = Path(gaitmon.__file__).resolve().parent
+ROOT = PACKAGE.parent
+
+COMPILE_ONE = """
+import numpy as np
+from gaitmon.dsp import kernels
+x = np.zeros((6, 1))
+kernels.constant_map_solve(np.ones((3, 6)), np.ones(6), np.zeros((3, 1)), np.zeros((3, 1)),
+                           1.0, 1.0, 0.01, np.zeros(1), 1.0, x)
+print(kernels.constant_map_solve._cache._cache_path)
+"""
+
+
+def run(code_or_args: str | list[str], env: dict[str, str], **kw) -> subprocess.CompletedProcess:
+    args = ["-c", code_or_args] if isinstance(code_or_args, str) else code_or_args
+    return subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True,
+                          timeout=240, cwd=kw.get("cwd"))  # fmt: skip
+
+
+def clean_env(**extra: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), *extra.pop("PYTHONPATH", "").split(os.pathsep)])
+    env.update(extra)
+    return env
+
+
+def cache_files(folder: Path, since: float) -> list[Path]:
+    return [p for p in folder.rglob("*.nb*") if p.stat().st_mtime >= since]
+
+
+def test_compiled_loops_are_cached_in_the_users_cache_folder_not_in_the_package(tmp_path):
+    start = time.time() - 1.0  # file systems with coarse times
+    proc = run(COMPILE_ONE, clean_env(XDG_CACHE_HOME=str(tmp_path / "cache")))
+    assert proc.returncode == 0, proc.stderr
+    cache = tmp_path / "cache" / "gaitmon" / "numba"
+    assert Path(proc.stdout.strip()).is_relative_to(cache)
+    written = cache_files(cache, start)
+    assert {p.suffix for p in written} == {".nbi", ".nbc"}, written
+    assert all("constant_map_solve" in p.name for p in written)
+    assert cache_files(PACKAGE, start) == []
+
+
+WHERE = """
+from gaitmon.dsp import kernels
+print(kernels.numba_cache_dir())
+print(kernels.gait_aware_update._cache._cache_path)
+print(kernels.constant_map_solve._cache._cache_path)
+"""
+
+
+def test_an_explicit_NUMBA_CACHE_DIR_is_kept(tmp_path):
+    """(Where numba would write, read off the kernels: the test above compiles for real.)"""
+    mine = tmp_path / "mine"
+    proc = run(WHERE, clean_env(NUMBA_CACHE_DIR=str(mine), XDG_CACHE_HOME=str(tmp_path / "c")))
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.split()
+    assert lines[0] == str(mine)
+    assert all(Path(p).is_relative_to(mine) for p in lines[1:])
+    assert not (tmp_path / "c").exists()
+
+
+def test_without_numba_record_says_in_one_line_what_to_install(tmp_path):
+    hide = tmp_path / "hide"
+    hide.mkdir()
+    (hide / "sitecustomize.py").write_text("import sys\nsys.modules['numba'] = None\n")
+    out = tmp_path / "never.h5"
+    proc = run(["-m", "gaitmon", "record", "--simulate", "--duration", "2", "--speed", "20",
+                "--standing-s", "1", "--quiet", "-o", str(out)],
+               clean_env(PYTHONPATH=str(hide), QT_QPA_PLATFORM="offscreen"),
+               cwd=str(tmp_path))  # fmt: skip
+    assert proc.returncode == 2
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert "pip install" in lines[0] and "numba" in lines[0]
+    assert "Traceback" not in proc.stderr
+    assert not out.exists()
