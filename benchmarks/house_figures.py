@@ -18,7 +18,7 @@ from pathlib import Path
 SLEEPY = {"sleep", "monotonic", "perf_counter", "time", "waitUntil", "waitSignal", "wait",
           "waitExposed", "wait_for", "waitCallback"}  # fmt: skip
 TWO_LEG_NAMES = re.compile(r"Bilateral|Pair|Leg|Side")
-PUBLIC_PACKAGES = ("gaitmon/io/session", "gaitmon/io/export", "gaitmon/dsp/methods",
+PUBLIC_PACKAGES = ("gaitmon/io/session", "gaitmon/export/writers", "gaitmon/dsp/methods",
                    "gaitmon/finish", "gaitmon/sessions", "gaitmon/export")  # fmt: skip
 
 

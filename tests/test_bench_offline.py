@@ -14,7 +14,7 @@ from test_export import write_session
 
 from gaitmon.commands import bench_offline
 from gaitmon.export import export_session
-from gaitmon.io.export.outputs import csv_meta_path
+from gaitmon.export.writers.outputs import csv_meta_path
 
 
 def _rows(text: str) -> tuple[list[str], list[list[str]]]:

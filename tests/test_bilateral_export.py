@@ -275,7 +275,7 @@ def test_a_long_c3d_is_split_into_parts_on_the_same_time_line(
     both: Path, tmp_path: Path, analysis: dict[str, object], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     ezc3d = pytest.importorskip("ezc3d")
-    from gaitmon.io.export import c3d as one_leg_c3d
+    from gaitmon.export.writers import c3d as one_leg_c3d
 
     monkeypatch.setattr(one_leg_c3d, "C3D_MAX_PART_S", 5.0)  # 500-frame parts
     out = tmp_path / "both.c3d"
@@ -421,7 +421,7 @@ def test_a_format_that_cannot_write_both_legs_says_so_in_one_line(
 
     from gaitmon import export as ex
     from gaitmon.export.base import Format
-    from gaitmon.io.export import csv as csv_writer
+    from gaitmon.export.writers import csv as csv_writer
 
     @dataclass(frozen=True)
     class OneUnitOnly(Format):

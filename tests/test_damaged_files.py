@@ -222,8 +222,8 @@ def test_the_last_resort_turns_an_analysis_error_into_one_line(corpus, monkeypat
 def test_an_h5py_runtime_error_inside_an_export_is_a_damaged_file(corpus):
     """h5py raises RuntimeError for a damaged object header ("Can't get deprecated info for
     object", seen on a random bit flip while the export read the channel table): one line."""
-    from gaitmon.io.export import ExportError
-    from gaitmon.io.export.source import open_source
+    from gaitmon.export.writers import ExportError
+    from gaitmon.export.writers.source import open_source
 
     src = corpus[0][0].parent.parent / "walk.h5"  # the intact recording the corpus came from
     assert src.is_file()

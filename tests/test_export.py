@@ -21,8 +21,8 @@ import pytest
 from gaitmon import export as ex
 from gaitmon.cli import main
 from gaitmon.dsp.channels import CHANNELS
-from gaitmon.io.export import c3d as ex_c3d
-from gaitmon.io.export import mat as ex_mat
+from gaitmon.export.writers import c3d as ex_c3d
+from gaitmon.export.writers import mat as ex_mat
 
 PATIENT = "PT-4711-XQZ"
 OPERATOR = "Dr. Quillfeather"
@@ -727,7 +727,7 @@ def test_listing_the_formats_loads_no_format_module():
             "assert set(e.FORMATS) >= {'csv', 'mat', 'c3d', 'strides', 'bids'};"
             "print(sorted(m for m in sys.modules if m in ('numpy', 'scipy', 'ezc3d')"
             " or m.startswith('h5py') or m.startswith('gaitmon.analysis')"
-            " or m.startswith('gaitmon.io.export.') and m.rsplit('.', 1)[1] in e.FORMATS))")
+            " or m.startswith('gaitmon.export.writers.') and m.rsplit('.', 1)[1] in e.FORMATS))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=60)
     assert out.stdout.strip() == "[]"
@@ -736,7 +736,7 @@ def test_listing_the_formats_loads_no_format_module():
 def test_csv_text_equals_python_percent_formatting():
     """The vectorised CSV writer gives byte for byte what ``"%.Nf" % x`` / ``"%d" % x`` give,
     including rounding ties of the exact binary value, -0, NaN, inf and out-of-range values."""
-    from gaitmon.io.export.csv_text import CsvColumn, format_block
+    from gaitmon.export.writers.csv_text import CsvColumn, format_block
 
     rng = np.random.default_rng(7)
     m = 5000

@@ -1,8 +1,8 @@
 """The layer contract, checked from the source: arrows only point down, and no import circle.
 
-    base (gaitmon, errors, jobs, text) <- dsp <- io (link, simulator, session format)
-        <- engine / analysis / normative / reprocessing / finish / io.export
-        <- report / export / live / review / lab / batch <- ui <- commands / cli
+    base (gaitmon, errors, jobs, text, values) <- dsp <- io (link, simulator, session format)
+        <- engine / analysis / normative / reprocessing / finish
+        <- report / export / live / review / lab / batch / lsl <- ui <- commands / cli
 
 A module may import its own layer and the layers below it, never one above. Every import
 counts, also one inside a function (a lazy import is still an arrow) or under ``TYPE_CHECKING``
@@ -23,15 +23,13 @@ import gaitmon
 ROOT = Path(gaitmon.__file__).resolve().parent
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("gaitmon", "gaitmon.errors", "gaitmon.jobs", "gaitmon.text"),
+    ("gaitmon", "gaitmon.errors", "gaitmon.jobs", "gaitmon.text", "gaitmon.values"),
     ("gaitmon.dsp",),
-    # the exports' de-identification rules are pure data, also used by the format's
-    # de-identified copy
-    ("gaitmon.io", "gaitmon.io.export.deidentify"),
+    ("gaitmon.io",),
     # gaitmon.finish: recovery, reprocessing and what is derived from a file's rows, above the
-    # format that only stores and reads; the exports' file writers open sessions through it
+    # format that only stores and reads
     ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative", "gaitmon.reprocessing",
-     "gaitmon.finish", "gaitmon.io.export"),
+     "gaitmon.finish"),
     ("gaitmon.report", "gaitmon.report_content", "gaitmon.export", "gaitmon.compare",
      "gaitmon.live", "gaitmon.review", "gaitmon.lab", "gaitmon.batch", "gaitmon.lsl"),
     ("gaitmon.ui",),

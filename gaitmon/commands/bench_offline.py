@@ -131,9 +131,9 @@ def _all_columns(src_path: Path) -> tuple[list[str], list[Any], dict[int, str]]:
     the marker labels, as {row: text} (an empty cell on every other row)."""
     import numpy as np
 
-    from gaitmon.io.export.csv import CSV_EXTRA_COLUMNS, MARKER_PLACEHOLDER, _csv_columns
-    from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.source import gaps, markers, open_source
+    from gaitmon.export.writers.csv import CSV_EXTRA_COLUMNS, MARKER_PLACEHOLDER, _csv_columns
+    from gaitmon.export.writers.source import gaps, markers, open_source
+    from gaitmon.io.deidentify import Scrubber
 
     names: list[str] = []
     arrays: list[Any] = []
@@ -202,7 +202,7 @@ def _task(task: str, src: Path, out: Path) -> list[Path]:
     if task == "mat_savemat":
         from scipy.io import savemat
 
-        from gaitmon.io.export.source import open_source
+        from gaitmon.export.writers.source import open_source
 
         with open_source(src) as s:
             mats = {x.key: s.read(x.path) for x in s.series}

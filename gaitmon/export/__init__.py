@@ -3,7 +3,7 @@ CSV and BIDS: a session of one or more units (one leg is one unit), one path per
 
 A format is a plugin (:class:`.base.Format`) in a module of its own (:mod:`.csv`, :mod:`.mat`,
 :mod:`.c3d`, :mod:`.strides`, :mod:`.bids`), listed in :mod:`.registry`. It writes one unit
-through its writer in :mod:`gaitmon.io.export` (the file layouts, the read side, atomic
+through its writer in :mod:`gaitmon.export.writers` (the file layouts, the read side, atomic
 outputs and de-identification) and both legs of a two-leg session with the tables and the
 common grid they share (:mod:`.tables`, :mod:`.grid`, :mod:`.legs`). A format that cannot
 write both legs says so in one line. The layouts are documented in docs/file-format.md,
@@ -22,9 +22,9 @@ from pathlib import Path
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format, output_name
 from gaitmon.export.registry import FORMATS
-from gaitmon.io.export.deidentify import ANONYMOUS, REDACTED
-from gaitmon.io.export.errors import Cancel, ExportCancelled, ExportError, Progress
-from gaitmon.io.export.outputs import c3d_part_path, csv_meta_path
+from gaitmon.export.writers.errors import Cancel, ExportCancelled, ExportError, Progress
+from gaitmon.export.writers.outputs import c3d_part_path, csv_meta_path
+from gaitmon.io.deidentify import ANONYMOUS, REDACTED
 
 __all__ = [
     "ANONYMOUS",
@@ -54,7 +54,7 @@ def default_output(src_path: str | os.PathLike[str], fmt: str, *, deidentify: bo
 
 def session_length(src_path: str | os.PathLike[str], side: str | None = None) -> int:
     """Rows in a session file (raises ExportError for a bad file)."""
-    from gaitmon.io.export.source import open_source
+    from gaitmon.export.writers.source import open_source
 
     with open_source(Path(src_path), side=side) as src:
         return src.n
@@ -86,7 +86,8 @@ def export_session(
     ``side``: "L" or "R", one leg of a two-leg file; None for a two-leg file: both legs
     and the two-leg measures (docs/bilateral.md).
     ``options``: the format's own options (BIDS: subject, subject_map,
-    subject_from_patient_id, session, task; see :class:`gaitmon.io.export.bids_labels.BidsOptions`).
+    subject_from_patient_id, session, task; see
+    :class:`gaitmon.export.writers.bids_labels.BidsOptions`).
     """
     from gaitmon.io.session.parts import is_bilateral
 

@@ -18,11 +18,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from gaitmon.io.export.deidentify import DEIDENTIFIED_STEM
-from gaitmon.io.export.errors import Cancel, ExportError, Progress
+from gaitmon.export.writers.errors import Cancel, ExportError, Progress
+from gaitmon.io.deidentify import DEIDENTIFIED_STEM
 
 if TYPE_CHECKING:
-    from gaitmon.io.export.writer import FormatWriter
+    from gaitmon.export.writers.writer import FormatWriter
 
 
 @dataclass(frozen=True)
@@ -140,7 +140,7 @@ def write_atomic(request: ExportRequest, finals: list[Path],
     nothing is left under a final name if anything fails. ``folders``: made for the
     outputs (removed again on failure if empty); ``shared``: files several exports add a row
     to (they may exist without --force)."""
-    from gaitmon.io.export.outputs import AtomicOutputs, check_outputs
+    from gaitmon.export.writers.outputs import AtomicOutputs, check_outputs
 
     atomic = AtomicOutputs()
     try:
@@ -160,9 +160,9 @@ def write_atomic(request: ExportRequest, finals: list[Path],
 
 def export_unit(request: ExportRequest) -> ExportResult:
     """Export the one unit of ``request`` through its format's unit writer."""
-    from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.outputs import make_folders
-    from gaitmon.io.export.source import open_source
+    from gaitmon.export.writers.outputs import make_folders
+    from gaitmon.export.writers.source import open_source
+    from gaitmon.io.deidentify import Scrubber
 
     (side,) = request.units
     form, out_path = request.form, request.out

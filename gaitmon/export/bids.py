@@ -1,5 +1,5 @@
 """The BIDS format: a session as one recording of a Motion-BIDS dataset (the one-unit writer:
-:mod:`gaitmon.io.export.bids`); both legs as one recording with two tracking systems.
+:mod:`gaitmon.export.writers.bids`); both legs as one recording with two tracking systems.
 
 For both legs, each unit is a tracking system, ``tracksys-imuL`` and ``tracksys-imuR``, with
 its own ``_motion.tsv``, ``_channels.tsv`` and ``_motion.json`` (the one-unit export's channels
@@ -19,23 +19,23 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format, write_atomic
-from gaitmon.io.export.errors import ExportError, step
+from gaitmon.export.writers.errors import ExportError, step
 
 if TYPE_CHECKING:
     import numpy as np
 
     from gaitmon.export.grid import CommonGrid, LegOnGrid
-    from gaitmon.io.export.bids import Channel, Names
-    from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.source import Source
-    from gaitmon.io.export.writer import FormatWriter
+    from gaitmon.export.writers.bids import Channel, Names
+    from gaitmon.export.writers.source import Source
+    from gaitmon.export.writers.writer import FormatWriter
+    from gaitmon.io.deidentify import Scrubber
     from gaitmon.values import JsonObject
 
 
 @dataclass(frozen=True)
 class BidsFormat(Format):
     def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
-        from gaitmon.io.export.bids import configure
+        from gaitmon.export.writers.bids import configure
 
         return configure(options)
 
@@ -71,8 +71,8 @@ Event = tuple[float, float, str, int | None, str, str]
 
 def _events(grid: CommonGrid, an_hs: dict[str, np.ndarray], an_to: dict[str, np.ndarray],
             srcs: dict[str, Source], scrub: Scrubber) -> list[Event]:
-    from gaitmon.io.export.bids import NA, tsv_cell
-    from gaitmon.io.export.source import markers
+    from gaitmon.export.writers.bids import NA, tsv_cell
+    from gaitmon.export.writers.source import markers
 
     out: list[Event] = []
     for side in ("L", "R"):
@@ -96,8 +96,8 @@ def _events(grid: CommonGrid, an_hs: dict[str, np.ndarray], an_to: dict[str, np.
 
 def _gaps(leg: LegOnGrid, src: Source, scrub: Scrubber, grid: CommonGrid) -> list[Event]:
     """A leg's gaps inside its recording: the n/a rows between the rows around them."""
-    from gaitmon.io.export.bids import tsv_cell
-    from gaitmon.io.export.source import gaps
+    from gaitmon.export.writers.bids import tsv_cell
+    from gaitmon.export.writers.source import gaps
 
     c = leg.common_s
     out: list[Event] = []
@@ -112,7 +112,7 @@ def _gaps(leg: LegOnGrid, src: Source, scrub: Scrubber, grid: CommonGrid) -> lis
 
 
 def _events_tsv(evs: list[Event]) -> str:
-    from gaitmon.io.export.bids import NA
+    from gaitmon.export.writers.bids import NA
 
     rows = ["\t".join(EVENTS_COLUMNS)]
     for e in evs:
@@ -125,7 +125,7 @@ def export_bids(job: ExportRequest) -> ExportResult:
     """One recording with two tracking systems on the common grid."""
     from gaitmon.export.grid import grid_of, on_grid
     from gaitmon.export.legs import analysed, leg_sources, meta_header
-    from gaitmon.io.export.bids import (
+    from gaitmon.export.writers.bids import (
         EVENTS_JSON,
         README_TEXT,
         TSV_CHUNK_FRAMES,
@@ -139,10 +139,10 @@ def export_bids(job: ExportRequest) -> ExportResult:
         write_json,
         write_text,
     )
-    from gaitmon.io.export.bids_labels import BidsOptions
-    from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.outputs import make_folders
-    from gaitmon.io.export.source import as_text
+    from gaitmon.export.writers.bids_labels import BidsOptions
+    from gaitmon.export.writers.outputs import make_folders
+    from gaitmon.export.writers.source import as_text
+    from gaitmon.io.deidentify import Scrubber
 
     options = BidsOptions.from_mapping(job.options)
     with analysed(job) as (b, an, _), leg_sources(job) as srcs:
@@ -207,8 +207,8 @@ def _sidecar(src: Source, chans: list[Channel], grid: CommonGrid, leg: LegOnGrid
     """The one-leg sidecar, for this tracking system on the common grid."""
     import numpy as np
 
-    from gaitmon.io.export.bids import NA, motion_sidecar
-    from gaitmon.io.export.source import json_safe
+    from gaitmon.export.writers.bids import NA, motion_sidecar
+    from gaitmon.export.writers.source import json_safe
 
     have = np.isfinite(leg.resample(np.ones((len(leg.common_s), 1)), 0, 0, grid.n_frames))[:, 0]
     frames = np.flatnonzero(have)

@@ -1,5 +1,5 @@
 """The C3D format: angles as POINTs, raw channels as ANALOGs, gait events as EVENTs (the
-one-unit writer: :mod:`gaitmon.io.export.c3d`); both legs in one file on one frame grid.
+one-unit writer: :mod:`gaitmon.export.writers.c3d`); both legs in one file on one frame grid.
 
 For both legs, points and analogs are each unit's, as the one-unit C3D has them, named with
 their side as Plug-in Gait does (``LKneeAngles``, ``RKneeAngles``; the trunk ``LBodyTilt`` /
@@ -18,22 +18,22 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format, write_atomic
-from gaitmon.io.export.errors import step
+from gaitmon.export.writers.errors import step
 
 if TYPE_CHECKING:
     import numpy as np
 
     from gaitmon.export.grid import CommonGrid
-    from gaitmon.io.export.c3d_file import C3dSpec
-    from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.source import Source
-    from gaitmon.io.export.writer import FormatWriter
+    from gaitmon.export.writers.c3d_file import C3dSpec
+    from gaitmon.export.writers.source import Source
+    from gaitmon.export.writers.writer import FormatWriter
+    from gaitmon.io.deidentify import Scrubber
 
 
 @dataclass(frozen=True)
 class C3dFormat(Format):
     def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
-        from gaitmon.io.export import c3d
+        from gaitmon.export.writers import c3d
 
         self.no_options(options)
         return c3d
@@ -54,7 +54,7 @@ Event = tuple[float, str, str, str, int]
 def events(an_hs: dict[str, np.ndarray], an_to: dict[str, np.ndarray], grid: CommonGrid,
            srcs: dict[str, Source], scrub: Scrubber) -> list[Event]:
     """Both legs' gait events and the markers, by time (strikes before offs at one time)."""
-    from gaitmon.io.export.source import markers
+    from gaitmon.export.writers.source import markers
 
     out: list[Event] = []
     for side in ("L", "R"):
@@ -78,7 +78,7 @@ def _part_spec(job: ExportRequest, grid: CommonGrid, srcs: dict[str, Source],
     import numpy as np
 
     from gaitmon.export.grid import on_grid
-    from gaitmon.io.export.c3d import (
+    from gaitmon.export.writers.c3d import (
         device_text,
         leg_analogs,
         leg_points,
@@ -87,9 +87,9 @@ def _part_spec(job: ExportRequest, grid: CommonGrid, srcs: dict[str, Source],
         put_gaitmon,
         put_points,
     )
-    from gaitmon.io.export.c3d_file import C3dSpec
-    from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS
-    from gaitmon.io.export.source import as_text
+    from gaitmon.export.writers.c3d_file import C3dSpec
+    from gaitmon.export.writers.source import as_text
+    from gaitmon.io.deidentify import ANONYMOUS, IDENTIFYING_FIELDS
 
     f0, f1 = part
     nf = f1 - f0
@@ -125,9 +125,9 @@ def export_c3d(job: ExportRequest) -> ExportResult:
 
     from gaitmon.export.grid import grid_of
     from gaitmon.export.legs import analysed, leg_sources
-    from gaitmon.io.export.c3d import part_frames, split_parts, write_c3d_parts
-    from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.outputs import c3d_part_path
+    from gaitmon.export.writers.c3d import part_frames, split_parts, write_c3d_parts
+    from gaitmon.export.writers.outputs import c3d_part_path
+    from gaitmon.io.deidentify import Scrubber
 
     with analysed(job) as (b, an, _), leg_sources(job) as srcs:
         grid = grid_of(b, srcs)

@@ -1,5 +1,5 @@
 """The CSV format: one row per received sample plus a ``.meta.json`` side file for each unit
-(the writer: :mod:`gaitmon.io.export.csv`); a session of both legs adds the two-leg tables.
+(the writer: :mod:`gaitmon.export.writers.csv`); a session of both legs adds the two-leg tables.
 
 ``gaitmon export both.h5 --format csv`` writes ``both_L.csv`` + ``both_L.meta.json`` and the
 same for R (exactly what ``--side L|R`` writes: the one-unit path), then
@@ -19,18 +19,18 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format, export_unit, write_atomic
-from gaitmon.io.export.errors import step
-from gaitmon.io.export.outputs import check_outputs, csv_meta_path
+from gaitmon.export.writers.errors import step
+from gaitmon.export.writers.outputs import check_outputs, csv_meta_path
 
 if TYPE_CHECKING:
-    from gaitmon.io.export.writer import FormatWriter
+    from gaitmon.export.writers.writer import FormatWriter
     from gaitmon.values import JsonObject
 
 
 @dataclass(frozen=True)
 class CsvFormat(Format):
     def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
-        from gaitmon.io.export import csv
+        from gaitmon.export.writers import csv
 
         self.no_options(options)
         return csv
@@ -58,7 +58,7 @@ def export_legs_and_tables(request: ExportRequest) -> ExportResult:
         write_heel_strikes_csv,
         write_symmetry_csv,
     )
-    from gaitmon.io.export.source import json_default, json_safe
+    from gaitmon.export.writers.source import json_default, json_safe
 
     legs = {s: request.named(s) for s in ("L", "R")}
     leg_files = [p for s in legs for p in (legs[s], csv_meta_path(legs[s]))]

@@ -18,11 +18,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gaitmon.io.export.errors import ExportError
+from gaitmon.export.writers.errors import ExportError
 
 if TYPE_CHECKING:
+    from gaitmon.export.writers.source import Source
     from gaitmon.finish.bilateral import Bilateral
-    from gaitmon.io.export.source import Source
 
 MAX_ROW_SPACING = 1.5  # samples between two rows that a frame may be interpolated across
 

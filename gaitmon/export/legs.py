@@ -9,13 +9,13 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest
-from gaitmon.io.export.errors import ExportError
+from gaitmon.export.writers.errors import ExportError
 
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis
     from gaitmon.export.tables import BilateralTables
+    from gaitmon.export.writers.source import Source
     from gaitmon.finish.bilateral import Bilateral
-    from gaitmon.io.export.source import Source
     from gaitmon.values import JsonObject
 
 
@@ -42,7 +42,7 @@ def analysed(job: ExportRequest) -> Iterator[tuple[Bilateral, BilateralAnalysis,
 def leg_sources(job: ExportRequest) -> Iterator[dict[str, Source]]:
     """Each leg as the one-leg exporters read it (angles as asked; host clock from 0 when
     de-identified, as ``export_session`` does)."""
-    from gaitmon.io.export.source import open_source
+    from gaitmon.export.writers.source import open_source
 
     with contextlib.ExitStack() as stack:
         srcs = {s: stack.enter_context(open_source(job.src_path, job.angles, s))
@@ -55,7 +55,7 @@ def leg_sources(job: ExportRequest) -> Iterator[dict[str, Source]]:
 
 def meta_header(job: ExportRequest, b: Bilateral) -> JsonObject:
     """What every bilateral side file says of the export and of the common time line."""
-    from gaitmon.io.export.source import export_header_fields
+    from gaitmon.export.writers.source import export_header_fields
 
     head = export_header_fields(f"bilateral-{job.fmt}", job.deidentify)
     if not job.deidentify:

@@ -1,8 +1,8 @@
 """The MATLAB format: one v5 file with the struct ``session`` for one unit (the writer:
-:mod:`gaitmon.io.export.mat`); for both legs the structs ``L``, ``R`` and ``bilateral``.
+:mod:`gaitmon.export.writers.mat`); for both legs the structs ``L``, ``R`` and ``bilateral``.
 
 ``L`` and ``R`` are each the one-unit export's ``session`` struct (built and streamed by
-:mod:`gaitmon.io.export.mat`), with ``t_common_s``, every row's time on the session's common
+:mod:`gaitmon.export.writers.mat`), with ``t_common_s``, every row's time on the session's common
 time line, and ``events.heel_strike_t_common_s`` / ``toe_off_t_common_s``. ``bilateral`` holds
 the per-heel-strike table (``heel_strikes``, one field a column, ``unit_row_idx`` 1-based),
 the symmetry table (``symmetry``), the cadence, each column's unit and description, and the
@@ -18,21 +18,21 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format, write_atomic
-from gaitmon.io.export.errors import step
+from gaitmon.export.writers.errors import step
 
 if TYPE_CHECKING:
     import numpy as np
 
     from gaitmon.export.tables import BilateralTables
-    from gaitmon.io.export.mat import MatStruct, MatValue
-    from gaitmon.io.export.writer import FormatWriter
+    from gaitmon.export.writers.mat import MatStruct, MatValue
+    from gaitmon.export.writers.writer import FormatWriter
     from gaitmon.values import JsonObject, JsonValue
 
 
 @dataclass(frozen=True)
 class MatFormat(Format):
     def unit_writer(self, options: Mapping[str, object] | None) -> FormatWriter:
-        from gaitmon.io.export import mat
+        from gaitmon.export.writers import mat
 
         self.no_options(options)
         return mat
@@ -58,8 +58,8 @@ def bilateral_struct(tables: BilateralTables, head: JsonObject) -> dict[str, Mat
         SYMMETRY_COLUMNS,
         TIME_MEASURES,
     )
-    from gaitmon.io.export.mat import mat_cell, mat_value
-    from gaitmon.io.export.source import json_safe
+    from gaitmon.export.writers.mat import mat_cell, mat_value
+    from gaitmon.export.writers.source import json_safe
 
     t = tables.heel_strikes
     hs: dict[str, MatValue] = {
@@ -105,8 +105,8 @@ def export_mat(job: ExportRequest) -> ExportResult:
     from scipy.io import savemat
 
     from gaitmon.export.legs import analysed, leg_sources, meta_header
-    from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.mat import session_struct, write_struct
+    from gaitmon.export.writers.mat import session_struct, write_struct
+    from gaitmon.io.deidentify import Scrubber
 
     with analysed(job) as (b, _, tables), leg_sources(job) as srcs:
         def write(tmps: list[Path]) -> None:

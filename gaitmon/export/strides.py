@@ -21,13 +21,13 @@ from typing import TYPE_CHECKING
 
 from gaitmon.export.base import ExportRequest, ExportResult, Format
 from gaitmon.export.csv import export_legs_and_tables
-from gaitmon.io.export.errors import Cancel, Progress, step
-from gaitmon.io.export.outputs import csv_meta_path
+from gaitmon.export.writers.errors import Cancel, Progress, step
+from gaitmon.export.writers.outputs import csv_meta_path
 
 if TYPE_CHECKING:
-    from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.source import Source
-    from gaitmon.io.export.writer import FormatWriter
+    from gaitmon.export.writers.source import Source
+    from gaitmon.export.writers.writer import FormatWriter
+    from gaitmon.io.deidentify import Scrubber
 
 
 class StridesWriter:
@@ -46,7 +46,7 @@ class StridesWriter:
             stride_cells,
             stride_start_times,
         )
-        from gaitmon.io.export.source import json_default, json_safe, metadata
+        from gaitmon.export.writers.source import json_default, json_safe, metadata
 
         out, meta_out = outputs
         session = src.session

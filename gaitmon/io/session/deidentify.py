@@ -1,7 +1,7 @@
 """A de-identified copy of a session file (``gaitmon batch --deidentify`` writes these).
 
 The same things leave the file as leave a de-identified export (the lists of
-:mod:`gaitmon.io.export.deidentify`, docs/file-format.md "De-identified session files"):
+:mod:`gaitmon.io.deidentify`, docs/file-format.md "De-identified session files"):
 
 * ``/session`` ``patient_id``, ``operator`` and ``notes`` are blanked, and their values are
   removed from the free texts (marker labels, gap reasons, the stop reason);
@@ -25,7 +25,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from gaitmon.io.export.deidentify import (
+from gaitmon.io.deidentify import (
     DEVICE_FIELDS_DROPPED,
     IDENTIFYING_FIELDS,
     REDACTED,

@@ -23,7 +23,7 @@ De-identification starts at each format's own default, as ``gaitmon export`` has
 dataset folder, and the dialog asks what ``gaitmon export --format bids`` takes: the subject
 label (``01``, a label typed, a subject map file, or the patient id only when its box is ticked,
 with a warning), the session and the task. The labels are checked by
-:class:`gaitmon.io.export.bids_labels.BidsOptions`, as on the command line, before the worker
+:class:`gaitmon.export.writers.bids_labels.BidsOptions`, as on the command line, before the worker
 starts, so a bad label is the command line's one-line message.
 """
 
@@ -54,7 +54,7 @@ from PySide6.QtWidgets import (
 
 from gaitmon.errors import Cancelled
 from gaitmon.export import FORMATS, ExportError, ExportResult, default_output, export_session
-from gaitmon.io.export.bids_labels import DEFAULT_SUBJECT, DEFAULT_TASK, BidsOptions
+from gaitmon.export.writers.bids_labels import DEFAULT_SUBJECT, DEFAULT_TASK, BidsOptions
 from gaitmon.jobs import Response, Ticket
 from gaitmon.ui.jobs import QtWorker
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, cast
 
-from gaitmon.io.export.errors import ExportError
+from gaitmon.export.writers.errors import ExportError
 
 DEFAULT_SUBJECT = "01"  # when no label is given: says nothing about the patient
 DEFAULT_TASK = "walk"

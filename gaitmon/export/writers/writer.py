@@ -7,11 +7,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
-from gaitmon.io.export.errors import Cancel, Progress
+from gaitmon.export.writers.errors import Cancel, Progress
 
 if TYPE_CHECKING:
-    from gaitmon.io.export.deidentify import Scrubber
-    from gaitmon.io.export.source import Source
+    from gaitmon.export.writers.source import Source
+    from gaitmon.io.deidentify import Scrubber
 
 
 class FormatWriter(Protocol):

@@ -10,7 +10,7 @@ import contextlib
 import os
 from pathlib import Path
 
-from gaitmon.io.export.errors import ExportError
+from gaitmon.export.writers.errors import ExportError
 
 
 def csv_meta_path(csv_path: Path) -> Path:

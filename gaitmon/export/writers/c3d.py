@@ -4,7 +4,7 @@ Joint angles (and segment tilts) are POINTs of type angle, the 14 ADC channels i
 units are ANALOGs, gait events and markers go in the EVENT group. Rows are placed on a uniform
 1/fs frame grid (lost frames become invalid points). Sessions longer than one C3D trial, or
 with more events than one EVENT group holds, are split into parts (``<stem>_part001.c3d``…).
-The files themselves are written by gaitmon.io.export.c3d_file (numpy, no ezc3d). Layout:
+The files themselves are written by gaitmon.export.writers.c3d_file (numpy, no ezc3d). Layout:
 docs/file-format.md, "Export formats".
 """
 
@@ -20,11 +20,11 @@ import numpy as np
 
 from gaitmon import __version__
 from gaitmon.dsp.channels import DEFAULT_TABLE, JOINTS, SEGMENTS, ChannelSpec, ChannelTable
-from gaitmon.io.export.c3d_file import C3dSpec, write_c3d
-from gaitmon.io.export.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
-from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
-from gaitmon.io.export.outputs import c3d_part_path
-from gaitmon.io.export.source import JOINT_LABELS, Source, as_text, markers, session_side
+from gaitmon.export.writers.c3d_file import C3dSpec, write_c3d
+from gaitmon.export.writers.errors import Cancel, ExportError, Progress, step
+from gaitmon.export.writers.outputs import c3d_part_path
+from gaitmon.export.writers.source import JOINT_LABELS, Source, as_text, markers, session_side
+from gaitmon.io.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
 from gaitmon.values import JsonValue
 
 # A C3D trial counts frames in 16-bit words (header and POINT:FRAMES); past 65535 frames

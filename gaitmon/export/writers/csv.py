@@ -12,11 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from gaitmon.io.export.csv_text import CsvColumn, decimals_of, format_block
-from gaitmon.io.export.deidentify import Scrubber
-from gaitmon.io.export.errors import Cancel, Progress, step
-from gaitmon.io.export.outputs import csv_meta_path
-from gaitmon.io.export.source import (
+from gaitmon.export.writers.csv_text import CsvColumn, decimals_of, format_block
+from gaitmon.export.writers.errors import Cancel, Progress, step
+from gaitmon.export.writers.outputs import csv_meta_path
+from gaitmon.export.writers.source import (
     PROCESSED_SERIES,
     Series,
     Source,
@@ -28,6 +27,7 @@ from gaitmon.io.export.source import (
     markers,
     metadata,
 )
+from gaitmon.io.deidentify import Scrubber
 from gaitmon.values import JsonObject
 
 CSV_CHUNK_ROWS = 32_768  # ~15 MB of text per chunk

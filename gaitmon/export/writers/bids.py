@@ -32,11 +32,10 @@ import numpy as np
 
 from gaitmon import __version__
 from gaitmon.dsp.channels import SEGMENTS
-from gaitmon.io.export.bids_labels import BidsOptions
-from gaitmon.io.export.csv_text import CsvColumn, format_block
-from gaitmon.io.export.deidentify import Scrubber
-from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
-from gaitmon.io.export.source import (
+from gaitmon.export.writers.bids_labels import BidsOptions
+from gaitmon.export.writers.csv_text import CsvColumn, format_block
+from gaitmon.export.writers.errors import Cancel, ExportError, Progress, step
+from gaitmon.export.writers.source import (
     JOINT_LABELS,
     ExportedGap,
     Source,
@@ -47,6 +46,7 @@ from gaitmon.io.export.source import (
     markers,
     session_side,
 )
+from gaitmon.io.deidentify import Scrubber
 from gaitmon.values import JsonObject, JsonValue, scalar
 
 BIDS_VERSION = "1.9.0"

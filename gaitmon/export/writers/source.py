@@ -3,7 +3,7 @@
 Owns the exported series (HDF5 dataset -> CSV columns, MAT field, units, printf precision),
 :class:`Source` (a lazy view over an opened session: datasets stay on disk), and the builders
 every format shares: metadata, markers, gaps, the export header, side. De-identification is
-applied here through a :class:`~gaitmon.io.export.deidentify.Scrubber`.
+applied here through a :class:`~gaitmon.io.deidentify.Scrubber`.
 
 Metadata is assembled from :data:`METADATA_SECTIONS`, one builder per key, so a new piece of
 session state (e.g. review exclusions) is one builder function and one entry there; the MAT
@@ -24,8 +24,8 @@ import numpy as np
 
 from gaitmon import __version__
 from gaitmon.dsp.channel_table import CHANNEL_NAMES, JOINT_TABLE, SEGMENTS
-from gaitmon.io.export.deidentify import Scrubber
-from gaitmon.io.export.errors import ExportError
+from gaitmon.export.writers.errors import ExportError
+from gaitmon.io.deidentify import Scrubber
 from gaitmon.values import JsonObject, JsonValue, scalar
 
 if TYPE_CHECKING:

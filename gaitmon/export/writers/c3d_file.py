@@ -6,7 +6,7 @@ kept about the data size of every file it wrote until the process exited, so an 
 (c3d.org, "The C3D File Format User Guide"): 512-byte blocks, Intel byte order, float data
 (POINT:SCALE < 0). ezc3d remains the independent reader the tests use.
 
-A part is built (gaitmon.io.export.c3d) as a :class:`C3dSpec`, plain data.
+A part is built (gaitmon.export.writers.c3d) as a :class:`C3dSpec`, plain data.
 
 Layout written: block 1 the header; from block 2 the parameter groups and parameters of the
 spec; then per frame the points (X, Y, Z, residual

@@ -15,9 +15,8 @@ from typing import BinaryIO, TypeAlias
 
 import numpy as np
 
-from gaitmon.io.export.deidentify import Scrubber
-from gaitmon.io.export.errors import Cancel, ExportError, Progress, step
-from gaitmon.io.export.source import (
+from gaitmon.export.writers.errors import Cancel, ExportError, Progress, step
+from gaitmon.export.writers.source import (
     Series,
     Source,
     export_header,
@@ -26,6 +25,7 @@ from gaitmon.io.export.source import (
     markers,
     metadata,
 )
+from gaitmon.io.deidentify import Scrubber
 from gaitmon.values import JsonValue, scalar
 
 # MATLAB's v5/v7 MAT formats cap one variable at 2 GB (v7.3 lifts it, but scipy cannot read
