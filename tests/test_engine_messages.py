@@ -65,7 +65,9 @@ class CallLog:
     def maybe_flush(self):
         pass
 
-    def close(self, *, stop_reason="user"):
+    def close(self, *, stop_reason="user", derive=None):
+        # derive: what gaitmon.finish.close_recording hands the writer to store /smoothed
+        # and /strides (a call log stores nothing to derive from)
         self.calls.append(("close", stop_reason))
 
 
