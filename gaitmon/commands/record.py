@@ -191,13 +191,11 @@ def _record(
     opener = record_lsl.outlet_opener(args, meta, outlets) if args.lsl else None
     try:
         group.start(out, meta, overwrite=args.force, record=not later, before_stream=opener)
-    except (EngineError, LinkError) as exc:  # the group deleted the files it had created
+    except BaseException as exc:  # the group deleted the (empty) files it had created
         group.stop("error: start-up failed")
         record_lsl.close_outlets(outlets)
-        raise UserError(str(exc)) from None
-    except BaseException:
-        group.stop("error: start-up failed")
-        record_lsl.close_outlets(outlets)
+        if isinstance(exc, (EngineError, LinkError)):
+            raise UserError(str(exc)) from None
         raise
 
     stop = threading.Event()
@@ -300,7 +298,7 @@ def _wait(
             return f"remote: {control.words.stop!r} on LSL stream {control.name!r}", ""
         # only counters here: a display snapshot (ring-buffer copies) is not needed
         if args.status_lines and not group.in_parts:
-            (side, eng), = group.engines.items()  # fmt: skip
+            ((side, eng),) = group.engines.items()
             got = eng.samples_total - rows_from[side]
             if got != last_rows:
                 last_rows = got
