@@ -64,3 +64,53 @@ def test_the_pair_is_the_group_of_its_left_and_right_engines() -> None:
     pair = EnginePair(left, right)
     assert pair.engines == {"L": left, "R": right} and pair.in_parts
     assert pair.sides == ("L", "R")
+
+
+def _record_zeroed_in_tilt_mode(out: Path, *, reapply_unchanged: bool) -> list[object]:
+    """A group of one tilt-mode unit (the subject standing) zeroed while it records: the
+    calibration changes its file logs."""
+    unit = SimulatedUnit(GaitConfig(seed=5, standing_s=600.0), speed=20.0)
+    eng = Engine(Device(InProcessTransport(unit)), "tilt", transport_label="simulated")
+    group = EngineGroup({"": eng})
+    group.start(out)
+    try:
+        deadline = time.monotonic() + 60.0
+        while group.recorded_s("") < 2.0:
+            assert time.monotonic() < deadline, "the unit did not record in time"
+            time.sleep(0.02)
+        before = eng.calibration
+        zeroed = group.zero(reapply_unchanged=reapply_unchanged)
+        assert list(zeroed) == [""] and zeroed[""] is before  # the unit zeroes itself
+        rows = eng.recording.rows
+        while eng.recording.rows < rows + 100:  # blocks processed after the zeroing
+            assert time.monotonic() < deadline, "the unit did not record in time"
+            time.sleep(0.02)
+    finally:
+        assert group.stop()[""].error == ""
+    with open_session(out) as s:
+        return list(s.calibration_changes)
+
+
+def test_a_unit_that_zeroes_itself_is_handed_its_calibration_again_only_if_asked(
+    tmp_path: Path,
+) -> None:
+    """``gaitmon record`` of one unit in tilt mode never logged the unchanged calibration
+    again (``Engine.zero``); a pair's zeroing does (``reapply_unchanged``, the default)."""
+    assert _record_zeroed_in_tilt_mode(tmp_path / "kept.h5", reapply_unchanged=False) == []
+    again = _record_zeroed_in_tilt_mode(tmp_path / "again.h5", reapply_unchanged=True)
+    assert len(again) == 1
+
+
+def test_a_unit_that_is_not_a_leg_is_not_named_when_it_cannot_be_zeroed() -> None:
+    """One unit: "could not zero: ..." as `gaitmon record --zero` always said; a leg is named."""
+    for key, named in (("", "could not zero: "), ("R", "could not zero the right leg (R): ")):
+        walking = SimulatedUnit(GaitConfig(seed=3, standing_s=0.0), speed=20.0)
+        eng = Engine(Device(InProcessTransport(walking)), "raw", transport_label="simulated")
+        group = EngineGroup({key: eng})
+        eng.start()
+        try:
+            with pytest.raises(EngineError) as caught:
+                group.zero(timeout_s=1.0)
+        finally:
+            eng.stop()
+        assert str(caught.value).startswith(named), caught.value

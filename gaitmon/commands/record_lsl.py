@@ -1,14 +1,17 @@
-"""``gaitmon record``'s Lab Streaming Layer inputs: ``--lsl-markers NAME`` records an external
-marker stream into the session, ``--lsl-control NAME`` starts and stops the recording from a
-marker stream. Without these options pylsl is not even imported."""
+"""``gaitmon record``'s Lab Streaming Layer: the inputs of one unit's recording
+(``--lsl-markers NAME`` records an external marker stream into the session, ``--lsl-control
+NAME`` starts and stops the recording from a marker stream) and the outlets of every unit
+(``--lsl``). Without these options pylsl is not even imported."""
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import sys
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -16,8 +19,10 @@ from gaitmon.errors import UserError
 
 if TYPE_CHECKING:
     from gaitmon.engine import Engine
+    from gaitmon.io.session import SessionMeta
     from gaitmon.lsl.control import RemoteControl
     from gaitmon.lsl.inlet import MarkerInlet
+    from gaitmon.lsl.outlets import LslOutlets
 
 DEFAULT_TIMEOUT_S = 5.0
 
@@ -146,3 +151,36 @@ def summary(inputs: LslInputs | None, engine: Engine) -> str:
     if inputs.markers.error:
         text += f"; last inlet error: {inputs.markers.error}"
     return text
+
+
+def outlet_opener(
+    args: argparse.Namespace, meta: SessionMeta, outlets: dict[str, LslOutlets]
+) -> Callable[[str, Engine], None]:
+    """``before_stream(side, engine)`` opening each unit's outlets into ``outlets`` before its
+    first frame (a recorder misses none): a leg's side in their names, source ids and
+    descriptions, each with its own sample clock (``docs/lsl.md``)."""
+    from gaitmon.engine import EngineError
+    from gaitmon.lsl.outlets import LslOutlets
+
+    def open_outlets(side: str, engine: Engine) -> None:
+        unit_meta = dataclasses.replace(meta, side=side) if side else meta
+        try:
+            outlets[side] = LslOutlets.attach(
+                engine, unit_meta, allow_patient_id=args.lsl_patient_id, leg=side
+            )
+        except Exception as exc:  # liblsl could not open its sockets
+            whose = f"the {side} unit's" if side else "the"
+            raise EngineError(f"could not open {whose} LSL streams: {exc}") from None
+        if not args.quiet:
+            names = ", ".join(repr(n) for n in outlets[side].names)
+            print(f"gaitmon record: streaming to LSL as {names}", file=sys.stderr)
+
+    return open_outlets
+
+
+def close_outlets(outlets: dict[str, LslOutlets], linger_s: float = 0.0) -> None:
+    """Every unit's outlets closed (``linger_s``: after the engines' last event, a recorder
+    connected that long takes the rest first)."""
+    for o in outlets.values():
+        o.detach(linger_s=linger_s)
+    outlets.clear()

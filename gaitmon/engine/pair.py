@@ -167,13 +167,15 @@ class EngineGroup:
 
     def zero(
         self, stop: threading.Event | None = None, timeout_s: float = ZERO_TIMEOUT_S,
-        window_s: float = 1.5,
+        window_s: float = 1.5, *, reapply_unchanged: bool = True,
     ) -> dict[str, Calibration]:  # fmt: skip
         """The standing calibration of every unit from the same moment: each unit's last
         ``window_s`` of data, taken one right after the other, retried (the subject settling,
         the first seconds of data) until all succeed in the same try. ``EngineError`` naming
         the leg (or legs) never still in any try after ``timeout_s``; an empty dict if ``stop``
-        is set first."""
+        is set first. A unit that zeroes itself (tilt/joint mode) keeps its calibration; with
+        ``reapply_unchanged`` False it is not handed it again, as ``Engine.zero`` does (handed
+        again, a running recording logs it once more and the gyro integration restarts)."""
         deadline = time.monotonic() + timeout_s
         worked: set[str] = set()  # the legs that were still at some try
         last_error: dict[str, str] = {}
@@ -187,12 +189,15 @@ class EngineGroup:
                 except EngineError as exc:
                     errors[side] = last_error[side] = str(exc)
             if not errors:
-                return {s: self.engines[s].use_calibration(c) for s, c in cals.items()}
+                for s, c in cals.items():
+                    if reapply_unchanged or c is not self.engines[s].calibration:
+                        self.engines[s].use_calibration(c)
+                return cals
             if time.monotonic() > deadline:
                 # the leg that never zeroed, not one that did while it waited for the other
                 never = [s for s in self.engines if s not in worked] or list(errors)
                 raise EngineError("; ".join(
-                    f"could not zero {_unit_name(s)}: {last_error[s]}" for s in never
+                    f"could not zero{_unit_name(s)}: {last_error[s]}" for s in never
                 ))  # fmt: skip
             time.sleep(0.02)  # the simulator may run faster than real time
         return {}
@@ -255,5 +260,6 @@ class EnginePair(EngineGroup):
 
 
 def _unit_name(side: str) -> str:
-    """How an error names a unit: its leg, or (a one-unit group) none."""
-    return f"the {SIDE_NAMES[side]} leg ({side})" if side in SIDE_NAMES else "the unit"
+    """How an error names a unit after a verb: " the left leg (L)", or (a unit that is not a
+    leg, e.g. a one-unit group's) nothing, as ``gaitmon record`` always said of one unit."""
+    return f" the {SIDE_NAMES[side]} leg ({side})" if side in SIDE_NAMES else ""
