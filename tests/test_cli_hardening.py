@@ -214,7 +214,7 @@ def test_disk_full_one_message_whose_row_count_a_reader_gets_at_once(tmp_path):
     out = tmp_path / "full.h5"
     full = _file_size_limit(1_500_000)  # the disk stays full for the reader too
     r = subprocess.run(
-        [*GAITMON, "record", "--simulate", "--speed", "max", "--duration", "300", "-o",
+        [*GAITMON, "record", "--simulate", "--speed", "20", "--duration", "300", "-o",
          str(out), "-q"], preexec_fn=full, capture_output=True, text=True, timeout=150,
     )  # fmt: skip
     assert r.returncode == 2
