@@ -17,6 +17,7 @@ from pathlib import Path
 
 SLEEPY = {"sleep", "monotonic", "perf_counter", "time", "waitUntil", "waitSignal", "wait",
           "waitExposed", "wait_for", "waitCallback"}  # fmt: skip
+FIXED_WAITS = {"sleep", "wait"}  # a fixed time, not a condition (qtbot.wait, time.sleep)
 TWO_LEG_NAMES = re.compile(r"Bilateral|Pair|Leg|Side")
 PUBLIC_PACKAGES = ("gaitmon/io/session", "gaitmon/export/writers", "gaitmon/dsp/methods",
                    "gaitmon/finish", "gaitmon/sessions", "gaitmon/export")  # fmt: skip
@@ -81,7 +82,7 @@ def figures(root: Path) -> list[tuple[str, str]]:
                 widest.append((n_methods, f"{node.name} ({p.relative_to(root)})"))
     dup = sorted(f"{n} x{k}" for n, k in classes.items() if k > 1)
     tests = _py(root, "tests")
-    n_tests = timed = 0
+    n_tests = timed = fixed = 0
     helper_defs: Counter[str] = Counter()
     for p in tests:
         t = ast.parse(p.read_text(encoding="utf-8"))
@@ -95,6 +96,7 @@ def figures(root: Path) -> list[tuple[str, str]]:
                     kw = {k.arg for c in ast.walk(node) if isinstance(c, ast.Call)
                           for k in c.keywords}  # fmt: skip
                     timed += bool(calls & SLEEPY or "timeout" in kw)
+                    fixed += bool(calls & FIXED_WAITS)
     public = [f for pkg in PUBLIC_PACKAGES for f in _py(root, pkg)]
     anys = _any_in_public_signatures(public, root)
     bilateral_tree = [
@@ -114,6 +116,7 @@ def figures(root: Path) -> list[tuple[str, str]]:
          f"{len(bilateral_tree)}: " + ", ".join(bilateral_tree)),
         ("most methods in one class body", ", ".join(f"{n} {c}" for n, c in widest[:3])),
         ("test functions that sleep, read the clock or wait", f"{timed} of {n_tests}"),
+        ("... of them waiting a fixed time (sleep, qtbot.wait)", f"{fixed} of {n_tests}"),
         ("copies of make_engine / wait_for in tests/",
          f"{helper_defs['make_engine']} / {helper_defs['wait_for']}"),
         ("public signatures with Any (session, export, methods, finishing packages)",

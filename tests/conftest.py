@@ -19,13 +19,18 @@ def _lsl_session_of_this_run() -> None:
     machine (a second checkout's tests, a lab's LabRecorder) are never found and ours never
     reach them. Set before pylsl is first used; the ``gaitmon`` processes the tests start
     inherit it. liblsl's logs stay off (gaitmon quiets them only without a config of the
-    user's). A user's own LSLAPICFG is kept."""
-    if os.environ.get("LSLAPICFG"):
-        return
+    user's). A user's own LSLAPICFG is kept. Each pytest-xdist worker is a run of its own (the
+    workers inherit the controller's environment, so the session is made per worker): a test
+    that looks for no stream never sees a test of another worker publish one."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    ours = os.environ.get("GAITMON_TESTS_LSL_SESSION_OF")
+    if os.environ.get("LSLAPICFG") and (ours is None or ours == worker):
+        return  # the user's own configuration, or this process's session made already
     folder = pathlib.Path(tempfile.mkdtemp(prefix="gaitmon-tests-lsl-"))
     cfg = folder / "lsl_api.cfg"
     cfg.write_text(f"[lab]\nSessionID = gaitmon-tests-{uuid.uuid4().hex}\n\n[log]\nlevel = -2\n")
     os.environ["LSLAPICFG"] = str(cfg)
+    os.environ["GAITMON_TESTS_LSL_SESSION_OF"] = worker
     atexit.register(shutil.rmtree, folder, True)
 
 

@@ -24,7 +24,7 @@ from gaitmon.io.sim.sensors import simulate
 FS = 100.0
 
 
-def make_engine(faults=None, standing_s=2.0, speed=10.0, clock=None):
+def seeded_engine(faults=None, standing_s=2.0, speed=10.0, clock=None):
     return _make_engine(faults=faults, standing_s=standing_s, speed=speed, seed=5,
                         stride_cv=0.005, clock=clock)  # fmt: skip
 
@@ -132,7 +132,7 @@ def test_zeroing_restarts_the_gyro_integration_from_the_zeroed_pose():
     # the unit's time is held inside its 6 s of standing (3 s, then 4 s after the zero): the
     # zero and the readings after it are of standing however late a loaded machine gets there
     clock = HeldClock(hold_s=0.0)
-    _unit, eng = make_engine(standing_s=6.0, speed=5.0, clock=clock)
+    _unit, eng = seeded_engine(standing_s=6.0, speed=5.0, clock=clock)
     with eng:
         clock.hold(3.0 / 5.0)
         wait_for(lambda: eng.samples_total >= 290, what="standing data")
@@ -161,7 +161,7 @@ def test_lost_frames_are_nan_rows_at_their_true_times():
 
 def test_random_loss_keeps_display_time_true_and_breaks_the_traces():
     faults = FaultConfig(seed=6, loss_pct=2.0)
-    _unit, eng = make_engine(faults)
+    _unit, eng = seeded_engine(faults)
     with eng:
         wait_for(lambda: eng.samples_total >= 1500, what="1500 samples")
         snap = eng.snapshot(10.0)
@@ -179,7 +179,7 @@ def test_random_loss_keeps_display_time_true_and_breaks_the_traces():
 
 
 def test_phase_changes_at_the_event_instants_live():
-    _unit, eng = make_engine(standing_s=1.0)
+    _unit, eng = seeded_engine(standing_s=1.0)
     with eng:
         wait_for(lambda: eng.samples_total >= 1500, what="walking")
         snap = eng.snapshot(8.0)
@@ -209,7 +209,7 @@ def test_phase_changes_at_the_event_instants_live():
 )
 def test_live_cadence_matches_the_recording_with_loss_and_a_cut(tmp_path, loss_pct, cut_s):
     faults = FaultConfig(seed=5, loss_pct=loss_pct, link_drops=((20.0, cut_s),) if cut_s else ())
-    _unit, eng = make_engine(faults)
+    _unit, eng = seeded_engine(faults)
     path = tmp_path / "walk.h5"
     live = []
     with eng:
@@ -238,7 +238,7 @@ def test_live_cadence_matches_the_recording_with_loss_and_a_cut(tmp_path, loss_p
 
 def test_process_restarts_where_the_live_pipeline_did(tmp_path):
     faults = FaultConfig(seed=7, link_drops=((15.0, 3.0),))
-    _unit, eng = make_engine(faults)
+    _unit, eng = seeded_engine(faults)
     path = tmp_path / "walk.h5"
     with eng:
         eng.start_recording(path)
