@@ -12,8 +12,9 @@ registry: gaitmon.dsp.methods and gaitmon.dsp.events.
 
 from __future__ import annotations
 
-from types import ModuleType
 from typing import TYPE_CHECKING
+
+from gaitmon.lazy import keep
 
 if TYPE_CHECKING:
     from gaitmon.dsp.estimate import estimate_tilt
@@ -27,22 +28,17 @@ def __getattr__(name: str) -> object:
     if name == "estimate_tilt":
         from gaitmon.dsp import estimate
 
-        return _keep(name, estimate)
+        return keep(globals(), name, estimate)
     if name == "gyro_gait_events":
         from gaitmon.dsp import gyro_events
 
-        return _keep(name, gyro_events)
+        return keep(globals(), name, gyro_events)
     if name in ("stride_lengths", "stride_measures", "StrideLengthTracker"):
         from gaitmon.dsp import stride_length
 
-        return _keep(name, stride_length)
+        return keep(globals(), name, stride_length)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
-
-def _keep(name: str, module: ModuleType) -> object:
-    value = getattr(module, name)
-    globals()[name] = value  # found once; later lookups are plain
-    return value
 
 
 __all__ = [

@@ -19,8 +19,9 @@ Importing the package imports none of them (its ``__getattr__``): the pipeline, 
 and numba are loaded by the first name that needs them.
 """
 
-from types import ModuleType
 from typing import TYPE_CHECKING
+
+from gaitmon.lazy import keep
 
 if TYPE_CHECKING:
     from gaitmon.finish.bilateral import Bilateral, open_bilateral
@@ -41,31 +42,26 @@ def __getattr__(name: str) -> object:
     if name in ("Bilateral", "open_bilateral"):
         from gaitmon.finish import bilateral
 
-        return _keep(name, bilateral)
+        return keep(globals(), name, bilateral)
     if name == "close_recording":
         from gaitmon.finish import closing
 
-        return _keep(name, closing)
+        return keep(globals(), name, closing)
     if name in ("build_session", "flagged_at_start", "flags_kept", "recover_session",
                 "replay_pipeline"):  # fmt: skip
         from gaitmon.finish import recovery
 
-        return _keep(name, recovery)
+        return keep(globals(), name, recovery)
     if name in ("RewriteResult", "rewrite_processed"):
         from gaitmon.finish import reprocess
 
-        return _keep(name, reprocess)
+        return keep(globals(), name, reprocess)
     if name in ("Session", "open_session"):
         from gaitmon.finish import session
 
-        return _keep(name, session)
+        return keep(globals(), name, session)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
-
-def _keep(name: str, module: ModuleType) -> object:
-    value = getattr(module, name)
-    globals()[name] = value  # found once; later lookups are plain
-    return value
 
 __all__ = [
     "Bilateral",

@@ -29,8 +29,9 @@ Importing the package imports none of them (its ``__getattr__``): ``gaitmon info
 without loading the writer, the device link or reprocessing.
 """
 
-from types import ModuleType
 from typing import TYPE_CHECKING
+
+from gaitmon.lazy import keep
 
 if TYPE_CHECKING:
     from gaitmon.io.journal import journal_path
@@ -59,15 +60,15 @@ def __getattr__(name: str) -> object:
     if name == "journal_path":
         from gaitmon.io import journal
 
-        return _keep(name, journal)
+        return keep(globals(), name, journal)
     if name == "Exclusion":
         from gaitmon.io.session import exclusions
 
-        return _keep(name, exclusions)
+        return keep(globals(), name, exclusions)
     if name in ("SessionError", "SessionHeader", "SessionMeta", "device_info"):
         from gaitmon.io.session import header
 
-        return _keep(name, header)
+        return keep(globals(), name, header)
     if name in (
         "ANGLE_CONVENTION",
         "CHUNK_ROWS",
@@ -79,38 +80,33 @@ def __getattr__(name: str) -> object:
     ):
         from gaitmon.io.session import layout
 
-        return _keep(name, layout)
+        return keep(globals(), name, layout)
     if name in ("AttrValue", "Gap", "Marker"):
         from gaitmon.io.session import series
 
-        return _keep(name, series)
+        return keep(globals(), name, series)
     if name == "StoredSession":
         from gaitmon.io.session import reader
 
-        return _keep(name, reader)
+        return keep(globals(), name, reader)
     if name == "read_stored":
         from gaitmon.io.session import opening
 
-        return _keep(name, opening)
+        return keep(globals(), name, opening)
     if name == "rows_from_pipeline":
         from gaitmon.io.session import rows
 
-        return _keep(name, rows)
+        return keep(globals(), name, rows)
     if name == "read_truth":
         from gaitmon.io.session import truth
 
-        return _keep(name, truth)
+        return keep(globals(), name, truth)
     if name == "SessionWriter":
         from gaitmon.io.session import writer
 
-        return _keep(name, writer)
+        return keep(globals(), name, writer)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
-
-def _keep(name: str, module: ModuleType) -> object:
-    value = getattr(module, name)
-    globals()[name] = value  # found once; later lookups are plain
-    return value
 
 
 __all__ = [

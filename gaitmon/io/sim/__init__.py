@@ -26,8 +26,9 @@ scipy.
 
 from __future__ import annotations
 
-from types import ModuleType
 from typing import TYPE_CHECKING
+
+from gaitmon.lazy import keep
 
 if TYPE_CHECKING:
     from gaitmon.io.sim.bilateral import (
@@ -53,31 +54,31 @@ def __getattr__(name: str) -> object:
     if name in ("SimConfig", "build_unit", "serve_on_pty"):
         from gaitmon.io.sim import config
 
-        return _keep(name, config)
+        return keep(globals(), name, config)
     if name in ("GaitConfig", "GaitModel"):
         from gaitmon.io.sim import kinematics
 
-        return _keep(name, kinematics)
+        return keep(globals(), name, kinematics)
     if name == "PATTERNS":
         from gaitmon.io.sim import patterns
 
-        return _keep(name, patterns)
+        return keep(globals(), name, patterns)
     if name in ("SensorConfig", "SensorModel"):
         from gaitmon.io.sim import sensors
 
-        return _keep(name, sensors)
+        return keep(globals(), name, sensors)
     if name in ("FaultConfig", "FaultLedger"):
         from gaitmon.io.sim import faults
 
-        return _keep(name, faults)
+        return keep(globals(), name, faults)
     if name in ("GroundTruth", "SimulatedUnit"):
         from gaitmon.io.sim import unit
 
-        return _keep(name, unit)
+        return keep(globals(), name, unit)
     if name == "CrystalClock":
         from gaitmon.io.sim import clock
 
-        return _keep(name, clock)
+        return keep(globals(), name, clock)
     if name in (
         "BilateralConfig",
         "BilateralPty",
@@ -88,14 +89,9 @@ def __getattr__(name: str) -> object:
     ):
         from gaitmon.io.sim import bilateral
 
-        return _keep(name, bilateral)
+        return keep(globals(), name, bilateral)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
-
-def _keep(name: str, module: ModuleType) -> object:
-    value = getattr(module, name)
-    globals()[name] = value  # found once; later lookups are plain
-    return value
 
 
 __all__ = [
