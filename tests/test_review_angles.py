@@ -141,7 +141,9 @@ def test_switching_the_angles_redraws_everything_with_that_sources_series(
         # the readout at the cursor
         win.timeline.set_cursor(12.0)
         i = int(np.argmin(np.abs(t_s - 12.0)))
-        assert f"knee {stored[angles][i, 1]:+.1f}°" in win.timeline.readout.text()
+        knee = f"{stored[angles][i, 1]:+.1f}"
+        knee = "0.0" if float(knee) == 0.0 else knee  # a zero has no sign ("0.0", not "+0.0")
+        assert f"knee {knee}°" in win.timeline.readout.text()
         # every joint lane's y range holds its curve: refitted to the angles now shown
         for key in ("hip", "knee", "ankle"):
             lane = win.timeline.lanes[key]
