@@ -429,3 +429,26 @@ def test_mypy_checks_the_stage_wiring(tmp_path):
     report = proc.stdout + proc.stderr
     errors = [ln for ln in report.splitlines() if ": error:" in ln]
     assert [int(ln.split(":")[1]) for ln in errors] == [9, 10], report
+
+
+def test_the_plugin_registry_keeps_order_refuses_a_second_name_and_names_the_choices():
+    from gaitmon.dsp.registry import Registry
+
+    class Plugin:
+        def __init__(self, name: str) -> None:
+            self.name = name
+
+    reg: Registry[Plugin] = Registry("widget")
+    a, b = reg.add(Plugin("b-first")), reg.add(Plugin("a-second"))
+    assert reg.all() == (a, b) and list(reg) == ["b-first", "a-second"] and "a-second" in reg
+    with pytest.raises(ValueError, match="a widget named 'b-first' is registered already"):
+        reg.add(Plugin("b-first"))
+    assert reg.get("a-second") is b
+    choices = r"unknown widget 'c'; use one of \['a-second', 'b-first'\]"
+    with pytest.raises(ValueError, match=choices):
+        reg.get("c")
+    with pytest.raises(ValueError, match=r"use one of \['b-first'\]"):  # a registered one not among
+        reg.get("a-second", among=["b-first"])
+    reg.remove("b-first")
+    reg.remove("b-first")  # removing twice is harmless
+    assert reg.all() == (b,)

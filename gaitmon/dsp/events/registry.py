@@ -4,30 +4,23 @@
 from __future__ import annotations
 
 from gaitmon.dsp.events.base import EventSource
+from gaitmon.dsp.registry import Registry
 
-EVENT_SOURCES: dict[str, EventSource] = {}
+EVENT_SOURCES: Registry[EventSource] = Registry("event source")
 
 
 def register_event_source(source: EventSource) -> EventSource:
-    if source.name in EVENT_SOURCES:
-        raise ValueError(f"an event source named {source.name!r} is registered already")
-    EVENT_SOURCES[source.name] = source
-    return source
+    return EVENT_SOURCES.add(source)
 
 
 def unregister_event_source(name: str) -> None:
-    EVENT_SOURCES.pop(name, None)
+    EVENT_SOURCES.remove(name)
 
 
 def get_event_source(name: str) -> EventSource:
-    try:
-        return EVENT_SOURCES[name]
-    except KeyError:
-        raise ValueError(
-            f"unknown event source {name!r}; use one of {sorted(EVENT_SOURCES)}"
-        ) from None
+    return EVENT_SOURCES.get(name)
 
 
 def event_sources() -> tuple[EventSource, ...]:
     """Every registered source, in registration order."""
-    return tuple(EVENT_SOURCES.values())
+    return EVENT_SOURCES.all()

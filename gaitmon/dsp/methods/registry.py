@@ -8,8 +8,9 @@ default first, then in registration order) and ``methods(live=False)`` the lab-o
 from __future__ import annotations
 
 from gaitmon.dsp.methods.base import TiltMethod
+from gaitmon.dsp.registry import Registry
 
-REGISTRY: dict[str, TiltMethod] = {}
+REGISTRY: Registry[TiltMethod] = Registry("tilt method")
 # the app's default tilt method (PipelineConfig, new recordings); its offline pass computes the
 # files' smoothed angles (/smoothed)
 DEFAULT_METHOD = "gait-aware"
@@ -17,23 +18,20 @@ DEFAULT_METHOD = "gait-aware"
 
 def register(method: TiltMethod) -> TiltMethod:
     """Add ``method`` under its ``name`` (a second method of one name is refused)."""
-    if method.name in REGISTRY:
-        raise ValueError(f"a tilt method named {method.name!r} is registered already")
-    REGISTRY[method.name] = method
-    return method
+    return REGISTRY.add(method)
 
 
 def unregister(name: str) -> None:
     """Remove a method (tests that register a throw-away one)."""
-    REGISTRY.pop(name, None)
+    REGISTRY.remove(name)
 
 
 def methods(live: bool | None = None) -> tuple[TiltMethod, ...]:
     """The registered methods; ``live=True`` those the app offers (the default first),
     ``live=False`` the lab-only ones, None all of them in registration order."""
     if live is None:
-        return tuple(REGISTRY.values())
-    chosen = [m for m in REGISTRY.values() if m.live == live]
+        return REGISTRY.all()
+    chosen = [m for m in REGISTRY.all() if m.live == live]
     return tuple(sorted(chosen, key=lambda m: m.name != DEFAULT_METHOD))
 
 
@@ -45,10 +43,7 @@ def live_names() -> tuple[str, ...]:
 def get_method(name: str, offline: bool = False, *, live: bool = False) -> TiltMethod:
     """The method called ``name`` (ValueError naming the choices when there is none, when
     ``offline`` and it has no offline pass, or when ``live`` and the app does not offer it)."""
-    pool = live_names() if live else tuple(REGISTRY)
-    if name not in pool:
-        raise ValueError(f"unknown tilt method {name!r}; use one of {sorted(pool)}")
-    method = REGISTRY[name]
+    method = REGISTRY.get(name, live_names() if live else None)
     if offline and not method.has_offline:
         raise ValueError(f"tilt method {name!r} has no offline smoother")
     return method
@@ -57,7 +52,7 @@ def get_method(name: str, offline: bool = False, *, live: bool = False) -> TiltM
 def by_lab_name() -> dict[str, TiltMethod]:
     """The methods with a filter of the lab's form, by their lab name, in registration order
     (the Filters view's list)."""
-    return {m.lab_name: m for m in REGISTRY.values() if m.lab_name is not None}
+    return {m.lab_name: m for m in REGISTRY.all() if m.lab_name is not None}
 
 
 def smoothing_method() -> TiltMethod:
