@@ -276,7 +276,7 @@ def screenshot(path: str) -> int:
     win.zero()
     _spin(app, 9.0)
     win.open_session_dialog()
-    dlg = win.session_dialog
+    dlg = win.recording_part.session_dialog
     dlg.patient.setText("P017")
     dlg.side.setCurrentIndex(dlg.side.findData("R"))
     dlg.operator.setText("demo")

@@ -45,10 +45,10 @@ def lines_across(path, x):
 
 def cut_and_reconnect(qtbot, win, seconds, during=None):
     win.device_part.cut_simulated_link(seconds)
-    qtbot.waitUntil(lambda: win.state_text.startswith("Reconnecting"), timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: win.status.state_text.startswith("Reconnecting"), timeout=WAIT_MS)
     if during is not None:
         during()
-    qtbot.waitUntil(lambda: win.state_text == "Connected", timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: win.status.state_text == "Connected", timeout=WAIT_MS)
     at = win.engine.samples_total
     return at
 

@@ -72,8 +72,8 @@ def test_the_tilt_filter_is_shown_chosen_from_the_menu_applied_live_and_remember
         assert [a.isChecked() for a in items] == [False, True]  # exclusive
         # the Settings dialog keeps the filter the menu chose
         win.act_settings.trigger()
-        win.settings_dialog.edits["cutoff_hz"].setText("3")
-        win.settings_dialog.accept()
+        win.processing_part.settings_dialog.edits["cutoff_hz"].setText("3")
+        win.processing_part.settings_dialog.accept()
         qtbot.waitUntil(lambda: win.engine.config.cutoff_hz == 3.0, timeout=WAIT_MS)
         assert win.engine.config.tilt_method == "paper"
     finally:

@@ -138,7 +138,7 @@ def test_guided_start_follows_the_real_state_and_its_buttons_do_the_steps(qtbot,
         assert "press Record" in guide.hint_text and record.isEnabled()
 
         qtbot.mouseClick(record, Qt.MouseButton.LeftButton)  # the session dialog, as Ctrl+R
-        dlg = win.session_dialog
+        dlg = win.recording_part.session_dialog
         assert dlg is not None and dlg.isVisible()
         dlg.patient.setText("P015")
         target = tmp_path / "guided.h5"

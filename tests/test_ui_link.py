@@ -45,7 +45,7 @@ def test_reconnect_banner_counts_down_in_plain_words(qtbot, window):
     qtbot.waitUntil(lambda: win.engine.samples_total >= 50, timeout=WAIT_MS)
     transport = win.engine.device.transport
     win.device_part.cut_simulated_link(30.0)  # the port is gone until restored below
-    qtbot.waitUntil(lambda: win.link_banner.isVisible(), timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: win.status.link_banner.isVisible(), timeout=WAIT_MS)
 
     # Refresh as the window's timer does and compare with the transport at that moment:
     # (attempt, whole seconds shown, seconds really left) for each refresh.
@@ -54,7 +54,8 @@ def test_reconnect_banner_counts_down_in_plain_words(qtbot, window):
     while time.monotonic() < t_end:
         before = transport.status
         win._tick()
-        text, tip, pill = win.link_banner.text(), win.link_banner.toolTip(), win.state_text
+        banner = win.status.link_banner
+        text, tip, pill = banner.text(), banner.toolTip(), win.status.state_text
         after = transport.status
         now = time.monotonic()
         qtbot.wait(40)
@@ -73,8 +74,8 @@ def test_reconnect_banner_counts_down_in_plain_words(qtbot, window):
             assert shown in (math.ceil(left), math.ceil(left) + 1), (text, left)
             assert pill == f"Reconnecting ({shown} s)"
     win.device_part.restore_simulated_link()
-    qtbot.waitUntil(lambda: win.state_text == "Connected", timeout=WAIT_MS)
-    qtbot.waitUntil(lambda: not win.link_banner.isVisible(), timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: win.status.state_text == "Connected", timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: not win.status.link_banner.isVisible(), timeout=WAIT_MS)
 
     # the countdown moves within one wait (the old banner read the same value 1.5 s apart)
     by_wait: dict[float, set[int]] = {}

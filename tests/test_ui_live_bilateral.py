@@ -58,7 +58,7 @@ def test_both_legs_are_drawn_and_measured_from_their_own_engines(
     config = BilateralConfig(standing_s=1.0, asymmetry="hemiparetic", affected="L", speed=2.0)
     win = open_window(qtbot, tmp_path, config, via_menu=True)
     try:
-        view = win.pair_view
+        view = win.pair_part.view
         assert view.isVisible() and not win.live.isVisible() and not win.gait_dock.isVisible()
         assert not win.phase_combo.isVisible()  # the one-leg legend says nothing here
         # walk until each leg's panel has its strides and the measures have both legs' steps
@@ -68,7 +68,7 @@ def test_both_legs_are_drawn_and_measured_from_their_own_engines(
         qtbot.waitUntil(lambda: view.values["symmetry"].text().startswith("SR 0."))
         win.view_part.set_paused(True)  # nothing is drawn any more: compare what is shown
         qtbot.wait(50)
-        snaps = win.pair_snapshots
+        snaps = win.pair_part.snapshots
         plots = view.plots
         for side in ("L", "R"):
             for j in range(3):
@@ -112,14 +112,14 @@ def test_a_cut_on_the_left_leg_shows_there_and_the_right_leg_draws_on(
 ):
     win = open_window(qtbot, tmp_path, BilateralConfig(standing_s=1.0, speed=2.0))
     try:
-        view = win.pair_view
+        view = win.pair_part.view
         plots = view.plots
         qtbot.waitUntil(lambda: min(samples(win, "L"), samples(win, "R")) >= 600, timeout=WAIT_MS)
         win._actions["cut_L"].trigger()
         qtbot.waitUntil(
             lambda: view.status["L"].state_text.startswith("Reconnecting"), timeout=WAIT_MS
         )
-        qtbot.waitUntil(lambda: win.pair_snapshots["L"].last_data_age_s > 1.0, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: win.pair_part.snapshots["L"].last_data_age_s > 1.0, timeout=WAIT_MS)
         qtbot.wait(100)
         # the left leg: its time runs on, shaded red, its line stops; the right draws on
         assert plots.lost_path("L", "knee").contains(QPointF(-0.3, 30.0))
@@ -132,16 +132,16 @@ def test_a_cut_on_the_left_leg_shows_there_and_the_right_leg_draws_on(
         assert not plots.lost_path("L", "contact").contains(QPointF(-0.3, 0.5))
         assert view.status["R"].state_text == "Connected"
         # the window's link banner names the leg whose link is down, and only that one
-        banner = win.link_banner.text()
-        assert win.link_banner.isVisible() and banner.startswith("Left leg: ")
+        banner = win.status.link_banner.text()
+        assert win.status.link_banner.isVisible() and banner.startswith("Left leg: ")
         assert "Right leg" not in banner
         qtbot.waitUntil(lambda: view.status["L"].state_text == "Connected", timeout=WAIT_MS)
-        qtbot.waitUntil(lambda: not win.link_banner.isVisible())
+        qtbot.waitUntil(lambda: not win.status.link_banner.isVisible())
         at = samples(win, "L")
         qtbot.waitUntil(lambda: samples(win, "L") >= at + 300, timeout=WAIT_MS)
         win.view_part.set_paused(True)
         qtbot.wait(50)
-        snaps = win.pair_snapshots
+        snaps = win.pair_part.snapshots
         s = snaps["L"].series
         lost = np.flatnonzero(s["lost"] > 0)
         assert len(lost) >= 250  # >= ~1.3 s at 200 Hz went nowhere and are rows on screen
@@ -165,12 +165,12 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
     try:
         qtbot.waitUntil(lambda: min(samples(win, "L"), samples(win, "R")) >= 100, timeout=WAIT_MS)
         assert not win.act_engineering.isEnabled()  # one leg's traces: not in this view
-        old_view = win.pair_view
+        old_view = win.pair_part.view
         win.pair_part.restyle()  # what a theme change does: a new view that draws on
-        assert win.pair_view is not old_view and win.pair_view.isVisible()
-        qtbot.waitUntil(lambda: win.pair_view.plots.curve_points("R", KNEE) > 100)
+        assert win.pair_part.view is not old_view and win.pair_part.view.isVisible()
+        qtbot.waitUntil(lambda: win.pair_part.view.plots.curve_points("R", KNEE) > 100)
         win.act_record.trigger()
-        dlg = win.session_dialog
+        dlg = win.recording_part.session_dialog
         assert dlg is not None and dlg.isVisible() and not dlg.side.isEnabled()
         dlg.patient.setText("P017")
         dlg.path.setText(str(target))
@@ -184,7 +184,7 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
         qtbot.waitUntil(
             lambda: min(samples(win, s) - start[s] for s in ("L", "R")) >= 500, timeout=WAIT_MS
         )
-        qtbot.waitUntil(lambda: "REC both legs" in win.rec_label.text())
+        qtbot.waitUntil(lambda: "REC both legs" in win.status.rec_label.text())
         assert not win.port_combo.isEnabled() and not win.mode_combo.isEnabled()
         win.act_record.trigger()  # stop: both parts finished and combined, on the worker
         assert not win.recording and win.act_record.text() == "Record"
@@ -197,7 +197,7 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
         qtbot.waitUntil(lambda: samples(win, "R") >= after + 50, timeout=WAIT_MS)
         win.disconnect_device()
         # the one-leg window is back as it was
-        assert win.pair is None and not win.pair_view.isVisible() and win.live.isVisible()
+        assert win.pair is None and not win.pair_part.view.isVisible() and win.live.isVisible()
         assert win.gait_dock.isVisible() and win.phase_combo.isVisible()
         assert win.act_engineering.isEnabled()
         assert win._actions["pair_sim"].isEnabled()
@@ -251,9 +251,9 @@ def test_connect_two_units_by_their_ports_from_the_device_menu(
         assert win.pair.engines["L"].identity.serial == 1001
         assert win.pair.engines["R"].identity.serial == 1002
         qtbot.waitUntil(lambda: min(samples(win, "L"), samples(win, "R")) >= 200, timeout=WAIT_MS)
-        assert win.pair_view.plots.curve_points("L", KNEE) > 100
+        assert win.pair_part.view.plots.curve_points("L", KNEE) > 100
         assert not win._actions["cut_L"].isEnabled()  # real ports: no simulator to cut
-        assert win.pair_view.status["L"].state_text == "Connected"
+        assert win.pair_part.view.status["L"].state_text == "Connected"
     finally:
         close_window(win)
         pty.stop()

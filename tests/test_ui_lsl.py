@@ -27,12 +27,12 @@ def test_stream_to_lsl_is_off_by_default_then_streams_and_is_remembered(
 ):
     win = make_window(qtbot, ui_settings)
     try:
-        assert not win.act_lsl.isChecked() and win.lsl_outlets is None
+        assert not win.act_lsl.isChecked() and win.lsl_part.lsl_outlets is None
         assert not win.act_lsl_patient.isChecked()
         win.act_lsl.trigger()  # the user ticks Device ▸ Stream to LSL
-        assert win.act_lsl.isChecked() and win.lsl_outlets is not None
+        assert win.act_lsl.isChecked() and win.lsl_part.lsl_outlets is not None
         assert "Streaming to LSL: gaitmon sim angles" in win.statusBar().currentMessage()
-        inlet = pylsl.StreamInlet(_our_stream(win.lsl_outlets.angles), recover=False)
+        inlet = pylsl.StreamInlet(_our_stream(win.lsl_part.lsl_outlets.angles), recover=False)
         inlet.open_stream(timeout=5.0)
         got = []
         qtbot.waitUntil(lambda: got.extend(inlet.pull_chunk(timeout=0.0)[1]) or len(got) > 50,
@@ -43,15 +43,15 @@ def test_stream_to_lsl_is_off_by_default_then_streams_and_is_remembered(
         inlet.close_stream()
     finally:
         win.close()
-    assert win.lsl_outlets is None  # disconnecting closed the outlets
+    assert win.lsl_part.lsl_outlets is None  # disconnecting closed the outlets
     assert win.errors == []
     # remembered: the next window streams as soon as it is connected
     win2 = make_window(qtbot, ui_settings)
     try:
         assert win2.act_lsl.isChecked()
-        qtbot.waitUntil(lambda: win2.lsl_outlets is not None, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: win2.lsl_part.lsl_outlets is not None, timeout=WAIT_MS)
         win2.act_lsl.trigger()  # off again
-        assert win2.lsl_outlets is None and not win2.act_lsl.isChecked()
+        assert win2.lsl_part.lsl_outlets is None and not win2.act_lsl.isChecked()
         assert ui_settings.value("lsl/enabled") in (False, "false")
     finally:
         win2.close()
@@ -65,7 +65,7 @@ def test_without_pylsl_the_action_says_what_to_install(
     win = make_window(qtbot, ui_settings, autoconnect=False)
     try:
         win.act_lsl.trigger()
-        assert not win.act_lsl.isChecked() and win.lsl_outlets is None
+        assert not win.act_lsl.isChecked() and win.lsl_part.lsl_outlets is None
         assert "install gaitmon[lsl]" in win.statusBar().currentMessage()
         assert win.errors == []
     finally:

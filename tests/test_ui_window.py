@@ -64,7 +64,7 @@ def samples(win):
 
 def test_connect_shows_live_curves_and_a_clean_link(qtbot, window):
     win = window
-    assert win.state_text == "Connected"
+    assert win.status.state_text == "Connected"
     assert not win.port_combo.isEnabled()  # the port cannot change under a live connection
     qtbot.waitUntil(lambda: samples(win) >= 300, timeout=WAIT_MS)
     qtbot.waitUntil(lambda: win.live.curve_points("joint_kalman_deg", 1, "kalman") >= 290)
@@ -82,18 +82,18 @@ def test_connect_shows_live_curves_and_a_clean_link(qtbot, window):
         assert win.live.curve_points(series, col, method) >= 250, series
     # health: the simulator dropped nothing (its ledger is the reference) and the bar says so
     assert win.conn.unit.ledger.dropped == [] and win.conn.unit.ledger.corrupted == []
-    qtbot.waitUntil(lambda: "fps" in win.health_label.text())
-    assert "0 lost · 0 CRC" in win.health_label.text()
-    assert win.health_label.property("grade") == "ok"
-    assert not win.link_banner.isVisible()
-    assert int(win.samples_label.property("samples")) > 0
+    qtbot.waitUntil(lambda: "fps" in win.status.health_label.text())
+    assert "0 lost · 0 CRC" in win.status.health_label.text()
+    assert win.status.health_label.property("grade") == "ok"
+    assert not win.status.link_banner.isVisible()
+    assert int(win.status.samples_label.property("samples")) > 0
 
 
 def test_record_two_seconds_with_a_marker(qtbot, window, tmp_path):
     win = window
     qtbot.waitUntil(lambda: samples(win) >= 50, timeout=WAIT_MS)
     win.act_record.trigger()
-    dlg = win.session_dialog
+    dlg = win.recording_part.session_dialog
     assert dlg is not None and dlg.isVisible()
     assert dlg.path.text().endswith(".h5")  # a sensible default is offered
     dlg.patient.setText("P001")
@@ -112,7 +112,8 @@ def test_record_two_seconds_with_a_marker(qtbot, window, tmp_path):
     win.act_marker.trigger()
     assert win.marker_edit.text() == ""  # the label is used once
     qtbot.waitUntil(lambda: samples(win) >= start + 200, timeout=WAIT_MS)
-    qtbot.waitUntil(lambda: "REC" in win.rec_label.text() and "walk.h5" in win.rec_label.text())
+    rec_label = win.status.rec_label
+    qtbot.waitUntil(lambda: "REC" in rec_label.text() and "walk.h5" in rec_label.text())
     win.act_record.trigger()  # stop
     stopped = samples(win)
     assert not win.recording
@@ -136,7 +137,7 @@ def test_record_two_seconds_with_a_marker(qtbot, window, tmp_path):
         assert f["session"].attrs["operator"] == "op-a"
     # the form remembers the operator and the folder, not the notes
     win.act_record.trigger()
-    dlg2 = win.session_dialog
+    dlg2 = win.recording_part.session_dialog
     assert dlg2.operator.text() == "op-a" and dlg2.notes.toPlainText() == ""
     assert dlg2.path.text().startswith(str(tmp_path))
     dlg2.reject()
@@ -147,44 +148,45 @@ def test_cut_link_shows_reconnecting_then_recovers(qtbot, window):
     qtbot.waitUntil(lambda: samples(win) >= 100, timeout=WAIT_MS)
     assert win.act_cut.isEnabled()
     win.device_part.cut_simulated_link(1.0)
-    qtbot.waitUntil(lambda: win.state_text.startswith("Reconnecting"), timeout=WAIT_MS)
-    assert win.link_banner.isVisible()
-    assert "Connection to the unit lost — reconnecting" in win.link_banner.text()
+    qtbot.waitUntil(lambda: win.status.state_text.startswith("Reconnecting"), timeout=WAIT_MS)
+    assert win.status.link_banner.isVisible()
+    assert "Connection to the unit lost — reconnecting" in win.status.link_banner.text()
     at_cut = samples(win)
-    qtbot.waitUntil(lambda: win.state_text == "Connected", timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: win.status.state_text == "Connected", timeout=WAIT_MS)
     qtbot.waitUntil(lambda: samples(win) >= at_cut + 100, timeout=WAIT_MS)
-    assert not win.link_banner.isVisible()
+    assert not win.status.link_banner.isVisible()
     assert win.engine.device.stats.reconnects >= 1
     # frames lost in the outage are shown, and graded as lossy (not quiet)
-    qtbot.waitUntil(lambda: win.health_label.property("grade") == "lossy", timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: win.status.health_label.property("grade") == "lossy", timeout=WAIT_MS)
     lost = win.engine.device.stats.decoder.frames_lost
     link_down = [e for e in win.conn.unit.ledger.dropped if e.fault == "link_down"]
     assert lost >= len(link_down) > 50  # ~1 s of frames at 100 Hz went nowhere
-    assert f"{lost} lost" in win.health_label.text() or "% lost" in win.health_label.text()
+    health = win.status.health_label.text()
+    assert f"{lost} lost" in health or "% lost" in health
 
 
 def test_pause_freezes_the_curves_while_samples_keep_counting(qtbot, window):
     win = window
     qtbot.waitUntil(lambda: win.live.curve_points("joint_kalman_deg", 1, "kalman") > 50)
     win.act_pause.trigger()
-    assert win.paused and win.pause_label.isVisible()
+    assert win.view_part.paused and win.pause_label.isVisible()
     frozen_path = win.live.curve_path("joint_kalman_deg", 1, "kalman")
     frozen_points = win.live.curve_points("joint_kalman_deg", 1, "kalman")
-    shown_before = int(win.samples_label.property("samples"))
+    shown_before = int(win.status.samples_label.property("samples"))
     qtbot.wait(700)
-    shown_after = int(win.samples_label.property("samples"))
+    shown_after = int(win.status.samples_label.property("samples"))
     assert shown_after >= shown_before + 40  # ~70 samples in 0.7 s still counted on screen
     assert win.live.curve_path("joint_kalman_deg", 1, "kalman") is frozen_path
     assert win.live.curve_points("joint_kalman_deg", 1, "kalman") == frozen_points
     win.act_pause.trigger()
-    assert not win.paused
+    assert not win.view_part.paused
     qtbot.waitUntil(lambda: win.live.curve_path("joint_kalman_deg", 1, "kalman") is not frozen_path)
 
 
 def test_settings_reject_a_bad_cutoff_then_apply_and_persist(qtbot, window, ui_settings):
     win = window
     win.act_settings.trigger()
-    dlg = win.settings_dialog
+    dlg = win.processing_part.settings_dialog
     assert dlg.isVisible()
     dlg.edits["cutoff_hz"].setText("70")
     qtbot.mouseClick(dlg.buttons.buttons()[0], Qt.MouseButton.LeftButton)
@@ -214,7 +216,7 @@ def test_zero_is_refused_while_walking_with_the_engines_reason(
         assert samples(win) < 380, "the machine was too slow to zero while standing"
         win.act_zero.trigger()
         qtbot.waitUntil(lambda: "zeroed" in win.statusBar().currentMessage(), timeout=WAIT_MS)
-        qtbot.waitUntil(lambda: win.cal_label.text() == "zeroed", timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: win.status.cal_label.text() == "zeroed", timeout=WAIT_MS)
         # walking: refused, and the window says why
         qtbot.waitUntil(lambda: samples(win) >= 650, timeout=WAIT_MS)
         win.act_zero.trigger()
@@ -238,13 +240,13 @@ def test_joint_mode_shows_the_units_angles_and_hides_what_it_does_not_send(qtbot
     # the unit sends no gyro integration and no tilts in this mode: nothing drawn, no junk
     assert win.live.curve_points("joint_gyro_deg", 1, "gyro") == 0
     assert win.live.curve_points("tilt_kalman_deg", 1, "kalman") == 0
-    assert win.cal_label.text() == "unit zeroes itself"
+    assert win.status.cal_label.text() == "unit zeroes itself"
     assert not win.mode_combo.isEnabled()
 
 
 def test_view_options_and_layout_are_remembered(qtbot, ui_settings, no_leaked_threads):
     win = make_window(qtbot, ui_settings, autoconnect=False)
-    assert win.window_s == 10.0  # the default
+    assert win.view_part.window_s == 10.0  # the default
     win.window_actions[30.0].trigger()
     win.method_boxes["gyro"].setChecked(False)  # the legend's checkbox toggles the traces
     assert not win.live.methods_on["gyro"] and not win.method_actions["gyro"].isChecked()
@@ -253,7 +255,7 @@ def test_view_options_and_layout_are_remembered(qtbot, ui_settings, no_leaked_th
     win.close()
     win2 = make_window(qtbot, ui_settings, autoconnect=False)
     try:
-        assert win2.window_s == 30.0 and win2.window_combo.currentData() == 30.0
+        assert win2.view_part.window_s == 30.0 and win2.window_combo.currentData() == 30.0
         assert not win2.method_boxes["gyro"].isChecked() and not win2.live.methods_on["gyro"]
         # layout: docks as they were left (the defaults are the opposite), geometry restored
         # (exact pixels cannot be compared: the offscreen screen is 800 x 800 and clamps)
@@ -281,7 +283,7 @@ def test_connect_failure_is_one_line_and_leaves_the_window_usable(qtbot, ui_sett
         msg = win.statusBar().currentMessage()
         assert "no such port" in msg and "\n" not in msg
         assert win.conn is None and win.act_connect.isEnabled() and win.port_combo.isEnabled()
-        assert win.state_text == "Disconnected"
+        assert win.status.state_text == "Disconnected"
     finally:
         win.close()
     assert win.errors == []
@@ -304,7 +306,7 @@ def test_markers_and_events_are_drawn_in_the_window(qtbot, window):
 
 def _start_recording(qtbot, win, path):
     win.act_record.trigger()
-    dlg = win.session_dialog
+    dlg = win.recording_part.session_dialog
     dlg.path.setText(str(path))
     dlg.path.textEdited.emit(str(path))
     qtbot.mouseClick(dlg.buttons.buttons()[0], Qt.MouseButton.LeftButton)
@@ -328,8 +330,8 @@ def test_disk_full_stops_the_recording_with_one_line_and_acquisition_goes_on(
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(SessionWriter, "append", no_space)  # the disk fills up now
-    qtbot.waitUntil(lambda: win.record_banner.isVisible(), timeout=WAIT_MS)
-    text = win.record_banner.text()
+    qtbot.waitUntil(lambda: win.status.record_banner.isVisible(), timeout=WAIT_MS)
+    text = win.status.record_banner.text()
     assert "Recording stopped" in text and "No space left on device" in text
     assert "Acquisition continues" in text and "\n" not in text
     assert not win.recording and win.act_record.text() == "Record"
@@ -345,11 +347,11 @@ def test_keyboard_shortcuts_drive_pause_markers_and_window(qtbot, window):
     qtbot.waitUntil(lambda: samples(win) >= 50, timeout=WAIT_MS)
     win.live.setFocus()
     qtbot.keyClick(win.live, Qt.Key.Key_Space)
-    assert win.paused
+    assert win.view_part.paused
     qtbot.keyClick(win.live, Qt.Key.Key_Space)
-    assert not win.paused
+    assert not win.view_part.paused
     qtbot.keyClick(win.live, Qt.Key.Key_1)
-    assert win.window_s == 5.0
+    assert win.view_part.window_s == 5.0
     n_markers = len(win.engine.snapshot(60).markers)
     qtbot.keyClick(win.live, Qt.Key.Key_M)
     assert len(win.engine.snapshot(60).markers) == n_markers + 1
@@ -418,7 +420,7 @@ def test_a_connect_finishing_after_the_window_closed_is_closed_not_leaked(
     monkeypatch.setattr(connection, "open_connection", slow_open)
     win = make_window(qtbot, ui_settings, autoconnect=False)
     win.device_part.connect_device(SIMULATED_PORT)
-    assert win.jobs.busy and win.state_text == "Connecting…"
+    assert win.jobs.busy and win.status.state_text == "Connecting…"
     # closing before the worker has even started the connect would simply drop it (nothing to
     # close): this test is about a connect that is already under way
     assert started.wait(10.0)
@@ -439,7 +441,7 @@ def test_stop_finishes_the_file_off_the_gui_thread_and_the_window_draws_on(
     qtbot.waitUntil(lambda: samples(win) >= 50, timeout=WAIT_MS)
     target = tmp_path / "slow.h5"
     _start_recording(qtbot, win, target)
-    qtbot.waitUntil(lambda: "REC" in win.rec_label.text(), timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: "REC" in win.status.rec_label.text(), timeout=WAIT_MS)
     engine = win.conn.engine
     release = threading.Event()
     real_stop = engine.stop_recording
@@ -453,10 +455,10 @@ def test_stop_finishes_the_file_off_the_gui_thread_and_the_window_draws_on(
         win.act_record.trigger()  # Stop
         assert win.saving and not win.recording
         assert not win.act_record.isEnabled()  # no new recording until this file is done
-        assert "Saving" in win.rec_label.text()
+        assert "Saving" in win.status.rec_label.text()
         assert "saving the file" in win.statusBar().currentMessage()  # not "Recording to …"
-        shown = int(win.samples_label.property("samples"))
-        qtbot.waitUntil(lambda: int(win.samples_label.property("samples")) >= shown + 50,
+        shown = int(win.status.samples_label.property("samples"))
+        qtbot.waitUntil(lambda: int(win.status.samples_label.property("samples")) >= shown + 50,
                         timeout=WAIT_MS)  # fmt: skip
     finally:
         release.set()

@@ -27,7 +27,7 @@ from __future__ import annotations
 import functools
 import logging
 from collections.abc import Callable
-from typing import TYPE_CHECKING, cast
+from typing import cast
 
 from PySide6.QtCore import QEvent, QSettings, Qt, QTimer
 from PySide6.QtGui import QActionGroup, QCloseEvent
@@ -51,7 +51,7 @@ from gaitmon.live.connection import Connection
 from gaitmon.live.pair import LiveBilateral, PairConnection, PairSource
 from gaitmon.review.settings import LiveKey
 from gaitmon.ui.actions import guarded
-from gaitmon.ui.dialogs import SessionDialog, SettingsDialog, shortcuts_dialog
+from gaitmon.ui.dialogs import shortcuts_dialog
 from gaitmon.ui.live.actions import (
     SHORTCUTS,
     SIMULATOR,
@@ -66,7 +66,6 @@ from gaitmon.ui.live.guide import GuideBar, GuideState
 from gaitmon.ui.live.jobs import DeviceJobs
 from gaitmon.ui.live.lsl import LslPart
 from gaitmon.ui.live.pair_part import PairPart
-from gaitmon.ui.live.pair_view import PairView
 from gaitmon.ui.live.prefs import Prefs
 from gaitmon.ui.live.processing import ProcessingPart
 from gaitmon.ui.live.recording import RecordingPart
@@ -74,9 +73,6 @@ from gaitmon.ui.live.status import StatusView
 from gaitmon.ui.live.views import ViewPart
 from gaitmon.ui.plots import LivePlots
 from gaitmon.ui.theme import Colours, configure_pyqtgraph, current_colours
-
-if TYPE_CHECKING:
-    from gaitmon.lsl.outlets import LslOutlets
 
 log = logging.getLogger("gaitmon.ui")
 
@@ -222,65 +218,8 @@ class MainWindow(QMainWindow):
         return self.ctx.saving
 
     @property
-    def paused(self) -> bool:
-        return self.view_part.paused
-
-    @property
-    def window_s(self) -> float:
-        return self.view_part.window_s
-
-    @property
-    def state_text(self) -> str:
-        return self.status.state_text
-
-    @property
     def live(self) -> LivePlots:
         return self.view_part.live  # (a new one after a theme change)
-
-    @property
-    def session_dialog(self) -> SessionDialog | None:
-        return self.recording_part.session_dialog
-
-    @property
-    def settings_dialog(self) -> SettingsDialog | None:
-        return self.processing_part.settings_dialog
-
-    @property
-    def pair_view(self) -> PairView | None:
-        return self.pair_part.view
-
-    @property
-    def pair_snapshots(self) -> dict[str, Snapshot]:
-        return self.pair_part.snapshots
-
-    @property
-    def lsl_outlets(self) -> LslOutlets | None:
-        return self.lsl_part.lsl_outlets
-
-    # the status view's widgets
-    @property
-    def link_banner(self) -> QLabel:
-        return self.status.link_banner
-
-    @property
-    def record_banner(self) -> QLabel:
-        return self.status.record_banner
-
-    @property
-    def health_label(self) -> QLabel:
-        return self.status.health_label
-
-    @property
-    def rec_label(self) -> QLabel:
-        return self.status.rec_label
-
-    @property
-    def cal_label(self) -> QLabel:
-        return self.status.cal_label
-
-    @property
-    def samples_label(self) -> QLabel:
-        return self.status.samples_label
 
     def report_exception(self, where: str, exc: BaseException) -> None:
         self.ctx.report_exception(where, exc)
