@@ -40,6 +40,7 @@ from gaitmon.export.writers.source import (
     ExportedGap,
     Source,
     as_text,
+    frame_grid,
     gaps,
     json_default,
     json_safe,
@@ -134,23 +135,6 @@ def _fsr_faults(src: Source) -> dict[str, str]:
     return out
 
 
-def frame_grid(src: Source) -> np.ndarray:
-    """The ``_motion.tsv`` row of every session row: round((t_s - t_s[0]) * fs)."""
-    if src.n == 0:
-        return np.zeros(0, np.int64)
-    t = src.read("timeline/t_s").astype(np.float64)
-    grid = (t - t[0]) * src.fs_hz
-    if not np.all(np.abs(grid) < 2.0**53):  # NaN or absurd times: no row number to cast to
-        raise ExportError(f"{src.path.name} is damaged: some sample times are not valid")
-    frame = np.rint(grid).astype(np.int64)
-    if np.any(np.diff(frame) <= 0):
-        raise ExportError(
-            f"{src.path.name}: sample times are not increasing on the {src.fs_hz:g} Hz grid; "
-            "cannot place them on BIDS rows"
-        )
-    return frame
-
-
 @dataclass(frozen=True)
 class Names:
     """Where one recording goes in the dataset folder."""
@@ -220,7 +204,7 @@ class BidsWriter:
         chans = channels(src)
         if not chans:
             raise ExportError(f"{src.path.name} has no series to export as BIDS motion channels")
-        frame = frame_grid(src)
+        frame = frame_grid(src, "on BIDS rows")
         n_rows = int(frame[-1]) + 1 if len(frame) else 0
         write_motion_tsv(src, chans, frame, tmp[names.motion("motion.tsv")], progress, cancel,
                          TSV_CHUNK_FRAMES if chunk_rows is None else chunk_rows)

@@ -23,7 +23,14 @@ from gaitmon.dsp.channels import DEFAULT_TABLE, JOINTS, SEGMENTS, ChannelSpec, C
 from gaitmon.export.writers.c3d_file import C3dSpec, write_c3d
 from gaitmon.export.writers.errors import Cancel, ExportError, Progress, step
 from gaitmon.export.writers.outputs import c3d_part_path
-from gaitmon.export.writers.source import JOINT_LABELS, Source, as_text, markers, session_side
+from gaitmon.export.writers.source import (
+    JOINT_LABELS,
+    Source,
+    as_text,
+    frame_grid,
+    markers,
+    session_side,
+)
 from gaitmon.io.deidentify import ANONYMOUS, IDENTIFYING_FIELDS, Scrubber
 from gaitmon.values import JsonValue
 
@@ -82,18 +89,9 @@ def _c3d_plan(src: Source, events: np.ndarray | None = None,
     """Frames on the uniform grid, cut into parts of at most C3D_MAX_PART_S seconds and at
     most C3D_MAX_EVENTS events (``events``: the sorted row indices of every C3D event)."""
     max_part_s = C3D_MAX_PART_S if max_part_s is None else max_part_s
-    t = src.read("timeline/t_s").astype(np.float64) if src.n else np.zeros(0)
     if src.n == 0:
         return C3dPlan(np.zeros(0, np.int64), 0, 1, ((0, 0),))
-    grid = (t - t[0]) * src.fs_hz
-    if not np.all(np.abs(grid) < 2.0**53):  # NaN or absurd times: no frame number to cast to
-        raise ExportError(f"{src.path.name} is damaged: some sample times are not valid")
-    frame = np.rint(grid).astype(np.int64)
-    if np.any(np.diff(frame) <= 0):
-        raise ExportError(
-            f"{src.path.name}: sample times are not increasing on the {src.fs_hz:g} Hz grid; "
-            "cannot place them in C3D frames"
-        )
+    frame = frame_grid(src, "in C3D frames")
     n_frames = int(frame[-1]) + 1
     part = part_frames(src.fs_hz, max_part_s)
     ev = np.sort(frame[events]) if events is not None and len(events) else np.zeros(0, np.int64)

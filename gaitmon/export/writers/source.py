@@ -428,3 +428,21 @@ def export_header(src: Source, fmt: str, deidentify: bool) -> JsonObject:
         head["source_file"] = src.path.name
     return head
 
+
+def frame_grid(src: Source, placed: str) -> np.ndarray:
+    """The frame of every session row on the uniform 1/fs grid from the first sample:
+    round((t_s - t_s[0]) * fs), for the formats that store frames (C3D) or rows (BIDS) rather
+    than times. ``placed`` ends the message for times that cannot be placed ("in C3D frames")."""
+    if src.n == 0:
+        return np.zeros(0, np.int64)
+    t = src.read("timeline/t_s").astype(np.float64)
+    grid = (t - t[0]) * src.fs_hz
+    if not np.all(np.abs(grid) < 2.0**53):  # NaN or absurd times: no frame number to cast to
+        raise ExportError(f"{src.path.name} is damaged: some sample times are not valid")
+    frame = np.rint(grid).astype(np.int64)
+    if np.any(np.diff(frame) <= 0):
+        raise ExportError(
+            f"{src.path.name}: sample times are not increasing on the {src.fs_hz:g} Hz grid; "
+            f"cannot place them {placed}"
+        )
+    return frame
