@@ -66,39 +66,42 @@ def test_the_pair_is_the_group_of_its_left_and_right_engines() -> None:
     assert pair.sides == ("L", "R")
 
 
-def _record_zeroed_in_tilt_mode(out: Path, *, reapply_unchanged: bool) -> list[object]:
-    """A group of one tilt-mode unit (the subject standing) zeroed while it records: the
-    calibration changes its file logs."""
-    unit = SimulatedUnit(GaitConfig(seed=5, standing_s=600.0), speed=20.0)
-    eng = Engine(Device(InProcessTransport(unit)), "tilt", transport_label="simulated")
-    group = EngineGroup({"": eng})
+def _record_zeroed_in_tilt_mode(out: Path, sides: tuple[str, ...]) -> dict[str, list[object]]:
+    """A group of tilt-mode units (the subject standing) zeroed while it records: the
+    calibration changes each unit's file logs."""
+    units = {s: SimulatedUnit(GaitConfig(seed=5, standing_s=600.0), speed=20.0) for s in sides}
+    engines = {s: Engine(Device(InProcessTransport(u)), "tilt", transport_label="simulated")
+               for s, u in units.items()}  # fmt: skip
+    group = EngineGroup(engines)
     group.start(out)
     try:
         deadline = time.monotonic() + 60.0
-        while group.recorded_s("") < 2.0:
-            assert time.monotonic() < deadline, "the unit did not record in time"
+        while min(group.recorded_s(s) for s in sides) < 2.0:
+            assert time.monotonic() < deadline, "the units did not record in time"
             time.sleep(0.02)
-        before = eng.calibration
-        zeroed = group.zero(reapply_unchanged=reapply_unchanged)
-        assert list(zeroed) == [""] and zeroed[""] is before  # the unit zeroes itself
-        rows = eng.recording.rows
-        while eng.recording.rows < rows + 100:  # blocks processed after the zeroing
-            assert time.monotonic() < deadline, "the unit did not record in time"
-            time.sleep(0.02)
+        before = {s: e.calibration for s, e in engines.items()}
+        zeroed = group.zero()
+        assert list(zeroed) == list(sides)
+        assert all(zeroed[s] is before[s] for s in sides)  # the units zero themselves
+        rows = {s: e.recording.rows for s, e in engines.items()}
+        while any(e.recording.rows < rows[s] + 100 for s, e in engines.items()):
+            assert time.monotonic() < deadline, "the units did not record in time"
+            time.sleep(0.02)  # blocks processed after the zeroing
     finally:
-        assert group.stop()[""].error == ""
-    with open_session(out) as s:
-        return list(s.calibration_changes)
+        assert all(st.error == "" for st in group.stop().values())
+    out_changes: dict[str, list[object]] = {}
+    for s in sides:
+        with open_session(out, side=s or None) as sess:
+            out_changes[s] = list(sess.calibration_changes)
+    return out_changes
 
 
-def test_a_unit_that_zeroes_itself_is_handed_its_calibration_again_only_if_asked(
-    tmp_path: Path,
-) -> None:
-    """``gaitmon record`` of one unit in tilt mode never logged the unchanged calibration
-    again (``Engine.zero``); a pair's zeroing does (``reapply_unchanged``, the default)."""
-    assert _record_zeroed_in_tilt_mode(tmp_path / "kept.h5", reapply_unchanged=False) == []
-    again = _record_zeroed_in_tilt_mode(tmp_path / "again.h5", reapply_unchanged=True)
-    assert len(again) == 1
+def test_a_unit_that_zeroes_itself_is_not_handed_its_calibration_again(tmp_path: Path) -> None:
+    """As ``Engine.zero``: a tilt-mode unit's zeroing changes nothing on the PC, so a recording
+    logs no calibration change, for one unit as for each leg of a pair (a pair's zeroing
+    logged the unchanged calibration as a zeroing)."""
+    assert _record_zeroed_in_tilt_mode(tmp_path / "one.h5", ("",)) == {"": []}
+    assert _record_zeroed_in_tilt_mode(tmp_path / "two.h5", ("L", "R")) == {"L": [], "R": []}
 
 
 def test_a_unit_that_is_not_a_leg_is_not_named_when_it_cannot_be_zeroed() -> None:

@@ -264,7 +264,7 @@ def _zero(group: EngineGroup, stop: threading.Event) -> None:
     from gaitmon.engine import EngineError
 
     try:  # one unit in tilt/joint mode zeroes itself: its file logs no calibration again
-        zeroed = group.zero(stop, reapply_unchanged=group.in_parts)
+        zeroed = group.zero(stop)
     except EngineError as exc:
         if not group.in_parts:
             raise UserError(str(exc)) from None

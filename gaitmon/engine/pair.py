@@ -167,15 +167,15 @@ class EngineGroup:
 
     def zero(
         self, stop: threading.Event | None = None, timeout_s: float = ZERO_TIMEOUT_S,
-        window_s: float = 1.5, *, reapply_unchanged: bool = True,
+        window_s: float = 1.5,
     ) -> dict[str, Calibration]:  # fmt: skip
         """The standing calibration of every unit from the same moment: each unit's last
         ``window_s`` of data, taken one right after the other, retried (the subject settling,
         the first seconds of data) until all succeed in the same try. ``EngineError`` naming
         the leg (or legs) never still in any try after ``timeout_s``; an empty dict if ``stop``
-        is set first. A unit that zeroes itself (tilt/joint mode) keeps its calibration; with
-        ``reapply_unchanged`` False it is not handed it again, as ``Engine.zero`` does (handed
-        again, a running recording logs it once more and the gyro integration restarts)."""
+        is set first. A unit that zeroes itself (tilt/joint mode) keeps its calibration and is
+        not handed it again, as ``Engine.zero`` does (handed again, a running recording logged
+        an unchanged calibration as a zeroing)."""
         deadline = time.monotonic() + timeout_s
         worked: set[str] = set()  # the legs that were still at some try
         last_error: dict[str, str] = {}
@@ -190,7 +190,7 @@ class EngineGroup:
                     errors[side] = last_error[side] = str(exc)
             if not errors:
                 for s, c in cals.items():
-                    if reapply_unchanged or c is not self.engines[s].calibration:
+                    if c is not self.engines[s].calibration:
                         self.engines[s].use_calibration(c)
                 return cals
             if time.monotonic() > deadline:
