@@ -45,7 +45,6 @@ from gaitmon.dsp.gait import cycle_mean_sd
 from gaitmon.finish import Session, open_session
 from gaitmon.finish.bilateral import Bilateral, open_bilateral
 from gaitmon.io.session import ANGLE_CONVENTION, Exclusion
-from gaitmon.io.session.series import number
 from gaitmon.normative import NormativeBands, deviation_deg
 from gaitmon.report_content import (
     MAX_FAINT_PER_SIDE,
@@ -67,6 +66,7 @@ from gaitmon.report_content import (
     cell,
 )
 from gaitmon.text import count, no_gait_events, num
+from gaitmon.values import scalar
 
 N_POINTS = 101
 _CYCLE_CHUNK = 2048  # strides normalised per call
@@ -416,7 +416,7 @@ def gather_bilateral_report(
         strides_counted=counted,
         strides_total={s: len(an.sides[s].rows) for s in SIDES},
         units=units,
-        duration_s=float(number(b.attrs.get("duration_s", 0.0))),
+        duration_s=float(scalar(b.attrs.get("duration_s", 0.0))),
         state=state,
         file_name="" if deidentify else b.path.name,
         clocks=_clocks(b),

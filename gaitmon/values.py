@@ -20,7 +20,8 @@ JsonValue: TypeAlias = (
 JsonObject: TypeAlias = "dict[str, JsonValue]"
 
 
-def scalar(value: JsonValue) -> str | int | float:
-    """A value that should hold a number (or text), for ``int()`` / ``float()``, which fail on
-    anything else as they always did (the caller turns that into its message)."""
+def scalar(value: object) -> str | int | float:
+    """A value that should hold a number (or text): a JSON value, an HDF5 attribute, for
+    ``int()`` / ``float()``, which fail on anything else as they always did (the caller turns
+    that into its message, e.g. the reader's damaged-file one)."""
     return cast("str | int | float", value)

@@ -206,7 +206,7 @@ def _f(v: float, digits: int, unit: str = "") -> str:
 
 def _units_header_lines(b: Bilateral, interrupted: bool) -> list[str]:
     from gaitmon.io.session.parts import SIDE_NAMES
-    from gaitmon.io.session.series import number
+    from gaitmon.values import scalar
 
     state = "complete" if b.complete else ("recovered" if b.recovered else "incomplete")
     if interrupted:
@@ -220,7 +220,7 @@ def _units_header_lines(b: Bilateral, interrupted: bool) -> list[str]:
         f"{b.path.name}: gaitmon bilateral session ({legs}), format "
         f"{a.get('format_version')}, {state}",
         f"  recorded     {a.get('created_utc') or 'date removed'}, "
-        f"{float(number(a.get('duration_s', 0.0))):.1f} s on the common time line, units "
+        f"{float(scalar(a.get('duration_s', 0.0))):.1f} s on the common time line, units "
         + " and ".join(f"{s} serial {b.unit(s).device.get('serial') or '-'}" for s in b.sides),
     ]
     lines += [f"  missing      {SIDE_NAMES[s]} leg ({s}): {why}" for s, why in b.missing.items()]

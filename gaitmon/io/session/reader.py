@@ -52,9 +52,9 @@ from gaitmon.io.session.series import (
     _py,
     _s,
     _sample_rate,
-    number,
 )
 from gaitmon.io.session.truth import Truth, truth_from_file
+from gaitmon.values import scalar
 
 if TYPE_CHECKING:
     from gaitmon.io.overview import PeakPyramid
@@ -136,7 +136,7 @@ class StoredSession:
         ]
 
         cfg_attrs = {k: _py(v) for k, v in f["config"].attrs.items()}
-        self.event_delay_samples = int(number(cfg_attrs.pop("event_delay_samples", 0)))
+        self.event_delay_samples = int(scalar(cfg_attrs.pop("event_delay_samples", 0)))
         self.config = PipelineConfig.from_stored(cfg_attrs)
         self.config_changes: list[tuple[int, PipelineConfig]] = [
             (int(r["sample_idx"]), PipelineConfig.from_stored(json.loads(_s(r["json"]))))
@@ -190,9 +190,9 @@ class StoredSession:
             self.problems.append(
                 f"datasets have different lengths; using the first {self.n_samples} rows"
             )
-        if self.complete and int(number(self.attrs.get("n_samples", -1))) != self.n_samples:
+        if self.complete and int(scalar(self.attrs.get("n_samples", -1))) != self.n_samples:
             self.problems.append("n_samples attribute does not match the data")
-        self.duration_s = float(number(self.attrs.get("duration_s", 0.0)))
+        self.duration_s = float(scalar(self.attrs.get("duration_s", 0.0)))
         if not (self.complete or self.recovered) and self.n_samples:
             # an unfinished file's attribute still says 0: its last row's time says how long
             with contextlib.suppress(OSError, RuntimeError, ValueError, TypeError):

@@ -27,12 +27,6 @@ AttrValue: TypeAlias = "str | int | float | bool | list[AttrValue]"
 Index: TypeAlias = "int | slice | tuple[int | slice, ...] | npt.NDArray[np.integer] | list[int]"
 
 
-def number(value: AttrValue) -> str | int | float:
-    """An attribute that should hold a number, for ``int()`` / ``float()`` (which fail on
-    anything else as they always did: the reader turns that into a damaged-file message)."""
-    return cast("str | int | float", value)
-
-
 class SeriesSource(Protocol):
     """The reader a :class:`SeriesView` slices (a stored session)."""
 
