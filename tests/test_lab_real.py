@@ -1,0 +1,142 @@
+"""The lab's real-data readers, the 3-D reference of foot tilt, LOTO and the real tables
+(gaitmon.lab.datasets, gaitmon.lab.reference, gaitmon.lab.real*): against the facts the data
+READMEs state, against independent signals, and on synthetic data without the shared folder."""
+
+from __future__ import annotations
+
+import functools
+import pathlib
+
+import numpy as np
+import pytest
+
+from gaitmon.lab import datasets as D
+from gaitmon.lab.reference import reference_foot_tilt, reference_up, tilt_from_up
+
+_read_gdins = functools.cache(D.read_gdins)
+_read_xio = functools.cache(D.read_xio)
+
+
+@pytest.fixture
+def gdins(shared_data: pathlib.Path) -> list[D.ImuTrial]:
+    if not (shared_data / "gdins_footprints").is_dir():
+        pytest.skip("no gdins_footprints")
+    return _read_gdins(shared_data)
+
+
+@pytest.fixture
+def xio(shared_data: pathlib.Path) -> list[D.ImuTrial]:
+    if not (shared_data / "xio_closed_loop_walks").is_dir():
+        pytest.skip("no xio_closed_loop_walks")
+    return _read_xio(shared_data)
+
+
+def test_gdins_reader_matches_its_readme(gdins):
+    # README: 16 trials exp31-exp46, 1,050 strides, 1,236 s, shipped at 100 Hz
+    assert [t.name for t in gdins] == [f"exp{k}" for k in range(31, 47)]
+    assert sum(len(t.extra["ref_stride_length"]) for t in gdins) == 1050
+    assert all(t.fs_hz == 100.0 for t in gdins)
+    assert sum(t.duration_s for t in gdins) == pytest.approx(1236, abs=1.0)
+    for t in gdins:
+        # one ZV end per footprint: strides + 1; board frame: standing, acc_x (up) ~ g
+        assert len(t.extra["zv_end_idx"]) == len(t.extra["ref_stride_length"]) + 1
+        assert 9.5 < np.median(t.acc_x[:100]) < 10.4
+        np.testing.assert_array_equal(t.gyro_y, -t.gyr_xyz[:, 1])  # loader: gyro_y == -gyr_y
+        np.testing.assert_array_equal(t.acc_x, t.acc_xyz[:, 2])
+
+
+def test_xio_reader_matches_its_readme(xio):
+    got = {t.name: t.duration_s for t in xio}
+    assert got == pytest.approx({"short_walk": 41.6, "long_walk": 70.7}, abs=0.1)
+    assert {t.name: float(t.extra["approx_path_length_m"]) for t in xio} == {
+        "short_walk": 25.0,
+        "long_walk": 60.0,
+    }
+
+
+def test_gaitpdb_and_broad_readers(shared_data):
+    if (shared_data / "gaitpdb").is_dir():
+        (rec,) = D.read_gaitpdb(shared_data)
+        assert rec.fs_hz == pytest.approx(100.0, rel=1e-3)
+        assert rec.duration_s == pytest.approx(121, abs=2)  # README: about 121 s
+        # the total is the sum of the 8 sensors of the foot (the README's 19 columns)
+        assert np.all(rec.heel["left"] <= rec.total["left"] + 1e-6)
+    if (shared_data / "broad").is_dir():
+        trials = D.read_broad(shared_data)
+        assert [t.name for t in trials] == list(D.BROAD_TRIALS)
+        assert all(t.ref_valid is not None and t.ref_valid.sum() > 1000 for t in trials)
+
+
+def test_reference_at_standing_equals_the_board_accelerometer(gdins, xio):
+    for t in gdins + xio:
+        ref = reference_foot_tilt(t)
+        acc_tilt = np.arctan2(t.acc_z, t.acc_x)
+        # every trial starts with >= 1.3 s of standing (first motion at sample >= 137)
+        e = np.degrees(ref[20:100] - acc_tilt[20:100])
+        assert np.all(np.isfinite(e)), t.name
+        # the mean over the standing, and per sample but for the accelerometer's own noise
+        assert abs(np.mean(e)) < 1.0 and np.percentile(np.abs(e), 90) < 1.0, (t.name, e)
+
+
+def test_reference_rate_matches_gyro_y_where_the_foot_only_pitches(gdins, xio):
+    for t in gdins[:4] + xio:
+        ref = reference_foot_tilt(t)
+        rate = np.gradient(ref) * t.fs_hz
+        gy = t.gyro_y - D.gyro_bias_at_start(t)
+        pitch_only = (
+            np.isfinite(rate) & (np.abs(t.gyr_xyz[:, 0]) < 0.2) & (np.abs(t.gyr_xyz[:, 2]) < 0.2)
+        )
+        assert pitch_only.sum() > 400
+        e = np.abs(rate - gy)[pitch_only]
+        assert np.median(e) < 0.03 and np.percentile(e, 95) < 0.1, (t.name, np.median(e))
+        assert np.isfinite(ref).mean() > 0.95
+
+
+def _rot_y(th: float) -> np.ndarray:
+    c, s = np.cos(th), np.sin(th)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def _rot_x(th: float) -> np.ndarray:
+    c, s = np.cos(th), np.sin(th)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def synthetic_foot(
+    n_strides: int = 6, fs: float = 100.0, roll_deg: float = 10.0, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(acc_xyz, gyr_xyz, true planar tilt) of a foot (x fwd, y left, z up) that stands 1 s,
+    then per 1.2-s stride stays flat 0.4 s and swings in pitch (toe-up positive) and roll,
+    no linear acceleration (the foot rotates about the sensor), with gyro noise."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int((1.0 + 1.2 * n_strides + 1.0) * fs)) / fs
+    pitch = np.zeros_like(t)
+    roll = np.zeros_like(t)
+    for k in range(n_strides):
+        a = 1.0 + 1.2 * k + 0.4
+        m = (t >= a) & (t < a + 0.8)
+        ph = (t[m] - a) / 0.8
+        pitch[m] = np.radians(-150) * np.sin(np.pi * ph) ** 2 * np.cos(np.pi * ph)
+        roll[m] = np.radians(roll_deg) * np.sin(np.pi * ph) ** 2
+    # body-to-world R = Rx(roll) Ry(-pitch)  (toe-up pitch turns about -y, y pointing left)
+    rots = [_rot_x(r) @ _rot_y(-p) for r, p in zip(roll, pitch, strict=True)]
+    acc = np.array([r.T @ np.array([0, 0, 9.81]) for r in rots])
+    gyr = np.zeros_like(acc)
+    for i in range(1, len(t) - 1):  # body rate from R^T R' (central difference)
+        d = rots[i].T @ (rots[i + 1] - rots[i - 1]) * fs / 2
+        gyr[i] = [d[2, 1], d[0, 2], d[1, 0]]
+    gyr += rng.normal(0, 0.005, gyr.shape)
+    up = np.array([r.T @ np.array([0, 0, 1.0]) for r in rots])
+    return acc, gyr, tilt_from_up(up)
+
+
+def test_reference_recovers_a_synthetic_3d_foot():
+    acc, gyr, truth = synthetic_foot()
+    ref = tilt_from_up(reference_up(acc, gyr, 100.0))
+    ok = np.isfinite(ref)
+    assert ok.mean() > 0.9
+    assert np.degrees(np.max(np.abs(ref[ok] - truth[ok]))) < 0.5
+    assert np.degrees(np.max(np.abs(truth))) > 50
+    # the roll matters: the planar gyro's integral alone misses the truth by degrees
+    planar = np.cumsum(-gyr[:, 1]) / 100.0
+    assert np.degrees(np.max(np.abs(planar - truth))) > 1.0
