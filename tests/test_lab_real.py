@@ -140,3 +140,134 @@ def test_reference_recovers_a_synthetic_3d_foot():
     # the roll matters: the planar gyro's integral alone misses the truth by degrees
     planar = np.cumsum(-gyr[:, 1]) / 100.0
     assert np.degrees(np.max(np.abs(planar - truth))) > 1.0
+
+
+def test_loto_on_a_toy_fit_by_hand():
+    from gaitmon.lab.loto import in_sample, loto
+
+    trials = [1.0, 2.0, 3.0, 6.0]
+    fit = lambda ts: sum(ts) / len(ts)  # noqa: E731
+    judge = lambda t, p: t - p  # noqa: E731
+    # left out 1: mean(2, 3, 6) = 11/3; 2: 10/3; 3: 3; 6: 2
+    assert loto(trials, fit, judge) == pytest.approx([1 - 11 / 3, 2 - 10 / 3, 0.0, 4.0])
+    assert in_sample(trials, fit, judge) == pytest.approx([-2.0, -1.0, 0.0, 3.0])
+    with pytest.raises(ValueError):
+        loto([1.0], fit, judge)
+
+
+def test_gdins_baseline_and_matching_reproduce_the_readme(gdins, shared_data):
+    import json
+
+    from gaitmon.lab.real_gait import gdins_strides
+
+    readme = json.loads((shared_data / "gdins_footprints" / "check_results.json").read_text())
+    dt = []
+    for t in gdins:
+        row = gdins_strides(t)
+        # the README's own 2-D ZUPT (its check_baseline.py), reimplemented: the same MAPE
+        mape = float(np.mean(np.abs(row.base_err_pct)))
+        assert mape == pytest.approx(readme["per_trial"][t.name]["zupt2d_mape_pct"], abs=0.01)
+        # every footprint after the first has its heel strike (the issue: as many as strides)
+        assert row.hs_found == row.n_ref
+        ok = np.isfinite(row.est)
+        dt.append(row.est[ok] / row.speed_est[ok] - t.extra["stride_time"][ok])
+        if ok.sum() >= 30:
+            assert np.median(np.abs(dt[-1])) < 0.05, t.name
+    # a matched stride is the same stride: its time (heel strike to heel strike) agrees with the
+    # reference's (ZV end to ZV end); one stride off would be ~1 s off in a speed change
+    assert np.median(np.abs(np.concatenate(dt))) < 0.035
+
+
+def test_xio_baseline_reproduces_the_readme(xio):
+    from gaitmon.lab.real_gait import xio_loop
+
+    got = {t.name: xio_loop(t) for t in xio}
+    # data README: "The 2-D sagittal stride lengths ... sum to 22.8 m and 56.6 m"
+    assert got["short_walk"].base_distance_m == pytest.approx(22.81, abs=0.01)
+    assert got["long_walk"].base_distance_m == pytest.approx(56.64, abs=0.02)
+    # README: 16 and 37 strides detected; the foot gyro finds as many heel strikes
+    assert got["short_walk"].n_hs == 16 and got["long_walk"].n_hs == 37
+
+
+def test_command_prints_every_datasets_table(shared_data, capsys):
+    from gaitmon.cli import main
+
+    assert main(["lab", "accuracy", "--quick", "--data", str(shared_data)]) == 0
+    out = capsys.readouterr().out
+    for heading in (
+        "### BROAD",
+        "### Real walks, foot tilt against the 3-D 6-axis reference",
+        "### gdins_footprints",
+        "### xio_closed_loop_walks",
+        "### gaitpdb",
+    ):
+        assert heading in out
+    assert "02_undisturbed_slow_rotation_B" in out and "exp31" in out and "short_walk" in out
+    assert "GaCo01_01 left" in out and "GaCo01_01 right" in out
+
+
+def _synthetic_gaitpdb(path: pathlib.Path, fs: float = 100.0, seconds: float = 60.0) -> int:
+    """A gaitpdb-like file: per foot a stance of 0.65 s every 1.1 s (right foot half a stride
+    later), heel bump from contact to 0.17 s before its end, toe from 0.11 s after contact to
+    the end; returns the number of strides per foot."""
+    t = np.arange(int(seconds * fs)) / fs
+
+    def bump(a: float, b: float) -> np.ndarray:
+        x = np.clip((t - a) / (b - a), 0, 1)
+        return np.where((t > a) & (t < b), np.sin(np.pi * x), 0.0)
+
+    cols = [t]
+    totals = []
+    n = 0
+    for shift in (0.0, 0.55):
+        heel, toe, mid = (np.zeros_like(t) for _ in range(3))
+        onsets = np.arange(1.0 + shift, seconds - 1.0, 1.1)
+        n = len(onsets)
+        for on in onsets:
+            heel += 600 * bump(on, on + 0.48)
+            toe += 500 * bump(on + 0.11, on + 0.65)
+            mid += 100 * bump(on, on + 0.65)
+        sensors = [heel, *([mid] * 6), toe]
+        cols += sensors
+        totals.append(np.sum(sensors, axis=0))
+    np.savetxt(path, np.column_stack([*cols, *totals]), fmt="%.4f")
+    return n
+
+
+def test_real_tables_on_synthetic_data_without_the_shared_folder(tmp_path):
+    from gaitmon.lab.real import evaluate_real, format_real
+
+    (tmp_path / "gaitpdb").mkdir()
+    n = _synthetic_gaitpdb(tmp_path / "gaitpdb" / "SYN01.txt")
+    xio = tmp_path / "xio_closed_loop_walks" / "trials"
+    xio.mkdir(parents=True)
+    acc, gyr, _truth = synthetic_foot(n_strides=8)
+    still = np.flatnonzero(np.linalg.norm(gyr, axis=1) < 0.1)
+    np.savez(
+        xio / "short_walk.npz",
+        fs=100.0,
+        t=np.arange(len(acc)) / 100.0,
+        foot_acc_x=acc[:, 0],
+        foot_acc_z=acc[:, 2],
+        foot_gyro_y=-gyr[:, 1],
+        foot_acc_xyz=acc,
+        foot_gyr_xyz=gyr,
+        stance_intervals=np.array([[0, still[still < 150].max()], [len(acc) - 90, len(acc) - 1]]),
+    )
+    real = evaluate_real(tmp_path)
+    assert any(note.startswith("broad:") for note in real.notes)
+    assert any(note.startswith("gdins_footprints:") for note in real.notes)
+    # events: every synthetic stride found on both feet, within 100 ms
+    assert [e.foot for e in real.events] == ["left", "right"]
+    for e in real.events:
+        assert e.n_ref_hs == n and len(e.hs_dt_ms) == n and len(e.to_dt_ms) == n
+    # tilt: no linear acceleration (the accelerometer alone is exact), but the roll makes the
+    # planar gyro disagree with it: the smoother stays within 2 deg, the paper's lags more
+    (row,) = real.foot_tilt
+    assert row.judged > 0.9 and row.rmse_deg["offline"] < 2.0
+    assert row.rmse_deg["paper"] > row.rmse_deg["offline"]
+    (loop,) = real.loops
+    assert loop.n_hs == 8  # one mid-swing peak per stride
+    text = format_real(real)
+    assert "### gaitpdb" in text and "SYN01 right" in text and "short_walk" in text
+    assert "### BROAD" not in text and "broad: not in" in text

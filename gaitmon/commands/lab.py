@@ -23,7 +23,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--data",
         metavar="DIR",
-        help="the shared real recordings (accuracy; default ../shared/data beside the source)",
+        help="the shared real recordings (accuracy: every dataset in it, trial by trial; a "
+        "missing one is skipped with a note; default ../shared/data beside the source)",
     )
     p.add_argument(
         "--quick", action="store_true", help="shorter records and fewer runs (for a smoke test)"
@@ -61,8 +62,12 @@ def _accuracy(args: argparse.Namespace) -> int:
     from gaitmon.lab.accuracy import default_data_dir, evaluate, format_table
 
     data = Path(args.data) if args.data else default_data_dir()
-    if data is not None and args.data and not (data / "broad").is_dir():
-        raise UserError(f"{data} has no broad/ folder of real recordings (see its README)")
+    if data is not None and args.data:
+        from gaitmon.lab.datasets import DATASETS, available
+
+        if not any(available(data).values()):
+            raise UserError(f"{data} holds none of the real datasets ({', '.join(DATASETS)}; "
+                            "see ../shared/data/README.md)")  # fmt: skip
     t0 = time.perf_counter()
     print("gaitmon lab accuracy: simulator scenarios"
           + (f" and the recordings in {data}" if data else " (no real recordings found)"),

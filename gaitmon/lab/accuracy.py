@@ -15,6 +15,9 @@ gait-aware RTS smoother (offline). Judges:
 * BROAD (real IMU with optical reference, not walking): planar tilt RMS error per trial where the
   planar model holds (gaitmon's test convention, tests/test_broad.py), gyro bias from its first
   second at rest; the gait-aware filters use the foot's tuning;
+* with ``data_dir``: every real dataset in it, trial by trial (gaitmon.lab.real: BROAD, foot
+  tilt of real walks against a 3-D 6-axis reference, gdins stride length and speed with a
+  leave-one-trial-out fitted gain, xio distance, gaitpdb FSR events);
 * events: the foot-gyro heel strikes against the simulator's true contacts (median and 95th
   percentile of |error|), beside the FSR detector's; gaitpdb has no gyro, so it cannot judge them;
 * FSR faults: a heel sensor that dies and a toe sensor that sticks loaded 30 s into a walk; the
@@ -32,7 +35,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -40,7 +43,11 @@ from gaitmon.dsp.angles import joint_angles, wrap_angle
 from gaitmon.dsp.calibration import Calibration, standing_calibration
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, FSR_IDX, GYRO_IDX, SEGMENTS
 from gaitmon.dsp.methods import methods
+from gaitmon.lab.datasets import BROAD_TRIALS as BROAD_TRIALS
 from gaitmon.lab.report import Report
+
+if TYPE_CHECKING:
+    from gaitmon.lab.real import RealAccuracy
 
 
 @dataclass(frozen=True)
@@ -100,12 +107,6 @@ STRIDE_SCENARIOS: dict[str, dict[str, Any]] = {
     "slow (85 steps/min, 1.0 m)": {"cadence_steps_min": 85.0, "stride_length_m": 1.0},
     "stiff-knee (1.1 m)": {"pattern": "stiff-knee", "stride_length_m": 1.1},
 }
-BROAD_TRIALS = (
-    "02_undisturbed_slow_rotation_B",
-    "07_undisturbed_fast_rotation_B",
-    "16_undisturbed_fast_translation_B",
-    "24_disturbed_tapping_A",
-)
 FS = 100.0
 SKIP = 1000  # standing 5 s and the ramp-in stride
 
@@ -122,6 +123,7 @@ class Accuracy:
     fault_strides: dict[str, float] = field(default_factory=dict)  # case -> strides (inf = never)
     # scenario -> "length" | "speed" -> "live" | "offline" -> |error| per stride, %
     stride_err_pct: dict[str, dict[str, dict[str, np.ndarray]]] = field(default_factory=dict)
+    real: RealAccuracy | None = None  # every real dataset, trial by trial (gaitmon.lab.real)
 
     def mean_joint(self, method: str, scenarios: list[str] | None = None) -> np.ndarray:
         names = scenarios or list(self.joint_rmse_deg)
@@ -296,42 +298,6 @@ def _strides(n: int, seed: int, acc: Accuracy) -> None:
         acc.stride_err_pct[name] = out
 
 
-def _broad(root: Path, acc: Accuracy) -> None:
-    import h5py
-    from scipy import signal
-
-    from gaitmon.dsp.estimate import estimate_tilt
-
-    for trial in BROAD_TRIALS:
-        path = root / "broad" / f"{trial}.hdf5"
-        if not path.is_file():
-            continue
-        with h5py.File(path, "r") as f:
-            a, g, q = f["imu_acc"][:], f["imu_gyr"][:], f["opt_quat"][:]
-        w, x, y, z = q.T
-        up = np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=1)
-        lost = np.isnan(up).any(axis=1)
-
-        def to_100hz(v: np.ndarray) -> np.ndarray:
-            return np.asarray(signal.resample_poly(np.nan_to_num(v), 7, 20, axis=0))
-
-        lost100 = to_100hz(lost.astype(float)) > 0.01
-        up100, a100, g100 = to_100hz(up), to_100hz(a), to_100hz(g)
-        ref = np.arctan2(up100[:, 2], up100[:, 0])
-        valid = ~lost100 & (np.abs(up100[:, 1]) < 0.5)
-        valid[:200] = False
-        gy = g100[:, 1] - g100[20:100, 1].mean()  # at rest in its first second
-        out = {}
-        for col in columns():
-            est = estimate_tilt(
-                a100[:, 0], a100[:, 2], gy, FS, segment="foot", method=col.method,
-                offline=col.offline,
-            )  # fmt: skip
-            e = wrap_angle(est - ref)[valid]
-            out[col.key] = float(np.degrees(np.sqrt(np.mean(e**2))))
-        acc.broad_rmse_deg[trial] = out
-
-
 def evaluate(
     quick: bool = False, data_dir: Path | None = None,
     progress: Callable[[str], None] = lambda _m: None, seed: int = 100,
@@ -359,9 +325,12 @@ def evaluate(
             _faults(gait, sb.counts, cal, n, acc)
     progress("stride length and speed")
     _strides(n + 2000, seed, acc)
-    if data_dir is not None and (data_dir / "broad").is_dir():
-        progress("BROAD recordings")
-        _broad(data_dir, acc)
+    if data_dir is not None:
+        from gaitmon.lab.real import evaluate_real
+
+        acc.real = evaluate_real(data_dir, quick=quick, progress=progress)
+        for row in acc.real.broad:
+            acc.broad_rmse_deg[row.trial] = row.rmse_deg
     return acc
 
 
@@ -467,6 +436,10 @@ def format_table(acc: Accuracy) -> str:
                     n_ok = int(np.isfinite(e).sum())
                     cells.append(f"{_median_p95(e)}; {n_ok}/{len(e)}")
             lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    if acc.real is not None:
+        from gaitmon.lab.real import format_real
+
+        lines += ["", format_real(acc.real).rstrip()]
     return "\n".join(lines)
 
 
