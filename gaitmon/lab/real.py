@@ -103,7 +103,7 @@ def _stats(e: np.ndarray) -> str:
 
 
 def _tilt_table(rows: list[TiltRow], offset: bool) -> list[str]:
-    from gaitmon.lab.accuracy import columns
+    from gaitmon.lab.columns import columns
 
     cols = columns()
     head = [

@@ -35,9 +35,9 @@ class TiltRow:
 
 
 def method_tilts(trial: ImuTrial) -> dict[str, np.ndarray]:
-    """(N,) tilt (rad) of the trial's board by every method column (gaitmon.lab.accuracy)."""
+    """(N,) tilt (rad) of the trial's board by every method column (gaitmon.lab.columns)."""
     from gaitmon.dsp.estimate import estimate_tilt
-    from gaitmon.lab.accuracy import columns
+    from gaitmon.lab.columns import columns
 
     gy = trial.gyro_y - gyro_bias_at_start(trial)
     return {
