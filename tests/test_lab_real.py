@@ -264,7 +264,7 @@ def test_real_tables_on_synthetic_data_without_the_shared_folder(tmp_path):
     # tilt: no linear acceleration (the accelerometer alone is exact), but the roll makes the
     # planar gyro disagree with it: the smoother stays within 2 deg, the paper's lags more
     (row,) = real.foot_tilt
-    assert row.judged > 0.9 and row.rmse_deg["offline"] < 2.0
+    assert row.judged > 0.8 and row.rmse_deg["offline"] < 2.0  # (1 s of standing at each end)
     assert row.rmse_deg["paper"] > row.rmse_deg["offline"]
     (loop,) = real.loops
     assert loop.n_hs == 8  # one mid-swing peak per stride

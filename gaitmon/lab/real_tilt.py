@@ -5,8 +5,9 @@
   as ``gaitmon lab accuracy`` has always judged it, now per trial and per method.
 * gdins_footprints and xio_closed_loop_walks (real walking, no optical reference): the foot's
   planar tilt against :func:`gaitmon.lab.reference.reference_foot_tilt`, the **3-D 6-axis
-  reference, not optical**, over the samples where it is defined, RMS error **after removing
-  the constant offset** (reported beside it: the mean error). Gyro bias: the standing the trial
+  reference, not optical**, over the walking (without the standing the trial starts and ends
+  with: :func:`walking_span`) where the reference is defined, RMS error **after removing the
+  constant offset** (reported beside it: the mean error). Gyro bias: the standing the trial
   starts with (the app's standing calibration, :func:`gaitmon.lab.datasets.gyro_bias_at_start`).
 
 Every method gets the foot's tuning (``segment="foot"``).
@@ -21,6 +22,8 @@ import numpy as np
 
 from gaitmon.dsp.angles import wrap_angle
 from gaitmon.lab.datasets import ImuTrial, gyro_bias_at_start
+
+STANDING_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -74,6 +77,19 @@ def broad_tilt(trials: Sequence[ImuTrial]) -> list[TiltRow]:
     return out
 
 
+def walking_span(trial: ImuTrial) -> tuple[int, int]:
+    """[start, stop) of the walking: without the standing (a still run of at least
+    ``STANDING_S``, gaitmon.lab.reference.still_runs) the trial starts or ends with."""
+    from gaitmon.lab.reference import still_runs
+
+    assert trial.acc_xyz is not None and trial.gyr_xyz is not None
+    runs = still_runs(trial.acc_xyz, trial.gyr_xyz)
+    n, long = len(trial), STANDING_S * trial.fs_hz
+    start = runs[0][1] if runs and runs[0][0] == 0 and runs[0][1] >= long else 0
+    stop = runs[-1][0] if runs and runs[-1][1] == n and n - runs[-1][0] >= long else n
+    return start, max(start, stop)
+
+
 def foot_tilt(trials: Sequence[ImuTrial]) -> list[TiltRow]:
     """Real walks against the 3-D 6-axis reference (module doc)."""
     from gaitmon.lab.reference import reference_foot_tilt
@@ -81,5 +97,9 @@ def foot_tilt(trials: Sequence[ImuTrial]) -> list[TiltRow]:
     out = []
     for t in trials:
         ref = reference_foot_tilt(t)
-        out.append(_row(t, ref, np.isfinite(ref), remove_offset=True))
+        a, b = walking_span(t)
+        judged = np.isfinite(ref)
+        judged[:a] = False
+        judged[b:] = False
+        out.append(_row(t, ref, judged, remove_offset=True))
     return out

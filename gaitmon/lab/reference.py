@@ -12,7 +12,9 @@ offline, with zero-velocity (stance) aiding:
    run) at the chunk's centre, with the chunk's mean specific force, normalised, as the first
    guess of the earth-up direction in foot axes. Fast strides have no still sample: where two
    such anchors are more than ``LOOSE_GAP_S`` apart, the quietest sample of each looser run
-   (|gyro| < ``LOOSE_GYRO_RAD_S``, | |acc| - g | < ``LOOSE_ACC_MS2``) is an anchor too.
+   (|gyro| < ``LOOSE_GYRO_RAD_S``, | |acc| - g | < ``LOOSE_ACC_MS2``) is an anchor too; where
+   there is still such a gap (the fastest strides), the local minima of that measure below
+   ``FAST_DEV`` times the loose thresholds, at least 0.6 s apart, are.
 3. **Gyro bias.** The mean 3-D gyro over each still run of at least ``BIAS_RUN`` samples
    (standing), linearly interpolated in time between them (constant before the first and after
    the last; zero if there is none). The short foot-flats of walking are not used: a foot that
@@ -69,6 +71,7 @@ LOOSE_ACC_MS2 = 2.5
 MIN_ZUPT_S = 0.5
 ZUPT_ITERATIONS = 2
 LOOSE_GAP_S = 1.6  # (s)
+FAST_DEV = 2.0  # in units of the loose thresholds
 MAX_DV_UP_M_S = 0.3
 MAX_ZUPT_TURN_DEG = 10.0
 LABEL = "3-D 6-axis reference, not optical"
@@ -143,6 +146,22 @@ def _anchors(
         idx.append(j)
         up.append(acc[max(j - 2, 0) : j + 3].mean(axis=0))
         strict.append(False)
+    # the very fast strides: the quietest sample of each stride in a gap still that long
+    from scipy.signal import find_peaks
+
+    have = np.asarray(sorted(idx), dtype=np.int64)
+    bounds = np.concatenate([[0], have, [len(acc) - 1]])
+    for lo, hi in itertools.pairwise(bounds):
+        if hi - lo <= LOOSE_GAP_S * fs_hz or (lo == 0 and not len(have)):
+            continue
+        a, b = int(lo) + int(0.3 * fs_hz), int(hi) - int(0.3 * fs_hz)
+        if b - a < 3:
+            continue
+        pk, _ = find_peaks(-dev[a:b], height=-FAST_DEV, distance=int(0.6 * fs_hz))
+        for j in pk + a:
+            idx.append(int(j))
+            up.append(acc[max(j - 2, 0) : j + 3].mean(axis=0))
+            strict.append(False)
     order = np.argsort(idx, kind="stable")
     u = np.asarray(up, dtype=np.float64).reshape(-1, 3)[order]
     return (np.asarray(idx, dtype=np.int64)[order], u / np.linalg.norm(u, axis=1)[:, None],
