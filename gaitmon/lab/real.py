@@ -141,7 +141,7 @@ def _stride_table(real: RealAccuracy) -> list[str]:
         "length: abs. error median / p90, mean signed, %",
         "speed: abs. error median / p90, mean signed, %",
         "2-D ZUPT at the dataset's ZV ends: the same",
-        "fitted gain, LOTO: gain: median abs. error % (in-sample)",
+        "gain fitted LOTO: ×gain, median abs. error % (in-sample)",
     ]
     body = []
     for i, r in enumerate(real.strides):
