@@ -271,3 +271,21 @@ def test_real_tables_on_synthetic_data_without_the_shared_folder(tmp_path):
     text = format_real(real)
     assert "### gaitpdb" in text and "SYN01 right" in text and "short_walk" in text
     assert "### BROAD" not in text and "broad: not in" in text
+
+
+def test_loto_on_gdins_stride_gain(gdins):
+    from gaitmon.lab.loto import in_sample, loto
+    from gaitmon.lab.real_gait import fit_gain, gain_median_abs_err_pct, gdins_strides
+
+    rows = [gdins_strides(t) for t in gdins[:4]]
+    judge = lambda r, g: (g, gain_median_abs_err_pct(r, g))  # noqa: E731
+    out = loto(rows, fit_gain, judge)
+    for i, (gain, err) in enumerate(out):
+        # the gain left out trial i: the median ratio over the other trials' strides only
+        ratios = np.concatenate([r.ref / r.est for j, r in enumerate(rows) if j != i])
+        assert gain == pytest.approx(np.nanmedian(ratios))
+        ok = np.isfinite(rows[i].est)
+        e = np.abs(gain * rows[i].est[ok] - rows[i].ref[ok]) / rows[i].ref[ok] * 100
+        assert err == pytest.approx(np.median(e))
+    gains = {g for g, _ in in_sample(rows, fit_gain, judge)}
+    assert len(gains) == 1 and len({g for g, _ in out}) == len(rows)  # one fit vs one per trial
