@@ -3,6 +3,11 @@ filter and the offline smoother, trial by trial.
 
     python benchmarks/tilt_real.py [--data DIR] [--loto]
 
+``--loto``: the foot parameters fitted on the walks (``r_static``, ``r_live_gravity``, with
+``live_gravity_hz`` and ``q_angle``), judged leave-one-walk-out: for each walk, the configuration
+of a small grid best on the other walks (mean RMS; only configurations within the paper's + 1
+deg on every BROAD trial), scored on the walk left out.
+
 * BROAD (4 trials, optical reference; not walking): planar tilt RMS error where the planar model
   holds (|u_y| < 0.5), the convention of tests/test_broad.py and ``gaitmon lab accuracy``.
 * gdins_footprints (16 walks) and xio_closed_loop_walks (2 walks): no orientation reference, so
@@ -227,12 +232,61 @@ def _three(d: dict[str, np.ndarray], offset: bool) -> tuple[float, float, float]
     return res[0], res[1], res[2]
 
 
+LOTO_GRID = {
+    "q_angle": (1e-7, 3e-7, 1e-6, 3e-6),
+    "r_static": (1e-3, 1e-4),
+    "live_gravity_hz": (0.25, 0.4),
+    "r_live_gravity": (3e-3, 1e-3),
+}
+
+
+def loto(root: Path) -> None:
+    """Leave-one-walk-out over LOTO_GRID (module doc)."""
+    import dataclasses
+    import itertools
+
+    from gaitmon.dsp.motion_kalman import GaitAwareKalman, tuning_for
+
+    broad = {t: d for t in BROAD_TRIALS if (d := load_broad(root, t)) is not None}
+    walks = load_walks(root)
+    base = tuning_for("foot")
+
+    def live(d: dict[str, np.ndarray], tun: object) -> np.ndarray:
+        kf = GaitAwareKalman(FS, segments=("foot",), tuning={"foot": tun})  # type: ignore[dict-item]
+        return np.asarray(kf.process(d["ax"], d["az"], d["gy"]))
+
+    paper = {t: rms_deg(estimate_tilt(d["ax"], d["az"], d["gy"], FS, method="paper"), d["ref"],
+                        d["valid"], False) for t, d in broad.items()}  # fmt: skip
+    scores: dict[tuple[float, ...], dict[str, float]] = {}
+    for values in itertools.product(*LOTO_GRID.values()):
+        tun = dataclasses.replace(base, **dict(zip(LOTO_GRID, values, strict=True)))
+        if any(rms_deg(live(d, tun), d["ref"], d["valid"], False) > paper[t] + 1.0
+               for t, d in broad.items()):  # fmt: skip
+            continue
+        scores[values] = {k: rms_deg(live(d, tun), d["ref"], d["valid"], True)
+                          for k, d in walks.items()}  # fmt: skip
+    chosen = tuple(getattr(base, k) for k in LOTO_GRID)
+    held = []
+    print(f"leave-one-walk-out over {len(scores)} configurations ({', '.join(LOTO_GRID)}):")
+    for k in walks:
+        best = min(scores, key=lambda c: np.mean([v for j, v in scores[c].items() if j != k]))
+        held.append(scores[best][k])
+        print(f"  {k:<20} picks {best}: {scores[best][k]:5.2f} (chosen {scores[chosen][k]:5.2f})")
+    inside = list(scores[chosen].values())
+    print(f"median held out {np.median(held):.2f}, in-sample with the chosen {chosen}: "
+          f"{np.median(inside):.2f}")  # fmt: skip
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--data", type=Path, default=default_data_dir())
+    p.add_argument("--loto", action="store_true", help="leave-one-walk-out of the foot's fit")
     args = p.parse_args()
     if args.data is None:
         raise SystemExit("no ../shared/data; give --data DIR")
+    if args.loto:
+        loto(args.data)
+        return
     rows = table(args.data)
     print("foot tilt RMS error, deg (walks: against the 6-axis reference, offset removed; "
           "ref check: corr(reference rate, gyro_y))")  # fmt: skip
