@@ -16,6 +16,7 @@ from gaitmon.dsp.motion_kalman import (
     gravity_gain,
     prior_covariance,
     steady_state_gain,
+    tuning_for,
 )
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.dsp.smoother import smooth_map, smooth_tilt
@@ -118,7 +119,7 @@ def test_closed_forms_static_tilt_with_biased_gyro_and_rotation_without_measurem
     kf = GaitAwareKalman(FS, segments=("foot",))
     out = kf.process(ax, az, np.full(n, 0.05))  # standing still, gyro biased by 0.05 rad/s
     # constant inputs: x_k = A^k (x_0 - x*) + x*, with x* = (tilt, bias) the fixed point
-    tun = SegmentTuning()
+    tun = tuning_for("foot")
     k0, k1 = steady_state_gain(tun.r_static, DT, tun.q_angle, tun.q_bias)
     a = np.array([[1 - k0, -(1 - k0) * DT], [-k1, 1 + k1 * DT]])
     fixed = np.array([tilt, 0.05])

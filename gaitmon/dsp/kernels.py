@@ -75,7 +75,8 @@ def gait_aware_update(
     k_static: np.ndarray, k_grav: np.ndarray, lag: np.ndarray, r_static: np.ndarray,
     r_moving: np.ndarray, acc_scale: np.ndarray, rate_scale: np.ndarray, log_r: np.ndarray,
     gains: np.ndarray, dt_s: float, start: bool, theta: np.ndarray, bias: np.ndarray,
-    theta_out: np.ndarray,
+    theta_out: np.ndarray, mag: np.ndarray, plane_thr: np.ndarray, plane_alpha: np.ndarray,
+    k_plane: np.ndarray, plane_lp: np.ndarray,
 ) -> None:  # fmt: skip
     """The gait-aware filter over one block (gaitmon.dsp.motion_kalman, module doc), per
     segment column in time order; writes ``theta_out`` (N, S) and carries the state.
@@ -90,6 +91,11 @@ def gait_aware_update(
     (M, S, 2) at ``log_r`` (M,), linearly between knots. State: ``tail`` (n_max - 1, 2, S), the
     last samples' (dev, |w|) (-inf before the first); ``start`` sets theta from the first
     sample's measurement; ``theta``, ``bias`` (S,).
+
+    Out of plane: ``mag`` (N, S) = |a| of the two axes, low-passed by one pole
+    (``plane_lp`` (S,) carried, lp += ``plane_alpha`` (|a| - lp)); while lp < ``plane_thr``
+    (0 = never) the accelerometer tilt is the measurement with the angle gain ``k_plane`` (S,)
+    and none on the bias, before any other rule.
     """
     n, s = dev.shape
     m = tail.shape[0]  # n_max - 1
@@ -126,7 +132,12 @@ def gait_aware_update(
             static = md < static_acc[c] and mr < static_rate[c]
             z = z_acc[k, c]
             h = 0.0
-            if static:
+            lp = plane_lp[c] + plane_alpha[c] * (mag[k, c] - plane_lp[c])
+            plane_lp[c] = lp
+            if lp < plane_thr[c]:
+                k0 = k_plane[c]
+                k1 = 0.0
+            elif static:
                 k0 = k_static[c, 0]
                 k1 = k_static[c, 1]
             elif gravity[c]:

@@ -22,7 +22,7 @@ and gives the measurement a variance R (rad^2) from them (:class:`SegmentTuning`
   weak one, whose weight falls with the acceleration magnitude's deviation from 1 g (the
   smoother's first pass still uses it).
 
-Gravity measurement (``live_gravity_hz``; body, thigh and shank). Those segments are never
+Gravity measurement (``live_gravity_hz``; every segment). Body, thigh and shank are never
 still while walking, and the accelerometer tilt of a swinging thigh or shank carries its own
 acceleration with a mean over the stride that is not zero in the board's frame: a walking bias
 of 2-9 deg (the peak swing knee error). In a fixed frame, though, a sensor point's acceleration
@@ -38,7 +38,20 @@ rad/s and the low-pass sees that drift late by its DC delay ``lag`` (0.90 s at 0
 z~ = theta + lag b: the measurement row is H = [1, lag], with its own steady-state gain
 (``gravity_gain``), and the bias state absorbs it. ``shift_bias`` (a new calibration) is undone
 in the gyro angle, so zeroing mid-stream does not disturb it. Quasi-static samples use the
-accelerometer tilt with ``r_static`` as before. The foot keeps its foot-flat gate.
+accelerometer tilt with ``r_static`` as before. The foot keeps its foot-flat gate and, since
+issue 24, takes the gravity measurement while moving too (with ``r_live_gravity`` 3e-3): on
+real walks without a foot-flat in every stride (fast walking, speed changes) the gate alone left
+it on the gyro for tens of seconds (gdins exp44: 27 deg against the paper's 12).
+
+Out of plane (``plane_fraction``; the foot). The two accelerometer axes see gravity's whole
+magnitude only while the board's y axis is level; turned out of the sagittal plane, the planar
+|a| = g cos(beta) < g, the accelerometer tilt atan2(a_z, a_x) is still the planar tilt (of
+gravity's projection), but gyro_y is no longer its rate and | |a| - g | no longer measures the
+board's own acceleration. So the planar |a| is low-passed (one pole, ``plane_cutoff_hz``) and
+while it is below ``plane_fraction`` g (0.95: beta > 18 deg; a walking foot's mean |a| is above
+1 g, so walking never trips it) the accelerometer tilt is the measurement with the steady-state
+angle gain of ``r_out_of_plane`` and no bias update (the mismatch is not a gyro bias). This is
+what made the live filter better than the paper's on BROAD's 3-D trials (docs/filters.md).
 
 Gain. The gain at each sample is the *steady-state* Kalman gain [K0, K1] of the paper's model
 (exact discretisation, Q = diag(q_angle, q_bias)) for that sample's R, looked up in a table
@@ -104,6 +117,13 @@ class SegmentTuning:
     # of the tilt it gives (see the module doc, "Gravity measurement")
     live_gravity_hz: float | None = None
     r_live_gravity: float = 1e-2
+    # causal filter, out of the sagittal plane (module doc, "Out of plane"): when the planar
+    # |a| low-passed (one pole at ``plane_cutoff_hz``) falls below ``plane_fraction`` g, the
+    # accelerometer tilt is used with variance ``r_out_of_plane`` and the bias is left alone
+    # (None = no such test)
+    plane_fraction: float | None = None
+    plane_cutoff_hz: float = 0.5
+    r_out_of_plane: float = 1e-4
 
     def __post_init__(self) -> None:
         for name in ("static_acc_ms2", "static_rate_rad_s", "window_s", "r_static",
@@ -131,18 +151,31 @@ class SegmentTuning:
             raise ValueError(f"gravity_passes must be an integer >= 1, got {self.gravity_passes}")
         if self.r_moving is not None and not (np.isfinite(self.r_moving) and self.r_moving > 0):
             raise ValueError(f"r_moving must be a positive number or None, got {self.r_moving}")
+        if self.plane_fraction is not None and not (0 < self.plane_fraction < 1):
+            raise ValueError(f"plane_fraction must be in (0, 1) or None, got {self.plane_fraction}")
+        for name in ("plane_cutoff_hz", "r_out_of_plane"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value}")
 
     def window_samples(self, fs_hz: float) -> int:
         return max(1, round(self.window_s * fs_hz))
 
 
-# Chosen on the simulator (docs/filters.md): the foot is gated (foot-flat every stance); body,
-# thigh and shank are never still while walking and take the gravity measurement live.
+# Body, thigh and shank (chosen on the simulator, docs/filters.md): never still while walking,
+# they take the gravity measurement live.
 _WEIGHTED = SegmentTuning(
     static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0,
     live_gravity_hz=0.25,
 )  # fmt: skip
-_GATED = SegmentTuning(r_moving=1.0)
+# The foot (issue 24, chosen on the real walks and BROAD in ../shared/data with the simulator
+# kept; docs/filters.md, benchmarks/tilt_real.py): the accelerometer trusted at foot-flat
+# (r_static 1e-4), the gravity measurement while moving (r_moving is then unused: the
+# accelerometer weighted by the motion left fast walks without a foot-flat on the gyro alone)
+# and the out-of-plane test (BROAD's 3-D motion).
+_GATED = SegmentTuning(
+    r_static=1e-4, r_moving=1.0, live_gravity_hz=0.25, r_live_gravity=3e-3, plane_fraction=0.95,
+)  # fmt: skip
 SEGMENT_TUNING: dict[str, SegmentTuning] = {
     s.name: _GATED if s.still_in_stance else _WEIGHTED for s in SEGMENT_TABLE
 }
@@ -341,6 +374,12 @@ class GaitAwareKalman:
             if t.live_gravity_hz is not None else np.zeros(2)
             for j, t in enumerate(tuns)
         ]).reshape(len(tuns), 2)  # fmt: skip
+        # the out-of-plane test (0 = none): its threshold on the low-passed |a|, the low-pass's
+        # coefficient and the angle gain
+        self._plane_thr = np.array([(t.plane_fraction or 0.0) * STANDARD_GRAVITY_MS2 for t in tuns])
+        self._plane_alpha = np.array([-np.expm1(-TWO_PI * t.plane_cutoff_hz * dt) for t in tuns])
+        self._k_plane = np.array([float(steady_state_gain(t.r_out_of_plane, dt, t.q_angle,
+                                                          t.q_bias)[0]) for t in tuns])  # fmt: skip
         self._log_r = _gain_table(dt, tuns[0].q_angle, tuns[0].q_bias)[0] if tuns else np.zeros(2)
         self._gains = np.ascontiguousarray(
             np.stack([_gain_table(dt, t.q_angle, t.q_bias)[1] for t in tuns], axis=1)
@@ -361,6 +400,8 @@ class GaitAwareKalman:
         for grav, _ in self._gravity:
             grav.reset()
         self._theta: np.ndarray | None = None
+        # the out-of-plane test's low-passed |a| (module doc, "Out of plane"): 1 g again
+        self._plane_lp = np.full(len(self.segments), STANDARD_GRAVITY_MS2)
 
     @property
     def bias_rad_s(self) -> np.ndarray | None:
@@ -391,7 +432,8 @@ class GaitAwareKalman:
         from gaitmon.dsp.kernels import gait_aware_update  # lazy: numba only where run
 
         z_acc = np.arctan2(az, ax)
-        dev = np.abs(np.hypot(ax, az) - STANDARD_GRAVITY_MS2)
+        mag = np.hypot(ax, az)
+        dev = np.abs(mag - STANDARD_GRAVITY_MS2)
         z_grav = np.zeros((n, s))
         for grav, cols in self._gravity:
             z_grav[:, cols] = grav.process(ax[:, cols], az[:, cols], w[:, cols])
@@ -405,7 +447,7 @@ class GaitAwareKalman:
             ps["static_acc_ms2"], ps["static_rate_rad_s"], self._k_static, self._k_grav,
             self._lag, ps["r_static"], ps["r_moving"], ps["acc_scale_ms2"],
             ps["moving_rate_scale_rad_s"], self._log_r, self._gains, self.dt_s, start, theta,
-            bias, out,
+            bias, out, mag, self._plane_thr, self._plane_alpha, self._k_plane, self._plane_lp,
         )  # fmt: skip
         self._theta, self._bias = theta, bias
         return out[:, 0] if was_1d else out

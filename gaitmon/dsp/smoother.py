@@ -49,6 +49,15 @@ would cost nothing, did not do (the foot's tilt drifted away in turns, the ankle
 15 deg). This needs no segment lengths and no sensor placement, only the gyro's relative
 rotation over a few seconds.
 
+Out of plane (segments whose tuning has ``plane_fraction``: the foot). Where the board is turned
+out of the sagittal plane (:func:`out_of_plane`: the planar |a| averaged over 1 s below
+``plane_fraction`` g), the one gyro axis does not turn the specific force into a fixed frame, so
+z~ is wrong there; the last gravity pass of such a segment is solved once more with the
+accelerometer tilt in those samples (variance ``r_out_of_plane``), z~ elsewhere. Walking never
+trips the test (a walking foot's mean |a| is above 1 g): then nothing changes. On BROAD, 3-D
+motion that is not gait, the foot's offline tilt went from 11.0 / 6.9 / 8.4 / 21.7 deg to
+4.9 / 9.7 / 8.3 / 12.2 (trials 02 / 07 / 16 / 24; docs/filters.md).
+
 The first pass over a recording (:class:`CausalFirstPass`) is the causal filter run over the
 whole record in row order exactly as the live pipeline runs it (restarted after long gaps, its
 bias moved by new calibrations): where a pipeline has just run over the record with that filter
@@ -366,14 +375,42 @@ def smooth_tilts(
         cg = [grav[i] for i in members]
         th = cols(theta, members)
         n_grav = max(1, round(window_s * fs_hz))
-        for _ in range(passes):  # constant variances: one factor for every window
+        masks = {i: out_of_plane(ax[:, j], az[:, j], fs_hz, tuns[j]) for i, j in enumerate(cg)}
+        planes = {i: m for i, m in masks.items() if m is not None}
+        for p in range(passes):  # constant variances: one factor for every window
             z_grav = gravity_tilt(cols(ax, cg), cols(az, cg), th, n_grav)
+            prev = th if p == passes - 1 and planes else None
             del th
             th = _solve_windows(z_grav, cols(w, cg), r_grav, q_angle, q_bias, dt, window,
                                 overlap)  # fmt: skip
-            del z_grav
+            if prev is not None:  # out of plane: the accelerometer tilt there, one more solve
+                for i, mask in planes.items():
+                    j = cg[i]
+                    z = np.where(mask, _unwrapped_tilt(ax[:, j], az[:, j], prev[:, i]),
+                                 z_grav[:, i])  # fmt: skip
+                    r = np.where(mask, tuns[j].r_out_of_plane, r_grav)
+                    th[:, i] = _solve_windows(z, w[:, j], r, np.full(len(z), q_angle), q_bias,
+                                              dt, window, overlap)  # fmt: skip
+            del z_grav, prev
         out[:, cg] = th
     return out
+
+
+def out_of_plane(
+    acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, fs_hz: float, tuning: SegmentTuning
+) -> np.ndarray | None:
+    """Where one segment's board is out of the sagittal plane, offline (the causal filter's
+    test, gaitmon.dsp.motion_kalman, "Out of plane", with the planar |a| averaged over a centred
+    boxcar of 1 / (2 ``plane_cutoff_hz``) s, 1 s at 0.5 Hz); None where the tuning has no such
+    test or no sample is out of plane."""
+    if tuning.plane_fraction is None:
+        return None
+    from scipy.ndimage import uniform_filter1d  # lazy
+
+    n = max(1, round(fs_hz / (2.0 * tuning.plane_cutoff_hz)))
+    mean = uniform_filter1d(np.hypot(acc_x_ms2, acc_z_ms2), n, mode="nearest")
+    mask = mean < tuning.plane_fraction * STANDARD_GRAVITY_MS2
+    return mask if mask.any() else None
 
 
 def _solve_windows(
