@@ -85,9 +85,10 @@ def main() -> None:
     held = loto(names, fit, lambda k, c: scores[k][c])
     chosen = tuple(getattr(base, k) for k in GRID)
     print(f"leave-one-walk-out over {len(allowed)} of {len(configs)} configurations "
-          f"({', '.join(GRID)}; the others are worse than the paper's on a BROAD trial):")  # fmt: skip
+          f"({', '.join(GRID)}; the rest: worse than the paper's on a BROAD trial):")  # fmt: skip
     for k, h in zip(names, held, strict=True):
-        print(f"  {k:<12} held out {h:5.2f} deg   (chosen {chosen}: {scores[k].get(chosen, np.nan):5.2f})")
+        own = scores[k].get(chosen, np.nan)
+        print(f"  {k:<12} held out {h:5.2f} deg   (chosen {chosen}: {own:5.2f})")
     inside = [scores[k].get(chosen, np.nan) for k in names]
     print(f"median held out {np.median(held):.2f} deg; in-sample with the chosen: "
           f"{np.median(inside):.2f} deg")  # fmt: skip
