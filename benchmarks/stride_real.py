@@ -5,8 +5,8 @@ the x-io closed-loop walks, trial by trial, through the public entry points only
     PYTHONPATH=. python benchmarks/stride_real.py [--data ../shared/data] [--strides]
 
 gdins: each reference stride (footprint k to k + 1, zero-velocity end to zero-velocity end) is
-matched by time to the computed stride (heel strike to heel strike) that overlaps it most (at
-least half its duration); coverage is the share of reference strides whose match has a value.
+matched by time to the computed stride whose opening heel strike lies in footprint k's stance
+and closing one in footprint k + 1's (``match``); coverage is the share of reference strides whose match has a value.
 Errors are (computed - reference) / reference in %, over all strides with a value, and over
 those not flagged (``StrideMeasures.flag``, where it exists). xio: the sum of the stride lengths
 against the source's approximate path (~25 / ~60 m) and the 3-D ZUPT path of the data's own
@@ -41,26 +41,35 @@ def board(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, float
 
 def measure(ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs: float) -> StrideMeasures:
     hs, _ = gyro_gait_events(gy, fs)
-    return stride_measures(ax, az, gy, fs, hs)
+    try:
+        return stride_measures(ax, az, gy, fs, hs, first_steps=True)
+    except TypeError:  # (before first steps existed)
+        return stride_measures(ax, az, gy, fs, hs)
 
 
 def flags_of(m: StrideMeasures) -> np.ndarray:
     f = getattr(m, "flag", None)
-    return np.zeros(len(m), dtype=bool) if f is None else np.asarray(f) != 0
+    if f is None:
+        return np.zeros(len(m), dtype=bool)
+    return ~np.asarray(m.trusted) & np.isfinite(m.stride_length_m)
 
 
 def match(m: StrideMeasures, zv_end: np.ndarray, fs: float) -> np.ndarray:
-    """(K_ref,) index of the computed stride matched to each reference stride (-1: none)."""
-    a = m.heel_strike_idx.astype(float)
-    b = a + m.stride_time_s * fs
-    ra, rb = zv_end[:-1].astype(float), zv_end[1:].astype(float)
-    ov = np.minimum(rb[:, None], b[None, :]) - np.maximum(ra[:, None], a[None, :])
-    out = np.full(len(ra), -1, dtype=np.int64)
-    if len(a) == 0:
-        return out
-    j = np.argmax(ov, axis=1)
-    ok = ov[np.arange(len(ra)), j] >= 0.5 * (rb - ra)
-    out[ok] = j[ok]
+    """(K_ref,) index of the computed stride matched to each reference stride (-1: none).
+
+    A footprint's stance holds its heel strike and ends at its zero-velocity end, so the
+    computed stride j (opening heel strike a_j, closing b_j) is reference stride k when a_j is
+    in footprint k's stance (the first zero-velocity end at or after a_j is k's) and b_j in
+    footprint k + 1's."""
+    a = m.heel_strike_idx.astype(np.int64)
+    b = a + np.round(m.stride_time_s * fs).astype(np.int64)
+    ka = np.searchsorted(zv_end, a, side="left")
+    kb = np.searchsorted(zv_end, b, side="left")
+    first = (np.asarray(getattr(m, "flag", np.zeros(len(a), np.int64))) & 16) != 0
+    ka[first] = kb[first] - 1  # a first step opens at a standing, not in a stance
+    out = np.full(len(zv_end) - 1, -1, dtype=np.int64)
+    for j in np.flatnonzero((kb == ka + 1) & (ka < len(zv_end) - 1)):
+        out[ka[j]] = j
     return out
 
 

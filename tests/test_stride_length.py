@@ -11,6 +11,7 @@ import pytest
 from gaitmon.dsp import StrideLengthTracker, stride_lengths, stride_measures
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX
 from gaitmon.dsp.gyro_events import gyro_gait_events
+from gaitmon.dsp.stride_length import FLAG_NO_FOOT_FLAT
 from gaitmon.io.sim import GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import realistic_sensors, simulate
 
@@ -76,11 +77,14 @@ def test_a_stride_without_a_foot_flat_is_nan():
     ax, az, gy, hs = synthetic_foot()
     gy = gy.copy()
     a, b = hs[2], hs[2] + int(STANCE_S * FS)
-    gy[a:b] = 1.0  # the foot never rests in stance 2
+    gy[a:b] = 2.0  # the foot never rests in stance 2 (nor comes near: > NEAR_STILL)
     m = stride_measures(ax, az, gy, FS, hs)
     assert np.isnan(m.stride_length_m[1]) and np.isnan(m.stride_length_m[2])
     assert np.all(np.isfinite(m.stride_length_m[[0, 3, 4, 5]]))
     assert m.foot_flat_idx[2, 0] == -1
+    assert list(m.flags[1:3]) == [FLAG_NO_FOOT_FLAT] * 2
+    assert m.reasons(1) == ["no foot-flat"] and not m.trusted[1]
+    assert np.all(m.flags[[0, 3, 4, 5]] == 0) and np.all(m.trusted[[0, 3, 4, 5]])
 
 
 def test_streaming_gives_the_same_strides_in_any_chunking():

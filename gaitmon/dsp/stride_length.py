@@ -67,12 +67,33 @@ STILL_GYRO_RAD_S = 0.35
 STILL_ACC_MS2 = 0.8
 STILL_HALF_WIDTH = 2  # samples either side that must be still too
 MIN_STILL_SAMPLES = 3
+NEAR_STILL = 5.0  # in units of the still thresholds: the stillest sample is taken below it
 SEARCH_FRACTION = 0.6  # of a stride, after its heel strike (foot-flat ends by ~40 %)
 MAX_STRIDE_S = 3.0
+# a stride's own consistency (module doc, step 6): flagged out of plane past either
+OUT_OF_PLANE_PITCH_RAD = float(np.radians(6.0))
+OUT_OF_PLANE_VEL_M_S = 0.5
+STANDING_S = 0.3  # a first step's standing: still at least this long
+STANDING_SEARCH_S = 1.5  # ... and ending within this before the step's heel strike
+
+# StrideMeasures.flag bits
+FLAG_NO_FOOT_FLAT = 1  # NaN: a foot-flat was not found
+FLAG_PAUSE = 2  # NaN: the foot-flats are more than MAX_STRIDE_S apart
+FLAG_OUT_OF_PLANE = 4  # a turn or roll: the planar model does not close (a value, not trusted)
+FLAG_NEAR_STILL = 8  # a foot-flat is the stillest sample of a stance that never rests
+FLAG_FIRST_STEP = 16  # a first step from standing (first_steps=True), not a heel-strike stride
+FLAG_REASONS: dict[int, str] = {
+    FLAG_NO_FOOT_FLAT: "no foot-flat",
+    FLAG_PAUSE: "pause",
+    FLAG_OUT_OF_PLANE: "turn or roll (out of plane)",
+    FLAG_NEAR_STILL: "foot never still",
+    FLAG_FIRST_STEP: "first step from standing",
+}
+FLAG_UNTRUSTED = FLAG_NO_FOOT_FLAT | FLAG_PAUSE | FLAG_OUT_OF_PLANE
 # Raise with any change to the method that changes its numbers (the constants above are part of
 # METHOD already): stored measures computed by another version are then recomputed when read
 # (gaitmon.finish.strides).
-METHOD_VERSION = 1
+METHOD_VERSION = 2
 METHOD: dict[str, float | int | str] = {
     "method": "foot IMU strapdown with zero-velocity updates",
     "version": METHOD_VERSION,
@@ -82,6 +103,9 @@ METHOD: dict[str, float | int | str] = {
     "min_still_samples": MIN_STILL_SAMPLES,
     "search_fraction": SEARCH_FRACTION,
     "max_stride_s": MAX_STRIDE_S,
+    "near_still": NEAR_STILL,
+    "out_of_plane_pitch_rad": OUT_OF_PLANE_PITCH_RAD,
+    "out_of_plane_vel_m_s": OUT_OF_PLANE_VEL_M_S,
     "standard_gravity_ms2": STANDARD_GRAVITY_MS2,
 }
 
@@ -95,6 +119,28 @@ class StrideMeasures:
     foot_clearance_m: np.ndarray  # (K,)
     stride_time_s: np.ndarray  # (K,)
     foot_flat_idx: np.ndarray  # (K, 2) anchor samples (-1: not found) the stride runs between
+    # (K,) int FLAG_* bits (0: a plain stride); None: not known (built by an older reader)
+    flag: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.flag is None:
+            object.__setattr__(self, "flag", np.zeros(len(self.heel_strike_idx), dtype=np.int64))
+
+    @property
+    def flags(self) -> np.ndarray:
+        """(K,) int FLAG_* bits of each stride."""
+        assert self.flag is not None
+        return self.flag
+
+    @property
+    def trusted(self) -> np.ndarray:
+        """(K,) bool: a value that no flag puts in doubt (no turn, foot-flats found)."""
+        return np.isfinite(self.stride_length_m) & (self.flags & FLAG_UNTRUSTED == 0)
+
+    def reasons(self, k: int) -> list[str]:
+        """Why stride k is flagged (empty: a plain stride)."""
+        f = int(self.flags[k])
+        return [text for bit, text in FLAG_REASONS.items() if f & bit]
 
     @property
     def speed_m_s(self) -> np.ndarray:
@@ -150,6 +196,7 @@ class _FootFlat:
     pitch_rad: float
     gyro_bias_rad_s: float
     g_ms2: float
+    near_still: bool = False
 
 
 def _foot_flat(
@@ -162,15 +209,30 @@ def _foot_flat(
     x, z, w = ax[start:stop], az[start:stop], gy[start:stop]
     dev = np.maximum(np.abs(w) / STILL_GYRO_RAD_S,
                      np.abs(np.hypot(x, z) - STANDARD_GRAVITY_MS2) / STILL_ACC_MS2)  # fmt: skip
-    still = _moving_max(dev, STILL_HALF_WIDTH) < 1.0
-    if not still.any():
-        return None
-    edges = np.diff(np.concatenate([[0], still.astype(np.int8), [0]]))
-    runs_a, runs_b = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    k = int(np.argmax(runs_b - runs_a))
-    a, b = int(runs_a[k]), int(runs_b[k])
+    mdev = _moving_max(dev, STILL_HALF_WIDTH)
+    still = mdev < 1.0
+    if still.any():
+        edges = np.diff(np.concatenate([[0], still.astype(np.int8), [0]]))
+        runs_a, runs_b = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        k = int(np.argmax(runs_b - runs_a))
+        a, b = int(runs_a[k]), int(runs_b[k])
+    else:
+        a = b = 0
     if b - a < MIN_STILL_SAMPLES:
-        return None
+        # no still run (fast walking: a short stance in which the foot keeps rolling): the
+        # stillest sample of the span's first half (the stance, not a slow moment of swing),
+        # if it is nearly still
+        k = int(np.argmin(mdev[: max(len(mdev) // 2, 1)]))
+        if mdev[k] >= NEAR_STILL:
+            return None
+        a, b = max(k - STILL_HALF_WIDTH, 0), min(k + STILL_HALF_WIDTH + 1, len(w))
+        return _FootFlat(
+            anchor=start + k,
+            pitch_rad=float(np.arctan2(np.mean(z[a:b]), np.mean(x[a:b]))),
+            gyro_bias_rad_s=0.0,
+            g_ms2=float(np.hypot(np.mean(x[a:b]), np.mean(z[a:b]))),
+            near_still=True,
+        )
     mx, mz = float(np.mean(x[a:b])), float(np.mean(z[a:b]))
     return _FootFlat(
         anchor=start + (a + b - 1) // 2,
@@ -188,35 +250,79 @@ def _cumtrapz(y: np.ndarray, dt: float) -> np.ndarray:
 
 def _stride(
     ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlat, f1: _FootFlat
-) -> tuple[float, float]:
-    """(forward displacement, clearance) between two foot-flats (module doc, steps 2-4)."""
+) -> tuple[float, float, bool]:
+    """(forward displacement, clearance, out of plane) between two foot-flats (module doc,
+    steps 2-4 and 6)."""
     a, b = f0.anchor, f1.anchor
     dt = 1.0 / fs_hz
     u = np.arange(b - a + 1) / (b - a)  # 0 at the first anchor, 1 at the second
     bias = 0.5 * (f0.gyro_bias_rad_s + f1.gyro_bias_rad_s)
     pitch = f0.pitch_rad + _cumtrapz(gy[a : b + 1] - bias, dt)
+    # the gyro's own closure (its standing bias is removed by the calibration; the residual
+    # estimated at a foot-flat is not used here: a rolling stance foot would fake one)
+    pitch_misfit = float(pitch[-1] + bias * (b - a) * dt - f1.pitch_rad)
     pitch -= (pitch[-1] - f1.pitch_rad) * u
     s, c = np.sin(pitch), np.cos(pitch)
     x, z = ax[a : b + 1], az[a : b + 1]
     acc_f = z * c - x * s
     acc_u = x * c + z * s - 0.5 * (f0.g_ms2 + f1.g_ms2)
     out = []
+    misfit = []
     for acc in (acc_f, acc_u):
         v = _cumtrapz(acc, dt)
+        misfit.append(float(v[-1]))
         v -= v[-1] * u
         p = _cumtrapz(v, dt)
         out.append(p)
     fwd, up = out
     up -= up[-1] * u
-    return float(fwd[-1]), float(np.max(up))
+    out_of_plane = (
+        abs(pitch_misfit) > OUT_OF_PLANE_PITCH_RAD or abs(misfit[0]) > OUT_OF_PLANE_VEL_M_S
+    )
+    return float(fwd[-1]), float(np.max(up)), out_of_plane
+
+
+def _standing(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, start: int, stop: int, fs_hz: float
+) -> _FootFlat | None:
+    """The end of the last standing (still for STANDING_S) in samples [start, stop): the anchor
+    of a first step (module doc, step 7)."""
+    start, stop = max(start, 0), min(stop, len(gy))
+    if stop - start < MIN_STILL_SAMPLES:
+        return None
+    x, z, w = ax[start:stop], az[start:stop], gy[start:stop]
+    dev = np.maximum(np.abs(w) / STILL_GYRO_RAD_S,
+                     np.abs(np.hypot(x, z) - STANDARD_GRAVITY_MS2) / STILL_ACC_MS2)  # fmt: skip
+    still = _moving_max(dev, STILL_HALF_WIDTH) < 1.0
+    edges = np.diff(np.concatenate([[0], still.astype(np.int8), [0]]))
+    runs_a, runs_b = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    n_min = max(MIN_STILL_SAMPLES, round(STANDING_S * fs_hz))
+    long_runs = np.flatnonzero(runs_b - runs_a >= n_min)
+    if len(long_runs) == 0:
+        return None
+    b = int(runs_b[long_runs[-1]])
+    a = b - n_min
+    mx, mz = float(np.mean(x[a:b])), float(np.mean(z[a:b]))
+    return _FootFlat(
+        anchor=start + b - 1,
+        pitch_rad=float(np.arctan2(mz, mx)),
+        gyro_bias_rad_s=float(np.mean(w[a:b])),
+        g_ms2=float(np.hypot(mx, mz)),
+    )
 
 
 def stride_measures(
     acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_y_rad_s: np.ndarray, fs_hz: float,
-    heel_strike_idx: np.ndarray,
+    heel_strike_idx: np.ndarray, *, first_steps: bool = False,
 ) -> StrideMeasures:  # fmt: skip
     """Stride length, foot clearance, stride time and speed of every stride between consecutive
-    heel strikes, from the foot board's samples (module doc: method and assumptions)."""
+    heel strikes, from the foot board's samples (module doc: method and assumptions), with a
+    quality flag each (``StrideMeasures.flag``).
+
+    ``first_steps``: also the step from standing to each heel strike that opens a walk (the
+    first, or one more than MAX_STRIDE_S after the one before), placed before the strides from
+    that heel strike and flagged FLAG_FIRST_STEP (module doc, step 7). Its ``heel_strike_idx``
+    is the last standing sample and its stride time runs from there to the heel strike."""
     ax = np.asarray(acc_x_ms2, dtype=np.float64)
     az = np.asarray(acc_z_ms2, dtype=np.float64)
     gy = np.asarray(gyro_y_rad_s, dtype=np.float64)
@@ -233,21 +339,73 @@ def stride_measures(
     length = np.full(n_strides, np.nan)
     clearance = np.full(n_strides, np.nan)
     anchors = np.full((n_strides, 2), -1, dtype=np.int64)
+    flag = np.zeros(n_strides, dtype=np.int64)
     for j in range(n_strides):
         f0, f1 = flats[j], flats[j + 1]
         if f0 is not None:
             anchors[j, 0] = f0.anchor
         if f1 is not None:
             anchors[j, 1] = f1.anchor
-        if f0 is None or f1 is None or not 0 < f1.anchor - f0.anchor <= MAX_STRIDE_S * fs_hz:
-            continue  # (the same foot-flat for both heel strikes: no stride between them)
-        length[j], clearance[j] = _stride(ax, az, gy, fs_hz, f0, f1)
-    return StrideMeasures(
+        if f0 is None or f1 is None:
+            flag[j] = FLAG_NO_FOOT_FLAT
+            continue
+        if not 0 < f1.anchor - f0.anchor <= MAX_STRIDE_S * fs_hz:
+            # (the same foot-flat for both heel strikes: no stride between them)
+            flag[j] = FLAG_PAUSE
+            continue
+        length[j], clearance[j], out_of_plane = _stride(ax, az, gy, fs_hz, f0, f1)
+        flag[j] = (FLAG_OUT_OF_PLANE if out_of_plane else 0) | (
+            FLAG_NEAR_STILL if f0.near_still or f1.near_still else 0)  # fmt: skip
+    m = StrideMeasures(
         heel_strike_idx=hs[:n_strides],
         stride_length_m=length,
         foot_clearance_m=clearance,
         stride_time_s=np.diff(hs).astype(np.float64) / fs_hz,
         foot_flat_idx=anchors,
+        flag=flag,
+    )
+    return _with_first_steps(ax, az, gy, fs_hz, hs, spans, flats, m) if first_steps else m
+
+
+def _with_first_steps(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, hs: np.ndarray,
+    spans: np.ndarray, flats: list[_FootFlat | None], m: StrideMeasures,
+) -> StrideMeasures:  # fmt: skip
+    """``m`` with the first step from standing before each heel strike opening a walk."""
+    rows: list[tuple[int, float, float, float, int, int, int]] = []
+    opens = [j for j in range(len(hs))
+             if (j == 0 or hs[j] - hs[j - 1] > MAX_STRIDE_S * fs_hz) and flats[j] is not None]  # fmt: skip
+    at = []
+    for j in opens:
+        f1 = flats[j]
+        assert f1 is not None
+        lo = int(hs[j] - STANDING_SEARCH_S * fs_hz)
+        if j > 0:
+            lo = max(lo, int(hs[j - 1] + spans[j - 1]))
+        f0 = _standing(ax, az, gy, lo, int(hs[j]), fs_hz)
+        if f0 is None or not 0 < f1.anchor - f0.anchor <= MAX_STRIDE_S * fs_hz:
+            continue
+        length, clearance, out_of_plane = _stride(ax, az, gy, fs_hz, f0, f1)
+        fl = FLAG_FIRST_STEP | (FLAG_OUT_OF_PLANE if out_of_plane else 0) | (
+            FLAG_NEAR_STILL if f1.near_still else 0)  # fmt: skip
+        rows.append((f0.anchor, length, clearance, float(hs[j] - f0.anchor) / fs_hz,
+                     f0.anchor, f1.anchor, fl))  # fmt: skip
+        at.append(j)
+    if not rows:
+        return m
+    pos = np.asarray(at, dtype=np.int64)
+    r = list(zip(*rows, strict=True))
+
+    def ins(old: np.ndarray, new: np.ndarray) -> np.ndarray:
+        return np.insert(old, pos, new, axis=0)
+
+    return StrideMeasures(
+        heel_strike_idx=ins(m.heel_strike_idx, np.asarray(r[0], dtype=np.int64)),
+        stride_length_m=ins(m.stride_length_m, np.asarray(r[1])),
+        foot_clearance_m=ins(m.foot_clearance_m, np.asarray(r[2])),
+        stride_time_s=ins(m.stride_time_s, np.asarray(r[3])),
+        foot_flat_idx=ins(m.foot_flat_idx, np.stack([r[4], r[5]], axis=1).astype(np.int64)),
+        flag=ins(m.flags, np.asarray(r[6], dtype=np.int64)),
     )
 
 
@@ -291,6 +449,7 @@ def record_stride_measures(
             foot_clearance_m=m.foot_clearance_m[keep],
             stride_time_s=m.stride_time_s[keep],
             foot_flat_idx=np.where(ff >= 0, ff + a, -1),
+            flag=m.flags[keep],
         ))  # fmt: skip
     return StrideMeasures(
         heel_strike_idx=hs[:n_strides],
@@ -298,6 +457,7 @@ def record_stride_measures(
         foot_clearance_m=np.concatenate([p.foot_clearance_m for p in parts]),
         stride_time_s=np.diff(hs).astype(np.float64) / fs_hz,
         foot_flat_idx=np.concatenate([p.foot_flat_idx for p in parts]),
+        flag=np.concatenate([p.flags for p in parts]),
     )
 
 
@@ -412,6 +572,7 @@ class StrideLengthTracker:
             foot_clearance_m=m.foot_clearance_m[keep],
             stride_time_s=m.stride_time_s[keep],
             foot_flat_idx=np.where(ff >= 0, ff + self._buf_start, -1),
+            flag=m.flags[keep],
         )
 
     def _padded(self, end_abs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
