@@ -6,11 +6,13 @@ the x-io closed-loop walks, trial by trial, through the public entry points only
 
 gdins: each reference stride (footprint k to k + 1, zero-velocity end to zero-velocity end) is
 matched by time to the computed stride whose opening heel strike lies in footprint k's stance
-and closing one in footprint k + 1's (``match``); coverage is the share of reference strides whose match has a value.
-Errors are (computed - reference) / reference in %, over all strides with a value, and over
-those not flagged (``StrideMeasures.flag``, where it exists). xio: the sum of the stride lengths
-against the source's approximate path (~25 / ~60 m) and the 3-D ZUPT path of the data's own
-check (22.66 / 56.75 m): a weak reference (README), not a per-stride one.
+and closing one in footprint k + 1's (``match``; a first step from standing, computed with
+``first_steps=True``, by its closing heel strike); coverage is the share of reference strides
+whose match has a value. Errors are (computed - reference) / reference in %, over all strides
+with a value, and over those not flagged (``StrideMeasures.trusted``, where it exists).
+xio: the sum of the stride lengths against the source's approximate path (~25 / ~60 m) and
+the 3-D ZUPT path of the data's own check (22.66 / 56.75 m): a weak reference (README), not a
+per-stride one.
 """
 
 from __future__ import annotations
@@ -31,7 +33,10 @@ def default_data() -> pathlib.Path:
     return pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 
-def board(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, dict[str, np.ndarray]]:
+Board = tuple[np.ndarray, np.ndarray, np.ndarray, float, dict[str, np.ndarray]]
+
+
+def board(path: pathlib.Path) -> Board:
     """The foot in the unit's board frame (the datasets' load.py board_frame): acc x = the sole
     normal (up), acc z = forward, gyro y toe-up +."""
     z = np.load(path)
@@ -79,8 +84,8 @@ def pct(x: np.ndarray, q: float) -> float:
 
 def gdins(folder: pathlib.Path, per_stride: bool) -> dict[str, np.ndarray]:
     print("gdins_footprints: per trial (errors in % of the footprint stride length)")
-    print(f"{'trial':7} {'ref':>4} {'cover%':>7} {'flag':>5} {'med|e|':>7} {'p90|e|':>7} "
-          f"{'mean e':>7} | unflagged: {'n':>4} {'med|e|':>7} {'p90|e|':>7} {'mean e':>7}")  # fmt: skip
+    head = f"{'med|e|':>7} {'p90|e|':>7} {'mean e':>7}"
+    print(f"{'trial':7} {'ref':>4} {'cover%':>7} {'flag':>5} {head} | unflagged: {'n':>4} {head}")
     errs, unfl, covers = [], [], {}
     for p in sorted((folder / "trials").glob("exp*.npz")):
         ax, az, gy, fs, z = board(p)

@@ -7,7 +7,10 @@ Method: planar strapdown integration of the foot board, reset at every foot-flat
    stride before it; of the stride after it for the first heel strike) a sample is *still* when,
    over +-2 samples, the gyro stays within ``STILL_GYRO_RAD_S`` of zero and the accelerometer's
    magnitude within ``STILL_ACC_MS2`` of g. The longest still run is the foot-flat; its middle
-   sample is the anchor where the foot's velocity is taken as zero.
+   sample is the anchor where the foot's velocity is taken as zero. Where no sample is still
+   (fast walking: on real feet at ~2 m/s the stance foot keeps rolling at 0.5-1.2 rad/s and
+   |a| - g stays 1-3 m/s^2), the stillest sample of the span's first half (the stance) is the
+   anchor if its deviation is below ``NEAR_STILL`` times the thresholds (flag FLAG_NEAR_STILL).
 2. **Pitch.** At each foot-flat the board's pitch from vertical is the accelerometer tilt
    atan2(mean a_z, mean a_x) over the run (gravity alone acts on a still foot: no calibration
    or mounting offset needed), and the gyro's mean over the run is its residual bias. Between
@@ -20,12 +23,31 @@ Method: planar strapdown integration of the foot board, reset at every foot-flat
    de-drift: a constant acceleration error, e.g. from a pitch offset, leaves no trace). Position
    is integrated from the velocity; its height at the second anchor is removed linearly too
    (level ground).
-5. **Per stride** (heel strike j to j + 1, the swing between them): the stride length is the
+5. **The board's yaw on the foot.** A unit strapped on the instep at a yaw psi to the foot's
+   long axis sees cos(psi) of the foot's pitch rate and forward acceleration (its lateral
+   motion aside): read as it is, every stride is short by 1 - cos(psi) (three gdins walks,
+   psi 23-30 deg from the 3-D gyro's rotation axis, read 8-13 % short). Rotated by a pitch
+   that is cos(psi) of the true one, the forward acceleration leaks into the vertical, so the
+   foot ends the stride moving up or down. Where that vertical velocity misses zero by more
+   than ``MOUNT_MIN_VEL_M_S`` and changes sign in [``MOUNT_COS_MIN``, 1], the stride is
+   integrated again with the gyro and a_z divided by the cosine at which it closes
+   (bisection). Per stride, so the tracker and the offline function agree.
+6. **Per stride** (heel strike j to j + 1, the swing between them): the stride length is the
    forward displacement from the foot-flat after heel strike j to the foot-flat after heel
    strike j + 1, the foot clearance the sensor's highest point above its foot-flat height over
    that interval, the gait speed the stride length over the stride time (heel strike to heel
    strike). NaN where a foot-flat is not found or the two anchors are more than
-   ``MAX_STRIDE_S`` apart (the subject stood still mid-stride: no speed to speak of).
+   ``MAX_STRIDE_S`` apart (the subject stood still mid-stride: no speed to speak of), with
+   the reason in ``StrideMeasures.flag``. A stride whose own planar model does not close (a
+   turn or a roll takes rotation off the board's one gyro axis) keeps its value but is flagged
+   FLAG_OUT_OF_PLANE: the gyro's pitch misses the next foot-flat's accelerometer pitch by
+   more than ``OUT_OF_PLANE_PITCH_RAD`` or the forward velocity misses zero by more than
+   ``OUT_OF_PLANE_VEL_M_S`` (gdins: 93 % of the strides turning > 60 deg flagged, 6 % of
+   those turning < 15 deg).
+7. **First steps** (``first_steps=True``): before a heel strike that opens a walk (the first,
+   or one more than ``MAX_STRIDE_S`` after the one before) the last standing (still for
+   ``STANDING_S``, ending within ``STANDING_SEARCH_S`` of it) is the first anchor of one more
+   stride, to the foot-flat after that heel strike, flagged FLAG_FIRST_STEP.
 
 Assumptions (module doc of gaitmon.dsp.channels for the frames): the foot board lies in the
 foot's sagittal plane, x up and z forward when standing (any pitch offset on the foot is fine),
@@ -33,8 +55,9 @@ the gyro measures the rate about the board's y axis (to the subject's right), po
 toe goes up (the tilt convention of gaitmon.dsp.angles), in rad/s with its standing bias
 removed (gaitmon's calibration; a residual of a few hundredths of a rad/s is estimated at each
 foot-flat); the accelerometer in m/s^2 with its gain right (the local g is taken from it).
-Walking is straight (no turns: one gyro axis cannot see them) and on level ground (clearance
-only; the stride length holds on slopes). The foot is still for at least ~50 ms each stance. No
+Walking is straight (one gyro axis cannot see turns: they are flagged, step 6) and on level
+ground (clearance only; the stride length holds on slopes). The foot is still, or nearly, for
+at least ~50 ms each stance. No
 leg length, height or other anthropometry is needed.
 
 The same stride needs only the samples from its heel strike to the foot-flat after the next one
@@ -73,6 +96,9 @@ MAX_STRIDE_S = 3.0
 # a stride's own consistency (module doc, step 6): flagged out of plane past either
 OUT_OF_PLANE_PITCH_RAD = float(np.radians(6.0))
 OUT_OF_PLANE_VEL_M_S = 0.5
+MOUNT_COS_MIN = float(np.cos(np.radians(40.0)))  # the board's yaw on the foot: at most 40 deg
+MOUNT_MIN_VEL_M_S = 0.05  # ... looked for where the vertical velocity misses 0 by more
+MOUNT_ITERATIONS = 10  # bisection steps for it (to 0.0002 in its cosine)
 STANDING_S = 0.3  # a first step's standing: still at least this long
 STANDING_SEARCH_S = 1.5  # ... and ending within this before the step's heel strike
 
@@ -106,6 +132,9 @@ METHOD: dict[str, float | int | str] = {
     "near_still": NEAR_STILL,
     "out_of_plane_pitch_rad": OUT_OF_PLANE_PITCH_RAD,
     "out_of_plane_vel_m_s": OUT_OF_PLANE_VEL_M_S,
+    "mount_cos_min": MOUNT_COS_MIN,
+    "mount_iterations": MOUNT_ITERATIONS,
+    "mount_min_vel_m_s": MOUNT_MIN_VEL_M_S,
     "standard_gravity_ms2": STANDARD_GRAVITY_MS2,
 }
 
@@ -248,22 +277,32 @@ def _cumtrapz(y: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
-def _stride(
-    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlat, f1: _FootFlat
-) -> tuple[float, float, bool]:
-    """(forward displacement, clearance, out of plane) between two foot-flats (module doc,
-    steps 2-4 and 6)."""
+@dataclass(frozen=True)
+class _Pass:
+    forward_m: float
+    clearance_m: float
+    pitch_misfit_rad: float  # the gyro's pitch at the second foot-flat less the accelerometer's
+    vel_misfit_m_s: tuple[float, float]  # (forward, up) velocity at the second foot-flat
+
+
+def _integrate(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlat, f1: _FootFlat,
+    mount_cos: float,
+) -> _Pass:  # fmt: skip
+    """Steps 2-4 of the module doc between two foot-flats, the board's forward axis and gyro
+    taken as ``mount_cos`` of the foot's (step 5)."""
     a, b = f0.anchor, f1.anchor
     dt = 1.0 / fs_hz
     u = np.arange(b - a + 1) / (b - a)  # 0 at the first anchor, 1 at the second
     bias = 0.5 * (f0.gyro_bias_rad_s + f1.gyro_bias_rad_s)
-    pitch = f0.pitch_rad + _cumtrapz(gy[a : b + 1] - bias, dt)
+    rate = (gy[a : b + 1] - bias) / mount_cos
+    pitch = f0.pitch_rad + _cumtrapz(rate, dt)
     # the gyro's own closure (its standing bias is removed by the calibration; the residual
     # estimated at a foot-flat is not used here: a rolling stance foot would fake one)
-    pitch_misfit = float(pitch[-1] + bias * (b - a) * dt - f1.pitch_rad)
+    pitch_misfit = float(pitch[-1] + bias / mount_cos * (b - a) * dt - f1.pitch_rad)
     pitch -= (pitch[-1] - f1.pitch_rad) * u
     s, c = np.sin(pitch), np.cos(pitch)
-    x, z = ax[a : b + 1], az[a : b + 1]
+    x, z = ax[a : b + 1], az[a : b + 1] / mount_cos
     acc_f = z * c - x * s
     acc_u = x * c + z * s - 0.5 * (f0.g_ms2 + f1.g_ms2)
     out = []
@@ -276,10 +315,35 @@ def _stride(
         out.append(p)
     fwd, up = out
     up -= up[-1] * u
+    return _Pass(float(fwd[-1]), float(np.max(up)), pitch_misfit, (misfit[0], misfit[1]))
+
+
+def _stride(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlat, f1: _FootFlat
+) -> tuple[float, float, bool]:
+    """(forward displacement, clearance, out of plane) between two foot-flats (module doc,
+    steps 2-6)."""
+    p = _integrate(ax, az, gy, fs_hz, f0, f1, 1.0)
+    # a board yawed on the foot sees only cos(yaw) of the pitch rate and forward acceleration
+    # (step 5): the cosine in [MOUNT_COS_MIN, 1] at which the foot ends the stride with no
+    # vertical velocity, if it misses by more than MOUNT_MIN_VEL_M_S and changes sign there
+    hi_sign = np.sign(p.vel_misfit_m_s[1])
+    lo, hi = MOUNT_COS_MIN, 1.0
+    if abs(p.vel_misfit_m_s[1]) > MOUNT_MIN_VEL_M_S and (
+        np.sign(_integrate(ax, az, gy, fs_hz, f0, f1, lo).vel_misfit_m_s[1]) == -hi_sign
+    ):
+        for _ in range(MOUNT_ITERATIONS):
+            mid = 0.5 * (lo + hi)
+            if np.sign(_integrate(ax, az, gy, fs_hz, f0, f1, mid).vel_misfit_m_s[1]) == hi_sign:
+                hi = mid
+            else:
+                lo = mid
+        p = _integrate(ax, az, gy, fs_hz, f0, f1, 0.5 * (lo + hi))
     out_of_plane = (
-        abs(pitch_misfit) > OUT_OF_PLANE_PITCH_RAD or abs(misfit[0]) > OUT_OF_PLANE_VEL_M_S
+        abs(p.pitch_misfit_rad) > OUT_OF_PLANE_PITCH_RAD
+        or abs(p.vel_misfit_m_s[0]) > OUT_OF_PLANE_VEL_M_S
     )
-    return float(fwd[-1]), float(np.max(up)), out_of_plane
+    return p.forward_m, p.clearance_m, out_of_plane
 
 
 def _standing(
@@ -373,8 +437,9 @@ def _with_first_steps(
 ) -> StrideMeasures:  # fmt: skip
     """``m`` with the first step from standing before each heel strike opening a walk."""
     rows: list[tuple[int, float, float, float, int, int, int]] = []
+    gap = MAX_STRIDE_S * fs_hz
     opens = [j for j in range(len(hs))
-             if (j == 0 or hs[j] - hs[j - 1] > MAX_STRIDE_S * fs_hz) and flats[j] is not None]  # fmt: skip
+             if (j == 0 or hs[j] - hs[j - 1] > gap) and flats[j] is not None]  # fmt: skip
     at = []
     for j in opens:
         f1 = flats[j]
