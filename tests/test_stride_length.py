@@ -12,6 +12,7 @@ from gaitmon.dsp import StrideLengthTracker, stride_lengths, stride_measures
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX
 from gaitmon.dsp.gyro_events import gyro_gait_events
 from gaitmon.dsp.stride_length import (
+    ANCHOR_LEVER_M,
     FLAG_FIRST_STEP,
     FLAG_NEAR_STILL,
     FLAG_NO_FOOT_FLAT,
@@ -78,12 +79,16 @@ def test_synthetic_foot_gives_the_hand_computed_stride(bias, v_ms):
     ax, az, gy, hs = synthetic_foot(gyro_bias_rad_s=bias, v_ms=v_ms)
     m = stride_measures(ax, az, gy, FS, hs)
     assert len(m) == len(hs) - 1 == 6
-    # v * (0.3 + 0.5) s forward per stride (1.2 m/s: 0.96 m; 0.7 m/s: 0.56 m); lifted 7 cm
+    # v * (0.3 + 0.5) s forward per stride (1.2 m/s: 0.96 m; 0.7 m/s: 0.56 m); lifted 7 cm.
+    # A gyro bias left by the calibration reads as a roll of the foot at both foot-flats: the
+    # board taken to move forward at ANCHOR_LEVER_M times it (step 4) over the stride's time
     stride_m = v_ms * (RAMP_S + CRUISE_S)
-    np.testing.assert_allclose(m.stride_length_m, stride_m, atol=0.002)
+    rolled_m = ANCHOR_LEVER_M * bias * (STANCE_S + SWING_S)
+    np.testing.assert_allclose(m.stride_length_m, stride_m - rolled_m, atol=0.002)
     np.testing.assert_allclose(m.foot_clearance_m, LIFT_M, atol=0.002)
     np.testing.assert_allclose(m.stride_time_s, STANCE_S + SWING_S)
-    np.testing.assert_allclose(m.speed_m_s, stride_m / (STANCE_S + SWING_S), atol=0.002)
+    np.testing.assert_allclose(m.speed_m_s, (stride_m - rolled_m) / (STANCE_S + SWING_S),
+                               atol=0.002)  # fmt: skip
     # the foot-flat anchors lie in the stances, between heel strike and swing
     assert np.all((m.foot_flat_idx[:, 0] > hs[:-1]) & (m.foot_flat_idx[:, 0] < hs[:-1] + 50))
     np.testing.assert_array_equal(stride_lengths(ax, az, gy, FS, hs), m.stride_length_m)
@@ -119,7 +124,8 @@ def test_a_stance_that_never_rests_is_anchored_at_its_stillest_sample():
     inner = slice(1, len(m))
     np.testing.assert_array_equal(m.foot_flat_idx[inner, 0], hs[1:-1] + k0)
     assert np.all(m.flags[inner] & FLAG_NEAR_STILL)
-    np.testing.assert_allclose(m.stride_length_m[inner], V_MS * (RAMP_S + CRUISE_S), rtol=0.02)
+    # (the tremor's mean around the anchor, ~0.11 rad/s, reads as a roll: ~1-2 % shorter)
+    np.testing.assert_allclose(m.stride_length_m[inner], V_MS * (RAMP_S + CRUISE_S), rtol=0.03)
 
 
 def test_a_board_yawed_on_the_foot_gives_the_true_stride():

@@ -1,7 +1,7 @@
 """Stride length on real feet (gdins footprints: 16 walks, a measured footprint per stride; the
 x-io closed-loop walks), through the public entry points, as benchmarks/stride_real.py prints
 it. Skips without ../shared/data. Figures reached when written (docs/filters.md): every
-reference stride has a value in every trial; median |error| 2.6 % over all strides, 2.1 % over
+reference stride has a value in every trial; median |error| 2.1 % over all strides, 1.5 % over
 those not flagged; 93 % of the strides that turn > 60 deg (3-D gyro) flagged."""
 
 from __future__ import annotations
@@ -72,10 +72,10 @@ def test_every_reference_stride_has_a_value_in_every_trial(gdins):
 def test_stride_length_error_on_real_feet(gdins):
     e = np.concatenate([100 * (v - r) / r for v, r, _, _ in gdins.values()])
     unflagged = np.concatenate([~f for _, _, f, _ in gdins.values()])
-    assert np.median(np.abs(e)) <= 3.0  # 2.6 (2.9 on 70 % of the strides before)
-    assert np.median(np.abs(e[unflagged])) <= 2.5  # 2.1
-    assert np.percentile(np.abs(e[unflagged]), 90) <= 7.0  # 6.2
-    assert abs(np.mean(e)) <= 1.5  # -0.6 (-3.1 before): no overall shortfall
+    assert np.median(np.abs(e)) <= 2.5  # 2.1 (2.9 on 70 % of the strides before)
+    assert np.median(np.abs(e[unflagged])) <= 2.0  # 1.5
+    assert np.percentile(np.abs(e[unflagged]), 90) <= 6.5  # 6.0
+    assert abs(np.mean(e)) <= 1.5  # +0.9 (-3.1 before): no overall shortfall
     # the three trials whose board is yawed ~25 deg on the foot read 8-13 % short before
     for name in ("exp37", "exp39", "exp46"):
         v, r, _, _ = gdins[name]
@@ -99,4 +99,4 @@ def test_xio_loops_total_distance(shared_data):
     for name, ref in zupt_3d_m.items():
         m, _ = _measure(dict(np.load(folder / f"{name}.npz")))
         assert np.all(np.isfinite(m.stride_length_m)), name
-        assert abs(np.sum(m.stride_length_m) / ref - 1) < 0.04, name  # +2.1 / +0.6 %
+        assert abs(np.sum(m.stride_length_m) / ref - 1) < 0.05, name  # +3.1 / +2.0 %

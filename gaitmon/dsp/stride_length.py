@@ -22,7 +22,10 @@ Method: planar strapdown integration of the foot board, reset at every foot-flat
    second anchor (which should be 0) is removed linearly over the stride (the standard ZUPT
    de-drift: a constant acceleration error, e.g. from a pitch offset, leaves no trace). Position
    is integrated from the velocity; its height at the second anchor is removed linearly too
-   (level ground).
+   (level ground). A stance foot that still rolls at the anchor (fast walking) is not at rest:
+   the board, ``ANCHOR_LEVER_M`` above the ground pivot it rolls on, moves forward at that
+   height times the roll rate (the gyro around the anchor), which is the forward velocity the
+   integration starts from and must end at.
 5. **The board's yaw on the foot.** A unit strapped on the instep at a yaw psi to the foot's
    long axis sees cos(psi) of the foot's pitch rate and forward acceleration (its lateral
    motion aside): read as it is, every stride is short by 1 - cos(psi) (three gdins walks,
@@ -96,6 +99,7 @@ MAX_STRIDE_S = 3.0
 # a stride's own consistency (module doc, step 6): flagged out of plane past either
 OUT_OF_PLANE_PITCH_RAD = float(np.radians(6.0))
 OUT_OF_PLANE_VEL_M_S = 0.5
+ANCHOR_LEVER_M = 0.08  # the board's height above a rolling stance foot's ground pivot
 MOUNT_COS_MIN = float(np.cos(np.radians(40.0)))  # the board's yaw on the foot: at most 40 deg
 MOUNT_MIN_VEL_M_S = 0.05  # ... looked for where the vertical velocity misses 0 by more
 MOUNT_ITERATIONS = 10  # bisection steps for it (to 0.0002 in its cosine)
@@ -133,6 +137,7 @@ METHOD: dict[str, float | int | str] = {
     "out_of_plane_pitch_rad": OUT_OF_PLANE_PITCH_RAD,
     "out_of_plane_vel_m_s": OUT_OF_PLANE_VEL_M_S,
     "mount_cos_min": MOUNT_COS_MIN,
+    "anchor_lever_m": ANCHOR_LEVER_M,
     "mount_iterations": MOUNT_ITERATIONS,
     "mount_min_vel_m_s": MOUNT_MIN_VEL_M_S,
     "standard_gravity_ms2": STANDARD_GRAVITY_MS2,
@@ -225,6 +230,7 @@ class _FootFlat:
     pitch_rad: float
     gyro_bias_rad_s: float
     g_ms2: float
+    roll_rad_s: float  # the gyro around the anchor (within the search: block-invariant)
     near_still: bool = False
 
 
@@ -260,6 +266,7 @@ def _foot_flat(
             pitch_rad=float(np.arctan2(np.mean(z[a:b]), np.mean(x[a:b]))),
             gyro_bias_rad_s=0.0,
             g_ms2=float(np.hypot(np.mean(x[a:b]), np.mean(z[a:b]))),
+            roll_rad_s=_rate_at(w, k),
             near_still=True,
         )
     mx, mz = float(np.mean(x[a:b])), float(np.mean(z[a:b]))
@@ -268,6 +275,7 @@ def _foot_flat(
         pitch_rad=float(np.arctan2(mz, mx)),
         gyro_bias_rad_s=float(np.mean(w[a:b])),
         g_ms2=float(np.hypot(mx, mz)),
+        roll_rad_s=_rate_at(w, (a + b - 1) // 2),
     )
 
 
@@ -283,6 +291,11 @@ class _Pass:
     clearance_m: float
     pitch_misfit_rad: float  # the gyro's pitch at the second foot-flat less the accelerometer's
     vel_misfit_m_s: tuple[float, float]  # (forward, up) velocity at the second foot-flat
+
+
+def _rate_at(w: np.ndarray, i: int) -> float:
+    """The mean of w over +-STILL_HALF_WIDTH samples around w[i] (those inside w)."""
+    return float(np.mean(w[max(i - STILL_HALF_WIDTH, 0) : i + STILL_HALF_WIDTH + 1]))
 
 
 def _integrate(
@@ -305,12 +318,16 @@ def _integrate(
     x, z = ax[a : b + 1], az[a : b + 1] / mount_cos
     acc_f = z * c - x * s
     acc_u = x * c + z * s - 0.5 * (f0.g_ms2 + f1.g_ms2)
+    # a stance foot that still rolls (step 1) moves the board forward by its height above the
+    # ground pivot times the roll rate (toe-down, negative rate: forward)
+    v_ends = ((-ANCHOR_LEVER_M * f0.roll_rad_s / mount_cos,
+               -ANCHOR_LEVER_M * f1.roll_rad_s / mount_cos), (0.0, 0.0))  # fmt: skip
     out = []
     misfit = []
-    for acc in (acc_f, acc_u):
-        v = _cumtrapz(acc, dt)
-        misfit.append(float(v[-1]))
-        v -= v[-1] * u
+    for acc, (v0, v1) in zip((acc_f, acc_u), v_ends, strict=True):
+        v = v0 + _cumtrapz(acc, dt)
+        misfit.append(float(v[-1] - v1))
+        v -= (v[-1] - v1) * u
         p = _cumtrapz(v, dt)
         out.append(p)
     fwd, up = out
@@ -372,6 +389,7 @@ def _standing(
         pitch_rad=float(np.arctan2(mz, mx)),
         gyro_bias_rad_s=float(np.mean(w[a:b])),
         g_ms2=float(np.hypot(mx, mz)),
+        roll_rad_s=_rate_at(w, b - 1),
     )
 
 
