@@ -100,3 +100,17 @@ def test_xio_loops_total_distance(shared_data):
         m, _ = _measure(dict(np.load(folder / f"{name}.npz")))
         assert np.all(np.isfinite(m.stride_length_m)), name
         assert abs(np.sum(m.stride_length_m) / ref - 1) < 0.05, name  # +3.1 / +2.0 %
+
+
+def test_foot_gyro_heel_strikes_one_per_footprint_in_every_trial(shared_data):
+    """Every footprint after the standing start (first and last steps, the steps of the 180 deg
+    turns, fast and slow) has exactly one heel strike in its stance (the interval up to its
+    zero-velocity end), and none comes before the walk: 1,050 of 1,050."""
+    for p in _trials(shared_data):
+        z = np.load(p)
+        hs, _ = gyro_gait_events(z["foot_gyro_y"].astype(float), float(z["fs"]))
+        zv = z["zv_end_idx"].astype(np.int64)
+        per_footprint = np.bincount(np.searchsorted(zv, hs), minlength=len(zv) + 1)
+        assert per_footprint[0] == 0, p.stem
+        np.testing.assert_array_equal(per_footprint[1 : len(zv)], 1, err_msg=p.stem)
+        assert per_footprint[len(zv)] == 0, p.stem
