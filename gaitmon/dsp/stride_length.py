@@ -227,11 +227,18 @@ def _moving_max(x: np.ndarray, half: int) -> np.ndarray:
 @dataclass(frozen=True)
 class _FootFlat:
     anchor: int  # absolute sample index
-    pitch_rad: float
+    acc_x_ms2: float  # the accelerometer's mean there (gravity alone)
+    acc_z_ms2: float
     gyro_bias_rad_s: float
-    g_ms2: float
     roll_rad_s: float  # the gyro around the anchor (within the search: block-invariant)
     near_still: bool = False
+
+    def pitch_rad(self, mount_cos: float = 1.0) -> float:
+        """The board's pitch from vertical, its a_z read as mount_cos of the foot's (step 5)."""
+        return float(np.arctan2(self.acc_z_ms2 / mount_cos, self.acc_x_ms2))
+
+    def g_ms2(self, mount_cos: float = 1.0) -> float:
+        return float(np.hypot(self.acc_x_ms2, self.acc_z_ms2 / mount_cos))
 
 
 def _foot_flat(
@@ -263,18 +270,18 @@ def _foot_flat(
         a, b = max(k - STILL_HALF_WIDTH, 0), min(k + STILL_HALF_WIDTH + 1, len(w))
         return _FootFlat(
             anchor=start + k,
-            pitch_rad=float(np.arctan2(np.mean(z[a:b]), np.mean(x[a:b]))),
+            acc_x_ms2=float(np.mean(x[a:b])),
+            acc_z_ms2=float(np.mean(z[a:b])),
             gyro_bias_rad_s=0.0,
-            g_ms2=float(np.hypot(np.mean(x[a:b]), np.mean(z[a:b]))),
             roll_rad_s=_rate_at(w, k),
             near_still=True,
         )
     mx, mz = float(np.mean(x[a:b])), float(np.mean(z[a:b]))
     return _FootFlat(
         anchor=start + (a + b - 1) // 2,
-        pitch_rad=float(np.arctan2(mz, mx)),
+        acc_x_ms2=mx,
+        acc_z_ms2=mz,
         gyro_bias_rad_s=float(np.mean(w[a:b])),
-        g_ms2=float(np.hypot(mx, mz)),
         roll_rad_s=_rate_at(w, (a + b - 1) // 2),
     )
 
@@ -309,15 +316,16 @@ def _integrate(
     u = np.arange(b - a + 1) / (b - a)  # 0 at the first anchor, 1 at the second
     bias = 0.5 * (f0.gyro_bias_rad_s + f1.gyro_bias_rad_s)
     rate = (gy[a : b + 1] - bias) / mount_cos
-    pitch = f0.pitch_rad + _cumtrapz(rate, dt)
+    p0, p1 = f0.pitch_rad(mount_cos), f1.pitch_rad(mount_cos)
+    pitch = p0 + _cumtrapz(rate, dt)
     # the gyro's own closure (its standing bias is removed by the calibration; the residual
     # estimated at a foot-flat is not used here: a rolling stance foot would fake one)
-    pitch_misfit = float(pitch[-1] + bias / mount_cos * (b - a) * dt - f1.pitch_rad)
-    pitch -= (pitch[-1] - f1.pitch_rad) * u
+    pitch_misfit = float(pitch[-1] + bias / mount_cos * (b - a) * dt - p1)
+    pitch -= (pitch[-1] - p1) * u
     s, c = np.sin(pitch), np.cos(pitch)
     x, z = ax[a : b + 1], az[a : b + 1] / mount_cos
     acc_f = z * c - x * s
-    acc_u = x * c + z * s - 0.5 * (f0.g_ms2 + f1.g_ms2)
+    acc_u = x * c + z * s - 0.5 * (f0.g_ms2(mount_cos) + f1.g_ms2(mount_cos))
     # a stance foot that still rolls (step 1) moves the board forward by its height above the
     # ground pivot times the roll rate (toe-down, negative rate: forward)
     v_ends = ((-ANCHOR_LEVER_M * f0.roll_rad_s / mount_cos,
@@ -386,9 +394,9 @@ def _standing(
     mx, mz = float(np.mean(x[a:b])), float(np.mean(z[a:b]))
     return _FootFlat(
         anchor=start + b - 1,
-        pitch_rad=float(np.arctan2(mz, mx)),
+        acc_x_ms2=mx,
+        acc_z_ms2=mz,
         gyro_bias_rad_s=float(np.mean(w[a:b])),
-        g_ms2=float(np.hypot(mx, mz)),
         roll_rad_s=_rate_at(w, b - 1),
     )
 
