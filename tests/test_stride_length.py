@@ -11,6 +11,14 @@ import pytest
 from gaitmon.dsp import StrideLengthTracker, stride_lengths, stride_measures
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX
 from gaitmon.dsp.gyro_events import gyro_gait_events
+from gaitmon.dsp.stride_length import (
+    ANCHOR_LEVER_M,
+    FLAG_FIRST_STEP,
+    FLAG_NEAR_STILL,
+    FLAG_NO_FOOT_FLAT,
+    FLAG_OUT_OF_PLANE,
+    STILL_GYRO_RAD_S,
+)
 from gaitmon.io.sim import GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import realistic_sensors, simulate
 
@@ -27,11 +35,14 @@ PITCH0_RAD, SWING_PITCH_RAD = np.radians(4.0), np.radians(-40.0)
 # raised-cosine ramps cover half their time at full speed: V (RAMP_S + CRUISE_S) per stride
 
 
-def synthetic_foot(n_strides: int = 6, gyro_bias_rad_s: float = 0.0, v_ms: float = V_MS):
+def synthetic_foot(
+    n_strides: int = 6, gyro_bias_rad_s: float = 0.0, v_ms: float = V_MS, toe_up: bool = False
+):
     """Stance (still, flat: the board at its mounting pitch) then a swing that moves forward
     with a raised-cosine ramp to V_MS, cruises, and ramps down, lifts by LIFT_M and pitches the
-    foot down and back. Returns acc x, acc z, gyro and the heel strikes (start of each
-    stance)."""
+    foot down and back (``toe_up``: down in the first half of the swing, up in the second, as a
+    real foot from toe off to heel strike). Returns acc x, acc z, gyro and the heel strikes
+    (start of each stance)."""
     stride_s = STANCE_S + SWING_S
     n = round((n_strides * stride_s + STANCE_S) * FS)
     t = np.arange(n) / FS
@@ -47,8 +58,15 @@ def synthetic_foot(n_strides: int = 6, gyro_bias_rad_s: float = 0.0, v_ms: float
     # height LIFT sin^2(pi u / SWING): its acceleration
     k = np.pi / SWING_S
     acc_u = np.where(swing, LIFT_M * 2.0 * k * k * np.cos(2.0 * k * u), 0.0)
-    pitch = PITCH0_RAD + np.where(swing, SWING_PITCH_RAD * np.sin(k * u) ** 2, 0.0)
-    rate = np.where(swing, SWING_PITCH_RAD * k * np.sin(2.0 * k * u), 0.0)
+    if toe_up:  # SWING_PITCH sin(2ku) sin^2(ku): its rate is 0 at both ends
+        shape = np.sin(2.0 * k * u) * np.sin(k * u) ** 2
+        d_shape = k * (2.0 * np.cos(2.0 * k * u) * np.sin(k * u) ** 2
+                       + np.sin(2.0 * k * u) ** 2)  # fmt: skip
+        pitch = PITCH0_RAD + np.where(swing, 1.5 * SWING_PITCH_RAD * shape, 0.0)
+        rate = np.where(swing, 1.5 * SWING_PITCH_RAD * d_shape, 0.0)
+    else:
+        pitch = PITCH0_RAD + np.where(swing, SWING_PITCH_RAD * np.sin(k * u) ** 2, 0.0)
+        rate = np.where(swing, SWING_PITCH_RAD * k * np.sin(2.0 * k * u), 0.0)
     f_f, f_u = acc_f, acc_u + G
     ax = -f_f * np.sin(pitch) + f_u * np.cos(pitch)
     az = f_f * np.cos(pitch) + f_u * np.sin(pitch)
@@ -61,12 +79,16 @@ def test_synthetic_foot_gives_the_hand_computed_stride(bias, v_ms):
     ax, az, gy, hs = synthetic_foot(gyro_bias_rad_s=bias, v_ms=v_ms)
     m = stride_measures(ax, az, gy, FS, hs)
     assert len(m) == len(hs) - 1 == 6
-    # v * (0.3 + 0.5) s forward per stride (1.2 m/s: 0.96 m; 0.7 m/s: 0.56 m); lifted 7 cm
+    # v * (0.3 + 0.5) s forward per stride (1.2 m/s: 0.96 m; 0.7 m/s: 0.56 m); lifted 7 cm.
+    # A gyro bias left by the calibration reads as a roll of the foot at both foot-flats: the
+    # board taken to move forward at ANCHOR_LEVER_M times it (step 4) over the stride's time
     stride_m = v_ms * (RAMP_S + CRUISE_S)
-    np.testing.assert_allclose(m.stride_length_m, stride_m, atol=0.002)
+    rolled_m = ANCHOR_LEVER_M * bias * (STANCE_S + SWING_S)
+    np.testing.assert_allclose(m.stride_length_m, stride_m - rolled_m, atol=0.002)
     np.testing.assert_allclose(m.foot_clearance_m, LIFT_M, atol=0.002)
     np.testing.assert_allclose(m.stride_time_s, STANCE_S + SWING_S)
-    np.testing.assert_allclose(m.speed_m_s, stride_m / (STANCE_S + SWING_S), atol=0.002)
+    np.testing.assert_allclose(m.speed_m_s, (stride_m - rolled_m) / (STANCE_S + SWING_S),
+                               atol=0.002)  # fmt: skip
     # the foot-flat anchors lie in the stances, between heel strike and swing
     assert np.all((m.foot_flat_idx[:, 0] > hs[:-1]) & (m.foot_flat_idx[:, 0] < hs[:-1] + 50))
     np.testing.assert_array_equal(stride_lengths(ax, az, gy, FS, hs), m.stride_length_m)
@@ -76,11 +98,83 @@ def test_a_stride_without_a_foot_flat_is_nan():
     ax, az, gy, hs = synthetic_foot()
     gy = gy.copy()
     a, b = hs[2], hs[2] + int(STANCE_S * FS)
-    gy[a:b] = 1.0  # the foot never rests in stance 2
+    gy[a:b] = 2.0  # the foot never rests in stance 2 (nor comes near: > NEAR_STILL)
     m = stride_measures(ax, az, gy, FS, hs)
     assert np.isnan(m.stride_length_m[1]) and np.isnan(m.stride_length_m[2])
     assert np.all(np.isfinite(m.stride_length_m[[0, 3, 4, 5]]))
     assert m.foot_flat_idx[2, 0] == -1
+    assert list(m.flags[1:3]) == [FLAG_NO_FOOT_FLAT] * 2
+    assert m.reasons(1) == ["no foot-flat"] and not m.trusted[1]
+    assert np.all(m.flags[[0, 3, 4, 5]] == 0) and np.all(m.trusted[[0, 3, 4, 5]])
+
+
+def test_a_stance_that_never_rests_is_anchored_at_its_stillest_sample():
+    """Fast walking: the stance foot keeps rolling (1.5-3x the still threshold, as on gdins at
+    2 m/s), so no sample is still; the anchor is the stillest one, here where the roll rate's
+    V has its bottom, 12 samples after the heel strike (closed form)."""
+    ax, az, gy, hs = synthetic_foot()
+    gy = gy.copy()
+    n_stance = int(STANCE_S * FS)
+    k0 = 12
+    v = STILL_GYRO_RAD_S * (1.5 + 0.05 * np.abs(np.arange(n_stance) - k0))
+    v *= np.where(np.arange(n_stance) % 2 == 0, 1.0, -1.0)  # a tremor: no net pitch
+    for h in hs[1:-1]:
+        gy[h : h + n_stance] = v  # least at h + k0
+    m = stride_measures(ax, az, gy, FS, hs)
+    inner = slice(1, len(m))
+    np.testing.assert_array_equal(m.foot_flat_idx[inner, 0], hs[1:-1] + k0)
+    assert np.all(m.flags[inner] & FLAG_NEAR_STILL)
+    # (the tremor's mean around the anchor, ~0.11 rad/s, reads as a roll: ~1-2 % shorter)
+    np.testing.assert_allclose(m.stride_length_m[inner], V_MS * (RAMP_S + CRUISE_S), rtol=0.03)
+
+
+def test_a_board_yawed_on_the_foot_gives_the_true_stride():
+    """A unit strapped on the instep 25 deg off the foot's long axis sees cos 25 deg of the
+    foot's pitch rate and forward acceleration (no lateral motion here): read as it is, every
+    stride would be ~9 % short. Where the foot speeds up toe-down and slows down toe-up (a
+    real swing), the forward acceleration rotated by a wrong pitch leaves a vertical velocity
+    at the next foot-flat: its closure finds the yaw (closed form)."""
+    ax, az, gy, hs = synthetic_foot(toe_up=True)
+    stride_m = V_MS * (RAMP_S + CRUISE_S)
+    aligned = stride_measures(ax, az, gy, FS, hs)
+    np.testing.assert_allclose(aligned.stride_length_m, stride_m, atol=0.002)
+    c = np.cos(np.radians(25.0))
+    m = stride_measures(ax, c * az, c * gy, FS, hs)
+    # within 2 % (1.6 % on the strides whose sampled swing leaves a -0.01 m/s vertical residual
+    # even aligned: this slow swing's closure moves only 1.3 m/s per unit of the cosine)
+    np.testing.assert_allclose(m.stride_length_m, stride_m, rtol=0.02)
+    assert np.all(m.flags == 0)
+
+
+def test_a_stride_out_of_the_sagittal_plane_is_flagged():
+    """A turn or roll takes part of the foot's rotation off the board's one gyro axis: here the
+    gyro sees 75 % of stride 3's swing (a ~10 deg pitch misfit at its next foot-flat)."""
+    ax, az, gy, hs = synthetic_foot()
+    gy = gy.copy()
+    swing = slice(hs[3] + int(STANCE_S * FS), hs[4])
+    gy[swing] *= 0.75
+    m = stride_measures(ax, az, gy, FS, hs)
+    assert m.flags[3] & FLAG_OUT_OF_PLANE and not m.trusted[3]
+    assert "turn or roll (out of plane)" in m.reasons(3)
+    assert np.all(m.flags[[0, 1, 2, 4, 5]] == 0)
+
+
+def test_the_first_step_from_standing():
+    """The walk opens at heel strike 1 (the first stance is a standing): with first_steps the
+    step from that standing is measured too, flagged, and placed first."""
+    ax, az, gy, hs = synthetic_foot()
+    hs = hs[1:]
+    plain = stride_measures(ax, az, gy, FS, hs)
+    m = stride_measures(ax, az, gy, FS, hs, first_steps=True)
+    assert len(m) == len(plain) + 1
+    assert m.flags[0] == FLAG_FIRST_STEP and np.all(m.flags[1:] == 0)
+    np.testing.assert_allclose(m.stride_length_m[0], V_MS * (RAMP_S + CRUISE_S), atol=0.002)
+    # it runs from the standing's last still sample (the swing starts at STANCE_S; still: the
+    # +-2 samples around are still too) to heel strike 1
+    assert m.heel_strike_idx[0] == int(STANCE_S * FS) - 2
+    np.testing.assert_allclose(m.stride_time_s[0], (hs[0] - m.heel_strike_idx[0]) / FS)
+    np.testing.assert_array_equal(m.stride_length_m[1:], plain.stride_length_m)
+    np.testing.assert_array_equal(m.heel_strike_idx[1:], plain.heel_strike_idx)
 
 
 def test_streaming_gives_the_same_strides_in_any_chunking():
@@ -104,6 +198,7 @@ def test_streaming_gives_the_same_strides_in_any_chunking():
     starts = np.concatenate([g.heel_strike_idx for g in got])
     np.testing.assert_array_equal(starts, whole.heel_strike_idx)
     np.testing.assert_array_equal(length, whole.stride_length_m)
+    np.testing.assert_array_equal(np.concatenate([g.flags for g in got]), whole.flags)
     assert len(tr._buf) < 3 * (STANCE_S + SWING_S) * FS  # it does not keep the record
 
 

@@ -7,7 +7,10 @@ Method: planar strapdown integration of the foot board, reset at every foot-flat
    stride before it; of the stride after it for the first heel strike) a sample is *still* when,
    over +-2 samples, the gyro stays within ``STILL_GYRO_RAD_S`` of zero and the accelerometer's
    magnitude within ``STILL_ACC_MS2`` of g. The longest still run is the foot-flat; its middle
-   sample is the anchor where the foot's velocity is taken as zero.
+   sample is the anchor where the foot's velocity is taken as zero. Where no sample is still
+   (fast walking: on real feet at ~2 m/s the stance foot keeps rolling at 0.5-1.2 rad/s and
+   |a| - g stays 1-3 m/s^2), the stillest sample of the span's first half (the stance) is the
+   anchor if its deviation is below ``NEAR_STILL`` times the thresholds (flag FLAG_NEAR_STILL).
 2. **Pitch.** At each foot-flat the board's pitch from vertical is the accelerometer tilt
    atan2(mean a_z, mean a_x) over the run (gravity alone acts on a still foot: no calibration
    or mounting offset needed), and the gyro's mean over the run is its residual bias. Between
@@ -19,13 +22,35 @@ Method: planar strapdown integration of the foot board, reset at every foot-flat
    second anchor (which should be 0) is removed linearly over the stride (the standard ZUPT
    de-drift: a constant acceleration error, e.g. from a pitch offset, leaves no trace). Position
    is integrated from the velocity; its height at the second anchor is removed linearly too
-   (level ground).
-5. **Per stride** (heel strike j to j + 1, the swing between them): the stride length is the
+   (level ground). A stance foot that still rolls at the anchor (fast walking) is not at rest:
+   the board, ``ANCHOR_LEVER_M`` above the ground pivot it rolls on, moves forward at that
+   height times the roll rate (the gyro around the anchor), which is the forward velocity the
+   integration starts from and must end at.
+5. **The board's yaw on the foot.** A unit strapped on the instep at a yaw psi to the foot's
+   long axis sees cos(psi) of the foot's pitch rate and forward acceleration (its lateral
+   motion aside): read as it is, every stride is short by 1 - cos(psi) (three gdins walks,
+   psi 23-30 deg from the 3-D gyro's rotation axis, read 8-13 % short). Rotated by a pitch
+   that is cos(psi) of the true one, the forward acceleration leaks into the vertical, so the
+   foot ends the stride moving up or down. Where that vertical velocity misses zero by more
+   than ``MOUNT_MIN_VEL_M_S`` and changes sign in [``MOUNT_COS_MIN``, 1], the stride is
+   integrated again with the gyro and a_z divided by the cosine at which it closes
+   (bisection). Per stride, so the tracker and the offline function agree.
+6. **Per stride** (heel strike j to j + 1, the swing between them): the stride length is the
    forward displacement from the foot-flat after heel strike j to the foot-flat after heel
    strike j + 1, the foot clearance the sensor's highest point above its foot-flat height over
    that interval, the gait speed the stride length over the stride time (heel strike to heel
    strike). NaN where a foot-flat is not found or the two anchors are more than
-   ``MAX_STRIDE_S`` apart (the subject stood still mid-stride: no speed to speak of).
+   ``MAX_STRIDE_S`` apart (the subject stood still mid-stride: no speed to speak of), with
+   the reason in ``StrideMeasures.flag``. A stride whose own planar model does not close (a
+   turn or a roll takes rotation off the board's one gyro axis) keeps its value but is flagged
+   FLAG_OUT_OF_PLANE: the gyro's pitch misses the next foot-flat's accelerometer pitch by
+   more than ``OUT_OF_PLANE_PITCH_RAD`` or the forward velocity misses zero by more than
+   ``OUT_OF_PLANE_VEL_M_S`` (gdins: 93 % of the strides turning > 60 deg flagged, 6 % of
+   those turning < 15 deg).
+7. **First steps** (``first_steps=True``): before a heel strike that opens a walk (the first,
+   or one more than ``MAX_STRIDE_S`` after the one before) the last standing (still for
+   ``STANDING_S``, ending within ``STANDING_SEARCH_S`` of it) is the first anchor of one more
+   stride, to the foot-flat after that heel strike, flagged FLAG_FIRST_STEP.
 
 Assumptions (module doc of gaitmon.dsp.channels for the frames): the foot board lies in the
 foot's sagittal plane, x up and z forward when standing (any pitch offset on the foot is fine),
@@ -33,8 +58,9 @@ the gyro measures the rate about the board's y axis (to the subject's right), po
 toe goes up (the tilt convention of gaitmon.dsp.angles), in rad/s with its standing bias
 removed (gaitmon's calibration; a residual of a few hundredths of a rad/s is estimated at each
 foot-flat); the accelerometer in m/s^2 with its gain right (the local g is taken from it).
-Walking is straight (no turns: one gyro axis cannot see them) and on level ground (clearance
-only; the stride length holds on slopes). The foot is still for at least ~50 ms each stance. No
+Walking is straight (one gyro axis cannot see turns: they are flagged, step 6) and on level
+ground (clearance only; the stride length holds on slopes). The foot is still, or nearly, for
+at least ~50 ms each stance. No
 leg length, height or other anthropometry is needed.
 
 The same stride needs only the samples from its heel strike to the foot-flat after the next one
@@ -67,12 +93,37 @@ STILL_GYRO_RAD_S = 0.35
 STILL_ACC_MS2 = 0.8
 STILL_HALF_WIDTH = 2  # samples either side that must be still too
 MIN_STILL_SAMPLES = 3
+NEAR_STILL = 5.0  # in units of the still thresholds: the stillest sample is taken below it
 SEARCH_FRACTION = 0.6  # of a stride, after its heel strike (foot-flat ends by ~40 %)
 MAX_STRIDE_S = 3.0
+# a stride's own consistency (module doc, step 6): flagged out of plane past either
+OUT_OF_PLANE_PITCH_RAD = float(np.radians(6.0))
+OUT_OF_PLANE_VEL_M_S = 0.5
+ANCHOR_LEVER_M = 0.08  # the board's height above a rolling stance foot's ground pivot
+MOUNT_COS_MIN = float(np.cos(np.radians(40.0)))  # the board's yaw on the foot: at most 40 deg
+MOUNT_MIN_VEL_M_S = 0.05  # ... looked for where the vertical velocity misses 0 by more
+MOUNT_ITERATIONS = 10  # bisection steps for it (to 0.0002 in its cosine)
+STANDING_S = 0.3  # a first step's standing: still at least this long
+STANDING_SEARCH_S = 1.5  # ... and ending within this before the step's heel strike
+
+# StrideMeasures.flag bits
+FLAG_NO_FOOT_FLAT = 1  # NaN: a foot-flat was not found
+FLAG_PAUSE = 2  # NaN: the foot-flats are more than MAX_STRIDE_S apart
+FLAG_OUT_OF_PLANE = 4  # a turn or roll: the planar model does not close (a value, not trusted)
+FLAG_NEAR_STILL = 8  # a foot-flat is the stillest sample of a stance that never rests
+FLAG_FIRST_STEP = 16  # a first step from standing (first_steps=True), not a heel-strike stride
+FLAG_REASONS: dict[int, str] = {
+    FLAG_NO_FOOT_FLAT: "no foot-flat",
+    FLAG_PAUSE: "pause",
+    FLAG_OUT_OF_PLANE: "turn or roll (out of plane)",
+    FLAG_NEAR_STILL: "foot never still",
+    FLAG_FIRST_STEP: "first step from standing",
+}
+FLAG_UNTRUSTED = FLAG_NO_FOOT_FLAT | FLAG_PAUSE | FLAG_OUT_OF_PLANE
 # Raise with any change to the method that changes its numbers (the constants above are part of
 # METHOD already): stored measures computed by another version are then recomputed when read
 # (gaitmon.finish.strides).
-METHOD_VERSION = 1
+METHOD_VERSION = 2
 METHOD: dict[str, float | int | str] = {
     "method": "foot IMU strapdown with zero-velocity updates",
     "version": METHOD_VERSION,
@@ -82,6 +133,13 @@ METHOD: dict[str, float | int | str] = {
     "min_still_samples": MIN_STILL_SAMPLES,
     "search_fraction": SEARCH_FRACTION,
     "max_stride_s": MAX_STRIDE_S,
+    "near_still": NEAR_STILL,
+    "out_of_plane_pitch_rad": OUT_OF_PLANE_PITCH_RAD,
+    "out_of_plane_vel_m_s": OUT_OF_PLANE_VEL_M_S,
+    "mount_cos_min": MOUNT_COS_MIN,
+    "anchor_lever_m": ANCHOR_LEVER_M,
+    "mount_iterations": MOUNT_ITERATIONS,
+    "mount_min_vel_m_s": MOUNT_MIN_VEL_M_S,
     "standard_gravity_ms2": STANDARD_GRAVITY_MS2,
 }
 
@@ -95,6 +153,28 @@ class StrideMeasures:
     foot_clearance_m: np.ndarray  # (K,)
     stride_time_s: np.ndarray  # (K,)
     foot_flat_idx: np.ndarray  # (K, 2) anchor samples (-1: not found) the stride runs between
+    # (K,) int FLAG_* bits (0: a plain stride); None: not known (built by an older reader)
+    flag: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.flag is None:
+            object.__setattr__(self, "flag", np.zeros(len(self.heel_strike_idx), dtype=np.int64))
+
+    @property
+    def flags(self) -> np.ndarray:
+        """(K,) int FLAG_* bits of each stride."""
+        assert self.flag is not None
+        return self.flag
+
+    @property
+    def trusted(self) -> np.ndarray:
+        """(K,) bool: a value that no flag puts in doubt (no turn, foot-flats found)."""
+        return np.isfinite(self.stride_length_m) & (self.flags & FLAG_UNTRUSTED == 0)
+
+    def reasons(self, k: int) -> list[str]:
+        """Why stride k is flagged (empty: a plain stride)."""
+        f = int(self.flags[k])
+        return [text for bit, text in FLAG_REASONS.items() if f & bit]
 
     @property
     def speed_m_s(self) -> np.ndarray:
@@ -147,9 +227,18 @@ def _moving_max(x: np.ndarray, half: int) -> np.ndarray:
 @dataclass(frozen=True)
 class _FootFlat:
     anchor: int  # absolute sample index
-    pitch_rad: float
+    acc_x_ms2: float  # the accelerometer's mean there (gravity alone)
+    acc_z_ms2: float
     gyro_bias_rad_s: float
-    g_ms2: float
+    roll_rad_s: float  # the gyro around the anchor (within the search: block-invariant)
+    near_still: bool = False
+
+    def pitch_rad(self, mount_cos: float = 1.0) -> float:
+        """The board's pitch from vertical, its a_z read as mount_cos of the foot's (step 5)."""
+        return float(np.arctan2(self.acc_z_ms2 / mount_cos, self.acc_x_ms2))
+
+    def g_ms2(self, mount_cos: float = 1.0) -> float:
+        return float(np.hypot(self.acc_x_ms2, self.acc_z_ms2 / mount_cos))
 
 
 def _foot_flat(
@@ -162,21 +251,38 @@ def _foot_flat(
     x, z, w = ax[start:stop], az[start:stop], gy[start:stop]
     dev = np.maximum(np.abs(w) / STILL_GYRO_RAD_S,
                      np.abs(np.hypot(x, z) - STANDARD_GRAVITY_MS2) / STILL_ACC_MS2)  # fmt: skip
-    still = _moving_max(dev, STILL_HALF_WIDTH) < 1.0
-    if not still.any():
-        return None
-    edges = np.diff(np.concatenate([[0], still.astype(np.int8), [0]]))
-    runs_a, runs_b = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    k = int(np.argmax(runs_b - runs_a))
-    a, b = int(runs_a[k]), int(runs_b[k])
+    mdev = _moving_max(dev, STILL_HALF_WIDTH)
+    still = mdev < 1.0
+    if still.any():
+        edges = np.diff(np.concatenate([[0], still.astype(np.int8), [0]]))
+        runs_a, runs_b = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        k = int(np.argmax(runs_b - runs_a))
+        a, b = int(runs_a[k]), int(runs_b[k])
+    else:
+        a = b = 0
     if b - a < MIN_STILL_SAMPLES:
-        return None
+        # no still run (fast walking: a short stance in which the foot keeps rolling): the
+        # stillest sample of the span's first half (the stance, not a slow moment of swing),
+        # if it is nearly still
+        k = int(np.argmin(mdev[: max(len(mdev) // 2, 1)]))
+        if mdev[k] >= NEAR_STILL:
+            return None
+        a, b = max(k - STILL_HALF_WIDTH, 0), min(k + STILL_HALF_WIDTH + 1, len(w))
+        return _FootFlat(
+            anchor=start + k,
+            acc_x_ms2=float(np.mean(x[a:b])),
+            acc_z_ms2=float(np.mean(z[a:b])),
+            gyro_bias_rad_s=0.0,
+            roll_rad_s=_rate_at(w, k),
+            near_still=True,
+        )
     mx, mz = float(np.mean(x[a:b])), float(np.mean(z[a:b]))
     return _FootFlat(
         anchor=start + (a + b - 1) // 2,
-        pitch_rad=float(np.arctan2(mz, mx)),
+        acc_x_ms2=mx,
+        acc_z_ms2=mz,
         gyro_bias_rad_s=float(np.mean(w[a:b])),
-        g_ms2=float(np.hypot(mx, mz)),
+        roll_rad_s=_rate_at(w, (a + b - 1) // 2),
     )
 
 
@@ -186,37 +292,127 @@ def _cumtrapz(y: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
-def _stride(
-    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlat, f1: _FootFlat
-) -> tuple[float, float]:
-    """(forward displacement, clearance) between two foot-flats (module doc, steps 2-4)."""
+@dataclass(frozen=True)
+class _Pass:
+    forward_m: float
+    clearance_m: float
+    pitch_misfit_rad: float  # the gyro's pitch at the second foot-flat less the accelerometer's
+    vel_misfit_m_s: tuple[float, float]  # (forward, up) velocity at the second foot-flat
+
+
+def _rate_at(w: np.ndarray, i: int) -> float:
+    """The mean of w over +-STILL_HALF_WIDTH samples around w[i] (those inside w)."""
+    return float(np.mean(w[max(i - STILL_HALF_WIDTH, 0) : i + STILL_HALF_WIDTH + 1]))
+
+
+def _integrate(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlat, f1: _FootFlat,
+    mount_cos: float,
+) -> _Pass:  # fmt: skip
+    """Steps 2-4 of the module doc between two foot-flats, the board's forward axis and gyro
+    taken as ``mount_cos`` of the foot's (step 5)."""
     a, b = f0.anchor, f1.anchor
     dt = 1.0 / fs_hz
     u = np.arange(b - a + 1) / (b - a)  # 0 at the first anchor, 1 at the second
     bias = 0.5 * (f0.gyro_bias_rad_s + f1.gyro_bias_rad_s)
-    pitch = f0.pitch_rad + _cumtrapz(gy[a : b + 1] - bias, dt)
-    pitch -= (pitch[-1] - f1.pitch_rad) * u
+    rate = (gy[a : b + 1] - bias) / mount_cos
+    p0, p1 = f0.pitch_rad(mount_cos), f1.pitch_rad(mount_cos)
+    pitch = p0 + _cumtrapz(rate, dt)
+    # the gyro's own closure (its standing bias is removed by the calibration; the residual
+    # estimated at a foot-flat is not used here: a rolling stance foot would fake one)
+    pitch_misfit = float(pitch[-1] + bias / mount_cos * (b - a) * dt - p1)
+    pitch -= (pitch[-1] - p1) * u
     s, c = np.sin(pitch), np.cos(pitch)
-    x, z = ax[a : b + 1], az[a : b + 1]
+    x, z = ax[a : b + 1], az[a : b + 1] / mount_cos
     acc_f = z * c - x * s
-    acc_u = x * c + z * s - 0.5 * (f0.g_ms2 + f1.g_ms2)
+    acc_u = x * c + z * s - 0.5 * (f0.g_ms2(mount_cos) + f1.g_ms2(mount_cos))
+    # a stance foot that still rolls (step 1) moves the board forward by its height above the
+    # ground pivot times the roll rate (toe-down, negative rate: forward)
+    v_ends = ((-ANCHOR_LEVER_M * f0.roll_rad_s / mount_cos,
+               -ANCHOR_LEVER_M * f1.roll_rad_s / mount_cos), (0.0, 0.0))  # fmt: skip
     out = []
-    for acc in (acc_f, acc_u):
-        v = _cumtrapz(acc, dt)
-        v -= v[-1] * u
+    misfit = []
+    for acc, (v0, v1) in zip((acc_f, acc_u), v_ends, strict=True):
+        v = v0 + _cumtrapz(acc, dt)
+        misfit.append(float(v[-1] - v1))
+        v -= (v[-1] - v1) * u
         p = _cumtrapz(v, dt)
         out.append(p)
     fwd, up = out
     up -= up[-1] * u
-    return float(fwd[-1]), float(np.max(up))
+    return _Pass(float(fwd[-1]), float(np.max(up)), pitch_misfit, (misfit[0], misfit[1]))
+
+
+def _stride(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlat, f1: _FootFlat
+) -> tuple[float, float, bool]:
+    """(forward displacement, clearance, out of plane) between two foot-flats (module doc,
+    steps 2-6)."""
+    p = _integrate(ax, az, gy, fs_hz, f0, f1, 1.0)
+    # a board yawed on the foot sees only cos(yaw) of the pitch rate and forward acceleration
+    # (step 5): the cosine in [MOUNT_COS_MIN, 1] at which the foot ends the stride with no
+    # vertical velocity, if it misses by more than MOUNT_MIN_VEL_M_S and changes sign there
+    hi_sign = np.sign(p.vel_misfit_m_s[1])
+    lo, hi = MOUNT_COS_MIN, 1.0
+    if abs(p.vel_misfit_m_s[1]) > MOUNT_MIN_VEL_M_S and (
+        np.sign(_integrate(ax, az, gy, fs_hz, f0, f1, lo).vel_misfit_m_s[1]) == -hi_sign
+    ):
+        for _ in range(MOUNT_ITERATIONS):
+            mid = 0.5 * (lo + hi)
+            if np.sign(_integrate(ax, az, gy, fs_hz, f0, f1, mid).vel_misfit_m_s[1]) == hi_sign:
+                hi = mid
+            else:
+                lo = mid
+        p = _integrate(ax, az, gy, fs_hz, f0, f1, 0.5 * (lo + hi))
+    out_of_plane = (
+        abs(p.pitch_misfit_rad) > OUT_OF_PLANE_PITCH_RAD
+        or abs(p.vel_misfit_m_s[0]) > OUT_OF_PLANE_VEL_M_S
+    )
+    return p.forward_m, p.clearance_m, out_of_plane
+
+
+def _standing(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, start: int, stop: int, fs_hz: float
+) -> _FootFlat | None:
+    """The end of the last standing (still for STANDING_S) in samples [start, stop): the anchor
+    of a first step (module doc, step 7)."""
+    start, stop = max(start, 0), min(stop, len(gy))
+    if stop - start < MIN_STILL_SAMPLES:
+        return None
+    x, z, w = ax[start:stop], az[start:stop], gy[start:stop]
+    dev = np.maximum(np.abs(w) / STILL_GYRO_RAD_S,
+                     np.abs(np.hypot(x, z) - STANDARD_GRAVITY_MS2) / STILL_ACC_MS2)  # fmt: skip
+    still = _moving_max(dev, STILL_HALF_WIDTH) < 1.0
+    edges = np.diff(np.concatenate([[0], still.astype(np.int8), [0]]))
+    runs_a, runs_b = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    n_min = max(MIN_STILL_SAMPLES, round(STANDING_S * fs_hz))
+    long_runs = np.flatnonzero(runs_b - runs_a >= n_min)
+    if len(long_runs) == 0:
+        return None
+    b = int(runs_b[long_runs[-1]])
+    a = b - n_min
+    mx, mz = float(np.mean(x[a:b])), float(np.mean(z[a:b]))
+    return _FootFlat(
+        anchor=start + b - 1,
+        acc_x_ms2=mx,
+        acc_z_ms2=mz,
+        gyro_bias_rad_s=float(np.mean(w[a:b])),
+        roll_rad_s=_rate_at(w, b - 1),
+    )
 
 
 def stride_measures(
     acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_y_rad_s: np.ndarray, fs_hz: float,
-    heel_strike_idx: np.ndarray,
+    heel_strike_idx: np.ndarray, *, first_steps: bool = False,
 ) -> StrideMeasures:  # fmt: skip
     """Stride length, foot clearance, stride time and speed of every stride between consecutive
-    heel strikes, from the foot board's samples (module doc: method and assumptions)."""
+    heel strikes, from the foot board's samples (module doc: method and assumptions), with a
+    quality flag each (``StrideMeasures.flag``).
+
+    ``first_steps``: also the step from standing to each heel strike that opens a walk (the
+    first, or one more than MAX_STRIDE_S after the one before), placed before the strides from
+    that heel strike and flagged FLAG_FIRST_STEP (module doc, step 7). Its ``heel_strike_idx``
+    is the last standing sample and its stride time runs from there to the heel strike."""
     ax = np.asarray(acc_x_ms2, dtype=np.float64)
     az = np.asarray(acc_z_ms2, dtype=np.float64)
     gy = np.asarray(gyro_y_rad_s, dtype=np.float64)
@@ -233,21 +429,74 @@ def stride_measures(
     length = np.full(n_strides, np.nan)
     clearance = np.full(n_strides, np.nan)
     anchors = np.full((n_strides, 2), -1, dtype=np.int64)
+    flag = np.zeros(n_strides, dtype=np.int64)
     for j in range(n_strides):
         f0, f1 = flats[j], flats[j + 1]
         if f0 is not None:
             anchors[j, 0] = f0.anchor
         if f1 is not None:
             anchors[j, 1] = f1.anchor
-        if f0 is None or f1 is None or not 0 < f1.anchor - f0.anchor <= MAX_STRIDE_S * fs_hz:
-            continue  # (the same foot-flat for both heel strikes: no stride between them)
-        length[j], clearance[j] = _stride(ax, az, gy, fs_hz, f0, f1)
-    return StrideMeasures(
+        if f0 is None or f1 is None:
+            flag[j] = FLAG_NO_FOOT_FLAT
+            continue
+        if not 0 < f1.anchor - f0.anchor <= MAX_STRIDE_S * fs_hz:
+            # (the same foot-flat for both heel strikes: no stride between them)
+            flag[j] = FLAG_PAUSE
+            continue
+        length[j], clearance[j], out_of_plane = _stride(ax, az, gy, fs_hz, f0, f1)
+        flag[j] = (FLAG_OUT_OF_PLANE if out_of_plane else 0) | (
+            FLAG_NEAR_STILL if f0.near_still or f1.near_still else 0)  # fmt: skip
+    m = StrideMeasures(
         heel_strike_idx=hs[:n_strides],
         stride_length_m=length,
         foot_clearance_m=clearance,
         stride_time_s=np.diff(hs).astype(np.float64) / fs_hz,
         foot_flat_idx=anchors,
+        flag=flag,
+    )
+    return _with_first_steps(ax, az, gy, fs_hz, hs, spans, flats, m) if first_steps else m
+
+
+def _with_first_steps(
+    ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, hs: np.ndarray,
+    spans: np.ndarray, flats: list[_FootFlat | None], m: StrideMeasures,
+) -> StrideMeasures:  # fmt: skip
+    """``m`` with the first step from standing before each heel strike opening a walk."""
+    rows: list[tuple[int, float, float, float, int, int, int]] = []
+    gap = MAX_STRIDE_S * fs_hz
+    opens = [j for j in range(len(hs))
+             if (j == 0 or hs[j] - hs[j - 1] > gap) and flats[j] is not None]  # fmt: skip
+    at = []
+    for j in opens:
+        f1 = flats[j]
+        assert f1 is not None
+        lo = int(hs[j] - STANDING_SEARCH_S * fs_hz)
+        if j > 0:
+            lo = max(lo, int(hs[j - 1] + spans[j - 1]))
+        f0 = _standing(ax, az, gy, lo, int(hs[j]), fs_hz)
+        if f0 is None or not 0 < f1.anchor - f0.anchor <= MAX_STRIDE_S * fs_hz:
+            continue
+        length, clearance, out_of_plane = _stride(ax, az, gy, fs_hz, f0, f1)
+        fl = FLAG_FIRST_STEP | (FLAG_OUT_OF_PLANE if out_of_plane else 0) | (
+            FLAG_NEAR_STILL if f1.near_still else 0)  # fmt: skip
+        rows.append((f0.anchor, length, clearance, float(hs[j] - f0.anchor) / fs_hz,
+                     f0.anchor, f1.anchor, fl))  # fmt: skip
+        at.append(j)
+    if not rows:
+        return m
+    pos = np.asarray(at, dtype=np.int64)
+    r = list(zip(*rows, strict=True))
+
+    def ins(old: np.ndarray, new: np.ndarray) -> np.ndarray:
+        return np.insert(old, pos, new, axis=0)
+
+    return StrideMeasures(
+        heel_strike_idx=ins(m.heel_strike_idx, np.asarray(r[0], dtype=np.int64)),
+        stride_length_m=ins(m.stride_length_m, np.asarray(r[1])),
+        foot_clearance_m=ins(m.foot_clearance_m, np.asarray(r[2])),
+        stride_time_s=ins(m.stride_time_s, np.asarray(r[3])),
+        foot_flat_idx=ins(m.foot_flat_idx, np.stack([r[4], r[5]], axis=1).astype(np.int64)),
+        flag=ins(m.flags, np.asarray(r[6], dtype=np.int64)),
     )
 
 
@@ -291,6 +540,7 @@ def record_stride_measures(
             foot_clearance_m=m.foot_clearance_m[keep],
             stride_time_s=m.stride_time_s[keep],
             foot_flat_idx=np.where(ff >= 0, ff + a, -1),
+            flag=m.flags[keep],
         ))  # fmt: skip
     return StrideMeasures(
         heel_strike_idx=hs[:n_strides],
@@ -298,6 +548,7 @@ def record_stride_measures(
         foot_clearance_m=np.concatenate([p.foot_clearance_m for p in parts]),
         stride_time_s=np.diff(hs).astype(np.float64) / fs_hz,
         foot_flat_idx=np.concatenate([p.foot_flat_idx for p in parts]),
+        flag=np.concatenate([p.flags for p in parts]),
     )
 
 
@@ -412,6 +663,7 @@ class StrideLengthTracker:
             foot_clearance_m=m.foot_clearance_m[keep],
             stride_time_s=m.stride_time_s[keep],
             foot_flat_idx=np.where(ff >= 0, ff + self._buf_start, -1),
+            flag=m.flags[keep],
         )
 
     def _padded(self, end_abs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -12,6 +12,8 @@ touch, so it is computed once, where ``/smoothed`` and ``/overview`` are (close,
     /strides/stride_length_m   (J - 1,) float64
     /strides/foot_clearance_m  (J - 1,) float64
     /strides/foot_flat_idx     (J - 1, 2) int64
+    /strides/flag              (J - 1,) int64  StrideMeasures.flag (FLAG_* bits; a store without
+                                               it is computed again)
     /strides.attrs["computed_from"]   JSON: method and its constants, sample rate, rows, the
                                        foot channels' conversion, the foot gyro bias at each row
 
@@ -113,10 +115,12 @@ def read_stored(f: h5py.File, inputs: StrideInputs, hs: np.ndarray) -> StrideMea
         length = np.asarray(g["stride_length_m"][()], dtype=np.float64)
         clearance = np.asarray(g["foot_clearance_m"][()], dtype=np.float64)
         flats = np.asarray(g["foot_flat_idx"][()], dtype=np.int64)
+        flag = np.asarray(g["flag"][()], dtype=np.int64)
     except (OSError, RuntimeError, ValueError, KeyError, TypeError):
         return None  # a damaged store: computed instead
     k = max(len(hs) - 1, 0)
-    if length.shape != (k,) or clearance.shape != (k,) or flats.shape != (k, 2):
+    if (length.shape != (k,) or clearance.shape != (k,) or flats.shape != (k, 2)
+            or flag.shape != (k,)):  # fmt: skip
         return None
     return StrideMeasures(
         heel_strike_idx=hs[:k],
@@ -124,6 +128,7 @@ def read_stored(f: h5py.File, inputs: StrideInputs, hs: np.ndarray) -> StrideMea
         foot_clearance_m=clearance,
         stride_time_s=np.diff(hs).astype(np.float64) / inputs.fs_hz,
         foot_flat_idx=flats,
+        flag=flag,
     )
 
 
@@ -145,7 +150,7 @@ def write_strides(f: h5py.File, inputs: StrideInputs, hs: np.ndarray, m: StrideM
     opts = COMPRESSION if int(f.attrs.get("format_version", 1)) >= 2 else {}
     for name, data in (("heel_strike_idx", hs), ("stride_length_m", m.stride_length_m),
                        ("foot_clearance_m", m.foot_clearance_m),
-                       ("foot_flat_idx", m.foot_flat_idx)):  # fmt: skip
+                       ("foot_flat_idx", m.foot_flat_idx), ("flag", m.flags)):  # fmt: skip
         g.create_dataset(name, data=data, **(opts if len(data) else {}))
     g.attrs["computed_from"] = inputs.stamp()
 
