@@ -1,6 +1,6 @@
 """Stride length on real feet (gdins footprints: 16 walks, a measured footprint per stride; the
-x-io closed-loop walks), through the public entry points, as benchmarks/stride_real.py prints
-it. Skips without ../shared/data. Figures reached when written (docs/filters.md): every
+x-io closed-loop walks), through the public entry points, as `gaitmon lab accuracy --data`
+prints it. Skips without ../shared/data. Figures reached when written (docs/filters.md): every
 reference stride has a value in every trial; median |error| 2.1 % over all strides, 1.5 % over
 those not flagged; 93 % of the strides that turn > 60 deg (3-D gyro) flagged."""
 
@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gaitmon.dsp import gyro_gait_events, stride_measures
-from gaitmon.dsp.stride_length import FLAG_FIRST_STEP, FLAG_OUT_OF_PLANE
+from gaitmon.dsp import gyro_gait_events
+from gaitmon.lab import datasets
+from gaitmon.lab.real_gait import gaitmon_strides, match_footprints
 
 
 def _trials(root):
@@ -20,46 +21,26 @@ def _trials(root):
     return paths
 
 
-def _measure(z):
-    ax, az, gy = (z[k].astype(float) for k in ("foot_acc_z", "foot_acc_x", "foot_gyro_y"))
-    fs = float(z["fs"])
-    hs, _ = gyro_gait_events(gy, fs)
-    return stride_measures(ax, az, gy, fs, hs, first_steps=True), fs
-
-
-def _match(m, zv, fs):
-    """Reference stride k (footprint k to k + 1) <- the computed stride opening in footprint
-    k's stance and closing in k + 1's (a first step opens at the standing before footprint 1)."""
-    a = m.heel_strike_idx
-    b = a + np.round(m.stride_time_s * fs).astype(np.int64)
-    ka, kb = np.searchsorted(zv, a), np.searchsorted(zv, b)
-    first = (m.flags & FLAG_FIRST_STEP) != 0
-    ka[first] = kb[first] - 1
-    out = np.full(len(zv) - 1, -1)
-    for j in np.flatnonzero((kb == ka + 1) & (ka < len(zv) - 1)):
-        out[ka[j]] = j
-    return out
-
-
 _CACHE: dict[str, dict] = {}
 
 
 @pytest.fixture
 def gdins(shared_data):
+    """Per trial: (stride length matched to each reference stride, reference, flagged, yaw
+    over the stride from the 3-D gyro, deg), the matching ``gaitmon lab accuracy`` uses."""
     if "rows" in _CACHE:
         return _CACHE["rows"]
+    _trials(shared_data)
     rows = {}
-    for p in _trials(shared_data):
-        z = dict(np.load(p))
-        m, fs = _measure(z)
-        zv = z["zv_end_idx"].astype(np.int64)
-        j = _match(m, zv, fs)
+    for t in datasets.read_gdins(shared_data):
+        _, m = gaitmon_strides(t)
+        j = match_footprints(m, t.extra["zv_end_idx"].astype(np.int64), t.fs_hz)
         k = np.clip(j, 0, None)
         val = np.where(j >= 0, m.stride_length_m[k], np.nan)
-        flagged = np.where(j >= 0, (m.flags[k] & FLAG_OUT_OF_PLANE) != 0, False)
-        ff = m.foot_flat_idx[k]
-        yaw = np.array([abs(np.sum(z["foot_gyr_xyz"][a:b, 2])) / fs for a, b in ff])
-        rows[p.stem] = (val, z["ref_stride_length"].astype(float), flagged, np.degrees(yaw))
+        flagged = (j >= 0) & ~m.trusted[k] & np.isfinite(val)
+        assert t.gyr_xyz is not None
+        yaw = np.array([abs(np.sum(t.gyr_xyz[a:b, 2])) / t.fs_hz for a, b in m.foot_flat_idx[k]])
+        rows[t.name] = (val, t.extra["ref_stride_length"].astype(float), flagged, np.degrees(yaw))
     _CACHE["rows"] = rows
     return rows
 
@@ -97,7 +78,8 @@ def test_xio_loops_total_distance(shared_data):
         pytest.skip("xio_closed_loop_walks is not present")
     zupt_3d_m = {"short_walk": 22.66, "long_walk": 56.75}  # the data's own 3-D check
     for name, ref in zupt_3d_m.items():
-        m, _ = _measure(dict(np.load(folder / f"{name}.npz")))
+        (t,) = (t for t in datasets.read_xio(shared_data) if t.name == name)
+        _, m = gaitmon_strides(t)
         assert np.all(np.isfinite(m.stride_length_m)), name
         assert abs(np.sum(m.stride_length_m) / ref - 1) < 0.05, name  # +3.1 / +2.0 %
 

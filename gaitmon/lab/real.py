@@ -139,6 +139,8 @@ def _stride_table(real: RealAccuracy) -> list[str]:
         "heel strikes found (extra)",
         "with a value",
         "length: abs. error median / p90, mean signed, %",
+        "flagged",
+        "unflagged: the same",
         "speed: abs. error median / p90, mean signed, %",
         "2-D ZUPT at the dataset's ZV ends: the same",
         "gain fitted LOTO: ×gain, median abs. error % (in-sample)",
@@ -154,6 +156,8 @@ def _stride_table(real: RealAccuracy) -> list[str]:
                 f"{r.hs_found} ({r.hs_extra})",
                 f"{r.n_value} ({100 * r.n_value / r.n_ref:.0f} %)",
                 _stats(r.err_pct),
+                str(int(r.flagged.sum())),
+                _stats(r.unflagged_err_pct),
                 _stats(r.speed_err_pct),
                 _stats(r.base_err_pct),
                 f"×{lo[0]:.3f}: {_f(lo[1])} ({_f(ins[1])})",
@@ -173,13 +177,15 @@ def _stride_table(real: RealAccuracy) -> list[str]:
             f"{found} ({extra})",
             f"{n_val} ({100 * n_val / n_ref:.0f} %)",
             _stats(cat(lambda r: r.err_pct)),
+            str(sum(int(r.flagged.sum()) for r in rs)),
+            _stats(cat(lambda r: r.unflagged_err_pct)),
             _stats(cat(lambda r: r.speed_err_pct)),
             _stats(cat(lambda r: r.base_err_pct)),
             f"×{real.gain_in_sample[0][0]:.3f} in-sample" if real.gain_in_sample else "",
         ]
     )
     worst = min(100 * r.n_value / r.n_ref for r in rs)
-    body.append([f"worst trial's coverage: {worst:.0f} %", "", "", "", "", "", "", ""])
+    body.append([f"worst trial's coverage: {worst:.0f} %"] + [""] * (len(head) - 1))
     return aligned(head, body)
 
 

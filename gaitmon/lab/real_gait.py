@@ -2,12 +2,14 @@
 
 * **gdins_footprints: stride length and gait speed** by the public entry points: heel strikes
   from the foot gyro (:func:`gaitmon.dsp.gyro_gait_events`, bias from the standing start), then
-  :func:`gaitmon.dsp.stride_measures`. Each footprint k >= 1 gets the last heel strike after the
-  end of footprint k - 1's still phase and up to the end of its own (``zv_end_idx``: IMU-derived,
-  used only to say which stance is which); the estimated stride between the heel strikes of
-  footprints k and k + 1 is reference stride k (footprint k to k + 1, ``ref_stride_length``).
-  Coverage: reference strides with a value, over all of them (stride 0, the first step from
-  standing, has no opening heel strike). Event recall: footprints 1..K with a heel strike.
+  :func:`gaitmon.dsp.stride_measures`. Each footprint's stance ends at its ``zv_end_idx``
+  (IMU-derived, used only to say which stance is which); reference stride k runs from
+  footprint k to k + 1 (``ref_stride_length``).
+  Strides are matched to the reference by time (:func:`match_footprints`); the first step from
+  standing (``first_steps=True``) is reference stride 0. Coverage: reference strides with a
+  value, over all of them. Flagged: strides with a value that
+  ``StrideMeasures.trusted`` puts in doubt (a turn, a foot that leaves the plane): their errors
+  are also given without them. Event recall: footprints 1..K with a heel strike.
   Errors in % of the reference: median and p90 of |error|, mean signed. Speed: the reference
   length over the reference stride time (``stride_time``, ZV end to ZV end, IMU-derived)
   against gaitmon's speed, except where that time exceeds 1.5 times the trial's median (a ZV
@@ -61,11 +63,18 @@ class StrideRow:
     speed_est: np.ndarray  # (n_ref,) m/s
     speed_ref: np.ndarray
     base: np.ndarray  # (n_ref,) the README's 2-D ZUPT baseline, m
+    flagged: np.ndarray  # (n_ref,) bool: a value that a flag puts in doubt (a turn, ...)
 
     @property
     def err_pct(self) -> np.ndarray:
         """Signed % error of the strides with a value."""
         ok = np.isfinite(self.est)
+        return (self.est[ok] - self.ref[ok]) / self.ref[ok] * 100.0
+
+    @property
+    def unflagged_err_pct(self) -> np.ndarray:
+        """Signed % error of the strides with a value that no flag puts in doubt."""
+        ok = np.isfinite(self.est) & ~self.flagged
         return (self.est[ok] - self.ref[ok]) / self.ref[ok] * 100.0
 
     @property
@@ -113,46 +122,67 @@ def footprint_heel_strikes(hs: np.ndarray, zv_end: np.ndarray) -> np.ndarray:
 
 
 def gaitmon_strides(trial: ImuTrial) -> tuple[np.ndarray, StrideMeasures]:
-    """(heel strikes, StrideMeasures) of a foot trial by the public entry points."""
+    """(heel strikes, StrideMeasures) of a foot trial by the public entry points, the first
+    step from standing included (``first_steps=True``)."""
     from gaitmon.dsp import gyro_gait_events, stride_measures
 
     gy = trial.gyro_y - gyro_bias_at_start(trial)
     hs, _ = gyro_gait_events(gy, trial.fs_hz)
-    return hs, stride_measures(trial.acc_x, trial.acc_z, gy, trial.fs_hz, hs)
+    return hs, stride_measures(trial.acc_x, trial.acc_z, gy, trial.fs_hz, hs, first_steps=True)
+
+
+def match_footprints(m: StrideMeasures, zv_end: np.ndarray, fs_hz: float) -> np.ndarray:
+    """(len(zv_end) - 1,) index of the computed stride matched to each reference stride (-1:
+    none). A footprint's stance holds its heel strike and ends at its zero-velocity end, so
+    computed stride j (opening heel strike a_j, closing b_j = a_j + its stride time) is
+    reference stride k when a_j lies in footprint k's stance (the first zero-velocity end at or
+    after a_j is k's) and b_j in footprint k + 1's; a first step from standing opens at the
+    standing, so it is matched by its closing heel strike alone."""
+    from gaitmon.dsp.stride_length import FLAG_FIRST_STEP
+
+    a = m.heel_strike_idx.astype(np.int64)
+    b = a + np.round(np.nan_to_num(m.stride_time_s) * fs_hz).astype(np.int64)
+    ka = np.searchsorted(zv_end, a, side="left")
+    kb = np.searchsorted(zv_end, b, side="left")
+    first = (m.flags & FLAG_FIRST_STEP) != 0
+    ka[first] = kb[first] - 1
+    out = np.full(len(zv_end) - 1, -1, dtype=np.int64)
+    for j in np.flatnonzero((kb == ka + 1) & (ka < len(zv_end) - 1) & (ka >= 0)):
+        out[ka[j]] = j
+    return out
 
 
 def gdins_strides(trial: ImuTrial) -> StrideRow:
     hs, m = gaitmon_strides(trial)
-    length = m.stride_length_m
-    speed = m.speed_m_s
     zv = trial.extra["zv_end_idx"].astype(np.int64)
     ref = trial.extra["ref_stride_length"].astype(np.float64)
     k_ref = len(ref)
-    fp = footprint_heel_strikes(hs, zv)
-    est = np.full(k_ref, np.nan)
-    sp = np.full(k_ref, np.nan)
-    for k in range(k_ref):
-        j = fp[k]
-        if j >= 0 and fp[k + 1] == j + 1 and j < len(length):
-            est[k], sp[k] = length[j], speed[j]
+    j = match_footprints(m, zv, trial.fs_hz)
+    k = np.clip(j, 0, None)
+    hit = j >= 0
+    est = np.where(hit, m.stride_length_m[k], np.nan)
+    sp = np.where(hit, m.speed_m_s[k], np.nan)
+    flagged = hit & np.isfinite(est) & ~m.trusted[k]
     gy_raw = trial.gyro_y
     base = np.array(
         [
             abs(
                 sagittal_stride(
-                    trial.acc_z, trial.acc_x, gy_raw, int(zv[k]), int(zv[k + 1]), trial.fs_hz
+                    trial.acc_z, trial.acc_x, gy_raw, int(zv[i]), int(zv[i + 1]), trial.fs_hz
                 )
             )
-            for k in range(k_ref)
+            for i in range(k_ref)
         ]
     )
+    fp = footprint_heel_strikes(hs, zv)
     found = int(np.sum(fp[1:] >= 0))
     st = trial.extra["stride_time"].astype(np.float64)
     # a ZV end that closes a standing (the last stride) makes no stride time
     speed_ref = np.where(st > 1.5 * np.median(st), np.nan, ref / st)
     return StrideRow(
-        trial.name, k_ref, found, len(hs) - int(np.sum(fp >= 0)), est, ref, sp, speed_ref, base
-    )
+        trial.name, k_ref, found, len(hs) - int(np.sum(fp >= 0)), est, ref, sp, speed_ref, base,
+        flagged,
+    )  # fmt: skip
 
 
 def fit_gain(rows: Sequence[StrideRow]) -> float:
