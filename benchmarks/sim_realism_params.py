@@ -1,0 +1,227 @@
+"""Measure the harder simulator's parameters on the real foot-IMU walks (issue 24, item 6).
+
+    PYTHONPATH=. python benchmarks/sim_realism_params.py [--data ../shared/data] [--per-trial]
+
+Reads ``gdins_footprints`` (16 hallway-lap walks, a measured footprint per stride) and
+``xio_closed_loop_walks`` (2 closed loops) through their own ``load.py`` and prints, per dataset
+and pooled, what docs/simulator.md ("The real realism level") quotes:
+
+* standing |a| (3-D) against g: the accelerometer's gain error as calibrated parts show it;
+* the stance foot's residual motion: |omega| (3-D) and |omega_y| (the unit's pitch gyro), and
+  |a| - g, over the still part of each stance (the 0.20 s before each ZV end of gdins; the
+  x-io stance intervals after the first standing);
+* stride-to-stride variability on straight strides (|turn| < 20 deg, the first and last two
+  strides of a trial left out): stride length and time CV, both as plain SD / mean and as the
+  successive-difference SD / sqrt(2) / mean ("local", blind to slow speed changes);
+* the foot's pitch range per stride (gyro-integrated, de-drifted between ZV ends);
+* turns: heading change per stride (3-D strapdown, tilt reset at every ZV end), the peak
+  vertical turn rate in strides turning > 45 deg, the foot's roll at the stance before and
+  after such strides, and the integrated gyro heading over a whole trial against the
+  footprints' (a gyro scale error bound).
+
+The machinery is numpy only (the datasets' ``common_gait.py``); about 20 s on one core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from itertools import pairwise
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+G = 9.80665
+
+
+def _import_dataset(folder: Path) -> tuple[Any, Any]:
+    """(load module, common_gait module) of one dataset folder (numpy-only helpers shipped
+    with the data)."""
+    sys.path.insert(0, str(folder))
+    try:
+        import common_gait
+        import load
+
+        return load, common_gait
+    finally:
+        sys.path.pop(0)
+        sys.modules.pop("load", None)
+        sys.modules.pop("common_gait", None)
+
+
+def _standing(acc: np.ndarray, gyr: np.ndarray, n_max: int) -> np.ndarray:
+    """Samples of the first still period (|omega| < 0.1 rad/s, before the first motion)."""
+    w = np.linalg.norm(gyr[:n_max], axis=1)
+    moving = np.flatnonzero(w > 0.3)
+    end = int(moving[0]) if len(moving) else n_max
+    idx = np.arange(max(end - 10, 0))
+    return idx[w[idx] < 0.1]
+
+
+def _heading_per_stride(cg: Any, acc: np.ndarray, gyr: np.ndarray, zv: np.ndarray, fs: float,
+                        bias: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """(turn per stride, rad; peak vertical rate per stride, rad/s; roll at the stance that ends
+    the stride, rad) from a 3-D strapdown between consecutive ZV ends, tilt reset at each."""
+    turns, peaks, rolls = [], [], []
+    g = gyr - bias
+    for i0, i1 in pairwise(zv):
+        f0 = acc[max(i0 - 5, 0) : i0 + 1].mean(0)
+        f1 = acc[i1 : i1 + 6].mean(0)
+        q0 = cg._R2q(cg.level_rotation(f0))
+        _, q, _ = cg.strapdown(acc, g, int(i0), int(i1), fs, q0=q0)
+        r = cg._q2R(cg.reset_tilt_keep_yaw(q, f1))
+        hx = r @ (cg.level_rotation(f1).T @ np.array([1.0, 0.0, 0.0]))
+        turns.append(np.arctan2(hx[1], hx[0]))
+        # vertical rate: omega projected on the gravity direction, with the foot's pitch from the
+        # pitch gyro integrated from the stance (small roll)
+        gy = -g[i0 : i1 + 1, 1]
+        th = np.arctan2(f0[0], f0[2]) + np.concatenate([[0.0], np.cumsum(gy[1:]) / fs])
+        wv = g[i0 : i1 + 1, 0] * np.sin(th) + g[i0 : i1 + 1, 2] * np.cos(th)
+        peaks.append(np.max(np.abs(wv)))
+        rolls.append(np.arctan2(f1[1], f1[2]))
+    return np.asarray(turns), np.asarray(peaks), np.asarray(rolls)
+
+
+def _pct(x: np.ndarray, q: float) -> float:
+    return float(np.percentile(x, q)) if len(x) else float("nan")
+
+
+def measure(data: Path, per_trial: bool = False) -> dict[str, dict[str, float]]:
+    out: dict[str, dict[str, float]] = {}
+    pools: dict[str, dict[str, list[np.ndarray]]] = {}
+    for ds in ("gdins_footprints", "xio_closed_loop_walks"):
+        folder = data / ds
+        if not folder.is_dir():
+            continue
+        load, cg = _import_dataset(folder)
+        trials = load.load_all(folder)
+        pool: dict[str, list[np.ndarray]] = {}
+        pools[ds] = pool
+
+        def add(key: str, v: Any, pool: dict[str, list[np.ndarray]] = pool) -> None:
+            pool.setdefault(key, []).append(np.atleast_1d(np.asarray(v, dtype=np.float64)))
+
+        for name, d in trials.items():
+            fs = d["fs"]
+            acc, gyr = d["foot"]["acc_xyz"], d["foot"]["gyr_xyz"]
+            b = d["board"]
+            st = _standing(acc, gyr, int(20 * fs))
+            bias = gyr[st].mean(0) if len(st) > 20 else np.zeros(3)
+            if len(st) > 20:
+                add("standing |a| / g - 1", np.linalg.norm(acc[st], axis=1).mean() / G - 1.0)
+                add("standing planar |a| / g - 1",
+                    np.hypot(b["acc_x"][st], b["acc_z"][st]).mean() / G - 1.0)  # fmt: skip
+                add("standing roll, deg", np.degrees(np.arctan2(acc[st, 1], acc[st, 2]).mean()))
+            if "zv_end_idx" in d:
+                zv = d["zv_end_idx"]
+                still = np.concatenate([np.arange(i - 20, i + 1) for i in zv if i >= 20])
+            else:
+                si = d["stance_intervals"][1:-1]  # not the first and last standing
+                zv = si[:, 1]
+                still = np.concatenate([np.arange(a, e + 1) for a, e in si])
+            g = gyr - bias
+            # the stillest 0.10 s of each stance (the floor of the foot's residual motion)
+            w_all = np.linalg.norm(g, axis=1)
+            floor = []
+            for i in zv:
+                lo = max(int(i) - int(0.5 * fs), 0)
+                seg = np.convolve(np.abs(b["gyro_y"][lo : int(i) + 1] + bias[1]),
+                                  np.ones(10) / 10, mode="valid")  # fmt: skip
+                if len(seg):
+                    floor.append(float(seg.min()))
+            add("stance |w_y|, stillest 0.1 s mean, rad/s", np.asarray(floor))
+            # the still phase as a simple detector finds it (|w| < 0.8 rad/s, ||a|-g| < 1.2)
+            det = cg.detect_stance(acc, g, fs)
+            if len(det) > 2:
+                det = det[1:-1]
+                idx = np.concatenate([np.arange(a, e + 1) for a, e in det])
+                add("detected stance |w_y|, rad/s", np.abs(b["gyro_y"][idx] + bias[1]))
+                add("detected stance |a|-g, m/s2", np.linalg.norm(acc[idx], axis=1) - G)
+                add("detected stance length, s", np.array([(e - a + 1) / fs for a, e in det]))
+            del w_all
+            add("stance |w|, rad/s", np.linalg.norm(g[still], axis=1))
+            add("stance |w_y|, rad/s", np.abs(b["gyro_y"][still] + bias[1]))
+            add("stance |a|-g, m/s2", np.linalg.norm(acc[still], axis=1) - G)
+            add("stance planar |a|-g, m/s2", np.hypot(b["acc_x"][still], b["acc_z"][still]) - G)
+            turn, peak, roll = _heading_per_stride(cg, acc, gyr, zv, fs, bias)
+            straight = np.abs(turn) < np.radians(20.0)
+            straight[:2] = straight[-2:] = False
+            add("turn per stride, deg", np.degrees(turn))
+            big = np.abs(turn) > np.radians(45.0)
+            add("peak vertical rate in turn strides, rad/s", peak[big])
+            add("peak vertical rate in straight strides, rad/s", peak[straight])
+            add("stance roll after a turn stride, deg", np.degrees(np.abs(roll[big])))
+            add("stance roll after a straight stride, deg", np.degrees(np.abs(roll[straight])))
+            # pitch range per stride (gyro-integrated, de-drifted between ZV ends)
+            rng = []
+            for i0, i1 in pairwise(zv):
+                th, _ = cg.stride_pitch(b["acc_z"], b["acc_x"], b["gyro_y"] + bias[1],
+                                        int(i0), int(i1), fs)  # fmt: skip
+                rng.append(np.degrees(th.max() - th.min()))
+            add("foot pitch range per straight stride, deg", np.asarray(rng)[straight])
+            t = np.diff(zv) / fs
+            if "ref_stride_length" in d:
+                length = d["ref_stride_length"]
+                for key, v in (("length", length), ("time", t)):
+                    vs = v[straight]
+                    if len(vs) > 5:
+                        add(f"stride {key} CV (straight)", np.std(vs) / np.mean(vs))
+                        # successive differences within runs of straight strides
+                        pair = straight[1:] & straight[:-1]
+                        dv = np.diff(v)[pair]
+                        add(f"stride {key} local CV (straight)",
+                            np.std(dv) / np.sqrt(2.0) / np.mean(vs))  # fmt: skip
+                pair = straight
+                add("stride length-time correlation (straight)",
+                    np.corrcoef(length[pair], t[pair])[0, 1])  # fmt: skip
+                # gyro heading over the whole trial against the footprints' travel direction
+                fp = d["footprint_xy"]
+                dirs = np.unwrap(np.arctan2(np.diff(fp[:, 1]), np.diff(fp[:, 0])))
+                ref_turn = dirs[-1] - dirs[0]
+                if abs(ref_turn) > np.radians(170.0):
+                    imu_turn = np.sum(turn[1:])  # stride 0's start to the last stride's start
+                    add("whole-trial heading, gyro / footprints - 1", imu_turn / ref_turn - 1.0)
+            if per_trial:
+                stand = pool["standing |a| / g - 1"][-1][0] if len(st) > 20 else float("nan")
+                print(f"{ds} {name}: standing |a|/g-1 {stand:+.4f}, "
+                      f"stance |w_y| median {np.median(pool['stance |w_y|, rad/s'][-1]):.3f}, "
+                      f"turn strides {int(big.sum())}")  # fmt: skip
+        out[ds] = {}
+        for key, parts in pool.items():
+            v = np.concatenate(parts)
+            v = v[np.isfinite(v)]
+            out[ds][key + " | median"] = float(np.median(v)) if len(v) else float("nan")
+            out[ds][key + " | p10"] = _pct(v, 10)
+            out[ds][key + " | p90"] = _pct(v, 90)
+            out[ds][key + " | n"] = float(len(v))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    ap.add_argument("--data", type=Path, default=None)
+    ap.add_argument("--per-trial", action="store_true")
+    args = ap.parse_args(argv)
+    data = args.data
+    if data is None:
+        from gaitmon.lab.accuracy import default_data_dir
+
+        data = default_data_dir()
+    if data is None or not data.is_dir():
+        print("no shared data folder (--data DIR)")
+        return 1
+    res = measure(data, args.per_trial)
+    for ds, r in res.items():
+        print(f"\n## {ds}\n")
+        print("| measure | median | p10 | p90 | n |")
+        print("|---|---|---|---|---|")
+        keys = list(dict.fromkeys(k.rsplit(" | ", 1)[0] for k in r))
+        for k in keys:
+            print(f"| {k} | {r[k + ' | median']:.4g} | {r[k + ' | p10']:.4g} | "
+                  f"{r[k + ' | p90']:.4g} | {r[k + ' | n']:.0f} |")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
