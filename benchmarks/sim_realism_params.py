@@ -59,28 +59,61 @@ def _standing(acc: np.ndarray, gyr: np.ndarray, n_max: int) -> np.ndarray:
     return idx[w[idx] < 0.1]
 
 
+def _attitude(cg: Any, acc: np.ndarray, gyr: np.ndarray, i0: int, i1: int, fs: float,
+              f0: np.ndarray) -> np.ndarray:  # fmt: skip
+    """(i1 - i0 + 1, 3, 3) body-to-level rotations from i0 (levelled from f0, yaw 0) by the
+    gyro (the datasets' strapdown, step by step)."""
+    q = cg._R2q(cg.level_rotation(f0))
+    out = np.empty((i1 - i0 + 1, 3, 3))
+    for k in range(i1 - i0 + 1):
+        out[k] = cg._q2R(q)
+        if i0 + k < i1:
+            w = 0.5 * (gyr[i0 + k] + gyr[i0 + k + 1])
+            ang = np.linalg.norm(w) / fs
+            if ang > 0:
+                dq = np.concatenate([[np.cos(ang / 2)], np.sin(ang / 2) * w / np.linalg.norm(w)])
+                q = cg._qmul(q, dq)
+                q /= np.linalg.norm(q)
+    return out
+
+
 def _heading_per_stride(cg: Any, acc: np.ndarray, gyr: np.ndarray, zv: np.ndarray, fs: float,
-                        bias: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-    """(turn per stride, rad; peak vertical rate per stride, rad/s; roll at the stance that ends
-    the stride, rad) from a 3-D strapdown between consecutive ZV ends, tilt reset at each."""
-    turns, peaks, rolls = [], [], []
+                        bias: np.ndarray) -> dict[str, np.ndarray]:  # fmt: skip
+    """Per stride between consecutive ZV ends, from a 3-D strapdown levelled at the first:
+    "turn" (heading change, rad, tilt reset at the second), "peak rate" (largest |vertical
+    angular rate|, rad/s), "roll end" (the foot's roll at the second stance, from its
+    accelerometer, rad), "roll rms" / "roll peak" (the roll over the stride: asin of the
+    vertical component of the foot's y axis, the simulator's roll, rad)."""
+    keys = ("turn", "peak rate", "roll end", "roll rms", "roll peak")
+    out: dict[str, list[float]] = {k: [] for k in keys}
     g = gyr - bias
     for i0, i1 in pairwise(zv):
         f0 = acc[max(i0 - 5, 0) : i0 + 1].mean(0)
         f1 = acc[i1 : i1 + 6].mean(0)
-        q0 = cg._R2q(cg.level_rotation(f0))
-        _, q, _ = cg.strapdown(acc, g, int(i0), int(i1), fs, q0=q0)
+        rot = _attitude(cg, acc, g, int(i0), int(i1), fs, f0)
+        q = cg._R2q(rot[-1])
         r = cg._q2R(cg.reset_tilt_keep_yaw(q, f1))
         hx = r @ (cg.level_rotation(f1).T @ np.array([1.0, 0.0, 0.0]))
-        turns.append(np.arctan2(hx[1], hx[0]))
-        # vertical rate: omega projected on the gravity direction, with the foot's pitch from the
-        # pitch gyro integrated from the stance (small roll)
-        gy = -g[i0 : i1 + 1, 1]
-        th = np.arctan2(f0[0], f0[2]) + np.concatenate([[0.0], np.cumsum(gy[1:]) / fs])
-        wv = g[i0 : i1 + 1, 0] * np.sin(th) + g[i0 : i1 + 1, 2] * np.cos(th)
-        peaks.append(np.max(np.abs(wv)))
-        rolls.append(np.arctan2(f1[1], f1[2]))
-    return np.asarray(turns), np.asarray(peaks), np.asarray(rolls)
+        out["turn"].append(float(np.arctan2(hx[1], hx[0])))
+        wv = np.einsum("kj,kj->k", rot[:, 2, :], g[i0 : i1 + 1])  # vertical angular rate
+        out["peak rate"].append(float(np.max(np.abs(wv))))
+        out["roll end"].append(float(np.arctan2(f1[1], f1[2])))
+        roll = np.arcsin(np.clip(rot[:, 2, 1], -1.0, 1.0))
+        out["roll rms"].append(float(np.sqrt(np.mean(roll**2))))
+        out["roll peak"].append(float(np.max(np.abs(roll))))
+    return {k: np.asarray(v) for k, v in out.items()}
+
+
+def longest_still_s(gyro_y: np.ndarray, fs: float, limit: float = 0.35) -> float:
+    """The longest run (s) in which |gyro_y| stays below ``limit`` over +-2 samples (the
+    still test of gaitmon.dsp.stride_length on the gyro alone)."""
+    w = np.abs(gyro_y)
+    if len(w) < 5:
+        return 0.0
+    mx = np.max(np.lib.stride_tricks.sliding_window_view(w, 5), axis=1) < limit
+    edges = np.diff(np.concatenate([[0], mx.astype(np.int8), [0]]))
+    runs = np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)
+    return float(runs.max(initial=0)) / fs
 
 
 def _pct(x: np.ndarray, q: float) -> float:
@@ -131,6 +164,9 @@ def measure(data: Path, per_trial: bool = False) -> dict[str, dict[str, float]]:
                 if len(seg):
                     floor.append(float(seg.min()))
             add("stance |w_y|, stillest 0.1 s mean, rad/s", np.asarray(floor))
+            runs = [longest_still_s(b["gyro_y"][a : int(i1)] + bias[1], fs)
+                    for a, i1 in pairwise(zv)]  # fmt: skip
+            add("longest still run per stride (|w_y| < 0.35 rad/s), s", np.asarray(runs))
             # the still phase as a simple detector finds it (|w| < 0.8 rad/s, ||a|-g| < 1.2)
             det = cg.detect_stance(acc, g, fs)
             if len(det) > 2:
@@ -144,7 +180,8 @@ def measure(data: Path, per_trial: bool = False) -> dict[str, dict[str, float]]:
             add("stance |w_y|, rad/s", np.abs(b["gyro_y"][still] + bias[1]))
             add("stance |a|-g, m/s2", np.linalg.norm(acc[still], axis=1) - G)
             add("stance planar |a|-g, m/s2", np.hypot(b["acc_x"][still], b["acc_z"][still]) - G)
-            turn, peak, roll = _heading_per_stride(cg, acc, gyr, zv, fs, bias)
+            hd = _heading_per_stride(cg, acc, gyr, zv, fs, bias)
+            turn, peak, roll = hd["turn"], hd["peak rate"], hd["roll end"]
             straight = np.abs(turn) < np.radians(20.0)
             straight[:2] = straight[-2:] = False
             add("turn per stride, deg", np.degrees(turn))
@@ -153,6 +190,10 @@ def measure(data: Path, per_trial: bool = False) -> dict[str, dict[str, float]]:
             add("peak vertical rate in straight strides, rad/s", peak[straight])
             add("stance roll after a turn stride, deg", np.degrees(np.abs(roll[big])))
             add("stance roll after a straight stride, deg", np.degrees(np.abs(roll[straight])))
+            add("roll RMS over a straight stride, deg", np.degrees(hd["roll rms"][straight]))
+            add("roll RMS over a turn stride, deg", np.degrees(hd["roll rms"][big]))
+            add("peak |roll| in a straight stride, deg", np.degrees(hd["roll peak"][straight]))
+            add("peak |roll| in a turn stride, deg", np.degrees(hd["roll peak"][big]))
             # pitch range per stride (gyro-integrated, de-drifted between ZV ends)
             rng = []
             for i0, i1 in pairwise(zv):
@@ -198,10 +239,66 @@ def measure(data: Path, per_trial: bool = False) -> dict[str, dict[str, float]]:
     return out
 
 
+def measure_sim(realism: str, seed: int = 4, seconds: float = 115.0) -> dict[str, float]:
+    """The same measures, as far as the simulator has them, on its foot at a realism level
+    (true events for the strides; the truth's roll and heading for the out-of-plane ones)."""
+    from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, GYRO_IDX
+    from gaitmon.io.sim.config import SimConfig
+    from gaitmon.io.sim.kinematics import GaitModel
+    from gaitmon.io.sim.sensors import simulate
+
+    cfg = SimConfig(realism=realism, seed=seed)
+    n = int((seconds + 5.0) * 100)
+    gait = GaitModel(cfg.gait_config())
+    sb = simulate(n, gait, cfg.sensor_config())
+    k, ph = sb.kinematics, sb.physical
+    foot = 3
+    out: dict[str, float] = {}
+    stand = np.arange(100, 450)
+    out["standing planar |a| / g - 1"] = float(
+        np.mean(np.hypot(ph[stand, ACC_X_IDX[foot]], ph[stand, ACC_Z_IDX[foot]])) / G - 1.0
+    )
+    w = np.abs(ph[:, GYRO_IDX[foot]] - sb.gyro_bias_rad_s[:, foot])
+    hs, to = gait.events(0, n)
+    floor = []
+    for h in hs[1:-1]:
+        t = to[to > h][0]
+        floor.append(np.convolve(w[h:t], np.ones(10) / 10, mode="valid").min())
+    out["stance |w_y|, stillest 0.1 s mean, rad/s"] = float(np.median(floor))
+    runs = [longest_still_s(w[a:b], 100.0) for a, b in pairwise(hs[1:])]
+    out["longest still run per stride (|w_y| < 0.35 rad/s), s"] = float(np.median(runs))
+    out["  the same, p10"] = float(np.percentile(runs, 10))
+    st = gait.strides(0, n)
+    turn = st.turn_rad if st.turn_rad is not None else np.zeros(len(st.heel_strike_idx))
+    vert = (k.yaw_rate_rad_s + k.board_yaw_rate_rad_s[:, foot]
+            - k.rate_rad_s[:, foot] * np.sin(k.roll_rad[:, foot]))  # fmt: skip
+    straight_peak, turn_peak, rms, pitch = [], [], [], []
+    for a, b, tr in zip(st.heel_strike_idx[2:-1], st.heel_strike_idx[3:], turn[2:-1],
+                        strict=True):  # fmt: skip
+        v = float(np.max(np.abs(vert[a:b])))
+        if abs(tr) > np.radians(45.0):
+            turn_peak.append(v)
+        elif abs(tr) < np.radians(20.0):
+            straight_peak.append(v)
+            rms.append(float(np.degrees(np.sqrt(np.mean(k.roll_rad[a:b, foot] ** 2)))))
+            th = np.degrees(k.tilt_rad[a:b, foot])
+            pitch.append(float(th.max() - th.min()))
+    out["peak vertical rate in turn strides, rad/s"] = float(np.median(turn_peak or [np.nan]))
+    out["peak vertical rate in straight strides, rad/s"] = float(np.median(straight_peak))
+    out["roll RMS over a straight stride, deg"] = float(np.median(rms))
+    out["foot pitch range per straight stride, deg"] = float(np.median(pitch))
+    ok = np.abs(turn[2:-1]) < np.radians(20.0)
+    for key, v in (("length", st.stride_length_m[2:-1]), ("time", st.stride_time_s[2:-1])):
+        out[f"stride {key} CV (straight)"] = float(np.std(v[ok]) / np.mean(v[ok]))
+    out["turn strides (> 45 deg), %"] = float(100.0 * np.mean(np.abs(turn) > np.radians(45.0)))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--data", type=Path, default=None)
     ap.add_argument("--per-trial", action="store_true")
+    ap.add_argument("--no-sim", action="store_true", help="leave out the simulator's columns")
     args = ap.parse_args(argv)
     data = args.data
     if data is None:
@@ -220,6 +317,13 @@ def main(argv: list[str] | None = None) -> int:
         for k in keys:
             print(f"| {k} | {r[k + ' | median']:.4g} | {r[k + ' | p10']:.4g} | "
                   f"{r[k + ' | p90']:.4g} | {r[k + ' | n']:.0f} |")  # fmt: skip
+    if not args.no_sim:
+        print("\n## simulator (foot; 115 s of walking, seed 4)\n")
+        print("| measure | default | real |")
+        print("|---|---|---|")
+        easy, hard = measure_sim("default"), measure_sim("real")
+        for key in hard:
+            print(f"| {key} | {easy[key]:.4g} | {hard[key]:.4g} |")
     return 0
 
 

@@ -93,7 +93,9 @@ def test_accelerometer_gain_shows_in_standing_magnitude() -> None:
 def test_gyro_scale_error() -> None:
     """A perfect gyro but for its scale reads (1 + s) times the true rate (no turns, no roll:
     no cross-axis rate), s within the documented 2.5 SD."""
-    g, sb = _hard(3000, gait={"roll_sd_deg": (0.0,) * 4, "turn_every_strides": 0.0},
+    flat = {"roll_sd_deg": (0.0,) * 4, "swing_roll_deg": (0.0,) * 4,
+            "swing_yaw_deg": (0.0,) * 4, "turn_every_strides": 0.0}  # fmt: skip
+    g, sb = _hard(3000, gait=flat,
                   sensors={**PERFECT, "tissue_wobble_deg": (0.0,) * 4,
                            "gyro_drift2_amp_rad_s": 0.0})  # fmt: skip
     model = SensorModel(g, realism_sensors(SensorConfig(seed=3), "real"))
@@ -103,23 +105,39 @@ def test_gyro_scale_error() -> None:
     assert np.max(np.abs(model.gyro_scale - 1.0)) > 0.005
 
 
-def test_stance_foot_rocks_as_documented() -> None:
-    """The stillest 0.1 s of each stance: mean |w_y| median 0.17 rad/s on the hard simulator
-    (docs: real 0.14 x-io, 0.21 gdins), against the default's noise floor (< 0.02)."""
+def test_stance_foot_rolls_over_as_documented() -> None:
+    """The stance foot is not still: through its still phase it turns toe-down (the real
+    feet's pitch gyro reads about -0.2 rad/s there in 97 % of gdins strides). The stillest
+    0.1 s of each stance: mean |w_y| median 0.12 rad/s on the hard simulator (docs: real 0.14
+    x-io, 0.21 gdins), the default's noise floor < 0.02; its signed mean is < 0 in most
+    strides; and the planar |a| stays near g there (the foot turns about its sensor)."""
 
-    def stillest(gait: GaitModel, sb) -> float:  # type: ignore[no-untyped-def]
-        w = np.abs(sb.physical[:, GYRO_IDX[FOOT]] - sb.gyro_bias_rad_s[:, FOOT])
+    def stillest(gait: GaitModel, sb) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
+        w = sb.physical[:, GYRO_IDX[FOOT]] - sb.gyro_bias_rad_s[:, FOOT]
         hs, to = gait.events(0, len(w))
-        out = []
+        mean_abs, signed = [], []
         for h in hs[1:-1]:
             t = to[to > h][0]
-            out.append(np.convolve(w[h:t], np.ones(10) / 10, mode="valid").min())
-        return float(np.median(out))
+            run = np.convolve(np.abs(w[h:t]), np.ones(10) / 10, mode="valid")
+            i = int(np.argmin(run))
+            mean_abs.append(run[i])
+            signed.append(np.mean(w[h + i : h + i + 10]))
+        return np.asarray(mean_abs), np.asarray(signed)
 
-    g, sb = _hard(6000)
-    assert 0.12 <= stillest(g, sb) <= 0.24
+    g, sb = _hard(6000, gait={"roll_sd_deg": (0.0,) * 4})
+    mean_abs, signed = stillest(g, sb)
+    assert 0.09 <= np.median(mean_abs) <= 0.2
+    assert np.mean(signed < 0) > 0.8
     easy = GaitModel(GaitConfig(seed=3))
-    assert stillest(easy, simulate(6000, easy, SensorConfig(seed=3))) < 0.02
+    assert np.median(stillest(easy, simulate(6000, easy, SensorConfig(seed=3)))[0]) < 0.02
+    kin = sb.kinematics
+    flat = _flat_samples(kin.phase, kin.walking)
+    assert np.all(kin.rate_rad_s[flat, FOOT] < 0)  # toe-down all through foot-flat
+    ph = sb.physical
+    mag = np.hypot(ph[flat, ACC_X_IDX[FOOT]], ph[flat, ACC_Z_IDX[FOOT]])
+    model = SensorModel(g, realism_sensors(SensorConfig(seed=3), "real"))
+    gain = 0.5 * (model.acc_gain[FOOT, 0] + model.acc_gain[FOOT, 1])
+    assert np.percentile(np.abs(mag / gain - G), 90) < 0.6
 
 
 def test_stride_length_variability_is_the_truths() -> None:
@@ -154,7 +172,7 @@ def test_turns_change_the_truths_heading_and_path() -> None:
     np.testing.assert_allclose(np.sum(st.turn_rad), kin.heading_rad[st.heel_strike_idx[-1]]
                                - kin.heading_rad[0], atol=0.2)  # fmt: skip
     turning = np.abs(st.turn_rad) > np.radians(45)
-    assert turning.sum() >= 2 * (turns - 1)
+    assert turning.sum() >= turns - 1
     assert np.all(st.stride_length_m[turning] < st.path_length_m[turning])
     np.testing.assert_allclose(st.stride_length_m[~turning], st.path_length_m[~turning],
                                atol=2e-3)  # fmt: skip
@@ -170,11 +188,12 @@ def test_turn_and_roll_leak_into_the_planar_sensors() -> None:
                            "tissue_wobble_deg": (0.0,) * 4, "tissue_acc_ms2": (0.0,) * 4,
                            "gyro_drift2_amp_rad_s": 0.0})  # fmt: skip
     kin = sb.kinematics
-    leak = -kin.yaw_rate_rad_s[:, None] * np.sin(kin.roll_rad)
+    leak = -(kin.yaw_rate_rad_s[:, None] + kin.board_yaw_rate_rad_s) * np.sin(kin.roll_rad)
     np.testing.assert_allclose(sb.physical[:, GYRO_IDX], kin.rate_rad_s + leak, atol=1e-12)
     assert np.max(np.abs(leak[:, FOOT])) > 0.05
     flat = _flat_samples(kin.phase, kin.walking)
     flat = flat[np.abs(kin.yaw_rate_rad_s[flat]) < 1e-9]  # no turn: no centripetal force
+    assert np.all(kin.board_yaw_rad[flat] == 0.0)  # the swing yaw is over
     mag = np.hypot(sb.physical[flat, ACC_X_IDX[FOOT]], sb.physical[flat, ACC_Z_IDX[FOOT]])
     np.testing.assert_allclose(mag, G * np.cos(kin.roll_rad[flat, FOOT]), rtol=1e-9)
     assert np.max(np.degrees(np.abs(kin.roll_rad[flat, FOOT]))) > 2.0
@@ -192,7 +211,7 @@ def test_integrating_the_noiseless_gyro_gives_the_truths_tilt() -> None:
     model = SensorModel(g, realism_sensors(SensorConfig(seed=3), "real"))
     kin = sb.kinematics
     rate = (sb.physical[:, GYRO_IDX] - sb.gyro_bias_rad_s) / model.gyro_scale
-    rate = rate + kin.yaw_rate_rad_s[:, None] * np.sin(kin.roll_rad)
+    rate = rate + (kin.yaw_rate_rad_s[:, None] + kin.board_yaw_rate_rad_s) * np.sin(kin.roll_rad)
     # Simpson-like accuracy is not needed: trapezoid at 100 Hz on these smooth rates
     tilt = kin.tilt_rad[0] + np.concatenate(
         [np.zeros((1, 4)), np.cumsum(0.5 * (rate[1:] + rate[:-1]) / FS, axis=0)]

@@ -33,14 +33,17 @@ SIDES = ("L", "R")
 REAL_GAIT: dict[str, Any] = {
     "stride_cv": 0.05,  # gdins straight strides: local CV of stride time 0.060 (ZV jitter incl.)
     "stride_length_cv": 0.05,  # gdins straight strides: local CV of stride length 0.049
-    "stance_micro_rad": 0.024,  # stillest 0.1 s of stance |w_y|: median 0.17 rad/s (real
-    # 0.14 xio, 0.21 gdins)
-    "stance_micro_cycles": 1.0,
-    "stance_micro_spread": 0.7,  # its p10 .. p90 span a factor 3-8 (0.05 .. 0.55 rad/s)
+    "stance_micro_rad": 0.13,  # the stance roll-over (toe-down through the still phase): real
+    # |w_y| there 0.22 (x-io) .. 0.29 (gdins) rad/s median, stillest 0.1 s 0.14 .. 0.21
+    "stance_micro_spread": 0.5,  # stride to stride (real p10 .. p90 of the stillest: x 3 .. 8)
     "roll_sd_deg": (1.0, 2.0, 2.0, 4.4),  # foot: stance |roll| median 3.0 deg (gdins); others
     # not measured (no shared thigh / shank / pelvis data): assumed smaller
-    "turn_every_strides": 12.0,  # hallway laps: 184 of 1050 gdins strides turn > 45 deg
-    "turn_strides": 2.0,
+    "swing_roll_deg": (0.0, 0.0, 0.0, 10.0),  # foot: roll RMS over a stride 5.1 (gdins), 9.0 deg
+    # (x-io), peak 11 / 22 deg
+    "swing_yaw_deg": (0.0, 0.0, 0.0, 2.5),  # foot: peak vertical rate in straight strides 2.3
+    # rad/s (gdins), 2.2 (x-io)
+    "turn_every_strides": 9.0,  # hallway laps: 184 of 1050 gdins strides turn > 45 deg
+    "turn_strides": 1.3,
     "turn_deg": 180.0,
     "first_turn_strides": 3.0,
 }

@@ -46,6 +46,7 @@ foot-flats the hip follows a C2 curve to the next one, which lies a stride lengt
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -90,6 +91,59 @@ MIN_STAND_S = 0.5  # a stop that has begun to take effect lasts at least this lo
 ROLL_FREQS = (0.137, 0.419, 0.853)  # the roll's sines, cycles per stride (realism)
 
 
+SWING_FROM = TOE_OFF_PHASE  # the swing bumps of roll and yaw (realism) span toe off .. heel strike
+_ODD_PEAK = 0.6495190528383291  # max of sin^2(pi u) sin(2 pi u) on [0, 1] (at u = 1/3)
+
+
+def _swing_bump(q: np.ndarray, odd: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Over the swing (q from SWING_FROM to 1), peak 1: sin^2(pi u) (``odd`` False: out and
+    back once) or sin^2(pi u) sin(2 pi u) / its peak (``odd``: out one way, then the other, no
+    net turn), u the swing's fraction; 0 elsewhere. Value and derivatives w.r.t. q."""
+    span = 1.0 - SWING_FROM
+    u = (np.asarray(q, dtype=np.float64) - SWING_FROM) / span
+    inside = (u > 0.0) & (u < 1.0)
+    s2, ds2, dds2 = (np.sin(np.pi * u) ** 2, np.pi * np.sin(2.0 * np.pi * u),
+                     2.0 * np.pi**2 * np.cos(2.0 * np.pi * u))  # fmt: skip
+    if odd:
+        w = 2.0 * np.pi
+        sn, cs = np.sin(w * u), np.cos(w * u)
+        f = s2 * sn / _ODD_PEAK
+        f1 = (ds2 * sn + s2 * w * cs) / _ODD_PEAK
+        f2 = (dds2 * sn + 2.0 * ds2 * w * cs - s2 * w * w * sn) / _ODD_PEAK
+    else:
+        f, f1, f2 = s2, ds2, dds2
+    return (np.where(inside, f, 0.0), np.where(inside, f1 / span, 0.0),
+            np.where(inside, f2 / span**2, 0.0))  # fmt: skip
+
+
+@functools.lru_cache(maxsize=1)
+def _rollover() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The stance roll-over's shape on u in [0, 1] (foot-flat start .. toe off), 20001 points:
+    (angle, its slope, the slope's slope). The slope rises smoothly to 1 by u = 0.15, stays 1
+    to the end of foot-flat, then fades while a sin^2 bump gives the angle back: the angle is 0
+    at both ends with slope 0 (C1), and 1 x (foot-flat's share) by the end of foot-flat."""
+    u = np.linspace(0.0, 1.0, 20001)
+    u1 = (FLAT_END - FLAT_START) / (TOE_OFF_PHASE - FLAT_START)
+
+    def step(x: np.ndarray) -> np.ndarray:
+        x = np.clip(x, 0.0, 1.0)
+        return x * x * (3.0 - 2.0 * x)
+
+    s = (u - u1) / (1.0 - u1)
+    base = step(u / 0.15) * (1.0 - step(s))
+    bump = np.where((s > 0) & (s < 1), np.sin(np.pi * s) ** 2, 0.0)
+    du = u[1] - u[0]
+
+    def integral(r: np.ndarray) -> np.ndarray:
+        return np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * du)])
+
+    k = integral(base)[-1] / integral(bump)[-1]
+    r = base - k * bump
+    g = integral(r)
+    g[-1] = 0.0
+    return g, r, np.gradient(r, du)
+
+
 @dataclass(frozen=True)
 class GaitConfig:
     """Everything that shapes the true motion. ``None`` fields take the pattern's default."""
@@ -109,10 +163,11 @@ class GaitConfig:
     body_osc_rad: float = 1.5 * DEG
     # realism (module doc, "Realism"; docs/simulator.md): the defaults leave the motion as it was
     stride_length_cv: float = 0.0  # stride-to-stride CV of stride length
-    stance_micro_rad: float = 0.0  # median amplitude of the flat foot's rocking in stance
-    stance_micro_cycles: float = 1.0  # its cycles per foot-flat
-    stance_micro_spread: float = 0.7  # SD of its log amplitude from stride to stride
-    roll_sd_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # RMS roll out of the plane, per board
+    stance_micro_rad: float = 0.0  # median amplitude of the stance foot's roll-over (toe-down)
+    stance_micro_spread: float = 0.5  # SD of its log amplitude from stride to stride
+    roll_sd_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # RMS slow roll out of the plane
+    swing_roll_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak roll in every swing
+    swing_yaw_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak yaw in every swing (out, back)
     turn_every_strides: float = 0.0  # 0: straight; else a turn starts every this many strides
     turn_strides: float = 2.0  # how long a turn lasts
     turn_deg: float = 180.0  # heading change of one turn (> 0: to the left)
@@ -139,10 +194,12 @@ class GaitConfig:
             raise ValueError("fs_hz and ramp_strides must be > 0 and standing_s >= 0")
         if not 0.0 <= self.stride_length_cv <= 0.2:
             raise ValueError(f"stride length CV {self.stride_length_cv} is outside 0..0.2")
-        if not 0.0 <= self.stance_micro_rad <= 0.1 or self.stance_micro_cycles <= 0:
-            raise ValueError("stance_micro_rad must be in 0..0.1 rad, stance_micro_cycles > 0")
-        if len(self.roll_sd_deg) != 4 or not all(0.0 <= r <= 30.0 for r in self.roll_sd_deg):
-            raise ValueError(f"roll_sd_deg needs 4 values in 0..30 deg, got {self.roll_sd_deg}")
+        if not 0.0 <= self.stance_micro_rad <= 0.3 or self.stance_micro_spread < 0:
+            raise ValueError("stance_micro_rad must be in 0..0.3 rad, stance_micro_spread >= 0")
+        for name in ("roll_sd_deg", "swing_roll_deg", "swing_yaw_deg"):
+            v = getattr(self, name)
+            if len(v) != 4 or not all(-30.0 <= r <= 30.0 for r in v) or min(self.roll_sd_deg) < 0:
+                raise ValueError(f"{name} needs 4 values in -30..30 deg (sd >= 0), got {v}")
         if self.turn_every_strides and not (
             self.turn_every_strides > self.turn_strides > 0 and self.first_turn_strides >= 0
         ):
@@ -152,7 +209,9 @@ class GaitConfig:
     def out_of_plane(self) -> bool:
         """Whether the boards leave the sagittal plane (turns or roll): the sensors then project
         the 3-D motion (gaitmon.io.sim.sensors)."""
-        return bool(self.turn_every_strides) or any(self.roll_sd_deg)
+        return bool(self.turn_every_strides) or any(
+            self.roll_sd_deg + self.swing_roll_deg + self.swing_yaw_deg
+        )
 
     @property
     def stance_frac(self) -> float:
@@ -199,6 +258,8 @@ class KinematicsBlock:
     yaw_rate_rad_s: np.ndarray  # (N,) its rate
     roll_rad: np.ndarray  # (N, 4) each board's roll about the walking direction
     roll_rate_rad_s: np.ndarray  # (N, 4) its rate
+    board_yaw_rad: np.ndarray  # (N, 4) each board's yaw from the walking direction (swing)
+    board_yaw_rate_rad_s: np.ndarray  # (N, 4) its rate
 
 
 @dataclass(frozen=True)
@@ -495,46 +556,57 @@ class GaitModel:
         seeded phases, faded in and out with the walk (0 standing)."""
         cfg = self.config
         out = []
-        for j, sd in enumerate(cfg.roll_sd_deg):
-            if not sd:
-                zero = np.zeros_like(p.v)
-                out.append(Jet(zero, zero.copy(), zero.copy()))
-                continue
-            c = np.radians(sd) * np.sqrt(2.0 / len(ROLL_FREQS))
+        for j, (sd, peak) in enumerate(zip(cfg.roll_sd_deg, cfg.swing_roll_deg, strict=True)):
             f, f1, f2 = np.zeros_like(p.v), np.zeros_like(p.v), np.zeros_like(p.v)
-            for fr, ph in zip(ROLL_FREQS, self._roll_phase[j], strict=True):
-                w = 2.0 * np.pi * fr
-                sn, cs = np.sin(w * p.v + ph), np.cos(w * p.v + ph)
-                f, f1, f2 = f + c * sn, f1 + c * w * cs, f2 - c * w * w * sn
+            if sd:
+                c = np.radians(sd) * np.sqrt(2.0 / len(ROLL_FREQS))
+                for fr, ph in zip(ROLL_FREQS, self._roll_phase[j], strict=True):
+                    w = 2.0 * np.pi * fr
+                    sn, cs = np.sin(w * p.v + ph), np.cos(w * p.v + ph)
+                    f, f1, f2 = f + c * sn, f1 + c * w * cs, f2 - c * w * w * sn
+            if peak:
+                b, b1, b2 = _swing_bump(np.mod(p.v, 1.0), odd=False)
+                a = np.radians(peak)
+                f, f1, f2 = f + a * b, f1 + a * b1, f2 + a * b2
             out.append(p.compose(f, f1, f2) * env)
         return out
 
+    def board_yaw(self, p: Jet, env: Jet) -> list[Jet]:
+        """Each board's yaw from the walking direction (rad, > 0 to the left): out by
+        ``swing_yaw_deg`` and back in every swing (the foot's toe-in / toe-out swing), the
+        board turning about its own point (its path is the walk's)."""
+        out = []
+        for peak in self.config.swing_yaw_deg:
+            b, b1, b2 = _swing_bump(np.mod(p.v, 1.0), odd=True)
+            a = np.radians(peak)
+            out.append(p.compose(a * b, a * b1, a * b2) * env)
+        return out
+
     def _stance_micro(self, p: Jet, env: Jet) -> Jet | None:
-        """The flat foot's rocking (rad, added to its tilt): A_k sin(2 pi m u) sin^2(pi u) over
-        the foot-flat of stride k (u from 0 to 1; zero with its first two derivatives at both
-        ends, so the foot still lands and leaves as before), A_k = stance_micro_rad
-        exp(spread z_k) with a random sign; None when off."""
+        """The stance foot's roll-over (rad, added to its tilt and the ankle's, not to the
+        linkage: the foot turns about its sensor's point, whose path stays the flat foot's, so
+        its heel and ball leave the ground by millimetres): from foot-flat on the foot turns
+        toe-down at a steady rate (the heel starts to rise early, as real feet do: the pitch
+        gyro reads about -0.2 rad/s through the whole still phase, docs/simulator.md), and
+        gives the angle back by toe off (``_ROLLOVER``). Stride k's amplitude is
+        stance_micro_rad exp(spread z_k); None when off."""
         cfg = self.config
         if not cfg.stance_micro_rad:
             return None
         k = np.floor(p.v)
-        q = p.v - k
-        span = FLAT_END - FLAT_START
-        u = (q - FLAT_START) / span
+        u = (p.v - k - FLAT_START) / (TOE_OFF_PHASE - FLAT_START)
         inside = (u > 0.0) & (u < 1.0)
         k_max = max(int(np.max(k, initial=0.0)), 0)
         z = self._stride_draws(k_max + 1)
         ki = np.clip(k.astype(np.int64), 0, None)
-        amp = cfg.stance_micro_rad * np.exp(cfg.stance_micro_spread * z[ki, 1])
-        amp = amp * np.where(np.mod(ki, 2) == 0, 1.0, -1.0)
-        w = 2.0 * np.pi * cfg.stance_micro_cycles
-        sa, ca = np.sin(w * u), np.cos(w * u)
-        sb, cb = np.sin(np.pi * u) ** 2, np.pi * np.sin(2.0 * np.pi * u)  # sin^2 and d/du
-        db2 = 2.0 * np.pi**2 * np.cos(2.0 * np.pi * u)
-        f = sa * sb
-        f1 = (w * ca * sb + sa * cb) / span
-        f2 = (-w * w * sa * sb + 2.0 * w * ca * cb + sa * db2) / span**2
-        f, f1, f2 = (np.where(inside, amp * x, 0.0) for x in (f, f1, f2))
+        amp = -cfg.stance_micro_rad * np.exp(cfg.stance_micro_spread * z[ki, 1])
+        g, r, dr = _rollover()
+        span = TOE_OFF_PHASE - FLAT_START
+        grid = np.linspace(0.0, 1.0, len(g))
+        uc = np.clip(u, 0.0, 1.0)
+        f = np.where(inside, amp * np.interp(uc, grid, g), 0.0)
+        f1 = np.where(inside, amp * np.interp(uc, grid, r) / span, 0.0)
+        f2 = np.where(inside, amp * np.interp(uc, grid, dr) / span**2, 0.0)
         return p.compose(f, f1, f2) * env
 
     def _angles(self, p: Jet) -> tuple[Jet, ...]:
@@ -566,9 +638,6 @@ class GaitModel:
         shank = thigh - knee
         # the foot lies flat on the ground in mid-stance (contact module); the ankle follows
         foot = (shank + curve(ANKLE_COEFFS_DEG) * env) * (p.compose(*flat_window(q)) * -1.0 + 1.0)
-        micro = self._stance_micro(p, env)
-        if micro is not None:
-            foot = foot + micro
         ankle = foot - shank
         return hip, knee, ankle, body, thigh, shank, foot, env
 
@@ -635,12 +704,16 @@ class GaitModel:
         p = self.phase_jet(t)
         hip, knee, ankle, body, thigh, shank, foot, env = self._angles(p)
         points = self._points(p, thigh, shank, foot, env)
+        micro = self._stance_micro(p, env)
+        if micro is not None:  # the flat foot rocks about its sensor's point (realism)
+            foot, ankle = foot + micro, ankle + micro
         lin_acc = np.stack([np.stack([pf.dd, pu.dd], axis=-1) for pf, pu in points], axis=1)
         pos = np.stack([np.stack([pf.v, pu.v], axis=-1) for pf, pu in points], axis=1)
         vel = np.stack([np.stack([pf.d, pu.d], axis=-1) for pf, pu in points], axis=1)
         tilts = (body, thigh, shank, foot)
         head = self.heading(p)
         rolls = self.roll(p, env)
+        yaws = self.board_yaw(p, env)
         return KinematicsBlock(
             sample_idx=idx,
             t_s=t,
@@ -657,6 +730,8 @@ class GaitModel:
             yaw_rate_rad_s=head.d,
             roll_rad=np.stack([r.v for r in rolls], axis=-1),
             roll_rate_rad_s=np.stack([r.d for r in rolls], axis=-1),
+            board_yaw_rad=np.stack([y.v for y in yaws], axis=-1),
+            board_yaw_rate_rad_s=np.stack([y.d for y in yaws], axis=-1),
         )
 
     def _points(

@@ -392,13 +392,18 @@ class SensorModel:
         cfg = self.config
         theta = kin.tilt_rad + self.mount_offset_rad + wobble
         phi, dphi = kin.roll_rad, kin.roll_rate_rad_s
-        dpsi = kin.yaw_rate_rad_s[:, None]
+        # the board's heading rate: the walk's and its own swing yaw
+        dpsi = kin.yaw_rate_rad_s[:, None] + kin.board_yaw_rate_rad_s
         st, ct, sp, cp = np.sin(theta), np.cos(theta), np.sin(phi), np.cos(phi)
         # specific force in the walking frame: forward, right, up (the turn's centripetal
-        # acceleration points into the turn: to the left, -right, for psi' > 0)
-        f_f = kin.lin_acc_ms2[:, :, 0]
-        f_r = -dpsi * kin.velocity_m_s[:, :, 0]
+        # acceleration points into the turn: to the left, -right, for psi' > 0) ...
+        w_f = kin.lin_acc_ms2[:, :, 0]
+        w_r = -kin.yaw_rate_rad_s[:, None] * kin.velocity_m_s[:, :, 0]
         f_u = kin.lin_acc_ms2[:, :, 1] + STANDARD_GRAVITY_MS2
+        # ... and in the board's heading frame, yawed by d to the left of the walk
+        sd, cd = np.sin(kin.board_yaw_rad), np.cos(kin.board_yaw_rad)
+        f_f = cd * w_f - sd * w_r
+        f_r = sd * w_f + cd * w_r
         # board axes in (forward, right, up): x = (-st, ct sp, ct cp), y = (0, cp, -sp),
         # z = (ct, st sp, st cp)
         acc_x = -st * f_f + ct * sp * f_r + ct * cp * f_u
