@@ -42,6 +42,28 @@ mid-stance (its tilt blended to 0 there), the hip stands on the linkage above it
 foot-flats the hip follows a C2 curve to the next one, which lies a stride length ahead
 (``GaitConfig.stride_length_m``, default 0.8 H; speed = stride length x cadence / 120).
 ``GaitModel.strides`` gives the true stride lengths, times and foot clearances.
+
+Realism (all off by default; ``realism="real"`` of ``gaitmon.io.sim.config`` turns them on with
+the parameters measured on real feet, docs/simulator.md "Realism levels")
+------------------------------------------------------------------------------------------------
+* ``stride_length_cv``: stride k lands (1 + cv z_k) of its base length further (z_k standard
+  normal, clipped at 2.5, drawn per stride in order from its own generator); the hip's curves
+  join the foot-flats where they now lie, so the sensors see it.
+* ``stance_micro_rad``: the stance foot rolls over: from foot-flat on it turns toe-down at a
+  steady rate and gives the angle back by toe off (``_stance_micro``); it turns about its
+  sensor's point (the linkage keeps the flat foot), so the truth's foot tilt and ankle include
+  it and the sensor's path does not move.
+* ``roll_sd_deg`` / ``swing_roll_deg`` / ``swing_yaw_deg``: each board leaves the sagittal
+  plane: a slow random roll about the walking direction, a roll bump in every swing, and a yaw
+  out and back in every swing, both about the board's own point.
+* ``turn_every_strides`` ...: turns of ``turn_deg`` change the walking direction (``heading``):
+  every sensor point's horizontal path is its forward travel laid along the heading, so a
+  turning stride's length (the footprints' straight distance, ``StrideTruth.stride_length_m``)
+  is shorter than its path (``path_length_m``), and the sensors feel the turn's centripetal
+  acceleration.
+
+KinematicsBlock carries the heading, roll and swing yaw with their rates; the sagittal truth
+(tilts, joint angles) is the pitch about each board's rolled right axis.
 """
 
 from __future__ import annotations

@@ -35,6 +35,19 @@ evaluation, ``gaitmon lab accuracy``, turns them on with :func:`realistic_sensor
   sees the yaw rate times sin(roll), and gravity's in-plane part shrinks by cos(roll). One gyro
   axis cannot tell this from a real sagittal rotation (SPEC section 9).
 
+Out of the plane and imperfect axes (off by default; ``realism="real"`` turns them on,
+docs/simulator.md "Realism levels"): when the gait leaves the sagittal plane
+(``GaitConfig.out_of_plane``: turns, roll, swing yaw) or an axis error is set, ``_block3d``
+builds each board's 3-D orientation (heading psi, then roll phi about the walking direction,
+then the pitch theta = tilt + mount + wobble about the rolled right axis) and projects on the
+board's x, z axes the specific force (forward, -psi' v_forward to the right: the turn's
+centripetal force, up + g), and on its y axis the angular velocity psi' up + phi' forward +
+theta' right: the pitch gyro reads theta' - psi' sin(phi), and a still board's planar |a| is
+g cos(phi). Then each accelerometer axis reads (1 + e) times its force plus c times the other
+two axes' (``acc_gain_sd``, ``acc_cross_sd``), the gyro (1 + s) times its rate plus c times the
+rates about x and z (``gyro_scale_sd``, ``gyro_cross_sd``): drawn per board from ``seed`` by a
+generator of their own, so the other draws do not change.
+
 Foot-sensor faults (off by default): from ``heel_dead_from_s`` the heel FSR is dead (open
 circuit: it reads its noise around 0 counts and never loads); from ``toe_stuck_from_s`` the toe
 FSR is stuck loaded (it reads ``toe_peak_counts`` plus noise). ``SensorModel.set_fsr_fault``
