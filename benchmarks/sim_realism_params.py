@@ -268,6 +268,19 @@ def measure_sim(realism: str, seed: int = 4, seconds: float = 115.0) -> dict[str
     runs = [longest_still_s(w[a:b], 100.0) for a, b in pairwise(hs[1:])]
     out["longest still run per stride (|w_y| < 0.35 rad/s), s"] = float(np.median(runs))
     out["  the same, p10"] = float(np.percentile(runs, 10))
+    # the datasets' simple detector (|w| < 0.8 rad/s, ||a| - g| < 1.2 m/s^2 over 50 ms), on the
+    # planar channels, the accelerometer divided by its drawn gain (as the real IMUs are
+    # calibrated)
+    from gaitmon.io.sim.sensors import SensorModel
+
+    gain = float(np.mean(SensorModel(gait, cfg.sensor_config()).acc_gain[foot]))
+    a = np.hypot(ph[:, ACC_X_IDX[foot]], ph[:, ACC_Z_IDX[foot]]) / gain - G
+    box = np.ones(5) / 5
+    det = ((np.convolve(w, box, "same") < 0.8) & (np.convolve(np.abs(a), box, "same") < 1.2)
+           & (k.walking > 0.999))  # fmt: skip
+    out["detected stance |w_y|, rad/s"] = float(np.median(w[det]))
+    out["detected stance |a|-g, m/s2 (median)"] = float(np.median(a[det]))
+    out["detected stance |a|-g, m/s2 (p90)"] = float(np.percentile(a[det], 90))
     st = gait.strides(0, n)
     turn = st.turn_rad if st.turn_rad is not None else np.zeros(len(st.heel_strike_idx))
     vert = (k.yaw_rate_rad_s + k.board_yaw_rate_rad_s[:, foot]
