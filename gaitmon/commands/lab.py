@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from gaitmon.errors import UserError
+from gaitmon.io.sim.patterns import REALISM_LEVELS
 
 CHOICES = ("all", "p000", "p001", "p002", "p003", "p004", "accuracy")
 
@@ -25,6 +26,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="the shared real recordings (accuracy: every dataset in it, trial by trial; a "
         "missing one is skipped with a note; default ../shared/data beside the source)",
+    )
+    p.add_argument(
+        "--realism",
+        choices=REALISM_LEVELS,
+        default="default",
+        help="accuracy: the simulator's realism level for its scenarios ('real': sensor gain "
+        "and cross-axis errors, roll, 180-degree turns, a rolling stance foot and stride "
+        "variability, as measured on real feet; docs/simulator.md)",
     )
     p.add_argument(
         "--quick", action="store_true", help="shorter records and fewer runs (for a smoke test)"
@@ -69,10 +78,15 @@ def _accuracy(args: argparse.Namespace) -> int:
             raise UserError(f"{data} holds none of the real datasets ({', '.join(DATASETS)}; "
                             "see ../shared/data/README.md)")  # fmt: skip
     t0 = time.perf_counter()
-    print("gaitmon lab accuracy: simulator scenarios"
+    print(f"gaitmon lab accuracy: simulator scenarios (realism {args.realism})"
           + (f" and the recordings in {data}" if data else " (no real recordings found)"),
           flush=True)  # fmt: skip
-    acc = evaluate(quick=args.quick, data_dir=data, progress=lambda m: print(f"  {m}", flush=True))
+    acc = evaluate(
+        quick=args.quick,
+        data_dir=data,
+        realism=args.realism,
+        progress=lambda m: print(f"  {m}", flush=True),
+    )
     table = format_table(acc)
     print(table)
     if args.out:

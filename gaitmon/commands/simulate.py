@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 from gaitmon.errors import UserError
 from gaitmon.io.sim.config import SimConfig, serve_on_pty
-from gaitmon.io.sim.patterns import PATTERNS
+from gaitmon.io.sim.patterns import PATTERNS, REALISM_LEVELS
 
 if TYPE_CHECKING:
     from gaitmon.io.sim.bilateral import BilateralConfig
@@ -188,6 +188,14 @@ def add_simulator_options(
         metavar="S",
         help="the toe force sensor sticks loaded S seconds after the unit starts (default: never)",
     )
+    parser.add_argument(
+        "--realism",
+        choices=REALISM_LEVELS,
+        default="default",
+        help="how hard the simulator is: 'real' adds what real feet and sensors do (gain and "
+        "cross-axis errors, roll and 180-degree turns, a stance foot that is not still, stride "
+        "length variability; docs/simulator.md) (default: default)",
+    )
 
 
 def sim_config_from_args(args: argparse.Namespace) -> SimConfig:
@@ -209,6 +217,7 @@ def sim_config_from_args(args: argparse.Namespace) -> SimConfig:
             corrupt_pct=args.corrupt_pct,
             heel_dead_at_s=getattr(args, "heel_dead_at", math.inf),
             toe_stuck_at_s=getattr(args, "toe_stuck_at", math.inf),
+            realism=getattr(args, "realism", "default"),
         )
     except ValueError as exc:
         raise UserError(str(exc)) from None

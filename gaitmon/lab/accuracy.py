@@ -104,13 +104,16 @@ class Accuracy:
         return float(np.percentile(np.abs(e), 95))
 
 
-def _simulate(name: str, n: int, seed: int) -> tuple[Any, Any]:
+def _simulate(name: str, n: int, seed: int, realism: str = "default") -> tuple[Any, Any]:
+    """The scenario's gait and samples; ``realism`` "real": the harder simulator's level
+    (gaitmon.io.sim.config.REALISM_LEVELS, docs/simulator.md) on top of the realistic sensors."""
     from gaitmon.io.sim import GaitConfig, GaitModel
+    from gaitmon.io.sim.config import realism_gait, realism_sensors
     from gaitmon.io.sim.sensors import realistic_sensors, simulate
 
-    opts, turns = SCENARIOS[name]
-    gait = GaitModel(GaitConfig(seed=seed, **opts))
-    return gait, simulate(n, gait, realistic_sensors(seed, turns=turns))
+    opts, turns = SCENARIOS.get(name) or (STRIDE_SCENARIOS[name], False)
+    gait = GaitModel(realism_gait(GaitConfig(seed=seed, **opts), realism))
+    return gait, simulate(n, gait, realism_sensors(realistic_sensors(seed, turns=turns), realism))
 
 
 def _calibrate(counts: np.ndarray) -> Calibration:
@@ -223,16 +226,13 @@ def match_strides(
             np.abs(speed_m_s[ok] - t_speed) / t_speed * 100.0)  # fmt: skip
 
 
-def _strides(n: int, seed: int, acc: Accuracy) -> None:
+def _strides(n: int, seed: int, acc: Accuracy, realism: str = "default") -> None:
     from gaitmon.dsp.gyro_events import gyro_gait_events
     from gaitmon.dsp.pipeline import Pipeline
     from gaitmon.dsp.stride_length import StrideLengthTracker, stride_measures
-    from gaitmon.io.sim import GaitConfig, GaitModel
-    from gaitmon.io.sim.sensors import realistic_sensors, simulate
 
-    for i, (name, opts) in enumerate(STRIDE_SCENARIOS.items()):
-        gait = GaitModel(GaitConfig(seed=seed + i, **opts))
-        sb = simulate(n, gait, realistic_sensors(seed + i))
+    for i, name in enumerate(STRIDE_SCENARIOS):
+        gait, sb = _simulate(name, n, seed + i, realism)
         cal = _calibrate(sb.counts)
         ph = DEFAULT_TABLE.to_physical(sb.counts)
         ax, az = ph[:, ACC_X_IDX[3]], ph[:, ACC_Z_IDX[3]]
@@ -262,15 +262,17 @@ def _strides(n: int, seed: int, acc: Accuracy) -> None:
 def evaluate(
     quick: bool = False, data_dir: Path | None = None,
     progress: Callable[[str], None] = lambda _m: None, seed: int = 100,
+    realism: str = "default",
 ) -> Accuracy:  # fmt: skip
     """Run every judge (module doc). ``quick``: two scenarios of 40 s (for tests). Scenario i
-    is simulated with seed ``seed + i`` (100: the table's; others are held out)."""
+    is simulated with seed ``seed + i`` (100: the table's; others are held out). ``realism``
+    "real": the simulator judges at the harder level (docs/simulator.md)."""
     acc = Accuracy()
     n = 4000 if quick else 9000  # 5 s standing, then 35 / 85 s of walking
     names = ["normal", "turns every 12 s"] if quick else list(SCENARIOS)
     for i, name in enumerate(names):
         progress(f"simulator: {name}")
-        gait, sb = _simulate(name, n, seed=seed + i)
+        gait, sb = _simulate(name, n, seed=seed + i, realism=realism)
         cal = _calibrate(sb.counts)
         acc.joint_rmse_deg[name] = {}
         acc.peak_knee_err_deg[name] = {}
@@ -285,7 +287,7 @@ def evaluate(
         if name == "normal":
             _faults(gait, sb.counts, cal, n, acc)
     progress("stride length and speed")
-    _strides(n + 2000, seed, acc)
+    _strides(n + 2000, seed, acc, realism)
     if data_dir is not None:
         from gaitmon.lab.real import evaluate_real
 

@@ -42,10 +42,33 @@ mid-stance (its tilt blended to 0 there), the hip stands on the linkage above it
 foot-flats the hip follows a C2 curve to the next one, which lies a stride length ahead
 (``GaitConfig.stride_length_m``, default 0.8 H; speed = stride length x cadence / 120).
 ``GaitModel.strides`` gives the true stride lengths, times and foot clearances.
+
+Realism (all off by default; ``realism="real"`` of ``gaitmon.io.sim.config`` turns them on with
+the parameters measured on real feet, docs/simulator.md "Realism levels")
+------------------------------------------------------------------------------------------------
+* ``stride_length_cv``: stride k lands (1 + cv z_k) of its base length further (z_k standard
+  normal, clipped at 2.5, drawn per stride in order from its own generator); the hip's curves
+  join the foot-flats where they now lie, so the sensors see it.
+* ``stance_micro_rad``: the stance foot rolls over: from foot-flat on it turns toe-down at a
+  steady rate and gives the angle back by toe off (``_stance_micro``); it turns about its
+  sensor's point (the linkage keeps the flat foot), so the truth's foot tilt and ankle include
+  it and the sensor's path does not move.
+* ``roll_sd_deg`` / ``swing_roll_deg`` / ``swing_yaw_deg``: each board leaves the sagittal
+  plane: a slow random roll about the walking direction, a roll bump in every swing, and a yaw
+  out and back in every swing, both about the board's own point.
+* ``turn_every_strides`` ...: turns of ``turn_deg`` change the walking direction (``heading``):
+  every sensor point's horizontal path is its forward travel laid along the heading, so a
+  turning stride's length (the footprints' straight distance, ``StrideTruth.stride_length_m``)
+  is shorter than its path (``path_length_m``), and the sensors feel the turn's centripetal
+  acceleration.
+
+KinematicsBlock carries the heading, roll and swing yaw with their rates; the sagittal truth
+(tilts, joint angles) is the pitch about each board's rolled right axis.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -87,6 +110,60 @@ START_PHASE = 0.25  # the standing pose is taken as mid-stance (both FSRs loaded
 OPEN_STAND_S = 1e7  # the length of a stand nobody has ended yet (about four months)
 STOP_AHEAD_STRIDES = 0.1  # margin between the last sample produced and a stop's influence
 MIN_STAND_S = 0.5  # a stop that has begun to take effect lasts at least this long
+ROLL_FREQS = (0.137, 0.419, 0.853)  # the roll's sines, cycles per stride (realism)
+
+
+SWING_FROM = TOE_OFF_PHASE  # the swing bumps of roll and yaw (realism) span toe off .. heel strike
+_ODD_PEAK = 0.6495190528383291  # max of sin^2(pi u) sin(2 pi u) on [0, 1] (at u = 1/3)
+
+
+def _swing_bump(q: np.ndarray, odd: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Over the swing (q from SWING_FROM to 1), peak 1: sin^2(pi u) (``odd`` False: out and
+    back once) or sin^2(pi u) sin(2 pi u) / its peak (``odd``: out one way, then the other, no
+    net turn), u the swing's fraction; 0 elsewhere. Value and derivatives w.r.t. q."""
+    span = 1.0 - SWING_FROM
+    u = (np.asarray(q, dtype=np.float64) - SWING_FROM) / span
+    inside = (u > 0.0) & (u < 1.0)
+    s2, ds2, dds2 = (np.sin(np.pi * u) ** 2, np.pi * np.sin(2.0 * np.pi * u),
+                     2.0 * np.pi**2 * np.cos(2.0 * np.pi * u))  # fmt: skip
+    if odd:
+        w = 2.0 * np.pi
+        sn, cs = np.sin(w * u), np.cos(w * u)
+        f = s2 * sn / _ODD_PEAK
+        f1 = (ds2 * sn + s2 * w * cs) / _ODD_PEAK
+        f2 = (dds2 * sn + 2.0 * ds2 * w * cs - s2 * w * w * sn) / _ODD_PEAK
+    else:
+        f, f1, f2 = s2, ds2, dds2
+    return (np.where(inside, f, 0.0), np.where(inside, f1 / span, 0.0),
+            np.where(inside, f2 / span**2, 0.0))  # fmt: skip
+
+
+@functools.lru_cache(maxsize=1)
+def _rollover() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The stance roll-over's shape on u in [0, 1] (foot-flat start .. toe off), 20001 points:
+    (angle, its slope, the slope's slope). The slope rises smoothly to 1 by u = 0.15, stays 1
+    to the end of foot-flat, then fades while a sin^2 bump gives the angle back: the angle is 0
+    at both ends with slope 0 (C1), and 1 x (foot-flat's share) by the end of foot-flat."""
+    u = np.linspace(0.0, 1.0, 20001)
+    u1 = (FLAT_END - FLAT_START) / (TOE_OFF_PHASE - FLAT_START)
+
+    def step(x: np.ndarray) -> np.ndarray:
+        x = np.clip(x, 0.0, 1.0)
+        return x * x * (3.0 - 2.0 * x)
+
+    s = (u - u1) / (1.0 - u1)
+    base = step(u / 0.15) * (1.0 - step(s))
+    bump = np.where((s > 0) & (s < 1), np.sin(np.pi * s) ** 2, 0.0)
+    du = u[1] - u[0]
+
+    def integral(r: np.ndarray) -> np.ndarray:
+        return np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * du)])
+
+    k = integral(base)[-1] / integral(bump)[-1]
+    r = base - k * bump
+    g = integral(r)
+    g[-1] = 0.0
+    return g, r, np.gradient(r, du)
 
 
 @dataclass(frozen=True)
@@ -106,6 +183,17 @@ class GaitConfig:
     stride_length_m: float | None = None  # default 0.8 * height; 0.4 .. 1.2 * height
     body_lean_rad: float = -3.0 * DEG  # pelvis leans forward while walking (tilt < 0)
     body_osc_rad: float = 1.5 * DEG
+    # realism (module doc, "Realism"; docs/simulator.md): the defaults leave the motion as it was
+    stride_length_cv: float = 0.0  # stride-to-stride CV of stride length
+    stance_micro_rad: float = 0.0  # median amplitude of the stance foot's roll-over (toe-down)
+    stance_micro_spread: float = 0.5  # SD of its log amplitude from stride to stride
+    roll_sd_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # RMS slow roll out of the plane
+    swing_roll_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak roll in every swing
+    swing_yaw_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak yaw in every swing (out, back)
+    turn_every_strides: float = 0.0  # 0: straight; else a turn starts every this many strides
+    turn_strides: float = 2.0  # how long a turn lasts
+    turn_deg: float = 180.0  # heading change of one turn (> 0: to the left)
+    first_turn_strides: float = 3.0  # strides walked (after the ramp-in) before the first turn
 
     def __post_init__(self) -> None:
         if self.pattern not in PATTERNS:
@@ -126,6 +214,26 @@ class GaitConfig:
             )
         if self.fs_hz <= 0 or self.standing_s < 0 or self.ramp_strides <= 0:
             raise ValueError("fs_hz and ramp_strides must be > 0 and standing_s >= 0")
+        if not 0.0 <= self.stride_length_cv <= 0.2:
+            raise ValueError(f"stride length CV {self.stride_length_cv} is outside 0..0.2")
+        if not 0.0 <= self.stance_micro_rad <= 0.3 or self.stance_micro_spread < 0:
+            raise ValueError("stance_micro_rad must be in 0..0.3 rad, stance_micro_spread >= 0")
+        for name in ("roll_sd_deg", "swing_roll_deg", "swing_yaw_deg"):
+            v = getattr(self, name)
+            if len(v) != 4 or not all(-30.0 <= r <= 30.0 for r in v) or min(self.roll_sd_deg) < 0:
+                raise ValueError(f"{name} needs 4 values in -30..30 deg (sd >= 0), got {v}")
+        if self.turn_every_strides and not (
+            self.turn_every_strides > self.turn_strides > 0 and self.first_turn_strides >= 0
+        ):
+            raise ValueError("turn_every_strides must be 0 or longer than turn_strides > 0")
+
+    @property
+    def out_of_plane(self) -> bool:
+        """Whether the boards leave the sagittal plane (turns or roll): the sensors then project
+        the 3-D motion (gaitmon.io.sim.sensors)."""
+        return bool(self.turn_every_strides) or any(
+            self.roll_sd_deg + self.swing_roll_deg + self.swing_yaw_deg
+        )
 
     @property
     def stance_frac(self) -> float:
@@ -167,6 +275,13 @@ class KinematicsBlock:
     rate_rad_s: np.ndarray  # (N, 4) d(tilt)/dt
     lin_acc_ms2: np.ndarray  # (N, 4, 2) sensor-point acceleration in the world frame (F, U)
     position_m: np.ndarray  # (N, 4, 2) sensor-point position (F, U); F grows with walking
+    velocity_m_s: np.ndarray  # (N, 4, 2) sensor-point velocity (F, U)
+    heading_rad: np.ndarray  # (N,) walking direction (turns; > 0 to the left), 0 straight
+    yaw_rate_rad_s: np.ndarray  # (N,) its rate
+    roll_rad: np.ndarray  # (N, 4) each board's roll about the walking direction
+    roll_rate_rad_s: np.ndarray  # (N, 4) its rate
+    board_yaw_rad: np.ndarray  # (N, 4) each board's yaw from the walking direction (swing)
+    board_yaw_rate_rad_s: np.ndarray  # (N, 4) its rate
 
 
 @dataclass(frozen=True)
@@ -177,6 +292,10 @@ class StrideTruth:
     stride_length_m: np.ndarray  # (K,) foot sensor's displacement, foot-flat to foot-flat
     stride_time_s: np.ndarray  # (K,) to the next heel strike
     foot_clearance_m: np.ndarray  # (K,) sensor's highest point above its foot-flat height
+    # with turns: the length above is the straight line between the two foot-flats (the
+    # footprints' distance); the path is the sensor's forward travel along its (curved) way
+    path_length_m: np.ndarray | None = None  # (K,) forward travel; None: = stride_length_m
+    turn_rad: np.ndarray | None = None  # (K,) heading change foot-flat to foot-flat
 
     @property
     def speed_m_s(self) -> np.ndarray:
@@ -209,6 +328,14 @@ class GaitModel:
         self._stand_requested = False
         self.foot = FootGeometry.for_height(cfg.height_m)
         self._ends_cache: dict[float, np.ndarray] = {}  # _free_ends, per foot-flat
+        # realism: per-stride draws (stride length factor, stance rocking amplitude) from their
+        # own generator, in stride order (so the default's draws above never change), and the
+        # roll's random phases
+        self._stride_rng = np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(6,)))
+        self._stride_z = np.empty((0, 2))
+        self._roll_phase = np.random.default_rng(
+            np.random.SeedSequence(cfg.seed, spawn_key=(7,))
+        ).uniform(0.0, 2.0 * np.pi, (4, len(ROLL_FREQS)))
 
     # ---- stride schedule -------------------------------------------------------------------
     def _ensure(self, t_max_s: float) -> None:
@@ -394,12 +521,115 @@ class GaitModel:
         """The distance walked at each normative phase, m: one stride length per cycle once
         walking, less while the walk ramps in and out of each stop. Heel strike k lands at
         ``distance_m(k)`` (gaitmon.io.sim.contact)."""
-        cfg = self.config
         p = np.asarray(phase, dtype=np.float64)
+        d = self._base_distance_m(p)
+        if self.config.stride_length_cv and p.size:
+            # stride k (heel strike k to k + 1) is (1 + cv z_k) times its base length: exact at
+            # integer phases (where the foot lands), linear between (never used there)
+            k_max = max(int(np.ceil(np.max(p))) + 1, 1)
+            ks = np.arange(k_max + 1, dtype=np.float64)
+            base = self._base_distance_m(ks)
+            z = self._stride_draws(k_max)[:, 0]
+            extra = np.concatenate([[0.0], np.cumsum(np.diff(base) * self.config.stride_length_cv
+                                                     * z[:k_max])])  # fmt: skip
+            d = d + np.interp(p, ks, extra)
+        return np.asarray(d)
+
+    def _base_distance_m(self, p: np.ndarray) -> np.ndarray:
+        cfg = self.config
         d = _ramp_integral(p - START_PHASE, cfg.ramp_strides)[0] * cfg.stride_len_m
         for p_stop, _ in self._stops:
             d = d - _stop_bump(p - p_stop, cfg.ramp_strides)[1][0] * cfg.stride_len_m
         return np.asarray(d)
+
+    def _stride_draws(self, k_max: int) -> np.ndarray:
+        """(>= k_max + 1, 2) standard normal draws per stride, clipped to +-2.5: the stride
+        length factor's and the stance rocking's log amplitude's."""
+        while len(self._stride_z) <= k_max:
+            z = np.clip(self._stride_rng.standard_normal((512, 2)), -2.5, 2.5)
+            self._stride_z = np.concatenate([self._stride_z, z])
+        return self._stride_z
+
+    # ---- out of the sagittal plane (realism) --------------------------------------------------
+    def heading(self, p: Jet) -> Jet:
+        """Walking direction (rad, > 0 to the left) as a jet of what ``p`` is a jet of: turns of
+        ``turn_deg`` over ``turn_strides`` every ``turn_every_strides`` strides, from
+        ``first_turn_strides`` after the ramp-in; the rate is 2 sin^2 shaped (no jerk at the
+        ends)."""
+        cfg = self.config
+        zero = np.zeros_like(p.v)
+        if not cfg.turn_every_strides:
+            return Jet(zero, zero.copy(), zero.copy())
+        a = np.radians(cfg.turn_deg)
+        ts, every = cfg.turn_strides, cfg.turn_every_strides
+        s = p.v - (START_PHASE + cfg.ramp_strides + cfg.first_turn_strides)
+        j = np.floor(s / every)
+        u = np.clip((s - j * every) / ts, 0.0, 1.0)
+        inside = (u > 0.0) & (u < 1.0)
+        h = u - np.sin(2.0 * np.pi * u) / (2.0 * np.pi)
+        f = np.where(s < 0.0, 0.0, a * (j + h))
+        f1 = np.where(inside & (s >= 0.0), a / ts * (1.0 - np.cos(2.0 * np.pi * u)), 0.0)
+        f2 = np.where(inside & (s >= 0.0), a / ts**2 * 2.0 * np.pi * np.sin(2.0 * np.pi * u), 0.0)
+        return p.compose(f, f1, f2)
+
+    def roll(self, p: Jet, env: Jet) -> list[Jet]:
+        """Each board's roll about the walking direction (rad): ``roll_sd_deg`` RMS, a sum of
+        three sines of the phase at incommensurate frequencies (ROLL_FREQS per stride) with
+        seeded phases, faded in and out with the walk (0 standing)."""
+        cfg = self.config
+        out = []
+        for j, (sd, peak) in enumerate(zip(cfg.roll_sd_deg, cfg.swing_roll_deg, strict=True)):
+            f, f1, f2 = np.zeros_like(p.v), np.zeros_like(p.v), np.zeros_like(p.v)
+            if sd:
+                c = np.radians(sd) * np.sqrt(2.0 / len(ROLL_FREQS))
+                for fr, ph in zip(ROLL_FREQS, self._roll_phase[j], strict=True):
+                    w = 2.0 * np.pi * fr
+                    sn, cs = np.sin(w * p.v + ph), np.cos(w * p.v + ph)
+                    f, f1, f2 = f + c * sn, f1 + c * w * cs, f2 - c * w * w * sn
+            if peak:
+                b, b1, b2 = _swing_bump(np.mod(p.v, 1.0), odd=False)
+                a = np.radians(peak)
+                f, f1, f2 = f + a * b, f1 + a * b1, f2 + a * b2
+            out.append(p.compose(f, f1, f2) * env)
+        return out
+
+    def board_yaw(self, p: Jet, env: Jet) -> list[Jet]:
+        """Each board's yaw from the walking direction (rad, > 0 to the left): out by
+        ``swing_yaw_deg`` and back in every swing (the foot's toe-in / toe-out swing), the
+        board turning about its own point (its path is the walk's)."""
+        out = []
+        for peak in self.config.swing_yaw_deg:
+            b, b1, b2 = _swing_bump(np.mod(p.v, 1.0), odd=True)
+            a = np.radians(peak)
+            out.append(p.compose(a * b, a * b1, a * b2) * env)
+        return out
+
+    def _stance_micro(self, p: Jet, env: Jet) -> Jet | None:
+        """The stance foot's roll-over (rad, added to its tilt and the ankle's, not to the
+        linkage: the foot turns about its sensor's point, whose path stays the flat foot's, so
+        its heel and ball leave the ground by millimetres): from foot-flat on the foot turns
+        toe-down at a steady rate (the heel starts to rise early, as real feet do: the pitch
+        gyro reads about -0.2 rad/s through the whole still phase, docs/simulator.md), and
+        gives the angle back by toe off (``_ROLLOVER``). Stride k's amplitude is
+        stance_micro_rad exp(spread z_k); None when off."""
+        cfg = self.config
+        if not cfg.stance_micro_rad:
+            return None
+        k = np.floor(p.v)
+        u = (p.v - k - FLAT_START) / (TOE_OFF_PHASE - FLAT_START)
+        inside = (u > 0.0) & (u < 1.0)
+        k_max = max(int(np.max(k, initial=0.0)), 0)
+        z = self._stride_draws(k_max + 1)
+        ki = np.clip(k.astype(np.int64), 0, None)
+        amp = -cfg.stance_micro_rad * np.exp(cfg.stance_micro_spread * z[ki, 1])
+        g, r, dr = _rollover()
+        span = TOE_OFF_PHASE - FLAT_START
+        grid = np.linspace(0.0, 1.0, len(g))
+        uc = np.clip(u, 0.0, 1.0)
+        f = np.where(inside, amp * np.interp(uc, grid, g), 0.0)
+        f1 = np.where(inside, amp * np.interp(uc, grid, r) / span, 0.0)
+        f2 = np.where(inside, amp * np.interp(uc, grid, dr) / span**2, 0.0)
+        return p.compose(f, f1, f2) * env
 
     def _angles(self, p: Jet) -> tuple[Jet, ...]:
         """(hip, knee, ankle, body, thigh, shank, foot, env) as jets of whatever ``p`` is a jet
@@ -496,9 +726,16 @@ class GaitModel:
         p = self.phase_jet(t)
         hip, knee, ankle, body, thigh, shank, foot, env = self._angles(p)
         points = self._points(p, thigh, shank, foot, env)
+        micro = self._stance_micro(p, env)
+        if micro is not None:  # the flat foot rocks about its sensor's point (realism)
+            foot, ankle = foot + micro, ankle + micro
         lin_acc = np.stack([np.stack([pf.dd, pu.dd], axis=-1) for pf, pu in points], axis=1)
         pos = np.stack([np.stack([pf.v, pu.v], axis=-1) for pf, pu in points], axis=1)
+        vel = np.stack([np.stack([pf.d, pu.d], axis=-1) for pf, pu in points], axis=1)
         tilts = (body, thigh, shank, foot)
+        head = self.heading(p)
+        rolls = self.roll(p, env)
+        yaws = self.board_yaw(p, env)
         return KinematicsBlock(
             sample_idx=idx,
             t_s=t,
@@ -510,6 +747,13 @@ class GaitModel:
             rate_rad_s=np.stack([j.d for j in tilts], axis=-1),
             lin_acc_ms2=lin_acc,
             position_m=pos,
+            velocity_m_s=vel,
+            heading_rad=head.v,
+            yaw_rate_rad_s=head.d,
+            roll_rad=np.stack([r.v for r in rolls], axis=-1),
+            roll_rate_rad_s=np.stack([r.d for r in rolls], axis=-1),
+            board_yaw_rad=np.stack([y.v for y in yaws], axis=-1),
+            board_yaw_rate_rad_s=np.stack([y.d for y in yaws], axis=-1),
         )
 
     def _points(
@@ -552,9 +796,30 @@ class GaitModel:
         up = self._points(pj, th, sh, ft, en)[3][1].v.reshape(len(k), len(grid))
         clearance = up.max(axis=1, initial=-np.inf) - self.foot.flat_sensor_height_m
         t_next = np.interp(k + 1.0, np.arange(1, len(self._hs_times) + 1), self._hs_times)
+        path, turn = None, None
+        if self.config.turn_every_strides:
+            path, turn = length, np.empty(len(k))
+            length = np.empty(len(k))
+            # the sensor's way between the two foot-flats in the world: forward travel dF along
+            # the heading psi; Simpson's rule on 1601 phase points (error < 1e-6 m)
+            g = np.linspace(FLAT_START, 1.0 + FLAT_START, 1601)
+            for n, kk in enumerate(k):
+                pv = kk + g
+                pj = Jet(pv, np.ones_like(pv), np.zeros_like(pv))
+                _, _, _, _, th, sh, ft, en = self._angles(pj)
+                dfwd = self._points(pj, th, sh, ft, en)[3][0].d  # dF/dphase
+                psi = self.heading(pj).v
+                wts = np.ones(len(g))
+                wts[1:-1:2], wts[2:-1:2] = 4.0, 2.0
+                wts *= (g[1] - g[0]) / 3.0
+                dx, dy = np.sum(wts * dfwd * np.cos(psi)), np.sum(wts * dfwd * np.sin(psi))
+                length[n] = np.hypot(dx, dy)
+                turn[n] = psi[-1] - psi[0]
         return StrideTruth(
             heel_strike_idx=i[keep],
             stride_length_m=length,
             stride_time_s=t_next - self._hs_times[keep],
             foot_clearance_m=clearance,
+            path_length_m=path,
+            turn_rad=turn,
         )

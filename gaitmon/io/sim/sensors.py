@@ -35,6 +35,19 @@ evaluation, ``gaitmon lab accuracy``, turns them on with :func:`realistic_sensor
   sees the yaw rate times sin(roll), and gravity's in-plane part shrinks by cos(roll). One gyro
   axis cannot tell this from a real sagittal rotation (SPEC section 9).
 
+Out of the plane and imperfect axes (off by default; ``realism="real"`` turns them on,
+docs/simulator.md "Realism levels"): when the gait leaves the sagittal plane
+(``GaitConfig.out_of_plane``: turns, roll, swing yaw) or an axis error is set, ``_block3d``
+builds each board's 3-D orientation (heading psi, then roll phi about the walking direction,
+then the pitch theta = tilt + mount + wobble about the rolled right axis) and projects on the
+board's x, z axes the specific force (forward, -psi' v_forward to the right: the turn's
+centripetal force, up + g), and on its y axis the angular velocity psi' up + phi' forward +
+theta' right: the pitch gyro reads theta' - psi' sin(phi), and a still board's planar |a| is
+g cos(phi). Then each accelerometer axis reads (1 + e) times its force plus c times the other
+two axes' (``acc_gain_sd``, ``acc_cross_sd``), the gyro (1 + s) times its rate plus c times the
+rates about x and z (``gyro_scale_sd``, ``gyro_cross_sd``): drawn per board from ``seed`` by a
+generator of their own, so the other draws do not change.
+
 Foot-sensor faults (off by default): from ``heel_dead_from_s`` the heel FSR is dead (open
 circuit: it reads its noise around 0 counts and never loads); from ``toe_stuck_from_s`` the toe
 FSR is stuck loaded (it reads ``toe_peak_counts`` plus noise). ``SensorModel.set_fsr_fault``
@@ -113,6 +126,11 @@ class SensorConfig:
     turn_s: float = 2.0
     turn_yaw_rad: float = np.pi / 2
     turn_roll_deg: tuple[float, ...] = (2.0, 5.0, 8.0, 15.0)
+    # gain and cross-axis errors (module doc), drawn per board from ``seed``; 0 = perfect
+    acc_gain_sd: float = 0.0  # each accelerometer axis reads (1 + e) times its force
+    acc_cross_sd: float = 0.0  # and c times each other axis's (x, z and the unseen y)
+    gyro_scale_sd: float = 0.0  # the gyro reads (1 + s) times its rate
+    gyro_cross_sd: float = 0.0  # and c times the rates about the board's x and z axes
     # foot-sensor faults from these device times on (module doc); inf = never
     heel_dead_from_s: float = math.inf
     toe_stuck_from_s: float = math.inf
@@ -121,7 +139,8 @@ class SensorConfig:
         for name in ("heel_dead_from_s", "toe_stuck_from_s"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0 s (inf: never), got {getattr(self, name)}")
-        for name in ("acc_noise_ms2", "gyro_noise_rad_s", "fsr_noise_counts", "fsr_edge_s"):
+        for name in ("acc_noise_ms2", "gyro_noise_rad_s", "fsr_noise_counts", "fsr_edge_s",
+                     "acc_gain_sd", "acc_cross_sd", "gyro_scale_sd", "gyro_cross_sd"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0")
         if self.fsr_edge_s <= 0:
@@ -245,6 +264,22 @@ class SensorModel:
             else np.asarray(cfg.gyro_bias_rad_s, dtype=np.float64)
         )
         self._drift_phase = np.mod(draws[2 * n : 3 * n], 2.0 * np.pi)
+        # gain and cross-axis errors: their own generator, so the draws above never change
+        errs = np.clip(
+            np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(5,)))
+            .standard_normal((n, 9)), -2.5, 2.5,
+        )  # fmt: skip
+        # per board: acc gain x, z; acc cross x<-z, x<-y, z<-x, z<-y; gyro scale; y<-x, y<-z
+        self.acc_gain = 1.0 + cfg.acc_gain_sd * errs[:, 0:2]  # (n, 2): x, z
+        self.acc_cross = cfg.acc_cross_sd * errs[:, 2:6]  # (n, 4)
+        self.gyro_scale = 1.0 + cfg.gyro_scale_sd * errs[:, 6]  # (n,)
+        self.gyro_cross = cfg.gyro_cross_sd * errs[:, 7:9]  # (n, 2): from x, from z
+        self._axis_errors = bool(
+            cfg.acc_gain_sd or cfg.acc_cross_sd or cfg.gyro_scale_sd or cfg.gyro_cross_sd
+        )
+        if self.gait.config.out_of_plane and cfg.turn_every_s:
+            raise ValueError("turns are the gait's (GaitConfig.turn_every_strides) or the "
+                             "sensors' (SensorConfig.turn_every_s), not both")  # fmt: skip
         self.reset()
 
     def reset(self) -> None:
@@ -325,6 +360,8 @@ class SensorModel:
         phys = np.empty((n, N_CHANNELS))
 
         wobble, wobble_rate, wobble_acc = self._wobble(kin.t_s)
+        if self.gait.config.out_of_plane or self._axis_errors:
+            return self._block3d(kin, noise, wobble, wobble_rate, wobble_acc)
         phi = kin.tilt_rad + self.mount_offset_rad + wobble
         f_fwd = kin.lin_acc_ms2[:, :, 0]
         f_up = kin.lin_acc_ms2[:, :, 1] + STANDARD_GRAVITY_MS2
@@ -348,11 +385,7 @@ class SensorModel:
             rate = rate + yaw_rate[:, None] * np.sin(roll)
         phys[:, GYRO_IDX] = rate + bias + cfg.gyro_noise_rad_s * noise[:, GYRO_IDX]
 
-        fsr = fsr_load_counts(kin.phase, kin.phase_rate_hz, cfg) + cfg.fsr_floor_counts
-        heel_dead, toe_stuck = self.fsr_fault_at(kin.sample_idx)
-        fsr[heel_dead, 0] = 0.0  # open circuit: the ADC reads its noise (clipped at 0)
-        fsr[toe_stuck, 1] = cfg.toe_peak_counts
-        phys[:, FSR_IDX] = fsr + cfg.fsr_noise_counts * noise[:, FSR_IDX]
+        phys[:, FSR_IDX] = self._fsr(kin, noise)
 
         return SensorBlock(
             counts=self.table.to_counts(phys),
@@ -360,6 +393,68 @@ class SensorModel:
             gyro_bias_rad_s=bias,
             kinematics=kin,
         )
+
+    def _block3d(
+        self, kin: KinematicsBlock, noise: np.ndarray, wobble: np.ndarray,
+        wobble_rate: np.ndarray, wobble_acc: np.ndarray,
+    ) -> SensorBlock:  # fmt: skip
+        """The realism path (module doc, "Out of the plane"): the board's 3-D orientation
+        (heading psi, roll phi about the walking direction, pitch theta about the rolled right
+        axis) and the world's specific force projected on its x and z axes, its angular velocity
+        on its y axis, then each axis's gain and cross-axis errors."""
+        cfg = self.config
+        theta = kin.tilt_rad + self.mount_offset_rad + wobble
+        phi, dphi = kin.roll_rad, kin.roll_rate_rad_s
+        # the board's heading rate: the walk's and its own swing yaw
+        dpsi = kin.yaw_rate_rad_s[:, None] + kin.board_yaw_rate_rad_s
+        st, ct, sp, cp = np.sin(theta), np.cos(theta), np.sin(phi), np.cos(phi)
+        # specific force in the walking frame: forward, right, up (the turn's centripetal
+        # acceleration points into the turn: to the left, -right, for psi' > 0) ...
+        w_f = kin.lin_acc_ms2[:, :, 0]
+        w_r = -kin.yaw_rate_rad_s[:, None] * kin.velocity_m_s[:, :, 0]
+        f_u = kin.lin_acc_ms2[:, :, 1] + STANDARD_GRAVITY_MS2
+        # ... and in the board's heading frame, yawed by d to the left of the walk
+        sd, cd = np.sin(kin.board_yaw_rad), np.cos(kin.board_yaw_rad)
+        f_f = cd * w_f - sd * w_r
+        f_r = sd * w_f + cd * w_r
+        # board axes in (forward, right, up): x = (-st, ct sp, ct cp), y = (0, cp, -sp),
+        # z = (ct, st sp, st cp)
+        acc_x = -st * f_f + ct * sp * f_r + ct * cp * f_u
+        acc_y = cp * f_r - sp * f_u
+        acc_z = ct * f_f + st * sp * f_r + st * cp * f_u + wobble_acc
+        impacts = self._impacts(kin.t_s)
+        acc_x += impacts
+        if cfg.impact_z_ratio:
+            acc_z += cfg.impact_z_ratio * impacts
+        # angular velocity psi' up + phi' forward + theta' (rolled right axis) on the board axes
+        rate_y = kin.rate_rad_s + wobble_rate - dpsi * sp
+        rate_x = dpsi * ct * cp - dphi * st
+        rate_z = dpsi * st * cp + dphi * ct
+        g, c = self.acc_gain, self.acc_cross
+        meas_x = g[:, 0] * acc_x + c[:, 0] * acc_z + c[:, 1] * acc_y
+        meas_z = g[:, 1] * acc_z + c[:, 2] * acc_x + c[:, 3] * acc_y
+        meas_g = self.gyro_scale * rate_y + self.gyro_cross[:, 0] * rate_x + (
+            self.gyro_cross[:, 1] * rate_z
+        )
+        n = len(kin.t_s)
+        phys = np.empty((n, N_CHANNELS))
+        phys[:, ACC_X_IDX] = meas_x + cfg.acc_noise_ms2 * noise[:, ACC_X_IDX]
+        phys[:, ACC_Z_IDX] = meas_z + cfg.acc_noise_ms2 * noise[:, ACC_Z_IDX]
+        bias = self.gyro_bias(kin.t_s)
+        phys[:, GYRO_IDX] = meas_g + bias + cfg.gyro_noise_rad_s * noise[:, GYRO_IDX]
+        phys[:, FSR_IDX] = self._fsr(kin, noise)
+        return SensorBlock(
+            counts=self.table.to_counts(phys), physical=phys, gyro_bias_rad_s=bias,
+            kinematics=kin,
+        )  # fmt: skip
+
+    def _fsr(self, kin: KinematicsBlock, noise: np.ndarray) -> np.ndarray:
+        cfg = self.config
+        fsr = fsr_load_counts(kin.phase, kin.phase_rate_hz, cfg) + cfg.fsr_floor_counts
+        heel_dead, toe_stuck = self.fsr_fault_at(kin.sample_idx)
+        fsr[heel_dead, 0] = 0.0  # open circuit: the ADC reads its noise (clipped at 0)
+        fsr[toe_stuck, 1] = cfg.toe_peak_counts
+        return np.asarray(fsr + cfg.fsr_noise_counts * noise[:, FSR_IDX])
 
     def _since_heel_strike(self, t_s: np.ndarray) -> np.ndarray:
         """(N,) time since the latest heel strike at or before t (inf before the first)."""

@@ -111,6 +111,11 @@ class GroundTruth:
     stride_length_m: np.ndarray
     foot_clearance_m: np.ndarray
     stride_time_s: np.ndarray
+    # out of the sagittal plane (realism="real", docs/simulator.md): the walking direction
+    # (rad, > 0 to the left; turns) and each board's roll about it; with turns a stride's
+    # length above is the straight distance between its two foot-flats (the footprints')
+    heading_rad: np.ndarray | None = None  # (N,)
+    roll_rad: np.ndarray | None = None  # (N, 4)
 
 
 class SimulatedUnit:
@@ -365,6 +370,8 @@ class SimulatedUnit:
             stride_length_m=strides.stride_length_m,
             foot_clearance_m=strides.foot_clearance_m,
             stride_time_s=strides.stride_time_s,
+            heading_rad=kin.heading_rad,
+            roll_rad=kin.roll_rad,
         )
 
     # ---- time -------------------------------------------------------------------------------
