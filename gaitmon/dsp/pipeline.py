@@ -117,6 +117,36 @@ def restart_rows(lost_before: np.ndarray, fs_hz: float) -> np.ndarray:
     return np.flatnonzero(lost > bridge_max_samples(fs_hz)).astype(np.int64)
 
 
+def bridged_losses(lost_before: np.ndarray, fs_hz: float) -> dict[int, int]:
+    """{row: frames filled in just before it} of a record processed from row 0: every loss
+    the pipeline bridges (module doc, "Gaps"; none before row 0, nothing to fill from)."""
+    lost = np.asarray(lost_before, dtype=np.int64)
+    rows = np.flatnonzero((lost > 0) & (lost <= bridge_max_samples(fs_hz)))
+    return {int(r): int(lost[r]) for r in rows if r > 0}
+
+
+def fill_lost(
+    phys: np.ndarray, fill: np.ndarray, prev: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Rows (N, C) with ``fill[i]`` lost frames filled in before row ``i``, linear between
+    the row before (``prev`` for row 0) and row ``i`` at the lost frames' times; and where
+    the rows are among the samples (None, and ``phys`` itself, when nothing is filled in).
+    The pipeline and the smoother's first pass (gaitmon.dsp.smoother) fill alike."""
+    if not len(phys) or not fill.any():
+        return phys, None
+    pos = np.arange(len(phys)) + np.cumsum(fill)  # each row's place among the samples
+    ext = np.empty((len(phys) + int(fill.sum()), phys.shape[1]))
+    ext[pos] = phys
+    for i in np.flatnonzero(fill):
+        k = int(fill[i])
+        before = phys[i - 1] if i else prev
+        if before is None:
+            raise ValueError("lost frames before the first row: nothing to fill them from")
+        w = (np.arange(1, k + 1, dtype=np.float64) / (k + 1))[:, None]
+        ext[pos[i] - k : pos[i]] = before + w * (phys[i] - before)
+    return ext, pos
+
+
 def settling_ranges(
     restarts: Sequence[int] | np.ndarray, fs_hz: float, n_rows: int | None = None
 ) -> list[tuple[int, int]]:
@@ -477,28 +507,16 @@ class Pipeline:
         "Gaps"), and where the rows are among those samples (None: no frame filled in).
         Records the row <-> sample map of the filled frames."""
         phys = self.table.to_physical(adc)
-        n = len(phys)
-        if n == 0 or not fill.any():
-            if n:
-                self._last_phys = phys[-1].copy()
-            self._n_fed += n
-            return phys, None
-        pos = np.arange(n) + np.cumsum(fill)  # each row's place among the samples
-        ext = np.empty((n + int(fill.sum()), phys.shape[1]))
-        ext[pos] = phys
-        filled = self._gap_filled[-1] if self._gap_filled else 0
-        for i in np.flatnonzero(fill):
-            k = int(fill[i])
-            prev = phys[i - 1] if i else self._last_phys
-            assert prev is not None  # a row before it (fill[0] is 0 at the very start)
-            # linear from the previous row to this one, at the lost frames' times
-            w = (np.arange(1, k + 1, dtype=np.float64) / (k + 1))[:, None]
-            ext[pos[i] - k : pos[i]] = prev + w * (phys[i] - prev)
-            filled += k
-            self._gap_rows.append(first_row + int(i))
-            self._gap_samples.append(first_row + int(i) + filled)
-            self._gap_filled.append(filled)
-        self._last_phys = phys[-1].copy()
+        ext, pos = fill_lost(phys, fill, self._last_phys)
+        if pos is not None:
+            filled = self._gap_filled[-1] if self._gap_filled else 0
+            for i in np.flatnonzero(fill):
+                filled += int(fill[i])
+                self._gap_rows.append(first_row + int(i))
+                self._gap_samples.append(first_row + int(i) + filled)
+                self._gap_filled.append(filled)
+        if len(phys):
+            self._last_phys = phys[-1].copy()
         self._n_fed += len(ext)
         return ext, pos
 
