@@ -158,3 +158,23 @@ def test_the_offline_replay_fills_in_the_same_frames_as_live(sim):
         np.testing.assert_array_equal(got, want, err_msg=name)
     np.testing.assert_array_equal(np.concatenate([c.heel_strike for c in chunks]),
                                   np.concatenate([b.heel_strike_idx for b in live]))  # fmt: skip
+
+
+def test_the_offline_smoother_steps_over_the_filled_frames_too(sim):
+    from gaitmon.dsp.channels import DEFAULT_TABLE
+    from gaitmon.finish.smoothed import smoothed_angles
+
+    _, sb, cal = sim
+    keep, lost_before = lose(N, np.random.default_rng(9))
+    truth = np.degrees(sb.kinematics.joint_rad)
+
+    def rmse(rows, lost):
+        got = smoothed_angles(sb.counts[rows], DEFAULT_TABLE, cal, [], lost, FS)
+        e = (got["smoothed/joint_deg"].astype(np.float64) - truth[rows] + 180) % 360 - 180
+        return np.sqrt(np.mean(e[rows >= 1000] ** 2, axis=0))
+
+    base = rmse(np.arange(N), np.zeros(N, np.int64))
+    filled = rmse(keep, lost_before)
+    assert np.all(filled <= 1.1 * base), (filled, base)
+    # rows taken as frames (told nothing was lost): the smoother reads them much worse
+    assert rmse(keep, np.zeros(len(keep), np.int64))[1] > 1.3 * base[1]

@@ -85,12 +85,17 @@ def smoothed_blocks(
     The smoother's first pass, the causal filter, runs over the whole record in row order as
     the live pipeline does (:class:`gaitmon.dsp.smoother.CausalFirstPass`); ``first_pass``
     gives those tilts where they are known already (a replay of the pipeline kept them);
-    ``filled``: the bridged losses it fills in (gaitmon.dsp.pipeline.bridged_losses)."""
+    ``filled``: the bridged losses (gaitmon.dsp.pipeline.bridged_losses), filled in for the
+    first pass and the smoother alike: both step the unit's uniform time base."""
+    from gaitmon.dsp.pipeline import fill_lost
     from gaitmon.dsp.smoother import CausalFirstPass, smooth_record_tilts
 
     changes = sorted(((max(0, int(r)), c) for r, c in calibration_changes), key=lambda x: x[0])
     if first_pass is None:
         first_pass = CausalFirstPass(table, calibration, changes, restarts, fs_hz, filled).rows
+
+    fill_rows = np.array(sorted(filled or {}), dtype=np.int64)
+    fill_n = np.array([(filled or {})[int(r)] for r in fill_rows], dtype=np.int64)
 
     def smooth(a: int, b: int) -> np.ndarray:
         in_force = calibration
@@ -99,7 +104,24 @@ def smoothed_blocks(
                 in_force = c
         cals = [(0, in_force), *[(r - a, c) for r, c in changes if a < r < b]]
         rows = counts(a, b)
-        return smooth_record_tilts(rows, table, cals, fs_hz, first_pass(a, b, rows))
+        theta = first_pass(a, b, rows)
+        # the bridged losses filled in, as the live filter saw them: the smoother's model
+        # steps one frame at a time (gaitmon.dsp.pipeline.fill_lost); rows out
+        fill = np.zeros(b - a, dtype=np.int64)
+        lo, hi = np.searchsorted(fill_rows, [a, b])
+        fill[fill_rows[lo:hi] - a] = fill_n[lo:hi]
+        if not fill.any():
+            return smooth_record_tilts(rows, table, cals, fs_hz, theta)
+        prev = counts(a - 1, a)[0].astype(np.float64) if fill[0] and a > 0 else None
+        if prev is None:
+            fill[0] = 0
+        ext, pos = fill_lost(np.asarray(rows, dtype=np.float64), fill, prev)
+        theta_ext, _ = fill_lost(theta, fill, theta[0])
+        if pos is None:
+            return smooth_record_tilts(rows, table, cals, fs_hz, theta)
+        # a calibration in force from row r is so from the frames filled in before it too
+        cals_ext = [(int(pos[r] - fill[r]) if r < len(pos) else len(ext), c) for r, c in cals]
+        return smooth_record_tilts(ext, table, cals_ext, fs_hz, theta_ext)[pos]
 
     cuts = sorted({0, n, *(int(r) for r in restarts if 0 < r < n)})
     block, overlap = SMOOTH_BLOCK_ROWS, SMOOTH_OVERLAP_ROWS
