@@ -131,7 +131,8 @@ def fill_lost(
     """Rows (N, C) with ``fill[i]`` lost frames filled in before row ``i``, linear between
     the row before (``prev`` for row 0) and row ``i`` at the lost frames' times; and where
     the rows are among the samples (None, and ``phys`` itself, when nothing is filled in).
-    The pipeline and the smoother's first pass (gaitmon.dsp.smoother) fill alike."""
+    The pipeline, the smoother's first pass (gaitmon.dsp.smoother) and the smoother itself
+    (gaitmon.finish.smoothed) fill alike."""
     if not len(phys) or not fill.any():
         return phys, None
     pos = np.arange(len(phys)) + np.cumsum(fill)  # each row's place among the samples
@@ -364,7 +365,6 @@ class Pipeline:
         self._gap_samples: list[int] = []
         self._gap_filled: list[int] = []
         self._last_phys: np.ndarray | None = None  # the last row, physical units (interpolation)
-        self._pending_faults: list[FsrFault] = []  # sample space, decided after what was fed
         self._bridge = bridge_max_samples(self.config.fs_hz)
         self._settle_n = round(SETTLE_S * self.config.fs_hz)
         self._settle_until = 0  # the start-up is the first stride's exclusion (gaitmon.analysis)
