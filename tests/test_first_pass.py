@@ -14,7 +14,7 @@ import pytest
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE
-from gaitmon.dsp.pipeline import Pipeline, PipelineConfig, restart_rows
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig, bridged_losses, restart_rows
 from gaitmon.dsp.smoother import CausalFirstPass
 from gaitmon.finish import close_recording
 from gaitmon.finish.recovery import replay_pipeline
@@ -44,10 +44,12 @@ def test_the_first_pass_is_the_replayed_pipelines_filter(record) -> None:
                                   lost_before=lost))  # fmt: skip
     assert all(ch.first_pass_rad is not None for ch in replay)
     live = np.concatenate([ch.first_pass_rad for ch in replay])
-    fp = CausalFirstPass(DEFAULT_TABLE, cal0, changes, restart_rows(lost, 100.0), 100.0)
+    assert bridged_losses(lost, 100.0) == {6500: 2}
+    fp = CausalFirstPass(DEFAULT_TABLE, cal0, changes, restart_rows(lost, 100.0), 100.0,
+                         bridged_losses(lost, 100.0))  # fmt: skip
     # overlapping blocks in row order, as smoothed_blocks asks (context before each block)
     got = np.empty((N, 4))
-    for a, b in [(0, 3000), (2000, 5200), (5000, 5001), (4500, 9000)]:
+    for a, b in [(0, 3000), (2000, 5200), (5000, 5001), (4500, 6500), (6000, 9000)]:
         got[a:b] = fp.rows(a, b, counts[a:b])
     np.testing.assert_array_equal(got, live)
     # and it is the filter the pipeline shows, once offset and wrapped

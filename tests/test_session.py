@@ -113,7 +113,7 @@ def _record_raw(path, *, config_change_row=None, cal_row=None, close=True, copy_
         block = SampleBlock(
             FrameKind.RAW, seq[i:b], host[i:b], 1.7e9, lost_before=lost[i:b], adc=adc
         )
-        w.append(block, pipe.process(adc), event_offset=offset)
+        w.append(block, pipe.process(adc, lost[i:b]), event_offset=offset)
         i = b
     w.add_marker("back-dated", sample_idx=50)
     w.add_marker("after the end")
@@ -142,6 +142,7 @@ def _reference(cfg0, cfg1=None, change_row=None, cal_row=None):
     rows = {}
     hs, to = [], []
     bounds = sorted({0, N, *(r for r in (change_row, cal_row) if r is not None)})
+    _, lost, _ = _seq_with_losses(N)  # (5 frames lost before row 700: bridged, filled in)
     pipe = Pipeline(cfg0)
     base = 0
     parts = []
@@ -151,7 +152,7 @@ def _reference(cfg0, cfg1=None, change_row=None, cal_row=None):
             base = a
         if a == cal_row:
             pipe.set_calibration(CAL)
-        blk = pipe.process(COUNTS[a:b])
+        blk = pipe.process(COUNTS[a:b], lost[a:b])
         parts.append(blk)
         hs.append(blk.heel_strike_idx + base)
         to.append(blk.toe_off_idx + base)

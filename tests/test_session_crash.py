@@ -51,6 +51,8 @@ RECORDER = textwrap.dedent(
     counts = simulate(N_MAX).counts
     seq = np.arange(N_MAX, dtype=np.int64) + 7
     seq[GAP_ROW:] += 3
+    lost = np.zeros(N_MAX, dtype=np.int64)
+    lost[GAP_ROW] = 3  # the pipeline is told, as the engine tells it
     rng = np.random.default_rng(seed)
     cfg1 = PipelineConfig(cutoff_hz=5.0)
     w = SessionWriter(path, SessionHeader("raw"))
@@ -83,7 +85,7 @@ RECORDER = textwrap.dedent(
         blk = SampleBlock(
             FrameKind.RAW, seq[i:b], np.full(b - i, now), wall, adc=counts[i:b]
         )
-        w.append(blk, pipe.process(counts[i:b]), event_offset=offset)
+        w.append(blk, pipe.process(counts[i:b], lost[i:b]), event_offset=offset)
         i = b
         print("ROWS", i, time.monotonic(), flush=True)
     close_recording(w)
@@ -115,8 +117,10 @@ def _reference_processed(n: int) -> tuple[np.ndarray, np.ndarray]:
     """joint_deg and heel strikes of the first n rows, computed here with hand-placed
     pipelines: settings change at CONFIG_ROW (fresh pipeline), calibration at CAL_ROW."""
     counts = simulate(N_MAX).counts[:n]
+    lost = np.zeros(n, dtype=np.int64)
+    lost[GAP_ROW:GAP_ROW + 1] = 3  # bridged: the 3 lost frames filled in
     cfg1 = PipelineConfig(cutoff_hz=5.0)
-    p0 = Pipeline().process(counts[:CONFIG_ROW])
+    p0 = Pipeline().process(counts[:CONFIG_ROW], lost[:CONFIG_ROW])
     pipe = Pipeline(cfg1)
     p1 = pipe.process(counts[CONFIG_ROW:CAL_ROW])
     pipe.set_calibration(CAL)

@@ -180,6 +180,8 @@ def _record(
 
     group = units.group
     control = lsl.control if lsl is not None else None
+    for engine in group.engines.values():  # exactly --duration of rows, however loaded the host
+        engine.record_limit_s = args.duration
     # The file (a leg's part) and its journal are created once the unit is identified and
     # before its first frame is requested, so nothing received is ever outside the file (a
     # crash during start-up lost everything received until the file existed: seconds on a

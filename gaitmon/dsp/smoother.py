@@ -78,6 +78,7 @@ solve by < 0.01 deg on the simulator, checked in the tests).
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 from functools import lru_cache
 
 import numpy as np
@@ -465,9 +466,10 @@ class CausalFirstPass:
     """The smoother's first pass over a whole raw record: the causal gait-aware filter run over
     the rows in order exactly as the live pipeline runs it (``Pipeline`` with its default
     ``tilt_method``): on the raw accelerometer and the gyro less the calibration in force,
-    restarted after each long gap (``restarts``; the learnt bias is kept), and with its bias
-    state moved by each new calibration's gyro bias (``Pipeline.set_calibration``). So where
-    a pipeline ran over the record with that filter and no change of settings, its
+    restarted after each long gap (``restarts``; the learnt bias is kept), fed the frames lost
+    in each bridged gap filled in (``filled``, gaitmon.dsp.pipeline.bridged_losses), and with
+    its bias state moved by each new calibration's gyro bias (``Pipeline.set_calibration``).
+    So where a pipeline ran over the record with that filter and no change of settings, its
     ``PipelineBlock.tilt_kalman_continuous_rad`` is this, bit for bit (tests), and
     ``gaitmon process`` takes it from there instead of running the filter again.
 
@@ -479,8 +481,16 @@ class CausalFirstPass:
     def __init__(
         self, table: ChannelTable, calibration: Calibration,
         changes: list[tuple[int, Calibration]], restarts: np.ndarray, fs_hz: float,
+        filled: Mapping[int, int] | None = None,
     ) -> None:  # fmt: skip
         from gaitmon.dsp.motion_kalman import GaitAwareKalman
+
+        # {row: lost frames filled in before it} (gaitmon.dsp.pipeline.bridged_losses): the
+        # filter runs over them as the pipeline does, on the unit's uniform time base
+        fills = sorted((filled or {}).items())
+        self._fill_rows = np.array([r for r, _ in fills], dtype=np.int64)
+        self._fill_n = np.array([k for _, k in fills], dtype=np.int64)
+        self._last_phys: np.ndarray | None = None  # the row before the next one run
 
         self._kf = GaitAwareKalman(fs_hz)
         self._table = table
@@ -504,6 +514,8 @@ class CausalFirstPass:
 
     def _run(self, counts: np.ndarray, first: int) -> np.ndarray:
         """Run the filter over ``counts``, the rows from ``first``."""
+        from gaitmon.dsp.pipeline import fill_lost
+
         n = len(counts)
         cuts = sorted({0, n, *range(0, n, _CAUSAL_BLOCK),  # blocks that stay in the cache
                        *(e - first for e in self._events if first <= e < first + n)})  # fmt: skip
@@ -517,6 +529,13 @@ class CausalFirstPass:
             if row in self._restarts:
                 self._kf.restart()
             phys = self._table.to_physical(counts[a:b])
-            gyro = self._in_force.apply_gyro(phys[:, GYRO_IDX])
-            parts.append(self._kf.process(phys[:, ACC_X_IDX], phys[:, ACC_Z_IDX], gyro))
+            fill = np.zeros(b - a, dtype=np.int64)
+            lo, hi = np.searchsorted(self._fill_rows, [row, first + b])
+            fill[self._fill_rows[lo:hi] - row] = self._fill_n[lo:hi]
+            ext, pos = fill_lost(phys, fill, self._last_phys)
+            if len(phys):
+                self._last_phys = phys[-1].copy()
+            gyro = self._in_force.apply_gyro(ext[:, GYRO_IDX])
+            tilt = self._kf.process(ext[:, ACC_X_IDX], ext[:, ACC_Z_IDX], gyro)
+            parts.append(tilt if pos is None else tilt[pos])
         return np.concatenate(parts) if parts else np.empty((0, len(SEGMENTS)))

@@ -55,6 +55,7 @@ from gaitmon.engine.messages import (
     UpdateLink,
 )
 from gaitmon.engine.recorder import Recorder
+from gaitmon.engine.rows import slice_pipeline, slice_samples
 from gaitmon.engine.sensor_checks import SensorChecks
 from gaitmon.engine.snapshot import (
     EVENTS_GYRO,
@@ -135,6 +136,10 @@ class Engine:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._taps = Taps(self.mode.value, self.fs_hz, self._note_error)  # add_listener
+        # a recording started while this is set holds the rows of its first record_limit_s
+        # seconds of the unit's clock (lost frames count), not what arrived until it was
+        # stopped: ``gaitmon record --duration`` gets the same rows however loaded the host is
+        self.record_limit_s: float | None = None
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -251,8 +256,10 @@ class Engine:
             # row 0 is the first sample of the next block the engine thread starts on (it
             # sets the row map's record_offset then): never half a block, never one too late
             self._recorder = Recorder(
-                writer, self._recorder_queue_blocks, header.config, calibration
-            )
+                writer, self._recorder_queue_blocks, header.config, calibration,
+                limit_samples=None if self.record_limit_s is None
+                else round(self.record_limit_s * self.fs_hz),
+            )  # fmt: skip
             self._last_recording = RecordingStatus()
 
     def stop_recording(self, reason: str = "user", timeout_s: float = 30.0) -> RecordingStatus:
@@ -512,16 +519,16 @@ class Engine:
                 if first and len(self._pipeline.fsr_faults) > len(p.fsr_faults):
                     # sensors flagged before the recording started are faulty in it from row 0
                     p_rec = dataclasses.replace(p, fsr_faults=self._pipeline.fsr_faults)
-                    self._hand_over(rec, block, p_rec, gap_reason)
+                    self._hand_over(rec, block, p_rec, gap_reason, t_s)
                 else:
-                    self._hand_over(rec, block, p, gap_reason)
+                    self._hand_over(rec, block, p, gap_reason, t_s)
         else:
             cols = cols_from_device(block, t_s)
             hs_idx, to_idx, strides = self._unit_events.process(block, start_idx)
             restarts = start_idx + restart_rows(lost, self.fs_hz)
             lengths = []
             if rec is not None:
-                self._hand_over(rec, block, None, gap_reason)
+                self._hand_over(rec, block, None, gap_reason, t_s)
         st.handed_over = True
         cols["idx"] = np.arange(start_idx, start_idx + len(block), dtype=np.float64)
         self._ring.append(with_gap_rows(cols, lost, self.fs_hz, self._ring.capacity))
@@ -540,10 +547,17 @@ class Engine:
                              self._ring.times_of, gap_reason, (cfg, cal), (rec, path))  # fmt: skip
 
     def _hand_over(
-        self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str
-    ) -> None:
+        self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str,
+        t_s: np.ndarray,
+    ) -> None:  # fmt: skip
         """Queue a block for the recorder, with the frames not recorded before it as lost
-        (see ``RowMap.outgoing``); if the queue is full, the row map notes the drop."""
+        (see ``RowMap.outgoing``); if the queue is full, the row map notes the drop. A
+        recording with a ``limit_s`` gets only the rows before it (``t_s``: the block's)."""
+        n = rec.rows_within_limit(np.rint(t_s * self.fs_hz).astype(np.int64))
+        if n == 0:
+            return
+        if n < len(block):
+            block, p = slice_samples(block, 0, n), None if p is None else _first_rows(p, n)
         out, p_rows, first_reason = rec.row_map.outgoing(block, p, self._stream.pipeline_offset)
         if rec.put_block(AppendBlock(out, p_rows, 0, gap_reason, first_reason)):
             rec.row_map.handed_over(with_events=p is not None)
@@ -578,3 +592,17 @@ class Engine:
                 self._checks.pipeline_rebuilt(self._pipeline.event_source == EVENTS_GYRO)
             if rec is not None:
                 rec.put(LogConfig(self.config))
+
+
+def _first_rows(p: PipelineBlock, n: int) -> PipelineBlock:
+    """The first ``n`` rows of a pipeline block, with the events on them (the last rows of a
+    recording that ends within the block)."""
+    out = slice_pipeline(p, 0, n, with_events=True)
+    end = p.start_idx + n
+    return dataclasses.replace(
+        out,
+        heel_strike_idx=p.heel_strike_idx[p.heel_strike_idx < end],
+        toe_off_idx=p.toe_off_idx[p.toe_off_idx < end],
+        gyro_heel_strike_idx=tuple(i for i in p.gyro_heel_strike_idx if i < end),
+        gyro_toe_off_idx=tuple(i for i in p.gyro_toe_off_idx if i < end),
+    )

@@ -80,8 +80,12 @@ class Recorder:
         queue_max: int,
         header_config: PipelineConfig | None = None,
         header_calibration: Calibration | None = None,
+        limit_samples: int | None = None,
     ) -> None:
         self.writer = writer
+        # engine thread only: the rows end limit_samples sample periods after row 0
+        self.limit_samples = limit_samples
+        self._k0: int | None = None  # the unit's sample period of row 0
         self.queue: queue.Queue[RecorderMessage] = queue.Queue()
         self.queue_max = queue_max
         self.header_config = header_config
@@ -94,6 +98,16 @@ class Recorder:
         self.thread = threading.Thread(target=self._run, name="gaitmon-recorder", daemon=True)
         self.started_monotonic_s = time.monotonic()
         self.thread.start()
+
+    def rows_within_limit(self, k: np.ndarray) -> int:
+        """Engine thread: how many of a block's rows (the unit's sample periods ``k``, from
+        ``StreamPosition.true_times``) lie before the limit, counted from the first row
+        handed over."""
+        if self.limit_samples is None or not len(k):
+            return len(k)
+        if self._k0 is None:
+            self._k0 = int(k[0])
+        return int(np.searchsorted(k - self._k0, self.limit_samples, side="left"))
 
     # -- any thread -----------------------------------------------------------------------
 

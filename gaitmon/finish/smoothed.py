@@ -22,7 +22,7 @@ import contextlib
 import itertools
 import json
 import logging
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from typing import IO
 
 import h5py
@@ -70,6 +70,7 @@ def smoothed_blocks(
     restarts: np.ndarray,
     fs_hz: float,
     first_pass: FirstPass | None = None,
+    filled: Mapping[int, int] | None = None,
 ) -> Iterator[tuple[int, np.ndarray]]:
     """(first row, tilts in rad (rows, 4) float64) of a raw record of ``n`` rows, block after
     block in row order; ``counts(a, b)`` gives rows a:b of the raw counts, asked for one block
@@ -83,12 +84,18 @@ def smoothed_blocks(
 
     The smoother's first pass, the causal filter, runs over the whole record in row order as
     the live pipeline does (:class:`gaitmon.dsp.smoother.CausalFirstPass`); ``first_pass``
-    gives those tilts where they are known already (a replay of the pipeline kept them)."""
+    gives those tilts where they are known already (a replay of the pipeline kept them);
+    ``filled``: the bridged losses (gaitmon.dsp.pipeline.bridged_losses), filled in for the
+    first pass and the smoother alike: both step the unit's uniform time base."""
+    from gaitmon.dsp.pipeline import fill_lost
     from gaitmon.dsp.smoother import CausalFirstPass, smooth_record_tilts
 
     changes = sorted(((max(0, int(r)), c) for r, c in calibration_changes), key=lambda x: x[0])
     if first_pass is None:
-        first_pass = CausalFirstPass(table, calibration, changes, restarts, fs_hz).rows
+        first_pass = CausalFirstPass(table, calibration, changes, restarts, fs_hz, filled).rows
+
+    fill_rows = np.array(sorted(filled or {}), dtype=np.int64)
+    fill_n = np.array([(filled or {})[int(r)] for r in fill_rows], dtype=np.int64)
 
     def smooth(a: int, b: int) -> np.ndarray:
         in_force = calibration
@@ -97,7 +104,24 @@ def smoothed_blocks(
                 in_force = c
         cals = [(0, in_force), *[(r - a, c) for r, c in changes if a < r < b]]
         rows = counts(a, b)
-        return smooth_record_tilts(rows, table, cals, fs_hz, first_pass(a, b, rows))
+        theta = first_pass(a, b, rows)
+        # the bridged losses filled in, as the live filter saw them: the smoother's model
+        # steps one frame at a time (gaitmon.dsp.pipeline.fill_lost); rows out
+        fill = np.zeros(b - a, dtype=np.int64)
+        lo, hi = np.searchsorted(fill_rows, [a, b])
+        fill[fill_rows[lo:hi] - a] = fill_n[lo:hi]
+        if not fill.any():
+            return smooth_record_tilts(rows, table, cals, fs_hz, theta)
+        prev = counts(a - 1, a)[0].astype(np.float64) if fill[0] and a > 0 else None
+        if prev is None:
+            fill[0] = 0
+        ext, pos = fill_lost(np.asarray(rows, dtype=np.float64), fill, prev)
+        theta_ext, _ = fill_lost(theta, fill, theta[0])
+        if pos is None:
+            return smooth_record_tilts(rows, table, cals, fs_hz, theta)
+        # a calibration in force from row r is so from the frames filled in before it too
+        cals_ext = [(int(pos[r] - fill[r]) if r < len(pos) else len(ext), c) for r, c in cals]
+        return smooth_record_tilts(ext, table, cals_ext, fs_hz, theta_ext)[pos]
 
     cuts = sorted({0, n, *(int(r) for r in restarts if 0 < r < n)})
     block, overlap = SMOOTH_BLOCK_ROWS, SMOOTH_OVERLAP_ROWS
@@ -186,6 +210,12 @@ def _restarts(lost_before: np.ndarray, n: int, fs_hz: float) -> np.ndarray:
     return restart_rows(lost_before[:n], fs_hz)
 
 
+def _filled(lost_before: np.ndarray, n: int, fs_hz: float) -> dict[int, int]:
+    from gaitmon.dsp.pipeline import bridged_losses
+
+    return bridged_losses(lost_before[:n], fs_hz)
+
+
 def _tilt_joint_deg(part_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """One block's tilts and joint angles in degrees, float32 (as stored and read)."""
     from gaitmon.dsp.angles import joint_angles
@@ -211,7 +241,7 @@ def smoothed_angles(
     joint_deg = np.empty((n, N_JOINTS), np.float32)
     for s0, part in smoothed_blocks(lambda a, b: counts[a:b], n, table, calibration,
                                     calibration_changes, _restarts(lost_before, n, fs_hz),
-                                    fs_hz):  # fmt: skip
+                                    fs_hz, filled=_filled(lost_before, n, fs_hz)):  # fmt: skip
         s1 = s0 + len(part)
         tilt_deg[s0:s1], joint_deg[s0:s1] = _tilt_joint_deg(part)
     return {"smoothed/tilt_deg": tilt_deg, "smoothed/joint_deg": joint_deg}
@@ -252,7 +282,7 @@ def store_smoothed(
     writers = {path: _AlignedWriter(ds, v2, path) for path, ds in out.items()}
     for s0, part in smoothed_blocks(counts, n, table, calibration, calibration_changes,
                                     _restarts(lost_before, n, fs_hz), fs_hz,
-                                    first_pass):  # fmt: skip
+                                    first_pass, _filled(lost_before, n, fs_hz)):  # fmt: skip
         tilt, joint = _tilt_joint_deg(part)
         for path, data in (("smoothed/tilt_deg", tilt), ("smoothed/joint_deg", joint)):
             if path in writers:

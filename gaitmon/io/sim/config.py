@@ -141,7 +141,8 @@ class SimConfig:
 
 
 def build_unit(config: SimConfig) -> SimulatedUnit:
-    """The simulated unit these settings describe (not started: it runs when a client reads)."""
+    """The simulated unit these settings describe (not started: its clock starts when a client
+    first asks for samples, so the same seed streams the same samples on any machine)."""
     from gaitmon.io.sim.unit import SimulatedUnit
 
     return SimulatedUnit(
@@ -150,6 +151,7 @@ def build_unit(config: SimConfig) -> SimulatedUnit:
         config.fault_config(),
         speed=config.speed,
         side=config.side,
+        start_on_request=True,
     )
 
 

@@ -29,9 +29,15 @@ Sample n belongs to device time n / fs. With ``speed`` = 1 the unit runs in real
 ``speed=math.inf`` ("as fast as possible") device time only advances when there is work: each
 read() produces up to ``afap_block`` samples while streaming, or as many ticks as pending
 REQUEST_FRAME / ZERO need. The number of samples ever produced is computed from the clock, never
-by sleeping per sample, so it cannot drift. With a ``crystal_clock`` (one unit of a bilateral
-pair, ``bilateral.py``) sample n is taken at common time ``offset + n / (fs (1 + ppm 1e-6))``
-(``clock.py``), common time running ``speed`` times as fast as ``clock`` from ``epoch``.
+by sleeping per sample, so it cannot drift. With ``start_on_request`` (``build_unit``: the
+command line's and the window's simulated unit) device time 0 is the moment a client first asks
+for samples (REQUEST_FRAME, START_STREAM or ZERO), not the unit's construction: the first
+streamed sample, the subject's standing start and every frame after are then the same for the
+same seed however long the host took to start (a loaded machine took long enough at
+``--speed 10`` to stream from sample 500 instead of 300, or to miss the standing start).
+With a ``crystal_clock`` (one unit of a bilateral pair, ``bilateral.py``) sample n is taken at
+common time ``offset + n / (fs (1 + ppm 1e-6))`` (``clock.py``), common time running ``speed``
+times as fast as ``clock`` from ``epoch``.
 
 Commands (see protocol.Command)
 -------------------------------
@@ -137,6 +143,7 @@ class SimulatedUnit:
         gait_model: GaitModel | None = None,
         crystal_clock: CrystalClock | None = None,
         epoch: float | None = None,
+        start_on_request: bool = False,
     ) -> None:
         if not speed > 0:
             raise ValueError(f"speed must be > 0 (math.inf = as fast as possible), got {speed}")
@@ -144,6 +151,8 @@ class SimulatedUnit:
         # share one walk, gaitmon.io.sim.bilateral); its config replaces ``gait``.
         # crystal_clock: when each sample is taken on the common time line (gaitmon.io.sim.clock);
         # epoch: the ``clock()`` reading at common time 0 (a pair shares it; default: now).
+        # start_on_request: device time 0 is when a client first asks for samples (module
+        # doc, "Pacing"), not now.
         if gait_model is not None:
             gait = gait_model.config
         self.gait_config = gait or GaitConfig()
@@ -191,6 +200,7 @@ class SimulatedUnit:
         self._log_kind = array("B")
         self._closed = False
         self._t0 = clock() if epoch is None else epoch
+        self._clock_running = not start_on_request
 
     # ---- byte interface ---------------------------------------------------------------------
     def write(self, data: bytes | bytearray | memoryview) -> None:
@@ -244,6 +254,8 @@ class SimulatedUnit:
         with self._lock:
             if math.isinf(self.speed):
                 return 0.0
+            if not self._clock_running:
+                return 1.0 / (self.fs_hz * self.speed)  # nothing is due before a request
             n_next = self.sensors.position + 1
             if self.crystal_clock is None:
                 t_next = self._t0 + n_next / (self.fs_hz * self.speed)
@@ -376,7 +388,7 @@ class SimulatedUnit:
 
     # ---- time -------------------------------------------------------------------------------
     def _advance_to_now(self) -> None:
-        if math.isinf(self.speed):
+        if math.isinf(self.speed) or not self._clock_running:
             return
         elapsed = self._clock() - self._t0
         if self.crystal_clock is None:
@@ -422,6 +434,9 @@ class SimulatedUnit:
     # ---- commands ---------------------------------------------------------------------------
     def _handle(self, cmd: object, arg: int) -> None:
         C = P.Command
+        if not self._clock_running and cmd in (C.REQUEST_FRAME, C.START_STREAM, C.ZERO):
+            self._clock_running = True  # device time 0 is now (start_on_request)
+            self._t0 = self._clock()
         if cmd == C.SELECT_KIND:
             if arg in {int(k) for k in P.DATA_KINDS}:
                 self._kind = P.FrameKind(arg)
