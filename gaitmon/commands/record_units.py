@@ -80,6 +80,9 @@ def build(args: argparse.Namespace) -> Units:
         from gaitmon.io.sim.config import build_unit
 
         truth = {"": build_unit(sim_config_from_args(args))}
+        # the subject's standing counts from the first streamed sample, not from when the
+        # unit was made: the zero and the recording see the same samples at any speed or load
+        truth[""].stand_until_streamed()
         links = {"": (InProcessTransport(truth[""]), "simulated")}
     else:
         from gaitmon.io.ports import make_transport
