@@ -10,6 +10,7 @@ sample (``SimulatedUnit.stand_until_streamed``), however late the PC started str
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -21,8 +22,8 @@ from gaitmon.engine.pair import EngineGroup
 
 
 def test_a_late_zero_finds_the_standing_window_by_the_samples() -> None:
-    unit, eng = make_engine(speed=50.0, standing_s=4.0, seed=4)
-    unit.stand_until_streamed()  # as `record --simulate` does: 4 s of samples stand
+    unit, eng = make_engine(speed=50.0, standing_s=math.inf, seed=4)
+    unit.stand_until_streamed(4.0)  # as `record --simulate` does: 4 s of samples stand
     with eng:
         wait_for(lambda: eng.samples_total >= 1200, what="walking data")
         with pytest.raises(EngineError, match="moving"):  # the last 1.5 s: walking
@@ -40,8 +41,8 @@ def test_a_late_zero_finds_the_standing_window_by_the_samples() -> None:
 def test_the_window_is_the_earliest_still_one_after_the_given_sample() -> None:
     """``Engine.zero(since_idx=...)``: the same calibration however much data came after the
     standing (the windows are found in the samples held, in the unit's time order)."""
-    unit, eng = make_engine(speed=50.0, standing_s=4.0, seed=5)
-    unit.stand_until_streamed()
+    unit, eng = make_engine(speed=50.0, standing_s=math.inf, seed=5)
+    unit.stand_until_streamed(4.0)
     with eng:
         wait_for(lambda: eng.samples_total >= 600, what="the first walking data")
         early = eng.zero(apply=False, since_idx=0)
@@ -57,9 +58,9 @@ def test_the_simulated_subject_stands_its_standing_from_the_first_streamed_sampl
     """However long the unit sat before streaming (here 20 s of its clock), the first
     ``standing_s`` of streamed samples are standing and walking follows."""
     shift = [0.0]
-    unit, eng = make_engine(speed=100.0, standing_s=2.0, seed=6,
+    unit, eng = make_engine(speed=100.0, standing_s=math.inf, seed=6,
                             clock=lambda: time.monotonic() + shift[0])  # fmt: skip
-    unit.stand_until_streamed()
+    unit.stand_until_streamed(2.0)
     shift[0] = 0.2  # 20 s of the unit's clock pass before anyone streams
     with eng:
         wait_for(lambda: eng.samples_total >= 600, what="data")

@@ -269,19 +269,15 @@ class SimulatedUnit:
                 self._advance_to_now()
             return self.gait.stand(self.sensors.position / self.fs_hz)
 
-    def stand_until_streamed(self) -> None:
-        """The subject stands from now until the unit is told to stream, and then its
-        ``standing_s`` more of device time before walking: the standing a recording starts
-        with (to zero on) is then the same number of samples however long the PC took to get
-        to streaming (imports, a busy machine, ``speed`` 10: 5 s standing is 0.5 s of wall
-        time, gone before a slow start streamed its first frame)."""
+    def stand_until_streamed(self, standing_s: float) -> None:
+        """The subject stands until the unit is told to stream and then ``standing_s`` more of
+        device time before walking (from rest): the standing a recording starts with (to zero
+        on) is then the same samples however long the PC took to get to streaming (imports, a
+        busy machine; at ``speed`` 10, 5 s of standing is 0.5 s of wall time, gone before a
+        slow start streamed its first frame). For a unit made standing until told (its gait's
+        ``standing_s`` = inf), before it streams."""
         with self._lock:
-            if not self._closed and not math.isinf(self.speed):
-                self._advance_to_now()
-            standing_s = self.gait.config.standing_s
-            if math.isfinite(standing_s):
-                self._walk_after_stream = standing_s
-            self.gait.stand(self.sensors.position / self.fs_hz)
+            self._walk_after_stream = float(standing_s)
 
     def walk(self) -> None:
         """The subject walks again (at once if standing; no effect while walking)."""
