@@ -366,7 +366,7 @@ class Engine:
             first = int(held[0]) if len(held) else len(data["t_s"])
             step = max(1, round(0.1 * self.fs_hz))
             windows = [slice(e - n, e) for e in range(first + n, len(data["t_s"]) + 1, step)]
-        error = need
+        refused: CalibrationError | None = None  # the last window's (the UI shows its figures)
         for w in windows:
             acc = data["acc_ms2"][w]
             if len(acc) < n or np.isnan(acc).any():
@@ -376,10 +376,12 @@ class Engine:
             try:
                 cal = standing_calibration(acc, gyro, fs_hz=self.fs_hz)
             except CalibrationError as exc:
-                error = str(exc)
+                refused = exc
                 continue
             return self.use_calibration(cal) if apply else cal
-        raise EngineError(error)
+        if refused is None:
+            raise EngineError(need)
+        raise EngineError(str(refused)) from refused
 
     def use_calibration(self, cal: Calibration) -> Calibration:
         with self._lock:  # from the next block on (logged in a running recording)
