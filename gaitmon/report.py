@@ -138,19 +138,19 @@ def _settings(session: Session) -> tuple[tuple[str, str], ...]:
             ("Setting changes", f"{count(n_changes, 'change')} during the recording (the file "
              "logs each)")
         )  # fmt: skip
+    # the row after the method's: where the angles' zero comes from (the one phrase every view
+    # shows, gaitmon.dsp.calibration.zero_source), and the offsets a Zero set
     off = np.degrees(session.calibration.tilt_offset_rad)
-    zeroed = bool(np.any(off != 0)) or bool(session.calibration_changes)
-    if zeroed:
-        cal = (
-            "standing pose zeroed; offsets "
-            + ", ".join(f"{s} {num(v, 1, sign=True)}" for s, v in zip(SEGMENTS, off, strict=True))
-            + " deg"
-        )
-        if session.calibration_changes:
-            cal += f"; {count(len(session.calibration_changes), 'zeroing')} during the recording"
-    else:
-        cal = "not zeroed: angles are relative to the sensor axes (mounting offsets included)"
-    out.append(("Calibration", cal))
+    cal = f"zero: {session.zero_source}"
+    if session.calibration.zeroed:
+        cal += "; offsets " + ", ".join(
+            f"{s} {num(v, 1, sign=True)}" for s, v in zip(SEGMENTS, off, strict=True)
+        ) + " deg"
+    elif session.mode == "raw":
+        cal += "; mounting offsets included"
+    if session.calibration_changes:
+        cal += f"; {count(len(session.calibration_changes), 'zeroing')} during the recording"
+    out.insert(1, ("Calibration", cal))  # beside the signal chain's method
     return tuple(out)
 
 

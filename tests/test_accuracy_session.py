@@ -67,8 +67,11 @@ def test_the_smoother_is_closer_to_truth_than_the_live_filter_and_the_paper(walk
     assert pap_method == "Kalman (paper, seed 000)"
     # (the live figures depend on how the recording's frames met the engine: compared loosely.
     # The knee gains least from the smoother: 0.87-0.88 against 0.89-0.90 deg locally, and 1.01
-    # against 0.89 in one loaded CI run; on average over the joints it halves the error)
-    assert np.all(off < live + 0.25) and np.mean(off) < np.mean(live) - 0.3
+    # against 0.89 in one loaded CI run. Since the live filter's start-up (issue 24) and the
+    # simulated subject standing from the first streamed sample, the live hip is as good as the
+    # smoother's (live 0.41 / 0.89 / 1.04, offline 0.48 / 0.87 / 0.45; the live hip was 2.1,
+    # its start-up still settling past 8 s): the smoother's gain is the ankle's)
+    assert np.all(off < live + 0.25) and np.mean(off) < np.mean(live) - 0.1
     assert np.all(off < pap) and np.mean(live) < np.mean(pap)
     # the paper-reprocessed file still has the smoother's angles as its analysed default
     assert joint_rmse(paper)[1] == OFFLINE

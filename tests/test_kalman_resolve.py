@@ -37,49 +37,74 @@ def walk() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def reference_filter(
     ax: np.ndarray, az: np.ndarray, w: np.ndarray, fs: float = 100.0,
-    tuning: dict[str, mk.SegmentTuning] | None = None,
+    tuning: dict[str, mk.SegmentTuning] | None = None, start: bool = True,
 ):  # fmt: skip
     """The gait-aware filter written out in Python from its module doc, one sample at a time:
     the out-of-plane test, the motion window's maxima, the measurement and gain chosen by the
-    segment's tuning, the prediction, the innovation wrapped into [-pi, pi), the update.
+    segment's tuning, the prediction, the innovation wrapped into [-pi, pi), the update; with
+    ``start``, the start-up's exact gain (2x2 matrices) from the prior until the bias variance
+    reaches its end (out of plane: the angle alone, the bias left alone).
     Returns (tilts, wraps, samples out of plane)."""
+    from scipy import signal
+
     dt = 1.0 / fs
     n, s = ax.shape
     out = np.empty((n, s))
     wraps = planes = 0
+    f_mat = np.array([[1.0, -dt], [0.0, 1.0]])
     for c, seg in enumerate(SEGMENTS):
         t = (tuning or {}).get(seg) or mk.tuning_for(seg)
         nw = t.window_samples(fs)
         dev = np.abs(np.hypot(ax[:, c], az[:, c]) - STANDARD_GRAVITY_MS2)
         rate = np.abs(w[:, c])
         k_static = mk.steady_state_gain(t.r_static, dt, t.q_angle, t.q_bias)
+        lag = 0.0
         if t.live_gravity_hz is not None:
             grav = mk.GravityReference(t.live_gravity_hz, fs, 1)
             z_grav = grav.process(ax[:, c : c + 1], az[:, c : c + 1], w[:, c : c + 1])[:, 0]
-            k_grav = mk.gravity_gain(t.r_live_gravity, dt, t.q_angle, t.q_bias, grav.lag_s)
+            lag = grav.lag_s
+            k_grav = mk.gravity_gain(t.r_live_gravity, dt, t.q_angle, t.q_bias, lag)
+            # h_k: the ramp's lag behind its mean (the low-pass from rest over its step response)
+            bb, aa = signal.butter(2, t.live_gravity_hz, fs=fs)
+            ramp = np.arange(n) * dt
+            h_k = ramp - signal.lfilter(bb, aa, ramp) / signal.lfilter(bb, aa, np.ones(n))
         # out of plane: the planar |a| low-passed by one pole from 1 g
         alpha = 1.0 - np.exp(-2 * np.pi * t.plane_cutoff_hz * dt)
         lp = STANDARD_GRAVITY_MS2
         k_plane = np.array([mk.steady_state_gain(t.r_out_of_plane, dt, t.q_angle, t.q_bias)[0],
                             0.0])  # fmt: skip
+        r_end = t.r_live_gravity if t.live_gravity_hz is not None else t.r_static
+        p_end = (
+            mk.END_ANGLE_RAD**2,
+            mk.END_FACTOR * mk.prior_covariance(
+                dt, t.q_angle, t.q_bias, np.array([r_end * t.start_r_factor]), lag
+            )[0, 1, 1],
+        )
+        exact = start
+        p_mat = np.diag(np.square(mk.START_PRIOR))
+        q_mat = np.diag([t.q_angle, t.q_bias])
         th, b = None, 0.0
         for k in range(n):
             lo = max(0, k - nw + 1)
             md, mr = dev[lo : k + 1].max(), rate[lo : k + 1].max()
-            z, h = float(np.arctan2(az[k, c], ax[k, c])), 0.0
+            z, h, r_k = float(np.arctan2(az[k, c], ax[k, c])), 0.0, t.r_static
+            plane = False
             lp += alpha * (np.hypot(ax[k, c], az[k, c]) - lp)
             if t.plane_fraction is not None and lp < t.plane_fraction * STANDARD_GRAVITY_MS2:
                 gain = k_plane
                 planes += 1
+                plane = True
             elif md < t.static_acc_ms2 and mr < t.static_rate_rad_s:
                 gain = k_static
             elif t.live_gravity_hz is not None:
-                z, h, gain = float(z_grav[k]), grav.lag_s, k_grav
+                # its R grows by (c / t)^2 at the start, t the time since the reference started
+                r_k = t.r_live_gravity + (t.start_gravity_rad_s / ((k + 1) * dt)) ** 2
+                z, h, gain = float(z_grav[k]), float(h_k[k]), k_grav
             elif t.r_moving is None:
-                gain = np.zeros(2)
+                gain, r_k = np.zeros(2), np.inf
             else:
-                r = mk.measurement_variance(np.array(md), np.array(mr), t)
-                gain = mk.steady_state_gain(r, dt, t.q_angle, t.q_bias)
+                r_k = float(mk.measurement_variance(np.array(md), np.array(mr), t))
+                gain = mk.steady_state_gain(r_k, dt, t.q_angle, t.q_bias)
             if th is None:
                 th = float(wrap_angle(z))
             pred = th + (w[k, c] - b) * dt
@@ -87,6 +112,22 @@ def reference_filter(
             if abs(e) > np.pi:
                 e = (e + np.pi) % (2 * np.pi) - np.pi
                 wraps += 1
+            if exact:
+                p_mat = f_mat @ p_mat @ f_mat.T + q_mat
+                if plane:  # the angle alone: gain (k0, 0), Joseph form
+                    k0 = p_mat[0, 0] / (p_mat[0, 0] + t.r_out_of_plane)
+                    gain = np.array([k0, 0.0])
+                    i_kh = np.array([[1.0 - k0, 0.0], [0.0, 1.0]])
+                    p_mat = i_kh @ p_mat @ i_kh.T + np.outer(gain, gain) * t.r_out_of_plane
+                elif np.isfinite(r_k):
+                    hv = np.array([1.0, h])
+                    sv = hv @ p_mat @ hv + r_k * t.start_r_factor
+                    sv = max(sv, e * e / mk.START_HUBER**2)  # Huber: at most START_HUBER sigmas
+                    gain = p_mat @ hv / sv
+                    p_mat = p_mat - np.outer(gain, hv @ p_mat)
+                else:
+                    gain = np.zeros(2)
+                exact = not (p_mat[0, 0] <= p_end[0] and p_mat[1, 1] <= p_end[1])
             th, b = pred + gain[0] * e, b + gain[1] * e
             out[k, c] = th
     return out, wraps, planes
@@ -103,12 +144,24 @@ def test_the_filter_is_its_module_doc_written_out(walk) -> None:
     assert planes > 200, "the out-of-plane rule was never used (the test would be moot)"
     got = mk.GaitAwareKalman().process(ax, az, w)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
+    # out of plane from the first sample: the start-up's angle-only update
+    ax2, az2 = ax.copy(), az.copy()
+    ax2[:400, 3] *= 0.6
+    az2[:400, 3] *= 0.6
+    ref, _wraps, planes = reference_filter(ax2, az2, w)
+    assert planes > 300
+    got = mk.GaitAwareKalman().process(ax2, az2, w)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
     # the foot weighted by its motion while moving (no gravity measurement): its accelerometer
     # tilt jumps by a turn at the impacts, so this path wraps innovations
     table = dict(mk.SEGMENT_TUNING, foot=mk.SegmentTuning(r_moving=1.0))
     ref, wraps, _ = reference_filter(ax, az, w, tuning=table)
     assert wraps > 10, "the walk never wrapped an innovation (the test would be moot)"
     got = mk.GaitAwareKalman(tuning=table).process(ax, az, w)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
+    # without the start-up: the scheduled gains from the first sample
+    ref, _, _ = reference_filter(ax, az, w, start=False)
+    got = mk.GaitAwareKalman(start_prior=None).process(ax, az, w)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
 
 

@@ -25,6 +25,7 @@ import pytest
 
 from gaitmon.analysis import analyse_strides, summary
 from gaitmon.cli import main
+from gaitmon.dsp.calibration import ZERO_ESTIMATED
 from gaitmon.finish import close_recording, open_session
 from gaitmon.normative import load_normative
 from gaitmon.report import REDACTED, gather_report, report_from_file
@@ -164,7 +165,7 @@ def test_header_losses_and_conventions(session: Path) -> None:
     # the angles analysed are the smoother's, and the live view's filter is named too
     smoothed = "gait-aware Kalman + RTS smoother (zero-lag, offline)"
     assert f"{smoothed}; live view: gait-aware Kalman" in chain
-    assert labels["Calibration"].startswith("not zeroed")
+    assert labels["Calibration"].startswith(f"zero: {ZERO_ESTIMATED}")  # zero_source
 
 
 def test_report_names_every_exclusion_reason_with_its_count(cut_recording: Path) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings
 
+from gaitmon.dsp.calibration import ZERO_ESTIMATED, ZERO_UNIT
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import SIMULATED_PORT
 from gaitmon.ui.live import MainWindow
@@ -55,8 +56,8 @@ def test_the_tilt_filter_is_shown_chosen_from_the_menu_applied_live_and_remember
     win = open_window(qtbot, ini)
     try:
         # shown where the angles are and in the status bar
-        qtbot.waitUntil(lambda: win.status.method_label.text() == f"angles: {GAIT_AWARE}",
-                        timeout=WAIT_MS)  # fmt: skip
+        shown = f"angles: {GAIT_AWARE} · zero: {ZERO_ESTIMATED}"
+        qtbot.waitUntil(lambda: win.status.method_label.text() == shown, timeout=WAIT_MS)
         assert win.live.title_text(0) == f"Segment tilt · {GAIT_AWARE}"
         assert win.live.title_text(1) == f"Joint angles and foot contact · {GAIT_AWARE}"
         items = menu_actions(win, "Device", "Tilt filter")
@@ -68,7 +69,7 @@ def test_the_tilt_filter_is_shown_chosen_from_the_menu_applied_live_and_remember
         qtbot.waitUntil(lambda: win.live.title_text(1).endswith(f"· {PAPER}"),
                         timeout=WAIT_MS)  # fmt: skip
         assert win.live.title_text(0).endswith(f"· {PAPER}")
-        assert win.status.method_label.text() == f"angles: {PAPER}"
+        assert win.status.method_label.text() == f"angles: {PAPER} · zero: {ZERO_ESTIMATED}"
         assert [a.isChecked() for a in items] == [False, True]  # exclusive
         # the Settings dialog keeps the filter the menu chose
         win.act_settings.trigger()
@@ -99,8 +100,8 @@ def test_in_the_units_joint_mode_the_window_names_the_units_own_filter(
     win = open_window(qtbot, ini, mode="joint")
     try:
         own = "the unit's own Kalman"
-        qtbot.waitUntil(lambda: win.status.method_label.text() == f"angles: {own}",
-                        timeout=WAIT_MS)  # fmt: skip
+        shown = f"angles: {own} · zero: {ZERO_UNIT}"
+        qtbot.waitUntil(lambda: win.status.method_label.text() == shown, timeout=WAIT_MS)
         assert win.live.title_text(1) == f"Joint angles and foot contact · {own}"
         qtbot.waitUntil(lambda: win.gait_panel.events_label.text() != "", timeout=WAIT_MS)
         assert win.gait_panel.events_label.text() == "Gait events: the unit's foot contacts"
@@ -108,7 +109,7 @@ def test_in_the_units_joint_mode_the_window_names_the_units_own_filter(
         win.tilt_actions["paper"].trigger()
         assert "takes effect when gaitmon computes" in win.statusBar().currentMessage()
         qtbot.wait(200)
-        assert win.status.method_label.text() == f"angles: {own}"
+        assert win.status.method_label.text() == f"angles: {own} · zero: {ZERO_UNIT}"
     finally:
         close_window(win)
 

@@ -132,9 +132,9 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     lines.append(f"  events       from {s.event_source}")
     if s.angle_source == "smoothed":
         lines.append(f"  angles       {s.angle_method} (zero-lag, analysed here); live view: "
-                     f"{s.angle_method_of('live')}")  # fmt: skip
+                     f"{s.angle_method_of('live')}; zero: {s.zero_source}")  # fmt: skip
     else:
-        lines.append(f"  angles       {s.angle_method}")
+        lines.append(f"  angles       {s.angle_method}; zero: {s.zero_source}")
     c = s.config
     # a method that reads the Kalman settings is shown by them, the others by their label
     read = [st for st in PIPELINE_SETTINGS if st.name in c.method.reads_settings]

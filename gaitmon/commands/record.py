@@ -266,7 +266,9 @@ def _zero(group: EngineGroup, stop: threading.Event) -> None:
     from gaitmon.engine import EngineError
 
     try:  # one unit in tilt/joint mode zeroes itself: its file logs no calibration again
-        zeroed = group.zero(stop)
+        # the units stream from just before this: the earliest still window of their samples,
+        # whatever the machine's load or the simulator's speed
+        zeroed = group.zero(stop, from_start=True)
     except EngineError as exc:
         if not group.in_parts:
             raise UserError(str(exc)) from None

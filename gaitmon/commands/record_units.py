@@ -7,6 +7,7 @@ says which, if any), a pair by ``"L"`` and ``"R"``."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -79,7 +80,15 @@ def build(args: argparse.Namespace) -> Units:
     elif args.simulate:
         from gaitmon.io.sim.config import build_unit
 
-        truth = {"": build_unit(sim_config_from_args(args))}
+        one = sim_config_from_args(args)
+        if math.isfinite(one.standing_s):
+            # the subject's standing counts from the first streamed sample, not from when the
+            # unit was made: the zero and the recording see the same samples at any speed or
+            # load (it stands, from the unit's making, until then)
+            truth = {"": build_unit(dataclasses.replace(one, standing_s=math.inf))}
+            truth[""].stand_until_streamed(one.standing_s)
+        else:
+            truth = {"": build_unit(one)}
         links = {"": (InProcessTransport(truth[""]), "simulated")}
     else:
         from gaitmon.io.ports import make_transport

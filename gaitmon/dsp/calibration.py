@@ -9,7 +9,7 @@ and the mean gyro rate is the bias. This module owns checking that the subject w
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -97,6 +97,11 @@ class Calibration:
     def identity(cls) -> Calibration:
         """No correction (all zeros)."""
         return cls(np.zeros(_N_SEGMENTS), np.zeros(_N_SEGMENTS))
+
+    @property
+    def zeroed(self) -> bool:
+        """Whether a standing Zero set the tilt offsets (identity: not zeroed)."""
+        return bool(np.any(self.tilt_offset_rad != 0))
 
     def apply_tilt(self, tilt_rad: np.ndarray) -> np.ndarray:
         """(N, 4) tilts -> calibrated tilts, wrapped to (-pi, pi]."""
@@ -261,3 +266,35 @@ def standing_calibration(
         tilt_offset_rad=accel_tilt(mean_acc[:, 0], mean_acc[:, 1]),
         gyro_bias_rad_s=gyro.mean(axis=0),
     )
+
+
+# Where the angles' zero comes from (zero_source): the phrases people read
+ZERO_STANDING = "standing calibration"
+ZERO_ESTIMATED = "estimated (no standing Zero: sensor axes; gyro bias learnt online)"
+ZERO_UNIT = "the unit's own Zero"
+
+
+def zero_source(
+    calibration: Calibration,
+    changes: Sequence[tuple[int, Calibration]] = (),
+    fs_hz: float = 100.0,
+    mode: str = "raw",
+) -> str:
+    """Where the angles' zero comes from, in one phrase: the one source of what the live window
+    (status bar and guide), ``gaitmon info``, the review window and the report say beside the
+    method that made the angles.
+
+    ``calibration`` is the one in force at the start (a session's header, or the engine's now),
+    ``changes`` the (row, calibration) zeroings logged after it. "standing calibration" when the
+    angles start zeroed; "estimated (...)" when no standing Zero ever set the offsets (angles
+    relative to the sensor axes, the gyro bias learnt by the filter from the data); "estimated
+    until T s, then standing calibration" when a Zero came later. In the unit's own modes
+    (``mode`` tilt or joint) the unit zeroes itself."""
+    if mode != "raw":
+        return ZERO_UNIT
+    if calibration.zeroed:
+        return ZERO_STANDING
+    later = [row for row, cal in changes if cal.zeroed]
+    if later:
+        return f"estimated until {min(later) / fs_hz:.1f} s, then {ZERO_STANDING}"
+    return ZERO_ESTIMATED

@@ -72,11 +72,13 @@ def gait_aware_update(
     dev: np.ndarray, w: np.ndarray, z_acc: np.ndarray, z_grav: np.ndarray, tail: np.ndarray,
     n_win: np.ndarray, gravity: np.ndarray, gated: np.ndarray, static_acc: np.ndarray,
     static_rate: np.ndarray,
-    k_static: np.ndarray, k_grav: np.ndarray, lag: np.ndarray, r_static: np.ndarray,
+    k_static: np.ndarray, k_grav: np.ndarray, r_static: np.ndarray,
     r_moving: np.ndarray, acc_scale: np.ndarray, rate_scale: np.ndarray, log_r: np.ndarray,
     gains: np.ndarray, dt_s: float, start: bool, theta: np.ndarray, bias: np.ndarray,
     theta_out: np.ndarray, mag: np.ndarray, plane_thr: np.ndarray, plane_alpha: np.ndarray,
-    k_plane: np.ndarray, plane_lp: np.ndarray,
+    k_plane: np.ndarray, plane_lp: np.ndarray, r_plane: np.ndarray,
+    h_grav: np.ndarray, cov: np.ndarray, exact: np.ndarray,
+    q: np.ndarray, r_grav: np.ndarray, p_end: np.ndarray, r_factor: np.ndarray, huber: float,
 ) -> None:  # fmt: skip
     """The gait-aware filter over one block (gaitmon.dsp.motion_kalman, module doc), per
     segment column in time order; writes ``theta_out`` (N, S) and carries the state.
@@ -85,7 +87,7 @@ def gait_aware_update(
     ``z_acc`` and the gravity tilt ``z_grav`` (read only for the ``gravity`` segments). Per
     segment (S,): whether it takes the gravity tilt while moving, or nothing (``gated``), or
     else the accelerometer tilt weighted by the motion; the motion window ``n_win`` and its
-    thresholds, the static and gravity gains (S, 2), the gravity tilt's lag, and the weighted
+    thresholds, the static and gravity gains (S, 2), and the weighted
     segments' R = r_moving (1 + (dev/acc_scale)^2)
     (1 + (rate/rate_scale)^2 if rate_scale > 0) whose gain is read off the table ``gains``
     (M, S, 2) at ``log_r`` (M,), linearly between knots. State: ``tail`` (n_max - 1, 2, S), the
@@ -95,7 +97,15 @@ def gait_aware_update(
     Out of plane: ``mag`` (N, S) = |a| of the two axes, low-passed by one pole
     (``plane_lp`` (S,) carried, lp += ``plane_alpha`` (|a| - lp)); while lp < ``plane_thr``
     (0 = never) the accelerometer tilt is the measurement with the angle gain ``k_plane`` (S,)
-    and none on the bias, before any other rule.
+    and none on the bias, before any other rule (in the start-up, the angle-only gain of the
+    propagated covariance for the variance ``r_plane`` (S,)).
+
+    Start-up (gaitmon.dsp.motion_kalman, "Start-up"): the gravity tilt's bias gain ``h_grav``
+    (N, S) is per sample; while ``exact[c]`` the segment's gain is the time-varying Kalman gain
+    of its covariance ``cov[c]`` = (P00, P01, P11), propagated with Q = ``q[c]`` (q_angle,
+    q_bias) and updated with the chosen measurement's R (``r_static``, ``r_grav``, the weighted
+    R; none while gated); once P00 and P11 fall to ``p_end[c]`` (2,) the segment goes over to
+    the scheduled gains above (``exact[c]`` cleared).
     """
     n, s = dev.shape
     m = tail.shape[0]  # n_max - 1
@@ -132,24 +142,30 @@ def gait_aware_update(
             static = md < static_acc[c] and mr < static_rate[c]
             z = z_acc[k, c]
             h = 0.0
+            r_now = math.inf  # the measurement's R, for the exact start-up gain
+            plane = False
             lp = plane_lp[c] + plane_alpha[c] * (mag[k, c] - plane_lp[c])
             plane_lp[c] = lp
             if lp < plane_thr[c]:
                 k0 = k_plane[c]
                 k1 = 0.0
+                plane = True
             elif static:
                 k0 = k_static[c, 0]
                 k1 = k_static[c, 1]
+                r_now = r_static[c]
             elif gravity[c]:
                 z = z_grav[k, c]
-                h = lag[c]
+                h = h_grav[k, c]
                 k0 = k_grav[c, 0]
                 k1 = k_grav[c, 1]
+                r_now = r_grav[k, c]
             elif gated[c]:
                 k0 = 0.0
                 k1 = 0.0
             else:
                 rr = r_moving[c] * (1.0 + (md / acc_scale[c]) ** 2)
+                r_now = rr
                 if rate_scale[c] > 0.0:
                     rr *= 1.0 + (mr / rate_scale[c]) ** 2
                 if not math.isfinite(rr):
@@ -179,6 +195,34 @@ def gait_aware_update(
             e = z - pred - h * b
             if abs(e) > math.pi:  # paper 000's wrap(z - theta-)
                 e -= _TWO_PI * math.floor(e / _TWO_PI + 0.5)
+            if exact[c]:  # the start-up: the exact gain of the propagated covariance
+                p00 = cov[c, 0] - 2.0 * dt_s * cov[c, 1] + dt_s * dt_s * cov[c, 2] + q[c, 0]
+                p01 = cov[c, 1] - dt_s * cov[c, 2]
+                p11 = cov[c, 2] + q[c, 1]
+                if plane:  # the angle alone (the bias is left alone out of plane)
+                    k0 = p00 / (p00 + r_plane[c])
+                    k1 = 0.0
+                    p01 -= k0 * p01  # (Joseph form for the gain (k0, 0): P11 unchanged)
+                    p00 -= k0 * p00
+                elif math.isfinite(r_now):
+                    ph0 = p00 + h * p01
+                    ph1 = p01 + h * p11
+                    sv = ph0 + h * ph1 + r_now * r_factor[c]
+                    if e * e > huber * huber * sv:  # beyond huber sigmas: weighed as at huber
+                        sv = e * e / (huber * huber)
+                    k0 = ph0 / sv
+                    k1 = ph1 / sv
+                    p00 -= k0 * ph0
+                    p01 -= k0 * ph1
+                    p11 -= k1 * ph1
+                else:
+                    k0 = 0.0
+                    k1 = 0.0
+                cov[c, 0] = p00
+                cov[c, 1] = p01
+                cov[c, 2] = p11
+                if p00 <= p_end[c, 0] and p11 <= p_end[c, 1]:
+                    exact[c] = False
             theta[c] = pred + k0 * e
             bias[c] = b + k1 * e
             theta_out[k, c] = theta[c]

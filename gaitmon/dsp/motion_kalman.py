@@ -63,6 +63,33 @@ covariance; see docs/filters.md). The update is paper 000's, with K from the sch
 
     theta = theta- + K0 e ; b = b- + K1 e ;  e = z - theta- - h b-   (h = lag for z~, else 0)
 
+Start-up (``start_prior``, default :data:`START_PRIOR`). A recording that starts without a
+Zero, while the subject walks or sits, has an unknown gyro bias (up to a few deg/s) and an
+unknown angle: the steady-state gains above learn a bias over ~10 s (the first strides read up
+to 15 deg off on the simulator). So from the start, and again after a restart, each segment's
+gain is the exact time-varying Kalman gain of the same model, K = P H^T / (H P H^T + R), with
+the covariance P propagated from a wide prior (angle 0.5 rad, bias 0.05 rad/s: the simulator's
+bias spread; real foot IMUs in ../shared/data read <= 0.012 rad/s before walking):
+
+* R is the chosen measurement's (static, gravity, weighted; none while gated) times
+  ``start_r_factor`` (10 for the foot: its quasi-static samples at the first push-offs carry
+  the rotating foot's acceleration, and the exact gain would otherwise take that as bias);
+* the gravity tilt's R grows by (``start_gravity_rad_s`` / t)^2, t the time since the gravity
+  reference (re)started: its mean holds less than a stride at first (the shank's, ~25 deg off
+  half a stride in; c = 0.3 rad s for the shank, 0.1 for body and thigh);
+* the gravity tilt's bias gain h is the start-up's own h_k (:class:`GravityReference`), not the
+  settled lag;
+* an innovation beyond ``START_HUBER`` (2) standard deviations is weighed as if it were at 2
+  (Huber): one bad sample cannot throw the still wide bias;
+* once the angle variance is below (``END_ANGLE_RAD``)^2 and the bias variance below
+  ``END_FACTOR`` x its steady state, the segment goes over to the scheduled gains (the state is
+  kept). A restart (a long gap) puts the angle variance back to the prior's and keeps the bias
+  variance (at least its steady level): the bias learnt before the gap is still right.
+
+Measured by ``python benchmarks/first_strides.py`` and ``python benchmarks/gap_settling.py
+--gap-s 5`` (docs/filters.md). ``start_prior=None`` gives the scheduled gains from the first
+sample (the tests of the steady-state form use it).
+
 Speed and chunking. The accelerometer tilt, | |a| - g | and the gravity reference are computed
 for a whole block at once (numpy). The motion windows, the choice of measurement and gain and
 the update itself run in one compiled loop in time order
@@ -77,7 +104,7 @@ modulo 2 pi, which is paper 000's wrap(z - theta-).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -86,6 +113,13 @@ from gaitmon.dsp.angles import TWO_PI
 from gaitmon.dsp.channel_table import SEGMENT_TABLE, SEGMENTS, STANDARD_GRAVITY_MS2
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
+# The start-up's prior standard deviations: the angle (rad; the first measurement sets it) and
+# the gyro bias (rad/s; MEMS gyros are off by up to a few deg/s before a Zero), and the factor
+# over the steady-state bias variance at which the scheduled gains take over (module doc).
+START_PRIOR = (0.5, 0.05)
+END_FACTOR = 2.0
+END_ANGLE_RAD = float(np.radians(1.0))
+START_HUBER = 2.0
 
 
 @dataclass(frozen=True)
@@ -124,10 +158,15 @@ class SegmentTuning:
     plane_fraction: float | None = None
     plane_cutoff_hz: float = 0.5
     r_out_of_plane: float = 1e-4
+    # causal filter, start-up only (module doc, "Start-up"): the factor on R for the exact
+    # gain, and c (rad s) in the gravity tilt's R + (c / t)^2, t the time since its (re)start
+    start_r_factor: float = 1.0
+    start_gravity_rad_s: float = 0.1
 
     def __post_init__(self) -> None:
         for name in ("static_acc_ms2", "static_rate_rad_s", "window_s", "r_static",
-                     "acc_scale_ms2", "q_angle", "q_bias", "rate_scale_rad_s"):  # fmt: skip
+                     "acc_scale_ms2", "q_angle", "q_bias", "rate_scale_rad_s",
+                     "start_r_factor"):  # fmt: skip
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
@@ -142,6 +181,10 @@ class SegmentTuning:
         ):
             raise ValueError(
                 f"live_gravity_hz must be a positive number or None, got {self.live_gravity_hz}"
+            )
+        if not (np.isfinite(self.start_gravity_rad_s) and self.start_gravity_rad_s >= 0):
+            raise ValueError(
+                f"start_gravity_rad_s must be a number >= 0, got {self.start_gravity_rad_s}"
             )
         if not (np.isfinite(self.r_live_gravity) and self.r_live_gravity > 0):
             raise ValueError(f"r_live_gravity must be a positive number, got {self.r_live_gravity}")
@@ -175,10 +218,13 @@ _WEIGHTED = SegmentTuning(
 # and the out-of-plane test (BROAD's 3-D motion).
 _GATED = SegmentTuning(
     r_static=1e-4, r_moving=1.0, live_gravity_hz=0.25, r_live_gravity=3e-3, plane_fraction=0.95,
+    start_r_factor=10.0,
 )  # fmt: skip
 SEGMENT_TUNING: dict[str, SegmentTuning] = {
     s.name: _GATED if s.still_in_stance else _WEIGHTED for s in SEGMENT_TABLE
 }
+# the swinging shank's own acceleration is the largest: its gravity tilt needs whole strides
+SEGMENT_TUNING["shank"] = replace(_WEIGHTED, start_gravity_rad_s=0.3)
 
 
 def tuning_for(segment: str) -> SegmentTuning:
@@ -271,8 +317,19 @@ class GravityReference:
     """Causal gravity-referenced tilt of S segments (module doc, "Gravity measurement").
 
     ``process(ax, az, w)`` with (N, S) inputs returns z~ (rad, (N, S), continuous up to the
-    wrap of its arg), minus ``lag_s * offset_rad_s``. Stateful; any chunking gives bit-for-bit
+    wrap of its arg), minus ``h * offset_rad_s``. Stateful; any chunking gives bit-for-bit
     the same output.
+
+    Start-up. The low-pass starts from rest (zero state) and its output is divided by its own
+    step response s_k (the same low-pass fed ones from rest): a weighted mean of the samples
+    seen so far, with the low-pass's weights, that becomes the plain low-pass as s_k -> 1
+    (within 1e-12 after ~30 s at 0.25 Hz). Started from a single sample instead (its steady
+    state for it), the low-pass would carry that sample's own acceleration (a swinging
+    thigh's, several m/s^2) for its ~3 s memory; started from the mean of a first window, it
+    rings when the stride's oscillation comes in. A gyro bias b turns the gyro angle by b t,
+    which the mean sees late by the mean age of what it holds: z~ = theta + h_k b with
+    h_k = t_k - avg(t)_k, which tends to ``lag_s``; :meth:`bias_gain` gives h_k for the sample
+    count since the reset, computed once by passing the ramp t through the same mean.
     """
 
     def __init__(self, cutoff_hz: float, fs_hz: float, n_segments: int) -> None:
@@ -281,11 +338,19 @@ class GravityReference:
         self.dt_s = 1.0 / fs_hz
         b, a = signal.butter(2, cutoff_hz, fs=fs_hz)
         self._ba = (b, a)
-        self._zi_unit = signal.lfilter_zi(b, a)[:, None]  # steady state for input 1
         k = np.arange(len(b))
         # the low-pass's delay at DC: a gyro bias b turns the gyro angle at b, so z~ leads the
         # tilt by lag_s * b (the filter's measurement model, z~ = theta + lag_s b)
         self.lag_s = float((k @ b / b.sum() - k @ a / a.sum()) * self.dt_s)
+        # the step response from rest, s_k, and h_k, until s_k is within 1e-12 of 1
+        n_h = round(60.0 / cutoff_hz * fs_hz)
+        step = signal.lfilter(b, a, np.ones(n_h))
+        n_h = int(np.flatnonzero(np.abs(step - 1.0) > 1e-12)[-1]) + 2
+        t = np.arange(n_h) * self.dt_s
+        self._step = step[:n_h]
+        self._step[-1] = 1.0
+        self._h = t - signal.lfilter(b, a, t) / self._step
+        self._h[-1] = self.lag_s
         # added to the gyro before it is integrated: undoes shift_bias, so a new calibration
         # does not turn the gyro angle differently from before
         self.offset_rad_s = np.zeros(n_segments)
@@ -294,11 +359,24 @@ class GravityReference:
     def reset(self) -> None:
         self._theta: np.ndarray | None = None  # the gyro angle at the last sample
         self._zi: np.ndarray | None = None
+        self._count = 0  # samples since the reset
+
+    @property
+    def count(self) -> int:
+        """Samples since the reset."""
+        return self._count
+
+    def _at(self, table: np.ndarray, count: int, n: int) -> np.ndarray:
+        return np.asarray(table[np.minimum(np.arange(count, count + n), len(table) - 1)])
+
+    def bias_gain(self, count: int, n: int) -> np.ndarray:
+        """h_k (s) of the ``n`` samples from ``count`` samples after the reset on."""
+        return self._at(self._h, count, n)
 
     def process(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> np.ndarray:
         from scipy import signal  # lazy
 
-        s = ax.shape[1]
+        n, s = ax.shape
         if self._theta is None:  # the gyro angle starts at the first accelerometer tilt
             self._theta = np.arctan2(az[0], ax[0]) - (w[0] + self.offset_rad_s) * self.dt_s
         # one cumulative sum from the carried angle: the same additions in any chunking
@@ -310,12 +388,16 @@ class GravityReference:
         world = np.empty((len(theta), 2 * s))  # (up, fwd) x S
         np.add(ax * c, az * sn, out=world[:, :s])
         np.subtract(az * c, ax * sn, out=world[:, s:])
-        if self._zi is None:
-            self._zi = self._zi_unit * world[0]
+        if self._zi is None:  # the low-pass starts from rest
+            self._zi = np.zeros((2, 2 * s))
         avg, self._zi = signal.lfilter(*self._ba, world, axis=0, zi=self._zi)
+        if self._count < len(self._step) - 1:  # the start-up's mean (the class doc)
+            avg = avg / self._at(self._step, self._count, n)[:, None]
+        h = self.bias_gain(self._count, n)[:, None]
+        self._count += n
         self._theta = theta[-1].copy()
         tilt = theta + np.arctan2(avg[:, s:], avg[:, :s])
-        return np.asarray(tilt - self.lag_s * self.offset_rad_s)
+        return np.asarray(tilt - h * self.offset_rad_s)
 
 
 class GaitAwareKalman:
@@ -331,6 +413,7 @@ class GaitAwareKalman:
         fs_hz: float = 100.0,
         segments: tuple[str, ...] = SEGMENTS,
         tuning: dict[str, SegmentTuning] | None = None,
+        start_prior: tuple[float, float] | None = START_PRIOR,
     ) -> None:
         if not (np.isfinite(fs_hz) and fs_hz > 0):
             raise ValueError(f"fs_hz must be a positive number, got {fs_hz}")
@@ -380,7 +463,24 @@ class GaitAwareKalman:
         self._plane_alpha = np.array([-np.expm1(-TWO_PI * t.plane_cutoff_hz * dt) for t in tuns])
         self._k_plane = np.array([float(steady_state_gain(t.r_out_of_plane, dt, t.q_angle,
                                                           t.q_bias)[0]) for t in tuns])  # fmt: skip
+        self._r_plane = np.array([t.r_out_of_plane for t in tuns])
         self._log_r = _gain_table(dt, tuns[0].q_angle, tuns[0].q_bias)[0] if tuns else np.zeros(2)
+        # the start-up (module doc): the prior (angle, bias) standard deviations, Q and the
+        # gravity R per segment, and the bias variance at which the scheduled gains take over
+        self.start_prior = start_prior
+        self._q = np.array([[t.q_angle, t.q_bias] for t in tuns]).reshape(len(tuns), 2)
+        self._r_grav = np.array([t.r_live_gravity for t in tuns])
+        self._r_factor = np.array([t.start_r_factor for t in tuns])
+        self._start_c = np.array([t.start_gravity_rad_s for t in tuns])
+        self._p_end = np.array([
+            (END_ANGLE_RAD**2, END_FACTOR * prior_covariance(
+                dt, t.q_angle, t.q_bias,
+                t.start_r_factor
+                * np.array([t.r_live_gravity if t.live_gravity_hz is not None else t.r_static]),
+                lag[j],
+            )[0, 1, 1])
+            for j, t in enumerate(tuns)
+        ]).reshape(len(tuns), 2)  # fmt: skip
         self._gains = np.ascontiguousarray(
             np.stack([_gain_table(dt, t.q_angle, t.q_bias)[1] for t in tuns], axis=1)
             if tuns else np.zeros((2, 0, 2))
@@ -388,12 +488,34 @@ class GaitAwareKalman:
         self.reset()
 
     def reset(self) -> None:
-        self.restart()
+        s = len(self.segments)
         self._bias: np.ndarray | None = None
+        # the covariance (P00, P01, P11) of the exact start-up, and where it is in force
+        self._cov = np.zeros((s, 3))
+        self._exact = np.zeros(s, dtype=bool)
+        if self.start_prior is not None:
+            self._cov[:, 0] = self.start_prior[0] ** 2
+            self._cov[:, 2] = self.start_prior[1] ** 2
+            self._exact[:] = True
+        self._restart()
 
     def restart(self) -> None:
         """Start the angle again from the next measurement, keeping the learnt gyro bias (after
-        a link outage the old angle and motion windows are stale; the bias is not)."""
+        a link outage the old angle and motion windows are stale; the bias is not).
+
+        With the start-up prior (``start_prior``) the exact gain takes the first measurements
+        after the gap, from the prior's angle variance and the bias variance the filter had
+        (at least its steady state's): a gap of 5 s adds q_bias x 500 = 5e-6 (rad/s)^2 to it,
+        less than that steady level, so the gap's length is not needed (the offline first pass,
+        which knows only where the restarts are, stays bit-identical to the live filter)."""
+        if self.start_prior is not None:
+            self._cov[:, 2] = np.maximum(self._cov[:, 2], self._p_end[:, 1] / END_FACTOR)
+            self._cov[:, 0] = self.start_prior[0] ** 2
+            self._cov[:, 1] = 0.0
+            self._exact[:] = True
+        self._restart()
+
+    def _restart(self) -> None:
         # the motion windows' last samples (dev, |w|): none yet
         self._tail = np.full((max(1, int(self._n_win.max(initial=1))) - 1, 2,
                               len(self.segments)), -np.inf)  # fmt: skip
@@ -435,7 +557,12 @@ class GaitAwareKalman:
         mag = np.hypot(ax, az)
         dev = np.abs(mag - STANDARD_GRAVITY_MS2)
         z_grav = np.zeros((n, s))
+        h_grav = np.zeros((n, s))
+        r_grav = np.broadcast_to(self._r_grav, (n, s)).copy()
         for grav, cols in self._gravity:
+            h_grav[:, cols] = grav.bias_gain(grav.count, n)[:, None]
+            age_s = (grav.count + np.arange(1, n + 1)) * self.dt_s
+            r_grav[:, cols] += (self._start_c[cols][None, :] / age_s[:, None]) ** 2
             z_grav[:, cols] = grav.process(ax[:, cols], az[:, cols], w[:, cols])
         start = self._theta is None
         theta = np.zeros(s) if self._theta is None else self._theta.copy()
@@ -445,9 +572,11 @@ class GaitAwareKalman:
             dev, np.ascontiguousarray(w), z_acc, z_grav, self._tail, self._n_win,
             self._gravity_on, self._gated,
             ps["static_acc_ms2"], ps["static_rate_rad_s"], self._k_static, self._k_grav,
-            self._lag, ps["r_static"], ps["r_moving"], ps["acc_scale_ms2"],
+            ps["r_static"], ps["r_moving"], ps["acc_scale_ms2"],
             ps["moving_rate_scale_rad_s"], self._log_r, self._gains, self.dt_s, start, theta,
             bias, out, mag, self._plane_thr, self._plane_alpha, self._k_plane, self._plane_lp,
+            self._r_plane, h_grav, self._cov, self._exact, self._q, r_grav, self._p_end,
+            self._r_factor, START_HUBER,
         )  # fmt: skip
         self._theta, self._bias = theta, bias
         return out[:, 0] if was_1d else out

@@ -44,8 +44,9 @@ times between the frames (readers of a file time strides from the rows' ``t_s`` 
 each row as the next frame, it was 4.5x (benchmarks/loss_accuracy.py). After a longer loss the
 pipeline *restarts*: the low-pass
 filters and the gyro integration start again from the first sample after the gap, the Kalman
-filter takes its angle from the accelerometer again (keeping the gyro bias it had learnt and its
-steady-state gain), and the contact detector and stride tracker forget the open stride, so no
+filter takes its angle from the measurements again (keeping the gyro bias it had learnt; the
+gait-aware filter's exact start-up gain, gaitmon.dsp.motion_kalman), and the contact detector
+and stride tracker forget the open stride, so no
 event or stride spans the outage. The ``SETTLE_S`` after a restart (and after the start) are
 flagged ``settling``: strides overlapping them are left out of the statistics
 (:func:`settling_ranges` gives the same ranges from a file's gap table).
@@ -92,9 +93,9 @@ _SUB_BLOCK = 16384
 # Losses up to this long are bridged (a frame or two on a noisy link); longer ones restart the
 # filters. The same limit decides which gaps a stride may cross (gaitmon.analysis).
 BRIDGE_MAX_S = 0.05
-# After a restart the Kalman angle converges with the steady-state gain (time constant ~0.7 s at
-# the paper's Q and R): measured on the simulator, the joint-angle error after a 3 s outage is
-# within 10 % of its walking level after 3 s (benchmarks/gap_settling.py, docs/gaps-and-time.md).
+# After a restart the gait-aware filter's angle converges with its exact start-up gain: measured
+# on the simulator, the joint-angle error after a 3 s outage is at its walking level after 3 s
+# (benchmarks/gap_settling.py, docs/gaps-and-time.md).
 SETTLE_S = 3.0
 
 

@@ -35,7 +35,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
+from gaitmon.dsp.calibration import (
+    Calibration,
+    CalibrationError,
+    standing_calibration,
+    zero_source,
+)
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, restart_rows, warm_up
 from gaitmon.engine.buffers import (
@@ -341,25 +346,49 @@ class Engine:
         with self._lock:
             self._pending.config = config
 
-    def zero(self, window_s: float = 1.5, *, apply: bool = True) -> Calibration:
+    def zero(
+        self, window_s: float = 1.5, *, apply: bool = True, since_idx: int | None = None
+    ) -> Calibration:
         """Standing calibration from the last ``window_s`` of data; refuses while moving.
-        ``apply=False`` (raw mode) only computes it; ``use_calibration`` applies it."""
+        ``apply=False`` (raw mode) only computes it; ``use_calibration`` applies it.
+
+        ``since_idx`` (an engine sample index): from the earliest still ``window_s`` among the
+        rows held from that sample on instead (windows ending every 0.1 s of the unit's
+        clock): what is zeroed then depends on the unit's samples, not on when this thread
+        got to run (a busy machine, a simulator faster than real time)."""
         if self.mode is not Mode.RAW:
             try:
                 self.device.zero()
             except (DeviceError, LinkError) as exc:
                 raise EngineError(f"the unit refused to zero: {exc}") from exc
             return self.calibration
-        data = self._ring.latest(n := int(window_s * self.fs_hz))
-        if len(data["t_s"]) < n or np.isnan(data["acc_ms2"]).any():
-            raise EngineError(f"need {window_s:g} s of data from the unit to zero; wait and retry")
-        # the ring holds bias-corrected rates: add the bias in force back to see the true rate
-        gyro = data["gyro_rad_s"] + self.calibration.gyro_bias_rad_s
-        try:
-            cal = standing_calibration(data["acc_ms2"], gyro, fs_hz=self.fs_hz)
-        except CalibrationError as exc:
-            raise EngineError(str(exc)) from exc
-        return self.use_calibration(cal) if apply else cal
+        n = int(window_s * self.fs_hz)
+        need = f"need {window_s:g} s of data from the unit to zero; wait and retry"
+        if since_idx is None:
+            data = self._ring.latest(n)
+            windows = [slice(0, n)]
+        else:
+            data = self._ring.latest(self._ring.capacity)
+            held = np.flatnonzero(np.nan_to_num(data["idx"], nan=-1.0) >= since_idx)
+            first = int(held[0]) if len(held) else len(data["t_s"])
+            step = max(1, round(0.1 * self.fs_hz))
+            windows = [slice(e - n, e) for e in range(first + n, len(data["t_s"]) + 1, step)]
+        refused: CalibrationError | None = None  # the last window's (the UI shows its figures)
+        for w in windows:
+            acc = data["acc_ms2"][w]
+            if len(acc) < n or np.isnan(acc).any():
+                continue
+            # the ring holds bias-corrected rates: add the bias in force back for the true rate
+            gyro = data["gyro_rad_s"][w] + self.calibration.gyro_bias_rad_s
+            try:
+                cal = standing_calibration(acc, gyro, fs_hz=self.fs_hz)
+            except CalibrationError as exc:
+                refused = exc
+                continue
+            return self.use_calibration(cal) if apply else cal
+        if refused is None:
+            raise EngineError(need)
+        raise EngineError(str(refused)) from refused
 
     def use_calibration(self, cal: Calibration) -> Calibration:
         with self._lock:  # from the next block on (logged in a running recording)
@@ -406,7 +435,8 @@ class Engine:
             recording=rec,
             gait=gait,
             mode=self.mode,
-            calibrated=bool(np.any(self.calibration.tilt_offset_rad != 0)),
+            calibrated=self.calibration.zeroed,
+            zero_source=zero_source(self.calibration, mode=self.mode.value),
             engine_error=engine_error,
             engine_errors=engine_errors,
             angle_method=method,

@@ -167,39 +167,53 @@ class EngineGroup:
 
     def zero(
         self, stop: threading.Event | None = None, timeout_s: float = ZERO_TIMEOUT_S,
-        window_s: float = 1.5,
+        window_s: float = 1.5, *, from_start: bool = False,
     ) -> dict[str, Calibration]:  # fmt: skip
-        """The standing calibration of every unit from the same moment: each unit's last
-        ``window_s`` of data, taken one right after the other, retried (the subject settling,
-        the first seconds of data) until all succeed in the same try. ``EngineError`` naming
-        the leg (or legs) never still in any try after ``timeout_s``; an empty dict if ``stop``
-        is set first. A unit that zeroes itself (tilt/joint mode) keeps its calibration and is
-        not handed it again, as ``Engine.zero`` does (handed again, a running recording logged
-        an unchanged calibration as a zeroing)."""
-        deadline = time.monotonic() + timeout_s
-        worked: set[str] = set()  # the legs that were still at some try
+        """The standing calibration of every unit: each unit's earliest still ``window_s`` of
+        data from the request on (the last ``window_s`` before it included), or with
+        ``from_start`` from its first sample on (`gaitmon record --zero`: the subject stands
+        when the units start). The windows are picked by the units' samples, not by when this
+        thread runs: every row since the request is looked at, so a busy machine or a unit
+        faster than real time zeroes the same pose. Retried as data comes (the subject
+        settling, the first seconds of data) until every unit has one; ``EngineError`` naming
+        the leg (or legs) without a still window once ``timeout_s`` of that unit's samples
+        (its clock) have come since the request (or 3 x ``timeout_s`` of wall time with no
+        zero: a unit that sends nothing); an empty dict if ``stop`` is set first. A unit
+        that zeroes itself (tilt/joint mode) keeps its calibration and is not handed it
+        again, as ``Engine.zero`` does (handed again, a running recording logged an unchanged
+        calibration as a zeroing)."""
+        deadline = time.monotonic() + 3.0 * timeout_s
+        n = int(window_s * next(iter(self.engines.values())).fs_hz)
+        since = {s: 0 if from_start else max(0, e.samples_total - n)
+                 for s, e in self.engines.items()}  # fmt: skip
+        asked = dict(since)  # where each unit's search began
+        cals: dict[str, Calibration] = {}
         last_error: dict[str, str] = {}
         while stop is None or not stop.is_set():
-            cals: dict[str, Calibration] = {}
-            errors: dict[str, str] = {}
+            timed_out = time.monotonic() > deadline
             for side, eng in self.engines.items():
+                if side in cals:
+                    continue
+                seen = eng.samples_total
                 try:  # computed only: a window straddling an applied change would mix biases
-                    cals[side] = eng.zero(window_s, apply=False)
-                    worked.add(side)
+                    cals[side] = eng.zero(window_s, apply=False, since_idx=since[side])
+                    last_error.pop(side, None)
                 except EngineError as exc:
-                    errors[side] = last_error[side] = str(exc)
-            if not errors:
+                    last_error[side] = str(exc)
+                    if seen - asked[side] > (timeout_s + window_s) * eng.fs_hz:
+                        timed_out = True
+                    # the windows that ended by then were all looked at
+                    since[side] = max(since[side], seen - n + 1)
+            if not last_error:
                 for s, c in cals.items():
                     if c is not self.engines[s].calibration:
                         self.engines[s].use_calibration(c)
                 return cals
-            if time.monotonic() > deadline:
-                # the leg that never zeroed, not one that did while it waited for the other
-                never = [s for s in self.engines if s not in worked] or list(errors)
+            if timed_out:
                 raise EngineError("; ".join(
-                    f"could not zero{_unit_name(s)}: {last_error[s]}" for s in never
+                    f"could not zero{_unit_name(s)}: {e}" for s, e in last_error.items()
                 ))  # fmt: skip
-            time.sleep(0.02)  # the simulator may run faster than real time
+            time.sleep(0.02)
         return {}
 
     def recorded_s(self, side: str) -> float:

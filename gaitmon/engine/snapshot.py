@@ -102,6 +102,8 @@ class Snapshot:
     engine_errors: int = 0
     # what made the Kalman series: PipelineConfig.tilt_method_label, or UNIT_ANGLE_METHOD
     angle_method: str = ""
+    # where the angles' zero comes from (gaitmon.dsp.calibration.zero_source)
+    zero_source: str = ""
     # force sensors flagged since the engine started (one per sensor and reason), oldest first
     fsr_faults: tuple[FsrFaultNotice, ...] = ()
     event_source: str = ""  # EVENTS_FSR | EVENTS_GYRO | EVENTS_UNIT | "" (tilt mode)

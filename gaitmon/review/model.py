@@ -375,7 +375,8 @@ def angles_caption(doc: Document) -> tuple[str, str]:
                + (" (here: the reprocessing's)" if doc.replay else "")
                + f"; View ▸ Angles ▸ Smoothed shows {doc.angle_method_of('smoothed')}.")
     reprocessed_live = doc.replay is not None and doc.angle_source == "live"
-    return doc.angle_method + (" (reprocessed)" if reprocessed_live else ""), tip
+    method = doc.angle_method + (" (reprocessed)" if reprocessed_live else "")
+    return f"{method} · zero: {doc.session.zero_source}", tip
 
 
 def build_overview(

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, Self, cast
 import h5py
 import numpy as np
 
-from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.calibration import Calibration, zero_source
 from gaitmon.dsp.channels import CHANNELS, GYRO_IDX, ChannelSpec
 from gaitmon.dsp.events import FALLBACK, PRIMARY, get_event_source
 from gaitmon.dsp.fsr_check import FsrFault
@@ -283,6 +283,12 @@ class StoredSession:
         view = copy.copy(self)
         view.use_angles(source)
         return view
+
+    @property
+    def zero_source(self) -> str:
+        """Where the angles' zero comes from (gaitmon.dsp.calibration.zero_source)."""
+        return zero_source(self.calibration, self.calibration_changes, self.sample_rate_hz,
+                           self.mode)  # fmt: skip
 
     def angle_method_of(self, source: str) -> str:
         """The name of the method that made the angles of ``source`` (smoothed | live)."""

@@ -199,6 +199,7 @@ class SimulatedUnit:
         self._log_sample = array("q")
         self._log_kind = array("B")
         self._closed = False
+        self._walk_after_stream: float | None = None  # stand_until_streamed's standing (s)
         self._t0 = clock() if epoch is None else epoch
         self._clock_running = not start_on_request
 
@@ -284,6 +285,16 @@ class SimulatedUnit:
             if not self._closed and not math.isinf(self.speed):
                 self._advance_to_now()
             return self.gait.stand(self.sensors.position / self.fs_hz)
+
+    def stand_until_streamed(self, standing_s: float) -> None:
+        """The subject stands until the unit is told to stream and then ``standing_s`` more of
+        device time before walking (from rest): the standing a recording starts with (to zero
+        on) is then the same samples however long the PC took to get to streaming (imports, a
+        busy machine; at ``speed`` 10, 5 s of standing is 0.5 s of wall time, gone before a
+        slow start streamed its first frame). For a unit made standing until told (its gait's
+        ``standing_s`` = inf), before it streams."""
+        with self._lock:
+            self._walk_after_stream = float(standing_s)
 
     def walk(self) -> None:
         """The subject walks again (at once if standing; no effect while walking)."""
@@ -447,6 +458,9 @@ class SimulatedUnit:
             self._pending_requests += 1
         elif cmd == C.START_STREAM:
             self._streaming = True
+            if self._walk_after_stream is not None:  # stand_until_streamed: walk later
+                self.gait.walk(self.sensors.position / self.fs_hz + self._walk_after_stream)
+                self._walk_after_stream = None
             self._answer(P.AckFrame(0, C.START_STREAM, P.AckStatus.OK, arg))
         elif cmd == C.STOP_STREAM:
             self._streaming = False

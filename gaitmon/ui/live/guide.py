@@ -29,6 +29,7 @@ class GuideState:
     zeroed: bool = False
     recording: bool = False
     simulated: bool = False
+    zero_source: str = ""  # where the angles' zero comes from (the engine's snapshot)
 
 
 def current_step(state: GuideState) -> int:
@@ -40,6 +41,13 @@ def current_step(state: GuideState) -> int:
 
 
 def hint(state: GuideState) -> str:
+    text = _step_hint(state)
+    if state.connected and state.zero_source:
+        text += f" Angles' zero: {state.zero_source}."
+    return text
+
+
+def _step_hint(state: GuideState) -> str:
     step = current_step(state)
     if step == CONNECT:
         if state.connecting:

@@ -168,6 +168,8 @@ class StatusView:
         """The tilt filter in force and the force sensors found faulty (kept until the next
         connection: a sensor does not mend itself)."""
         text = f"angles: {snap.angle_method}" if snap.angle_method else ""
+        if text and snap.zero_source:
+            text += f" · zero: {snap.zero_source}"
         if self.method_label.text() != text:
             self.method_label.setText(text)
         if snap.fsr_faults != self._fsr_shown:

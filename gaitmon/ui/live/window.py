@@ -287,15 +287,17 @@ class MainWindow(QMainWindow):
         if hasattr(self, "guide"):
             self._show_guide_state()
 
-    def _show_guide_state(self, zeroed: bool | None = None) -> None:
-        """Feed the step bar; ``zeroed`` from the snapshots (None: keep the last one seen while
-        connected)."""
+    def _show_guide_state(self, zeroed: bool | None = None, zero_from: str | None = None) -> None:
+        """Feed the step bar; ``zeroed`` and ``zero_from`` (where the angles' zero comes from)
+        from the snapshots (None: keep the last one seen while connected)."""
         ctx, shown = self.ctx, self.guide.state
+        source = shown.zero_source if zero_from is None else zero_from
         if ctx.pair is not None:
             # simulated=False: the pair cannot stand still on request, so no menu hint for it
             state = GuideState(connected=True, connecting=False,
                                zeroed=bool(shown.zeroed if zeroed is None else zeroed),
-                               recording=ctx.recording, simulated=False)  # fmt: skip
+                               recording=ctx.recording, simulated=False,
+                               zero_source=source)  # fmt: skip
         else:
             conn = ctx.conn
             if zeroed is None:
@@ -306,6 +308,7 @@ class MainWindow(QMainWindow):
                 zeroed=bool(zeroed) and conn is not None,
                 recording=ctx.recording,
                 simulated=conn is not None and conn.simulated,
+                zero_source=source if conn is not None else "",
             )
         self.guide.show_state(state)
 
@@ -370,7 +373,7 @@ class MainWindow(QMainWindow):
         self.status.show_link(snap, "the simulated unit" if conn.simulated else conn.port)
         self.status.show_checks(snap)
         self.recording_part.show_recording({"": snap})
-        self._show_guide_state(snap.calibrated)
+        self._show_guide_state(snap.calibrated, snap.zero_source)
         if paused:
             return
         ctx.last_snapshot = snap
