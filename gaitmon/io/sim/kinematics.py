@@ -187,6 +187,8 @@ class GaitConfig:
     stride_length_cv: float = 0.0  # stride-to-stride CV of stride length
     stance_micro_rad: float = 0.0  # median amplitude of the stance foot's roll-over (toe-down)
     stance_micro_spread: float = 0.5  # SD of its log amplitude from stride to stride
+    stance_pivot_m: tuple[float, float] = (0.0, 0.0)  # where the roll-over turns: (forward, up)
+    # from the foot sensor's point in the foot's frame; (0, 0): about the sensor's point
     roll_sd_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # RMS slow roll out of the plane
     swing_roll_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak roll in every swing
     swing_yaw_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak yaw in every swing (out, back)
@@ -218,6 +220,9 @@ class GaitConfig:
             raise ValueError(f"stride length CV {self.stride_length_cv} is outside 0..0.2")
         if not 0.0 <= self.stance_micro_rad <= 0.3 or self.stance_micro_spread < 0:
             raise ValueError("stance_micro_rad must be in 0..0.3 rad, stance_micro_spread >= 0")
+        if len(self.stance_pivot_m) != 2 or not all(abs(x) <= 0.3 for x in self.stance_pivot_m):
+            raise ValueError(f"stance_pivot_m needs (forward, up) within 0.3 m, "
+                             f"got {self.stance_pivot_m}")  # fmt: skip
         for name in ("roll_sd_deg", "swing_roll_deg", "swing_yaw_deg"):
             v = getattr(self, name)
             if len(v) != 4 or not all(-30.0 <= r <= 30.0 for r in v) or min(self.roll_sd_deg) < 0:
@@ -770,11 +775,21 @@ class GaitModel:
         ankle_f, ankle_u = knee_f + ss * cfg.shank_m, knee_u - cs * cfg.shank_m
         half_t, half_s = 0.5 * cfg.thigh_m, 0.5 * cfg.shank_m
         fwd, up = geo.sensor_fwd_m, geo.sensor_up_m
+        foot_f, foot_u = ankle_f + cf * fwd - sf * up, ankle_u + sf * fwd + cf * up
+        px, pz = cfg.stance_pivot_m
+        micro = self._stance_micro(p, env) if px or pz else None
+        if micro is not None:
+            # the roll-over turns the foot by micro about the pivot (px, pz) from the sensor in
+            # the foot's frame: the sensor moves by (R(micro) - I) (sensor - pivot) in the world
+            df, du = (cf * px - sf * pz) * -1.0, (sf * px + cf * pz) * -1.0
+            cm, sm = micro.cos() - 1.0, micro.sin()
+            foot_f = foot_f + cm * df - sm * du
+            foot_u = foot_u + sm * df + cm * du
         return (
             (hip_f, hip_u),
             (hip_f + st * half_t, hip_u - ct * half_t),
             (knee_f + ss * half_s, knee_u - cs * half_s),
-            (ankle_f + cf * fwd - sf * up, ankle_u + sf * fwd + cf * up),
+            (foot_f, foot_u),
         )
 
     # ---- truth per stride ---------------------------------------------------------------------
