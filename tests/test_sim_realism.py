@@ -218,6 +218,28 @@ def test_turns_change_the_truths_heading_and_path() -> None:
                                atol=2e-3)  # fmt: skip
 
 
+def test_the_foot_turns_in_swing() -> None:
+    """turn_in_swing (the real level): the foot board's heading (walk + its own yaw) holds
+    still from each foot-flat's start to toe off, is the walk's at every foot-flat's start, and
+    turns in swing at up to ~4 rad/s (gdins: peak vertical rate 4.5 rad/s in turning strides)."""
+    from gaitmon.io.sim.kinematics import TOE_OFF_PHASE
+
+    g = GaitModel(replace(realism_gait(GaitConfig(seed=3), "real"), swing_yaw_deg=(0.0,) * 4))
+    assert g.config.turn_in_swing
+    kin = g.evaluate(0, 9000)
+    foot = kin.heading_rad + kin.board_yaw_rad[:, FOOT]
+    rate = kin.yaw_rate_rad_s + kin.board_yaw_rate_rad_s[:, FOOT]
+    q = np.mod(kin.phase, 1.0)
+    stance = (q > FLAT_START + 0.01) & (q < TOE_OFF_PHASE - 0.01) & (kin.walking > 0.999)
+    np.testing.assert_allclose(rate[stance], 0.0, atol=1e-12)
+    assert np.max(np.abs(kin.yaw_rate_rad_s[stance])) > 0.5  # the walk turns meanwhile
+    starts = np.arange(2, int(kin.phase[-1]) - 1) + FLAT_START
+    np.testing.assert_allclose(np.interp(starts, kin.phase, foot),
+                               np.interp(starts, kin.phase, kin.heading_rad), atol=2e-3)  # fmt: skip
+    np.testing.assert_allclose(np.gradient(foot, 1.0 / FS), rate, atol=0.05)
+    assert 3.0 < np.max(np.abs(rate)) < 5.0
+
+
 def test_turn_and_roll_leak_into_the_planar_sensors() -> None:
     """With a perfect sensor: the pitch gyro reads the tilt rate minus yaw rate x sin(roll)
     (the leak, up to ~0.1 rad/s in a turn), and the still flat foot's planar |a| is g cos(roll):
@@ -233,7 +255,8 @@ def test_turn_and_roll_leak_into_the_planar_sensors() -> None:
     assert np.max(np.abs(leak[:, FOOT])) > 0.05
     flat = _flat_samples(kin.phase, kin.walking)
     flat = flat[np.abs(kin.yaw_rate_rad_s[flat]) < 1e-9]  # no turn: no centripetal force
-    assert np.all(kin.board_yaw_rad[flat] == 0.0)  # the swing yaw is over
+    assert np.all(kin.board_yaw_rad[flat, :FOOT] == 0.0)  # the swing yaw is over
+    assert np.all(kin.board_yaw_rate_rad_s[flat] == 0.0)  # the foot may still face the turn
     mag = np.hypot(sb.physical[flat, ACC_X_IDX[FOOT]], sb.physical[flat, ACC_Z_IDX[FOOT]])
     np.testing.assert_allclose(mag, G * np.cos(kin.roll_rad[flat, FOOT]), rtol=1e-9)
     assert np.max(np.degrees(np.abs(kin.roll_rad[flat, FOOT]))) > 2.0

@@ -51,6 +51,8 @@ REAL_GAIT: dict[str, Any] = {
     # 86) per stride turning > 45 deg, 1.3 % of strides > 90 deg (sim: 3; 73 (78); 0 %)
     "turn_deg": 180.0,
     "first_turn_strides": 3.0,
+    "turn_in_swing": True,  # the foot turns in swing (gdins: peak vertical rate 4.5 rad/s in
+    # turning strides), not while it stands
 }
 REAL_SENSORS: dict[str, Any] = {
     "acc_gain_sd": 0.02,  # uncalibrated analog axes (ADXL335: 270..330 mV/g); the calibrated

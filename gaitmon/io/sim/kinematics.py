@@ -56,7 +56,8 @@ the parameters measured on real feet, docs/simulator.md "Realism levels")
 * ``roll_sd_deg`` / ``swing_roll_deg`` / ``swing_yaw_deg``: each board leaves the sagittal
   plane: a slow random roll about the walking direction, a roll bump in every swing, and a yaw
   out and back in every swing, both about the board's own point.
-* ``turn_every_strides`` ...: turns of ``turn_deg`` change the walking direction (``heading``):
+* ``turn_every_strides`` ...: turns of ``turn_deg`` change the walking direction (``heading``;
+  with ``turn_in_swing`` the foot board keeps its heading through stance and turns in swing):
   every sensor point's horizontal path is its forward travel laid along the heading, so a
   turning stride's length (the footprints' straight distance, ``StrideTruth.stride_length_m``)
   is shorter than its path (``path_length_m``), and the sensors feel the turn's centripetal
@@ -196,6 +197,9 @@ class GaitConfig:
     turn_strides: float = 2.0  # how long a turn lasts
     turn_deg: float = 180.0  # heading change of one turn (> 0: to the left)
     first_turn_strides: float = 3.0  # strides walked (after the ramp-in) before the first turn
+    turn_in_swing: bool = False  # the foot board turns only in swing (toe off .. the next
+    # foot-flat) and keeps its heading through stance, as a real foot does; False: it turns
+    # with the walking direction all through the stride
 
     def __post_init__(self) -> None:
         if self.pattern not in PATTERNS:
@@ -577,6 +581,18 @@ class GaitModel:
         f2 = np.where(inside & (s >= 0.0), a / ts**2 * 2.0 * np.pi * np.sin(2.0 * np.pi * u), 0.0)
         return p.compose(f, f1, f2)
 
+    def _swing_warp(self, p: Jet) -> Jet:
+        """The phase the foot's heading follows (``turn_in_swing``): held at each foot-flat's
+        start (k + FLAT_START) until toe off, then a quintic step to the next foot-flat's."""
+        q = p.v - FLAT_START
+        k = np.floor(q)
+        span = 1.0 - (TOE_OFF_PHASE - FLAT_START)
+        x = np.clip((q - k - (TOE_OFF_PHASE - FLAT_START)) / span, 0.0, 1.0)
+        h = x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+        h1 = 30.0 * x * x * (1.0 - x) ** 2 / span
+        h2 = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x) / span**2
+        return p.compose(k + FLAT_START + h, h1, h2)
+
     def roll(self, p: Jet, env: Jet) -> list[Jet]:
         """Each board's roll about the walking direction (rad): ``roll_sd_deg`` RMS, a sum of
         three sines of the phase at incommensurate frequencies (ROLL_FREQS per stride) with
@@ -741,6 +757,10 @@ class GaitModel:
         head = self.heading(p)
         rolls = self.roll(p, env)
         yaws = self.board_yaw(p, env)
+        if cfg.turn_in_swing and cfg.turn_every_strides:
+            # the foot's heading is the walk's at its last foot-flat through stance, then turns
+            # to the next foot-flat's in swing: its yaw from the walking direction
+            yaws[3] = yaws[3] + self.heading(self._swing_warp(p)) - head
         return KinematicsBlock(
             sample_idx=idx,
             t_s=t,
