@@ -258,10 +258,13 @@ def measure(data: Path, per_trial: bool = False) -> dict[str, dict[str, float]]:
             big = np.abs(turn) > np.radians(45.0)
             _turn_shape(add, turn[1:-1])
             gyb = b["gyro_y"] + bias[1]
-            piv = [stance_pivot(b["acc_z"], b["acc_x"], gyb, *roll_over_window(
-                gyb, int(i) - 40, int(i) + 5, fs), fs) for i in zv[1:-1]]  # fmt: skip
-            add("stance pivot: sensor - pivot forward, m", np.array([r[0] for r in piv]))
-            add("stance pivot: sensor - pivot up, m", np.array([r[1] for r in piv]))
+            for w_max in (0.7, 2.0):
+                piv = [stance_pivot(b["acc_z"], b["acc_x"], gyb, *roll_over_window(
+                    gyb, int(i) - 40, int(i) + 5, fs, w_max), fs) for i in zv[1:-1]]  # fmt: skip
+                add(f"stance pivot (to {w_max} rad/s): sensor - pivot forward, m",
+                    np.array([r[0] for r in piv]))  # fmt: skip
+                add(f"stance pivot (to {w_max} rad/s): sensor - pivot up, m",
+                    np.array([r[1] for r in piv]))  # fmt: skip
             fp = np.degrees([false_pitch(b["acc_z"], b["acc_x"], gyb, int(i0), int(i1), fs)
                              for i0, i1 in pairwise(zv)])  # fmt: skip
             add("false pitch per stride, straight, |deg|", np.abs(fp[straight]))
@@ -398,13 +401,16 @@ def measure_sim(realism: str, seed: int = 4, seconds: float = 115.0) -> dict[str
     # the stance pivot and the false pitch, at the stillest sample of each stance
     gy = ph[:, GYRO_IDX[foot]] - sb.gyro_bias_rad_s[:, foot]
     ax, az = ph[:, ACC_X_IDX[foot]], ph[:, ACC_Z_IDX[foot]]
-    anchors, piv = [], []
-    for h in hs[2:-1]:
-        s, e = roll_over_window(gy, int(h), int(to[to > h][0]), 100.0)
-        anchors.append(s)
-        piv.append(stance_pivot(az, ax, gy, s, e, 100.0))
-    out["stance pivot: sensor - pivot forward, m"] = float(np.median([r[0] for r in piv]))
-    out["stance pivot: sensor - pivot up, m"] = float(np.median([r[1] for r in piv]))
+    anchors = []
+    for w_max in (0.7, 2.0):
+        anchors, piv = [], []
+        for h in hs[2:-1]:
+            s, e = roll_over_window(gy, int(h), int(to[to > h][0]), 100.0, w_max)
+            anchors.append(s)
+            piv.append(stance_pivot(az, ax, gy, s, e, 100.0))
+        for j, axis in enumerate(("forward", "up")):
+            out[f"stance pivot (to {w_max} rad/s): sensor - pivot {axis}, m"] = float(
+                np.median([r[j] for r in piv]))  # fmt: skip
     tr = np.degrees([k.heading_rad[b] - k.heading_rad[a] for a, b in pairwise(anchors)])
     fp = np.degrees([false_pitch(az, ax, gy, a, b, 100.0) for a, b in pairwise(anchors)])
     big = np.abs(tr) > 45.0

@@ -110,7 +110,7 @@ def test_stance_foot_rolls_over_as_documented() -> None:
     feet's pitch gyro reads about -0.2 rad/s there in 97 % of gdins strides). The stillest
     0.1 s of each stance: mean |w_y| median 0.12 rad/s on the hard simulator (docs: real 0.14
     x-io, 0.21 gdins), the default's noise floor < 0.02; its signed mean is < 0 in most
-    strides; and the planar |a| stays near g there (the foot turns about its sensor)."""
+    strides; and the planar |a| stays near g there (a slow turn about the ball)."""
 
     def stillest(gait: GaitModel, sb) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
         w = sb.physical[:, GYRO_IDX[FOOT]] - sb.gyro_bias_rad_s[:, FOOT]
@@ -234,8 +234,8 @@ def test_the_foot_turns_in_swing() -> None:
     np.testing.assert_allclose(rate[stance], 0.0, atol=1e-12)
     assert np.max(np.abs(kin.yaw_rate_rad_s[stance])) > 0.5  # the walk turns meanwhile
     starts = np.arange(2, int(kin.phase[-1]) - 1) + FLAT_START
-    np.testing.assert_allclose(np.interp(starts, kin.phase, foot),
-                               np.interp(starts, kin.phase, kin.heading_rad), atol=2e-3)  # fmt: skip
+    walk = np.interp(starts, kin.phase, kin.heading_rad)
+    np.testing.assert_allclose(np.interp(starts, kin.phase, foot), walk, atol=2e-3)
     np.testing.assert_allclose(np.gradient(foot, 1.0 / FS), rate, atol=0.05)
     assert 3.0 < np.max(np.abs(rate)) < 5.0
 

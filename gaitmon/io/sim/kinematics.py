@@ -50,9 +50,11 @@ the parameters measured on real feet, docs/simulator.md "Realism levels")
   normal, clipped at 2.5, drawn per stride in order from its own generator); the hip's curves
   join the foot-flats where they now lie, so the sensors see it.
 * ``stance_micro_rad``: the stance foot rolls over: from foot-flat on it turns toe-down at a
-  steady rate and gives the angle back by toe off (``_stance_micro``); it turns about its
-  sensor's point (the linkage keeps the flat foot), so the truth's foot tilt and ankle include
-  it and the sensor's path does not move.
+  steady rate and gives the angle back by toe off (``_stance_micro``); it turns about
+  ``stance_pivot_m`` from the sensor (the real level: the ball of the foot, measured on gdins;
+  (0, 0): the sensor's own point), so the truth's foot tilt and ankle include it and the
+  foot sensor's path moves by (R(micro) - I)(sensor - pivot) (``_points``); the rest of the
+  linkage keeps the flat foot, and the footprints (each foot-flat's start) do not move.
 * ``roll_sd_deg`` / ``swing_roll_deg`` / ``swing_yaw_deg``: each board leaves the sagittal
   plane: a slow random roll about the walking direction, a roll bump in every swing, and a yaw
   out and back in every swing, both about the board's own point.
@@ -627,8 +629,8 @@ class GaitModel:
 
     def _stance_micro(self, p: Jet, env: Jet) -> Jet | None:
         """The stance foot's roll-over (rad, added to its tilt and the ankle's, not to the
-        linkage: the foot turns about its sensor's point, whose path stays the flat foot's, so
-        its heel and ball leave the ground by millimetres): from foot-flat on the foot turns
+        linkage: the foot turns about ``stance_pivot_m`` from its sensor, which moves the foot
+        sensor's point only (``_points``)): from foot-flat on the foot turns
         toe-down at a steady rate (the heel starts to rise early, as real feet do: the pitch
         gyro reads about -0.2 rad/s through the whole still phase, docs/simulator.md), and
         gives the angle back by toe off (``_ROLLOVER``). Stride k's amplitude is
@@ -748,7 +750,7 @@ class GaitModel:
         hip, knee, ankle, body, thigh, shank, foot, env = self._angles(p)
         points = self._points(p, thigh, shank, foot, env)
         micro = self._stance_micro(p, env)
-        if micro is not None:  # the flat foot rocks about its sensor's point (realism)
+        if micro is not None:  # the flat foot rolls over (realism; its sensor: _points)
             foot, ankle = foot + micro, ankle + micro
         lin_acc = np.stack([np.stack([pf.dd, pu.dd], axis=-1) for pf, pu in points], axis=1)
         pos = np.stack([np.stack([pf.v, pu.v], axis=-1) for pf, pu in points], axis=1)
