@@ -38,13 +38,16 @@ def ablate(seconds: float, seed: int) -> None:
     def pick(d: dict[str, object], *keys: str) -> dict[str, object]:
         return {k: d[k] for k in keys}
 
-    turn_keys = ("turn_every_strides", "turn_strides", "turn_deg", "first_turn_strides")
+    turn_keys = ("turn_every_strides", "turn_strides", "turn_deg", "first_turn_strides",
+                 "turn_in_swing")
     effects: dict[str, tuple[dict[str, object], dict[str, object]]] = {
         "none (easy)": ({}, {}),
         "acc gain + cross-axis": ({}, pick(REAL_SENSORS, "acc_gain_sd", "acc_cross_sd")),
         "gyro scale + cross-axis": ({}, pick(REAL_SENSORS, "gyro_scale_sd", "gyro_cross_sd")),
         "stride time + length CV": (pick(REAL_GAIT, "stride_cv", "stride_length_cv"), {}),
-        "stance roll-over": (pick(REAL_GAIT, "stance_micro_rad", "stance_micro_spread"), {}),
+        "stance roll-over": (
+            pick(REAL_GAIT, "stance_micro_rad", "stance_micro_spread", "stance_pivot_m"), {}
+        ),
         "roll (slow + swing)": (pick(REAL_GAIT, "roll_sd_deg", "swing_roll_deg"), {}),
         "roll + swing yaw": (
             pick(REAL_GAIT, "roll_sd_deg", "swing_roll_deg", "swing_yaw_deg"), {}

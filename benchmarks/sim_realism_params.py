@@ -116,6 +116,76 @@ def longest_still_s(gyro_y: np.ndarray, fs: float, limit: float = 0.35) -> float
     return float(runs.max(initial=0)) / fs
 
 
+def stance_pivot(az: np.ndarray, ax: np.ndarray, gy: np.ndarray, s: int, e: int,
+                 fs: float) -> np.ndarray:  # fmt: skip
+    """(forward, up) of the sensor less the point the stance foot turns about, in the foot's
+    frame (m), from s (the stillest sample) to e (the roll-over into heel-off): the planar
+    strapdown's velocity (levelled at s) fitted as w(t) J R(t) r, less its value at s, plus a
+    constant acceleration (a tilt error at s), by least squares."""
+    th0 = np.arctan2(az[s - 2 : s + 3].mean(), ax[s - 2 : s + 3].mean())
+    w = gy[s : e + 1]
+    th = th0 + np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) / fs)])
+    c, sn = np.cos(th), np.sin(th)
+    a_f = az[s : e + 1] * c - ax[s : e + 1] * sn
+    a_u = az[s : e + 1] * sn + ax[s : e + 1] * c - G
+    v_f = np.concatenate([[0.0], np.cumsum(0.5 * (a_f[1:] + a_f[:-1]) / fs)])
+    v_u = np.concatenate([[0.0], np.cumsum(0.5 * (a_u[1:] + a_u[:-1]) / fs)])
+    m = np.stack([np.stack([-sn, -c], -1), np.stack([c, -sn], -1)], 1) * w[:, None, None]
+    a = m[1:] - m[0]  # (K, 2 world axes, 2 of r)
+    t = (np.arange(1, len(w)) / fs)[:, None]
+    rows = np.concatenate([np.concatenate([a[:, 0], t, 0 * t], 1),
+                           np.concatenate([a[:, 1], 0 * t, t], 1)])  # fmt: skip
+    x, *_ = np.linalg.lstsq(rows, np.concatenate([v_f[1:], v_u[1:]]), rcond=None)
+    return np.asarray(x[:2])
+
+
+def roll_over_window(gy: np.ndarray, lo: int, hi: int, fs: float,
+                     w_max: float = 2.0) -> tuple[int, int]:  # fmt: skip
+    """(stillest sample of |gy| over 0.1 s in lo..hi, where |gy| first reaches w_max after it,
+    at most 0.35 s on)."""
+    seg = np.convolve(np.abs(gy[lo:hi]), np.ones(10) / 10, mode="same")
+    s = lo + int(np.argmin(seg))
+    e = s
+    while e < min(s + int(0.35 * fs), len(gy) - 1) and abs(gy[e]) < w_max:
+        e += 1
+    return s, e
+
+
+def false_pitch(az: np.ndarray, ax: np.ndarray, gy: np.ndarray, a: int, b: int,
+                fs: float) -> float:  # fmt: skip
+    """The planar pitch gyro's integral from stance a to stance b less the accelerometer
+    pitch change (rad): what a turn seen by a rolled board (or any axis error) adds."""
+    g = gy[a : b + 1]
+
+    def tilt(i: int) -> float:
+        return float(np.arctan2(az[i - 2 : i + 3].mean(), ax[i - 2 : i + 3].mean()))
+
+    return float(np.sum(0.5 * (g[1:] + g[:-1])) / fs - (tilt(b) - tilt(a)))
+
+
+def turn_episodes(turn_deg: np.ndarray) -> list[tuple[int, float]]:
+    """Runs of strides turning > 20 deg: (strides, |total turn| deg)."""
+    out, cur = [], []
+    for x in turn_deg:
+        if abs(x) > 20.0:
+            cur.append(float(x))
+        elif cur:
+            out.append(cur)
+            cur = []
+    if cur:
+        out.append(cur)
+    return [(len(c), abs(sum(c))) for c in out]
+
+
+def _turn_shape(add: Any, turn: np.ndarray) -> None:
+    t = np.abs(np.degrees(turn))
+    add("|turn| per stride turning > 45 deg, deg", t[t > 45.0])
+    add("strides turning > 90 deg, %", 100.0 * float(np.mean(t > 90.0)))
+    u = [e for e in turn_episodes(np.degrees(turn)) if e[1] > 120.0]
+    add("U-turn (> 120 deg): strides turning > 20 deg", np.array([e[0] for e in u], float))
+    add("strides per U-turn", len(t) / max(len(u), 1))
+
+
 def _pct(x: np.ndarray, q: float) -> float:
     return float(np.percentile(x, q)) if len(x) else float("nan")
 
@@ -186,6 +256,21 @@ def measure(data: Path, per_trial: bool = False) -> dict[str, dict[str, float]]:
             straight[:2] = straight[-2:] = False
             add("turn per stride, deg", np.degrees(turn))
             big = np.abs(turn) > np.radians(45.0)
+            _turn_shape(add, turn[1:-1])
+            gyb = b["gyro_y"] + bias[1]
+            for w_max in (0.7, 2.0):
+                piv = [stance_pivot(b["acc_z"], b["acc_x"], gyb, *roll_over_window(
+                    gyb, int(i) - 40, int(i) + 5, fs, w_max), fs) for i in zv[1:-1]]  # fmt: skip
+                add(f"stance pivot (to {w_max} rad/s): sensor - pivot forward, m",
+                    np.array([r[0] for r in piv]))  # fmt: skip
+                add(f"stance pivot (to {w_max} rad/s): sensor - pivot up, m",
+                    np.array([r[1] for r in piv]))  # fmt: skip
+            fp = np.degrees([false_pitch(b["acc_z"], b["acc_x"], gyb, int(i0), int(i1), fs)
+                             for i0, i1 in pairwise(zv)])  # fmt: skip
+            add("false pitch per stride, straight, |deg|", np.abs(fp[straight]))
+            add("false pitch per stride turning > 45 deg, |deg|", np.abs(fp[big]))
+            add("false pitch per 180 deg turned (strides > 45 deg), deg",
+                np.abs(fp[big]) / np.degrees(np.abs(turn[big])) * 180.0)  # fmt: skip
             add("peak vertical rate in turn strides, rad/s", peak[big])
             add("peak vertical rate in straight strides, rad/s", peak[straight])
             add("stance roll after a turn stride, deg", np.degrees(np.abs(roll[big])))
@@ -304,6 +389,36 @@ def measure_sim(realism: str, seed: int = 4, seconds: float = 115.0) -> dict[str
     for key, v in (("length", st.stride_length_m[2:-1]), ("time", st.stride_time_s[2:-1])):
         out[f"stride {key} CV (straight)"] = float(np.std(v[ok]) / np.mean(v[ok]))
     out["turn strides (> 45 deg), %"] = float(100.0 * np.mean(np.abs(turn) > np.radians(45.0)))
+    t = np.abs(np.degrees(turn[2:-1]))
+    tb = t[t > 45.0] if np.any(t > 45.0) else np.array([np.nan])
+    out["|turn| per stride turning > 45 deg, deg (median)"] = float(np.median(tb))
+    out["|turn| per stride turning > 45 deg, deg (p90)"] = float(np.percentile(tb, 90))
+    out["strides turning > 90 deg, %"] = float(100.0 * np.mean(t > 90.0))
+    u = [e for e in turn_episodes(np.degrees(turn[2:-1])) if e[1] > 120.0]
+    out["U-turn (> 120 deg): strides turning > 20 deg (median)"] = float(
+        np.median([e[0] for e in u])) if u else float("nan")  # fmt: skip
+    out["strides per U-turn"] = len(t) / max(len(u), 1)
+    # the stance pivot and the false pitch, at the stillest sample of each stance
+    gy = ph[:, GYRO_IDX[foot]] - sb.gyro_bias_rad_s[:, foot]
+    ax, az = ph[:, ACC_X_IDX[foot]], ph[:, ACC_Z_IDX[foot]]
+    anchors = []
+    for w_max in (0.7, 2.0):
+        anchors, piv = [], []
+        for h in hs[2:-1]:
+            s, e = roll_over_window(gy, int(h), int(to[to > h][0]), 100.0, w_max)
+            anchors.append(s)
+            piv.append(stance_pivot(az, ax, gy, s, e, 100.0))
+        for j, axis in enumerate(("forward", "up")):
+            out[f"stance pivot (to {w_max} rad/s): sensor - pivot {axis}, m"] = float(
+                np.median([r[j] for r in piv]))  # fmt: skip
+    tr = np.degrees([k.heading_rad[b] - k.heading_rad[a] for a, b in pairwise(anchors)])
+    fp = np.degrees([false_pitch(az, ax, gy, a, b, 100.0) for a, b in pairwise(anchors)])
+    big = np.abs(tr) > 45.0
+    out["false pitch per stride, straight, |deg|"] = float(np.median(np.abs(fp[np.abs(tr) < 20])))
+    out["false pitch per stride turning > 45 deg, |deg|"] = float(
+        np.median(np.abs(fp[big]))) if big.any() else float("nan")  # fmt: skip
+    out["false pitch per 180 deg turned (strides > 45 deg), deg"] = float(
+        np.median(np.abs(fp[big]) / np.abs(tr[big]) * 180.0)) if big.any() else float("nan")
     return out
 
 

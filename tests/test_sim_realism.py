@@ -110,7 +110,7 @@ def test_stance_foot_rolls_over_as_documented() -> None:
     feet's pitch gyro reads about -0.2 rad/s there in 97 % of gdins strides). The stillest
     0.1 s of each stance: mean |w_y| median 0.12 rad/s on the hard simulator (docs: real 0.14
     x-io, 0.21 gdins), the default's noise floor < 0.02; its signed mean is < 0 in most
-    strides; and the planar |a| stays near g there (the foot turns about its sensor)."""
+    strides; and the planar |a| stays near g there (a slow turn about the ball)."""
 
     def stillest(gait: GaitModel, sb) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
         w = sb.physical[:, GYRO_IDX[FOOT]] - sb.gyro_bias_rad_s[:, FOOT]
@@ -159,23 +159,85 @@ def test_stride_length_variability_is_the_truths() -> None:
                                atol=2e-3)  # fmt: skip
 
 
+def test_stance_roll_over_turns_about_its_pivot() -> None:
+    """The roll-over turns the flat foot about the pivot REAL_GAIT places 6.4 cm ahead of and
+    7.3 cm below the sensor (gdins): through foot-flat that point stands still while the
+    sensor moves at the pitch rate times the lever (forward ~ 0.073 |w|, up ~ 0.064 |w|); about
+    the sensor's own point (0, 0) the sensor stands still; the footprints (the sensor at the
+    start of each foot-flat, where the roll-over has not begun) are the same either way."""
+    px, pz = REAL_GAIT["stance_pivot_m"]
+    assert 0.03 < px < 0.1 and -0.1 < pz < -0.03
+    plain = {"roll_sd_deg": (0.0,) * 4, "swing_roll_deg": (0.0,) * 4, "swing_yaw_deg": (0.0,) * 4,
+             "turn_every_strides": 0.0}  # fmt: skip
+    g = GaitModel(replace(realism_gait(GaitConfig(seed=3), "real"), **plain))
+    g0 = GaitModel(replace(realism_gait(GaitConfig(seed=3), "real"), **plain,
+                           stance_pivot_m=(0.0, 0.0)))  # fmt: skip
+    kin, kin0 = g.evaluate(0, 6000), g0.evaluate(0, 6000)
+    flat = _flat_samples(kin.phase, kin.walking)
+    mu, rate = kin.tilt_rad[flat, FOOT], kin.rate_rad_s[flat, FOOT]  # the roll-over alone
+    assert np.all(rate < -0.05)
+    # sensor - pivot = R(mu) (-px, -pz); the pivot's velocity: v - mu' J R(mu) (-px, -pz) = 0
+    a, b = -px, -pz
+    vf = -rate * (np.sin(mu) * a + np.cos(mu) * b)
+    vu = rate * (np.cos(mu) * a - np.sin(mu) * b)
+    np.testing.assert_allclose(kin.velocity_m_s[flat, FOOT, 0], vf, atol=1e-9)
+    np.testing.assert_allclose(kin.velocity_m_s[flat, FOOT, 1], vu, atol=1e-9)
+    assert np.median(kin.velocity_m_s[flat, FOOT, 0]) > 0.005  # forward, as the heel rises
+    np.testing.assert_allclose(kin0.velocity_m_s[flat, FOOT], 0.0, atol=1e-9)
+    starts = np.arange(3, int(kin.phase[-1]) - 1) + FLAT_START
+    for k in (kin, kin0):
+        assert np.all(np.abs(np.interp(starts, k.phase, k.tilt_rad[:, FOOT])) < 1e-4)
+    np.testing.assert_allclose(np.interp(starts, kin.phase, kin.position_m[:, FOOT, 0]),
+                               np.interp(starts, kin0.phase, kin0.position_m[:, FOOT, 0]),
+                               atol=1e-4)  # fmt: skip
+    np.testing.assert_allclose(g.strides(0, 6000).stride_length_m,
+                               g0.strides(0, 6000).stride_length_m, atol=1e-12)  # fmt: skip
+
+
 def test_turns_change_the_truths_heading_and_path() -> None:
     """Each 180-degree turn turns the truth's heading by pi, its strides' turn_rad add up to
     it, and a turning stride's footprint distance is shorter than its path."""
     g, sb = _hard(9000)
     kin = sb.kinematics
-    turns = int(np.round(kin.heading_rad[-1] / np.pi))
+    idle = np.flatnonzero(kin.yaw_rate_rad_s == 0.0)  # between turns (the record may end in one)
+    turns = int(np.round(kin.heading_rad[idle[-1]] / np.pi))
     assert turns >= 3
-    np.testing.assert_allclose(kin.heading_rad[-1], turns * np.pi, atol=1e-9)
-    st = g.strides(0, 9000)
+    np.testing.assert_allclose(kin.heading_rad[idle], np.round(kin.heading_rad[idle] / np.pi)
+                               * np.pi, atol=1e-9)  # fmt: skip
+    st = g.strides(0, 8000)
     assert st.turn_rad is not None and st.path_length_m is not None
-    np.testing.assert_allclose(np.sum(st.turn_rad), kin.heading_rad[st.heel_strike_idx[-1]]
+    # the strides run foot-flat to foot-flat: the last one ends 1 + FLAT_START after its heel
+    # strike's phase
+    end = np.round(kin.phase[st.heel_strike_idx[-1]]) + 1.0 + FLAT_START
+    np.testing.assert_allclose(np.sum(st.turn_rad), np.interp(end, kin.phase, kin.heading_rad)
                                - kin.heading_rad[0], atol=0.2)  # fmt: skip
     turning = np.abs(st.turn_rad) > np.radians(45)
     assert turning.sum() >= turns - 1
     assert np.all(st.stride_length_m[turning] < st.path_length_m[turning])
     np.testing.assert_allclose(st.stride_length_m[~turning], st.path_length_m[~turning],
                                atol=2e-3)  # fmt: skip
+
+
+def test_the_foot_turns_in_swing() -> None:
+    """turn_in_swing (the real level): the foot board's heading (walk + its own yaw) holds
+    still from each foot-flat's start to toe off, is the walk's at every foot-flat's start, and
+    turns in swing at up to ~4 rad/s (gdins: peak vertical rate 4.5 rad/s in turning strides)."""
+    from gaitmon.io.sim.kinematics import TOE_OFF_PHASE
+
+    g = GaitModel(replace(realism_gait(GaitConfig(seed=3), "real"), swing_yaw_deg=(0.0,) * 4))
+    assert g.config.turn_in_swing
+    kin = g.evaluate(0, 9000)
+    foot = kin.heading_rad + kin.board_yaw_rad[:, FOOT]
+    rate = kin.yaw_rate_rad_s + kin.board_yaw_rate_rad_s[:, FOOT]
+    q = np.mod(kin.phase, 1.0)
+    stance = (q > FLAT_START + 0.01) & (q < TOE_OFF_PHASE - 0.01) & (kin.walking > 0.999)
+    np.testing.assert_allclose(rate[stance], 0.0, atol=1e-12)
+    assert np.max(np.abs(kin.yaw_rate_rad_s[stance])) > 0.5  # the walk turns meanwhile
+    starts = np.arange(2, int(kin.phase[-1]) - 1) + FLAT_START
+    walk = np.interp(starts, kin.phase, kin.heading_rad)
+    np.testing.assert_allclose(np.interp(starts, kin.phase, foot), walk, atol=2e-3)
+    np.testing.assert_allclose(np.gradient(foot, 1.0 / FS), rate, atol=0.05)
+    assert 3.0 < np.max(np.abs(rate)) < 5.0
 
 
 def test_turn_and_roll_leak_into_the_planar_sensors() -> None:
@@ -193,7 +255,8 @@ def test_turn_and_roll_leak_into_the_planar_sensors() -> None:
     assert np.max(np.abs(leak[:, FOOT])) > 0.05
     flat = _flat_samples(kin.phase, kin.walking)
     flat = flat[np.abs(kin.yaw_rate_rad_s[flat]) < 1e-9]  # no turn: no centripetal force
-    assert np.all(kin.board_yaw_rad[flat] == 0.0)  # the swing yaw is over
+    assert np.all(kin.board_yaw_rad[flat, :FOOT] == 0.0)  # the swing yaw is over
+    assert np.all(kin.board_yaw_rate_rad_s[flat] == 0.0)  # the foot may still face the turn
     mag = np.hypot(sb.physical[flat, ACC_X_IDX[FOOT]], sb.physical[flat, ACC_Z_IDX[FOOT]])
     np.testing.assert_allclose(mag, G * np.cos(kin.roll_rad[flat, FOOT]), rtol=1e-9)
     assert np.max(np.degrees(np.abs(kin.roll_rad[flat, FOOT]))) > 2.0

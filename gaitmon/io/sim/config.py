@@ -36,16 +36,23 @@ REAL_GAIT: dict[str, Any] = {
     "stance_micro_rad": 0.13,  # the stance roll-over (toe-down through the still phase): real
     # |w_y| there 0.22 (x-io) .. 0.29 (gdins) rad/s median, stillest 0.1 s 0.14 .. 0.21
     "stance_micro_spread": 0.5,  # stride to stride (real p10 .. p90 of the stillest: x 3 .. 8)
+    "stance_pivot_m": (0.064, -0.073),  # the roll-over turns about a point 6.4 cm ahead of and
+    # 7.3 cm below the sensor (the ball of the foot): gdins stance velocity against the pitch
+    # rate, median over 956 stances (x-io 3 / 6 cm; benchmarks/sim_realism_params.py)
     "roll_sd_deg": (1.0, 2.0, 2.0, 4.4),  # foot: stance |roll| median 3.0 deg (gdins); others
     # not measured (no shared thigh / shank / pelvis data): assumed smaller
     "swing_roll_deg": (0.0, 0.0, 0.0, 10.0),  # foot: roll RMS over a stride 5.1 (gdins), 9.0 deg
     # (x-io), peak 11 / 22 deg
     "swing_yaw_deg": (0.0, 0.0, 0.0, 2.5),  # foot: peak vertical rate in straight strides 2.3
     # rad/s (gdins), 2.2 (x-io)
-    "turn_every_strides": 9.0,  # hallway laps: 184 of 1050 gdins strides turn > 45 deg
-    "turn_strides": 1.3,
+    "turn_every_strides": 12.0,  # hallway laps: 17.6 % of gdins strides turn > 45 deg (sim
+    # 17.6 %); gdins turns back every 21 strides, this simulator every 12
+    "turn_strides": 4.0,  # a gdins U-turn spans 3 strides turning > 20 deg, median 58 deg (p90
+    # 86) per stride turning > 45 deg, 1.3 % of strides > 90 deg (sim: 3; 73 (78); 0 %)
     "turn_deg": 180.0,
     "first_turn_strides": 3.0,
+    "turn_in_swing": True,  # the foot turns in swing (gdins: peak vertical rate 4.5 rad/s in
+    # turning strides), not while it stands
 }
 REAL_SENSORS: dict[str, Any] = {
     "acc_gain_sd": 0.02,  # uncalibrated analog axes (ADXL335: 270..330 mV/g); the calibrated

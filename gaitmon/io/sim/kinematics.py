@@ -50,13 +50,16 @@ the parameters measured on real feet, docs/simulator.md "Realism levels")
   normal, clipped at 2.5, drawn per stride in order from its own generator); the hip's curves
   join the foot-flats where they now lie, so the sensors see it.
 * ``stance_micro_rad``: the stance foot rolls over: from foot-flat on it turns toe-down at a
-  steady rate and gives the angle back by toe off (``_stance_micro``); it turns about its
-  sensor's point (the linkage keeps the flat foot), so the truth's foot tilt and ankle include
-  it and the sensor's path does not move.
+  steady rate and gives the angle back by toe off (``_stance_micro``); it turns about
+  ``stance_pivot_m`` from the sensor (the real level: the ball of the foot, measured on gdins;
+  (0, 0): the sensor's own point), so the truth's foot tilt and ankle include it and the
+  foot sensor's path moves by (R(micro) - I)(sensor - pivot) (``_points``); the rest of the
+  linkage keeps the flat foot, and the footprints (each foot-flat's start) do not move.
 * ``roll_sd_deg`` / ``swing_roll_deg`` / ``swing_yaw_deg``: each board leaves the sagittal
   plane: a slow random roll about the walking direction, a roll bump in every swing, and a yaw
   out and back in every swing, both about the board's own point.
-* ``turn_every_strides`` ...: turns of ``turn_deg`` change the walking direction (``heading``):
+* ``turn_every_strides`` ...: turns of ``turn_deg`` change the walking direction (``heading``;
+  with ``turn_in_swing`` the foot board keeps its heading through stance and turns in swing):
   every sensor point's horizontal path is its forward travel laid along the heading, so a
   turning stride's length (the footprints' straight distance, ``StrideTruth.stride_length_m``)
   is shorter than its path (``path_length_m``), and the sensors feel the turn's centripetal
@@ -187,6 +190,8 @@ class GaitConfig:
     stride_length_cv: float = 0.0  # stride-to-stride CV of stride length
     stance_micro_rad: float = 0.0  # median amplitude of the stance foot's roll-over (toe-down)
     stance_micro_spread: float = 0.5  # SD of its log amplitude from stride to stride
+    stance_pivot_m: tuple[float, float] = (0.0, 0.0)  # where the roll-over turns: (forward, up)
+    # from the foot sensor's point in the foot's frame; (0, 0): about the sensor's point
     roll_sd_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # RMS slow roll out of the plane
     swing_roll_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak roll in every swing
     swing_yaw_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak yaw in every swing (out, back)
@@ -194,6 +199,9 @@ class GaitConfig:
     turn_strides: float = 2.0  # how long a turn lasts
     turn_deg: float = 180.0  # heading change of one turn (> 0: to the left)
     first_turn_strides: float = 3.0  # strides walked (after the ramp-in) before the first turn
+    turn_in_swing: bool = False  # the foot board turns only in swing (toe off .. the next
+    # foot-flat) and keeps its heading through stance, as a real foot does; False: it turns
+    # with the walking direction all through the stride
 
     def __post_init__(self) -> None:
         if self.pattern not in PATTERNS:
@@ -218,6 +226,9 @@ class GaitConfig:
             raise ValueError(f"stride length CV {self.stride_length_cv} is outside 0..0.2")
         if not 0.0 <= self.stance_micro_rad <= 0.3 or self.stance_micro_spread < 0:
             raise ValueError("stance_micro_rad must be in 0..0.3 rad, stance_micro_spread >= 0")
+        if len(self.stance_pivot_m) != 2 or not all(abs(x) <= 0.3 for x in self.stance_pivot_m):
+            raise ValueError(f"stance_pivot_m needs (forward, up) within 0.3 m, "
+                             f"got {self.stance_pivot_m}")  # fmt: skip
         for name in ("roll_sd_deg", "swing_roll_deg", "swing_yaw_deg"):
             v = getattr(self, name)
             if len(v) != 4 or not all(-30.0 <= r <= 30.0 for r in v) or min(self.roll_sd_deg) < 0:
@@ -572,6 +583,18 @@ class GaitModel:
         f2 = np.where(inside & (s >= 0.0), a / ts**2 * 2.0 * np.pi * np.sin(2.0 * np.pi * u), 0.0)
         return p.compose(f, f1, f2)
 
+    def _swing_warp(self, p: Jet) -> Jet:
+        """The phase the foot's heading follows (``turn_in_swing``): held at each foot-flat's
+        start (k + FLAT_START) until toe off, then a quintic step to the next foot-flat's."""
+        q = p.v - FLAT_START
+        k = np.floor(q)
+        span = 1.0 - (TOE_OFF_PHASE - FLAT_START)
+        x = np.clip((q - k - (TOE_OFF_PHASE - FLAT_START)) / span, 0.0, 1.0)
+        h = x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+        h1 = 30.0 * x * x * (1.0 - x) ** 2 / span
+        h2 = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x) / span**2
+        return p.compose(k + FLAT_START + h, h1, h2)
+
     def roll(self, p: Jet, env: Jet) -> list[Jet]:
         """Each board's roll about the walking direction (rad): ``roll_sd_deg`` RMS, a sum of
         three sines of the phase at incommensurate frequencies (ROLL_FREQS per stride) with
@@ -606,8 +629,8 @@ class GaitModel:
 
     def _stance_micro(self, p: Jet, env: Jet) -> Jet | None:
         """The stance foot's roll-over (rad, added to its tilt and the ankle's, not to the
-        linkage: the foot turns about its sensor's point, whose path stays the flat foot's, so
-        its heel and ball leave the ground by millimetres): from foot-flat on the foot turns
+        linkage: the foot turns about ``stance_pivot_m`` from its sensor, which moves the foot
+        sensor's point only (``_points``)): from foot-flat on the foot turns
         toe-down at a steady rate (the heel starts to rise early, as real feet do: the pitch
         gyro reads about -0.2 rad/s through the whole still phase, docs/simulator.md), and
         gives the angle back by toe off (``_ROLLOVER``). Stride k's amplitude is
@@ -727,7 +750,7 @@ class GaitModel:
         hip, knee, ankle, body, thigh, shank, foot, env = self._angles(p)
         points = self._points(p, thigh, shank, foot, env)
         micro = self._stance_micro(p, env)
-        if micro is not None:  # the flat foot rocks about its sensor's point (realism)
+        if micro is not None:  # the flat foot rolls over (realism; its sensor: _points)
             foot, ankle = foot + micro, ankle + micro
         lin_acc = np.stack([np.stack([pf.dd, pu.dd], axis=-1) for pf, pu in points], axis=1)
         pos = np.stack([np.stack([pf.v, pu.v], axis=-1) for pf, pu in points], axis=1)
@@ -736,6 +759,10 @@ class GaitModel:
         head = self.heading(p)
         rolls = self.roll(p, env)
         yaws = self.board_yaw(p, env)
+        if cfg.turn_in_swing and cfg.turn_every_strides:
+            # the foot's heading is the walk's at its last foot-flat through stance, then turns
+            # to the next foot-flat's in swing: its yaw from the walking direction
+            yaws[3] = yaws[3] + self.heading(self._swing_warp(p)) - head
         return KinematicsBlock(
             sample_idx=idx,
             t_s=t,
@@ -770,11 +797,21 @@ class GaitModel:
         ankle_f, ankle_u = knee_f + ss * cfg.shank_m, knee_u - cs * cfg.shank_m
         half_t, half_s = 0.5 * cfg.thigh_m, 0.5 * cfg.shank_m
         fwd, up = geo.sensor_fwd_m, geo.sensor_up_m
+        foot_f, foot_u = ankle_f + cf * fwd - sf * up, ankle_u + sf * fwd + cf * up
+        px, pz = cfg.stance_pivot_m
+        micro = self._stance_micro(p, env) if px or pz else None
+        if micro is not None:
+            # the roll-over turns the foot by micro about the pivot (px, pz) from the sensor in
+            # the foot's frame: the sensor moves by (R(micro) - I) (sensor - pivot) in the world
+            df, du = (cf * px - sf * pz) * -1.0, (sf * px + cf * pz) * -1.0
+            cm, sm = micro.cos() - 1.0, micro.sin()
+            foot_f = foot_f + cm * df - sm * du
+            foot_u = foot_u + sm * df + cm * du
         return (
             (hip_f, hip_u),
             (hip_f + st * half_t, hip_u - ct * half_t),
             (knee_f + ss * half_s, knee_u - cs * half_s),
-            (ankle_f + cf * fwd - sf * up, ankle_u + sf * fwd + cf * up),
+            (foot_f, foot_u),
         )
 
     # ---- truth per stride ---------------------------------------------------------------------
