@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gaitmon.dsp import pipeline
+from gaitmon.dsp import lost_frames as bridging
 from gaitmon.dsp.angles import wrap_angle
 from gaitmon.dsp.calibration import standing_calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE
@@ -101,12 +101,12 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=None, help="real data folder (../shared/data)")
     args = ap.parse_args()
     if args.bridge_s is not None:
-        pipeline.BRIDGE_MAX_S = args.bridge_s
+        bridging.BRIDGE_MAX_S = args.bridge_s
     config = PipelineConfig(tilt_method=args.method)
     n = round(args.seconds * FS)
     print(f"live joint RMSE (deg) vs simulator truth, {args.method}, {args.seeds} seeds x "
           f"{args.seconds:g} s, rows from {WALK_FROM / FS:g} s on, bridged losses up to "
-          f"{pipeline.BRIDGE_MAX_S:g} s")  # fmt: skip
+          f"{bridging.BRIDGE_MAX_S:g} s")  # fmt: skip
     print(f"{'':<16} {'live':^34} {'offline (smoothed)':^34}")
     print(f"{'loss':<16} " + f"{'hip':>6} {'knee':>6} {'ankle':>6} {'worst/no loss':>14} " * 2
           + f"{'strides':>8} {'stride time |err| ms':>21}")  # fmt: skip

@@ -30,7 +30,8 @@ from gaitmon.dsp.gait import (
     normalise_strides,
     strides_from_events,
 )
-from gaitmon.dsp.pipeline import BRIDGE_MAX_S, settling_ranges
+from gaitmon.dsp.lost_frames import BRIDGE_MAX_S
+from gaitmon.dsp.pipeline import settling_ranges
 
 if TYPE_CHECKING:
     from gaitmon.dsp.bilateral import BilateralGait

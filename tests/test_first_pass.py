@@ -14,7 +14,8 @@ import pytest
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE
-from gaitmon.dsp.pipeline import Pipeline, PipelineConfig, bridged_losses, restart_rows
+from gaitmon.dsp.lost_frames import bridged_losses, restart_rows
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.dsp.smoother import CausalFirstPass
 from gaitmon.finish import close_recording
 from gaitmon.finish.recovery import replay_pipeline

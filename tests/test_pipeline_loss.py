@@ -9,7 +9,8 @@ import pytest
 from gaitmon.dsp.angles import wrap_angle
 from gaitmon.dsp.calibration import standing_calibration
 from gaitmon.dsp.channels import FSR_IDX, GYRO_IDX, N_CHANNELS
-from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, bridge_max_samples
+from gaitmon.dsp.lost_frames import bridge_max_samples
+from gaitmon.dsp.pipeline import Pipeline, PipelineBlock
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
 

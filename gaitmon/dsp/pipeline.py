@@ -85,23 +85,16 @@ from gaitmon.dsp.filters import Butterworth, GyroIntegrator
 from gaitmon.dsp.fsr_check import FsrFault, FsrMonitor
 from gaitmon.dsp.gait import GaitEventDetector, Stride, StrideTracker
 from gaitmon.dsp.kalman import TiltKalman
+from gaitmon.dsp.lost_frames import bridge_max_samples, fill_lost, restart_rows
 from gaitmon.dsp.methods import DEFAULT_METHOD, TiltInput, TiltMethod, TiltStage, get_method
 
 # long inputs are worked through in sub-blocks that stay in cache (same output, about 2x faster)
 _SUB_BLOCK = 16384
 
-# Losses up to this long are bridged (a frame or two on a noisy link); longer ones restart the
-# filters. The same limit decides which gaps a stride may cross (gaitmon.analysis).
-BRIDGE_MAX_S = 0.05
 # After a restart the gait-aware filter's angle converges with its exact start-up gain: measured
 # on the simulator, the joint-angle error after a 3 s outage is at its walking level after 3 s
 # (benchmarks/gap_settling.py, docs/gaps-and-time.md).
 SETTLE_S = 3.0
-
-
-def bridge_max_samples(fs_hz: float) -> int:
-    """The longest loss (in frames) the pipeline bridges without restarting."""
-    return round(BRIDGE_MAX_S * fs_hz)
 
 
 def warm_up(config: PipelineConfig, table: ChannelTable = DEFAULT_TABLE) -> None:
@@ -110,43 +103,6 @@ def warm_up(config: PipelineConfig, table: ChannelTable = DEFAULT_TABLE) -> None
     loaded from its cache now, not on the first block a unit streams."""
     rows = np.rint(np.tile(table.zero_counts, (2, 1))).astype(np.uint16)
     Pipeline(config, table=table).process(rows)
-
-
-def restart_rows(lost_before: np.ndarray, fs_hz: float) -> np.ndarray:
-    """Rows where the pipeline restarts: the first row after a loss longer than the bridge."""
-    lost = np.asarray(lost_before, dtype=np.int64)
-    return np.flatnonzero(lost > bridge_max_samples(fs_hz)).astype(np.int64)
-
-
-def bridged_losses(lost_before: np.ndarray, fs_hz: float) -> dict[int, int]:
-    """{row: frames filled in just before it} of a record processed from row 0: every loss
-    the pipeline bridges (module doc, "Gaps"; none before row 0, nothing to fill from)."""
-    lost = np.asarray(lost_before, dtype=np.int64)
-    rows = np.flatnonzero((lost > 0) & (lost <= bridge_max_samples(fs_hz)))
-    return {int(r): int(lost[r]) for r in rows if r > 0}
-
-
-def fill_lost(
-    phys: np.ndarray, fill: np.ndarray, prev: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray | None]:
-    """Rows (N, C) with ``fill[i]`` lost frames filled in before row ``i``, linear between
-    the row before (``prev`` for row 0) and row ``i`` at the lost frames' times; and where
-    the rows are among the samples (None, and ``phys`` itself, when nothing is filled in).
-    The pipeline, the smoother's first pass (gaitmon.dsp.smoother) and the smoother itself
-    (gaitmon.finish.smoothed) fill alike."""
-    if not len(phys) or not fill.any():
-        return phys, None
-    pos = np.arange(len(phys)) + np.cumsum(fill)  # each row's place among the samples
-    ext = np.empty((len(phys) + int(fill.sum()), phys.shape[1]))
-    ext[pos] = phys
-    for i in np.flatnonzero(fill):
-        k = int(fill[i])
-        before = phys[i - 1] if i else prev
-        if before is None:
-            raise ValueError("lost frames before the first row: nothing to fill them from")
-        w = (np.arange(1, k + 1, dtype=np.float64) / (k + 1))[:, None]
-        ext[pos[i] - k : pos[i]] = before + w * (phys[i] - before)
-    return ext, pos
 
 
 def settling_ranges(
@@ -198,6 +154,7 @@ class PipelineConfig:
     compensate_event_delay: bool = True
     tilt_method: str = DEFAULT_METHOD  # an app method of gaitmon.dsp.methods: gait-aware | paper
     fsr_check: bool = True  # cross-check the FSRs with the foot gyro, fall back to its events
+
     @classmethod
     def from_stored(cls, values: Mapping[str, Any]) -> PipelineConfig:
         """The configuration a session file (or journal) recorded; unknown keys are ignored.

@@ -467,7 +467,7 @@ class CausalFirstPass:
     the rows in order exactly as the live pipeline runs it (``Pipeline`` with its default
     ``tilt_method``): on the raw accelerometer and the gyro less the calibration in force,
     restarted after each long gap (``restarts``; the learnt bias is kept), fed the frames lost
-    in each bridged gap filled in (``filled``, gaitmon.dsp.pipeline.bridged_losses), and with
+    in each bridged gap filled in (``filled``, gaitmon.dsp.lost_frames.bridged_losses), and with
     its bias state moved by each new calibration's gyro bias (``Pipeline.set_calibration``).
     So where a pipeline ran over the record with that filter and no change of settings, its
     ``PipelineBlock.tilt_kalman_continuous_rad`` is this, bit for bit (tests), and
@@ -485,7 +485,7 @@ class CausalFirstPass:
     ) -> None:  # fmt: skip
         from gaitmon.dsp.motion_kalman import GaitAwareKalman
 
-        # {row: lost frames filled in before it} (gaitmon.dsp.pipeline.bridged_losses): the
+        # {row: lost frames filled in before it} (gaitmon.dsp.lost_frames.bridged_losses): the
         # filter runs over them as the pipeline does, on the unit's uniform time base
         fills = sorted((filled or {}).items())
         self._fill_rows = np.array([r for r, _ in fills], dtype=np.int64)
@@ -514,7 +514,7 @@ class CausalFirstPass:
 
     def _run(self, counts: np.ndarray, first: int) -> np.ndarray:
         """Run the filter over ``counts``, the rows from ``first``."""
-        from gaitmon.dsp.pipeline import fill_lost
+        from gaitmon.dsp.lost_frames import fill_lost
 
         n = len(counts)
         cuts = sorted({0, n, *range(0, n, _CAUSAL_BLOCK),  # blocks that stay in the cache

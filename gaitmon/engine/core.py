@@ -42,7 +42,8 @@ from gaitmon.dsp.calibration import (
     zero_source,
 )
 from gaitmon.dsp.fsr_check import FsrFault
-from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, restart_rows, warm_up
+from gaitmon.dsp.lost_frames import restart_rows
+from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, warm_up
 from gaitmon.engine.buffers import (
     RingBuffer,
     cols_from_device,

@@ -78,16 +78,16 @@ def smoothed_blocks(
     :data:`SMOOTH_OVERLAP_ROWS` rows), so memory does not grow with the session.
 
     The record is smoothed in pieces split at the ``restarts`` rows (after a long gap, where
-    the live pipeline restarts, :func:`gaitmon.dsp.pipeline.restart_rows`): the segments moved
+    the live pipeline restarts, :func:`gaitmon.dsp.lost_frames.restart_rows`): the segments moved
     while no data came, so nothing links the angle before a gap to the one after it. A long
     piece is smoothed in blocks with :data:`SMOOTH_OVERLAP_ROWS` of context either side.
 
     The smoother's first pass, the causal filter, runs over the whole record in row order as
     the live pipeline does (:class:`gaitmon.dsp.smoother.CausalFirstPass`); ``first_pass``
     gives those tilts where they are known already (a replay of the pipeline kept them);
-    ``filled``: the bridged losses (gaitmon.dsp.pipeline.bridged_losses), filled in for the
+    ``filled``: the bridged losses (gaitmon.dsp.lost_frames.bridged_losses), filled in for the
     first pass and the smoother alike: both step the unit's uniform time base."""
-    from gaitmon.dsp.pipeline import fill_lost
+    from gaitmon.dsp.lost_frames import fill_lost
     from gaitmon.dsp.smoother import CausalFirstPass, smooth_record_tilts
 
     changes = sorted(((max(0, int(r)), c) for r, c in calibration_changes), key=lambda x: x[0])
@@ -106,7 +106,7 @@ def smoothed_blocks(
         rows = counts(a, b)
         theta = first_pass(a, b, rows)
         # the bridged losses filled in, as the live filter saw them: the smoother's model
-        # steps one frame at a time (gaitmon.dsp.pipeline.fill_lost); rows out
+        # steps one frame at a time (gaitmon.dsp.lost_frames.fill_lost); rows out
         fill = np.zeros(b - a, dtype=np.int64)
         lo, hi = np.searchsorted(fill_rows, [a, b])
         fill[fill_rows[lo:hi] - a] = fill_n[lo:hi]
@@ -205,13 +205,13 @@ _ROW_BYTES = N_SEGMENTS * 8
 
 
 def _restarts(lost_before: np.ndarray, n: int, fs_hz: float) -> np.ndarray:
-    from gaitmon.dsp.pipeline import restart_rows
+    from gaitmon.dsp.lost_frames import restart_rows
 
     return restart_rows(lost_before[:n], fs_hz)
 
 
 def _filled(lost_before: np.ndarray, n: int, fs_hz: float) -> dict[int, int]:
-    from gaitmon.dsp.pipeline import bridged_losses
+    from gaitmon.dsp.lost_frames import bridged_losses
 
     return bridged_losses(lost_before[:n], fs_hz)
 
