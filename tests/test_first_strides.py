@@ -29,8 +29,11 @@ def test_the_first_10_s_without_a_zero(pattern: str) -> None:
     first = e[:1000] - e[1500:].mean(axis=0)  # the steady (mounting) offset removed
     rmse = np.sqrt((first**2).mean(axis=0))
     # issue 24's goal is 3 deg; from rest the walk's start (the body accelerating) still
-    # leaves 3.7-4.9 deg worst over seeds 0-2 (docs/filters.md); was 11.7 / 13.5 / 8.6
-    assert rmse.max() < 5.5, rmse
+    # leaves 2.9-3.8 deg worst over seeds 0-2 (docs/filters.md); on seed 0 2.9 / 2.8 / 3.5
+    # (normal / stiff-knee / long-stance), before the body's start-up without its static
+    # samples and the stride-periodic bias 4.9 / 4.9 / 3.9 (hip 4.9 / 4.9 / 3.7), before the
+    # start-up 11.7 / 13.5 / 8.6
+    assert rmse.max() < 3.7, rmse
     later = e[1500:] - e[1500:].mean(axis=0)
     assert np.sqrt((later**2).mean(axis=0)).max() < 1.5  # the walking level is kept
 
