@@ -107,7 +107,12 @@ def gait_aware_update(
     of its covariance ``cov[c]`` = (P00, P01, P11), propagated with Q = ``q[c]`` (q_angle,
     q_bias) and updated with the chosen measurement's R (``r_static``, ``r_grav``, the weighted
     R; none while gated); once P00 and P11 fall to ``p_end[c]`` (2,) the segment goes over to
-    the scheduled gains above (``exact[c]`` cleared).
+    the scheduled gains above (``exact[c]`` cleared). While exact, a segment with
+    ``start_static[c]`` False takes no quasi-static sample, and at each foot-flat onset of the
+    column ``stride_foot`` (-1 = none) a segment with ``stride_r[c]`` > 0 takes the mean gyro
+    rate of the stride that ended as a bias measurement (R = stride_r / T^2); carried:
+    ``stride_int`` (S,) the gyro integrals since the last onset, ``stride_state`` (time since
+    it, -1 = none; the foot flat at the last sample); ``stride_limits`` (shortest, longest).
     """
     n, s = dev.shape
     m = tail.shape[0]  # n_max - 1

@@ -81,6 +81,16 @@ bias spread; real foot IMUs in ../shared/data read <= 0.012 rad/s before walking
   settled lag;
 * an innovation beyond ``START_HUBER`` (2) standard deviations is weighed as if it were at 2
   (Huber): one bad sample cannot throw the still wide bias;
+* a segment with ``start_static`` False (the body) takes no quasi-static sample: the pelvis
+  accelerating forward at the walk's start keeps |a| near g, so its "static" accelerometer tilt
+  is off and ramps (the gravity measurement takes those samples);
+* stride-periodic bias (``stride_sigma_rad`` > 0: body, thigh, shank): a segment's tilt returns
+  to the same value a stride later, so its mean gyro rate over a whole stride is its bias. The
+  strides are the foot's foot-flat onsets (its quasi-static test; the foot counts as flat
+  before the first sample; an onset within ``STRIDE_LIMITS[0]`` s of the last is not one, a
+  stride longer than ``STRIDE_LIMITS[1]`` s is not taken); at each onset the stride's mean rate
+  is a measurement of the bias, H = [0, 1], R = (``stride_sigma_rad`` / T)^2, T its duration
+  (Huber as above). No accelerometer is in it, so the walk's acceleration does not tilt it;
 * once the angle variance is below (``END_ANGLE_RAD``)^2 and the bias variance below
   ``END_FACTOR`` x its steady state, the segment goes over to the scheduled gains (the state is
   kept). A restart (a long gap) puts the angle variance back to the prior's and keeps the bias
@@ -165,6 +175,8 @@ class SegmentTuning:
     # gain, and c (rad s) in the gravity tilt's R + (c / t)^2, t the time since its (re)start
     start_r_factor: float = 1.0
     start_gravity_rad_s: float = 0.1
+    # whether the quasi-static samples are used in the start-up, and the SD (rad) of a
+    # segment's tilt change over a stride for the stride-periodic bias (0 = none)
     start_static: bool = True
     stride_sigma_rad: float = 0.0
 
