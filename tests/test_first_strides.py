@@ -43,8 +43,8 @@ def test_the_first_10_s_of_a_recording_started_mid_walk() -> None:
     ``benchmarks/first_strides.py`` before the body's start-up without its static samples and
     the stride-periodic bias; docs/filters.md)."""
     skip = 537
-    sb = simulate(skip + 3000, GaitModel(GaitConfig(seed=2, pattern="long-stance",
-                                                    standing_s=0.0)), SensorConfig(seed=2))  # fmt: skip
+    gait = GaitConfig(seed=2, pattern="long-stance", standing_s=0.0)
+    sb = simulate(skip + 3000, GaitModel(gait), SensorConfig(seed=2))
     b = Pipeline().process(sb.counts[skip:])
     e = np.degrees(wrap_angle(b.joint_kalman_rad - sb.kinematics.joint_rad[skip:]))
     rmse = np.sqrt(((e[:1000] - e[1500:].mean(axis=0)) ** 2).mean(axis=0))
