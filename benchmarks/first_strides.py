@@ -79,7 +79,8 @@ def main() -> None:
     import argparse
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default="0,1,2", help="comma-separated simulator seeds")
+    seeds_default = ",".join(map(str, SEEDS))
+    parser.add_argument("--seeds", default=seeds_default, help="comma-separated simulator seeds")
     seeds = tuple(int(x) for x in parser.parse_args().seeds.split(","))
     print(f"live joint RMSE (deg), hip / knee / ankle, worst of seeds {seeds}")
     print(f"{'scenario':<10} {'pattern':<12} {'first 10 s':>18} {'demeaned':>18} "

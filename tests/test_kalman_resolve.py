@@ -207,6 +207,14 @@ def test_the_block_solve_is_the_row_at_a_time_result(walk) -> None:
     rows = np.vstack([k.process(ax[i : i + 1], az[i : i + 1], w[i : i + 1])
                       for i in range(len(ax))])  # fmt: skip
     np.testing.assert_array_equal(whole, rows)
+    # started mid-walk (the start-up's stride-periodic bias at the foot-flat onsets), in blocks
+    # that cut the strides anywhere
+    mid = [a[1500:4500] for a in walk]
+    whole = mk.GaitAwareKalman().process(*mid)
+    k = mk.GaitAwareKalman()
+    cuts = np.r_[0, np.sort(np.random.default_rng(3).choice(np.arange(1, 3000), 60, False)), 3000]
+    parts = np.vstack([k.process(*(c[a:b] for c in mid)) for a, b in itertools.pairwise(cuts)])
+    np.testing.assert_array_equal(whole, parts)
 
 
 def test_a_segment_near_the_wrap_with_impacts_is_the_row_at_a_time_result() -> None:
