@@ -44,14 +44,33 @@ def reference_filter(
     segment's tuning, the prediction, the innovation wrapped into [-pi, pi), the update; with
     ``start``, the start-up's exact gain (2x2 matrices) from the prior until the bias variance
     reaches its end (out of plane: the angle alone, the bias left alone).
-    Returns (tilts, wraps, samples out of plane)."""
+    Returns (tilts, wraps, samples out of plane, stride-periodic bias updates)."""
     from scipy import signal
 
     dt = 1.0 / fs
     n, s = ax.shape
     out = np.empty((n, s))
-    wraps = planes = 0
+    wraps = planes = strides = 0
     f_mat = np.array([[1.0, -dt], [0.0, 1.0]])
+    # the stride-periodic bias: the foot's foot-flat onsets (the foot taken as flat before the
+    # first sample; none within STRIDE_LIMITS[0] of the last), and at each, the stride's span
+    # when it is at most STRIDE_LIMITS[1] (0: none)
+    tf = (tuning or {}).get("foot") or mk.tuning_for("foot")
+    fc, fw = SEGMENTS.index("foot"), tf.window_samples(fs)
+    f_dev = np.abs(np.hypot(ax[:, fc], az[:, fc]) - STANDARD_GRAVITY_MS2)
+    flat = np.array([f_dev[max(0, k - fw + 1) : k + 1].max() < tf.static_acc_ms2
+                     and np.abs(w[max(0, k - fw + 1) : k + 1, fc]).max() < tf.static_rate_rad_s
+                     for k in range(n)])  # fmt: skip
+    span = np.zeros(n)
+    since = np.zeros(n, dtype=np.int64)  # the previous onset's sample
+    last = None
+    for k in range(n):
+        if flat[k] and not (flat[k - 1] if k else True):
+            if last is not None and (k - last) * dt < mk.STRIDE_LIMITS[0]:
+                continue
+            if last is not None and (k - last) * dt <= mk.STRIDE_LIMITS[1]:
+                span[k], since[k] = (k - last) * dt, last
+            last = k
     for c, seg in enumerate(SEGMENTS):
         t = (tuning or {}).get(seg) or mk.tuning_for(seg)
         nw = t.window_samples(fs)
@@ -94,7 +113,9 @@ def reference_filter(
                 gain = k_plane
                 planes += 1
                 plane = True
-            elif md < t.static_acc_ms2 and mr < t.static_rate_rad_s:
+            elif (
+                md < t.static_acc_ms2 and mr < t.static_rate_rad_s and (t.start_static or not exact)
+            ):
                 gain = k_static
             elif t.live_gravity_hz is not None:
                 # its R grows by (c / t)^2 at the start, t the time since the reference started
@@ -129,8 +150,17 @@ def reference_filter(
                     gain = np.zeros(2)
                 exact = not (p_mat[0, 0] <= p_end[0] and p_mat[1, 1] <= p_end[1])
             th, b = pred + gain[0] * e, b + gain[1] * e
+            if span[k] > 0 and exact and t.stride_sigma_rad > 0:
+                # a whole stride ended: its mean gyro rate measures the bias (H = [0, 1])
+                strides += 1
+                eb = w[since[k] + 1 : k + 1, c].sum() * dt / span[k] - b
+                sv = p_mat[1, 1] + (t.stride_sigma_rad / span[k]) ** 2
+                sv = max(sv, eb * eb / mk.START_HUBER**2)
+                gain = p_mat[:, 1] / sv
+                th, b = th + gain[0] * eb, b + gain[1] * eb
+                p_mat = p_mat - np.outer(gain, p_mat[1])
             out[k, c] = th
-    return out, wraps, planes
+    return out, wraps, planes, strides
 
 
 def test_the_filter_is_its_module_doc_written_out(walk) -> None:
@@ -140,7 +170,7 @@ def test_the_filter_is_its_module_doc_written_out(walk) -> None:
     # the foot's board turned out of the sagittal plane for 6 s: its planar |a| drops well below 1 g
     ax[1000:1600, 3] *= 0.6
     az[1000:1600, 3] *= 0.6
-    ref, _wraps, planes = reference_filter(ax, az, w)
+    ref, _wraps, planes, _ = reference_filter(ax, az, w)
     assert planes > 200, "the out-of-plane rule was never used (the test would be moot)"
     got = mk.GaitAwareKalman().process(ax, az, w)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
@@ -148,19 +178,24 @@ def test_the_filter_is_its_module_doc_written_out(walk) -> None:
     ax2, az2 = ax.copy(), az.copy()
     ax2[:400, 3] *= 0.6
     az2[:400, 3] *= 0.6
-    ref, _wraps, planes = reference_filter(ax2, az2, w)
+    ref, _wraps, planes, _ = reference_filter(ax2, az2, w)
     assert planes > 300
     got = mk.GaitAwareKalman().process(ax2, az2, w)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
     # the foot weighted by its motion while moving (no gravity measurement): its accelerometer
     # tilt jumps by a turn at the impacts, so this path wraps innovations
     table = dict(mk.SEGMENT_TUNING, foot=mk.SegmentTuning(r_moving=1.0))
-    ref, wraps, _ = reference_filter(ax, az, w, tuning=table)
+    ref, wraps, _, _ = reference_filter(ax, az, w, tuning=table)
     assert wraps > 10, "the walk never wrapped an innovation (the test would be moot)"
     got = mk.GaitAwareKalman(tuning=table).process(ax, az, w)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
+    # started mid-walk: the start-up takes the stride-periodic bias at the foot-flat onsets
+    ref, _, _, strides = reference_filter(*(a[1500:4500] for a in walk))
+    assert strides >= 6, "no stride-periodic bias update (the test would be moot)"
+    got = mk.GaitAwareKalman().process(*(a[1500:4500] for a in walk))
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
     # without the start-up: the scheduled gains from the first sample
-    ref, _, _ = reference_filter(ax, az, w, start=False)
+    ref, _, _, _ = reference_filter(ax, az, w, start=False)
     got = mk.GaitAwareKalman(start_prior=None).process(ax, az, w)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
 
@@ -172,6 +207,14 @@ def test_the_block_solve_is_the_row_at_a_time_result(walk) -> None:
     rows = np.vstack([k.process(ax[i : i + 1], az[i : i + 1], w[i : i + 1])
                       for i in range(len(ax))])  # fmt: skip
     np.testing.assert_array_equal(whole, rows)
+    # started mid-walk (the start-up's stride-periodic bias at the foot-flat onsets), in blocks
+    # that cut the strides anywhere
+    mid = [a[1500:4500] for a in walk]
+    whole = mk.GaitAwareKalman().process(*mid)
+    k = mk.GaitAwareKalman()
+    cuts = np.r_[0, np.sort(np.random.default_rng(3).choice(np.arange(1, 3000), 60, False)), 3000]
+    parts = np.vstack([k.process(*(c[a:b] for c in mid)) for a, b in itertools.pairwise(cuts)])
+    np.testing.assert_array_equal(whole, parts)
 
 
 def test_a_segment_near_the_wrap_with_impacts_is_the_row_at_a_time_result() -> None:

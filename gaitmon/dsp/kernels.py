@@ -79,6 +79,8 @@ def gait_aware_update(
     k_plane: np.ndarray, plane_lp: np.ndarray, r_plane: np.ndarray,
     h_grav: np.ndarray, cov: np.ndarray, exact: np.ndarray,
     q: np.ndarray, r_grav: np.ndarray, p_end: np.ndarray, r_factor: np.ndarray, huber: float,
+    start_static: np.ndarray, stride_foot: int, stride_r: np.ndarray,
+    stride_int: np.ndarray, stride_state: np.ndarray, stride_limits: np.ndarray,
 ) -> None:  # fmt: skip
     """The gait-aware filter over one block (gaitmon.dsp.motion_kalman, module doc), per
     segment column in time order; writes ``theta_out`` (N, S) and carries the state.
@@ -105,7 +107,12 @@ def gait_aware_update(
     of its covariance ``cov[c]`` = (P00, P01, P11), propagated with Q = ``q[c]`` (q_angle,
     q_bias) and updated with the chosen measurement's R (``r_static``, ``r_grav``, the weighted
     R; none while gated); once P00 and P11 fall to ``p_end[c]`` (2,) the segment goes over to
-    the scheduled gains above (``exact[c]`` cleared).
+    the scheduled gains above (``exact[c]`` cleared). While exact, a segment with
+    ``start_static[c]`` False takes no quasi-static sample, and at each foot-flat onset of the
+    column ``stride_foot`` (-1 = none) a segment with ``stride_r[c]`` > 0 takes the mean gyro
+    rate of the stride that ended as a bias measurement (R = stride_r / T^2); carried:
+    ``stride_int`` (S,) the gyro integrals since the last onset, ``stride_state`` (time since
+    it, -1 = none; the foot flat at the last sample); ``stride_limits`` (shortest, longest).
     """
     n, s = dev.shape
     m = tail.shape[0]  # n_max - 1
@@ -136,10 +143,30 @@ def gait_aware_update(
             tail[t, 1, c] = ext_r[n + t]
     # the update, the segments side by side (their recursions overlap in the CPU)
     for k in range(n):
+        # the stride-periodic bias (start-up): the foot's foot-flat onsets mark whole strides
+        ready = False  # a stride ended at this sample: stride_int holds its mean rates
+        span = 0.0
+        if stride_foot >= 0:
+            f = stride_foot
+            flat = win_d[k, f] < static_acc[f] and win_r[k, f] < static_rate[f]
+            if stride_state[0] >= 0.0:  # the time and gyro integrals since the last onset
+                stride_state[0] += dt_s
+                for c in range(s):
+                    stride_int[c] += w[k, c] * dt_s
+            # an onset; none within stride_limits[0] of the last (a foot-flat's toggling)
+            if flat and stride_state[1] == 0.0 and not 0.0 <= stride_state[0] < stride_limits[0]:
+                span = stride_state[0]
+                ready = 0.0 < span <= stride_limits[1]
+                stride_state[0] = 0.0
+                for c in range(s):
+                    stride_int[c] = stride_int[c] / span if ready else 0.0
+            stride_state[1] = 1.0 if flat else 0.0
         for c in range(s):
             md = win_d[k, c]
             mr = win_r[k, c]
             static = md < static_acc[c] and mr < static_rate[c]
+            if exact[c] and not start_static[c]:
+                static = False
             z = z_acc[k, c]
             h = 0.0
             r_now = math.inf  # the measurement's R, for the exact start-up gain
@@ -225,6 +252,21 @@ def gait_aware_update(
                     exact[c] = False
             theta[c] = pred + k0 * e
             bias[c] = b + k1 * e
+            if ready:
+                mean_w = stride_int[c]
+                stride_int[c] = 0.0
+                if exact[c] and stride_r[c] > 0.0:  # mean gyro over the stride = the bias
+                    eb = mean_w - bias[c]
+                    sv = cov[c, 2] + stride_r[c] / (span * span)
+                    if eb * eb > huber * huber * sv:
+                        sv = eb * eb / (huber * huber)
+                    g0 = cov[c, 1] / sv
+                    g1 = cov[c, 2] / sv
+                    theta[c] += g0 * eb
+                    bias[c] += g1 * eb
+                    cov[c, 0] -= g0 * cov[c, 1]
+                    cov[c, 1] -= g0 * cov[c, 2]
+                    cov[c, 2] -= g1 * cov[c, 2]
             theta_out[k, c] = theta[c]
 
 

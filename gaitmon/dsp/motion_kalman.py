@@ -81,6 +81,16 @@ bias spread; real foot IMUs in ../shared/data read <= 0.012 rad/s before walking
   settled lag;
 * an innovation beyond ``START_HUBER`` (2) standard deviations is weighed as if it were at 2
   (Huber): one bad sample cannot throw the still wide bias;
+* a segment with ``start_static`` False (the body) takes no quasi-static sample: the pelvis
+  accelerating forward at the walk's start keeps |a| near g, so its "static" accelerometer tilt
+  is off and ramps (the gravity measurement takes those samples);
+* stride-periodic bias (``stride_sigma_rad`` > 0: body, thigh, shank): a segment's tilt returns
+  to the same value a stride later, so its mean gyro rate over a whole stride is its bias. The
+  strides are the foot's foot-flat onsets (its quasi-static test; the foot counts as flat
+  before the first sample; an onset within ``STRIDE_LIMITS[0]`` s of the last is not one, a
+  stride longer than ``STRIDE_LIMITS[1]`` s is not taken); at each onset the stride's mean rate
+  is a measurement of the bias, H = [0, 1], R = (``stride_sigma_rad`` / T)^2, T its duration
+  (Huber as above). No accelerometer is in it, so the walk's acceleration does not tilt it;
 * once the angle variance is below (``END_ANGLE_RAD``)^2 and the bias variance below
   ``END_FACTOR`` x its steady state, the segment goes over to the scheduled gains (the state is
   kept). A restart (a long gap) puts the angle variance back to the prior's and keeps the bias
@@ -120,6 +130,9 @@ START_PRIOR = (0.5, 0.05)
 END_FACTOR = 2.0
 END_ANGLE_RAD = float(np.radians(1.0))
 START_HUBER = 2.0
+# the stride-periodic bias (module doc): the shortest and longest stride (s) between foot-flat
+# onsets taken
+STRIDE_LIMITS = np.array([0.6, 2.5])
 
 
 @dataclass(frozen=True)
@@ -162,6 +175,10 @@ class SegmentTuning:
     # gain, and c (rad s) in the gravity tilt's R + (c / t)^2, t the time since its (re)start
     start_r_factor: float = 1.0
     start_gravity_rad_s: float = 0.1
+    # whether the quasi-static samples are used in the start-up, and the SD (rad) of a
+    # segment's tilt change over a stride for the stride-periodic bias (0 = none)
+    start_static: bool = True
+    stride_sigma_rad: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("static_acc_ms2", "static_rate_rad_s", "window_s", "r_static",
@@ -209,7 +226,7 @@ class SegmentTuning:
 # they take the gravity measurement live.
 _WEIGHTED = SegmentTuning(
     static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0,
-    live_gravity_hz=0.25,
+    live_gravity_hz=0.25, stride_sigma_rad=0.03,
 )  # fmt: skip
 # The foot (issue 24, chosen on the real walks and BROAD in ../shared/data with the simulator
 # kept; docs/filters.md, benchmarks/tilt_real.py): the accelerometer trusted at foot-flat
@@ -225,6 +242,7 @@ SEGMENT_TUNING: dict[str, SegmentTuning] = {
 }
 # the swinging shank's own acceleration is the largest: its gravity tilt needs whole strides
 SEGMENT_TUNING["shank"] = replace(_WEIGHTED, start_gravity_rad_s=0.3)
+SEGMENT_TUNING["body"] = replace(_WEIGHTED, start_static=False)
 
 
 def tuning_for(segment: str) -> SegmentTuning:
@@ -472,6 +490,12 @@ class GaitAwareKalman:
         self._r_grav = np.array([t.r_live_gravity for t in tuns])
         self._r_factor = np.array([t.start_r_factor for t in tuns])
         self._start_c = np.array([t.start_gravity_rad_s for t in tuns])
+        self._start_static = np.array([t.start_static for t in tuns], dtype=bool)
+        self._stride_r = np.array([t.stride_sigma_rad**2 for t in tuns])
+        # whose foot-flat onsets mark the strides (none without a foot column)
+        self._stride_foot = (
+            self.segments.index("foot") if "foot" in self.segments and self._stride_r.any() else -1
+        )
         self._p_end = np.array([
             (END_ANGLE_RAD**2, END_FACTOR * prior_covariance(
                 dt, t.q_angle, t.q_bias,
@@ -522,6 +546,11 @@ class GaitAwareKalman:
         for grav, _ in self._gravity:
             grav.reset()
         self._theta: np.ndarray | None = None
+        # the stride-periodic bias: the gyro integrals since the last foot-flat onset, and
+        # (the time since it, -1 = none yet; whether the foot was flat at the last sample: taken
+        # as flat at the start, so a subject standing from the first sample gives no onset)
+        self._stride_int = np.zeros(len(self.segments))
+        self._stride_state = np.array([-1.0, 1.0])
         # the out-of-plane test's low-passed |a| (module doc, "Out of plane"): 1 g again
         self._plane_lp = np.full(len(self.segments), STANDARD_GRAVITY_MS2)
 
@@ -536,6 +565,9 @@ class GaitAwareKalman:
             self._bias = self._bias + delta
         for grav, cols in self._gravity:
             grav.offset_rad_s = grav.offset_rad_s - delta[cols]
+        # a stride's mean rate would mix the two offsets: the next onset starts a new one
+        self._stride_state[0] = -1.0
+        self._stride_int[:] = 0.0
 
     def process(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
@@ -577,6 +609,8 @@ class GaitAwareKalman:
             bias, out, mag, self._plane_thr, self._plane_alpha, self._k_plane, self._plane_lp,
             self._r_plane, h_grav, self._cov, self._exact, self._q, r_grav, self._p_end,
             self._r_factor, START_HUBER,
+            self._start_static, self._stride_foot, self._stride_r, self._stride_int,
+            self._stride_state, STRIDE_LIMITS,
         )  # fmt: skip
         self._theta, self._bias = theta, bias
         return out[:, 0] if was_1d else out
