@@ -544,7 +544,8 @@ class Engine:
             to_idx = p.toe_off_idx + offset
             strides = [shift_stride(s, offset) for s in p.strides]
             restarts = p.restart_idx + offset
-            lengths = self._spatial.push(block.adc, p, hs_idx, start_idx, self._pipeline.table)
+            lengths = self._spatial.push(block.adc, p, hs_idx, start_idx, self._pipeline.table,
+                                         lost)  # fmt: skip
             if rec is not None:
                 if first and len(self._pipeline.fsr_faults) > len(p.fsr_faults):
                     # sensors flagged before the recording started are faulty in it from row 0
