@@ -14,12 +14,20 @@ Printed per loss: the median and p95 |error| (% of the simulator's truth) of str
 and gait speed (length over the stride's true time), the signed median length error, and the
 strides matched to a true one.
 
-    python benchmarks/loss_strides.py [--seeds 3] [--seconds 120] [--loss-pct 2]
+    python benchmarks/loss_strides.py [--seeds 3] [--seconds 120] [--loss-pct 2] [--data DIR]
+
+With ``--data DIR`` (default: ../shared/data when it is there) it also runs the 16 real
+foot-IMU walks of DIR/gdins_footprints with a seeded random single-frame loss: the loss-free
+heel strikes (foot gyro, as ``gaitmon lab accuracy``) on the row that arrived at or after
+them, and per trial the stride lengths with the rows taken as frames (before) and with the lost
+frames filled in (now): the median |change| against the loss-free run (%), and the median
+|error| against the measured footprints of the strides the loss-free run matched to one.
 """
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 
@@ -30,7 +38,7 @@ from gaitmon.dsp.stride_length import StrideLengthTracker, StrideMeasures, recor
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.kinematics import StrideTruth
 from gaitmon.io.sim.sensors import simulate
-from gaitmon.lab.accuracy import match_strides
+from gaitmon.lab.accuracy import default_data_dir, match_strides
 
 FS = 100.0
 SKIP = 1000  # frames: the standing start and the first strides are left out
@@ -99,12 +107,73 @@ def errors(
     return e_len, e_speed, (length[near] - t) / t * 100.0
 
 
+def real_walks(root: Path, frac: float) -> None:
+    """The gdins walks with seeded single-frame loss (module doc)."""
+    from gaitmon.dsp import gyro_gait_events, stride_measures
+    from gaitmon.lab.datasets import gyro_bias_at_start, read_gdins
+    from gaitmon.lab.real_gait import match_footprints
+
+    print(f"\ngdins real walks, {100 * frac:g} % single-frame loss: stride length median "
+          "|change| vs the loss-free run (%), median |error| vs the footprints (%)")  # fmt: skip
+    print(f"{'trial':<8} {'strides':>7} {'change before':>14} {'change now':>11} "
+          f"{'err loss-free':>14} {'err before':>11} {'err now':>8}")  # fmt: skip
+    all_b, all_a = [], []
+    for i, trial in enumerate(read_gdins(root)):
+        fs = trial.fs_hz
+        gy = trial.gyro_y - gyro_bias_at_start(trial)
+        hs, _ = gyro_gait_events(gy, fs)
+        clean = stride_measures(trial.acc_x, trial.acc_z, gy, fs, hs)
+        n = len(gy)
+        rng = np.random.default_rng(2000 + i)
+        lost = np.zeros(n, dtype=bool)
+        while lost.sum() < round(frac * n):
+            a = int(rng.integers(1, n - 2))
+            if not lost[a - 1 : a + 2].any():
+                lost[a] = True
+        keep = np.flatnonzero(~lost)
+        lost_before = np.diff(np.r_[-1, keep]) - 1
+        rows = np.unique(np.searchsorted(keep, hs, side="left"))
+        rows = rows[rows < len(keep)]
+        if len(rows) != len(hs):
+            continue
+        x, z, g = trial.acc_x[keep], trial.acc_z[keep], gy[keep]
+        before = stride_measures(x, z, g, fs, rows).stride_length_m
+        now = stride_measures(x, z, g, fs, rows, lost_before=lost_before).stride_length_m
+        ref = trial.extra["ref_stride_length"].astype(np.float64)
+        j = match_footprints(clean, trial.extra["zv_end_idx"].astype(np.int64), fs)
+        hit = j >= 0
+        k = j[hit]
+        c = clean.stride_length_m
+
+        def med(v: np.ndarray) -> float:
+            v = v[np.isfinite(v)]
+            return float(np.median(v)) if len(v) else float("nan")
+
+        ch_b = np.abs(before / c - 1) * 100
+        ch_a = np.abs(now / c - 1) * 100
+        all_b.append(ch_b)
+        all_a.append(ch_a)
+        errs = [med(np.abs(v[k] / ref[hit] - 1) * 100) for v in (c, before, now)]
+        print(f"{trial.name:<8} {int(np.isfinite(c).sum()):>7} {med(ch_b):>14.2f} "
+              f"{med(ch_a):>11.2f} {errs[0]:>14.2f} {errs[1]:>11.2f} {errs[2]:>8.2f}")  # fmt: skip
+    b, a = np.concatenate(all_b), np.concatenate(all_a)
+    print(f"{'all':<8} {int(np.isfinite(b).sum()):>7} {np.nanmedian(b):>14.2f} "
+          f"{np.nanmedian(a):>11.2f}")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--seconds", type=float, default=120.0)
     ap.add_argument("--loss-pct", type=float, default=2.0)
+    ap.add_argument("--data", type=Path, default=None, help="real data folder (../shared/data)")
+    ap.add_argument("--real-only", action="store_true", help="only the real walks (--data)")
     args = ap.parse_args()
+    root = args.data or default_data_dir()
+    if args.real_only:
+        if root is not None:
+            real_walks(root, args.loss_pct / 100.0)
+        return
     n = round(args.seconds * FS)
     config = PipelineConfig()
     print(f"stride length / speed |error| (% of the simulator's truth), {args.seeds} seeds x "
@@ -132,6 +201,8 @@ def main() -> None:
                          for e in (e_len, e_speed)]  # fmt: skip
                 print(f"{100 * frac:>4.1f} %    {how:<16} {where:<8} {cells[0]:>14} "
                       f"{cells[1]:>14} {np.median(signed):>+8.2f} {len(e_len):>5d}")  # fmt: skip
+    if root is not None:
+        real_walks(root, args.loss_pct / 100.0)
 
 
 if __name__ == "__main__":
