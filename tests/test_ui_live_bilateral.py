@@ -272,6 +272,10 @@ def test_zero_both_legs_while_the_subject_stands(qtbot, tmp_path, no_leaked_thre
         qtbot.waitUntil(lambda: all(e.snapshot(0.1).calibrated for e in engines.values()))
         qtbot.waitUntil(lambda: win.guide.state.zeroed)  # the step bar moves on to Record
         assert win.act_zero.isEnabled()
+        # each leg says where its angles' zero comes from now (the status bar's wording)
+        labels = [win.pair_part.view.status[s].method_label for s in ("L", "R")]
+        qtbot.waitUntil(lambda: all(lb.text().endswith("zero: standing calibration")
+                                    for lb in labels))  # fmt: skip
     finally:
         close_window(win)
 

@@ -172,6 +172,13 @@ def _check_shapes(acc_ms2: np.ndarray, gyro_rad_s: np.ndarray) -> tuple[np.ndarr
     return acc, gyro
 
 
+def _longest_run(mask: np.ndarray) -> int:
+    """The longest run of True in a 1-D bool array (0 if none)."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return int((stops - starts).max()) if len(starts) else 0
+
+
 def check_stillness(
     acc_ms2: np.ndarray,
     gyro_rad_s: np.ndarray,
@@ -181,15 +188,38 @@ def check_stillness(
     acc_norm_range_ms2: tuple[float, float] = DEFAULT_ACC_NORM_RANGE_MS2,
     min_duration_s: float = DEFAULT_MIN_DURATION_S,
     fs_hz: float = 100.0,
+    lost: np.ndarray | None = None,
 ) -> StillnessResult:
     """Was every segment still (and its sensors plausible) over this window?
 
     ``acc_ms2`` is (N, 4, 2): per segment (body, thigh, shank, foot) the accelerometer x and z;
     ``gyro_rad_s`` is (N, 4). The reason names every failing segment and the figure that failed.
+
+    ``lost`` ((N,) bool): rows standing for frames the link lost (the live display's rows,
+    one per frame of the unit's clock; their values are not looked at). Losses are not
+    movement: the window is judged on the samples received, provided they cover
+    ``min_duration_s`` and no loss is longer than the pipeline bridges
+    (gaitmon.dsp.pipeline.BRIDGE_MAX_S: longer, movement could hide in it).
     """
     acc, gyro = _check_shapes(acc_ms2, gyro_rad_s)
-    n = acc.shape[0]
     nan4 = np.full(_N_SEGMENTS, np.nan)
+    if lost is not None:
+        gone = np.asarray(lost, dtype=bool)
+        if gone.shape != (acc.shape[0],):
+            raise ValueError(f"lost must have shape ({acc.shape[0]},), got {gone.shape}")
+        longest = _longest_run(gone)
+        from gaitmon.dsp.lost_frames import bridge_max_samples
+
+        if longest > bridge_max_samples(fs_hz):
+            return StillnessResult(
+                False,
+                f"the link lost {longest / fs_hz:.2f} s of data in the calibration window "
+                "(movement cannot be ruled out there); stand still and retry",
+                nan4,
+                nan4.copy(),
+            )
+        acc, gyro = acc[~gone], gyro[~gone]
+    n = acc.shape[0]
     min_n = max(2, int(np.ceil(min_duration_s * fs_hz)))
     if n < min_n:
         return StillnessResult(
@@ -249,18 +279,23 @@ def check_stillness(
 def standing_calibration(
     acc_ms2: np.ndarray,
     gyro_rad_s: np.ndarray,
+    lost: np.ndarray | None = None,
     **limits: Any,
 ) -> Calibration:
     """Calibration from a window of upright standing; raises :class:`CalibrationError`.
 
     Tilt offset per segment = ``accel_tilt`` of the mean (x, z) acceleration (the mean vector,
     not the mean of per-sample angles, so noise cannot bias it through the nonlinearity);
-    gyro bias = mean rate. ``limits`` are passed to :func:`check_stillness`.
+    gyro bias = mean rate. ``limits`` are passed to :func:`check_stillness`; so is ``lost``
+    (rows standing for lost frames: the samples received make the calibration).
     """
-    result = check_stillness(acc_ms2, gyro_rad_s, **limits)
+    result = check_stillness(acc_ms2, gyro_rad_s, lost=lost, **limits)
     if not result.still:
         raise CalibrationError(result.message, result.reason)
     acc, gyro = _check_shapes(acc_ms2, gyro_rad_s)
+    if lost is not None:
+        keep = ~np.asarray(lost, dtype=bool)
+        acc, gyro = acc[keep], gyro[keep]
     mean_acc = acc.mean(axis=0)
     return Calibration(
         tilt_offset_rad=accel_tilt(mean_acc[:, 0], mean_acc[:, 1]),

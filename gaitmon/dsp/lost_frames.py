@@ -3,8 +3,9 @@
 A row carries ``lost_before``: the frames lost just before it. Short losses are bridged: the
 stateful stages see the lost frames filled in, linear between the rows around them, so that
 time stays the unit's (``fill_lost``); longer ones restart the filters (``restart_rows``). The
-pipeline (gaitmon.dsp.pipeline), the smoother's first pass (gaitmon.dsp.smoother) and the
-smoother itself (gaitmon.finish.smoothed) decide and fill alike, from here.
+pipeline (gaitmon.dsp.pipeline), the smoother's first pass (gaitmon.dsp.smoother), the
+smoother itself (gaitmon.finish.smoothed) and the stride lengths (gaitmon.dsp.stride_length)
+decide and fill alike, from here.
 """
 
 from __future__ import annotations
@@ -27,12 +28,22 @@ def restart_rows(lost_before: np.ndarray, fs_hz: float) -> np.ndarray:
     return np.flatnonzero(lost > bridge_max_samples(fs_hz)).astype(np.int64)
 
 
-def bridged_losses(lost_before: np.ndarray, fs_hz: float) -> dict[int, int]:
-    """{row: frames filled in just before it} of a record processed from row 0: every loss
-    the pipeline bridges (module doc, "Gaps"; none before row 0, nothing to fill from)."""
+def bridged_fill(lost_before: np.ndarray, fs_hz: float) -> np.ndarray:
+    """(N,) int64: the frames filled in just before each row of a record processed from row 0:
+    every loss the pipeline bridges (none before row 0, nothing to fill from), 0 elsewhere (no
+    loss, or one so long the filters restart after it)."""
     lost = np.asarray(lost_before, dtype=np.int64)
-    rows = np.flatnonzero((lost > 0) & (lost <= bridge_max_samples(fs_hz)))
-    return {int(r): int(lost[r]) for r in rows if r > 0}
+    fill = np.where((lost > 0) & (lost <= bridge_max_samples(fs_hz)), lost, 0)
+    if len(fill):
+        fill[0] = 0
+    return fill
+
+
+def bridged_losses(lost_before: np.ndarray, fs_hz: float) -> dict[int, int]:
+    """{row: frames filled in just before it} of a record processed from row 0
+    (:func:`bridged_fill`, its non-zero rows)."""
+    fill = bridged_fill(lost_before, fs_hz)
+    return {int(r): int(fill[r]) for r in np.flatnonzero(fill)}
 
 
 def fill_lost(

@@ -85,7 +85,7 @@ from gaitmon.dsp.filters import Butterworth, GyroIntegrator
 from gaitmon.dsp.fsr_check import FsrFault, FsrMonitor
 from gaitmon.dsp.gait import GaitEventDetector, Stride, StrideTracker
 from gaitmon.dsp.kalman import TiltKalman
-from gaitmon.dsp.lost_frames import bridge_max_samples, fill_lost, restart_rows
+from gaitmon.dsp.lost_frames import bridged_fill, fill_lost, restart_rows
 from gaitmon.dsp.methods import DEFAULT_METHOD, TiltInput, TiltMethod, TiltStage, get_method
 
 # long inputs are worked through in sub-blocks that stay in cache (same output, about 2x faster)
@@ -323,7 +323,6 @@ class Pipeline:
         self._gap_samples: list[int] = []
         self._gap_filled: list[int] = []
         self._last_phys: np.ndarray | None = None  # the last row, physical units (interpolation)
-        self._bridge = bridge_max_samples(self.config.fs_hz)
         self._settle_n = round(SETTLE_S * self.config.fs_hz)
         self._settle_until = 0  # the start-up is the first stride's exclusion (gaitmon.analysis)
         # the event sources (gaitmon.dsp.events): the force sensors, and the foot gyro that
@@ -425,7 +424,8 @@ class Pipeline:
             restarts = restart_rows(lost, self.config.fs_hz)
             if start == 0:
                 restarts = restarts[restarts > 0]  # what was lost before the start is no gap
-            fill = np.where((lost > 0) & (lost <= self._bridge), lost, 0)
+            # (a later block's first row is bridged from the block before)
+            fill = bridged_fill(np.r_[0, lost], self.config.fs_hz)[1:]
             if start == 0 and n:
                 fill[0] = 0  # nothing to interpolate from
         out = {name: np.empty((n, *shape), dtype=dt) for name, shape, dt in _PER_SAMPLE}

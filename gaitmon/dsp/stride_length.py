@@ -196,6 +196,64 @@ def _check(acc_x: np.ndarray, acc_z: np.ndarray, gyro: np.ndarray, fs_hz: float)
         raise ValueError(f"sampling rate must be > 0 Hz, got {fs_hz}")
 
 
+class _RowSamples:
+    """Where each row is among the samples once the bridged losses are filled in (``pos``,
+    increasing), and back: a filled-in frame maps to the row after it (as the pipeline maps
+    its indices). Rows past the end lie as far past the last sample; negative ones stay."""
+
+    def __init__(self, pos: np.ndarray) -> None:
+        self.pos = np.asarray(pos, dtype=np.int64)
+        self.extra = int(self.pos[-1]) - (len(self.pos) - 1) if len(self.pos) else 0
+
+    def samples_of(self, rows: np.ndarray | Sequence[int]) -> np.ndarray:
+        r = np.asarray(rows, dtype=np.int64)
+        out = r.copy()
+        inside = (r >= 0) & (r < len(self.pos))
+        out[inside] = self.pos[r[inside]]
+        out[r >= len(self.pos)] += self.extra
+        return out
+
+    def rows_of(self, samples: np.ndarray) -> np.ndarray:
+        x = np.asarray(samples, dtype=np.int64)
+        out = np.searchsorted(self.pos, x, side="left").astype(np.int64)
+        past = x > (self.pos[-1] if len(self.pos) else -1)
+        out[past] = x[past] - self.extra
+        neg = x < 0
+        out[neg] = x[neg]
+        return out.reshape(x.shape)
+
+    def measures_in_rows(self, m: StrideMeasures) -> StrideMeasures:
+        """``m`` (sample indices) with its indices in rows; its times stay the samples'."""
+        ff = m.foot_flat_idx
+        return StrideMeasures(
+            heel_strike_idx=self.rows_of(m.heel_strike_idx),
+            stride_length_m=m.stride_length_m,
+            foot_clearance_m=m.foot_clearance_m,
+            stride_time_s=m.stride_time_s,
+            foot_flat_idx=np.where(ff >= 0, self.rows_of(ff), -1),
+            flag=m.flags,
+        )
+
+
+def _filled_in(
+    rows: np.ndarray, lost_before: np.ndarray, fs_hz: float, prev: np.ndarray | None
+) -> tuple[np.ndarray, _RowSamples] | None:
+    """The rows (N, C) with the losses the pipeline bridges filled in as it fills them
+    (``prev``: the row before the first, None: row 0 of a record, nothing filled before it),
+    and the row <-> sample map; None when nothing is filled in."""
+    from gaitmon.dsp.lost_frames import bridged_fill, fill_lost
+
+    lost = np.asarray(lost_before, dtype=np.int64)
+    if lost.shape != (len(rows),):
+        raise ValueError(f"lost_before must have shape ({len(rows)},), got {lost.shape}")
+    # a later block of a stream (``prev``): its first row is bridged from the block before
+    fill = bridged_fill(lost, fs_hz) if prev is None else bridged_fill(np.r_[0, lost], fs_hz)[1:]
+    ext, pos = fill_lost(rows, fill, prev)
+    if pos is None:
+        return None
+    return ext, _RowSamples(pos)
+
+
 def search_spans(heel_strike_idx: np.ndarray) -> np.ndarray:
     """(J,) samples after each heel strike searched for its foot-flat: SEARCH_FRACTION of the
     stride before it (of the stride after it for the first)."""
@@ -404,6 +462,7 @@ def _standing(
 def stride_measures(
     acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_y_rad_s: np.ndarray, fs_hz: float,
     heel_strike_idx: np.ndarray, *, first_steps: bool = False,
+    lost_before: np.ndarray | None = None,
 ) -> StrideMeasures:  # fmt: skip
     """Stride length, foot clearance, stride time and speed of every stride between consecutive
     heel strikes, from the foot board's samples (module doc: method and assumptions), with a
@@ -412,11 +471,25 @@ def stride_measures(
     ``first_steps``: also the step from standing to each heel strike that opens a walk (the
     first, or one more than MAX_STRIDE_S after the one before), placed before the strides from
     that heel strike and flagged FLAG_FIRST_STEP (module doc, step 7). Its ``heel_strike_idx``
-    is the last standing sample and its stride time runs from there to the heel strike."""
+    is the last standing sample and its stride time runs from there to the heel strike.
+
+    ``lost_before`` ((N,) frames lost just before each row; None: the rows are consecutive
+    frames): the losses the pipeline bridges are filled in as it fills them
+    (gaitmon.dsp.lost_frames.bridged_fill / fill_lost) before the integration, so that lost
+    frames count as time; every index given and returned is a row (a filled-in frame maps to
+    the row after it) and the stride times are on the true timeline."""
     ax = np.asarray(acc_x_ms2, dtype=np.float64)
     az = np.asarray(acc_z_ms2, dtype=np.float64)
     gy = np.asarray(gyro_y_rad_s, dtype=np.float64)
     _check(ax, az, gy, fs_hz)
+    if lost_before is not None:
+        filled = _filled_in(np.stack([ax, az, gy], axis=1), lost_before, fs_hz, None)
+        if filled is not None:
+            ext, rows = filled
+            hs_s = rows.samples_of(heel_strike_idx)
+            m = stride_measures(ext[:, 0], ext[:, 1], ext[:, 2], fs_hz, hs_s,
+                                first_steps=first_steps)  # fmt: skip
+            return rows.measures_in_rows(m)
     hs = np.asarray(heel_strike_idx, dtype=np.int64)
     if hs.ndim != 1 or np.any(np.diff(hs) <= 0):
         raise ValueError("heel strikes must be a 1-D increasing array of sample indices")
@@ -507,13 +580,14 @@ STRIDES_PER_BLOCK = 2048
 def record_stride_measures(
     read_foot: Callable[[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]],
     n_rows: int, fs_hz: float, heel_strike_idx: np.ndarray,
-    strides_per_block: int = STRIDES_PER_BLOCK,
+    strides_per_block: int = STRIDES_PER_BLOCK, lost_before: np.ndarray | None = None,
 ) -> StrideMeasures:  # fmt: skip
     """:func:`stride_measures` of a record of ``n_rows`` samples read a block of strides at a
     time: ``read_foot(a, b)`` gives the foot board's acc x, acc z and gyro of rows [a, b). The
     same numbers as :func:`stride_measures` over the whole record (each stride sees the same
     samples: from the heel strike before its first, which sets that one's search span, to the
-    end of the last foot-flat search), with memory bounded by the block instead of the record."""
+    end of the last foot-flat search), with memory bounded by the block instead of the record.
+    ``lost_before`` ((n_rows,)): as :func:`stride_measures`'s, the bridged losses filled in."""
     hs = np.asarray(heel_strike_idx, dtype=np.int64)
     if hs.ndim != 1 or np.any(np.diff(hs) <= 0):
         raise ValueError("heel strikes must be a 1-D increasing array of sample indices")
@@ -523,15 +597,30 @@ def record_stride_measures(
     if n_strides == 0:
         empty = np.empty(0)
         return stride_measures(empty, empty, empty, fs_hz, hs)
-    spans = search_spans(hs)
+    lost = None if lost_before is None else np.asarray(lost_before, dtype=np.int64)
+    if lost is not None and lost.shape != (n_rows,):
+        raise ValueError(f"lost_before must have shape ({n_rows},), got {lost.shape}")
+    if lost is not None:  # each row's place among the samples, the bridged losses filled in
+        from gaitmon.dsp.lost_frames import bridged_fill
+
+        pos = np.arange(n_rows, dtype=np.int64) + np.cumsum(bridged_fill(lost, fs_hz))
+    else:
+        pos = np.arange(n_rows, dtype=np.int64)
+    rows = _RowSamples(pos)
+    hs_s = rows.samples_of(hs)
+    spans = search_spans(hs_s)
     parts: list[StrideMeasures] = []
     for j0 in range(0, n_strides, strides_per_block):
         j1 = min(n_strides, j0 + strides_per_block)  # strides j0 .. j1 - 1: heel strikes j0 .. j1
         lo = max(j0 - 1, 0)  # the heel strike before sets j0's search span
         sub = hs[lo : j1 + 1]
         a = min(max(int(sub[0]), 0), n_rows)
-        b = max(a, min(n_rows, int(np.max(hs[j0 : j1 + 1] + spans[j0 : j1 + 1]))))
-        m = stride_measures(*read_foot(a, b), fs_hz, sub - a)
+        # the rows holding the samples before the searches' end (a frame filled in needs the
+        # row after it)
+        end_s = int(np.max(hs_s[j0 : j1 + 1] + spans[j0 : j1 + 1]))
+        b = max(a, min(n_rows, int(np.searchsorted(pos, end_s - 1, side="left")) + 1))
+        m = stride_measures(*read_foot(a, b), fs_hz, sub - a,
+                            lost_before=None if lost is None else lost[a:b])  # fmt: skip
         keep = slice(j0 - lo, None)
         ff = m.foot_flat_idx[keep]
         parts.append(StrideMeasures(
@@ -546,7 +635,7 @@ def record_stride_measures(
         heel_strike_idx=hs[:n_strides],
         stride_length_m=np.concatenate([p.stride_length_m for p in parts]),
         foot_clearance_m=np.concatenate([p.foot_clearance_m for p in parts]),
-        stride_time_s=np.diff(hs).astype(np.float64) / fs_hz,
+        stride_time_s=np.concatenate([p.stride_time_s for p in parts]),
         foot_flat_idx=np.concatenate([p.foot_flat_idx for p in parts]),
         flag=np.concatenate([p.flags for p in parts]),
     )
@@ -585,11 +674,13 @@ def stride_lengths(
 class StrideLengthTracker:
     """Strides as the samples come (the live Gait panel's gait speed).
 
-    ``push`` takes the foot board's next samples and the heel strikes known so far (absolute
-    sample indices; repeats are ignored), and returns the strides whose samples are all in
-    (``stride_data_end``): the same numbers :func:`stride_measures` gives on the whole record;
-    ``finish`` gives the last ones at the record's end. It keeps only the samples from the
-    oldest stride still to come.
+    ``push`` takes the foot board's next rows, the frames lost before each (``lost_before``:
+    the losses the pipeline bridges are filled in, as :func:`stride_measures` fills them) and
+    the heel strikes known so far (absolute row indices; repeats are ignored), and returns the
+    strides whose samples are all in (``stride_data_end``): the same numbers
+    :func:`stride_measures` gives on the whole record, every index a row; ``finish`` gives the
+    last ones at the record's end. It keeps only the samples from the oldest stride still to
+    come.
     """
 
     def __init__(self, fs_hz: float) -> None:
@@ -600,28 +691,44 @@ class StrideLengthTracker:
 
     def reset(self) -> None:
         self._buf = np.empty((0, 3))
-        self._buf_start = 0  # absolute index of the first kept sample
-        self._n_seen = 0
-        self._hs: list[int] = []
+        self._row = np.empty(0, dtype=np.int64)  # each kept sample's row (filled: the next row)
+        self._buf_start = 0  # absolute sample index of the first kept sample
+        self._n_seen = 0  # rows
+        self._n_samples = 0  # samples: the rows and the frames filled in before them
+        self._last: np.ndarray | None = None  # the last row, to fill from
+        self._hs: list[int] = []  # sample indices
         self._next = 0  # index into _hs of the next stride to give
 
     @property
     def n_seen(self) -> int:
-        """Samples pushed since the last reset (the next sample's index)."""
+        """Rows pushed since the last reset (the next row's index)."""
         return self._n_seen
 
     def push(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_y_rad_s: np.ndarray,
         heel_strike_idx: np.ndarray | list[int] | None = None,
+        lost_before: np.ndarray | None = None,
     ) -> StrideMeasures:  # fmt: skip
         x = np.asarray(acc_x_ms2, dtype=np.float64)
         z = np.asarray(acc_z_ms2, dtype=np.float64)
         g = np.asarray(gyro_y_rad_s, dtype=np.float64)
         _check(x, z, g, self.fs_hz)
-        self._buf = np.concatenate([self._buf, np.stack([x, z, g], axis=1)])
+        block = np.stack([x, z, g], axis=1)
+        rows = np.arange(self._n_seen, self._n_seen + len(x), dtype=np.int64)
+        filled = None
+        if lost_before is not None and len(x):
+            filled = _filled_in(block, lost_before, self.fs_hz, self._last)
+        if filled is not None:
+            block, where = filled
+            rows = self._n_seen + where.rows_of(np.arange(len(block)))
+        if len(x):
+            self._last = np.array([x[-1], z[-1], g[-1]])
+        self._buf = np.concatenate([self._buf, block])
+        self._row = np.concatenate([self._row, rows])
         self._n_seen += len(x)
+        self._n_samples += len(block)
         new = np.empty(0) if heel_strike_idx is None else heel_strike_idx
-        for h in np.asarray(new, dtype=np.int64).ravel():
+        for h in self._samples_of(np.asarray(new, dtype=np.int64).ravel()):
             if not self._hs or h > self._hs[-1]:
                 self._hs.append(int(h))
         return self._give(everything=False)
@@ -631,11 +738,34 @@ class StrideLengthTracker:
         from the samples there are (as :func:`stride_measures` does at a record's end)."""
         return self._give(everything=True)
 
+    def _samples_of(self, rows: np.ndarray) -> np.ndarray:
+        """Sample indices of absolute rows (a row before the kept ones, or not come yet: as
+        far from the nearest kept row as it is in rows)."""
+        out = np.empty(len(rows), dtype=np.int64)
+        for k, r in enumerate(rows.tolist()):
+            if len(self._row) and self._row[0] <= r <= self._row[-1]:
+                out[k] = self._buf_start + int(np.searchsorted(self._row, r, side="right")) - 1
+            elif r >= self._n_seen or not len(self._row):
+                out[k] = r + (self._n_samples - self._n_seen)
+            else:
+                out[k] = r + (self._buf_start - int(self._row[0]))
+        return out
+
+    def _rows_of(self, samples: np.ndarray) -> np.ndarray:
+        """Absolute rows of sample indices (-1 stays -1)."""
+        x = np.asarray(samples, dtype=np.int64)
+        out = x - (self._n_samples - self._n_seen)  # past the kept ones
+        rel = x - self._buf_start
+        inside = (rel >= 0) & (rel < len(self._row))
+        out[inside] = self._row[rel[inside]]
+        out[x < 0] = -1
+        return out
+
     def _give(self, everything: bool) -> StrideMeasures:
         done = []
         hs = np.asarray(self._hs, dtype=np.int64)
         while self._next + 1 < len(hs) and (
-            everything or stride_data_end(hs, self._next) <= self._n_seen
+            everything or stride_data_end(hs, self._next) <= self._n_samples
         ):
             done.append(self._next)
             self._next += 1
@@ -653,16 +783,16 @@ class StrideLengthTracker:
         lo = max(done[0] - 1, 0)
         sub = hs[lo : done[-1] + 2]
         # (the first heel strike's span, taken from the stride after it, ends before the next)
-        end = min(int(np.max(sub + search_spans(sub))), self._n_seen)
+        end = min(int(np.max(sub + search_spans(sub))), self._n_samples)
         m = stride_measures(*self._padded(end), self.fs_hz, sub - self._buf_start)
         keep = slice(done[0] - lo, None)
         ff = m.foot_flat_idx[keep]
         return StrideMeasures(
-            heel_strike_idx=m.heel_strike_idx[keep] + self._buf_start,
+            heel_strike_idx=self._rows_of(m.heel_strike_idx[keep] + self._buf_start),
             stride_length_m=m.stride_length_m[keep],
             foot_clearance_m=m.foot_clearance_m[keep],
             stride_time_s=m.stride_time_s[keep],
-            foot_flat_idx=np.where(ff >= 0, ff + self._buf_start, -1),
+            foot_flat_idx=np.where(ff >= 0, self._rows_of(ff + self._buf_start), -1),
             flag=m.flags[keep],
         )
 
@@ -675,9 +805,10 @@ class StrideLengthTracker:
         """Drop samples no stride still to come needs: before the heel strike of the next
         stride (and the one before it, for its search span: only its index is needed)."""
         if self._next < len(hs):
-            keep_from = min(int(hs[self._next]), self._n_seen)
+            keep_from = min(int(hs[self._next]), self._n_samples)
         else:  # no stride open: keep enough for a heel strike that is reported late
-            keep_from = self._n_seen - int(MAX_STRIDE_S * self.fs_hz)
+            keep_from = self._n_samples - int(MAX_STRIDE_S * self.fs_hz)
         if keep_from > self._buf_start:
             self._buf = self._buf[keep_from - self._buf_start :]
+            self._row = self._row[keep_from - self._buf_start :]
             self._buf_start = keep_from

@@ -376,13 +376,16 @@ class Engine:
             windows = [slice(e - n, e) for e in range(first + n, len(data["t_s"]) + 1, step)]
         refused: CalibrationError | None = None  # the last window's (the UI shows its figures)
         for w in windows:
+            # n rows of the ring are window_s of the unit's clock: a lost frame is a row too
+            # (NaN), and losses are not movement: the samples received are judged and used
             acc = data["acc_ms2"][w]
-            if len(acc) < n or np.isnan(acc).any():
+            lost = data["lost"][w] > 0
+            if len(acc) < n or np.isnan(acc[~lost]).any() or lost.all():
                 continue
             # the ring holds bias-corrected rates: add the bias in force back for the true rate
             gyro = data["gyro_rad_s"][w] + self.calibration.gyro_bias_rad_s
             try:
-                cal = standing_calibration(acc, gyro, fs_hz=self.fs_hz)
+                cal = standing_calibration(acc, gyro, lost, fs_hz=self.fs_hz)
             except CalibrationError as exc:
                 refused = exc
                 continue
@@ -545,7 +548,8 @@ class Engine:
             to_idx = p.toe_off_idx + offset
             strides = [shift_stride(s, offset) for s in p.strides]
             restarts = p.restart_idx + offset
-            lengths = self._spatial.push(block.adc, p, hs_idx, start_idx, self._pipeline.table)
+            lengths = self._spatial.push(block.adc, p, hs_idx, start_idx, self._pipeline.table,
+                                         lost)  # fmt: skip
             if rec is not None:
                 if first and len(self._pipeline.fsr_faults) > len(p.fsr_faults):
                     # sensors flagged before the recording started are faulty in it from row 0

@@ -59,12 +59,13 @@ class FootStrideLengths:
 
     def push(
         self, adc: np.ndarray, p: PipelineBlock, hs_idx: np.ndarray, start_idx: int,
-        table: ChannelTable,
+        table: ChannelTable, lost_before: np.ndarray | None = None,
     ) -> list[tuple[int, float]]:  # fmt: skip
         """Feed the foot board's samples (unfiltered acceleration, the pipeline's
         bias-corrected gyro: what gaitmon.dsp.stride_length.foot_imu_from_counts makes of a
-        file's raw counts) to the stride length tracker; the strides it finished, (opening
-        heel strike, m), engine indices."""
+        file's raw counts) and the frames lost before each (the bridged losses are filled in,
+        as the file's strides fill them) to the stride length tracker; the strides it
+        finished, (opening heel strike, m), engine indices."""
         tr = self._tracker
         if self._base + tr.n_seen != start_idx:  # samples not processed: start afresh
             tr.reset()
@@ -73,7 +74,8 @@ class FootStrideLengths:
         phys = (adc[:, cols].astype(np.float64) - table.zero_counts[cols]) * (
             table.units_per_count[cols]
         )
-        m = tr.push(phys[:, 0], phys[:, 1], p.gyro_rad_s[:, _FOOT], hs_idx - self._base)
+        m = tr.push(phys[:, 0], phys[:, 1], p.gyro_rad_s[:, _FOOT], hs_idx - self._base,
+                    lost_before)  # fmt: skip
         base = self._base
         return [(int(h) + base, float(v)) for h, v in zip(m.heel_strike_idx, m.stride_length_m,
                                                            strict=True)]  # fmt: skip

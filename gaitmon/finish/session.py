@@ -81,8 +81,11 @@ class Session(StoredSession):
         key = hs.tobytes()
         if key in self._stride_cache:
             return self._stride_cache[key]
+        from gaitmon.io.session.rows import lost_before_from_gaps
+
         inputs = StrideInputs(self.n_samples, self.sample_rate_hz, self.header.table,
-                              self.calibration, self.calibration_changes)  # fmt: skip
+                              self.calibration, self.calibration_changes,
+                              lost_before_from_gaps(self.gaps, self.n_samples))  # fmt: skip
         try:
             m = stride_measures_of(
                 self._f, lambda a, b: self.read_range(a, b, ["raw/adc"])["raw/adc"], inputs, hs

@@ -27,6 +27,7 @@ another rate or another method version all give the numbers of the computation i
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 from collections.abc import Callable, Sequence
@@ -66,11 +67,29 @@ class StrideInputs:
     table: ChannelTable
     calibration: Calibration
     calibration_changes: Sequence[tuple[int, Calibration]]
+    # (n_rows,) frames lost just before each row (the gap table's, lost_before_from_gaps):
+    # the losses the pipeline bridges are filled in (gaitmon.dsp.stride_length); None: none
+    lost_before: np.ndarray | None = None
+
+    def filled(self) -> np.ndarray:
+        """(n_rows,) the frames filled in before each row (gaitmon.dsp.lost_frames.bridged_fill)."""
+        from gaitmon.dsp.lost_frames import bridged_fill
+
+        if self.lost_before is None:
+            return np.zeros(self.n_rows, dtype=np.int64)
+        return bridged_fill(np.asarray(self.lost_before)[: self.n_rows], self.fs_hz)
 
     def stamp(self) -> str:
         """The ``computed_from`` a stored ``/strides`` must carry to be used (JSON)."""
         changes = sorted(self.calibration_changes, key=lambda x: x[0])  # as they are applied
+        fill = self.filled()
+        # the lost frames filled in (where, how many): a record without any keeps the stamp
+        # it had before they were
+        lost = ({"filled_frames": int(fill.sum()),
+                 "filled_sha1": hashlib.sha1(fill.astype("<i8").tobytes()).hexdigest()}
+                if fill.any() else {})  # fmt: skip
         return json.dumps({
+            **lost,
             "method": METHOD,
             "sample_rate_hz": float(self.fs_hz),
             "n_rows": int(self.n_rows),
@@ -96,7 +115,8 @@ def compute(read_counts: ReadCounts, inputs: StrideInputs, hs: np.ndarray) -> St
         return foot_imu_from_counts(read_counts(a, b), a, inputs.table, inputs.calibration,
                                     inputs.calibration_changes)  # fmt: skip
 
-    return record_stride_measures(read_foot, inputs.n_rows, inputs.fs_hz, hs)
+    lost = None if inputs.lost_before is None else np.asarray(inputs.lost_before)[: inputs.n_rows]
+    return record_stride_measures(read_foot, inputs.n_rows, inputs.fs_hz, hs, lost_before=lost)
 
 
 def read_stored(f: h5py.File, inputs: StrideInputs, hs: np.ndarray) -> StrideMeasures | None:
@@ -122,11 +142,14 @@ def read_stored(f: h5py.File, inputs: StrideInputs, hs: np.ndarray) -> StrideMea
     if (length.shape != (k,) or clearance.shape != (k,) or flats.shape != (k, 2)
             or flag.shape != (k,)):  # fmt: skip
         return None
+    # the stride times on the true timeline: the lost frames filled in count
+    pos = np.arange(inputs.n_rows, dtype=np.int64) + np.cumsum(inputs.filled())
+    hs_t = pos[hs]  # (heel_strikes_used: rows of the record)
     return StrideMeasures(
         heel_strike_idx=hs[:k],
         stride_length_m=length,
         foot_clearance_m=clearance,
-        stride_time_s=np.diff(hs).astype(np.float64) / inputs.fs_hz,
+        stride_time_s=np.diff(hs_t).astype(np.float64) / inputs.fs_hz,
         foot_flat_idx=flats,
         flag=flag,
     )
@@ -175,7 +198,10 @@ def store_strides(
         n = min(f[p].shape[0] for p in stored_datasets("raw", version))
         changes = [(int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
                    for r in f["calibration/changes"][()]]  # fmt: skip
-        inputs = StrideInputs(n, float(fs_hz), table, calibration, changes)
+        from gaitmon.io.session.rows import lost_before_from_gaps
+
+        lost = lost_before_from_gaps(f["gaps"][()], n) if "gaps" in f else None
+        inputs = StrideInputs(n, float(fs_hz), table, calibration, changes, lost)
         hs = heel_strikes_used(f["events/heel_strike"][()], n)
         adc = f["raw/adc"]
         m = compute(lambda a, b: adc[a:b], inputs, hs)

@@ -37,7 +37,7 @@ from gaitmon.live.health import (
     snapshot_link_view,
 )
 from gaitmon.live.pair import SIDE_NAMES, SIDES
-from gaitmon.ui.live.status import GaitPanel, show_health, value_rows
+from gaitmon.ui.live.status import GaitPanel, angles_text, show_health, value_rows
 from gaitmon.ui.plots.bilateral import BilateralPlots
 from gaitmon.ui.theme import Colours, side_colours
 
@@ -73,8 +73,15 @@ class LegStatus(QWidget):
         self.state_label = QLabel("—")
         self.health_label = QLabel("")
         self.health_label.setWordWrap(True)
+        # what made this leg's angles and where their zero comes from (status bar's wording)
+        self.method_label = QLabel("")
+        self.method_label.setWordWrap(True)
+        self.method_label.setToolTip(
+            "What makes this leg's Kalman (green) angles, and where their zero comes from: a "
+            "standing calibration (Zero) or estimated (no standing Zero yet)"
+        )
         self.link: LinkView | None = None  # the last link view shown
-        for w in (self.title, self.state_label, self.health_label):
+        for w in (self.title, self.state_label, self.health_label, self.method_label):
             lay.addWidget(w)
         self.state_text = ""
 
@@ -82,6 +89,7 @@ class LegStatus(QWidget):
         self.health.reset()
         self.link = None
         self.state_text = ""
+        self.method_label.setText("")
 
     def show_link(self, snap: Snapshot, port: str) -> None:
         view = snapshot_link_view(snap, port)
@@ -91,6 +99,9 @@ class LegStatus(QWidget):
         self.state_label.setText(f"<span style='color:{colour}'>●</span> {view.pill}")
         self.state_label.setToolTip(view.tooltip or "Link state")
         self.link = view
+        text = angles_text(snap)
+        if self.method_label.text() != text:
+            self.method_label.setText(text)
         h = snapshot_health(self.health, snap, time.monotonic())
         if h is not None:
             text = f"{h.text} · {snap.samples_total:,} samples"

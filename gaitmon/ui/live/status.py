@@ -45,6 +45,16 @@ def fmt_elapsed(s: float) -> str:
     return f"{h}:{m:02d}:{sec:02d}" if h else f"{m:02d}:{sec:02d}"
 
 
+def angles_text(snap: Snapshot) -> str:
+    """"angles: M · zero: Z": what made a unit's angles and where their zero comes from
+    (gaitmon.dsp.calibration.zero_source, in the engine's snapshot), as the status bar and
+    each leg of the both-legs view show it ("" before the engine says)."""
+    text = f"angles: {snap.angle_method}" if snap.angle_method else ""
+    if text and snap.zero_source:
+        text += f" · zero: {snap.zero_source}"
+    return text
+
+
 def show_health(label: QLabel, h: Health, colours: Colours, text: str) -> None:
     """A link's health in ``label``: ``text``, coloured by its grade, the details in the
     tooltip (one unit's status bar, or one leg's header)."""
@@ -167,9 +177,7 @@ class StatusView:
     def show_checks(self, snap: Snapshot) -> None:
         """The tilt filter in force and the force sensors found faulty (kept until the next
         connection: a sensor does not mend itself)."""
-        text = f"angles: {snap.angle_method}" if snap.angle_method else ""
-        if text and snap.zero_source:
-            text += f" · zero: {snap.zero_source}"
+        text = angles_text(snap)
         if self.method_label.text() != text:
             self.method_label.setText(text)
         if snap.fsr_faults != self._fsr_shown:
