@@ -565,9 +565,10 @@ class GaitAwareKalman:
             self._bias = self._bias + delta
         for grav, cols in self._gravity:
             grav.offset_rad_s = grav.offset_rad_s - delta[cols]
-        # a stride's mean rate would mix the two offsets: the next onset starts a new one
-        self._stride_state[0] = -1.0
-        self._stride_int[:] = 0.0
+        # the stride's gyro integral so far, as if its samples had had the new offset too (the
+        # input moves by ``delta`` from here on): its mean rate stays the bias's measurement
+        if self._stride_state[0] > 0.0:
+            self._stride_int = self._stride_int + delta * self._stride_state[0]
 
     def process(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
