@@ -4,6 +4,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from helpers import assert_blocks_equal
 
 from gaitmon.dsp.angles import joint_angles, wrap_angle
 from gaitmon.dsp.calibration import standing_calibration
@@ -119,16 +120,7 @@ def test_arbitrary_chunking_gives_exactly_the_whole_record_output(sim, calibrate
         c = int(rng.choice([0, 1, 3, 10, 57, 640, 2100]))
         parts.append(p.process(sb.counts[i : i + c]))
         i += c
-    per_block = ("gyro_heel_strike_idx", "gyro_toe_off_idx", "fsr_faults", "event_source")
-    for f in dataclasses.fields(PipelineBlock):
-        if f.name in ("start_idx", "strides", "kalman_bias_rad_s", *per_block):
-            continue
-        got = np.concatenate([getattr(b, f.name) for b in parts])
-        np.testing.assert_array_equal(got, getattr(whole, f.name), err_msg=f.name)
-    for name in per_block[:3]:  # decided in some block: the same list in any chunking
-        assert [x for b in parts for x in getattr(b, name)] == list(getattr(whole, name)), name
-    assert parts[-1].event_source == whole.event_source
-    assert [s for b in parts for s in b.strides] == list(whole.strides)
+    assert_blocks_equal(parts, whole)
     assert [b.start_idx for b in parts] == list(np.cumsum([0] + [b.n for b in parts[:-1]]))
     np.testing.assert_array_equal(parts[-1].kalman_bias_rad_s, whole.kalman_bias_rad_s)
 
