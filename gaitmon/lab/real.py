@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from gaitmon.lab import datasets as D
-from gaitmon.lab.real_gait import EventRow, LoopRow, StrideRow
+from gaitmon.lab.real_gait import EventRow, FootprintStrideRow, LoopRow
 from gaitmon.lab.real_tilt import TiltRow
 
 WORSE_TOLERANCE_DEG = 1.0  # "worse than the paper's": by more than this
@@ -29,7 +29,7 @@ class RealAccuracy:
     notes: list[str] = field(default_factory=list)  # datasets skipped, and why
     broad: list[TiltRow] = field(default_factory=list)
     foot_tilt: list[TiltRow] = field(default_factory=list)
-    strides: list[StrideRow] = field(default_factory=list)
+    strides: list[FootprintStrideRow] = field(default_factory=list)
     gain_loto: list[tuple[float, float]] = field(
         default_factory=list
     )  # (gain, median abs. error %)
@@ -166,7 +166,7 @@ def _stride_table(real: RealAccuracy) -> list[str]:
     rs = real.strides
     n_ref, n_val = sum(r.n_ref for r in rs), sum(r.n_value for r in rs)
 
-    def cat(f: Callable[[StrideRow], np.ndarray]) -> np.ndarray:
+    def cat(f: Callable[[FootprintStrideRow], np.ndarray]) -> np.ndarray:
         return np.concatenate([f(r) for r in rs])
 
     found, extra = sum(r.hs_found for r in rs), sum(r.hs_extra for r in rs)

@@ -51,7 +51,7 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True)
-class StrideRow:
+class FootprintStrideRow:
     """One gdins trial."""
 
     trial: str
@@ -152,7 +152,7 @@ def match_footprints(m: StrideMeasures, zv_end: np.ndarray, fs_hz: float) -> np.
     return out
 
 
-def gdins_strides(trial: ImuTrial) -> StrideRow:
+def gdins_strides(trial: ImuTrial) -> FootprintStrideRow:
     hs, m = gaitmon_strides(trial)
     zv = trial.extra["zv_end_idx"].astype(np.int64)
     ref = trial.extra["ref_stride_length"].astype(np.float64)
@@ -179,20 +179,20 @@ def gdins_strides(trial: ImuTrial) -> StrideRow:
     st = trial.extra["stride_time"].astype(np.float64)
     # a ZV end that closes a standing (the last stride) makes no stride time
     speed_ref = np.where(st > 1.5 * np.median(st), np.nan, ref / st)
-    return StrideRow(
+    return FootprintStrideRow(
         trial.name, k_ref, found, len(hs) - int(np.sum(fp >= 0)), est, ref, sp, speed_ref, base,
         flagged,
     )  # fmt: skip
 
 
-def fit_gain(rows: Sequence[StrideRow]) -> float:
+def fit_gain(rows: Sequence[FootprintStrideRow]) -> float:
     """Stride-length gain: median of reference / gaitmon over the strides with a value."""
     r = np.concatenate([row.ref / row.est for row in rows])
     r = r[np.isfinite(r)]
     return float(np.median(r)) if len(r) else 1.0
 
 
-def gain_median_abs_err_pct(row: StrideRow, gain: float) -> float:
+def gain_median_abs_err_pct(row: FootprintStrideRow, gain: float) -> float:
     ok = np.isfinite(row.est)
     if not ok.any():
         return float("nan")
