@@ -71,7 +71,6 @@ KinematicsBlock carries the heading, roll and swing yaw with their rates; the sa
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -89,6 +88,16 @@ from gaitmon.io.sim.contact import (
     quintic_hermite,
     swing_lift,
 )
+from gaitmon.io.sim.gait_config import (
+    DEG,
+    FOOT_FLAT_PHASE,
+    HEEL_OFF_PHASE,
+    START_PHASE,
+    TOE_OFF_PHASE,
+    GaitConfig,
+    KinematicsBlock,
+    StrideTruth,
+)
 from gaitmon.io.sim.gait_curves import ANKLE_COEFFS_DEG, HIP_COEFFS_DEG, KNEE_COEFFS_DEG
 from gaitmon.io.sim.jets import (
     FourierCoeffs,
@@ -100,221 +109,35 @@ from gaitmon.io.sim.jets import (
     _swing_window,
     fourier_series,
 )
-from gaitmon.io.sim.patterns import PATTERNS
+from gaitmon.io.sim.kinematics_realism import ROLL_FREQS, SWING_FROM, RealismMotion
 
 if TYPE_CHECKING:
     from scipy.interpolate import PchipInterpolator
 
-DEG = np.pi / 180.0
-TOE_OFF_PHASE = 0.60  # normative toe off, fraction of the cycle
-FOOT_FLAT_PHASE = 0.10  # normative end of loading response (toe FSR starts to load)
-HEEL_OFF_PHASE = 0.35  # normative heel rise (heel FSR unloads)
-START_PHASE = 0.25  # the standing pose is taken as mid-stance (both FSRs loaded)
+__all__ = [
+    "DEG",
+    "FOOT_FLAT_PHASE",
+    "HEEL_OFF_PHASE",
+    "MIN_STAND_S",
+    "OPEN_STAND_S",
+    "ROLL_FREQS",
+    "START_PHASE",
+    "STOP_AHEAD_STRIDES",
+    "SWING_FROM",
+    "TOE_OFF_PHASE",
+    "GaitConfig",
+    "GaitModel",
+    "KinematicsBlock",
+    "StrideTruth",
+]
+
 OPEN_STAND_S = 1e7  # the length of a stand nobody has ended yet (about four months)
 STOP_AHEAD_STRIDES = 0.1  # margin between the last sample produced and a stop's influence
 MIN_STAND_S = 0.5  # a stop that has begun to take effect lasts at least this long
-ROLL_FREQS = (0.137, 0.419, 0.853)  # the roll's sines, cycles per stride (realism)
-
-
-SWING_FROM = TOE_OFF_PHASE  # the swing bumps of roll and yaw (realism) span toe off .. heel strike
-_ODD_PEAK = 0.6495190528383291  # max of sin^2(pi u) sin(2 pi u) on [0, 1] (at u = 1/3)
-
-
-def _swing_bump(q: np.ndarray, odd: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Over the swing (q from SWING_FROM to 1), peak 1: sin^2(pi u) (``odd`` False: out and
-    back once) or sin^2(pi u) sin(2 pi u) / its peak (``odd``: out one way, then the other, no
-    net turn), u the swing's fraction; 0 elsewhere. Value and derivatives w.r.t. q."""
-    span = 1.0 - SWING_FROM
-    u = (np.asarray(q, dtype=np.float64) - SWING_FROM) / span
-    inside = (u > 0.0) & (u < 1.0)
-    s2, ds2, dds2 = (np.sin(np.pi * u) ** 2, np.pi * np.sin(2.0 * np.pi * u),
-                     2.0 * np.pi**2 * np.cos(2.0 * np.pi * u))  # fmt: skip
-    if odd:
-        w = 2.0 * np.pi
-        sn, cs = np.sin(w * u), np.cos(w * u)
-        f = s2 * sn / _ODD_PEAK
-        f1 = (ds2 * sn + s2 * w * cs) / _ODD_PEAK
-        f2 = (dds2 * sn + 2.0 * ds2 * w * cs - s2 * w * w * sn) / _ODD_PEAK
-    else:
-        f, f1, f2 = s2, ds2, dds2
-    return (np.where(inside, f, 0.0), np.where(inside, f1 / span, 0.0),
-            np.where(inside, f2 / span**2, 0.0))  # fmt: skip
-
-
-@functools.lru_cache(maxsize=1)
-def _rollover() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The stance roll-over's shape on u in [0, 1] (foot-flat start .. toe off), 20001 points:
-    (angle, its slope, the slope's slope). The slope rises smoothly to 1 by u = 0.15, stays 1
-    to the end of foot-flat, then fades while a sin^2 bump gives the angle back: the angle is 0
-    at both ends with slope 0 (C1), and 1 x (foot-flat's share) by the end of foot-flat."""
-    u = np.linspace(0.0, 1.0, 20001)
-    u1 = (FLAT_END - FLAT_START) / (TOE_OFF_PHASE - FLAT_START)
-
-    def step(x: np.ndarray) -> np.ndarray:
-        x = np.clip(x, 0.0, 1.0)
-        return x * x * (3.0 - 2.0 * x)
-
-    s = (u - u1) / (1.0 - u1)
-    base = step(u / 0.15) * (1.0 - step(s))
-    bump = np.where((s > 0) & (s < 1), np.sin(np.pi * s) ** 2, 0.0)
-    du = u[1] - u[0]
-
-    def integral(r: np.ndarray) -> np.ndarray:
-        return np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * du)])
-
-    k = integral(base)[-1] / integral(bump)[-1]
-    r = base - k * bump
-    g = integral(r)
-    g[-1] = 0.0
-    return g, r, np.gradient(r, du)
-
-
-@dataclass(frozen=True)
-class GaitConfig:
-    """Everything that shapes the true motion. ``None`` fields take the pattern's default."""
-
-    fs_hz: float = 100.0
-    cadence_steps_min: float = 110.0
-    stride_cv: float = 0.02  # coefficient of variation of stride duration
-    seed: int = 0
-    pattern: str = "normal"
-    stance_fraction: float | None = None
-    knee_swing_scale: float | None = None
-    standing_s: float = 5.0
-    ramp_strides: float = 1.0
-    height_m: float = 1.70
-    stride_length_m: float | None = None  # default 0.8 * height; 0.4 .. 1.2 * height
-    body_lean_rad: float = -3.0 * DEG  # pelvis leans forward while walking (tilt < 0)
-    body_osc_rad: float = 1.5 * DEG
-    # realism (module doc, "Realism"; docs/simulator.md): the defaults leave the motion as it was
-    stride_length_cv: float = 0.0  # stride-to-stride CV of stride length
-    stance_micro_rad: float = 0.0  # median amplitude of the stance foot's roll-over (toe-down)
-    stance_micro_spread: float = 0.5  # SD of its log amplitude from stride to stride
-    stance_pivot_m: tuple[float, float] = (0.0, 0.0)  # where the roll-over turns: (forward, up)
-    # from the foot sensor's point in the foot's frame; (0, 0): about the sensor's point
-    roll_sd_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # RMS slow roll out of the plane
-    swing_roll_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak roll in every swing
-    swing_yaw_deg: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)  # peak yaw in every swing (out, back)
-    turn_every_strides: float = 0.0  # 0: straight; else a turn starts every this many strides
-    turn_strides: float = 2.0  # how long a turn lasts
-    turn_deg: float = 180.0  # heading change of one turn (> 0: to the left)
-    first_turn_strides: float = 3.0  # strides walked (after the ramp-in) before the first turn
-    turn_in_swing: bool = False  # the foot board turns only in swing (toe off .. the next
-    # foot-flat) and keeps its heading through stance, as a real foot does; False: it turns
-    # with the walking direction all through the stride
-
-    def __post_init__(self) -> None:
-        if self.pattern not in PATTERNS:
-            raise ValueError(
-                f"unknown gait pattern {self.pattern!r}; use one of {sorted(PATTERNS)}"
-            )
-        if not 20.0 <= self.cadence_steps_min <= 200.0:
-            raise ValueError(f"cadence {self.cadence_steps_min} steps/min is outside 20..200")
-        if not 0.0 <= self.stride_cv <= 0.2:
-            raise ValueError(f"stride CV {self.stride_cv} is outside 0..0.2")
-        if not 0.4 <= self.stance_frac <= 0.85:
-            raise ValueError(f"stance fraction {self.stance_frac} is outside 0.4..0.85")
-        if not 0.4 <= self.stride_len_m / self.height_m <= 1.2:
-            # the joint angles do not shrink with the stride: shorter ones would walk backwards
-            raise ValueError(
-                f"stride length {self.stride_len_m} m is outside 0.4..1.2 x height "
-                f"({0.4 * self.height_m:.2f}..{1.2 * self.height_m:.2f} m)"
-            )
-        if self.fs_hz <= 0 or self.standing_s < 0 or self.ramp_strides <= 0:
-            raise ValueError("fs_hz and ramp_strides must be > 0 and standing_s >= 0")
-        if not 0.0 <= self.stride_length_cv <= 0.2:
-            raise ValueError(f"stride length CV {self.stride_length_cv} is outside 0..0.2")
-        if not 0.0 <= self.stance_micro_rad <= 0.3 or self.stance_micro_spread < 0:
-            raise ValueError("stance_micro_rad must be in 0..0.3 rad, stance_micro_spread >= 0")
-        if len(self.stance_pivot_m) != 2 or not all(abs(x) <= 0.3 for x in self.stance_pivot_m):
-            raise ValueError(f"stance_pivot_m needs (forward, up) within 0.3 m, "
-                             f"got {self.stance_pivot_m}")  # fmt: skip
-        for name in ("roll_sd_deg", "swing_roll_deg", "swing_yaw_deg"):
-            v = getattr(self, name)
-            if len(v) != 4 or not all(-30.0 <= r <= 30.0 for r in v) or min(self.roll_sd_deg) < 0:
-                raise ValueError(f"{name} needs 4 values in -30..30 deg (sd >= 0), got {v}")
-        if self.turn_every_strides and not (
-            self.turn_every_strides > self.turn_strides > 0 and self.first_turn_strides >= 0
-        ):
-            raise ValueError("turn_every_strides must be 0 or longer than turn_strides > 0")
-
-    @property
-    def out_of_plane(self) -> bool:
-        """Whether the boards leave the sagittal plane (turns or roll): the sensors then project
-        the 3-D motion (gaitmon.io.sim.sensors)."""
-        return bool(self.turn_every_strides) or any(
-            self.roll_sd_deg + self.swing_roll_deg + self.swing_yaw_deg
-        )
-
-    @property
-    def stance_frac(self) -> float:
-        return PATTERNS[self.pattern][0] if self.stance_fraction is None else self.stance_fraction
-
-    @property
-    def knee_scale(self) -> float:
-        return PATTERNS[self.pattern][1] if self.knee_swing_scale is None else self.knee_swing_scale
-
-    @property
-    def stride_s(self) -> float:
-        """Mean stride duration: one stride is two steps."""
-        return 120.0 / self.cadence_steps_min
-
-    @property
-    def stride_len_m(self) -> float:
-        return 0.8 * self.height_m if self.stride_length_m is None else self.stride_length_m
-
-    @property
-    def thigh_m(self) -> float:
-        return 0.245 * self.height_m
-
-    @property
-    def shank_m(self) -> float:
-        return 0.246 * self.height_m
-
-
-@dataclass(frozen=True)
-class KinematicsBlock:
-    """True motion for samples ``sample_idx`` (all angles in rad, tilt convention of dsp.angles)."""
-
-    sample_idx: np.ndarray  # (N,) int64
-    t_s: np.ndarray  # (N,) device time
-    phase: np.ndarray  # (N,) continuous normative phase (integer part = stride count)
-    phase_rate_hz: np.ndarray  # (N,) d(phase)/dt, 0 while standing
-    walking: np.ndarray  # (N,) ramp-in envelope, 0 standing .. 1 walking
-    joint_rad: np.ndarray  # (N, 3) hip, knee, ankle (clinical signs)
-    tilt_rad: np.ndarray  # (N, 4) body, thigh, shank, foot
-    rate_rad_s: np.ndarray  # (N, 4) d(tilt)/dt
-    lin_acc_ms2: np.ndarray  # (N, 4, 2) sensor-point acceleration in the world frame (F, U)
-    position_m: np.ndarray  # (N, 4, 2) sensor-point position (F, U); F grows with walking
-    velocity_m_s: np.ndarray  # (N, 4, 2) sensor-point velocity (F, U)
-    heading_rad: np.ndarray  # (N,) walking direction (turns; > 0 to the left), 0 straight
-    yaw_rate_rad_s: np.ndarray  # (N,) its rate
-    roll_rad: np.ndarray  # (N, 4) each board's roll about the walking direction
-    roll_rate_rad_s: np.ndarray  # (N, 4) its rate
-    board_yaw_rad: np.ndarray  # (N, 4) each board's yaw from the walking direction (swing)
-    board_yaw_rate_rad_s: np.ndarray  # (N, 4) its rate
-
-
-@dataclass(frozen=True)
-class StrideTruth:
-    """True strides (GaitModel.strides): one entry per heel strike that starts a stride."""
-
-    heel_strike_idx: np.ndarray  # (K,) first sample at/after the heel strike
-    stride_length_m: np.ndarray  # (K,) foot sensor's displacement, foot-flat to foot-flat
-    stride_time_s: np.ndarray  # (K,) to the next heel strike
-    foot_clearance_m: np.ndarray  # (K,) sensor's highest point above its foot-flat height
-    # with turns: the length above is the straight line between the two foot-flats (the
-    # footprints' distance); the path is the sensor's forward travel along its (curved) way
-    path_length_m: np.ndarray | None = None  # (K,) forward travel; None: = stride_length_m
-    turn_rad: np.ndarray | None = None  # (K,) heading change foot-flat to foot-flat
-
-    @property
-    def speed_m_s(self) -> np.ndarray:
-        return self.stride_length_m / self.stride_time_s
 
 
 @dataclass
-class GaitModel:
+class GaitModel(RealismMotion):
     """Deterministic gait for a config: any sample range can be evaluated in any order.
 
     The stride schedule is drawn lazily from its own seeded generator, always in the same order,
@@ -552,107 +375,6 @@ class GaitModel:
         for p_stop, _ in self._stops:
             d = d - _stop_bump(p - p_stop, cfg.ramp_strides)[1][0] * cfg.stride_len_m
         return np.asarray(d)
-
-    def _stride_draws(self, k_max: int) -> np.ndarray:
-        """(>= k_max + 1, 2) standard normal draws per stride, clipped to +-2.5: the stride
-        length factor's and the stance rocking's log amplitude's."""
-        while len(self._stride_z) <= k_max:
-            z = np.clip(self._stride_rng.standard_normal((512, 2)), -2.5, 2.5)
-            self._stride_z = np.concatenate([self._stride_z, z])
-        return self._stride_z
-
-    # ---- out of the sagittal plane (realism) --------------------------------------------------
-    def heading(self, p: Jet) -> Jet:
-        """Walking direction (rad, > 0 to the left) as a jet of what ``p`` is a jet of: turns of
-        ``turn_deg`` over ``turn_strides`` every ``turn_every_strides`` strides, from
-        ``first_turn_strides`` after the ramp-in; the rate is 2 sin^2 shaped (no jerk at the
-        ends)."""
-        cfg = self.config
-        zero = np.zeros_like(p.v)
-        if not cfg.turn_every_strides:
-            return Jet(zero, zero.copy(), zero.copy())
-        a = np.radians(cfg.turn_deg)
-        ts, every = cfg.turn_strides, cfg.turn_every_strides
-        s = p.v - (START_PHASE + cfg.ramp_strides + cfg.first_turn_strides)
-        j = np.floor(s / every)
-        u = np.clip((s - j * every) / ts, 0.0, 1.0)
-        inside = (u > 0.0) & (u < 1.0)
-        h = u - np.sin(2.0 * np.pi * u) / (2.0 * np.pi)
-        f = np.where(s < 0.0, 0.0, a * (j + h))
-        f1 = np.where(inside & (s >= 0.0), a / ts * (1.0 - np.cos(2.0 * np.pi * u)), 0.0)
-        f2 = np.where(inside & (s >= 0.0), a / ts**2 * 2.0 * np.pi * np.sin(2.0 * np.pi * u), 0.0)
-        return p.compose(f, f1, f2)
-
-    def _swing_warp(self, p: Jet) -> Jet:
-        """The phase the foot's heading follows (``turn_in_swing``): held at each foot-flat's
-        start (k + FLAT_START) until toe off, then a quintic step to the next foot-flat's."""
-        q = p.v - FLAT_START
-        k = np.floor(q)
-        span = 1.0 - (TOE_OFF_PHASE - FLAT_START)
-        x = np.clip((q - k - (TOE_OFF_PHASE - FLAT_START)) / span, 0.0, 1.0)
-        h = x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
-        h1 = 30.0 * x * x * (1.0 - x) ** 2 / span
-        h2 = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x) / span**2
-        return p.compose(k + FLAT_START + h, h1, h2)
-
-    def roll(self, p: Jet, env: Jet) -> list[Jet]:
-        """Each board's roll about the walking direction (rad): ``roll_sd_deg`` RMS, a sum of
-        three sines of the phase at incommensurate frequencies (ROLL_FREQS per stride) with
-        seeded phases, faded in and out with the walk (0 standing)."""
-        cfg = self.config
-        out = []
-        for j, (sd, peak) in enumerate(zip(cfg.roll_sd_deg, cfg.swing_roll_deg, strict=True)):
-            f, f1, f2 = np.zeros_like(p.v), np.zeros_like(p.v), np.zeros_like(p.v)
-            if sd:
-                c = np.radians(sd) * np.sqrt(2.0 / len(ROLL_FREQS))
-                for fr, ph in zip(ROLL_FREQS, self._roll_phase[j], strict=True):
-                    w = 2.0 * np.pi * fr
-                    sn, cs = np.sin(w * p.v + ph), np.cos(w * p.v + ph)
-                    f, f1, f2 = f + c * sn, f1 + c * w * cs, f2 - c * w * w * sn
-            if peak:
-                b, b1, b2 = _swing_bump(np.mod(p.v, 1.0), odd=False)
-                a = np.radians(peak)
-                f, f1, f2 = f + a * b, f1 + a * b1, f2 + a * b2
-            out.append(p.compose(f, f1, f2) * env)
-        return out
-
-    def board_yaw(self, p: Jet, env: Jet) -> list[Jet]:
-        """Each board's yaw from the walking direction (rad, > 0 to the left): out by
-        ``swing_yaw_deg`` and back in every swing (the foot's toe-in / toe-out swing), the
-        board turning about its own point (its path is the walk's)."""
-        out = []
-        for peak in self.config.swing_yaw_deg:
-            b, b1, b2 = _swing_bump(np.mod(p.v, 1.0), odd=True)
-            a = np.radians(peak)
-            out.append(p.compose(a * b, a * b1, a * b2) * env)
-        return out
-
-    def _stance_micro(self, p: Jet, env: Jet) -> Jet | None:
-        """The stance foot's roll-over (rad, added to its tilt and the ankle's, not to the
-        linkage: the foot turns about ``stance_pivot_m`` from its sensor, which moves the foot
-        sensor's point only (``_points``)): from foot-flat on the foot turns
-        toe-down at a steady rate (the heel starts to rise early, as real feet do: the pitch
-        gyro reads about -0.2 rad/s through the whole still phase, docs/simulator.md), and
-        gives the angle back by toe off (``_ROLLOVER``). Stride k's amplitude is
-        stance_micro_rad exp(spread z_k); None when off."""
-        cfg = self.config
-        if not cfg.stance_micro_rad:
-            return None
-        k = np.floor(p.v)
-        u = (p.v - k - FLAT_START) / (TOE_OFF_PHASE - FLAT_START)
-        inside = (u > 0.0) & (u < 1.0)
-        k_max = max(int(np.max(k, initial=0.0)), 0)
-        z = self._stride_draws(k_max + 1)
-        ki = np.clip(k.astype(np.int64), 0, None)
-        amp = -cfg.stance_micro_rad * np.exp(cfg.stance_micro_spread * z[ki, 1])
-        g, r, dr = _rollover()
-        span = TOE_OFF_PHASE - FLAT_START
-        grid = np.linspace(0.0, 1.0, len(g))
-        uc = np.clip(u, 0.0, 1.0)
-        f = np.where(inside, amp * np.interp(uc, grid, g), 0.0)
-        f1 = np.where(inside, amp * np.interp(uc, grid, r) / span, 0.0)
-        f2 = np.where(inside, amp * np.interp(uc, grid, dr) / span**2, 0.0)
-        return p.compose(f, f1, f2) * env
 
     def _angles(self, p: Jet) -> tuple[Jet, ...]:
         """(hip, knee, ankle, body, thigh, shank, foot, env) as jets of whatever ``p`` is a jet
