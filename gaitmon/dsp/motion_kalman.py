@@ -114,13 +114,37 @@ modulo 2 pi, which is paper 000's wrap(z - theta-).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
 
 from gaitmon.dsp.angles import TWO_PI
-from gaitmon.dsp.channel_table import SEGMENT_TABLE, SEGMENTS, STANDARD_GRAVITY_MS2
+from gaitmon.dsp.channel_table import SEGMENTS, STANDARD_GRAVITY_MS2
+from gaitmon.dsp.gravity_reference import GravityReference
+from gaitmon.dsp.segment_tuning import (
+    SEGMENT_TUNING,
+    SegmentTuning,
+    measurement_variance,
+    tuning_for,
+)
+
+# the tuning and the gravity measurement live beside this module, which describes them
+__all__ = [
+    "END_ANGLE_RAD",
+    "END_FACTOR",
+    "SEGMENT_TUNING",
+    "START_HUBER",
+    "START_PRIOR",
+    "STRIDE_LIMITS",
+    "GaitAwareKalman",
+    "GravityReference",
+    "SegmentTuning",
+    "gravity_gain",
+    "measurement_variance",
+    "prior_covariance",
+    "steady_state_gain",
+    "tuning_for",
+]
 
 _LOG_R_MIN, _LOG_R_MAX, _LOG_R_STEP = -9.0, 6.0, 0.05
 # The start-up's prior standard deviations: the angle (rad; the first measurement sets it) and
@@ -133,123 +157,6 @@ START_HUBER = 2.0
 # the stride-periodic bias (module doc): the shortest and longest stride (s) between foot-flat
 # onsets taken
 STRIDE_LIMITS = np.array([0.6, 2.5])
-
-
-@dataclass(frozen=True)
-class SegmentTuning:
-    """How one segment's motion sets the accelerometer's weight (see the module doc)."""
-
-    static_acc_ms2: float = 1.5
-    static_rate_rad_s: float = 1.0
-    window_s: float = 0.05
-    r_static: float = 1e-3  # rad^2, measurement variance when quasi-static
-    r_moving: float | None = None  # rad^2 at |a| = g while moving; None = not used then
-    acc_scale_ms2: float = 2.0
-    # while moving, R also grows as (1 + (rate / scale)^2): a fast-swinging segment's
-    # accelerometer carries more of its own acceleration (None = no growth)
-    moving_rate_scale_rad_s: float | None = None
-    q_angle: float = 1e-7  # rad^2 per step, angle random walk (gyro noise)
-    q_bias: float = 1e-8  # (rad/s)^2 per step, bias random walk
-    # offline smoother only: the angle's process noise grows as (1 + (|omega| / scale)^2)
-    rate_scale_rad_s: float = 1.0
-    # offline smoother only, its gravity passes (gaitmon.dsp.smoother): the length of the
-    # boxcar (applied three times) over which the specific force, turned into the world frame by
-    # the previous pass's tilt, must average to vertical (None = no gravity pass), the variance
-    # (rad^2) given to that gravity-referenced tilt, and how many passes
-    gravity_window_s: float | None = 1.5
-    r_gravity: float = 3e-4
-    gravity_passes: int = 1
-    # causal filter: the cut-off of the 2nd-order Butterworth low-pass that averages the
-    # gyro-turned specific force (None = the accelerometer tilt as above) and the variance (rad^2)
-    # of the tilt it gives (see the module doc, "Gravity measurement")
-    live_gravity_hz: float | None = None
-    r_live_gravity: float = 1e-2
-    # causal filter, out of the sagittal plane (module doc, "Out of plane"): when the planar
-    # |a| low-passed (one pole at ``plane_cutoff_hz``) falls below ``plane_fraction`` g, the
-    # accelerometer tilt is used with variance ``r_out_of_plane`` and the bias is left alone
-    # (None = no such test)
-    plane_fraction: float | None = None
-    plane_cutoff_hz: float = 0.5
-    r_out_of_plane: float = 1e-4
-    # causal filter, start-up only (module doc, "Start-up"): the factor on R for the exact
-    # gain, and c (rad s) in the gravity tilt's R + (c / t)^2, t the time since its (re)start
-    start_r_factor: float = 1.0
-    start_gravity_rad_s: float = 0.1
-    # whether the quasi-static samples are used in the start-up, and the SD (rad) of a
-    # segment's tilt change over a stride for the stride-periodic bias (0 = none)
-    start_static: bool = True
-    stride_sigma_rad: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("static_acc_ms2", "static_rate_rad_s", "window_s", "r_static",
-                     "acc_scale_ms2", "q_angle", "q_bias", "rate_scale_rad_s",
-                     "start_r_factor"):  # fmt: skip
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value}")
-        if self.gravity_window_s is not None and not (
-            np.isfinite(self.gravity_window_s) and self.gravity_window_s > 0
-        ):
-            raise ValueError(
-                f"gravity_window_s must be a positive number or None, got {self.gravity_window_s}"
-            )
-        if self.live_gravity_hz is not None and not (
-            np.isfinite(self.live_gravity_hz) and self.live_gravity_hz > 0
-        ):
-            raise ValueError(
-                f"live_gravity_hz must be a positive number or None, got {self.live_gravity_hz}"
-            )
-        if not (np.isfinite(self.start_gravity_rad_s) and self.start_gravity_rad_s >= 0):
-            raise ValueError(
-                f"start_gravity_rad_s must be a number >= 0, got {self.start_gravity_rad_s}"
-            )
-        if not (np.isfinite(self.r_live_gravity) and self.r_live_gravity > 0):
-            raise ValueError(f"r_live_gravity must be a positive number, got {self.r_live_gravity}")
-        if not (np.isfinite(self.r_gravity) and self.r_gravity > 0):
-            raise ValueError(f"r_gravity must be a positive number, got {self.r_gravity}")
-        if not (isinstance(self.gravity_passes, int) and self.gravity_passes >= 1):
-            raise ValueError(f"gravity_passes must be an integer >= 1, got {self.gravity_passes}")
-        if self.r_moving is not None and not (np.isfinite(self.r_moving) and self.r_moving > 0):
-            raise ValueError(f"r_moving must be a positive number or None, got {self.r_moving}")
-        if self.plane_fraction is not None and not (0 < self.plane_fraction < 1):
-            raise ValueError(f"plane_fraction must be in (0, 1) or None, got {self.plane_fraction}")
-        for name in ("plane_cutoff_hz", "r_out_of_plane"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value}")
-
-    def window_samples(self, fs_hz: float) -> int:
-        return max(1, round(self.window_s * fs_hz))
-
-
-# Body, thigh and shank (chosen on the simulator, docs/filters.md): never still while walking,
-# they take the gravity measurement live.
-_WEIGHTED = SegmentTuning(
-    static_acc_ms2=0.5, static_rate_rad_s=0.3, r_moving=0.01, rate_scale_rad_s=100.0,
-    live_gravity_hz=0.25, stride_sigma_rad=0.03,
-)  # fmt: skip
-# The foot (issue 24, chosen on the real walks and BROAD in ../shared/data with the simulator
-# kept; docs/filters.md, benchmarks/tilt_real.py): the accelerometer trusted at foot-flat
-# (r_static 1e-4), the gravity measurement while moving (r_moving is then unused: the
-# accelerometer weighted by the motion left fast walks without a foot-flat on the gyro alone)
-# and the out-of-plane test (BROAD's 3-D motion).
-_GATED = SegmentTuning(
-    r_static=1e-4, r_moving=1.0, live_gravity_hz=0.25, r_live_gravity=3e-3, plane_fraction=0.95,
-    start_r_factor=10.0,
-)  # fmt: skip
-SEGMENT_TUNING: dict[str, SegmentTuning] = {
-    s.name: _GATED if s.still_in_stance else _WEIGHTED for s in SEGMENT_TABLE
-}
-# the swinging shank's own acceleration is the largest: its gravity tilt needs whole strides
-SEGMENT_TUNING["shank"] = replace(_WEIGHTED, start_gravity_rad_s=0.3)
-SEGMENT_TUNING["body"] = replace(_WEIGHTED, start_static=False)
-
-
-def tuning_for(segment: str) -> SegmentTuning:
-    try:
-        return SEGMENT_TUNING[segment]
-    except KeyError:
-        raise ValueError(f"unknown segment {segment!r}; use one of {list(SEGMENTS)}") from None
 
 
 def prior_covariance(
@@ -316,106 +223,6 @@ def gravity_gain(
     ph = p @ np.array([1.0, h_bias])
     return np.asarray(ph / (ph[0] + h_bias * ph[1] + r))
 
-
-def measurement_variance(
-    dev_ms2: np.ndarray, rate_rad_s: np.ndarray, tuning: SegmentTuning
-) -> np.ndarray:
-    """R (rad^2) from the window maxima of | |a| - g | and |omega| (inf = not trusted)."""
-    static = (dev_ms2 < tuning.static_acc_ms2) & (rate_rad_s < tuning.static_rate_rad_s)
-    if tuning.r_moving is None:
-        moving = np.full(np.shape(dev_ms2), np.inf)
-    else:
-        moving = tuning.r_moving * (1.0 + (dev_ms2 / tuning.acc_scale_ms2) ** 2)
-        if tuning.moving_rate_scale_rad_s is not None:
-            moving = moving * (1.0 + (rate_rad_s / tuning.moving_rate_scale_rad_s) ** 2)
-    return np.where(static, tuning.r_static, moving)
-
-
-class GravityReference:
-    """Causal gravity-referenced tilt of S segments (module doc, "Gravity measurement").
-
-    ``process(ax, az, w)`` with (N, S) inputs returns z~ (rad, (N, S), continuous up to the
-    wrap of its arg), minus ``h * offset_rad_s``. Stateful; any chunking gives bit-for-bit
-    the same output.
-
-    Start-up. The low-pass starts from rest (zero state) and its output is divided by its own
-    step response s_k (the same low-pass fed ones from rest): a weighted mean of the samples
-    seen so far, with the low-pass's weights, that becomes the plain low-pass as s_k -> 1
-    (within 1e-12 after ~30 s at 0.25 Hz). Started from a single sample instead (its steady
-    state for it), the low-pass would carry that sample's own acceleration (a swinging
-    thigh's, several m/s^2) for its ~3 s memory; started from the mean of a first window, it
-    rings when the stride's oscillation comes in. A gyro bias b turns the gyro angle by b t,
-    which the mean sees late by the mean age of what it holds: z~ = theta + h_k b with
-    h_k = t_k - avg(t)_k, which tends to ``lag_s``; :meth:`bias_gain` gives h_k for the sample
-    count since the reset, computed once by passing the ramp t through the same mean.
-    """
-
-    def __init__(self, cutoff_hz: float, fs_hz: float, n_segments: int) -> None:
-        from scipy import signal  # lazy: scipy only where a filter is run
-
-        self.dt_s = 1.0 / fs_hz
-        b, a = signal.butter(2, cutoff_hz, fs=fs_hz)
-        self._ba = (b, a)
-        k = np.arange(len(b))
-        # the low-pass's delay at DC: a gyro bias b turns the gyro angle at b, so z~ leads the
-        # tilt by lag_s * b (the filter's measurement model, z~ = theta + lag_s b)
-        self.lag_s = float((k @ b / b.sum() - k @ a / a.sum()) * self.dt_s)
-        # the step response from rest, s_k, and h_k, until s_k is within 1e-12 of 1
-        n_h = round(60.0 / cutoff_hz * fs_hz)
-        step = signal.lfilter(b, a, np.ones(n_h))
-        n_h = int(np.flatnonzero(np.abs(step - 1.0) > 1e-12)[-1]) + 2
-        t = np.arange(n_h) * self.dt_s
-        self._step = step[:n_h]
-        self._step[-1] = 1.0
-        self._h = t - signal.lfilter(b, a, t) / self._step
-        self._h[-1] = self.lag_s
-        # added to the gyro before it is integrated: undoes shift_bias, so a new calibration
-        # does not turn the gyro angle differently from before
-        self.offset_rad_s = np.zeros(n_segments)
-        self.reset()
-
-    def reset(self) -> None:
-        self._theta: np.ndarray | None = None  # the gyro angle at the last sample
-        self._zi: np.ndarray | None = None
-        self._count = 0  # samples since the reset
-
-    @property
-    def count(self) -> int:
-        """Samples since the reset."""
-        return self._count
-
-    def _at(self, table: np.ndarray, count: int, n: int) -> np.ndarray:
-        return np.asarray(table[np.minimum(np.arange(count, count + n), len(table) - 1)])
-
-    def bias_gain(self, count: int, n: int) -> np.ndarray:
-        """h_k (s) of the ``n`` samples from ``count`` samples after the reset on."""
-        return self._at(self._h, count, n)
-
-    def process(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> np.ndarray:
-        from scipy import signal  # lazy
-
-        n, s = ax.shape
-        if self._theta is None:  # the gyro angle starts at the first accelerometer tilt
-            self._theta = np.arctan2(az[0], ax[0]) - (w[0] + self.offset_rad_s) * self.dt_s
-        # one cumulative sum from the carried angle: the same additions in any chunking
-        rate = (w + self.offset_rad_s) * self.dt_s
-        theta = np.cumsum(np.vstack([self._theta, rate]), axis=0)[1:]
-        # the turn in single precision (20x faster; 1e-7 rad), of the angle reduced first
-        turn = (theta - TWO_PI * np.rint(theta * (1.0 / TWO_PI))).astype(np.float32)
-        c, sn = np.cos(turn), np.sin(turn)
-        world = np.empty((len(theta), 2 * s))  # (up, fwd) x S
-        np.add(ax * c, az * sn, out=world[:, :s])
-        np.subtract(az * c, ax * sn, out=world[:, s:])
-        if self._zi is None:  # the low-pass starts from rest
-            self._zi = np.zeros((2, 2 * s))
-        avg, self._zi = signal.lfilter(*self._ba, world, axis=0, zi=self._zi)
-        if self._count < len(self._step) - 1:  # the start-up's mean (the class doc)
-            avg = avg / self._at(self._step, self._count, n)[:, None]
-        h = self.bias_gain(self._count, n)[:, None]
-        self._count += n
-        self._theta = theta[-1].copy()
-        tilt = theta + np.arctan2(avg[:, s:], avg[:, :s])
-        return np.asarray(tilt - h * self.offset_rad_s)
 
 
 class GaitAwareKalman:

@@ -1,0 +1,97 @@
+"""The gait-aware Kalman filter's gravity measurement (:class:`GravityReference`): the
+gyro-turned specific force, low-passed. :mod:`gaitmon.dsp.motion_kalman`'s module doc
+describes the filter ("the module doc" below).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gaitmon.dsp.angles import TWO_PI
+
+
+class GravityReference:
+    """Causal gravity-referenced tilt of S segments (module doc, "Gravity measurement").
+
+    ``process(ax, az, w)`` with (N, S) inputs returns z~ (rad, (N, S), continuous up to the
+    wrap of its arg), minus ``h * offset_rad_s``. Stateful; any chunking gives bit-for-bit
+    the same output.
+
+    Start-up. The low-pass starts from rest (zero state) and its output is divided by its own
+    step response s_k (the same low-pass fed ones from rest): a weighted mean of the samples
+    seen so far, with the low-pass's weights, that becomes the plain low-pass as s_k -> 1
+    (within 1e-12 after ~30 s at 0.25 Hz). Started from a single sample instead (its steady
+    state for it), the low-pass would carry that sample's own acceleration (a swinging
+    thigh's, several m/s^2) for its ~3 s memory; started from the mean of a first window, it
+    rings when the stride's oscillation comes in. A gyro bias b turns the gyro angle by b t,
+    which the mean sees late by the mean age of what it holds: z~ = theta + h_k b with
+    h_k = t_k - avg(t)_k, which tends to ``lag_s``; :meth:`bias_gain` gives h_k for the sample
+    count since the reset, computed once by passing the ramp t through the same mean.
+    """
+
+    def __init__(self, cutoff_hz: float, fs_hz: float, n_segments: int) -> None:
+        from scipy import signal  # lazy: scipy only where a filter is run
+
+        self.dt_s = 1.0 / fs_hz
+        b, a = signal.butter(2, cutoff_hz, fs=fs_hz)
+        self._ba = (b, a)
+        k = np.arange(len(b))
+        # the low-pass's delay at DC: a gyro bias b turns the gyro angle at b, so z~ leads the
+        # tilt by lag_s * b (the filter's measurement model, z~ = theta + lag_s b)
+        self.lag_s = float((k @ b / b.sum() - k @ a / a.sum()) * self.dt_s)
+        # the step response from rest, s_k, and h_k, until s_k is within 1e-12 of 1
+        n_h = round(60.0 / cutoff_hz * fs_hz)
+        step = signal.lfilter(b, a, np.ones(n_h))
+        n_h = int(np.flatnonzero(np.abs(step - 1.0) > 1e-12)[-1]) + 2
+        t = np.arange(n_h) * self.dt_s
+        self._step = step[:n_h]
+        self._step[-1] = 1.0
+        self._h = t - signal.lfilter(b, a, t) / self._step
+        self._h[-1] = self.lag_s
+        # added to the gyro before it is integrated: undoes shift_bias, so a new calibration
+        # does not turn the gyro angle differently from before
+        self.offset_rad_s = np.zeros(n_segments)
+        self.reset()
+
+    def reset(self) -> None:
+        self._theta: np.ndarray | None = None  # the gyro angle at the last sample
+        self._zi: np.ndarray | None = None
+        self._count = 0  # samples since the reset
+
+    @property
+    def count(self) -> int:
+        """Samples since the reset."""
+        return self._count
+
+    def _at(self, table: np.ndarray, count: int, n: int) -> np.ndarray:
+        return np.asarray(table[np.minimum(np.arange(count, count + n), len(table) - 1)])
+
+    def bias_gain(self, count: int, n: int) -> np.ndarray:
+        """h_k (s) of the ``n`` samples from ``count`` samples after the reset on."""
+        return self._at(self._h, count, n)
+
+    def process(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> np.ndarray:
+        from scipy import signal  # lazy
+
+        n, s = ax.shape
+        if self._theta is None:  # the gyro angle starts at the first accelerometer tilt
+            self._theta = np.arctan2(az[0], ax[0]) - (w[0] + self.offset_rad_s) * self.dt_s
+        # one cumulative sum from the carried angle: the same additions in any chunking
+        rate = (w + self.offset_rad_s) * self.dt_s
+        theta = np.cumsum(np.vstack([self._theta, rate]), axis=0)[1:]
+        # the turn in single precision (20x faster; 1e-7 rad), of the angle reduced first
+        turn = (theta - TWO_PI * np.rint(theta * (1.0 / TWO_PI))).astype(np.float32)
+        c, sn = np.cos(turn), np.sin(turn)
+        world = np.empty((len(theta), 2 * s))  # (up, fwd) x S
+        np.add(ax * c, az * sn, out=world[:, :s])
+        np.subtract(az * c, ax * sn, out=world[:, s:])
+        if self._zi is None:  # the low-pass starts from rest
+            self._zi = np.zeros((2, 2 * s))
+        avg, self._zi = signal.lfilter(*self._ba, world, axis=0, zi=self._zi)
+        if self._count < len(self._step) - 1:  # the start-up's mean (the class doc)
+            avg = avg / self._at(self._step, self._count, n)[:, None]
+        h = self.bias_gain(self._count, n)[:, None]
+        self._count += n
+        self._theta = theta[-1].copy()
+        tilt = theta + np.arctan2(avg[:, s:], avg[:, :s])
+        return np.asarray(tilt - h * self.offset_rad_s)
