@@ -2,9 +2,10 @@
 
 ``Engine.request_zero`` hands the engine thread a :class:`ZeroSearch`: the standing windows of
 ``n`` samples whose last sample is ``since_idx + n - 1``, then every ``step`` samples after
-(engine indices; ``n`` rows, which may span a few lost frames: up to 10 % more time). While one is open the engine
-thread cuts its blocks at the next window's end and looks at that window as soon as its last
-sample has been processed (the pipeline is chunk-invariant: the cut changes no output). The
+(engine indices; ``n`` rows, which may span a few lost frames: up to 10 % more time). While
+one is open the engine thread cuts its blocks at the next window's end and looks at that
+window as soon as its last sample has been processed (the pipeline is chunk-invariant: the
+cut changes no output). The
 first still window gives the calibration, which takes effect ``ZERO_MARGIN_S`` of the unit's
 samples after the window's end, a sample not yet processed then. So which window is zeroed,
 the calibration's first sample and a ``gaitmon record --zero`` file's first row depend on the
