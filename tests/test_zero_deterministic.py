@@ -169,7 +169,8 @@ def test_the_live_zero_takes_effect_at_its_sample_and_a_pair_at_each_units_own(
 ) -> None:
     """``EngineGroup.zero`` (the live window's pair Zero, `record --simulate-bilateral
     --zero`): both units zeroed, each at the sample its own engine thread scheduled (its
-    window's end + ``ZERO_MARGIN_S``), from the last 1.5 s before the request on."""
+    window's end + ``ZERO_MARGIN_S``), from the last 1.5 s before the request on. No timing
+    is asserted: which window a live press takes is the press's moment."""
     engines = {s: make_engine(speed=20.0, standing_s=math.inf, seed=k)[1]
                for k, s in ((3, "L"), (4, "R"))}  # fmt: skip
     group = EngineGroup(engines)
@@ -181,7 +182,9 @@ def test_the_live_zero_takes_effect_at_its_sample_and_a_pair_at_each_units_own(
         assert sorted(cals) == ["L", "R"] and sorted(group.zero_at) == ["L", "R"]
         for s, e in engines.items():
             wait_for(lambda e=e, s=s: e.calibration is cals[s], what=f"{s} zeroed")
-            assert group.zero_at[s] >= round(ZERO_MARGIN_S * FS)
-            assert list(e.timing_notes) == []
+            # a window of 1.5 s from the last 1.5 s before the request on, + the margin (the
+            # last window before the request may have been processed a block before it was
+            # looked at: then it took effect from the next block, as timing_notes says)
+            assert group.zero_at[s] >= round((1.5 + ZERO_MARGIN_S) * FS)
     finally:
         group.stop()

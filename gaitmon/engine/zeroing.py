@@ -5,12 +5,12 @@
 (engine indices; ``n`` rows, which may span a few lost frames: up to 10 % more time). While
 one is open the engine thread cuts its blocks at the next window's end and looks at that
 window as soon as its last sample has been processed (the pipeline is chunk-invariant: the
-cut changes no output). The
-first still window gives the calibration, which takes effect ``ZERO_MARGIN_S`` of the unit's
-samples after the window's end, a sample not yet processed then. So which window is zeroed,
-the calibration's first sample and a ``gaitmon record --zero`` file's first row depend on the
-unit's samples only, never on when a thread ran (a loaded machine, a simulator faster than
-real time): issue 24, "load independence".
+cut changes no output). The first still window gives the calibration, which takes effect
+``ZERO_MARGIN_S`` of the unit's samples after the window's end, a sample not yet processed
+then; with ``hold`` the engine keeps the rows processed from there for a recording to start
+at it. So which window is zeroed, the calibration's first sample and a ``gaitmon record
+--zero`` file's first row depend on the unit's samples only, never on when a thread ran (a
+loaded machine, a simulator faster than real time): issue 24, "load independence".
 """
 
 from __future__ import annotations
