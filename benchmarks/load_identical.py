@@ -7,7 +7,7 @@ of the two files under /processed, /raw, /events and /smoothed bit for bit (h5py
 dataset's largest difference and the overall verdict; exits 1 if any differs.
 
     python benchmarks/load_identical.py [--seed 3] [--speed 10] [--duration 20] [--burners 2]
-        [-- extra record options, e.g. --loss-pct 2]
+        [-- extra record options, e.g. --zero, --loss-pct 2]
 """
 
 from __future__ import annotations

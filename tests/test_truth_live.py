@@ -145,9 +145,11 @@ def test_zeroing_restarts_the_gyro_integration_from_the_zeroed_pose():
         clock.hold(3.0 / 5.0)
         wait_for(lambda: eng.samples_total >= 290, what="standing data")
         before = eng.snapshot(0.5).series["joint_gyro_deg"][-1]
-        eng.zero()
-        at_zero = eng.samples_total
+        cal = eng.zero()
         clock.hold(4.0 / 5.0)
+        # it takes effect ZERO_MARGIN_S after its window, at a sample the data decide
+        wait_for(lambda: eng.calibration is cal, what="the zero in force")
+        at_zero = eng.samples_total
         wait_for(lambda: eng.samples_total >= at_zero + 50, what="data after zeroing")
         after = eng.snapshot(0.3).series["joint_gyro_deg"]
     # the uncorrected bias made it drift before; right after Zero it reads the standing pose

@@ -22,6 +22,7 @@ from gaitmon.commands.simulate import add_bilateral_options, add_simulator_optio
 from gaitmon.errors import UserError
 
 if TYPE_CHECKING:
+    from gaitmon.engine import Engine
     from gaitmon.engine.pair import EngineGroup
     from gaitmon.io.session import SessionMeta
     from gaitmon.lsl.control import RemoteControl
@@ -191,8 +192,16 @@ def _record(
     later = args.zero or control is not None
     outlets: dict[str, LslOutlets] = {}
     opener = record_lsl.outlet_opener(args, meta, outlets) if args.lsl else None
+
+    def before_stream(side: str, engine: Engine) -> None:
+        if args.zero:  # each engine thread looks for the standing window from its first sample
+            group.request_zero_from_start(side)
+        if opener is not None:
+            opener(side, engine)
+
     try:
-        group.start(out, meta, overwrite=args.force, record=not later, before_stream=opener)
+        group.start(out, meta, overwrite=args.force, record=not later,
+                    before_stream=before_stream)  # fmt: skip
     except BaseException as exc:  # the group deleted the (empty) files it had created
         group.stop("error: start-up failed")
         record_lsl.close_outlets(outlets)
@@ -220,7 +229,8 @@ def _record(
             record_lsl.wait_for_start(control, engine, stop, stall_s, args.quiet)
         if later:
             try:
-                group.start_recording()
+                # with --zero each unit's first row is the sample its zero takes effect at
+                group.start_recording(at_zero=args.zero and control is None)
             except EngineError as exc:
                 raise UserError(str(exc)) from None
         for line in record_units.warn_wrong_legs(group):
@@ -252,6 +262,8 @@ def _record(
     if stalled:  # the request was not completed: say so, and exit non-zero
         raise UserError(stalled)
     lines = record_units.summary_lines(group, statuses, out)
+    for side, eng in group.engines.items():  # a zero or a start the machine was too late for
+        lines.extend(f"warning: {f'{side}: ' if side else ''}{note}" for note in eng.timing_notes)
     if lsl is not None:
         lines.append(record_lsl.summary(lsl, record_units.engine_of_one(group)))
     for line in lines:

@@ -73,6 +73,7 @@ from gaitmon.engine.snapshot import (
 )
 from gaitmon.engine.stream import StreamHealth, StreamPosition, UnitClockMark
 from gaitmon.engine.taps import BlockListener, Taps
+from gaitmon.engine.zeroing import HOLD_MAX_S, ZERO_MARGIN_S, HeldPart, ZeroSearch
 from gaitmon.io.device import Device, DeviceError, SampleBlock
 from gaitmon.io.protocol import FrameKind, Identity
 from gaitmon.io.transport import LinkError
@@ -92,6 +93,9 @@ class _PendingChanges:
 
     config: PipelineConfig | None = None
     calibration: Calibration | None = None
+    # the engine index from which ``calibration`` takes effect (None: the next block); the
+    # engine thread cuts its blocks there, so it is applied exactly at that sample
+    calibration_at: int | None = None
 
 
 class Engine:
@@ -146,6 +150,14 @@ class Engine:
         # seconds of the unit's clock (lost frames count), not what arrived until it was
         # stopped: ``gaitmon record --duration`` gets the same rows however loaded the host is
         self.record_limit_s: float | None = None
+        # a zero or a recording start scheduled at a sample the engine thread had already
+        # processed (a machine far behind) took effect from the next block: one line each
+        self.timing_notes: deque[str] = deque(maxlen=64)
+        self._zero_search: ZeroSearch | None = None  # the engine thread's (``request_zero``)
+        # engine thread: the parts processed from a found zero's sample on, for a recording
+        # to start there (``request_zero(hold=True)``, ``_hold``)
+        self._held: list[HeldPart] = []
+        self._held_from: int | None = None
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -227,9 +239,14 @@ class Engine:
     # -- recording ------------------------------------------------------------------------
 
     def start_recording(
-        self, path: str | Path, meta: SessionMeta | None = None, *, overwrite: bool = False
-    ) -> None:
-        """Open a session file and record every sample from the next block on."""
+        self, path: str | Path, meta: SessionMeta | None = None, *, overwrite: bool = False,
+        from_idx: int | None = None,
+    ) -> None:  # fmt: skip
+        """Open a session file and record every sample from the next block on, or with
+        ``from_idx`` (an engine sample index, e.g. the one where a zero takes effect:
+        ``zero_at``) from that sample on: the file's first row is then decided by the data,
+        not by when this thread ran. If that sample has already been processed (a machine far
+        behind), from the next block, and ``timing_notes`` says so."""
         from gaitmon.io.session import (
             SessionError,
             SessionHeader,
@@ -243,8 +260,16 @@ class Engine:
                 raise EngineError("already recording; stop the current recording first")
             # a zeroing still waiting for the next block is the calibration the file starts with
             # (the engine thread takes pending changes and applies them under this same lock,
-            # so the header is exactly what the first recorded block is processed with)
-            calibration = self._pending.calibration or self.calibration
+            # so the header is exactly what the first recorded block is processed with); one
+            # scheduled at a sample is, if the file starts at or after that sample (the engine
+            # thread logs the calibration in force at row 0 if it is not the header's)
+            at = self._pending.calibration_at
+            calibration = self.calibration
+            if self._pending.calibration is not None and (
+                at is None or (from_idx is not None and from_idx >= at)
+                or at <= self._stream.samples
+            ):
+                calibration = self._pending.calibration
             header = SessionHeader(
                 mode=self.mode.value,
                 sample_rate_hz=self.fs_hz,
@@ -266,6 +291,7 @@ class Engine:
                 limit_samples=None if self.record_limit_s is None
                 else round(self.record_limit_s * self.fs_hz),
             )  # fmt: skip
+            self._recorder.start_idx = from_idx
             self._last_recording = RecordingStatus()
 
     def stop_recording(self, reason: str = "user", timeout_s: float = 30.0) -> RecordingStatus:
@@ -294,6 +320,13 @@ class Engine:
     @property
     def recording(self) -> RecordingStatus:
         return self._recording_status(self._recorder)
+
+    def recorded_unit_s(self) -> float | None:
+        """Seconds of the unit's clock from the recording's first row through the last sample
+        handed to it (lost frames count; 0 before its first row); None: not recording."""
+        with self._lock:
+            rec = self._recorder
+        return None if rec is None else rec.unit_samples() / self.fs_hz
 
     def add_marker(self, label: str = "", host_time_s: float | None = None) -> None:
         """A marker on the latest sample (the next row of a recording), or with
@@ -356,13 +389,25 @@ class Engine:
         ``since_idx`` (an engine sample index): from the earliest still ``window_s`` among the
         rows held from that sample on instead (windows ending every 0.1 s of the unit's
         clock): what is zeroed then depends on the unit's samples, not on when this thread
-        got to run (a busy machine, a simulator faster than real time)."""
+        got to run (a busy machine, a simulator faster than real time).
+
+        Applied, it takes effect at the sample ``ZERO_MARGIN_S`` after the end of its window
+        (``zero_at``), exactly there whichever block holds it."""
+        cal, at = self.zero_at(window_s, since_idx=since_idx)
+        return self.use_calibration(cal, at_idx=at) if apply and at is not None else cal
+
+    def zero_at(
+        self, window_s: float = 1.5, *, since_idx: int | None = None
+    ) -> tuple[Calibration, int | None]:
+        """``zero``'s calibration (not applied) and the engine index from which it is to take
+        effect: ``ZERO_MARGIN_S`` of the unit's clock after its window's last sample (None:
+        a unit in tilt/joint mode, which zeroed itself and keeps ``calibration``)."""
         if self.mode is not Mode.RAW:
             try:
                 self.device.zero()
             except (DeviceError, LinkError) as exc:
                 raise EngineError(f"the unit refused to zero: {exc}") from exc
-            return self.calibration
+            return self.calibration, None
         n = int(window_s * self.fs_hz)
         need = f"need {window_s:g} s of data from the unit to zero; wait and retry"
         if since_idx is None:
@@ -389,14 +434,90 @@ class Engine:
             except CalibrationError as exc:
                 refused = exc
                 continue
-            return self.use_calibration(cal) if apply else cal
+            end = int(data["idx"][w.stop - 1]) + 1  # the engine index after the window
+            return cal, end + round(ZERO_MARGIN_S * self.fs_hz)
         if refused is None:
             raise EngineError(need)
         raise EngineError(str(refused)) from refused
 
-    def use_calibration(self, cal: Calibration) -> Calibration:
-        with self._lock:  # from the next block on (logged in a running recording)
+    def request_zero(
+        self, window_s: float = 1.5, *, since_idx: int = 0, apply: bool = True,
+        hold: bool = False,
+    ) -> ZeroSearch:  # fmt: skip
+        """Raw mode: the engine thread looks for the earliest still ``window_s`` from engine
+        index ``since_idx`` on, each window as soon as its last sample is processed, and
+        (``apply``) applies what it finds at its sample (``engine.zeroing``); ``hold``: and
+        keeps the processed rows from that sample on (up to ``HOLD_MAX_S``) for a recording
+        asked to start there (``start_recording(from_idx=...)``) however late. Poll
+        ``zero_search``; ``cancel_zero`` ends it."""
+        if self.mode is not Mode.RAW:
+            raise EngineError("the unit zeroes itself in this mode")
+        n = int(window_s * self.fs_hz)
+        search = ZeroSearch(n=n, step=max(1, round(0.1 * self.fs_hz)), next_end=since_idx + n,
+                            margin=round(ZERO_MARGIN_S * self.fs_hz), apply=apply,
+                            hold=hold)  # fmt: skip
+        with self._lock:
+            if self._zero_search is not None:
+                self._zero_search.done = True
+            search.before = self.calibration
+            self._zero_search = search
+        return search
+
+    def zero_search(
+        self, search: ZeroSearch
+    ) -> tuple[tuple[Calibration, int] | None, str, int]:
+        """Where ``search`` is: (its calibration and first sample, or None; the last window's
+        refusal, "" if none was refused; the engine index after the last window looked at)."""
+        with self._lock:
+            refused = "" if search.refused is None else str(search.refused)
+            return search.result, refused, search.next_end - search.step
+
+    def cancel_zero(
+        self, search: ZeroSearch, *, withdraw: bool = False
+    ) -> tuple[Calibration, int] | None:
+        """Stop looking; what it found meanwhile (applied, if it was to be), or None. With
+        ``withdraw``, what it found is not applied (or, already applied, the calibration
+        before it is again from the next block)."""
+        with self._lock:
+            search.done = True
+            if self._zero_search is search:
+                self._zero_search = None
+            found = search.result
+            if withdraw and found is not None and search.apply:
+                search.result = None
+                if self._pending.calibration is found[0]:
+                    self._pending.calibration = self._pending.calibration_at = None
+                elif self.calibration is found[0] and search.before is not None:
+                    self._pending.calibration = search.before
+                    self._pending.calibration_at = None
+            return found
+
+    def _look_for_zero(self) -> None:
+        """The engine thread, after each part: the open search's windows now processed."""
+        with self._lock:
+            search = self._zero_search
+        if search is None or search.done or search.next_end > self._stream.samples:
+            return
+        data = self._ring.latest(self._ring.capacity)
+        with self._lock:
+            if search.done:
+                return
+            if search.look(data, self._stream.samples, self.calibration.gyro_bias_rad_s,
+                           self.fs_hz):  # fmt: skip
+                self._zero_search = None
+                found = search.result
+                if search.apply and found is not None:
+                    self._pending.calibration, self._pending.calibration_at = found
+                if search.hold and found is not None:  # a recording may start there: hold
+                    self._held, self._held_from = [], found[1]
+
+    def use_calibration(self, cal: Calibration, at_idx: int | None = None) -> Calibration:
+        """From the next block on, or from engine index ``at_idx`` (the next block if that
+        sample has been processed already: ``timing_notes`` says so); logged in a running
+        recording."""
+        with self._lock:
             self._pending.calibration = cal
+            self._pending.calibration_at = at_idx
         return cal
 
     # -- snapshots ------------------------------------------------------------------------
@@ -466,13 +587,20 @@ class Engine:
             now = time.monotonic()
             if block is not None and len(block):
                 self._stream.last_data_s = now
+            rest = block if block is not None and len(block) else None
+            while rest is not None:
+                part, rest = self._next_part(rest)
                 try:
-                    self._handle(block)
+                    self._handle(part)
                 except Exception as exc:  # never let one block kill acquisition
                     try:
-                        self._block_failed(block, exc)
+                        self._block_failed(part, exc)
                     except Exception as again:
                         self._note_error(f"processing error: {type(again).__name__}: {again}")
+                try:
+                    self._look_for_zero()
+                except Exception as exc:  # a zero must never stop acquisition
+                    self._note_error(f"zero error: {type(exc).__name__}: {exc}")
             try:
                 self._place_timed_markers()
             except Exception as exc:  # a marker must never stop acquisition
@@ -483,6 +611,34 @@ class Engine:
                     if self._recorder is not None:
                         with contextlib.suppress(Exception):
                             self._recorder.put(UpdateLink(self.device.stats))
+
+    def _next_part(self, block: SampleBlock) -> tuple[SampleBlock, SampleBlock | None]:
+        """The block up to the next scheduled sample inside it (a calibration's, a
+        recording's first row) and the rest (None: no such sample inside it). The pipeline is
+        chunk-invariant, so cutting there changes no output: it only lets a change take
+        effect at exactly its sample, whichever blocks the link delivered."""
+        start, n = self._stream.samples, len(block)
+        with self._lock:
+            p = self._pending
+            marks = [p.calibration_at if p.calibration is not None else None]
+            if self._zero_search is not None and not self._zero_search.done:
+                marks.append(self._zero_search.next_end)  # look at it as soon as it is here
+            rec = self._recorder
+            if rec is not None and rec.row_map.record_offset is None:
+                marks.append(rec.start_idx)
+        cuts = [m - start for m in marks if m is not None and 0 < m - start < n]
+        if not cuts:
+            return block, None
+        cut = min(cuts)
+        return slice_samples(block, 0, cut), slice_samples(block, cut, n)
+
+    def _note_timing(self, what: str, late_samples: int) -> None:
+        """A scheduled change took effect from a block after its sample (module constant
+        ``ZERO_MARGIN_S``): the result depends on the machine's timing this once; say so."""
+        self.timing_notes.append(
+            f"{what} {late_samples / self.fs_hz:.2f} s of the unit's clock after its sample "
+            "(the machine was behind): this time it depends on the machine's timing"
+        )
 
     def _note_error(self, text: str) -> None:
         with self._lock:
@@ -496,17 +652,32 @@ class Engine:
             # take pending changes and make them current in one step, so a recording started
             # meanwhile puts exactly what this block is processed with into its header
             cfg, self._pending.config = self._pending.config, None
-            cal, self._pending.calibration = self._pending.calibration, None
+            cal, cal_at = None, self._pending.calibration_at
+            if cal_at is None or cal_at <= st.samples:  # a scheduled one waits for its sample
+                cal, self._pending.calibration = self._pending.calibration, None
+                self._pending.calibration_at = None
             if cfg is not None:
                 self.config = cfg
             if cal is not None:
                 self.calibration = cal
             rec = self._recorder
         start_idx = st.samples
+        if cal is not None and cal_at is not None and cal_at < start_idx:
+            self._note_timing("the zero took effect", start_idx - cal_at)
+        from_idx = None if rec is None or rec.row_map.record_offset is not None else rec.start_idx
+        if from_idx is not None and start_idx < from_idx:
+            rec = None  # the recording starts at a later sample (``_next_part`` cuts there)
+        elif (
+            rec is not None and from_idx is not None and start_idx > from_idx
+            and not self._start_held(rec)  # processed before the caller got to it: held?
+        ):  # fmt: skip
+            self._note_timing("the recording started", start_idx - from_idx)
         first = rec is not None and rec.row_map.record_offset is None
         if first:
             assert rec is not None
             rec.row_map.record_offset = start_idx  # row 0 = this block's first sample
+        if rec is not None:
+            self._held, self._held_from = [], None
         if cfg is not None:
             self._pipeline = self._pipeline.successor(cfg)
             with self._lock:
@@ -519,6 +690,8 @@ class Engine:
             self._pipeline.set_calibration(cal)
             if rec is not None and not (first and cal is rec.header_calibration):
                 rec.put(LogCalibration(cal))
+        elif first and rec is not None and self.calibration is not rec.header_calibration:
+            rec.put(LogCalibration(self.calibration))  # row 0 is processed with this one
         if block.kind != self.mode.frame_kind:
             # not this session's frames (a unit that restarted into its default kind before
             # the setup was sent again): neither shown nor recorded; the file gets a gap
@@ -550,13 +723,17 @@ class Engine:
             restarts = p.restart_idx + offset
             lengths = self._spatial.push(block.adc, p, hs_idx, start_idx, self._pipeline.table,
                                          lost)  # fmt: skip
+            p_rec = p
+            if (first or (rec is None and not self._held)) and len(
+                self._pipeline.fsr_faults
+            ) > len(p.fsr_faults):
+                # sensors flagged before the recording started are faulty in it from row 0
+                p_rec = dataclasses.replace(p, fsr_faults=self._pipeline.fsr_faults)
             if rec is not None:
-                if first and len(self._pipeline.fsr_faults) > len(p.fsr_faults):
-                    # sensors flagged before the recording started are faulty in it from row 0
-                    p_rec = dataclasses.replace(p, fsr_faults=self._pipeline.fsr_faults)
-                    self._hand_over(rec, block, p_rec, gap_reason, t_s)
-                else:
-                    self._hand_over(rec, block, p, gap_reason, t_s)
+                self._hand_over(rec, block, p_rec, gap_reason, t_s)
+            elif self._held_from is not None:
+                self._hold(HeldPart(start_idx, offset, block, p_rec, gap_reason, t_s,
+                                    self.calibration))  # fmt: skip
         else:
             cols = cols_from_device(block, t_s)
             hs_idx, to_idx, strides = self._unit_events.process(block, start_idx)
@@ -583,22 +760,65 @@ class Engine:
 
     def _hand_over(
         self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str,
-        t_s: np.ndarray,
+        t_s: np.ndarray, at: tuple[int, int] | None = None,
     ) -> None:  # fmt: skip
         """Queue a block for the recorder, with the frames not recorded before it as lost
         (see ``RowMap.outgoing``); if the queue is full, the row map notes the drop. A
-        recording with a ``limit_s`` gets only the rows before it (``t_s``: the block's)."""
-        n = rec.rows_within_limit(np.rint(t_s * self.fs_hz).astype(np.int64))
+        recording with a ``limit_s`` gets only the rows before it (``t_s``: the block's).
+        ``at``: (its pipeline's offset, its first engine index) for a held part; None: the
+        block being processed."""
+        k = np.rint(t_s * self.fs_hz).astype(np.int64)
+        n = rec.rows_within_limit(k)
+        offset, start = at or (self._stream.pipeline_offset, self._stream.samples)
+        try:
+            self._hand_over_rows(rec, block, p, gap_reason, n, offset, start)
+        finally:  # after the rows are queued: a caller that sees it and stops loses none
+            rec.k_seen = int(k[-1])
+
+    def _hand_over_rows(
+        self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str,
+        n: int, offset: int, start: int,
+    ) -> None:  # fmt: skip
         if n == 0:
             return
         if n < len(block):
             block, p = slice_samples(block, 0, n), None if p is None else _first_rows(p, n)
-        out, p_rows, first_reason = rec.row_map.outgoing(block, p, self._stream.pipeline_offset)
+        out, p_rows, first_reason = rec.row_map.outgoing(block, p, offset)
         if rec.put_block(AppendBlock(out, p_rows, 0, gap_reason, first_reason)):
             rec.row_map.handed_over(with_events=p is not None)
             return
         # the queue is full (a stalled disk)
-        rec.row_map.dropped(block, p, self._stream.pipeline_offset, self._stream.samples)
+        rec.row_map.dropped(block, p, offset, start)
+
+    def _hold(self, part: HeldPart) -> None:
+        """The engine thread: keep a processed part from the sample a zero takes effect at,
+        for a recording asked to start there once the caller gets to it (``start_recording``
+        with ``from_idx``); at most ``HOLD_MAX_S`` of them."""
+        if self._held_from is None or part.start < self._held_from:
+            return
+        if self._held and part.start != self._held[-1].start + len(self._held[-1].block):
+            self._held, self._held_from = [], None  # not contiguous (a failed block)
+            return
+        if not self._held and part.start != self._held_from:
+            self._held_from = None  # the zero's sample was processed before it was found
+            return
+        if part.start - self._held_from > HOLD_MAX_S * self.fs_hz:
+            self._held, self._held_from = [], None  # nobody started a recording there
+            return
+        self._held.append(part)
+
+    def _start_held(self, rec: Recorder) -> bool:
+        """The engine thread: a recording that starts at a sample already processed and
+        held: its rows from there, in order (True), or False (none held from there)."""
+        held, self._held, self._held_from = self._held, [], None
+        if not held or held[0].start != rec.start_idx:
+            return False
+        rec.row_map.record_offset = held[0].start
+        if held[0].calibration is not rec.header_calibration:
+            rec.put(LogCalibration(held[0].calibration))
+        for h in held:
+            self._hand_over(rec, h.block, h.p, h.gap_reason, h.t_s, (h.offset, h.start))
+        return True
 
     def _block_failed(self, block: SampleBlock, exc: Exception) -> None:
         """``_handle`` raised (a bug, or a block the pipeline cannot take): say so, keep the

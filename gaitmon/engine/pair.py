@@ -26,7 +26,8 @@ from typing import TYPE_CHECKING
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.engine.core import Engine, EngineError
-from gaitmon.engine.snapshot import RecordingStatus
+from gaitmon.engine.snapshot import Mode, RecordingStatus
+from gaitmon.engine.zeroing import ZeroSearch
 from gaitmon.finish.combine import combine_parts
 from gaitmon.io.journal import journal_path
 from gaitmon.io.session.h5file import _being_recorded
@@ -55,6 +56,9 @@ class EngineGroup:
         self._meta = SessionMeta()
         self._overwrite = False
         self._created: set[str] = set()  # the units whose recording this group created
+        # each unit's engine index where the last :meth:`zero` takes effect (raw mode)
+        self.zero_at: dict[str, int] = {}
+        self._searches: dict[str, ZeroSearch] = {}  # requested before streaming
 
     @property
     def sides(self) -> tuple[str, ...]:
@@ -120,13 +124,15 @@ class EngineGroup:
         self._meta = meta or SessionMeta()
         self._overwrite = overwrite
 
-    def _record(self, side: str) -> None:
+    def _record(self, side: str, from_idx: int | None = None) -> None:
         if self.in_parts:  # each part says its leg; an old part was deleted by _target
             meta = dataclasses.replace(self._meta, side=side)
-            self.engines[side].start_recording(self.recording_path(side), meta, overwrite=True)
+            self.engines[side].start_recording(self.recording_path(side), meta, overwrite=True,
+                                               from_idx=from_idx)  # fmt: skip
         else:
             eng = self.engines[side]
-            eng.start_recording(self.recording_path(side), self._meta, overwrite=self._overwrite)
+            eng.start_recording(self.recording_path(side), self._meta, overwrite=self._overwrite,
+                                from_idx=from_idx)  # fmt: skip
         self._created.add(side)
 
     def _abandon(self, started: list[str], *, streaming: bool = False) -> None:
@@ -144,9 +150,11 @@ class EngineGroup:
                         q.unlink()
 
     def start_recording(self, path: str | Path | None = None, meta: SessionMeta | None = None,
-                        *, overwrite: bool = False) -> None:  # fmt: skip
+                        *, overwrite: bool = False, at_zero: bool = False) -> None:  # fmt: skip
         """Every unit from its next block on (after a ``start(record=False)``); the
-        calibration a :meth:`zero` left waiting is each one's header's. With ``path``: the
+        calibration a :meth:`zero` left waiting is each one's header's. ``at_zero``: each
+        unit from the sample where its last zero takes effect (``zero_at``; `gaitmon record
+        --zero`), so the first row is decided by the data, not by when this ran. With ``path``: the
         engines already stream on their own (the live window's, started with
         ``Engine.start``) and record into ``path``; if any cannot start, none records and all
         stream on (``EngineError``)."""
@@ -155,7 +163,7 @@ class EngineGroup:
         started: list[str] = []
         try:
             for side, eng in self.engines.items():
-                self._record(side)
+                self._record(side, self.zero_at.get(side) if at_zero else None)
                 started.append(side)
                 self._start[side] = eng.clock_mark()
         except BaseException:
@@ -176,49 +184,81 @@ class EngineGroup:
         thread runs: every row since the request is looked at, so a busy machine or a unit
         faster than real time zeroes the same pose. Retried as data comes (the subject
         settling, the first seconds of data) until every unit has one; ``EngineError`` naming
-        the leg (or legs) without a still window once ``timeout_s`` of that unit's samples
-        (its clock) have come since the request (or 3 x ``timeout_s`` of wall time with no
-        zero: a unit that sends nothing); an empty dict if ``stop`` is set first. A unit
-        that zeroes itself (tilt/joint mode) keeps its calibration and is not handed it
-        again, as ``Engine.zero`` does (handed again, a running recording logged an unchanged
-        calibration as a zeroing)."""
+        the leg (or legs) without a still window once its windows ending within ``timeout_s``
+        of that unit's samples (its clock) since the request were all looked at (or 3 x
+        ``timeout_s`` of wall time with no zero: a unit that sends nothing); an empty dict if
+        ``stop`` is set first. A unit that zeroes itself (tilt/joint mode) keeps its
+        calibration and is not handed it again, as ``Engine.zero`` does (handed again, a
+        running recording logged an unchanged calibration as a zeroing). If not every unit
+        can be zeroed, none is (one found meanwhile is withdrawn). Each unit's calibration
+        takes effect at its own sample, ``ZERO_MARGIN_S`` after its window, found by its
+        engine thread (``engine.zeroing``; kept in :attr:`zero_at`)."""
         deadline = time.monotonic() + 3.0 * timeout_s
         n = int(window_s * next(iter(self.engines.values())).fs_hz)
-        since = {s: 0 if from_start else max(0, e.samples_total - n)
-                 for s, e in self.engines.items()}  # fmt: skip
-        asked = dict(since)  # where each unit's search began
+        asked: dict[str, int] = {}  # where each unit's search began
+        searches: dict[str, ZeroSearch] = {}  # the engine threads' (raw mode)
+        for side, eng in self.engines.items():
+            if eng.mode is Mode.RAW:
+                early = self._searches.pop(side, None) if from_start else None
+                asked[side] = 0 if from_start else max(0, eng.samples_total - n)
+                searches[side] = early or eng.request_zero(window_s, since_idx=asked[side])
+        self._searches = {}
         cals: dict[str, Calibration] = {}
+        at: dict[str, int] = {}
         last_error: dict[str, str] = {}
-        while stop is None or not stop.is_set():
-            timed_out = time.monotonic() > deadline
-            for side, eng in self.engines.items():
-                if side in cals:
-                    continue
-                seen = eng.samples_total
-                try:  # computed only: a window straddling an applied change would mix biases
-                    cals[side] = eng.zero(window_s, apply=False, since_idx=since[side])
-                    last_error.pop(side, None)
-                except EngineError as exc:
-                    last_error[side] = str(exc)
-                    if seen - asked[side] > (timeout_s + window_s) * eng.fs_hz:
+        try:
+            while stop is None or not stop.is_set():
+                timed_out = time.monotonic() > deadline
+                for side, eng in self.engines.items():
+                    if side in cals:
+                        continue
+                    if side not in searches:  # tilt/joint mode: the unit zeroes itself
+                        try:
+                            cals[side] = eng.zero(window_s, apply=False)
+                            last_error.pop(side, None)
+                        except EngineError as exc:
+                            last_error[side] = str(exc)
+                        continue
+                    found, refused, looked = eng.zero_search(searches[side])
+                    if found is not None:
+                        cals[side], at[side] = found
+                        last_error.pop(side, None)
+                        continue
+                    last_error[side] = refused or (
+                        f"need {window_s:g} s of data from the unit to zero; wait and retry"
+                    )
+                    # every window ending within timeout_s of its samples was looked at
+                    if looked - asked[side] > (timeout_s + window_s) * eng.fs_hz:
                         timed_out = True
-                    # the windows that ended by then were all looked at
-                    since[side] = max(since[side], seen - n + 1)
-            if not last_error:
-                for s, c in cals.items():
-                    if c is not self.engines[s].calibration:
-                        self.engines[s].use_calibration(c)
-                return cals
-            if timed_out:
-                raise EngineError("; ".join(
-                    f"could not zero{_unit_name(s)}: {e}" for s, e in last_error.items()
-                ))  # fmt: skip
-            time.sleep(0.02)
-        return {}
+                if not last_error:
+                    self.zero_at = at
+                    searches = {}  # found and applied: nothing to withdraw
+                    return cals
+                if timed_out:
+                    raise EngineError("; ".join(
+                        f"could not zero{_unit_name(s)}: {e}" for s, e in last_error.items()
+                    ))  # fmt: skip
+                time.sleep(0.02)
+            return {}
+        finally:  # not every unit zeroed: none is (a zero one of them found is withdrawn)
+            for side, search in searches.items():
+                self.engines[side].cancel_zero(search, withdraw=True)
+
+    def request_zero_from_start(self, side: str, window_s: float = 1.5) -> None:
+        """Before ``side``'s unit streams (``start``'s ``before_stream``): its engine thread
+        looks for the standing window from the first sample on, so the window, the sample the
+        calibration takes effect at and the file's first row (:meth:`zero` with
+        ``from_start``, then ``start_recording(at_zero=True)``) are decided by the samples,
+        however far the engine thread gets before :meth:`zero` runs."""
+        eng = self.engines[side]
+        if eng.mode is Mode.RAW:
+            self._searches[side] = eng.request_zero(window_s, since_idx=0, hold=True)
 
     def recorded_s(self, side: str) -> float:
         """Seconds of that unit's clock since the recording started (received + lost)."""
-        return self.engines[side].seconds_since(self._start.get(side))
+        eng = self.engines[side]
+        recorded = eng.recorded_unit_s()  # from its first row, which may be a scheduled sample
+        return eng.seconds_since(self._start.get(side)) if recorded is None else recorded
 
     def stop(self, reason: str = "user", timeout_s: float = STOP_TIMEOUT_S) -> dict[
         str, RecordingStatus

@@ -90,6 +90,12 @@ class Recorder:
         self.queue_max = queue_max
         self.header_config = header_config
         self.header_calibration = header_calibration
+        # engine thread: the engine index of row 0 if the recording starts at a given sample
+        # (``Engine.start_recording(from_idx=...)``; None: the next block)
+        self.start_idx: int | None = None
+        # engine thread: the unit's sample period of the last sample seen since row 0 (handed
+        # over or past the limit); with ``_k0``, how much of the unit's clock is recorded
+        self.k_seen: int | None = None
         self.row_map = RowMap()
         self._lock = threading.Lock()
         self._blocks_waiting = 0
@@ -103,13 +109,22 @@ class Recorder:
         """Engine thread: how many of a block's rows (the unit's sample periods ``k``, from
         ``StreamPosition.true_times``) lie before the limit, counted from the first row
         handed over."""
-        if self.limit_samples is None or not len(k):
-            return len(k)
+        if not len(k):
+            return 0
         if self._k0 is None:
             self._k0 = int(k[0])
+        if self.limit_samples is None:
+            return len(k)
         return int(np.searchsorted(k - self._k0, self.limit_samples, side="left"))
 
     # -- any thread -----------------------------------------------------------------------
+
+    def unit_samples(self) -> int:
+        """Sample periods of the unit's clock from row 0 through the last sample handed over
+        (or seen past the limit): lost frames count; 0 before row 0."""
+        k0, k = self._k0, self.k_seen
+        return 0 if k0 is None or k is None else k - k0 + 1
+
 
     @property
     def alive(self) -> bool:
