@@ -37,7 +37,7 @@ TIPS = (
     "Right leg: mean, seconds",
     "Symmetry ratio: left / right of the means (1 is symmetric)",
     "Symmetry index: 2 |L − R| / (L + R) × 100 % (0 is symmetric; it does not say which side "
-    "is larger). None for terminal double support: one leg's is the other's initial one",
+    "is larger). One leg's terminal double support is the other's initial one",
 )
 
 
