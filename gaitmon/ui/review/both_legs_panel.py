@@ -70,6 +70,17 @@ def _fill(t: QTableWidget, rows: list[tuple[str, ...]]) -> None:  # cells right-
             t.setItem(r, c, item)
 
 
+def _fit_rows(t: QTableWidget) -> None:
+    """Tall enough for the header and every row (the last row was cut at the window's
+    default size): the table never scrolls, the layout gives the room or the tab scrolls."""
+    t.resizeRowsToContents()
+    h = t.horizontalHeader().height() + t.verticalHeader().length() + 2 * t.frameWidth()
+    if t.horizontalScrollBar().isVisible():
+        h += t.horizontalScrollBar().height()
+    t.setMinimumHeight(h)
+    t.setVerticalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+
+
 class BothLegsPanel(QWidget):
     """The tab's widgets; :meth:`set_result` fills them, :meth:`show_message` says why not."""
 
@@ -116,6 +127,7 @@ class BothLegsPanel(QWidget):
             f"<b>{n['R']}</b>{tail}"
         )
         _fill(self.table, both.rows())
+        _fit_rows(self.table)
 
     def cell(self, measure: str, column: str) -> str:
         """The text shown for ``measure`` (e.g. "step time") in ``column`` (e.g. "SR (L/R)")."""
