@@ -191,6 +191,8 @@ def gap_recording(tmp_path_factory) -> pathlib.Path:
     """A 40 s simulated walk (SessionWriter, as the recorder writes it) with one link outage:
     the frames of 24.63-30.00 s never arrived (537 frames, "link lost"), so rows 2463 and
     2464 are 5.37 s apart. Deterministic, unlike :func:`cut_recording`. Read-only."""
+    import itertools
+
     import numpy as np
 
     from gaitmon.dsp.calibration import Calibration
@@ -211,7 +213,7 @@ def gap_recording(tmp_path_factory) -> pathlib.Path:
     w = SessionWriter(path, header)
     pipe = Pipeline(PipelineConfig())
     bounds = [*range(0, cut[0], 50), cut[0], *range(cut[1], n + 1, 50)]
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+    for a, b in itertools.pairwise(bounds):
         if a == cut[0]:
             continue  # the outage
         lost = np.zeros(b - a, np.int64)
