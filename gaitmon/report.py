@@ -39,7 +39,6 @@ from gaitmon.analysis import (
     spatial_summary,
     summary,
 )
-from gaitmon.dsp.bilateral import symmetry_index_pct, symmetry_ratio
 from gaitmon.dsp.channel_table import JOINT_TABLE, JOINTS, SEGMENTS
 from gaitmon.dsp.gait import cycle_mean_sd
 from gaitmon.finish import Session, open_session
@@ -342,19 +341,15 @@ def report_from_file(
 
 
 def symmetry_lines(an: BilateralAnalysis) -> tuple[SymmetryLine, ...]:
-    """The table's rows from ``analyse_bilateral``: its symmetry rows where it has them (SR
-    and SI of the means), the same definitions for terminal double support."""
+    """The table's rows from ``analyse_bilateral``: its symmetry rows (SR and SI of the
+    means, computed there only, so review and ``gaitmon info`` show the same figures)."""
     g = an.gait
-    have = {row.measure: row for row in g.symmetry}
     out = []
     for m in TABLE_MEASURES:
-        lv, rv = g.left.mean(m), g.right.mean(m)
-        row = have.get(m)
-        ratio = row.ratio if row else symmetry_ratio(lv, rv)
-        index = row.index_pct if row else symmetry_index_pct(lv, rv)
+        row = g.symmetry_of(m)
         lp, rp = ((np.nan, np.nan) if m in NO_PCT
                   else (g.left.pct_mean(m), g.right.pct_mean(m)))  # fmt: skip
-        out.append(SymmetryLine(m, lv, rv, lp, rp, ratio, index))
+        out.append(SymmetryLine(m, row.left, row.right, lp, rp, row.ratio, row.index_pct))
     return tuple(out)
 
 

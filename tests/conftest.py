@@ -187,6 +187,48 @@ def write_simulated_session(path: pathlib.Path, *, pattern: str = "normal", seed
 
 
 @pytest.fixture(scope="session")
+def gap_recording(tmp_path_factory) -> pathlib.Path:
+    """A 40 s simulated walk (SessionWriter, as the recorder writes it) with one link outage:
+    the frames of 24.63-30.00 s never arrived (537 frames, "link lost"), so rows 2463 and
+    2464 are 5.37 s apart. Deterministic, unlike :func:`cut_recording`. Read-only."""
+    import itertools
+
+    import numpy as np
+
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+    from gaitmon.finish import close_recording
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
+    from gaitmon.io.sim import GaitConfig, GaitModel
+    from gaitmon.io.sim.sensors import simulate
+
+    fs, n, cut = 100.0, 4000, (2463, 3000)
+    counts = simulate(n, GaitModel(GaitConfig(seed=11, standing_s=2.0))).counts
+    path = tmp_path_factory.mktemp("gap") / "gap.h5"
+    header = SessionHeader("raw", fs, meta=SessionMeta(patient_id="G2", side="R"),
+                           config=PipelineConfig(), calibration=Calibration.identity(),
+                           created_utc="2026-10-01T09:00:00Z")  # fmt: skip
+    w = SessionWriter(path, header)
+    pipe = Pipeline(PipelineConfig())
+    bounds = [*range(0, cut[0], 50), cut[0], *range(cut[1], n + 1, 50)]
+    for a, b in itertools.pairwise(bounds):
+        if a == cut[0]:
+            continue  # the outage
+        lost = np.zeros(b - a, np.int64)
+        if a == cut[1]:
+            lost[0] = cut[1] - cut[0]
+            w.add_gap(int(lost[0]), lost[0] / fs, "link lost: test cut")
+        seq = np.arange(a, b, dtype=np.int64)
+        blk = SampleBlock(FrameKind.RAW, seq, seq / fs, 1.7e9, lost_before=lost,
+                          adc=counts[a:b])  # fmt: skip
+        w.append(blk, pipe.process(counts[a:b], lost))
+    close_recording(w)
+    return path
+
+
+@pytest.fixture(scope="session")
 def normal_and_stiff_knee(tmp_path_factory) -> tuple[pathlib.Path, pathlib.Path]:
     """Two sessions of patient P001: normal gait on 2026-10-01, stiff-knee on 2026-11-01
     (same seed: only the pattern differs). Read-only: copy them before changing them."""

@@ -85,7 +85,7 @@ def test_pdf_table_says_what_info_prints(
         if m:
             sym[m.group(1)] = m.groups()[1:]
     assert set(sym) == {"step time", "stride time", "stance", "swing", "single support",
-                        "initial double support"}  # fmt: skip
+                        "initial double support", "terminal double support"}  # fmt: skip
     for label, (left_s, right_s, sr, si) in sym.items():
         cells = _pdf_row(text, label)
         assert (cells[0], cells[2], cells[4], cells[5]) == (left_s, right_s, sr, si), label

@@ -162,3 +162,39 @@ def test_review_shades_the_settling_time_after_the_cut(qtbot, review, cut_file) 
     for r in settling:
         a, b = doc.t_s[r.stride.start_idx], doc.t_s[r.stride.end_idx]
         assert a < spans[0, 1] and b > spans[0, 0]
+
+
+def _click_lane(qtbot, tl, t_s: float) -> None:
+    """A real mouse click on the hip lane at time ``t_s`` (mid-height)."""
+    from PySide6.QtCore import QPointF, Qt
+
+    vb = tl.lanes["hip"].plot.getViewBox()
+    (_x0, _x1), (y0, y1) = vb.viewRange()
+    view = vb.scene().views()[0]
+    pos = view.mapFromScene(vb.mapViewToScene(QPointF(t_s, 0.5 * (y0 + y1))))
+    qtbot.mouseClick(view.viewport(), Qt.MouseButton.LeftButton, pos=pos)
+
+
+def test_review_readout_inside_the_cut_says_there_is_no_data(qtbot, review, gap_recording) -> None:
+    """Issue 25 #4: a click inside a 24.6-30.0 s link gap read the row before it ("t 24.63 s …
+    knee … swing") or after it ("t 29.98 s"); it must say the time clicked and that there is no
+    data there (a deterministic gap: the real-cut fixture depends on the machine's timing)."""
+    _open(qtbot, review, gap_recording)
+    doc, tl = review.doc, review.timeline
+    with open_session(gap_recording) as s:
+        g = next(g for g in s.gaps if g.n_lost >= 100)
+    t0, t1 = float(doc.t_s[g.sample_idx - 1]), float(doc.t_s[g.sample_idx])
+    assert t1 - t0 > 1.0
+    _show(qtbot, tl, t0 - 2.0, t1 + 2.0)
+    for t in (t0 + 0.4 * (t1 - t0), t1 - 0.1 * (t1 - t0)):
+        _click_lane(qtbot, tl, t)
+        assert tl.cursor_t_s == pytest.approx(t, abs=0.05)  # the click landed there
+        text = tl.readout.text()
+        assert "no data" in text, text
+        assert f"t {tl.cursor_t_s:.2f} s" in text  # the time clicked, not a row's
+        assert f"{t0:.1f}–{t1:.1f} s" in text and "link gap" in text
+        assert "°" not in text and "swing" not in text and "row" not in text
+    # a click on the recorded row just before the cut still reads that row's values
+    tl.set_cursor(t0)
+    text = tl.readout.text()
+    assert "no data" not in text and f"t {t0:.2f} s" in text and "knee" in text

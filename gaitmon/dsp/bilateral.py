@@ -29,7 +29,9 @@ Each row of :class:`SideGait` belongs to one heel strike HS_X[k] of side X:
   initial double support is C's terminal one (the same interval seen from the other leg).
   Percentages are of the row's stride time (``pct``).
 
-Symmetry (:class:`Symmetry`, one per measure in ``SYMMETRY_MEASURES``), of the per-side means:
+Symmetry (:class:`Symmetry`, one per measure in ``SYMMETRY_MEASURES``), of the per-side means
+(this table is the one place SR and SI are computed: the report, review's Both legs tab,
+``gaitmon info`` and the exports all show its rows):
 
 * **symmetry ratio** SR = left / right. 1 is symmetric. When the affected side is known,
   affected / unaffected is ``Symmetry.ratio_of(affected)`` (= SR for "L", 1 / SR for "R").
@@ -55,6 +57,9 @@ SYMMETRY_MEASURES = (
     "swing_s",
     "single_support_s",
     "initial_double_support_s",
+    # one leg's terminal double support is the other's initial one, but the table (and so the
+    # report, review and info, which all read it) keeps both rows: issue 25 #11
+    "terminal_double_support_s",
 )
 MEASURE_LABELS = {
     "step_s": "step time",

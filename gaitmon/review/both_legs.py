@@ -76,8 +76,7 @@ class BothLegs:
     def rows(self) -> list[tuple[str, ...]]:
         """The table's cells, one row a measure (:data:`COLUMNS`): each side's mean as % of
         the stride (the phases of the stride only) and in seconds, then SR and SI (the
-        measures of the symmetry table only: one side's terminal double support is the
-        other's initial one)."""
+        analysis's symmetry table: the figures the report and ``gaitmon info`` show)."""
         g = self.analysis.gait
         sym = {r.measure: r for r in g.symmetry}
         out = []

@@ -106,10 +106,52 @@ def load_view(
     return ViewData(request_id, req, doc, windows, phase)
 
 
+def gap_at(doc: Document, t_s: float) -> tuple[float, float, str] | None:
+    """The gap the time ``t_s`` falls in, as (last time before it, first time after it, what
+    it was), or None when a recorded row is the nearest sample: inside a gap the nearest
+    *frame* is a lost one once the cursor is more than half a sample from the rows either
+    side (so a readout there shows no data, never the row across the gap)."""
+    t = doc.t_s
+    n = len(t)
+    if n == 0 or not math.isfinite(t_s):
+        return None
+    half = 0.5 / doc.fs_hz if doc.fs_hz > 0 else 0.0
+    rows, _lost = doc.gaps
+    after = int(np.searchsorted(t, t_s, side="right"))  # first row later than t_s
+    if 0 < after < n:
+        k = int(np.searchsorted(rows, after))
+        if k < len(rows) and rows[k] == after:
+            t0, t1 = float(t[after - 1]), float(t[after])
+            if t0 + half < t_s < t1 - half:
+                return t0, t1, _gap_reason(doc, after)
+        return None
+    if after >= n and t_s > float(t[-1]) + half:  # an outage the recording ended in
+        for g in doc.session.gaps:
+            if g.sample_idx >= n:
+                t0 = float(t[-1])
+                if t_s < t0 + g.duration_s:
+                    return t0, t0 + g.duration_s, g.reason
+    return None
+
+
+def _gap_reason(doc: Document, row: int) -> str:
+    return next((g.reason for g in doc.session.gaps if g.sample_idx == row), "")
+
+
+def _gap_words(reason: str) -> str:
+    return "link gap" if reason.startswith("link") else "gap: frames lost"
+
+
 def readout_html(doc: Document, cursor_t_s: float, segment: int) -> str:
-    """The time and the values at the cursor, read from the current series (exact row)."""
+    """The time and the values at the cursor, read from the current series (exact row);
+    inside a gap, the time and that there is no data there (no row from either side)."""
     if not math.isfinite(cursor_t_s):
         return ""
+    gap = gap_at(doc, cursor_t_s)
+    if gap is not None:
+        t0, t1, reason = gap
+        return (f"<b>t {num(cursor_t_s, 2)} s</b> — no data ({_gap_words(reason)} "
+                f"{num(t0, 1)}–{num(t1, 1)} s)")
     i = doc.row_at(cursor_t_s)
     src = doc.current
     t = float(doc.t_s[i])

@@ -267,4 +267,4 @@ class BilateralPlots(CountingPlotWidget):
         x0 = max(float(x[run_start]), -self.window_s)
         top = self.yranges[JOINTS[0][0]][1]
         offset = 0.0 if side == "L" else 0.12 * (top - self.yranges[JOINTS[0][0]][0])
-        label.set(f"{SIDE_NAMES[side]} leg: no data", x0, top - offset)
+        label.set(f"{SIDE_NAMES[side]} leg: no data", x0, top - offset, right=0.0)

@@ -286,23 +286,36 @@ class Label:
         self.visible = False
         self._doc = QTextDocument()
         self._text = ""
+        self.right: float | None = None  # data x the text must end before (None: no limit)
+        self.drawn: QRectF | None = None  # where it was last drawn, in the painter's pixels
 
     @property
     def text(self) -> str:
         return self._text
 
-    def set(self, text: str, x: float, y: float) -> None:
+    def set(self, text: str, x: float, y: float, right: float | None = None) -> None:
+        """Show ``text`` from (x, y); ``right``: the plot's right edge in data x: a label that
+        would run past it is drawn ending there (so "right leg: no data" over an outage that
+        began a moment ago is not cut to "righ" by the plot's edge)."""
         if text != self._text:
             self._text = text
             self._doc.setPlainText(text)
         self.x, self.y = float(x), float(y)
+        self.right = right
         self.visible = True
 
     def hide(self) -> None:
         self.visible = False
 
     def draw(self, p: QPainter) -> None:
-        at = p.transform().map(QPointF(self.x, self.y))
+        tf = p.transform()
+        at = tf.map(QPointF(self.x, self.y))
+        size = self._doc.size()
+        if self.right is not None:
+            edge = tf.map(QPointF(self.right, self.y)).x()
+            if at.x() + size.width() > edge:
+                at.setX(edge - size.width())
+        self.drawn = QRectF(at, size)
         p.save()
         p.resetTransform()
         p.translate(at)

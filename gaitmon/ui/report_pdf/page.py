@@ -158,6 +158,43 @@ class Page:
             )
         self.p.drawText(r, int(align), text)
 
+    def fitted(
+        self,
+        x: float,
+        y: float,
+        w: float,
+        h: float,
+        text: str,
+        size_pt: float,
+        *,
+        min_pt: float = 6.5,
+        bold: bool = False,
+        colour: QColor = INK,
+    ) -> None:
+        """``text`` whole in a box of one line: at ``size_pt`` when it fits, else in a smaller
+        type down to ``min_pt``, else word-wrapped at ``min_pt`` from the box's top (two short
+        lines may run a little below it). Never elided: a header value cut short ("gaitmon-sim
+        f…") says less than the file does."""
+        width = self.mm(w)
+        size = size_pt
+        while size > min_pt and QFontMetricsF(self.font(size, bold), self.dev).horizontalAdvance(
+            text
+        ) > width:
+            size = max(min_pt, size - 0.5)
+        font = self.font(size, bold)
+        if QFontMetricsF(font, self.dev).horizontalAdvance(text) <= width:
+            self.text(x, y, w, h, text, size, bold=bold, colour=colour, elide=False)
+            return
+        self.p.setFont(font)
+        self.p.setPen(colour)
+        flags = int(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop) | int(
+            Qt.TextFlag.TextWordWrap
+        )
+        br = QFontMetricsF(font, self.dev).boundingRect(QRectF(0, 0, width, 1e6), flags, text)
+        top = max(0.0, (h - br.height() / self.k) / 2)  # centred when it fits the box
+        self.boxes.append((self.page, x, y + top, w, br.height() / self.k, text))
+        self.p.drawText(QRectF(self.mm(x), self.mm(y + top), width, br.height() + 1), flags, text)
+
     def wrapped(
         self,
         x: float,

@@ -220,7 +220,7 @@ def header_grid(p: Page, cells: Sequence[tuple[str, str]], y: float) -> float:
         cy = y + 0.8 + (k // 3) * 8.6
         p.text(cx, cy, col_w - 4.0, 3.4, label, 6.0, bold=True, colour=MUTED)
         big = k in (0, 1)
-        p.text(cx, cy + 3.4, col_w - 4.0, 4.6, value, 10.0 if big else 8.0, bold=big)
+        p.fitted(cx, cy + 3.4, col_w - 4.0, 4.6, value, 10.0 if big else 8.0, bold=big)
     y += 3 * 8.6 + 1.0 + 4.0
     return y
 

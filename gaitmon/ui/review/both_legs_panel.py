@@ -37,7 +37,7 @@ TIPS = (
     "Right leg: mean, seconds",
     "Symmetry ratio: left / right of the means (1 is symmetric)",
     "Symmetry index: 2 |L − R| / (L + R) × 100 % (0 is symmetric; it does not say which side "
-    "is larger). None for terminal double support: one leg's is the other's initial one",
+    "is larger). One leg's terminal double support is the other's initial one",
 )
 
 
@@ -68,6 +68,17 @@ def _fill(t: QTableWidget, rows: list[tuple[str, ...]]) -> None:  # cells right-
             if c:
                 item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
             t.setItem(r, c, item)
+
+
+def _fit_rows(t: QTableWidget) -> None:
+    """Tall enough for the header and every row (the last row was cut at the window's
+    default size): the table never scrolls, the layout gives the room or the tab scrolls."""
+    t.resizeRowsToContents()
+    h = t.horizontalHeader().height() + t.verticalHeader().length() + 2 * t.frameWidth()
+    if t.horizontalScrollBar().isVisible():
+        h += t.horizontalScrollBar().height()
+    t.setMinimumHeight(h)
+    t.setVerticalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
 
 
 class BothLegsPanel(QWidget):
@@ -116,6 +127,7 @@ class BothLegsPanel(QWidget):
             f"<b>{n['R']}</b>{tail}"
         )
         _fill(self.table, both.rows())
+        _fit_rows(self.table)
 
     def cell(self, measure: str, column: str) -> str:
         """The text shown for ``measure`` (e.g. "step time") in ``column`` (e.g. "SR (L/R)")."""

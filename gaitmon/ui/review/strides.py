@@ -11,8 +11,15 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from PySide6.QtCore import QAbstractTableModel, QModelIndex, QPersistentModelIndex, Qt, Signal
-from PySide6.QtGui import QColor, QFont
-from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableView, QWidget
+from PySide6.QtGui import QColor, QFont, QFontMetrics
+from PySide6.QtWidgets import (
+    QAbstractItemView,
+    QHeaderView,
+    QLabel,
+    QStyle,
+    QTableView,
+    QWidget,
+)
 
 from gaitmon.analysis import STRIDE_COLUMNS, StrideRow, spatial_summary, stride_cells
 from gaitmon.dsp.channel_table import JOINTS
@@ -115,16 +122,30 @@ class StrideTable(QTableView):
         hh = self.horizontalHeader()
         hh.setSectionResizeMode(QHeaderView.ResizeMode.Interactive)
         hh.setStretchLastSection(True)
-        # widths from the header text and the widest number (resizeColumnsToContents would
-        # measure every one of an 8-hour session's ~26 000 rows)
+        # widths from the header text and the widest value (resizeColumnsToContents would
+        # measure every one of an 8-hour session's ~26 000 rows), the values measured in the
+        # cells' own fonts (excluded rows are italic: wider) plus the margins the style leaves
+        # each side of a cell's text ("excluded: settling afte" was cut)
         fm = hh.fontMetrics()
+        cell_fms = [QFontMetrics(self.font())]
+        italic = QFont(self.font())
+        italic.setItalic(True)
+        cell_fms.append(QFontMetrics(italic))
+        pad = 2 * self.text_margin_px() + 6
         for col, (title, _tip, sample) in enumerate(COLUMNS):
-            lines = [*title.split("\n"), sample]
-            self.setColumnWidth(col, max(fm.horizontalAdvance(t) for t in lines) + 10)
+            head = max(fm.horizontalAdvance(t) for t in title.split("\n")) + 10
+            cell = max(m.horizontalAdvance(sample) for m in cell_fms) + pad
+            self.setColumnWidth(col, max(head, cell))
         self.status_width_px = self.columnWidth(len(COLUMNS) - 1)
         self.setToolTip("Click a stride to show it on the timeline. Greyed: not in the statistics.")
         self.clicked.connect(lambda idx: self.stride_picked.emit(idx.row()))
         self.activated.connect(lambda idx: self.stride_picked.emit(idx.row()))
+
+    def text_margin_px(self) -> int:
+        """The margin the style leaves each side of a cell's text (Qt's item view delegate:
+        the focus frame's margin + 1)."""
+        style = self.style()
+        return style.pixelMetric(QStyle.PixelMetric.PM_FocusFrameHMargin, None, self) + 1
 
     def set_rows(self, rows: list[StrideRow], start_t_s: list[float]) -> None:
         self.model_.set_rows(rows, start_t_s)
