@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gaitmon.errors import output_error_text
 from gaitmon.export.writers.errors import Cancel, ExportError, Progress
 from gaitmon.io.deidentify import DEIDENTIFIED_STEM
 
@@ -151,7 +152,7 @@ def write_atomic(request: ExportRequest, finals: list[Path],
         return atomic.commit()
     except OSError as exc:
         atomic.discard(folders)
-        raise ExportError(f"cannot write {exc.filename or request.out}: {exc.strerror or exc}"
+        raise ExportError(output_error_text(exc, atomic.final_of(exc.filename, request.out))
                           ) from None
     except BaseException:
         atomic.discard(folders)
@@ -180,8 +181,7 @@ def export_unit(request: ExportRequest) -> ExportResult:
             try:
                 made = make_folders(out_path, outputs)
             except OSError as exc:
-                raise ExportError(f"cannot write {exc.filename or out_path}: "
-                                  f"{exc.strerror or exc}") from None  # fmt: skip
+                raise ExportError(output_error_text(exc, exc.filename or out_path)) from None
 
         def write(tmps: list[Path]) -> None:
             writer.write(src, tmps, scrub, request.deidentify, request.progress,
