@@ -34,6 +34,14 @@ class ExportResult:
     n_samples: int
     mode: str
     problems: tuple[str, ...] = ()  # what the session reader noticed (e.g. not stopped cleanly)
+    n_strides: int | None = None  # the rows of a per-stride export (None: rows are samples)
+
+    @property
+    def amount(self) -> str:
+        """What was exported, in the unit of its rows: "5,665 samples", "47 strides"."""
+        if self.n_strides is not None:
+            return f"{self.n_strides:,} {'stride' if self.n_strides == 1 else 'strides'}"
+        return f"{self.n_samples:,} {'sample' if self.n_samples == 1 else 'samples'}"
 
 
 @dataclass(frozen=True)
@@ -188,4 +196,6 @@ def export_unit(request: ExportRequest) -> ExportResult:
                          request.cancel, request.chunk_rows)
 
         written = write_atomic(request, outputs, write, made, shared)
-        return ExportResult(tuple(written), src.n, src.mode, src.problems)
+        n_strides = getattr(writer, "n_strides", None)  # a per-stride writer counts its rows
+        return ExportResult(tuple(written), src.n, src.mode, src.problems,
+                            None if n_strides is None else int(n_strides))
