@@ -126,7 +126,7 @@ def test_one_duration_in_info_the_report_and_compare(qapp, sessions, tmp_path, c
     d1, d2 = _duration(first), _duration(second)
     assert d1 == "25.4 s" and d2 == "26.0 s"
     assert f", {d1}, " in _info(capsys, first)
-    assert f"DURATION" in (rep := _report_text(first, tmp_path)) and d1 in rep, rep
+    assert "DURATION" in (rep := _report_text(first, tmp_path)) and d1 in rep, rep
     pdf = tmp_path / "compare.pdf"
     assert main(["compare", str(first), str(second), "-o", str(pdf), "-q"]) == 0
     text = _pdf_text(pdf)
