@@ -278,7 +278,7 @@ def _analyse_file(path: Path) -> _Analysed:
             cyc = _cycles(an)
             pid, created_utc, duration_s = s.meta.patient_id.strip(), s.created_utc, s.duration_s
             mode, method = s.mode, s.angle_method
-            side = s.meta.side or str(s.device.get("side", ""))  # as the report reads it
+            side = s.meta.side  # as info and the report read it (text.side_text)
     except SessionError as exc:
         raise CompareError(str(exc)) from None
     except _DAMAGE as exc:

@@ -64,7 +64,7 @@ from gaitmon.report_content import (
     SymmetryLine,
     cell,
 )
-from gaitmon.text import count, no_gait_events, num
+from gaitmon.text import count, no_gait_events, num, side_text
 from gaitmon.values import scalar
 
 N_POINTS = 101
@@ -267,7 +267,7 @@ def gather_report(
     state = "complete" if session.complete else ("recovered" if session.recovered else "incomplete")
     header = ReportHeader(
         patient_id=REDACTED if deidentify else meta.patient_id,
-        side=SIDE_NAMES.get(meta.side or str(dev.get("side", "")), ""),
+        side=side_text(meta.side),  # as gaitmon info says it: never the unit's guess
         operator=(REDACTED if meta.operator else "") if deidentify else meta.operator,
         # de-identified: no date (the report counts from the recording's start, as exports do)
         recorded_utc=REDACTED if deidentify else _recorded(session.created_utc),

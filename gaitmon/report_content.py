@@ -42,7 +42,7 @@ def cell(v: float, digits: int) -> str:
 @dataclass(frozen=True)
 class ReportHeader:
     patient_id: str  # identifier only; REDACTED when de-identified, "" when none was entered
-    side: str  # "left", "right" or ""
+    side: str  # "left", "right" or "not recorded" (gaitmon.text.side_text, as info says it)
     operator: str
     recorded_utc: str  # "2026-11-22 04:10 UTC" (or "" when unknown)
     duration_s: float

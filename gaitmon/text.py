@@ -6,14 +6,17 @@ report, the live window), so they cannot drift apart:
 * :func:`num` - a number with a fixed number of decimals that never prints a negative zero
   ("-0.0°" was shown for a value of -0.02); a dash for NaN;
 * :func:`count` - "1 gap", "2 gaps" (never "1 gaps");
-* :func:`no_gait_events` - why a recording in a mode without foot-sensor data has no strides.
+* :func:`no_gait_events` - why a recording in a mode without foot-sensor data has no strides;
+* :func:`side_text` - the leg measured as entered ("left", "right", "not recorded"): never
+  guessed from the unit's own idea of its side;
+* :func:`duration_text` - a recording's duration ("63.5 s"), the same in every window.
 """
 
 from __future__ import annotations
 
 import math
 
-__all__ = ["DASH", "count", "no_gait_events", "num", "plural"]
+__all__ = ["DASH", "count", "duration_text", "no_gait_events", "num", "plural", "side_text"]
 
 DASH = "–"  # a value that does not exist (NaN), never "nan"
 
@@ -67,3 +70,20 @@ def no_gait_events(mode: str) -> str:
             "events (no heel strikes, strides or gait phases)"
         )
     return ""
+
+
+NO_SIDE = "not recorded"
+
+
+def side_text(side: str) -> str:
+    """The leg measured, as the session's ``side`` (``SessionMeta.side``) says: "left",
+    "right", or "not recorded" when nobody entered one. ``gaitmon info``, the report and
+    ``compare`` all show this; the unit's IDENTITY side is the unit's, not the patient's."""
+    return {"L": "left", "R": "right"}.get(side.strip().upper(), NO_SIDE)
+
+
+def duration_text(seconds: float) -> str:
+    """A recording's duration, to a tenth of a second ("63.5 s"): ``gaitmon info``, the
+    report, the review window, ``compare`` and the live window's saved line all print it
+    this way, so one recording never reads 63.5 s in one place and 64 s in another."""
+    return f"{num(seconds, 1)} s"

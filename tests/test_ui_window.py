@@ -119,10 +119,14 @@ def test_record_two_seconds_with_a_marker(qtbot, window, tmp_path):
     assert not win.recording
     # the file is finished on the device worker, the window drawing on meanwhile
     qtbot.waitUntil(lambda: not win.saving, timeout=WAIT_MS)
-    assert "Recording saved" in win.statusBar().currentMessage()
+    saved = win.statusBar().currentMessage()
+    assert "Recording saved" in saved
 
     with h5py.File(target, "r") as f:
         assert bool(f.attrs["complete"])
+        # the file's duration as info, review and the report print it (issue 25: not the
+        # wall clock's "00:02"), to a tenth of a second
+        assert f", {float(f.attrs['duration_s']):.1f} s)" in saved, saved
         t = f["timeline/t_s"][:]
         rows = len(t)
         # 2 s at 100 Hz: the file holds what arrived between Record and Stop

@@ -38,7 +38,7 @@ def test_the_comparison_sees_a_changed_number_a_changed_word_and_a_missing_file(
         if isinstance(v, np.ndarray) and v.dtype.kind == "f" and v.size > 100
     )  # fmt: skip
     changed = dict(expected)
-    changed[text_key] = str(expected[text_key]).replace("side L", "side R")
+    changed[text_key] = str(expected[text_key]).replace("side left", "side right")
     arr = np.array(expected[array_key], dtype=float)
     arr.flat[50] += 1e-3 * max(1.0, abs(float(arr.flat[50])))
     changed[array_key] = arr

@@ -40,9 +40,10 @@ DEBUG_ENV = "GAITMON_DEBUG"  # set to 1: the last resort re-raises, so tests see
 def damaged_file_guard(path: str | os.PathLike[str]) -> Iterator[None]:
     """The last resort around a command's analysis of a file: an exception its contents cause
     becomes one "damaged file" line (exit 2). The reader validates what it can at the file's
-    edge (:mod:`gaitmon.io.session.reader`); this catches what only shows deeper. With
+    edge (:mod:`gaitmon.io.session.reader`); this catches what only shows deeper. An error of
+    writing (a read-only drive, a full disk) is the output's, never called damage. With
     ``GAITMON_DEBUG=1`` the exception propagates, so a test can tell the two apart."""
-    from gaitmon.errors import UserError
+    from gaitmon.errors import UserError, is_output_error, output_error_text
 
     try:
         yield
@@ -51,6 +52,8 @@ def damaged_file_guard(path: str | os.PathLike[str]) -> Iterator[None]:
     except DAMAGE_ERRORS as exc:
         if os.environ.get(DEBUG_ENV):
             raise
+        if isinstance(exc, OSError) and is_output_error(exc, path):  # a write, not the file
+            raise UserError(output_error_text(exc, exc.filename or "the output")) from None
         what = " ".join(str(exc).split())[:160] or type(exc).__name__
         raise UserError(
             f"{Path(path).name} is damaged and cannot be analysed ({what}); "

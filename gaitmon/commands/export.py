@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
         names = ", ".join(str(p) for p in result.paths[:3])
         more = f" (+{len(result.paths) - 3} more)" if len(result.paths) > 3 else ""
         print(
-            f"exported {result.n_samples:,} samples ({result.mode or 'unknown'} mode) to "
+            f"exported {result.amount} ({result.mode or 'unknown'} mode) to "
             f"{names}{more} in {time.perf_counter() - t0:.1f} s"
         )
     return 0

@@ -13,7 +13,7 @@ import numpy as np
 
 from gaitmon.commands import damaged_file_guard
 from gaitmon.errors import UserError
-from gaitmon.text import count, no_gait_events, num
+from gaitmon.text import count, duration_text, no_gait_events, num, side_text
 
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis, SessionAnalysis
@@ -75,9 +75,9 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     lost = sum(g.n_lost for g in s.gaps)
     lines = [
         f"{s.path.name}: gaitmon session, format {s.attrs.get('format_version')}, {state}",
-        f"  recorded     {s.created_utc or 'date removed'}, {s.duration_s:.1f} s, "
+        f"  recorded     {s.created_utc or 'date removed'}, {duration_text(s.duration_s)}, "
         f"{s.n_samples} frames at {fs:g} Hz, mode {s.mode} ({mode})",
-        f"  patient      {s.meta.patient_id or '-'}   side {s.meta.side or '-'}   "
+        f"  patient      {s.meta.patient_id or '-'}   side {side_text(s.meta.side)}   "
         f"operator {s.meta.operator or '-'}",
     ]
     if s.meta.notes:
@@ -220,7 +220,7 @@ def _units_header_lines(b: Bilateral, interrupted: bool) -> list[str]:
         f"{b.path.name}: gaitmon bilateral session ({legs}), format "
         f"{a.get('format_version')}, {state}",
         f"  recorded     {a.get('created_utc') or 'date removed'}, "
-        f"{float(scalar(a.get('duration_s', 0.0))):.1f} s on the common time line, units "
+        f"{duration_text(float(scalar(a.get('duration_s', 0.0))))} on the common time line, units "
         + " and ".join(f"{s} serial {b.unit(s).device.get('serial') or '-'}" for s in b.sides),
     ]
     lines += [f"  missing      {SIDE_NAMES[s]} leg ({s}): {why}" for s, why in b.missing.items()]

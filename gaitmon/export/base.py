@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gaitmon.errors import output_error_text
 from gaitmon.export.writers.errors import Cancel, ExportError, Progress
 from gaitmon.io.deidentify import DEIDENTIFIED_STEM
 
@@ -33,6 +34,14 @@ class ExportResult:
     n_samples: int
     mode: str
     problems: tuple[str, ...] = ()  # what the session reader noticed (e.g. not stopped cleanly)
+    n_strides: int | None = None  # the rows of a per-stride export (None: rows are samples)
+
+    @property
+    def amount(self) -> str:
+        """What was exported, in the unit of its rows: "5,665 samples", "47 strides"."""
+        if self.n_strides is not None:
+            return f"{self.n_strides:,} {'stride' if self.n_strides == 1 else 'strides'}"
+        return f"{self.n_samples:,} {'sample' if self.n_samples == 1 else 'samples'}"
 
 
 @dataclass(frozen=True)
@@ -151,7 +160,7 @@ def write_atomic(request: ExportRequest, finals: list[Path],
         return atomic.commit()
     except OSError as exc:
         atomic.discard(folders)
-        raise ExportError(f"cannot write {exc.filename or request.out}: {exc.strerror or exc}"
+        raise ExportError(output_error_text(exc, atomic.final_of(exc.filename, request.out))
                           ) from None
     except BaseException:
         atomic.discard(folders)
@@ -180,12 +189,13 @@ def export_unit(request: ExportRequest) -> ExportResult:
             try:
                 made = make_folders(out_path, outputs)
             except OSError as exc:
-                raise ExportError(f"cannot write {exc.filename or out_path}: "
-                                  f"{exc.strerror or exc}") from None  # fmt: skip
+                raise ExportError(output_error_text(exc, exc.filename or out_path)) from None
 
         def write(tmps: list[Path]) -> None:
             writer.write(src, tmps, scrub, request.deidentify, request.progress,
                          request.cancel, request.chunk_rows)
 
         written = write_atomic(request, outputs, write, made, shared)
-        return ExportResult(tuple(written), src.n, src.mode, src.problems)
+        n_strides = getattr(writer, "n_strides", None)  # a per-stride writer counts its rows
+        return ExportResult(tuple(written), src.n, src.mode, src.problems,
+                            None if n_strides is None else int(n_strides))

@@ -101,4 +101,6 @@ def export_legs_and_tables(request: ExportRequest) -> ExportResult:
         tuple(p for r in results for p in r.paths) + tuple(written),
         sum(r.n_samples for r in results), results[0].mode,
         tuple(dict.fromkeys(p for r in results for p in r.problems)),
+        None if any(r.n_strides is None for r in results) else sum(
+            r.n_strides or 0 for r in results),
     )

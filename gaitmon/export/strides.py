@@ -31,7 +31,9 @@ if TYPE_CHECKING:
 
 
 class StridesWriter:
-    """One unit's per-stride CSV and its side file."""
+    """One unit's per-stride CSV and its side file; ``n_strides``: the rows written."""
+
+    n_strides: int | None = None
 
     def planned_outputs(self, src: Source, scrub: Scrubber, out: Path) -> list[Path]:
         return [out, csv_meta_path(out)]
@@ -59,6 +61,7 @@ class StridesWriter:
             w.writerow([c.key for c in STRIDE_COLUMNS])
             for k, (row, t) in enumerate(zip(an.rows, starts, strict=True)):
                 w.writerow(stride_cells(row, k + 1, t))
+        self.n_strides = len(an.rows)
         meta = metadata(src, scrub)
         meta["strides"] = {
             "columns": [{"name": c.key, "description": c.tip} for c in STRIDE_COLUMNS],

@@ -40,6 +40,16 @@ class AtomicOutputs:
         self.pairs.append((t, final))
         return t
 
+    def final_of(self, name: object, default: Path) -> Path:
+        """The final output a temporary ``name`` stands for (an OSError's filename): the
+        user chose that name, never saw the temporary one; ``default`` if it is none."""
+        if isinstance(name, (str, os.PathLike)):
+            for t, final in self.pairs:
+                if os.fspath(t) == os.fspath(name) or os.fspath(final) == os.fspath(name):
+                    return final
+            return Path(name)
+        return default
+
     def commit(self) -> list[Path]:
         for t, final in self.pairs:
             os.replace(t, final)
@@ -48,7 +58,9 @@ class AtomicOutputs:
     def discard(self, folders: list[Path] | None = None) -> None:
         """Delete the temporary files, then ``folders`` (those the export made) if empty."""
         for t, _ in self.pairs:
-            with contextlib.suppress(FileNotFoundError):
+            # OSError, not only FileNotFoundError: a read-only drive answers EROFS even for
+            # a file that was never made, and that must not hide why the export failed
+            with contextlib.suppress(OSError):
                 t.unlink()
         for d in sorted(folders or (), key=lambda p: len(p.parts), reverse=True):
             with contextlib.suppress(OSError):  # not empty: something else is in it

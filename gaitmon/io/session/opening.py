@@ -88,3 +88,15 @@ def unit_session_of(path: Path, f: h5py.File, side: str, cls: type[S]) -> S:
         return cls(path, f[f"units/{side}"], side=side)
 
     return built(path, f, make)
+
+
+def stored_duration_s(path: str | Path) -> float | None:
+    """A finished file's duration as ``gaitmon info`` reads it (its ``duration_s``), or None
+    when the file cannot say (still being written, damaged, gone): the live window's "saved"
+    line gives this, not the wall clock's time between Record and Stop."""
+    try:
+        with h5py.File(path, "r") as f:
+            value = f.attrs.get("duration_s")
+            return None if value is None else float(value)
+    except (OSError, RuntimeError, ValueError, TypeError):
+        return None

@@ -17,9 +17,11 @@ from PySide6.QtGui import QAction
 from PySide6.QtWidgets import QLineEdit, QMainWindow
 
 from gaitmon.engine import EngineError, Snapshot
+from gaitmon.io.session.opening import stored_duration_s
 from gaitmon.jobs import Response
 from gaitmon.live.pair import SIDE_NAMES, SIDES, PairConnection
 from gaitmon.review.settings import LiveKey
+from gaitmon.text import duration_text
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.dialogs import SessionDialog
@@ -164,6 +166,9 @@ class RecordingPart:
             if status.error:
                 return f"Recording stopped with an error: {status.error}"
             size, took = fmt_bytes(status.file_bytes), fmt_elapsed(status.elapsed_s)
+            stored = stored_duration_s(status.path)  # as info, review and the report say it
+            if stored is not None:
+                took = duration_text(stored)
             return f"Recording saved: {status.path} ({status.rows:,} frames, {size}, {took})"
 
         self._begin_saving(save)

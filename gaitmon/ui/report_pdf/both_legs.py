@@ -30,6 +30,7 @@ from gaitmon.report_content import (
     TABLE_HEADER,
     BilateralReportData,
 )
+from gaitmon.text import duration_text
 from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.cycle_plot import CurveStyle, draw_cycles
 from gaitmon.ui.report_pdf.output import pdf_title, render_a4_image, write_a4_pdf, write_png
@@ -135,7 +136,7 @@ def _header_cells(data: BilateralReportData) -> list[tuple[str, str]]:
         ("SIDES MEASURED", "Left and right"),
         ("RECORDED", h.recorded_utc or "unknown"),
         ("OPERATOR", h.operator or "not recorded"),
-        ("DURATION", f"{data.duration_s:.1f} s ({frames})"),
+        ("DURATION", f"{duration_text(data.duration_s)} ({frames})"),
         ("MODE", mode),
         ("DEVICES", data.units),
         ("FILE", data.file_name or ("withheld (de-identified)" if h.deidentified else "–")),

@@ -30,6 +30,7 @@ from PySide6.QtGui import (
 from gaitmon import __version__
 from gaitmon.compare import JOINTS, MEASURES, RULE_TEXT, Comparison, Measure, SessionResult
 from gaitmon.dsp.channel_table import JOINT_TABLE
+from gaitmon.text import duration_text
 from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.cycle_plot import band_path, line_path
 from gaitmon.ui.report_pdf.flow import Block
@@ -181,7 +182,7 @@ def _sessions(p: Page, c: Comparison) -> list[Block]:
     for k, s in enumerate(c.sessions):
         role = " (baseline)" if k == 0 else ""
         cells = ("", f"{k + 1}{role}", s.recorded_utc or "unknown", s.file_name,
-                 f"{s.duration_s:.0f} s", f"{s.n_included} of {s.n_strides_total}",
+                 duration_text(s.duration_s), f"{s.n_included} of {s.n_strides_total}",
                  s.angle_method or s.mode)  # fmt: skip
         method_lines = flow.split_lines(p, cells[-1], cols[-1][1] - 2.4, size - 0.5)
         bh = max(1, len(method_lines)) * h + 0.4

@@ -21,7 +21,7 @@ from gaitmon.analysis import FIRST, GAP, LAST, MAX_GAP_S, SETTLING, USER
 from gaitmon.dsp.pipeline import SETTLE_S
 from gaitmon.normative import CAVEAT, DEVIATION_LABEL, NormativeBands
 from gaitmon.report import JOINT_TITLES, GapSpan, ReportData, ReportHeader
-from gaitmon.text import count, no_gait_events
+from gaitmon.text import count, duration_text, no_gait_events
 from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.cycle_plot import MAX_FAINT_STRIDES, draw_cycle_plot
 from gaitmon.ui.report_pdf.flow import Block, TableColumn
@@ -189,13 +189,13 @@ def title(p: Page, software: str, generated_utc: str, what: str) -> float:
 
 def header_cells(h: ReportHeader) -> list[tuple[str, str]]:
     """Who, when and how was recorded: the identifier only, never a name."""
-    side = {"left": "Left", "right": "Right"}.get(h.side, "not recorded")
     cells = [
         ("PATIENT ID", h.patient_id or "not recorded"),
-        ("SIDE MEASURED", side),
+        ("SIDE MEASURED", h.side),  # text.side_text: as gaitmon info says it
         ("RECORDED", h.recorded_utc or "unknown"),
         ("OPERATOR", h.operator or "not recorded"),
-        ("DURATION", f"{h.duration_s:.1f} s ({h.n_samples} frames at {h.sample_rate_hz:g} Hz)"),
+        ("DURATION", f"{duration_text(h.duration_s)} ({h.n_samples} frames at "
+                     f"{h.sample_rate_hz:g} Hz)"),
         (
             "MODE",
             {

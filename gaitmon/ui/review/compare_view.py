@@ -32,7 +32,7 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.compare import JOINTS, MEASURES, RULE_TEXT, Comparison
-from gaitmon.text import num
+from gaitmon.text import duration_text, num
 from gaitmon.ui import one_line
 from gaitmon.ui.report_pdf.compare import (
     AXIS_LABELS,
@@ -131,7 +131,8 @@ class CompareView(QWidget):
             rows.append(
                 f"<span style='color:{colour(k).name()}; font-size:14pt'>■</span> "
                 f"<b>{k + 1}{role}</b> {html.escape(s.recorded_utc)}<br>"
-                f"&nbsp;&nbsp;&nbsp;&nbsp;{html.escape(s.file_name)} · {num(s.duration_s, 0)} s"
+                f"&nbsp;&nbsp;&nbsp;&nbsp;{html.escape(s.file_name)} · "
+                f"{duration_text(s.duration_s)}"
                 f" · {s.n_included} of {s.n_strides_total} strides<br>&nbsp;&nbsp;&nbsp;&nbsp;"
                 f"<span style='color:{muted}'>{html.escape(s.angle_method)}</span>"
             )

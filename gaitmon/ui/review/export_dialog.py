@@ -391,7 +391,7 @@ class ExportDialog(QDialog):
             else:
                 names = ", ".join(p.name for p in result.paths)
             note = f" (note: {'; '.join(result.problems)})" if result.problems else ""
-            self.status_label.setText(f"Exported {result.n_samples} samples to {names}{note}")
+            self.status_label.setText(f"Exported {result.amount} to {names}{note}")
             self.export_finished.emit(result)
         elif isinstance(exc, Cancelled):
             self.progress_bar.setValue(0)

@@ -91,7 +91,7 @@ class PatientList(QWidget):
                 rec.patient_id or "(none)",
                 rec.recorded_utc or "unknown",
                 rec.path.name,
-                num(rec.duration_s, 0),
+                num(rec.duration_s, 1),  # as text.duration_text: to a tenth of a second
                 str(rec.n_strides) if ok else "–",
                 num(rec.cadence_steps_min, 0),
                 num(rec.knee_peak_swing_deg, 1),

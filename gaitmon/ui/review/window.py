@@ -58,7 +58,7 @@ from PySide6.QtWidgets import (
 from gaitmon import __version__
 from gaitmon.review.model import Document, angles_caption
 from gaitmon.review.settings import ReviewKey
-from gaitmon.text import count, no_gait_events, num
+from gaitmon.text import count, duration_text, no_gait_events, side_text
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.review import recent
@@ -280,9 +280,9 @@ class ReviewWindow(QMainWindow):
         leg = f" — {doc.leg_name}" if doc.bilateral else ""
         self.setWindowTitle(f"gaitmon — review — {doc.path.name}{leg}")
         self.status.message(
-            f"{doc.path.name}{leg}: {who}, side {s.meta.side or '-'}, "
+            f"{doc.path.name}{leg}: {who}, side {side_text(s.meta.side)}, "
             f"{count(doc.n_rows, 'frame')} "
-            f"({num(s.duration_s or doc.n_rows / doc.fs_hz, 0)} s), mode {s.mode}, {state}; "
+            f"({duration_text(s.duration_s or doc.n_rows / doc.fs_hz)}), mode {s.mode}, {state}; "
             f"{count(len(s.gaps), 'gap')}, {count(len(s.markers), 'marker')}"
             + (f"; no gait events: {no_gait_events(s.mode)}" if no_gait_events(s.mode) else ""),
             20_000,

@@ -1,0 +1,146 @@
+"""An export that cannot be written is the output's problem, never the recording's damage
+(issue 25, defect 1): a read-only drive (EROFS), a missing permission, a full disk or too long
+a name gives one line naming the OUTPUT path and what to do, and no file is left behind.
+
+The read-only drive is made two ways: every write, create and delete under one folder raises
+the kernel's EROFS (monkeypatched at the calls the writers use: ``open``, ``os.replace``,
+``unlink``), and, where the sandbox allows a user namespace, a real read-only tmpfs mount.
+"""
+
+from __future__ import annotations
+
+import builtins
+import errno
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from test_export import write_session
+
+from gaitmon.cli import main
+
+DAMAGED = "damaged and cannot be analysed"
+
+
+class ReadOnlyFolder:
+    """Make ``folder`` behave as a read-only drive for this process: creating, writing,
+    renaming into and deleting anything in it raise OSError(EROFS) as the kernel does
+    (deleting a file that is not there included)."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch, folder: Path,
+                 code: int = errno.EROFS) -> None:  # fmt: skip
+        self.folder = os.path.abspath(folder)
+        self.code = code
+        real_open, real_replace, real_unlink = builtins.open, os.replace, os.unlink
+
+        def inside(p: object) -> bool:
+            if not isinstance(p, (str, os.PathLike)):
+                return False
+            return os.path.dirname(os.path.abspath(os.fspath(p))) == self.folder
+
+        def refuse(p: object) -> OSError:
+            return OSError(self.code, os.strerror(self.code), os.fspath(p))  # type: ignore[arg-type]
+
+        def fake_open(file, mode="r", *args, **kwargs):  # type: ignore[no-untyped-def]
+            if inside(file) and any(c in mode for c in "wax+"):
+                raise refuse(file)
+            return real_open(file, mode, *args, **kwargs)
+
+        def fake_replace(src, dst, *args, **kwargs):  # type: ignore[no-untyped-def]
+            if inside(dst) or inside(src):
+                raise refuse(dst)
+            return real_replace(src, dst, *args, **kwargs)
+
+        def fake_unlink(path, *args, **kwargs):  # type: ignore[no-untyped-def]
+            if inside(path):
+                raise refuse(path)
+            return real_unlink(path, *args, **kwargs)
+
+        monkeypatch.setattr(builtins, "open", fake_open)
+        monkeypatch.setattr(os, "replace", fake_replace)
+        monkeypatch.setattr(os, "unlink", fake_unlink)
+
+
+def _error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def both(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A short recording of both legs."""
+    out = tmp_path_factory.mktemp("both") / "walk.h5"
+    rc = main(["record", "--simulate-bilateral", "--duration", "8", "--speed", "4", "-q",
+               "-o", str(out)])  # fmt: skip
+    assert rc == 0 and out.exists()
+    return out
+
+
+@pytest.mark.parametrize("fmt", ["csv", "mat", "c3d", "strides"])
+@pytest.mark.parametrize("code", [errno.EROFS, errno.ENOSPC, errno.EACCES, errno.ENAMETOOLONG])
+def test_an_unwritable_output_is_not_called_damage(tmp_path, capsys, monkeypatch, fmt, code):
+    src = tmp_path / "walk.h5"
+    write_session(src, "raw")
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    out = ro / f"out.{fmt}"
+    ReadOnlyFolder(monkeypatch, ro, code)
+    msg = _error(capsys, ["export", str(src), "--format", fmt, "-o", str(out)])
+    assert DAMAGED not in msg and "walk.h5" not in msg, msg
+    assert f"cannot write {out}" in msg, msg  # the output's own name, not a temporary one
+    assert ".partial" not in msg, msg
+    assert f"errno {code}" in msg, msg
+    what = {errno.EROFS: "read-only", errno.ENOSPC: "disk is full",
+            errno.EACCES: "no permission", errno.ENAMETOOLONG: "too long"}[code]  # fmt: skip
+    assert what in msg, msg
+    assert list(ro.iterdir()) == []
+
+
+def test_an_unwritable_output_of_both_legs_is_not_called_damage(both, tmp_path, capsys,
+                                                                monkeypatch):  # fmt: skip
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ReadOnlyFolder(monkeypatch, ro)
+    msg = _error(capsys, ["export", str(both), "--format", "csv", "-o", str(ro / "w.csv")])
+    assert DAMAGED not in msg and "read-only" in msg and "errno 30" in msg, msg
+    assert f"cannot write {ro / 'w_L.csv'}" in msg, msg
+    assert list(ro.iterdir()) == []
+
+
+def _ro_mount_works() -> bool:
+    if sys.platform != "linux" or shutil.which("unshare") is None:
+        return False
+    try:
+        r = subprocess.run(["unshare", "-rm", "sh", "-c", "mount -t tmpfs -o ro tmpfs /mnt"],
+                           capture_output=True, timeout=20)  # fmt: skip
+    except (OSError, subprocess.SubprocessError):
+        return False
+    return r.returncode == 0
+
+
+@pytest.mark.skipif(not _ro_mount_works(), reason="no user namespace to mount a read-only drive")
+def test_a_real_read_only_drive(tmp_path):
+    src = tmp_path / "walk.h5"
+    write_session(src, "raw")
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    lines = []
+    for fmt in ("csv", "mat", "c3d"):
+        out = ro / f"out.{fmt}"
+        cmd = (f"mount -t tmpfs -o ro tmpfs {ro} && exec {sys.executable} -m gaitmon export "
+               f"{src} --format {fmt} -o {out}")
+        r = subprocess.run(["unshare", "-rm", "sh", "-c", cmd], capture_output=True, text=True,
+                           env=env, timeout=120)  # fmt: skip
+        assert r.returncode == 2, r.stderr
+        assert DAMAGED not in r.stderr and "Traceback" not in r.stderr, r.stderr
+        assert f"cannot write {out}: the drive is read-only (errno 30)" in r.stderr, r.stderr
+        lines.append(r.stderr)
+    assert len(lines) == 3
