@@ -449,7 +449,7 @@ class MainWindow(QMainWindow):
                     ev.ignore()
                     return
             self.ctx.prefs.set(LiveKey.GEOMETRY, self.saveGeometry())
-            self.ctx.prefs.set(LiveKey.STATE, self.saveState())
+            self.ctx.prefs.set(LiveKey.STATE, self.view_part.layout_state())
             self.shutdown()
             self.ctx.prefs.s.sync()
         except Exception as exc:  # closing must always work
