@@ -55,7 +55,7 @@ def test_a_cut_link_clears_the_current_stride_and_nothing_older_than_the_gap_ret
         panel = win.gait_panel
         qtbot.waitUntil(lambda: win.engine.snapshot().gait.n_strides >= 3, timeout=WAIT_MS)
         qtbot.waitUntil(lambda: min(current_points(win)) > 5, timeout=WAIT_MS)
-        win.device_part.cut_simulated_link(1.0)
+        win.device_part.cut_simulated_link(2.0)
         # while no data arrives the current stride is broken: its line goes
         qtbot.waitUntil(lambda: win.status.state_text.startswith("Reconnecting"), timeout=WAIT_MS)
         qtbot.waitUntil(lambda: max(current_points(win)) == 0, timeout=WAIT_MS)
@@ -64,7 +64,7 @@ def test_a_cut_link_clears_the_current_stride_and_nothing_older_than_the_gap_ret
         qtbot.waitUntil(lambda: win.engine.samples_total >= at + 50, timeout=WAIT_MS)
         # from now on every drawn current stride starts after the gap: the engine's snapshot
         # (the panel's source) never gives a current stride whose heel strike precedes it
-        for _ in range(40):
+        for _ in range(20):
             snap = win.engine.snapshot()
             s = snap.series
             lost = np.flatnonzero(s["lost"] > 0)

@@ -29,6 +29,8 @@ from gaitmon.engine.snapshot import GaitStatus
 from gaitmon.io.device import SampleBlock
 
 _FOOT = SEGMENTS.index("foot")
+# the line "current stride" is dropped after this many mean strides without a heel strike
+CURRENT_MAX_STRIDES = 2.0
 _FOOT_IMU_COLS = [int(ACC_X_IDX[_FOOT]), int(ACC_Z_IDX[_FOOT])]  # raw columns of the foot board
 
 
@@ -182,6 +184,28 @@ class LiveGait:
         to = np.array([x for x in self._events_to if x >= t0_s])
         return hs, to
 
+    def _current(self, series: dict[str, np.ndarray], mean_stride: float
+                 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """The current stride so far: (% of the mean stride, joint angles) from the last heel
+        strike on; none when that heel strike has left the display window, when a long gap
+        came after it (data resumed: the stride is broken, and nothing from before the gap may
+        be drawn as the stride in progress), or when it has run for more than
+        ``CURRENT_MAX_STRIDES`` mean strides without a heel strike (the subject stands)."""
+        none = np.empty(0), np.empty((0, 3))
+        hs = self._last_hs_idx
+        if hs is None or not len(series["t_s"]):
+            return none
+        if any(r > hs for r in self._gap_rows):
+            return none
+        at = np.flatnonzero(series["idx"] == hs)
+        if not len(at):
+            return none
+        t = series["t_s"][int(at[0]) :]
+        pct = (t - t[0]) / mean_stride * 100.0
+        if not len(pct) or pct[-1] > 100.0 * CURRENT_MAX_STRIDES:
+            return none
+        return pct, series["joint_kalman_deg"][int(at[0]) :]
+
     def status(self, series: dict[str, np.ndarray], samples_total: int) -> GaitStatus:
         """The panel for a snapshot whose display series are ``series``."""
         last = self._last
@@ -194,14 +218,7 @@ class LiveGait:
                 last_stance_pct=last.stance_pct,
             )
         mean_stride = float(np.mean([s.stride_time_s for s in self._strides]))
-        cur_pct = np.empty(0)
-        cur = np.empty((0, 3))
-        if self._last_hs_idx is not None and len(series["t_s"]):
-            at = np.flatnonzero(series["idx"] == self._last_hs_idx)
-            if len(at):
-                cur = series["joint_kalman_deg"][int(at[0]) :]
-                t = series["t_s"][int(at[0]) :]
-                cur_pct = (t - t[0]) / mean_stride * 100.0
+        cur_pct, cur = self._current(series, mean_stride)
         speed, length = self._spatial()
         return GaitStatus(
             n_strides=self._n_strides,

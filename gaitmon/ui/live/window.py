@@ -328,6 +328,11 @@ class MainWindow(QMainWindow):
 
     def timer_stop(self) -> None:
         self.timer.stop()
+        # disconnected: no stride is in progress any more (the plots keep the last strides)
+        self.view_part.gait_panel.cycles.clear_current()
+        if self.pair_part.view is not None:
+            for panel in self.pair_part.view.panels.values():
+                panel.cycles.clear_current()
 
     @guarded
     def toggle_connect(self) -> None:
