@@ -10,7 +10,10 @@
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QSettings
+from PySide6.QtCore import QSettings, Qt
+
+from gaitmon.analysis import analyse_session
+from gaitmon.finish import open_session
 
 from gaitmon.io.sim.bilateral import BilateralConfig
 from gaitmon.io.sim.config import SimConfig
@@ -52,7 +55,6 @@ def test_a_cut_link_clears_the_current_stride_and_nothing_older_than_the_gap_ret
 ):
     win = one_leg(qtbot, ui_settings)
     try:
-        panel = win.gait_panel
         qtbot.waitUntil(lambda: win.engine.snapshot().gait.n_strides >= 3, timeout=WAIT_MS)
         qtbot.waitUntil(lambda: min(current_points(win)) > 5, timeout=WAIT_MS)
         win.device_part.cut_simulated_link(2.0)
@@ -77,6 +79,68 @@ def test_a_cut_link_clears_the_current_stride_and_nothing_older_than_the_gap_ret
         win.device_part.disconnect_device()
         qtbot.waitUntil(lambda: win.engine is None, timeout=WAIT_MS)
         assert max(current_points(win)) == 0  # nothing of the last connection stays drawn
+    finally:
+        win.close()
+
+
+def strides_shown(win):
+    return int(win.gait_panel.values["strides"].text())
+
+
+def test_while_recording_the_panel_counts_the_recordings_strides_and_marks_stale_figures(
+    qtbot, ui_settings, tmp_path, no_leaked_threads
+):
+    win = one_leg(qtbot, ui_settings, speed=8.0)
+    panel = win.gait_panel
+    try:
+        qtbot.waitUntil(lambda: win.engine.snapshot().gait.n_strides >= 8, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: panel.values["strides"].text() not in ("", "—"))
+        assert panel.strides_name.text() == "Strides (since connect)"
+        assert panel.stale_text() == "" and panel.values["cadence"].isEnabled()
+        target = tmp_path / "walk.h5"
+        win.act_record.trigger()
+        dlg = win.recording_part.session_dialog
+        dlg.path.setText(str(target))
+        dlg.path.textEdited.emit(str(target))
+        qtbot.mouseClick(dlg.buttons.buttons()[0], Qt.MouseButton.LeftButton)
+        assert win.recording
+        qtbot.waitUntil(lambda: panel.strides_name.text() == "Strides (this recording)")
+        qtbot.waitUntil(lambda: strides_shown(win) >= 5, timeout=WAIT_MS)
+        since_connect = win.engine.snapshot().gait.n_strides
+        row0 = panel.recording_start.start_idx
+        assert row0 is not None
+        # the panel's count is the engine's strides from the recording's first row on
+        shown = strides_shown(win)
+        assert shown < since_connect - 5  # not the connection's count
+        win.act_record.trigger()  # stop
+        qtbot.waitUntil(lambda: not win.saving, timeout=WAIT_MS)
+        snap = win.engine.snapshot()
+        live = snap.gait.stride_start_idx
+        with open_session(target) as s:
+            rows = s.n_samples
+            an = analyse_session(s)
+            file_starts = np.array([r.stride.start_idx for r in an.rows]) + row0
+        # the file's strides are the live ones that lie in it: the same opening heel strikes
+        # (within 2 samples: the file's detector starts afresh at row 0), one for one
+        in_file = live[(live >= row0) & (live < row0 + rows)]
+        assert len(file_starts) >= 5
+        assert abs(len(in_file) - len(file_starts)) <= 1  # the last one may end after Stop
+        k = min(len(in_file), len(file_starts))
+        assert np.abs(in_file[:k] - file_starts[:k]).max() <= 2
+        assert len(file_starts) - 1 <= shown + 3  # shown a moment before Stop
+        assert panel.strides_name.text() == "Strides (since connect)"  # recording over
+        # a cut link: cadence and speed are greyed and said to be stale while no data comes
+        win.device_part.cut_simulated_link(2.0)
+        qtbot.waitUntil(lambda: panel.stale_text().startswith("⚠ stale: no data for"),
+                        timeout=WAIT_MS)  # fmt: skip
+        assert "last stride" in panel.stale_text()
+        assert not panel.values["cadence"].isEnabled() and not panel.values["speed"].isEnabled()
+        qtbot.waitUntil(lambda: win.status.state_text == "Connected", timeout=WAIT_MS)
+        # walking on: new strides, fresh figures again
+        n = win.engine.snapshot().gait.n_strides
+        qtbot.waitUntil(lambda: win.engine.snapshot().gait.n_strides >= n + 4, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: panel.stale_text() == "", timeout=WAIT_MS)
+        assert panel.values["cadence"].isEnabled()
     finally:
         win.close()
 

@@ -26,6 +26,7 @@ from gaitmon.dsp.pipeline import PipelineBlock, settling_ranges
 from gaitmon.dsp.stride_length import StrideLengthTracker
 from gaitmon.engine.buffers import RingBuffer
 from gaitmon.engine.snapshot import GaitStatus
+from gaitmon.engine.taps import BlockOut
 from gaitmon.io.device import SampleBlock
 
 _FOOT = SEGMENTS.index("foot")
@@ -108,6 +109,9 @@ class LiveGait:
         # stride length (m) by opening heel strike (engine index), from the foot IMU; known a
         # little after the stride ends (the foot-flat after its closing heel strike)
         self._lengths: dict[int, float] = {}
+        self._starts: list[int] = []  # every stride's opening heel strike (engine index)
+        self._starts_arr = np.empty(0, np.int64)  # as an array, rebuilt once per stride
+        self._last_end_t_s = float("nan")
 
     def add(
         self,
@@ -147,6 +151,9 @@ class LiveGait:
         reason = stride_exclusion(s, self._n_strides, None, gaps, settling_ranges(gaps, self.fs_hz))
         self._n_strides += 1
         self._last = s
+        self._last_end_t_s = float(t1) if np.isfinite(t1) else float("nan")
+        self._starts.append(int(s.start_idx))
+        self._starts_arr = np.array(self._starts, dtype=np.int64)
         if reason:
             self.excluded.append((s, reason))
             return
@@ -216,6 +223,8 @@ class LiveGait:
                 n_strides=self._n_strides,
                 last_stride_time_s=last.stride_time_s,
                 last_stance_pct=last.stance_pct,
+                stride_start_idx=self._starts_arr,
+                last_stride_end_t_s=self._last_end_t_s,
             )
         mean_stride = float(np.mean([s.stride_time_s for s in self._strides]))
         cur_pct, cur = self._current(series, mean_stride)
@@ -230,7 +239,34 @@ class LiveGait:
             cycles_deg=self._cycles_deg,
             current_pct=cur_pct,
             current_deg=cur,
+            stride_start_idx=self._starts_arr,
+            last_stride_end_t_s=self._last_end_t_s,
         )
+
+
+class RecordingStart:
+    """An engine listener (``Engine.add_listener``) that knows where the running recording
+    began: ``start_idx``, the engine index of its row 0, or None when none is running (or its
+    first block is not processed yet). With :attr:`GaitStatus.stride_start_idx` a viewer counts
+    the strides of the recording, those the file will have: from its first heel strike on.
+    Written on the engine thread, read by the viewer: one reference, assigned whole."""
+
+    def __init__(self) -> None:
+        self.start_idx: int | None = None
+
+    def __call__(self, out: BlockOut) -> None:
+        if out.recording_stopped or out.last:
+            self.start_idx = None
+        if out.recording_started and len(out.idx):
+            self.start_idx = int(out.idx[0])
+
+    def strides(self, gait: GaitStatus) -> int | None:
+        """The strides of the running recording so far (None: not recording)."""
+        start = self.start_idx
+        if start is None:
+            return None
+        starts = gait.stride_start_idx
+        return int(len(starts) - np.searchsorted(starts, start, side="left"))
 
 
 def shift_stride(s: Stride, offset: int) -> Stride:
