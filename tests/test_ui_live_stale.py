@@ -14,7 +14,6 @@ from PySide6.QtCore import QSettings, Qt
 
 from gaitmon.analysis import analyse_session
 from gaitmon.finish import open_session
-
 from gaitmon.io.sim.bilateral import BilateralConfig
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import SIMULATED_PORT
