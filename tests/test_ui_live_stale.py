@@ -161,3 +161,25 @@ def test_a_one_leg_window_after_a_two_leg_session_shows_its_gait_panel(
         assert win.gait_dock.toggleViewAction().isChecked()
     finally:
         win.close()
+
+
+def test_a_standing_subject_leaves_no_current_stride_and_stale_figures(
+    qtbot, ui_settings, no_leaked_threads
+):
+    win = one_leg(qtbot, ui_settings, speed=8.0)
+    panel = win.gait_panel
+    try:
+        qtbot.waitUntil(lambda: win.engine.snapshot().gait.n_strides >= 3, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: min(current_points(win)) > 5, timeout=WAIT_MS)
+        win.device_part.set_simulated_standing(True)  # Device ▸ Simulator ▸ Stand still
+        qtbot.waitUntil(lambda: panel.stale_text().startswith("⚠ stale: last stride"),
+                        timeout=WAIT_MS)  # fmt: skip
+        assert win.conn.unit.standing
+        assert not panel.values["cadence"].isEnabled()
+        # no heel strike for 2 mean strides: no stride is in progress, no line for one
+        qtbot.waitUntil(lambda: max(current_points(win)) == 0, timeout=WAIT_MS)
+        win.device_part.set_simulated_standing(False)
+        qtbot.waitUntil(lambda: min(current_points(win)) > 5, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: panel.stale_text() == "", timeout=WAIT_MS)
+    finally:
+        win.close()
