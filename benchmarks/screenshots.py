@@ -130,12 +130,12 @@ def live_clinical(app, out: Path, tmp: Path) -> None:  # type: ignore[no-untyped
     win.guide.buttons[0].click()  # Connect
     wait(app, lambda: win.engine is not None and win.engine.samples_total >= 700)
     save(win, out / "live_guided_start.png")
-    win.set_simulated_standing(True)
+    win.device_part.set_simulated_standing(True)
     at = win.engine.samples_total
     wait(app, lambda: win.engine.samples_total >= at + 600)
     win.guide.buttons[1].click()  # Zero
     wait(app, lambda: win.guide.states[1] == "done")
-    win.set_simulated_standing(False)
+    win.device_part.set_simulated_standing(False)
     pause(app, 11.0)
     save(win, out / "screenshot.png")
     win.close()
@@ -195,7 +195,7 @@ def main() -> int:
         win.resize(1400, 880)
         win.show()
         wait(app, lambda: win.engine is not None and win.engine.samples_total >= 1100)
-        win.cut_simulated_link(3.0)
+        win.device_part.cut_simulated_link(3.0)
         wait(app, lambda: win.status.state_text.startswith("Reconnecting"))
         pause(app, 1.5)
         save(win, args.out / "live_gap_during.png")

@@ -26,9 +26,12 @@ from gaitmon.dsp.pipeline import PipelineBlock, settling_ranges
 from gaitmon.dsp.stride_length import StrideLengthTracker
 from gaitmon.engine.buffers import RingBuffer
 from gaitmon.engine.snapshot import GaitStatus
+from gaitmon.engine.taps import BlockOut
 from gaitmon.io.device import SampleBlock
 
 _FOOT = SEGMENTS.index("foot")
+# the line "current stride" is dropped after this many mean strides without a heel strike
+CURRENT_MAX_STRIDES = 2.0
 _FOOT_IMU_COLS = [int(ACC_X_IDX[_FOOT]), int(ACC_Z_IDX[_FOOT])]  # raw columns of the foot board
 
 
@@ -106,6 +109,9 @@ class LiveGait:
         # stride length (m) by opening heel strike (engine index), from the foot IMU; known a
         # little after the stride ends (the foot-flat after its closing heel strike)
         self._lengths: dict[int, float] = {}
+        self._starts: list[int] = []  # every stride's opening heel strike (engine index)
+        self._starts_arr = np.empty(0, np.int64)  # as an array, rebuilt once per stride
+        self._last_end_t_s = float("nan")
 
     def add(
         self,
@@ -145,6 +151,9 @@ class LiveGait:
         reason = stride_exclusion(s, self._n_strides, None, gaps, settling_ranges(gaps, self.fs_hz))
         self._n_strides += 1
         self._last = s
+        self._last_end_t_s = float(t1) if np.isfinite(t1) else float("nan")
+        self._starts.append(int(s.start_idx))
+        self._starts_arr = np.array(self._starts, dtype=np.int64)
         if reason:
             self.excluded.append((s, reason))
             return
@@ -182,6 +191,28 @@ class LiveGait:
         to = np.array([x for x in self._events_to if x >= t0_s])
         return hs, to
 
+    def _current(self, series: dict[str, np.ndarray], mean_stride: float
+                 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """The current stride so far: (% of the mean stride, joint angles) from the last heel
+        strike on; none when that heel strike has left the display window, when a long gap
+        came after it (data resumed: the stride is broken, and nothing from before the gap may
+        be drawn as the stride in progress), or when it has run for more than
+        ``CURRENT_MAX_STRIDES`` mean strides without a heel strike (the subject stands)."""
+        none = np.empty(0), np.empty((0, 3))
+        hs = self._last_hs_idx
+        if hs is None or not len(series["t_s"]):
+            return none
+        if any(r > hs for r in self._gap_rows):
+            return none
+        at = np.flatnonzero(series["idx"] == hs)
+        if not len(at):
+            return none
+        t = series["t_s"][int(at[0]) :]
+        pct = (t - t[0]) / mean_stride * 100.0
+        if not len(pct) or pct[-1] > 100.0 * CURRENT_MAX_STRIDES:
+            return none
+        return pct, series["joint_kalman_deg"][int(at[0]) :]
+
     def status(self, series: dict[str, np.ndarray], samples_total: int) -> GaitStatus:
         """The panel for a snapshot whose display series are ``series``."""
         last = self._last
@@ -192,16 +223,11 @@ class LiveGait:
                 n_strides=self._n_strides,
                 last_stride_time_s=last.stride_time_s,
                 last_stance_pct=last.stance_pct,
+                stride_start_idx=self._starts_arr,
+                last_stride_end_t_s=self._last_end_t_s,
             )
         mean_stride = float(np.mean([s.stride_time_s for s in self._strides]))
-        cur_pct = np.empty(0)
-        cur = np.empty((0, 3))
-        if self._last_hs_idx is not None and len(series["t_s"]):
-            at = np.flatnonzero(series["idx"] == self._last_hs_idx)
-            if len(at):
-                cur = series["joint_kalman_deg"][int(at[0]) :]
-                t = series["t_s"][int(at[0]) :]
-                cur_pct = (t - t[0]) / mean_stride * 100.0
+        cur_pct, cur = self._current(series, mean_stride)
         speed, length = self._spatial()
         return GaitStatus(
             n_strides=self._n_strides,
@@ -213,7 +239,34 @@ class LiveGait:
             cycles_deg=self._cycles_deg,
             current_pct=cur_pct,
             current_deg=cur,
+            stride_start_idx=self._starts_arr,
+            last_stride_end_t_s=self._last_end_t_s,
         )
+
+
+class RecordingStart:
+    """An engine listener (``Engine.add_listener``) that knows where the running recording
+    began: ``start_idx``, the engine index of its row 0, or None when none is running (or its
+    first block is not processed yet). With :attr:`GaitStatus.stride_start_idx` a viewer counts
+    the strides of the recording, those the file will have: from its first heel strike on.
+    Written on the engine thread, read by the viewer: one reference, assigned whole."""
+
+    def __init__(self) -> None:
+        self.start_idx: int | None = None
+
+    def __call__(self, out: BlockOut) -> None:
+        if out.recording_stopped or out.last:
+            self.start_idx = None
+        if out.recording_started and len(out.idx):
+            self.start_idx = int(out.idx[0])
+
+    def strides(self, gait: GaitStatus) -> int | None:
+        """The strides of the running recording so far (None: not recording)."""
+        start = self.start_idx
+        if start is None:
+            return None
+        starts = gait.stride_start_idx
+        return int(len(starts) - np.searchsorted(starts, start, side="left"))
 
 
 def shift_stride(s: Stride, offset: int) -> Stride:

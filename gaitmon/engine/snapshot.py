@@ -75,6 +75,10 @@ class GaitStatus:
     cycles_deg: np.ndarray = field(default_factory=lambda: np.empty((0, 101, 3)))  # last N strides
     current_pct: np.ndarray = field(default_factory=lambda: np.empty(0))  # current stride so far
     current_deg: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
+    # every stride since the engine started (counted or not): the engine index of its opening
+    # heel strike, ascending (a viewer counts a recording's strides from its row 0 on)
+    stride_start_idx: np.ndarray = field(default_factory=lambda: np.empty(0, np.int64))
+    last_stride_end_t_s: float = float("nan")  # when the last stride ended, on series["t_s"]
 
 
 @dataclass(frozen=True)

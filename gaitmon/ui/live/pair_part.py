@@ -243,6 +243,8 @@ class PairPart:
         if layout is None:
             return
         view = PairView(self.ctx.colours)
+        for side, panel in view.panels.items():  # where each engine's recording began
+            panel.recording_start = old.panels[side].recording_start
         layout.replaceWidget(old, view)
         view.setVisible(old.isVisible())
         old.deleteLater()

@@ -18,6 +18,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QGridLayout, QLabel, QSizePolicy, QStatusBar, QVBoxLayout, QWidget
 
 from gaitmon.engine import Mode, RecordingStatus, Snapshot
+from gaitmon.engine.live_gait import RecordingStart
 from gaitmon.engine.snapshot import EVENTS_FSR, EVENTS_GYRO, EVENTS_UNIT, FsrFaultNotice
 from gaitmon.live.health import (
     Health,
@@ -225,8 +226,13 @@ GAIT_ROWS = (
      "stride length from the foot IMU (straight, level walking assumed)"),
     ("stride", "Last stride", "time from one heel strike to the next (s)"),
     ("stance", "Stance", "stance time as % of the last stride (normal ≈ 60 %)"),
-    ("strides", "Strides", "strides completed since connecting"),
+    ("strides", "Strides", "strides completed: while recording, those of this recording (as "
+     "its file has them, counted or not: info and review leave out its first and last "
+     "strides and those at gaps); otherwise since connecting"),
 )  # fmt: skip
+STALE_STRIDES = 2.0  # no stride completed for this many mean stride times: the figures are old
+STALE_NO_DATA_S = 1.0  # no data for this long: the link is down, the figures are old
+STALE_KEYS = ("cadence", "speed", "stride", "stance")  # greyed when stale
 
 
 def value_rows(
@@ -264,6 +270,22 @@ class GaitPanel(QWidget):
         grid = QGridLayout()
         self.values = value_rows(grid, GAIT_ROWS, self, scale=1.5)
         g.addLayout(grid)
+        row = [k for k, _label, _tip in GAIT_ROWS].index("strides")
+        item = grid.itemAtPosition(row, 0)
+        name = item.widget() if item is not None else None
+        assert isinstance(name, QLabel)
+        self.strides_name = name  # "Strides (this recording)" / "(since connect)"
+        self.stale_label = QLabel()  # "stale: last stride 12 s ago"
+        self.stale_label.setWordWrap(True)
+        self.stale_label.setToolTip(
+            "Cadence, speed, the last stride and stance are the last strides' figures: greyed "
+            f"when no stride has completed for {STALE_STRIDES:g} stride times (standing) or no "
+            "data arrives (link down)"
+        )
+        self.stale_label.setVisible(False)
+        g.addWidget(self.stale_label)
+        # set on each connect (the window's): where the running recording began
+        self.recording_start: RecordingStart | None = None
         self.events_label = QLabel()  # where the gait events come from
         self.events_label.setWordWrap(True)
         self.events_label.setToolTip(
@@ -283,6 +305,10 @@ class GaitPanel(QWidget):
 
     def clear(self) -> None:
         self._shown_strides = -1
+        self.stale_label.setText("")
+        self.stale_label.setVisible(False)
+        for key in STALE_KEYS:
+            self.values[key].setEnabled(True)
         self._events_source = None
         self.events_label.setText("")
         self.cycles.clear_data()
@@ -297,6 +323,47 @@ class GaitPanel(QWidget):
         self.events_label.setStyleSheet(
             f"color: {self._colours.warn}; font-weight: bold" if source == EVENTS_GYRO else ""
         )
+
+    def _show_stride_count(self, snap: Snapshot) -> None:
+        """While recording, the recording's strides (from its row 0 on: the file's); else
+        those since connecting. The row's name says which."""
+        n: int | None = None
+        if snap.recording.active:
+            start = self.recording_start
+            n = (start.strides(snap.gait) if start is not None else None) or 0
+        name = "Strides (since connect)" if n is None else "Strides (this recording)"
+        if self.strides_name.text() != name:
+            self.strides_name.setText(name)
+        self.values["strides"].setText(str(snap.gait.n_strides if n is None else n))
+
+    def _show_stale(self, snap: Snapshot) -> None:
+        """Grey the last strides' figures and say so when they are old: no stride completed
+        for :data:`STALE_STRIDES` mean stride times (the subject stands) or no data comes."""
+        g = snap.gait
+        t = snap.series["t_s"]
+        text = ""
+        if len(t) and math.isfinite(g.last_stride_end_t_s):
+            no_data_s = max(0.0, snap.last_data_age_s)
+            age = max(0.0, float(t[-1]) - g.last_stride_end_t_s) + no_data_s
+            cadence = g.cadence_derived_steps_per_min
+            stride = 120.0 / cadence if math.isfinite(cadence) else g.last_stride_time_s
+            ago = f"last stride {age:.0f} s ago"
+            if snap.last_data_age_s > STALE_NO_DATA_S:
+                text = f"⚠ stale: no data for {snap.last_data_age_s:.0f} s ({ago})"
+            elif math.isfinite(stride) and age > STALE_STRIDES * stride:
+                text = f"⚠ stale: {ago}"
+        stale = bool(text)
+        for key in STALE_KEYS:
+            if self.values[key].isEnabled() == stale:
+                self.values[key].setEnabled(not stale)  # greyed (the palette's disabled text)
+        if self.stale_label.text() != text:
+            self.stale_label.setText(text)
+        if self.stale_label.isVisibleTo(self) != stale:
+            self.stale_label.setVisible(stale)
+
+    def stale_text(self) -> str:
+        """What the panel says of its figures' age ("" when current): what the tests read."""
+        return self.stale_label.text() if not self.stale_label.isHidden() else ""
 
     def set_colours(self, colours: Colours) -> None:
         """Curves are created once per theme: a new plot widget with the new shades."""
@@ -321,7 +388,8 @@ class GaitPanel(QWidget):
         v["speed"].setText(fmt(g.speed_mean_m_s, ".2f", "m/s"))
         v["stride"].setText(fmt(g.last_stride_time_s, ".2f", "s"))
         v["stance"].setText(fmt(g.last_stance_pct, ".0f", "%"))
-        v["strides"].setText(str(g.n_strides))
+        self._show_stride_count(snap)
+        self._show_stale(snap)
         if snap.event_source != self._events_source:
             self._events_source = snap.event_source
             self._show_event_source(snap.event_source)

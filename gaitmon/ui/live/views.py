@@ -12,7 +12,7 @@ and the phases.
 
 from __future__ import annotations
 
-from PySide6.QtCore import Qt
+from PySide6.QtCore import QByteArray, Qt
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import (
     QCheckBox,
@@ -59,6 +59,9 @@ class ViewPart:
         self._ticks = 0
         self._docks_shown = (True, False)  # (gait, raw) while both legs hide them
         self._legend_shown: list[QWidget] = []
+        # the one-leg layout (QMainWindow.saveState) as it was when both legs took its place:
+        # what the window remembers, not the both-legs view's hidden docks (issue 25)
+        self._one_leg_state: QByteArray | None = None
         c = ctx.colours
         self.window_combo = QComboBox()
         for w in WINDOWS_S:
@@ -258,10 +261,13 @@ class ViewPart:
         """The one-leg plots, docks and legend row hidden while both legs are shown (the legend
         says nothing about that view), and back as they were."""
         if not on:
+            if self._one_leg_state is None:
+                self._one_leg_state = self.window.saveState()
             self._docks_shown = (self.gait_dock.isVisible(), self.raw_dock.isVisible())
             self.gait_dock.setVisible(False)
             self.raw_dock.setVisible(False)
         else:
+            self._one_leg_state = None
             gait, raw = self._docks_shown
             self.gait_dock.setVisible(gait)
             self.raw_dock.setVisible(raw)
@@ -276,6 +282,15 @@ class ViewPart:
                 w.setVisible(True)
             self._legend_shown = []
         self.live.setVisible(on)
+
+    def layout_state(self) -> QByteArray:
+        """The window layout to remember (LiveKey.STATE): the one-leg window's docks and
+        toolbars, as left before both legs were shown if they are shown now. The both-legs
+        view hides the one-leg docks; remembering that hid the Gait panel of the next one-leg
+        window (View ▸ Gait unticked)."""
+        if self._one_leg_state is not None:
+            return self._one_leg_state
+        return self.window.saveState()
 
     def clear_data(self) -> None:
         """A new unit: the gait panel and the plots start empty."""

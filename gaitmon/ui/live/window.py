@@ -45,6 +45,7 @@ from PySide6.QtWidgets import (
 
 from gaitmon import __version__
 from gaitmon.engine import Engine, Mode, Snapshot
+from gaitmon.engine.live_gait import RecordingStart
 from gaitmon.io.sim.bilateral import BilateralConfig
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import Connection
@@ -69,7 +70,7 @@ from gaitmon.ui.live.pair_part import PairPart
 from gaitmon.ui.live.prefs import Prefs
 from gaitmon.ui.live.processing import ProcessingPart
 from gaitmon.ui.live.recording import RecordingPart
-from gaitmon.ui.live.status import StatusView
+from gaitmon.ui.live.status import GaitPanel, StatusView
 from gaitmon.ui.live.views import ViewPart
 from gaitmon.ui.plots import LivePlots
 from gaitmon.ui.theme import Colours, configure_pyqtgraph, current_colours
@@ -320,14 +321,36 @@ class MainWindow(QMainWindow):
         """A unit (or both legs) connected: the display starts; LSL streams if it is on."""
         if self.ctx.conn is not None:
             self.view_part.clear_data()
+        self._watch_recordings()
         self._update_controls()
         self.timer.start()
         self._tick()
         if self.ctx.conn is not None:
             self.lsl_part.connected()
 
+    def _watch_recordings(self) -> None:
+        """Each Gait panel learns where its engine's recordings begin (a listener on the
+        engine), to count a recording's strides as its file has them."""
+        ctx = self.ctx
+        watched: list[tuple[GaitPanel, Engine]] = []
+        if ctx.conn is not None:
+            watched.append((self.view_part.gait_panel, ctx.conn.engine))
+        if ctx.pair is not None and self.pair_part.view is not None:
+            panels = self.pair_part.view.panels
+            watched += [(panels[side], eng) for side, eng in ctx.pair.engines.items()
+                        if side in panels]  # fmt: skip
+        for panel, engine in watched:
+            start = RecordingStart()
+            engine.add_listener(start)
+            panel.recording_start = start
+
     def timer_stop(self) -> None:
         self.timer.stop()
+        # disconnected: no stride is in progress any more (the plots keep the last strides)
+        self.view_part.gait_panel.cycles.clear_current()
+        if self.pair_part.view is not None:
+            for panel in self.pair_part.view.panels.values():
+                panel.cycles.clear_current()
 
     @guarded
     def toggle_connect(self) -> None:
@@ -449,7 +472,7 @@ class MainWindow(QMainWindow):
                     ev.ignore()
                     return
             self.ctx.prefs.set(LiveKey.GEOMETRY, self.saveGeometry())
-            self.ctx.prefs.set(LiveKey.STATE, self.saveState())
+            self.ctx.prefs.set(LiveKey.STATE, self.view_part.layout_state())
             self.shutdown()
             self.ctx.prefs.s.sync()
         except Exception as exc:  # closing must always work

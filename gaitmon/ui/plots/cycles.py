@@ -14,6 +14,10 @@ from gaitmon.engine import Snapshot
 from gaitmon.ui.plots.traces import JOINTS, CountingPlotWidget, newest_idx, style_plot
 from gaitmon.ui.theme import Colours, pen
 
+# no data for longer than this (the link is down): the stride in progress is broken, its line
+# goes (the time plots shade the outage after 0.3 s; a loaded machine may pause that long)
+CURRENT_STALE_S = 1.0
+
 
 class CyclePlots(CountingPlotWidget):
     """Hip, knee and ankle over the gait cycle: mean ± SD of the last strides + current stride."""
@@ -117,7 +121,7 @@ class CyclePlots(CountingPlotWidget):
                 if ok:
                     line.setValue(stance)
         pct = g.current_pct
-        if len(pct):
+        if len(pct) and snap.last_data_age_s <= CURRENT_STALE_S:
             keep = pct <= 100.0
             for j in range(len(JOINTS)):
                 y = g.current_deg[keep, j]
@@ -125,4 +129,12 @@ class CyclePlots(CountingPlotWidget):
                     self.current[j].setData(pct[keep], y, skipFiniteCheck=True)
                 else:
                     self.current[j].setData(pct[keep], y, connect="finite")
+        else:  # no stride in progress, or no data coming: no line left from an older one
+            self.clear_current()
         self.mark_new_data(newest_idx(snap.series))
+
+    def clear_current(self) -> None:
+        """Drop the current stride's line (no stride in progress, link down, disconnected)."""
+        for curve in self.current:
+            if curve.xData is not None and len(curve.xData):
+                curve.setData(np.empty(0), np.empty(0))
