@@ -12,11 +12,14 @@ recording with a message while acquisition and display carry on. No Qt here: the
 the tests and the desktop window all drive this same object.
 
 This module owns the lifecycle (start, stop, the engine thread's loop), recording start and
-stop, zeroing, settings and snapshots. The parts it wires together live beside it: display
-buffers (``buffers``), snapshot types (``snapshot``), the engine thread's sample count and the
-unit's true clock (``stream``), the recorder thread (``recorder``) and its messages
-(``messages``), the map of engine samples to file rows (``rows``), the live gait panel and
-stride lengths (``live_gait``) and the force-sensor check's findings (``sensor_checks``).
+stop, zeroing, settings and snapshots. The parts it wires together live beside it: the engine
+thread's work on each part of a block (``blocks``), the calibration schedule, held rows and
+the zero search (``schedule``, ``zeroing``), opening a session file and handing rows to the
+recorder (``handover``), display buffers (``buffers``), snapshot types (``snapshot``), the
+engine thread's sample count and the unit's true clock (``stream``), the recorder thread
+(``recorder``) and its messages (``messages``), the map of engine samples to file rows
+(``rows``), the live gait panel and stride lengths (``live_gait``) and the force-sensor
+check's findings (``sensor_checks``).
 Listeners (``add_listener``: the Lab Streaming Layer outlets, say) get each processed block as
 a plain value (``taps``).
 """
@@ -24,7 +27,6 @@ a plain value (``taps``).
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import threading
 import time
 from collections import deque
@@ -32,35 +34,26 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from gaitmon.dsp.calibration import Calibration, zero_source
-from gaitmon.dsp.fsr_check import FsrFault
-from gaitmon.dsp.lost_frames import restart_rows
-from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, warm_up
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig, warm_up
+from gaitmon.engine.blocks import BlockHandler
 from gaitmon.engine.buffers import (
     RingBuffer,
-    cols_from_device,
-    cols_from_pipeline,
     on_event_time,
-    with_gap_rows,
 )
 from gaitmon.engine.errors import EngineError as EngineError  # re-exported
-from gaitmon.engine.handover import hand_over, open_recorder
-from gaitmon.engine.live_gait import FootStrideLengths, LiveGait, UnitGaitEvents, shift_stride
+from gaitmon.engine.handover import open_recorder
+from gaitmon.engine.live_gait import FootStrideLengths, LiveGait, UnitGaitEvents
 from gaitmon.engine.markers import TimedMarkerCounts, TimedMarkers
-from gaitmon.engine.messages import AddMarker, LogCalibration, LogConfig, UpdateLink
+from gaitmon.engine.messages import AddMarker, UpdateLink
 from gaitmon.engine.recorder import Recorder
 from gaitmon.engine.schedule import (
     HeldRows,
     PendingChanges,
     ZeroControl,
-    split_at,
-    timing_note,
 )
 from gaitmon.engine.sensor_checks import SensorChecks
 from gaitmon.engine.snapshot import (
-    EVENTS_GYRO,
     EVENTS_UNIT,
     UNIT_ANGLE_METHOD,
     Mode,
@@ -69,9 +62,9 @@ from gaitmon.engine.snapshot import (
 )
 from gaitmon.engine.stream import StreamHealth, StreamPosition, UnitClockMark
 from gaitmon.engine.taps import BlockListener, Taps
-from gaitmon.engine.zeroing import ZERO_MARGIN_S, HeldPart, ZeroSearch, still_window
-from gaitmon.io.device import Device, DeviceError, SampleBlock
-from gaitmon.io.protocol import FrameKind, Identity
+from gaitmon.engine.zeroing import ZERO_MARGIN_S, ZeroSearch, still_window
+from gaitmon.io.device import Device, DeviceError
+from gaitmon.io.protocol import Identity
 from gaitmon.io.transport import LinkError
 
 if TYPE_CHECKING:
@@ -82,8 +75,9 @@ class Engine:
     """Runs one Device in one mode; see the module doc.
 
     Ownership: ``_lock`` guards ``_pending``, ``_recorder``, ``_markers``, ``_health``,
-    ``_gait`` and ``_checks``, and the engine thread's writes of ``config`` and
-    ``calibration``; only the engine thread writes ``_stream``, ``_pipeline`` and
+    ``_gait``, ``_checks`` and the zero search (``_zeroing.search``), and the engine thread's
+    writes of ``config`` and ``calibration``; only the engine thread (``_blocks``, a
+    ``BlockHandler`` on this object's state) writes ``_stream``, ``_pipeline``, ``_held`` and
     ``_unit_events`` (no lock); the caller's thread writes ``_last_recording``, ``_identity``
     and ``_thread``.
     """
@@ -138,6 +132,7 @@ class Engine:
         self._held = HeldRows(self.fs_hz)
         self._zeroing = ZeroControl(self._lock, self._pending, self._held,
                                     lambda: self.calibration, self.fs_hz)  # fmt: skip
+        self._blocks = BlockHandler(self)  # the engine thread's work on each part
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -483,12 +478,12 @@ class Engine:
                 self._stream.last_data_s = now
             rest = block if block is not None and len(block) else None
             while rest is not None:
-                part, rest = self._next_part(rest)
+                part, rest = self._blocks.next_part(rest)
                 try:
-                    self._handle(part)
+                    self._blocks.handle(part)
                 except Exception as exc:  # never let one block kill acquisition
                     try:
-                        self._block_failed(part, exc)
+                        self._blocks.failed(part, exc)
                     except Exception as again:
                         self._note_error(f"processing error: {type(again).__name__}: {again}")
                 try:
@@ -506,185 +501,7 @@ class Engine:
                         with contextlib.suppress(Exception):
                             self._recorder.put(UpdateLink(self.device.stats))
 
-    def _next_part(self, block: SampleBlock) -> tuple[SampleBlock, SampleBlock | None]:
-        """The block up to the next scheduled sample inside it (a calibration's, a
-        recording's first row) and the rest (None: no such sample inside it). The pipeline is
-        chunk-invariant, so cutting there changes no output: it only lets a change take
-        effect at exactly its sample, whichever blocks the link delivered."""
-        start = self._stream.samples
-        with self._lock:
-            p = self._pending
-            marks = [p.calibration_at if p.calibration is not None else None]
-            marks.append(self._zeroing.next_end())
-            rec = self._recorder
-            if rec is not None and rec.row_map.record_offset is None:
-                marks.append(rec.start_idx)
-        return split_at(block, start, marks)
-
-    def _note_timing(self, what: str, late_samples: int) -> None:
-        self.timing_notes.append(timing_note(what, late_samples, self.fs_hz))
-
     def _note_error(self, text: str) -> None:
         with self._lock:
             self._health.note_error(text)
-
-    def _handle(self, block: SampleBlock) -> None:
-        st = self._stream
-        st.handed_over = False
-        st.block_start = st.samples
-        with self._lock:
-            # take pending changes and make them current in one step, so a recording started
-            # meanwhile puts exactly what this block is processed with into its header
-            cfg, cal, cal_at = self._pending.take(st.samples)  # a scheduled cal waits for it
-            if cfg is not None:
-                self.config = cfg
-            if cal is not None:
-                self.calibration = cal
-            rec = self._recorder
-        start_idx = st.samples
-        if cal is not None and cal_at is not None and cal_at < start_idx:
-            self._note_timing("the zero took effect", start_idx - cal_at)
-        from_idx = None if rec is None or rec.row_map.record_offset is not None else rec.start_idx
-        if from_idx is not None and start_idx < from_idx:
-            rec = None  # the recording starts at a later sample (``_next_part`` cuts there)
-        elif (
-            rec is not None and from_idx is not None and start_idx > from_idx
-            and not self._start_held(rec)  # processed before the caller got to it: held?
-        ):  # fmt: skip
-            self._note_timing("the recording started", start_idx - from_idx)
-        first = rec is not None and rec.row_map.record_offset is None
-        if first:
-            assert rec is not None
-            rec.row_map.record_offset = start_idx  # row 0 = this block's first sample
-        if rec is not None:
-            self._held.begin(None)
-        if cfg is not None:
-            self._pipeline = self._pipeline.successor(cfg)
-            with self._lock:
-                self._checks.pipeline_rebuilt(self._pipeline.event_source == EVENTS_GYRO)
-            self._phase_lag = cfg.phase_lag_samples
-            st.pipeline_offset = start_idx
-            if rec is not None and not (first and cfg is rec.header_config):
-                rec.put(LogConfig(cfg))
-        if cal is not None:
-            self._pipeline.set_calibration(cal)
-            if rec is not None and not (first and cal is rec.header_calibration):
-                rec.put(LogCalibration(cal))
-        elif first and rec is not None and self.calibration is not rec.header_calibration:
-            rec.put(LogCalibration(self.calibration))  # row 0 is processed with this one
-        if block.kind != self.mode.frame_kind:
-            # not this session's frames (a unit that restarted into its default kind before
-            # the setup was sent again): neither shown nor recorded; the file gets a gap
-            self._note_error(
-                f"the unit sent {FrameKind(block.kind).name} frames in {self.mode.value} mode; "
-                f"{len(block)} frames ignored"
-            )
-            if rec is not None:
-                rec.row_map.not_recorded(block, f"frames lost: {FrameKind(block.kind).name} frames")
-            st.not_processed(block)
-            return
-        reconnects = self.device.stats.transport.reconnects
-        gap_reason = ""
-        if reconnects != st.reconnects_seen:
-            st.reconnects_seen = reconnects
-            gap_reason = "link lost: reconnected"
-        lost = st.lost(block)
-        t_s = st.true_times(lost, self.fs_hz)
-        restarts = np.empty(0, np.int64)
-        faults: tuple[FsrFault, ...] = ()
-        offset = st.pipeline_offset
-        if block.kind == FrameKind.RAW and block.adc is not None:
-            p = self._pipeline.process(block.adc, lost)
-            faults = p.fsr_faults
-            cols = cols_from_pipeline(p, t_s, block.host_time_s)
-            hs_idx = p.heel_strike_idx + offset
-            to_idx = p.toe_off_idx + offset
-            strides = [shift_stride(s, offset) for s in p.strides]
-            restarts = p.restart_idx + offset
-            lengths = self._spatial.push(block.adc, p, hs_idx, start_idx, self._pipeline.table,
-                                         lost)  # fmt: skip
-            p_rec = p
-            if (first or (rec is None and not self._held.parts)) and len(
-                self._pipeline.fsr_faults
-            ) > len(p.fsr_faults):
-                # sensors flagged before the recording started are faulty in it from row 0
-                p_rec = dataclasses.replace(p, fsr_faults=self._pipeline.fsr_faults)
-            if rec is not None:
-                self._hand_over(rec, block, p_rec, gap_reason, t_s)
-            elif self._held.from_idx is not None:
-                self._held.hold(HeldPart(start_idx, offset, block, p_rec, gap_reason, t_s,
-                                         self.calibration))  # fmt: skip
-        else:
-            cols = cols_from_device(block, t_s)
-            hs_idx, to_idx, strides = self._unit_events.process(block, start_idx)
-            restarts = start_idx + restart_rows(lost, self.fs_hz)
-            lengths = []
-            if rec is not None:
-                self._hand_over(rec, block, None, gap_reason, t_s)
-        st.handed_over = True
-        cols["idx"] = np.arange(start_idx, start_idx + len(block), dtype=np.float64)
-        self._ring.append(with_gap_rows(cols, lost, self.fs_hz, self._ring.capacity))
-        st.samples += len(block)
-        self._timed.add_block(
-            start_idx, np.rint(t_s * self.fs_hz).astype(np.int64), block.host_time_s
-        )
-        with self._lock:
-            self._health.block_done(float(block.host_time_s[-1]), st.samples)
-            self._gait.add(hs_idx, to_idx, strides, restarts, self._ring, st.samples)
-            self._gait.add_lengths(lengths)
-            self._checks.add(faults, offset, st.samples, self._ring)
-        if self._taps:
-            path = str(rec.writer.path) if first and rec is not None else ""
-            self._taps.block(block, start_idx, t_s, lost, cols, (hs_idx, to_idx),
-                             self._ring.times_of, gap_reason, (cfg, cal), (rec, path))  # fmt: skip
-
-    def _hand_over(
-        self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str,
-        t_s: np.ndarray, at: tuple[int, int] | None = None,
-    ) -> None:  # fmt: skip
-        """``handover.hand_over``; ``at``: (its pipeline's offset, its first engine index) for
-        a held part; None: the block being processed."""
-        offset, start = at or (self._stream.pipeline_offset, self._stream.samples)
-        hand_over(rec, block, p, gap_reason, t_s, self.fs_hz, offset, start)
-
-    def _start_held(self, rec: Recorder) -> bool:
-        """The engine thread: a recording that starts at a sample already processed and
-        held: its rows from there, in order (True), or False (none held from there)."""
-        held = self._held.take(rec.start_idx)
-        if not held:
-            return False
-        rec.row_map.record_offset = held[0].start
-        if held[0].calibration is not rec.header_calibration:
-            rec.put(LogCalibration(held[0].calibration))
-        for h in held:
-            self._hand_over(rec, h.block, h.p, h.gap_reason, h.t_s, (h.offset, h.start))
-        return True
-
-    def _block_failed(self, block: SampleBlock, exc: Exception) -> None:
-        """``_handle`` raised (a bug, or a block the pipeline cannot take): say so, keep the
-        indices of the display, the pipeline and the recording consistent, carry on."""
-        self._note_error(f"processing error: {type(exc).__name__}: {exc}")
-        with self._lock:
-            rec = self._recorder
-        if rec is not None and rec.row_map.record_offset is None:
-            rec = None  # the recording had not started with this block
-        st = self._stream
-        if st.handed_over:
-            # the block is in the file: only the display bookkeeping after it failed
-            if st.samples == st.block_start:
-                st.samples += len(block)
-            return
-        # the block is not in the file and may have left the pipeline half-updated: a fresh
-        # pipeline starts with the next block, and the file logs it as a settings change at
-        # that row (so reprocessing restarts there too) after a gap for this block
-        st.samples = st.block_start
-        if rec is not None:
-            rec.row_map.not_recorded(block, "frames lost: processing error")
-        if self.mode is Mode.RAW:
-            self._pipeline = self._pipeline.successor(self.config)
-            st.pipeline_offset = st.samples
-            with self._lock:
-                self._checks.pipeline_rebuilt(self._pipeline.event_source == EVENTS_GYRO)
-            if rec is not None:
-                rec.put(LogConfig(self.config))
 

@@ -39,7 +39,7 @@ HOLD_MAX_S = 60.0
 @dataclass(frozen=True, eq=False)
 class HeldPart:
     """A part the engine thread processed and kept for a recording to start at ``start``:
-    what it would have handed the recorder (``Engine._hand_over``)."""
+    what it would have handed the recorder (``BlockHandler._hand_over``)."""
 
     start: int  # its first engine index
     offset: int  # its pipeline's first engine index

@@ -90,7 +90,8 @@ from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
 from gaitmon.io import protocol as P
 from gaitmon.io.sim.clock import CrystalClock
 from gaitmon.io.sim.faults import FaultConfig, FaultLedger, LedgerEntry, flip_bits
-from gaitmon.io.sim.ground_truth import GroundTruth, ground_truth
+from gaitmon.io.sim.ground_truth import GroundTruth as GroundTruth  # re-exported
+from gaitmon.io.sim.ground_truth import ground_truth
 from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import SensorBlock, SensorConfig, SensorModel
 
