@@ -12,11 +12,14 @@ recording with a message while acquisition and display carry on. No Qt here: the
 the tests and the desktop window all drive this same object.
 
 This module owns the lifecycle (start, stop, the engine thread's loop), recording start and
-stop, zeroing, settings and snapshots. The parts it wires together live beside it: display
-buffers (``buffers``), snapshot types (``snapshot``), the engine thread's sample count and the
-unit's true clock (``stream``), the recorder thread (``recorder``) and its messages
-(``messages``), the map of engine samples to file rows (``rows``), the live gait panel and
-stride lengths (``live_gait``) and the force-sensor check's findings (``sensor_checks``).
+stop, zeroing, settings and snapshots. The parts it wires together live beside it: the engine
+thread's work on each part of a block (``blocks``), the calibration schedule, held rows and
+the zero search (``schedule``, ``zeroing``), opening a session file and handing rows to the
+recorder (``handover``), display buffers (``buffers``), snapshot types (``snapshot``), the
+engine thread's sample count and the unit's true clock (``stream``), the recorder thread
+(``recorder``) and its messages (``messages``), the map of engine samples to file rows
+(``rows``), the live gait panel and stride lengths (``live_gait``) and the force-sensor
+check's findings (``sensor_checks``).
 Listeners (``add_listener``: the Lab Streaming Layer outlets, say) get each processed block as
 a plain value (``taps``).
 """
@@ -24,47 +27,33 @@ a plain value (``taps``).
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
-from gaitmon.dsp.calibration import (
-    Calibration,
-    CalibrationError,
-    standing_calibration,
-    zero_source,
-)
-from gaitmon.dsp.fsr_check import FsrFault
-from gaitmon.dsp.lost_frames import restart_rows
-from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig, warm_up
+from gaitmon.dsp.calibration import Calibration, zero_source
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig, warm_up
+from gaitmon.engine.blocks import BlockHandler
 from gaitmon.engine.buffers import (
     RingBuffer,
-    cols_from_device,
-    cols_from_pipeline,
     on_event_time,
-    with_gap_rows,
 )
-from gaitmon.engine.live_gait import FootStrideLengths, LiveGait, UnitGaitEvents, shift_stride
+from gaitmon.engine.errors import EngineError as EngineError  # re-exported
+from gaitmon.engine.handover import open_recorder
+from gaitmon.engine.live_gait import FootStrideLengths, LiveGait, UnitGaitEvents
 from gaitmon.engine.markers import TimedMarkerCounts, TimedMarkers
-from gaitmon.engine.messages import (
-    AddMarker,
-    AppendBlock,
-    LogCalibration,
-    LogConfig,
-    UpdateLink,
-)
+from gaitmon.engine.messages import AddMarker, UpdateLink
 from gaitmon.engine.recorder import Recorder
-from gaitmon.engine.rows import slice_pipeline, slice_samples
+from gaitmon.engine.schedule import (
+    HeldRows,
+    PendingChanges,
+    ZeroControl,
+)
 from gaitmon.engine.sensor_checks import SensorChecks
 from gaitmon.engine.snapshot import (
-    EVENTS_GYRO,
     EVENTS_UNIT,
     UNIT_ANGLE_METHOD,
     Mode,
@@ -73,37 +62,22 @@ from gaitmon.engine.snapshot import (
 )
 from gaitmon.engine.stream import StreamHealth, StreamPosition, UnitClockMark
 from gaitmon.engine.taps import BlockListener, Taps
-from gaitmon.engine.zeroing import HOLD_MAX_S, ZERO_MARGIN_S, HeldPart, ZeroSearch
-from gaitmon.io.device import Device, DeviceError, SampleBlock
-from gaitmon.io.protocol import FrameKind, Identity
+from gaitmon.engine.zeroing import ZERO_MARGIN_S, ZeroSearch, still_window
+from gaitmon.io.device import Device, DeviceError
+from gaitmon.io.protocol import Identity
 from gaitmon.io.transport import LinkError
 
 if TYPE_CHECKING:
     from gaitmon.io.session.header import SessionMeta
 
 
-class EngineError(Exception):
-    """A one-line, actionable problem (no device data, a refused zeroing, ...)."""
-
-
-@dataclass
-class _PendingChanges:
-    """Changes a caller asked for; the engine thread takes them at its next block (under the
-    engine's lock), so a recording started meanwhile gets them in its header."""
-
-    config: PipelineConfig | None = None
-    calibration: Calibration | None = None
-    # the engine index from which ``calibration`` takes effect (None: the next block); the
-    # engine thread cuts its blocks there, so it is applied exactly at that sample
-    calibration_at: int | None = None
-
-
 class Engine:
     """Runs one Device in one mode; see the module doc.
 
     Ownership: ``_lock`` guards ``_pending``, ``_recorder``, ``_markers``, ``_health``,
-    ``_gait`` and ``_checks``, and the engine thread's writes of ``config`` and
-    ``calibration``; only the engine thread writes ``_stream``, ``_pipeline`` and
+    ``_gait``, ``_checks`` and the zero search (``_zeroing.search``), and the engine thread's
+    writes of ``config`` and ``calibration``; only the engine thread (``_blocks``, a
+    ``BlockHandler`` on this object's state) writes ``_stream``, ``_pipeline``, ``_held`` and
     ``_unit_events`` (no lock); the caller's thread writes ``_last_recording``, ``_identity``
     and ``_thread``.
     """
@@ -139,7 +113,7 @@ class Engine:
         self._spatial = FootStrideLengths(self.fs_hz)
         self._checks = SensorChecks()
         self._health = StreamHealth()
-        self._pending = _PendingChanges()
+        self._pending = PendingChanges()
         self._recorder: Recorder | None = None
         self._last_recording = RecordingStatus()
         self._identity: Identity | None = None
@@ -153,11 +127,12 @@ class Engine:
         # a zero or a recording start scheduled at a sample the engine thread had already
         # processed (a machine far behind) took effect from the next block: one line each
         self.timing_notes: deque[str] = deque(maxlen=64)
-        self._zero_search: ZeroSearch | None = None  # the engine thread's (``request_zero``)
         # engine thread: the parts processed from a found zero's sample on, for a recording
-        # to start there (``request_zero(hold=True)``, ``_hold``)
-        self._held: list[HeldPart] = []
-        self._held_from: int | None = None
+        # to start there (``request_zero(hold=True)``)
+        self._held = HeldRows(self.fs_hz)
+        self._zeroing = ZeroControl(self._lock, self._pending, self._held,
+                                    lambda: self.calibration, self.fs_hz)  # fmt: skip
+        self._blocks = BlockHandler(self)  # the engine thread's work on each part
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -247,14 +222,6 @@ class Engine:
         ``zero_at``) from that sample on: the file's first row is then decided by the data,
         not by when this thread ran. If that sample has already been processed (a machine far
         behind), from the next block, and ``timing_notes`` says so."""
-        from gaitmon.io.session import (
-            SessionError,
-            SessionHeader,
-            SessionMeta,
-            SessionWriter,
-            device_info,
-        )
-
         with self._lock:
             if self._recorder is not None:
                 raise EngineError("already recording; stop the current recording first")
@@ -263,34 +230,20 @@ class Engine:
             # so the header is exactly what the first recorded block is processed with); one
             # scheduled at a sample is, if the file starts at or after that sample (the engine
             # thread logs the calibration in force at row 0 if it is not the header's)
-            at = self._pending.calibration_at
-            calibration = self.calibration
-            if self._pending.calibration is not None and (
-                at is None or (from_idx is not None and from_idx >= at)
-                or at <= self._stream.samples
-            ):
-                calibration = self._pending.calibration
-            header = SessionHeader(
-                mode=self.mode.value,
-                sample_rate_hz=self.fs_hz,
-                meta=meta or SessionMeta(),
-                device=device_info(self._identity, self.transport_label),
-                config=self._pending.config or self.config,
-                calibration=calibration,
+            calibration = self._pending.header_calibration(
+                self.calibration, from_idx, self._stream.samples
             )
-            try:
-                writer = SessionWriter(path, header, overwrite=overwrite)
-            except SessionError as exc:
-                raise EngineError(str(exc)) from exc
-            except OSError as exc:
-                raise EngineError(f"cannot create {path}: {exc.strerror or exc}") from exc
+            limit = self.record_limit_s
+            recorder = open_recorder(
+                path, meta, overwrite=overwrite, mode=self.mode.value, fs_hz=self.fs_hz,
+                identity=self._identity, transport_label=self.transport_label,
+                config=self._pending.config or self.config, calibration=calibration,
+                queue_blocks=self._recorder_queue_blocks,
+                limit_samples=None if limit is None else round(limit * self.fs_hz),
+            )  # fmt: skip
             # row 0 is the first sample of the next block the engine thread starts on (it
             # sets the row map's record_offset then): never half a block, never one too late
-            self._recorder = Recorder(
-                writer, self._recorder_queue_blocks, header.config, calibration,
-                limit_samples=None if self.record_limit_s is None
-                else round(self.record_limit_s * self.fs_hz),
-            )  # fmt: skip
+            self._recorder = recorder
             self._recorder.start_idx = from_idx
             self._last_recording = RecordingStatus()
 
@@ -409,35 +362,13 @@ class Engine:
                 raise EngineError(f"the unit refused to zero: {exc}") from exc
             return self.calibration, None
         n = int(window_s * self.fs_hz)
-        need = f"need {window_s:g} s of data from the unit to zero; wait and retry"
-        if since_idx is None:
-            data = self._ring.latest(n)
-            windows = [slice(0, n)]
-        else:
-            data = self._ring.latest(self._ring.capacity)
-            held = np.flatnonzero(np.nan_to_num(data["idx"], nan=-1.0) >= since_idx)
-            first = int(held[0]) if len(held) else len(data["t_s"])
-            step = max(1, round(0.1 * self.fs_hz))
-            windows = [slice(e - n, e) for e in range(first + n, len(data["t_s"]) + 1, step)]
-        refused: CalibrationError | None = None  # the last window's (the UI shows its figures)
-        for w in windows:
-            # n rows of the ring are window_s of the unit's clock: a lost frame is a row too
-            # (NaN), and losses are not movement: the samples received are judged and used
-            acc = data["acc_ms2"][w]
-            lost = data["lost"][w] > 0
-            if len(acc) < n or np.isnan(acc[~lost]).any() or lost.all():
-                continue
-            # the ring holds bias-corrected rates: add the bias in force back for the true rate
-            gyro = data["gyro_rad_s"][w] + self.calibration.gyro_bias_rad_s
-            try:
-                cal = standing_calibration(acc, gyro, lost, fs_hz=self.fs_hz)
-            except CalibrationError as exc:
-                refused = exc
-                continue
-            end = int(data["idx"][w.stop - 1]) + 1  # the engine index after the window
-            return cal, end + round(ZERO_MARGIN_S * self.fs_hz)
+        found, refused = still_window(
+            self._ring, n, since_idx, self.fs_hz, self.calibration.gyro_bias_rad_s
+        )
+        if found is not None:
+            return found[0], found[1] + round(ZERO_MARGIN_S * self.fs_hz)
         if refused is None:
-            raise EngineError(need)
+            raise EngineError(f"need {window_s:g} s of data from the unit to zero; wait and retry")
         raise EngineError(str(refused)) from refused
 
     def request_zero(
@@ -452,25 +383,14 @@ class Engine:
         ``zero_search``; ``cancel_zero`` ends it."""
         if self.mode is not Mode.RAW:
             raise EngineError("the unit zeroes itself in this mode")
-        n = int(window_s * self.fs_hz)
-        search = ZeroSearch(n=n, step=max(1, round(0.1 * self.fs_hz)), next_end=since_idx + n,
-                            margin=round(ZERO_MARGIN_S * self.fs_hz), apply=apply,
-                            hold=hold)  # fmt: skip
-        with self._lock:
-            if self._zero_search is not None:
-                self._zero_search.done = True
-            search.before = self.calibration
-            self._zero_search = search
-        return search
+        return self._zeroing.request(window_s, since_idx, apply, hold)
 
     def zero_search(
         self, search: ZeroSearch
     ) -> tuple[tuple[Calibration, int] | None, str, int]:
         """Where ``search`` is: (its calibration and first sample, or None; the last window's
         refusal, "" if none was refused; the engine index after the last window looked at)."""
-        with self._lock:
-            refused = "" if search.refused is None else str(search.refused)
-            return search.result, refused, search.next_end - search.step
+        return self._zeroing.status(search)
 
     def cancel_zero(
         self, search: ZeroSearch, *, withdraw: bool = False
@@ -478,38 +398,7 @@ class Engine:
         """Stop looking; what it found meanwhile (applied, if it was to be), or None. With
         ``withdraw``, what it found is not applied (or, already applied, the calibration
         before it is again from the next block)."""
-        with self._lock:
-            search.done = True
-            if self._zero_search is search:
-                self._zero_search = None
-            found = search.result
-            if withdraw and found is not None and search.apply:
-                search.result = None
-                if self._pending.calibration is found[0]:
-                    self._pending.calibration = self._pending.calibration_at = None
-                elif self.calibration is found[0] and search.before is not None:
-                    self._pending.calibration = search.before
-                    self._pending.calibration_at = None
-            return found
-
-    def _look_for_zero(self) -> None:
-        """The engine thread, after each part: the open search's windows now processed."""
-        with self._lock:
-            search = self._zero_search
-        if search is None or search.done or search.next_end > self._stream.samples:
-            return
-        data = self._ring.latest(self._ring.capacity)
-        with self._lock:
-            if search.done:
-                return
-            if search.look(data, self._stream.samples, self.calibration.gyro_bias_rad_s,
-                           self.fs_hz):  # fmt: skip
-                self._zero_search = None
-                found = search.result
-                if search.apply and found is not None:
-                    self._pending.calibration, self._pending.calibration_at = found
-                if search.hold and found is not None:  # a recording may start there: hold
-                    self._held, self._held_from = [], found[1]
+        return self._zeroing.cancel(search, withdraw)
 
     def use_calibration(self, cal: Calibration, at_idx: int | None = None) -> Calibration:
         """From the next block on, or from engine index ``at_idx`` (the next block if that
@@ -589,16 +478,16 @@ class Engine:
                 self._stream.last_data_s = now
             rest = block if block is not None and len(block) else None
             while rest is not None:
-                part, rest = self._next_part(rest)
+                part, rest = self._blocks.next_part(rest)
                 try:
-                    self._handle(part)
+                    self._blocks.handle(part)
                 except Exception as exc:  # never let one block kill acquisition
                     try:
-                        self._block_failed(part, exc)
+                        self._blocks.failed(part, exc)
                     except Exception as again:
                         self._note_error(f"processing error: {type(again).__name__}: {again}")
                 try:
-                    self._look_for_zero()
+                    self._zeroing.look(self._ring, self._stream.samples)
                 except Exception as exc:  # a zero must never stop acquisition
                     self._note_error(f"zero error: {type(exc).__name__}: {exc}")
             try:
@@ -612,252 +501,7 @@ class Engine:
                         with contextlib.suppress(Exception):
                             self._recorder.put(UpdateLink(self.device.stats))
 
-    def _next_part(self, block: SampleBlock) -> tuple[SampleBlock, SampleBlock | None]:
-        """The block up to the next scheduled sample inside it (a calibration's, a
-        recording's first row) and the rest (None: no such sample inside it). The pipeline is
-        chunk-invariant, so cutting there changes no output: it only lets a change take
-        effect at exactly its sample, whichever blocks the link delivered."""
-        start, n = self._stream.samples, len(block)
-        with self._lock:
-            p = self._pending
-            marks = [p.calibration_at if p.calibration is not None else None]
-            if self._zero_search is not None and not self._zero_search.done:
-                marks.append(self._zero_search.next_end)  # look at it as soon as it is here
-            rec = self._recorder
-            if rec is not None and rec.row_map.record_offset is None:
-                marks.append(rec.start_idx)
-        cuts = [m - start for m in marks if m is not None and 0 < m - start < n]
-        if not cuts:
-            return block, None
-        cut = min(cuts)
-        return slice_samples(block, 0, cut), slice_samples(block, cut, n)
-
-    def _note_timing(self, what: str, late_samples: int) -> None:
-        """A scheduled change took effect from a block after its sample (module constant
-        ``ZERO_MARGIN_S``): the result depends on the machine's timing this once; say so."""
-        self.timing_notes.append(
-            f"{what} {late_samples / self.fs_hz:.2f} s of the unit's clock after its sample "
-            "(the machine was behind): this time it depends on the machine's timing"
-        )
-
     def _note_error(self, text: str) -> None:
         with self._lock:
             self._health.note_error(text)
 
-    def _handle(self, block: SampleBlock) -> None:
-        st = self._stream
-        st.handed_over = False
-        st.block_start = st.samples
-        with self._lock:
-            # take pending changes and make them current in one step, so a recording started
-            # meanwhile puts exactly what this block is processed with into its header
-            cfg, self._pending.config = self._pending.config, None
-            cal, cal_at = None, self._pending.calibration_at
-            if cal_at is None or cal_at <= st.samples:  # a scheduled one waits for its sample
-                cal, self._pending.calibration = self._pending.calibration, None
-                self._pending.calibration_at = None
-            if cfg is not None:
-                self.config = cfg
-            if cal is not None:
-                self.calibration = cal
-            rec = self._recorder
-        start_idx = st.samples
-        if cal is not None and cal_at is not None and cal_at < start_idx:
-            self._note_timing("the zero took effect", start_idx - cal_at)
-        from_idx = None if rec is None or rec.row_map.record_offset is not None else rec.start_idx
-        if from_idx is not None and start_idx < from_idx:
-            rec = None  # the recording starts at a later sample (``_next_part`` cuts there)
-        elif (
-            rec is not None and from_idx is not None and start_idx > from_idx
-            and not self._start_held(rec)  # processed before the caller got to it: held?
-        ):  # fmt: skip
-            self._note_timing("the recording started", start_idx - from_idx)
-        first = rec is not None and rec.row_map.record_offset is None
-        if first:
-            assert rec is not None
-            rec.row_map.record_offset = start_idx  # row 0 = this block's first sample
-        if rec is not None:
-            self._held, self._held_from = [], None
-        if cfg is not None:
-            self._pipeline = self._pipeline.successor(cfg)
-            with self._lock:
-                self._checks.pipeline_rebuilt(self._pipeline.event_source == EVENTS_GYRO)
-            self._phase_lag = cfg.phase_lag_samples
-            st.pipeline_offset = start_idx
-            if rec is not None and not (first and cfg is rec.header_config):
-                rec.put(LogConfig(cfg))
-        if cal is not None:
-            self._pipeline.set_calibration(cal)
-            if rec is not None and not (first and cal is rec.header_calibration):
-                rec.put(LogCalibration(cal))
-        elif first and rec is not None and self.calibration is not rec.header_calibration:
-            rec.put(LogCalibration(self.calibration))  # row 0 is processed with this one
-        if block.kind != self.mode.frame_kind:
-            # not this session's frames (a unit that restarted into its default kind before
-            # the setup was sent again): neither shown nor recorded; the file gets a gap
-            self._note_error(
-                f"the unit sent {FrameKind(block.kind).name} frames in {self.mode.value} mode; "
-                f"{len(block)} frames ignored"
-            )
-            if rec is not None:
-                rec.row_map.not_recorded(block, f"frames lost: {FrameKind(block.kind).name} frames")
-            st.not_processed(block)
-            return
-        reconnects = self.device.stats.transport.reconnects
-        gap_reason = ""
-        if reconnects != st.reconnects_seen:
-            st.reconnects_seen = reconnects
-            gap_reason = "link lost: reconnected"
-        lost = st.lost(block)
-        t_s = st.true_times(lost, self.fs_hz)
-        restarts = np.empty(0, np.int64)
-        faults: tuple[FsrFault, ...] = ()
-        offset = st.pipeline_offset
-        if block.kind == FrameKind.RAW and block.adc is not None:
-            p = self._pipeline.process(block.adc, lost)
-            faults = p.fsr_faults
-            cols = cols_from_pipeline(p, t_s, block.host_time_s)
-            hs_idx = p.heel_strike_idx + offset
-            to_idx = p.toe_off_idx + offset
-            strides = [shift_stride(s, offset) for s in p.strides]
-            restarts = p.restart_idx + offset
-            lengths = self._spatial.push(block.adc, p, hs_idx, start_idx, self._pipeline.table,
-                                         lost)  # fmt: skip
-            p_rec = p
-            if (first or (rec is None and not self._held)) and len(
-                self._pipeline.fsr_faults
-            ) > len(p.fsr_faults):
-                # sensors flagged before the recording started are faulty in it from row 0
-                p_rec = dataclasses.replace(p, fsr_faults=self._pipeline.fsr_faults)
-            if rec is not None:
-                self._hand_over(rec, block, p_rec, gap_reason, t_s)
-            elif self._held_from is not None:
-                self._hold(HeldPart(start_idx, offset, block, p_rec, gap_reason, t_s,
-                                    self.calibration))  # fmt: skip
-        else:
-            cols = cols_from_device(block, t_s)
-            hs_idx, to_idx, strides = self._unit_events.process(block, start_idx)
-            restarts = start_idx + restart_rows(lost, self.fs_hz)
-            lengths = []
-            if rec is not None:
-                self._hand_over(rec, block, None, gap_reason, t_s)
-        st.handed_over = True
-        cols["idx"] = np.arange(start_idx, start_idx + len(block), dtype=np.float64)
-        self._ring.append(with_gap_rows(cols, lost, self.fs_hz, self._ring.capacity))
-        st.samples += len(block)
-        self._timed.add_block(
-            start_idx, np.rint(t_s * self.fs_hz).astype(np.int64), block.host_time_s
-        )
-        with self._lock:
-            self._health.block_done(float(block.host_time_s[-1]), st.samples)
-            self._gait.add(hs_idx, to_idx, strides, restarts, self._ring, st.samples)
-            self._gait.add_lengths(lengths)
-            self._checks.add(faults, offset, st.samples, self._ring)
-        if self._taps:
-            path = str(rec.writer.path) if first and rec is not None else ""
-            self._taps.block(block, start_idx, t_s, lost, cols, (hs_idx, to_idx),
-                             self._ring.times_of, gap_reason, (cfg, cal), (rec, path))  # fmt: skip
-
-    def _hand_over(
-        self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str,
-        t_s: np.ndarray, at: tuple[int, int] | None = None,
-    ) -> None:  # fmt: skip
-        """Queue a block for the recorder, with the frames not recorded before it as lost
-        (see ``RowMap.outgoing``); if the queue is full, the row map notes the drop. A
-        recording with a ``limit_s`` gets only the rows before it (``t_s``: the block's).
-        ``at``: (its pipeline's offset, its first engine index) for a held part; None: the
-        block being processed."""
-        k = np.rint(t_s * self.fs_hz).astype(np.int64)
-        n = rec.rows_within_limit(k)
-        offset, start = at or (self._stream.pipeline_offset, self._stream.samples)
-        try:
-            self._hand_over_rows(rec, block, p, gap_reason, n, offset, start)
-        finally:  # after the rows are queued: a caller that sees it and stops loses none
-            rec.k_seen = int(k[-1])
-
-    def _hand_over_rows(
-        self, rec: Recorder, block: SampleBlock, p: PipelineBlock | None, gap_reason: str,
-        n: int, offset: int, start: int,
-    ) -> None:  # fmt: skip
-        if n == 0:
-            return
-        if n < len(block):
-            block, p = slice_samples(block, 0, n), None if p is None else _first_rows(p, n)
-        out, p_rows, first_reason = rec.row_map.outgoing(block, p, offset)
-        if rec.put_block(AppendBlock(out, p_rows, 0, gap_reason, first_reason)):
-            rec.row_map.handed_over(with_events=p is not None)
-            return
-        # the queue is full (a stalled disk)
-        rec.row_map.dropped(block, p, offset, start)
-
-    def _hold(self, part: HeldPart) -> None:
-        """The engine thread: keep a processed part from the sample a zero takes effect at,
-        for a recording asked to start there once the caller gets to it (``start_recording``
-        with ``from_idx``); at most ``HOLD_MAX_S`` of them."""
-        if self._held_from is None or part.start < self._held_from:
-            return
-        if self._held and part.start != self._held[-1].start + len(self._held[-1].block):
-            self._held, self._held_from = [], None  # not contiguous (a failed block)
-            return
-        if not self._held and part.start != self._held_from:
-            self._held_from = None  # the zero's sample was processed before it was found
-            return
-        if part.start - self._held_from > HOLD_MAX_S * self.fs_hz:
-            self._held, self._held_from = [], None  # nobody started a recording there
-            return
-        self._held.append(part)
-
-    def _start_held(self, rec: Recorder) -> bool:
-        """The engine thread: a recording that starts at a sample already processed and
-        held: its rows from there, in order (True), or False (none held from there)."""
-        held, self._held, self._held_from = self._held, [], None
-        if not held or held[0].start != rec.start_idx:
-            return False
-        rec.row_map.record_offset = held[0].start
-        if held[0].calibration is not rec.header_calibration:
-            rec.put(LogCalibration(held[0].calibration))
-        for h in held:
-            self._hand_over(rec, h.block, h.p, h.gap_reason, h.t_s, (h.offset, h.start))
-        return True
-
-    def _block_failed(self, block: SampleBlock, exc: Exception) -> None:
-        """``_handle`` raised (a bug, or a block the pipeline cannot take): say so, keep the
-        indices of the display, the pipeline and the recording consistent, carry on."""
-        self._note_error(f"processing error: {type(exc).__name__}: {exc}")
-        with self._lock:
-            rec = self._recorder
-        if rec is not None and rec.row_map.record_offset is None:
-            rec = None  # the recording had not started with this block
-        st = self._stream
-        if st.handed_over:
-            # the block is in the file: only the display bookkeeping after it failed
-            if st.samples == st.block_start:
-                st.samples += len(block)
-            return
-        # the block is not in the file and may have left the pipeline half-updated: a fresh
-        # pipeline starts with the next block, and the file logs it as a settings change at
-        # that row (so reprocessing restarts there too) after a gap for this block
-        st.samples = st.block_start
-        if rec is not None:
-            rec.row_map.not_recorded(block, "frames lost: processing error")
-        if self.mode is Mode.RAW:
-            self._pipeline = self._pipeline.successor(self.config)
-            st.pipeline_offset = st.samples
-            with self._lock:
-                self._checks.pipeline_rebuilt(self._pipeline.event_source == EVENTS_GYRO)
-            if rec is not None:
-                rec.put(LogConfig(self.config))
-
-
-def _first_rows(p: PipelineBlock, n: int) -> PipelineBlock:
-    """The first ``n`` rows of a pipeline block, with the events on them (the last rows of a
-    recording that ends within the block)."""
-    out = slice_pipeline(p, 0, n, with_events=True)
-    end = p.start_idx + n
-    return dataclasses.replace(
-        out,
-        heel_strike_idx=p.heel_strike_idx[p.heel_strike_idx < end],
-        toe_off_idx=p.toe_off_idx[p.toe_off_idx < end],
-        gyro_heel_strike_idx=tuple(i for i in p.gyro_heel_strike_idx if i < end),
-        gyro_toe_off_idx=tuple(i for i in p.gyro_toe_off_idx if i < end),
-    )

@@ -42,8 +42,8 @@ class StreamPosition:
     samples: int = 0  # samples processed since start (the pipeline's index)
     last_data_s: float = field(default_factory=time.monotonic)
     pipeline_offset: int = 0  # engine sample index of the current pipeline's sample 0
-    block_start: int = 0  # Engine._handle: engine index of the current block's first sample
-    handed_over: bool = False  # Engine._handle: the current block is with the recorder
+    block_start: int = 0  # BlockHandler.handle: engine index of the current block's first sample
+    handed_over: bool = False  # BlockHandler.handle: the current block is with the recorder
     k_last: int | None = None  # unit sample periods from the first sample to the last (t_s * fs)
     pending_lost: int = 0  # frames of blocks not processed, lost before the next one processed
     reconnects_seen: int = 0

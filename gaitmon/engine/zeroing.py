@@ -21,6 +21,7 @@ import numpy as np
 
 from gaitmon.dsp.calibration import Calibration, CalibrationError, standing_calibration
 from gaitmon.dsp.pipeline import PipelineBlock
+from gaitmon.engine.buffers import RingBuffer
 from gaitmon.io.device import SampleBlock
 
 # A standing calibration takes effect this long (of the unit's clock) after the end of its
@@ -38,7 +39,7 @@ HOLD_MAX_S = 60.0
 @dataclass(frozen=True, eq=False)
 class HeldPart:
     """A part the engine thread processed and kept for a recording to start at ``start``:
-    what it would have handed the recorder (``Engine._hand_over``)."""
+    what it would have handed the recorder (``BlockHandler._hand_over``)."""
 
     start: int  # its first engine index
     offset: int  # its pipeline's first engine index
@@ -89,3 +90,38 @@ class ZeroSearch:
             self.result = (cal, end + self.margin)
             self.done = True
         return self.result is not None
+
+
+def still_window(
+    ring: RingBuffer, n: int, since_idx: int | None, fs_hz: float, bias: np.ndarray
+) -> tuple[tuple[Calibration, int] | None, CalibrationError | None]:
+    """``Engine.zero_at``'s search, on the caller's thread: the last ``n`` rows of the display
+    ring, or (``since_idx``) the earliest still window of ``n`` rows among those held from that
+    engine index on (windows ending every 0.1 s). ((its calibration, the engine index after
+    it), None), or (None, the last window's refusal or None: not enough data)."""
+    if since_idx is None:
+        data = ring.latest(n)
+        windows = [slice(0, n)]
+    else:
+        data = ring.latest(ring.capacity)
+        held = np.flatnonzero(np.nan_to_num(data["idx"], nan=-1.0) >= since_idx)
+        first = int(held[0]) if len(held) else len(data["t_s"])
+        step = max(1, round(0.1 * fs_hz))
+        windows = [slice(e - n, e) for e in range(first + n, len(data["t_s"]) + 1, step)]
+    refused: CalibrationError | None = None  # the last window's (the UI shows its figures)
+    for w in windows:
+        # n rows of the ring are n samples of the unit's clock: a lost frame is a row too
+        # (NaN), and losses are not movement: the samples received are judged and used
+        acc = data["acc_ms2"][w]
+        lost = data["lost"][w] > 0
+        if len(acc) < n or np.isnan(acc[~lost]).any() or lost.all():
+            continue
+        # the ring holds bias-corrected rates: add the bias in force back for the true rate
+        gyro = data["gyro_rad_s"][w] + bias
+        try:
+            cal = standing_calibration(acc, gyro, lost, fs_hz=fs_hz)
+        except CalibrationError as exc:
+            refused = exc
+            continue
+        return (cal, int(data["idx"][w.stop - 1]) + 1), None
+    return None, refused

@@ -80,7 +80,7 @@ import time
 from array import array
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -90,38 +90,14 @@ from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
 from gaitmon.io import protocol as P
 from gaitmon.io.sim.clock import CrystalClock
 from gaitmon.io.sim.faults import FaultConfig, FaultLedger, LedgerEntry, flip_bits
+from gaitmon.io.sim.ground_truth import GroundTruth as GroundTruth  # re-exported
+from gaitmon.io.sim.ground_truth import ground_truth
 from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
 from gaitmon.io.sim.sensors import SensorBlock, SensorConfig, SensorModel
 
 DEVICE_NAME = "gaitmon-sim"
 FIRMWARE_VERSION = "1.0.0"
 _OUT_QUEUE_LIMIT_BYTES = 1 << 20  # a UART/Bluetooth buffer would overflow long before this
-
-
-@dataclass(frozen=True)
-class GroundTruth:
-    """What really happened over samples start .. stop-1."""
-
-    sample_idx: np.ndarray  # (N,)
-    tilt_rad: np.ndarray  # (N, 4) true segment tilts (what a perfect zeroing would show)
-    joint_rad: np.ndarray  # (N, 3) hip, knee, ankle, clinical signs
-    rate_rad_s: np.ndarray  # (N, 4)
-    gyro_bias_rad_s: np.ndarray  # (N, 4)
-    phase: np.ndarray  # (N,) continuous normative gait phase
-    mount_offset_rad: np.ndarray  # (4,) per-board mounting offset (added to the true tilt)
-    heel_strike_idx: np.ndarray  # first sample at/after each true heel strike in the range
-    toe_off_idx: np.ndarray
-    # per heel strike above, the stride it opens (to the next heel strike, which may lie beyond
-    # the range): the foot sensor's forward displacement from one foot-flat to the next, and its
-    # highest point over that interval above its foot-flat height (GaitModel.strides)
-    stride_length_m: np.ndarray
-    foot_clearance_m: np.ndarray
-    stride_time_s: np.ndarray
-    # out of the sagittal plane (realism="real", docs/simulator.md): the walking direction
-    # (rad, > 0 to the left; turns) and each board's roll about it; with turns a stride's
-    # length above is the straight distance between its two foot-flats (the footprints')
-    heading_rad: np.ndarray | None = None  # (N,)
-    roll_rad: np.ndarray | None = None  # (N, 4)
 
 
 class SimulatedUnit:
@@ -376,26 +352,7 @@ class SimulatedUnit:
         """True motion for samples start .. stop-1 (default: everything produced so far)."""
         with self._lock:
             stop = self.sensors.position if stop is None else stop
-            kin = self.gait.evaluate(start, stop)
-            hs, to = self.gait.events(start, stop)
-            strides = self.gait.strides(start, stop)
-            bias = self.sensors.gyro_bias(kin.t_s)
-        return GroundTruth(
-            sample_idx=kin.sample_idx,
-            tilt_rad=kin.tilt_rad,
-            joint_rad=kin.joint_rad,
-            rate_rad_s=kin.rate_rad_s,
-            gyro_bias_rad_s=bias,
-            phase=kin.phase,
-            mount_offset_rad=self.sensors.mount_offset_rad.copy(),
-            heel_strike_idx=hs,
-            toe_off_idx=to,
-            stride_length_m=strides.stride_length_m,
-            foot_clearance_m=strides.foot_clearance_m,
-            stride_time_s=strides.stride_time_s,
-            heading_rad=kin.heading_rad,
-            roll_rad=kin.roll_rad,
-        )
+            return ground_truth(self.gait, self.sensors, start, stop)
 
     # ---- time -------------------------------------------------------------------------------
     def _advance_to_now(self) -> None:
