@@ -90,7 +90,7 @@ def can_zero(blocks: list[SampleBlock]) -> bool:
 def take(dev: Device, seconds: float) -> list[SampleBlock]:
     out: list[SampleBlock] = []
     while sum(len(b) for b in out) < seconds * FS:
-        b = dev.read_block(1.0)
+        b = dev.read_block(5.0)  # generous: a loaded machine delays the simulator process
         assert b is not None, "the unit stopped sending"
         out.append(b)
     return out
@@ -103,7 +103,7 @@ def take_after(dev: Device, unit: SimulatedUnit, first_sample: int, seconds: flo
 
     out: list[SampleBlock] = []
     while sum(len(b) for b in out) < seconds * FS:
-        b = dev.read_block(1.0)
+        b = dev.read_block(5.0)  # generous: a loaded machine delays the simulator process
         assert b is not None, "the unit stopped sending"
         keep = row_samples(b.seq, unit) >= first_sample
         if keep.any():
