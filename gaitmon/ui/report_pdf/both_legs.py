@@ -40,7 +40,7 @@ from gaitmon.ui.report_pdf.sheet import (
     FOOTER_MM,
     LEFT_MM,
     WIDTH_MM,
-    comments,
+    comments_block,
     continued,
     data_quality,
     footer,
@@ -118,10 +118,10 @@ def paint_bilateral_report(
         for s, d in (("L", left), ("R", right)):
             settings += [(f"{k} ({s})", v) for k, v in d.settings]
     blocks += settings_and_conventions(p, left, settings, data.conventions)
+    blocks.append(comments_block(p))
     pages = flow.paginate(blocks, y, CONTINUED_TOP_MM, FOOTER_MM - 3.0)
-    last_y = pages[-1][-1][0] + pages[-1][-1][1].height_mm if pages[-1] else y
     flow.paint_pages(p, pages, new_page, lambda: continued(p, left.header),
-                     lambda k, n: footer(p, k, n), last=lambda: comments(p, last_y))  # fmt: skip
+                     lambda k, n: footer(p, k, n))  # fmt: skip
     return p
 
 

@@ -138,12 +138,12 @@ def paint_report(
         *data_quality(p, data),
         *markers(p, data),
         *settings_and_conventions(p, data),
+        comments_block(p),
     ]
     bottom = FOOTER_MM - 3.0
     pages = flow.paginate(blocks, y, CONTINUED_TOP_MM, bottom)
-    last_y = pages[-1][-1][0] + pages[-1][-1][1].height_mm if pages[-1] else y
     flow.paint_pages(p, pages, new_page, lambda: continued(p, data.header),
-                     lambda k, n: footer(p, k, n), last=lambda: comments(p, last_y))
+                     lambda k, n: footer(p, k, n))
     return p
 
 
@@ -513,26 +513,37 @@ def settings_and_conventions(
     return blocks
 
 
+# the comments box's least height: 4 mm space, the heading (6.6 mm), a 20-mm box, and the 3 mm
+# the flow keeps above the footer's rule (less the 4 mm the box keeps)
+COMMENTS_MIN_MM = 4.0 + 6.6 + 20.0
+
+
+def comments_block(p: Page) -> Block:
+    """The clinician's comments as the flow's last block: always there, on the last page, and
+    on a page of its own only when :data:`COMMENTS_MIN_MM` does not fit below the rest; the
+    box reaches down to the footer."""
+    return Block(COMMENTS_MIN_MM, lambda p_, y: comments(p_, y))
+
+
 def comments(p: Page, y: float) -> None:
-    """The clinician's comments, in the space left above the footer of the last page."""
+    """The clinician's comments, from ``y`` down to the footer of the page."""
     painter = p.p
     fy = FOOTER_MM
     y += 4.0
-    if fy - 4.0 - y >= 16.0:
-        y = p.section(LEFT_MM, y, WIDTH_MM, "Clinician's comments")
-        painter.setPen(p.pen(RULE, 0.2))
-        painter.setBrush(Qt.BrushStyle.NoBrush)
-        painter.drawRect(p.rect(LEFT_MM, y, WIDTH_MM, fy - 4.0 - y))
-        p.text(
-            LEFT_MM + WIDTH_MM - 62.0,
-            fy - 10.0,
-            60.0,
-            4.0,
-            "signature / date: ____________________",
-            7.0,
-            colour=MUTED,
-            align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
-        )
+    y = p.section(LEFT_MM, y, WIDTH_MM, "Clinician's comments")
+    painter.setPen(p.pen(RULE, 0.2))
+    painter.setBrush(Qt.BrushStyle.NoBrush)
+    painter.drawRect(p.rect(LEFT_MM, y, WIDTH_MM, fy - 4.0 - y))
+    p.text(
+        LEFT_MM + WIDTH_MM - 62.0,
+        fy - 10.0,
+        60.0,
+        4.0,
+        "signature / date: ____________________",
+        7.0,
+        colour=MUTED,
+        align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
+    )
 
 
 def footer(p: Page, page: int, n_pages: int) -> None:
