@@ -147,6 +147,15 @@ def test_two_leg_report_and_review_show_both_clearances_and_their_symmetry(
     # each leg's column has its own line too
     assert text.count(f"Foot clearance {lm} ± {lsd} cm") == 1
     assert text.count(f"Foot clearance {rm} ± {rsd} cm") == 1
+    # the review's Both legs tab: the same line in its headline
+    from gaitmon.review.both_legs import both_legs
+    from gaitmon.ui.review.both_legs_panel import BothLegsPanel
+
+    panel = BothLegsPanel()
+    panel.set_result(both_legs(rec))
+    head = " ".join(panel.headline.text().split())
+    assert f"Foot clearance L {lm} ± {lsd} cm, R {rm} ± {rsd} cm; SR {got_sr:.3f}" in head, head
+    panel.deleteLater()
 
 
 # ---- the normal band: a band, a solid mean with a legend entry, unlike the toe-off line ----
