@@ -535,9 +535,9 @@ def settings_and_conventions(
     return blocks
 
 
-# the comments box's least height: 3 mm space, the heading (6.6 mm) and a box of at least 11 mm
-# (the flow keeps 3 mm above the footer's rule, the box 4 mm)
-COMMENTS_MIN_MM = 3.0 + 6.6 + 12.0
+# the comments box's least height: 3 mm space, the heading (6.6 mm) and a box of at least 9 mm
+# with its signature line (the flow keeps 3 mm above the footer's rule, the box 4 mm)
+COMMENTS_MIN_MM = 3.0 + 6.6 + 10.0
 
 
 def comments_block(p: Page) -> Block:
