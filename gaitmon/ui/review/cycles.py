@@ -163,7 +163,7 @@ class ReviewCyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgr
 
     @staticmethod
     def band_note(bands: NormativeBands) -> str:
-        """What the grey band is, and what it cannot tell (the tooltips say both)."""
+        """What the normal (amber) band is, and what it cannot tell (the tooltips say both)."""
         from gaitmon.normative import CAVEAT
 
         return (
