@@ -66,7 +66,7 @@ def main() -> int:
         review.show()
         review.open_file(rec)
         wait(app, lambda: review.analysis is not None and review.table.model().rowCount() > 0)
-        review.load_normative(args.band)
+        review.strides.load_normative(args.band)
         pause(app, 2.0)
         save(review, args.out / "review_normative.png")
         review.close()

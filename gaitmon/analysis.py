@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gaitmon.dsp.bilateral import symmetry_index_pct, symmetry_ratio
 from gaitmon.dsp.gait import (
     GaitSummary,
     Stride,
@@ -146,6 +147,17 @@ class SpatialSummary:
     speed_sd_m_s: float
     speed_cv_pct: float
     foot_clearance_mean_m: float
+    # sample SD (ddof=1) of the foot clearance over the same strides (those with a finite one)
+    foot_clearance_sd_m: float = float("nan")
+    foot_clearance_n: int = 0  # strides the clearance's mean and SD are taken over
+
+    def clearance_text(self) -> str:
+        """The foot clearance as every output shows it: "5.2 ± 1.1 cm" (mean ± SD over the
+        included strides; no SD with one stride); "-" without one."""
+        m, sd = self.foot_clearance_mean_m * 100.0, self.foot_clearance_sd_m * 100.0
+        if not np.isfinite(m):
+            return "-"
+        return f"{m:.1f} ± {sd:.1f} cm" if np.isfinite(sd) else f"{m:.1f} cm"
 
 
 def _mean_sd_cv(v: np.ndarray) -> tuple[float, float, float]:
@@ -164,9 +176,22 @@ def spatial_summary(rows: Sequence[StrideRow]) -> SpatialSummary:
     clear = np.array([r.foot_clearance_m for r in ok])
     lm, lsd, lcv = _mean_sd_cv(length)
     sm, ssd, scv = _mean_sd_cv(speed)
+    # the only place the foot clearance's statistics are taken (info, review, report, compare
+    # and the batch table all read them from here)
     clear = clear[np.isfinite(clear)]
-    return SpatialSummary(len(ok), lm, lsd, lcv, sm, ssd, scv,
-                          float(clear.mean()) if len(clear) else float("nan"))  # fmt: skip
+    cm, csd, _ = _mean_sd_cv(clear)
+    return SpatialSummary(len(ok), lm, lsd, lcv, sm, ssd, scv, cm, csd, len(clear))
+
+
+def clearance_symmetry_text(left: SpatialSummary, right: SpatialSummary) -> str:
+    """Both legs' foot clearance and its symmetry, as the two-leg report and review show it:
+    "L 5.2 ± 1.0 cm, R 8.8 ± 1.3 cm; SR 0.591, SI 51.4 %" (SR = L / R, SI = 2 |L − R| /
+    (L + R), of the means: ``gaitmon.dsp.bilateral``'s definitions)."""
+    lm, rm = left.foot_clearance_mean_m, right.foot_clearance_mean_m
+    text = f"L {left.clearance_text()}, R {right.clearance_text()}"
+    if np.isfinite(lm) and np.isfinite(rm):
+        text += f"; SR {symmetry_ratio(lm, rm):.3f}, SI {symmetry_index_pct(lm, rm):.1f} %"
+    return text
 
 
 def with_stride_measures(rows: list[StrideRow], m: StrideMeasures | None) -> list[StrideRow]:
@@ -223,6 +248,9 @@ _STRIDE_TABLE: tuple[tuple[StrideColumn, Callable[[StrideRow, int, float], float
      lambda r, k, t: r.stride_length_m),
     (StrideColumn("speed_m_s", "speed\nm/s", "gait speed over the stride: stride length / "
                   "stride time", "0.00", 2), lambda r, k, t: r.speed_m_s),
+    (StrideColumn("foot_clearance_cm", "clear.\ncm", "foot clearance from the foot IMU: the "
+                  "sensor's highest point in swing above its foot-flat height", "00.0", 1),
+     lambda r, k, t: r.foot_clearance_m * 100.0),
     (StrideColumn("knee_peak_swing_deg", "knee\npeak °", "peak knee flexion between toe off "
                   "and the next heel strike", "000.0", 1),
      lambda r, k, t: r.knee_peak_swing_deg),

@@ -73,7 +73,8 @@ TEMPORAL_MEASURES: tuple[str, ...] = tuple(
     f.name for f in dataclasses.fields(GaitSummary) if f.name != "n_strides"
 )
 SPATIAL_MEASURES: tuple[str, ...] = tuple(
-    f.name for f in dataclasses.fields(SpatialSummary) if f.name != "n_strides"
+    f.name for f in dataclasses.fields(SpatialSummary)
+    if f.name not in ("n_strides", "foot_clearance_n")
 )
 SUMMARY_MEASURES: tuple[str, ...] = (*TEMPORAL_MEASURES, "strides_with_length",
                                      *SPATIAL_MEASURES)  # fmt: skip

@@ -73,6 +73,7 @@ MEASURES: tuple[Measure, ...] = (
     Measure("swing_time", "Swing time", "s", 2),
     Measure("stride_length", "Stride length", "m", 2),
     Measure("speed", "Gait speed", "m/s", 2),
+    Measure("foot_clearance", "Foot clearance", "cm", 1),
     Measure("knee_peak_swing", "Peak knee flexion in swing", "deg", 1),
     *(Measure(f"rom_{j.lower()}", f"ROM {j.lower()}", "deg", 1) for j in JOINTS),
     *(Measure(f"max_{j.lower()}", f"Maximum {j.lower()}", "deg", 1) for j in JOINTS),
@@ -217,6 +218,7 @@ def session_values(an: SessionAnalysis, cyc: np.ndarray) -> dict[str, Value]:
     s = an.summary()
     inc = [r for r in an.rows if r.included]
     n = len(inc)
+    sp = an.spatial()
     stride_t = np.array([r.stride.stride_time_s for r in inc], dtype=np.float64)
     with np.errstate(divide="ignore"):
         cadence = 120.0 / stride_t
@@ -234,6 +236,9 @@ def session_values(an: SessionAnalysis, cyc: np.ndarray) -> dict[str, Value]:
         # from the foot IMU; NaN (a dash) for a session without raw counts
         "stride_length": _stat([r.stride_length_m for r in inc]),
         "speed": _stat([r.speed_m_s for r in inc]),
+        # the figures of gaitmon.analysis.spatial_summary, in cm (as info, review and report)
+        "foot_clearance": Value(sp.foot_clearance_mean_m * 100.0,
+                                sp.foot_clearance_sd_m * 100.0, sp.foot_clearance_n),
         "knee_peak_swing": _stat([r.knee_peak_swing_deg for r in inc]),
     }
     for j, name in enumerate(JOINTS):

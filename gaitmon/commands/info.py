@@ -111,7 +111,7 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
                 f"  spatial      stride length {sp.stride_length_mean_m:.2f} ± "
                 f"{sp.stride_length_sd_m:.2f} m, gait speed {sp.speed_mean_m_s:.2f} ± "
                 f"{sp.speed_sd_m_s:.2f} m/s{cv}, foot clearance "
-                f"{sp.foot_clearance_mean_m * 100:.1f} cm, over {count(sp.n_strides, 'stride')} "
+                f"{sp.clearance_text()}, over {count(sp.n_strides, 'stride')} "
                 "(foot IMU)"
             )
     elif no_gait_events(s.mode):

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gaitmon.analysis import BilateralAnalysis, analyse_bilateral
+from gaitmon.analysis import BilateralAnalysis, analyse_bilateral, clearance_symmetry_text
 from gaitmon.finish.bilateral import open_bilateral
 
 if TYPE_CHECKING:
@@ -98,6 +98,17 @@ class BothLegs:
         common = c0 + (t_s - a0) * ((c1 - c0) / (a1 - a0) if a1 > a0 else 1.0)
         b0, b1, d0, d1 = self.clock[other]
         return b0 + (common - d0) * ((b1 - b0) / (d1 - d0) if d1 > d0 else 1.0)
+
+    def clearance_text(self) -> str:
+        """Both legs' foot clearance and its SR / SI ("" when neither leg has one): the
+        figures of ``gaitmon.analysis.spatial_summary``, as the report shows them."""
+        sides = self.analysis.sides
+        if "L" not in sides or "R" not in sides:
+            return ""
+        ls, rs = sides["L"].spatial(), sides["R"].spatial()
+        if not (ls.foot_clearance_n or rs.foot_clearance_n):
+            return ""
+        return clearance_symmetry_text(ls, rs)
 
     def excluded_by_user(self) -> dict[str, int]:
         """Strides each side leaves out for a range the user excluded."""

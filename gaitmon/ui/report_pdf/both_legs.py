@@ -23,6 +23,7 @@ from pathlib import Path
 
 from PySide6.QtGui import QColor, QImage, QPaintDevice, QPainter
 
+from gaitmon.analysis import clearance_symmetry_text
 from gaitmon.normative import CAVEAT
 from gaitmon.report_content import (
     MAX_FAINT_PER_SIDE,
@@ -34,13 +35,13 @@ from gaitmon.text import duration_text
 from gaitmon.ui.report_pdf import flow
 from gaitmon.ui.report_pdf.cycle_plot import CurveStyle, draw_cycles
 from gaitmon.ui.report_pdf.output import pdf_title, render_a4_image, write_a4_pdf, write_png
-from gaitmon.ui.report_pdf.page import MUTED, NORM, PAGE_H_MM, PAGE_W_MM, Page, fmt
+from gaitmon.ui.report_pdf.page import MUTED, PAGE_H_MM, PAGE_W_MM, Page, fmt
 from gaitmon.ui.report_pdf.sheet import (
     CONTINUED_TOP_MM,
     FOOTER_MM,
     LEFT_MM,
     WIDTH_MM,
-    comments,
+    comments_block,
     continued,
     data_quality,
     footer,
@@ -48,6 +49,7 @@ from gaitmon.ui.report_pdf.sheet import (
     joint_statistics,
     kv_rows,
     markers,
+    normal_legend,
     rom_note,
     session_notes,
     settings_and_conventions,
@@ -118,10 +120,10 @@ def paint_bilateral_report(
         for s, d in (("L", left), ("R", right)):
             settings += [(f"{k} ({s})", v) for k, v in d.settings]
     blocks += settings_and_conventions(p, left, settings, data.conventions)
+    blocks.append(comments_block(p))
     pages = flow.paginate(blocks, y, CONTINUED_TOP_MM, FOOTER_MM - 3.0)
-    last_y = pages[-1][-1][0] + pages[-1][-1][1].height_mm if pages[-1] else y
     flow.paint_pages(p, pages, new_page, lambda: continued(p, left.header),
-                     lambda k, n: footer(p, k, n), last=lambda: comments(p, last_y))  # fmt: skip
+                     lambda k, n: footer(p, k, n))  # fmt: skip
     return p
 
 
@@ -167,9 +169,7 @@ def _cycle_plots(p: Page, data: BilateralReportData, y: float) -> float:
                colour=INKS[s], bold=True)  # fmt: skip
         x += 40.0
     if data.normative is not None:
-        p.fill(x, y + 0.5, 8.0, 3.0, NORM)
-        p.text(x + 9.5, y, WIDTH_MM - (x - LEFT_MM) - 10.0, 4.0, data.normative.label, 7.5,
-               colour=MUTED)  # fmt: skip
+        normal_legend(p, x, y, data.normative.label)
     y += 5.0
     gap = 5.0
     pw = (WIDTH_MM - 2 * gap) / 3
@@ -181,7 +181,7 @@ def _cycle_plots(p: Page, data: BilateralReportData, y: float) -> float:
     y += ph + 3.0
     if data.normative is not None:
         nb = data.normative
-        text = (f"Grey band and dashed line: {nb.label}, mean ± 1 SD (source and licence: see "
+        text = (f"Amber band and solid line: {nb.label}, mean ± 1 SD (source and licence: see "
                 f"Settings). Caveat: {CAVEAT}.")  # fmt: skip
         y += p.wrapped(LEFT_MM, y - 1.0, WIDTH_MM, text, 7.0, colour=MUTED) + 1.0
     return y + 2.0
@@ -199,6 +199,9 @@ def _symmetry(p: Page, data: BilateralReportData, y: float) -> float:
         ("Strides counted", f"left {data.strides_text('L')}, right {data.strides_text('R')} "
          "(those included on their own leg, of all detected)"),
     ]  # fmt: skip
+    ls, rs = data.left.spatial, data.right.spatial
+    if ls is not None and rs is not None and (ls.foot_clearance_n or rs.foot_clearance_n):
+        facts.append(("Foot clearance", clearance_symmetry_text(ls, rs)))
     y = kv_rows(p, LEFT_MM, y, WIDTH_MM, facts, label_w=34.0)
     y += 0.6
     note = ("Means over the strides counted; % = of each stride's time. SR = left / right (1 "

@@ -26,6 +26,8 @@ from gaitmon.ui.report_pdf.page import (
     MEAN,
     MUTED,
     NORM,
+    NORM_EDGE,
+    NORM_MEAN,
     STRIDE,
     TOE_OFF,
     Page,
@@ -215,7 +217,10 @@ def draw_cycles(
         nm, ns = normative.mean_deg[:, j], normative.sd_deg[:, j]
         nx = normative.cycle_pct
         painter.fillPath(band_path(nx, nm - ns, nm + ns, to_px), QBrush(NORM))
-        painter.setPen(p.pen(QColor("#7a7a7a"), 0.2, Qt.PenStyle.DashLine))
+        painter.setPen(p.pen(NORM_EDGE, 0.15))
+        painter.drawPath(line_path(nx, nm - ns, to_px))
+        painter.drawPath(line_path(nx, nm + ns, to_px))
+        painter.setPen(p.pen(NORM_MEAN, 0.35))  # solid: the toe-off line is the dashed one
         painter.drawPath(line_path(nx, nm, to_px))
     for c, style in sets:
         xs = np.linspace(0.0, 100.0, c.mean_deg.shape[0])

@@ -38,7 +38,11 @@ BAND = QColor(31, 95, 214, 60)
 # Strokes are opaque on purpose: Qt's PDF engine turns every semi-transparent stroke into a
 # filled outline (to avoid overlap artefacts), which made the page ~30x larger (1.1 MB).
 STRIDE = QColor("#c3ccd9")
-NORM = QColor(120, 120, 120, 60)
+# the normal band: amber (not the session's blue, not the toe-off line's dark grey), its fill
+# opaque enough to show a band 1-2 deg wide, opaque light edges and a solid mean line
+NORM = QColor(208, 128, 0, 80)
+NORM_MEAN = QColor("#d08000")
+NORM_EDGE = QColor("#ebc483")
 TOE_OFF = QColor("#444a52")
 SHADE = QColor("#f3f5f8")
 

@@ -27,8 +27,12 @@ from gaitmon.ui.report_pdf.cycle_plot import MAX_FAINT_STRIDES, draw_cycle_plot
 from gaitmon.ui.report_pdf.flow import Block, TableColumn
 from gaitmon.ui.report_pdf.page import (
     ACCENT,
+    INK,
     MARGIN_MM,
     MUTED,
+    NORM,
+    NORM_EDGE,
+    NORM_MEAN,
     PAGE_H_MM,
     PAGE_W_MM,
     RULE,
@@ -138,12 +142,12 @@ def paint_report(
         *data_quality(p, data),
         *markers(p, data),
         *settings_and_conventions(p, data),
+        comments_block(p),
     ]
     bottom = FOOTER_MM - 3.0
     pages = flow.paginate(blocks, y, CONTINUED_TOP_MM, bottom)
-    last_y = pages[-1][-1][0] + pages[-1][-1][1].height_mm if pages[-1] else y
     flow.paint_pages(p, pages, new_page, lambda: continued(p, data.header),
-                     lambda k, n: footer(p, k, n), last=lambda: comments(p, last_y))
+                     lambda k, n: footer(p, k, n))
     return p
 
 
@@ -258,11 +262,28 @@ def _reference_lines(p: Page, data: ReportData, y: float) -> float:
     are not a marker lab's). Returns the height used (mm)."""
     nb = data.normative
     assert nb is not None
-    text = (
-        f"Grey band and dashed line: {nb.label}, mean ± 1 SD (source and licence: see "
-        f"Settings). Caveat: {CAVEAT}."
-    )
-    return p.wrapped(LEFT_MM, y - 1.0, WIDTH_MM, text, 7.0, colour=MUTED) - 1.0
+    # the legend key, then its entry and what it cannot tell, wrapped beside it
+    normal_legend(p, LEFT_MM + 1.0, y - 1.0, "", key_only=True)
+    text = (f"{normal_legend_text(nb.label)}: amber band and solid line (source and licence: "
+            f"see Settings). Caveat: {CAVEAT}.")  # fmt: skip
+    return p.wrapped(LEFT_MM + 10.5, y - 1.0, WIDTH_MM - 10.5, text, 7.0, colour=MUTED) - 1.0
+
+
+def normal_legend_text(label: str) -> str:
+    return f"normal mean ± 1 SD ({label})"
+
+
+def normal_legend(p: Page, x: float, y: float, label: str, *, key_only: bool = False) -> None:
+    """The normal band's legend key (band, edges and solid mean, 8 x 3 mm) and its entry
+    "normal mean ± 1 SD (name)", on one line from ``y``."""
+    p.fill(x, y + 0.5, 8.0, 3.0, NORM)
+    p.hline(x, x + 8.0, y + 0.5, NORM_EDGE, 0.15)
+    p.hline(x, x + 8.0, y + 3.5, NORM_EDGE, 0.15)
+    p.hline(x, x + 8.0, y + 2.0, NORM_MEAN, 0.35)
+    if key_only:
+        return
+    p.text(x + 9.5, y, WIDTH_MM - (x - LEFT_MM) - 10.0, 4.0, normal_legend_text(label), 7.5,
+           colour=INK)  # fmt: skip
 
 
 def summary_rows(data: ReportData, *, derived_cadence: bool = True) -> list[tuple[str, str]]:
@@ -290,6 +311,7 @@ def summary_rows(data: ReportData, *, derived_cadence: bool = True) -> list[tupl
             f"{fmt_pm(sp.stride_length_mean_m, sp.stride_length_sd_m, 2, 'm')}, "
             f"{fmt_pm(sp.speed_mean_m_s, sp.speed_sd_m_s, 2, 'm/s')}",
         ))  # fmt: skip
+        rows.append(("Foot clearance", sp.clearance_text()))
     return rows
 
 
@@ -513,26 +535,37 @@ def settings_and_conventions(
     return blocks
 
 
+# the comments box's least height: 3 mm space, the heading (6.6 mm) and a box of at least 9 mm
+# with its signature line (the flow keeps 3 mm above the footer's rule, the box 4 mm)
+COMMENTS_MIN_MM = 3.0 + 6.6 + 10.0
+
+
+def comments_block(p: Page) -> Block:
+    """The clinician's comments as the flow's last block: always there, on the last page, and
+    on a page of its own only when :data:`COMMENTS_MIN_MM` does not fit below the rest; the
+    box reaches down to the footer."""
+    return Block(COMMENTS_MIN_MM, lambda p_, y: comments(p_, y))
+
+
 def comments(p: Page, y: float) -> None:
-    """The clinician's comments, in the space left above the footer of the last page."""
+    """The clinician's comments, from ``y`` down to the footer of the page."""
     painter = p.p
     fy = FOOTER_MM
-    y += 4.0
-    if fy - 4.0 - y >= 16.0:
-        y = p.section(LEFT_MM, y, WIDTH_MM, "Clinician's comments")
-        painter.setPen(p.pen(RULE, 0.2))
-        painter.setBrush(Qt.BrushStyle.NoBrush)
-        painter.drawRect(p.rect(LEFT_MM, y, WIDTH_MM, fy - 4.0 - y))
-        p.text(
-            LEFT_MM + WIDTH_MM - 62.0,
-            fy - 10.0,
-            60.0,
-            4.0,
-            "signature / date: ____________________",
-            7.0,
-            colour=MUTED,
-            align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
-        )
+    y += 3.0
+    y = p.section(LEFT_MM, y, WIDTH_MM, "Clinician's comments")
+    painter.setPen(p.pen(RULE, 0.2))
+    painter.setBrush(Qt.BrushStyle.NoBrush)
+    painter.drawRect(p.rect(LEFT_MM, y, WIDTH_MM, fy - 4.0 - y))
+    p.text(
+        LEFT_MM + WIDTH_MM - 62.0,
+        fy - 10.0,
+        60.0,
+        4.0,
+        "signature / date: ____________________",
+        7.0,
+        colour=MUTED,
+        align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
+    )
 
 
 def footer(p: Page, page: int, n_pages: int) -> None:

@@ -121,6 +121,9 @@ class BothLegsPanel(QWidget):
         excluded = ", ".join(f"{'left' if s == 'L' else 'right'} {k}"
                              for s, k in user.items() if k)  # fmt: skip
         tail = f"; left out for a range you excluded: {excluded}" if excluded else ""
+        clear = both.clearance_text()
+        if clear:
+            tail += f"<br>Foot clearance {html.escape(clear)}"
         self.headline.setText(
             f"<b>Both legs</b> — cadence <b>{fmt(both.cadence_steps_min, 0)}</b> steps/min "
             f"(measured: both legs' steps); strides that count: left <b>{n['L']}</b>, right "

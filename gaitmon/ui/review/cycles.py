@@ -25,6 +25,15 @@ if TYPE_CHECKING:
     from gaitmon.normative import NormativeBands
 
 N_POINTS = 101
+NORMAL_COLOUR = "#d08000"  # the normal band's hue (amber), the report's too
+NORMAL_FILL_ALPHA = 90  # of 255
+
+
+def normal_legend_text(bands: NormativeBands, max_chars: int = 26) -> str:
+    """The legend entry of the normal band: "normal mean ± 1 SD (its name)", the name cut to
+    ``max_chars`` (the plots are narrow; the tooltips give it in full)."""
+    name = bands.label if len(bands.label) <= max_chars else bands.label[: max_chars - 1] + "…"
+    return f"normal mean ± 1 SD ({name})"
 
 
 class ReviewCyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgraph is untyped
@@ -53,10 +62,14 @@ class ReviewCyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgr
         self._bands: NormativeBands | None = None
         self._analysis: Analysis | None = None
         self._tips: list[str] = []
-        norm_c = QColor(colours.foreground)
-        norm_c.setAlpha(50)
-        norm_line = QColor(colours.foreground)
-        norm_line.setAlpha(120)
+        # the normal band: a hue of its own (not the session's, not the event lines' grey), its
+        # fill opaque enough to show a band 1-2 deg wide, thin solid edges, a solid mean
+        norm_c = QColor(NORMAL_COLOUR)
+        norm_c.setAlpha(NORMAL_FILL_ALPHA)
+        norm_edge = QColor(NORMAL_COLOUR)
+        norm_edge.setAlpha(150)
+        norm_line = QColor(NORMAL_COLOUR)
+        self.legend: pg.LegendItem | None = None
         self.title = self.addLabel(
             "Gait cycle (included strides)", row=0, col=0, size="9pt", bold=True
         )
@@ -80,9 +93,10 @@ class ReviewCyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgr
             )
             p.setToolTip(tip)
             self._tips.append(tip)
-            n_lo, n_hi = pg.PlotCurveItem(pen=pg.mkPen(None)), pg.PlotCurveItem(pen=pg.mkPen(None))
+            n_lo = pg.PlotCurveItem(pen=pg.mkPen(norm_edge, width=1))
+            n_hi = pg.PlotCurveItem(pen=pg.mkPen(norm_edge, width=1))
             n_fill = pg.FillBetweenItem(n_lo, n_hi, brush=norm_c)
-            n_mean = pg.PlotCurveItem(pen=pen(norm_line, dashed=True))
+            n_mean = pg.PlotCurveItem(pen=pg.mkPen(norm_line, width=2))
             for item in (n_lo, n_hi, n_fill, n_mean):
                 p.addItem(item)
             self.norm_lower.append(n_lo)
@@ -94,7 +108,10 @@ class ReviewCyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgr
             fill = pg.FillBetweenItem(lower, upper, brush=band)
             before = pg.PlotCurveItem(pen=pg.mkPen(before_c, width=1, style=pg.QtCore.Qt.DashLine))
             mean = pg.PlotCurveItem(pen=pg.mkPen(colours.kalman, width=2))
-            toe = pg.InfiniteLine(pos=60, angle=90, pen=pen(colours.event, dashed=True))
+            toe = pg.InfiniteLine(pos=60, angle=90, pen=pen(colours.event, dashed=True),
+                                  label="toe off", labelOpts={
+                                      "position": 0.93, "color": colours.foreground,
+                                      "anchors": [(0, 0.5), (0, 0.5)]})  # fmt: skip
             toe.setVisible(False)
             for item in (strides, lower, upper, fill, before, mean, toe):
                 p.addItem(item)
@@ -124,8 +141,20 @@ class ReviewCyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgr
                 self.norm_upper[j].setData(x, mean + sd)
         self._bands = bands
         self._fit_y()
+        # the legend (top plot): the normal mean ± 1 SD, named after its source
+        if self.legend is not None:
+            self.legend.clear()
+            self.legend.setVisible(bands is not None)
+        if bands is not None:
+            if self.legend is None:
+                bg = QColor(self.colours.background)
+                bg.setAlpha(200)  # legible over the curves
+                self.legend = self.plots[0].addLegend(offset=(4, 2), labelTextSize="8pt",
+                                                      brush=bg, verSpacing=-6)  # fmt: skip
+            self.legend.setVisible(True)
+            self.legend.addItem(self.norm_mean[0], normal_legend_text(bands))
         # the band's own name can be long: it goes in the tooltip, the title stays short
-        self.title.setText("Gait cycle (included strides)" + (" · grey: normative" if bands
+        self.title.setText("Gait cycle (included strides)" + (" · normal band" if bands
                                                                 else ""))  # fmt: skip
         about = "" if bands is None else self.band_note(bands)
         self.title.setToolTip(about)
@@ -134,11 +163,11 @@ class ReviewCyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgr
 
     @staticmethod
     def band_note(bands: NormativeBands) -> str:
-        """What the grey band is, and what it cannot tell (the tooltips say both)."""
+        """What the normal (amber) band is, and what it cannot tell (the tooltips say both)."""
         from gaitmon.normative import CAVEAT
 
         return (
-            f"Grey band and dashed grey line: normative mean ± 1 SD, {bands.label} (source: "
+            f"Amber band and solid amber line: normal mean ± 1 SD, {bands.label} (source: "
             f"{bands.source or 'not given'}; licence: {bands.licence or 'not given'}).\n"
             f"Caveat: {CAVEAT}."
         )

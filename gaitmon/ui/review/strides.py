@@ -209,6 +209,7 @@ def summary_html(
                  + f" (CV {_f(sp.stride_length_cv_pct, '.1f')} %)"),
                 ("Gait speed", cmp(sp.speed_mean_m_s, bs.speed_mean_m_s if bs else None, ".2f")
                  + f" ± {_f(sp.speed_sd_m_s, '.2f')} m/s (CV {_f(sp.speed_cv_pct, '.1f')} %)"),
+                ("Foot clearance", sp.clearance_text()),
             ]  # fmt: skip
         body = "<table cellspacing=2>" + "".join(
             f"<tr><td>{k}&nbsp;&nbsp;</td><td>{v}</td></tr>" for k, v in rows
