@@ -321,3 +321,13 @@ def review_win(qtbot, tmp_path):
         if time.monotonic() > deadline:
             pytest.fail("review worker threads left running")
         time.sleep(0.05)
+
+
+@pytest.fixture
+def ui_settings(tmp_path):
+    """An isolated settings file for a window under test (no user's preferences leak in)."""
+    from PySide6.QtCore import QSettings
+
+    path = tmp_path / "settings" / "gaitmon.ini"
+    path.parent.mkdir()
+    return QSettings(str(path), QSettings.Format.IniFormat)

@@ -9,8 +9,7 @@
   share the remembered dock state)."""
 
 import numpy as np
-import pytest
-from PySide6.QtCore import QSettings, Qt
+from PySide6.QtCore import Qt
 
 from gaitmon.analysis import analyse_session
 from gaitmon.finish import open_session
@@ -21,13 +20,6 @@ from gaitmon.live.pair import PairSource
 from gaitmon.ui.live import MainWindow
 
 WAIT_MS = 60_000
-
-
-@pytest.fixture
-def ui_settings(tmp_path):
-    path = tmp_path / "settings" / "gaitmon.ini"
-    path.parent.mkdir()
-    return QSettings(str(path), QSettings.Format.IniFormat)
 
 
 def one_leg(qtbot, settings, *, speed=4.0, autoconnect=True):

@@ -11,20 +11,13 @@ import threading
 import h5py
 import numpy as np
 import pytest
-from PySide6.QtCore import QSettings, Qt
+from PySide6.QtCore import Qt
 
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import SIMULATED_PORT
 from gaitmon.ui.live import MainWindow
 
 WAIT_MS = 15_000
-
-
-@pytest.fixture
-def ui_settings(tmp_path):
-    path = tmp_path / "settings" / "gaitmon.ini"
-    path.parent.mkdir()
-    return QSettings(str(path), QSettings.Format.IniFormat)
 
 
 def make_window(qtbot, settings, *, standing_s=1.0, mode="raw", autoconnect=True):
