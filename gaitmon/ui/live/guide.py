@@ -45,7 +45,7 @@ def current_step(state: GuideState) -> int:
 
 def hint(state: GuideState) -> str:
     text = _step_hint(state)
-    if state.connected and state.zero_source:
+    if state.connected and state.zero_source and not (state.recording and not state.zeroed):
         text += f" Angles' zero: {state.zero_source}."
     return text
 
@@ -64,9 +64,9 @@ def _step_hint(state: GuideState) -> str:
         walk = " (simulator: Device ▸ Simulator ▸ Walk again)" if state.simulated else ""
         return f"Zeroed: the angles read 0 in that pose. The patient may walk{walk}; press Record."
     if not state.zeroed:
-        return (f"{UNZEROED_WARNING}: the angles are relative to the sensor axes, not the "
-                "standing pose. Zero (Ctrl+0) while the patient stands still sets it from then on;"
-                " Stop (Ctrl+R) ends the session.")  # fmt: skip
+        return (f"{UNZEROED_WARNING}: the angles are relative to the sensor axes (zero: "
+                "estimated), not the standing pose. Zero (Ctrl+0) while the patient stands still "
+                "sets it from then on.")  # fmt: skip
     return "Recording. M drops a marker; Stop (Ctrl+R) ends the session."
 
 
