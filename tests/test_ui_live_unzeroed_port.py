@@ -259,3 +259,29 @@ def test_escape_records_nothing(qtbot, tmp_path, no_leaked_threads):
         assert not win.recording and win.recording_part.session_dialog is None
     finally:
         close(win)
+
+
+def test_the_guide_warns_while_recording_unzeroed_until_a_zero(qtbot):
+    """The bar's transitions: closed by the user, it opens again for an unzeroed recording;
+    a Zero while recording folds it; a zeroed recording folds it as before."""
+    from PySide6.QtGui import QAction
+
+    from gaitmon.ui.live.guide import GuideBar, GuideState
+    from gaitmon.ui.theme import current_colours
+
+    actions = (QAction("Connect"), QAction("Zero"), QAction("Record"))
+    bar = GuideBar(current_colours(), actions)
+    qtbot.addWidget(bar)
+    bar.show()
+    bar.show_state(GuideState(connected=True, simulated=True))
+    bar.dismiss()  # the user closed it
+    bar.show_state(GuideState(connected=True, recording=True, zero_source="estimated"))
+    assert bar.isVisible() and bar.hint_text.startswith("Recording without a standing Zero")
+    assert "Angles' zero" not in bar.hint_text  # said once, not twice
+    assert bar.colours.alert in bar.hint_label.styleSheet()
+    bar.show_state(GuideState(connected=True, recording=True, zeroed=True))
+    assert not bar.isVisible() and bar.hint_label.styleSheet() == ""
+    bar.show_state(GuideState(connected=True, zeroed=True))  # stopped
+    bar.reopen()
+    bar.show_state(GuideState(connected=True, zeroed=True, recording=True))
+    assert not bar.isVisible()
