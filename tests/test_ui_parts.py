@@ -280,10 +280,11 @@ def test_the_live_windows_saved_settings_load_by_the_keys_named_once(tmp_path):
     old.sync()
     named = [k.key for k in LiveKey] + [s.key for s in PIPELINE_SETTINGS]
     assert len(named) == len(set(named))
-    assert set(named) == {*STORED_BEFORE, "window/geometry", "window/state"}
+    # issue 25 added the typed ports connected to (nothing stored before it: default "")
+    assert set(named) == {*STORED_BEFORE, "window/geometry", "window/state", "device/recent_ports"}
     prefs = Prefs(QSettings(ini, QSettings.Format.IniFormat))  # read back from the file: text
     got = {k.key: prefs.get(k) for k in LiveKey if k.kind is not object}
-    assert got == {k: v for k, v in STORED_BEFORE.items() if k in got}
+    assert got == {k: v for k, v in STORED_BEFORE.items() if k in got} | {"device/recent_ports": ""}
     assert [prefs.get(LiveKey.shown(t)) for t in ("acc", "kalman", "gyro")] == [False, True, False]
     assert prefs.get(LiveKey.GEOMETRY) == QByteArray(b"\x01\xd9\xd0\xcb")
     assert prefs.get(LiveKey.STATE) is None

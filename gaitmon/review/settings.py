@@ -80,6 +80,7 @@ class LiveKey(SettingsKey):
 
     TILT_METHOD = ("pipeline/tilt_method", str, None)  # Device ▸ Tilt filter
     LAST_PORT = ("device/last_port", str, "")
+    RECENT_PORTS = ("device/recent_ports", str, "")  # typed ports connected to, newest first
     MODE = ("device/mode", str, "raw")  # an engine Mode's value
     SESSION_FOLDER = ("session/folder", str, None)  # the last recording's (default: Documents)
     OPERATOR = ("session/operator", str, "")

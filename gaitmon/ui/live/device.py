@@ -12,6 +12,9 @@ from __future__ import annotations
 
 import logging
 import math
+import os
+import re
+import sys
 from collections.abc import Callable
 
 from PySide6.QtCore import QSize, Qt, QTimer
@@ -20,6 +23,7 @@ from PySide6.QtWidgets import QComboBox, QLabel, QMainWindow, QMenu, QToolBar, Q
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.engine import EngineError, Mode
+from gaitmon.io.bluetooth import BT_SCHEME, parse_bt_url
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.jobs import Response
 from gaitmon.live.connection import (
@@ -38,6 +42,29 @@ from gaitmon.ui.live.jobs import ConnectRequest
 log = logging.getLogger("gaitmon.ui")
 
 # the one-leg simulator's actions (a pair cannot stand on request, nor break a sensor)
+MAX_RECENT_PORTS = 8
+_WINDOWS_PORT = re.compile(r"^(\\\\\.\\)?COM\d+$", re.IGNORECASE)
+
+
+def port_problem(port: str) -> str:
+    """Why a typed ``port`` cannot be connected to, in one line ("" when it can be tried): a
+    ``bt://`` address must parse, a serial port must exist (Windows: COMn)."""
+    if port == SIMULATED_PORT:
+        return ""
+    if port.lower().startswith(BT_SCHEME):
+        try:
+            parse_bt_url(port)
+        except ValueError as exc:
+            return str(exc)
+        return ""
+    if sys.platform == "win32" and _WINDOWS_PORT.match(port):
+        return ""
+    if not os.path.exists(port):
+        return (f"No port {port!r}: type a serial port (such as /dev/ttyUSB0 or a "
+                "'gaitmon simulate --pty' path) or bt://AA:BB:CC:DD:EE:FF")  # fmt: skip
+    return ""
+
+
 ONE_LEG_SIM_ACTIONS = ("cut", "restore", "sim_stand", "sim_walk",
                        *(f"sim_{key}" for key, _text, _tip in SIM_FSR_FAULTS))  # fmt: skip
 
@@ -68,11 +95,20 @@ class DevicePart:
         self._started, self._stopping, self._stopped = started, stopping, stopped
         self._restore_timer: QTimer | None = None
         self.port_combo = QComboBox()
+        self.port_combo.setEditable(True)  # a port not listed: typed (a pty, a bt:// address)
+        self.port_combo.setInsertPolicy(QComboBox.InsertPolicy.NoInsert)
         self.port_combo.setMinimumContentsLength(28)
         self.port_combo.setSizeAdjustPolicy(
             QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon
         )
-        self.port_combo.setToolTip("The unit's serial port (Bluetooth SPP shows up as one)")
+        self.port_combo.setToolTip(
+            "The unit's serial port (Bluetooth SPP shows up as one). Not listed? Type its path "
+            "(e.g. a 'gaitmon simulate --pty' port) or bt://AA:BB:CC:DD:EE:FF"
+        )
+        line = self.port_combo.lineEdit()
+        if line is not None:
+            line.setPlaceholderText("port path or bt://address")
+            line.returnPressed.connect(lambda: actions["connect"].trigger())
         self.mode_combo = QComboBox()
         for mode, text, tip in MODES:
             self.mode_combo.addItem(text, mode.value)
@@ -109,9 +145,7 @@ class DevicePart:
         p = self.ctx.prefs
         self.refresh_ports()
         last = p.get(LiveKey.LAST_PORT)
-        idx = self.port_combo.findData(last) if last else -1
-        if idx >= 0:
-            self.port_combo.setCurrentIndex(idx)
+        self.select_port(last)
         mode_value = Mode(mode).value if mode is not None else p.get(LiveKey.MODE)
         self.mode_combo.setCurrentIndex(max(self.mode_combo.findData(mode_value), 0))
 
@@ -138,15 +172,61 @@ class DevicePart:
         acts["cut"].setEnabled(one_sim)
         acts["restore"].setEnabled(one_sim)
 
+    def recent_ports(self) -> list[str]:
+        """The typed ports connected to before, newest first."""
+        text = str(self.ctx.prefs.get(LiveKey.RECENT_PORTS) or "")
+        return [p for p in text.split("\n") if p]
+
+    def _remember_port(self, port: str) -> None:
+        if port == SIMULATED_PORT:
+            return
+        recent = [port, *(p for p in self.recent_ports() if p != port)][:MAX_RECENT_PORTS]
+        self.ctx.prefs.set(LiveKey.RECENT_PORTS, "\n".join(recent))
+        if self.port_combo.findData(port) < 0:
+            self._add_recent_item(port)
+
+    def _add_recent_item(self, port: str) -> None:
+        self.port_combo.addItem(f"{port} (recent)", port)
+        self.port_combo.setItemData(
+            self.port_combo.count() - 1, f"{port}: connected to before (typed)",
+            Qt.ItemDataRole.ToolTipRole,
+        )  # fmt: skip
+
+    def select_port(self, port: str | None) -> None:
+        """Show ``port``: its entry when listed, else typed in the field."""
+        if not port:
+            return
+        idx = self.port_combo.findData(port)
+        if idx >= 0:
+            self.port_combo.setCurrentIndex(idx)
+        else:
+            self.port_combo.setEditText(port)
+
+    def current_port(self) -> str:
+        """The port to connect to: the entry chosen, or the text typed ("" none)."""
+        combo = self.port_combo
+        text = combo.currentText().strip()
+        idx = combo.currentIndex()
+        if idx >= 0 and combo.itemText(idx) == text:
+            return str(combo.itemData(idx) or "")
+        idx = combo.findText(text)
+        if idx >= 0:
+            return str(combo.itemData(idx) or "")
+        return text
+
     @guarded
     def refresh_ports(self) -> None:
-        current = self.port_combo.currentData()
+        current = self.current_port()
         self.port_combo.clear()
-        for p in available_ports():
+        listed = available_ports()
+        for p in listed:
             self.port_combo.addItem(p.friendly(), p.device)
             self.port_combo.setItemData(
                 self.port_combo.count() - 1, p.device, Qt.ItemDataRole.ToolTipRole
             )
+        for port in self.recent_ports():
+            if port not in {p.device for p in listed}:
+                self._add_recent_item(port)
         self.port_combo.addItem(SIMULATED_LABEL, SIMULATED_PORT)
         self.port_combo.setItemData(
             self.port_combo.count() - 1,
@@ -155,7 +235,10 @@ class DevicePart:
             Qt.ItemDataRole.ToolTipRole,
         )
         idx = self.port_combo.findData(current) if current else -1
-        self.port_combo.setCurrentIndex(idx if idx >= 0 else 0)
+        if idx < 0 and current:
+            self.port_combo.setEditText(current)  # a typed port stays typed
+        else:
+            self.port_combo.setCurrentIndex(max(idx, 0))
 
     @guarded
     def connect_device(self, port: str | None = None) -> None:
@@ -163,12 +246,14 @@ class DevicePart:
         if ctx.connected or ctx.connecting:
             return
         if port is not None:
-            idx = self.port_combo.findData(port)
-            if idx >= 0:
-                self.port_combo.setCurrentIndex(idx)
-        port = port or self.port_combo.currentData()
+            self.select_port(port)
+        port = port or self.current_port()
         if not port:
             ctx.notify("No port selected: choose the unit's port or the simulated device.")
+            return
+        problem = port_problem(port) if self.port_combo.findData(port) < 0 else ""  # typed
+        if problem:
+            ctx.notify(problem, 30_000)
             return
         request = ConnectRequest(port, self.mode, ctx.config, self.sim)
         ctx.connecting = True
@@ -185,6 +270,7 @@ class DevicePart:
             return
         ctx.conn = conn
         ctx.prefs.set(LiveKey.LAST_PORT, conn.port)
+        self._remember_port(conn.port)
         ctx.prefs.set(LiveKey.MODE, conn.engine.mode.value)
         ctx.status.connected()
         for act in self.sim_fsr_actions.values():  # a new simulated unit has working sensors

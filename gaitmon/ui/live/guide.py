@@ -4,7 +4,9 @@ Each step shows its state (done ✓, current, waiting) from the real state the w
 :meth:`GuideBar.show_state` (connected? zeroed, from the engine's snapshot? recording?); the
 current step's button performs it by triggering the window's own action (so it does exactly
 what the menu and the shortcut do), and a one-line hint says what to do. The bar collapses
-when a recording starts; Help ▸ Guided start opens it again.
+when a zeroed recording starts; Help ▸ Guided start opens it again. A recording started without
+a standing Zero keeps it open (opens it if it was closed) with a warning in the alert colour:
+the angles are then relative to the sensor axes, and that is said where they are read.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from gaitmon.ui.theme import Colours
 
 CONNECT, ZERO, RECORD, RECORDING = 0, 1, 2, 3  # the current step (RECORDING: all done)
 DONE, CURRENT, WAITING = "done", "current", "waiting"
+UNZEROED_WARNING = "Recording without a standing Zero"
 
 
 @dataclass(frozen=True)
@@ -42,7 +45,7 @@ def current_step(state: GuideState) -> int:
 
 def hint(state: GuideState) -> str:
     text = _step_hint(state)
-    if state.connected and state.zero_source:
+    if state.connected and state.zero_source and not (state.recording and not state.zeroed):
         text += f" Angles' zero: {state.zero_source}."
     return text
 
@@ -52,12 +55,18 @@ def _step_hint(state: GuideState) -> str:
     if step == CONNECT:
         if state.connecting:
             return "Connecting to the unit…"
-        return "Choose the unit (or the simulated device) under Unit, then press Connect."
+        return ("Choose the unit (or the simulated device) under Unit, or type its port "
+                "(a path or bt://address), then press Connect.")
     if step == ZERO:
         sim = " (simulator: Device ▸ Simulator ▸ Stand still)" if state.simulated else ""
         return f"Ask the patient to stand upright and still, leg straight, then press Zero{sim}."
     if step == RECORD:
-        return "Zeroed: the angles read 0 in that pose. The patient may walk; press Record."
+        walk = " (simulator: Device ▸ Simulator ▸ Walk again)" if state.simulated else ""
+        return f"Zeroed: the angles read 0 in that pose. The patient may walk{walk}; press Record."
+    if not state.zeroed:
+        return (f"{UNZEROED_WARNING}: the angles are relative to the sensor axes (zero: "
+                "estimated), not the standing pose. Zero (Ctrl+0) while the patient stands still "
+                "sets it from then on.")  # fmt: skip
     return "Recording. M drops a marker; Stop (Ctrl+R) ends the session."
 
 
@@ -73,6 +82,7 @@ class GuideBar(QWidget):
         self.actions_ = actions
         self.state = GuideState(connected=False)
         self.dismissed = False  # the user closed it, or a recording started
+        self.warning = False  # showing "recording without a standing Zero"
         self.states: list[str] = ["", "", ""]  # as shown
         lay = QHBoxLayout(self)
         lay.setContentsMargins(4, 2, 4, 2)
@@ -123,13 +133,25 @@ class GuideBar(QWidget):
 
     def show_state(self, state: GuideState) -> None:
         started = state.recording and not self.state.recording
+        unzeroed = state.recording and not state.zeroed
+        warned, self.warning = self.warning, unzeroed
         self.state = state
-        if started and not self.dismissed:
+        if unzeroed and not warned:  # said where the angles are read, until a Zero
+            self.dismissed = False
+            self.setVisible(True)
+        elif started and not self.dismissed:
             self.dismiss()  # the guide has done its job: the plots get the room
+        elif warned and not unzeroed and state.recording and not self.dismissed:
+            self.dismiss()  # zeroed while recording: the warning has done its job
+        style = f"QLabel {{ color: {self.colours.alert}; font-weight: 700; }}" if unzeroed else ""
+        if self.hint_label.styleSheet() != style:
+            self.hint_label.setStyleSheet(style)
         step = current_step(state)
         c = self.colours
         for i, (b, action) in enumerate(zip(self.buttons, self.actions_, strict=True)):
             kind = DONE if i < step else CURRENT if i == step else WAITING
+            if i == ZERO and unzeroed:  # recording unzeroed: Zero is still to do
+                kind = CURRENT
             restyle = kind != self.states[i]
             self.states[i] = kind
             mark = "✓ " if kind == DONE else f"{i + 1}  "

@@ -14,9 +14,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 from PySide6.QtGui import QAction
-from PySide6.QtWidgets import QLineEdit, QMainWindow
+from PySide6.QtWidgets import QLineEdit, QMainWindow, QMessageBox
 
-from gaitmon.engine import EngineError, Snapshot
+from gaitmon.engine import EngineError, Mode, Snapshot
 from gaitmon.io.session.opening import stored_duration_s
 from gaitmon.jobs import Response
 from gaitmon.live.pair import SIDE_NAMES, SIDES, PairConnection
@@ -29,15 +29,26 @@ from gaitmon.ui.live.context import LiveContext
 from gaitmon.ui.live.prefs import default_session_folder
 from gaitmon.ui.live.status import fmt_bytes, fmt_elapsed
 
+UNZEROED_QUESTION = (
+    "Record without a standing Zero? The angles will be relative to the sensor axes "
+    "(zero: estimated), not to the patient's standing pose: peak angles can differ by several "
+    "degrees."
+)
+RECORD_ANYWAY, ZERO_FIRST = "Record anyway", "Zero first"
+
 
 class RecordingPart:
-    """Slots of the Session menu and toolbar; owns the marker field and the session dialog."""
+    """Slots of the Session menu and toolbar; owns the marker field and the session dialog.
+    ``confirm_unzeroed``: Record asks first when a leg has no standing Zero (raw mode; the
+    unit's own modes zero themselves)."""
 
     def __init__(self, ctx: LiveContext, window: QMainWindow, actions: dict[str, QAction]) -> None:
         self.ctx = ctx
         self.window = window
         self.actions = actions
         self.session_dialog: SessionDialog | None = None
+        self.confirm_unzeroed = True
+        self.unzeroed_box: QMessageBox | None = None  # the question, while it is asked
         self._dialog_both = False  # the dialog open is for both legs
         self.marker_edit = QLineEdit()
         self.marker_edit.setPlaceholderText("marker label (optional)")
@@ -75,6 +86,8 @@ class RecordingPart:
         if self.session_dialog is not None and self.session_dialog.isVisible():
             self.session_dialog.raise_()
             return
+        if self.confirm_unzeroed and not self._unzeroed_answered():
+            return
         p = ctx.prefs
         folder = Path(p.get(LiveKey.SESSION_FOLDER, str(default_session_folder())))
         side = ""
@@ -97,6 +110,45 @@ class RecordingPart:
         dlg.accepted.connect(self._session_accepted)
         self.session_dialog = dlg
         dlg.open()
+
+    def unzeroed_legs(self) -> list[str]:
+        """The connected legs ("" one unit, else "L" / "R") whose angles have no standing
+        Zero (raw mode only: the unit's own modes zero themselves)."""
+        return [side for side, eng in self.ctx.engines.items()
+                if eng.mode is Mode.RAW and not eng.snapshot(0.05).calibrated]  # fmt: skip
+
+    def _unzeroed_answered(self) -> bool:
+        """True to go on to the session dialog: every leg is zeroed, or the user chose Record
+        anyway. Zero first starts the Zero; Cancel does nothing."""
+        legs = self.unzeroed_legs()
+        if not legs:
+            return True
+        question = UNZEROED_QUESTION
+        if self.ctx.pair is not None:
+            which = "both legs" if len(legs) > 1 else f"the {SIDE_NAMES[legs[0]]} leg"
+            question = question.replace("standing Zero?", f"standing Zero on {which}?", 1)
+        box = QMessageBox(self.window)
+        box.setIcon(QMessageBox.Icon.Warning)
+        box.setWindowTitle("No standing Zero")
+        box.setText(question)
+        box.setInformativeText(
+            "Zero first: ask the patient to stand upright and still, leg straight; the Zero "
+            "takes a few seconds. Review and the report say \"zero: estimated\" for such a "
+            "recording."
+        )
+        anyway = box.addButton(RECORD_ANYWAY, QMessageBox.ButtonRole.AcceptRole)
+        zero = box.addButton(ZERO_FIRST, QMessageBox.ButtonRole.ActionRole)
+        box.setEscapeButton(box.addButton(QMessageBox.StandardButton.Cancel))
+        box.setDefaultButton(zero)
+        self.unzeroed_box = box
+        try:
+            box.exec()
+        finally:
+            self.unzeroed_box = None
+        clicked = box.clickedButton()
+        if clicked is zero:
+            self.actions["zero"].trigger()
+        return clicked is anyway
 
     @guarded
     def _session_accepted(self) -> None:

@@ -84,7 +84,9 @@ PART_TYPES = (DevicePart, RecordingPart, ProcessingPart, LslPart, ViewPart, Pair
 class MainWindow(QMainWindow):
     """The live monitor. ``settings`` is injected so tests can isolate it; ``sim``: the
     simulated device's settings (default: SimConfig()); ``pair_sim``: the simulated pair's
-    (both legs, :mod:`.pair_part`); ``pair``: connect both legs to it at once."""
+    (both legs, :mod:`.pair_part`); ``pair``: connect both legs to it at once.
+    ``confirm_close`` asks before closing on a recording; ``confirm_unzeroed`` (None: as
+    ``confirm_close``) asks before recording a leg with no standing Zero."""
 
     def __init__(
         self,
@@ -94,6 +96,7 @@ class MainWindow(QMainWindow):
         autoconnect: str | None = None,
         mode: Mode | str | None = None,
         confirm_close: bool = True,
+        confirm_unzeroed: bool | None = None,
         pair_sim: BilateralConfig | None = None,
         pair: PairSource | None = None,
     ) -> None:
@@ -126,6 +129,9 @@ class MainWindow(QMainWindow):
 
         self.view_part = view = ViewPart(ctx, self, acts)
         self.recording_part = RecordingPart(ctx, self, acts)
+        self.recording_part.confirm_unzeroed = (
+            confirm_close if confirm_unzeroed is None else confirm_unzeroed
+        )
         self.processing_part = ProcessingPart(ctx, self, acts, view)
         self.lsl_part = LslPart(ctx, acts)
         self.device_part = device = DevicePart(
