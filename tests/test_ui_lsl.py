@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 import pytest
-from test_ui_window import WAIT_MS, make_window, ui_settings  # noqa: F401
+from test_ui_window import WAIT_MS, make_window
 
 pylsl = pytest.importorskip("pylsl")
 
@@ -23,7 +23,7 @@ def _our_stream(outlet):
 
 
 def test_stream_to_lsl_is_off_by_default_then_streams_and_is_remembered(
-    qtbot, ui_settings, no_leaked_threads  # noqa: F811
+    qtbot, ui_settings, no_leaked_threads
 ):
     win = make_window(qtbot, ui_settings)
     try:

@@ -168,7 +168,9 @@ class ReviewWindow(QMainWindow):
         bottom.setStretchFactor(0, 5)
         bottom.setStretchFactor(1, 2)
         bottom.setStretchFactor(2, 3)
-        bottom.setSizes([760, 250, 400])
+        # the stride table (its 14 columns, the foot clearance and the status whole) fits
+        # beside the summary and the cycle plots at 1500 px (tests/test_messages.py)
+        bottom.setSizes([800, 250, 360])
         self.bottom = bottom
         split = QSplitter(Qt.Orientation.Vertical)
         split.addWidget(self.timeline)
