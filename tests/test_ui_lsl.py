@@ -59,7 +59,7 @@ def test_stream_to_lsl_is_off_by_default_then_streams_and_is_remembered(
 
 
 def test_without_pylsl_the_action_says_what_to_install(
-    qtbot, ui_settings, no_leaked_threads, monkeypatch  # noqa: F811
+    qtbot, ui_settings, no_leaked_threads, monkeypatch
 ):
     monkeypatch.setitem(sys.modules, "pylsl", None)
     win = make_window(qtbot, ui_settings, autoconnect=False)
