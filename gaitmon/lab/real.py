@@ -193,7 +193,7 @@ def _loop_table(loops: list[LoopRow]) -> list[str]:
     head = [
         "walk",
         "heel strikes",
-        "strides with a length",
+        "strides with a length (the first step from standing included)",
         "gaitmon distance, m",
         "vs 3-D ZUPT path",
         "2-D ZUPT at dataset stances, m (strides)",
@@ -204,7 +204,7 @@ def _loop_table(loops: list[LoopRow]) -> list[str]:
         [
             r.walk,
             str(r.n_hs),
-            f"{r.n_value} of {max(r.n_hs - 1, 0)}",
+            str(r.n_value),
             f"{r.distance_m:.2f}",
             f"{100 * (r.distance_m - r.path3d_m) / r.path3d_m:+.1f} %",
             f"{r.base_distance_m:.2f} ({r.base_strides})",
