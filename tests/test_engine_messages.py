@@ -59,7 +59,7 @@ class CallLog:
     def log_calibration(self, cal):
         self.calls.append(("calibration", cal))
 
-    def update_link(self, stats):
+    def update_link(self, stats, reconnects_base=0):
         self.calls.append(("link", stats))
 
     def maybe_flush(self):

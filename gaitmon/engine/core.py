@@ -243,6 +243,7 @@ class Engine:
             )  # fmt: skip
             # row 0 is the first sample of the next block the engine thread starts on (it
             # sets the row map's record_offset then): never half a block, never one too late
+            recorder.reconnects_base = self.device.stats.reconnects
             self._recorder = recorder
             self._recorder.start_idx = from_idx
             self._last_recording = RecordingStatus()

@@ -85,6 +85,9 @@ class Recorder:
         self.writer = writer
         # engine thread only: the rows end limit_samples sample periods after row 0
         self.limit_samples = limit_samples
+        # the link's reconnects before the recording began (set by the engine at its start):
+        # the file counts the recording's own (issue 25: "2 reconnects" beside 0 outages)
+        self.reconnects_base = 0
         self._k0: int | None = None  # the unit's sample period of row 0
         self.queue: queue.Queue[RecorderMessage] = queue.Queue()
         self.queue_max = queue_max
@@ -265,7 +268,7 @@ class Recorder:
                 elif isinstance(msg, LogCalibration):
                     w.log_calibration(msg.calibration)
                 elif isinstance(msg, UpdateLink):
-                    w.update_link(msg.stats)
+                    w.update_link(msg.stats, self.reconnects_base)
                 elif isinstance(msg, Stop):
                     close_recording(w, stop_reason=msg.reason)
                     self._publish(rows=w.rows, file_bytes=w.bytes_written, finished=True)

@@ -320,8 +320,10 @@ class SessionWriter:
         self._staged_tables["calibration/changes"].append((self._rows, json.dumps(d)))
         self._dirty = True
 
-    def update_link(self, stats: LinkStats) -> None:
-        """Link totals; journalled only when they changed (cheap to call on every block)."""
+    def update_link(self, stats: LinkStats, reconnects_base: int = 0) -> None:
+        """Link totals; journalled only when they changed (cheap to call on every block).
+        ``reconnects_base``: the link's reconnects before this recording began (the count is
+        the connection's; the file's is the recording's own)."""
         self._check_usable()
         d = stats.decoder
         totals = {
@@ -331,7 +333,7 @@ class SessionWriter:
             "bytes_received": int(d.bytes_received),
             "bytes_skipped": int(d.bytes_skipped),
             "invalid_values": int(d.invalid_values),
-            "reconnects": int(stats.reconnects),
+            "reconnects": max(0, int(stats.reconnects) - reconnects_base),
             "queue_overflow_frames": int(stats.queue_overflow_frames),
         }
         if totals == self._link_totals:
