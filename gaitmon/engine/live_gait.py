@@ -109,8 +109,11 @@ class LiveGait:
         # stride length (m) by opening heel strike (engine index), from the foot IMU; known a
         # little after the stride ends (the foot-flat after its closing heel strike)
         self._lengths: dict[int, float] = {}
-        self._starts: list[int] = []  # every stride's opening heel strike (engine index)
-        self._starts_arr = np.empty(0, np.int64)  # as an array, rebuilt once per stride
+        # every stride's opening heel strike (engine index): a buffer grown by doubling, and
+        # the view of its filled part that snapshots hand out (an 8-hour session has ~26 000
+        # strides: no copy of all of them per stride)
+        self._starts_buf = np.empty(64, np.int64)
+        self._starts_arr = self._starts_buf[:0]
         self._last_end_t_s = float("nan")
 
     def add(
@@ -152,8 +155,11 @@ class LiveGait:
         self._n_strides += 1
         self._last = s
         self._last_end_t_s = float(t1) if np.isfinite(t1) else float("nan")
-        self._starts.append(int(s.start_idx))
-        self._starts_arr = np.array(self._starts, dtype=np.int64)
+        n = len(self._starts_arr)
+        if n == len(self._starts_buf):
+            self._starts_buf = np.concatenate([self._starts_buf, np.empty(n, np.int64)])
+        self._starts_buf[n] = int(s.start_idx)
+        self._starts_arr = self._starts_buf[: n + 1]
         if reason:
             self.excluded.append((s, reason))
             return
