@@ -259,42 +259,24 @@ def format_real(real: RealAccuracy) -> str:
     lines += [f"- {n}" for n in real.notes]
     if real.notes:
         lines.append("")
-    if real.broad:
-        lines += [
-            "### BROAD (real IMU, optical reference, not walking): planar tilt RMS "
-            "error, deg (where |u_y| < 0.5; no offset removed)",
-            "",
-        ]
-        lines += [*_tilt_table(real.broad, offset=False), ""]
-    if real.foot_tilt:
-        lines += [
-            "### Real walks, foot tilt against the 3-D 6-axis reference (NOT optical; "
-            "gaitmon.lab.reference): RMS error after removing the constant offset, deg "
-            "(the offset in brackets)",
-            "",
-        ]
-        lines += [*_tilt_table(real.foot_tilt, offset=True), ""]
-    if real.strides:
-        lines += [
-            "### gdins_footprints: stride length and gait speed vs the measured "
-            "footprints (foot-gyro heel strikes + stride_measures), % of the reference; "
-            "a stride-length gain fitted leave-one-trial-out",
-            "",
-        ]
-        lines += [*_stride_table(real), ""]
-    if real.loops:
-        lines += [
-            "### xio_closed_loop_walks: distance walked (loop closure needs heading, "
-            "which one gyro axis cannot see: not judged)",
-            "",
-        ]
-        lines += [*_loop_table(real.loops), ""]
-    if real.events:
-        lines += [
-            "### gaitpdb: FSR events (heel = sensor 1, toe = sensor 8; the registered "
-            "'fsr' source) vs contact = total force > 5 % of its p95, matched within "
-            "100 ms",
-            "",
-        ]
-        lines += [*_event_table(real.events), ""]
+    sections: list[tuple[bool, str, Callable[[], list[str]]]] = [
+        (bool(real.broad), "BROAD (real IMU, optical reference, not walking): planar tilt RMS "
+         "error, deg (where |u_y| < 0.5; no offset removed)",
+         lambda: _tilt_table(real.broad, offset=False)),
+        (bool(real.foot_tilt), "Real walks, foot tilt against the 3-D 6-axis reference (NOT "
+         "optical; gaitmon.lab.reference): RMS error after removing the constant offset, deg "
+         "(the offset in brackets)", lambda: _tilt_table(real.foot_tilt, offset=True)),
+        (bool(real.strides), "gdins_footprints: stride length and gait speed vs the measured "
+         "footprints (foot-gyro heel strikes + stride_measures), % of the reference; a "
+         "stride-length gain fitted leave-one-trial-out", lambda: _stride_table(real)),
+        (bool(real.loops), "xio_closed_loop_walks: distance walked (loop closure needs "
+         "heading, which one gyro axis cannot see: not judged)",
+         lambda: _loop_table(real.loops)),
+        (bool(real.events), "gaitpdb: FSR events (heel = sensor 1, toe = sensor 8; the "
+         "registered 'fsr' source) vs contact = total force > 5 % of its p95, matched within "
+         "100 ms", lambda: _event_table(real.events)),
+    ]  # fmt: skip
+    for present, title, table in sections:
+        if present:
+            lines += [f"### {title}", "", *table(), ""]
     return "\n".join(lines).rstrip() + "\n"
