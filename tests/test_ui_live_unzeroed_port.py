@@ -28,6 +28,16 @@ def settings_in(tmp_path):
     return QSettings(str(tmp_path / "gaitmon.ini"), QSettings.Format.IniFormat)
 
 
+def simulated_window(tmp_path, standing_s, *, confirm_unzeroed=True):
+    """A shown one-leg window connecting to the simulated unit, whose subject stands
+    ``standing_s`` first (0: walks from the start, so no Zero can happen behind a test)."""
+    win = MainWindow(settings_in(tmp_path), sim=SimConfig(standing_s=standing_s), mode="raw",
+                     autoconnect=SIMULATED_PORT, confirm_close=False,
+                     confirm_unzeroed=confirm_unzeroed)  # fmt: skip
+    win.show()
+    return win
+
+
 def answer_next_question(win, button_text, seen):
     """Click ``button_text`` in the unzeroed question once it is open (in its own exec loop);
     its text goes into ``seen`` (nothing when no question is asked)."""
@@ -53,10 +63,7 @@ def test_record_before_zero_asks_and_a_recording_without_zero_says_so(
     qtbot, tmp_path, no_leaked_threads
 ):
     # the subject walks from the start: a Zero is refused, so nothing zeroes behind the test
-    win = MainWindow(settings_in(tmp_path), sim=SimConfig(standing_s=0.0), mode="raw",
-                     autoconnect=SIMULATED_PORT, confirm_close=False,
-                     confirm_unzeroed=True)  # fmt: skip
-    win.show()
+    win = simulated_window(tmp_path, 0.0)
     try:
         qtbot.waitUntil(lambda: win.engine is not None, timeout=WAIT_MS)
         qtbot.waitUntil(lambda: win.engine.samples_total >= 50, timeout=WAIT_MS)
@@ -104,10 +111,7 @@ def test_record_before_zero_asks_and_a_recording_without_zero_says_so(
 
 def test_a_zeroed_recording_is_not_asked_about_and_folds_the_guide(qtbot, tmp_path,
                                                                     no_leaked_threads):
-    win = MainWindow(settings_in(tmp_path), sim=SimConfig(standing_s=math.inf), mode="raw",
-                     autoconnect=SIMULATED_PORT, confirm_close=False,
-                     confirm_unzeroed=True)  # fmt: skip
-    win.show()
+    win = simulated_window(tmp_path, math.inf)
     try:
         qtbot.waitUntil(lambda: win.engine is not None, timeout=WAIT_MS)
         qtbot.waitUntil(lambda: win.engine.samples_total >= 200, timeout=WAIT_MS)
@@ -205,9 +209,7 @@ def test_the_hint_after_zero_on_the_simulator_says_how_to_make_the_subject_walk(
     qtbot, tmp_path, no_leaked_threads
 ):
     # the subject stands until told to walk: the Zero is accepted
-    win = MainWindow(settings_in(tmp_path), sim=SimConfig(standing_s=math.inf), mode="raw",
-                     autoconnect=SIMULATED_PORT, confirm_close=False)  # fmt: skip
-    win.show()
+    win = simulated_window(tmp_path, math.inf, confirm_unzeroed=False)
     try:
         qtbot.waitUntil(lambda: win.engine is not None, timeout=WAIT_MS)
         qtbot.waitUntil(lambda: win.engine.samples_total >= 200, timeout=WAIT_MS)
@@ -240,10 +242,7 @@ def test_port_problem_in_one_line():
 
 def test_escape_records_nothing(qtbot, tmp_path, no_leaked_threads):
     """Escape (the box's Cancel) is the way out: nothing is recorded."""
-    win = MainWindow(settings_in(tmp_path), sim=SimConfig(standing_s=0.0), mode="raw",
-                     autoconnect=SIMULATED_PORT, confirm_close=False,
-                     confirm_unzeroed=True)  # fmt: skip
-    win.show()
+    win = simulated_window(tmp_path, 0.0)
     try:
         qtbot.waitUntil(lambda: win.engine is not None, timeout=WAIT_MS)
         qtbot.waitUntil(lambda: win.engine.samples_total >= 20, timeout=WAIT_MS)
