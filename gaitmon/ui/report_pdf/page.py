@@ -97,6 +97,9 @@ def nice_ticks(lo: float, hi: float, target: int = 5) -> np.ndarray:
 # the page painter: millimetres in, device pixels out
 
 
+# word-wrapped text from the top left of its box
+_WRAP = int(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop) | int(Qt.TextFlag.TextWordWrap)
+
 class Page:
     """Draws on a painter in millimetres from the page's top left corner (``k`` px per mm)."""
 
@@ -189,15 +192,13 @@ class Page:
         if QFontMetricsF(font, self.dev).horizontalAdvance(text) <= width:
             self.text(x, y, w, h, text, size, bold=bold, colour=colour, elide=False)
             return
-        self.p.setFont(font)
-        self.p.setPen(colour)
-        flags = int(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop) | int(
-            Qt.TextFlag.TextWordWrap
-        )
-        br = QFontMetricsF(font, self.dev).boundingRect(QRectF(0, 0, width, 1e6), flags, text)
-        top = max(0.0, (h - br.height() / self.k) / 2)  # centred when it fits the box
-        self.boxes.append((self.page, x, y + top, w, br.height() / self.k, text))
-        self.p.drawText(QRectF(self.mm(x), self.mm(y + top), width, br.height() + 1), flags, text)
+        top = max(0.0, (h - self.wrapped_height(w, text, size, bold=bold)) / 2)  # centred
+        self.wrapped(x, y + top, w, text, size, bold=bold, colour=colour)
+
+    def wrapped_height(self, w: float, text: str, size_pt: float, *, bold: bool = False) -> float:
+        """The height (mm) :meth:`wrapped` uses for ``text`` in a column ``w`` mm wide."""
+        fm = QFontMetricsF(self.font(size_pt, bold), self.dev)
+        return fm.boundingRect(QRectF(0, 0, self.mm(w), 1e6), _WRAP, text).height() / self.k
 
     def wrapped(
         self,
@@ -214,15 +215,10 @@ class Page:
         font = self.font(size_pt, bold)
         self.p.setFont(font)
         self.p.setPen(colour)
-        flags = int(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop) | int(
-            Qt.TextFlag.TextWordWrap
-        )
-        fm = QFontMetricsF(font, self.dev)
-        br = fm.boundingRect(QRectF(0, 0, self.mm(w), 1e6), flags, text)
-        r = QRectF(self.mm(x), self.mm(y), self.mm(w), br.height() + 1)
-        self.boxes.append((self.page, x, y, w, br.height() / self.k, text))
-        self.p.drawText(r, flags, text)
-        return br.height() / self.k
+        h = self.wrapped_height(w, text, size_pt, bold=bold)
+        self.boxes.append((self.page, x, y, w, h, text))
+        self.p.drawText(QRectF(self.mm(x), self.mm(y), self.mm(w), h * self.k + 1), _WRAP, text)
+        return h
 
     def hline(
         self, x0: float, x1: float, y: float, colour: QColor = RULE, width_mm: float = 0.2
