@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import functools
 import importlib.util
 import json
 import math
@@ -40,32 +41,14 @@ import textwrap
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+from faults.common import GAITMON, ROOT, Row
+from faults.common import env as _env
 
-ROOT = Path(__file__).resolve().parents[1]
-GAITMON = [sys.executable, "-m", "gaitmon"]
 FS_HZ = 100.0
-
-
-@dataclass
-class Row:
-    test: str
-    goal: str
-    figure: str
-    ok: bool
-
-    def line(self) -> str:
-        return f"| {self.test} | {self.goal} | {self.figure} | {'PASS' if self.ok else 'FAIL'} |"
-
-
-def _env() -> dict[str, str]:
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    env.setdefault("QT_QPA_PLATFORM", "offscreen")
-    return env
 
 
 # --- decoder and chunking -----------------------------------------------------------------------
@@ -687,11 +670,23 @@ def row_soak(quick: bool, speed: float) -> list[Row]:
 # --- main ------------------------------------------------------------------------------------
 
 
+def _more_rows() -> dict[str, Callable[[argparse.Namespace], list[Row]]]:
+    """The rows of every module in benchmarks/faults/ (each defines ROWS), by module name."""
+    out: dict[str, Callable[[argparse.Namespace], list[Row]]] = {}
+    for path in sorted((Path(__file__).parent / "faults").glob("*.py")):
+        if path.stem in ("__init__", "common"):
+            continue
+        mod = importlib.import_module(f"faults.{path.stem}")
+        out.update(mod.ROWS)
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller sizes (~2-4 min)")
+    more = _more_rows()
     ap.add_argument("--only", default="", help="comma-separated rows: " + ",".join(
-        ["decoder", "linkcut", "kill9", "diskfull", "damaged", "soak"]))  # fmt: skip
+        ["decoder", "linkcut", "kill9", "diskfull", "damaged", "soak", *more]))  # fmt: skip
     ap.add_argument("--corpus-module", default=None, help="path of a damaged_corpus.py")
     ap.add_argument("--soak-speed", type=float, default=12.0, help="simulator time factor")
     args = ap.parse_args()
@@ -703,6 +698,11 @@ def main() -> int:
         "damaged": lambda: row_damaged(args.quick, args.corpus_module),
         "soak": lambda: row_soak(args.quick, args.soak_speed),
     }
+    for name, fn in more.items():
+        rows[name] = functools.partial(fn, args)
+    unknown = [r for r in args.only.split(",") if r and r not in rows]
+    if unknown:
+        ap.error(f"no row named {', '.join(unknown)}; the rows are {', '.join(rows)}")
     only = [r for r in args.only.split(",") if r] or list(rows)
     table: list[Row] = []
     t_all = time.monotonic()
