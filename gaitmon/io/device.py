@@ -44,7 +44,7 @@ from gaitmon.io.protocol import (
     TiltFrame,
     encode_command,
 )
-from gaitmon.io.transport import LinkError, Transport, TransportStatus
+from gaitmon.io.transport import LinkError, LinkState, Transport, TransportStatus
 from gaitmon.text import count
 
 
@@ -328,10 +328,8 @@ class Device:
                     if pending.ack is not None and not pending.ack.ok:
                         raise DeviceError(f"unit refused {cmd.name}: {pending.ack.status.name}")
                     return pending
-            status = self.transport.status
             raise DeviceError(
-                f"no answer to {cmd.name} after {self.command_attempts} attempts "
-                f"({status.describe()})"
+                _unanswered(cmd, self.command_attempts, timeout_s, self.transport.status)
             )
 
     def identify(self, timeout_s: float | None = None) -> Identity:
@@ -490,3 +488,15 @@ class Device:
                     lost += dropped[3] + 1
             self._queue.append((frame, seq, now, lost))
             self._cond.notify_all()
+
+
+def _unanswered(cmd: Command, attempts: int, timeout_s: float, status: TransportStatus) -> str:
+    """One line for a command nobody answered: what was asked, where, and what to check."""
+    where = f" on {status.port}" if status.port else ""
+    asked = f"no answer to {cmd.name} after {attempts} attempts of {timeout_s:g} s{where}"
+    if status.state == LinkState.CONNECTED:
+        return (
+            f"{asked}: the port is open but nothing answers; check that it is the gait unit's "
+            "port and that the unit is switched on and charged, then connect again"
+        )
+    return f"{asked}: the link is down ({status.describe()}); connect again once the unit is back"
