@@ -144,3 +144,28 @@ def test_a_real_read_only_drive(tmp_path):
         assert f"cannot write {out}: the drive is read-only (errno 30)" in r.stderr, r.stderr
         lines.append(r.stderr)
     assert len(lines) == 3
+
+
+@pytest.mark.skipif(not _ro_mount_works(), reason="no user namespace to mount a read-only drive")
+def test_a_report_or_comparison_into_a_read_only_drive_is_one_line(tmp_path):
+    """Issue 25, words: a report (or a comparison's PDF) into a read-only folder printed Qt's
+    own "QPainter::begin(): Returned false" and the temporary file's name ("[Errno 30] ...
+    '.r.pdf.6059.tmp'"); now one line naming the PDF asked for, the cause and what to do."""
+    src, again = tmp_path / "walk.h5", tmp_path / "again.h5"
+    for out in (src, again):
+        assert main(["record", "--simulate", "--duration", "20", "--speed", "max", "-q",
+                     "--patient", "P1", "-o", str(out)]) == 0  # fmt: skip
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path), "QT_QPA_PLATFORM": "offscreen"}
+    for argv in (["report", str(src)], ["compare", str(src), str(again)]):
+        out = ro / f"{argv[0]}.pdf"
+        cmd = (f"mount -t tmpfs -o ro tmpfs {ro} && exec {sys.executable} -m gaitmon "
+               f"{' '.join(argv)} -o {out}")
+        r = subprocess.run(["unshare", "-rm", "sh", "-c", cmd], capture_output=True, text=True,
+                           env=env, timeout=180)  # fmt: skip
+        assert r.returncode == 2, r.stderr
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1, r.stderr  # no Qt warning before it
+        assert "QPainter" not in r.stderr and ".tmp" not in r.stderr, r.stderr
+        assert f"cannot write {out}: the drive is read-only (errno 30)" in r.stderr, r.stderr

@@ -84,6 +84,10 @@ def write_page(
         if png is not None:
             write_png(data, png)
     except OSError as exc:
+        if exc.errno:  # the drive's own words and what to do (one text for every output)
+            from gaitmon.errors import output_error_text
+
+            raise UserError(f"the {what}: {output_error_text(exc, exc.filename or out)}") from None
         raise UserError(f"cannot write the {what}: {exc}") from None
 
 

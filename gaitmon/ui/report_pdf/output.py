@@ -32,12 +32,31 @@ def tmp_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
+def _writable_tmp(path: Path) -> Path:
+    """Create the temporary file beside ``path`` ourselves, before Qt opens it: a read-only
+    drive, a full disk or a missing permission is then an ``OSError`` with its errno, naming
+    ``path`` (the file asked for, not the temporary one), and Qt prints no warning of its own
+    ("QPainter::begin(): Returned false")."""
+    tmp = tmp_path(path)
+    try:
+        with open(tmp, "wb"):
+            pass
+    except OSError as e:
+        raise OSError(e.errno, e.strerror, str(path)) from None
+    return tmp
+
+
+def _failed(path: Path, tmp: Path) -> OSError:
+    tmp.unlink(missing_ok=True)
+    return OSError(f"cannot write {path} (the drive may be full or was removed)")
+
+
 def write_a4_pdf(path: str | os.PathLike[str], paint: Paint, *, creator: str, title: str,
                  dpi: int = 600) -> Path:  # fmt: skip
     """Paint A4 pages into the PDF ``path``."""
     ensure_gui_app()
     path = Path(path)
-    tmp = tmp_path(path)
+    tmp = _writable_tmp(path)
     writer = QPdfWriter(str(tmp))
     writer.setResolution(dpi)
     writer.setPageLayout(QPageLayout(QPageSize(QPageSize.PageSizeId.A4),
@@ -47,16 +66,14 @@ def write_a4_pdf(path: str | os.PathLike[str], paint: Paint, *, creator: str, ti
     writer.setTitle(title)
     painter = QPainter()
     if not painter.begin(writer):
-        tmp.unlink(missing_ok=True)
-        raise OSError(f"cannot write {path}")
+        raise _failed(path, tmp)
     try:
         paint(painter, writer, writer.newPage)
     finally:
         painter.end()
     del writer
     if not tmp.exists() or tmp.stat().st_size == 0:
-        tmp.unlink(missing_ok=True)
-        raise OSError(f"cannot write {path}")
+        raise _failed(path, tmp)
     os.replace(tmp, path)
     return path
 
@@ -87,10 +104,9 @@ def render_a4_image(paint: Paint, dpi: float = 150.0) -> QImage:
 def write_png(path: str | os.PathLike[str], image: QImage) -> Path:
     """Write ``image`` as a PNG (atomically, like the PDF)."""
     path = Path(path)
-    tmp = tmp_path(path)
+    tmp = _writable_tmp(path)
     # QImageWriter: QImage.save's format argument is typed as bytes but only takes a str
     if not QImageWriter(str(tmp), b"PNG").write(image):
-        tmp.unlink(missing_ok=True)
-        raise OSError(f"cannot write {path}")
+        raise _failed(path, tmp)
     os.replace(tmp, path)
     return path

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 from PySide6.QtCore import QObject, Signal
 
 from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.errors import output_error_text
 from gaitmon.finish import rewrite_processed
 from gaitmon.io.session import SessionError, journal_path
 from gaitmon.jobs import Response, Ticket
@@ -402,7 +403,8 @@ class ReviewJobs(Part):
         try:
             out = write_report_pdf(r.data, path)
         except OSError as e:
-            self.status.show_problem(f"Cannot write the report: {one_line(e)}")
+            what = output_error_text(e, e.filename or path) if e.errno else one_line(e)
+            self.status.show_problem(f"The report: {what}")
             return
         note = " (recorded series; reprocessing is not in the report)" if (
             r.doc.reprocessed is not None) else ""  # fmt: skip
