@@ -284,3 +284,30 @@ def test_the_guide_warns_while_recording_unzeroed_until_a_zero(qtbot):
     bar.reopen()
     bar.show_state(GuideState(connected=True, zeroed=True, recording=True))
     assert not bar.isVisible()
+
+
+def test_a_recording_that_cannot_start_says_so_where_it_stays(qtbot, tmp_path, no_leaked_threads):
+    """Issue 25, words: a Record that cannot create its file (here its folder is a file) was
+    said only in the status bar, gone after 30 s; it stays in the record banner, with the
+    cause, until a recording starts."""
+    win = simulated_window(tmp_path, math.inf, confirm_unzeroed=False)
+    try:
+        qtbot.waitUntil(lambda: win.engine is not None, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: win.engine.samples_total >= 50, timeout=WAIT_MS)
+        (tmp_path / "not_a_folder").write_text("")
+        bad = tmp_path / "not_a_folder" / "walk.h5"
+        assert not win.recording_part.start_recording(bad, patient_id="P1")
+        assert not win.recording
+        banner = win.status.record_banner
+        assert banner.isVisibleTo(win)
+        assert banner.text().startswith("Not recording: cannot create walk.h5")
+        assert "Not a directory" in banner.text()
+        win.statusBar().clearMessage()  # the status bar's line goes; the banner stays
+        assert banner.isVisibleTo(win) and "walk.h5" in banner.text()
+        good = tmp_path / "walk.h5"
+        assert win.recording_part.start_recording(good, patient_id="P1")
+        assert not banner.isVisibleTo(win)  # a recording that starts takes it away
+        win.act_record.trigger()  # stop
+        qtbot.waitUntil(lambda: not win.ctx.saving, timeout=WAIT_MS)
+    finally:
+        close(win)

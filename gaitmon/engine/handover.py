@@ -50,8 +50,10 @@ def open_recorder(
         writer = SessionWriter(path, header, overwrite=overwrite)
     except SessionError as exc:
         raise EngineError(str(exc)) from exc
-    except OSError as exc:
-        raise EngineError(f"cannot create {path}: {exc.strerror or exc}") from exc
+    except OSError as exc:  # the output's problem, said as every output says it
+        from gaitmon.errors import output_error_text
+
+        raise EngineError(output_error_text(exc, path)) from exc
     return Recorder(writer, queue_blocks, header.config, calibration, limit_samples=limit_samples)
 
 

@@ -185,8 +185,10 @@ class RecordingPart:
                 pair.pair.start_recording(path, meta)
             elif conn is not None:
                 conn.engine.start_recording(path, meta)
-        except EngineError as exc:
-            ctx.notify(f"Could not start recording: {one_line(exc)}", 30_000)
+        except EngineError as exc:  # said where it stays until the next recording starts
+            msg = f"Not recording: {one_line(exc)}"
+            ctx.status.show_recorder_stopped(msg)
+            ctx.notify(msg, 30_000)
             return False
         p = ctx.prefs
         p.set(LiveKey.SESSION_FOLDER, str(path.parent))
