@@ -148,3 +148,31 @@ def test_one_duration_in_the_review_window_and_its_compare_view(
         win.act["compare_sessions"].trigger()
     text = win.comparer.view.sessions.text()
     assert f"visit1.h5 · {d1}" in text and f"visit2.h5 · {d2}" in text, text
+
+
+def test_a_side_nobody_entered_is_not_the_units_side_in_c3d_and_bids(sessions, tmp_path, capsys):
+    """The C3D and BIDS exports took the unit's IDENTITY side ("R") when nobody entered one,
+    while info and the report say "not recorded": they now follow the session's side too."""
+    ezc3d = pytest.importorskip("ezc3d")
+    path = sessions[0]
+    c3d = tmp_path / "walk.c3d"
+    assert main(["export", str(path), "--format", "c3d", "-o", str(c3d), "-q"]) == 0
+    c = ezc3d.c3d(str(c3d))
+    P = c["parameters"]
+    assert P["GAITMON"]["SIDE"]["value"] == ["unknown"]
+    labels = P["POINT"]["LABELS"]["value"]
+    assert not [x for x in labels if x.startswith(("R", "L")) and x[1].isupper()], labels
+    contexts = set(P["EVENT"]["CONTEXTS"]["value"]) if "EVENT" in P else set()
+    assert "Right" not in contexts and "Left" not in contexts, contexts
+    assert main(["export", str(path), "--format", "bids", "-o", str(tmp_path / "b"), "-q",
+                 "--subject", "01"]) == 0  # fmt: skip
+    [chans] = list((tmp_path / "b").rglob("*_channels.tsv"))
+    rows = [line.split("\t") for line in chans.read_text().splitlines()]
+    col = rows[0].index("tracked_point")
+    points = {r[col] for r in rows[1:]}
+    assert not [p for p in points if p.startswith(("Right", "Left"))], points
+    # an entered side is still used
+    left = _session(tmp_path / "left.h5", N, "L", "2026-10-01T09:00:00Z")
+    lc3d = tmp_path / "left.c3d"
+    assert main(["export", str(left), "--format", "c3d", "-o", str(lc3d), "-q"]) == 0
+    assert ezc3d.c3d(str(lc3d))["parameters"]["GAITMON"]["SIDE"]["value"] == ["L"]

@@ -330,12 +330,11 @@ def metadata(src: Source, scrub: Scrubber) -> JsonObject:
 
 
 def session_side(src: Source) -> str:
-    """'L', 'R' or '' from /session side, else /device side."""
-    for group in ("session", "device"):
-        s = as_text(src.group_attrs(group).get("side", "")).strip().upper()
-        if s in ("L", "R"):
-            return s
-    return ""
+    """'L', 'R' or '' (nobody entered one) from /session side: the leg measured, as
+    :func:`gaitmon.text.side_text` reads it for info, the report and compare. The unit's own
+    IDENTITY side (/device side) is the unit's, not the patient's, and is not used."""
+    s = as_text(src.group_attrs("session").get("side", "")).strip().upper()
+    return s if s in ("L", "R") else ""
 
 
 class ExportedMarker(TypedDict):
