@@ -136,3 +136,28 @@ def test_live_two_leg_lost_label_is_drawn_whole_in_the_plot(qtbot) -> None:
     assert label.drawn.width() >= width  # the text's own width, no less
     assert left - 1 <= label.drawn.left() and label.drawn.right() <= edge + 1, (
         label.drawn, left, edge)
+
+
+def test_live_marker_label_dropped_just_now_is_drawn_whole_in_the_plot(qtbot) -> None:
+    """The one-leg live plots: a marker dropped a moment ago had its label start at "now",
+    the plot's right edge, so all but its first letters ran past it."""
+    from gaitmon.ui.plots.live import LivePlots
+    from gaitmon.ui.theme import current_colours
+
+    plots = LivePlots(current_colours())
+    qtbot.addWidget(plots)
+    plots.resize(900, 600)
+    plots.show()
+    qtbot.waitExposed(plots)
+    t_now = 100.0
+    plots._update_marker_labels([(t_now - 0.1, "asked to turn")], t_now)  # as update_from does
+    for name in ("body", "hip"):
+        plots.plots[name].traces.commit()
+    plots.grab()  # paint
+    [(label, name), *_] = [(lb, n) for lb, n in plots._marker_labels if lb.visible]
+    assert label.text == "asked to turn" and label.drawn is not None
+    vb = plots.plots[name].plot.getViewBox()
+    edge = plots.mapFromScene(vb.mapViewToScene(QPointF(0.0, 0.0))).x()
+    width = QFontMetrics(label._doc.defaultFont()).horizontalAdvance(label.text)
+    assert label.drawn.width() >= width
+    assert label.drawn.right() <= edge + 1, (label.drawn, edge)

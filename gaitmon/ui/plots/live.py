@@ -414,7 +414,8 @@ class LivePlots(CountingPlotWidget):
             k = i // 2
             if k < len(shown):
                 x, label = shown[k]
-                item.set(label or "marker", x, self.plots[name].yrange[1])
+                # ending by "now" (the right edge): one dropped a moment ago is drawn whole
+                item.set(label or "marker", x, self.plots[name].yrange[1], right=0.0)
             else:
                 item.hide()
 
