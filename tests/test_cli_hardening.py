@@ -192,6 +192,17 @@ def test_speed_max_records_exactly_the_duration_every_time(tmp_path):
             assert s.n_samples == 1000 and s.complete
 
 
+def test_two_legs_at_a_raised_speed_record_the_duration_on_each_leg(tmp_path):
+    """Issue 26, item 12: ``--duration 30 --speed 10`` wrote 34.0 s of two legs (left 3,400,
+    right 3,121 frames) where one leg wrote 30.7 s: each leg now stops at the unit's time."""
+    out = tmp_path / "both.h5"
+    assert main(["record", "--simulate-bilateral", "--speed", "10", "--duration", "12", "-o",
+                 str(out), "-q"]) == 0  # fmt: skip
+    for side in ("L", "R"):
+        with open_session(out, side=side) as s:
+            assert s.n_samples == 1200 and s.complete, side
+
+
 @pytest.mark.timeout(120)
 def test_a_unit_that_stops_sending_ends_the_recording_non_zero(tmp_path, monkeypatch, capsys):
     import gaitmon.commands.record as record
