@@ -35,6 +35,7 @@ import json
 import math
 import multiprocessing
 import os
+import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -295,6 +296,24 @@ def _save_record(task: Task, state: Path, fingerprint: str, outcome: Outcome) ->
 # -- running ---------------------------------------------------------------------------------
 
 
+def die_with_parent(parent_pid: int) -> None:
+    """A pool worker's first act: on Linux, ask the kernel to kill it when the batch process
+    dies (``prctl(PR_SET_PDEATHSIG, SIGKILL)``), so a ``kill -9`` of ``gaitmon batch`` leaves
+    no worker reprocessing on for nobody (and with them gone, multiprocessing's resource
+    tracker reads the end of its pipe and exits too). Elsewhere a no-op: a worker then ends
+    at its next task, when it finds the pool's pipe closed."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    pr_set_pdeathsig = 1
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
+    if os.getppid() != parent_pid:  # it died before the request was made: go now
+        os._exit(1)
+
+
 def _run_local(tasks: Sequence[Task], jobs: int, done: Callable[[Outcome], None]) -> None:
     if jobs <= 1 or len(tasks) <= 1:
         for t in tasks:
@@ -302,7 +321,8 @@ def _run_local(tasks: Sequence[Task], jobs: int, done: Callable[[Outcome], None]
         return
     # spawn: a fresh interpreter per worker, no fork of a parent holding h5py state or threads
     ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=ctx) as pool:
+    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=ctx,
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         futures = [pool.submit(reprocess_one, t) for t in tasks]
         try:
             for f in as_completed(futures):

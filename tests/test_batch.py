@@ -457,3 +457,68 @@ def test_a_both_legs_session_is_skipped_with_the_reason_not_called_damaged(study
     assert by_rel["both.h5"].status == "skipped"
     assert "both legs" in by_rel["both.h5"].reason and "gaitmon process" in by_rel["both.h5"].reason
     assert by_rel[src.name].status == OK
+
+
+def _children(pid: int) -> set[int]:
+    out = set()
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                status = (d / "status").read_text()
+            except OSError:
+                continue
+            if f"\nPPid:\t{pid}\n" in status:
+                out.add(int(d.name))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    return "\nState:\tZ" not in state  # a zombie has ended
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads /proc (Linux)")
+def test_a_killed_batch_takes_its_workers_with_it(study, tmp_path):
+    """Issue 26, item 12: after ``kill -9`` of ``gaitmon batch`` its pool workers reprocessed
+    on (and wrote their outputs) for nobody. Now they die with it: no output appears after
+    the kill, and every worker is gone."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    for src in sorted(study.rglob("*.h5"))[:6]:
+        shutil.copyfile(src, sub / src.name)
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen([sys.executable, "-m", "gaitmon", "batch", str(sub), "-o", str(out),
+                             "--jobs", "2", "-q"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    try:
+        workers: set[int] = set()
+        deadline = time.monotonic() + 120
+        # wait until two workers run and one is writing (a .partial output exists)
+        while time.monotonic() < deadline and proc.poll() is None:
+            workers = {c for c in _children(proc.pid)
+                       if b"spawn_main" in Path(f"/proc/{c}/cmdline").read_bytes()}
+            if len(workers) >= 2 and list(out.rglob("*.partial")):
+                break
+            time.sleep(0.01)
+        assert proc.poll() is None and len(workers) >= 2, "the batch ended before the kill"
+        done_at_kill = {p.name for p in out.rglob("*.h5")}
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+        deadline = time.monotonic() + 120  # a generous wait for the old code's workers to end
+        while time.monotonic() < deadline and any(_alive(w) for w in workers):
+            time.sleep(0.05)
+        assert not any(_alive(w) for w in workers)
+        assert {p.name for p in out.rglob("*.h5")} == done_at_kill  # nothing written after
+    finally:
+        if proc.poll() is None:
+            proc.kill()
