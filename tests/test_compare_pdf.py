@@ -1,7 +1,7 @@
 """``gaitmon compare``: the PDF of a normal and a stiff-knee session shows each session's own
-figures and the knee changes marked beyond their minimal detectable change (shown beside each); the page holds together (text
-inside the margins, no word over another, the overlaid curves in each session's colour);
-bad inputs are one-line errors."""
+figures and the knee changes marked beyond their minimal detectable change (shown beside
+each); the page holds together (text inside the margins, no word over another, the overlaid
+curves in each session's colour); bad inputs are one-line errors."""
 
 import re
 import shutil
