@@ -142,7 +142,7 @@ def test_a_simulated_link_cut_is_said(qapp, cut_recording, walks, tmp_path, caps
     assert main(["compare", str(cut_recording), str(walks["first"]), "-o", str(pdf)]) == 0
     line = next(ln for ln in capsys.readouterr().out.splitlines() if "cut.h5" in ln)
     assert f"1 link outage ({lost[0].duration_s:.1f} s)" in line
-    assert 2.5 < lost[0].duration_s < 4.0  # 3 s of device time
+    assert lost[0].duration_s > 2.9  # the link was gone for 3 s of device time
     assert f"{sum(excluded.values())} strides excluded" in line
     assert f"settling after a gap {excluded[SETTLING]}" in line and excluded[SETTLING] >= 1
 
