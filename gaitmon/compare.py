@@ -8,9 +8,13 @@ between-stride SD, and the mean ± SD cycles. For each later session it gives th
 the first session (the baseline) and from the one before, judged by ONE rule,
 :func:`judge_change` (``docs/compare.md``):
 
-    a change is *beyond the between-stride variability* when |Δmean| > the pooled
-    between-stride SD of the two sessions, sqrt(((n1 − 1)·SD1² + (n2 − 1)·SD2²) / (n1 + n2 − 2)),
-    each session with at least 2 included strides; otherwise it is not judged.
+    a change is *beyond the minimal detectable change* when |Δmean| > MDC95 =
+    1.96 · √2 · SEM, with SEM the pooled stride-to-stride SD of the two sessions,
+    sqrt(((n1 − 1)·SD1² + (n2 − 1)·SD2²) / (n1 + n2 − 2)), each session with at least 2
+    included strides; otherwise it is not judged.
+
+Each session also says its gaps (link outages: count and seconds) and its excluded strides
+(count and reasons), :func:`session_quality`, counted as its report counts them.
 
 ``gaitmon compare`` draws a :class:`Comparison` as a PDF (``gaitmon.ui.report_pdf.compare``)
 and the review window shows the same one (``gaitmon.ui.review.compare_view``).
@@ -32,10 +36,11 @@ import numpy as np
 
 from gaitmon.dsp.channel_table import JOINTS as TABLE_JOINTS
 from gaitmon.errors import Cancelled, UserError
-from gaitmon.text import count, no_gait_events
+from gaitmon.text import count, no_gait_events, num
 
 if TYPE_CHECKING:
     from gaitmon.analysis import SessionAnalysis
+    from gaitmon.finish import Session
 
 N_POINTS = 101
 JOINTS: tuple[str, ...] = tuple(j.capitalize() for j in TABLE_JOINTS)  # Hip, Knee, Ankle
@@ -80,9 +85,14 @@ MEASURES: tuple[Measure, ...] = (
     *(Measure(f"min_{j.lower()}", f"Minimum {j.lower()}", "deg", 1) for j in JOINTS),
 )
 MEASURE_BY_KEY = {m.key: m for m in MEASURES}
+Z95 = 1.96  # two-sided 95 % of a normal distribution
+MDC_FACTOR = Z95 * math.sqrt(2.0)  # 2.77: the difference of two measurements, each with SD SEM
 RULE_TEXT = (
-    "A change is beyond the between-stride variability when |Δmean| is larger than the pooled "
-    "between-stride SD of the two sessions (each with at least 2 included strides)."
+    "A change is flagged when |Δmean| exceeds the minimal detectable change MDC95 = 1.96 · √2 · "
+    "SEM, where SEM is the two sessions' pooled stride-to-stride SD (each session with at least "
+    "2 included strides). Variability between the strides of one session is not test-retest "
+    "reliability between days (sensor placement, zeroing, the day itself): an unflagged change "
+    "is within stride-to-stride noise; a flagged one may still be within day-to-day variation."
 )
 
 
@@ -100,8 +110,9 @@ class Change:
     """A later session's measure against an earlier one's."""
 
     delta: float  # later − earlier
-    pooled_sd: float  # NaN when not judged
-    beyond: bool | None  # |delta| > pooled_sd; None: not judged (a count, or < 2 strides)
+    pooled_sd: float  # the SEM of the rule: pooled stride-to-stride SD; NaN when not judged
+    mdc: float  # MDC95 = 1.96 · √2 · pooled_sd, the threshold; NaN when not judged
+    beyond: bool | None  # |delta| > mdc; None: not judged (a count, or < 2 strides)
 
 
 def pooled_sd(a: Value, b: Value) -> float:
@@ -111,12 +122,67 @@ def pooled_sd(a: Value, b: Value) -> float:
     return math.sqrt(((a.n - 1) * a.sd**2 + (b.n - 1) * b.sd**2) / (a.n + b.n - 2))
 
 
+def mdc95(a: Value, b: Value) -> float:
+    """The minimal detectable change of a measure between two sessions: 1.96 · √2 · SEM with
+    SEM the pooled stride-to-stride SD (NaN with fewer than 2 strides in one)."""
+    return MDC_FACTOR * pooled_sd(a, b)
+
+
 def judge_change(earlier: Value, later: Value, judged: bool = True) -> Change:
-    """THE rule (module doc, docs/compare.md): beyond when |Δmean| > pooled between-stride SD."""
+    """THE rule (module doc, docs/compare.md): beyond when |Δmean| > MDC95."""
     delta = later.mean - earlier.mean
     sd = pooled_sd(earlier, later) if judged else float("nan")
-    beyond = bool(abs(delta) > sd) if math.isfinite(sd) and math.isfinite(delta) else None
-    return Change(delta, sd, beyond)
+    mdc = MDC_FACTOR * sd
+    beyond = bool(abs(delta) > mdc) if math.isfinite(mdc) and math.isfinite(delta) else None
+    return Change(delta, sd, mdc, beyond)
+
+
+def change_text(ch: Change, m: Measure, *, unit: bool = False, minus: str = "−") -> str:
+    """A change with its threshold beside it, "−0.1 (MDC 0.2)" (``unit``: "−0.1 deg (MDC 0.2
+    deg)"), so that the reader sees why it is or is not flagged; a count or an unjudged change
+    is the signed difference alone."""
+    u = f" {m.unit}" if unit and m.unit else ""
+    d = m.decimals
+    if math.isfinite(ch.mdc) and num(abs(ch.delta), d) == num(ch.mdc, d):
+        d += 1  # "+0.01 (MDC 0.01)" would not show which is larger
+    text = num(ch.delta, d, sign=True, minus=minus)
+    text += u if math.isfinite(ch.delta) else ""
+    if math.isfinite(ch.mdc):
+        text += f" (MDC {num(ch.mdc, d)}{u})"
+    return text
+
+
+@dataclass(frozen=True)
+class SessionQuality:
+    """A session's gaps and excluded strides (:func:`session_quality`)."""
+
+    outages: int  # gaps where the link was lost
+    outage_s: float  # their total duration
+    other_gaps: int  # shorter losses (frames lost on a noisy link)
+    excluded: dict[str, int]  # exclusion reason -> strides, in gaitmon.analysis.REASONS order
+
+    @property
+    def n_excluded(self) -> int:
+        return sum(self.excluded.values())
+
+    def text(self) -> str:
+        """One line: "1 link outage (5.4 s); 5 strides excluded (first stride 1, …)"."""
+        link = (f"{count(self.outages, 'link outage')} ({num(self.outage_s, 1)} s)"
+                if self.outages else "no link outage")  # fmt: skip
+        if self.other_gaps:
+            link += f", {count(self.other_gaps, 'other gap')}"
+        why = ", ".join(f"{reason} {n}" for reason, n in self.excluded.items())
+        excl = (f"{count(self.n_excluded, 'stride')} excluded ({why})" if why
+                else "no stride excluded")  # fmt: skip
+        return f"{link}; {excl}"
+
+
+def session_quality(session: Session, an: SessionAnalysis) -> SessionQuality:
+    """What the report's data-quality section counts (``gaitmon.report.session_losses``)."""
+    from gaitmon.report import session_losses
+
+    lo = session_losses(session, an.rows, an.excluded_ranges)
+    return SessionQuality(lo.outages, lo.outage_s, lo.n_gaps - lo.outages, dict(lo.excluded))
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,6 +202,7 @@ class SessionResult:
     mean_deg: np.ndarray  # (101, 3) hip / knee / ankle
     sd_deg: np.ndarray  # (101, 3), NaN with fewer than 2 strides
     label: str  # the legend's name for it: date and file (or session number and day)
+    quality: SessionQuality  # its gaps and excluded strides
     side: str = ""  # the leg measured: "L", "R" or "" (not recorded)
 
     @property
@@ -176,6 +243,10 @@ class Comparison:
     def beyond(self, k: int, since: int = 0) -> list[str]:
         """The measures of session ``k`` whose change from ``since`` is beyond the rule."""
         return [m.key for m in MEASURES if self.change(k, m.key, since).beyond]
+
+    def n_beyond(self) -> int:
+        """How many changes from the baseline are beyond the rule (every later session)."""
+        return sum(len(self.beyond(k)) for k in range(1, len(self.sessions)))
 
 
 # ------------------------------------------------------------------------------------------
@@ -263,6 +334,7 @@ class _Analysed:
     mean_deg: np.ndarray
     sd_deg: np.ndarray
     side: str
+    quality: SessionQuality
 
 
 def _analyse_file(path: Path) -> _Analysed:
@@ -284,6 +356,7 @@ def _analyse_file(path: Path) -> _Analysed:
             pid, created_utc, duration_s = s.meta.patient_id.strip(), s.created_utc, s.duration_s
             mode, method = s.mode, s.angle_method
             side = s.meta.side  # as info and the report read it (text.side_text)
+            quality = session_quality(s, an)
     except SessionError as exc:
         raise CompareError(str(exc)) from None
     except _DAMAGE as exc:
@@ -303,7 +376,7 @@ def _analyse_file(path: Path) -> _Analysed:
     mean, sd = cycle_mean_sd(cyc)
     return _Analysed(path, pid, parse_utc(created_utc), created_utc, float(duration_s), mode,
                      method, len(an.rows), session_values(an, cyc), mean, sd,
-                     side if side in ("L", "R") else "")  # fmt: skip
+                     side if side in ("L", "R") else "", quality)  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------
@@ -394,7 +467,8 @@ def _assemble(done: list[_Analysed], deidentify: bool) -> Comparison:
             name, pid = a.path.name, a.patient_id
         sessions.append(SessionResult(
             a.path, name, pid, when, a.created, a.duration_s, a.mode, a.angle_method,
-            a.n_strides_total, a.values, a.mean_deg, a.sd_deg, label, a.side))  # fmt: skip
+            a.n_strides_total, a.values, a.mean_deg, a.sd_deg, label, a.quality,
+            a.side))  # fmt: skip
     if deidentify and patient:
         patient = REDACTED
     return Comparison(tuple(sessions), tuple(warnings), patient, deidentify, len(distinct) > 1)
@@ -470,6 +544,7 @@ def _header_only(f: Path) -> tuple[str, _dt.datetime | None, str, float]:
 
 
 __all__ = [
+    "MDC_FACTOR",
     "MEASURES",
     "RULE_TEXT",
     "Change",
@@ -477,10 +552,14 @@ __all__ = [
     "Comparison",
     "Measure",
     "Recording",
+    "SessionQuality",
     "SessionResult",
     "Value",
+    "change_text",
     "compare_sessions",
     "judge_change",
     "list_recordings",
+    "mdc95",
     "pooled_sd",
+    "session_quality",
 ]

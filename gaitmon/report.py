@@ -153,9 +153,11 @@ def _settings(session: Session) -> tuple[tuple[str, str], ...]:
     return tuple(out)
 
 
-def _losses(
+def session_losses(
     session: Session, rows: Sequence[StrideRow], excluded_ranges: Sequence[tuple[int, int]]
 ) -> Losses:
+    """A session's gaps, link losses and excluded strides: the report's data-quality section
+    and each session of ``gaitmon compare`` (one count for both)."""
     outages = [g for g in session.gaps if g.reason.startswith("link lost")]
     counts = Counter(r.excluded for r in rows if r.excluded)
     link = session.link
@@ -307,7 +309,7 @@ def gather_report(
         spatial=spatial_summary(rows),
         settings=_settings(session),
         conventions=conventions,
-        losses=_losses(session, rows, an.excluded_ranges),
+        losses=session_losses(session, rows, an.excluded_ranges),
         normative=normative,
         deviation_deg=deviation,
         notes=tuple(notes),

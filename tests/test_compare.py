@@ -1,6 +1,6 @@
 """Progress across sessions (gaitmon.compare): the comparison of a normal and a stiff-knee
 session shows the changes the simulator put there, with the figures of each session's own
-analysis, and the one rule for "beyond the between-stride variability"."""
+analysis, and the one rule for "beyond the minimal detectable change" (MDC95)."""
 
 import math
 import shutil
@@ -11,12 +11,16 @@ from conftest import write_simulated_session
 
 from gaitmon.analysis import analyse_session
 from gaitmon.compare import (
+    MEASURE_BY_KEY,
     MEASURES,
     CompareError,
     Value,
+    _stat,
+    change_text,
     compare_sessions,
     judge_change,
     list_recordings,
+    mdc95,
     pooled_sd,
 )
 from gaitmon.finish import open_session
@@ -85,20 +89,48 @@ def test_stiff_knee_shows_as_less_knee_flexion_beyond_the_variability(normal_and
     assert c.change(1, "n_strides").beyond is None  # a count is never judged
 
 
-def test_the_rule_is_the_pooled_between_stride_sd():
+def test_the_rule_is_the_mdc95_of_the_pooled_stride_to_stride_sd():
     a, b = Value(50.0, 2.0, 11), Value(47.0, 4.0, 21)
-    hand = math.sqrt((10 * 4.0 + 20 * 16.0) / 30)  # 3.46
-    assert pooled_sd(a, b) == pytest.approx(hand)
-    assert judge_change(a, b).delta == -3.0
-    assert judge_change(a, b).pooled_sd == pytest.approx(hand)
-    assert judge_change(a, b).beyond is False  # |−3.0| < 3.46
+    sem = math.sqrt((10 * 4.0 + 20 * 16.0) / 30)  # 3.4641 = sqrt(12)
+    assert pooled_sd(a, b) == pytest.approx(sem)
+    # by hand: 1.96 * sqrt(2) * sqrt(12) = 1.96 * sqrt(24) = 9.6020
+    assert mdc95(a, b) == pytest.approx(9.6020, abs=1e-4)
+    ch = judge_change(a, b)
+    assert ch.delta == -3.0
+    assert ch.pooled_sd == pytest.approx(sem)
+    assert ch.mdc == pytest.approx(9.6020, abs=1e-4)
+    assert ch.beyond is False  # |−3.0| < 9.60: larger than the SD (the old rule) but not the MDC
 
 
-def test_the_rule_flags_only_a_change_larger_than_the_pooled_sd():
+def test_the_rule_on_synthetic_per_stride_values():
+    """Two sessions' per-stride values, the SDs and the threshold computed by hand."""
+    first = [10.0, 12.0, 11.0, 13.0, 9.0]  # mean 11, squares 1 + 1 + 0 + 4 + 4 = 10, SD² 2.5
+    second = [14.0, 16.0, 15.0]  # mean 15, squares 1 + 0 + 1 = 2, SD² 1
+    a, b = _stat(first), _stat(second)
+    assert (a.mean, a.sd**2, a.n) == pytest.approx((11.0, 2.5, 5))
+    assert (b.mean, b.sd**2, b.n) == pytest.approx((15.0, 1.0, 3))
+    # pooled SD² = (4 · 2.5 + 2 · 1) / 6 = 2; MDC95 = 1.96 · √2 · √2 = 3.92
+    ch = judge_change(a, b)
+    assert ch.pooled_sd == pytest.approx(math.sqrt(2.0))
+    assert ch.mdc == pytest.approx(3.92)
+    assert ch.delta == pytest.approx(4.0) and ch.beyond is True  # 4 > 3.92
+    # the same spread, the later session 0.1 lower: within the MDC
+    closer = _stat([v - 0.1 for v in second])
+    assert judge_change(a, closer).delta == pytest.approx(3.9)
+    assert judge_change(a, closer).beyond is False  # 3.9 < 3.92
+    # shown beside the change, in the measure's decimals
+    m = MEASURE_BY_KEY["min_knee"]
+    assert change_text(ch, m) == "+4.0 (MDC 3.9)"
+    assert change_text(judge_change(b, a), m, unit=True, minus="-") == "-4.0 deg (MDC 3.9 deg)"
+    # equal when rounded: one more decimal shows which is larger
+    assert change_text(judge_change(a, closer), m) == "+3.90 (MDC 3.92)"
+
+
+def test_the_rule_flags_only_a_change_larger_than_the_mdc():
     a = Value(50.0, 2.0, 11)
-    hand = math.sqrt((10 * 4.0 + 20 * 16.0) / 30)
-    assert not judge_change(a, Value(50.0 - 0.99 * hand, 4.0, 21)).beyond
-    assert judge_change(a, Value(50.0 + 1.01 * hand, 4.0, 21)).beyond
+    mdc = 1.96 * math.sqrt(2.0) * math.sqrt((10 * 4.0 + 20 * 16.0) / 30)
+    assert not judge_change(a, Value(50.0 - 0.99 * mdc, 4.0, 21)).beyond
+    assert judge_change(a, Value(50.0 + 1.01 * mdc, 4.0, 21)).beyond
     assert judge_change(a, Value(60.0, math.nan, 1)).beyond is None  # one stride: no SD
     assert judge_change(a, Value(60.0, 2.0, 5), judged=False).beyond is None
 

@@ -1,7 +1,7 @@
 """``gaitmon compare``: the PDF of a normal and a stiff-knee session shows each session's own
-figures and the knee changes marked beyond the variability; the page holds together (text
-inside the margins, no word over another, the overlaid curves in each session's colour);
-bad inputs are one-line errors."""
+figures and the knee changes marked beyond their minimal detectable change (shown beside
+each); the page holds together (text inside the margins, no word over another, the overlaid
+curves in each session's colour); bad inputs are one-line errors."""
 
 import re
 import shutil
@@ -42,7 +42,7 @@ def _knee_peak(path):
     with open_session(path) as s:
         inc = [r for r in analyse_session(s).rows if r.included]
     v = np.array([r.knee_peak_swing_deg for r in inc])
-    return v.mean(), v.std(ddof=1)
+    return v.mean(), v.std(ddof=1), len(v)
 
 
 def _minus(x):
@@ -61,19 +61,25 @@ def test_compare_pdf_normal_then_stiff_knee(qapp, normal_and_stiff_knee, tmp_pat
     # oldest first, whatever the order given
     assert text.index("visit1_normal.h5") < text.index("visit2_stiff.h5")
     assert "2026-10-01 09:00 UTC" in text and "2026-11-01 09:30 UTC" in text
-    (m1, s1), (m2, s2) = _knee_peak(normal), _knee_peak(stiff)
+    (m1, s1, n1), (m2, s2, n2) = _knee_peak(normal), _knee_peak(stiff)
+    # MDC95 by hand from the per-stride values: 1.96 · √2 · pooled SD
+    mdc = 1.96 * np.sqrt(2) * np.sqrt(((n1 - 1) * s1**2 + (n2 - 1) * s2**2) / (n1 + n2 - 2))
     row = next(ln for ln in text.splitlines() if ln.strip().startswith("Peak knee flexion"))
     cells = re.split(r"\s{2,}", row.strip())
-    # each session's own figures, the change, marked beyond the variability
+    # each session's own figures, the change with its MDC beside it, marked beyond it
     assert cells[1] == _minus(f"{m1:.1f} ± {s1:.1f}")
     assert cells[2] == _minus(f"{m2:.1f} ± {s2:.1f}")
-    assert cells[3] == _minus(f"{m2 - m1:.1f} *") and m2 - m1 < -15
+    assert cells[3] == _minus(f"{m2 - m1:.1f} (MDC {mdc:.1f}) *") and m2 - m1 < -15
     knee_rom = next(ln for ln in text.splitlines() if ln.strip().startswith("ROM knee"))
     assert knee_rom.rstrip().endswith("*")
     for unchanged in ("Stride time (s)", "ROM hip"):
         line = next(ln for ln in text.splitlines() if ln.strip().startswith(unchanged))
         assert not line.rstrip().endswith("*"), line
-    assert "pooledbetween-strideSDofthetwosessions" in re.sub(r"\s+", "", text)
+    flat = re.sub(r"\s+", "", text)
+    assert "MDC95=1.96·√2·SEM" in flat and "pooledstride-to-strideSD" in flat
+    assert "nottest-retestreliabilitybetweendays" in flat
+    # each session's gaps and excluded strides (these two: no outage, the first and last)
+    assert flat.count("nolinkoutage;2stridesexcluded(firststride1,laststride1)") == 2
     assert "page 1 of 1" in text
 
     # the page: the words inside the margins and none over another
@@ -120,7 +126,8 @@ def test_many_sessions_continue_in_further_tables(qapp, normal_and_stiff_knee, t
     pages = int(re.search(r"page 1 of (\d+)", text).group(1))
     for page, x0, _y0, x1, _y1, word in _words(out):
         assert x0 >= 10 * MM and x1 <= 200 * MM, (page, word)
-    assert text.count("Peak knee flexion in swing (deg)") == 2  # 4 later sessions, 2 a table
+    # 4 later sessions, one a table (a change and its MDC need the width)
+    assert text.count("Peak knee flexion in swing (deg)") == 4
     assert pages >= 1
 
 

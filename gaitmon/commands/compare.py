@@ -11,10 +11,13 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from gaitmon.commands import add_force, add_quiet
 from gaitmon.commands.report import pdf_outputs, write_page
+
+if TYPE_CHECKING:
+    from gaitmon.compare import Comparison
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -27,7 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "numbered, with days since the first)")  # fmt: skip
     p.add_argument("--png", metavar="PNG", help="also write the first page as a PNG image")
     add_force(p, "existing output files")
-    add_quiet(p, "no summary line (warnings are still printed)")
+    add_quiet(p, "no summary (warnings are still printed)")
     p.epilog = "example: gaitmon compare visit1.h5 visit2.h5 -o progress.pdf"
 
 
@@ -49,9 +52,30 @@ def run(args: argparse.Namespace) -> int:
 
     write_page("comparison", writers, c, out, png)
     if not args.quiet:
-        n = sum(len(c.beyond(k)) for k in range(1, len(c.sessions)))
-        who = c.who
-        print(f"gaitmon compare: wrote {out}" + (f" and {png}" if png else "")
-              + f" ({len(c.sessions)} sessions, {who}; {n} change{'s' if n != 1 else ''} from "
-              "the baseline beyond the between-stride variability)")  # fmt: skip
+        print(f"gaitmon compare: wrote {out}" + (f" and {png}" if png else ""))
+        print("\n".join(summary_lines(c)))
     return 0
+
+
+def summary_lines(c: Comparison) -> list[str]:
+    """What the terminal says of a comparison: each session with its gaps and excluded
+    strides, then every change from the baseline beyond the MDC95 with its threshold."""
+    from gaitmon.compare import MEASURE_BY_KEY, change_text
+    from gaitmon.text import count
+
+    lines = [f"  {c.who}, {count(len(c.sessions), 'session')} (oldest first):"]
+    for k, s in enumerate(c.sessions):
+        role = " (baseline)" if k == 0 else ""
+        lines.append(f"  {k + 1}{role} {s.recorded_utc or 'date unknown'}  {s.file_name}: "
+                     f"{s.n_included} of {s.n_strides_total} strides included; "
+                     f"{s.quality.text()}")  # fmt: skip
+    n = c.n_beyond()
+    lines.append(f"  {count(n, 'change')} from the baseline beyond the minimal detectable "
+                 "change (MDC95 = 1.96 x sqrt(2) x pooled stride-to-stride SD; docs/compare.md)"
+                 + (":" if n else ""))  # fmt: skip
+    for k in range(1, len(c.sessions)):
+        for key in c.beyond(k):
+            m = MEASURE_BY_KEY[key]
+            ch = c.change(k, key)
+            lines.append(f"    {k + 1} - 1  {m.label}: {change_text(ch, m, unit=True, minus='-')}")
+    return lines

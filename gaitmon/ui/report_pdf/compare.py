@@ -1,10 +1,11 @@
 """The comparison sheet: a :class:`gaitmon.compare.Comparison` on A4 pages (``gaitmon compare``).
 
-Title and patient; the sessions (date, file, duration, angles, strides), each in its colour;
-warnings (patient ids, dates, angle methods); the three cycle plots with every session's mean ±
-SD band overlaid and a legend; the measures table, one column per session and the changes from
-the baseline and from the previous session, a change beyond the between-stride variability
-marked (the one rule of :mod:`gaitmon.compare`). Drawn with the report's kit (:class:`Page`,
+Title and patient; the sessions (date, file, duration, angles, strides), each in its colour,
+with its gaps and excluded strides; warnings (patient ids, dates, angle methods); the three
+cycle plots with every session's mean ± SD band overlaid and a legend; the measures table, one
+column per session and the changes from the baseline and from the previous session, each with
+its minimal detectable change beside it and marked when beyond it (the one rule of
+:mod:`gaitmon.compare`). Drawn with the report's kit (:class:`Page`,
 the flow blocks and pagination), so it looks and paginates like the report: a table too long
 for the page continues on the next one.
 """
@@ -28,7 +29,15 @@ from PySide6.QtGui import (
 )
 
 from gaitmon import __version__
-from gaitmon.compare import JOINTS, MEASURES, RULE_TEXT, Comparison, Measure, SessionResult
+from gaitmon.compare import (
+    JOINTS,
+    MEASURES,
+    RULE_TEXT,
+    Comparison,
+    Measure,
+    SessionResult,
+)
+from gaitmon.compare import change_text as _change_text
 from gaitmon.dsp.channel_table import JOINT_TABLE
 from gaitmon.text import duration_text
 from gaitmon.ui.report_pdf import flow
@@ -61,8 +70,10 @@ SESSION_COLOURS: tuple[str, ...] = ("#1f5fd6", "#d1401f", "#2a9d3a", "#8e44ad", 
 WARN = QColor("#a4261b")
 BEYOND = QColor("#a4261b")
 AXIS_LABELS = tuple(f"{j.label} (deg)" for j in JOINT_TABLE)  # hip flexion (deg), ...
-LATER_PER_TABLE = 2  # later sessions per measures table (each with its change columns)
-MARK = "*"  # a change beyond the between-stride variability
+# later sessions per measures table: one, so that a change and its MDC ("−21.3 (MDC 0.5) *")
+# fit its column with the baseline, the session and the change from the previous one beside it
+LATER_PER_TABLE = 1
+MARK = "*"  # a change beyond its minimal detectable change (MDC95)
 
 
 def session_colour(k: int, alpha: int = 255) -> QColor:
@@ -83,13 +94,10 @@ def value_text(s: SessionResult, m: Measure) -> str:
 
 
 def change_text(c: Comparison, k: int, m: Measure, since: int) -> tuple[str, bool]:
-    """The change cell: signed Δ (with the mark when beyond the rule) and whether it is."""
+    """The change cell: signed Δ and its MDC95 beside it (``gaitmon.compare.change_text``), with
+    the mark when beyond it, and whether it is."""
     ch = c.change(k, m.key, since)
-    if m.key == "n_strides":
-        return (f"{ch.delta:+.0f}".replace("-", "−") if np.isfinite(ch.delta) else "–"), False
-    text = fmt(ch.delta, m.decimals)
-    if np.isfinite(ch.delta) and text not in ("0", "0.0", "0.00") and not text.startswith("−"):
-        text = "+" + text
+    text = _change_text(ch, m)
     return (f"{text} {MARK}" if ch.beyond else text), bool(ch.beyond)
 
 
@@ -185,12 +193,20 @@ def _sessions(p: Page, c: Comparison) -> list[Block]:
                  duration_text(s.duration_s), f"{s.n_included} of {s.n_strides_total}",
                  s.angle_method or s.mode)  # fmt: skip
         method_lines = flow.split_lines(p, cells[-1], cols[-1][1] - 2.4, size - 0.5)
-        bh = max(1, len(method_lines)) * h + 0.4
+        # its gaps and excluded strides, under the row from the "#" column to the right edge
+        q_x = LEFT_MM + cols[0][1] + 1.2
+        q_lines = flow.split_lines(p, s.quality.text(), RIGHT_MM - q_x - 1.2, size - 0.5)
+        top_h = max(1, len(method_lines)) * h
+        bh = top_h + len(q_lines) * h + 0.4
 
         def draw(p: Page, y: float, k: int = k, cells: Sequence[str] = cells,
-                 lines: list[str] = method_lines, bh: float = bh) -> None:  # fmt: skip
+                 lines: list[str] = method_lines, bh: float = bh, q_lines: list[str] = q_lines,
+                 q_x: float = q_x, top_h: float = top_h) -> None:  # fmt: skip
             if k % 2 == 1:
                 p.fill(LEFT_MM, y, WIDTH_MM, bh, SHADE)
+            for i, ln in enumerate(q_lines):
+                p.text(q_x, y + 0.2 + top_h + i * h, RIGHT_MM - q_x - 1.2, h, ln, size - 0.5,
+                       colour=MUTED, elide=False)  # fmt: skip
             _swatch(p, LEFT_MM + 1.2, y + 0.2, k)
             x = LEFT_MM
             for j, ((_t, w), text) in enumerate(zip(cols, cells, strict=True)):
@@ -345,18 +361,19 @@ def _measures(p: Page, c: Comparison) -> list[Block]:
     """The measures table(s): a table for every LATER_PER_TABLE later sessions."""
     later = list(range(1, len(c.sessions)))
     groups = [later[i : i + LATER_PER_TABLE] for i in range(0, len(later), LATER_PER_TABLE)]
-    blocks = [flow.heading(p, LEFT_MM, WIDTH_MM,
-                           "Measures (mean ± between-stride SD) and changes")]  # fmt: skip
+    blocks = [flow.heading(p, LEFT_MM, WIDTH_MM, "Measures (mean ± stride-to-stride SD) and "
+                           "changes (minimal detectable change beside each)")]  # fmt: skip
     for g in groups:
         blocks += _measure_table(p, c, g)
         blocks.append(flow.gap(2.5))
-    n_beyond = sum(len(c.beyond(k, 0)) for k in later)
-    note = (f"{MARK} beyond the between-stride variability. {RULE_TEXT} Changes are the later "
-            "session's minus the earlier one's. Strides included, stride time CV: not judged. "
+    n_beyond = c.n_beyond()
+    note = (f"{MARK} beyond its minimal detectable change. {RULE_TEXT} Changes are the later "
+            "session's minus the earlier one's, with the MDC95 in brackets. Strides included, "
+            "stride time CV: not judged. "
             "Cadence is derived (120 / mean stride time); ROM = maximum − minimum within each "
             "stride; maximum and minimum from the time-normalised stride. "
             f"{n_beyond} change{'s' if n_beyond != 1 else ''} from the baseline "
-            f"{'are' if n_beyond != 1 else 'is'} beyond the variability.")  # fmt: skip
+            f"{'are' if n_beyond != 1 else 'is'} beyond the MDC95.")  # fmt: skip
     blocks += flow.paragraph(p, LEFT_MM + 1.2, WIDTH_MM - 2.4, note, 7.0, colour=MUTED)
     return blocks
 

@@ -95,10 +95,9 @@ class SessionComparer(QObject):
         self.view.set_comparison(c)
         self.view.show()
         self.view.raise_()
-        n = sum(len(c.beyond(k)) for k in range(1, len(c.sessions)))
         self.status.message(f"Compared {count(len(c.sessions), 'session')}: "
-                            f"{count(n, 'change')} from the baseline beyond the between-stride "
-                            "variability", 15_000)  # fmt: skip
+                            f"{count(c.n_beyond(), 'change')} from the baseline beyond the "
+                            "minimal detectable change (MDC95)", 15_000)  # fmt: skip
         self.compared.emit()
 
     # -- the patient list ----------------------------------------------------------------------

@@ -1,11 +1,12 @@
 """The Compare view: two or more sessions of one patient, from one
 :class:`gaitmon.compare.Comparison` (the same as ``gaitmon compare``'s PDF).
 
-Top: the sessions (colour, date, file, strides, angles) and the warnings; middle: hip, knee
-and ankle cycles with each session's mean ± SD band in its colour (the PDF's colours); bottom:
-the measures table, one column per session and each later session's changes from the baseline
-and from the previous one, a change beyond the between-stride variability in red and bold
-(the one rule of :mod:`gaitmon.compare`, with the figures in its tooltip). *Save as PDF…*
+Top: the sessions (colour, date, file, strides, angles, gaps and excluded strides) and the
+warnings; middle: hip, knee and ankle cycles with each session's mean ± SD band in its colour
+(the PDF's colours); bottom: the measures table, one column per session and each later
+session's changes from the baseline and from the previous one, each with its minimal
+detectable change beside it, a change beyond it in red and bold (the one rule of
+:mod:`gaitmon.compare`, with the figures in its tooltip). *Save as PDF…*
 writes the comparison as ``gaitmon compare`` does.
 """
 
@@ -88,8 +89,8 @@ class CompareView(QWidget):
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         self.table.setAlternatingRowColors(True)
         self.table.verticalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
-        self.rule = QLabel(f"{MARK} beyond the between-stride variability (red). {RULE_TEXT} "
-                           "Δ = later − earlier. See docs/compare.md.")  # fmt: skip
+        self.rule = QLabel(f"{MARK} beyond its minimal detectable change (red). {RULE_TEXT} "
+                           "Δ = later − earlier, the MDC95 in brackets. See docs/compare.md.")
         self.rule.setWordWrap(True)
         self.save_button = QPushButton("Save as PDF…")
         self.save_button.clicked.connect(self.save_dialog)
@@ -134,6 +135,7 @@ class CompareView(QWidget):
                 f"&nbsp;&nbsp;&nbsp;&nbsp;{html.escape(s.file_name)} · "
                 f"{duration_text(s.duration_s)}"
                 f" · {s.n_included} of {s.n_strides_total} strides<br>&nbsp;&nbsp;&nbsp;&nbsp;"
+                f"{html.escape(s.quality.text())}<br>&nbsp;&nbsp;&nbsp;&nbsp;"
                 f"<span style='color:{muted}'>{html.escape(s.angle_method)}</span>"
             )
         who = html.escape(c.who)
@@ -202,11 +204,13 @@ class CompareView(QWidget):
                     if beyond:
                         item.setForeground(red)
                         item.setFont(bold)
+                    figures = (f"|Δ| {num(abs(ch.delta), 3)} {'>' if ch.beyond else '≤'} MDC95 "
+                               f"{num(ch.mdc, 3)} = 1.96 · √2 · pooled stride-to-stride SD "
+                               f"{num(ch.pooled_sd, 3)}")  # fmt: skip
                     item.setToolTip(
-                        f"beyond the between-stride variability: |Δ| {num(abs(ch.delta), 2)} "
-                        f"> pooled SD {num(ch.pooled_sd, 2)}" if ch.beyond else
-                        f"within the between-stride variability: |Δ| {num(abs(ch.delta), 2)} "
-                        f"≤ pooled SD {num(ch.pooled_sd, 2)}" if ch.beyond is False else
+                        f"beyond the minimal detectable change: {figures}" if ch.beyond else
+                        f"within the minimal detectable change: {figures}"
+                        if ch.beyond is False else
                         "not judged (a count or a ratio, or fewer than 2 strides)"
                     )  # fmt: skip
                 item.setTextAlignment(right)
