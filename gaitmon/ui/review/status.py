@@ -96,8 +96,12 @@ class StatusArea:
         self.notes.setVisible(bool(notes))
 
     def show_angles(self, method: str, tip: str) -> None:
-        """The method behind the angles shown ("" when no session is open)."""
-        self.angles.setText(f"Angles: <b>{method}</b>" if method else "")
+        """The method behind the angles shown ("" when no session is open), and where their
+        zero comes from on a second line: on one line the two were ~800 px wide and cut the
+        status bar's message (the file shown) at the window's default width."""
+        name, _sep, zero = method.partition(" · zero: ")
+        text = f"Angles: <b>{name}</b>" + (f"<br>zero: {zero}" if zero else "")
+        self.angles.setText(text if method else "")
         self.angles.setToolTip(tip)
         self.angles.setVisible(bool(method))
 
