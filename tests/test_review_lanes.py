@@ -262,6 +262,7 @@ def test_status_bar_message_is_not_cut_by_the_angles_label(qtbot, win, both) -> 
     room = angles.x() - 2 - 6
     width = QFontMetrics(sb.font()).horizontalAdvance(msg)
     assert width <= room, (width, room)
+    assert not win.status.hint.isVisible()  # the message is not drawn over another text
     # and the angles label is given the width its text needs, whole on screen
     assert angles.width() >= angles.sizeHint().width()
     assert angles.x() + angles.width() <= sb.width()

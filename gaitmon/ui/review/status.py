@@ -56,6 +56,12 @@ class StatusArea:
         # which angles every lane, the strides and the cycles show (View ▸ Angles switches)
         self.angles = QLabel()
         self.angles.setVisible(False)
+        # the status bar two lines tall from the start (the angles' method, their zero): grown
+        # under a message shown, it had Qt show the hint (a normal widget the message hides)
+        # over the message
+        two_lines = 2 * self.angles.fontMetrics().lineSpacing() + 2
+        self.angles.setMinimumHeight(two_lines)
+        sb.setMinimumHeight(two_lines + 4)
         sb.addPermanentWidget(self.angles)
         self.progress = QProgressBar()
         self.progress.setRange(0, PROGRESS_STEPS)

@@ -228,9 +228,8 @@ def cadence_note(two_legs: bool) -> str:
     """What the derived cadence rests on: with one unit, an assumption (two equal steps per
     stride); with both legs recorded the steps are measured, per leg, in the Both legs tab."""
     if two_legs:
-        return ("Cadence here is 120 / this leg's stride time. Both legs were recorded, so "
-                "the steps are measured per leg: each leg's step time and the measured "
-                "cadence are in the Both legs tab.")  # fmt: skip
+        return ("Cadence is 120 / this leg's stride time; both legs were recorded, so steps "
+                "are measured per leg (Both legs tab).")  # fmt: skip
     return ("Cadence is derived as 120 / stride time: one unit measures one leg, so two equal "
             "steps per stride are assumed.")  # fmt: skip
 
