@@ -212,6 +212,7 @@ class Timeline(QWidget):
             for tr in lane.traces.traces:
                 tr.clear()
             lane.traces.commit()
+            lane.refresh_legend()  # nothing drawn: no entry
             lane.shade.layers.clear()
             lane.shade.update()
             if lane.cursor is not None:
