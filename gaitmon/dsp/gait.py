@@ -48,7 +48,9 @@ class Phase(IntEnum):
     PUSH_OFF = 3  # toe only (heel off)
 
 
-PHASE_NAMES = ("swing", "loading", "foot flat", "push-off")  # indexed by Phase
+# indexed by Phase; LOADING (heel only, from heel strike to foot flat) is named as the
+# clinical phase it falls in: a bare "loading" read like a progress message in the readout
+PHASE_NAMES = ("swing", "loading response", "foot flat", "push-off")
 
 
 def phase_from_contacts(heel_loaded: np.ndarray, toe_loaded: np.ndarray) -> np.ndarray:

@@ -7,6 +7,10 @@ stride and seconds); the symmetry table (SR = left / right, SI = 2 |L - R| / (L 
 measured cadence. Each side's excluded strides are left out as ``analyse_bilateral`` leaves
 them out; the leg shown in review passes the ranges in force there, the other leg's are the
 ones stored for it (``FILE.L|R.review.json``). Definitions: ``docs/bilateral.md``.
+
+Each leg's cycle-normalised mean ± SD (:class:`SideCycles`) is the one-leg review's and the
+report's: :func:`gaitmon.analysis.cycle_stats` over the strides ``analyse_bilateral`` included on
+that leg, of the angles the review shows (the smoothed ones by default, as the report).
 """
 
 from __future__ import annotations
@@ -18,12 +22,22 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gaitmon.analysis import BilateralAnalysis, analyse_bilateral, clearance_symmetry_text
+from gaitmon.analysis import (
+    BilateralAnalysis,
+    SessionAnalysis,
+    analyse_bilateral,
+    clearance_symmetry_text,
+    cycle_stats,
+)
 from gaitmon.finish.bilateral import open_bilateral
 
 if TYPE_CHECKING:
     from gaitmon.dsp.bilateral import Symmetry
+    from gaitmon.finish.session import Session
     from gaitmon.io.session.exclusions import Exclusion
+
+N_POINTS = 101  # 0..100 % of the stride, as the review's and the report's cycles
+JOINT = "processed/joint_deg"
 
 # the table's rows: (label, SideGait measure, shown as % of the stride too)
 MEASURES: tuple[tuple[str, str, bool], ...] = (
@@ -43,6 +57,32 @@ def fmt(v: float, digits: int, unit: str = "") -> str:
     return "-" if not np.isfinite(v) else f"{v:.{digits}f}{unit}"
 
 
+@dataclass(frozen=True, eq=False)
+class SideCycles:
+    """One leg's cycle-normalised joint angles over its included strides."""
+
+    mean_deg: np.ndarray  # (101, 3) hip, knee, ankle
+    sd_deg: np.ndarray  # (101, 3) the sample SD (n - 1); NaN with one stride
+    toe_off_pct: float  # the mean stance, % of the stride (NaN without strides)
+    n_strides: int
+    angle_method: str  # what made the angles, for people
+
+
+def side_cycles(unit: Session, an: SessionAnalysis, angles: str | None = None) -> SideCycles:
+    """``unit`` 's mean cycles over the strides ``an`` includes, of the angles ``angles``
+    (smoothed | live; None or one the unit lacks: those ``an`` read, the unit's default)."""
+    joints, method = an.joints_deg, unit.angle_method
+    if angles and angles != unit.angle_source and angles in unit.angle_sources:
+        view = unit.with_angles(angles)  # a view of the same open file (closed with it)
+        joints = view.read(JOINT) if unit.n_samples else None
+        method = view.angle_method
+    if joints is None:
+        nan = np.full((N_POINTS, 3), np.nan)
+        return SideCycles(nan, nan.copy(), float("nan"), 0, method)
+    mean, sd, _ = cycle_stats(joints, an.rows, N_POINTS)
+    return SideCycles(mean, sd, an.summary().stance_pct_mean, an.n_included, method)
+
+
 @dataclass(frozen=True)
 class BothLegs:
     """The bilateral measures of one bilateral file, with the exclusions they were made with."""
@@ -52,6 +92,7 @@ class BothLegs:
     # per side: (first, last unit time s, and both on the common time line): the unit's clock
     # as a line, to show the other leg at the same moment (its wander is well under a ms)
     clock: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
+    cycles: dict[str, SideCycles] = field(default_factory=dict)  # by side
 
     @property
     def n_strides(self) -> dict[str, int]:
@@ -116,11 +157,15 @@ class BothLegs:
 
 
 def both_legs(
-    path: str | Path, side: str = "", exclusions: Sequence[Exclusion] | None = None
+    path: str | Path,
+    side: str = "",
+    exclusions: Sequence[Exclusion] | None = None,
+    angles: str | None = None,
 ) -> BothLegs:
     """Open the bilateral file at ``path`` (its own handles, closed before returning) and
     analyse both legs, ``side``'s with ``exclusions`` (the ranges in force in review) when
-    given. Raises :class:`gaitmon.io.session.SessionError`."""
+    given, their cycles of ``angles`` (the review's: smoothed | live; None: the file's
+    default). Raises :class:`gaitmon.io.session.SessionError`."""
     path = Path(path)
     given = {side: list(exclusions)} if side and exclusions is not None else None
     with open_bilateral(path) as b:
@@ -132,4 +177,6 @@ def both_legs(
                 ends = np.array([t[0], t[-1]], dtype=np.float64)
                 c = b.common_s(s, ends)
                 clock[s] = (float(ends[0]), float(ends[1]), float(c[0]), float(c[1]))
-        return BothLegs(path, analyse_bilateral(b, exclusions=given), clock)
+        an = analyse_bilateral(b, exclusions=given)
+        cycles = {s: side_cycles(b.unit(s), a, angles) for s, a in an.sides.items()}
+        return BothLegs(path, an, clock, cycles)

@@ -5,7 +5,8 @@ support, single support): each side's mean as % of the stride and in seconds, an
 ratio SR = L / R and index SI; above it the measured cadence and the strides that count. The
 cells are
 :class:`gaitmon.review.both_legs.BothLegs`'s (the numbers ``gaitmon info`` prints);
-:class:`~gaitmon.ui.review.legs.LegsControl` computes them on a worker.
+:class:`~gaitmon.ui.review.legs.LegsControl` computes them on a worker. Beside the table, both
+legs' mean cycles overlaid (:class:`~gaitmon.ui.review.both_legs_cycles.BothLegsCycles`).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from PySide6.QtWidgets import (
     QAbstractItemView,
     QHeaderView,
     QLabel,
+    QSplitter,
     QTableWidget,
     QTableWidgetItem,
     QVBoxLayout,
@@ -24,6 +26,8 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.review.both_legs import COLUMNS, BothLegs, fmt
+from gaitmon.ui.review.both_legs_cycles import BothLegsCycles
+from gaitmon.ui.theme import Colours, current_colours
 
 NOTE = ("SR = left / right of the means (1 symmetric); SI = 2 |L − R| / (L + R) (0 % "
         "symmetric). On the common time line, from the recorded gait events; each leg's "
@@ -53,10 +57,7 @@ def _table(headers: tuple[str, ...], tips: tuple[str, ...] = ()) -> QTableWidget
     t.setSelectionMode(QAbstractItemView.SelectionMode.NoSelection)
     t.setAlternatingRowColors(True)
     t.setWordWrap(False)
-    h = t.horizontalHeader()
-    h.setSectionResizeMode(0, QHeaderView.ResizeMode.ResizeToContents)
-    for i in range(1, len(headers)):
-        h.setSectionResizeMode(i, QHeaderView.ResizeMode.Stretch)
+    t.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
     return t
 
 
@@ -68,6 +69,15 @@ def _fill(t: QTableWidget, rows: list[tuple[str, ...]]) -> None:  # cells right-
             if c:
                 item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
             t.setItem(r, c, item)
+
+
+def _fit_columns(t: QTableWidget) -> None:
+    """Every column as wide as its widest cell, and the table as wide as its columns: its text
+    is never cut, the cycles beside it take the rest of the tab."""
+    h = t.horizontalHeader()
+    t.resizeColumnsToContents()
+    t.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+    t.setMinimumWidth(h.length() + 2 * t.frameWidth())
 
 
 def _fit_rows(t: QTableWidget) -> None:
@@ -84,7 +94,7 @@ def _fit_rows(t: QTableWidget) -> None:
 class BothLegsPanel(QWidget):
     """The tab's widgets; :meth:`set_result` fills them, :meth:`show_message` says why not."""
 
-    def __init__(self, parent: QWidget | None = None) -> None:
+    def __init__(self, colours: Colours | None = None, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.result: BothLegs | None = None
         self.headline = QLabel()
@@ -94,11 +104,24 @@ class BothLegsPanel(QWidget):
         self.note = QLabel(NOTE)
         self.note.setWordWrap(True)
         self.note.setStyleSheet("color: gray")
-        v = QVBoxLayout(self)
-        v.setContentsMargins(2, 2, 2, 2)
+        self.cycles = BothLegsCycles(colours or current_colours())
+        self.cycles.setMinimumWidth(240)
+        measures = QWidget()
+        v = QVBoxLayout(measures)
+        v.setContentsMargins(0, 0, 0, 0)
         v.addWidget(self.headline)
         v.addWidget(self.table, 1)
         v.addWidget(self.note)
+        # the table keeps the width its cells need; the cycles take the rest
+        self.splitter = QSplitter(Qt.Orientation.Horizontal)
+        self.splitter.addWidget(measures)
+        self.splitter.addWidget(self.cycles)
+        self.splitter.setStretchFactor(0, 0)
+        self.splitter.setStretchFactor(1, 1)
+        self.splitter.setChildrenCollapsible(False)
+        outer = QVBoxLayout(self)
+        outer.setContentsMargins(2, 2, 2, 2)
+        outer.addWidget(self.splitter)
         self.show_message("")
 
     def show_message(self, text: str) -> None:
@@ -106,6 +129,7 @@ class BothLegsPanel(QWidget):
         self.result = None
         self.headline.setText(html.escape(text))
         _fill(self.table, [])
+        self.cycles.clear_data()
 
     def set_result(self, both: BothLegs) -> None:
         self.result = both
@@ -130,7 +154,9 @@ class BothLegsPanel(QWidget):
             f"<b>{n['R']}</b>{tail}"
         )
         _fill(self.table, both.rows())
+        _fit_columns(self.table)
         _fit_rows(self.table)
+        self.cycles.set_cycles(both.cycles)
 
     def cell(self, measure: str, column: str) -> str:
         """The text shown for ``measure`` (e.g. "step time") in ``column`` (e.g. "SR (L/R)")."""

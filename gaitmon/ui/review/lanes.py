@@ -7,12 +7,25 @@ mouse handling, and what a lane holds.
   stride), drawing only the spans in view;
 * :class:`LaneViewBox` - x pan/zoom, Shift+drag selects a range, a click places the cursor;
 * :class:`TraceSpec`, :class:`Lane` - which series a lane draws, the items that draw them, and
-  what is done to one lane (fit y, events, points drawn); :func:`lane_plot` makes its plot.
+  what is done to one lane (draw a view, fit y, events, points drawn); :func:`lane_plot` makes
+  its plot;
+* :class:`LaneLegend` - the lane's legend: a swatch and a name (with its unit) for each coloured
+  trace drawn, in one row at the lane's top right.
+
+A lane's y range is fitted to the angles in force (the selected method's, and the recorded ones
+under a reprocessing), never to a *reference* trace: the gyro integration drifts (150° after a
+minute of walking is usual) and the accelerometer's tilt spikes at each impact, so fitted to
+them the angles that matter were squashed into a few pixels. A reference is drawn over that
+range, clipped at the lane's edges, its wraps at ±180° broken instead of drawn as vertical
+lines, and its legend entry says that it drifts and is not a measurement, and how far off
+scale it is in view.
 """
 
 from __future__ import annotations
 
+import html
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -22,7 +35,11 @@ from PySide6.QtCore import QRectF, Qt, QTimer, Signal
 from PySide6.QtGui import QBrush, QColor, QPainter, QPen
 from PySide6.QtWidgets import QGraphicsItem
 
+from gaitmon.dsp.channels import SEGMENTS
+from gaitmon.io.overview import PeakWindow
+from gaitmon.text import num
 from gaitmon.ui.plots import Trace, TraceSet, vertical_lines
+from gaitmon.ui.plots.traces import on_scale
 from gaitmon.ui.theme import Colours, pen
 
 AXIS_WIDTH_PX = 58  # every plot's y axis: the lanes' time axes line up
@@ -151,6 +168,59 @@ class TraceSpec:
     colour: QColor
     method: str = ""  # "kalman" / "acc" / "gyro": toggled together; "" always shown
     before: bool = False  # the recorded series under a reprocessed one (comparison)
+    # the legend's name, with the unit; "{method}" is the angles' method, "{segment}" the
+    # segment of the column drawn
+    label: str = ""
+    reference: bool = False  # drawn for comparison: never sets the lane's y range
+    dashed: bool = False
+
+
+class LaneLegend(pg.TextItem):  # type: ignore[misc]  # pyqtgraph is untyped
+    """A lane's legend: one entry (swatch in the trace's colour, name with its unit) for each
+    coloured trace drawn, in one row at the top right of the lane's view box (fixed there while
+    the traces pan), over a translucent background so the traces stay visible under it."""
+
+    def __init__(self, vb: pg.ViewBox, colours: Colours) -> None:
+        bg = QColor(colours.background)
+        bg.setAlpha(190)
+        super().__init__("", color=colours.foreground, anchor=(1, 0), fill=bg)
+        self.entries: list[tuple[str, str]] = []  # (swatch colour #rrggbb, text)
+        self.setParentItem(vb)
+        self.setZValue(30)
+        self.setVisible(False)
+        vb.sigResized.connect(self.place)
+
+    def set_entries(self, entries: list[tuple[QColor, str, str]]) -> None:
+        """``(colour, swatch, text)`` per entry, in order; an entry named twice is shown once."""
+        seen: list[tuple[str, str]] = []
+        cells = []
+        for colour, swatch, text in entries:
+            key = (colour.name(), text)
+            if key in seen or not text:
+                continue
+            seen.append(key)
+            cells.append(f"<span style='color:{colour.name()}'>{swatch}</span>&nbsp;"
+                         f"{html.escape(text).replace(' ', '&nbsp;')}")  # fmt: skip
+        if seen == self.entries:
+            return
+        self.entries = seen
+        self.setHtml("<span style='font-size:8pt'>" + " &nbsp; ".join(cells) + "</span>")
+        self.setVisible(bool(seen))
+        self.place()
+
+    def texts(self) -> list[str]:
+        return [text for _c, text in self.entries]
+
+    def place(self, *_args: object) -> None:
+        """At the top right; wrapped between entries when one row is wider than the lane."""
+        vb = self.parentItem()
+        if vb is None:
+            return
+        room = max(40.0, vb.width() - 4)
+        self.setTextWidth(-1)
+        if self.textItem.boundingRect().width() > room:
+            self.setTextWidth(room)
+        self.setPos(vb.width() - 2, 1)
 
 
 @dataclass
@@ -167,11 +237,62 @@ class Lane:
     events_to: Trace | None = None
     markers: Trace | None = None
     bands: list[tuple[Trace, int]] = field(default_factory=list)
+    band_names: tuple[str, ...] = ()  # the legend's name of each band (by phase, from 1)
     missing: pg.TextItem | None = None
+    legend: LaneLegend | None = None
+    extra_legend: list[tuple[QColor, str, str]] = field(default_factory=list)  # always listed
+    method: str = ""  # the angles' method, named in the legend
+    off_scale: dict[int, float] = field(default_factory=dict)  # by spec: farthest value, in view
+
+    def draw(self, windows: Mapping[tuple[str, str], PeakWindow], t_s: np.ndarray,
+             recorded_key: str, current_key: str, method: str) -> None:  # fmt: skip
+        """Set each visible trace from the rows read for the view (``windows`` by (source key,
+        series); the recorded source's for a "before" trace), a reference's wraps broken."""
+        self.method = method
+        for spec, tr in self.specs:
+            if not tr.visible:
+                continue
+            w = windows.get((recorded_key if spec.before else current_key, spec.series))
+            if w is None or not len(w.idx):
+                tr.clear()
+                continue
+            y = w.y[:, spec.column]
+            if spec.reference:  # a jump of more than 180° is a wrap: not drawn as a line
+                y = on_scale(y[:, None], [(-math.inf, math.inf)])[0][:, 0]
+            tr.set(t_s[w.idx], y, finite=bool(np.isfinite(y).all()))
+
+    def refresh_legend(self) -> None:
+        """The legend lists each coloured trace drawn now (and the lane's fixed entries); a
+        reference off the lane's scale says how far (its farthest value in view)."""
+        if self.legend is None:
+            return
+        y0, y1 = self.plot.getViewBox().viewRange()[1]
+        self.off_scale = {}
+        entries = []
+        for i, (spec, tr) in enumerate(self.specs):
+            if not (tr.visible and tr.path is not None and spec.label):
+                continue
+            text = spec.label.format(method=self.method or "angles shown",
+                                     segment=SEGMENTS[spec.column % len(SEGMENTS)])  # fmt: skip
+            if spec.reference:
+                r = tr.path.boundingRect()  # its values in view: lowest (top) to highest
+                lo, hi = r.top(), r.bottom()
+                if math.isfinite(lo) and math.isfinite(hi) and (lo < y0 or hi > y1):
+                    self.off_scale[i] = lo if y0 - lo > hi - y1 else hi
+                    text += (f", off scale here ({num(lo, 0, sign=True)} to "
+                             f"{num(hi, 0, sign=True)}°)")  # fmt: skip
+            colour = QColor(tr.pen.color()) if tr.pen is not None else spec.colour
+            entries.append((colour, "╌╌" if spec.dashed else "━━", text))
+        for (tr, _k), name in zip(self.bands, self.band_names, strict=False):
+            if tr.visible and (tr.path is not None or tr.rects) and tr.brush is not None:
+                entries.append((tr.brush.color(), "■", name))
+        self.legend.set_entries(entries + self.extra_legend)
 
     def fit_y(self, mid_t_s: float) -> None:
-        """Fit the y range to the traces drawn (the nominal range when there are none)."""
-        ys = [tr.path for _s, tr in self.specs if tr.visible and tr.path is not None]
+        """Fit the y range to the traces drawn that are not references (the references' only
+        when nothing else is drawn; the nominal range when nothing is)."""
+        drawn = [(s, tr.path) for s, tr in self.specs if tr.visible and tr.path is not None]
+        ys = [p for s, p in drawn if not s.reference] or [p for _s, p in drawn]
         if not ys:
             self.plot.setYRange(*self.yrange, padding=0)
             return
@@ -186,6 +307,7 @@ class Lane:
         self.plot.setYRange(lo - pad, hi + pad, padding=0)
         if self.missing is not None:
             self.missing.setPos(mid_t_s, (lo + hi) / 2)
+        self.refresh_legend()
 
     def centre_missing(self, mid_t_s: float) -> None:
         """Keep the "not recorded" note in the middle of the view."""

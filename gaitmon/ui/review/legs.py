@@ -150,6 +150,8 @@ class LegsControl(QObject):
             self.panel.show_message("")
             return
         doc.events.exclusions.connect(lambda _e: self.exclusions_changed(doc))
+        # the cycles are of the angles shown: switched, they are computed again
+        doc.events.angles.connect(lambda _e: self.exclusions_changed(doc))
         self.panel.show_message("Computing both legs' measures…")
         carry, self._carry = self._carry, None
         if carry is not None and carry[0] == doc.path:
@@ -182,9 +184,10 @@ class LegsControl(QObject):
     def refresh(self, doc: Document) -> None:
         # the leg shown counts its ranges as they are in force here (the request captures them)
         path, side, ranges = Path(doc.path), doc.side, list(doc.exclusions)
+        angles = doc.angle_source
 
         def job(ticket: Ticket) -> BothLegs:
-            return both_legs(path, side, ranges)
+            return both_legs(path, side, ranges, angles)
 
         self.worker.submit(job, functools.partial(self._done, doc))
 

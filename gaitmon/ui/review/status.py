@@ -56,6 +56,12 @@ class StatusArea:
         # which angles every lane, the strides and the cycles show (View ▸ Angles switches)
         self.angles = QLabel()
         self.angles.setVisible(False)
+        # the status bar two lines tall from the start (the angles' method, their zero): grown
+        # under a message shown, it had Qt show the hint (a normal widget the message hides)
+        # over the message
+        two_lines = 2 * self.angles.fontMetrics().lineSpacing() + 2
+        self.angles.setMinimumHeight(two_lines)
+        sb.setMinimumHeight(two_lines + 4)
         sb.addPermanentWidget(self.angles)
         self.progress = QProgressBar()
         self.progress.setRange(0, PROGRESS_STEPS)
@@ -96,8 +102,12 @@ class StatusArea:
         self.notes.setVisible(bool(notes))
 
     def show_angles(self, method: str, tip: str) -> None:
-        """The method behind the angles shown ("" when no session is open)."""
-        self.angles.setText(f"Angles: <b>{method}</b>" if method else "")
+        """The method behind the angles shown ("" when no session is open), and where their
+        zero comes from on a second line: on one line the two were ~800 px wide and cut the
+        status bar's message (the file shown) at the window's default width."""
+        name, _sep, zero = method.partition(" · zero: ")
+        text = f"Angles: <b>{name}</b>" + (f"<br>zero: {zero}" if zero else "")
+        self.angles.setText(text if method else "")
         self.angles.setToolTip(tip)
         self.angles.setVisible(bool(method))
 

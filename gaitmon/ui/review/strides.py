@@ -157,10 +157,12 @@ def summary_html(
     note: str = "",
     mode: str = "",
     normative: NormativeBands | None = None,
+    two_legs: bool = False,
 ) -> str:
     """The summary panel's text: included strides only (derived cadence labelled as such);
     for a recording in a mode without foot-sensor data, why there are no strides; with a
-    normative band, the deviation of the mean cycle from it per joint."""
+    normative band, the deviation of the mean cycle from it per joint. ``two_legs``: the leg
+    shown is one of a file that records both, whose steps are measured (the Both legs tab)."""
     if a is None:
         return "<i>No session open.</i>"
     none = no_gait_events(mode)
@@ -214,15 +216,22 @@ def summary_html(
         body = "<table cellspacing=2>" + "".join(
             f"<tr><td>{k}&nbsp;&nbsp;</td><td>{v}</td></tr>" for k, v in rows
         ) + "</table>"
-    foot = (
-        "<p style='color:gray'>Cadence is derived as 120 / stride time: one unit measures one "
-        "leg, so two equal steps per stride are assumed.</p>"
-    )
+    foot = f"<p style='color:gray'>{cadence_note(two_legs)}</p>"
     src = "" if a.source_label == "recorded" else "<p><b>Reprocessed</b> " + note + "</p>"
     angles = (f"<p>Angles: {a.angle_method}"
               + (" (zero-lag, offline)" if a.angles == "smoothed" else "") + "</p>"
               if a.angle_method else "")  # fmt: skip
     return src + angles + body + _deviation_html(a, normative) + foot
+
+
+def cadence_note(two_legs: bool) -> str:
+    """What the derived cadence rests on: with one unit, an assumption (two equal steps per
+    stride); with both legs recorded the steps are measured, per leg, in the Both legs tab."""
+    if two_legs:
+        return ("Cadence is 120 / this leg's stride time; both legs were recorded, so steps "
+                "are measured per leg (Both legs tab).")  # fmt: skip
+    return ("Cadence is derived as 120 / stride time: one unit measures one leg, so two equal "
+            "steps per stride are assumed.")  # fmt: skip
 
 
 def _deviation_html(a: Analysis, bands: NormativeBands | None) -> str:

@@ -122,7 +122,8 @@ class StridesPart(Part):
         if doc.reprocessed is not None:
             note = changed_settings(doc.recorded.config, doc.reprocessed.config)
         self.summary.setText(
-            summary_html(self.analysis, self.before, note, doc.session.mode, self.normative)
+            summary_html(self.analysis, self.before, note, doc.session.mode, self.normative,
+                         two_legs=len(doc.sides) > 1)
         )
         self.summary.setToolTip(
             "" if self.normative is None else self.cycles.band_note(self.normative)

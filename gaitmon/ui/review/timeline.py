@@ -212,6 +212,7 @@ class Timeline(QWidget):
             for tr in lane.traces.traces:
                 tr.clear()
             lane.traces.commit()
+            lane.refresh_legend()  # nothing drawn: no entry
             lane.shade.layers.clear()
             lane.shade.update()
             if lane.cursor is not None:
@@ -474,17 +475,7 @@ class Timeline(QWidget):
         self.last_window = resp.windows
         t_s = doc.t_s
         for lane in self.visible_lanes():
-            for spec, tr in lane.specs:
-                if not tr.visible:
-                    continue
-                key = doc.recorded.key if spec.before else cur.key
-                w = self.last_window.get((key, spec.series))
-                if w is None or not len(w.idx):
-                    tr.clear()
-                    continue
-                y = w.y[:, spec.column]
-                fin = bool(np.isfinite(y).all())
-                tr.set(t_s[w.idx], y, finite=fin)
+            lane.draw(self.last_window, t_s, doc.recorded.key, cur.key, cur.angle_method)
         self._draw_events(cur, req)
         fsr = self.lanes["fsr"]
         phase = resp.phase
@@ -509,6 +500,8 @@ class Timeline(QWidget):
         if not self._fitted_y:
             self._fitted_y = True
             self.fit_y()
+        for lane in self.visible_lanes():
+            lane.refresh_legend()
         self.applied_requests += 1
         self.loaded.emit(resp.request_id)
 

@@ -11,13 +11,18 @@ import pyqtgraph as pg
 from PySide6.QtGui import QColor
 
 from gaitmon.dsp.channels import CHANNELS, SEGMENTS
+from gaitmon.dsp.gait import PHASE_NAMES
 from gaitmon.review.model import JOINT
 from gaitmon.ui.plots import FSR_RANGE, JOINTS, TILT_RANGES_DEG, Trace, TraceSet
-from gaitmon.ui.review.lanes import Lane, TraceSpec, lane_plot, line_pen
+from gaitmon.ui.review.lanes import Lane, LaneLegend, TraceSpec, lane_plot, line_pen
 from gaitmon.ui.review.overview_plot import OverviewPlot
 from gaitmon.ui.theme import Colours, pen
 
 RAW_RANGE = (-100.0, 4200.0)
+# the legend's names of the comparison traces (the drifting one says so: never read as a
+# measurement); "{method}" is the angles' method, "{segment}" the segment drawn
+GYRO_LABEL = "gyro integration (°), drifts: not a measurement"
+RECORDED_LABEL = "recorded, before reprocessing"
 
 
 @dataclass
@@ -68,6 +73,7 @@ def cursor_line(tl: Plots, p: pg.PlotItem) -> pg.InfiniteLine:
 
 
 def _add(tl: Plots, lane: Lane, spec: TraceSpec, dashed: bool = False) -> None:
+    spec.dashed = dashed
     colour = QColor(spec.colour)
     if spec.before:
         colour = QColor(tl.colours.foreground)
@@ -95,34 +101,45 @@ def build_plots(glw: pg.GraphicsLayoutWidget, colours: Colours) -> Plots:
         )  # fmt: skip
         lane.events_hs = lane.traces.add(Trace(line_pen(c.event)))
         lane.events_to = lane.traces.add(Trace(line_pen(c.event, dashed=True)))
-        _add(tl, lane, TraceSpec(JOINT, j, c.kalman, before=True), dashed=True)
-        _add(tl, lane, TraceSpec("processed/joint_gyro_deg", j, c.gyro, "gyro"))
-        _add(tl, lane, TraceSpec("processed/joint_acc_deg", j, c.acc, "acc"))
-        _add(tl, lane, TraceSpec(JOINT, j, c.kalman, "kalman"))
+        _add(tl, lane, TraceSpec(JOINT, j, c.kalman, before=True,
+                                 label=f"{key} (°), {RECORDED_LABEL}"), dashed=True)
+        _add(tl, lane, TraceSpec("processed/joint_gyro_deg", j, c.gyro, "gyro",
+                                 label=GYRO_LABEL, reference=True))
+        _add(tl, lane, TraceSpec("processed/joint_acc_deg", j, c.acc, "acc",
+                                 label="accelerometer (°)", reference=True))
+        _add(tl, lane, TraceSpec(JOINT, j, c.kalman, "kalman", label=f"{key} (°), {{method}}"))
         lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
     lane = _lane(tl,
         "tilt", "thigh tilt (°)", TILT_RANGES_DEG["thigh"],
-        "Segment tilt (choose the segment above): red accelerometer, green Kalman filter, "
-        "blue gyro integration (the papers' colours).",
+        "Segment tilt (choose the segment above): green the angles' method, red accelerometer, "
+        "blue gyro integration (the papers' colours). The y range is the green tilt's: the gyro "
+        "integration drifts (a reference, not a measurement) and is clipped at the edges.",
     )  # fmt: skip
-    _add(tl, lane, TraceSpec("processed/tilt_deg", 1, c.kalman, before=True), dashed=True)
-    _add(tl, lane, TraceSpec("processed/tilt_gyro_deg", 1, c.gyro))
-    _add(tl, lane, TraceSpec("processed/tilt_acc_deg", 1, c.acc))
-    _add(tl, lane, TraceSpec("processed/tilt_deg", 1, c.kalman))
+    _add(tl, lane, TraceSpec("processed/tilt_deg", 1, c.kalman, before=True,
+                             label=f"{{segment}} tilt (°), {RECORDED_LABEL}"), dashed=True)
+    _add(tl, lane, TraceSpec("processed/tilt_gyro_deg", 1, c.gyro, label=GYRO_LABEL,
+                             reference=True))
+    _add(tl, lane, TraceSpec("processed/tilt_acc_deg", 1, c.acc,
+                             label="accelerometer tilt (°)", reference=True))
+    _add(tl, lane, TraceSpec("processed/tilt_deg", 1, c.kalman,
+                             label="{segment} tilt (°), {method}"))
     lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
     lane = _lane(tl,
         "fsr", "FSR (counts)", FSR_RANGE,
         "Foot sensors (low-passed ADC counts): heel red, toe green. Shading: gait phase "
-        "(loading, foot flat, push-off); lines: heel strike (red) and toe off (green).",
+        f"({', '.join(PHASE_NAMES[1:])}); lines: heel strike (red) and toe off (green).",
     )  # fmt: skip
     for k, colour in enumerate(c.phases, start=1):
         lane.bands.append((lane.traces.add(Trace(brush=colour, fill_level=FSR_RANGE[0])), k))
+    lane.band_names = PHASE_NAMES[1:]
     lane.events_hs = lane.traces.add(Trace(line_pen(c.heel)))
     lane.events_to = lane.traces.add(Trace(line_pen(c.toe, dashed=True)))
-    _add(tl, lane, TraceSpec("processed/fsr_counts", 0, c.heel, before=True), dashed=True)
-    _add(tl, lane, TraceSpec("processed/fsr_counts", 1, c.toe, before=True), dashed=True)
-    _add(tl, lane, TraceSpec("processed/fsr_counts", 0, c.heel))
-    _add(tl, lane, TraceSpec("processed/fsr_counts", 1, c.toe))
+    for k, (name, colour) in enumerate((("heel", c.heel), ("toe", c.toe))):
+        _add(tl, lane, TraceSpec("processed/fsr_counts", k, colour, before=True,
+                                 label=f"{name} (counts), {RECORDED_LABEL}"), dashed=True)
+    for k, (name, colour) in enumerate((("heel", c.heel), ("toe", c.toe))):
+        _add(tl, lane, TraceSpec("processed/fsr_counts", k, colour, label=f"{name} (counts)"))
+    lane.extra_legend.append((c.event, "╌╌", "contact threshold (counts)"))
     lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
     tl.threshold_line = pg.InfiniteLine(
         pos=1000.0, angle=0, pen=pen(c.event, dashed=True), movable=False
@@ -139,10 +156,13 @@ def build_plots(glw: pg.GraphicsLayoutWidget, colours: Colours) -> Plots:
             col.setAlpha({"acc_x": 255, "acc_z": 110, "gyro": 190}.get(ch.kind, 255))
         else:
             col = c.heel if ch.segment == "heel" else c.toe
-        _add(tl, lane, TraceSpec("raw/adc", ch.index, col))
+        # one entry a segment (its accelerometer x colour): the kinds are in the tooltip
+        label = f"{ch.segment} (counts)" if ch.kind in ("acc_x", "fsr") else ""
+        _add(tl, lane, TraceSpec("raw/adc", ch.index, col, label=label))
     lane.markers = lane.traces.add(Trace(line_pen(c.marker)))
     for lane in tl.lanes.values():
         lane.missing = pg.TextItem("", color=c.foreground, anchor=(0.5, 0.5))
         lane.missing.setVisible(False)
         lane.plot.addItem(lane.missing, ignoreBounds=True)
+        lane.legend = LaneLegend(lane.plot.getViewBox(), c)
     return tl

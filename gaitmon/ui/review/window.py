@@ -145,7 +145,7 @@ class ReviewWindow(QMainWindow):
 
     def _build_central(self) -> None:
         self.leg_bar = LegBar()
-        self.both_legs = BothLegsPanel()
+        self.both_legs = BothLegsPanel(self.colours)
         left = QWidget()
         lv = QVBoxLayout(left)
         lv.setContentsMargins(0, 0, 0, 0)
