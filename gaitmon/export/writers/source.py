@@ -92,7 +92,7 @@ PROCESSED_SERIES: tuple[Series, ...] = (
     Series("processed/toe_loaded", "toe_loaded", ("toe_loaded",), "%d", ("toe_loaded",), "0/1",
            "toe contact state"),
     Series("processed/phase", "phase", ("phase",), "%d", ("phase",), "0-3",
-           "0 swing, 1 loading, 2 foot flat, 3 push-off"),
+           "0 swing, 1 loading response, 2 foot flat, 3 push-off"),
 )
 
 

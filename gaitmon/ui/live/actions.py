@@ -160,8 +160,8 @@ ACTIONS: tuple[ActionSpec, ...] = (
         for key, colour in METHOD_COLOURS
     ),
     ActionSpec("four_phases", "Four gait sub-phases", "set_four_phases", None,
-               "Shade loading / foot flat / push-off (off: stance vs swing)", checkable=True,
-               menu=VIEW),
+               "Shade loading response / foot flat / push-off (off: stance vs swing)",
+               checkable=True, menu=VIEW),
     ActionSpec("reset_y", "Reset y ranges", "reset_y_ranges", "Home",
                "Back to the clinical y ranges", menu=VIEW),
     ActionSpec("guide", "Guided start", "show_guide", None,

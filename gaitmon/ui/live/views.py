@@ -25,6 +25,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from gaitmon.dsp.gait import PHASE_NAMES
 from gaitmon.engine import Snapshot
 from gaitmon.review.settings import LiveKey
 from gaitmon.ui.actions import guarded
@@ -220,7 +221,7 @@ class ViewPart:
         if four:
             parts = [
                 f"<span style='color:{col.name()}'>█</span> {name}"
-                for col, name in zip(c.phases, ("loading", "foot flat", "push-off"), strict=True)
+                for col, name in zip(c.phases, PHASE_NAMES[1:], strict=True)
             ]
             text = " ".join(parts)
         else:
