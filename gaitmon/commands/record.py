@@ -146,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
     if args.lsl:
         from gaitmon.lsl.outlets import require_pylsl
 
-        require_pylsl()  # before anything starts: one line saying what to install
+        require_pylsl(args.lsl_scope)  # before anything starts: one line saying what to install
     defaults = argparse.ArgumentParser()
     add_bilateral_options(defaults, serve=False)
     pair_options = vars(defaults.parse_args([]))
