@@ -41,8 +41,9 @@ def _env() -> dict[str, str]:
 
 
 def _gaitmon(*args: str, cwd: Path, timeout_s: float = 120) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "gaitmon", *args], capture_output=True,
-                          text=True, env=_env(), cwd=cwd, timeout=timeout_s, check=False)  # fmt: skip
+    cmd = [sys.executable, "-m", "gaitmon", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, env=_env(), cwd=cwd,
+                          timeout=timeout_s, check=False)  # fmt: skip
 
 
 def _start(cmd: list[str], cwd: Path, until: str) -> tuple[subprocess.Popen[str], list[str]]:
