@@ -242,3 +242,55 @@ def test_lsl_answers_discovery_on_loopback_only_unless_asked(tmp_path, scope):
     else:
         assert ("udp", ANY) in discovery, socks
     assert "Traceback" not in text
+
+
+# A session left by the old code: a NUL marker in its journal (which HDF5 could not store)
+_OLD_CRASH = """
+import os, sys
+import numpy as np
+sys.path.insert(0, {tests!r})
+from conftest import write_simulated_session  # noqa: F401  (the same simulated counts)
+import gaitmon.io.session.writer as writer_module
+from gaitmon.dsp.calibration import Calibration
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.io.device import SampleBlock
+from gaitmon.io.protocol import FrameKind
+from gaitmon.io.session import SessionHeader, SessionWriter
+from gaitmon.io.sim import GaitConfig, GaitModel
+from gaitmon.io.sim.sensors import simulate
+
+writer_module.clean_label = str  # the old code: labels stored as sent
+counts = simulate(600, GaitModel(GaitConfig(seed=3))).counts
+w = SessionWriter({path!r}, SessionHeader("raw", 100.0, config=PipelineConfig(),
+                                           calibration=Calibration.identity()))
+pipe = Pipeline(PipelineConfig())
+for i in range(0, 600, 50):
+    seq = np.arange(i, i + 50, dtype=np.int64)
+    w.append(SampleBlock(FrameKind.RAW, seq, seq / 100.0, 1.7e9,
+                         lost_before=np.zeros(50, np.int64), adc=counts[i:i + 50]),
+             pipe.process(counts[i:i + 50]))
+    if i == 200:
+        w.add_marker("a\\x00b")
+        w.add_marker("\\x1b[2J" + "x" * 5000)
+w._journal.sync()
+os._exit(9)  # as a crash (kill -9): no close, the journal is what is left
+"""
+
+
+def test_a_journal_with_a_nul_marker_from_the_old_code_is_recovered(tmp_path):
+    path = tmp_path / "nul.h5"
+    code = _OLD_CRASH.format(tests=str(ROOT / "tests"), path=str(path))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=_env(), cwd=tmp_path, timeout=120, check=False)  # fmt: skip
+    assert done.returncode == 9, done.stderr
+    info = _gaitmon("info", str(path), cwd=tmp_path)
+    assert info.returncode == 0, info.stderr
+    assert "Traceback" not in info.stdout + info.stderr
+    assert "\x1b" not in info.stdout + info.stderr
+    assert not list(tmp_path.glob("*.recovering")), list(tmp_path.iterdir())
+    with open_session(path) as s:
+        labels = [m.label for m in s.markers]
+        assert s.n_samples == 600
+    assert labels[0] == "a\\x00b"
+    assert labels[1].startswith("\\x1b[2Jxxx") and labels[1].endswith(TRUNCATED)
+    assert len(labels[1]) == MAX_LABEL_CHARS

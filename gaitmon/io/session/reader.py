@@ -168,7 +168,8 @@ class StoredSession:
             for r in faults
         ]  # fmt: skip
         self.gaps: list[Gap] = [
-            Gap(int(r["sample_idx"]), int(r["n_lost"]), float(r["duration_s"]), _s(r["reason"]))
+            Gap(int(r["sample_idx"]), int(r["n_lost"]), float(r["duration_s"]),
+                clean_label(_s(r["reason"])))
             for r in f["gaps"][()]
         ]
         self.link: dict[str, int] = {k: int(v) for k, v in f["link"].attrs.items()}
