@@ -65,3 +65,5 @@ def test_budget_allows_a_burst_then_its_rate_and_a_total():
     assert [b.take(0.0) for _ in range(7)] == [True] * 5 + [False] * 2
     assert [b.take(0.5) for _ in range(6)] == [True] * 5 + [False]  # 0.5 s x 10/s refilled
     assert [b.take(10.0) for _ in range(5)] == [True, True, False, False, False]  # total 12
+    chunk = MarkerBudget(rate_hz=10.0, burst=5, total=12)
+    assert (chunk.allow(0.0, 7), chunk.allow(0.5, 6), chunk.allow(10.0, 5)) == (5, 5, 2)

@@ -98,8 +98,6 @@ def open_inputs(args: argparse.Namespace) -> LslInputs | None:
     if args.lsl_markers is None and args.lsl_markers_source_id is not None:
         raise UserError("--lsl-markers-source-id needs --lsl-markers NAME")
     if args.lsl_markers is None and args.lsl_control is None:
-        if args.lsl_scope is not None and not getattr(args, "lsl", False):
-            raise UserError("--lsl-scope needs --lsl, --lsl-markers or --lsl-control")
         return None
     if not (args.lsl_timeout > 0 and args.lsl_timeout <= 3600):
         raise UserError(

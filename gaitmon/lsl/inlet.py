@@ -36,7 +36,7 @@ from gaitmon.text import MAX_LABEL_CHARS, clean_label
 INSTALL_HINT = "install gaitmon[lsl] (pip install 'gaitmon[lsl]')"
 PULL_TIMEOUT_S = 0.05  # how long the puller thread waits for a sample: also how soon it stops
 CLOCK_REMEASURE_S = 10.0
-PULL_MAX_SAMPLES = 256  # per pull: a flood is taken in bounded bites
+PULL_MAX_SAMPLES = 1024  # per pull: a flood is taken in bounded bites
 # the bytes of a string sample decoded at most: a label is cut to MAX_LABEL_CHARS anyway
 # (4 bytes a character in UTF-8 at most, and room for the truncation mark to show)
 _MAX_LABEL_BYTES = 4 * 4 * MAX_LABEL_CHARS
@@ -160,15 +160,19 @@ class MarkerBudget:
 
     def take(self, now_s: float) -> bool:
         """True if one more marker may pass at ``now_s`` (and it is counted)."""
+        return self.allow(now_s, 1) == 1
+
+    def allow(self, now_s: float, n: int) -> int:
+        """How many of ``n`` markers arriving at ``now_s`` may pass (the first ones; counted).
+        One call per chunk: a flood costs no Python work per marker dropped."""
         if self._tokens < 0:
             self._tokens, self._at = float(self.burst), now_s
         self._tokens = min(float(self.burst), self._tokens + (now_s - self._at) * self.rate_hz)
         self._at = now_s
-        if self._tokens < 1.0 or self._taken >= self.total:
-            return False
-        self._tokens -= 1.0
-        self._taken += 1
-        return True
+        ok = max(0, min(n, int(self._tokens), self.total - self._taken))
+        self._tokens -= ok
+        self._taken += ok
+        return ok
 
     def describe(self) -> str:
         return (
@@ -291,12 +295,11 @@ class MarkerInlet:
 
     def _deliver(self, samples: Sequence[Sequence[object]], stamps: Sequence[float],
                  offset_s: float) -> None:  # fmt: skip
-        now = time.monotonic()
-        for sample, ts in zip(samples, stamps, strict=True):
-            self.received += 1
-            if self._budget is not None and not self._budget.take(now):
-                self.dropped += 1
-                continue
+        n = len(stamps)
+        ok = n if self._budget is None else self._budget.allow(time.monotonic(), n)
+        self.received += n
+        self.dropped += n - ok
+        for sample, ts in zip(samples[:ok], stamps[:ok], strict=True):
             try:
                 assert self._on_marker is not None
                 self._on_marker(_label(sample[0]) if len(sample) else "", float(ts) + offset_s)
