@@ -56,6 +56,7 @@ from gaitmon.analysis import (
 from gaitmon.dsp.gait import GaitSummary
 from gaitmon.errors import DAMAGE_ERRORS, UserError
 from gaitmon.reprocessing import Reprocessing
+from gaitmon.text import spreadsheet_cell
 
 STATE_DIR = ".gaitmon-batch"  # in OUT: one record per finished session
 KEY_SUFFIX = ".gaitmon-key"  # de-identified: the folder beside OUT that re-identifies it
@@ -517,7 +518,7 @@ def _cell(name: str, value: Any) -> str:
             return ""
         text = f"{value:.{_decimals(name)}f}"
         return text.lstrip("-") if float(text) == 0.0 else text
-    return " ".join(str(value).split())
+    return spreadsheet_cell(" ".join(str(value).split()))  # a formula stays text
 
 
 def session_labels(n: int) -> list[str]:
@@ -591,7 +592,7 @@ def write_tables(
             ]  # fmt: skip
             ws.writerow([_cell(n, v) for n, v in zip(SUMMARY_COLUMNS, values, strict=True)])
             for row in strides_of(o):
-                wr.writerow([session, *row])
+                wr.writerow([spreadsheet_cell(str(session)), *row])
         for f in (fs, fr):
             f.flush()
             os.fsync(f.fileno())
@@ -612,6 +613,7 @@ def write_key(outcomes: Sequence[Outcome], tasks: Sequence[Task], path: Path) ->
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(KEY_COLUMNS)
     for o, session, patient in zip(outcomes, sessions, patients, strict=True):
-        w.writerow([session, dst[o.rel] if o.status == OK else "", o.rel, patient, o.patient_id])
+        w.writerow([spreadsheet_cell(str(c)) for c in (
+            session, dst[o.rel] if o.status == OK else "", o.rel, patient, o.patient_id)])
     _write_atomic(path, buf.getvalue().encode("utf-8"))
     return path

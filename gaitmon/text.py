@@ -9,14 +9,31 @@ report, the live window), so they cannot drift apart:
 * :func:`no_gait_events` - why a recording in a mode without foot-sensor data has no strides;
 * :func:`side_text` - the leg measured as entered ("left", "right", "not recorded"): never
   guessed from the unit's own idea of its side;
-* :func:`duration_text` - a recording's duration ("63.5 s"), the same in every window.
+* :func:`duration_text` - a recording's duration ("63.5 s"), the same in every window;
+* :func:`clean_label` - a marker label (or any free text from outside: an LSL sample, an XDF
+  file, an old journal) made safe to store and show: control characters escaped visibly,
+  at most :data:`MAX_LABEL_CHARS` characters;
+* :func:`spreadsheet_cell` - a CSV/TSV text cell a spreadsheet cannot run as a formula.
 """
 
 from __future__ import annotations
 
 import math
+import unicodedata
 
-__all__ = ["DASH", "count", "duration_text", "no_gait_events", "num", "plural", "side_text"]
+__all__ = [
+    "DASH",
+    "MAX_LABEL_CHARS",
+    "TRUNCATED",
+    "clean_label",
+    "count",
+    "duration_text",
+    "no_gait_events",
+    "num",
+    "plural",
+    "side_text",
+    "spreadsheet_cell",
+]
 
 DASH = "–"  # a value that does not exist (NaN), never "nan"
 
@@ -87,3 +104,62 @@ def duration_text(seconds: float) -> str:
     report, the review window, ``compare`` and the live window's saved line all print it
     this way, so one recording never reads 63.5 s in one place and 64 s in another."""
     return f"{num(seconds, 1)} s"
+
+
+MAX_LABEL_CHARS = 256  # a marker label's length once cleaned, the truncation mark included
+TRUNCATED = "…(truncated)"
+# Unicode categories written as escapes: controls (NUL, ESC, line breaks), format characters
+# (bidi overrides that reorder what is shown), lone surrogates (not UTF-8 encodable: h5py
+# refuses them), line and paragraph separators
+_ESCAPED_CATEGORIES = frozenset({"Cc", "Cf", "Cs", "Zl", "Zp"})
+_KEPT_FORMAT = frozenset({"\u200c", "\u200d"})  # zero-width (non-)joiners: inside emoji, harmless
+
+
+def _escape(ch: str) -> str:
+    code = ord(ch)
+    if code < 0x100:
+        return f"\\x{code:02x}"
+    return f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}"
+
+
+def clean_label(value: object) -> str:
+    """``value`` as a label that is safe to store in a session file and to show anywhere.
+
+    Control and format characters (NUL, ESC and ANSI escape sequences, tabs and line breaks,
+    bidi overrides, lone surrogates) become visible escapes (``\\x00``, ``\\x1b``,
+    ``\\u202e``): HDF5 strings cannot hold a NUL, and a terminal or a table must never be
+    steered by a label. A label longer than :data:`MAX_LABEL_CHARS` characters is cut to
+    that length, ending in :data:`TRUNCATED`. Idempotent: a cleaned label comes back
+    unchanged. The one function every way in for markers uses (the engine, the session
+    writer, the journal recovery, the XDF import, the session reader for old files)."""
+    text = value if isinstance(value, str) else str(value)
+    if len(text) > 4 * MAX_LABEL_CHARS:  # bound the work: the rest is cut anyway
+        text = text[: 4 * MAX_LABEL_CHARS]
+    if not text.isprintable():  # fast path: most labels have nothing to escape
+        text = "".join(
+            _escape(c)
+            if unicodedata.category(c) in _ESCAPED_CATEGORIES and c not in _KEPT_FORMAT
+            else c
+            for c in text
+        )
+    if len(text) > MAX_LABEL_CHARS:
+        text = text[: MAX_LABEL_CHARS - len(TRUNCATED)] + TRUNCATED
+    return text
+
+
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def spreadsheet_cell(text: str) -> str:
+    """A CSV/TSV text cell that no spreadsheet runs as a formula (OWASP's CSV injection
+    advice): one that starts with ``= + - @``, a tab or a carriage return gets a leading
+    single quote (``'=HYPERLINK(...)``). A number stays a number (``-12.5``, ``+3``,
+    ``-inf``), and so does a lone sign or dash (the strides table's "no value"): neither
+    can hold a formula."""
+    if len(text) < 2 or not text.startswith(_FORMULA_START):
+        return text
+    try:
+        float(text)
+    except ValueError:
+        return "'" + text
+    return text

@@ -143,10 +143,12 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.lsl_patient_id and not args.lsl:
         raise UserError("--lsl-patient-id needs --lsl")
+    if args.lsl_scope and not (args.lsl or args.lsl_markers or args.lsl_control):
+        raise UserError("--lsl-scope needs --lsl, --lsl-markers or --lsl-control")
     if args.lsl:
         from gaitmon.lsl.outlets import require_pylsl
 
-        require_pylsl()  # before anything starts: one line saying what to install
+        require_pylsl(args.lsl_scope)  # before anything starts: one line saying what to install
     defaults = argparse.ArgumentParser()
     add_bilateral_options(defaults, serve=False)
     pair_options = vars(defaults.parse_args([]))

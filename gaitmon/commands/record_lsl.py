@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from gaitmon.errors import UserError
+from gaitmon.lsl.network import SCOPES
 
 if TYPE_CHECKING:
     from gaitmon.engine import Engine
@@ -36,6 +37,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "each on the row sampled at its timestamp",
     )
     g.add_argument(
+        "--lsl-markers-source-id",
+        metavar="ID",
+        help="take the --lsl-markers stream only from the sender with this LSL source id "
+        "(needed when two streams share the name)",
+    )
+    g.add_argument(
         "--lsl-control",
         metavar="NAME",
         help="wait for a start word on the LSL marker stream NAME before recording, stop on "
@@ -45,6 +52,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--lsl-start-word", metavar="WORD", help="the word that starts (default: start)"
     )
     g.add_argument("--lsl-stop-word", metavar="WORD", help="the word that stops (default: stop)")
+    g.add_argument(
+        "--lsl-control-source-id",
+        metavar="ID",
+        help="take start/stop only from the --lsl-control stream with this LSL source id "
+        "(recommended: a stream's name alone does not say who sends it)",
+    )
+    g.add_argument(
+        "--lsl-scope",
+        choices=SCOPES,
+        default=None,
+        help="where LSL looks for streams and answers discovery: machine (this computer "
+        "only, the default), link (the local network) or site (liblsl's own default); "
+        "applies to --lsl too (docs/lsl.md)",
+    )
     g.add_argument(
         "--lsl-timeout",
         type=float,
@@ -72,6 +93,10 @@ def open_inputs(args: argparse.Namespace) -> LslInputs | None:
     words_given = args.lsl_start_word is not None or args.lsl_stop_word is not None
     if args.lsl_control is None and words_given:
         raise UserError("--lsl-start-word and --lsl-stop-word need --lsl-control NAME")
+    if args.lsl_control is None and args.lsl_control_source_id is not None:
+        raise UserError("--lsl-control-source-id needs --lsl-control NAME")
+    if args.lsl_markers is None and args.lsl_markers_source_id is not None:
+        raise UserError("--lsl-markers-source-id needs --lsl-markers NAME")
     if args.lsl_markers is None and args.lsl_control is None:
         return None
     if not (args.lsl_timeout > 0 and args.lsl_timeout <= 3600):
@@ -80,19 +105,23 @@ def open_inputs(args: argparse.Namespace) -> LslInputs | None:
             f"got {args.lsl_timeout}"
         )
     from gaitmon.lsl.control import ControlWords, RemoteControl
-    from gaitmon.lsl.inlet import MarkerInlet, import_pylsl, resolve_marker_stream
+    from gaitmon.lsl.inlet import MarkerBudget, MarkerInlet, import_pylsl, resolve_marker_stream
 
-    pylsl = import_pylsl()
+    pylsl = import_pylsl(args.lsl_scope)
     out = LslInputs()
     try:
         if args.lsl_control is not None:
             words = ControlWords(args.lsl_start_word or "start", args.lsl_stop_word or "stop")
-            info = resolve_marker_stream(pylsl, args.lsl_control, args.lsl_timeout, "--lsl-control")
+            info = resolve_marker_stream(pylsl, args.lsl_control, args.lsl_timeout,
+                                         "--lsl-control", args.lsl_control_source_id)  # fmt: skip
             out.control = RemoteControl(pylsl, info, words, open_timeout_s=args.lsl_timeout)
             out.control.start()  # a start word sent while the unit connects still counts
         if args.lsl_markers is not None:
-            info = resolve_marker_stream(pylsl, args.lsl_markers, args.lsl_timeout, "--lsl-markers")
-            out.markers = MarkerInlet(pylsl, info, open_timeout_s=args.lsl_timeout)
+            info = resolve_marker_stream(pylsl, args.lsl_markers, args.lsl_timeout,
+                                         "--lsl-markers", args.lsl_markers_source_id)  # fmt: skip
+            out.markers = MarkerInlet(
+                pylsl, info, open_timeout_s=args.lsl_timeout, budget=MarkerBudget()
+            )
     except BaseException:
         out.close()
         raise
@@ -148,6 +177,10 @@ def summary(inputs: LslInputs | None, engine: Engine) -> str:
     text += f"{inputs.markers.name!r} recorded"
     if c.outside:
         text += f"; {c.outside} stamped outside the recording (not recorded)"
+    dropped = inputs.markers.dropped + engine.timed_marker_overflow
+    if dropped:
+        text += f"; {dropped:,} dropped: the stream sent "
+        text += f"{inputs.markers.budget_text} (not recorded)"
     if inputs.markers.error:
         text += f"; last inlet error: {inputs.markers.error}"
     return text

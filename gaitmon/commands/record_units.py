@@ -45,7 +45,8 @@ def refuse_one_unit_options(args: argparse.Namespace) -> None:
     both = "--simulate-bilateral" if args.simulate_bilateral else "--ports"
     if args.side:
         raise UserError(f"--side names the leg of one unit; with {both} both legs are recorded")
-    if any(getattr(args, n, None) is not None for n in ("lsl_control", "lsl_markers")):
+    inputs = ("lsl_control", "lsl_markers", "lsl_control_source_id", "lsl_markers_source_id")
+    if any(getattr(args, n, None) is not None for n in inputs):
         raise UserError(
             f"--lsl-control and --lsl-markers are not available with {both} yet; leave them "
             "out (--lsl streams both legs)"

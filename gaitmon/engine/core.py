@@ -66,6 +66,7 @@ from gaitmon.engine.zeroing import ZERO_MARGIN_S, ZeroSearch, still_window
 from gaitmon.io.device import Device, DeviceError
 from gaitmon.io.protocol import Identity
 from gaitmon.io.transport import LinkError
+from gaitmon.text import clean_label
 
 if TYPE_CHECKING:
     from gaitmon.io.session.header import SessionMeta
@@ -286,7 +287,11 @@ class Engine:
         """A marker on the latest sample (the next row of a recording), or with
         ``host_time_s`` (``time.monotonic()``'s clock) on the sample taken at that instant,
         placed once that sample has been processed (``engine/markers.py``). One stamped before
-        the recording's first row or after its last is not recorded (``timed_markers``)."""
+        the recording's first row or after its last is not recorded (``timed_markers``).
+        The label is cleaned here, where every marker enters (``gaitmon.text.clean_label``:
+        control characters escaped, at most 256 characters): whatever a sender puts in it,
+        the recorder can store it."""
+        label = clean_label(label)
         if host_time_s is not None:
             self._timed.add(label, float(host_time_s))
             return
@@ -301,6 +306,11 @@ class Engine:
     def timed_markers(self) -> TimedMarkerCounts:
         """What became of the markers given a host time: recorded, outside a recording."""
         return self._timed.counts
+
+    @property
+    def timed_marker_overflow(self) -> int:
+        """Markers given a host time that were refused: too many waiting at once."""
+        return self._timed.overflow
 
     def _place_timed_markers(self) -> None:
         """The engine thread: markers whose sample has been processed go to the display and,

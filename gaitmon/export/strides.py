@@ -23,6 +23,7 @@ from gaitmon.export.base import ExportRequest, ExportResult, Format
 from gaitmon.export.csv import export_legs_and_tables
 from gaitmon.export.writers.errors import Cancel, Progress, step
 from gaitmon.export.writers.outputs import csv_meta_path
+from gaitmon.text import spreadsheet_cell
 
 if TYPE_CHECKING:
     from gaitmon.export.writers.source import Source
@@ -60,7 +61,7 @@ class StridesWriter:
             w = csv.writer(f, lineterminator="\n")
             w.writerow([c.key for c in STRIDE_COLUMNS])
             for k, (row, t) in enumerate(zip(an.rows, starts, strict=True)):
-                w.writerow(stride_cells(row, k + 1, t))
+                w.writerow([spreadsheet_cell(c) for c in stride_cells(row, k + 1, t)])
         self.n_strides = len(an.rows)
         meta = metadata(src, scrub)
         meta["strides"] = {

@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gaitmon.text import spreadsheet_cell
+
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis
     from gaitmon.dsp.bilateral import Symmetry
@@ -144,7 +146,7 @@ def write_heel_strikes_csv(tables: BilateralTables, out: Path) -> None:
                 _num(t.values["toe_off_s"][k], 6),
                 *(_num(t.values[m][k], 6) for m, _ in TIME_MEASURES),
                 *(_num(pct[m][k], 3) for m in PCT_MEASURES),
-                "yes" if t.counted[k] else "no", t.exclusion[k],
+                "yes" if t.counted[k] else "no", spreadsheet_cell(t.exclusion[k]),
             ])  # fmt: skip
 
 

@@ -50,6 +50,7 @@ from gaitmon.io.session.rows import (
     fault_rows,
     rows_from_pipeline,
 )
+from gaitmon.text import clean_label
 from gaitmon.values import JsonValue, scalar
 
 # rows replayed at a time by a recovery: the pipeline's block for 65 536 rows (the default,
@@ -424,7 +425,8 @@ def _build_recovered(
         for m in contents.markers:
             idx = int(m["sample_idx"])
             t = timeline.kept[idx] if 0 <= idx < n else _extrapolated_t(timeline.last, idx, n, fs)
-            markers.append((idx, t, str(m["label"])))
+            # a journal written before labels were cleaned may hold a NUL (which HDF5 cannot)
+            markers.append((idx, t, clean_label(m.get("label", ""))))
         h5.append_table("markers", markers)
         cfg_log = [
             (i, json.dumps(c.as_dict())) for i, c in changes if isinstance(c, PipelineConfig)

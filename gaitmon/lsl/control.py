@@ -1,7 +1,11 @@
 """Remote start/stop: an LSL marker stream whose "start" and "stop" samples start and stop a
-recording (as LabRecorder users drive their other devices). The words are configurable and
-matched whole, ignoring case and surrounding spaces; every other sample is ignored, and so are
-a "stop" before the "start" and anything after the "stop" (one recording per command)."""
+recording (as LabRecorder users drive their other devices). The words are configurable; a
+sample is the word when its first channel, with any spaces (U+0020) around it removed, is
+the word in ASCII letters of any case ("stop", " STOP "): nothing else, not a tab or a line
+break around it, not a letter outside ASCII that case-folds to one ("ſtop"). Every other
+sample is ignored, and so are a "stop" before the "start" and anything after the "stop" (one
+recording per command). Which stream is the control stream: its name and, with
+``--lsl-control-source-id``, its source id (``inlet.resolve_marker_stream``)."""
 
 from __future__ import annotations
 
@@ -22,10 +26,22 @@ class ControlWords:
     def __post_init__(self) -> None:
         if not self.start.strip() or not self.stop.strip():
             raise UserError("the LSL start and stop words must not be empty")
-        if self.start.strip().casefold() == self.stop.strip().casefold():
+        for w in (self.start, self.stop):
+            if not w.strip(" ").isascii() or not w.strip(" ").isprintable():
+                raise UserError(
+                    f"the LSL start and stop words must be printable ASCII; got {w!r}"
+                )
+        if self.start.strip(" ").lower() == self.stop.strip(" ").lower():
             raise UserError(
                 f"the LSL start and stop words are the same ({self.start!r}); give two words"
             )
+
+
+def _word(text: str) -> str | None:
+    """``text`` as a control word to compare: spaces around it removed, ASCII letters in lower
+    case; None when it holds anything outside ASCII (it is then no word)."""
+    word = text.strip(" ")
+    return word.lower() if word.isascii() else None
 
 
 class RemoteControl:
@@ -41,8 +57,8 @@ class RemoteControl:
         self.stopped = threading.Event()
         self.start_host_time_s: float | None = None
         self.stop_host_time_s: float | None = None
-        self._start = words.start.strip().casefold()
-        self._stop = words.stop.strip().casefold()
+        self._start = _word(words.start)
+        self._stop = _word(words.stop)
         self.inlet = MarkerInlet(
             pylsl, info, open_timeout_s=open_timeout_s, thread_name="gaitmon-lsl-control"
         )
@@ -55,7 +71,9 @@ class RemoteControl:
         self.inlet.close()
 
     def _on_marker(self, label: str, host_time_s: float) -> None:
-        word = label.strip().casefold()
+        word = _word(label)
+        if word is None:
+            return
         if word == self._start and not self.started.is_set():
             self.start_host_time_s = host_time_s
             self.started.set()

@@ -46,6 +46,7 @@ from gaitmon.dsp.sample_clock import SampleClock
 from gaitmon.errors import UserError
 from gaitmon.lsl import layout
 from gaitmon.lsl.layout import EventWord, event_text
+from gaitmon.lsl.network import configure
 
 if TYPE_CHECKING:
     from gaitmon.engine import Engine
@@ -60,12 +61,15 @@ class LslUnavailable(UserError):
     """pylsl (the optional extra ``gaitmon[lsl]``) is not installed, or liblsl cannot load."""
 
 
-def require_pylsl() -> ModuleType:
-    """pylsl, or :class:`LslUnavailable` with the one line that says what to install."""
+def require_pylsl(scope: str | None = None) -> ModuleType:
+    """pylsl with gaitmon's network settings applied (``gaitmon.lsl.network``: ``scope``, by
+    default this computer only), or :class:`LslUnavailable` with the one line that says what
+    to install."""
     try:
         import pylsl
     except (ImportError, OSError, RuntimeError) as exc:  # no package, or no liblsl in it
         raise LslUnavailable(INSTALL_HINT) from exc
+    configure(pylsl, scope)
     return pylsl
 
 

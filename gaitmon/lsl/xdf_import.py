@@ -46,6 +46,7 @@ from gaitmon.lsl.xdf_read import (
     read_xdf,
     text,
 )
+from gaitmon.text import clean_label
 
 if TYPE_CHECKING:
     from gaitmon.io.session import SessionHeader
@@ -363,7 +364,7 @@ def _gaps(session: _Rows, events: XdfStream | None, fs: float) -> list[dict[str,
             k = int(np.argmin(np.abs(first_lost_t - te)))
             # the event belongs to that gap if it was stamped inside it (half a frame's slack)
             if t[at[k] - 1] < te + 0.5 / fs and te < t[at[k]] + 0.5 / fs:
-                reasons[int(at[k])] = rest or FRAMES_LOST
+                reasons[int(at[k])] = clean_label(rest) or FRAMES_LOST
     return [
         {"sample_idx": int(i), "n_lost": int(lost[i]), "duration_s": float(lost[i]) / fs,
          "reason": reasons[int(i)]}
@@ -395,7 +396,7 @@ def _events(
             if te < t[0] - half or te > t[-1] + half:
                 outside += 1
                 continue
-            markers.append({"sample_idx": idx, "label": rest})
+            markers.append({"sample_idx": idx, "label": clean_label(rest)})
         elif word in (EventWord.CONFIG, EventWord.CALIBRATION):
             try:
                 obj = json.loads(rest)
@@ -441,7 +442,7 @@ def _foreign_markers(session: _Rows, stream: XdfStream, notes: list[str]) -> lis
         if te < t[0] - half or te > t[-1] + half:
             outside += 1
             continue
-        out.append({"sample_idx": int(row), "label": sample})
+        out.append({"sample_idx": int(row), "label": clean_label(sample)})
     if outside:
         notes.append(f"{outside} sample{'s' if outside > 1 else ''} of {stream.name!r} outside "
                      "the recorded samples left out")  # fmt: skip

@@ -48,6 +48,7 @@ from gaitmon.export.writers.source import (
     session_side,
 )
 from gaitmon.io.deidentify import Scrubber
+from gaitmon.text import spreadsheet_cell
 from gaitmon.values import JsonObject, JsonValue, scalar
 
 BIDS_VERSION = "1.9.0"
@@ -478,9 +479,10 @@ def merge_tsv(path: Path, row: dict[str, str], *more: dict[str, str]) -> str:
 
 
 def tsv_cell(text: str) -> str:
-    """A TSV cell: no tabs or line breaks; ``n/a`` for an empty one."""
+    """A TSV cell: no tabs or line breaks; ``n/a`` for an empty one; text a spreadsheet will
+    not run as a formula (``gaitmon.text.spreadsheet_cell``)."""
     text = re.sub(r"[\t\r\n]+", " ", str(text)).strip()
-    return text or NA
+    return spreadsheet_cell(text) or NA
 
 
 def write_text(path: Path, text: str) -> None:

@@ -28,6 +28,7 @@ from gaitmon.export.writers.source import (
     metadata,
 )
 from gaitmon.io.deidentify import Scrubber
+from gaitmon.text import spreadsheet_cell
 from gaitmon.values import JsonObject
 
 CSV_CHUNK_ROWS = 32_768  # ~15 MB of text per chunk
@@ -51,7 +52,9 @@ def write(src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
 
 
 def _csv_cell(text: str) -> str:
-    """RFC 4180 quoting for the free-text column."""
+    """RFC 4180 quoting for the free-text column, which no spreadsheet runs as a formula
+    (``gaitmon.text.spreadsheet_cell``: a marker ``=HYPERLINK(...)`` is text)."""
+    text = spreadsheet_cell(text)
     if any(c in text for c in ',"\r\n') or text != text.strip():
         return '"' + text.replace('"', '""') + '"'
     return text

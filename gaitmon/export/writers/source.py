@@ -26,6 +26,7 @@ from gaitmon import __version__
 from gaitmon.dsp.channel_table import CHANNEL_NAMES, JOINT_TABLE, SEGMENTS
 from gaitmon.export.writers.errors import ExportError
 from gaitmon.io.deidentify import Scrubber
+from gaitmon.text import clean_label
 from gaitmon.values import JsonObject, JsonValue, scalar
 
 if TYPE_CHECKING:
@@ -360,7 +361,9 @@ def markers(src: Source, scrub: Scrubber) -> list[ExportedMarker]:
         idx = int(scalar(m.get("sample_idx", -1)))
         if 0 <= idx < src.n:
             out.append({"sample_idx": idx, "t_s": float(scalar(m.get("t_s", math.nan))),
-                        "label": scrub.text(as_text(m.get("label", "")))})
+                        # cleaned again: a file written before labels were cleaned at
+                        # entry may hold ANSI escapes or a megabyte of text
+                        "label": clean_label(scrub.text(as_text(m.get("label", ""))))})
     return out
 
 
@@ -371,7 +374,7 @@ def gaps(src: Source, scrub: Scrubber) -> list[ExportedGap]:
         if 0 <= idx <= src.n:
             out.append({"sample_idx": idx, "n_lost": int(scalar(g.get("n_lost", 0))),
                         "duration_s": float(scalar(g.get("duration_s", math.nan))),
-                        "reason": scrub.text(as_text(g.get("reason", "")))})
+                        "reason": clean_label(scrub.text(as_text(g.get("reason", ""))))})
     return out
 
 

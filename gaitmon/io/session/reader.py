@@ -54,6 +54,7 @@ from gaitmon.io.session.series import (
     _sample_rate,
 )
 from gaitmon.io.session.truth import Truth, truth_from_file
+from gaitmon.text import clean_label
 from gaitmon.values import scalar
 
 if TYPE_CHECKING:
@@ -153,7 +154,10 @@ class StoredSession:
         self.heel_strike_idx: np.ndarray = _event_rows(name, f, "heel_strike")
         self.toe_off_idx: np.ndarray = _event_rows(name, f, "toe_off")
         self.markers: list[Marker] = [
-            Marker(int(r["sample_idx"]), float(r["t_s"]), _s(r["label"])) for r in f["markers"][()]
+            # a label cleaned again: a file written before labels were cleaned at entry may
+            # hold ANSI escapes or a megabyte of text
+            Marker(int(r["sample_idx"]), float(r["t_s"]), clean_label(_s(r["label"])))
+            for r in f["markers"][()]
         ]
         faults = f["events/fsr_faults"][()] if "events/fsr_faults" in f else []
         # force sensors the foot-gyro cross-check flagged, in rows (decided_idx: from there
@@ -164,7 +168,8 @@ class StoredSession:
             for r in faults
         ]  # fmt: skip
         self.gaps: list[Gap] = [
-            Gap(int(r["sample_idx"]), int(r["n_lost"]), float(r["duration_s"]), _s(r["reason"]))
+            Gap(int(r["sample_idx"]), int(r["n_lost"]), float(r["duration_s"]),
+                clean_label(_s(r["reason"])))
             for r in f["gaps"][()]
         ]
         self.link: dict[str, int] = {k: int(v) for k, v in f["link"].attrs.items()}

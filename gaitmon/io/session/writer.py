@@ -67,6 +67,7 @@ from gaitmon.io.session.rows import (
     fault_rows,
     rows_from_pipeline,
 )
+from gaitmon.text import clean_label
 
 # What the finishing layer adds to a raw recording at its close, from the rows the file holds
 # (the open file, the recording's header, its sample rate): see SessionWriter.close.
@@ -275,8 +276,11 @@ class SessionWriter:
         self.maybe_flush()
 
     def add_marker(self, label: str, sample_idx: int | None = None) -> None:
-        """A clinician's marker at ``sample_idx`` (default: the next row)."""
+        """A clinician's marker at ``sample_idx`` (default: the next row). The label is
+        cleaned (``gaitmon.text.clean_label``): an HDF5 string cannot hold a NUL, and one
+        label must never stop a recording."""
         self._check_usable()
+        label = clean_label(label)
         idx = self._rows if sample_idx is None else int(sample_idx)
         if idx < 0:
             raise ValueError(f"marker sample_idx must be >= 0, got {idx}")
