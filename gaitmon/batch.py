@@ -33,12 +33,9 @@ import dataclasses
 import io
 import json
 import math
-import multiprocessing
 import os
-import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -53,6 +50,7 @@ from gaitmon.analysis import (
     stride_cells,
     stride_start_times,
 )
+from gaitmon.batch_pool import dask_client, run_dask, run_local
 from gaitmon.dsp.gait import GaitSummary
 from gaitmon.errors import DAMAGE_ERRORS, UserError
 from gaitmon.reprocessing import Reprocessing
@@ -294,75 +292,6 @@ def _save_record(task: Task, state: Path, fingerprint: str, outcome: Outcome) ->
         _write_atomic(_record_path(state, task.rel), json.dumps(rec).encode())
 
 
-# -- running ---------------------------------------------------------------------------------
-
-
-def die_with_parent(parent_pid: int) -> None:
-    """A pool worker's first act: on Linux, ask the kernel to kill it when the batch process
-    dies (``prctl(PR_SET_PDEATHSIG, SIGKILL)``), so a ``kill -9`` of ``gaitmon batch`` leaves
-    no worker reprocessing on for nobody (and with them gone, multiprocessing's resource
-    tracker reads the end of its pipe and exits too). Elsewhere a no-op: a worker then ends
-    at its next task, when it finds the pool's pipe closed."""
-    if not sys.platform.startswith("linux"):
-        return
-    import ctypes
-    import signal
-
-    pr_set_pdeathsig = 1
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
-    if os.getppid() != parent_pid:  # it died before the request was made: go now
-        os._exit(1)
-
-
-def _run_local(tasks: Sequence[Task], jobs: int, done: Callable[[Outcome], None]) -> None:
-    if jobs <= 1 or len(tasks) <= 1:
-        for t in tasks:
-            done(reprocess_one(t))
-        return
-    # spawn: a fresh interpreter per worker, no fork of a parent holding h5py state or threads
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=ctx,
-                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
-        futures = [pool.submit(reprocess_one, t) for t in tasks]
-        try:
-            for f in as_completed(futures):
-                done(f.result())
-        except BaseException:
-            pool.shutdown(wait=True, cancel_futures=True)
-            raise
-
-
-DASK_CONNECT_TIMEOUT_S = 20
-
-
-def dask_client(address: Any) -> Any:
-    """A client of the Dask distributed cluster at ``address`` (the scheduler's address, or a
-    cluster object such as a ``LocalCluster``); :class:`UserError` when there is none."""
-    try:
-        from distributed import Client
-    except ImportError:
-        raise UserError("--dask needs Dask distributed: pip install 'gaitmon[dask]'") from None
-    try:
-        # (typed only when installed: the ignore covers both cases)
-        return Client(address, timeout=f"{DASK_CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call, unused-ignore]
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise UserError(
-            f"cannot reach the Dask scheduler at {address} ({_one_line(exc)}); start it with "
-            "'dask scheduler' and check the address"
-        ) from None
-
-
-def _run_dask(tasks: Sequence[Task], client: Any, done: Callable[[Outcome], None]) -> None:
-    """The same tasks on the cluster: each worker imports gaitmon and opens its own files
-    (the paths must be the same there: a shared file system)."""
-    from distributed import as_completed as dask_completed
-
-    futures = client.map(reprocess_one, list(tasks), pure=False)
-    for f in dask_completed(futures):  # type: ignore[no-untyped-call, unused-ignore]
-        done(f.result())
-
-
 @dataclass(frozen=True)
 class BatchResult:
     outcomes: tuple[Outcome, ...]  # every session, sorted by relative path
@@ -468,9 +397,9 @@ def _run(
     report()
     if todo:
         if client is not None:
-            _run_dask(todo, client, done)
+            run_dask(reprocess_one, todo, client, done)
         else:
-            _run_local(todo, jobs, done)
+            run_local(reprocess_one, todo, jobs, done)
     outcomes = tuple(results[r] for r in rels)
     summary_csv, strides_csv = write_tables(
         outcomes, out_p, deidentify=deidentify, strides_of=lambda o: _recorded_strides(state, o)
