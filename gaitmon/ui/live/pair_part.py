@@ -53,7 +53,7 @@ log = logging.getLogger("gaitmon.ui")
 
 GAIT_EVERY = 3  # ticks between updates of each gait panel and of the measures (~10 Hz)
 PAIR_ACTIONS = ("pair_sim", "pair_ports")
-CUT_ACTIONS = ("cut_L", "cut_R")
+CUT_ACTIONS = ("cut_L", "cut_R", "stall_L", "stall_R")
 
 
 @dataclass(frozen=True)
@@ -354,6 +354,18 @@ class PairPart:
         t.timeout.connect(functools.partial(self._restore_link, side))
         t.start(round(duration_s * 1000))
         self._cut_timers[side] = t
+
+    @guarded
+    def stall_pair_link(self, side: str, duration_s: float = 5.0) -> None:
+        """Device ▸ Simulator ▸ Stall left / right leg's link: that unit holds its frames, then
+        sends the backlog."""
+        pair = self.ctx.pair
+        if pair is None or pair.simulator is None:
+            self.ctx.notify("A leg's link can only be stalled on the simulated pair.")
+            return
+        pair.simulator.pty(side).unit.stall(duration_s)
+        self.ctx.notify(f"Simulated {SIDE_NAMES[side]} unit holds its data for {duration_s:g} s, "
+                        "then sends it all.")  # fmt: skip
 
     @guarded
     def _restore_link(self, side: str) -> None:
