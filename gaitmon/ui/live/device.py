@@ -255,12 +255,9 @@ class DevicePart:
         if problem:
             ctx.notify(problem, 30_000)
             return
-        request = ConnectRequest(port, self.mode, ctx.config, self.sim)
-        ctx.connecting = True
-        ctx.status.set_state_pill("Connecting…", "warn")
-        ctx.controls_changed()
-        ctx.notify(f"Connecting to {self.port_combo.currentText()}…", 0)
-        ctx.jobs.connect(request, self._connected)
+        steps = ctx.begin_connect(self.port_combo.currentText(), "Connecting…")
+        ctx.jobs.connect(ConnectRequest(port, self.mode, ctx.config, self.sim, steps),
+                         self._connected)  # fmt: skip
 
     @guarded
     def _connected(self, response: Response[Connection]) -> None:

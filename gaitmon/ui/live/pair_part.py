@@ -15,7 +15,7 @@ import functools
 import logging
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from PySide6.QtCore import QTimer
 from PySide6.QtGui import QAction
@@ -45,6 +45,7 @@ from gaitmon.live.pair import (
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.live.context import LiveContext
+from gaitmon.ui.live.jobs import ConnectSteps
 from gaitmon.ui.live.pair_view import PairView
 from gaitmon.ui.live.recording import RecordingPart
 from gaitmon.ui.live.views import ViewPart
@@ -63,8 +64,10 @@ class PairConnectRequest:
     source: PairSource
     mode: Mode
     config: PipelineConfig
+    steps: ConnectSteps = field(default_factory=ConnectSteps)  # what it is doing, for the bar
 
     def __call__(self, ticket: Ticket) -> PairConnection:
+        self.steps.prepare(self.config)
         return open_pair(self.source, self.mode, self.config)
 
 
@@ -188,11 +191,8 @@ class PairPart:
         if self._busy_or_connected():
             return
         ctx = self.ctx
-        request = PairConnectRequest(source, self._mode(), ctx.config)
-        ctx.connecting = True
-        ctx.status.set_state_pill("Connecting both legs…", "warn")
-        ctx.controls_changed()
-        ctx.notify(f"Connecting to {source.label()}…", 0)
+        steps = ctx.begin_connect(source.label(), "Connecting both legs…")
+        request = PairConnectRequest(source, self._mode(), ctx.config, steps)
         ctx.jobs.worker.submit(request, self._connected, on_stale=PairConnection.close)
 
     @guarded
