@@ -26,9 +26,12 @@ NO_DATA = re.compile(r"no data (?:from the unit )?for (\d+) s", re.IGNORECASE)
 
 
 def whole(label, win) -> bool:
-    """``label``'s text is drawn whole: the wrapped text's height fits the label, and the label
-    lies inside the window."""
-    if label.heightForWidth(label.width()) > label.height():
+    """``label``'s text is drawn whole: the wrapped text's height fits the label (one line
+    unwrapped: its width), and the label lies inside the window."""
+    if label.wordWrap():
+        if not 0 < label.heightForWidth(label.width()) <= label.height():
+            return False
+    elif label.sizeHint().width() > label.width():
         return False
     right = label.mapTo(win, QPoint(label.width(), label.height()))
     return 0 < right.x() <= win.width() and 0 < right.y() <= win.height()
