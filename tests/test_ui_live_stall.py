@@ -132,7 +132,8 @@ def test_a_stalled_leg_says_no_data_on_its_own_line_in_the_two_leg_window(
             )
 
         seen = watch(qtbot, win, over, lambda: view.status["R"].state_text,
-                     lambda: view.status["L"].health_label.text())  # fmt: skip
+                     lambda: view.status["L"].health_label.text(),
+                     lambda: win.status.state_text)  # fmt: skip
         texts = [s[0] for s in seen if s[0]]
         assert texts and all(t.startswith("Left leg: ") for t in texts)
         assert not any("Right leg" in t for t in texts)  # the right leg streams on
@@ -141,8 +142,12 @@ def test_a_stalled_leg_says_no_data_on_its_own_line_in_the_two_leg_window(
         assert all(s[1] for s in seen), "the banner's text is cut"
         assert {s[2] for s in seen} == {"Connected"}
         assert any("no data for" in s[3] for s in seen)  # the left leg's own health line
+        # the window's state pill names the leg without data, never "Connected: both legs"
+        assert "Left leg: No data" in {s[4] for s in seen}
+        assert all(s[4] != "Connected: both legs" for s in seen if s[0].startswith("Left leg: No"))
         qtbot.waitUntil(lambda: not win.status.link_banner.isVisible(), timeout=WAIT_MS)
         assert view.status["L"].state_text == "Connected"
+        qtbot.waitUntil(lambda: win.status.state_text == "Connected: both legs", timeout=WAIT_MS)
         assert left.device.stats.decoder.frames_lost == lost0
         assert left.snapshot(30.0).series["lost"].sum() == 0
     finally:

@@ -285,6 +285,9 @@ class PairPart:
                  for side, eng in pair.engines.items()}  # fmt: skip
         view.show_links(snaps, {s: pair.port_name(s) for s in SIDES})
         ctx.status.show_banner(*view.banner())
+        pill = view.pill()
+        if ctx.status.state_text != pill[0]:  # a leg without data is never "Connected"
+            ctx.status.set_state_pill(*pill)
         self.recording.show_recording(snaps)
         self._show_guide(all(s.calibrated for s in snaps.values()))
         if paused:

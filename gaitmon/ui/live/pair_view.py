@@ -171,6 +171,17 @@ class PairView(QWidget):
         grade = "alert" if "alert" in grades else "warn" if grades else "ok"
         return "<br>".join(lines), grade, "\n".join(tips)
 
+    def pill(self) -> tuple[str, str]:
+        """(text, grade) of the window's state pill: "Connected: both legs" while both legs'
+        links are up and bring data, else each other leg's own state ("Left leg: No data")."""
+        views = {s: self.status[s].link for s in SIDES}
+        off = {s: v for s, v in views.items() if v is not None and v.state != "connected"}
+        if not off:
+            return "Connected: both legs", "ok"
+        text = " · ".join(f"{SIDE_NAMES[s].capitalize()} leg: {v.pill}" for s, v in off.items())
+        grades = {v.grade for v in off.values()}
+        return text, "alert" if "alert" in grades else "warn"
+
     def show_panel(self, side: str, snap: Snapshot) -> None:
         """One leg's Gait panel (the slowly changing part: ~10 Hz)."""
         self.panels[side].show_snapshot(snap)
