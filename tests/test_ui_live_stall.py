@@ -131,9 +131,12 @@ def test_a_stalled_leg_says_no_data_on_its_own_line_in_the_two_leg_window(
                 and left.snapshot(0.05).last_data_age_s < 0.5
             )
 
+        def measures():
+            return view.measures_box.title(), view.values["cadence"].isEnabled()
+
         seen = watch(qtbot, win, over, lambda: view.status["R"].state_text,
                      lambda: view.status["L"].health_label.text(),
-                     lambda: win.status.state_text)  # fmt: skip
+                     lambda: win.status.state_text, measures)  # fmt: skip
         texts = [s[0] for s in seen if s[0]]
         assert texts and all(t.startswith("Left leg: ") for t in texts)
         assert not any("Right leg" in t for t in texts)  # the right leg streams on
@@ -145,9 +148,14 @@ def test_a_stalled_leg_says_no_data_on_its_own_line_in_the_two_leg_window(
         # the window's state pill names the leg without data, never "Connected: both legs"
         assert "Left leg: No data" in {s[4] for s in seen}
         assert all(s[4] != "Connected: both legs" for s in seen if s[0].startswith("Left leg: No"))
+        # both legs' measures are greyed, their box saying whose data is missing
+        assert any(t.startswith("Both legs — ⚠ stale (left leg: no data for") and not on
+                   for t, on in (s[5] for s in seen))  # fmt: skip
         qtbot.waitUntil(lambda: not win.status.link_banner.isVisible(), timeout=WAIT_MS)
         assert view.status["L"].state_text == "Connected"
         qtbot.waitUntil(lambda: win.status.state_text == "Connected: both legs", timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: view.measures_box.title() == "Both legs", timeout=WAIT_MS)
+        assert view.values["cadence"].isEnabled()
         assert left.device.stats.decoder.frames_lost == lost0
         assert left.snapshot(30.0).series["lost"].sum() == 0
     finally:

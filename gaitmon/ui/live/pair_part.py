@@ -304,7 +304,7 @@ class PairPart:
         if part < len(SIDES):
             view.show_panel(SIDES[part], snaps[SIDES[part]])
         else:
-            view.show_measures(self.model.gait())
+            view.show_measures(self.model.gait(), {s: snaps[s].stalled_s for s in SIDES})
         self.snapshots = snaps
 
     # -- zero, the simulated pair's links ---------------------------------------------------
