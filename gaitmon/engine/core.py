@@ -60,7 +60,7 @@ from gaitmon.engine.snapshot import (
     RecordingStatus,
     Snapshot,
 )
-from gaitmon.engine.stream import StreamHealth, StreamPosition, UnitClockMark
+from gaitmon.engine.stream import StreamHealth, StreamPosition, UnitClockMark, stalled_s
 from gaitmon.engine.taps import BlockListener, Taps
 from gaitmon.engine.zeroing import ZERO_MARGIN_S, ZeroSearch, still_window
 from gaitmon.io.device import Device, DeviceError
@@ -445,6 +445,7 @@ class Engine:
         except Exception:  # a vanished device must not break the viewer
             link = None
         status = link.transport if link is not None else None
+        age_s = time.monotonic() - self._stream.last_data_s
         return Snapshot(
             series=series,
             heel_strike_t_s=hs,
@@ -452,7 +453,7 @@ class Engine:
             markers=markers,
             samples_total=self._stream.samples,
             frame_rate_hz=rate,
-            last_data_age_s=time.monotonic() - self._stream.last_data_s,
+            last_data_age_s=age_s,
             link=link,
             link_state=status.state.value if status is not None else "closed",
             link_reason=(status.reason or "") if status is not None else engine_error,
@@ -467,6 +468,7 @@ class Engine:
             angle_method=method,
             fsr_faults=fsr_faults,
             event_source=event_source,
+            stalled_s=stalled_s(age_s, link is not None and link.streaming),
         )
 
     def _latest_t(self) -> float:

@@ -111,3 +111,6 @@ class Snapshot:
     # force sensors flagged since the engine started (one per sensor and reason), oldest first
     fsr_faults: tuple[FsrFaultNotice, ...] = ()
     event_source: str = ""  # EVENTS_FSR | EVENTS_GYRO | EVENTS_UNIT | "" (tilt mode)
+    # wall time without a frame while the unit streams, once it reaches STALL_AFTER_S (1 s);
+    # 0.0 while frames arrive (gaitmon.engine.stream.stalled_s): what "no data for N s" shows
+    stalled_s: float = 0.0

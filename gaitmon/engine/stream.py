@@ -6,7 +6,11 @@ recording's timeline counts them (``true_times``). Frames of a block that is not
 (another mode's frames) are carried as lost before the next one that is (``not_processed``).
 Only the engine thread writes a ``StreamPosition``; other threads read ``samples`` and
 ``last_data_s``, each a single value, without a lock. ``StreamHealth`` is what the engine
-thread counts for a viewer: errors and the frame rate. ``UnitClockMark`` is a moment of the
+thread counts for a viewer: errors and the frame rate. A stream has *stalled* when no frame has
+arrived for ``STALL_AFTER_S`` of wall time while the unit streams (``stalled_s``): a link
+cut, or a unit that holds its frames and sends them late. Which of the two it was only the
+sequence numbers tell, once frames arrive again: a late backlog fills the stall in (no gap),
+lost frames become a gap. ``UnitClockMark`` is a moment of the
 unit's clock that a caller keeps (``Engine.clock_mark``, ``Engine.seconds_since``).
 """
 
@@ -19,6 +23,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gaitmon.io.device import SampleBlock
+
+# no frame for this long (wall time) while the unit streams: a viewer says "no data for N s"
+# (a unit sends 100 frames a second: a second without one is no jitter)
+STALL_AFTER_S = 1.0
+
+
+def stalled_s(last_data_age_s: float, streaming: bool) -> float:
+    """Seconds without a frame once that reaches :data:`STALL_AFTER_S` while the unit streams
+    (``Snapshot.stalled_s``); 0.0 while frames arrive or the unit is not asked to stream."""
+    return last_data_age_s if streaming and last_data_age_s >= STALL_AFTER_S else 0.0
 
 
 def lost_in(block: SampleBlock) -> int:

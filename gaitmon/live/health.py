@@ -4,7 +4,11 @@ Health is graded so it stays out of the way when all is well:
 
 * ``ok``     -- no frame lost and no CRC failure within the last ``recent_s`` seconds: quiet grey;
 * ``lossy``  -- frames lost or CRC failures within the last ``recent_s``: amber, with the rate;
-* ``alert``  -- no data for ``no_data_alert_s`` (2 s) while connected, or the link is down: red.
+* ``alert``  -- no data for ``no_data_alert_s`` (1 s) while connected, or the link is down: red.
+
+"No data for N s" counts whole seconds from the engine's ``Snapshot.stalled_s`` (its one rule
+for a stalled stream: ``gaitmon.engine.stream.STALL_AFTER_S``), in the status bar, the banner
+and the banner of a link being reconnected alike, so N only grows until frames arrive.
 """
 
 from __future__ import annotations
@@ -14,10 +18,17 @@ from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from gaitmon.engine.stream import STALL_AFTER_S
+
 if TYPE_CHECKING:
     from gaitmon.engine import Snapshot
 
-NO_DATA_ALERT_S = 2.0
+NO_DATA_ALERT_S = STALL_AFTER_S
+
+
+def no_data_text(no_data_s: float) -> str:
+    """ "no data for N s": whole seconds, counted up (N is 1 from the first second on)."""
+    return f"no data for {max(int(no_data_s), 1)} s"
 
 
 @dataclass(frozen=True)
@@ -89,7 +100,8 @@ class HealthTracker:
             suffix = f" · {errors} error{'s' if errors != 1 else ''}"
             tip += f" Processing/receive errors: {errors}; last: {last_error}"
         if not link_up or last_data_age_s >= self.no_data_alert_s:
-            return Health("alert", f"no data for {last_data_age_s:.0f} s · {totals}{suffix}", tip)
+            what = no_data_text(last_data_age_s) if last_data_age_s > 0 else "link down"
+            return Health("alert", f"{what} · {totals}{suffix}", tip)
         if d_lost > 0 or d_crc > 0:
             pct = 100.0 * d_lost / max(d_ok + d_lost, 1)
             window = f"{self.recent_s:g} s"
@@ -111,22 +123,26 @@ def link_view(
 ) -> LinkView:
     """The connection pill and banner for one snapshot of the engine.
 
-    ``seconds_to_reconnect`` comes from the transport's next-attempt time at the moment of the
-    snapshot, so the countdown is right at each refresh; ``attempt`` is the number of the
-    attempt that countdown leads to (1 = the first after the loss). ``link_reason`` (the
+    ``last_data_age_s``: seconds without data (the engine's ``Snapshot.stalled_s``; said once
+    it reaches ``no_data_alert_s``, also while reconnecting). ``seconds_to_reconnect`` comes
+    from the transport's next-attempt time at the moment of the snapshot, so the countdown is
+    right at each refresh; ``attempt`` is the number of the attempt that countdown leads to
+    (1 = the first after the loss). ``link_reason`` (the
     transport's one-line technical reason) goes to the tooltip only, after ``device`` (the
     port's real name, e.g. the simulator's pty path; default ``port``).
     """
     where = device or port
     tip = f"{where}: {link_reason}" if link_reason else where
+    silent = last_data_age_s >= no_data_alert_s
     if link_state == "reconnecting":
         wait = countdown_s(seconds_to_reconnect)
         when = f"next in {wait} s" if wait is not None else "trying now"
+        since = f"; {no_data_text(last_data_age_s)}" if silent else ""
         return LinkView(
             "reconnecting",
             f"Reconnecting ({wait} s)" if wait is not None else "Reconnecting…",
-            f"Connection to the unit lost — reconnecting (attempt {max(attempt, 1)}, {when}). "
-            "Recording and display resume by themselves.",
+            f"Connection to the unit lost — reconnecting (attempt {max(attempt, 1)}, {when})"
+            f"{since}. Recording and display resume by themselves.",
             "warn",
             tip,
         )
@@ -140,12 +156,12 @@ def link_view(
             tip,
         )
     if link_state == "connected":
-        if last_data_age_s >= no_data_alert_s:
+        if silent:
             return LinkView(
                 "no data",
                 "No data",
-                f"No data from the unit for {last_data_age_s:.0f} s. Is it switched on and "
-                "within range?",
+                f"No data from the unit for {max(int(last_data_age_s), 1)} s. Is it switched on "
+                "and within range?",
                 "alert",
                 tip,
             )
@@ -160,7 +176,7 @@ def snapshot_link_view(snap: Snapshot, port: str) -> LinkView:
         snap.link_state,
         snap.link_reason,
         snap.seconds_to_reconnect,
-        snap.last_data_age_s,
+        snap.stalled_s,
         port,
         attempt=link.transport.attempt + 1 if link is not None else 1,
         device=link.transport.port if link is not None else "",
@@ -180,7 +196,7 @@ def snapshot_health(tracker: HealthTracker, snap: Snapshot, now_s: float) -> Hea
         d.frames_lost,
         d.crc_failures,
         snap.frame_rate_hz,
-        snap.last_data_age_s,
+        snap.stalled_s,
         reconnects=link.reconnects,
         link_up=snap.link_state == "connected",
         errors=snap.engine_errors + link.rx_errors,

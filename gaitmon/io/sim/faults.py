@@ -9,14 +9,22 @@ sequence number, sample index and kind. Frames still in the device's output queu
 link goes down (even partly read) are discarded and logged as ``link_down`` too, and queue
 overflow (nobody reading 1 MiB) as ``overflow``; so for an in-process transport the ledger is
 exact. Bytes already inside the OS pty buffer at a cut are beyond the unit's knowledge.
+
+A scheduled stall (``stalls``) loses nothing: the unit holds every frame it produces (a
+Bluetooth module whose radio is busy, a unit that stops sending for a while) and sends the
+backlog at once when the stall ends, so the sequence numbers show no gap and only the wall
+clock shows the pause.
 """
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
+
+from gaitmon.io.protocol import SEQ_MODULO
 
 
 @dataclass(frozen=True)
@@ -31,6 +39,8 @@ class FaultConfig:
     burst_len_frames: int = 10
     silences: tuple[tuple[float, float], ...] = ()  # (start_s, duration_s): nothing is sent
     link_drops: tuple[tuple[float, float], ...] = ()  # (start_s, duration_s): the link is gone
+    # (start_s, duration_s): frames are held, then the backlog is sent at once (none lost)
+    stalls: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("loss_pct", "corrupt_pct", "burst_pct"):
@@ -39,10 +49,27 @@ class FaultConfig:
                 raise ValueError(f"{name} must be within 0..100 %, got {v}")
         if self.max_bit_flips < 1 or self.burst_len_frames < 1:
             raise ValueError("max_bit_flips and burst_len_frames must be >= 1")
-        for name in ("silences", "link_drops"):
+        for name in ("silences", "link_drops", "stalls"):
             for start, dur in getattr(self, name):
                 if start < 0 or dur <= 0:
                     raise ValueError(f"{name}: start must be >= 0 and duration > 0 s")
+
+
+    def silent_at(self, t_s: float) -> bool:
+        """Whether device time ``t_s`` lies in a scheduled silence."""
+        return _within(self.silences, t_s)
+
+    def link_down_at(self, t_s: float) -> bool:
+        """Whether device time ``t_s`` lies in a scheduled link drop."""
+        return _within(self.link_drops, t_s)
+
+    def stalled_at(self, t_s: float) -> bool:
+        """Whether device time ``t_s`` lies in a scheduled stall."""
+        return _within(self.stalls, t_s)
+
+
+def _within(spans: tuple[tuple[float, float], ...], t_s: float) -> bool:
+    return any(s <= t_s < s + d for s, d in spans)
 
 
 class LedgerEntry(NamedTuple):
@@ -71,6 +98,25 @@ class FaultLedger:
     @property
     def corrupted_frame_nos(self) -> list[int]:
         return [e.frame_no for e in self.corrupted]
+
+    def take_bytes(self, frames: deque[list[int]], n: int, fault: str) -> None:
+        """``n`` bytes left the head of a unit's output queue, whose frames are ``frames``
+        ([frame_no, sample_idx, kind, bytes still queued, logged], oldest first): read (fault
+        "") or thrown away (each frame that lost a byte is logged once as ``fault``)."""
+        if fault:
+            self.discarded_bytes += n
+        while n > 0 and frames:
+            entry = frames[0]
+            if fault and not entry[4]:
+                # one byte lost is enough: the decoder cannot get that frame any more
+                no = entry[0]
+                self.dropped.append(LedgerEntry(no, no % SEQ_MODULO, entry[1], entry[2], fault))
+                entry[4] = True
+            take = min(n, entry[3])
+            entry[3] -= take
+            n -= take
+            if entry[3] == 0:
+                frames.popleft()
 
     def summary(self) -> dict[str, int]:
         by_fault: dict[str, int] = {}

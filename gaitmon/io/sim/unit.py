@@ -62,7 +62,9 @@ unit's own contacts follow them); the gait and its true events (``truth``) do no
 Faults and the ledger
 ---------------------
 ``FaultConfig`` says what goes wrong on the link and ``unit.ledger`` (a ``FaultLedger``) records
-each fault injected, frame by frame: ``faults.py``.
+each fault injected, frame by frame: ``faults.py``. A stall (``FaultConfig.stalls``, or
+``unit.stall(duration_s)`` from now) holds the frames and sends the backlog when it ends: read()
+gives nothing meanwhile, no frame is lost (a paced unit only).
 
 Ground truth
 ------------
@@ -170,6 +172,7 @@ class SimulatedUnit:
         self._burst_left = 0
         self._frame_no = 0
         self._manual_link_down = False
+        self._stall_until = 0  # sample index: a manual stall holds the frames until then
         # compact logs (8 + 8 + 1 bytes per data frame: ~6 MB for an hour of streaming)
         self._log_frame = array("q")
         self._log_sample = array("q")
@@ -202,6 +205,8 @@ class SimulatedUnit:
             if self._link_down():
                 self._discard_queue()  # whatever was queued died with the link
                 return b""
+            if self._stalled():
+                return b""  # held: the backlog leaves when the stall ends
             n = len(self._out) if max_bytes is None else min(max_bytes, len(self._out))
             data = bytes(self._out[:n])
             self._pop_bytes(n, fault="")
@@ -219,13 +224,13 @@ class SimulatedUnit:
             if math.isinf(self.speed):
                 return bool(self._out or self._streaming or self._pending_requests)
             self._advance_to_now()
-            if not self._out:
+            if not self._out or self._stalled():
                 busy = self._streaming or self._pending_requests or self._zero_left
                 wait_s = min(timeout_s, self.seconds_until_next_sample()) if busy else timeout_s
                 if wait_s > 0:
                     self._cond.wait(wait_s)
                 self._advance_to_now()
-            return bool(self._out)
+            return bool(self._out) and not self._stalled()
 
     def seconds_until_next_sample(self) -> float:
         with self._lock:
@@ -338,6 +343,13 @@ class SimulatedUnit:
             self._manual_link_down = bool(down)
             if down:
                 self._discard_queue()
+
+    def stall(self, duration_s: float) -> None:
+        """Hold every frame for ``duration_s`` of device time from now, then send the backlog
+        at once: nothing is lost (``FaultConfig.stalls`` schedules the same)."""
+        with self._lock:
+            self._advance_to_now()
+            self._stall_until = self.sensors.position + round(duration_s * self.fs_hz)
 
     def frame_log(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(frame_no, sample_idx, kind) of every data frame produced, delivered or not."""
@@ -453,14 +465,18 @@ class SimulatedUnit:
 
     # ---- frames and faults ------------------------------------------------------------------
     def _link_down_at(self, sample_idx: int) -> bool:
-        if self._manual_link_down:
-            return True
-        t = sample_idx / self.fs_hz
-        return any(s <= t < s + d for s, d in self.faults.link_drops)
+        return self._manual_link_down or self.faults.link_down_at(sample_idx / self.fs_hz)
 
     def _silent_at(self, sample_idx: int) -> bool:
-        t = sample_idx / self.fs_hz
-        return any(s <= t < s + d for s, d in self.faults.silences)
+        return self.faults.silent_at(sample_idx / self.fs_hz)
+
+    def _stalled(self) -> bool:
+        """Holding its frames now (a scheduled or a manual stall; never as fast as possible:
+        device time only moves there when the client reads)."""
+        at = self.sensors.position
+        if math.isinf(self.speed):
+            return False
+        return at < self._stall_until or self.faults.stalled_at(at / self.fs_hz)
 
     def _link_down(self) -> bool:
         return self._link_down_at(self.sensors.position)
@@ -471,23 +487,7 @@ class SimulatedUnit:
     def _pop_bytes(self, n: int, fault: str) -> None:
         """Remove n bytes from the head of the queue: read (fault "") or thrown away."""
         del self._out[:n]
-        if fault:
-            self.ledger.discarded_bytes += n
-        frames = self._out_frames
-        while n > 0 and frames:
-            entry = frames[0]  # [frame_no, sample_idx, kind, bytes left, logged]
-            if fault and not entry[4]:
-                # one byte lost is enough: the decoder cannot get that frame any more
-                no = entry[0]
-                self.ledger.dropped.append(
-                    LedgerEntry(no, no % P.SEQ_MODULO, entry[1], entry[2], fault)
-                )
-                entry[4] = True
-            take = min(n, entry[3])
-            entry[3] -= take
-            n -= take
-            if entry[3] == 0:
-                frames.popleft()
+        self.ledger.take_bytes(self._out_frames, n, fault)
 
     def _next_frame_no(self) -> int:
         no = self._frame_no

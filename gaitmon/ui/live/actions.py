@@ -116,6 +116,16 @@ ACTIONS: tuple[ActionSpec, ...] = (
                    "leg records on", menu=SIMULATOR, args=(side, 3.0))
         for side, name in (("L", "left"), ("R", "right"))
     ),
+    ActionSpec("stall", "Stall link for 5 s (then the backlog)", "stall_simulated_link", None,
+               "The simulated unit holds its frames for 5 s and then sends them all at once: "
+               "nothing is lost, the data only comes late", menu=SIMULATOR, args=(5.0,)),
+    *(
+        ActionSpec(f"stall_{side}", f"Stall {name} leg's link for 5 s (then the backlog)",
+                   "stall_pair_link", None,
+                   f"Both legs: the simulated {name} unit holds its frames for 5 s, then sends "
+                   "them all at once (nothing is lost)", menu=SIMULATOR, args=(side, 5.0))
+        for side, name in (("L", "left"), ("R", "right"))
+    ),
     ActionSpec("sim_stand", "Stand still", "set_simulated_standing", None,
                "The simulated subject stops at the next step and stands upright and still "
                "until Walk again: time to zero", menu=SIMULATOR, separator_before=True,

@@ -23,7 +23,7 @@ from gaitmon.jobs import Response
 from gaitmon.live.connection import Connection
 from gaitmon.live.pair import PairConnection
 from gaitmon.ui import one_line
-from gaitmon.ui.live.jobs import DeviceJobs
+from gaitmon.ui.live.jobs import ConnectNotice, ConnectSteps, DeviceJobs
 from gaitmon.ui.live.prefs import Prefs
 from gaitmon.ui.live.status import StatusView
 from gaitmon.ui.theme import Colours
@@ -64,6 +64,10 @@ class LiveContext:
         self.saving = False  # a stopped recording's file is being finished on the device worker
         self.closing = False
         self.controls_changed: Callable[[], None] = lambda: None  # set by the window
+        # the status bar's line while a connect runs (what it waits for, and how long)
+        self.connect_notice = ConnectNotice(
+            self.notify, lambda: self.closing or not self.connecting
+        )
 
     @property
     def engine(self) -> Engine | None:
@@ -92,11 +96,21 @@ class LiveContext:
         self.errors.append(msg)
         self.notify(msg)
 
+    def begin_connect(self, label: str, pill: str) -> ConnectSteps:
+        """A connect to ``label`` (one unit or both legs) is under way: the controls and the
+        state ``pill`` say so, the status bar says what it waits for; the steps its request
+        writes."""
+        self.connecting = True
+        self.status.set_state_pill(pill, "warn")
+        self.controls_changed()
+        return self.connect_notice.start(label)
+
     def opened(self, response: Response[C], what: str) -> C | None:
         """A connect's answer (one unit or both legs): what opened, or None when it failed
         (said in one line: ``what`` is "connect", "connect both legs") or nobody wants it any
         more (the window is closing: closed at once)."""
         self.connecting = False
+        self.connect_notice.stop()
         opened = response.value
         if response.error is not None or opened is None:
             self._connect_failed(response.error, what)

@@ -65,7 +65,7 @@ def port_problem(port: str) -> str:
     return ""
 
 
-ONE_LEG_SIM_ACTIONS = ("cut", "restore", "sim_stand", "sim_walk",
+ONE_LEG_SIM_ACTIONS = ("cut", "restore", "stall", "sim_stand", "sim_walk",
                        *(f"sim_{key}" for key, _text, _tip in SIM_FSR_FAULTS))  # fmt: skip
 
 
@@ -169,8 +169,8 @@ class DevicePart:
         self.sim_menu.setEnabled(one_sim or pair_sim)
         for name in ONE_LEG_SIM_ACTIONS:
             acts[name].setEnabled(ctx.pair is None)
-        acts["cut"].setEnabled(one_sim)
-        acts["restore"].setEnabled(one_sim)
+        for name in ("cut", "restore", "stall"):
+            acts[name].setEnabled(one_sim)
 
     def recent_ports(self) -> list[str]:
         """The typed ports connected to before, newest first."""
@@ -255,12 +255,9 @@ class DevicePart:
         if problem:
             ctx.notify(problem, 30_000)
             return
-        request = ConnectRequest(port, self.mode, ctx.config, self.sim)
-        ctx.connecting = True
-        ctx.status.set_state_pill("Connecting…", "warn")
-        ctx.controls_changed()
-        ctx.notify(f"Connecting to {self.port_combo.currentText()}…", 0)
-        ctx.jobs.connect(request, self._connected)
+        steps = ctx.begin_connect(self.port_combo.currentText(), "Connecting…")
+        ctx.jobs.connect(ConnectRequest(port, self.mode, ctx.config, self.sim, steps),
+                         self._connected)  # fmt: skip
 
     @guarded
     def _connected(self, response: Response[Connection]) -> None:
@@ -349,6 +346,17 @@ class DevicePart:
         t.timeout.connect(self.restore_simulated_link)
         t.start(round(duration_s * 1000))
         self._restore_timer = t
+
+    @guarded
+    def stall_simulated_link(self, duration_s: float = 5.0) -> None:
+        """Device ▸ Simulator ▸ Stall link: the simulated unit holds its frames, then sends
+        the backlog (io.sim: ``SimulatedUnit.stall``)."""
+        conn = self.ctx.conn
+        if conn is None or conn.unit is None:
+            self.ctx.notify("Only the simulated device's link can be stalled.")
+            return
+        conn.unit.stall(duration_s)
+        self.ctx.notify(f"Simulated unit holds its data for {duration_s:g} s, then sends it all.")
 
     @guarded
     def restore_simulated_link(self) -> None:

@@ -15,7 +15,7 @@ import functools
 import logging
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from PySide6.QtCore import QTimer
 from PySide6.QtGui import QAction
@@ -45,6 +45,7 @@ from gaitmon.live.pair import (
 from gaitmon.ui import one_line
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.live.context import LiveContext
+from gaitmon.ui.live.jobs import ConnectSteps
 from gaitmon.ui.live.pair_view import PairView
 from gaitmon.ui.live.recording import RecordingPart
 from gaitmon.ui.live.views import ViewPart
@@ -53,7 +54,7 @@ log = logging.getLogger("gaitmon.ui")
 
 GAIT_EVERY = 3  # ticks between updates of each gait panel and of the measures (~10 Hz)
 PAIR_ACTIONS = ("pair_sim", "pair_ports")
-CUT_ACTIONS = ("cut_L", "cut_R")
+CUT_ACTIONS = ("cut_L", "cut_R", "stall_L", "stall_R")
 
 
 @dataclass(frozen=True)
@@ -63,8 +64,10 @@ class PairConnectRequest:
     source: PairSource
     mode: Mode
     config: PipelineConfig
+    steps: ConnectSteps = field(default_factory=ConnectSteps)  # what it is doing, for the bar
 
     def __call__(self, ticket: Ticket) -> PairConnection:
+        self.steps.prepare(self.config)
         return open_pair(self.source, self.mode, self.config)
 
 
@@ -188,11 +191,8 @@ class PairPart:
         if self._busy_or_connected():
             return
         ctx = self.ctx
-        request = PairConnectRequest(source, self._mode(), ctx.config)
-        ctx.connecting = True
-        ctx.status.set_state_pill("Connecting both legs…", "warn")
-        ctx.controls_changed()
-        ctx.notify(f"Connecting to {source.label()}…", 0)
+        steps = ctx.begin_connect(source.label(), "Connecting both legs…")
+        request = PairConnectRequest(source, self._mode(), ctx.config, steps)
         ctx.jobs.worker.submit(request, self._connected, on_stale=PairConnection.close)
 
     @guarded
@@ -285,6 +285,9 @@ class PairPart:
                  for side, eng in pair.engines.items()}  # fmt: skip
         view.show_links(snaps, {s: pair.port_name(s) for s in SIDES})
         ctx.status.show_banner(*view.banner())
+        pill = view.pill()
+        if ctx.status.state_text != pill[0]:  # a leg without data is never "Connected"
+            ctx.status.set_state_pill(*pill)
         self.recording.show_recording(snaps)
         self._show_guide(all(s.calibrated for s in snaps.values()))
         if paused:
@@ -301,7 +304,7 @@ class PairPart:
         if part < len(SIDES):
             view.show_panel(SIDES[part], snaps[SIDES[part]])
         else:
-            view.show_measures(self.model.gait())
+            view.show_measures(self.model.gait(), {s: snaps[s].stalled_s for s in SIDES})
         self.snapshots = snaps
 
     # -- zero, the simulated pair's links ---------------------------------------------------
@@ -354,6 +357,18 @@ class PairPart:
         t.timeout.connect(functools.partial(self._restore_link, side))
         t.start(round(duration_s * 1000))
         self._cut_timers[side] = t
+
+    @guarded
+    def stall_pair_link(self, side: str, duration_s: float = 5.0) -> None:
+        """Device ▸ Simulator ▸ Stall left / right leg's link: that unit holds its frames, then
+        sends the backlog."""
+        pair = self.ctx.pair
+        if pair is None or pair.simulator is None:
+            self.ctx.notify("A leg's link can only be stalled on the simulated pair.")
+            return
+        pair.simulator.pty(side).unit.stall(duration_s)
+        self.ctx.notify(f"Simulated {SIDE_NAMES[side]} unit holds its data for {duration_s:g} s, "
+                        "then sends it all.")  # fmt: skip
 
     @guarded
     def _restore_link(self, side: str) -> None:

@@ -33,6 +33,7 @@ from gaitmon.engine import Snapshot
 from gaitmon.live.health import (
     HealthTracker,
     LinkView,
+    no_data_text,
     snapshot_health,
     snapshot_link_view,
 )
@@ -125,6 +126,7 @@ class PairView(QWidget):
         col = QVBoxLayout(side)
         col.setContentsMargins(4, 0, 0, 0)
         box = QGroupBox("Both legs")
+        self.measures_box = box
         grid = QGridLayout(box)
         self.values = value_rows(grid, MEASURES, self, scale=1.3)
         col.addWidget(box)
@@ -171,12 +173,35 @@ class PairView(QWidget):
         grade = "alert" if "alert" in grades else "warn" if grades else "ok"
         return "<br>".join(lines), grade, "\n".join(tips)
 
+    def pill(self) -> tuple[str, str]:
+        """(text, grade) of the window's state pill: "Connected: both legs" while both legs'
+        links are up and bring data, else each other leg's own state ("Left leg: No data")."""
+        views = {s: self.status[s].link for s in SIDES}
+        off = {s: v for s, v in views.items() if v is not None and v.state != "connected"}
+        if not off:
+            return "Connected: both legs", "ok"
+        text = " · ".join(f"{SIDE_NAMES[s].capitalize()} leg: {v.pill}" for s, v in off.items())
+        grades = {v.grade for v in off.values()}
+        return text, "alert" if "alert" in grades else "warn"
+
     def show_panel(self, side: str, snap: Snapshot) -> None:
         """One leg's Gait panel (the slowly changing part: ~10 Hz)."""
         self.panels[side].show_snapshot(snap)
 
-    def show_measures(self, gait: BilateralGait) -> None:
-        """The live bilateral measures (~10 Hz)."""
+    def show_measures(self, gait: BilateralGait, stalled_s: dict[str, float] | None = None) -> None:
+        """The live bilateral measures (~10 Hz); greyed, the box's title saying why, while a
+        leg brings no data (``stalled_s``: each leg's ``Snapshot.stalled_s``): they are the
+        figures from before."""
+        off = {s: t for s, t in (stalled_s or {}).items() if t > 0}
+        title = "Both legs"
+        if off:
+            title += " — ⚠ stale (" + ", ".join(
+                f"{SIDE_NAMES[s]} leg: {no_data_text(t)}" for s, t in off.items()
+            ) + ")"
+        if self.measures_box.title() != title:
+            self.measures_box.setTitle(title)
+            for label in self.values.values():
+                label.setEnabled(not off)
 
         def fmt(x: float, spec: str) -> str:
             return f"{x:{spec}}" if math.isfinite(x) else "—"

@@ -23,6 +23,7 @@ from gaitmon.engine.snapshot import EVENTS_FSR, EVENTS_GYRO, EVENTS_UNIT, FsrFau
 from gaitmon.live.health import (
     Health,
     HealthTracker,
+    no_data_text,
     snapshot_health,
     snapshot_link_view,
 )
@@ -231,7 +232,6 @@ GAIT_ROWS = (
      "strides and those at gaps); otherwise since connecting"),
 )  # fmt: skip
 STALE_STRIDES = 2.0  # no stride completed for this many mean stride times: the figures are old
-STALE_NO_DATA_S = 1.0  # no data for this long: the link is down, the figures are old
 STALE_KEYS = ("cadence", "speed", "stride", "stance")  # greyed when stale
 
 
@@ -348,8 +348,8 @@ class GaitPanel(QWidget):
             cadence = g.cadence_derived_steps_per_min
             stride = 120.0 / cadence if math.isfinite(cadence) else g.last_stride_time_s
             ago = f"last stride {age:.0f} s ago"
-            if snap.last_data_age_s > STALE_NO_DATA_S:
-                text = f"⚠ stale: no data for {snap.last_data_age_s:.0f} s ({ago})"
+            if snap.stalled_s > 0:  # the engine's rule: no frame for a second or more
+                text = f"⚠ stale: {no_data_text(snap.stalled_s)} ({ago})"
             elif math.isfinite(stride) and age > STALE_STRIDES * stride:
                 text = f"⚠ stale: {ago}"
         stale = bool(text)
