@@ -219,3 +219,42 @@ def test_the_budget_leaves_room_for_real_files(hostile):
 
             f.visititems(add)
         assert declared < EXPANSION / 8 * p.stat().st_size, (p.name, declared)
+
+
+def test_a_recovery_takes_no_patient_id_from_another_file(hostile, tmp_path):
+    """An interrupted recording from elsewhere (file + journal): the journal keeps no patient
+    id, so the recovery reads it from the file, and an external link there must not hand it
+    another file's (before, the recovered file got the foreign patient's id)."""
+    import shutil
+
+    from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.finish import close_recording, open_session
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.journal import journal_path
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
+    from gaitmon.io.sim.sensors import simulate
+
+    n = 1000
+    counts = simulate(n).counts
+    live, crashed = tmp_path / "live.h5", tmp_path / "crashed.h5"
+    w = SessionWriter(live, SessionHeader("raw", meta=SessionMeta(patient_id="OWN-1")))
+    pipe = Pipeline()
+    for a in range(0, n, 100):
+        rows = counts[a : a + 100]
+        w.append(SampleBlock(FrameKind.RAW, np.arange(a, a + 100, dtype=np.int64),
+                             np.zeros(100), 0.0, lost_before=np.zeros(100, np.int64), adc=rows),
+                 pipe.process(rows))  # fmt: skip
+    w.flush()
+    shutil.copyfile(live, crashed)
+    shutil.copyfile(journal_path(live), journal_path(crashed))
+    close_recording(w)
+    foreign = hostile[1]["external_link_session"].with_name("foreign.h5")
+    with h5py.File(crashed, "r+") as f:
+        del f["session"]
+        f["session"] = h5py.ExternalLink(str(foreign), "/session")
+    with open_session(crashed) as s:
+        assert s.recovered and s.n_samples == n
+        assert SECRET not in (s.meta.patient_id, s.meta.notes, s.meta.operator)
+        assert "lost" in s.meta.notes  # said, as for a damaged header
+    assert SECRET.encode() not in crashed.read_bytes()
