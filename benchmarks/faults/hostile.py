@@ -15,6 +15,7 @@ whose data lie outside it. Goal 0/0/0.
 from __future__ import annotations
 
 import argparse
+import csv
 import os
 import shutil
 import signal
@@ -67,6 +68,16 @@ def _secret_in(w: Path, *texts: str) -> bool:
     return False
 
 
+def _batch_status(out: Path) -> str:
+    """The status of the one session of a batch's summary.csv ("" if there is none)."""
+    try:
+        with open(out / "summary.csv", newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    except OSError:
+        return ""
+    return rows[0].get("status", "") if len(rows) == 1 else ""
+
+
 def row_hostile(args: argparse.Namespace) -> list[Row]:
     goal = "0 tracebacks, 0 hangs, 0 outside reads"
     name = "hostile files x every command"
@@ -78,7 +89,7 @@ def row_hostile(args: argparse.Namespace) -> list[Row]:
         tracebacks: list[str] = []
         hangs: list[str] = []
         outside: list[str] = []
-        one_line = runs = 0
+        one_line = in_summary = runs = 0
         passed: list[str] = []
         for path, _what in variants:
             for cmd in _commands(path, good, Path(d)):
@@ -105,12 +116,15 @@ def row_hostile(args: argparse.Namespace) -> list[Row]:
                 lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
                 if r.returncode == 2 and len(lines) == 1:
                     one_line += 1
+                elif not single and _batch_status(Path(argv[3])) == "damaged":
+                    in_summary += 1  # batch: the file is a row saying why, the batch goes on
                 elif r.returncode == 0:
                     passed.append(what)
     fig = (
         f"{len(variants)} files x {runs // max(1, len(variants))} commands = {runs} runs: "
         f"{len(tracebacks)} tracebacks, {len(hangs)} hangs, {len(outside)} outside reads; "
-        f"{one_line} refused in one line, {len(passed)} exit 0"
+        f"{one_line} refused in one line (exit 2), {in_summary} batch summary rows 'damaged' "
+        f"with the reason, {len(passed)} exit 0"
     )
     notes = tracebacks[:3] + hangs[:3] + outside[:3]
     if notes:
