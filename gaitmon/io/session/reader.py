@@ -332,8 +332,8 @@ class StoredSession:
     def dataset(self, name: str) -> h5py.Dataset | np.ndarray | SeriesView:
         """A lazily read per-sample series, e.g. ``'raw/adc'`` or ``'processed/joint_deg'``:
         the h5py dataset where the file stores it as readers get it, else a view that decodes
-        on slicing; the angle series are those of :attr:`angle_source` (an array if computed
-        in memory)."""
+        on slicing (the raw counts: always a view, which checks them, see :meth:`raw_counts`);
+        the angle series are those of :attr:`angle_source` (an array if computed in memory)."""
         self._check_name(name)
         path = self._path_of(name)
         if path.startswith("smoothed/") and not self.smoothed_stored:
