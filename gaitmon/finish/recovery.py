@@ -42,6 +42,7 @@ from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.h5file import TableRow, _fsync_path, _H5File, _short_error
 from gaitmon.io.session.header import DamagedSource, SessionError, SessionHeader
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _field_names
+from gaitmon.io.session.opening import open_h5
 from gaitmon.io.session.rows import (
     LazyRows,
     _device_rows,
@@ -237,7 +238,8 @@ def _with_identity(path: Path, header: dict[str, Any]) -> dict[str, Any]:
         return header
     session = dict(header.get("session", {}))
     try:
-        with h5py.File(path, "r") as f:
+        # through open_h5: a file from elsewhere gives no patient id from another file
+        with open_h5(path) as f:
             attrs = f["session"].attrs
             for k in IDENTITY_FIELDS:
                 v = attrs.get(k, "")

@@ -33,6 +33,7 @@ from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
 from gaitmon.io.session.stored_overview import write_overview
+from gaitmon.io.session.trust import CheckedCounts, full_scale_of
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
 COPY_SHARE = 0.25
@@ -169,13 +170,15 @@ class UnitInputs:
     lost: np.ndarray
     config: PipelineConfig  # the settings it was recorded with
     fsr_faults: tuple[FsrFault, ...] = ()  # those from row 0 stay flagged (flags_kept)
+    name: str = ""  # the recording's file name, for messages
 
     @classmethod
     def of(cls, s: Session) -> UnitInputs:
         _check_raw(s)
         n = s.n_samples
         return cls(n, s.calibration, list(s.calibration_changes), s.header.table,
-                   lost_before_from_gaps(s.gaps, n), s.config, tuple(s.fsr_faults))  # fmt: skip
+                   lost_before_from_gaps(s.gaps, n), s.config, tuple(s.fsr_faults),
+                   s.path.name)  # fmt: skip
 
 
 def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], None]) -> None:
@@ -204,7 +207,7 @@ def rewrite_unit(
     v2 = int(f.attrs.get("format_version", 1)) >= 2
     proc = f["processed"]
     # the raw counts are read a chunk at a time (the copy holds the recording's own)
-    adc = LazyRows(f["raw/adc"], n)
+    adc = LazyRows(CheckedCounts(unit.name, full_scale_of(table), f["raw/adc"]), n)
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
     replay = replay_pipeline(

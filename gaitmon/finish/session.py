@@ -55,7 +55,8 @@ class Session(StoredSession):
 
         try:
             return smoothed_from_file(
-                self._f, self.header.table, self.calibration, self.sample_rate_hz
+                self._f, self.header.table, self.calibration, self.sample_rate_hz,
+                self.raw_counts,
             )
         except (OSError, RuntimeError, ValueError, KeyError) as e:
             raise SessionError(

@@ -343,11 +343,14 @@ def _text(x: object) -> str:
 
 
 def smoothed_from_file(
-    f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float
+    f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float,
+    read_counts: Counts | None = None,
 ) -> dict[str, np.ndarray]:
-    """The smoothed angles of a raw-mode session file open in ``f`` (computed, not read)."""
+    """The smoothed angles of a raw-mode session file open in ``f`` (computed, not read);
+    ``read_counts(a, b)``: rows of ``/raw/adc`` as a reader checks them (default: as stored)."""
     n, changes, lost = _inputs(f)
-    return smoothed_angles(f["raw/adc"][:n], table, calibration, changes, lost, fs_hz)
+    counts = read_counts(0, n) if read_counts is not None else f["raw/adc"][:n]
+    return smoothed_angles(counts, table, calibration, changes, lost, fs_hz)
 
 
 def write_smoothed(f: h5py.File, series: dict[str, np.ndarray]) -> None:

@@ -277,7 +277,9 @@ def open_source(
         raise ExportError(str(exc)) from None
     try:
         yield Source(session)
-    except (KeyError, ValueError, TypeError, SessionError, RuntimeError) as exc:
+    except SessionError as exc:  # the reader's own line (e.g. counts no ADC can make)
+        raise ExportError(str(exc)) from None
+    except (KeyError, ValueError, TypeError, RuntimeError) as exc:
         # (h5py raises RuntimeError for damaged object headers: "Can't get deprecated info")
         raise ExportError(f"{path.name} is damaged ({exc})") from None
     finally:

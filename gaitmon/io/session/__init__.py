@@ -15,7 +15,8 @@ write of a session file (and of its analysis state beside it) goes through this 
 * :mod:`.writer` - :class:`SessionWriter`, crash-safe recording (HDF5 + journal);
 * :mod:`.reader` - :class:`StoredSession`, what a file stores; :mod:`.series` -
   :class:`Marker`, :class:`Gap`, the series view and the checks of a file's edge;
-  :mod:`.opening` - a file opened as it is (:func:`read_stored`);
+  :mod:`.opening` - a file opened as it is (:func:`read_stored`); :mod:`.trust` - what a file
+  from elsewhere may make gaitmon read (only itself, within a bound on memory: checked at open);
 * :mod:`.stored_overview` - ``/overview``, the joint angles' min/max for a long session's first
   view;
 * :mod:`.truth` - the ``/truth`` group of simulated sessions;

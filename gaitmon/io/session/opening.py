@@ -21,15 +21,18 @@ from gaitmon.io.session.layout import READER_CHUNK_CACHE_BYTES
 from gaitmon.io.session.parts import SIDE_NAMES
 from gaitmon.io.session.reader import StoredSession
 from gaitmon.io.session.series import _s
+from gaitmon.io.session.trust import check_file
 
 S = TypeVar("S", bound=StoredSession)
 
 
 def open_h5(path: Path) -> h5py.File:
     """``path`` open read-only with the reader's chunk cache; a file that is no session (a
-    folder, an empty file, not HDF5) or a damaged one is said in one line."""
+    folder, an empty file, not HDF5) or a damaged one is said in one line, and so is one that
+    would read from outside itself or declares more data than it holds
+    (:func:`gaitmon.io.session.trust.check_file`: every session is opened here)."""
     try:
-        return h5py.File(path, "r", rdcc_nbytes=READER_CHUNK_CACHE_BYTES, rdcc_nslots=1021)
+        f = h5py.File(path, "r", rdcc_nbytes=READER_CHUNK_CACHE_BYTES, rdcc_nslots=1021)
     except (OSError, RuntimeError, ValueError) as e:
         why = _short_error(e)
         if path.is_dir():
@@ -46,6 +49,16 @@ def open_h5(path: Path) -> h5py.File:
         raise SessionError(
             f"{path.name} is not a gaitmon session ({why}); pick a session file recorded by gaitmon"
         ) from e
+    try:
+        check_file(path, f)
+    except SessionError:
+        f.close()
+        raise
+    except Exception as e:  # damaged metadata can fail in many ways inside h5py
+        with contextlib.suppress(Exception):
+            f.close()
+        raise SessionError(f"{path.name} is damaged ({_short_error(e)})") from e
+    return f
 
 
 def read_stored(path: Path, problems: Sequence[str] = ()) -> StoredSession:

@@ -14,6 +14,8 @@ from pathlib import Path
 import h5py
 
 from gaitmon.io.journal import journal_path
+from gaitmon.io.session.header import SessionError
+from gaitmon.io.session.trust import check_file
 
 SIDES = ("L", "R")
 SIDE_NAMES = {"L": "left", "R": "right"}
@@ -54,9 +56,10 @@ def is_bilateral(path: str | os.PathLike[str]) -> bool:
         return bool(parts_of(p))
     try:
         with h5py.File(p, "r") as f:
+            check_file(p, f)  # a file from elsewhere: no attribute read before it is checked
             return bool(f.attrs.get("bilateral", False))
-    except (OSError, RuntimeError, ValueError):
-        return False
+    except (OSError, RuntimeError, ValueError, SessionError):
+        return False  # the reader that opens it next says why
 
 
 def sides_of(path: str | os.PathLike[str]) -> tuple[str, ...]:
@@ -64,10 +67,11 @@ def sides_of(path: str | os.PathLike[str]) -> tuple[str, ...]:
     one-unit file, a missing one or one that cannot be read."""
     try:
         with h5py.File(path, "r") as f:
+            check_file(Path(path), f)
             if not bool(f.attrs.get("bilateral", False)):
                 return ()
             sides = f.attrs.get("sides", "")
             text = sides.decode() if isinstance(sides, bytes) else str(sides)
             return tuple(s for s in text.split() if s in SIDES and f"units/{s}" in f)
-    except (OSError, RuntimeError, ValueError):
+    except (OSError, RuntimeError, ValueError, SessionError):
         return ()

@@ -53,6 +53,7 @@ from gaitmon.io.session.series import (
     _s,
     _sample_rate,
 )
+from gaitmon.io.session.trust import checked_counts, full_scale_of
 from gaitmon.io.session.truth import Truth, truth_from_file
 from gaitmon.text import clean_label
 from gaitmon.values import scalar
@@ -216,6 +217,7 @@ class StoredSession:
         )
         self.angle_source = self.angle_sources[0]
         self._bias_rows: list[tuple[int, np.ndarray]] | None = None
+        self._full_scale: np.ndarray | None = None  # each channel's largest count (raw_counts)
         self.smoothed_stored = stored_smoothed(f, self.n_samples)
         self._smoothed: dict[str, np.ndarray] | None = None
         sm = f.get("smoothed")
@@ -335,13 +337,13 @@ class StoredSession:
     def dataset(self, name: str) -> h5py.Dataset | np.ndarray | SeriesView:
         """A lazily read per-sample series, e.g. ``'raw/adc'`` or ``'processed/joint_deg'``:
         the h5py dataset where the file stores it as readers get it, else a view that decodes
-        on slicing; the angle series are those of :attr:`angle_source` (an array if computed
-        in memory)."""
+        on slicing (the raw counts: always a view, which checks them, see :meth:`raw_counts`);
+        the angle series are those of :attr:`angle_source` (an array if computed in memory)."""
         self._check_name(name)
         path = self._path_of(name)
         if path.startswith("smoothed/") and not self.smoothed_stored:
             return self._smoothed_series()[path]
-        if path in self._f and path not in self._derived and (
+        if path in self._f and path not in self._derived and path != "raw/adc" and (
             self.format_version < 2 or path not in _CODED
         ):
             return self._f[path]
@@ -404,12 +406,22 @@ class StoredSession:
         if path in self._derived or (path == "smoothed/joint_deg" and path not in f):
             if path == GYRO:
                 return gyro_from_counts(
-                    f["raw/adc"][a:b], a, self.header.table.to_physical, GYRO_IDX,
+                    self.raw_counts(a, b), a, self.header.table.to_physical, GYRO_IDX,
                     self._gyro_bias_rows(),
                 )  # fmt: skip
             tilt = JOINT_OF[path]
             return _joints_of(f[tilt][a:b], tilt)
+        if path == "raw/adc":
+            return self.raw_counts(a, b)
         return decode(path, f[path][a:b])
+
+    def raw_counts(self, a: int, b: int) -> np.ndarray:
+        """Rows a:b of ``/raw/adc`` as stored, refused (:class:`SessionError`) if a count is
+        above what its channel's ADC can give (:func:`gaitmon.io.session.trust.checked_counts`:
+        every read of the counts goes through here)."""
+        if self._full_scale is None:
+            self._full_scale = full_scale_of(self.header.table)
+        return checked_counts(self.path.name, self._full_scale, self._f["raw/adc"][a:b], a)
 
     def _gyro_bias_rows(self) -> list[tuple[int, np.ndarray]]:
         """(first row, gyro bias) of every calibration in force, in row order (the order
