@@ -610,3 +610,19 @@ def test_one_leg_again_in_a_fresh_window(two_legs: TwoLegs, one_leg: OneLeg, qtb
         assert win.errors == []
     finally:
         win.close()
+
+
+def test_strides_export_names_the_marker_its_missing_cells_hold(gap_recording, tmp_path,
+                                                                capsys) -> None:  # fmt: skip
+    """The side file's ``missing_value`` is what a cell without a figure holds (it said "-"
+    while the cells held "–", so a reader told to treat "-" as missing failed on them). The
+    deterministic gap recording has a stride at its gap with no length."""
+    out = tmp_path / "gap.strides.csv"
+    cli(capsys, "export", str(gap_recording), "--format", "strides", "-o", str(out))
+    meta = json.loads(out.with_name("gap.strides.meta.json").read_text(encoding="utf-8"))
+    missing = meta["strides"]["missing_value"]
+    with open(out, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    cells = [r[k] for r in rows for k in r if k != "status"]
+    assert missing in cells
+    assert [c for c in cells if c != missing and not re.fullmatch(r"-?\d+(\.\d+)?", c)] == []
