@@ -125,6 +125,22 @@ def table_problems(view: QTableView) -> list[str]:
             room = view.columnWidth(c) - 2 * margin
             if need > room + SLACK_PX:
                 out.append(f"cell ({r}, {c}) {text!r}: needs {need} px, has {room}")
+                continue
+            # where the text is drawn must be inside the viewport (a table wider than its
+            # viewport clips its last columns: "excluded: crosses a g")
+            x = view.columnViewportPosition(c)
+            align = idx.data(Qt.ItemDataRole.TextAlignmentRole)
+            flags = Qt.AlignmentFlag(int(align)) if align is not None else (
+                Qt.AlignmentFlag.AlignLeft)  # fmt: skip
+            if flags & Qt.AlignmentFlag.AlignRight:
+                left = x + view.columnWidth(c) - margin - need
+            elif flags & Qt.AlignmentFlag.AlignHCenter:
+                left = x + (view.columnWidth(c) - need) // 2
+            else:
+                left = x + margin
+            if left < -SLACK_PX or left + need > vp.width() + SLACK_PX:
+                out.append(f"cell ({r}, {c}) {text!r}: drawn at {left}..{left + need} px, "
+                           f"the viewport shows 0..{vp.width()}")  # fmt: skip
     return out
 
 
