@@ -39,7 +39,7 @@ import pytest
 from PySide6.QtCore import QSettings, QTimer
 from PySide6.QtTest import QTest
 from PySide6.QtWidgets import QApplication, QWidget
-from walkthrough_checks import cut_text, number, shot
+from walkthrough_checks import cut_text, keep, number, shot
 
 from gaitmon.cli import main
 
@@ -452,6 +452,7 @@ def test_review_and_its_report_say_the_same(one_leg: OneLeg, truth: Truth, revie
     pdf = tmp_path / "walk.pdf"
     with qtbot.waitSignal(w.report_written, timeout=WAIT_S * 1000):
         w.jobs.write_report(pdf)
+    keep(pdf)
     rep = pdf_text(pdf)
     for want in ("SIDE MEASURED", f"{t.duration} (", f"Strides analysed {t.n_included} of "
                  f"{t.n_total} ({t.n_total - t.n_included} excluded)",
@@ -469,6 +470,7 @@ def test_review_and_its_report_say_the_same(one_leg: OneLeg, truth: Truth, revie
 def test_compare_says_the_same(one_leg: OneLeg, truth: Truth, tmp_path, capsys, qapp) -> None:
     pdf = tmp_path / "compare.pdf"
     cli(capsys, "compare", str(one_leg.walk), str(one_leg.second), "-o", str(pdf))
+    keep(pdf)
     text = pdf_text(pdf)
     t, t2 = truth, truth_of(one_leg.second)
     assert t2.side == t.side and t2.zero == t.zero  # the dialog remembered the side
@@ -573,6 +575,7 @@ def test_both_legs_review_and_report_say_what_info_says(two_legs: TwoLegs, revie
     # the two-leg report
     pdf = tmp_path / "both.pdf"
     cli(capsys, "report", str(two_legs.path), "-o", str(pdf), "-q")
+    keep(pdf)
     rep = pdf_text(pdf)
     assert truncated_words(rep) == []
     assert f"Cadence (measured) {cadence} steps/min" in rep, rep

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 from pathlib import Path
 
 from PySide6.QtCore import Qt
@@ -172,3 +173,10 @@ def shot(widget: QWidget, name: str) -> None:
     if SHOTS:
         Path(SHOTS).mkdir(parents=True, exist_ok=True)
         widget.grab().save(str(Path(SHOTS) / f"{name}.png"))
+
+
+def keep(path: Path) -> None:
+    """With GAITMON_WALK_SHOTS=DIR, a copy of ``path`` (a PDF) in DIR (for a person)."""
+    if SHOTS:
+        Path(SHOTS).mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(path, Path(SHOTS) / path.name)
