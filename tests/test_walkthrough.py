@@ -28,22 +28,30 @@ import math
 import re
 import shutil
 import subprocess
-import threading
-import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 import pytest
 from PySide6.QtCore import QSettings, QTimer
 from PySide6.QtTest import QTest
 from PySide6.QtWidgets import QApplication, QWidget
-from walkthrough_checks import cut_text, keep, number, shot
+from walkthrough_checks import (
+    WAIT_S,
+    current_points,
+    cut_text,
+    drawn_after_gap,
+    gaitmon_threads,
+    keep,
+    number,
+    pdf_text,
+    shot,
+    truncated_words,
+    wait_threads_gone,
+    wait_until,
+)
 
 from gaitmon.cli import main
 
-WAIT_S = 120.0  # a condition, never a duration: generous for a busy 2-core machine
 SPEED = 3.0  # the simulated unit's time factor
 CUT_S = 2.0  # wall seconds the link is cut (the stale mark comes after 1 s): ~6 s of the unit's
 needs_pdftotext = pytest.mark.skipif(
@@ -51,55 +59,10 @@ needs_pdftotext = pytest.mark.skipif(
 )
 
 
-def wait_until(pred: Callable[[], object], what: str, timeout_s: float = WAIT_S,
-               window: QWidget | None = None) -> None:  # fmt: skip
-    """Process Qt events until ``pred()`` is true (qtbot.waitUntil for a module fixture);
-    on a timeout, what ``window``'s status bar said."""
-    deadline = time.monotonic() + timeout_s
-    while not pred():
-        if time.monotonic() > deadline:
-            said = window.statusBar().currentMessage() if window is not None else ""
-            raise AssertionError(f"timed out waiting for {what} ({said!r})")
-        QTest.qWait(20)
-
-
-def truncated_words(text: str) -> list[str]:
-    """Words a PDF cut short ("gaitmon-sim f…"); a "…" between spaces is a range."""
-    return re.findall(r"\S*\w…", text)
-
-
-def gaitmon_threads() -> set[threading.Thread]:
-    return {t for t in threading.enumerate() if t.name.startswith("gaitmon")}
-
-
-def wait_threads_gone(before: set[threading.Thread]) -> None:
-    wait_until(lambda: not [t for t in gaitmon_threads() - before if t.is_alive()],
-               "the windows' threads to end", 60)  # fmt: skip
-
-
-def pdf_text(pdf: Path) -> str:
-    out = subprocess.run(["pdftotext", "-layout", str(pdf), "-"], capture_output=True,
-                         text=True, check=True)  # fmt: skip
-    return " ".join(out.stdout.split())
-
-
 def cli(capsys: pytest.CaptureFixture[str], *args: str) -> str:
     capsys.readouterr()
     assert main(list(args)) == 0, args
     return capsys.readouterr().out
-
-
-def current_points(win) -> int:
-    """The most points of the current stride's line in the hip, knee and ankle cycle plots."""
-    return max(0 if (x := c.getData()[0]) is None else len(x)
-               for c in win.gait_panel.cycles.current)  # fmt: skip
-
-
-def drawn_after_gap(snap) -> bool:
-    """The current stride the engine hands the panel starts after the newest lost sample."""
-    lost = np.flatnonzero(snap.series["lost"] > 0)
-    n = len(snap.gait.current_pct)
-    return not (len(lost) and n) or len(snap.series["t_s"]) - n > lost[-1]
 
 
 @dataclass
@@ -117,6 +80,11 @@ class OneLeg:
     second: Path  # a second walk (for compare)
     settings: Path  # the live window's settings file (one leg, then both, then one again)
     seen: Seen
+
+
+def sim_action(win, text: str):
+    """Device ▸ Simulator ▸ ``text`` (the menu's own action)."""
+    return next(a for a in win.sim_menu.actions() if a.text().replace("&", "") == text)
 
 
 def record_dialog(win, path: Path, *, patient: str = "", side: str | None = None) -> None:
@@ -194,9 +162,7 @@ def one_leg(qapp, tmp_path_factory) -> OneLeg:
         wait_until(lambda: win.guide.state.zeroed, "the Zero")
         seen.values["zero hint"] = win.guide.hint_text
         look(seen, win, "live-2-zeroed")
-        # Device ▸ Simulator ▸ Walk again, as the hint says
-        next(a for a in win.sim_menu.actions() if a.text().replace("&", "") == "Walk again"
-             ).trigger()  # fmt: skip
+        sim_action(win, "Walk again").trigger()  # Device ▸ Simulator ▸ Walk again, as hinted
         wait_until(lambda: win.engine.snapshot(0.05).gait.n_strides >= 3, "walking")
         look(seen, win, "live-3-walking")
 
@@ -236,9 +202,16 @@ def one_leg(qapp, tmp_path_factory) -> OneLeg:
         )
         look(seen, win, "live-6-after-cut")
 
-        wait_until(lambda: rows() >= 3000, "30 s recorded")
-        # at Stop: what the panel and the status bar said of the recording
-        QTest.qWait(200)  # (a few ticks: the panel redraws at ~10 Hz)
+        wait_until(lambda: rows() >= 2800, "28 s recorded")
+        # the patient stops walking (Device ▸ Simulator ▸ Stand still), then Stop: the panel's
+        # figures are final (its count the recording's), and marked stale
+        sim_action(win, "Stand still").trigger()
+        wait_until(lambda: panel.stale_text().startswith("⚠ stale: last stride"), "standing")
+        wait_until(lambda: current_points(win) == 0, "no stride in progress while standing")
+        seen.values["stale standing"] = panel.stale_text()
+        seen.facts["greyed standing"] = [k for k in ("cadence", "speed", "stride", "stance")
+                                         if not panel.values[k].isEnabled()]  # fmt: skip
+        look(seen, win, "live-7-standing")
         for key, label in panel.values.items():
             seen.values[f"panel {key}"] = label.text()
         seen.values["panel strides name"] = panel.strides_name.text()
@@ -253,8 +226,11 @@ def one_leg(qapp, tmp_path_factory) -> OneLeg:
         )
         seen.values["after Stop strides name"] = panel.strides_name.text()
         seen.facts["after Stop record banner"] = win.status.record_banner.isVisible()
-        look(seen, win, "live-7-stopped")
+        look(seen, win, "live-8-stopped")
 
+        sim_action(win, "Walk again").trigger()
+        n = win.engine.snapshot(0.05).gait.n_strides
+        wait_until(lambda: win.engine.snapshot(0.05).gait.n_strides >= n + 3, "walking again")
         second = d / "second.h5"
         record_dialog(win, second)  # the dialog remembers the patient and the side
         wait_until(lambda: rows() >= 2500, "the second walk")
@@ -262,7 +238,7 @@ def one_leg(qapp, tmp_path_factory) -> OneLeg:
         win.disconnect_device()
         wait_until(lambda: win.engine is None, "the disconnect")
         seen.facts["points after disconnect"] = current_points(win)
-        look(seen, win, "live-8-disconnected")
+        look(seen, win, "live-9-disconnected")
         seen.facts["errors"] = list(win.errors)
     finally:
         win.close()
@@ -287,6 +263,9 @@ def test_live_window_shows_nothing_older_than_its_data(one_leg: OneLeg) -> None:
     # at Stop the panel counted this recording's strides; after it, the connection's again
     assert seen.values["panel strides name"] == "Strides (this recording)"
     assert seen.values["after Stop strides name"] == "Strides (since connect)"
+    # standing before Stop: the figures greyed and said to be old, no stride in progress
+    assert seen.values["stale standing"].startswith("⚠ stale: last stride")
+    assert seen.facts["greyed standing"] == ["cadence", "speed", "stride", "stance"]
     assert seen.facts["after Stop: current stride after the gap"]
     assert not seen.facts["after Stop record banner"]
     assert seen.facts["points after disconnect"] == 0  # nothing of the connection drawn
@@ -317,10 +296,11 @@ class Truth:
     side: str
     zero: str
     gaps: int
+    n_across_gap: int  # strides excluded as crossing a gap
 
 
 def truth_of(path: Path) -> Truth:
-    from gaitmon.analysis import analyse_session
+    from gaitmon.analysis import GAP, analyse_session
     from gaitmon.finish import open_session
     from gaitmon.text import duration_text, side_text
 
@@ -331,7 +311,8 @@ def truth_of(path: Path) -> Truth:
                      summ.stride_time_sd_s, summ.stance_pct_mean,
                      summ.cadence_derived_steps_per_min, sp.stride_length_mean_m,
                      sp.speed_mean_m_s, duration_text(s.duration_s), side_text(s.meta.side),
-                     s.zero_source, len(s.gaps))  # fmt: skip
+                     s.zero_source, len(s.gaps),
+                     sum(r.excluded == GAP for r in an.rows))  # fmt: skip
 
 
 @pytest.fixture(scope="module")
@@ -346,11 +327,10 @@ def truth(one_leg: OneLeg) -> Truth:
 
 def test_live_panel_at_stop_agrees_with_the_file(one_leg: OneLeg, truth: Truth) -> None:
     v = one_leg.seen.values
-    # the count the panel showed a moment before Stop: the file's strides (the last may end
-    # after the panel's last tick; the engine's own count at that tick is exact)
-    shown = int(v["panel strides"])
-    assert truth.n_total - 1 <= shown <= truth.n_total, (shown, truth)
-    assert truth.n_total - 1 <= one_leg.seen.facts["live strides (engine)"] <= truth.n_total
+    # the subject stood before Stop: the count the panel showed is the file's strides, but
+    # for the one the file has across the cut (test_live_count_has_the_stride_across_the_cut)
+    assert int(v["panel strides"]) == truth.n_total - truth.n_across_gap, (v, truth)
+    assert one_leg.seen.facts["live strides (engine)"] == truth.n_total - truth.n_across_gap
     # the saved line's duration is the stored one, as info and the report say it
     assert f", {truth.duration})" in v["saved"], v["saved"]
     assert f"zero: {truth.zero}" in v["status zero"], v["status zero"]
@@ -360,6 +340,19 @@ def test_live_panel_at_stop_agrees_with_the_file(one_leg: OneLeg, truth: Truth) 
     assert abs(cadence - truth.cadence) <= 0.03 * truth.cadence, (cadence, truth.cadence)
     speed = float(number(v["panel speed"], r"([\d.]+) m/s"))
     assert abs(speed - truth.speed_m_s) <= 0.03 * truth.speed_m_s, (speed, truth.speed_m_s)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="a defect left for its own fix: the live count leaves "
+    "out the stride the file has across a link cut (excluded, 'crosses a gap')",
+)
+def test_live_count_has_the_stride_across_the_cut(one_leg: OneLeg, truth: Truth) -> None:
+    """The panel says it counts "as its file has them, counted or not"; the file (info,
+    review, the report: "N included, M excluded") has one stride more, the one across the
+    cut, so the panel read 26 where info said 21 + 6."""
+    assert truth.n_across_gap == 1
+    assert int(one_leg.seen.values["panel strides"]) == truth.n_total
 
 
 def info_expected(t: Truth) -> list[str]:
@@ -608,7 +601,7 @@ def test_one_leg_again_in_a_fresh_window(two_legs: TwoLegs, one_leg: OneLeg, qtb
         assert win.gait_panel.strides_name.text() == "Strides (since connect)"
         assert not win.pair_part.view.isVisible() if win.pair_part.view else True
         qtbot.wait(100)
-        shot(win, "live-9-one-leg-again")
+        shot(win, "live-10-one-leg-again")
         assert cut_text(win) == []
         assert win.errors == []
     finally:

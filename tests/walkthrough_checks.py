@@ -1,6 +1,7 @@
 """What the walk-through test (tests/test_walkthrough.py) checks on any window it visits: text
 cut short (a label, the status bar's message, a table cell or header narrower than its text),
-and a window's picture for a person to look at.
+and a window's picture for a person to look at; and its waits (on a condition, for a
+module-scoped fixture that has no qtbot) and the PDFs' text.
 
 Widths are measured as Qt draws them: the widget's own font (a cell's FontRole), rich text laid
 out by QTextDocument as a QLabel does, minus the margins the style leaves. A text wider than its
@@ -12,11 +13,17 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import subprocess
+import threading
+import time
+from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QFont, QFontMetrics, QTextDocument
 from PySide6.QtGui import Qt as QtGuiQt
+from PySide6.QtTest import QTest
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QHeaderView,
@@ -29,6 +36,7 @@ from PySide6.QtWidgets import (
 )
 
 SLACK_PX = 1  # rounding between QFontMetrics and the painter
+WAIT_S = 120.0  # a condition, never a duration: generous for a busy 2-core machine
 
 
 def _label_text_width(label: QLabel) -> tuple[str, int]:
@@ -180,3 +188,48 @@ def keep(path: Path) -> None:
     if SHOTS:
         Path(SHOTS).mkdir(parents=True, exist_ok=True)
         shutil.copyfile(path, Path(SHOTS) / path.name)
+
+
+def wait_until(pred: Callable[[], object], what: str, timeout_s: float = WAIT_S,
+               window: QWidget | None = None) -> None:  # fmt: skip
+    """Process Qt events until ``pred()`` is true (qtbot.waitUntil for a module fixture);
+    on a timeout, what ``window``'s status bar said."""
+    deadline = time.monotonic() + timeout_s
+    while not pred():
+        if time.monotonic() > deadline:
+            said = window.statusBar().currentMessage() if window is not None else ""
+            raise AssertionError(f"timed out waiting for {what} ({said!r})")
+        QTest.qWait(20)
+
+
+def truncated_words(text: str) -> list[str]:
+    """Words a PDF cut short ("gaitmon-sim f…"); a "…" between spaces is a range."""
+    return re.findall(r"\S*\w…", text)
+
+
+def gaitmon_threads() -> set[threading.Thread]:
+    return {t for t in threading.enumerate() if t.name.startswith("gaitmon")}
+
+
+def wait_threads_gone(before: set[threading.Thread]) -> None:
+    wait_until(lambda: not [t for t in gaitmon_threads() - before if t.is_alive()],
+               "the windows' threads to end", 60)  # fmt: skip
+
+
+def pdf_text(pdf: Path) -> str:
+    out = subprocess.run(["pdftotext", "-layout", str(pdf), "-"], capture_output=True,
+                         text=True, check=True)  # fmt: skip
+    return " ".join(out.stdout.split())
+
+
+def current_points(win) -> int:
+    """The most points of the current stride's line in the hip, knee and ankle cycle plots."""
+    return max(0 if (x := c.getData()[0]) is None else len(x)
+               for c in win.gait_panel.cycles.current)  # fmt: skip
+
+
+def drawn_after_gap(snap) -> bool:
+    """The current stride the engine hands the panel starts after the newest lost sample."""
+    lost = np.flatnonzero(snap.series["lost"] > 0)
+    n = len(snap.gait.current_pct)
+    return not (len(lost) and n) or len(snap.series["t_s"]) - n > lost[-1]
