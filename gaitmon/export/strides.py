@@ -4,7 +4,8 @@ The columns are the review window's stride table (:data:`gaitmon.analysis.STRIDE
 same cells, from the same analysis as ``gaitmon info`` and the report): number, start on the
 true timeline, stride / stance / swing times, stance %, stride length and gait speed from the
 foot IMU, peak knee flexion in swing, range of motion per joint, and "included" or the reason a
-stride is left out of the statistics. A dash marks a figure that cannot be computed. The
+stride is left out of the statistics. A dash ("–", ``gaitmon.text.DASH``, named in the side
+file's ``missing_value``) marks a figure that cannot be computed. The
 session's metadata and the angles' method go to ``OUT.meta.json`` as for the CSV export. A
 session of both legs: each leg's per-stride CSV and the two-leg tables, as the CSV format
 writes them (:func:`.csv.export_legs_and_tables`).
@@ -50,6 +51,7 @@ class StridesWriter:
             stride_start_times,
         )
         from gaitmon.export.writers.source import json_default, json_safe, metadata
+        from gaitmon.text import DASH
 
         out, meta_out = outputs
         session = src.session
@@ -68,7 +70,7 @@ class StridesWriter:
             "columns": [{"name": c.key, "description": c.tip} for c in STRIDE_COLUMNS],
             "included": an.n_included,
             "excluded": an.n_excluded,
-            "missing_value": "-",
+            "missing_value": DASH,  # what stride_cells writes for a figure not computed
         }
         with open(meta_out, "w", encoding="utf-8") as f:
             json.dump(json_safe(meta), f, indent=1, ensure_ascii=False, default=json_default)

@@ -112,7 +112,9 @@ class ReviewWindow(QMainWindow):
         configure_pyqtgraph(self.colours)
         self.setWindowTitle("gaitmon — review")
         self.setAcceptDrops(True)
-        self.resize(1400, 920)
+        # the width the bottom row is laid out for (its sizes below): at 1400 px the stride
+        # table scrolled sideways and clipped its status column (issue 25, walk-through)
+        self.resize(1500, 920)
 
         self.status = StatusArea(self, lambda: self.jobs.cancel_job())
         self.banner, self.banner_box = self.status.banner, self.status.banner_box
