@@ -36,7 +36,7 @@ import numpy as np
 
 from gaitmon.dsp.channel_table import JOINTS as TABLE_JOINTS
 from gaitmon.errors import Cancelled, UserError
-from gaitmon.text import count, no_gait_events, num
+from gaitmon.text import count, no_gait_events, num, side_text
 
 if TYPE_CHECKING:
     from gaitmon.analysis import SessionAnalysis
@@ -160,6 +160,8 @@ class SessionQuality:
     outage_s: float  # their total duration
     other_gaps: int  # shorter losses (frames lost on a noisy link)
     excluded: dict[str, int]  # exclusion reason -> strides, in gaitmon.analysis.REASONS order
+    side: str = ""  # the leg measured, as info and the report say it (text.side_text)
+    zero: str = ""  # where the angles' zero comes from (dsp.calibration.zero_source)
 
     @property
     def n_excluded(self) -> int:
@@ -174,7 +176,10 @@ class SessionQuality:
         why = ", ".join(f"{reason} {n}" for reason, n in self.excluded.items())
         excl = (f"{count(self.n_excluded, 'stride')} excluded ({why})" if why
                 else "no stride excluded")  # fmt: skip
-        return f"{link}; {excl}"
+        # the leg and the zero first: sessions of different legs, or one zeroed standing and
+        # one not, differ by more than the gait (a mounting offset moves every angle)
+        where = f"side {side_text(self.side)}; " + (f"zero: {self.zero}; " if self.zero else "")
+        return f"{where}{link}; {excl}"
 
 
 def session_quality(session: Session, an: SessionAnalysis) -> SessionQuality:
@@ -182,7 +187,8 @@ def session_quality(session: Session, an: SessionAnalysis) -> SessionQuality:
     from gaitmon.report import session_losses
 
     lo = session_losses(session, an.rows, an.excluded_ranges)
-    return SessionQuality(lo.outages, lo.outage_s, lo.n_gaps - lo.outages, dict(lo.excluded))
+    return SessionQuality(lo.outages, lo.outage_s, lo.n_gaps - lo.outages, dict(lo.excluded),
+                          session.meta.side, session.zero_source)  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)
