@@ -292,7 +292,7 @@ def _session_fields(src: Source, scrub: Scrubber) -> JsonObject:
 
 
 def _excluded_ranges(src: Source, scrub: Scrubber) -> list[JsonObject]:
-    return [{"start_idx": r.start_idx, "stop_idx": r.stop_idx, "label": r.label}
+    return [{"start_idx": r.start_idx, "stop_idx": r.stop_idx, "label": scrub.text(r.label)}
             for r in src.exclusions]  # fmt: skip
 
 
@@ -304,7 +304,8 @@ def _wall_offset_s(src: Source, scrub: Scrubber) -> JsonValue:
 
 # Key -> builder of every metadata section, in output order (JSON side file, MAT session.meta).
 # A builder returns plain values; tables are lists of row dicts whose ``*_idx`` fields are
-# 0-based session rows (the MAT writer makes them 1-based). Scrubbing is applied to the whole.
+# 0-based session rows (the MAT writer makes them 1-based). Scrubbing is applied to the whole:
+# to the file names quoted in it; what a person typed (exclusion labels) is scrubbed whole.
 METADATA_SECTIONS: tuple[tuple[str, Callable[[Source, Scrubber], JsonValue]], ...] = (
     ("root", lambda src, scrub: scrub.root(src.attrs)),
     ("session", _session_fields),
@@ -371,7 +372,7 @@ def gaps(src: Source, scrub: Scrubber) -> list[ExportedGap]:
         if 0 <= idx <= src.n:
             out.append({"sample_idx": idx, "n_lost": int(scalar(g.get("n_lost", 0))),
                         "duration_s": float(scalar(g.get("duration_s", math.nan))),
-                        "reason": scrub.text(as_text(g.get("reason", "")))})
+                        "reason": scrub.names(as_text(g.get("reason", "")))})
     return out
 
 
