@@ -317,7 +317,8 @@ def gather_report(
         markers=tuple(MarkerItem(float(m.t_s), str(m.label)) for m in session.markers),
         gaps=gaps,
         excluded_spans=excluded_spans,
-        generated_utc=now.strftime("%Y-%m-%d %H:%M UTC"),
+        # de-identified: the report does not say when it was made either (it would date the visit)
+        generated_utc="" if deidentify else now.strftime("%Y-%m-%d %H:%M UTC"),
     )
 
 
@@ -419,7 +420,7 @@ def gather_bilateral_report(
         clocks=_clocks(b),
         conventions=conventions,
         normative=normative,
-        generated_utc=now.strftime("%Y-%m-%d %H:%M UTC"),
+        generated_utc="" if deidentify else now.strftime("%Y-%m-%d %H:%M UTC"),
         notes=() if counted["L"] and counted["R"] else
         ("Too few strides on both legs to compare: the symmetry table is empty.",),
     )

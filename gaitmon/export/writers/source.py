@@ -407,14 +407,19 @@ def json_safe(v: JsonValue) -> JsonValue:
 
 
 def export_header_fields(fmt: str, deidentify: bool) -> JsonObject:
-    """What every export says of itself (format, version, by, when, de-identified)."""
-    return {
+    """What every export says of itself (format, version, by, when, de-identified). A
+    de-identified export does not say when it was made (``exported_utc`` left out): the day of
+    the export is often the day of the visit."""
+    head: JsonObject = {
         "format": f"gaitmon-export-{fmt}",
         "export_version": EXPORT_VERSION,
         "exported_by": f"gaitmon {__version__}",
         "exported_utc": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "deidentified": bool(deidentify),
     }
+    if deidentify:
+        del head["exported_utc"]
+    return head
 
 
 def export_header(src: Source, fmt: str, deidentify: bool) -> JsonObject:

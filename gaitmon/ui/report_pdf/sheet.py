@@ -181,7 +181,7 @@ def title(p: Page, software: str, generated_utc: str, what: str) -> float:
         y + 4.2,
         WIDTH_MM * 0.5,
         4.0,
-        f"{software} · report {generated_utc}",
+        f"{software} · report {generated_utc}" if generated_utc else f"{software} · report",
         7.0,
         colour=MUTED,
         align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
