@@ -171,6 +171,7 @@ def session_losses(
         reconnects=int(link.get("reconnects", 0)),
         queue_overflow_frames=int(link.get("queue_overflow_frames", 0)),
         invalid_values=int(link.get("invalid_values", 0)),
+        implausible_frames=int(link.get("implausible_frames", 0)),
         excluded={k: counts[k] for k in EXCLUSION_ORDER if counts.get(k)},
         excluded_ranges=tuple((int(a), int(b)) for a, b in excluded_ranges),
         problems=tuple(session.problems),

@@ -384,6 +384,8 @@ def _link_line(data: ReportData) -> str:
         link += f"; {count(lo.queue_overflow_frames, 'frame')} dropped by a full queue"
     if lo.invalid_values:
         link += f"; {count(lo.invalid_values, 'invalid value')}"
+    if lo.implausible_frames:
+        link += f"; {count(lo.implausible_frames, 'implausible frame')}"
     return link
 
 
