@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gaitmon.dsp.channel_table import N_CHANNELS, N_JOINTS, N_SEGMENTS
+from gaitmon.dsp.channel_table import CHANNELS, N_CHANNELS, N_JOINTS, N_SEGMENTS
 from gaitmon.io.wire import (
     _CRC,
     ADC_MAX_COUNTS,
@@ -354,6 +354,10 @@ is accepted). The wire carries up to +-327.67 deg: anything beyond 180 is a dama
 passed its CRC by chance."""
 
 
+# each channel's largest count, from the channel table's ADC bits (the wire's 4095 today)
+_CHANNEL_FULL_SCALE = np.array([min(c.full_scale_counts, ADC_MAX_COUNTS) for c in CHANNELS])
+
+
 def _angles_ok(ang: np.ndarray) -> bool:
     return not bool(np.any(np.abs(ang) > ANGLE_RANGE_DEG))  # (NaN, "not available", is fine)
 
@@ -363,7 +367,7 @@ def decode_payload(kind: int, seq: int, payload: bytes) -> Frame | None:
     counts above 4095, an angle beyond +-180 deg, a gait phase above 3, ...)."""
     if kind == FrameKind.RAW:
         adc = np.frombuffer(payload, dtype="<u2").astype(np.uint16, copy=False)
-        if int(adc.max()) > ADC_MAX_COUNTS:
+        if bool(np.any(adc > _CHANNEL_FULL_SCALE)):
             return None
         return RawFrame(seq, adc)
     if kind == FrameKind.TILT:
