@@ -53,6 +53,12 @@ from gaitmon.analysis import (
 from gaitmon.batch_pool import dask_client, run_dask, run_local
 from gaitmon.dsp.gait import GaitSummary
 from gaitmon.errors import DAMAGE_ERRORS, UserError
+from gaitmon.io.deidentify import (
+    create_private_file,
+    make_private_dir,
+    scrub_file_names,
+    scrub_free_text,
+)
 from gaitmon.reprocessing import Reprocessing
 from gaitmon.text import spreadsheet_cell
 
@@ -178,7 +184,8 @@ def reprocess_one(task: Task) -> Outcome:
         else:
             from gaitmon.io.session.deidentify import write_deidentified
 
-            work.parent.mkdir(parents=True, exist_ok=True)
+            make_private_dir(work.parent)
+            os.close(create_private_file(partial_path(work)))  # the copy keeps its 0600
             rewrite_processed(src, work, config, overwrite=True)
             write_deidentified(work, dst)
         t2 = time.perf_counter()
@@ -250,12 +257,19 @@ def _fingerprint(settings: Reprocessing | None) -> str:
     return "recorded" if settings is None else settings.fingerprint()
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
+def _write_atomic(path: Path, data: bytes, private: bool = False) -> None:
     """Write ``path`` as ``path.partial`` then move it into place: a kill leaves the old file
-    or the new one, never half of one."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    or the new one, never half of one. ``private``: in the key folder (0700 folders, 0600
+    files, so from their creation)."""
     tmp = path.with_name(path.name + PARTIAL)
-    with open(tmp, "wb") as f:
+    if private:
+        make_private_dir(path.parent)
+        fd = create_private_file(tmp)
+    else:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_BINARY", 0),
+                     0o666)  # fmt: skip
+    with open(fd, "wb") as f:
         f.write(data)
         f.flush()
         os.fsync(f.fileno())
@@ -289,7 +303,8 @@ def _save_record(task: Task, state: Path, fingerprint: str, outcome: Outcome) ->
             "output_size": Path(task.dst).stat().st_size if outcome.status == OK else None,
             "outcome": outcome.as_record(),
         }
-        _write_atomic(_record_path(state, task.rel), json.dumps(rec).encode())
+        _write_atomic(_record_path(state, task.rel), json.dumps(rec).encode(),
+                      private=bool(task.work))
 
 
 @dataclass(frozen=True)
@@ -369,6 +384,8 @@ def _run(
     client: Any, deidentify: bool, progress: Progress | None, t0: float,
 ) -> BatchResult:  # fmt: skip
     out_p.mkdir(parents=True, exist_ok=True)
+    if deidentify:
+        make_private_dir(key_dir(out_p))  # before anything is written in it
     state = _state_dir(out_p, deidentify)
     fp = _fingerprint(settings)
     tasks = _tasks(root_p, out_p, rels, settings, deidentify)
@@ -402,7 +419,8 @@ def _run(
             run_local(reprocess_one, todo, jobs, done)
     outcomes = tuple(results[r] for r in rels)
     summary_csv, strides_csv = write_tables(
-        outcomes, out_p, deidentify=deidentify, strides_of=lambda o: _recorded_strides(state, o)
+        outcomes, out_p, deidentify=deidentify, strides_of=lambda o: _recorded_strides(state, o),
+        root=root_p,
     )
     key = None
     if deidentify:
@@ -478,16 +496,22 @@ def labels(outcomes: Iterable[Outcome], deidentify: bool) -> tuple[list[str], li
 REMOVED = "[removed]"
 
 
-def scrub_reason(o: Outcome, label: str) -> str:
+def scrub_reason(o: Outcome, label: str, root: str | os.PathLike[str] | None = None) -> str:
     """The reason without the file's name or path (often a patient code) or the patient id:
-    the name becomes the session's label."""
-    reason = o.reason
+    the file's path and name, as the message quotes them, become the session's label, and
+    what is left of the name or the patient id is removed from the paths it quotes. The
+    reason is gaitmon's own message: its words are never rewritten (a file "both.h5" must not
+    turn "a session of both legs" into "a session of S0003 legs")."""
     name = Path(o.rel).name
-    for secret, by in sorted(((o.rel, label), (name, label), (Path(name).stem, label),
-                              (o.patient_id.strip(), REMOVED)), key=lambda x: -len(x[0])):
-        if secret:
-            reason = reason.replace(secret, by)
-    return reason
+    paths = {o.rel, name}
+    if root is not None:  # the source's path as a message may quote it
+        src = Path(root) / o.rel
+        paths |= {str(src), os.path.abspath(src), str(src.resolve())}
+    whole = [(p, label) for p in sorted(paths, key=len, reverse=True) if p]
+    reason = scrub_free_text(o.reason, whole)
+    rest = [(s, by) for s, by in ((Path(name).stem, label), (o.patient_id.strip(), REMOVED))
+            if s]  # fmt: skip
+    return scrub_file_names(reason, sorted(rest, key=lambda x: -len(x[0])))
 
 
 def write_tables(
@@ -496,6 +520,7 @@ def write_tables(
     *,
     deidentify: bool = False,
     strides_of: Callable[[Outcome], Iterable[Sequence[Any]]] = lambda o: o.strides,
+    root: Path | None = None,
 ) -> tuple[Path, Path]:
     """Write ``out/summary.csv`` and ``out/strides.csv`` (each as ``.partial``, then moved into
     place), one session's strides at a time (``strides_of``). De-identified: no patient id, no
@@ -511,7 +536,7 @@ def write_tables(
         ws.writerow(SUMMARY_COLUMNS)
         wr.writerow(STRIDES_COLUMNS)
         for o, session, patient in zip(outcomes, sessions, patients, strict=True):
-            reason = scrub_reason(o, session) if deidentify else o.reason
+            reason = scrub_reason(o, session, root) if deidentify else o.reason
             ok = o.status == OK
             values: list[Any] = [
                 session, patient, "" if deidentify else o.created_utc, o.duration_s,
@@ -544,5 +569,5 @@ def write_key(outcomes: Sequence[Outcome], tasks: Sequence[Task], path: Path) ->
     for o, session, patient in zip(outcomes, sessions, patients, strict=True):
         w.writerow([spreadsheet_cell(str(c)) for c in (
             session, dst[o.rel] if o.status == OK else "", o.rel, patient, o.patient_id)])
-    _write_atomic(path, buf.getvalue().encode("utf-8"))
+    _write_atomic(path, buf.getvalue().encode("utf-8"), private=True)
     return path

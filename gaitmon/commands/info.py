@@ -13,7 +13,7 @@ import numpy as np
 
 from gaitmon.commands import damaged_file_guard
 from gaitmon.errors import UserError
-from gaitmon.text import count, duration_text, no_gait_events, num, side_text
+from gaitmon.text import count, duration_text, implausible_text, no_gait_events, num, side_text
 
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis, SessionAnalysis
@@ -87,7 +87,8 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
         f"{dev.get('serial') or '-'} via {dev.get('transport') or '-'}",
         f"  link         {count(lost, 'frame')} lost in {count(len(s.gaps), 'gap')}, "
         f"{count(s.link.get('crc_failures', 0), 'CRC failure')}, "
-        f"{count(s.link.get('reconnects', 0), 'reconnect')}",
+        + implausible_text(int(s.link.get("implausible_frames", 0)))
+        + f"{count(s.link.get('reconnects', 0), 'reconnect')}",
     ]
     reasons = Counter(r.excluded for r in rows if r.excluded)
     why = ", ".join(f"{n} {reason}" for reason, n in reasons.items())

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from gaitmon.commands.simulate import sim_config_from_args
 from gaitmon.errors import UserError
-from gaitmon.text import count
+from gaitmon.text import count, implausible_text
 
 if TYPE_CHECKING:
     from gaitmon.engine import Engine, RecordingStatus
@@ -166,7 +166,8 @@ def summary_lines(group: EngineGroup, statuses: Mapping[str, RecordingStatus],
         lost[side] = (
             f"{count(link.decoder.frames_lost, 'frame')} lost, "
             f"{count(link.decoder.crc_failures, 'CRC failure')}, "
-            f"{count(link.reconnects, 'reconnect')}"
+            + implausible_text(link.decoder.implausible_frames)
+            + f"{count(link.reconnects, 'reconnect')}"
         )
     if not group.in_parts:
         ((side, st),) = statuses.items()

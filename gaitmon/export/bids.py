@@ -149,8 +149,10 @@ def export_bids(job: ExportRequest) -> ExportResult:
         grid = grid_of(b, srcs)
         session_attrs = srcs["L"].group_attrs("session")
         scrub = Scrubber(session_attrs, job.deidentify)
-        names = Names(job.out, options.subject_label(as_text(session_attrs.get("patient_id", ""))),
-                      options.session_label, options.task_label)  # fmt: skip
+        pid = as_text(session_attrs.get("patient_id", ""))
+        names = Names(job.out, options.subject_label(pid), options.session_label,
+                      options.task_label)  # fmt: skip
+        options.check_subject_free(job.out / "participants.tsv", pid)
         per_leg = {s: [names.motion(x, TRACKSYS[s]) for x in
                        ("motion.tsv", "channels.tsv", "motion.json")] for s in srcs}
         finals = [p for s in srcs for p in per_leg[s]]
@@ -186,8 +188,7 @@ def export_bids(job: ExportRequest) -> ExportResult:
                 rows = [{"filename": per_leg[s][0].relative_to(names.folder).as_posix(),
                          "acq_time": dated} for s in srcs]  # fmt: skip
                 write_text(tmp[names.scans], merge_tsv(names.scans, *rows))
-            write_text(tmp[participants],
-                       merge_tsv(participants, {"participant_id": f"sub-{names.subject}"}))
+            write_text(tmp[participants], merge_tsv(participants, options.participant_row(pid)))
             if job.out / "dataset_description.json" in tmp:
                 write_json(tmp[job.out / "dataset_description.json"], dataset_description())
             if job.out / "README" in tmp:

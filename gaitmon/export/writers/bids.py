@@ -174,6 +174,7 @@ class BidsWriter:
         self.options = options
         self.names: Names | None = None
         self.finals: list[Path] = []
+        self.patient_id = ""
 
     # -- the FormatWriter contract ----------------------------------------------------------
 
@@ -181,7 +182,9 @@ class BidsWriter:
         pid = as_text(src.group_attrs("session").get("patient_id", ""))
         names = Names(out, self.options.subject_label(pid), self.options.session_label,
                       self.options.task_label)
+        self.options.check_subject_free(out / "participants.tsv", pid)
         self.names = names
+        self.patient_id = pid
         files = [names.motion(s) for s in ("motion.tsv", "channels.tsv", "motion.json",
                                            "events.tsv", "events.json")]
         if not scrub.enabled and acq_time(src):
@@ -220,7 +223,7 @@ class BidsWriter:
             write_text(tmp[names.scans], merge_tsv(names.scans, row))
         participants = names.root / "participants.tsv"
         write_text(tmp[participants],
-                    merge_tsv(participants, {"participant_id": f"sub-{names.subject}"}))
+                   merge_tsv(participants, self.options.participant_row(self.patient_id)))
         if names.root / "dataset_description.json" in tmp:
             write_json(tmp[names.root / "dataset_description.json"], dataset_description())
         if names.root / "README" in tmp:

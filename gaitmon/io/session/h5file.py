@@ -30,6 +30,7 @@ from gaitmon.io.session.layout import (
     FORMAT,
     FORMAT_VERSION,
     LINK_TOTALS,
+    LINK_TOTALS_IF_ANY,
     _field_names,
     stored_datasets,
     stored_dtype,
@@ -247,6 +248,9 @@ class _H5File:
         link = self.f["link"]
         for k in LINK_TOTALS:
             link.attrs[k] = np.int64(totals.get(k, 0))
+        for k in LINK_TOTALS_IF_ANY:
+            if int(totals.get(k, 0)):
+                link.attrs[k] = np.int64(totals[k])
 
     def t_s_at(self, idx: int) -> float:
         staged = self.staged_row("timeline/t_s", idx)
