@@ -213,3 +213,21 @@ def test_process_describes_a_file_written_before_the_attributes(tmp_path: Path) 
             if name == "one_leg":
                 with open_session(out) as s:
                     assert check_unit(f, s) >= 10
+
+
+@pytest.mark.parametrize("mode", ["tilt", "joint"])
+def test_the_units_own_angles_are_described_too(mode: str, tmp_path: Path, record_simulated
+                                                 ) -> None:  # fmt: skip
+    """Modes tilt and joint store the unit's angles (joint: the joint angles themselves,
+    quantised; tilt: the tilts, the joints derived): the same reconstruction holds."""
+    from gaitmon.finish import open_session
+
+    path = record_simulated(tmp_path / f"{mode}.h5", "--mode", mode, duration_s=10)
+    with h5py.File(path, "r") as f, open_session(path) as s:
+        assert check_every_dataset_described(f) == []
+        assert "raw" not in f and "smoothed" not in f
+        n = check_unit(f, s)
+        assert n == (5 if mode == "tilt" else 3), n  # tilts 2 + joints 2 + t_s; joints 2 + t_s
+        if mode == "joint":
+            assert float(f["processed/joint_deg"].attrs["scale_factor"]) == 0.01
+            assert "derived_on_read" not in f["processed"].attrs
