@@ -26,6 +26,7 @@ import numpy as np
 from gaitmon import __version__
 from gaitmon.dsp.clock_fit import WINDOW_S, ClockFit, fit_clock
 from gaitmon.io.journal import journal_path
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _short_error
 from gaitmon.io.session.header import DamagedSource, SessionError
 from gaitmon.io.session.layout import FORMAT, FORMAT_VERSION
@@ -215,6 +216,7 @@ def combine_parts(path: str | os.PathLike[str], progress: Progress = None) -> Pa
                 g.attrs["residual_p50_ms"] = fit.residual_p50_ms
                 g.attrs["residual_p95_ms"] = fit.residual_p95_ms
                 g.attrs["serial"] = info[side]["serial"]
+            describe(dst)  # (the units' own were copied with them: /sync's)
         _fsync_path(tmp)
         os.replace(tmp, path)
         _fsync_path(path.parent, directory=True)

@@ -28,6 +28,7 @@ from gaitmon.finish.recovery import flags_kept, replay_pipeline
 from gaitmon.finish.session import Session, open_session
 from gaitmon.finish.smoothed import KeptFirstPass, store_smoothed
 from gaitmon.finish.strides import store_strides
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.codec import encode
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
@@ -267,4 +268,5 @@ def rewrite_unit(
     cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
     write_overview(f)  # the joint angles changed: so did their overview
     store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
+    describe(f)  # the events were made anew; a file from before the attributes gets them too
     report(1.0)

@@ -34,6 +34,7 @@ from gaitmon.finish.reprocess import (
     partial_path,
     rewrite_unit,
 )
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.parts import SIDE_NAMES
 
@@ -85,6 +86,7 @@ def rewrite_bilateral(
 
                 rewrite_unit(root, unit, configs[s], sub, check_cancel)
                 done += unit.n
+            describe(f)  # /sync too (a file from before the attributes gets them)
         check_cancel()
         os.replace(tmp, dst)
     report(1.0)

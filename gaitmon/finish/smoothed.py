@@ -31,6 +31,7 @@ import numpy as np
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import ChannelTable
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.layout import CHUNK_ROWS
 from gaitmon.io.session.rows import lost_before_from_gaps
 
@@ -290,6 +291,7 @@ def store_smoothed(
     for w in writers.values():
         w.finish()
     grp.attrs["method"] = smoothed_method_label()
+    describe(f)
 
 
 class _AlignedWriter:
@@ -372,6 +374,7 @@ def write_smoothed(f: h5py.File, series: dict[str, np.ndarray]) -> None:
             **(COMPRESSION if v2 else {}),
         )  # fmt: skip
     grp.attrs["method"] = smoothed_method_label()
+    describe(f)
 
 
 def smooth_into(

@@ -166,6 +166,9 @@ class _H5File:
         cal = f["calibration"]
         cal.attrs["tilt_offset_rad"] = np.asarray(h["calibration"]["tilt_offset_rad"], "<f8")
         cal.attrs["gyro_bias_rad_s"] = np.asarray(h["calibration"]["gyro_bias_rad_s"], "<f8")
+        from gaitmon.io.session.attributes import describe
+
+        describe(f)  # units, scale, columns: a file a reader without gaitmon understands
 
     def set_wall_offset(self, wall_offset_s: float) -> None:
         self.f["timeline/host_time_s"].attrs["wall_offset_s"] = float(wall_offset_s)
