@@ -152,6 +152,9 @@ def test_compare_accepts_a_session_left_as_its_journal(
 FULL_DISK_INFO = textwrap.dedent("""
     import resource, signal, sys
     from gaitmon.cli import main
+    if len(sys.argv) > 3:  # a journal too large to recover in memory: the file read as it is
+        import gaitmon.finish.recovery as recovery
+        recovery.IN_MEMORY_MAX_JOURNAL_BYTES = 0
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails (EFBIG)
     resource.setrlimit(resource.RLIMIT_FSIZE, (int(sys.argv[1]), int(sys.argv[1])))
     sys.exit(main(["info", sys.argv[2]]))
@@ -180,6 +183,14 @@ def test_info_on_a_full_disk_never_says_recovered(
     assert f"{n} frames" in r.stdout  # every row of the journal, read in memory
     assert journal_path(f).exists() and f.read_bytes() == before  # nothing changed on disk
     assert not f.with_name(f.name + ".recovering").exists()
+    # a journal too large to rebuild in memory: the file's last flush is shown, and still
+    # never called recovered
+    r = subprocess.run([sys.executable, "-c", FULL_DISK_INFO, "60000", str(f), "as-is"],
+                       capture_output=True, text=True, env=_env(), timeout=240)  # fmt: skip
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    head = r.stdout.splitlines()[0]
+    assert "not recovered: the recovery could not be saved (" in head, head
+    assert journal_path(f).exists() and f.read_bytes() == before
     # with space again, the same command recovers and saves it
     assert main(["info", str(f)]) == 0
     out = capsys.readouterr().out

@@ -163,15 +163,18 @@ def open_session(
                 advice = "free some disk space and " if isinstance(e, RecoveryNotSaved) else ""
                 with contextlib.suppress(SessionError):
                     f = recover_in_memory(path)
-                    s = session_of(path, f, Session, [
+                    opened = session_of(path, f, Session, [
                         f"the recovery could not be saved ({why}): its rows are read from the "
                         f"journal in memory, and the journal is kept; {advice}open it again to "
                         "save it"])  # fmt: skip
-                    s.recovery_not_saved = why
-                    return s
+                    opened.recovery_not_saved = why
+                    return opened
                 if not path.exists():
                     raise
-                return _read(path, [f"not recovered: {e}"])
+                opened = _read(path, [f"not recovered: {e}"])  # the file's last flush, as is
+                if isinstance(e, RecoveryNotSaved):
+                    opened.recovery_not_saved = e.why
+                return opened
     elif not path.exists():
         if parts_of(path):  # an interrupted bilateral recording
             raise SessionError(BOTH_LEGS.format(name=path.name))
