@@ -203,6 +203,10 @@ def commands(good: str) -> dict[str, list[str]]:
     return cmds
 
 
+def _missing(job: dict[str, Any], result: dict[str, Any]) -> list[str]:
+    return sorted(set(job["expect_rows"]) - set(result["rows"] or []))
+
+
 def _summarise(name: str, jobs: list[dict[str, Any]], results: dict[int, dict[str, Any]],
                n_files: int, extra: str = "") -> Row:  # fmt: skip
     hangs = [j for j in jobs if results[j["id"]]["tb"] == "hang"]
@@ -211,6 +215,8 @@ def _summarise(name: str, jobs: list[dict[str, Any]], results: dict[int, dict[st
     no_row = [j for j in jobs if j.get("expect_rows") is not None
               and results[j["id"]]["tb"] != "hang"
               and sorted(results[j["id"]]["rows"] or []) != sorted(j["expect_rows"])]
+    # a session left as its journal or parts exists: no command may say it does not
+    gone = [j for j in jobs if "does not exist" in results[j["id"]]["last"]]
     by_cmd = collections.Counter(j["cmd"] for j in tbs)
     fig = (f"{n_files} sessions, {len(jobs)} runs: {len(hangs)} hangs, {len(tbs)} tracebacks"
            + (f" ({dict(by_cmd)}; e.g. {tbs[0]['cmd']} on {tbs[0]['what']}: "
@@ -219,12 +225,14 @@ def _summarise(name: str, jobs: list[dict[str, Any]], results: dict[int, dict[st
            + (f" (e.g. {left[0][0]['cmd']} on {left[0][0]['what']}: {left[0][1][:2]})"
               if left else "")
            + f", {len(no_row)} batches missing a session's row"
-           + (f" (e.g. {no_row[0]['what']}: rows {results[no_row[0]['id']]['rows']})"
-              if no_row else "")
+           + (f" (e.g. {no_row[0]['what']}: no row for "
+              f"{_missing(no_row[0], results[no_row[0]['id']])[:3]})" if no_row else "")
+           + f", {len(gone)} runs said a session left as its journal or parts does not exist"
+           + (f" (e.g. {gone[0]['cmd']} on {gone[0]['what']})" if gone else "")
            + extra)  # fmt: skip
-    ok = not (hangs or tbs or left or no_row)
-    return Row(name, "0 tracebacks, 0 hangs, 0 partial files left, a batch row per session",
-               fig, ok)  # fmt: skip
+    ok = not (hangs or tbs or left or no_row or gone)
+    return Row(name, "0 tracebacks, 0 hangs, 0 partial files left, a batch row per session, "
+               "no recoverable session called missing", fig, ok)  # fmt: skip
 
 
 def row_damaged2(args: argparse.Namespace) -> list[Row]:
