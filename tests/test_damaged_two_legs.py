@@ -75,8 +75,8 @@ def _damaged_copy(both: Path, tmp_path: Path) -> tuple[Path, Path]:
 
 
 def test_zeroed_root_header_is_one_line_for_every_command(
-    both: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+    qapp: object, both: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:  # qapp: a report draws with pytest-qt's application, not its own
     # the root object's header lives here: h5py opens the file, then reading the root's
     # attributes raised KeyError in parts.is_bilateral for every command
     f, w = _damaged_copy(both, tmp_path)
@@ -115,8 +115,8 @@ def test_a_damaged_chunk_of_one_leg_exports_as_one_line(
 
 
 def test_a_clock_fit_of_another_shape_is_one_line(
-    both: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+    qapp: object, both: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:  # qapp: a report draws with pytest-qt's application, not its own
     f, w = _damaged_copy(both, tmp_path)
     with h5py.File(f, "r+") as h:
         del h["sync/L/segments"]

@@ -133,8 +133,8 @@ def test_batch_gives_a_row_to_a_journal_and_to_parts(
 
 
 def test_compare_accepts_a_session_left_as_its_journal(
-    crashed: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+    qapp: object, crashed: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:  # qapp: the comparison draws with pytest-qt's application, not its own
     f = _journal_only(crashed, tmp_path / "d")
     pdf = tmp_path / "c.pdf"
     # said "visit2.h5 does not exist"
