@@ -163,8 +163,10 @@ def reprocess_one(task: Task) -> Outcome:
     wrote = False
     try:
         if is_bilateral(src):  # a good file: not "damaged" (open_session refuses both legs)
-            return Outcome(task.rel, SKIPPED, "a session of both legs: gaitmon batch reprocesses "
-                           "one-unit sessions; use gaitmon process FILE -o NEW for both legs")
+            why = "" if src.exists() else " (interrupted: gaitmon info FILE combines its parts)"
+            return Outcome(task.rel, SKIPPED, f"a session of both legs{why}: gaitmon batch "
+                           "reprocesses one-unit sessions; use gaitmon process FILE -o NEW for "
+                           "both legs")  # fmt: skip
         with open_session(src) as s:  # (recovers an interrupted recording first)
             if s.mode != "raw":
                 return Outcome(task.rel, SKIPPED, f"{s.mode}-mode recording: it holds the "
@@ -219,14 +221,14 @@ def reprocess_one(task: Task) -> Outcome:
 
 
 def find_sessions(root: Path, out: Path | None = None) -> list[str]:
-    """Relative paths (POSIX, sorted) of every ``*.h5`` under ``root``, not those under
-    ``out`` (an OUT inside DIR is not read back as input). Journals (``.h5.journal``) and
-    half-written files (``.h5.partial``) do not end in ``.h5`` and are left out."""
+    """Relative paths (sorted) of every session (``*.h5``) under ``root``, not under ``out``,
+    as ``gaitmon info`` names them (:func:`gaitmon.io.session.parts.sessions_in`): one left as
+    its journal or as a two-leg recording's parts is a row too (recovered as it is opened)."""
+    from gaitmon.io.session.parts import sessions_in
+
     out_r = out.resolve() if out is not None else None
     found = []
-    for p in root.rglob("*.h5"):
-        if not p.is_file():
-            continue
+    for p in sessions_in(root, suffixes=(".h5",)):
         if out_r is not None and p.resolve().is_relative_to(out_r):
             continue
         found.append(p.relative_to(root).as_posix())

@@ -349,12 +349,13 @@ def _analyse_file(path: Path) -> _Analysed:
     from gaitmon.dsp.gait import cycle_mean_sd
     from gaitmon.finish import open_session
     from gaitmon.io.session import SessionError
+    from gaitmon.io.session.parts import session_files
 
     name = path.name
-    if not path.exists():
-        raise CompareError(f"{name} does not exist; check the file name and folder")
     if path.is_dir():
         raise CompareError(f"{name} is a folder; give session files (.h5)")
+    if not session_files(path):  # (its journal or parts alone are a session, recovered here)
+        raise CompareError(f"{name} does not exist; check the file name and folder")
     try:
         with open_session(path) as s:
             an = analyse_session(s)
@@ -504,11 +505,12 @@ def list_recordings(folder: str | os.PathLike[str],
                     progress: Progress | None = None) -> list[Recording]:  # fmt: skip
     """Every session file (``*.h5``, ``*.hdf5``) of ``folder`` by patient id, then date; a
     file that cannot be analysed is listed with its problem."""
+    from gaitmon.io.session.parts import sessions_in
+
     d = Path(folder)
     if not d.is_dir():
         raise CompareError(f"{d} is not a folder; pick the folder that holds the recordings")
-    files = sorted(p for p in d.iterdir()
-                   if p.suffix.lower() in (".h5", ".hdf5") and p.is_file())  # fmt: skip
+    files = sessions_in(d, recursive=False)  # (also those left as a journal or parts)
     out = []
     for k, f in enumerate(files):
         out.append(_recording(f))

@@ -67,7 +67,10 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     rows = an.rows
     summ = an.summary()
     state = "complete" if s.complete else ("recovered" if s.recovered else "incomplete")
-    if interrupted and s.recovered:
+    if s.recovery_not_saved:  # (a full disk): never said to be recovered, it is not saved
+        state = (f"interrupted, not recovered: the recovery could not be saved "
+                 f"({s.recovery_not_saved}); the journal is kept")
+    elif interrupted and s.recovered:
         state += " (the recording was interrupted; recovered now from its journal)"
     mode = {"raw": "raw ADC, computed on the PC", "tilt": "the unit's tilts",
             "joint": "the unit's joint angles"}[s.mode]

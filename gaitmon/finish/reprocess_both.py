@@ -70,7 +70,7 @@ def rewrite_bilateral(
         units = {s: UnitInputs.of(b.unit(s)) for s in sides}
     configs = {s: configure(u.config) for s, u in units.items()}
     tmp = partial_path(dst)
-    with _building(tmp, dst):
+    with _building(tmp, dst, src):
         if side is None:
             _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
         else:
