@@ -3,14 +3,17 @@
 ``gaitmon batch DIR -o OUT`` is :func:`run_batch`. Each session is one :class:`Task` (plain
 paths and a frozen :class:`~gaitmon.reprocessing.Reprocessing`: picklable, so a local process or
 a Dask worker can take it) run by :func:`reprocess_one`, which opens its own files (h5py objects
-cannot travel between processes), writes ``OUT/<same relative path>`` through
-:func:`gaitmon.finish.reprocess.rewrite_processed` (as ``gaitmon process`` does: built as
-``.partial``, moved into place) and returns a small :class:`Outcome`: the session's summary
-row and its stride rows, or why it could not be reprocessed. A damaged file is an outcome
-("damaged" and one line), never an exception that stops the batch.
+cannot travel between processes), writes ``OUT/<same relative path>.partial`` through
+:func:`gaitmon.finish.reprocess.rewrite_processed` (as ``gaitmon process`` does) and returns a
+small :class:`Outcome`: the session's summary row and its stride rows, or why it could not be
+reprocessed. The driver, taking the outcome, moves the file into place (so a cancelled batch
+publishes nothing once it has returned). A damaged file is an outcome ("damaged" and one
+line), never an exception that stops the batch.
 
 Resuming: after each session the driver writes a small record (its outcome, the source's size
-and time, the settings, the output's name and size) under ``OUT/.gaitmon-batch/``, atomically.
+and time, the settings, the output's name under OUT and size) under ``OUT/.gaitmon-batch/``,
+atomically, keyed by the session's path under DIR: another spelling of DIR or OUT, or both
+moved together, resume.
 A rerun skips every session whose record matches and whose output is there whole; a session
 killed mid-way has no record (or only a ``.partial`` output) and is done again. The CSVs are
 written last, from every record, sorted by relative path, so two runs over the same files give
@@ -157,7 +160,7 @@ def reprocess_one(task: Task) -> Outcome:
     from gaitmon.io.session.parts import is_bilateral
 
     bad_file: tuple[type[BaseException], ...] = (SessionError, *DAMAGE_ERRORS)
-    src, dst = Path(task.src), Path(task.dst)
+    src, dst = Path(task.src), staged(task.dst)  # the batch's own thread publishes it
     work = Path(task.work) if task.work else None
     t0, cpu0 = time.perf_counter(), time.thread_time()
     wrote = False
@@ -278,14 +281,46 @@ def _write_atomic(path: Path, data: bytes, private: bool = False) -> None:
     os.replace(tmp, path)
 
 
-def _finished(task: Task, state: Path, fingerprint: str) -> Outcome | None:
+def staged(dst: str | os.PathLike[str]) -> Path:
+    """Where a worker leaves a session's output, whole: the batch's own thread moves it to
+    ``dst`` when it takes the result (:func:`_publish`), so a cancelled batch publishes
+    nothing after it returns, whatever its workers were doing."""
+    return Path(os.fspath(dst) + PARTIAL)
+
+
+def _publish(task: Task) -> None:
+    try:
+        os.replace(staged(task.dst), task.dst)
+    except OSError as exc:
+        raise UserError(f"cannot move {staged(task.dst)} to {task.dst} ({exc.strerror or exc}); "
+                        "check the OUT folder and run the batch again (it resumes)") from None
+
+
+def _output_name(task: Task, out: Path) -> str:
+    """The output's name under OUT: how a record names it, whatever the spelling of OUT."""
+    return Path(task.dst).relative_to(out).as_posix()
+
+
+def _same_output(recorded: Any, task: Task, out: Path) -> bool:
+    """A record's output is the task's (a de-identified label may now be another session's):
+    by its name under OUT, so that another spelling of OUT (``out`` and ``$PWD/out``), or the
+    study and OUT moved together, still resume; a record written before names were kept
+    relative holds a path, compared resolved."""
+    if not isinstance(recorded, str):
+        return recorded is None  # (a record without one: no label to mismatch)
+    if recorded == _output_name(task, out):
+        return True
+    return os.path.realpath(recorded) == os.path.realpath(task.dst)
+
+
+def _finished(task: Task, state: Path, fingerprint: str, out: Path) -> Outcome | None:
     """The recorded outcome when ``task`` is done with these settings on this very source and
     its output is there whole, under the same name; else None (do it again)."""
     try:
         rec = json.loads(_record_path(state, task.rel).read_text(encoding="utf-8"))
         if (rec.get("version") != __version__ or rec.get("settings") != fingerprint
                 or rec.get("source") != _source_stamp(Path(task.src))
-                or rec.get("output", task.dst) != task.dst):  # (a label may now be another's)
+                or not _same_output(rec.get("output"), task, out)):
             return None
         outcome = Outcome.from_record(rec["outcome"])
         if outcome.status != OK or Path(task.dst).stat().st_size != rec.get("output_size"):
@@ -295,13 +330,13 @@ def _finished(task: Task, state: Path, fingerprint: str) -> Outcome | None:
         return None
 
 
-def _save_record(task: Task, state: Path, fingerprint: str, outcome: Outcome) -> None:
+def _save_record(task: Task, state: Path, fingerprint: str, outcome: Outcome, out: Path) -> None:
     with contextlib.suppress(OSError):  # a missing source or output: the record says so
         rec = {
             "version": __version__,
             "settings": fingerprint,
             "source": _source_stamp(Path(task.src)),
-            "output": task.dst,
+            "output": _output_name(task, out),
             "output_size": Path(task.dst).stat().st_size if outcome.status == OK else None,
             "outcome": outcome.as_record(),
         }
@@ -394,7 +429,7 @@ def _run(
     results: dict[str, Outcome] = {}
     todo = []
     for t in tasks:
-        prev = _finished(t, state, fp)
+        prev = _finished(t, state, fp, out_p)
         if prev is None:
             todo.append(t)
         else:
@@ -408,7 +443,9 @@ def _run(
             progress(len(results) / total, f"{len(results)}/{total} sessions")
 
     def done(outcome: Outcome) -> None:
-        _save_record(by_rel[outcome.rel], state, fp, outcome)
+        if outcome.status == OK:  # (an output without its record is only done again)
+            _publish(by_rel[outcome.rel])
+        _save_record(by_rel[outcome.rel], state, fp, outcome, out_p)
         # the stride rows stay in the record only: 10,000 ten-minute sessions hold ~5 million
         results[outcome.rel] = dataclasses.replace(outcome, strides=())
         report()
