@@ -54,6 +54,9 @@ class BidsOptions:
     subject_from_patient_id: bool = False  # label = the patient id (letters and digits kept)
     session: str | None = None  # a ses-<label> level, if given
     task: str = DEFAULT_TASK
+    # dataset_description.json of a new dataset: never invented (left out when not given)
+    authors: str | tuple[str, ...] | None = None  # "A. Author; B. Author" or a sequence
+    license: str | None = None  # e.g. CC0, CC-BY-4.0 (SPDX abbreviations)
 
     @classmethod
     def from_mapping(cls, options: Mapping[str, object] | None) -> BidsOptions:
@@ -67,6 +70,8 @@ class BidsOptions:
                 raise ExportError(f"BIDS export has no option {key!r} (it has {', '.join(known)})")
         if "subject_map" in given:
             given["subject_map"] = Path(given["subject_map"])
+        if isinstance(given.get("authors"), (list, tuple)):
+            given["authors"] = tuple(str(a) for a in given["authors"])
         opts = cls(**given)
         chosen = [opts.subject is not None, opts.subject_map is not None,
                   bool(opts.subject_from_patient_id)]  # fmt: skip
@@ -149,6 +154,13 @@ class BidsOptions:
     @property
     def task_label(self) -> str:
         return check_label("task", self.task)
+
+    @property
+    def author_list(self) -> tuple[str, ...]:
+        """The authors, one per entry (a string is split at ';')."""
+        raw = self.authors or ()
+        parts = raw.split(";") if isinstance(raw, str) else raw
+        return tuple(a.strip() for a in parts if a.strip())
 
 
 def read_subject_map(path: Path) -> dict[str, str]:
