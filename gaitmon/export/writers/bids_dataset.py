@@ -20,7 +20,7 @@ from gaitmon import __version__
 from gaitmon.export.writers.bids_labels import BidsOptions
 from gaitmon.values import JsonObject
 
-BIDS_VERSION = "1.9.0"
+BIDS_VERSION = "1.11.0"  # MiscChannelCount (1.9 spelled it MISCChannelCount)
 DATASET_TYPE = "raw"  # why raw, not derivative: see README_HEAD
 GAITMON_SUFFIX = "gaitmon.json"  # ..._tracksys-<label>_gaitmon.json, listed in .bidsignore
 BIDSIGNORE_LINES = ("# gaitmon's own metadata of each recording (not BIDS fields; README)",
