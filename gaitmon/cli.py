@@ -228,7 +228,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     log_path = logs.setup(verbose="--verbose" in argv)
     try:
         args = build_parser(command).parse_args(argv)
-        log.info("%s %s (gaitmon %s)", prog, " ".join(argv), __version__)
+        log.info("gaitmon %s (gaitmon %s)", " ".join(argv), __version__)
         run: Run = getattr(args, "_run", None) or open_live_monitor
         rc = int(run(args) or 0)
         sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit

@@ -55,7 +55,7 @@ def test_a_commands_error_is_logged_and_shown_once(tmp_path, monkeypatch, capsys
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "nowhere.h5" in err
     text = _log(tmp_path).read_text(encoding="utf-8")
-    assert f"gaitmon info info {missing}" in text  # the command run
+    assert f"gaitmon info {missing} (gaitmon " in text  # the command run
     assert "INFO gaitmon.cli: gaitmon info: error:" in text and "nowhere.h5" in text
 
 
@@ -81,11 +81,11 @@ def test_an_internal_error_is_one_line_and_its_traceback_is_in_the_log(tmp_path,
 def test_verbose_echoes_the_log_to_stderr(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "state"))
     assert main(["ports"]) == 0
-    assert "gaitmon ports ports" not in capsys.readouterr().err
+    assert "gaitmon ports (gaitmon" not in capsys.readouterr().err
     assert main(["--verbose", "ports"]) == 0
-    assert "gaitmon ports --verbose ports" in capsys.readouterr().err
+    assert "gaitmon --verbose ports (gaitmon" in capsys.readouterr().err
     assert main(["ports", "--verbose"]) == 0
-    assert "gaitmon ports ports --verbose" in capsys.readouterr().err
+    assert "gaitmon ports --verbose (gaitmon" in capsys.readouterr().err
 
 
 def test_log_path_and_version_say_where_the_log_is(tmp_path):
