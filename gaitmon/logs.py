@@ -29,6 +29,15 @@ class _TerminalFilter(logging.Filter):
         return not record.exc_info and not getattr(record, "shown", False)
 
 
+class _Terminal(logging.StreamHandler):  # type: ignore[type-arg]
+    """The terminal as it is when a record comes, not when :func:`setup` ran (a test's captured
+    stderr, replaced and closed since, must not be written to)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.stream = sys.stderr  # under the handler's lock (Handler.handle)
+        super().emit(record)
+
+
 class _MessageOnly(logging.Formatter):
     def format(self, record: logging.LogRecord) -> str:
         return " ".join(record.getMessage().split())  # one line, no traceback
@@ -45,7 +54,7 @@ def setup(verbose: bool = False) -> Path | None:
         h.close()
     root.setLevel(logging.INFO)
     root.propagate = False  # ours alone: no traceback through the root logger's handlers
-    terminal = logging.StreamHandler(sys.stderr)
+    terminal = _Terminal(sys.stderr)
     terminal.setLevel(logging.INFO if verbose else logging.WARNING)
     terminal.addFilter(_TerminalFilter())
     terminal.setFormatter(_MessageOnly())

@@ -96,3 +96,21 @@ def test_log_path_and_version_say_where_the_log_is(tmp_path):
                               capture_output=True, text=True, timeout=120)  # fmt: skip
         assert proc.returncode == 0, proc.stderr
         assert str(log) in proc.stdout, (flag, proc.stdout)
+
+
+def test_a_warning_goes_to_the_terminal_of_the_moment(tmp_path, monkeypatch):
+    """As Python's last-resort handler did before the log was set up: a library warning after
+    a command (in the same process) reaches the stderr of that moment, message only."""
+    import io
+    import logging
+
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "state"))
+    first = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", first)
+    assert main(["ports"]) == 0
+    first.close()  # as a test's captured stderr is, after the test
+    later = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", later)
+    logging.getLogger("gaitmon.session").warning("stride measures not stored in x.h5: full")
+    assert later.getvalue() == "stride measures not stored in x.h5: full\n"
+    assert "stride measures not stored" in _log(tmp_path).read_text(encoding="utf-8")
