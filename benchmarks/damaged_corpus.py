@@ -277,6 +277,190 @@ def make_corpus(src_path: str | Path, out_dir: str | Path, seed: int = 1) -> lis
     return variants
 
 
+# -- files of both legs (issue 26, item 8) ---------------------------------------------------
+
+UNIT_DATASETS = ("raw/adc", "timeline/t_s", "timeline/seq", "processed/tilt_deg",
+                 "events/heel_strike", "gaps", "device/channels", "markers")  # fmt: skip
+
+
+def _damaged_bytes(data: bytes, rng: np.random.Generator, put: Callable[[str, str, bytes], None],
+                   prefix: str) -> None:
+    """Truncations, flipped bytes and zeroed ranges of ``data`` (also 512 zero bytes at 512,
+    the superblock's neighbourhood), each through ``put(name, description, bytes)``."""
+    size = len(data)
+    small = [0, 8, 96, 512, 1024, 2048, 4096]
+    fractions = [0.05, 0.1, 0.25, 0.4, 0.5, 0.6, 0.75, 0.9, 0.99]
+    offsets = sorted({*small, *(int(size * q) for q in fractions), size - 1} - {size})
+    for off in offsets:
+        put(f"{prefix}trunc_{off:08d}.h5", f"truncated to {off} of {size} bytes", data[:off])
+    for k, pos in enumerate([0, 8, 9, 24, 40, 44, 60, 100]):
+        b = bytearray(data)
+        b[pos] ^= 0xFF
+        put(f"{prefix}flip_head_{k:02d}.h5", f"byte {pos} inverted", bytes(b))
+    for k in range(12):
+        b = bytearray(data)
+        n_flips = int(rng.integers(1, 64))
+        for pos in rng.integers(0, size, n_flips):
+            b[int(pos)] ^= 1 << int(rng.integers(0, 8))
+        put(f"{prefix}flip_rand_{k:02d}.h5", f"{n_flips} random bit flips", bytes(b))
+    starts = [(512, 512), *((int(size * f), int(rng.choice([512, 4096, 16384])))
+                            for f in np.linspace(0.02, 0.97, 12))]  # fmt: skip
+    for k, (start, length) in enumerate(starts):
+        b = bytearray(data)
+        b[start : start + length] = bytes(min(length, size - start))
+        put(f"{prefix}zero_{k:02d}.h5", f"{length} bytes zeroed at {start}", bytes(b))
+
+
+def make_bilateral_corpus(src_path: str | Path, out_dir: str | Path,
+                          seed: int = 1) -> list[Variant]:  # fmt: skip
+    """Damaged variants of a complete session of both legs (``gaitmon record
+    --simulate-bilateral``): truncations, bit flips, zeroed ranges (raw bytes), and the
+    groups, datasets and attributes of the layout removed or wrong (``/units/<side>``,
+    ``/sync``, the root's ``bilateral`` and ``sides``, each unit's series)."""
+    src = Path(src_path)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    variants: list[Variant] = []
+
+    def put(name: str, description: str, content: bytes) -> None:
+        p = out / name
+        p.write_bytes(content)
+        variants.append((p, f"both legs: {description}"))
+
+    def h5(name: str, description: str, edit: Callable[[h5py.File], None]) -> None:
+        p = out / name
+        _h5_edit(src, p, edit)
+        variants.append((p, f"both legs: {description}"))
+
+    _damaged_bytes(src.read_bytes(), rng, put, "bi_")
+    for g in ("units/L", "units/R", "units", "sync", "sync/L", "sync/R/segments"):
+        h5(f"bi_missing_{g.replace('/', '_')}.h5", f"/{g} removed", _del(g))
+    for side in ("L", "R"):
+        for d in UNIT_DATASETS:
+            h5(f"bi_missing_{side}_{d.replace('/', '_')}.h5", f"/units/{side}/{d} removed",
+               _del(f"units/{side}/{d}"))  # fmt: skip
+    for a in ("bilateral", "sides", "complete", "format", "format_version", "sample_rate_hz"):
+        h5(f"bi_missing_attr_{a}.h5", f"root attribute {a} removed", _del_attr("/", a))
+    for a in ("host_t0_s", "host_s_per_common_s"):
+        h5(f"bi_missing_sync_{a}.h5", f"/sync attribute {a} removed", _del_attr("sync", a))
+    h5("bi_sides_extra.h5", "sides 'L R X'", _set_attr("/", "sides", "L R X"))
+    h5("bi_sides_empty.h5", "sides ''", _set_attr("/", "sides", ""))
+    h5("bi_sides_left_only.h5", "sides 'L' (the right leg's group still there)",
+       _set_attr("/", "sides", "L"))
+    h5("bi_sync_scale_nan.h5", "common time base NaN",
+       _set_attr("sync", "host_s_per_common_s", float("nan")))
+    h5("bi_sync_segments_plain.h5", "/sync/L/segments a plain array",
+       _replace("sync/L/segments", lambda a: np.arange(4.0)))
+    h5("bi_sync_segments_empty.h5", "/sync/R/segments empty",
+       _replace("sync/R/segments", lambda a: a[:0]))
+    h5("bi_fs_L_zero.h5", "left leg's sample_rate_hz 0",
+       _set_attr("units/L", "sample_rate_hz", 0.0))
+    h5("bi_R_ragged.h5", "right leg's tilts shorter than its rows",
+       _replace("units/R/processed/tilt_deg", lambda a: a[: len(a) // 2]))
+    h5("bi_L_adc_float.h5", "left leg's raw counts stored as float",
+       _replace("units/L/raw/adc", lambda a: a.astype(np.float32) + 0.5))
+    return variants
+
+
+def make_parts_corpus(parts_dir: str | Path, name: str, out_dir: str | Path,
+                      seed: int = 1) -> list[Variant]:  # fmt: skip
+    """Damaged variants of a crashed recording of both legs: ``parts_dir`` holds ``name``'s
+    parts and their journals (``NAME.L.partial``, ``NAME.L.partial.journal``, the same for R;
+    a ``kill -9`` of ``gaitmon record --simulate-bilateral``) and no ``NAME``. Each variant is
+    a session path with no file, its parts beside it: intact, one part cut, random, zeroed or
+    gone, a journal gone or cut, only the journals."""
+    src = Path(parts_dir)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    files = {p.name[len(name):]: p.read_bytes() for p in src.iterdir()
+             if p.name.startswith(name + ".")}  # fmt: skip  # ".L.partial", ".L.partial.journal"
+    variants: list[Variant] = []
+
+    def variant(stem: str, description: str,
+                change: Callable[[dict[str, bytes]], dict[str, bytes]]) -> None:
+        for suffix, content in change(dict(files)).items():
+            (out / f"{stem}.h5{suffix}").write_bytes(content)
+        variants.append((out / f"{stem}.h5", f"crashed recording of both legs: {description}"))
+
+    def cut(n: int) -> Callable[[bytes], bytes]:
+        return lambda b: b[:n]
+
+    def flips(b: bytes) -> bytes:
+        a = bytearray(b)
+        for pos in rng.integers(0, len(a), 32):
+            a[int(pos)] ^= 1 << int(rng.integers(0, 8))
+        return bytes(a)
+
+    def zero512(b: bytes) -> bytes:
+        return b[:512] + bytes(len(b[512:1024])) + b[1024:]
+
+    def random(b: bytes) -> bytes:
+        return rng.integers(0, 256, len(b), np.uint8).tobytes()
+
+    Change = Callable[[dict[str, bytes]], dict[str, bytes]]
+
+    def edit(key: str, how: Callable[[bytes], bytes]) -> Change:
+        return lambda d: {**d, key: how(d[key])} if key in d else d
+
+    def drop(*keys: str) -> Change:
+        return lambda d: {k: v for k, v in d.items() if k not in keys}
+
+    L, R = ".L.partial", ".R.partial"
+    LJ, RJ = L + ".journal", R + ".journal"
+    variant("parts_intact", "both parts and journals", lambda d: d)
+    for key, what in ((L, "left part"), (LJ, "left part's journal"), (R, "right part")):
+        k = key.replace(".", "_")
+        variant(f"parts_cut300{k}", f"{what} cut to 300 bytes", edit(key, cut(300)))
+        variant(f"parts_half{k}", f"{what} cut in half", edit(key, lambda b: b[: len(b) // 2]))
+        variant(f"parts_flips{k}", f"32 bit flips in the {what}", edit(key, flips))
+        variant(f"parts_zero512{k}", f"512 zero bytes at 512 in the {what}", edit(key, zero512))
+        variant(f"parts_random{k}", f"{what} random bytes", edit(key, random))
+        variant(f"parts_gone{k}", f"{what} gone", drop(key))
+    variant("parts_no_journals", "both journals gone", drop(LJ, RJ))
+    variant("parts_journals_only", "only the journals (both parts' files gone)", drop(L, R))
+    variant("parts_left_only", "only the left part and its journal", drop(R, RJ))
+    variant("parts_both_random", "both parts random bytes, journals gone",
+            lambda d: {L: random(d[L]), R: random(d[R])})
+    variant("parts_journals_cut", "both journals cut to 300 bytes, parts gone",
+            lambda d: {LJ: d[LJ][:300], RJ: d[RJ][:300]})
+    return variants
+
+
+def make_crashed_corpus(crashed: str | Path, out_dir: str | Path) -> list[Variant]:
+    """Variants of a crashed one-unit recording (``crashed`` and its journal, a ``kill -9``
+    of ``gaitmon record``): the journal gone (the file as the recorder last flushed it), only
+    the journal, the journal cut short, the file cut short with or without its journal."""
+    src = Path(crashed)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    data = src.read_bytes()
+    jdata = src.with_name(src.name + ".journal").read_bytes()
+    variants: list[Variant] = []
+
+    def put(stem: str, description: str, content: bytes | None, journal: bytes | None) -> None:
+        p = out / f"{stem}.h5"
+        if content is not None:
+            p.write_bytes(content)
+        if journal is not None:
+            p.with_name(p.name + ".journal").write_bytes(journal)
+        variants.append((p, f"crashed one-unit recording: {description}"))
+
+    put("crashed", "the file and its journal", data, jdata)
+    put("crashed_no_journal", "its journal gone", data, None)
+    put("crashed_journal_only", "only its journal", None, jdata)
+    put("crashed_journal_half", "only its journal, cut in half", None, jdata[: len(jdata) // 2])
+    put("crashed_journal_cut", "the file and its journal cut to 300 bytes", data, jdata[:300])
+    put("crashed_file_half", "the file cut in half, its journal kept", data[: len(data) // 2],
+        jdata)
+    put("crashed_file_half_no_journal", "the file cut in half, no journal",
+        data[: len(data) // 2], None)
+    put("crashed_zero512_no_journal", "512 zero bytes at 512, no journal",
+        data[:512] + bytes(512) + data[1024:], None)
+    return variants
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("session", help="a complete raw-mode session recorded by gaitmon")

@@ -274,13 +274,18 @@ def stride_start_times(rows: Sequence[StrideRow], t_s: np.ndarray) -> list[float
     return [float(t[min(r.stride.start_idx, len(t) - 1)]) for r in rows]
 
 
+def stride_values(row: StrideRow, number: int, start_t_s: float) -> list[float | str]:
+    """The table's values of one stride, unrounded (numbers; the status as text): what
+    :func:`stride_cells` prints and the public API's stride table holds."""
+    return [value(row, number, start_t_s) for _, value in _STRIDE_TABLE]
+
+
 def stride_cells(row: StrideRow, number: int, start_t_s: float) -> list[str]:
     """The table's cells of one stride, as text (a dash for a missing number, no "-0.0")."""
     from gaitmon.text import num
 
     out = []
-    for col, value in _STRIDE_TABLE:
-        v = value(row, number, start_t_s)
+    for col, v in zip(STRIDE_COLUMNS, stride_values(row, number, start_t_s), strict=True):
         out.append(str(v) if col.decimals is None else num(float(v), col.decimals))
     return out
 

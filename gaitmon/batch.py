@@ -3,14 +3,17 @@
 ``gaitmon batch DIR -o OUT`` is :func:`run_batch`. Each session is one :class:`Task` (plain
 paths and a frozen :class:`~gaitmon.reprocessing.Reprocessing`: picklable, so a local process or
 a Dask worker can take it) run by :func:`reprocess_one`, which opens its own files (h5py objects
-cannot travel between processes), writes ``OUT/<same relative path>`` through
-:func:`gaitmon.finish.reprocess.rewrite_processed` (as ``gaitmon process`` does: built as
-``.partial``, moved into place) and returns a small :class:`Outcome`: the session's summary
-row and its stride rows, or why it could not be reprocessed. A damaged file is an outcome
-("damaged" and one line), never an exception that stops the batch.
+cannot travel between processes), writes ``OUT/<same relative path>.partial`` through
+:func:`gaitmon.finish.reprocess.rewrite_processed` (as ``gaitmon process`` does) and returns a
+small :class:`Outcome`: the session's summary row and its stride rows, or why it could not be
+reprocessed. The driver, taking the outcome, moves the file into place (so a cancelled batch
+publishes nothing once it has returned). A damaged file is an outcome ("damaged" and one
+line), never an exception that stops the batch.
 
 Resuming: after each session the driver writes a small record (its outcome, the source's size
-and time, the settings, the output's name and size) under ``OUT/.gaitmon-batch/``, atomically.
+and time, the settings, the output's name under OUT and size) under ``OUT/.gaitmon-batch/``,
+atomically, keyed by the session's path under DIR: another spelling of DIR or OUT, or both
+moved together, resume.
 A rerun skips every session whose record matches and whose output is there whole; a session
 killed mid-way has no record (or only a ``.partial`` output) and is done again. The CSVs are
 written last, from every record, sorted by relative path, so two runs over the same files give
@@ -53,6 +56,12 @@ from gaitmon.analysis import (
 from gaitmon.batch_pool import dask_client, run_dask, run_local
 from gaitmon.dsp.gait import GaitSummary
 from gaitmon.errors import DAMAGE_ERRORS, UserError
+from gaitmon.io.deidentify import (
+    create_private_file,
+    make_private_dir,
+    scrub_file_names,
+    scrub_free_text,
+)
 from gaitmon.reprocessing import Reprocessing
 from gaitmon.text import spreadsheet_cell
 
@@ -151,14 +160,16 @@ def reprocess_one(task: Task) -> Outcome:
     from gaitmon.io.session.parts import is_bilateral
 
     bad_file: tuple[type[BaseException], ...] = (SessionError, *DAMAGE_ERRORS)
-    src, dst = Path(task.src), Path(task.dst)
+    src, dst = Path(task.src), staged(task.dst)  # the batch's own thread publishes it
     work = Path(task.work) if task.work else None
     t0, cpu0 = time.perf_counter(), time.thread_time()
     wrote = False
     try:
         if is_bilateral(src):  # a good file: not "damaged" (open_session refuses both legs)
-            return Outcome(task.rel, SKIPPED, "a session of both legs: gaitmon batch reprocesses "
-                           "one-unit sessions; use gaitmon process FILE -o NEW for both legs")
+            why = "" if src.exists() else " (interrupted: gaitmon info FILE combines its parts)"
+            return Outcome(task.rel, SKIPPED, f"a session of both legs{why}: gaitmon batch "
+                           "reprocesses one-unit sessions; use gaitmon process FILE -o NEW for "
+                           "both legs")  # fmt: skip
         with open_session(src) as s:  # (recovers an interrupted recording first)
             if s.mode != "raw":
                 return Outcome(task.rel, SKIPPED, f"{s.mode}-mode recording: it holds the "
@@ -178,7 +189,8 @@ def reprocess_one(task: Task) -> Outcome:
         else:
             from gaitmon.io.session.deidentify import write_deidentified
 
-            work.parent.mkdir(parents=True, exist_ok=True)
+            make_private_dir(work.parent)
+            os.close(create_private_file(partial_path(work)))  # the copy keeps its 0600
             rewrite_processed(src, work, config, overwrite=True)
             write_deidentified(work, dst)
         t2 = time.perf_counter()
@@ -212,14 +224,14 @@ def reprocess_one(task: Task) -> Outcome:
 
 
 def find_sessions(root: Path, out: Path | None = None) -> list[str]:
-    """Relative paths (POSIX, sorted) of every ``*.h5`` under ``root``, not those under
-    ``out`` (an OUT inside DIR is not read back as input). Journals (``.h5.journal``) and
-    half-written files (``.h5.partial``) do not end in ``.h5`` and are left out."""
+    """Relative paths (sorted) of every session (``*.h5``) under ``root``, not under ``out``,
+    as ``gaitmon info`` names them (:func:`gaitmon.io.session.parts.sessions_in`): one left as
+    its journal or as a two-leg recording's parts is a row too (recovered as it is opened)."""
+    from gaitmon.io.session.parts import sessions_in
+
     out_r = out.resolve() if out is not None else None
     found = []
-    for p in root.rglob("*.h5"):
-        if not p.is_file():
-            continue
+    for p in sessions_in(root, suffixes=(".h5",)):
         if out_r is not None and p.resolve().is_relative_to(out_r):
             continue
         found.append(p.relative_to(root).as_posix())
@@ -250,26 +262,65 @@ def _fingerprint(settings: Reprocessing | None) -> str:
     return "recorded" if settings is None else settings.fingerprint()
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
+def _write_atomic(path: Path, data: bytes, private: bool = False) -> None:
     """Write ``path`` as ``path.partial`` then move it into place: a kill leaves the old file
-    or the new one, never half of one."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    or the new one, never half of one. ``private``: in the key folder (0700 folders, 0600
+    files, so from their creation)."""
     tmp = path.with_name(path.name + PARTIAL)
-    with open(tmp, "wb") as f:
+    if private:
+        make_private_dir(path.parent)
+        fd = create_private_file(tmp)
+    else:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_BINARY", 0),
+                     0o666)  # fmt: skip
+    with open(fd, "wb") as f:
         f.write(data)
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
 
 
-def _finished(task: Task, state: Path, fingerprint: str) -> Outcome | None:
+def staged(dst: str | os.PathLike[str]) -> Path:
+    """Where a worker leaves a session's output, whole: the batch's own thread moves it to
+    ``dst`` when it takes the result (:func:`_publish`), so a cancelled batch publishes
+    nothing after it returns, whatever its workers were doing."""
+    return Path(os.fspath(dst) + PARTIAL)
+
+
+def _publish(task: Task) -> None:
+    try:
+        os.replace(staged(task.dst), task.dst)
+    except OSError as exc:
+        raise UserError(f"cannot move {staged(task.dst)} to {task.dst} ({exc.strerror or exc}); "
+                        "check the OUT folder and run the batch again (it resumes)") from None
+
+
+def _output_name(task: Task, out: Path) -> str:
+    """The output's name under OUT: how a record names it, whatever the spelling of OUT."""
+    return Path(task.dst).relative_to(out).as_posix()
+
+
+def _same_output(recorded: Any, task: Task, out: Path) -> bool:
+    """A record's output is the task's (a de-identified label may now be another session's):
+    by its name under OUT, so that another spelling of OUT (``out`` and ``$PWD/out``), or the
+    study and OUT moved together, still resume; a record written before names were kept
+    relative holds a path, compared resolved."""
+    if not isinstance(recorded, str):
+        return recorded is None  # (a record without one: no label to mismatch)
+    if recorded == _output_name(task, out):
+        return True
+    return os.path.realpath(recorded) == os.path.realpath(task.dst)
+
+
+def _finished(task: Task, state: Path, fingerprint: str, out: Path) -> Outcome | None:
     """The recorded outcome when ``task`` is done with these settings on this very source and
     its output is there whole, under the same name; else None (do it again)."""
     try:
         rec = json.loads(_record_path(state, task.rel).read_text(encoding="utf-8"))
         if (rec.get("version") != __version__ or rec.get("settings") != fingerprint
                 or rec.get("source") != _source_stamp(Path(task.src))
-                or rec.get("output", task.dst) != task.dst):  # (a label may now be another's)
+                or not _same_output(rec.get("output"), task, out)):
             return None
         outcome = Outcome.from_record(rec["outcome"])
         if outcome.status != OK or Path(task.dst).stat().st_size != rec.get("output_size"):
@@ -279,17 +330,18 @@ def _finished(task: Task, state: Path, fingerprint: str) -> Outcome | None:
         return None
 
 
-def _save_record(task: Task, state: Path, fingerprint: str, outcome: Outcome) -> None:
+def _save_record(task: Task, state: Path, fingerprint: str, outcome: Outcome, out: Path) -> None:
     with contextlib.suppress(OSError):  # a missing source or output: the record says so
         rec = {
             "version": __version__,
             "settings": fingerprint,
             "source": _source_stamp(Path(task.src)),
-            "output": task.dst,
+            "output": _output_name(task, out),
             "output_size": Path(task.dst).stat().st_size if outcome.status == OK else None,
             "outcome": outcome.as_record(),
         }
-        _write_atomic(_record_path(state, task.rel), json.dumps(rec).encode())
+        _write_atomic(_record_path(state, task.rel), json.dumps(rec).encode(),
+                      private=bool(task.work))
 
 
 @dataclass(frozen=True)
@@ -369,13 +421,15 @@ def _run(
     client: Any, deidentify: bool, progress: Progress | None, t0: float,
 ) -> BatchResult:  # fmt: skip
     out_p.mkdir(parents=True, exist_ok=True)
+    if deidentify:
+        make_private_dir(key_dir(out_p))  # before anything is written in it
     state = _state_dir(out_p, deidentify)
     fp = _fingerprint(settings)
     tasks = _tasks(root_p, out_p, rels, settings, deidentify)
     results: dict[str, Outcome] = {}
     todo = []
     for t in tasks:
-        prev = _finished(t, state, fp)
+        prev = _finished(t, state, fp, out_p)
         if prev is None:
             todo.append(t)
         else:
@@ -389,7 +443,9 @@ def _run(
             progress(len(results) / total, f"{len(results)}/{total} sessions")
 
     def done(outcome: Outcome) -> None:
-        _save_record(by_rel[outcome.rel], state, fp, outcome)
+        if outcome.status == OK:  # (an output without its record is only done again)
+            _publish(by_rel[outcome.rel])
+        _save_record(by_rel[outcome.rel], state, fp, outcome, out_p)
         # the stride rows stay in the record only: 10,000 ten-minute sessions hold ~5 million
         results[outcome.rel] = dataclasses.replace(outcome, strides=())
         report()
@@ -402,7 +458,8 @@ def _run(
             run_local(reprocess_one, todo, jobs, done)
     outcomes = tuple(results[r] for r in rels)
     summary_csv, strides_csv = write_tables(
-        outcomes, out_p, deidentify=deidentify, strides_of=lambda o: _recorded_strides(state, o)
+        outcomes, out_p, deidentify=deidentify, strides_of=lambda o: _recorded_strides(state, o),
+        root=root_p,
     )
     key = None
     if deidentify:
@@ -478,16 +535,22 @@ def labels(outcomes: Iterable[Outcome], deidentify: bool) -> tuple[list[str], li
 REMOVED = "[removed]"
 
 
-def scrub_reason(o: Outcome, label: str) -> str:
+def scrub_reason(o: Outcome, label: str, root: str | os.PathLike[str] | None = None) -> str:
     """The reason without the file's name or path (often a patient code) or the patient id:
-    the name becomes the session's label."""
-    reason = o.reason
+    the file's path and name, as the message quotes them, become the session's label, and
+    what is left of the name or the patient id is removed from the paths it quotes. The
+    reason is gaitmon's own message: its words are never rewritten (a file "both.h5" must not
+    turn "a session of both legs" into "a session of S0003 legs")."""
     name = Path(o.rel).name
-    for secret, by in sorted(((o.rel, label), (name, label), (Path(name).stem, label),
-                              (o.patient_id.strip(), REMOVED)), key=lambda x: -len(x[0])):
-        if secret:
-            reason = reason.replace(secret, by)
-    return reason
+    paths = {o.rel, name}
+    if root is not None:  # the source's path as a message may quote it
+        src = Path(root) / o.rel
+        paths |= {str(src), os.path.abspath(src), str(src.resolve())}
+    whole = [(p, label) for p in sorted(paths, key=len, reverse=True) if p]
+    reason = scrub_free_text(o.reason, whole)
+    rest = [(s, by) for s, by in ((Path(name).stem, label), (o.patient_id.strip(), REMOVED))
+            if s]  # fmt: skip
+    return scrub_file_names(reason, sorted(rest, key=lambda x: -len(x[0])))
 
 
 def write_tables(
@@ -496,6 +559,7 @@ def write_tables(
     *,
     deidentify: bool = False,
     strides_of: Callable[[Outcome], Iterable[Sequence[Any]]] = lambda o: o.strides,
+    root: Path | None = None,
 ) -> tuple[Path, Path]:
     """Write ``out/summary.csv`` and ``out/strides.csv`` (each as ``.partial``, then moved into
     place), one session's strides at a time (``strides_of``). De-identified: no patient id, no
@@ -511,7 +575,7 @@ def write_tables(
         ws.writerow(SUMMARY_COLUMNS)
         wr.writerow(STRIDES_COLUMNS)
         for o, session, patient in zip(outcomes, sessions, patients, strict=True):
-            reason = scrub_reason(o, session) if deidentify else o.reason
+            reason = scrub_reason(o, session, root) if deidentify else o.reason
             ok = o.status == OK
             values: list[Any] = [
                 session, patient, "" if deidentify else o.created_utc, o.duration_s,
@@ -544,5 +608,5 @@ def write_key(outcomes: Sequence[Outcome], tasks: Sequence[Task], path: Path) ->
     for o, session, patient in zip(outcomes, sessions, patients, strict=True):
         w.writerow([spreadsheet_cell(str(c)) for c in (
             session, dst[o.rel] if o.status == OK else "", o.rel, patient, o.patient_id)])
-    _write_atomic(path, buf.getvalue().encode("utf-8"))
+    _write_atomic(path, buf.getvalue().encode("utf-8"), private=True)
     return path

@@ -9,7 +9,7 @@ import multiprocessing
 import os
 import sys
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from typing import Any, TypeVar
 
 from gaitmon.errors import UserError
@@ -38,8 +38,22 @@ def die_with_parent(parent_pid: int) -> None:
         os._exit(1)
 
 
+def _init_worker(parent_pid: int) -> None:
+    """A pool worker's set-up: it dies with the batch process (:func:`die_with_parent`) and
+    leaves Ctrl-C to it (a terminal sends SIGINT to the whole group; the parent decides, and
+    stops its workers itself)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent(parent_pid)
+
+
 def run_local(work: Callable[[T], R], tasks: Sequence[T], jobs: int,
               done: Callable[[R], None]) -> None:  # fmt: skip
+    """Run the tasks here (``jobs`` <= 1) or on a pool of ``jobs`` local processes, calling
+    ``done`` here, in this thread, with each result as it arrives. When this raises (Ctrl-C, an
+    error in ``done``), every worker has been stopped and reaped first: no task of this call
+    runs, or writes, after it returns (a worker's half-written file stays as it was)."""
     if jobs <= 1 or len(tasks) <= 1:
         for t in tasks:
             done(work(t))
@@ -47,14 +61,30 @@ def run_local(work: Callable[[T], R], tasks: Sequence[T], jobs: int,
     # spawn: a fresh interpreter per worker, no fork of a parent holding h5py state or threads
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=ctx,
-                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
+                             initializer=_init_worker, initargs=(os.getpid(),)) as pool:
         futures = [pool.submit(work, t) for t in tasks]
         try:
             for f in as_completed(futures):
                 done(f.result())
         except BaseException:
-            pool.shutdown(wait=True, cancel_futures=True)
+            _stop(pool, futures)
             raise
+
+
+def _stop(pool: ProcessPoolExecutor, futures: Sequence[Future[Any]]) -> None:
+    """Cancel what has not started and end the workers now, without waiting for the tasks
+    they run (shutdown alone waits for every task already handed to a worker, and they
+    finish and write on, seconds after a Ctrl-C). The executor has no public terminate: its
+    processes are ``_processes`` (a missing attribute only loses the promptness)."""
+    for f in futures:
+        f.cancel()
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for p in procs:
+        p.terminate()
+    # the pool sees its workers die, fails what they held, and ends its own thread
+    pool.shutdown(wait=True, cancel_futures=True)
+    for p in procs:
+        p.join()
 
 
 def dask_client(address: Any) -> Any:

@@ -36,7 +36,7 @@ import numpy as np
 
 from gaitmon.dsp.channel_table import JOINTS as TABLE_JOINTS
 from gaitmon.errors import Cancelled, UserError
-from gaitmon.text import count, no_gait_events, num
+from gaitmon.text import count, no_gait_events, num, side_text
 
 if TYPE_CHECKING:
     from gaitmon.analysis import SessionAnalysis
@@ -160,6 +160,8 @@ class SessionQuality:
     outage_s: float  # their total duration
     other_gaps: int  # shorter losses (frames lost on a noisy link)
     excluded: dict[str, int]  # exclusion reason -> strides, in gaitmon.analysis.REASONS order
+    side: str = ""  # the leg measured, as info and the report say it (text.side_text)
+    zero: str = ""  # where the angles' zero comes from (dsp.calibration.zero_source)
 
     @property
     def n_excluded(self) -> int:
@@ -174,7 +176,10 @@ class SessionQuality:
         why = ", ".join(f"{reason} {n}" for reason, n in self.excluded.items())
         excl = (f"{count(self.n_excluded, 'stride')} excluded ({why})" if why
                 else "no stride excluded")  # fmt: skip
-        return f"{link}; {excl}"
+        # the leg and the zero first: sessions of different legs, or one zeroed standing and
+        # one not, differ by more than the gait (a mounting offset moves every angle)
+        where = f"side {side_text(self.side)}; " + (f"zero: {self.zero}; " if self.zero else "")
+        return f"{where}{link}; {excl}"
 
 
 def session_quality(session: Session, an: SessionAnalysis) -> SessionQuality:
@@ -182,7 +187,8 @@ def session_quality(session: Session, an: SessionAnalysis) -> SessionQuality:
     from gaitmon.report import session_losses
 
     lo = session_losses(session, an.rows, an.excluded_ranges)
-    return SessionQuality(lo.outages, lo.outage_s, lo.n_gaps - lo.outages, dict(lo.excluded))
+    return SessionQuality(lo.outages, lo.outage_s, lo.n_gaps - lo.outages, dict(lo.excluded),
+                          session.meta.side, session.zero_source)  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)
@@ -343,12 +349,13 @@ def _analyse_file(path: Path) -> _Analysed:
     from gaitmon.dsp.gait import cycle_mean_sd
     from gaitmon.finish import open_session
     from gaitmon.io.session import SessionError
+    from gaitmon.io.session.parts import session_files
 
     name = path.name
-    if not path.exists():
-        raise CompareError(f"{name} does not exist; check the file name and folder")
     if path.is_dir():
         raise CompareError(f"{name} is a folder; give session files (.h5)")
+    if not session_files(path):  # (its journal or parts alone are a session, recovered here)
+        raise CompareError(f"{name} does not exist; check the file name and folder")
     try:
         with open_session(path) as s:
             an = analyse_session(s)
@@ -498,11 +505,12 @@ def list_recordings(folder: str | os.PathLike[str],
                     progress: Progress | None = None) -> list[Recording]:  # fmt: skip
     """Every session file (``*.h5``, ``*.hdf5``) of ``folder`` by patient id, then date; a
     file that cannot be analysed is listed with its problem."""
+    from gaitmon.io.session.parts import sessions_in
+
     d = Path(folder)
     if not d.is_dir():
         raise CompareError(f"{d} is not a folder; pick the folder that holds the recordings")
-    files = sorted(p for p in d.iterdir()
-                   if p.suffix.lower() in (".h5", ".hdf5") and p.is_file())  # fmt: skip
+    files = sessions_in(d, recursive=False)  # (also those left as a journal or parts)
     out = []
     for k, f in enumerate(files):
         out.append(_recording(f))

@@ -171,6 +171,7 @@ def session_losses(
         reconnects=int(link.get("reconnects", 0)),
         queue_overflow_frames=int(link.get("queue_overflow_frames", 0)),
         invalid_values=int(link.get("invalid_values", 0)),
+        implausible_frames=int(link.get("implausible_frames", 0)),
         excluded={k: counts[k] for k in EXCLUSION_ORDER if counts.get(k)},
         excluded_ranges=tuple((int(a), int(b)) for a, b in excluded_ranges),
         problems=tuple(session.problems),
@@ -317,7 +318,8 @@ def gather_report(
         markers=tuple(MarkerItem(float(m.t_s), str(m.label)) for m in session.markers),
         gaps=gaps,
         excluded_spans=excluded_spans,
-        generated_utc=now.strftime("%Y-%m-%d %H:%M UTC"),
+        # de-identified: the report does not say when it was made either (it would date the visit)
+        generated_utc="" if deidentify else now.strftime("%Y-%m-%d %H:%M UTC"),
     )
 
 
@@ -419,7 +421,7 @@ def gather_bilateral_report(
         clocks=_clocks(b),
         conventions=conventions,
         normative=normative,
-        generated_utc=now.strftime("%Y-%m-%d %H:%M UTC"),
+        generated_utc="" if deidentify else now.strftime("%Y-%m-%d %H:%M UTC"),
         notes=() if counted["L"] and counted["R"] else
         ("Too few strides on both legs to compare: the symmetry table is empty.",),
     )

@@ -103,6 +103,7 @@ class Losses:
     reconnects: int
     queue_overflow_frames: int
     invalid_values: int
+    implausible_frames: int  # CRC-valid frames dropped: an impossible sequence jump
     excluded: dict[str, int]  # exclusion reason -> strides (in EXCLUSION_ORDER)
     excluded_ranges: tuple[tuple[int, int], ...]  # rows the user excluded
     problems: tuple[str, ...]  # what the session reader noticed

@@ -76,6 +76,13 @@ def count(n: int, word: str, many: str | None = None) -> str:
     return f"{n} {plural(n, word, many)}"
 
 
+def implausible_text(n: int) -> str:
+    """"" or "3 implausible frames, " for a link line beside its CRC failures: CRC-valid frames
+    dropped because their sequence number jumped further than the time allowed (the decoder's
+    ``implausible_frames``; a false CRC accept). Shown only when there are some."""
+    return f"{count(n, 'implausible frame')}, " if n else ""
+
+
 def no_gait_events(mode: str) -> str:
     """Why a recording in ``mode`` has no gait events, or "" when the mode has them.
 

@@ -9,6 +9,12 @@ import uuid
 from collections.abc import Callable
 
 import pytest
+from hypothesis import settings as hypothesis_settings
+
+# no per-example deadline: hypothesis's default 200 ms is a timing in a pass/fail test, and on a
+# loaded 2-core machine (the suite's three workers, CI's neighbours) a slow example is not a bug
+hypothesis_settings.register_profile("gaitmon", deadline=None)
+hypothesis_settings.load_profile("gaitmon")
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 

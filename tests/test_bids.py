@@ -31,12 +31,12 @@ ENTITY_ORDER = ("sub", "ses", "task", "tracksys", "acq", "run")
 # motion.md, "Restricted keyword list for channel type" / "... for channel component"
 CHANNEL_TYPES = {"ACCEL", "ANGACCEL", "GYRO", "JNTANG", "LATENCY", "MAGN", "MISC", "ORNT", "POS",
                  "VEL"}  # fmt: skip
-COMPONENTS = {"x", "y", "z", "quat_x", "quat_y", "quat_z", "quat_w", "n/a"}
+COMPONENTS = {"x", "y", "z", "quat_x", "quat_y", "quat_z", "quat_w"}  # (the schema: no n/a)
 AXIAL_TYPES = {"ACCEL", "ANGACCEL", "GYRO", "MAGN", "POS", "VEL", "ORNT"}  # component MUST be set
 # rules/tabular_data/motion.yaml: initial columns in this order; others must be defined ones
 CHANNELS_INITIAL = ["name", "component", "type", "tracked_point", "units"]
-CHANNELS_DEFINED = {"placement", "description", "sampling_frequency", "status",
-                    "status_description"}  # fmt: skip
+CHANNELS_DEFINED = {"placement", "reference_frame", "description", "sampling_frequency",
+                    "status", "status_description"}  # fmt: skip
 STATUS = {"good", "bad", "n/a"}
 # rules/sidecars/motion.yaml
 SIDECAR_REQUIRED = ("SamplingFrequency", "TrackingSystemName", "TaskName")
@@ -79,11 +79,15 @@ def raw(tmp_path) -> tuple[Path, dict[str, np.ndarray]]:
     return src, write_session(src, "raw")
 
 
-def _recording(root: Path, sub: str, ses: str | None = None) -> dict[str, Path]:
+def _recording(root: Path, sub: str, ses: str | None = None,
+               system: str = "imuR", task: str = "walk") -> dict[str, Path]:
+    """A one-leg recording's files; the tracking system is the unit, by its leg (the
+    fixture's is the right one; ``imu`` for a recording with no side)."""
     folder = root / f"sub-{sub}" / (f"ses-{ses}" if ses else "") / "motion"
-    stem = f"sub-{sub}" + (f"_ses-{ses}" if ses else "") + "_task-walk_tracksys-IMU"
-    return {k: folder / f"{stem}_{k}" for k in ("motion.tsv", "channels.tsv", "motion.json",
-                                                   "events.tsv", "events.json")}  # fmt: skip
+    stem = f"sub-{sub}" + (f"_ses-{ses}" if ses else "") + f"_task-{task}"
+    unit = {k: folder / f"{stem}_tracksys-{system}_{k}" for k in (
+        "motion.tsv", "channels.tsv", "channels.json", "motion.json", "gaitmon.json")}
+    return {**unit, **{k: folder / f"{stem}_{k}" for k in ("events.tsv", "events.json")}}
 
 
 # ---- layout ----------------------------------------------------------------------------------
@@ -94,17 +98,18 @@ def test_the_layout_and_file_names_follow_the_bids_templates(raw, tmp_path):
     out = tmp_path / "study"
     assert _export(src, out, "--subject", "07", "--session", "pre") == 0
     got = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file())
-    want = sorted(["README", "dataset_description.json", "participants.tsv",
+    want = sorted(["README", "dataset_description.json", "participants.tsv", ".bidsignore",
                    *(str(p.relative_to(out)) for p in _recording(out, "07", "pre").values())])
     assert got == want
     for p in (out / "sub-07" / "ses-pre" / "motion").iterdir():
         ents, suffix = _entities(p.name)
         keys = [k for k, _ in ents]
         assert keys == sorted(keys, key=ENTITY_ORDER.index), p.name  # schema order
-        assert keys[:3] == ["sub", "ses", "task"] and "tracksys" in keys  # required entities
+        assert keys[:3] == ["sub", "ses", "task"]  # required entities
+        assert ("tracksys" in keys) == (suffix not in {"events.tsv", "events.json"})
         assert all(LABEL.fullmatch(v) for _, v in ents), p.name
-        assert suffix in {"motion.tsv", "motion.json", "channels.tsv", "events.tsv",
-                          "events.json"}  # fmt: skip
+        assert suffix in {"motion.tsv", "motion.json", "channels.tsv", "channels.json",
+                          "gaitmon.json", "events.tsv", "events.json"}  # fmt: skip
         # the folders repeat the file's subject and session
         assert dict(ents)["sub"] == p.parents[2].name[4:] and dict(ents)["ses"] == "pre"
 
@@ -123,7 +128,7 @@ def test_channels_tsv_and_motion_json_follow_the_spec(raw, tmp_path):
     src, _ = raw
     out = tmp_path / "d"
     assert _export(src, out, "--subject", "07", "--task", "gait") == 0
-    files = {p.name.rsplit("_", 1)[1]: p for p in (out / "sub-07" / "motion").iterdir()}
+    files = _recording(out, "07", task="gait")
     head = _header(files["channels.tsv"])
     assert head[:5] == CHANNELS_INITIAL
     assert set(head[5:]) <= CHANNELS_DEFINED  # additional columns: only defined ones
@@ -132,6 +137,8 @@ def test_channels_tsv_and_motion_json_follow_the_spec(raw, tmp_path):
     assert len(set(names)) == len(names)
     for c in chans:
         assert c["type"] in CHANNEL_TYPES and c["component"] in COMPONENTS, c
+        assert c["placement"] and c["reference_frame"] in json.loads(
+            files["channels.json"].read_text())["reference_frame"]["Levels"]
         if c["type"] in AXIAL_TYPES:
             assert c["component"] in {"x", "y", "z"}, c
         assert c["status"] in STATUS and c["tracked_point"] and c["units"]
@@ -152,15 +159,18 @@ def test_channels_tsv_and_motion_json_follow_the_spec(raw, tmp_path):
     side = json.loads(files["motion.json"].read_text(encoding="utf-8"))
     for key in SIDECAR_REQUIRED:
         assert key in side, key
-    assert side["TrackingSystemName"] == "IMU" == dict(_entities(files["motion.json"].name)[0])[
+    assert side["TrackingSystemName"] == "imuR" == dict(_entities(files["motion.json"].name)[0])[
         "tracksys"]  # TrackSysParity
     assert side["TaskName"] == "gait" and side["SamplingFrequency"] == FS
     assert side["MotionChannelCount"] == len(chans)
-    for t in ("ACCEL", "GYRO", "ORNT", "JNTANG", "MISC"):
+    for t in ("ACCEL", "GYRO", "ORNT", "JNTANG"):
         assert side[f"{t}ChannelCount"] == len(by_type[t]), t
+    assert side["MiscChannelCount"] == len(by_type["MISC"]) and "MISCChannelCount" not in side
+    assert side["Manufacturer"] == "gaitmon"
     assert side["RecordingDuration"] == pytest.approx(len(rows) / FS)
     assert side["MissingValues"] == "n/a"
-    assert side["GaitmonAngles"]["source"] == "smoothed" and side["GaitmonAngles"]["method"]
+    own = json.loads(files["gaitmon.json"].read_text(encoding="utf-8"))  # gaitmon's own keys
+    assert own["angles"]["source"] == "smoothed" and own["angles"]["method"]
     assert "DeviceSerialNumber" not in side  # de-identified by default
     assert "5 lost frames" in side["SubjectArtefactDescription"]
 
@@ -183,14 +193,17 @@ def test_every_file_name_passes_the_python_bids_validator(raw, tmp_path):
     bids_validator = pytest.importorskip("bids_validator")
     src, _ = raw
     paths = _study_with_every_kind_of_file(src, tmp_path / "study")
-    assert "/sub-09/ses-post/sub-09_ses-post_scans.tsv" in paths and len(paths) == 19
+    assert "/sub-09/ses-post/sub-09_ses-post_scans.tsv" in paths and len(paths) == 26
     validator = bids_validator.BIDSValidator()
-    assert [p for p in paths if not validator.is_bids(p)] == []
+    # gaitmon's own metadata files (and .bidsignore itself) are what .bidsignore hides
+    hidden = [p for p in paths if p.endswith("_gaitmon.json") or p == "/.bidsignore"]
+    assert len(hidden) == 4
+    assert [p for p in paths if not validator.is_bids(p) and p not in hidden] == []
     # and it does refuse what BIDS forbids, so passing says something
-    for bad in ("/sub-07/motion/sub-07_tracksys-IMU_task-walk_motion.tsv",  # entity order
-                "/sub-07/motion/sub-08_task-walk_tracksys-IMU_motion.tsv",  # folder != file
-                "/sub-07/motion/sub-07_task-walk_tracksys-IMU_motion.csv",
-                "/sub-P-1/motion/sub-P-1_task-walk_tracksys-IMU_motion.tsv"):  # fmt: skip
+    for bad in ("/sub-07/motion/sub-07_tracksys-imuR_task-walk_motion.tsv",  # entity order
+                "/sub-07/motion/sub-08_task-walk_tracksys-imuR_motion.tsv",  # folder != file
+                "/sub-07/motion/sub-07_task-walk_tracksys-imuR_motion.csv",
+                "/sub-P-1/motion/sub-P-1_task-walk_tracksys-imuR_motion.tsv"):  # fmt: skip
         assert not validator.is_bids(bad), bad
 
 
@@ -294,8 +307,8 @@ def test_every_cell_is_the_sessions_value_and_lost_frames_are_na_rows(raw, tmp_p
         got = [rows[k][j] for k in grid.tolist()]
         want = [_pct(v, decimals) for v in values]
         assert got == want, j  # bit for bit to the printed decimals
-    side = json.loads(rec["motion.json"].read_text())
-    assert side["GaitmonAngles"]["source"] == angles
+    own = json.loads(rec["gaitmon.json"].read_text())
+    assert own["angles"]["source"] == angles
 
 
 def test_chunked_writing_gives_the_same_bytes(raw, tmp_path):
@@ -331,7 +344,7 @@ def test_a_real_recording_with_lost_frames_matches_the_session_reader(tmp_path,
 
     src = record_simulated(tmp_path / "lossy.h5", "--loss-pct", "3", duration_s=8)
     assert _export(src, tmp_path / "d") == 0
-    rec = _recording(tmp_path / "d", "01")
+    rec = _recording(tmp_path / "d", "01", system="imu")  # no side entered
     rows = _motion_rows(rec["motion.tsv"])
     names = [c["name"] for c in _tsv(rec["channels.tsv"])]
     with open_session(src) as s:
@@ -425,7 +438,7 @@ def test_without_deidentification_the_scan_is_dated_and_the_serial_kept(raw, tmp
     out = tmp_path / "d"
     assert _export(src, out, "--no-deidentify") == 0
     scans = _tsv(out / "sub-01" / "sub-01_scans.tsv")
-    assert scans == [{"filename": "motion/sub-01_task-walk_tracksys-IMU_motion.tsv",
+    assert scans == [{"filename": "motion/sub-01_task-walk_tracksys-imuR_motion.tsv",
                       "acq_time": "2026-11-22T04:10:00Z"}]  # fmt: skip
     side = json.loads(_recording(out, "01")["motion.json"].read_text())
     assert side["DeviceSerialNumber"] == "SIM-1"
@@ -483,7 +496,8 @@ def test_bids_options_with_another_format_are_refused(raw, capsys):
 
 
 def test_a_force_sensor_the_cross_check_flagged_is_a_bad_channel(tmp_path, record_simulated):
-    src = record_simulated(tmp_path / "dead.h5", "--heel-dead-at", "4", duration_s=14)
+    src = record_simulated(tmp_path / "dead.h5", "--heel-dead-at", "4", "--side", "R",
+                           duration_s=14)
     assert _export(src, tmp_path / "d") == 0
     status = {c["name"]: c for c in _tsv(_recording(tmp_path / "d", "01")["channels.tsv"])}
     assert status["heel_fsr"]["status"] == "bad"

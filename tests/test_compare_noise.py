@@ -112,16 +112,19 @@ def test_a_link_outage_and_its_excluded_strides_are_said(qapp, gap_recording, wa
     assert q.outages == 1 and q.outage_s == pytest.approx(5.37, abs=0.011)
     with open_session(gap_recording) as s:
         rows = analyse_session(s).rows
+        side, zero = {"L": "left", "R": "right"}.get(s.meta.side, "not recorded"), s.zero_source
     reasons = Counter(r.excluded for r in rows if r.excluded)
     assert q.excluded == dict(reasons)
     assert q.excluded[SETTLING] >= 1  # the strides while the filters settle after the cut
     assert q.n_excluded == cut.n_strides_total - cut.n_included
     said = q.text()
-    assert said.startswith("1 link outage (5.4 s); ")
+    # the leg and the zero first (as info says them), then the link and the exclusions
+    assert said.startswith(f"side {side}; zero: {zero}; 1 link outage (5.4 s); ")
     assert f"{q.n_excluded} strides excluded (first stride 1, last stride 1" in said
     assert f"settling after a gap {q.excluded[SETTLING]}" in said
     other = next(s for s in c.sessions if s.path != gap_recording).quality
-    assert other.text() == "no link outage; 2 strides excluded (first stride 1, last stride 1)"
+    assert other.text().endswith(
+        "; no link outage; 2 strides excluded (first stride 1, last stride 1)")
     # in the terminal and the PDF
     pdf = tmp_path / "gap.pdf"
     assert main(["compare", str(gap_recording), str(walks["first"]), "-o", str(pdf)]) == 0

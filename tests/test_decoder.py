@@ -174,11 +174,16 @@ def test_a_frame_inside_a_frame_is_found_and_its_bytes_are_counted_once():
     rng = np.random.default_rng(10)
     b = make_frame(rng, 501, p.FrameKind.ACK)
     wire_b = p.encode_frame(b)
-    # a TILT frame whose last 3 wire bytes are wire_b[:3]: its first angle's two bytes span all
-    # 65536 CRC values (the CRC is linear), so one of them makes the CRC equal wire_b[1:3]
-    tail = bytes(13) + wire_b[:1]
+    # an IDENTITY frame whose last 3 wire bytes are wire_b[:3]: the low two bytes of its serial
+    # span all 65536 CRC values (the CRC is linear), so one of them makes the CRC equal
+    # wire_b[1:3]; its last payload byte, the table CRC's high byte, is wire_b[0] (0xA5). (An
+    # angle frame cannot end in 0xA5 any more: its last angle would be -232.96 deg, out of range)
+    assert wire_b[0] == 0xA5
+    kind = p.FrameKind.IDENTITY
+    name = b"FAKE"  # (struct pads it with NULs)
     for k in range(1 << 16):
-        body = bytes([p.FrameKind.TILT, 16, 0xF4, 0x01]) + k.to_bytes(2, "little") + tail
+        payload = p._IDENTITY.pack(name, 1, 0, 0, k, b"L", 14, 100, 1, 0xA500)
+        body = bytes([kind, p.PAYLOAD_LEN[kind], 0xF4, 0x01]) + payload
         if p.crc16(body).to_bytes(2, "little") == wire_b[1:3]:
             break
     else:

@@ -32,10 +32,16 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("gaitmon.engine", "gaitmon.analysis", "gaitmon.normative", "gaitmon.reprocessing",
      "gaitmon.finish"),
     ("gaitmon.report", "gaitmon.report_content", "gaitmon.export", "gaitmon.compare",
-     "gaitmon.live", "gaitmon.review", "gaitmon.lab", "gaitmon.batch", "gaitmon.lsl"),
+     "gaitmon.live", "gaitmon.review", "gaitmon.lab", "gaitmon.batch", "gaitmon.lsl",
+     "gaitmon.api"),
     ("gaitmon.ui",),
     ("gaitmon.commands", "gaitmon.cli", "gaitmon.__main__"),
 )
+# The one arrow allowed upward: the package's public API (``gaitmon.open`` …, README "For
+# researchers") is gaitmon.api's, which ``gaitmon/__init__.py`` imports only when a name is
+# first looked up (PEP 562), after the package is initialised: no import-time circle, and
+# ``import gaitmon`` stays cheap (tests/test_public_api.py checks that it loads none of it).
+FACADE = ("gaitmon", "gaitmon.api")
 QT = ("PySide6", "pyqtgraph", "shiboken6")
 QT_LAYER = "gaitmon.ui"
 
@@ -101,7 +107,9 @@ def imports_by_name(path: Path) -> list[str]:
 
 def import_graph() -> dict[str, set[str]]:
     mods = module_names()
-    return {name: imports_of(name, path, mods) for name, path in mods.items()}
+    graph = {name: imports_of(name, path, mods) for name, path in mods.items()}
+    graph[FACADE[0]].discard(FACADE[1])  # (see FACADE)
+    return graph
 
 
 def layer_of(module: str) -> int | None:

@@ -70,15 +70,17 @@ def _finish(proc: subprocess.Popen[str], err: list[str], timeout_s: float = 120.
 
 
 def _accounted(line: str) -> tuple[int, int, int, int]:
-    """recorded, received, stamped outside, dropped: from the command's markers line."""
+    """recorded, received, stamped outside (before or after the recording), dropped: from the
+    command's markers line."""
     m = re.search(r"(\d[\d,]*) of (\d[\d,]*) markers from LSL stream", line)
     assert m, line
-    outside = re.search(r"; (\d[\d,]*) stamped outside", line)
-    dropped = re.search(r"; (\d[\d,]*) dropped", line)
-    return tuple(  # type: ignore[return-value]
-        int(x.replace(",", "")) if x else 0
-        for x in (m[1], m[2], outside and outside[1], dropped and dropped[1])
-    )
+
+    def n(pattern: str) -> int:
+        found = re.search(rf"[:,] (\d[\d,]*) {pattern}", line)
+        return int(found[1].replace(",", "")) if found else 0
+
+    outside = n("stamped before") + n("stamped or sent after")
+    return int(m[1].replace(",", "")), int(m[2].replace(",", "")), outside, n("dropped")
 
 
 def test_hostile_markers_from_another_process_leave_a_complete_readable_recording(tmp_path):

@@ -237,6 +237,23 @@ def test_descriptions_say_channels_units_and_hide_the_patient(streamed):
     acq = a.desc().child("acquisition")
     assert acq.child_value("manufacturer") == layout.MANUFACTURER
     assert acq.child_value("model") == "gaitmon-sim"
+    # the XDF MoCap convention: Euler-angle channel types, each channel's object, and the lag
+    # taken out of the timestamps (the events': the low-pass delay their dates are moved back)
+    ch = a.desc().child("channels").child("channel")
+    objects = []
+    while not ch.empty():
+        objects.append(ch.child_value("object"))
+        ch = ch.next_sibling()
+    assert objects == ["hip", "knee", "ankle", "body", "thigh", "shank", "foot"]
+    assert {c.type for c in layout.ANGLE_CHANNELS} == {"OrientationP"}
+    lag = {s: float(infos[s].desc().child("acquisition").child_value("compensated_lag"))
+           for s in STREAMS}  # fmt: skip
+    from gaitmon.dsp.pipeline import PipelineConfig
+
+    delay = PipelineConfig().event_delay_samples  # the settings the outlets opened with
+    assert delay > 0 and lag == {"angles": 0.0, "raw": 0.0, "events": delay / 100.0}
+    assert {s: infos[s].desc().child("gaitmon").child_value("stream") for s in STREAMS} == {
+        s: s for s in STREAMS}
     g = infos["raw"].desc().child("gaitmon")
     assert g.child_value("mode") == "raw" and g.child_value("side") == "R"
     assert g.child("subject_id").empty()
@@ -316,7 +333,7 @@ def test_gaitmon_record_lsl_streams_while_it_records(tmp_path):
             got += len(ts)
         assert got >= 200
         assert info.desc().child("gaitmon").child_value("subject_id") == "P9"
-        assert _desc_channels(info)[0] == ("hip_flexion", "degrees", "JointAngle")
+        assert _desc_channels(info)[0] == ("hip_flexion", "degrees", "OrientationP")
     finally:
         _out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err

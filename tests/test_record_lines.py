@@ -75,3 +75,34 @@ def test_both_legs_say_zeroed_each_legs_progress_and_counts_and_the_file(
     for side in "LR":
         with open_session(out, side=side) as s:
             assert s.n_samples == counts[side] >= 200, side
+
+
+def test_the_closing_line_states_the_recordings_own_losses_as_info_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 27: the closing line said "238 frames lost" where the file's gaps hold 213: it
+    gave the link's totals, which also count the frames lost while the unit streamed before
+    the recording started (here: the standing window of --zero) and after it stopped. Now
+    it states the file's counts, as ``gaitmon info`` reads them."""
+    out = tmp_path / "lossy.h5"
+    args = ["record", "--simulate", "--zero", "--loss-pct", "5", "--corrupt-pct", "2",
+            "--duration", "3", "--speed", "4", "-q"]  # fmt: skip
+    assert main([*args, "-o", str(out)]) == 0
+    lines = _lines(capsys)
+    wrote = re.fullmatch(
+        rf"gaitmon record: wrote (\d+) frames to {re.escape(str(out))} \(\d+\.\d MB\); "
+        r"(\d+) frames? lost, (\d+) CRC failures?, (\d+) reconnects?",
+        lines[-1],
+    )
+    assert wrote, lines[-1]
+    said = tuple(int(g) for g in wrote.groups())
+    with open_session(out) as s:
+        in_gaps = sum(g.n_lost for g in s.gaps)
+        file_counts = (s.n_samples, in_gaps, s.link["crc_failures"], s.link["reconnects"])
+        assert s.link["frames_lost"] > in_gaps > 0  # the link lost frames outside the recording
+    assert said == file_counts
+    assert main(["info", str(out)]) == 0
+    info = re.search(r"link +(\d+) frames? lost in \d+ gaps?, (\d+) CRC failures?, "
+                     r"(\d+) reconnects?", capsys.readouterr().out)  # fmt: skip
+    assert info, "no link line"
+    assert tuple(int(g) for g in info.groups()) == said[1:]

@@ -163,10 +163,12 @@ def _tree_text(root: Path) -> str:
 
 def _bids_files(root: Path, sub: str, ses: str | None, task: str = "walk") -> set[str]:
     folder = f"sub-{sub}/" + (f"ses-{ses}/" if ses else "") + "motion/"
-    stem = f"sub-{sub}" + (f"_ses-{ses}" if ses else "") + f"_task-{task}_tracksys-IMU_"
-    return {"README", "dataset_description.json", "participants.tsv",
-            *(folder + stem + s for s in ("motion.tsv", "channels.tsv", "motion.json",
-                                          "events.tsv", "events.json"))}  # fmt: skip
+    stem = f"sub-{sub}" + (f"_ses-{ses}" if ses else "") + f"_task-{task}_"
+    unit = stem + "tracksys-imu_"  # the unit, by its leg: the fixture has no side
+    return {"README", "dataset_description.json", "participants.tsv", ".bidsignore",
+            *(folder + unit + s for s in ("motion.tsv", "channels.tsv", "channels.json",
+                                          "motion.json", "gaitmon.json")),
+            *(folder + stem + s for s in ("events.tsv", "events.json"))}  # fmt: skip
 
 
 def _export_bids(qtbot, dlg, out: Path):
@@ -220,8 +222,8 @@ def test_export_dialog_writes_a_deidentified_bids_dataset(qtbot, session, tmp_pa
     assert "files in" in dlg.status_label.text()
     text = _tree_text(out)
     assert PATIENT not in text and PATIENT.replace("-", "") not in text
-    motion = out / "sub-01/ses-pre/motion/sub-01_ses-pre_task-walk_tracksys-IMU_motion.tsv"
-    chans = (out / "sub-01/ses-pre/motion/sub-01_ses-pre_task-walk_tracksys-IMU_channels.tsv")
+    motion = out / "sub-01/ses-pre/motion/sub-01_ses-pre_task-walk_tracksys-imu_motion.tsv"
+    chans = (out / "sub-01/ses-pre/motion/sub-01_ses-pre_task-walk_tracksys-imu_channels.tsv")
     lines = motion.read_text().splitlines()
     n_channels = len(chans.read_text().splitlines()) - 1
     with open_session(session) as s:

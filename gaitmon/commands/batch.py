@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     names, _ = labels(result.outcomes, args.deidentify)
     for o, name in zip(result.outcomes, names, strict=True):
         if o.status != OK:
-            reason = scrub_reason(o, name) if args.deidentify else o.reason
+            reason = scrub_reason(o, name, args.dir) if args.deidentify else o.reason
             print(f"gaitmon batch: {o.status}: {name}: {reason}", file=sys.stderr)
     if not args.quiet:
         n = len(result.outcomes)

@@ -38,7 +38,8 @@ examples:
 """
 
 # --format bids only: option -> its name in export_session(options=...)
-BIDS_OPTIONS = ("subject", "subject_map", "subject_from_patient_id", "session", "task")
+BIDS_OPTIONS = ("subject", "subject_map", "subject_from_patient_id", "session", "task",
+                "authors", "license")
 
 # Progress is shown only for sessions long enough for the wait to be noticeable.
 PROGRESS_MIN_SAMPLES = 100_000
@@ -74,6 +75,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      "patient; never done otherwise)")
     bids.add_argument("--session", metavar="LABEL", help="session label (ses-LABEL level)")
     bids.add_argument("--task", metavar="LABEL", help="task label (default walk)")
+    bids.add_argument("--bids-authors", dest="authors", metavar="'A. Author; B. Author'",
+                      help="the dataset's authors, ';' between them (dataset_description.json "
+                      "of a new dataset; left out if not given)")
+    bids.add_argument("--bids-license", dest="license", metavar="LICENSE",
+                      help="the dataset's licence, e.g. CC0 or CC-BY-4.0 (as --bids-authors)")
     add_force(parser, "existing output files")
     add_quiet(parser)
 
@@ -108,6 +114,13 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(str(exc)) from None
     for problem in result.problems:
         print(f"gaitmon export: warning: {args.file}: {problem}", file=sys.stderr)
+    if args.format == "bids" and not args.quiet:
+        from gaitmon.export.writers.bids_dataset import description_hint
+
+        root = [p.parent for p in result.paths if p.name == "participants.tsv"]
+        hint = description_hint(root[0]) if root else None
+        if hint:
+            print(f"gaitmon export: note: {hint}", file=sys.stderr)
     if not args.quiet:
         names = ", ".join(str(p) for p in result.paths[:3])
         more = f" (+{len(result.paths) - 3} more)" if len(result.paths) > 3 else ""

@@ -7,13 +7,14 @@ import argparse
 import sys
 from collections import Counter
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gaitmon.commands import damaged_file_guard
 from gaitmon.errors import UserError
-from gaitmon.text import count, duration_text, no_gait_events, num, side_text
+from gaitmon.text import count, duration_text, implausible_text, no_gait_events, num, side_text
 
 if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis, SessionAnalysis
@@ -38,6 +39,36 @@ def progress_printer(label: str) -> Callable[[float], None]:
             print(file=sys.stderr)
 
     return report
+
+
+@dataclass(frozen=True)
+class LinkCounts:
+    """What a recording lost on its link, as its file states it: the frames of its gaps, the
+    CRC failures and reconnects of its ``/link``. ``gaitmon info`` and the closing line of
+    ``gaitmon record`` both say these (the link's own totals also count what it lost before
+    the recording started and after it stopped)."""
+
+    frames_lost: int
+    gaps: int
+    crc_failures: int
+    reconnects: int
+    implausible_frames: int = 0  # CRC-valid frames the decoder dropped (a false CRC accept)
+
+    @classmethod
+    def of(cls, s: Session) -> LinkCounts:
+        return cls(sum(g.n_lost for g in s.gaps), len(s.gaps), s.link.get("crc_failures", 0),
+                   s.link.get("reconnects", 0), int(s.link.get("implausible_frames", 0)))
+
+    def text(self) -> str:
+        """"N frames lost in G gaps, C CRC failures, [I implausible frames, ]R reconnects"."""
+        return (f"{count(self.frames_lost, 'frame')} lost in {count(self.gaps, 'gap')}, "
+                + self.units_text())
+
+    def units_text(self) -> str:
+        """What follows the frames lost: "C CRC failures, [I implausible frames, ]R reconnects"."""
+        return (f"{count(self.crc_failures, 'CRC failure')}, "
+                + implausible_text(self.implausible_frames)
+                + count(self.reconnects, "reconnect"))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -67,12 +98,15 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     rows = an.rows
     summ = an.summary()
     state = "complete" if s.complete else ("recovered" if s.recovered else "incomplete")
-    if interrupted and s.recovered:
+    if s.recovery_not_saved:  # (a full disk): never said to be recovered, it is not saved
+        state = (f"interrupted, not recovered: the recovery could not be saved "
+                 f"({s.recovery_not_saved}); the journal is kept")
+    elif interrupted and s.recovered:
         state += " (the recording was interrupted; recovered now from its journal)"
     mode = {"raw": "raw ADC, computed on the PC", "tilt": "the unit's tilts",
             "joint": "the unit's joint angles"}[s.mode]
     dev = s.device
-    lost = sum(g.n_lost for g in s.gaps)
+    link = LinkCounts.of(s)
     lines = [
         f"{s.path.name}: gaitmon session, format {s.attrs.get('format_version')}, {state}",
         f"  recorded     {s.created_utc or 'date removed'}, {duration_text(s.duration_s)}, "
@@ -85,9 +119,7 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     lines += [
         f"  device       {dev.get('name', '?')} firmware {dev.get('firmware', '?')} serial "
         f"{dev.get('serial') or '-'} via {dev.get('transport') or '-'}",
-        f"  link         {count(lost, 'frame')} lost in {count(len(s.gaps), 'gap')}, "
-        f"{count(s.link.get('crc_failures', 0), 'CRC failure')}, "
-        f"{count(s.link.get('reconnects', 0), 'reconnect')}",
+        f"  link         {link.text()}",
     ]
     reasons = Counter(r.excluded for r in rows if r.excluded)
     why = ", ".join(f"{n} {reason}" for reason, n in reasons.items())

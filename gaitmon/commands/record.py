@@ -263,7 +263,7 @@ def _record(
             print(f"gaitmon record: warning: {line}", file=sys.stderr)
     if stalled:  # the request was not completed: say so, and exit non-zero
         raise UserError(stalled)
-    lines = record_units.summary_lines(group, statuses, out)
+    lines = record_units.summary_lines(group, out)
     for side, eng in group.engines.items():  # a zero or a start the machine was too late for
         lines.extend(f"warning: {f'{side}: ' if side else ''}{note}" for note in eng.timing_notes)
     if lsl is not None:

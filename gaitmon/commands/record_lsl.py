@@ -169,20 +169,28 @@ def wait_for_start(
 
 
 def summary(inputs: LslInputs | None, engine: Engine) -> str:
-    """What became of the external markers, for the command's last lines ("" without)."""
+    """What became of the external markers, for the command's last lines ("" without): how
+    many were recorded, and why each of the others was not. The inlet is closed first, so
+    that every marker received is in the counts (one arriving now is after the recording)."""
     if inputs is None or inputs.markers is None:
         return ""
+    inlet = inputs.markers
+    inlet.close()
     c = engine.timed_markers
-    text = f"{c.recorded} of {inputs.markers.received} markers from LSL stream "
-    text += f"{inputs.markers.name!r} recorded"
-    if c.outside:
-        text += f"; {c.outside} stamped outside the recording (not recorded)"
-    dropped = inputs.markers.dropped + engine.timed_marker_overflow
-    if dropped:
-        text += f"; {dropped:,} dropped: the stream sent "
-        text += f"{inputs.markers.budget_text} (not recorded)"
-    if inputs.markers.error:
-        text += f"; last inlet error: {inputs.markers.error}"
+    text = f"{c.recorded:,} of {inlet.received:,} markers from LSL stream {inlet.name!r} recorded"
+    dropped = inlet.dropped + engine.timed_marker_overflow
+    why = [
+        (c.before, "stamped before the recording started"),
+        (c.after, "stamped or sent after the recording stopped"),
+        (c.waiting, "still waiting for their sample when the unit stopped"),
+        (dropped, f"dropped (the stream sent {inlet.budget_text})" if inlet.budget_text
+         else "dropped (too many waiting at once)"),
+    ]
+    not_recorded = [f"{n:,} {reason}" for n, reason in why if n]
+    if not_recorded:
+        text += "; not recorded: " + ", ".join(not_recorded)
+    if inlet.error:
+        text += f"; last inlet error: {inlet.error}"
     return text
 
 

@@ -19,7 +19,7 @@ from gaitmon.errors import UserError
 from gaitmon.text import count
 
 if TYPE_CHECKING:
-    from gaitmon.engine import Engine, RecordingStatus
+    from gaitmon.engine import Engine
     from gaitmon.engine.pair import EngineGroup
     from gaitmon.io.sim.unit import SimulatedUnit
     from gaitmon.io.transport import Transport
@@ -157,24 +157,25 @@ def stalled_message(side: str, stall_s: float, recorded_s: float, duration_s: fl
     )
 
 
-def summary_lines(group: EngineGroup, statuses: Mapping[str, RecordingStatus],
-                  out: Path) -> list[str]:  # fmt: skip
-    """The closing lines: what each unit recorded and lost, and the file written."""
-    lost = {}
-    for side, eng in group.engines.items():
-        link = eng.device.stats
-        lost[side] = (
-            f"{count(link.decoder.frames_lost, 'frame')} lost, "
-            f"{count(link.decoder.crc_failures, 'CRC failure')}, "
-            f"{count(link.reconnects, 'reconnect')}"
-        )
+def summary_lines(group: EngineGroup, out: Path) -> list[str]:
+    """The closing lines: what each unit recorded and lost, and the file written, as the
+    finished file states them (``gaitmon info``'s counts: the link's own totals also hold
+    what it lost before the recording started and after it stopped)."""
+    from gaitmon.commands.info import LinkCounts
+    from gaitmon.finish import open_session
+
+    rows, lost = {}, {}
+    for side in group.sides:
+        with open_session(out, side=side or None) as s:
+            link = LinkCounts.of(s)
+            rows[side] = count(s.n_samples, "frame")
+            lost[side] = f"{count(link.frames_lost, 'frame')} lost, {link.units_text()}"
+    size = f"{out.stat().st_size / 1e6:.1f} MB"
     if not group.in_parts:
-        ((side, st),) = statuses.items()
-        return [f"wrote {count(st.rows, 'frame')} to {out} ({st.file_bytes / 1e6:.1f} MB); "
-                f"{lost[side]}"]  # fmt: skip
+        return [f"wrote {rows['']} to {out} ({size}); {lost['']}"]
     return [
-        *(f"{side} {count(statuses[side].rows, 'frame')}, {lost[side]}" for side in group.sides),
-        f"wrote both legs to {out} ({out.stat().st_size / 1e6:.1f} MB)",
+        *(f"{side} {rows[side]}, {lost[side]}" for side in group.sides),
+        f"wrote both legs to {out} ({size})",
     ]
 
 

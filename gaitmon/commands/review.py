@@ -21,10 +21,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from gaitmon.ui import launch
 
-    if args.file is not None and not Path(args.file).exists():
-        from gaitmon.io.session.parts import parts_of
+    if args.file is not None:
+        from gaitmon.io.session.parts import session_files
 
-        if not parts_of(args.file):
+        # a journal or the parts alone are a session too: recovered as it is opened
+        if not (Path(args.file).exists() or session_files(args.file)):
             raise UserError(f"{args.file} does not exist; check the file name and folder")
     if args.side is not None:
         from gaitmon.io.session.parts import is_bilateral

@@ -171,6 +171,7 @@ class Engine:
             raise
         self._stop.clear()
         self._stream.last_data_s = time.monotonic()
+        self._timed.reopen()
         self._thread = threading.Thread(target=self._run, name="gaitmon-engine", daemon=True)
         self._thread.start()
 
@@ -181,6 +182,7 @@ class Engine:
         if self._thread is not None:
             self._thread.join(timeout=5.0)
             self._thread = None
+            self._timed.close()  # a marker given from now on arrived after the recording
             if self._taps:  # the engine thread is gone: this thread tells them the end
                 self._taps.engine_stopped()
         with contextlib.suppress(Exception):
@@ -247,6 +249,7 @@ class Engine:
             recorder.reconnects_base = self.device.stats.reconnects
             self._recorder = recorder
             self._recorder.start_idx = from_idx
+            self._timed.recording_started()
             self._last_recording = RecordingStatus()
 
     def stop_recording(self, reason: str = "user", timeout_s: float = 30.0) -> RecordingStatus:
@@ -264,6 +267,8 @@ class Engine:
         with self._lock:
             rec = self._recorder
             self._recorder = None
+            if rec is not None:  # (under the lock: a marker placed next sees both)
+                self._timed.recording_ended()
         if rec is None:
             return self._last_recording
         self._last_recording = rec.finish(reason, timeout_s, lambda: self.device.stats)

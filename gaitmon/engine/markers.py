@@ -140,19 +140,31 @@ class SampleIndex:
         return self._i0[j + 1], self._k0[j + 1]
 
 
+RECORDED, BEFORE, AFTER = "recorded", "before", "after"  # what became of a marker placed
+
+
 @dataclass(frozen=True)
 class TimedMarkerCounts:
-    """What became of the markers given a host time (``Engine.timed_markers``)."""
+    """What became of the markers given a host time (``Engine.timed_markers``): each one is
+    recorded, or not recorded for a reason (before or after the recording), or waiting."""
 
     recorded: int = 0  # placed on a row of a recording
-    outside: int = 0  # stamped outside every recording's rows (or not recording): not recorded
+    # not recorded: stamped before the recording's first row (or while none had started yet)
+    before: int = 0
+    # not recorded: stamped after the recording's last row, or arrived once it had stopped
+    after: int = 0
     waiting: int = 0  # their sample has not been processed yet
 
-    def plus(self, rows: list[int | None]) -> TimedMarkerCounts:
-        n = sum(r is not None for r in rows)
-        return dataclasses.replace(
-            self, recorded=self.recorded + n, outside=self.outside + len(rows) - n
-        )
+    @property
+    def outside(self) -> int:
+        """Not recorded: stamped outside the recording (before it or after it)."""
+        return self.before + self.after
+
+    def plus(self, whens: list[str]) -> TimedMarkerCounts:
+        """These counts and ``whens`` (RECORDED, BEFORE or AFTER per marker)."""
+        return dataclasses.replace(self, recorded=self.recorded + whens.count(RECORDED),
+                                   before=self.before + whens.count(BEFORE),
+                                   after=self.after + whens.count(AFTER))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -164,6 +176,7 @@ class Placed:
     label: str
     idx: int | None
     k: int | None
+    late: bool = False  # idx None because its instant is after the last sample received
 
 
 class TimedMarkers:
@@ -174,9 +187,11 @@ class TimedMarkers:
     def __init__(self, fs_hz: float, window_s: float = 30.0, max_pending: int = 4096) -> None:
         self.clock = RecentEnvelope(fs_hz, window_s)
         self.index = SampleIndex()
-        self._lock = threading.Lock()  # guards _pending, _counts, overflow
+        self._lock = threading.Lock()  # guards _pending, _counts, overflow, _ended, _closed
         self._pending: list[tuple[float, str]] = []
-        self._counts = TimedMarkerCounts()
+        self._counts = TimedMarkerCounts()  # (waiting: len(_pending))
+        self._ended = False  # a recording has stopped: a marker placed with none is after it
+        self._closed = False  # the engine thread is gone: nothing will place a marker again
         self._max_pending = max_pending
         self.overflow = 0  # markers refused: more than max_pending waiting (never expected)
         self._flush_asked = threading.Event()
@@ -188,11 +203,45 @@ class TimedMarkers:
             return dataclasses.replace(self._counts, waiting=len(self._pending))
 
     def rows(self, placed: list[Placed], row_map: RowMap | None) -> list[int | None]:
-        """``file_rows``, counted."""
+        """``file_rows``, counted: recorded, or why not (before or after the recording)."""
         rows = file_rows(placed, row_map)
         with self._lock:
-            self._counts = self._counts.plus(rows)
+            whens = [RECORDED if r is not None else self._when(m, row_map)
+                     for m, r in zip(placed, rows, strict=True)]  # fmt: skip
+            self._counts = self._counts.plus(whens)
         return rows
+
+    def _when(self, m: Placed, row_map: RowMap | None) -> str:
+        """Why a marker is on none of the recording's rows (under the lock)."""
+        start = None if row_map is None else row_map.record_offset
+        if start is None:  # no recording: before the first, or after the last one stopped
+            return AFTER if self._ended else BEFORE
+        if m.idx is None:  # before the first sample received, or after the last one
+            return AFTER if m.late else BEFORE
+        return BEFORE if m.idx < start - 1 else AFTER  # (start - 1 rounds onto row 0)
+
+    def recording_ended(self) -> None:
+        """A recording has stopped (its waiting markers placed): what comes next is after it."""
+        with self._lock:
+            self._ended = True
+
+    def recording_started(self) -> None:
+        with self._lock:
+            self._ended = False
+
+    def reopen(self) -> None:
+        """The engine thread starts (again): markers are placed."""
+        with self._lock:
+            self._closed = False
+
+    def close(self) -> None:
+        """The engine thread has stopped: the markers still waiting, and any given from now
+        on, arrived after the recording (none will be placed)."""
+        with self._lock:
+            self._closed = True
+            late = len(self._pending)
+            self._pending.clear()
+            self._counts = self._counts.plus([AFTER if self._ended else BEFORE] * late)
 
     def flush(self, engine_thread: threading.Thread | None, timeout_s: float = 1.0) -> None:
         """Any thread but the engine's: wait until the engine thread has placed every marker
@@ -220,6 +269,9 @@ class TimedMarkers:
     def add(self, label: str, host_time_s: float) -> None:
         """Any thread."""
         with self._lock:
+            if self._closed:
+                self._counts = self._counts.plus([AFTER if self._ended else BEFORE])
+                return
             if len(self._pending) >= self._max_pending:
                 self.overflow += 1
                 return
@@ -261,7 +313,7 @@ class TimedMarkers:
                 at = self.index.index_at(k_last)
                 out.append(Placed(label, *at) if at else Placed(label, None, None))
             else:
-                out.append(Placed(label, None, None))
+                out.append(Placed(label, None, None, late=True))
             done += 1
         with self._lock:
             # markers added meanwhile were inserted in time order too: remove exactly the ones

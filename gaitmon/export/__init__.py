@@ -89,6 +89,7 @@ def export_session(
     subject_from_patient_id, session, task; see
     :class:`gaitmon.export.writers.bids_labels.BidsOptions`).
     """
+    from gaitmon.io.session.header import SessionError
     from gaitmon.io.session.parts import is_bilateral
 
     if fmt not in FORMATS:
@@ -104,5 +105,8 @@ def export_session(
         named = src_path.with_name(f"{src_path.stem}_{side}{src_path.suffix}")
     out_path = Path(out) if out is not None else output_name(named, form, deidentify=deidentify)
     form.check_available()
-    return form.export(ExportRequest(src_path, form, out_path, deidentify, force, progress,
-                                     cancel, chunk_rows, angles, options, units))
+    try:
+        return form.export(ExportRequest(src_path, form, out_path, deidentify, force, progress,
+                                         cancel, chunk_rows, angles, options, units))
+    except SessionError as exc:  # damage met while reading, past the opening's checks
+        raise ExportError(str(exc)) from None

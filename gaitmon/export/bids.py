@@ -1,9 +1,10 @@
 """The BIDS format: a session as one recording of a Motion-BIDS dataset (the one-unit writer:
 :mod:`gaitmon.export.writers.bids`); both legs as one recording with two tracking systems.
 
-For both legs, each unit is a tracking system, ``tracksys-imuL`` and ``tracksys-imuR``, with
-its own ``_motion.tsv``, ``_channels.tsv`` and ``_motion.json`` (the one-unit export's channels
-and sidecar). Both ``_motion.tsv`` are on the common grid (:mod:`.grid`): row k of either is
+For both legs, each unit is a tracking system, ``tracksys-imuL`` and ``tracksys-imuR`` (the
+labels a one-leg export gives the same unit), with its own ``_motion.tsv``, ``_channels.tsv``,
+``_channels.json``, ``_motion.json`` and ``_gaitmon.json`` (the one-unit export's). Both
+``_motion.tsv`` are on the common grid (:mod:`.grid`): row k of either is
 common time k / SamplingFrequency, so a row of one is the same instant as that row of the
 other. One ``_events.tsv`` (no tracksys entity: it belongs to both) holds both legs' heel
 strikes and toe offs at their common times (``analyse_bilateral``'s), markers, and each leg's
@@ -46,7 +47,6 @@ class BidsFormat(Format):
 BIDS = BidsFormat("bids", "", "BIDS motion dataset folder (Motion-BIDS; de-identified by "
                   "default)", folder=True, deidentify_default=True)
 
-TRACKSYS = {"L": "imuL", "R": "imuR"}
 EVENTS_COLUMNS = ("onset", "duration", "trial_type", "sample", "side", "label")
 EVENTS_JSON_BOTH: JsonObject = {  # beside the one-unit export's EVENTS_JSON
     "onset": {"Description": "time of the event on the session's common time line, from row "
@@ -57,14 +57,6 @@ EVENTS_JSON_BOTH: JsonObject = {  # beside the one-unit export's EVENTS_JSON
              "Levels": {"L": "left leg (tracksys-imuL)", "R": "right leg (tracksys-imuR)",
                         "n/a": "both (a marker set on both units)"}},
 }  # fmt: skip
-README_BOTH = """
-Recordings of both legs have two tracking systems, tracksys-imuL and tracksys-imuR (one unit
-on each leg), and one _events.tsv for both (column "side"). Both _motion.tsv files are on one
-time line: each unit's samples were resampled linearly onto it by the fit of its own clock
-(the units' crystals differ by tens of ppm), so row k of either is the same instant, k /
-SamplingFrequency from the first sample of the unit that started first. Rows where a unit had
-not started, had stopped, or lost frames are n/a.
-"""
 # (onset s, duration s, trial type, row, side, label)
 Event = tuple[float, float, str, int | None, str, str]
 
@@ -127,14 +119,17 @@ def export_bids(job: ExportRequest) -> ExportResult:
     from gaitmon.export.legs import analysed, leg_sources, meta_header
     from gaitmon.export.writers.bids import (
         EVENTS_JSON,
-        README_TEXT,
         TSV_CHUNK_FRAMES,
+        UNIT_FILES,
         Names,
         acq_time,
         channels,
+        channels_json,
         channels_tsv,
-        dataset_description,
+        dataset_files,
         merge_tsv,
+        tracksys,
+        write_dataset_files,
         write_grid_tsv,
         write_json,
         write_text,
@@ -149,19 +144,17 @@ def export_bids(job: ExportRequest) -> ExportResult:
         grid = grid_of(b, srcs)
         session_attrs = srcs["L"].group_attrs("session")
         scrub = Scrubber(session_attrs, job.deidentify)
-        names = Names(job.out, options.subject_label(as_text(session_attrs.get("patient_id", ""))),
-                      options.session_label, options.task_label)  # fmt: skip
-        per_leg = {s: [names.motion(x, TRACKSYS[s]) for x in
-                       ("motion.tsv", "channels.tsv", "motion.json")] for s in srcs}
+        pid = as_text(session_attrs.get("patient_id", ""))
+        names = Names(job.out, options.subject_label(pid), options.session_label,
+                      options.task_label)  # fmt: skip
+        options.check_subject_free(job.out / "participants.tsv", pid)
+        per_leg = {s: [names.motion(x, tracksys(s)) for x in UNIT_FILES] for s in srcs}
         finals = [p for s in srcs for p in per_leg[s]]
         finals += [names.motion("events.tsv", None), names.motion("events.json", None)]
         dated = acq_time(srcs["L"]) if not scrub.enabled else ""
         if dated:
             finals.append(names.scans)
-        participants = job.out / "participants.tsv"
-        finals.append(participants)
-        finals += [p for p in (job.out / "dataset_description.json", job.out / "README")
-                   if not p.exists()]
+        finals += dataset_files(job.out)
         chans = {s: channels(src) for s, src in srcs.items()}
         if not all(chans.values()):
             raise ExportError(f"{job.src_path.name} has no series to export as BIDS motion "
@@ -173,12 +166,14 @@ def export_bids(job: ExportRequest) -> ExportResult:
             tmp = dict(zip(finals, tmps, strict=True))
             for k, (side, src) in enumerate(srcs.items()):
                 leg = grid.legs[side]
-                motion, chan, sidecar = (tmp[p] for p in per_leg[side])
+                motion, chan, chan_json, sidecar, own = (tmp[p] for p in per_leg[side])
                 chunk = TSV_CHUNK_FRAMES if job.chunk_rows is None else job.chunk_rows
                 write_grid_tsv(chans[side], grid.n_frames, partial(on_grid, leg, src), motion,
                                job.stage(0.45 * k, 0.45 * (k + 1)), job.cancel, chunk)
                 write_text(chan, channels_tsv(src, chans[side]))
+                write_json(chan_json, channels_json(chans[side]))
                 write_json(sidecar, _sidecar(src, chans[side], grid, leg, scrub, names, head))
+                write_json(own, _own(src, scrub, head))
             write_text(tmp[names.motion("events.tsv", None)],
                        _events_tsv(_events(grid, an.heel_strike_s, an.toe_off_s, srcs, scrub)))
             write_json(tmp[names.motion("events.json", None)], {**EVENTS_JSON, **EVENTS_JSON_BOTH})
@@ -186,14 +181,10 @@ def export_bids(job: ExportRequest) -> ExportResult:
                 rows = [{"filename": per_leg[s][0].relative_to(names.folder).as_posix(),
                          "acq_time": dated} for s in srcs]  # fmt: skip
                 write_text(tmp[names.scans], merge_tsv(names.scans, *rows))
-            write_text(tmp[participants],
-                       merge_tsv(participants, {"participant_id": f"sub-{names.subject}"}))
-            if job.out / "dataset_description.json" in tmp:
-                write_json(tmp[job.out / "dataset_description.json"], dataset_description())
-            if job.out / "README" in tmp:
-                write_text(tmp[job.out / "README"], README_TEXT + README_BOTH)
+            write_dataset_files(names, tmp, options, [per_leg[s][3] for s in srcs], pid)
 
-        shared = frozenset(p for p in finals if p == participants or p == names.scans)
+        shared = frozenset(p for p in finals if p == names.scans
+                           or p.name in ("participants.tsv", "README", ".bidsignore"))
         written = write_atomic(job, finals, write, folders, shared)
         n = sum(src.n for src in srcs.values())
         problems = tuple(dict.fromkeys(p for src in srcs.values() for p in src.problems))
@@ -207,19 +198,31 @@ def _sidecar(src: Source, chans: list[Channel], grid: CommonGrid, leg: LegOnGrid
     """The one-leg sidecar, for this tracking system on the common grid."""
     import numpy as np
 
-    from gaitmon.export.writers.bids import NA, motion_sidecar
-    from gaitmon.export.writers.source import json_safe
+    from gaitmon.export.writers.bids import NA, motion_sidecar, tracksys
 
     have = np.isfinite(leg.resample(np.ones((len(leg.common_s), 1)), 0, 0, grid.n_frames))[:, 0]
     frames = np.flatnonzero(have)
-    side = motion_sidecar(src, chans, grid.n_frames, frames, scrub, names.task)
+    common = head["common_time"]
+    per_host_s = common.get("host_s_per_common_s") if isinstance(common, dict) else None
+    # rows are k / fs common seconds; a common second is host_s_per_common_s host seconds
+    effective: float | str = (round(grid.fs_hz / float(per_host_s), 6)
+                              if isinstance(per_host_s, (int, float)) and per_host_s > 0
+                              else NA)  # fmt: skip
+    side = motion_sidecar(src, chans, grid.n_frames, frames, scrub, names.task,
+                          tracksys(leg.side), effective)
     n_na = grid.n_frames - len(frames)
-    side["TrackingSystemName"] = TRACKSYS[leg.side]
     side["SubjectArtefactDescription"] = (
         f"{n_na} rows of n/a: before this unit started, after it stopped, and where its link "
         "lost frames ('gap' events)" if n_na else NA)
-    side["GaitmonRows"] = ("row k of _motion.tsv is the common time k / SamplingFrequency, as "
-                           "in the other tracking system's; this unit's samples resampled "
-                           "linearly onto it by its clock fit; n/a where it has none")
-    side["GaitmonTimeLine"] = json_safe(head["common_time"])
     return scrub.mapping(side)
+
+
+def _own(src: Source, scrub: Scrubber, head: JsonObject) -> JsonObject:
+    """gaitmon's own metadata of this tracking system (``_gaitmon.json``)."""
+    from gaitmon.export.writers.bids import gaitmon_sidecar
+    from gaitmon.export.writers.source import json_safe
+
+    return gaitmon_sidecar(
+        src, scrub, "row k of _motion.tsv is the common time k / SamplingFrequency, as in the "
+        "other tracking system's; this unit's samples resampled linearly onto it by its clock "
+        "fit; n/a where it has none", time_line=json_safe(head["common_time"]))

@@ -127,7 +127,7 @@ def export_mat(job: ExportRequest) -> ExportResult:
                         idx = src.events(name)
                         events[f"{name}_t_common_s"] = common[idx].reshape(-1, 1)
                     write_struct(f, side, fields, big, src, job.stage(0.45 * k, 0.45 * (k + 1)),
-                                 job.cancel, header=k == 0)  # fmt: skip
+                                 job.cancel, header=k == 0, dated=not job.deidentify)  # fmt: skip
                 buf = io.BytesIO()
                 savemat(buf, {"bilateral": bilateral_struct(tables, meta_header(job, b))},
                         format="5", oned_as="column", long_field_names=True,

@@ -30,6 +30,7 @@ from gaitmon.io.session.h5file import _short_error
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.parts import (
     BOTH_LEGS,
+    PROBE_ERRORS,
     SIDE_NAMES,
     SIDES,
     is_bilateral,
@@ -132,7 +133,7 @@ def open_bilateral(
         attrs = {k: _py(v) for k, v in f.attrs.items()}
     except SessionError:
         raise
-    except (KeyError, OSError, RuntimeError, ValueError, TypeError) as e:
+    except PROBE_ERRORS as e:  # (a clock fit of another shape: IndexError)
         raise SessionError(f"{path.name} is damaged ({_short_error(e)})") from e
     finally:
         f.close()
@@ -168,7 +169,7 @@ def missing_legs(path: str | os.PathLike[str]) -> list[str]:
     try:
         with h5py.File(path, "r") as f:
             return missing_lines(path, missing_of(f.attrs))
-    except (OSError, RuntimeError, ValueError):
+    except PROBE_ERRORS:
         return []
 
 

@@ -26,10 +26,11 @@ import numpy as np
 from gaitmon import __version__
 from gaitmon.dsp.clock_fit import WINDOW_S, ClockFit, fit_clock
 from gaitmon.io.journal import journal_path
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _short_error
 from gaitmon.io.session.header import DamagedSource, SessionError
 from gaitmon.io.session.layout import FORMAT, FORMAT_VERSION
-from gaitmon.io.session.parts import SIDE_NAMES, SIDES, damaged_path, parts_of
+from gaitmon.io.session.parts import PROBE_ERRORS, SIDE_NAMES, SIDES, damaged_path, parts_of
 
 SYNC_METHOD = (
     "host receive time against the unit's /timeline/t_s: one lower-envelope line per window "
@@ -61,7 +62,7 @@ def _ready(part: Path, progress: Progress) -> None:
         )
     if part.exists():
         done = False
-        with contextlib.suppress(OSError, RuntimeError, ValueError), h5py.File(part, "r") as f:
+        with contextlib.suppress(*PROBE_ERRORS), h5py.File(part, "r") as f:
             done = bool(f.attrs.get("complete", False) or f.attrs.get("recovered", False))
         if done:
             jpath.unlink()
@@ -215,12 +216,15 @@ def combine_parts(path: str | os.PathLike[str], progress: Progress = None) -> Pa
                 g.attrs["residual_p50_ms"] = fit.residual_p50_ms
                 g.attrs["residual_p95_ms"] = fit.residual_p95_ms
                 g.attrs["serial"] = info[side]["serial"]
+            describe(dst)  # (the units' own were copied with them: /sync's)
         _fsync_path(tmp)
         os.replace(tmp, path)
         _fsync_path(path.parent, directory=True)
-    except (OSError, RuntimeError, ValueError, KeyError) as e:  # h5py's, as its errors come
+    except BaseException as e:  # the half-written file never stays
         with contextlib.suppress(OSError):
             tmp.unlink()
+        if not isinstance(e, PROBE_ERRORS):  # h5py's, as its errors come
+            raise
         raise SessionError(
             f"cannot write {path.name} ({_short_error(e)}); its parts are kept beside it and "
             "are combined when it is next opened"
@@ -240,7 +244,7 @@ def finish_parts(path: str | os.PathLike[str], progress: Progress = None) -> Non
         return
     if path.exists():
         done = False
-        with contextlib.suppress(OSError, RuntimeError, ValueError), h5py.File(path, "r") as f:
+        with contextlib.suppress(*PROBE_ERRORS), h5py.File(path, "r") as f:
             done = bool(f.attrs.get("bilateral", False))
         if done:
             for p in parts.values():

@@ -40,7 +40,12 @@ from gaitmon.io.journal import (
 )
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.h5file import TableRow, _fsync_path, _H5File, _short_error
-from gaitmon.io.session.header import DamagedSource, SessionError, SessionHeader
+from gaitmon.io.session.header import (
+    DamagedSource,
+    RecoveryNotSaved,
+    SessionError,
+    SessionHeader,
+)
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _field_names
 from gaitmon.io.session.opening import open_h5
 from gaitmon.io.session.rows import (
@@ -323,9 +328,10 @@ def _recover_locked(
     except (OSError, RuntimeError) as e:
         with contextlib.suppress(OSError):
             tmp.unlink()
-        raise SessionError(
-            f"cannot recover {name}: {_short_error(e)}; free some disk space and open it again "
-            "(the journal is kept)"
+        why = _short_error(e)
+        raise RecoveryNotSaved(
+            f"cannot recover {name}: {why}; free some disk space and open it again "
+            "(the journal is kept)", why
         ) from e
     return path
 

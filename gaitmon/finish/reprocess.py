@@ -23,12 +23,14 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import ChannelTable
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineConfig
-from gaitmon.errors import Cancelled
+from gaitmon.errors import DAMAGE_ERRORS, Cancelled
 from gaitmon.finish.recovery import flags_kept, replay_pipeline
 from gaitmon.finish.session import Session, open_session
 from gaitmon.finish.smoothed import KeptFirstPass, store_smoothed
 from gaitmon.finish.strides import store_strides
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.codec import encode
+from gaitmon.io.session.h5file import _short_error
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
@@ -100,7 +102,7 @@ def rewrite_processed(
     check_cancel = _canceller(cancel)
     report(0.0)
     tmp = partial_path(dst)
-    with _building(tmp, dst):
+    with _building(tmp, dst, src):
         with open_session(src) as s:
             unit = UnitInputs.of(s)
             _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
@@ -144,19 +146,24 @@ def _canceller(cancel: Cancel | None) -> Callable[[], None]:
 
 
 @contextlib.contextmanager
-def _building(tmp: Path, dst: Path) -> Iterator[None]:
-    """The partial file ``tmp`` is deleted if building it fails or is cancelled; a write
-    failure becomes one ``SessionError`` line."""
+def _building(tmp: Path, dst: Path, src: Path | None = None) -> Iterator[None]:
+    """The partial file ``tmp`` is deleted whatever makes building it fail (a cancel, a full
+    disk, damage found in ``src`` while it is replayed, an interrupt): never left behind. A
+    write failure becomes one ``SessionError`` line, and so does damage of ``src``."""
     try:
         yield
-    except (Cancelled, SessionError):
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             tmp.unlink()
+        if isinstance(exc, (OSError, RuntimeError)):  # h5py reports some write failures so
+            raise SessionError(
+                f"cannot write {dst}: {getattr(exc, 'strerror', None) or exc}"
+            ) from None
+        if src is not None and isinstance(exc, DAMAGE_ERRORS):
+            raise SessionError(
+                f"{src.name} is damaged and cannot be reprocessed ({_short_error(exc)})"
+            ) from None
         raise
-    except (OSError, RuntimeError) as exc:  # h5py reports some write failures as RuntimeError
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise SessionError(f"cannot write {dst}: {getattr(exc, 'strerror', None) or exc}") from None
 
 
 @dataclass(frozen=True)
@@ -267,4 +274,5 @@ def rewrite_unit(
     cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
     write_overview(f)  # the joint angles changed: so did their overview
     store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
+    describe(f)  # the events were made anew; a file from before the attributes gets them too
     report(1.0)

@@ -34,6 +34,7 @@ from gaitmon.finish.reprocess import (
     partial_path,
     rewrite_unit,
 )
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.parts import SIDE_NAMES
 
@@ -69,7 +70,7 @@ def rewrite_bilateral(
         units = {s: UnitInputs.of(b.unit(s)) for s in sides}
     configs = {s: configure(u.config) for s, u in units.items()}
     tmp = partial_path(dst)
-    with _building(tmp, dst):
+    with _building(tmp, dst, src):
         if side is None:
             _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
         else:
@@ -85,6 +86,7 @@ def rewrite_bilateral(
 
                 rewrite_unit(root, unit, configs[s], sub, check_cancel)
                 done += unit.n
+            describe(f)  # /sync too (a file from before the attributes gets them)
         check_cancel()
         os.replace(tmp, dst)
     report(1.0)

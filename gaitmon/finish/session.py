@@ -21,7 +21,7 @@ import numpy as np
 
 from gaitmon.io.journal import journal_path
 from gaitmon.io.session.h5file import _being_recorded, _short_error
-from gaitmon.io.session.header import SessionError
+from gaitmon.io.session.header import RecoveryNotSaved, SessionError
 from gaitmon.io.session.opening import open_h5, read_stored, session_of, unit_session_of
 from gaitmon.io.session.parts import BOTH_LEGS, SIDE_NAMES, parts_of
 from gaitmon.io.session.reader import StoredSession
@@ -44,6 +44,9 @@ class Session(StoredSession):
         side: str = "",
     ) -> None:  # fmt: skip
         super().__init__(path, f, problems, side=side)
+        # why the recovery of an interrupted recording could not be saved (a full disk): then
+        # the journal's rows are read from memory, the journal is kept ("": nothing unsaved)
+        self.recovery_not_saved = ""
         self._stride_cache: dict[bytes, StrideMeasures] = {}  # heel strikes -> their measures
         if not self._smoothed_method:
             from gaitmon.finish.smoothed import smoothed_method_label
@@ -157,12 +160,22 @@ def open_session(
                 # e.g. a full disk: read what the journal holds from memory, so a reader gets
                 # every row the recorder said was saved, right away (the file's own rows can
                 # stop short of them, in datasets of different lengths)
+                why = e.why if isinstance(e, RecoveryNotSaved) else str(e)
+                advice = "free some disk space and " if isinstance(e, RecoveryNotSaved) else ""
                 with contextlib.suppress(SessionError):
                     f = recover_in_memory(path)
-                    return session_of(path, f, Session, [f"recovered in memory only: {e}"])
+                    opened = session_of(path, f, Session, [
+                        f"the recovery could not be saved ({why}): its rows are read from the "
+                        f"journal in memory, and the journal is kept; {advice}open it again to "
+                        "save it"])  # fmt: skip
+                    opened.recovery_not_saved = why
+                    return opened
                 if not path.exists():
                     raise
-                return _read(path, [f"not recovered: {e}"])
+                opened = _read(path, [f"not recovered: {e}"])  # the file's last flush, as is
+                if isinstance(e, RecoveryNotSaved):
+                    opened.recovery_not_saved = e.why
+                return opened
     elif not path.exists():
         if parts_of(path):  # an interrupted bilateral recording
             raise SessionError(BOTH_LEGS.format(name=path.name))

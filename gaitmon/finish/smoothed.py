@@ -31,6 +31,7 @@ import numpy as np
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import ChannelTable
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.layout import CHUNK_ROWS
 from gaitmon.io.session.rows import lost_before_from_gaps
 
@@ -277,7 +278,7 @@ def store_smoothed(
         dtype = RESOLUTION[path][0] if v2 and path in RESOLUTION else np.dtype(np.float32)
         out[path] = grp.create_dataset(
             name, shape=(n, cols), dtype=dtype, chunks=(min(CHUNK_ROWS, max(1, n)), cols),
-            **(COMPRESSION if v2 else {}),
+            **_empty_ok(n, cols), **(COMPRESSION if v2 else {}),
         )  # fmt: skip
     writers = {path: _AlignedWriter(ds, v2, path) for path, ds in out.items()}
     for s0, part in smoothed_blocks(counts, n, table, calibration, calibration_changes,
@@ -290,6 +291,14 @@ def store_smoothed(
     for w in writers.values():
         w.finish()
     grp.attrs["method"] = smoothed_method_label()
+    describe(f)
+
+
+def _empty_ok(n: int, cols: int) -> dict[str, tuple[int | None, int]]:
+    """The dataset options that let a series of ``n`` = 0 rows (a recording killed before
+    its first rows were saved) have its one-row chunks: HDF5 refuses a chunk larger than a
+    fixed shape, not than an extensible one."""
+    return {"maxshape": (None, cols)} if n == 0 else {}
 
 
 class _AlignedWriter:
@@ -369,9 +378,10 @@ def write_smoothed(f: h5py.File, series: dict[str, np.ndarray]) -> None:
         grp.create_dataset(
             name, data=encode(path, data) if v2 else data,
             chunks=(min(CHUNK_ROWS, max(1, len(data))), data.shape[1]),
-            **(COMPRESSION if v2 else {}),
+            **_empty_ok(len(data), data.shape[1]), **(COMPRESSION if v2 else {}),
         )  # fmt: skip
     grp.attrs["method"] = smoothed_method_label()
+    describe(f)
 
 
 def smooth_into(

@@ -44,6 +44,7 @@ from gaitmon.dsp.stride_length import (
     foot_imu_from_counts,
     record_stride_measures,
 )
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.codec import COMPRESSION
 from gaitmon.io.session.layout import stored_datasets
 
@@ -176,6 +177,7 @@ def write_strides(f: h5py.File, inputs: StrideInputs, hs: np.ndarray, m: StrideM
                        ("foot_flat_idx", m.foot_flat_idx), ("flag", m.flags)):  # fmt: skip
         g.create_dataset(name, data=data, **(opts if len(data) else {}))
     g.attrs["computed_from"] = inputs.stamp()
+    describe(f)
 
 
 def _text(x: object) -> str:

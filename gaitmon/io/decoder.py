@@ -55,6 +55,12 @@ _PAYLOAD_LEN_BY_BYTE: list[int] = [0] * 256
 for _kind, _plen in PAYLOAD_LEN.items():
     _PAYLOAD_LEN_BY_BYTE[int(_kind)] = _plen
 _HALF_SEQ = SEQ_MODULO // 2
+# a forward jump is plausible when no longer than the frames the unit can have sent since the
+# last frame arrived (at its frame rate, with this much slack for control frames and clock
+# jitter) plus a few frames for frames that arrive bunched; a longer one waits for the next
+# frame's confirmation
+JUMP_RATE_SLACK = 1.25
+JUMP_FRAMES_SLACK = 10
 
 
 @dataclass(frozen=True)
@@ -69,14 +75,22 @@ class DecoderStats:
     bytes_skipped    bytes discarded outside any CRC-valid frame while searching for sync
                      (garbage, corrupted frames, rejected headers). Each byte counts once.
     frames_lost      sequence numbers skipped between consecutive CRC-valid frames (delivered
-                     or rejected for values): for a forward gap g = (seq - last - 1) mod 2**16
-                     below 2**15, g frames are counted lost. Losses before the first CRC-valid
-                     frame, and after the last one, cannot be seen.
+                     or rejected for values; not implausible ones, below): for a forward gap
+                     g = (seq - last - 1) mod 2**16 below 2**15, g frames are counted lost.
+                     Losses before the first CRC-valid frame, and after the last one, cannot
+                     be seen.
     invalid_values   CRC-valid frames rejected because a value is out of range (ADC > 4095,
-                     gait phase > 3, reserved contact bits set, identity side not L/R, ...).
+                     an angle beyond +-180 deg, gait phase > 3, reserved contact bits set,
+                     identity side not L/R, ...).
                      They are not delivered, but their sequence number is tracked.
     sequence_resets  CRC-valid frames whose sequence number went backwards or repeated (a
                      forward gap of 2**15 or more, e.g. a device reboot); no loss is counted.
+                     With a clock, counted only when the next frame confirms the new sequence.
+    implausible_frames  CRC-valid frames dropped because their sequence number jumped further
+                     than the time since the last frame allows (a false CRC accept: a random
+                     sequence number would invent thousands of lost frames) and the next frame
+                     did not confirm the jump. Only with a clock (``feed(data, now_s)`` and
+                     ``frame_rate_hz``); neither delivered nor tracked, no loss is counted.
     buffered         bytes held for the next feed() and not yet counted (a held byte inside
                      a frame already delivered, the first byte of a possible next sync, is
                      not counted again).
@@ -90,6 +104,7 @@ class DecoderStats:
     invalid_values: int = 0
     sequence_resets: int = 0
     buffered: int = 0
+    implausible_frames: int = 0
 
     @property
     def bytes_in_frames(self) -> int:
@@ -98,9 +113,18 @@ class DecoderStats:
 
 
 class FrameDecoder:
-    """Streaming decoder for device -> PC frames. Not thread-safe: feed it from one thread."""
+    """Streaming decoder for device -> PC frames. Not thread-safe: feed it from one thread.
 
-    def __init__(self) -> None:
+    ``frame_rate_hz`` (the unit's frame rate) with ``feed(data, now_s)`` (the host's clock when
+    the bytes came) turns on the sequence plausibility check: a CRC-valid frame whose sequence
+    number jumps (forward) further than the time since the last frame allows, or backwards, is
+    held until the next CRC-valid frame. If that one follows it, the jump was real (a link cut,
+    a reboot, a sped-up simulator): both are delivered, a forward jump counted as lost frames as
+    always. If not, the held frame was a false CRC accept: it is dropped and counted in
+    ``implausible_frames``, and no loss is counted for it. Without a clock nothing is held."""
+
+    def __init__(self, frame_rate_hz: float | None = None) -> None:
+        self.frame_rate_hz = frame_rate_hz
         self._buf = bytearray()
         self._bytes_received = 0
         self._frames_ok = 0
@@ -111,6 +135,10 @@ class FrameDecoder:
         self._sequence_resets = 0
         self._last_seq: int | None = None
         self._covered = 0  # leading held bytes that are inside a frame already counted
+        self._implausible = 0
+        self._last_time_s: float | None = None  # host time of the last tracked frame
+        # a frame whose sequence jump waits for the next frame: (frame or None, seq, time)
+        self._held: tuple[Frame | None, int, float] | None = None
 
     @property
     def stats(self) -> DecoderStats:
@@ -123,6 +151,7 @@ class FrameDecoder:
             invalid_values=self._invalid_values,
             sequence_resets=self._sequence_resets,
             buffered=len(self._buf) - self._covered,
+            implausible_frames=self._implausible,
         )
 
     @property
@@ -142,8 +171,9 @@ class FrameDecoder:
         self._buf.clear()
         self._covered = 0
 
-    def feed(self, data: bytes | bytearray | memoryview) -> list[Frame]:
-        """Consume bytes, return the frames completed by them, in order. Never raises."""
+    def feed(self, data: bytes | bytearray | memoryview, now_s: float | None = None) -> list[Frame]:
+        """Consume bytes, return the frames completed by them, in order. Never raises.
+        ``now_s``: the host's clock when they came (the sequence plausibility check)."""
         if not data:
             return []
         buf = self._buf
@@ -189,16 +219,14 @@ class FrameDecoder:
                 pos += 1
                 continue
             seq = body[2] | (body[3] << 8)
-            self._track_seq(seq)
             try:
                 frame = decode_payload(kind, seq, body[4:])
             except Exception:  # defensive: a decoding bug must not kill the acquisition thread
                 frame = None
-            if frame is None:
-                self._invalid_values += 1
+            if now_s is None or self.frame_rate_hz is None:
+                self._accept(frame, seq, None, out)
             else:
-                self._frames_ok += 1
-                out.append(frame)
+                self._judge(frame, seq, now_s, out)
             if end > cov:
                 cov = end
             pos += 2  # not `end`: the next frame may start inside this one (module docstring)
@@ -206,6 +234,40 @@ class FrameDecoder:
         self._covered = cov - pos if cov > pos else 0
         self._bytes_skipped += skipped
         return out
+
+    def _accept(self, frame: Frame | None, seq: int, now_s: float | None,
+                out: list[Frame]) -> None:  # fmt: skip
+        """A CRC-valid frame taken as the unit's: its sequence tracked, delivered if valid."""
+        self._track_seq(seq)
+        self._last_time_s = now_s
+        if frame is None:
+            self._invalid_values += 1
+        else:
+            self._frames_ok += 1
+            out.append(frame)
+
+    def _plausible(self, seq: int, after: int, since_s: float, now_s: float) -> bool:
+        """Whether ``seq`` can follow ``after`` (a forward gap the time allows)."""
+        gap = (seq - after - 1) % SEQ_MODULO
+        rate = self.frame_rate_hz or 0.0
+        allowed = JUMP_FRAMES_SLACK + JUMP_RATE_SLACK * rate * max(now_s - since_s, 0.0)
+        return gap < _HALF_SEQ and gap <= allowed
+
+    def _judge(self, frame: Frame | None, seq: int, now_s: float, out: list[Frame]) -> None:
+        held = self._held
+        if held is not None:
+            self._held = None
+            h_frame, h_seq, h_time = held
+            if self._plausible(seq, h_seq, h_time, now_s):  # it follows: the jump was real
+                self._accept(h_frame, h_seq, h_time, out)
+                self._accept(frame, seq, now_s, out)
+                return
+            self._implausible += 1  # a false accept: the unit's sequence goes on without it
+        last, since = self._last_seq, self._last_time_s
+        if last is None or since is None or self._plausible(seq, last, since, now_s):
+            self._accept(frame, seq, now_s, out)
+        else:
+            self._held = (frame, seq, now_s)
 
     def _track_seq(self, seq: int) -> None:
         last = self._last_seq

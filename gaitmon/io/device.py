@@ -45,7 +45,7 @@ from gaitmon.io.protocol import (
     encode_command,
 )
 from gaitmon.io.transport import LinkError, LinkState, Transport, TransportStatus
-from gaitmon.text import count
+from gaitmon.text import count, implausible_text
 
 
 class DeviceError(Exception):
@@ -204,7 +204,8 @@ class LinkStats:
         d = self.decoder
         return (
             f"{self.transport.describe()} | {count(d.frames_ok, 'frame')}, {d.frames_lost} lost, "
-            f"{count(d.crc_failures, 'CRC error')}, {count(self.reconnects, 'reconnect')}"
+            f"{count(d.crc_failures, 'CRC error')}, {implausible_text(d.implausible_frames)}"
+            f"{count(self.reconnects, 'reconnect')}"
         )
 
 
@@ -242,7 +243,7 @@ class Device:
         self.command_attempts = command_attempts
         self.sample_rate_hz = sample_rate_hz
         self._read_timeout_s = read_chunk_timeout_s
-        self._decoder = FrameDecoder()
+        self._decoder = FrameDecoder(frame_rate_hz=sample_rate_hz)
         self._dec_lock = threading.Lock()
         self._unwrapper = SequenceUnwrapper()
         # (frame, unwrapped seq, host time, frames lost just before it)
@@ -438,7 +439,7 @@ class Device:
         if not data:
             return
         with self._dec_lock:
-            frames = self._decoder.feed(data)
+            frames = self._decoder.feed(data, now)
         for frame in frames:
             gap_hint = expected_advance if self._streaming else None
             seq = self._unwrapper.unwrap(frame.seq, gap_hint)

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gaitmon.dsp.channel_table import N_CHANNELS, N_JOINTS, N_SEGMENTS
+from gaitmon.dsp.channel_table import CHANNELS, N_CHANNELS, N_JOINTS, N_SEGMENTS
 from gaitmon.io.wire import (
     _CRC,
     ADC_MAX_COUNTS,
@@ -347,20 +347,38 @@ def encode_raw_block(seq_start: int, adc: np.ndarray) -> bytes:
 # --------------------------------------------------------------------------------------------
 
 
+ANGLE_RANGE_DEG = 180.0
+"""Every angle the unit sends (segment tilt, joint angle) is on the circle, |angle| <= 180 deg
+(the docs say (-180, 180]; -180.00 is the same angle as 180.00 and atan2 can return it, so it
+is accepted). The wire carries up to +-327.67 deg: anything beyond 180 is a damaged frame that
+passed its CRC by chance."""
+
+
+# each channel's largest count, from the channel table's ADC bits (the wire's 4095 today)
+_CHANNEL_FULL_SCALE = np.array([min(c.full_scale_counts, ADC_MAX_COUNTS) for c in CHANNELS])
+
+
+def _angles_ok(ang: np.ndarray) -> bool:
+    return not bool(np.any(np.abs(ang) > ANGLE_RANGE_DEG))  # (NaN, "not available", is fine)
+
+
 def decode_payload(kind: int, seq: int, payload: bytes) -> Frame | None:
-    """Decode a CRC-checked payload of a known kind; None if a value is out of range."""
+    """Decode a CRC-checked payload of a known kind; None if a value is out of range (ADC
+    counts above 4095, an angle beyond +-180 deg, a gait phase above 3, ...)."""
     if kind == FrameKind.RAW:
         adc = np.frombuffer(payload, dtype="<u2").astype(np.uint16, copy=False)
-        if int(adc.max()) > ADC_MAX_COUNTS:
+        if bool(np.any(adc > _CHANNEL_FULL_SCALE)):
             return None
         return RawFrame(seq, adc)
     if kind == FrameKind.TILT:
         ang = codes_to_angles(np.frombuffer(payload, dtype="<i2"))
+        if not _angles_ok(ang):
+            return None
         return TiltFrame(seq, ang[:N_SEGMENTS], ang[N_SEGMENTS:])
     if kind == FrameKind.JOINT:
         ang = codes_to_angles(np.frombuffer(payload, dtype="<i2", count=2 * N_JOINTS))
         contacts, phase = payload[-2], payload[-1]
-        if contacts & _CONTACT_RESERVED_MASK or phase > 3:
+        if contacts & _CONTACT_RESERVED_MASK or phase > 3 or not _angles_ok(ang):
             return None
         return JointFrame(
             seq,

@@ -80,6 +80,7 @@ class HealthTracker:
         link_up: bool = True,
         errors: int = 0,
         last_error: str = "",
+        implausible: int = 0,
     ) -> Health:
         """``errors``: blocks the engine could not read or process plus receive errors the
         device thread survived (never expected; shown amber with the last one in the tooltip)."""
@@ -89,11 +90,13 @@ class HealthTracker:
         _, ok0, lost0, crc0 = self._hist[0]
         d_ok, d_lost, d_crc = frames_ok - ok0, frames_lost - lost0, crc_failures - crc0
         rate = f"{frame_rate_hz:.0f} fps" if math.isfinite(frame_rate_hz) else "-- fps"
-        totals = f"{frames_lost} lost · {crc_failures} CRC"
+        totals = f"{frames_lost} lost · {crc_failures} CRC" + (
+            f" · {implausible} implausible" if implausible else "")
         tip = (
             f"Link health. Frames received: {frames_ok}; lost (sequence gaps): {frames_lost}; "
-            f"CRC failures (corrupted frames): {crc_failures}; reconnects: {reconnects}. "
-            f"Frame rate in frames per second (the unit sends 100)."
+            f"CRC failures (corrupted frames): {crc_failures}; implausible frames (passed the "
+            f"CRC by chance, an impossible sequence jump; dropped): {implausible}; reconnects: "
+            f"{reconnects}. Frame rate in frames per second (the unit sends 100)."
         )
         suffix = ""
         if errors:
@@ -201,4 +204,5 @@ def snapshot_health(tracker: HealthTracker, snap: Snapshot, now_s: float) -> Hea
         link_up=snap.link_state == "connected",
         errors=snap.engine_errors + link.rx_errors,
         last_error=snap.engine_error or link.rx_error,
+        implausible=d.implausible_frames,
     )

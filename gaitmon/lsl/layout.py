@@ -14,6 +14,14 @@ a pair recording both legs adds its leg, L or R, to the names and source ids):
 
 Every sample's timestamp is the unit's sample clock mapped onto LSL's clock (a linear fit of
 host receive time against the frame counter), never the moment of sending.
+
+The descriptions follow the XDF meta-data conventions for motion capture (sccn/xdf wiki,
+"MoCap"): ``acquisition`` (manufacturer, model, ``compensated_lag``), ``channels/channel``
+(label, unit, type, object). Where they have nothing that fits, gaitmon's own names are kept
+and ``docs/lsl.md`` says so: the raw ADC counts (``RawCounts``, channels ``Counter``/``ADC``).
+``gaitmon/stream`` names each stream's kind, so the XDF import finds gaitmon's streams by their
+manufacturer even when a recorder renamed their types; files of the older convention (angle
+channel types ``JointAngle``/``SegmentTilt``, no ``gaitmon/stream``) are read too.
 """
 
 from __future__ import annotations
@@ -33,23 +41,46 @@ RAW_TYPE = "RawCounts"
 MANUFACTURER = "gaitmon"
 
 
+#: the kinds of stream, as ``gaitmon/stream`` in each description says
+STREAM_KINDS = ("raw", "angles", "events")
+#: the angle channels' types of files written before the MoCap convention was followed
+LEGACY_ANGLE_TYPES = ("JointAngle", "SegmentTilt")
+#: MoCap's Euler-angle types are pitch/heading/roll; every gaitmon angle is a sagittal
+#: rotation about the mediolateral axis: a pitch (a joint's, of its distal segment against
+#: its proximal one, with the clinical sign)
+ANGLE_CHANNEL_TYPE = "OrientationP"
+
+
 @dataclass(frozen=True)
 class StreamChannel:
     label: str
     unit: str
     type: str
+    object: str = ""  # MoCap's <object>: the segment or joint the channel belongs to
 
 
 JOINT_LABELS: dict[str, str] = {j.name: j.key for j in JOINT_TABLE}  # hip -> hip_flexion
 
 ANGLE_CHANNELS: tuple[StreamChannel, ...] = tuple(
-    StreamChannel(JOINT_LABELS[j], "degrees", "JointAngle") for j in JOINTS
-) + tuple(StreamChannel(f"{s}_tilt", "degrees", "SegmentTilt") for s in SEGMENTS)
+    StreamChannel(JOINT_LABELS[j], "degrees", ANGLE_CHANNEL_TYPE, j) for j in JOINTS
+) + tuple(StreamChannel(f"{s}_tilt", "degrees", ANGLE_CHANNEL_TYPE, s) for s in SEGMENTS)
 
 RAW_CHANNELS: tuple[StreamChannel, ...] = (
     StreamChannel("frame_counter", "frames", "Counter"),
     *(StreamChannel(name, "counts", "ADC") for name in CHANNEL_NAMES),
 )
+
+
+def compensated_lag_s(stream: str, mode: str, event_delay_samples: int, fs_hz: float) -> float:
+    """MoCap's ``acquisition/compensated_lag``: the lag taken out of the stream's timestamps,
+    in seconds. Samples are stamped at their own time on the unit's clock (nothing to take
+    out: 0; the angles' filter delay is in the values, not removed from the stamps). In raw
+    mode gaitmon dates a gait event at its force sensor's threshold crossing moved back by the
+    low-pass filter's delay (``PipelineConfig.event_delay_samples``): that is the events
+    stream's compensated lag. The unit's own events (tilt, joint mode) are not moved."""
+    if stream == "events" and mode == "raw" and fs_hz > 0:
+        return event_delay_samples / fs_hz
+    return 0.0
 
 
 def stream_name(unit: str, stream: str, leg: str = "") -> str:

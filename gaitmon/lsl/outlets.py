@@ -14,11 +14,13 @@ receive time (``time.monotonic``) against the sample counter, and the offset bet
 read CLOCK_MONOTONIC, but nothing here assumes it). An event is stamped at its sample: a heel
 strike the detector confirms 60 ms later still carries the time of its own sample.
 
-What a stream says about itself (its XML description): ``acquisition`` (manufacturer
-"gaitmon", the unit's model, serial number and firmware, gaitmon's version), ``channels`` (one
-``channel`` per channel with its label, unit and type) and ``gaitmon`` (``mode``, ``fs_hz``,
-``side``; ``subject_id`` only if the user allowed the patient id out; on the raw stream
-``header``: the session header as JSON, the patient id blanked unless allowed). A unit of a pair
+What a stream says about itself (its XML description, the XDF MoCap meta-data convention
+where it fits: ``gaitmon.lsl.layout``): ``acquisition`` (manufacturer "gaitmon", the unit's
+model, serial number and firmware, gaitmon's version, ``compensated_lag``), ``channels`` (one
+``channel`` per channel with its label, unit, type and object) and ``gaitmon`` (``stream``,
+``mode``, ``fs_hz``, ``side``; ``subject_id`` only if the user allowed the patient id out;
+on the raw stream ``header``: the session header as JSON, the patient id blanked unless
+allowed). A unit of a pair
 (both legs, ``leg``) has its leg in its names, source ids and ``side``, and its own sample
 clock, as every ``LslOutlets`` has. Later changes
 of the filter settings or the calibration go out on the events stream (``config <json>``,
@@ -100,6 +102,8 @@ def _channels(desc: Any, channels: tuple[layout.StreamChannel, ...]) -> None:
         ch.append_child_value("label", c.label)
         ch.append_child_value("unit", c.unit)
         ch.append_child_value("type", c.type)
+        if c.object:
+            ch.append_child_value("object", c.object)
 
 
 class LslOutlets:
@@ -179,8 +183,12 @@ class LslOutlets:
         acq.append_child_value("serial_number", str(ident.serial) if ident else "")
         acq.append_child_value("firmware", ident.firmware if ident else "")
         acq.append_child_value("gaitmon_version", __version__)
+        config = self.engine.config
+        lag = layout.compensated_lag_s(stream, self.mode, config.event_delay_samples, self.fs_hz)
+        acq.append_child_value("compensated_lag", repr(lag))
         _channels(desc, channels)
         g = desc.append_child("gaitmon")
+        g.append_child_value("stream", stream)
         g.append_child_value("mode", self.mode)
         g.append_child_value("fs_hz", repr(self.fs_hz))
         g.append_child_value("side", self.leg or self.meta.side or (ident.side if ident else ""))

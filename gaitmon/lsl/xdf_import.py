@@ -39,8 +39,10 @@ from gaitmon.errors import Cancelled, UserError
 from gaitmon.lsl.layout import ANGLE_CHANNELS, RAW_CHANNELS, EventWord, parse_event
 from gaitmon.lsl.xdf_read import (
     GaitmonUnit,
+    XdfContents,
     XdfStream,
     choose_unit,
+    describe_streams,
     find_stream,
     gaitmon_units,
     read_xdf,
@@ -113,7 +115,10 @@ def import_xdf(
     if not out.parent.is_dir():
         raise UserError(f"folder {out.parent} does not exist")
     contents = read_xdf(src, also=options.markers_from)
-    unit = choose_unit(name, gaitmon_units(contents.streams), options.unit)
+    foreign = None
+    if options.markers_from is not None:
+        foreign = _marker_stream(name, contents, options.markers_from)
+    unit = choose_unit(name, gaitmon_units(contents.streams), options.unit, contents)
     notes: list[str] = []
     if unit.raw is not None:
         raw = _raw_stream(name, unit.raw, unit.serial)
@@ -136,8 +141,7 @@ def import_xdf(
     markers, changes, header = _events(session, events, header, notes)
     if header["mode"] != "raw":
         changes = []  # the unit computed the angles: the PC's settings changed nothing
-    if options.markers_from is not None:
-        foreign = find_stream(contents, options.markers_from)
+    if foreign is not None:
         markers += _foreign_markers(session, foreign, notes)
     markers.sort(key=lambda m: int(m["sample_idx"]))
 
@@ -206,6 +210,13 @@ def _tilt_session(name: str, unit: GaitmonUnit, notes: list[str]) -> tuple[_Rows
             "to import"
         )
     mode = text(angles.desc, "gaitmon", "mode") or _angles_mode(angles)
+    if mode == "raw":
+        raise UserError(
+            f"{name} holds the angles gaitmon computed from unit {unit.serial}'s raw counts, "
+            f"but not its raw stream ('{_raw_name(angles)}'): a session is rebuilt from the "
+            "raw counts; tick that stream too in LabRecorder when recording (gaitmon publishes "
+            "it in raw mode with --lsl), or read the angles with any XDF reader"
+        )
     if mode != "tilt":
         raise UserError(
             f"{name} holds the unit's own {mode} angles of unit {unit.serial} but no raw "
@@ -236,6 +247,28 @@ def _tilt_session(name: str, unit: GaitmonUnit, notes: list[str]) -> tuple[_Rows
         "accelerometer tilts are not streamed, so that series is empty)"
     )
     return _Rows(rows, ts, frozenset()), header.as_dict()
+
+
+def _raw_name(angles: XdfStream) -> str:
+    """The name of the raw stream published beside this angles stream."""
+    if angles.name.endswith(" angles"):
+        return angles.name[: -len("angles")] + "raw"
+    return f"gaitmon {angles.unit} raw"
+
+
+def _marker_stream(name: str, contents: XdfContents, wanted: str) -> XdfStream:
+    """The stream ``--markers-from`` names, refused (as live ``--lsl-markers`` refuses it)
+    when it is a regular-rate stream: its samples are data, not events."""
+    stream = find_stream(contents, wanted)
+    if stream.nominal_srate_hz > 0:
+        irregular = [s for s in contents.summaries if s.rate_hz <= 0]
+        hint = f" (its irregular-rate streams: {describe_streams(irregular)})" if irregular else ""
+        raise UserError(
+            f"{name}: stream {clean_label(stream.name)!r} (--markers-from) is a regular "
+            f"{stream.nominal_srate_hz:g} Hz stream, not a marker stream; give the name of an "
+            f"irregular-rate (marker) stream{hint}"
+        )
+    return stream
 
 
 def _angles_mode(angles: XdfStream) -> str:

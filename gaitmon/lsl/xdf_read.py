@@ -18,18 +18,21 @@ import logging
 import os
 import re
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from gaitmon.errors import UserError
-from gaitmon.lsl.layout import ANGLES_TYPE, EVENTS_TYPE, MANUFACTURER, RAW_TYPE
+from gaitmon.lsl.layout import ANGLES_TYPE, EVENTS_TYPE, MANUFACTURER, RAW_TYPE, STREAM_KINDS
+from gaitmon.text import clean_label
 
 _NAME = re.compile(r"^gaitmon (?P<unit>.+) (?P<stream>raw|angles|events)$")
 _SOURCE_ID = re.compile(r"^gaitmon-(?P<unit>.+)-(?P<stream>raw|angles|events)$")
 KINDS = {RAW_TYPE: "raw", ANGLES_TYPE: "angles", EVENTS_TYPE: "events"}
+# a stream this small is read whole to look at its description (is it gaitmon's, renamed?)
+_SMALL_CHANNELS = 16
 
 
 def text(node: Any, *path: str) -> str | None:
@@ -80,15 +83,27 @@ class XdfStream:
 
     @property
     def gaitmon_kind(self) -> str | None:
-        """The kind of one of gaitmon's streams ("raw", "angles", "events"), else None."""
-        kind = KINDS.get(self.type)
-        if kind is None:
-            return None
+        """The kind of one of gaitmon's streams ("raw", "angles", "events"), else None.
+
+        A stream whose manufacturer is gaitmon says its kind in ``gaitmon/stream`` (streams
+        since the XDF MoCap convention was followed), else by its type (gaitmon's types,
+        either convention), else by its source id or name (a recorder that renamed the
+        types). A description-less stream counts only with gaitmon's type and source id."""
         if self.manufacturer == MANUFACTURER:
-            return kind
+            declared = text(self.desc, "gaitmon", "stream")
+            if declared in STREAM_KINDS:
+                return declared
+            if self.type in KINDS:
+                return KINDS[self.type]
+            for pattern, value in ((_SOURCE_ID, self.source_id), (_NAME, self.name)):
+                m = pattern.match(value)
+                if m:
+                    return m["stream"]
+            return None
+        kind = KINDS.get(self.type)
         # a description-less events stream still names itself by its source id
         m = _SOURCE_ID.match(self.source_id)
-        return kind if m and m["stream"] == kind and not self.manufacturer else None
+        return kind if kind and m and m["stream"] == kind and not self.manufacturer else None
 
     @property
     def unit(self) -> str:
@@ -147,10 +162,35 @@ def _quiet_pyxdf() -> Iterator[_Collect]:
 
 
 @dataclass(frozen=True)
+class StreamSummary:
+    """What a message says of one stream of the file (read from its header only)."""
+
+    name: str
+    type: str
+    channels: int
+    rate_hz: float
+
+    def describe(self) -> str:
+        rate = f"{self.rate_hz:g} Hz" if self.rate_hz > 0 else "irregular rate"
+        kind = clean_label(self.type) or "no type"
+        n = f"{self.channels} channel{'s' if self.channels != 1 else ''}"
+        return f"{clean_label(self.name)!r} ({kind}, {n}, {rate})"
+
+
+def describe_streams(summaries: Sequence[StreamSummary], limit: int = 6) -> str:
+    """"'EEG' (EEG, 8 channels, 250 Hz), ..." for a one-line message."""
+    if not summaries:
+        return "no stream at all"
+    more = f", and {len(summaries) - limit} more" if len(summaries) > limit else ""
+    return ", ".join(s.describe() for s in summaries[:limit]) + more
+
+
+@dataclass(frozen=True)
 class XdfContents:
     streams: list[XdfStream]  # the streams read (gaitmon's kinds, and the one asked for)
     problems: list[str]  # pyxdf's complaints about damage (empty for a good file)
     names: list[str]  # the names of every stream of the file
+    summaries: list[StreamSummary] = field(default_factory=list)  # every stream of the file
 
 
 def read_xdf(path: str | os.PathLike[str], also: str | None = None) -> XdfContents:
@@ -186,28 +226,68 @@ def read_xdf(path: str | os.PathLike[str], also: str | None = None) -> XdfConten
             infos = None
         select: list[int] | None = None
         names: list[str] = []
+        summaries: list[StreamSummary] = []
+        small: list[int] = []
         if infos is not None:
             names = [str(i.get("name") or "") for i in infos]
+            summaries = [_summary(i) for i in infos]
             wanted = (also or "").lower()
             select = [
                 int(i["stream_id"])
-                for i in infos
-                if i.get("type") in KINDS or (also and str(i.get("name") or "").lower() == wanted)
+                for i, summary in zip(infos, summaries, strict=True)
+                if _maybe_gaitmon(i, summary)
+                or (also and str(i.get("name") or "").lower() == wanted)
             ]
-            if not select:
-                return XdfContents([], log.problems, names)
+            # a gaitmon stream whose type and name were changed is known only by its
+            # description: with none found, the small streams are read to look at theirs
+            small = [int(i["stream_id"]) for i, summary in zip(infos, summaries, strict=True)
+                     if 0 < summary.channels <= _SMALL_CHANNELS]  # fmt: skip
+        loaded = _load(pyxdf, path, select) if select is None or select else []
+        streams = [_stream(s) for s in loaded]
+        if infos is not None and not any(s.gaitmon_kind for s in streams):
+            rest = [k for k in small if select is None or k not in select]
+            streams += [_stream(s) for s in (_load(pyxdf, path, rest) if rest else [])]
+    if not summaries:
+        summaries = [StreamSummary(s.name, s.type, _width(s), s.nominal_srate_hz)
+                     for s in streams]  # fmt: skip
+    return XdfContents(streams, log.problems, names or [s.name for s in streams], summaries)
+
+
+def _load(pyxdf: Any, path: Path, select: list[int] | None) -> list[Any]:
+    try:
+        loaded, _ = pyxdf.load_xdf(
+            str(path), select_streams=select, synchronize_clocks=True,
+            dejitter_timestamps=False,
+        )  # fmt: skip
+    except Exception as e:  # pyxdf raises whatever the bytes lead it to (struct, XML, ...)
+        what = " ".join(str(e).split())[:120] or type(e).__name__
+        raise UserError(
+            f"{path.name} is damaged or cut short and cannot be read as XDF ({what})"
+        ) from None
+    return list(loaded)
+
+
+def _summary(info: Mapping[str, Any]) -> StreamSummary:
+    def number(key: str) -> float:
         try:
-            loaded, _ = pyxdf.load_xdf(
-                str(path), select_streams=select, synchronize_clocks=True,
-                dejitter_timestamps=False,
-            )  # fmt: skip
-        except Exception as e:  # pyxdf raises whatever the bytes lead it to (struct, XML, ...)
-            what = " ".join(str(e).split())[:120] or type(e).__name__
-            raise UserError(
-                f"{name} is damaged or cut short and cannot be read as XDF ({what})"
-            ) from None
-    streams = [_stream(s) for s in loaded]
-    return XdfContents(streams, log.problems, names or [s.name for s in streams])
+            return float(info.get(key) or 0)
+        except (TypeError, ValueError):
+            return 0.0
+
+    return StreamSummary(str(info.get("name") or ""), str(info.get("type") or ""),
+                         int(number("channel_count")), number("nominal_srate"))  # fmt: skip
+
+
+def _maybe_gaitmon(info: Mapping[str, Any], summary: StreamSummary) -> bool:
+    """Read this stream: gaitmon's type (either convention), name or source id."""
+    return (summary.type in KINDS or bool(_NAME.match(summary.name))
+            or bool(_SOURCE_ID.match(str(info.get("source_id") or ""))))  # fmt: skip
+
+
+def _width(s: XdfStream) -> int:
+    if isinstance(s.time_series, np.ndarray) and s.time_series.ndim == 2:
+        return int(s.time_series.shape[1])
+    return 1
 
 
 def _stream(s: Mapping[str, Any]) -> XdfStream:
@@ -240,13 +320,10 @@ def gaitmon_units(streams: Sequence[XdfStream]) -> dict[str, GaitmonUnit]:
     return {serial: GaitmonUnit(serial, **kinds) for serial, kinds in found.items()}
 
 
-def choose_unit(name: str, units: Mapping[str, GaitmonUnit], serial: str | None) -> GaitmonUnit:
+def choose_unit(name: str, units: Mapping[str, GaitmonUnit], serial: str | None,
+                contents: XdfContents | None = None) -> GaitmonUnit:
     if not units:
-        raise UserError(
-            f"{name} holds no gaitmon stream (none whose acquisition/manufacturer is "
-            f"'{MANUFACTURER}'); record gaitmon's LSL streams with LabRecorder (gaitmon record "
-            "--lsl)"
-        )
+        raise UserError(no_gaitmon_stream(name, contents))
     if serial is not None:
         if serial not in units:
             raise UserError(f"{name} has no gaitmon unit {serial}; it has {_list(units)}")
@@ -257,6 +334,28 @@ def choose_unit(name: str, units: Mapping[str, GaitmonUnit], serial: str | None)
             "one with --unit SERIAL"
         )
     return next(iter(units.values()))
+
+
+def no_gaitmon_stream(name: str, contents: XdfContents | None) -> str:
+    """Why no gaitmon unit was found, naming what the file holds."""
+    streams = contents.streams if contents else []
+    summaries = contents.summaries if contents else []
+    ours = [s for s in streams if s.manufacturer == MANUFACTURER and s.gaitmon_kind is None]
+    if ours:
+        found = describe_streams([StreamSummary(s.name, s.type, _width(s), s.nominal_srate_hz)
+                                  for s in ours])  # fmt: skip
+        return (
+            f"{name} holds {len(ours)} stream{'s' if len(ours) > 1 else ''} made by gaitmon "
+            f"(acquisition/manufacturer '{MANUFACTURER}'): {found}; but none says which of "
+            "gaitmon's streams it is: their types and names were changed (gaitmon reads a "
+            f"stream by gaitmon/stream, type {ANGLES_TYPE}, {EVENTS_TYPE} or {RAW_TYPE}, or "
+            "name 'gaitmon <unit> angles|events|raw'), so it cannot tell the angles, events "
+            "and raw streams apart"
+        )
+    return (
+        f"{name} holds no gaitmon stream; its streams: {describe_streams(summaries)}; record "
+        "gaitmon's LSL streams with LabRecorder (gaitmon record --lsl)"
+    )
 
 
 def _list(units: Mapping[str, GaitmonUnit]) -> str:

@@ -4,16 +4,20 @@
 
     OUT/dataset_description.json, README, participants.tsv
     OUT/sub-<label>/[ses-<label>/]motion/
-        sub-<label>[_ses-<label>]_task-<label>_tracksys-IMU_motion.tsv   (no header)
-        ..._channels.tsv, ..._motion.json, ..._events.tsv, ..._events.json
+        sub-<label>[_ses-<label>]_task-<label>_tracksys-imuR_motion.tsv  (no header)
+        ..._channels.tsv, ..._channels.json, ..._motion.json, ..._gaitmon.json
+        sub-<label>[_ses-<label>]_task-<label>_events.tsv, ..._events.json
     OUT/sub-<label>/[ses-<label>/]sub-<label>[_ses-<label>]_scans.tsv    (not de-identified)
 
 Rows of ``_motion.tsv`` are on the regular 1/fs grid that BIDS motion assumes: row k is time
 k / fs from the first sample, and every lost frame is a row of ``n/a`` (placed from
 ``/timeline/t_s``, which counts the lost frames, as the C3D export's frames are). Events
 (heel strike, toe off, markers, gaps) are dated on the same grid. A second export into the same
-folder adds its participant to ``participants.tsv`` (and its scan to ``scans.tsv``); the
-dataset's ``README`` and ``dataset_description.json`` are written only if absent.
+folder adds its participant to ``participants.tsv`` (and its scan to ``scans.tsv``) and
+rewrites gaitmon's ``README`` from every recording present; ``dataset_description.json`` and a
+study's own README are never replaced (:mod:`.bids_dataset`). The tracking system is the
+unit, labelled by its leg (``imuL``/``imuR``, ``imu`` without a side), as in a both-legs
+export, so a dataset mixing the two names one unit alike.
 Layout: docs/file-format.md, "Export formats" / "BIDS".
 """
 
@@ -32,6 +36,13 @@ import numpy as np
 
 from gaitmon import __version__
 from gaitmon.dsp.channels import SEGMENTS
+from gaitmon.export.writers.bids_dataset import (
+    GAITMON_SUFFIX,
+    bidsignore_text,
+    dataset_description,
+    is_gaitmon_readme,
+    readme_text,
+)
 from gaitmon.export.writers.bids_labels import BidsOptions
 from gaitmon.export.writers.csv_text import CsvColumn, format_block
 from gaitmon.export.writers.errors import Cancel, ExportError, Progress, step
@@ -51,14 +62,21 @@ from gaitmon.io.deidentify import Scrubber
 from gaitmon.text import spreadsheet_cell
 from gaitmon.values import JsonObject, JsonValue, scalar
 
-BIDS_VERSION = "1.9.0"
-TRACKSYS = "IMU"  # the tracksys entity and TrackingSystemName (they must agree)
 NA = "n/a"
-DATASET_TYPE = "raw"  # why raw, not derivative: see README_TEXT
+# the motion channel types with a <TYPE>ChannelCount (every one RECOMMENDED, 0 included)
+MOTION_TYPES = ("ACCEL", "ANGACCEL", "GYRO", "JNTANG", "LATENCY", "MAGN", "ORNT", "POS", "VEL")
+MANUFACTURER = "gaitmon"  # the unit's design, as the C3D export's COMPANY and LSL's streams say
 TSV_CHUNK_FRAMES = 32_768  # rows of _motion.tsv formatted at a time
 _ISO_UTC = re.compile(r"\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,6})?Z?")
 _SIDE = {"L": "Left", "R": "Right"}
 _JOINT_POINT = ("Hip", "Knee", "Ankle")
+_PLACE = {"body": "pelvis (hip)", "thigh": "thigh", "shank": "shank (calf)", "foot": "foot"}
+
+
+def tracksys(side: str) -> str:
+    """The tracking system of one unit, by its leg: ``imuL``, ``imuR`` (one leg or both: one
+    scheme), ``imu`` when no side was entered. The entity and TrackingSystemName agree."""
+    return f"imu{side}" if side in ("L", "R") else "imu"
 
 
 @dataclass(frozen=True)
@@ -76,6 +94,8 @@ class Channel:
     decimals: int
     status: str = NA
     status_description: str = NA
+    placement: str = NA  # where on the body (channels.tsv "placement")
+    reference_frame: str = NA  # a level of CHANNELS_JSON["reference_frame"]
 
 
 def channels(src: Source) -> list[Channel]:
@@ -83,6 +103,8 @@ def channels(src: Source) -> list[Channel]:
     heel and toe force sensors; segment tilts; joint angles (those the session's mode has)."""
     side = _SIDE.get(session_side(src), "")
     seg_point = {s: ("Body" if s == "body" else side + s.capitalize()) for s in SEGMENTS}
+    leg = f"{side.lower()} " if side else ""
+    place = {s: (_PLACE[s] if s == "body" else leg + _PLACE[s]) for s in SEGMENTS}
     angles = src.angles()
     how = f"{angles['source']} angles: {angles['method']}"
     out: list[Channel] = []
@@ -92,12 +114,14 @@ def channels(src: Source) -> list[Channel]:
                 out.append(Channel(
                     f"{seg}_acc_{axis}", axis, "ACCEL", seg_point[seg], "m/s^2",
                     f"{seg} accelerometer {axis} (sensor axis, low-passed, calibrated)",
-                    "processed/acc_ms2", 2 * i + j, 5))
+                    "processed/acc_ms2", 2 * i + j, 5, placement=place[seg],
+                    reference_frame="sensor"))
         if src.has("processed/gyro_rad_s"):
             out.append(Channel(
                 f"{seg}_gyro_y", "y", "GYRO", seg_point[seg], "rad/s",
                 f"{seg} gyro rate about the mediolateral axis (calibrated bias removed)",
-                "processed/gyro_rad_s", i, 6))
+                "processed/gyro_rad_s", i, 6, placement=place[seg],
+                reference_frame="sensor"))
     if src.has("processed/fsr_counts"):
         faults = _fsr_faults(src)
         # "good" only where the foot-gyro cross-check watched the sensor and did not flag it
@@ -106,22 +130,28 @@ def channels(src: Source) -> list[Channel]:
             status, why = ("good", NA) if checked else (NA, NA)
             if sensor in faults:
                 status, why = "bad", faults[sensor]
+            # the force on the sole along its normal: component z of the "sole" frame
             out.append(Channel(
-                f"{sensor}_fsr", NA, "MISC", side + sensor.capitalize(), "arbitrary",
+                f"{sensor}_fsr", "z", "MISC", side + sensor.capitalize(), "arbitrary",
                 f"{sensor} force sensor, low-passed ADC counts (not calibrated to newtons)",
-                "processed/fsr_counts", i, 3, status, why))
+                "processed/fsr_counts", i, 3, status, why,
+                placement=f"under the {leg}{'heel' if sensor == 'heel' else 'big toe'}",
+                reference_frame="sole"))
     if src.has("processed/tilt_deg"):
         for i, seg in enumerate(SEGMENTS):
             out.append(Channel(
                 f"{seg}_tilt", "y", "ORNT", seg_point[seg], "deg",
                 f"{seg} sagittal tilt, + counter-clockwise seen from the right, 0 standing "
-                f"({how})", "processed/tilt_deg", i, 4))
+                f"({how})", "processed/tilt_deg", i, 4, placement=place[seg],
+                reference_frame="standing"))
     if src.has("processed/joint_deg"):
         for i, joint in enumerate(JOINT_LABELS):
             out.append(Channel(
                 joint, "y", "JNTANG", side + _JOINT_POINT[i], "deg",
                 f"{joint.replace('_', ' ')} (+), proximal to distal segment ({how})",
-                "processed/joint_deg", i, 4))
+                "processed/joint_deg", i, 4,
+                placement=f"{leg}{_JOINT_POINT[i].lower()} joint",
+                reference_frame="anatomical"))
     return out
 
 
@@ -155,8 +185,8 @@ class Names:
         ses = "" if self.session is None else f"_ses-{self.session}"
         return f"sub-{self.subject}{ses}"
 
-    def motion(self, suffix: str, tracksys: str | None = TRACKSYS) -> Path:
-        """``motion/<prefix>_task-<t>_tracksys-IMU_<suffix>``: entities in the BIDS order
+    def motion(self, suffix: str, tracksys: str | None) -> Path:
+        """``motion/<prefix>_task-<t>_tracksys-<label>_<suffix>``: entities in the BIDS order
         (``tracksys`` None: a file of the recording's every tracking system, no entity)."""
         system = "" if tracksys is None else f"_tracksys-{tracksys}"
         name = f"{self.prefix}_task-{self.task}{system}_{suffix}"
@@ -173,7 +203,9 @@ class BidsWriter:
     def __init__(self, options: BidsOptions) -> None:
         self.options = options
         self.names: Names | None = None
+        self.system = "imu"
         self.finals: list[Path] = []
+        self.patient_id = ""
 
     # -- the FormatWriter contract ----------------------------------------------------------
 
@@ -181,20 +213,22 @@ class BidsWriter:
         pid = as_text(src.group_attrs("session").get("patient_id", ""))
         names = Names(out, self.options.subject_label(pid), self.options.session_label,
                       self.options.task_label)
+        self.options.check_subject_free(out / "participants.tsv", pid)
         self.names = names
-        files = [names.motion(s) for s in ("motion.tsv", "channels.tsv", "motion.json",
-                                           "events.tsv", "events.json")]
+        self.patient_id = pid
+        self.system = tracksys(session_side(src))
+        files = [names.motion(s, self.system) for s in UNIT_FILES]
+        files += [names.motion(s, None) for s in ("events.tsv", "events.json")]
         if not scrub.enabled and acq_time(src):
             files.append(names.scans)
-        files.append(out / "participants.tsv")
-        files += [p for p in (out / "dataset_description.json", out / "README")
-                  if not p.exists()]  # a dataset's own description is never replaced
+        files += dataset_files(out)
         self.finals = files
         return list(files)
 
     def merges_existing(self, path: Path) -> bool:
-        """Files that one export adds a row to (several recordings share them)."""
-        return path.name == "participants.tsv" or path.name.endswith("_scans.tsv")
+        """Files that one export adds to (several recordings share them)."""
+        return path.name in ("participants.tsv", "README", ".bidsignore") or path.name.endswith(
+            "_scans.tsv")
 
     def write(self, src: Source, outputs: list[Path], scrub: Scrubber, deidentify: bool,
               progress: Progress | None, cancel: Cancel | None, chunk_rows: int | None) -> None:
@@ -207,24 +241,55 @@ class BidsWriter:
             raise ExportError(f"{src.path.name} has no series to export as BIDS motion channels")
         frame = frame_grid(src, "on BIDS rows")
         n_rows = int(frame[-1]) + 1 if len(frame) else 0
-        write_motion_tsv(src, chans, frame, tmp[names.motion("motion.tsv")], progress, cancel,
+        unit = {s: tmp[names.motion(s, self.system)] for s in UNIT_FILES}
+        write_motion_tsv(src, chans, frame, unit["motion.tsv"], progress, cancel,
                          TSV_CHUNK_FRAMES if chunk_rows is None else chunk_rows)
-        write_text(tmp[names.motion("channels.tsv")], channels_tsv(src, chans))
-        sidecar = motion_sidecar(src, chans, n_rows, frame, scrub, names.task)
-        write_json(tmp[names.motion("motion.json")], sidecar)
-        write_text(tmp[names.motion("events.tsv")], events_tsv(events(src, scrub, frame)))
-        write_json(tmp[names.motion("events.json")], EVENTS_JSON)
+        write_text(unit["channels.tsv"], channels_tsv(src, chans))
+        write_json(unit["channels.json"], channels_json(chans))
+        sidecar = motion_sidecar(src, chans, n_rows, frame, scrub, names.task, self.system,
+                                 effective_rate_hz(src, frame))
+        write_json(unit["motion.json"], sidecar)
+        write_json(unit[GAITMON_SUFFIX], gaitmon_sidecar(src, scrub, GAITMON_ROWS))
+        write_text(tmp[names.motion("events.tsv", None)], events_tsv(events(src, scrub, frame)))
+        write_json(tmp[names.motion("events.json", None)], EVENTS_JSON)
         if names.scans in tmp:
-            row = {"filename": names.motion("motion.tsv").relative_to(names.folder).as_posix(),
-                   "acq_time": acq_time(src)}
+            row = {"filename": names.motion("motion.tsv", self.system).relative_to(
+                names.folder).as_posix(), "acq_time": acq_time(src)}
             write_text(tmp[names.scans], merge_tsv(names.scans, row))
-        participants = names.root / "participants.tsv"
-        write_text(tmp[participants],
-                    merge_tsv(participants, {"participant_id": f"sub-{names.subject}"}))
-        if names.root / "dataset_description.json" in tmp:
-            write_json(tmp[names.root / "dataset_description.json"], dataset_description())
-        if names.root / "README" in tmp:
-            write_text(tmp[names.root / "README"], README_TEXT)
+        write_dataset_files(names, tmp, self.options, [names.motion("motion.json", self.system)],
+                            self.patient_id)
+
+
+UNIT_FILES = ("motion.tsv", "channels.tsv", "channels.json", "motion.json", GAITMON_SUFFIX)
+GAITMON_ROWS = ("row k of _motion.tsv is the time k / SamplingFrequency from the first sample; "
+                "a lost frame is a row of n/a")
+
+
+def dataset_files(root: Path) -> list[Path]:
+    """The dataset-level files one export writes: participants.tsv and .bidsignore (merged),
+    the README (gaitmon's, regenerated; a study's own is kept), dataset_description.json (only
+    when absent: a dataset's own description is never replaced)."""
+    files = [root / "participants.tsv", root / ".bidsignore"]
+    readme = root / "README"
+    if not readme.exists() or is_gaitmon_readme(readme):
+        files.append(readme)
+    if not (root / "dataset_description.json").exists():
+        files.append(root / "dataset_description.json")
+    return files
+
+
+def write_dataset_files(names: Names, tmp: dict[Path, Path], options: BidsOptions,
+                        planned_motion: list[Path], patient_id: str) -> None:
+    root = names.root
+    # the session's row (with its patient id's hash when the label is made from it, so a
+    # later export can refuse another patient's id that gives the same label)
+    write_text(tmp[root / "participants.tsv"],
+               merge_tsv(root / "participants.tsv", options.participant_row(patient_id)))
+    write_text(tmp[root / ".bidsignore"], bidsignore_text(root / ".bidsignore"))
+    if root / "README" in tmp:
+        write_text(tmp[root / "README"], readme_text(root, planned_motion))
+    if root / "dataset_description.json" in tmp:
+        write_json(tmp[root / "dataset_description.json"], dataset_description(options))
 
 
 def configure(options: Mapping[str, object] | None) -> BidsWriter:
@@ -287,54 +352,111 @@ def _tsv_lines(block: bytes) -> bytes:
 
 # ---- _channels.tsv, _motion.json --------------------------------------------------------------
 
-CHANNEL_COLUMNS = ("name", "component", "type", "tracked_point", "units", "sampling_frequency",
-                   "status", "status_description", "description")
+CHANNEL_COLUMNS = ("name", "component", "type", "tracked_point", "units", "placement",
+                   "reference_frame", "sampling_frequency", "status", "status_description",
+                   "description")
+# the reference frames of channels.tsv, described in _channels.json. A unit is planar: its
+# sensor axes are x, z in the sagittal plane and y along the hinge, and how they sit on the body
+# depends on how the band was put on, so no SpatialAxes (the spec's F/B/L/R/U/D letters, the
+# legacy validator's A/P/L/R/S/I) can be given; RotationOrder has no meaning for one axis.
+# "n/a" is left out rather than written: the legacy validator's enums do not have it.
+REFERENCE_FRAMES: dict[str, JsonObject] = {
+    "sensor": {"Description": "the sensor board's own axes: x and z in the sagittal plane, y "
+                              "along the mediolateral hinge axis; their direction on the body "
+                              "depends on how the board is worn (back, side or front)",
+               "RotationRule": "right-hand"},
+    "standing": {"Description": "rotation about the mediolateral axis from the standing pose "
+                                "zeroed at the start (0 = upright), + counter-clockwise seen "
+                                "from the subject's right",
+                 "RotationRule": "right-hand"},
+    "anatomical": {"Description": "sagittal joint angle between the proximal and distal "
+                                  "segments' standing-pose tilts, clinical sign (flexion, "
+                                  "dorsiflexion +)"},
+    "sole": {"Description": "the sole of the foot: z is its normal, along which the force "
+                            "sensor is loaded"},
+}  # fmt: skip
+
+
+def channels_json(chans: list[Channel]) -> JsonObject:
+    """``_channels.json``: the reference frames the channels use."""
+    used = dict.fromkeys(c.reference_frame for c in chans if c.reference_frame != NA)
+    return {"reference_frame": {"Description": "the frame a channel's values are in",
+                                "Levels": {k: REFERENCE_FRAMES[k] for k in used}}}
 
 
 def channels_tsv(src: Source, chans: list[Channel]) -> str:
     rows = ["\t".join(CHANNEL_COLUMNS)]
     for c in chans:
-        cells = (c.name, c.component, c.type, c.tracked_point, c.units, f"{src.fs_hz:g}",
-                 c.status, c.status_description, c.description)
+        cells = (c.name, c.component, c.type, c.tracked_point, c.units, c.placement,
+                 c.reference_frame, f"{src.fs_hz:g}", c.status, c.status_description,
+                 c.description)
         rows.append("\t".join(tsv_cell(x) for x in cells))
     return "\n".join(rows) + "\n"
 
 
+def effective_rate_hz(src: Source, frame: np.ndarray) -> float | str:
+    """Rows of ``_motion.tsv`` per second of the recording computer's clock: a straight-line
+    fit of the frames' host receive times (``/timeline/host_time_s``) against their grid
+    frames (lost frames counted); ``n/a`` without usable receive times."""
+    if len(frame) < 2 or not src.has("timeline/host_time_s"):
+        return NA
+    host = np.asarray(src.read("timeline/host_time_s"), np.float64)
+    x = frame.astype(np.float64)
+    if len(host) != len(x) or not np.all(np.isfinite(host)) or x[-1] <= x[0]:
+        return NA
+    slope = float(np.polyfit(x - x[0], host - host[0], 1)[0])
+    return round(1.0 / slope, 6) if slope > 0 else NA
+
+
 def motion_sidecar(src: Source, chans: list[Channel], n_rows: int, frame: np.ndarray,
-                   scrub: Scrubber, task: str) -> JsonObject:
+                   scrub: Scrubber, task: str, system: str,
+                   effective: float | str) -> JsonObject:
+    """``_motion.json``: BIDS fields only (gaitmon's own are in :func:`gaitmon_sidecar`)."""
     device = scrub.device(src.group_attrs("device"))
     counts = Counter(c.type for c in chans)
     lost = n_rows - len(frame)
     n_gaps = int(np.count_nonzero(np.diff(frame) > 1)) if len(frame) else 0
-    angles = src.angles()
     fields: JsonObject = {
         "TaskName": task,
         "TaskDescription": "gait recorded with a gaitmon wearable unit (planar IMUs on body, "
                            "thigh, shank and foot; heel and toe force sensors)",
         "SamplingFrequency": src.fs_hz,
-        "TrackingSystemName": TRACKSYS,
+        "SamplingFrequencyEffective": effective,
+        "TrackingSystemName": system,
+        "Manufacturer": MANUFACTURER,
         "ManufacturersModelName": as_text(device.get("name", "")) or NA,
         "SoftwareVersions": f"firmware {as_text(device.get('firmware', '')) or NA}; recorded "
                             f"by gaitmon {as_text(src.attrs.get('software_version', '')) or NA};"
                             f" exported by gaitmon {__version__}",
         "RecordingDuration": n_rows / src.fs_hz,
         "MotionChannelCount": len(chans),
-        **{f"{t}ChannelCount": counts[t] for t in ("ACCEL", "GYRO", "ORNT", "JNTANG", "MISC")},
+        **{f"{t}ChannelCount": counts[t] for t in MOTION_TYPES},
+        "MiscChannelCount": counts["MISC"],
         "TrackedPointsCount": len({c.tracked_point for c in chans}),
         "MissingValues": NA,
         "SubjectArtefactDescription": (
             f"{lost} lost frames ({n_gaps} gaps) are rows of n/a in _motion.tsv (row k is "
             f"at k / {src.fs_hz:g} s) and 'gap' events" if lost else NA),
-        "GaitmonMode": src.mode,
-        "GaitmonAngles": {**angles, "convention": as_text(src.attrs.get("angle_convention", ""))},
-        "GaitmonRows": "row k of _motion.tsv is the time k / SamplingFrequency from the first "
-                       "sample; a lost frame is a row of n/a",
     }
     side = {k: json_safe(v) for k, v in fields.items()}
     serial = device.get("serial", "")
     if not scrub.enabled and as_text(serial).strip():
         side["DeviceSerialNumber"] = as_text(serial)
     return scrub.mapping(side)
+
+
+def gaitmon_sidecar(src: Source, scrub: Scrubber, rows: str,
+                    **more: JsonValue) -> JsonObject:
+    """``_gaitmon.json``: gaitmon's own metadata of one tracking system (not BIDS fields;
+    ``.bidsignore`` lists these files)."""
+    angles = src.angles()
+    fields: JsonObject = {
+        "mode": src.mode,
+        "angles": {**angles, "convention": as_text(src.attrs.get("angle_convention", ""))},
+        "rows": rows,
+        **more,
+    }
+    return scrub.mapping({k: json_safe(v) for k, v in fields.items()})
 
 
 # ---- events -----------------------------------------------------------------------------------
@@ -405,43 +527,6 @@ def events_tsv(evs: list[Event]) -> str:
 
 
 # ---- dataset-level files ----------------------------------------------------------------------
-
-
-def dataset_description() -> JsonObject:
-    return {
-        "Name": "gaitmon gait recordings",
-        "BIDSVersion": BIDS_VERSION,
-        "DatasetType": DATASET_TYPE,
-        "GeneratedBy": [{"Name": "gaitmon", "Version": __version__,
-                         "Description": "gaitmon export --format bids"}],
-    }
-
-
-README_TEXT = """\
-Gait recordings exported by gaitmon (Motion-BIDS, BIDS 1.9, datatype "motion").
-
-Each recording is one tracking system, tracksys-IMU: four planar inertial units (body, thigh,
-shank, foot; accelerometer x and z, gyro about the mediolateral axis y), a heel and a toe force
-sensor, and the segment tilts and joint angles gaitmon computed from them. _channels.tsv lists
-every column of _motion.tsv with its type, tracked point and units; _motion.json names the
-method behind the angles (GaitmonAngles).
-
-Rows: _motion.tsv has no header. Row k is the time k / SamplingFrequency from the first
-sample. Frames the wireless link lost are rows of n/a at their true place, so the sampling is
-regular, and each loss is also a "gap" event in _events.tsv (duration = time lost).
-
-Events: heel_strike, toe_off (gait events), marker (set by the clinician; text in "label"),
-gap. onset = sample / SamplingFrequency, where sample is the 0-based row of _motion.tsv.
-
-DatasetType is "raw": the series are what the recording system outputs (calibrated,
-low-passed inertial signals and its orientation estimates), as BIDS motion data are; the
-unit's ADC counts remain in the gaitmon session files (.h5), which are the source data.
-
-De-identification (the default for BIDS exports): subject labels come from the user (a label
-or a patient-id-to-label map), never from the patient id unless asked; no patient id,
-operator, notes, device serial or recording date is written. No _scans.tsv is written then
-(its acq_time would date the recording): times count from the start of each recording only.
-"""
 
 
 def acq_time(src: Source) -> str:

@@ -8,6 +8,8 @@ patient ids to labels, or else it is ``01``. Kept free of numpy (the command lin
 
 from __future__ import annotations
 
+import csv
+import hashlib
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
@@ -20,6 +22,14 @@ DEFAULT_SUBJECT = "01"  # when no label is given: says nothing about the patient
 DEFAULT_TASK = "walk"
 _LABEL = re.compile(r"[0-9A-Za-z]+")
 _MAP_HEADERS = {"patient_id", "patient", "participant_id", "label", "subject"}
+# participants.tsv: with --subject-from-patient-id, which patient id made the label (its
+# SHA-256, not the id: the label keeps only its letters and digits, the hash no more), so a later
+# export of another id that gives the same label ("a/b", "ab", "a-b": sub-ab) is refused
+PATIENT_HASH_COLUMN = "patient_id_sha256"
+
+
+def patient_hash(patient_id: str) -> str:
+    return hashlib.sha256(str(patient_id).strip().encode("utf-8")).hexdigest()
 
 
 def check_label(kind: str, value: str) -> str:
@@ -44,6 +54,9 @@ class BidsOptions:
     subject_from_patient_id: bool = False  # label = the patient id (letters and digits kept)
     session: str | None = None  # a ses-<label> level, if given
     task: str = DEFAULT_TASK
+    # dataset_description.json of a new dataset: never invented (left out when not given)
+    authors: str | tuple[str, ...] | None = None  # "A. Author; B. Author" or a sequence
+    license: str | None = None  # e.g. CC0, CC-BY-4.0 (SPDX abbreviations)
 
     @classmethod
     def from_mapping(cls, options: Mapping[str, object] | None) -> BidsOptions:
@@ -57,6 +70,8 @@ class BidsOptions:
                 raise ExportError(f"BIDS export has no option {key!r} (it has {', '.join(known)})")
         if "subject_map" in given:
             given["subject_map"] = Path(given["subject_map"])
+        if isinstance(given.get("authors"), (list, tuple)):
+            given["authors"] = tuple(str(a) for a in given["authors"])
         opts = cls(**given)
         chosen = [opts.subject is not None, opts.subject_map is not None,
                   bool(opts.subject_from_patient_id)]  # fmt: skip
@@ -100,6 +115,38 @@ class BidsOptions:
             return label
         return DEFAULT_SUBJECT
 
+    def participant_row(self, patient_id: str) -> dict[str, str]:
+        """The session's row of participants.tsv (with the patient id's hash when the label
+        is made from it)."""
+        row = {"participant_id": f"sub-{self.subject_label(patient_id)}"}
+        if self.subject_from_patient_id:
+            row[PATIENT_HASH_COLUMN] = patient_hash(patient_id)
+        return row
+
+    def check_subject_free(self, participants: Path, patient_id: str) -> None:
+        """With --subject-from-patient-id, refuse to file this patient under a subject that
+        the dataset (its participants.tsv) already gives to another patient id: different ids
+        can give one label ("a/b", "ab" and "a-b" are all sub-ab)."""
+        if not self.subject_from_patient_id or not participants.is_file():
+            return
+        row = self.participant_row(patient_id)
+        try:
+            with open(participants, encoding="utf-8", newline="") as f:
+                rows = list(csv.DictReader(f, delimiter="\t"))
+        except (OSError, UnicodeDecodeError, csv.Error) as exc:
+            raise ExportError(f"cannot read {participants}: {exc}") from None
+        for r in rows:
+            if r.get("participant_id") != row["participant_id"]:
+                continue
+            theirs = (r.get(PATIENT_HASH_COLUMN) or "").strip()
+            if theirs and theirs != "n/a" and theirs != row[PATIENT_HASH_COLUMN]:
+                raise ExportError(
+                    f"BIDS subject {row['participant_id']} in {participants.parent} is already "
+                    f"another patient, whose id also gives that label (this patient id is "
+                    f"{str(patient_id).strip()!r}: ids such as 'a/b', 'ab' and 'a-b' give one "
+                    "label); give --subject LABEL or --subject-map FILE for this patient"
+                )
+
     @property
     def session_label(self) -> str | None:
         return None if self.session is None else check_label("session", self.session)
@@ -107,6 +154,13 @@ class BidsOptions:
     @property
     def task_label(self) -> str:
         return check_label("task", self.task)
+
+    @property
+    def author_list(self) -> tuple[str, ...]:
+        """The authors, one per entry (a string is split at ';')."""
+        raw = self.authors or ()
+        parts = raw.split(";") if isinstance(raw, str) else raw
+        return tuple(a.strip() for a in parts if a.strip())
 
 
 def read_subject_map(path: Path) -> dict[str, str]:

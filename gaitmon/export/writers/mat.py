@@ -15,6 +15,7 @@ from typing import BinaryIO, TypeAlias
 
 import numpy as np
 
+from gaitmon import __version__
 from gaitmon.export.writers.errors import Cancel, ExportError, Progress, step
 from gaitmon.export.writers.source import (
     Series,
@@ -161,12 +162,27 @@ def _array_header(dtype: np.dtype, shape: tuple[int, ...]) -> tuple[bytes, int]:
     return struct.pack("<II", _MI_MATRIX, total) + body, nbytes
 
 
+MAT_HEADER_TEXT_BYTES = 116  # the header's description; then subsystem offset, version, endian
+
+
+def undated_header(head: bytes) -> bytes:
+    """scipy's 128-byte MAT header with its description ("... Created on: <date and time>")
+    replaced by one without a date, space-padded as MATLAB pads it (a de-identified export
+    does not say when it was made). The other 12 bytes (version, byte order) are kept."""
+    text = f"MATLAB 5.0 MAT-file, written by gaitmon {__version__}".encode("ascii")
+    return text.ljust(MAT_HEADER_TEXT_BYTES, b" ") + head[MAT_HEADER_TEXT_BYTES:128]
+
+
 def _splice(raw: bytes, order: list[str], big: dict[str, Series], src: Source, f: BinaryIO,
-            progress: Progress | None, cancel: Cancel | None, header: bool = True) -> None:
+            progress: Progress | None, cancel: Cancel | None, header: bool = True,
+            dated: bool = True) -> None:
     """Write scipy's MAT file of the small fields with the per-sample arrays added to the
     struct, each streamed column by column from the session (MAT arrays are column-major).
-    ``header``: the file's 128-byte header first (False: a further variable of the file)."""
+    ``header``: the file's 128-byte header first (False: a further variable of the file);
+    ``dated=False``: that header without the date (:func:`undated_header`)."""
     head, pos = raw[:128], 128
+    if not dated:
+        head = undated_header(head)
     kind, start, _ = _element(raw, pos)
     assert kind == _MI_MATRIX
     subs = []  # flags, dims, name, field name length, field names, then one per field
@@ -231,7 +247,7 @@ def _write_mat(src: Source, out: Path, scrub: Scrubber, deidentify: bool,
                progress: Progress | None, cancel: Cancel | None) -> None:
     session, big = session_struct(src, scrub, deidentify)
     with open(out, "wb") as f:
-        write_struct(f, "session", session, big, src, progress, cancel)
+        write_struct(f, "session", session, big, src, progress, cancel, dated=not deidentify)
     step(progress, cancel, 1.0)
 
 
@@ -289,15 +305,16 @@ def session_struct(src: Source, scrub: Scrubber,
 
 def write_struct(f: BinaryIO, name: str, session: MatStruct, big: dict[str, Series],
                  src: Source, progress: Progress | None, cancel: Cancel | None,
-                 header: bool = True) -> None:
+                 header: bool = True, dated: bool = True) -> None:
     """One struct variable ``name`` of a MAT v5 file, to the open binary file ``f``; the
-    first variable of a file with ``header``, the file's header before it."""
+    first variable of a file with ``header``, the file's header before it (``dated=False``:
+    without the date, for a de-identified export)."""
     from scipy.io import savemat
 
     small = {k: v for k, v in session.items() if v is not Placeholder.STREAMED}
     buf = io.BytesIO()
     savemat(buf, {name: small}, format="5", oned_as="column",
             long_field_names=True, do_compression=False)
-    _splice(buf.getvalue(), list(session), big, src, f, progress, cancel, header)
+    _splice(buf.getvalue(), list(session), big, src, f, progress, cancel, header, dated)
 
 

@@ -295,7 +295,7 @@ def _session_fields(src: Source, scrub: Scrubber) -> JsonObject:
 
 
 def _excluded_ranges(src: Source, scrub: Scrubber) -> list[JsonObject]:
-    return [{"start_idx": r.start_idx, "stop_idx": r.stop_idx, "label": r.label}
+    return [{"start_idx": r.start_idx, "stop_idx": r.stop_idx, "label": scrub.text(r.label)}
             for r in src.exclusions]  # fmt: skip
 
 
@@ -307,7 +307,8 @@ def _wall_offset_s(src: Source, scrub: Scrubber) -> JsonValue:
 
 # Key -> builder of every metadata section, in output order (JSON side file, MAT session.meta).
 # A builder returns plain values; tables are lists of row dicts whose ``*_idx`` fields are
-# 0-based session rows (the MAT writer makes them 1-based). Scrubbing is applied to the whole.
+# 0-based session rows (the MAT writer makes them 1-based). Scrubbing is applied to the whole:
+# to the file names quoted in it; what a person typed (exclusion labels) is scrubbed whole.
 METADATA_SECTIONS: tuple[tuple[str, Callable[[Source, Scrubber], JsonValue]], ...] = (
     ("root", lambda src, scrub: scrub.root(src.attrs)),
     ("session", _session_fields),
@@ -376,7 +377,7 @@ def gaps(src: Source, scrub: Scrubber) -> list[ExportedGap]:
         if 0 <= idx <= src.n:
             out.append({"sample_idx": idx, "n_lost": int(scalar(g.get("n_lost", 0))),
                         "duration_s": float(scalar(g.get("duration_s", math.nan))),
-                        "reason": clean_label(scrub.text(as_text(g.get("reason", ""))))})
+                        "reason": clean_label(scrub.names(as_text(g.get("reason", ""))))})
     return out
 
 
@@ -411,14 +412,19 @@ def json_safe(v: JsonValue) -> JsonValue:
 
 
 def export_header_fields(fmt: str, deidentify: bool) -> JsonObject:
-    """What every export says of itself (format, version, by, when, de-identified)."""
-    return {
+    """What every export says of itself (format, version, by, when, de-identified). A
+    de-identified export does not say when it was made (``exported_utc`` left out): the day of
+    the export is often the day of the visit."""
+    head: JsonObject = {
         "format": f"gaitmon-export-{fmt}",
         "export_version": EXPORT_VERSION,
         "exported_by": f"gaitmon {__version__}",
         "exported_utc": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "deidentified": bool(deidentify),
     }
+    if deidentify:
+        del head["exported_utc"]
+    return head
 
 
 def export_header(src: Source, fmt: str, deidentify: bool) -> JsonObject:

@@ -8,6 +8,8 @@ write of a session file (and of its analysis state beside it) goes through this 
 * :mod:`.layout` - format name and version, modes, dataset paths, dtypes, chunking, the
   ``/smoothed`` paths;
 * :mod:`.codec` - how format 2 stores each series (exact, quantised, derived on read);
+* :mod:`.attributes` - the CF-style attributes (units, scale_factor, columns...) of every
+  dataset, so a reader without gaitmon gets physical values;
 * :mod:`.header` - :class:`SessionMeta`, :class:`SessionHeader`, :func:`device_info`,
   :class:`SessionError`;
 * :mod:`.rows` - blocks to rows (pipeline and device blocks, the timeline);

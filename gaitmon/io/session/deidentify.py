@@ -4,7 +4,8 @@ The same things leave the file as leave a de-identified export (the lists of
 :mod:`gaitmon.io.deidentify`, docs/file-format.md "De-identified session files"):
 
 * ``/session`` ``patient_id``, ``operator`` and ``notes`` are blanked, and their values are
-  removed from the free texts (marker labels, gap reasons, the stop reason);
+  removed from the marker labels (typed, or sent by another program) and from the file names
+  quoted in gaitmon's own texts (gap reasons, the stop reason), never from gaitmon's words;
 * ``/device`` ``serial`` and ``transport`` (a serial port or Bluetooth address names the unit)
   are blanked, as for a unit that did not say who it is;
 * the recording's date: the root ``created_utc`` is left out, the host clock
@@ -30,11 +31,15 @@ from gaitmon.io.deidentify import (
     IDENTIFYING_FIELDS,
     REDACTED,
     ROOT_FIELDS_DROPPED,
+    scrub_file_names,
+    scrub_free_text,
 )
 from gaitmon.io.session.layout import _STR
 
-# free texts a person typed or that may quote a path: (dataset, field) and root attributes
-_TEXT_FIELDS: tuple[tuple[str, str], ...] = (("markers", "label"), ("gaps", "reason"))
+# texts that may hold an identifying value: (dataset, field, typed by a person?), and root
+# attributes gaitmon composed (they may quote a file name)
+_TEXT_FIELDS: tuple[tuple[str, str, bool], ...] = (("markers", "label", True),
+                                                   ("gaps", "reason", False))  # fmt: skip
 _ROOT_TEXTS: tuple[str, ...] = ("stop_reason",)
 WALL_OFFSET_ATTR = "wall_offset_s"
 
@@ -51,20 +56,14 @@ def secrets_of(f: h5py.File) -> list[str]:
     return sorted((v for v in values if v), key=len, reverse=True)
 
 
-def _scrub(text: str, secrets: list[str]) -> str:
-    for secret in secrets:
-        text = text.replace(secret, REDACTED)
-    return text
-
-
 def _clean_in_place(f: h5py.File) -> None:
-    secrets = secrets_of(f)
+    secrets = [(s, REDACTED) for s in secrets_of(f)]
     for key in ROOT_FIELDS_DROPPED:
         if key in f.attrs:
             del f.attrs[key]
     for key in _ROOT_TEXTS:
         if key in f.attrs:
-            f.attrs[key] = _scrub(_text(f.attrs[key]), secrets)
+            f.attrs[key] = scrub_file_names(_text(f.attrs[key]), secrets)
     if "session" in f:
         for key in IDENTIFYING_FIELDS:
             f["session"].attrs.create(key, "", dtype=_STR)
@@ -79,12 +78,13 @@ def _clean_in_place(f: h5py.File) -> None:
         if host.shape and host.shape[0]:
             values = host[...]
             host[...] = values - values[0]
-    for path, field in _TEXT_FIELDS:
+    for path, field, typed in _TEXT_FIELDS:
         if path not in f or f[path].shape == (0,):
             continue
         rows = f[path][...]
         texts = [_text(t) for t in rows[field]]
-        cleaned = [_scrub(t, secrets) for t in texts]
+        scrub = scrub_free_text if typed else scrub_file_names
+        cleaned = [scrub(t, secrets) for t in texts]
         if cleaned != texts:
             rows[field] = np.array(cleaned, dtype=object)
             f[path][...] = rows

@@ -30,6 +30,7 @@ from gaitmon.io.session.layout import (
     FORMAT,
     FORMAT_VERSION,
     LINK_TOTALS,
+    LINK_TOTALS_IF_ANY,
     _field_names,
     stored_datasets,
     stored_dtype,
@@ -165,6 +166,9 @@ class _H5File:
         cal = f["calibration"]
         cal.attrs["tilt_offset_rad"] = np.asarray(h["calibration"]["tilt_offset_rad"], "<f8")
         cal.attrs["gyro_bias_rad_s"] = np.asarray(h["calibration"]["gyro_bias_rad_s"], "<f8")
+        from gaitmon.io.session.attributes import describe
+
+        describe(f)  # units, scale, columns: a file a reader without gaitmon understands
 
     def set_wall_offset(self, wall_offset_s: float) -> None:
         self.f["timeline/host_time_s"].attrs["wall_offset_s"] = float(wall_offset_s)
@@ -247,6 +251,9 @@ class _H5File:
         link = self.f["link"]
         for k in LINK_TOTALS:
             link.attrs[k] = np.int64(totals.get(k, 0))
+        for k in LINK_TOTALS_IF_ANY:
+            if int(totals.get(k, 0)):
+                link.attrs[k] = np.int64(totals[k])
 
     def t_s_at(self, idx: int) -> float:
         staged = self.staged_row("timeline/t_s", idx)

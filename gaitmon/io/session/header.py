@@ -30,6 +30,15 @@ class DamagedSource(SessionError):
     parse): trying again cannot help, unlike a full disk or a recording still running."""
 
 
+class RecoveryNotSaved(SessionError):
+    """An interrupted recording was rebuilt but could not be written (a full disk): its
+    journal is kept, and ``why`` says what the write met."""
+
+    def __init__(self, message: str, why: str) -> None:
+        super().__init__(message)
+        self.why = why
+
+
 def _utc_now() -> str:
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 

@@ -89,6 +89,8 @@ LINK_TOTALS = (
     "reconnects",
     "queue_overflow_frames",
 )
+# link totals written to /link only when not 0 (a file without one had none of them)
+LINK_TOTALS_IF_ANY = ("implausible_frames",)
 
 _DEVICE_KEYS = (
     "name",

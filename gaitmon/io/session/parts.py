@@ -1,4 +1,5 @@
-"""Where a bilateral recording's parts live, and whether a path is a bilateral session.
+"""Where a bilateral recording's parts live, whether a path is a bilateral session, and which
+files make the session a path names (:func:`session_files`, :func:`sessions_in`).
 
 While both legs are recorded, each unit writes an ordinary crash-safe recording of its own
 beside the target: ``FILE.L.partial`` and ``FILE.R.partial`` (with their journals). At the stop
@@ -13,11 +14,16 @@ from pathlib import Path
 
 import h5py
 
-from gaitmon.io.journal import journal_path
+from gaitmon.errors import DAMAGE_ERRORS
+from gaitmon.io.journal import JOURNAL_SUFFIX, journal_path
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.trust import check_file
 
 SIDES = ("L", "R")
+# what h5py can raise reading a damaged file's root attributes (a zeroed object header gives
+# KeyError, an attribute of a strange type TypeError) or the trust check refuses (SessionError):
+# a probe answers "no", and the opening that follows says what is wrong in one line
+PROBE_ERRORS: tuple[type[BaseException], ...] = (*DAMAGE_ERRORS, TypeError, SessionError)
 SIDE_NAMES = {"L": "left", "R": "right"}
 # a bilateral file given where one unit is needed
 BOTH_LEGS = (
@@ -58,7 +64,7 @@ def is_bilateral(path: str | os.PathLike[str]) -> bool:
         with h5py.File(p, "r") as f:
             check_file(p, f)  # a file from elsewhere: no attribute read before it is checked
             return bool(f.attrs.get("bilateral", False))
-    except (OSError, RuntimeError, ValueError, SessionError):
+    except PROBE_ERRORS:
         return False  # the reader that opens it next says why
 
 
@@ -73,5 +79,54 @@ def sides_of(path: str | os.PathLike[str]) -> tuple[str, ...]:
             sides = f.attrs.get("sides", "")
             text = sides.decode() if isinstance(sides, bytes) else str(sides)
             return tuple(s for s in text.split() if s in SIDES and f"units/{s}" in f)
-    except (OSError, RuntimeError, ValueError, SessionError):
+    except PROBE_ERRORS:
         return ()
+
+
+SESSION_SUFFIXES = (".h5", ".hdf5")
+
+
+def session_files(path: str | os.PathLike[str]) -> list[Path]:
+    """The files that hold the session ``path``, as a reader opens it (recovering it first):
+    the file itself, its journal (a recording interrupted, even one whose file was lost), the
+    parts of an interrupted recording of both legs and their journals. Empty when no session
+    has that name. The one rule for "does this session exist": ``info``, ``compare`` and
+    ``batch`` all ask it."""
+    p = Path(path)
+    if p.is_dir():
+        return []
+    found = [q for q in (p, journal_path(p)) if q.is_file()]
+    for part in parts_of(p).values():
+        found += [q for q in (part, journal_path(part)) if q.is_file()]
+    return found
+
+
+def session_name(file: Path, suffixes: tuple[str, ...] = SESSION_SUFFIXES) -> Path | None:
+    """The session a file of a folder belongs to (its own path, a journal's or a part's
+    session), or None for a file of no session (an output being written, a part set aside as
+    damaged, another program's file)."""
+    name = file.name
+    if name.endswith(JOURNAL_SUFFIX):
+        name = name[: -len(JOURNAL_SUFFIX)]
+    for side in SIDES:
+        if name.endswith(f".{side}.partial"):
+            name = name[: -len(f".{side}.partial")]
+            break
+    if not name.lower().endswith(suffixes):
+        return None
+    return file.with_name(name)
+
+
+def sessions_in(
+    folder: str | os.PathLike[str], *, recursive: bool = True,
+    suffixes: tuple[str, ...] = SESSION_SUFFIXES,
+) -> list[Path]:  # fmt: skip
+    """Every session under ``folder`` (sorted, each once, by its file's path, which need not
+    exist): a session file, a journal without its file, the parts of an interrupted recording
+    of both legs; what :func:`session_files` calls a session."""
+    root = Path(folder)
+    found = set()
+    for f in root.rglob("*") if recursive else root.iterdir():
+        if f.is_file() and (s := session_name(f, suffixes)) is not None and not s.is_dir():
+            found.add(s)
+    return sorted(found)

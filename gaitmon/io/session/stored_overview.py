@@ -92,6 +92,9 @@ def write_overview(f: h5py.File) -> None:
                 data = quantise(np.concatenate(parts), _DTYPE, CENTIDEG)
                 grp.create_dataset(name, data=data, chunks=(min(len(data), 1 << 14), 3),
                                    **COMPRESSION)  # fmt: skip
+    from gaitmon.io.session.attributes import describe
+
+    describe(f)
 
 
 def _bins(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -15,6 +15,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.header import SessionError
 
 GROUP = "truth"
@@ -41,6 +42,7 @@ def write_truth(
             if name in g:
                 del g[name]
             g.create_dataset(name, data=data)
+        describe(f)
 
 
 def truth_from_file(f: h5py.File, start: int, stop: int) -> Truth:

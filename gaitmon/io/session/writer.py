@@ -57,6 +57,7 @@ from gaitmon.io.session.layout import (
     _TABLES,
     FORMAT_VERSION,
     LINK_TOTALS,
+    LINK_TOTALS_IF_ANY,
     _field_names,
     per_sample_datasets,
 )
@@ -153,7 +154,7 @@ class SessionWriter:
         self._pending_markers: list[tuple[int, str]] = []
         self._edges = ContactEdges() if header.mode == "joint" else None
         self._wall_offset_s: float | None = None
-        self._link_totals: dict[str, int] = dict.fromkeys(LINK_TOTALS, 0)
+        self._link_totals: dict[str, int] = dict.fromkeys((*LINK_TOTALS, *LINK_TOTALS_IF_ANY), 0)
         self._link_dirty = False
         self._last_seq: int | None = None
         self._dirty = False
@@ -339,6 +340,7 @@ class SessionWriter:
             "invalid_values": int(d.invalid_values),
             "reconnects": max(0, int(stats.reconnects) - reconnects_base),
             "queue_overflow_frames": int(stats.queue_overflow_frames),
+            "implausible_frames": int(d.implausible_frames),
         }
         if totals == self._link_totals:
             return

@@ -46,7 +46,8 @@ def write_report_pdf(data: ReportData, path: str | os.PathLike[str], *, dpi: int
     h = data.header
     title = pdf_title("Gait analysis report", h.patient_id, h.deidentified)
     return write_a4_pdf(path, lambda painter, device, new_page: paint_report(
-        painter, device, data, new_page), creator=data.software, title=title, dpi=dpi)  # fmt: skip
+        painter, device, data, new_page), creator=data.software, title=title, dpi=dpi,
+        dated=not h.deidentified)  # fmt: skip
 
 
 def render_report_image(data: ReportData, dpi: float = 150.0) -> QImage:

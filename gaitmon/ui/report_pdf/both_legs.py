@@ -243,7 +243,8 @@ def write_bilateral_pdf(data: BilateralReportData, path: str | os.PathLike[str],
     h = data.left.header
     title = pdf_title("Gait analysis report, both legs", h.patient_id, h.deidentified)
     return write_a4_pdf(path, lambda painter, device, new_page: paint_bilateral_report(
-        painter, device, data, new_page), creator=data.software, title=title, dpi=dpi)  # fmt: skip
+        painter, device, data, new_page), creator=data.software, title=title, dpi=dpi,
+        dated=not h.deidentified)  # fmt: skip
 
 
 def render_bilateral_image(data: BilateralReportData, dpi: float = 150.0) -> QImage:

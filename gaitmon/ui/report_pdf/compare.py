@@ -137,7 +137,8 @@ def _title(p: Page, c: Comparison, generated_utc: str) -> float:
     p.text(LEFT_MM + WIDTH_MM * 0.5, y + 0.6, WIDTH_MM * 0.5, 4.0,
            "wearable sagittal gait unit · one leg", 7.5, colour=MUTED, align=right)  # fmt: skip
     p.text(LEFT_MM + WIDTH_MM * 0.5, y + 4.2, WIDTH_MM * 0.5, 4.0,
-           f"gaitmon {__version__} · {generated_utc}", 7.0, colour=MUTED,
+           f"gaitmon {__version__}" + (f" · {generated_utc}" if generated_utc else ""), 7.0,
+           colour=MUTED,
            align=right)  # fmt: skip
     y += 9.5
     p.hline(LEFT_MM, RIGHT_MM, y, ACCENT, 0.6)
@@ -436,14 +437,15 @@ def _footer(p: Page, page: int, n_pages: int) -> None:
 # writers
 
 
-def _now() -> str:
-    return _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+def _now(c: Comparison) -> str:
+    """When the comparison is drawn; "" de-identified (it would date the visit)."""
+    return "" if c.deidentified else _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
 
 
 def write_comparison_pdf(c: Comparison, path: str | os.PathLike[str], *, dpi: int = 600) -> Path:
     """Write the A4 PDF atomically (a temporary file renamed at the end)."""
     who = c.patient_id if c.patient_id and not c.deidentified else ""
-    now = _now()
+    now = _now(c)
     return write_a4_pdf(
         path,
         lambda painter, device, new_page: paint_comparison(painter, device, c, new_page=new_page,
@@ -451,12 +453,13 @@ def write_comparison_pdf(c: Comparison, path: str | os.PathLike[str], *, dpi: in
         creator=f"gaitmon {__version__}",
         title="Gait comparison" + (f" {who}" if who else ""),
         dpi=dpi,
+        dated=not c.deidentified,
     )  # fmt: skip
 
 
 def render_comparison_image(c: Comparison, dpi: float = 150.0) -> QImage:
     """The first page as an image."""
-    now = _now()
+    now = _now(c)
     return render_a4_image(
         lambda painter, device, _: paint_comparison(painter, device, c, generated_utc=now), dpi
     )

@@ -7,11 +7,13 @@ files atomically (a temporary file renamed at the end) and turn a failure into `
 
 from __future__ import annotations
 
+import html
 import os
+import re
 from collections.abc import Callable
 from pathlib import Path
 
-from PySide6.QtCore import QMarginsF, QSizeF
+from PySide6.QtCore import QByteArray, QMarginsF, QSizeF
 from PySide6.QtGui import (
     QColor,
     QImage,
@@ -51,9 +53,37 @@ def _failed(path: Path, tmp: Path) -> OSError:
     return OSError(f"cannot write {path} (the drive may be full or was removed)")
 
 
+# Qt (6.11) has no setter for the document information's dates and stamps them with the
+# current time; its XMP packet can be replaced (setDocumentXmpMetadata). Undated: our packet,
+# without dates, and the two dates of the information dictionary overwritten by spaces of the
+# same length (so every offset in the cross-reference table stays right; a dictionary may hold
+# any whitespace between its entries). If Qt ever writes them otherwise, the PDF is refused.
+_PDF_DATE = re.compile(rb"/(?:CreationDate|ModDate)\s*\(D:\d{4,14}[^()]{0,12}\)")
+_XMP = """<?xpacket begin="\ufeff" id="W5M0MpCehiHzreSzNTczkc9d"?>
+<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#">
+<rdf:Description rdf:about="" xmlns:dc="http://purl.org/dc/elements/1.1/"
+ xmlns:xmp="http://ns.adobe.com/xap/1.0/" xmp:CreatorTool="{creator}">
+<dc:title><rdf:Alt><rdf:li xml:lang="x-default">{title}</rdf:li></rdf:Alt></dc:title>
+</rdf:Description></rdf:RDF></x:xmpmeta>
+<?xpacket end="w"?>"""
+
+
+def _undate_pdf(tmp: Path, path: Path) -> None:
+    """Blank the information dictionary's CreationDate and ModDate in place (same length)."""
+    data = tmp.read_bytes()
+    undated, n = _PDF_DATE.subn(lambda m: b" " * len(m.group(0)), data)
+    if n != 2 or re.search(rb"D:\d{8}", undated) or b"CreateDate" in undated:
+        tmp.unlink(missing_ok=True)
+        raise OSError(f"cannot write {path} without its date with this Qt (its PDF writer "
+                      "changed); the report was not written")
+    with open(tmp, "r+b") as f:
+        f.write(undated)
+
+
 def write_a4_pdf(path: str | os.PathLike[str], paint: Paint, *, creator: str, title: str,
-                 dpi: int = 600) -> Path:  # fmt: skip
-    """Paint A4 pages into the PDF ``path``."""
+                 dpi: int = 600, dated: bool = True) -> Path:  # fmt: skip
+    """Paint A4 pages into the PDF ``path``. ``dated=False`` (a de-identified report): the
+    PDF does not say when it was made (no CreationDate, ModDate or XMP dates)."""
     ensure_gui_app()
     path = Path(path)
     tmp = _writable_tmp(path)
@@ -64,6 +94,9 @@ def write_a4_pdf(path: str | os.PathLike[str], paint: Paint, *, creator: str, ti
                                      QPageLayout.Unit.Millimeter))  # fmt: skip
     writer.setCreator(creator)
     writer.setTitle(title)
+    if not dated:
+        writer.setDocumentXmpMetadata(QByteArray(_XMP.format(
+            creator=html.escape(creator), title=html.escape(title)).encode("utf-8")))
     painter = QPainter()
     if not painter.begin(writer):
         raise _failed(path, tmp)
@@ -74,6 +107,8 @@ def write_a4_pdf(path: str | os.PathLike[str], paint: Paint, *, creator: str, ti
     del writer
     if not tmp.exists() or tmp.stat().st_size == 0:
         raise _failed(path, tmp)
+    if not dated:
+        _undate_pdf(tmp, path)
     os.replace(tmp, path)
     return path
 

@@ -181,7 +181,7 @@ def title(p: Page, software: str, generated_utc: str, what: str) -> float:
         y + 4.2,
         WIDTH_MM * 0.5,
         4.0,
-        f"{software} · report {generated_utc}",
+        f"{software} · report {generated_utc}" if generated_utc else f"{software} · report",
         7.0,
         colour=MUTED,
         align=Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter,
@@ -384,6 +384,8 @@ def _link_line(data: ReportData) -> str:
         link += f"; {count(lo.queue_overflow_frames, 'frame')} dropped by a full queue"
     if lo.invalid_values:
         link += f"; {count(lo.invalid_values, 'invalid value')}"
+    if lo.implausible_frames:
+        link += f"; {count(lo.implausible_frames, 'implausible frame')}"
     return link
 
 
