@@ -8,12 +8,16 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import os
 import sys
 from collections.abc import Callable, Sequence
 
-from gaitmon import __version__
+from gaitmon import __version__, logs
+from gaitmon.commands import DEBUG_ENV  # set: an internal error keeps its traceback (tests)
 from gaitmon.errors import UserError
+
+log = logging.getLogger("gaitmon.cli")
 
 # name -> help. Each module (loaded by _load) defines add_arguments(parser) and run(args) -> int.
 SUBCOMMANDS: dict[str, str] = {
@@ -30,6 +34,7 @@ SUBCOMMANDS: dict[str, str] = {
     "ports": "list serial ports a unit could be on",
     "simulate": "run a simulated gait unit on a pseudo-terminal",
     "review": "open the review window: timeline, strides, gait cycles",
+    "desktop": "put gaitmon in the applications menu (install) or take it out (uninstall)",
 }
 
 
@@ -91,6 +96,10 @@ def _load(name: str) -> tuple[Callable[[argparse.ArgumentParser], None], Run]:
         from gaitmon.commands import review
 
         return review.add_arguments, review.run
+    if name == "desktop":
+        from gaitmon.commands import desktop
+
+        return desktop.add_arguments, desktop.run
     raise KeyError(name)
 
 
@@ -129,7 +138,15 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         prog="gaitmon",
         description="Live monitor, recorder and reviewer for a wearable gait-measurement unit.",
     )
-    parser.add_argument("--version", action="version", version=f"gaitmon {__version__}")
+    parser.add_argument(
+        "--version", action=_Print, nargs=0, const=_version_text, help="print the version and "
+        "where the log file is, and exit"
+    )  # fmt: skip
+    parser.add_argument(
+        "--log-path", action=_Print, nargs=0, const=_log_path_text,
+        help="print the log file's path and exit",
+    )  # fmt: skip
+    _add_verbose(parser)
     # no subcommand: open the live monitor (gaitmon.ui, imported lazily: headless stays Qt-free)
     parser.epilog = "Without a COMMAND, gaitmon opens the live monitor window."
     parser.add_argument(
@@ -147,11 +164,42 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, help_text in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
+        _add_verbose(p, argparse.SUPPRESS)  # also after the command: gaitmon record --verbose
         if name == command:
             add_arguments, run = _load(name)
             add_arguments(p)
             p.set_defaults(_run=run)
     return parser
+
+
+def _add_verbose(p: argparse.ArgumentParser, default: object = False) -> None:
+    p.add_argument(
+        "--verbose", action="store_true", default=default,
+        help="also show the log's information lines on the terminal (they always go to the "
+        "log file: gaitmon --log-path)",
+    )  # fmt: skip
+
+
+def _log_path_text() -> str:
+    from gaitmon import paths
+
+    try:
+        return str(paths.log_file())
+    except ModuleNotFoundError:  # platformdirs missing: no log file
+        return "none (platformdirs is not installed)"
+
+
+def _version_text() -> str:
+    return f"gaitmon {__version__} (log: {_log_path_text()})"
+
+
+class _Print(argparse.Action):
+    """Print ``const()`` as it is (argparse's version action would wrap a long path) and exit."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: object, option_string: str | None = None) -> None:  # fmt: skip
+        print(self.const())
+        parser.exit()
 
 
 # Exit status when the reader of our standard output went away (``gaitmon info F | head -1``):
@@ -175,8 +223,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     # the first word that names a subcommand is the subcommand (no option takes one as value)
     command = next((a for a in argv if a in SUBCOMMANDS), None)
     prog = f"gaitmon {command}" if command else "gaitmon"
+    # the log first (gaitmon.logs): what runs below may log; --verbose is read before parsing
+    # so that an error while parsing is logged too
+    log_path = logs.setup(verbose="--verbose" in argv)
     try:
         args = build_parser(command).parse_args(argv)
+        log.info("gaitmon %s (gaitmon %s)", " ".join(argv), __version__)
         run: Run = getattr(args, "_run", None) or open_live_monitor
         rc = int(run(args) or 0)
         sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
@@ -184,11 +236,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         return _quiet_broken_pipe()
     except UserError as exc:
+        log.info("%s: error: %s", prog, exc, extra={"shown": True})
         _stderr_line(f"{prog}: error: {exc}")
         return 2
     except KeyboardInterrupt:
+        log.info("%s: interrupted", prog, extra={"shown": True})
         _stderr_line(f"{prog}: interrupted")
         return 130
+    except Exception as exc:  # a bug: its traceback to the log file, one line to the user
+        if os.environ.get(DEBUG_ENV):
+            raise
+        log.exception("%s: internal error", prog)
+        where = f"; details in {log_path}" if log_path else ""
+        what = " ".join(str(exc).split())[:200] or type(exc).__name__
+        _stderr_line(f"{prog}: internal error: {what}{where}")
+        return 1
 
 
 def _stderr_line(text: str) -> None:

@@ -87,6 +87,8 @@ def user_data_dir(tmp_path_factory, monkeypatch) -> pathlib.Path:
     folder is read-only): no test reads or writes the real ~/.local/share."""
     path = tmp_path_factory.mktemp("xdg-data")
     monkeypatch.setenv("XDG_DATA_HOME", str(path))
+    # and its own log folder (gaitmon.paths.user_log_dir): the real log gets no test's lines
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path_factory.mktemp("xdg-state")))
     return path
 
 SHARED_DATA = pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "data"

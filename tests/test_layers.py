@@ -23,7 +23,8 @@ import gaitmon
 ROOT = Path(gaitmon.__file__).resolve().parent
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("gaitmon", "gaitmon.errors", "gaitmon.jobs", "gaitmon.lazy", "gaitmon.text", "gaitmon.values"),
+    ("gaitmon", "gaitmon.errors", "gaitmon.jobs", "gaitmon.lazy", "gaitmon.text", "gaitmon.values",
+     "gaitmon.paths", "gaitmon.logs"),
     ("gaitmon.dsp",),
     ("gaitmon.io",),
     # gaitmon.finish: recovery, reprocessing and what is derived from a file's rows, above the

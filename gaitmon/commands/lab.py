@@ -10,6 +10,16 @@ from gaitmon.errors import UserError
 from gaitmon.io.sim.patterns import REALISM_LEVELS
 
 CHOICES = ("all", "p000", "p001", "p002", "p003", "p004", "accuracy")
+# matplotlib is in the ``lab`` extra, not in a plain ``pip install .`` (pyproject.toml)
+NO_MATPLOTLIB = "gaitmon lab needs matplotlib: pip install 'gaitmon[lab]'"
+
+
+def _require_matplotlib() -> None:
+    """One line (UserError) when matplotlib, which draws the reports' figures, is missing."""
+    try:
+        import matplotlib  # noqa: F401  (only whether it is there)
+    except ImportError:
+        raise UserError(NO_MATPLOTLIB) from None
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -45,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"unknown experiment {args.experiment!r}; use one of {', '.join(CHOICES)}")
     if args.experiment == "accuracy":
         return _accuracy(args)
+    _require_matplotlib()  # before any folder is made
     if not args.out:
         raise UserError("gaitmon lab needs -o DIR, the directory for the reports")
     out = Path(args.out)

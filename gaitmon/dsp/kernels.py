@@ -22,6 +22,7 @@ import os
 
 import numpy as np
 
+from gaitmon import paths
 from gaitmon.errors import UserError
 
 NUMBA_MISSING = "gaitmon's filters need numba: pip install 'numba>=0.60'"
@@ -35,13 +36,11 @@ def numba_cache_dir() -> str:
     if explicit:
         return explicit
     try:
-        import platformdirs
+        folder = str(paths.user_cache_dir())
     except ModuleNotFoundError:  # an environment installed before gaitmon required platformdirs
         from numba.misc import appdirs  # the same rules, vendored by numba
 
         folder = str(appdirs.user_cache_dir("gaitmon", False))  # type: ignore[no-untyped-call]
-    else:
-        folder = platformdirs.user_cache_dir("gaitmon", False)
     return os.path.join(folder, "numba")
 
 

@@ -10,57 +10,50 @@ from __future__ import annotations
 import logging
 import signal
 import sys
-from pathlib import Path
 from types import TracebackType
 
 from pyqtgraph.util.garbage_collector import GarbageCollector
-from PySide6.QtCore import QPointF, QStandardPaths, Qt, QTimer
+from PySide6.QtCore import QPointF, Qt, QTimer
 from PySide6.QtGui import QColor, QGuiApplication, QIcon, QPainter, QPainterPath, QPen, QPixmap
 from PySide6.QtWidgets import QApplication, QWidget
+
+from gaitmon import logs
+from gaitmon.ui import desktop
 
 log = logging.getLogger("gaitmon.ui")
 
 
+def draw_icon(size: int) -> QPixmap:
+    """gaitmon's icon drawn at ``size`` px: a knee-angle trace on a disc. The shipped
+    ``gaitmon/ui/desktop/gaitmon.png`` is this at 256 px (tests/test_desktop.py compares them)."""
+    pm = QPixmap(size, size)
+    pm.fill(Qt.GlobalColor.transparent)
+    p = QPainter(pm)
+    p.setRenderHint(QPainter.RenderHint.Antialiasing)
+    p.setBrush(QColor("#1f5fd6"))
+    p.setPen(Qt.PenStyle.NoPen)
+    p.drawEllipse(0, 0, size, size)
+    path = QPainterPath()
+    pts = [(0.12, 0.62), (0.3, 0.58), (0.42, 0.66), (0.55, 0.3), (0.68, 0.22), (0.88, 0.6)]
+    path.moveTo(QPointF(pts[0][0] * size, pts[0][1] * size))
+    for x, y in pts[1:]:
+        path.lineTo(QPointF(x * size, y * size))
+    p.setPen(QPen(QColor("#3ddc5a"), max(1.5, size / 14)))
+    p.setBrush(Qt.BrushStyle.NoBrush)
+    p.drawPath(path)
+    p.end()
+    return pm
+
+
 def app_icon() -> QIcon:
-    """A small drawn icon (a knee-angle trace on a disc); no asset files needed."""
-    icon = QIcon()
-    for size in (16, 32, 64, 128, 256):
-        pm = QPixmap(size, size)
-        pm.fill(Qt.GlobalColor.transparent)
-        p = QPainter(pm)
-        p.setRenderHint(QPainter.RenderHint.Antialiasing)
-        p.setBrush(QColor("#1f5fd6"))
-        p.setPen(Qt.PenStyle.NoPen)
-        p.drawEllipse(0, 0, size, size)
-        path = QPainterPath()
-        pts = [(0.12, 0.62), (0.3, 0.58), (0.42, 0.66), (0.55, 0.3), (0.68, 0.22), (0.88, 0.6)]
-        path.moveTo(QPointF(pts[0][0] * size, pts[0][1] * size))
-        for x, y in pts[1:]:
-            path.lineTo(QPointF(x * size, y * size))
-        p.setPen(QPen(QColor("#3ddc5a"), max(1.5, size / 14)))
-        p.setBrush(Qt.BrushStyle.NoBrush)
-        p.drawPath(path)
-        p.end()
-        icon.addPixmap(pm)
+    """The windows' icon: the shipped file (the one the desktop entry names), drawn only if
+    the file is missing or unreadable."""
+    icon = QIcon(str(desktop.ICON_PNG))
+    if icon.isNull() or not icon.availableSizes():
+        icon = QIcon()
+        for size in (16, 32, 64, 128, 256):
+            icon.addPixmap(draw_icon(size))
     return icon
-
-
-def _setup_logging() -> Path | None:
-    folder = QStandardPaths.writableLocation(QStandardPaths.StandardLocation.AppDataLocation)
-    if not folder:
-        return None
-    path = Path(folder) / "gaitmon.log"
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        handler = logging.FileHandler(path, encoding="utf-8")
-    except OSError:
-        return None
-    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
-    root = logging.getLogger("gaitmon")
-    root.addHandler(handler)
-    root.setLevel(logging.INFO)
-    root.propagate = False  # tracebacks go to the log file, not the terminal
-    return path
 
 
 _gc: GarbageCollector | None = None  # one per process, made with the application
@@ -70,7 +63,8 @@ def make_application(program: str, logger: logging.Logger = log) -> QApplication
     """The QApplication a gaitmon window runs in (the one already made, if any), set up.
 
     High-DPI pass-through scaling, the organisation and application names (they place
-    ``QSettings``), the drawn icon, the log file, and an excepthook: an exception escaping a Qt
+    ``QSettings``), the icon and desktop entry's name (:mod:`gaitmon.ui.desktop`), the log
+    file (:mod:`gaitmon.logs`), and an excepthook: an exception escaping a Qt
     virtual (paint, event) is logged to ``logger`` with its traceback and printed as one line,
     ``PROGRAM: internal error: ...``. No application display name is set: Qt would append it
     to every window title ("gaitmon — live monitor — gaitmon").
@@ -83,7 +77,10 @@ def make_application(program: str, logger: logging.Logger = log) -> QApplication
     app.setOrganizationName("gaitmon")
     app.setApplicationName("gaitmon")
     app.setWindowIcon(app_icon())
-    log_path = _setup_logging()
+    # ties the windows to gaitmon.desktop (the taskbar's icon and name on Wayland and X11)
+    QGuiApplication.setDesktopFileName(desktop.DESKTOP_ID)
+    # the command line's log (gaitmon.logs) when it set one up, else the same file now
+    log_path = logs.current_file() or logs.setup()
 
     def excepthook(kind: type[BaseException], exc: BaseException, tb: TracebackType | None) -> None:
         # an exception escaping a Qt virtual (paint, event) must not print a traceback

@@ -1,4 +1,4 @@
-"""C3D export through ezc3d: angles as POINTs, raw channels as ANALOGs, gait events as EVENTs.
+"""C3D export: angles as POINTs, raw channels as ANALOGs, gait events as EVENTs.
 
 Joint angles (and segment tilts) are POINTs of type angle, the 14 ADC channels in physical
 units are ANALOGs, gait events and markers go in the EVENT group. Rows are placed on a uniform

@@ -9,10 +9,11 @@ ranges (and their times, for a human reader), plus the recording's ``created_utc
 mistake. Written atomically (temporary file, then ``os.replace``).
 
 When the recording's folder cannot be written (a read-only share, a write-protected card), the
-same file goes to the user's gaitmon data folder instead (``$XDG_DATA_HOME/gaitmon/exclusions``,
-by default ``~/.local/share/gaitmon/exclusions``), named after the recording and a hash of its
-full path; every reader looks there when there is no side file, so the command line still sees
-what the review window kept.
+same file goes to the user's gaitmon data folder instead (:func:`gaitmon.paths.user_data_dir`,
+``exclusions`` in it: ``$XDG_DATA_HOME/gaitmon/exclusions``, by default
+``~/.local/share/gaitmon/exclusions``, on Linux; under ``%LOCALAPPDATA%`` on Windows), named
+after the recording and a hash of its full path; every reader looks there when there is no side
+file, so the command line still sees what the review window kept.
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
+
+from gaitmon import paths
 
 if TYPE_CHECKING:
     import numpy as np
@@ -100,9 +103,8 @@ def subtract(ranges: list[Exclusion], start: int, stop: int) -> list[Exclusion]:
 def user_store_path(path: str | os.PathLike[str]) -> Path:
     """Where the exclusions go when the recording's folder cannot be written."""
     p = Path(path)
-    base = Path(os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share")
     key = hashlib.sha256(str(p.resolve()).encode("utf-8")).hexdigest()[:16]
-    return base / "gaitmon" / "exclusions" / f"{p.name}.{key}.review.json"
+    return paths.user_data_dir() / "exclusions" / f"{p.name}.{key}.review.json"
 
 
 def stored_path(path: str | os.PathLike[str]) -> Path:

@@ -1,0 +1,86 @@
+"""The log of the command line and the windows: one rotating file in the user's log folder.
+
+:func:`setup` is called by ``gaitmon`` (every subcommand and the windows) before anything else
+runs. The file (:func:`gaitmon.paths.log_file`, ``~/.local/state/gaitmon/log/gaitmon.log`` on
+Linux) keeps INFO and up with times and, for an internal error, its traceback; it rotates at
+1 MB keeping 3 old files. The terminal gets warnings as their one-line message (as Python's
+own last-resort handler printed them before), INFO too with ``--verbose``, and never a
+traceback: a record that carries one, or that its caller has shown in its own line already
+(``extra={"shown": True}``), stays in the file.
+"""
+
+from __future__ import annotations
+
+import logging
+import logging.handlers
+import sys
+from pathlib import Path
+
+from gaitmon import paths
+
+ROOT = "gaitmon"
+MAX_BYTES = 1_000_000
+BACKUPS = 3
+_OURS = "_gaitmon_handler"  # marks the handlers setup() added, so a second call replaces them
+
+
+class _TerminalFilter(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not record.exc_info and not getattr(record, "shown", False)
+
+
+class _Terminal(logging.StreamHandler):  # type: ignore[type-arg]
+    """The terminal as it is when a record comes, not when :func:`setup` ran (a test's captured
+    stderr, replaced and closed since, must not be written to)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.stream = sys.stderr  # under the handler's lock (Handler.handle)
+        super().emit(record)
+
+
+class _MessageOnly(logging.Formatter):
+    def format(self, record: logging.LogRecord) -> str:
+        return " ".join(record.getMessage().split())  # one line, no traceback
+
+
+def setup(verbose: bool = False) -> Path | None:
+    """Log ``gaitmon.*`` to the file (INFO) and the terminal (WARNING, INFO with ``verbose``);
+    the file's path, or None when it cannot be written (a read-only home: the terminal only).
+    Calling again (a second command in one process, a window after the command line) replaces
+    what the last call set up."""
+    root = logging.getLogger(ROOT)
+    for h in [h for h in root.handlers if getattr(h, _OURS, False)]:
+        root.removeHandler(h)
+        h.close()
+    root.setLevel(logging.INFO)
+    root.propagate = False  # ours alone: no traceback through the root logger's handlers
+    terminal = _Terminal(sys.stderr)
+    terminal.setLevel(logging.INFO if verbose else logging.WARNING)
+    terminal.addFilter(_TerminalFilter())
+    terminal.setFormatter(_MessageOnly())
+    _add(root, terminal)
+    try:
+        path = paths.log_file()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handler = logging.handlers.RotatingFileHandler(
+            path, maxBytes=MAX_BYTES, backupCount=BACKUPS, encoding="utf-8", delay=True
+        )
+    except (OSError, ModuleNotFoundError):
+        return None
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    handler.setLevel(logging.INFO)
+    _add(root, handler)
+    return path
+
+
+def current_file() -> Path | None:
+    """The file :func:`setup` logs to, if it did."""
+    for h in logging.getLogger(ROOT).handlers:
+        if getattr(h, _OURS, False) and isinstance(h, logging.FileHandler):
+            return Path(h.baseFilename)
+    return None
+
+
+def _add(root: logging.Logger, handler: logging.Handler) -> None:
+    setattr(handler, _OURS, True)
+    root.addHandler(handler)
