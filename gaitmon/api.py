@@ -252,7 +252,7 @@ class Recording:
         * ``"strides"``: :meth:`strides`, indexed by each stride's start;
         * ``"gaps"``, ``"markers"``: :meth:`gaps`, :meth:`markers`, indexed by ``t_s``.
 
-        pandas is not installed with gaitmon (``pip install pandas``).
+        pandas is not installed with gaitmon (``pip install 'gaitmon[pandas]'``).
 
         >>> with gaitmon.open(path) as rec:
         ...     df = rec.to_data_frame("angles")
@@ -307,7 +307,8 @@ def _pandas() -> Any:
         import pandas  # type: ignore[import-untyped,import-not-found,unused-ignore]
     except ImportError:
         raise ModuleNotFoundError(
-            "to_data_frame needs pandas, which gaitmon does not install: pip install pandas"
+            "to_data_frame needs pandas, which gaitmon does not install: "
+            "pip install 'gaitmon[pandas]'"
         ) from None
     return pandas
 
