@@ -12,8 +12,13 @@ import resource
 import signal
 import subprocess
 import sys
+import threading
+import time
 
+import numpy as np
 import pytest
+
+from gaitmon.commands.record_units import frames_lost
 
 GAITMON = [sys.executable, "-m", "gaitmon"]
 
@@ -43,3 +48,123 @@ def test_a_disk_full_at_creation_is_one_line_exit_2_and_leaves_nothing(tmp_path,
     assert lines[0].startswith("gaitmon record: error: cannot create g.h5: "), lines
     assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == []  # no file, no journal
+
+
+# -- item 9: frames dropped by a full recorder queue ---------------------------------------------
+
+
+class _StalledDisk:
+    """SessionWriter.append waits (as on a stalled disk) until released, once the file holds
+    ``after_rows`` rows."""
+
+    def __init__(self, monkeypatch, after_rows: int) -> None:
+        from gaitmon.io.session import SessionWriter
+
+        self.real = SessionWriter.append
+        self.stalled = threading.Event()
+        self.go = threading.Event()
+        stall = self
+
+        def append(self, *a, **kw):
+            if not stall.go.is_set() and self.rows >= after_rows:
+                stall.stalled.set()
+                stall.go.wait(30)
+            return stall.real(self, *a, **kw)
+
+        monkeypatch.setattr(SessionWriter, "append", append)
+
+
+QUEUE_FULL = "frames lost: recorder queue full"
+
+
+@pytest.mark.timeout(120)
+def test_every_frame_a_full_recorder_queue_dropped_is_reported_with_its_cause(
+    tmp_path, monkeypatch, capsys
+):
+    from helpers import make_engine, wait_for
+
+    from gaitmon.finish import open_session
+
+    _unit, eng = make_engine(seed=2, standing_s=1.0, recorder_queue_blocks=3)
+    out = tmp_path / "overflow.h5"
+    with eng:
+        wait_for(lambda: eng.samples_total >= 300, what="data")
+        disk = _StalledDisk(monkeypatch, after_rows=200)
+        eng.start_recording(out)
+        wait_for(disk.stalled.is_set, what="the stall")
+        wait_for(lambda: eng.recording.dropped_blocks >= 20, what="dropped blocks")
+        disk.go.set()
+        rows = eng.recording.rows
+        wait_for(lambda: eng.recording.rows >= rows + 1500, what="rows after")
+        status = eng.stop_recording()
+    assert status.error == ""
+    with open_session(out) as s:
+        seq = np.asarray(s.read("timeline/seq"), np.int64)
+        gaps = s.gaps
+    # counted independently: the unit's frame numbers the file skips (the in-process link
+    # loses nothing, so every missing frame is one the recorder dropped)
+    missing = int((np.diff(seq) - 1).sum())
+    assert missing >= 20 * 8, missing  # the stall really dropped frames
+    # the file's gaps, the status (the live window's REC line) and the record command's final
+    # line all give that number, with its cause
+    assert all(g.reason == QUEUE_FULL for g in gaps), sorted({g.reason for g in gaps})
+    assert sum(g.n_lost for g in gaps) == missing
+    assert status.dropped_frames == missing, (status, missing)
+    line = frames_lost(eng.device.stats, status)
+    assert line == f"{missing} frames lost ({missing} recorder queue full)", line
+    from gaitmon.cli import main
+
+    assert main(["info", str(out)]) == 0
+    info = capsys.readouterr().out
+    assert f"{missing} frames lost in " in info and f"({missing} recorder queue full)" in info
+
+
+@pytest.mark.timeout(120)
+def test_frames_the_receive_queue_dropped_are_gaps_of_their_own_cause(tmp_path):
+    # the engine thread stalls for 2.5 s (a busy machine) while the unit streams at 20x: the
+    # Device's queue of 1000 frames (0.5 s) overflows; its drops were gaps "frames lost" and the record
+    # command's line said "0 frames lost"
+    from helpers import wait_for
+
+    from gaitmon.engine import Engine
+    from gaitmon.engine.rows import RECEIVE_QUEUE_FULL
+    from gaitmon.finish import open_session
+    from gaitmon.io.device import Device
+    from gaitmon.io.sim import GaitConfig, SimulatedUnit
+    from gaitmon.io.transport import InProcessTransport
+
+    unit = SimulatedUnit(GaitConfig(seed=4, standing_s=1.0), speed=20.0)
+    eng = Engine(Device(InProcessTransport(unit), max_queued_frames=1000), "raw",
+                 transport_label="simulated")  # fmt: skip
+    out = tmp_path / "busy.h5"
+    stalled = threading.Event()
+    with eng:
+        wait_for(lambda: eng.samples_total >= 300, what="data")
+        before = eng.device.stats.queue_overflow_frames
+        eng.start_recording(out)
+        wait_for(lambda: eng.recording.rows >= 500, what="rows")
+        real = eng._pipeline.process
+
+        def process(adc, *rest):
+            if not stalled.is_set():
+                stalled.set()
+                time.sleep(2.5)
+            return real(adc, *rest)
+
+        eng._pipeline.process = process
+        wait_for(lambda: eng.device.stats.queue_overflow_frames > before + 500, what="overflow")
+        n = eng.recording.rows
+        wait_for(lambda: eng.recording.rows >= n + 500, what="rows after")
+        status = eng.stop_recording()
+        link = eng.device.stats
+    assert status.error == "" and status.dropped_frames == 0
+    with open_session(out) as s:
+        seq = np.asarray(s.read("timeline/seq"), np.int64)
+        gaps = s.gaps
+    missing = int((np.diff(seq) - 1).sum())
+    assert missing > 500
+    assert {g.reason for g in gaps} == {RECEIVE_QUEUE_FULL}
+    assert sum(g.n_lost for g in gaps) == missing
+    dropped = link.queue_overflow_frames - before
+    assert dropped == missing, (dropped, missing)
+    assert frames_lost(link, status).endswith("receive queue full)")

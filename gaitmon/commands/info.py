@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections import Counter
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis, SessionAnalysis
     from gaitmon.finish import Session
     from gaitmon.finish.bilateral import Bilateral
+    from gaitmon.io.session.series import Gap
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -85,7 +86,8 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     lines += [
         f"  device       {dev.get('name', '?')} firmware {dev.get('firmware', '?')} serial "
         f"{dev.get('serial') or '-'} via {dev.get('transport') or '-'}",
-        f"  link         {count(lost, 'frame')} lost in {count(len(s.gaps), 'gap')}, "
+        f"  link         {count(lost, 'frame')} lost in {count(len(s.gaps), 'gap')}"
+        f"{_dropped_here(s.gaps)}, "
         f"{count(s.link.get('crc_failures', 0), 'CRC failure')}, "
         f"{count(s.link.get('reconnects', 0), 'reconnect')}",
     ]
@@ -284,3 +286,14 @@ def _both_legs_lines(an: BilateralAnalysis, missing: Iterable[str] = ()) -> list
         " (0 % symmetric)"
     )
     return lines
+
+
+def _dropped_here(gaps: Sequence[Gap]) -> str:
+    """" (N recorder queue full, M receive queue full)": the frames of those gaps this computer
+    received and did not keep, by cause ("" if none)."""
+    by_cause = Counter[str]()
+    for g in gaps:
+        if g.reason.endswith("queue full"):
+            by_cause[g.reason.removeprefix("frames lost: ")] += g.n_lost
+    return f" ({', '.join(f'{n} {why}' for why, n in by_cause.items())})" if by_cause else ""
+

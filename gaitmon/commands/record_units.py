@@ -21,6 +21,7 @@ from gaitmon.text import count
 if TYPE_CHECKING:
     from gaitmon.engine import Engine, RecordingStatus
     from gaitmon.engine.pair import EngineGroup
+    from gaitmon.io.device import LinkStats
     from gaitmon.io.sim.unit import SimulatedUnit
     from gaitmon.io.transport import Transport
 
@@ -163,7 +164,7 @@ def summary_lines(group: EngineGroup, statuses: Mapping[str, RecordingStatus],
     for side, eng in group.engines.items():
         link = eng.device.stats
         lost[side] = (
-            f"{count(link.decoder.frames_lost, 'frame')} lost, "
+            f"{frames_lost(link, statuses[side])}, "
             f"{count(link.decoder.crc_failures, 'CRC failure')}, "
             f"{count(link.reconnects, 'reconnect')}"
         )
@@ -175,6 +176,21 @@ def summary_lines(group: EngineGroup, statuses: Mapping[str, RecordingStatus],
         *(f"{side} {count(statuses[side].rows, 'frame')}, {lost[side]}" for side in group.sides),
         f"wrote both legs to {out} ({out.stat().st_size / 1e6:.1f} MB)",
     ]
+
+
+def frames_lost(link: LinkStats, status: RecordingStatus) -> str:
+    """"N frames lost", and where this computer dropped some of them, how many and why (a
+    receive queue nobody read fast enough, a recorder queue a stalled disk did not empty):
+    each is a gap in the file with that reason."""
+    on_link = link.decoder.frames_lost
+    causes = [(link.queue_overflow_frames, "receive queue full"),
+              (status.dropped_frames, "recorder queue full")]  # fmt: skip
+    total = on_link + sum(n for n, _ in causes)
+    text = f"{count(total, 'frame')} lost"
+    if total == on_link:
+        return text
+    parts = [f"{n} {why}" for n, why in [(on_link, "on the link"), *causes] if n]
+    return f"{text} ({', '.join(parts)})"
 
 
 def engine_of_one(group: EngineGroup) -> Engine:
