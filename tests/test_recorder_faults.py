@@ -122,8 +122,8 @@ def test_every_frame_a_full_recorder_queue_dropped_is_reported_with_its_cause(
 @pytest.mark.timeout(120)
 def test_frames_the_receive_queue_dropped_are_gaps_of_their_own_cause(tmp_path):
     # the engine thread stalls for 2.5 s (a busy machine) while the unit streams at 20x: the
-    # Device's queue of 1000 frames (0.5 s) overflows; its drops were gaps "frames lost" and the record
-    # command's line said "0 frames lost"
+    # Device's queue of 1000 frames (0.5 s) overflows; its drops were gaps "frames lost" and
+    # the record command's line said "0 frames lost"
     from helpers import wait_for
 
     from gaitmon.engine import Engine
