@@ -92,7 +92,7 @@ from gaitmon.io.sim.clock import CrystalClock
 from gaitmon.io.sim.faults import FaultConfig, FaultLedger, LedgerEntry, flip_bits
 from gaitmon.io.sim.ground_truth import GroundTruth as GroundTruth  # re-exported
 from gaitmon.io.sim.ground_truth import ground_truth
-from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
+from gaitmon.io.sim.kinematics import GaitConfig, GaitModel, StrideTruth
 from gaitmon.io.sim.sensors import SensorBlock, SensorConfig, SensorModel
 
 DEVICE_NAME = "gaitmon-sim"
@@ -347,6 +347,14 @@ class SimulatedUnit:
                 np.array(self._log_sample, dtype=np.int64),
                 np.array(self._log_kind, dtype=np.uint8),
             )
+
+    def true_events(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, StrideTruth]:
+        """(heel strikes, toe-offs, the strides they open) in samples start .. stop-1: the
+        events of :meth:`truth` without the per-sample motion (a long record's events are
+        gathered piece by piece, gaitmon.io.sim.truth)."""
+        with self._lock:
+            hs, to = self.gait.events(start, stop)
+            return hs, to, self.gait.strides(start, stop)
 
     def truth(self, start: int = 0, stop: int | None = None) -> GroundTruth:
         """True motion for samples start .. stop-1 (default: everything produced so far)."""
