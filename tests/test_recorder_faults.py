@@ -168,3 +168,23 @@ def test_frames_the_receive_queue_dropped_are_gaps_of_their_own_cause(tmp_path):
     dropped = link.queue_overflow_frames - before
     assert dropped == missing, (dropped, missing)
     assert frames_lost(link, status).endswith("receive queue full)")
+
+
+def test_the_live_window_rec_line_says_the_frames_not_saved_and_why(qtbot):
+    # it said "22 blocks NOT saved": blocks are the engine's, of any size; the file's gaps count
+    # frames
+    from PySide6.QtWidgets import QStatusBar
+
+    from gaitmon.engine import RecordingStatus
+    from gaitmon.ui.live.status import StatusView
+    from gaitmon.ui.theme import current_colours
+
+    bar = QStatusBar()
+    qtbot.addWidget(bar)
+    view = StatusView(bar, current_colours())
+    view.show_recording(RecordingStatus(active=True, path="/tmp/walk.h5", rows=5000,
+                                        dropped_blocks=22, dropped_frames=1579))  # fmt: skip
+    text = view.rec_label.text()
+    assert "1579 frames NOT saved (recorder queue full)" in text, text
+    view.show_recording(RecordingStatus(active=True, path="/tmp/walk.h5", rows=5000))
+    assert "NOT saved" not in view.rec_label.text()
