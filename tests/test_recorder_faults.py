@@ -188,3 +188,24 @@ def test_the_live_window_rec_line_says_the_frames_not_saved_and_why(qtbot):
     assert "1579 frames NOT saved (recorder queue full)" in text, text
     view.show_recording(RecordingStatus(active=True, path="/tmp/walk.h5", rows=5000))
     assert "NOT saved" not in view.rec_label.text()
+
+
+def test_the_stop_waits_longer_for_a_longer_recording_to_finish():
+    # a flat 30 s: an 8-hour --speed max recording on a loaded machine was "not finished after
+    # 30 s" while its close was still working, and the process hung at exit
+    from types import SimpleNamespace
+
+    from gaitmon.commands.record import FINISH_S_PER_H, STOP_ONE_S, stop_timeout_s
+    from gaitmon.engine.pair import STOP_TIMEOUT_S
+
+    def group(rows: list[int], in_parts: bool):
+        engines = {str(i): SimpleNamespace(recording=SimpleNamespace(rows=r), fs_hz=100.0)
+                   for i, r in enumerate(rows)}  # fmt: skip
+        return SimpleNamespace(engines=engines, in_parts=in_parts)
+
+    assert stop_timeout_s(group([0], False)) == STOP_ONE_S
+    assert stop_timeout_s(group([8 * 360_000], False)) == pytest.approx(
+        STOP_ONE_S + 8 * FINISH_S_PER_H)
+    assert stop_timeout_s(group([360_000, 2 * 360_000], True)) == pytest.approx(
+        STOP_TIMEOUT_S + 2 * FINISH_S_PER_H)
+    assert 8 * FINISH_S_PER_H >= 8 * 60  # an hour's close took 15 CPU s loaded: 4x margin
