@@ -41,21 +41,24 @@ def attach_ground_truth(path: str | Path, unit: SimulatedUnit,
                         block_rows: int = TRUTH_BLOCK_ROWS) -> int:  # fmt: skip
     """Write ``/truth`` into a finished session file, ``block_rows`` rows at a time; returns
     the number of rows mapped."""
-    frame_no, sample_idx, _ = unit.frame_log()
+    frame_no, sample_idx, _ = unit.frame_log(copy=False)  # the unit produces no more
     with read_stored(Path(path)) as s:
         n = s.n_samples
-        samples = np.concatenate([np.empty(0, np.int64), *(
-            _samples_of(s.read_range(a, a + block_rows, ["timeline/seq"])["timeline/seq"],
-                        frame_no, sample_idx)
-            for a in range(0, n, block_rows))])  # fmt: skip
+        samples = np.empty(n, np.int64)
+        for a in range(0, n, block_rows):
+            seq = s.read_range(a, a + block_rows, ["timeline/seq"])["timeline/seq"]
+            samples[a : a + len(seq)] = _samples_of(seq, frame_no, sample_idx)
     del frame_no, sample_idx
     valid = samples >= 0
-    if not valid.any():
+    n_valid = int(valid.sum())
+    if not n_valid:
         return 0
-    valid_rows = np.flatnonzero(valid)
-    recorded = samples[valid_rows]
-    lo, hi = int(recorded.min()), int(recorded.max()) + 1
+    # the rows mapped and their samples (every row, usually: then no copies)
+    valid_rows = None if n_valid == n else np.flatnonzero(valid)
+    recorded = samples if valid_rows is None else samples[valid_rows]
     del valid
+    lo, hi = int(recorded.min()), int(recorded.max()) + 1
+
     # the events and the strides they open, piece by piece over the samples (each stride is
     # one heel strike's: the pieces partition them)
     parts = [unit.true_events(a, min(a + block_rows, hi)) for a in range(lo, hi, block_rows)]
@@ -66,8 +69,9 @@ def attach_ground_truth(path: str | Path, unit: SimulatedUnit,
     events: dict[str, np.ndarray] = {}
     for name, ev in (("heel_strike", hs), ("toe_off", to)):
         k = np.searchsorted(recorded, ev)  # first recorded row at/after each event
-        events[name] = valid_rows[k[k < len(valid_rows)]].astype(np.int64)
-    kept = np.searchsorted(recorded, hs) < len(valid_rows)  # the stride each recorded hs opens
+        k = k[k < n_valid]
+        events[name] = (k if valid_rows is None else valid_rows[k]).astype(np.int64)
+    kept = np.searchsorted(recorded, hs) < n_valid  # the stride each recorded hs opens
     del valid_rows, recorded, parts
     with truth_writer(path, np.degrees(unit.truth(0, 0).mount_offset_rad)) as g:
         g.put("sample_idx", samples)
@@ -79,7 +83,7 @@ def attach_ground_truth(path: str | Path, unit: SimulatedUnit,
             g.put(name, data)
         for name, data in strides.items():
             g.put(name, data[kept])
-        return int((samples >= 0).sum())
+        return n_valid
 
 
 _PER_ROW = {"tilt_deg": 4, "joint_deg": 3, "gyro_bias_rad_s": 4}

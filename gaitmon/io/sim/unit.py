@@ -339,9 +339,15 @@ class SimulatedUnit:
             if down:
                 self._discard_queue()
 
-    def frame_log(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(frame_no, sample_idx, kind) of every data frame produced, delivered or not."""
+    def frame_log(self, copy: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(frame_no, sample_idx, kind) of every data frame produced, delivered or not.
+        ``copy=False``: views of the log itself (no copy of 17 bytes a frame), for a unit that
+        produces no more (its log cannot grow while they are held)."""
         with self._lock:
+            if not copy:
+                return (np.frombuffer(self._log_frame, dtype=np.int64),
+                        np.frombuffer(self._log_sample, dtype=np.int64),
+                        np.frombuffer(self._log_kind, dtype=np.uint8))  # fmt: skip
             return (
                 np.array(self._log_frame, dtype=np.int64),
                 np.array(self._log_sample, dtype=np.int64),
