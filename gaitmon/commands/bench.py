@@ -35,7 +35,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--lengths",
         default=None,
-        help="session lengths for --suite offline, size and memory (default 1min,10min,1h,8h; "
+        help="session lengths for --suite offline, size and memory (1min, 10min, 20min, 1h, 2h, "
+        "8h; default 1min,10min,1h,8h; "
         "memory: 1h,8h and one run unless --lengths / --repeat are given)",
     )
     p.add_argument(
@@ -43,7 +44,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="",
         help="--suite offline: comma-separated of info, csv, mat, c3d, report (each with its "
         "reference); --suite memory: of its tasks (ref_floor, ref_raw, review, process, "
-        "recover, info, report, close); default: all",
+        "recover, info, report, close, record); default: all",
     )
 
 

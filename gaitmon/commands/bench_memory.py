@@ -16,6 +16,12 @@ format by the recorder itself). What is measured:
   else close computes): the freed memory is returned to the system (``malloc_trim``) and the
   peak counter reset just before the close, so the figure is the close's peak over what the
   process holds then (given beside it);
+* ``record``: the real path, ``gaitmon record --simulate --speed max --duration L`` run by the
+  command's own code in the child: its peak while recording, then (the peak counter reset
+  where the command stops its engines, ``EngineGroup.stop``: the same Stop as the live
+  window's, the recorder's close with ``/smoothed`` and ``/strides``, then the simulator's
+  ``/truth``) its peak while finishing. Issue 26: ``close`` above reported 316 MB for 8 h
+  while ``record`` peaked at 919 MB finishing 1 h (the simulator's truth, then computed whole);
 
 and the references, in the same run:
 
@@ -51,6 +57,7 @@ TASKS: tuple[tuple[str, str], ...] = (
     ("info", "gaitmon info"),
     ("report", "gaitmon report (PDF)"),
     ("close", "recorder close (smoother + overview)"),
+    ("record", "gaitmon record --simulate --speed max: finishing (from its Stop)"),
 )
 
 
@@ -155,6 +162,56 @@ def _close(name: str, out: Path) -> dict[str, float]:
     return {"cpu_s": cpu, "rss_mb": rss, "recording_rss_mb": recording, "before_close_mb": before}
 
 
+def record_phases(seconds: float, path: Path, extra: tuple[str, ...] = ()) -> dict[str, object]:
+    """``gaitmon record --simulate --speed max --duration SECONDS -o PATH`` run by the
+    command's own code in this process: its exit status and stderr lines, its peak RSS while
+    recording (``recording_rss_mb``, to the command's Stop) and from the Stop on (``rss_mb``:
+    the peak counter is reset where the command stops its engines, ``EngineGroup.stop``), and
+    the CPU seconds of finishing. Also the fault suite's soak (benchmarks/faults/recorder.py)."""
+    import contextlib
+    import io
+
+    from gaitmon.commands import record, run_command
+    from gaitmon.engine.pair import EngineGroup
+
+    phases: dict[str, float] = {}
+    stop = EngineGroup.stop
+
+    def stop_here(self: EngineGroup, *a: object, **kw: object) -> object:
+        if "recording_rss_mb" not in phases:  # the first stop ends the recording
+            phases["recording_rss_mb"] = _peak_rss_mb()
+            phases["at_stop_mb"] = _rss_mb()
+            if not _reset_peak():
+                raise RuntimeError("cannot reset the peak RSS counter (/proc/self/clear_refs)")
+            phases["t0"] = time.process_time()
+        return stop(self, *a, **kw)  # type: ignore[arg-type]
+
+    EngineGroup.stop = stop_here  # type: ignore[method-assign,assignment]
+    argv = ["--simulate", "--speed", "max", "--duration", f"{seconds:g}", "-o", str(path),
+            "--force", "--quiet", *extra]  # fmt: skip
+    try:
+        with contextlib.redirect_stderr(io.StringIO()) as err:
+            rc = run_command(record.add_arguments, record.run, argv)
+    finally:
+        EngineGroup.stop = stop  # type: ignore[method-assign]
+    cpu = time.process_time() - phases.pop("t0", time.process_time())
+    rss = _peak_rss_mb()
+    return {"rc": rc, "stderr": err.getvalue().strip().splitlines(), "cpu_s": cpu,
+            "rss_mb": rss, **phases}  # fmt: skip
+
+
+def _record(name: str, out: Path) -> dict[str, float]:
+    """``record_phases`` of ``name``: the finishing peak beside the recording's."""
+    path = out / "recorded.h5"
+    got = record_phases(LENGTHS_H[name] * 3600.0, path)
+    if got["rc"] != 0:
+        raise RuntimeError(f"gaitmon record failed: {got['stderr']}")
+    path.unlink()
+    res = {k: float(v) for k, v in got.items() if isinstance(v, (int, float)) and k != "rc"}
+    res["over_recording_mb"] = res["rss_mb"] - res["recording_rss_mb"]
+    return res
+
+
 def _task(task: str, name: str, out: Path) -> dict[str, float]:
     import contextlib
     import io
@@ -169,6 +226,8 @@ def _task(task: str, name: str, out: Path) -> dict[str, float]:
         return {"cpu_s": time.process_time(), "rss_mb": _peak_rss_mb()}
     if task == "close":
         return _close(name, out)
+    if task == "record":
+        return _record(name, out)
     if task == "recover":
         from gaitmon.io.journal import journal_path
 
@@ -238,7 +297,8 @@ def suite(lengths: list[str], repeat: int, only: set[str] | None = None) -> int:
         outdir = Path(d)
         for name in lengths:
             t0 = time.perf_counter()
-            session(name)
+            if any(t not in ("ref_floor", "close", "record") for t, _ in tasks):
+                session(name)
             if any(t == "recover" for t, _ in tasks):
                 interrupted(name)
             print(f"  sessions {name} ready in {time.perf_counter() - t0:.1f} s", flush=True)
@@ -271,6 +331,11 @@ def suite(lengths: list[str], repeat: int, only: set[str] | None = None) -> int:
         if task == "close":
             row("  (its process just before the close: the writer, the bench's simulator)",
                 "before_close_mb", task)
+        if task == "record":
+            row("  (the same process while recording: its peak to the Stop)",
+                "recording_rss_mb", task)
+            row("  finishing over recording (goal: flat with the length)", "over_recording_mb",
+                task)
     print(f"at the end: {load_average()}")
     return 0
 

@@ -36,7 +36,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-LENGTHS_H: dict[str, float] = {"1min": 1 / 60, "10min": 1 / 6, "1h": 1.0, "8h": 8.0}
+LENGTHS_H: dict[str, float] = {"1min": 1 / 60, "10min": 1 / 6, "20min": 1 / 3, "1h": 1.0,
+                              "2h": 2.0, "8h": 8.0}
 # (task, reference task or "" for none, what the line says)
 ROWS: tuple[tuple[str, str, str], ...] = (
     ("info", "", "info"),

@@ -43,26 +43,49 @@ def progress_printer(label: str) -> Callable[[float], None]:
 
 @dataclass(frozen=True)
 class LinkCounts:
-    """What a recording lost on its link, as its file states it: the frames of its gaps, the
-    CRC failures and reconnects of its ``/link``. ``gaitmon info`` and the closing line of
-    ``gaitmon record`` both say these (the link's own totals also count what it lost before
-    the recording started and after it stopped)."""
+    """What a recording lost, as its file states it: the frames of its gaps (with those this
+    computer received and did not keep, by cause: a receive queue nobody read fast enough, a
+    recorder queue a stalled disk did not empty), the CRC failures and reconnects of its
+    ``/link``. ``gaitmon info`` and the closing line of ``gaitmon record`` both say these (the
+    link's own totals also count what it lost before the recording started and after it
+    stopped)."""
 
     frames_lost: int
     gaps: int
     crc_failures: int
     reconnects: int
     implausible_frames: int = 0  # CRC-valid frames the decoder dropped (a false CRC accept)
+    dropped_here: tuple[tuple[str, int], ...] = ()  # (cause, frames): "recorder queue full"
 
     @classmethod
     def of(cls, s: Session) -> LinkCounts:
+        by_cause = Counter[str]()
+        for g in s.gaps:
+            if g.reason.endswith("queue full"):
+                by_cause[g.reason.removeprefix("frames lost: ")] += g.n_lost
         return cls(sum(g.n_lost for g in s.gaps), len(s.gaps), s.link.get("crc_failures", 0),
-                   s.link.get("reconnects", 0), int(s.link.get("implausible_frames", 0)))
+                   s.link.get("reconnects", 0), int(s.link.get("implausible_frames", 0)),
+                   tuple(by_cause.items()))  # fmt: skip
+
+    def _causes(self) -> list[str]:
+        return [f"{n} {why}" for why, n in self.dropped_here]
 
     def text(self) -> str:
-        """"N frames lost in G gaps, C CRC failures, [I implausible frames, ]R reconnects"."""
-        return (f"{count(self.frames_lost, 'frame')} lost in {count(self.gaps, 'gap')}, "
+        """"N frames lost in G gaps[ (b recorder queue full)], C CRC failures, [I implausible
+        frames, ]R reconnects" (``gaitmon info``'s link line)."""
+        here = f" ({', '.join(self._causes())})" if self.dropped_here else ""
+        return (f"{count(self.frames_lost, 'frame')} lost in {count(self.gaps, 'gap')}{here}, "
                 + self.units_text())
+
+    def lost_text(self) -> str:
+        """"N frames lost[ (a on the link, b receive queue full, c recorder queue full)]"
+        (``gaitmon record``'s closing line)."""
+        text = f"{count(self.frames_lost, 'frame')} lost"
+        if not self.dropped_here:
+            return text
+        on_link = self.frames_lost - sum(n for _, n in self.dropped_here)
+        parts = ([f"{on_link} on the link"] if on_link else []) + self._causes()
+        return f"{text} ({', '.join(parts)})"
 
     def units_text(self) -> str:
         """What follows the frames lost: "C CRC failures, [I implausible frames, ]R reconnects"."""
@@ -316,3 +339,4 @@ def _both_legs_lines(an: BilateralAnalysis, missing: Iterable[str] = ()) -> list
         " (0 % symmetric)"
     )
     return lines
+

@@ -52,7 +52,12 @@ STALL_S = 10.0
 STALL_PORT_S = 30.0
 # How long the stop waits for the recorder to finish a one-unit file before it says so (as
 # `Engine.stop_recording`); the parts of both legs get `EngineGroup.stop`'s longer default.
+# Finishing computes over the whole recording (the smoother, /strides, /overview: ~15 CPU s an
+# hour on a loaded 2-core machine), so each recorded hour adds FINISH_S_PER_H: a flat 30 s
+# ended an 8-hour `--speed max` soak with "not finished after 30 s" while the close was
+# working, and the process then hung at exit (its recorder thread inside h5py; issue 26).
 STOP_ONE_S = 30.0
+FINISH_S_PER_H = 120.0
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -239,7 +244,7 @@ def _record(
             print(f"gaitmon record: {line}", file=sys.stderr)
         reason, stalled = _wait(group, args, out, stop, stall_s, control)
     finally:
-        statuses = group.stop(reason) if group.in_parts else group.stop(reason, STOP_ONE_S)
+        statuses = group.stop(reason, stop_timeout_s(group))
         record_lsl.close_outlets(outlets, linger_s=0.5)  # after the last event
         for s, h in old.items():
             signal.signal(s, h)
@@ -272,6 +277,16 @@ def _record(
         if line:
             print(f"gaitmon record: {line}", file=sys.stderr)
     return 0
+
+
+def stop_timeout_s(group: EngineGroup) -> float:
+    """How long the stop waits for the recorders to finish their files: the group's default
+    (a one-unit file: :data:`STOP_ONE_S`), and :data:`FINISH_S_PER_H` more for each hour
+    the longest recording holds."""
+    from gaitmon.engine.pair import STOP_TIMEOUT_S
+
+    hours = max((e.recording.rows / e.fs_hz for e in group.engines.values()), default=0.0) / 3600
+    return (STOP_TIMEOUT_S if group.in_parts else STOP_ONE_S) + FINISH_S_PER_H * hours
 
 
 def _zero(group: EngineGroup, stop: threading.Event) -> None:

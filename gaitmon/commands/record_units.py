@@ -169,7 +169,7 @@ def summary_lines(group: EngineGroup, out: Path) -> list[str]:
         with open_session(out, side=side or None) as s:
             link = LinkCounts.of(s)
             rows[side] = count(s.n_samples, "frame")
-            lost[side] = f"{count(link.frames_lost, 'frame')} lost, {link.units_text()}"
+            lost[side] = f"{link.lost_text()}, {link.units_text()}"
     size = f"{out.stat().st_size / 1e6:.1f} MB"
     if not group.in_parts:
         return [f"wrote {rows['']} to {out} ({size}); {lost['']}"]

@@ -31,7 +31,7 @@ from gaitmon.engine.messages import (
     Stop,
     UpdateLink,
 )
-from gaitmon.engine.rows import RowMap, slice_pipeline, slice_samples
+from gaitmon.engine.rows import RECEIVE_QUEUE_FULL, RowMap, slice_pipeline, slice_samples
 from gaitmon.engine.snapshot import RecordingStatus
 from gaitmon.io.device import LinkStats
 
@@ -103,6 +103,7 @@ class Recorder:
         self._lock = threading.Lock()
         self._blocks_waiting = 0
         self._dropped_blocks = 0
+        self._dropped_frames = 0
         self._progress = RecorderProgress()
         self.thread = threading.Thread(target=self._run, name="gaitmon-recorder", daemon=True)
         self.started_monotonic_s = time.monotonic()
@@ -144,6 +145,13 @@ class Recorder:
         with self._lock:
             return self._dropped_blocks
 
+    @property
+    def dropped_frames(self) -> int:
+        """The rows of the blocks ``dropped_blocks`` counts: frames received, shown and not
+        saved (each a gap "frames lost: recorder queue full" in the file)."""
+        with self._lock:
+            return self._dropped_frames
+
     def status(self) -> RecordingStatus:
         """The recording as a viewer sees it (``Engine.recording``)."""
         # alive before progress: a thread that ended normally published finished=True first
@@ -160,6 +168,7 @@ class Recorder:
             rows=progress.rows,
             file_bytes=progress.file_bytes,
             dropped_blocks=self.dropped_blocks,
+            dropped_frames=self.dropped_frames,
             error=error,
         )
 
@@ -195,10 +204,12 @@ class Recorder:
         self.queue.put_nowait(item)
 
     def put_block(self, item: AppendBlock) -> bool:
-        """Queue a block; False (and counted) if ``queue_max`` blocks are already waiting."""
+        """Queue a block; False (and counted, blocks and rows) if ``queue_max`` blocks are
+        already waiting."""
         with self._lock:
             if self._blocks_waiting >= self.queue_max:
                 self._dropped_blocks += 1
+                self._dropped_frames += len(item.samples)
                 return False
             self._blocks_waiting += 1
         self.queue.put_nowait(item)
@@ -216,7 +227,7 @@ class Recorder:
         (``first_gap_reason``, if given, is the reason of a gap before the block's first row)."""
         samples, processed, offset = msg.samples, msg.processed, msg.event_offset
         gap_reason, first_gap_reason = msg.gap_reason, msg.first_gap_reason
-        lost = samples.lost_before
+        lost, over = samples.lost_before, samples.overflow_before
         if lost is not None and w.rows == 0 and lost[0]:
             lost = lost.copy()  # frames lost before the first recorded row are not in the session
             lost[0] = 0
@@ -230,9 +241,14 @@ class Recorder:
         for k, (a, b) in enumerate(itertools.pairwise(bounds)):
             if a == b:
                 continue
-            if lost[a]:
+            n_lost = int(lost[a])
+            # the frames this computer's receive queue dropped: a gap of their own cause
+            n_over = 0 if over is None else min(int(over[a]), n_lost)
+            if n_over:
+                w.add_gap(n_over, n_over / fs, RECEIVE_QUEUE_FULL)
+            if n_lost > n_over:
                 why = (first_gap_reason if a == 0 else "") or gap_reason or "frames lost"
-                w.add_gap(int(lost[a]), float(lost[a]) / fs, why)
+                w.add_gap(n_lost - n_over, (n_lost - n_over) / fs, why)
             part_p = None if processed is None else slice_pipeline(processed, a, b, k == 0)
             w.append(slice_samples(samples, a, b), part_p, event_offset=offset)
 

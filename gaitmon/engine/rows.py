@@ -24,6 +24,12 @@ from gaitmon.io.device import SampleBlock
 
 _EVENT_KEYS = ("heel_strike_idx", "toe_off_idx")
 
+# the gap reasons of frames received from the unit and not kept (docs/gaps-and-time.md): a
+# block the recorder queue refused (a stalled disk, a machine too busy to write), and frames
+# the Device's own receive queue dropped (nobody read them fast enough)
+RECORDER_QUEUE_FULL = "frames lost: recorder queue full"
+RECEIVE_QUEUE_FULL = "frames lost: receive queue full"
+
 
 class RowMap:
     """The engine thread's map from engine indices to one recording's file rows."""
@@ -110,7 +116,7 @@ class RowMap:
                 self.carry_events[k].extend(self.event_rows(idx[idx < start]).tolist())
         n = len(block)
         self.carry_lost += n + lost_in(block)
-        self.carry_reason = self.carry_reason or "frames lost: recorder queue full"
+        self.carry_reason = self.carry_reason or RECORDER_QUEUE_FULL
         self.drop_starts.append(start)
         self.drop_ends.append(start + n)
         self.drop_cum.append((self.drop_cum[-1] if self.drop_cum else 0) + n)

@@ -58,6 +58,7 @@ class RecordingStatus:
     rows: int = 0
     file_bytes: int = 0
     dropped_blocks: int = 0  # recorder queue overflows (never expected; never silent)
+    dropped_frames: int = 0  # their rows: received, shown, not saved (gaps in the file)
     error: str = ""  # why the last recording stopped on its own ("" if it did not)
 
 

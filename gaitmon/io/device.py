@@ -65,6 +65,7 @@ class _CommonFields(TypedDict):
     host_time_s: np.ndarray
     wall_offset_s: float
     lost_before: np.ndarray
+    overflow_before: np.ndarray | None
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,6 +80,8 @@ class SampleBlock:
     lost_before   (N,) int64, frames the unit sent just before this sample that never arrived
                   (sequence gap minus the control frames that did arrive, plus any dropped by
                   this Device's own queue overflow): where a recording puts its gaps.
+    overflow_before (N,) int64 or None, the part of ``lost_before`` this Device's own queue
+                  dropped (nobody read blocks fast enough): a gap of its own reason.
     The kind's arrays are set, the others are None: RAW -> adc (N, 14) uint16; TILT ->
     acc_tilt_deg, kalman_tilt_deg (N, 4) float64; JOINT -> acc_joint_deg, kalman_joint_deg
     (N, 3) float64, heel_loaded, toe_loaded (N,) bool, phase (N,) uint8.
@@ -97,6 +100,7 @@ class SampleBlock:
     heel_loaded: np.ndarray | None = None
     toe_loaded: np.ndarray | None = None
     phase: np.ndarray | None = None
+    overflow_before: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.seq.shape[0])
@@ -113,6 +117,7 @@ class SampleBlock:
         host_time_s: list[float],
         wall_offset_s: float,
         lost_before: list[int] | None = None,
+        overflow_before: list[int] | None = None,
     ) -> SampleBlock:
         n = len(frames)
         common: _CommonFields = {
@@ -122,6 +127,10 @@ class SampleBlock:
             "wall_offset_s": wall_offset_s,
             "lost_before": np.asarray(
                 lost_before if lost_before is not None else [0] * n, dtype=np.int64
+            ),
+            "overflow_before": (
+                None if overflow_before is None or not any(overflow_before)
+                else np.asarray(overflow_before, dtype=np.int64)
             ),
         }
         if kind == FrameKind.RAW:
@@ -247,7 +256,8 @@ class Device:
         self._dec_lock = threading.Lock()
         self._unwrapper = SequenceUnwrapper()
         # (frame, unwrapped seq, host time, frames lost just before it)
-        self._queue: deque[tuple[DataFrame, int, float, int]] = deque()
+        # (frame, seq, receive time, frames lost before it, of which this queue dropped)
+        self._queue: deque[tuple[DataFrame, int, float, int, int]] = deque()
         self._last_seq: int | None = None  # last unwrapped seq of any delivered frame
         self._max_queued = max_queued_frames
         self._overflow = 0
@@ -380,13 +390,16 @@ class Device:
             seqs: list[int] = []
             times: list[float] = []
             lost: list[int] = []
+            overflow: list[int] = []
             while self._queue and len(frames) < max_frames and self._queue[0][0].kind == kind:
-                f, s, t, n_lost = self._queue.popleft()
+                f, s, t, n_lost, n_over = self._queue.popleft()
                 frames.append(f)
                 seqs.append(s)
                 times.append(t)
                 lost.append(n_lost)
-        return SampleBlock.from_frames(kind, frames, seqs, times, self._wall_offset_s, lost)
+                overflow.append(n_over)
+        return SampleBlock.from_frames(kind, frames, seqs, times, self._wall_offset_s, lost,
+                                       overflow)  # fmt: skip
 
     @property
     def stats(self) -> LinkStats:
@@ -479,15 +492,17 @@ class Device:
                 pending.data = frame
                 pending.done.set()
                 return
+            over = 0
             if len(self._queue) >= self._max_queued:
                 dropped = self._queue.popleft()
                 self._overflow += 1
                 if self._queue:  # the next frame now has these missing before it
-                    f, s, t, n = self._queue[0]
-                    self._queue[0] = (f, s, t, n + dropped[3] + 1)
+                    f, s, t, n, m = self._queue[0]
+                    self._queue[0] = (f, s, t, n + dropped[3] + 1, m + dropped[4] + 1)
                 else:
                     lost += dropped[3] + 1
-            self._queue.append((frame, seq, now, lost))
+                    over = dropped[4] + 1
+            self._queue.append((frame, seq, now, lost, over))
             self._cond.notify_all()
 
 

@@ -196,7 +196,7 @@ def snapshot_health(tracker: HealthTracker, snap: Snapshot, now_s: float) -> Hea
     return tracker.update(
         now_s,
         d.frames_ok,
-        d.frames_lost,
+        d.frames_lost + link.queue_overflow_frames,  # the receive queue's drops are gaps too
         d.crc_failures,
         snap.frame_rate_hz,
         snap.stalled_s,

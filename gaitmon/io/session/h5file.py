@@ -52,17 +52,28 @@ class _H5File:
     ) -> None:
         # no chunk cache: writes go straight to the file (see gaitmon.io.session.layout, "Chunking")
         # in_memory: a file that never touches the disk (recovery while the disk is full)
-        where: dict[str, Any] = {"driver": "core", "backing_store": False} if in_memory else {}
-        self.f = h5py.File(path, mode, rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES, **where)
+        # A new file on disk is laid out in memory and written as one image by os.write, then
+        # opened: a full disk at creation is an OSError before HDF5 holds the file (issue 26:
+        # HDF5 failing to write a file it was creating left objects it could not close, two
+        # "Exception ignored" tracebacks and a segfault at exit).
+        self.f = h5py.File(path, mode if in_memory else "w", driver="core", backing_store=False,
+                           rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES)  # fmt: skip
         # format 1 (uncompressed float32, written in place on every flush) is written only
         # for comparisons (gaitmon bench --suite size) and tests of older files
         self.version = int(version)
         try:
             self._create(header, reprocessed)
+            if not in_memory:
+                self.f.flush()
+                image = self.f.id.get_file_image()
+                self.f.close()
         except BaseException:
             with contextlib.suppress(Exception):
                 self.f.close()
             raise
+        if not in_memory:
+            _write_new(path, image, exclusive=mode == "x")
+            self.f = h5py.File(path, "r+", rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES)
         self._ids: dict[str, h5py.h5d.DatasetID] = {}
         self.rows = 0  # rows appended (format 2: some still staged in memory)
         # format 2: the chunk being filled, per dataset, written whole once full (a compressed
@@ -283,6 +294,23 @@ class _H5File:
 
     def close(self) -> None:
         self.f.close()
+
+
+def _write_new(path: Path, image: bytes, *, exclusive: bool) -> None:
+    """Write a new file's whole image (``exclusive``: it must not exist). A failed write (a
+    full disk) removes what it wrote and raises the OSError."""
+    flags = os.O_WRONLY | os.O_CREAT | (os.O_EXCL if exclusive else os.O_TRUNC)
+    fd = os.open(path, flags, 0o644)
+    try:
+        view = memoryview(image)
+        while view:
+            view = view[os.write(fd, view) :]
+    except BaseException:
+        os.close(fd)
+        with contextlib.suppress(OSError):
+            os.unlink(path)
+        raise
+    os.close(fd)
 
 
 def _append_low_level(dsid: h5py.h5d.DatasetID, start: int, data: np.ndarray) -> None:

@@ -9,7 +9,8 @@ or :meth:`gaitmon.io.session.StoredSession.truth`.
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
@@ -34,15 +35,43 @@ def write_truth(
     path: str | os.PathLike[str], datasets: Mapping[str, np.ndarray], mount_offset_deg: np.ndarray
 ) -> None:
     """Write (or replace) ``/truth`` in a finished session file. Raises OSError."""
+    with truth_writer(path, mount_offset_deg) as g:
+        for name, data in datasets.items():
+            g.put(name, data)
+
+
+class _TruthGroup:
+    """``/truth`` of a file open for writing: datasets replaced whole (:meth:`put`) or created
+    to be filled in row blocks (:meth:`rows`)."""
+
+    def __init__(self, g: h5py.Group) -> None:
+        self.g = g
+
+    def _fresh(self, name: str) -> None:
+        if name in self.g:
+            del self.g[name]
+
+    def put(self, name: str, data: np.ndarray) -> None:
+        self._fresh(name)
+        self.g.create_dataset(name, data=data)
+
+    def rows(self, name: str, n: int, cols: int) -> h5py.Dataset:
+        """An (n, cols) float32 dataset to fill (the same layout :meth:`put` gives)."""
+        self._fresh(name)
+        return self.g.create_dataset(name, shape=(n, cols), dtype=np.float32)
+
+
+@contextmanager
+def truth_writer(
+    path: str | os.PathLike[str], mount_offset_deg: np.ndarray
+) -> Iterator[_TruthGroup]:
+    """``/truth`` of a finished session file, to write (or replace). Raises OSError."""
     with h5py.File(path, "r+") as f:
         g = f.require_group(GROUP)
         g.attrs["description"] = DESCRIPTION
         g.attrs["mount_offset_deg"] = mount_offset_deg
-        for name, data in datasets.items():
-            if name in g:
-                del g[name]
-            g.create_dataset(name, data=data)
-        describe(f)
+        yield _TruthGroup(g)
+        describe(f)  # units, long names and columns on what was written (attributes.py)
 
 
 def truth_from_file(f: h5py.File, start: int, stop: int) -> Truth:

@@ -94,7 +94,7 @@ from gaitmon.io.sim.clock import CrystalClock
 from gaitmon.io.sim.faults import FaultConfig, FaultLedger, LedgerEntry, flip_bits
 from gaitmon.io.sim.ground_truth import GroundTruth as GroundTruth  # re-exported
 from gaitmon.io.sim.ground_truth import ground_truth
-from gaitmon.io.sim.kinematics import GaitConfig, GaitModel
+from gaitmon.io.sim.kinematics import GaitConfig, GaitModel, StrideTruth
 from gaitmon.io.sim.sensors import SensorBlock, SensorConfig, SensorModel
 
 DEVICE_NAME = "gaitmon-sim"
@@ -351,14 +351,28 @@ class SimulatedUnit:
             self._advance_to_now()
             self._stall_until = self.sensors.position + round(duration_s * self.fs_hz)
 
-    def frame_log(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(frame_no, sample_idx, kind) of every data frame produced, delivered or not."""
+    def frame_log(self, copy: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(frame_no, sample_idx, kind) of every data frame produced, delivered or not.
+        ``copy=False``: views of the log itself (no copy of 17 bytes a frame), for a unit that
+        produces no more (its log cannot grow while they are held)."""
         with self._lock:
+            if not copy:
+                return (np.frombuffer(self._log_frame, dtype=np.int64),
+                        np.frombuffer(self._log_sample, dtype=np.int64),
+                        np.frombuffer(self._log_kind, dtype=np.uint8))  # fmt: skip
             return (
                 np.array(self._log_frame, dtype=np.int64),
                 np.array(self._log_sample, dtype=np.int64),
                 np.array(self._log_kind, dtype=np.uint8),
             )
+
+    def true_events(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, StrideTruth]:
+        """(heel strikes, toe-offs, the strides they open) in samples start .. stop-1: the
+        events of :meth:`truth` without the per-sample motion (a long record's events are
+        gathered piece by piece, gaitmon.io.sim.truth)."""
+        with self._lock:
+            hs, to = self.gait.events(start, stop)
+            return hs, to, self.gait.strides(start, stop)
 
     def truth(self, start: int = 0, stop: int | None = None) -> GroundTruth:
         """True motion for samples start .. stop-1 (default: everything produced so far)."""

@@ -27,7 +27,7 @@ from gaitmon.live.health import (
     snapshot_health,
     snapshot_link_view,
 )
-from gaitmon.text import no_gait_events
+from gaitmon.text import count, no_gait_events
 from gaitmon.ui.plots import CyclePlots
 from gaitmon.ui.theme import Colours
 
@@ -210,8 +210,8 @@ class StatusView:
             f"<span style='color:{self.colours.alert}'>●</span> REC "
             f"{fmt_elapsed(rec.elapsed_s)} · {fmt_bytes(rec.file_bytes)} · {Path(rec.path).name}"
         )
-        if rec.dropped_blocks:
-            text += f" · {rec.dropped_blocks} blocks NOT saved"
+        if rec.dropped_frames:
+            text += f" · {count(rec.dropped_frames, 'frame')} NOT saved (recorder queue full)"
         self.rec_label.setText(text)
 
     def show_recorder_stopped(self, message: str) -> None:
