@@ -21,7 +21,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np
-from screenshots import pause, save, wait
+from screenshots import pause, pick_stride, save, wait
 
 
 def ensure_display():  # type: ignore[no-untyped-def]
@@ -83,7 +83,7 @@ def main() -> int:
         review.show()
         review.open_file(rec)
         wait(app, lambda: review.analysis is not None and review.table.model().rowCount() > 0)
-        review.show_stride(31)  # after the heel sensor broke: events from the foot gyro
+        pick_stride(review, 31)  # after the heel sensor broke: events from the foot gyro
         pause(app, 2.0)
         save(review, args.out / "review_smoothed.png")
         if args.live:

@@ -63,6 +63,15 @@ def pause(app, seconds: float) -> None:  # type: ignore[no-untyped-def]
         time.sleep(0.01)
 
 
+def pick_stride(review, row: int) -> None:  # type: ignore[no-untyped-def]
+    """Select stride ``row`` in the review window's table as a click does (the timeline moves
+    there)."""
+    table = review.table
+    table.selectRow(row)
+    table.scrollTo(table.model().index(row, 0))
+    table.stride_picked.emit(row)
+
+
 def save(widget, path: Path) -> None:  # type: ignore[no-untyped-def]
     widget.grab().save(str(path))
     if shutil.which("convert") and path.stat().st_size > 300_000:
