@@ -81,17 +81,35 @@ def label_problems(label: QLabel) -> list[str]:
     return []
 
 
+def message_room(bar: QStatusBar) -> int:
+    """The width (px) Qt gives the status bar's message: from 6 px to 2 px left of its first
+    visible permanent widget (QStatusBarPrivate::messageRect), or width - 12."""
+    right = bar.width() - 12
+    for w in bar.findChildren(QWidget, options=Qt.FindChildOption.FindDirectChildrenOnly):
+        if w.isVisible() and not isinstance(w, QSizeGrip) and w.width() > 0:
+            right = min(right, w.x() - 2)
+    return right - 6
+
+
 def status_message_problems(bar: QStatusBar) -> list[str]:
     """The status bar's message is drawn left of its first visible permanent widget (Qt's
     QStatusBarPrivate::messageRect: from 6 px to that widget's x - 2, or width - 12)."""
     msg = bar.currentMessage()
     if not bar.isVisible() or not msg:
         return []
-    right = bar.width() - 12
-    for w in bar.findChildren(QWidget, options=Qt.FindChildOption.FindDirectChildrenOnly):
-        if w.isVisible() and not isinstance(w, QSizeGrip) and w.width() > 0:
-            right = min(right, w.x() - 2)
-    room = right - 6
+    drawn = getattr(bar, "drawn_message", None)
+    if drawn is not None and drawn() != msg:
+        # a bar that fits its message (gaitmon.ui.live.bar.MessageBar): only a path may be
+        # elided (in the middle, the words around it whole), the whole message in its tooltip
+        shown = drawn()
+        head, _, tail = shown.partition("…")
+        path_cut = bool(re.search(r"[/\\]", head.split(" ")[-1] + tail.split(" ")[0]))
+        if not (path_cut and msg.startswith(head) and msg.endswith(tail)):
+            return [f"status message {msg[:70]!r}: drawn as {shown!r}"]
+        if bar.toolTip() != msg:
+            return [f"status message {msg[:70]!r}: elided, not in the tooltip"]
+        msg = shown
+    room = message_room(bar)
     need = bar.fontMetrics().horizontalAdvance(msg)
     return [f"status message {msg[:70]!r}: needs {need} px, has {room}"] if need > room else []
 
