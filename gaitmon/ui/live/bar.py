@@ -210,6 +210,7 @@ class MessageBar(QStatusBar):
 
     def paintEvent(self, event: QPaintEvent) -> None:
         msg = self.currentMessage()
+        self._tip()  # (the permanent widgets may have moved since the message came)
         if not msg:
             super().paintEvent(event)
             return

@@ -10,6 +10,7 @@ session's details are asked for with :class:`SessionDialog` and remembered for n
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from pathlib import Path
 
@@ -283,7 +284,11 @@ class RecordingPart:
                 f"{status.rows} frames were saved in {Path(status.path).name}."
             )
         elif ctx.pair is not None:
-            ctx.status.show_recording(snaps["L"].recording, fs_hz, "both legs")
+            rec = snaps["L"].recording  # its part file; the line names the session's file
+            path = ctx.pair.pair.path
+            if path is not None:
+                rec = dataclasses.replace(rec, path=str(path))
+            ctx.status.show_recording(rec, fs_hz, "both legs")
             return
         else:
             for snap in snaps.values():
