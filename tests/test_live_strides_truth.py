@@ -79,6 +79,8 @@ def test_live_strides_and_their_reasons_are_the_recordings_across_a_cut(tmp_path
     for start_row, why in rows:
         if why not in (FIRST, LAST):
             assert live_excluded.get(row0 + start_row, "") == why, (start_row, why)
+    # live, the start-up stride is the first since connecting, by the same rule
+    assert live_excluded.get(int(gait_now.stride_start_idx[0])) == FIRST
 
 
 @pytest.fixture
