@@ -186,10 +186,10 @@ def test_the_live_window_rec_line_says_the_frames_not_saved_and_why(qtbot):
     qtbot.addWidget(bar)
     view = StatusView(bar, current_colours())
     view.show_recording(RecordingStatus(active=True, path="/tmp/walk.h5", rows=5000,
-                                        dropped_blocks=22, dropped_frames=1579))  # fmt: skip
+                                        dropped_blocks=22, dropped_frames=1579), 100.0)  # fmt: skip
     text = view.rec_label.text()
     assert "1579 frames NOT saved (recorder queue full)" in text, text
-    view.show_recording(RecordingStatus(active=True, path="/tmp/walk.h5", rows=5000))
+    view.show_recording(RecordingStatus(active=True, path="/tmp/walk.h5", rows=5000), 100.0)
     assert "NOT saved" not in view.rec_label.text()
 
 

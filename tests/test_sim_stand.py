@@ -214,7 +214,8 @@ def test_live_window_simulator_menu_stands_the_subject_still_for_zeroing(qtbot, 
         win.act_zero.trigger()
         qtbot.waitUntil(lambda: "zeroed" in win.statusBar().currentMessage(), timeout=15_000)
         # the label follows the engine's snapshot on the next display tick
-        qtbot.waitUntil(lambda: win.status.cal_label.text() == "zeroed", timeout=5_000)
+        qtbot.waitUntil(lambda: "zero: standing calibration" in win.status.method_label.full_text,
+                        timeout=5_000)  # fmt: skip
 
         menu["Walk again"].trigger()
         assert not unit.standing

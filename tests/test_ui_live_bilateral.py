@@ -184,7 +184,7 @@ def test_record_both_legs_from_the_window_into_one_file(qtbot, tmp_path, no_leak
         qtbot.waitUntil(
             lambda: min(samples(win, s) - start[s] for s in ("L", "R")) >= 500, timeout=WAIT_MS
         )
-        qtbot.waitUntil(lambda: "REC both legs" in win.status.rec_label.text())
+        qtbot.waitUntil(lambda: "REC both legs" in win.status.rec_label.full_text)
         assert not win.port_combo.isEnabled() and not win.mode_combo.isEnabled()
         win.act_record.trigger()  # stop: both parts finished and combined, on the worker
         assert not win.recording and win.act_record.text() == "Record"

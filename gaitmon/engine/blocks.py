@@ -25,7 +25,7 @@ from gaitmon.dsp.lost_frames import restart_rows
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
 from gaitmon.engine.buffers import RingBuffer, cols_from_device, cols_from_pipeline, with_gap_rows
 from gaitmon.engine.handover import hand_over
-from gaitmon.engine.live_gait import FootStrideLengths, LiveGait, UnitGaitEvents, shift_stride
+from gaitmon.engine.live_gait import FootStrideLengths, GaitEvents, LiveGait
 from gaitmon.engine.markers import TimedMarkers
 from gaitmon.engine.messages import LogCalibration, LogConfig
 from gaitmon.engine.recorder import Recorder
@@ -52,7 +52,7 @@ class EngineState(Protocol):
     _phase_lag: int
     _stream: StreamPosition
     _ring: RingBuffer
-    _unit_events: UnitGaitEvents
+    _events: GaitEvents
     _lock: threading.Lock
     _gait: LiveGait
     _spatial: FootStrideLengths
@@ -166,7 +166,6 @@ class BlockHandler:
             cols = cols_from_pipeline(p, t_s, block.host_time_s)
             hs_idx = p.heel_strike_idx + offset
             to_idx = p.toe_off_idx + offset
-            strides = [shift_stride(s, offset) for s in p.strides]
             restarts = p.restart_idx + offset
             lengths = e._spatial.push(block.adc, p, hs_idx, start_idx, e._pipeline.table,
                                       lost)  # fmt: skip
@@ -183,12 +182,13 @@ class BlockHandler:
                                       e.calibration))  # fmt: skip
         else:
             cols = cols_from_device(block, t_s)
-            hs_idx, to_idx, strides = e._unit_events.process(block, start_idx)
+            hs_idx, to_idx = e._events.from_contacts(block, start_idx)
             restarts = start_idx + restart_rows(lost, e.fs_hz)
             lengths = []
             if rec is not None:
                 self._hand_over(rec, block, None, gap_reason, t_s)
         st.handed_over = True
+        strides = e._events.strides(hs_idx, to_idx)  # the file's strides (GaitEvents' doc)
         cols["idx"] = np.arange(start_idx, start_idx + len(block), dtype=np.float64)
         e._ring.append(with_gap_rows(cols, lost, e.fs_hz, e._ring.capacity))
         st.samples += len(block)
@@ -239,6 +239,7 @@ class BlockHandler:
         if rec is not None and rec.row_map.record_offset is None:
             rec = None  # the recording had not started with this block
         st = e._stream
+        e._events.reset_strides()
         if st.handed_over:
             # the block is in the file: only the display bookkeeping after it failed
             if st.samples == st.block_start:

@@ -43,7 +43,7 @@ from gaitmon.engine.buffers import (
 )
 from gaitmon.engine.errors import EngineError as EngineError  # re-exported
 from gaitmon.engine.handover import open_recorder
-from gaitmon.engine.live_gait import FootStrideLengths, LiveGait, UnitGaitEvents
+from gaitmon.engine.live_gait import FootStrideLengths, GaitEvents, LiveGait
 from gaitmon.engine.markers import TimedMarkerCounts, TimedMarkers
 from gaitmon.engine.messages import AddMarker, UpdateLink
 from gaitmon.engine.recorder import Recorder
@@ -79,7 +79,7 @@ class Engine:
     ``_gait``, ``_checks`` and the zero search (``_zeroing.search``), and the engine thread's
     writes of ``config`` and ``calibration``; only the engine thread (``_blocks``, a
     ``BlockHandler`` on this object's state) writes ``_stream``, ``_pipeline``, ``_held`` and
-    ``_unit_events`` (no lock); the caller's thread writes ``_last_recording``, ``_identity``
+    ``_events`` (no lock); the caller's thread writes ``_last_recording``, ``_identity``
     and ``_thread``.
     """
 
@@ -105,7 +105,7 @@ class Engine:
         self._phase_lag = self.config.phase_lag_samples if self.mode is Mode.RAW else 0
         self._stream = StreamPosition()
         self._ring = RingBuffer(int(display_seconds * self.fs_hz))
-        self._unit_events = UnitGaitEvents(self.fs_hz)  # events from the unit's contacts
+        self._events = GaitEvents(self.fs_hz)  # the unit's events; every mode's strides
         self._recorder_queue_blocks = recorder_queue_blocks
         self._lock = threading.Lock()  # guards the small mutable state below
         self._markers: deque[tuple[float, str]] = deque(maxlen=512)

@@ -2,8 +2,10 @@
 
 Three owners, three objects:
 
-- ``UnitGaitEvents`` turns the unit's own contact flags (TILT/JOINT modes) into events and
-  strides at engine sample indices. Only the engine thread uses it, outside any lock.
+- ``GaitEvents`` turns the unit's own contact flags (TILT/JOINT modes) into events, and the
+  events of every mode into strides at engine sample indices, with the function a recording's
+  readers use (``gaitmon.dsp.gait.strides_from_events``, streamed): the live strides are the
+  file's. Only the engine thread uses it, outside any lock.
 - ``LiveGait`` keeps what the gait panel and the event markers show. The engine thread writes
   it and a viewer's snapshot reads it, both with the engine's lock held: it has no lock of its
   own, and every method must be called under that lock.
@@ -35,22 +37,36 @@ CURRENT_MAX_STRIDES = 2.0
 _FOOT_IMU_COLS = [int(ACC_X_IDX[_FOOT]), int(ACC_Z_IDX[_FOOT])]  # raw columns of the foot board
 
 
-class UnitGaitEvents:
-    """Heel strikes, toe offs and strides from the unit's contact flags (engine thread only)."""
+class GaitEvents:
+    """Heel strikes and toe offs from the unit's contact flags, and strides from the events of
+    any mode (engine thread only).
+
+    The strides are made from the engine's event indices, which are the recording's rows (the
+    samples received), by :class:`~gaitmon.dsp.gait.StrideTracker`: the streamed
+    ``strides_from_events`` that ``gaitmon.analysis`` applies to a file's events. So a stride
+    across a link cut (its opening heel strike and toe off before the cut, its closing heel
+    strike after it) is a stride live as in the file, where the one stride rule excludes it
+    ("crosses a gap"); the pipeline's own strides, which end at each restart, are not used."""
 
     def __init__(self, fs_hz: float) -> None:
         self._edges = ContactEdges()
         self._strides = StrideTracker(fs_hz)
 
-    def process(
-        self, block: SampleBlock, start_idx: int
-    ) -> tuple[np.ndarray, np.ndarray, list[Stride]]:
-        """Events (engine indices; the block's first sample is ``start_idx``) and strides."""
+    def from_contacts(self, block: SampleBlock, start_idx: int) -> tuple[np.ndarray, np.ndarray]:
+        """The unit's events (engine indices; the block's first sample is ``start_idx``)."""
         if block.heel_loaded is not None and block.toe_loaded is not None:
-            hs_idx, to_idx = self._edges.process(block.heel_loaded, block.toe_loaded, start_idx)
-        else:
-            hs_idx = to_idx = np.empty(0, np.int64)
-        return hs_idx, to_idx, self._strides.process(hs_idx, to_idx)
+            return self._edges.process(block.heel_loaded, block.toe_loaded, start_idx)
+        empty = np.empty(0, np.int64)
+        return empty, empty
+
+    def strides(self, hs_idx: np.ndarray, to_idx: np.ndarray) -> list[Stride]:
+        """The strides a block's events (engine indices, in the order confirmed) close."""
+        return self._strides.process(hs_idx, to_idx)
+
+    def reset_strides(self) -> None:
+        """Forget the open stride (a block that was not processed: its events may come again,
+        and a stride may not span what is not in the file)."""
+        self._strides.reset()
 
 
 class FootStrideLengths:
@@ -273,15 +289,3 @@ class RecordingStart:
             return None
         starts = gait.stride_start_idx
         return int(len(starts) - np.searchsorted(starts, start, side="left"))
-
-
-def shift_stride(s: Stride, offset: int) -> Stride:
-    """``s`` with its indices moved by ``offset`` (pipeline indices -> engine indices)."""
-    if offset == 0:
-        return s
-    return dataclasses.replace(
-        s,
-        start_idx=s.start_idx + offset,
-        end_idx=s.end_idx + offset,
-        toe_off_idx=s.toe_off_idx + offset,
-    )

@@ -100,7 +100,7 @@ class GuideBar(QWidget):
         self.hint_label = QLabel()
         self.hint_label.setWordWrap(True)  # two lines rather than a clipped hint
         self.hint_label.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Preferred)
-        self.hint_label.setMinimumWidth(160)
+        self.hint_label.setMinimumWidth(120)  # (the window fits an 854 px screen)
         lay.addSpacing(8)
         lay.addWidget(self.hint_label, 1)
         close = QToolButton()

@@ -10,6 +10,7 @@ session's details are asked for with :class:`SessionDialog` and remembered for n
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from pathlib import Path
 
@@ -234,14 +235,14 @@ class RecordingPart:
         ctx = self.ctx
         ctx.saving = True
         ctx.controls_changed()
-        ctx.status.rec_label.setText("Saving the recording…")
+        ctx.status.rec_label.set_texts("Saving the recording…", "Saving…")
         ctx.notify("Recording stopped; saving the file…", 0)  # (not "Recording to …")
         ctx.jobs.worker.submit(lambda ticket: save(), self._saved)
 
     def _saved(self, response: Response[str]) -> None:
         ctx = self.ctx
         ctx.saving = False
-        ctx.status.rec_label.setText("")
+        ctx.status.rec_label.set_texts("")
         ctx.controls_changed()
         if response.error is not None:
             ctx.report_exception("saving the recording", response.error)
@@ -256,7 +257,7 @@ class RecordingPart:
         assert pair is not None
         ctx.recording = False
         ctx.controls_changed()
-        ctx.status.rec_label.setText("")
+        ctx.status.rec_label.set_texts("")
         return save_pair(pair, reason)
 
     def show_recording(self, snaps: dict[str, Snapshot]) -> None:
@@ -265,6 +266,7 @@ class RecordingPart:
         ctx = self.ctx
         if not ctx.recording:
             return
+        fs_hz = next((e.fs_hz for e in ctx.engines.values()), 100.0)
         stopped = [s for s, snap in snaps.items() if not snap.recording.active]
         if stopped and ctx.pair is not None:
             why = "; ".join(f"{SIDE_NAMES[s]} leg: {snaps[s].recording.error or 'stopped'}"
@@ -282,16 +284,15 @@ class RecordingPart:
                 f"{status.rows} frames were saved in {Path(status.path).name}."
             )
         elif ctx.pair is not None:
-            rec = snaps["L"].recording
-            size = sum(snap.recording.file_bytes for snap in snaps.values())
-            ctx.status.rec_label.setText(
-                f"<span style='color:{ctx.colours.alert}'>●</span> REC both legs "
-                f"{fmt_elapsed(rec.elapsed_s)} · {fmt_bytes(size)} · {Path(rec.path).name}"
-            )
+            rec = snaps["L"].recording  # its part file; the line names the session's file
+            path = ctx.pair.pair.path
+            if path is not None:
+                rec = dataclasses.replace(rec, path=str(path))
+            ctx.status.show_recording(rec, fs_hz, "both legs")
             return
         else:
             for snap in snaps.values():
-                ctx.status.show_recording(snap.recording)
+                ctx.status.show_recording(snap.recording, fs_hz)
             return
         ctx.status.show_recorder_stopped(msg)
         ctx.notify(msg, 0)

@@ -15,9 +15,9 @@ import time
 from pathlib import Path
 
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QGridLayout, QLabel, QSizePolicy, QStatusBar, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QGridLayout, QLabel, QStatusBar, QVBoxLayout, QWidget
 
-from gaitmon.engine import Mode, RecordingStatus, Snapshot
+from gaitmon.engine import RecordingStatus, Snapshot
 from gaitmon.engine.live_gait import RecordingStart
 from gaitmon.engine.snapshot import EVENTS_FSR, EVENTS_GYRO, EVENTS_UNIT, FsrFaultNotice
 from gaitmon.live.health import (
@@ -28,6 +28,7 @@ from gaitmon.live.health import (
     snapshot_link_view,
 )
 from gaitmon.text import count, no_gait_events
+from gaitmon.ui.live.bar import FittingLabel
 from gaitmon.ui.plots import CyclePlots
 from gaitmon.ui.theme import Colours
 
@@ -57,16 +58,53 @@ def angles_text(snap: Snapshot) -> str:
     return text
 
 
+def angles_texts(snap: Snapshot) -> tuple[str, ...]:
+    """:func:`angles_text`, then shorter for a narrow status bar (the zero's source first)."""
+    full = angles_text(snap)
+    if not snap.zero_source:
+        return (full,)
+    short = snap.zero_source.split(" (")[0]
+    return full, f"zero: {snap.zero_source}", f"zero: {short}", short
+
+
+def rec_texts(rec: RecordingStatus, fs_hz: float, dot: str, what: str = "") -> tuple[str, ...]:
+    """The REC line, from the most said to the least: the time since Record and the file.
+    No file size: the HDF5 file grows in steps at its flushes (60 kB at 28 s, 279 kB at
+    Stop), while every frame is in the journal at once; the tooltip says how much is saved
+    (:func:`rec_tooltip`)."""
+    rec_dot = f"<span style='color:{dot}'>●</span> REC"
+    if what:
+        rec_dot += f" {what}"
+    t = fmt_elapsed(rec.elapsed_s)
+    # the frames (not the engine's blocks, of any size) the recorder refused, and why
+    lost = (f" · {count(rec.dropped_frames, 'frame')} NOT saved (recorder queue full)"
+            if rec.dropped_frames else "")  # fmt: skip
+    return (f"{rec_dot} {t} · {Path(rec.path).name}{lost}", f"{rec_dot} {t}{lost}")
+
+
+def rec_tooltip(rec: RecordingStatus, fs_hz: float) -> str:
+    """What is safely recorded: the frames the recorder has written (journal and file)."""
+    saved = rec.rows / fs_hz if fs_hz > 0 else 0.0
+    return (f"Recording into {rec.path}\n{fmt_elapsed(rec.elapsed_s)} since Record; "
+            f"{rec.rows:,} frames ({saved:.1f} s of data) saved: a crash loses none of "
+            "them")  # fmt: skip
+
+
 def show_health(label: QLabel, h: Health, colours: Colours, text: str) -> None:
     """A link's health in ``label``: ``text``, coloured by its grade, the details in the
     tooltip (one unit's status bar, or one leg's header)."""
-    if label.text() != text:
-        label.setText(text)
     if label.property("grade") != h.grade:  # re-styling is not free
         colour = {"ok": "palette(window-text)", "lossy": colours.warn}.get(h.grade, colours.alert)
         weight = "normal" if h.grade == "ok" else "bold"
         label.setStyleSheet(f"color: {colour}; font-weight: {weight}")
         label.setProperty("grade", h.grade)
+    if isinstance(label, FittingLabel):  # narrow: its last figures go first
+        parts = text.split(" · ")
+        label.set_texts(*(" · ".join(parts[:k]) for k in range(len(parts), 0, -1)),
+                        tooltip=h.tooltip)  # fmt: skip
+        return
+    if label.text() != text:
+        label.setText(text)
     label.setToolTip(h.tooltip)
 
 
@@ -98,21 +136,19 @@ class StatusView:
 
         self.state_label = QLabel()
         self.state_label.setToolTip("Link state")
-        self.health_label = QLabel()
-        self.rec_label = QLabel()
-        self.rec_label.setToolTip("Recording: elapsed time, file size, file name")
-        self.cal_label = QLabel()
-        self.cal_label.setToolTip("Standing-pose zeroing (Zero, Ctrl+0)")
-        self.samples_label = QLabel()
-        self.samples_label.setToolTip("Samples received since connecting")
-        self.method_label = QLabel()
-        self.method_label.setToolTip(
-            "What makes the Kalman (green) angles: the PC's tilt filter (Device ▸ Tilt filter) "
-            "or, in the unit's modes, the unit's own"
+        # the permanent labels shorten, word by word, in a narrow window (ui/live/bar.py); where
+        # the angles' zero comes from is said once, by the method label ("zero: ...")
+        self.health_label = FittingLabel()
+        self.rec_label = FittingLabel(
+            "Recording: the time since Record, the file; every frame received is in its "
+            "journal at once, so a crash loses none"
         )
-        for w in (self.rec_label, self.cal_label, self.method_label, self.health_label,
-                  self.samples_label):  # fmt: skip
-            w.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Preferred)
+        self.samples_label = FittingLabel("Samples received since connecting")
+        self.method_label = FittingLabel(
+            "What makes the Kalman (green) angles: the PC's tilt filter (Device ▸ Tilt filter) "
+            "or, in the unit's modes, the unit's own; where their zero comes from (Zero, Ctrl+0)"
+        )
+        for w in (self.rec_label, self.method_label, self.health_label, self.samples_label):
             status_bar.addPermanentWidget(w)
         status_bar.addPermanentWidget(self.state_label)
         self.set_state_pill("Disconnected", "ok")
@@ -137,10 +173,10 @@ class StatusView:
     def disconnected(self) -> None:
         self.link_banner.setVisible(False)
         self._show_fsr_faults(())
-        self.method_label.setText("")
+        self.method_label.set_texts("")
         self.set_state_pill("Disconnected", "ok")
-        self.health_label.setText("")
-        self.rec_label.setText("")
+        self.health_label.set_texts("")
+        self.rec_label.set_texts("")
 
     def show_banner(self, text: str, grade: str, tip: str) -> None:
         """The link banner as given (both legs: a line per leg; "": hidden)."""
@@ -168,20 +204,13 @@ class StatusView:
         h = snapshot_health(self.health, snap, time.monotonic())
         if h is not None:
             show_health(self.health_label, h, self.colours, h.text)
-        self.samples_label.setText(f"{snap.samples_total:,} samples")
+        self.samples_label.set_texts(f"{snap.samples_total:,} samples", f"{snap.samples_total:,}")
         self.samples_label.setProperty("samples", snap.samples_total)
-        if snap.mode is Mode.RAW:
-            cal = "zeroed" if snap.calibrated else "not zeroed"
-        else:
-            cal = "unit zeroes itself"
-        self.cal_label.setText(cal)
 
     def show_checks(self, snap: Snapshot) -> None:
         """The tilt filter in force and the force sensors found faulty (kept until the next
         connection: a sensor does not mend itself)."""
-        text = angles_text(snap)
-        if self.method_label.text() != text:
-            self.method_label.setText(text)
+        self.method_label.set_texts(*angles_texts(snap))
         if snap.fsr_faults != self._fsr_shown:
             self._show_fsr_faults(snap.fsr_faults)
 
@@ -204,20 +233,16 @@ class StatusView:
         )
         self.fsr_banner.setVisible(True)
 
-    def show_recording(self, rec: RecordingStatus) -> None:
-        """The running recording: elapsed time, size, file, blocks the recorder could not keep."""
-        text = (
-            f"<span style='color:{self.colours.alert}'>●</span> REC "
-            f"{fmt_elapsed(rec.elapsed_s)} · {fmt_bytes(rec.file_bytes)} · {Path(rec.path).name}"
-        )
-        if rec.dropped_frames:
-            text += f" · {count(rec.dropped_frames, 'frame')} NOT saved (recorder queue full)"
-        self.rec_label.setText(text)
+    def show_recording(self, rec: RecordingStatus, fs_hz: float, what: str = "") -> None:
+        """The running recording (``what``: "both legs" or ""): its time and file, and the
+        blocks the recorder could not keep (:func:`rec_texts`)."""
+        self.rec_label.set_texts(*rec_texts(rec, fs_hz, self.colours.alert, what),
+                                 tooltip=rec_tooltip(rec, fs_hz))  # fmt: skip
 
     def show_recorder_stopped(self, message: str) -> None:
         self.record_banner.setText(message)
         self.record_banner.setVisible(True)
-        self.rec_label.setText("")
+        self.rec_label.set_texts("")
 
 
 GAIT_ROWS = (
@@ -249,6 +274,9 @@ def value_rows(
     for r, (key, label, tip) in enumerate(rows):
         name = QLabel(label)
         name.setToolTip(tip)
+        # a narrow window (854 px) wraps "Strides (this recording)" rather than cut it or the
+        # figure beside it (the values keep their one line)
+        name.setWordWrap(True)
         value = QLabel("—")
         value.setFont(big)
         value.setToolTip(tip)
@@ -398,8 +426,11 @@ class GaitPanel(QWidget):
             k = len(g.cycles_deg)
             none = no_gait_events(str(snap.mode))  # tilt mode: no foot sensors, no strides
             self.cycle_title.setText(
-                f"Gait cycle: mean ± SD of the last {k} strides (band), current stride (line)"
-                if k
+                f"Gait cycle: mean ± SD of the last {count(k, 'stride')} (band), current "
+                "stride (line)" if k > 1
+                # one stride has no SD (no band): said so, not "the last 1 strides"
+                else "Gait cycle: the one stride so far (no SD yet), current stride (line)"
+                if k == 1
                 else f"No gait events: {none}." if none
                 else "Gait cycle: waiting for complete strides…"
             )  # fmt: skip

@@ -30,6 +30,7 @@ from gaitmon.engine import Snapshot
 from gaitmon.review.settings import LiveKey
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.live.actions import METHOD_COLOURS, WINDOWS_S
+from gaitmon.ui.live.bar import FittingLabel
 from gaitmon.ui.live.context import LiveContext
 from gaitmon.ui.live.status import GaitPanel, banner_style
 from gaitmon.ui.plots import METHOD_LABELS, LivePlots, RawPlots
@@ -84,7 +85,7 @@ class ViewPart:
         bar.addSpacing(16)
         bar.addWidget(_legend_box("heel", c.heel.name(), False))
         bar.addWidget(_legend_box("toe", c.toe.name(), False))
-        self.phase_legend = QLabel()
+        self.phase_legend = FittingLabel()  # narrow: shorter names, never a cut one
         bar.addWidget(self.phase_legend)
         self.phase_combo = QComboBox()
         self.phase_combo.addItem("stance / swing", False)
@@ -92,15 +93,12 @@ class ViewPart:
         self.phase_combo.setToolTip("How the gait phase is shaded on the FSR plot")
         self.phase_combo.currentIndexChanged.connect(self._phase_combo_changed)
         bar.addWidget(self.phase_combo)
-        events = QLabel("┃ heel strike  ┆ toe off")
-        events.setToolTip(
+        events = FittingLabel(
             "Gait events from the foot sensors, drawn on the joint and FSR plots: heel strike "
             "solid, toe off dashed"
         )
+        events.set_texts("┃ heel strike  ┆ toe off", "┃ HS ┆ TO")
         bar.addWidget(events)
-        for label in (self.phase_legend, events):
-            # legends may be clipped on a narrow screen rather than force a wide window
-            label.setMinimumWidth(40)  # overrides the text's minimum: shrinks only if needed
         bar.addStretch(1)
         # a banner row of its own: in the legend's row it took the legend's width (clipping it)
         # and widened the central area, squeezing the gait dock (kept so after a restart)
@@ -219,14 +217,14 @@ class ViewPart:
             self.phase_combo.setCurrentIndex(idx)
         c = self.ctx.colours
         if four:
-            parts = [
-                f"<span style='color:{col.name()}'>█</span> {name}"
-                for col, name in zip(c.phases, PHASE_NAMES[1:], strict=True)
-            ]
-            text = " ".join(parts)
+            cols = [col.name() for col in c.phases]
+            texts = [" ".join(f"<span style='color:{col}'>█</span> {name}"
+                              for col, name in zip(cols, names, strict=True))
+                     for names in (PHASE_NAMES[1:], ("loading", "flat", "push"))]  # fmt: skip
+            texts.append(" ".join(f"<span style='color:{col}'>█</span>" for col in cols))
         else:
-            text = f"<span style='color:{c.stance.name()}'>█</span> stance"
-        self.phase_legend.setText(text)
+            texts = [f"<span style='color:{c.stance.name()}'>█</span> stance"]
+        self.phase_legend.set_texts(*texts)
         self.ctx.prefs.set(LiveKey.FOUR_PHASES, four)
 
     def _phase_combo_changed(self, index: int) -> None:

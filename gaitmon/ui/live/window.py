@@ -61,6 +61,7 @@ from gaitmon.ui.live.actions import (
     build_menus,
     window_actions,
 )
+from gaitmon.ui.live.bar import MessageBar
 from gaitmon.ui.live.context import LiveContext
 from gaitmon.ui.live.device import DevicePart
 from gaitmon.ui.live.guide import GuideBar, GuideState
@@ -106,6 +107,7 @@ class MainWindow(QMainWindow):
         configure_pyqtgraph(colours)
         self.setWindowTitle("gaitmon — live monitor")
         self.setDockNestingEnabled(True)
+        self.setStatusBar(MessageBar())  # a long message: its path elided, not cut
         self.status = StatusView(self.statusBar(), colours)
         self.ctx = ctx = LiveContext(
             Prefs(settings), colours, self.statusBar(), self.status, DeviceJobs(self)
