@@ -105,3 +105,99 @@ def test_strides_stamp_hashed_in_blocks_equals_the_whole(monkeypatch: pytest.Mon
         for given in (lost, Losses.of(lost)):
             got = json.loads(strides.StrideInputs(n, FS, DEFAULT_TABLE, cal, [], given).stamp())
             assert {k: got[k] for k in old} == old
+
+
+def _recording_with_losses(path, n: int = 9_000) -> None:
+    """A raw recording of ``n`` rows closed as the recorder closes it, with bridged losses
+    (mid-stride) and one long one (a restart) in its gap table."""
+    from gaitmon.dsp.pipeline import Pipeline
+    from gaitmon.finish import close_recording
+    from gaitmon.io.device import SampleBlock
+    from gaitmon.io.protocol import FrameKind
+    from gaitmon.io.session import SessionHeader, SessionWriter
+    from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
+    from gaitmon.io.sim.sensors import simulate
+
+    counts = simulate(n + 100, GaitModel(GaitConfig(seed=4)), SensorConfig(seed=4)).counts
+    losses = {1_234: 2, 2_001: 1, 4_500: 30, 6_007: 3}  # row: frames lost before it
+    pipe = Pipeline()
+    seq0 = 0
+    with SessionWriter(path, SessionHeader("raw")) as w:
+        a = 0
+        for b in (*sorted(losses), n):
+            if a in losses:
+                w.add_gap(losses[a], losses[a] / FS, "frames lost")
+                seq0 += losses[a]
+            lost = np.zeros(b - a, np.int64)
+            lost[0] = losses.get(a, 0)
+            seq = np.arange(a, b, dtype=np.int64) + seq0
+            blk = SampleBlock(FrameKind.RAW, seq, 10.0 + seq / FS, 1.7e9, lost_before=lost,
+                              adc=counts[seq])  # fmt: skip
+            w.append(blk, pipe.process(counts[seq]))
+            a = b
+        close_recording(w)
+
+
+def test_the_close_derives_without_a_per_row_loss_array(tmp_path, monkeypatch) -> None:
+    """The close builds no per-row loss array (it fails here if it does: issue 26, finishing
+    grew with the length), and stores the numbers the per-row arrays give."""
+    import h5py
+
+    from gaitmon.finish import smoothed, strides
+    from gaitmon.io.session import rows
+    from gaitmon.io.session.opening import read_stored
+
+    def per_row(*a: object) -> None:
+        raise AssertionError("a per-row loss array built while finishing")
+
+    path = tmp_path / "lossy.h5"
+    with monkeypatch.context() as m:
+        for mod in (rows, smoothed):
+            m.setattr(mod, "lost_before_from_gaps", per_row)
+        _recording_with_losses(path)
+
+    with read_stored(path) as s:
+        header = s.header
+    with h5py.File(path, "r") as f:
+        assert len(f["gaps"]) == 4
+        want = smoothed.smoothed_from_file(f, header.table, header.calibration, FS)  # per row
+        from gaitmon.io.session.codec import encode
+
+        np.testing.assert_array_equal(f["smoothed/tilt_deg"][()],
+                                      encode("smoothed/tilt_deg", want["smoothed/tilt_deg"]))
+        n = f["raw/adc"].shape[0]
+        lost = rows.lost_before_from_gaps(f["gaps"][()], n)
+        inputs = strides.StrideInputs(n, FS, header.table, header.calibration, [], lost)
+        hs = strides.heel_strikes_used(f["events/heel_strike"][()], n)
+        assert len(hs) > 20
+        stored = strides.read_stored(f, inputs, hs)  # None unless the stamp is the per-row one
+        assert stored is not None
+        adc = f["raw/adc"]
+        ref = strides.compute(lambda a, b: adc[a:b], inputs, hs)  # the per-row computation
+        np.testing.assert_array_equal(stored.stride_length_m, ref.stride_length_m)
+        np.testing.assert_array_equal(stored.foot_clearance_m, ref.foot_clearance_m)
+        np.testing.assert_array_equal(stored.foot_flat_idx, ref.foot_flat_idx)
+
+
+def test_the_overview_written_in_blocks_equals_it_written_whole(tmp_path, monkeypatch) -> None:
+    import shutil
+
+    import h5py
+
+    from gaitmon.io.session import stored_overview
+
+    path = tmp_path / "lossy.h5"
+    _recording_with_losses(path)
+    small = tmp_path / "small.h5"
+    shutil.copy(path, small)
+    monkeypatch.setattr(stored_overview, "_READ_ROWS", 48)  # 3 bins a block
+    with h5py.File(small, "r+") as f:
+        stored_overview.write_overview(f)
+    with h5py.File(path, "r") as whole, h5py.File(small, "r") as blocks:
+        names: list[str] = []
+        whole["overview"].visit(names.append)
+        assert any(n.endswith("/min") for n in names)
+        for name in names:
+            if isinstance(whole["overview"][name], h5py.Dataset):
+                np.testing.assert_array_equal(blocks["overview"][name][()],
+                                              whole["overview"][name][()], name)  # fmt: skip
