@@ -8,12 +8,16 @@ Part of the stride-length method: the method is the module doc of
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gaitmon.dsp.stride_anchors import MAX_STRIDE_S, search_spans, stride_data_end
 from gaitmon.dsp.stride_flags import StrideMeasures
-from gaitmon.dsp.stride_zupt import _check, _filled_in, _RowSamples, stride_measures
+from gaitmon.dsp.stride_zupt import _check, _filled_in, stride_measures
+
+if TYPE_CHECKING:
+    from gaitmon.dsp.lost_frames import Losses
 
 # strides computed at a time over a long record (~37 minutes of walking; a few MB of samples)
 STRIDES_PER_BLOCK = 2048
@@ -22,14 +26,15 @@ STRIDES_PER_BLOCK = 2048
 def record_stride_measures(
     read_foot: Callable[[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]],
     n_rows: int, fs_hz: float, heel_strike_idx: np.ndarray,
-    strides_per_block: int = STRIDES_PER_BLOCK, lost_before: np.ndarray | None = None,
+    strides_per_block: int = STRIDES_PER_BLOCK, lost_before: np.ndarray | Losses | None = None,
 ) -> StrideMeasures:  # fmt: skip
     """:func:`stride_measures` of a record of ``n_rows`` samples read a block of strides at a
     time: ``read_foot(a, b)`` gives the foot board's acc x, acc z and gyro of rows [a, b). The
     same numbers as :func:`stride_measures` over the whole record (each stride sees the same
     samples: from the heel strike before its first, which sets that one's search span, to the
     end of the last foot-flat search), with memory bounded by the block instead of the record.
-    ``lost_before`` ((n_rows,)): as :func:`stride_measures`'s, the bridged losses filled in."""
+    ``lost_before`` ((n_rows,), or the rows with losses: :class:`~gaitmon.dsp.lost_frames.Losses`):
+    as :func:`stride_measures`'s, the bridged losses filled in."""
     hs = np.asarray(heel_strike_idx, dtype=np.int64)
     if hs.ndim != 1 or np.any(np.diff(hs) <= 0):
         raise ValueError("heel strikes must be a 1-D increasing array of sample indices")
@@ -39,16 +44,18 @@ def record_stride_measures(
     if n_strides == 0:
         empty = np.empty(0)
         return stride_measures(empty, empty, empty, fs_hz, hs)
-    lost = None if lost_before is None else np.asarray(lost_before, dtype=np.int64)
-    if lost is not None and lost.shape != (n_rows,):
-        raise ValueError(f"lost_before must have shape ({n_rows},), got {lost.shape}")
-    if lost is not None:  # each row's place among the samples, the bridged losses filled in
-        from gaitmon.dsp.lost_frames import bridged_fill
+    from gaitmon.dsp.lost_frames import Losses, SamplePositions
 
-        pos = np.arange(n_rows, dtype=np.int64) + np.cumsum(bridged_fill(lost, fs_hz))
-    else:
-        pos = np.arange(n_rows, dtype=np.int64)
-    rows = _RowSamples(pos)
+    if lost_before is not None and not isinstance(lost_before, Losses):
+        dense = np.asarray(lost_before, dtype=np.int64)
+        if dense.shape != (n_rows,):
+            raise ValueError(f"lost_before must have shape ({n_rows},), got {dense.shape}")
+        lost_before = Losses.of(dense)
+    losses = lost_before if lost_before is not None and len(lost_before.rows) else None
+    # each row's place among the samples, the bridged losses filled in (without an array of
+    # every row's: finishing a recording holds none, issue 26)
+    rows = SamplePositions(losses or Losses(np.empty(0, np.int64), np.empty(0, np.int64)),
+                           n_rows, fs_hz)  # fmt: skip
     hs_s = rows.samples_of(hs)
     spans = search_spans(hs_s)
     parts: list[StrideMeasures] = []
@@ -60,9 +67,9 @@ def record_stride_measures(
         # the rows holding the samples before the searches' end (a frame filled in needs the
         # row after it)
         end_s = int(np.max(hs_s[j0 : j1 + 1] + spans[j0 : j1 + 1]))
-        b = max(a, min(n_rows, int(np.searchsorted(pos, end_s - 1, side="left")) + 1))
-        m = stride_measures(*read_foot(a, b), fs_hz, sub - a,
-                            lost_before=None if lost is None else lost[a:b])  # fmt: skip
+        b = max(a, min(n_rows, rows.first_row_at(end_s - 1) + 1))
+        lost = None if losses is None else _block(losses, a, b)
+        m = stride_measures(*read_foot(a, b), fs_hz, sub - a, lost_before=lost)
         keep = slice(j0 - lo, None)
         ff = m.foot_flat_idx[keep]
         parts.append(StrideMeasures(
@@ -82,6 +89,15 @@ def record_stride_measures(
         flag=np.concatenate([p.flags for p in parts]),
     )
 
+
+
+
+def _block(losses: Losses, a: int, b: int) -> np.ndarray:
+    """(b - a,) the frames lost before rows a:b."""
+    out = np.zeros(b - a, dtype=np.int64)
+    lo, hi = np.searchsorted(losses.rows, [a, b])
+    out[losses.rows[lo:hi] - a] = losses.n_lost[lo:hi]
+    return out
 
 
 class StrideLengthTracker:

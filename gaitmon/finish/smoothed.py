@@ -31,9 +31,10 @@ import numpy as np
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import ChannelTable
+from gaitmon.dsp.lost_frames import Losses
 from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.layout import CHUNK_ROWS
-from gaitmon.io.session.rows import lost_before_from_gaps
+from gaitmon.io.session.rows import losses_from_gaps, lost_before_from_gaps
 
 
 def smoothed_method_label() -> str:
@@ -205,16 +206,24 @@ class KeptFirstPass:
 _ROW_BYTES = N_SEGMENTS * 8
 
 
-def _restarts(lost_before: np.ndarray, n: int, fs_hz: float) -> np.ndarray:
+def _losses(lost_before: np.ndarray | Losses, n: int) -> Losses:
+    """The losses of the first ``n`` rows (per row, or already :class:`Losses`)."""
+    if isinstance(lost_before, Losses):
+        keep = lost_before.rows < n
+        return Losses(lost_before.rows[keep], lost_before.n_lost[keep])
+    return Losses.of(np.asarray(lost_before)[:n])
+
+
+def _restarts(lost_before: np.ndarray | Losses, n: int, fs_hz: float) -> np.ndarray:
     from gaitmon.dsp.lost_frames import restart_rows
 
-    return restart_rows(lost_before[:n], fs_hz)
+    return restart_rows(_losses(lost_before, n), fs_hz)
 
 
-def _filled(lost_before: np.ndarray, n: int, fs_hz: float) -> dict[int, int]:
+def _filled(lost_before: np.ndarray | Losses, n: int, fs_hz: float) -> dict[int, int]:
     from gaitmon.dsp.lost_frames import bridged_losses
 
-    return bridged_losses(lost_before[:n], fs_hz)
+    return bridged_losses(_losses(lost_before, n), fs_hz)
 
 
 def _tilt_joint_deg(part_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -255,7 +264,7 @@ def store_smoothed(
     table: ChannelTable,
     calibration: Calibration,
     calibration_changes: list[tuple[int, Calibration]],
-    lost_before: np.ndarray,
+    lost_before: np.ndarray | Losses,
     fs_hz: float,
     first_pass: FirstPass | None = None,
 ) -> None:
@@ -263,7 +272,9 @@ def store_smoothed(
     for writing, a block at a time (``counts(a, b)``: rows a:b of the raw counts): the same
     datasets, values and chunks as :func:`write_smoothed` of :func:`smoothed_angles`, without
     the whole series in memory (an 8-hour record: ~80 MB of angles, several times that while
-    they were quantised at once). ``first_pass``: see :func:`smoothed_blocks`."""
+    they were quantised at once). ``lost_before``: the frames lost before each row, or only
+    the rows that lost some (:class:`~gaitmon.dsp.lost_frames.Losses`, as the close passes
+    them: no per-row array). ``first_pass``: see :func:`smoothed_blocks`."""
     from gaitmon.io.session.codec import COMPRESSION, JOINT_OF, RESOLUTION
 
     v2 = int(f.attrs.get("format_version", 1)) >= 2
@@ -339,12 +350,19 @@ class _AlignedWriter:
 
 def _inputs(f: h5py.File) -> tuple[int, list[tuple[int, Calibration]], np.ndarray]:
     """(rows, calibration changes, frames lost before each row) of a session file."""
-    n = min(f["raw/adc"].shape[0], f["timeline/t_s"].shape[0])
-    changes = [
+    n = _rows(f)
+    return n, _changes(f), lost_before_from_gaps(f["gaps"][()], n)
+
+
+def _rows(f: h5py.File) -> int:
+    return min(f["raw/adc"].shape[0], f["timeline/t_s"].shape[0])
+
+
+def _changes(f: h5py.File) -> list[tuple[int, Calibration]]:
+    return [
         (int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
         for r in f["calibration/changes"][()]
     ]
-    return n, changes, lost_before_from_gaps(f["gaps"][()], n)
 
 
 def _text(x: object) -> str:
@@ -389,7 +407,8 @@ def smooth_into(
 ) -> None:
     """Compute and store ``/smoothed`` of the raw-mode session open (writable) in ``f``, reading
     its raw counts a block at a time."""
-    n, changes, lost = _inputs(f)
+    n = _rows(f)
+    lost = losses_from_gaps(f["gaps"][()], n)  # sparse: the close holds no per-row array
     ds = f["raw/adc"]
-    store_smoothed(f, lambda a, b: ds[a:b], n, table, calibration, changes, lost, fs_hz)
+    store_smoothed(f, lambda a, b: ds[a:b], n, table, calibration, _changes(f), lost, fs_hz)
 

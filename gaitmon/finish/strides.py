@@ -38,6 +38,7 @@ import numpy as np
 
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, GYRO_IDX, SEGMENTS, ChannelTable
+from gaitmon.dsp.lost_frames import Losses, bridged_rows
 from gaitmon.dsp.stride_length import (
     METHOD,
     StrideMeasures,
@@ -54,6 +55,8 @@ GROUP = "strides"
 _FOOT = SEGMENTS.index("foot")
 _FOOT_COLS = (int(ACC_X_IDX[_FOOT]), int(ACC_Z_IDX[_FOOT]), int(GYRO_IDX[_FOOT]))
 
+_STAMP_BLOCK_ROWS = 1 << 20  # rows of the filled-in frames hashed at a time
+
 ReadCounts = Callable[[int, int], np.ndarray]  # rows [a, b) of /raw/adc
 
 
@@ -68,27 +71,48 @@ class StrideInputs:
     table: ChannelTable
     calibration: Calibration
     calibration_changes: Sequence[tuple[int, Calibration]]
-    # (n_rows,) frames lost just before each row (the gap table's, lost_before_from_gaps):
-    # the losses the pipeline bridges are filled in (gaitmon.dsp.stride_length); None: none
-    lost_before: np.ndarray | None = None
+    # (n_rows,) frames lost just before each row (the gap table's, lost_before_from_gaps), or
+    # only the rows with losses (Losses: the close's, no per-row array): the losses the
+    # pipeline bridges are filled in (gaitmon.dsp.stride_length); None: none
+    lost_before: np.ndarray | Losses | None = None
+
+    def _losses(self) -> Losses:
+        lost = self.lost_before
+        if lost is None:
+            return Losses(np.empty(0, np.int64), np.empty(0, np.int64))
+        if isinstance(lost, Losses):
+            keep = lost.rows < self.n_rows
+            return Losses(lost.rows[keep], lost.n_lost[keep])
+        return Losses.of(np.asarray(lost)[: self.n_rows])
 
     def filled(self) -> np.ndarray:
         """(n_rows,) the frames filled in before each row (gaitmon.dsp.lost_frames.bridged_fill)."""
-        from gaitmon.dsp.lost_frames import bridged_fill
+        fill = np.zeros(self.n_rows, dtype=np.int64)
+        rows, k = bridged_rows(self._losses(), self.fs_hz)
+        fill[rows] = k
+        return fill
 
-        if self.lost_before is None:
-            return np.zeros(self.n_rows, dtype=np.int64)
-        return bridged_fill(np.asarray(self.lost_before)[: self.n_rows], self.fs_hz)
+    def _filled_stamp(self) -> dict[str, object]:
+        """The lost frames filled in (how many, and the SHA-1 of :meth:`filled` as little-endian
+        int64), hashed a block of rows at a time; {} when none are."""
+        rows, k = bridged_rows(self._losses(), self.fs_hz)
+        if not len(rows):
+            return {}
+        sha = hashlib.sha1()
+        for a in range(0, self.n_rows, _STAMP_BLOCK_ROWS):
+            b = min(self.n_rows, a + _STAMP_BLOCK_ROWS)
+            block = np.zeros(b - a, dtype="<i8")
+            lo, hi = np.searchsorted(rows, [a, b])
+            block[rows[lo:hi] - a] = k[lo:hi]
+            sha.update(block.tobytes())
+        return {"filled_frames": int(k.sum()), "filled_sha1": sha.hexdigest()}
 
     def stamp(self) -> str:
         """The ``computed_from`` a stored ``/strides`` must carry to be used (JSON)."""
         changes = sorted(self.calibration_changes, key=lambda x: x[0])  # as they are applied
-        fill = self.filled()
         # the lost frames filled in (where, how many): a record without any keeps the stamp
         # it had before they were
-        lost = ({"filled_frames": int(fill.sum()),
-                 "filled_sha1": hashlib.sha1(fill.astype("<i8").tobytes()).hexdigest()}
-                if fill.any() else {})  # fmt: skip
+        lost = self._filled_stamp()
         return json.dumps({
             **lost,
             "method": METHOD,
@@ -116,7 +140,7 @@ def compute(read_counts: ReadCounts, inputs: StrideInputs, hs: np.ndarray) -> St
         return foot_imu_from_counts(read_counts(a, b), a, inputs.table, inputs.calibration,
                                     inputs.calibration_changes)  # fmt: skip
 
-    lost = None if inputs.lost_before is None else np.asarray(inputs.lost_before)[: inputs.n_rows]
+    lost = None if inputs.lost_before is None else inputs._losses()
     return record_stride_measures(read_foot, inputs.n_rows, inputs.fs_hz, hs, lost_before=lost)
 
 
@@ -200,9 +224,10 @@ def store_strides(
         n = min(f[p].shape[0] for p in stored_datasets("raw", version))
         changes = [(int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
                    for r in f["calibration/changes"][()]]  # fmt: skip
-        from gaitmon.io.session.rows import lost_before_from_gaps
+        from gaitmon.io.session.rows import losses_from_gaps
 
-        lost = lost_before_from_gaps(f["gaps"][()], n) if "gaps" in f else None
+        # sparse: the close holds no per-row array (issue 26)
+        lost = losses_from_gaps(f["gaps"][()], n) if "gaps" in f else None
         inputs = StrideInputs(n, float(fs_hz), table, calibration, changes, lost)
         hs = heel_strikes_used(f["events/heel_strike"][()], n)
         adc = f["raw/adc"]

@@ -14,6 +14,7 @@ import numpy.typing as npt
 
 from gaitmon.dsp.angles import joint_angles, wrap_angle
 from gaitmon.dsp.fsr_check import FsrFault
+from gaitmon.dsp.lost_frames import Losses
 from gaitmon.dsp.pipeline import PipelineBlock
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.layout import _F4
@@ -94,17 +95,29 @@ class GapRow(Protocol):
     def n_lost(self) -> int: ...
 
 
-def lost_before_from_gaps(gaps: Sequence[GapRow] | np.ndarray, n_rows: int) -> np.ndarray:
-    """Frames lost just before each row, from a session's gap table (gaps at one row add up):
-    a reader's gaps, or the file's ``/gaps`` table (a structured array)."""
-    lost = np.zeros(n_rows, dtype=np.int64)
+def losses_from_gaps(gaps: Sequence[GapRow] | np.ndarray, n_rows: int) -> Losses:
+    """The rows of ``[0, n_rows)`` with frames lost just before them and how many (gaps at one
+    row add up), from a session's gap table (a reader's gaps, or the file's ``/gaps`` table, a
+    structured array): :func:`lost_before_from_gaps` without a value for every row (a per-row
+    array grows with the record; the gaps do not)."""
+    acc: dict[int, int] = {}
     for g in gaps:
         if isinstance(g, np.void):  # a row of the table
             idx, n_lost = int(g["sample_idx"]), int(g["n_lost"])
         else:
             idx, n_lost = int(g.sample_idx), int(g.n_lost)
         if 0 <= idx < n_rows:
-            lost[idx] += n_lost
+            acc[idx] = acc.get(idx, 0) + n_lost
+    rows = np.array(sorted(acc), dtype=np.int64)
+    return Losses(rows, np.array([acc[int(r)] for r in rows], dtype=np.int64))
+
+
+def lost_before_from_gaps(gaps: Sequence[GapRow] | np.ndarray, n_rows: int) -> np.ndarray:
+    """Frames lost just before each row, from a session's gap table (gaps at one row add up):
+    a reader's gaps, or the file's ``/gaps`` table (a structured array)."""
+    lost = np.zeros(n_rows, dtype=np.int64)
+    rows, n_lost = losses_from_gaps(gaps, n_rows)
+    lost[rows] = n_lost
     return lost
 
 

@@ -76,22 +76,22 @@ def write_overview(f: h5py.File) -> None:
     g = f.create_group("overview")
     g.attrs["base_step"] = np.int64(BASE_STEP)
     g.attrs["n_rows"] = np.int64(n)
+    m = -(-n // BASE_STEP)
     for path in SERIES:
-        mins: list[np.ndarray] = []
-        maxs: list[np.ndarray] = []
+        # each block's bins quantised and written as they come (_READ_ROWS is a whole number
+        # of bins): no level of the whole record in memory (issue 26)
+        grp = g.create_group(_key(path))
+        out = {name: grp.create_dataset(name, shape=(m, 3), dtype=_DTYPE,
+                                        chunks=(min(m, 1 << 14), 3), **COMPRESSION)
+               for name in ("min", "max")}  # fmt: skip
         for a in range(0, n, _READ_ROWS):
             y = _read_joint(f, path, a, min(n, a + _READ_ROWS))
             if y is None or len(y) < min(n, a + _READ_ROWS) - a:
+                del g[_key(path)]  # a series not stored whole: none of it
                 break
-            lo, hi = _bins(y)
-            mins.append(lo)
-            maxs.append(hi)
-        else:
-            grp = g.create_group(_key(path))
-            for name, parts in (("min", mins), ("max", maxs)):
-                data = quantise(np.concatenate(parts), _DTYPE, CENTIDEG)
-                grp.create_dataset(name, data=data, chunks=(min(len(data), 1 << 14), 3),
-                                   **COMPRESSION)  # fmt: skip
+            k = a // BASE_STEP
+            for name, bins in zip(("min", "max"), _bins(y), strict=True):
+                out[name][k : k + len(bins)] = quantise(bins, _DTYPE, CENTIDEG)
     from gaitmon.io.session.attributes import describe
 
     describe(f)

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import numpy.typing as npt
 
 from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.header import SessionError
@@ -54,6 +55,11 @@ class _TruthGroup:
     def put(self, name: str, data: np.ndarray) -> None:
         self._fresh(name)
         self.g.create_dataset(name, data=data)
+
+    def column(self, name: str, n: int, dtype: npt.DTypeLike) -> h5py.Dataset:
+        """An (n,) dataset to fill (the same layout :meth:`put` gives)."""
+        self._fresh(name)
+        return self.g.create_dataset(name, shape=(n,), dtype=dtype)
 
     def rows(self, name: str, n: int, cols: int) -> h5py.Dataset:
         """An (n, cols) float32 dataset to fill (the same layout :meth:`put` gives)."""

@@ -31,7 +31,7 @@ def row_samples(seq: np.ndarray, unit: SimulatedUnit) -> np.ndarray:
 # simulator's truth costs ~1.5 kB of temporaries a sample (its kinematics, each stride's 201-point
 # foot path), so the truth of a whole record at once made finishing a `record --simulate` peak
 # at 503 MB for 20 minutes, 919 MB for 1 h, 5.1 GB for 2 h (issue 26). 10,000 rows: ~15 MB; the
-# peak no longer grows with the record beyond the row map (each row's sample, 8 bytes a row).
+# peak no longer grows with the record: each row's sample waits in a temporary file.
 # The values are the same: the truth is a function of the sample index
 # (tests/test_recorder_memory.py compares blocked and whole).
 TRUTH_BLOCK_ROWS = 10_000
@@ -40,50 +40,72 @@ TRUTH_BLOCK_ROWS = 10_000
 def attach_ground_truth(path: str | Path, unit: SimulatedUnit,
                         block_rows: int = TRUTH_BLOCK_ROWS) -> int:  # fmt: skip
     """Write ``/truth`` into a finished session file, ``block_rows`` rows at a time; returns
-    the number of rows mapped."""
-    frame_no, sample_idx, _ = unit.frame_log(copy=False)  # the unit produces no more
-    with read_stored(Path(path)) as s:
-        n = s.n_samples
-        samples = np.empty(n, np.int64)
-        for a in range(0, n, block_rows):
-            seq = s.read_range(a, a + block_rows, ["timeline/seq"])["timeline/seq"]
-            samples[a : a + len(seq)] = _samples_of(seq, frame_no, sample_idx)
-    del frame_no, sample_idx
-    valid = samples >= 0
-    n_valid = int(valid.sum())
-    if not n_valid:
-        return 0
-    # the rows mapped and their samples (every row, usually: then no copies)
-    valid_rows = None if n_valid == n else np.flatnonzero(valid)
-    recorded = samples if valid_rows is None else samples[valid_rows]
-    del valid
-    lo, hi = int(recorded.min()), int(recorded.max()) + 1
+    the number of rows mapped. Nothing of a row's is held for the whole record (issue 26):
+    each row's sample waits in an unnamed temporary file (8 bytes a row) between the pass that
+    maps the rows (the file open to read) and the one that writes them (open to write)."""
+    import tempfile
 
-    # the events and the strides they open, piece by piece over the samples (each stride is
-    # one heel strike's: the pieces partition them)
-    parts = [unit.true_events(a, min(a + block_rows, hi)) for a in range(lo, hi, block_rows)]
-    hs = np.concatenate([p[0] for p in parts])
-    to = np.concatenate([p[1] for p in parts])
-    strides = {k: np.concatenate([getattr(p[2], k) for p in parts])
-               for k in ("stride_length_m", "stride_time_s", "foot_clearance_m")}  # fmt: skip
-    events: dict[str, np.ndarray] = {}
-    for name, ev in (("heel_strike", hs), ("toe_off", to)):
-        k = np.searchsorted(recorded, ev)  # first recorded row at/after each event
-        k = k[k < n_valid]
-        events[name] = (k if valid_rows is None else valid_rows[k]).astype(np.int64)
-    kept = np.searchsorted(recorded, hs) < n_valid  # the stride each recorded hs opens
-    del valid_rows, recorded, parts
-    with truth_writer(path, np.degrees(unit.truth(0, 0).mount_offset_rad)) as g:
-        g.put("sample_idx", samples)
-        out = {name: g.rows(name, n, cols) for name, cols in _PER_ROW.items()}
-        for a in range(0, n, block_rows):
-            for name, data in _per_row(unit, samples[a : a + block_rows]).items():
-                out[name][a : a + len(data)] = data
-        for name, data in events.items():
-            g.put(name, data)
-        for name, data in strides.items():
-            g.put(name, data[kept])
+    frame_no, sample_idx, _ = unit.frame_log(copy=False)  # the unit produces no more
+    n_valid, lo, hi = 0, 0, 0
+    with tempfile.TemporaryFile(dir=Path(path).parent) as tmp:
+        with read_stored(Path(path)) as s:
+            n = s.n_samples
+            for a in range(0, n, block_rows):
+                seq = s.read_range(a, a + block_rows, ["timeline/seq"])["timeline/seq"]
+                got = _samples_of(seq, frame_no, sample_idx)
+                tmp.write(np.ascontiguousarray(got, dtype=np.int64).tobytes())
+                mapped = got[got >= 0]
+                if len(mapped):
+                    b_lo, b_hi = int(mapped.min()), int(mapped.max()) + 1
+                    lo, hi = (b_lo, b_hi) if not n_valid else (min(lo, b_lo), max(hi, b_hi))
+                    n_valid += len(mapped)
+        del frame_no, sample_idx
+        if not n_valid:
+            return 0
+
+        def samples(a: int) -> np.ndarray:  # rows a:a + block_rows
+            tmp.seek(a * 8)
+            return np.frombuffer(tmp.read(min(block_rows, n - a) * 8), dtype=np.int64)
+
+        # the events and the strides they open, piece by piece over the samples (each stride
+        # is one heel strike's: the pieces partition them)
+        parts = [unit.true_events(a, min(a + block_rows, hi)) for a in range(lo, hi, block_rows)]
+        hs = np.concatenate([p[0] for p in parts])
+        to = np.concatenate([p[1] for p in parts])
+        strides = {k: np.concatenate([getattr(p[2], k) for p in parts])
+                   for k in ("stride_length_m", "stride_time_s", "foot_clearance_m")}  # fmt: skip
+        del parts
+        # each event's row: the first recorded row at/after it (-1: after the last one)
+        at = {"heel_strike": np.full(len(hs), -1, np.int64),
+              "toe_off": np.full(len(to), -1, np.int64)}  # fmt: skip
+        with truth_writer(path, np.degrees(unit.truth(0, 0).mount_offset_rad)) as g:
+            column = g.column("sample_idx", n, np.int64)
+            out = {name: g.rows(name, n, cols) for name, cols in _PER_ROW.items()}
+            for a in range(0, n, block_rows):
+                got = samples(a)
+                column[a : a + len(got)] = got
+                for name, data in _per_row(unit, got).items():
+                    out[name][a : a + len(data)] = data
+                rows = np.flatnonzero(got >= 0)
+                for name, ev in (("heel_strike", hs), ("toe_off", to)):
+                    _first_at(at[name], ev, got[rows], rows + a)
+            for name, rows in at.items():
+                g.put(name, rows[rows >= 0])
+            kept = at["heel_strike"] >= 0  # the stride each recorded hs opens
+            for name, data in strides.items():
+                g.put(name, data[kept])
         return n_valid
+
+
+def _first_at(found: np.ndarray, events: np.ndarray, recorded: np.ndarray,
+              rows: np.ndarray) -> None:  # fmt: skip
+    """Give each event not yet ``found`` (-1) the first of ``rows`` whose sample
+    (``recorded``, increasing, as the blocks before) is at or after it: over consecutive
+    blocks, ``np.searchsorted`` of the whole record's recorded samples."""
+    if not len(recorded):
+        return
+    todo = (found < 0) & (events <= recorded[-1])
+    found[todo] = rows[np.searchsorted(recorded, events[todo])]
 
 
 _PER_ROW = {"tilt_deg": 4, "joint_deg": 3, "gyro_bias_rad_s": 4}
