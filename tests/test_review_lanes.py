@@ -252,7 +252,9 @@ def test_both_legs_cycles_follow_the_angles_shown(qtbot, win, both) -> None:
 
 def test_status_bar_message_is_not_cut_by_the_angles_label(qtbot, win, both) -> None:
     open_and_wait(qtbot, win, both)
-    assert win.width() == 1400  # the window's default width
+    assert win.width() == 1500  # the window's default width
+    win.resize(1400, win.height())  # narrower than the default: the message must still fit
+    qtbot.waitUntil(lambda: win.width() == 1400)
     sb = win.statusBar()
     msg = sb.currentMessage()
     assert msg.startswith("both.h5 — left leg:") and msg.endswith("0 markers")
