@@ -57,7 +57,7 @@ def test_the_tilt_filter_is_shown_chosen_from_the_menu_applied_live_and_remember
     try:
         # shown where the angles are and in the status bar
         shown = f"angles: {GAIT_AWARE} · zero: {ZERO_ESTIMATED}"
-        qtbot.waitUntil(lambda: win.status.method_label.text() == shown, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: win.status.method_label.full_text == shown, timeout=WAIT_MS)
         assert win.live.title_text(0) == f"Segment tilt · {GAIT_AWARE}"
         assert win.live.title_text(1) == f"Joint angles and foot contact · {GAIT_AWARE}"
         items = menu_actions(win, "Device", "Tilt filter")
@@ -69,7 +69,7 @@ def test_the_tilt_filter_is_shown_chosen_from_the_menu_applied_live_and_remember
         qtbot.waitUntil(lambda: win.live.title_text(1).endswith(f"· {PAPER}"),
                         timeout=WAIT_MS)  # fmt: skip
         assert win.live.title_text(0).endswith(f"· {PAPER}")
-        assert win.status.method_label.text() == f"angles: {PAPER} · zero: {ZERO_ESTIMATED}"
+        assert win.status.method_label.full_text == f"angles: {PAPER} · zero: {ZERO_ESTIMATED}"
         assert [a.isChecked() for a in items] == [False, True]  # exclusive
         # the Settings dialog keeps the filter the menu chose
         win.act_settings.trigger()
@@ -101,7 +101,7 @@ def test_in_the_units_joint_mode_the_window_names_the_units_own_filter(
     try:
         own = "the unit's own Kalman"
         shown = f"angles: {own} · zero: {ZERO_UNIT}"
-        qtbot.waitUntil(lambda: win.status.method_label.text() == shown, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: win.status.method_label.full_text == shown, timeout=WAIT_MS)
         assert win.live.title_text(1) == f"Joint angles and foot contact · {own}"
         qtbot.waitUntil(lambda: win.gait_panel.events_label.text() != "", timeout=WAIT_MS)
         assert win.gait_panel.events_label.text() == "Gait events: the unit's foot contacts"
@@ -109,7 +109,7 @@ def test_in_the_units_joint_mode_the_window_names_the_units_own_filter(
         win.tilt_actions["paper"].trigger()
         assert "takes effect when gaitmon computes" in win.statusBar().currentMessage()
         qtbot.wait(200)
-        assert win.status.method_label.text() == f"angles: {own} · zero: {ZERO_UNIT}"
+        assert win.status.method_label.full_text == f"angles: {own} · zero: {ZERO_UNIT}"
     finally:
         close_window(win)
 
