@@ -23,6 +23,7 @@ from PySide6.QtWidgets import QWidget
 from gaitmon.io.session.parts import SIDE_NAMES, SIDES
 from gaitmon.review.both_legs import N_POINTS, SideCycles
 from gaitmon.ui.plots import JOINTS
+from gaitmon.ui.review.cycles import add_cycle_plot
 from gaitmon.ui.theme import Colours, side_colours
 
 TITLE = "Gait cycle, both legs: mean ± SD"
@@ -52,15 +53,7 @@ class BothLegsCycles(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgrap
         self.sides = {side: _SideItems() for side in SIDES}
         self.title = self.addLabel(TITLE, row=0, col=0, size="9pt")
         for j, (key, label, yr) in enumerate(JOINTS):
-            p = self.addPlot(row=j + 1, col=0)
-            p.hideButtons()
-            p.setMenuEnabled(True)
-            p.showGrid(x=True, y=True, alpha=colours.grid_alpha)
-            p.setMouseEnabled(x=False, y=False)
-            p.setXRange(0, 100, padding=0)
-            p.setYRange(*yr, padding=0)
-            p.getAxis("left").setLabel(f"{key} (°)")
-            p.getAxis("left").setWidth(50)
+            p = add_cycle_plot(self, j + 1, f"{key} (°)", yr, colours)
             if j == len(JOINTS) - 1:
                 p.getAxis("bottom").setLabel("% of each leg's stride")
             p.setToolTip(

@@ -29,6 +29,22 @@ NORMAL_COLOUR = "#d08000"  # the normal band's hue (amber), the report's too
 NORMAL_FILL_ALPHA = 90  # of 255
 
 
+def add_cycle_plot(layout: pg.GraphicsLayoutWidget, row: int, y_label: str,
+                   y_range: tuple[float, float], colours: Colours) -> pg.PlotItem:
+    """One joint's plot of a column of gait cycles: 0-100 % of the stride, a fixed y range,
+    no mouse panning (the review's cycle plots and the Both legs tab's share this)."""
+    p = layout.addPlot(row=row, col=0)
+    p.hideButtons()
+    p.setMenuEnabled(True)
+    p.showGrid(x=True, y=True, alpha=colours.grid_alpha)
+    p.setMouseEnabled(x=False, y=False)
+    p.setXRange(0, 100, padding=0)
+    p.setYRange(*y_range, padding=0)
+    p.getAxis("left").setLabel(y_label)
+    p.getAxis("left").setWidth(50)
+    return p
+
+
 def normal_legend_text(bands: NormativeBands, max_chars: int = 26) -> str:
     """The legend entry of the normal band: "normal mean ± 1 SD (its name)", the name cut to
     ``max_chars`` (the plots are narrow; the tooltips give it in full)."""
@@ -74,15 +90,7 @@ class ReviewCyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgr
             "Gait cycle (included strides)", row=0, col=0, size="9pt", bold=True
         )
         for j, (key, label, yr) in enumerate(JOINTS):
-            p = self.addPlot(row=j + 1, col=0)
-            p.hideButtons()
-            p.setMenuEnabled(True)
-            p.showGrid(x=True, y=True, alpha=colours.grid_alpha)
-            p.setMouseEnabled(x=False, y=False)
-            p.setXRange(0, 100, padding=0)
-            p.setYRange(*yr, padding=0)
-            p.getAxis("left").setLabel(f"{key} (deg)")
-            p.getAxis("left").setWidth(50)
+            p = add_cycle_plot(self, j + 1, f"{key} (deg)", yr, colours)
             ax = p.getAxis("bottom")
             if j == len(JOINTS) - 1:
                 ax.setLabel("% of stride (heel strike to heel strike)")
