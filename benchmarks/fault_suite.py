@@ -16,6 +16,16 @@ Rows (goal in the table):
              benchmarks/damaged_corpus.py (branch `cli`; --corpus-module PATH to use another copy)
   soak       `gaitmon record --simulate` of >= 3 h of data at a raised speed, RSS sampled
 
+More rows, one module each in benchmarks/faults/ (issue 26):
+  hostile, hostile-rss     hostile session files (external storage and links, virtual
+                           datasets, huge shapes and attributes) x every command (hostile.py)
+  lsl                      LSL markers from another process: NUL, control characters, 1 MB
+                           labels, formulas, a flood, an impostor control stream (lsl_markers.py)
+  damaged2, folders        damaged two-leg files and crashed recordings x every command;
+                           batch / compare / import over damaged folders (damaged_folders.py)
+  diskfull_create, soak8h  a full disk at the file's creation; 8 h at --speed max beside a
+                           busy process: every lost frame reported, finishing RSS (recorder.py)
+
 A row that cannot run says why and counts as FAIL: nothing is hidden. Exit status 0 only when
 every row passes. Nothing here is a pass/fail test of the test suite (that would put timings
 in tests); the fast, timing-free parts live in tests/test_faults_decoder.py.
