@@ -51,9 +51,10 @@ def _commands(f: Path, w: Path) -> dict[str, list[str]]:
 
 
 def _one_line_everywhere(f: Path, w: Path, capsys: pytest.CaptureFixture[str],
-                         must_say: str) -> None:  # fmt: skip
+                         must_say: str) -> dict[str, str]:  # fmt: skip
     """Every command that reads ``f``: exit 2, one error line naming the file, no traceback,
-    no partial output left in ``w``."""
+    no partial output left in ``w``. Returns each command's line."""
+    said: dict[str, str] = {}
     for cmd, argv in _commands(f, w).items():
         rc = main(argv)
         err = capsys.readouterr().err
@@ -63,6 +64,8 @@ def _one_line_everywhere(f: Path, w: Path, capsys: pytest.CaptureFixture[str],
         assert f.name in lines[0] and must_say in lines[0], (cmd, lines[0])
         left = [p.name for p in w.rglob("*") if p.name.endswith(LEFTOVER)]
         assert not left, (cmd, left)
+        said[cmd] = lines[0]
+    return said
 
 
 def _damaged_copy(both: Path, tmp_path: Path) -> tuple[Path, Path]:
@@ -121,7 +124,9 @@ def test_a_clock_fit_of_another_shape_is_one_line(
     with h5py.File(f, "r+") as h:
         del h["sync/L/segments"]
         h["sync/L"].create_dataset("segments", data=np.arange(4.0))  # was IndexError
-    _one_line_everywhere(f, w, capsys, "damaged")
+    said = _one_line_everywhere(f, w, capsys, "damaged")
+    assert set(said) == set(_commands(f, w))  # every command was run and refused it
+    assert all(line.startswith(f"gaitmon {cmd.split()[0]}") for cmd, line in said.items()), said
 
 
 @pytest.fixture(scope="module")
