@@ -80,7 +80,8 @@ def _base_settings(text: str | None) -> Reprocessing | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gaitmon.batch import DAMAGED, OK, SKIPPED, labels, run_batch, scrub_reason
+    from gaitmon.batch import run_batch
+    from gaitmon.batch_tables import DAMAGED, OK, SKIPPED, labels, scrub_reason
 
     base = _base_settings(args.settings)
     settings = reprocessing_from_args(args, base)
