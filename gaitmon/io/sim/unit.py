@@ -79,7 +79,6 @@ from __future__ import annotations
 import math
 import threading
 import time
-from array import array
 from collections import deque
 from collections.abc import Callable
 from dataclasses import replace
@@ -92,6 +91,7 @@ from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
 from gaitmon.io import protocol as P
 from gaitmon.io.sim.clock import CrystalClock
 from gaitmon.io.sim.faults import FaultConfig, FaultLedger, LedgerEntry, flip_bits
+from gaitmon.io.sim.frame_log import FrameLog
 from gaitmon.io.sim.ground_truth import GroundTruth as GroundTruth  # re-exported
 from gaitmon.io.sim.ground_truth import ground_truth
 from gaitmon.io.sim.kinematics import GaitConfig, GaitModel, StrideTruth
@@ -174,9 +174,7 @@ class SimulatedUnit:
         self._manual_link_down = False
         self._stall_until = 0  # sample index: a manual stall holds the frames until then
         # compact logs (8 + 8 + 1 bytes per data frame: ~6 MB for an hour of streaming)
-        self._log_frame = array("q")
-        self._log_sample = array("q")
-        self._log_kind = array("B")
+        self._log = FrameLog()
         self._closed = False
         self._walk_after_stream: float | None = None  # stand_until_streamed's standing (s)
         self._t0 = clock() if epoch is None else epoch
@@ -356,15 +354,7 @@ class SimulatedUnit:
         ``copy=False``: views of the log itself (no copy of 17 bytes a frame), for a unit that
         produces no more (its log cannot grow while they are held)."""
         with self._lock:
-            if not copy:
-                return (np.frombuffer(self._log_frame, dtype=np.int64),
-                        np.frombuffer(self._log_sample, dtype=np.int64),
-                        np.frombuffer(self._log_kind, dtype=np.uint8))  # fmt: skip
-            return (
-                np.array(self._log_frame, dtype=np.int64),
-                np.array(self._log_sample, dtype=np.int64),
-                np.array(self._log_kind, dtype=np.uint8),
-            )
+            return self._log.arrays(copy)
 
     def true_events(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, StrideTruth]:
         """(heel strikes, toe-offs, the strides they open) in samples start .. stop-1: the
@@ -532,9 +522,7 @@ class SimulatedUnit:
         self._frame_no += n
         self.ledger.frames_produced += n
         self.ledger.data_frames_produced += n
-        self._log_frame.extend(frame_nos.tolist())
-        self._log_sample.extend((start + idx).tolist())
-        self._log_kind.extend([int(kind)] * n)
+        self._log.extend(frame_nos, start + idx, kind)
         # Three uniforms per data frame, always drawn, so which frames are hit depends on the
         # seed and the frame number only, not on how the frames were batched.
         u = self._rng.random((n, 3))
