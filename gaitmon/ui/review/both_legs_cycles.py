@@ -23,7 +23,7 @@ from PySide6.QtWidgets import QWidget
 from gaitmon.io.session.parts import SIDE_NAMES, SIDES
 from gaitmon.review.both_legs import N_POINTS, SideCycles
 from gaitmon.ui.plots import JOINTS
-from gaitmon.ui.review.cycles import add_cycle_plot
+from gaitmon.ui.review.cycles import add_cycle_plot, fit_y_range
 from gaitmon.ui.theme import Colours, side_colours
 
 TITLE = "Gait cycle, both legs: mean ± SD"
@@ -145,11 +145,4 @@ class BothLegsCycles(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgrap
                 if cyc.n_strides:
                     sd = np.nan_to_num(cyc.sd_deg[:, j])
                     parts += [cyc.mean_deg[:, j] - sd, cyc.mean_deg[:, j] + sd]
-            vals = np.concatenate(parts) if parts else np.empty(0)
-            vals = vals[np.isfinite(vals)]
-            if not len(vals):
-                self.plots[j].setYRange(*yr, padding=0)
-                continue
-            lo, hi = float(vals.min()), float(vals.max())
-            pad = 0.1 * max(hi - lo, 5.0)
-            self.plots[j].setYRange(lo - pad, hi + pad, padding=0)
+            fit_y_range(self.plots[j], parts, yr)

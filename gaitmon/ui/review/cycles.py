@@ -45,6 +45,19 @@ def add_cycle_plot(layout: pg.GraphicsLayoutWidget, row: int, y_label: str,
     return p
 
 
+def fit_y_range(plot: pg.PlotItem, parts: list[np.ndarray], default: tuple[float, float]) -> None:
+    """The plot's y range around the finite values of ``parts`` (10 % padding, at least 0.5
+    degrees), or ``default`` when there are none."""
+    vals = np.concatenate(parts) if parts else np.empty(0)
+    vals = vals[np.isfinite(vals)]
+    if not len(vals):
+        plot.setYRange(*default, padding=0)
+        return
+    lo, hi = float(vals.min()), float(vals.max())
+    pad = 0.1 * max(hi - lo, 5.0)
+    plot.setYRange(lo - pad, hi + pad, padding=0)
+
+
 def normal_legend_text(bands: NormativeBands, max_chars: int = 26) -> str:
     """The legend entry of the normal band: "normal mean ± 1 SD (its name)", the name cut to
     ``max_chars`` (the plots are narrow; the tooltips give it in full)."""
@@ -229,11 +242,4 @@ class ReviewCyclePlots(pg.GraphicsLayoutWidget):  # type: ignore[misc]  # pyqtgr
             if bands is not None and np.isfinite(bands.mean_deg[:, j]).all():
                 sd = np.nan_to_num(bands.sd_deg[:, j])
                 parts += [bands.mean_deg[:, j] - sd, bands.mean_deg[:, j] + sd]
-            vals = np.concatenate(parts) if parts else np.empty(0)
-            vals = vals[np.isfinite(vals)]
-            if not len(vals):
-                self.plots[j].setYRange(*yr, padding=0)
-                continue
-            lo, hi = float(vals.min()), float(vals.max())
-            pad = 0.1 * max(hi - lo, 5.0)
-            self.plots[j].setYRange(lo - pad, hi + pad, padding=0)
+            fit_y_range(self.plots[j], parts, yr)
