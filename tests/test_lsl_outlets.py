@@ -173,9 +173,12 @@ def test_heel_strikes_are_stamped_at_the_files_rows(streamed):
     hs_ts = np.array([t for (w, _r), t in zip(words, ev_ts, strict=True)
                       if w is EventWord.HEEL_STRIKE])  # fmt: skip
     assert len(hs_ts) >= 5
-    # the sample each event is stamped at, through the angles' own (timestamp, counter) pairs
+    # the sample each event is stamped at, through the raw stream's own (timestamp, counter)
+    # pairs: an event carries exactly the stamp its sample was pushed with, although it is
+    # confirmed up to a stride later, when the clock fit has moved on (by milliseconds while
+    # it settles: the first heel strike was 2.7 ms off its sample once)
     near = np.abs(ts[None, :] - hs_ts[:, None]).argmin(axis=1)
-    assert np.abs(ts[near] - hs_ts).max() < 0.5 / 200  # on a sample (half a period)
+    assert np.abs(ts[near] - hs_ts).max() < 1e-6
     with open_session(path) as s:
         seq = s.read("timeline/seq")
         file_hs = np.asarray(s.heel_strike_idx)

@@ -63,6 +63,9 @@ class LslUnavailable(UserError):
     """pylsl (the optional extra ``gaitmon[lsl]``) is not installed, or liblsl cannot load."""
 
 
+STAMP_RING = 4096  # samples whose pushed stamps are kept (41 s at 100 Hz): events come later
+
+
 def require_pylsl(scope: str | None = None) -> ModuleType:
     """pylsl with gaitmon's network settings applied (``gaitmon.lsl.network``: ``scope``, by
     default this computer only), or :class:`LslUnavailable` with the one line that says what
@@ -139,6 +142,11 @@ class LslOutlets:
         self._closed = False
         self._k_end = 0  # the sample clock just after the last sample pushed
         self._consumers = False  # the events stream had a consumer at the last push
+        # the stamps of the last STAMP_RING samples pushed, by sample clock modulo the ring:
+        # an event confirmed later gets its sample's own stamp, not the clock fit's newer
+        # estimate of it (the fit moves while it settles, by milliseconds)
+        self._ring_k = np.full(STAMP_RING, -1, np.int64)
+        self._ring_t = np.zeros(STAMP_RING, np.float64)
         self.samples_pushed = 0
         self.events_pushed = 0
         self.angles = pylsl.StreamOutlet(self._info("angles"))
@@ -264,7 +272,11 @@ class LslOutlets:
                 events.append((k, event_text(EventWord.GAP_END)))
             events += [(int(k), event_text(EventWord.HEEL_STRIKE)) for k in out.heel_strike_k]
             events += [(int(k), event_text(EventWord.TOE_OFF)) for k in out.toe_off_k]
-            stamps = (self.clock.map(out.k) + self.offset_s).tolist()
+            stamps_arr = self.clock.map(out.k) + self.offset_s
+            slots = out.k.astype(np.int64) % STAMP_RING
+            self._ring_k[slots] = out.k
+            self._ring_t[slots] = stamps_arr
+            stamps = stamps_arr.tolist()
             data = np.concatenate([out.joint_deg, out.tilt_deg], axis=1).astype(np.float32)
             self.angles.push_chunk(data, stamps)
             if self.raw is not None and out.adc is not None:
@@ -276,10 +288,19 @@ class LslOutlets:
             self.samples_pushed += n
         if events and self.clock.ready:
             events.sort(key=lambda e: e[0])
-            t = self.clock.map(np.array([e[0] for e in events], np.float64)) + self.offset_s
+            t = self._stamps(np.array([e[0] for e in events], np.int64))
             for (_k, text), ts in zip(events, t.tolist(), strict=True):
                 self.events.push_sample([text], ts)
             self.events_pushed += len(events)
+
+    def _stamps(self, k: np.ndarray) -> np.ndarray:
+        """LSL stamps of samples ``k``: the stamp each was pushed with, where it was pushed
+        within the ring, else the clock fit's mapping (a gap's start, a sample not streamed)."""
+        slots = k % STAMP_RING
+        known = self._ring_k[slots] == k
+        t = self.clock.map(k.astype(np.float64)) + self.offset_s
+        t[known] = self._ring_t[slots[known]]
+        return t
 
     # -- lifecycle ------------------------------------------------------------------------
 
