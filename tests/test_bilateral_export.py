@@ -439,3 +439,18 @@ def test_a_format_that_cannot_write_both_legs_says_so_in_one_line(
     got = ex.export_session(both, "oneunit", tmp_path / "o.one.csv", side="L")
     want = ex.export_session(both, "csv", tmp_path / "w.csv", side="L")
     assert got.paths[0].read_bytes() == want.paths[0].read_bytes()
+
+
+def test_an_event_on_a_legs_last_row_is_on_the_c3ds_last_frame() -> None:
+    """The C3D's frames run to the later leg's last row (floor of its time x rate); an event
+    on that row, in the last half frame, is on the last frame, not one past it (where the
+    writer would drop it: CI once found 11 Foot Off events in the C3D against 12)."""
+    from gaitmon.export.grid import common_grid
+
+    fs = 100.0
+    rows = {"L": np.arange(1000) / fs, "R": np.arange(1001) / fs + 0.006}  # R ends at 10.006 s
+    grid = common_grid("s.h5", {"L": fs, "R": fs}, rows)
+    assert grid.n_frames == 1001  # frames 0 .. 1000, the last at 10.000 s
+    frames = grid.frame_of(np.array([0.0, 5.004, 10.006, rows["R"][-1]]))
+    assert frames.tolist() == [0, 500, 1000, 1000]
+    assert (frames < grid.n_frames).all()

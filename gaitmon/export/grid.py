@@ -68,8 +68,10 @@ class CommonGrid:
     legs: dict[str, LegOnGrid]
 
     def frame_of(self, common_s: np.ndarray | float) -> np.ndarray:
-        """The nearest frame of each time."""
-        return np.rint(np.asarray(common_s, np.float64) * self.fs_hz).astype(np.int64)
+        """The nearest frame of each time, within the grid: a time in the last half frame
+        (an event on a leg's last row) is on the last frame, not one past it."""
+        k = np.rint(np.asarray(common_s, np.float64) * self.fs_hz).astype(np.int64)
+        return np.clip(k, 0, max(self.n_frames - 1, 0))
 
 
 def common_grid(name: str, fs_hz: dict[str, float], common_s: dict[str, np.ndarray]) -> CommonGrid:
