@@ -29,6 +29,7 @@ scipy's sample-by-sample recursion by rounding only (~1e-15 relative; tests). A 
 from __future__ import annotations
 
 import math
+from typing import overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -189,6 +190,13 @@ def solve_discrete_are(
 
 
 # --------------------------------------------------------------------------- filtering
+def running_sum(x: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """y_k = y_k-1 + x_k along axis 0 with y_-1 = ``start``: lfilter([1], [1, -1], x, zi=start)
+    with scipy's additions in scipy's order (bit-for-bit), as one cumulative sum."""
+    x = np.asarray(x, dtype=np.float64)
+    start = np.asarray(start, dtype=np.float64)
+    return np.cumsum(np.concatenate([start.reshape((1, *x.shape[1:])), x]), axis=0)[1:]
+
 class LinearFilter:
     """``lfilter(b, a)`` over (N, channels) blocks with its state carried from call to call.
 
@@ -322,8 +330,8 @@ class LinearFilter:
         n = x.shape[0]
         if self.order == 0:
             return x * self.b[0]
-        if self._running_sum:  # y_k = y_k-1 + b0 x_k, scipy's additions in its order
-            y = np.cumsum(np.concatenate([self._z, x * self.b[0]]), axis=0)[1:]
+        if self._running_sum:
+            y = running_sum(x * self.b[0], self._z[0])
             if n:
                 self._z = y[-1:].copy()
             return y
@@ -346,6 +354,14 @@ class LinearFilter:
         return y
 
 
+@overload
+def lfilter(
+    b: ArrayLike, a: ArrayLike, x: ArrayLike, axis: int = -1, zi: None = None
+) -> np.ndarray: ...
+@overload
+def lfilter(
+    b: ArrayLike, a: ArrayLike, x: ArrayLike, axis: int = -1, *, zi: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]: ...
 def lfilter(
     b: ArrayLike, a: ArrayLike, x: ArrayLike, axis: int = -1, zi: ArrayLike | None = None
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
