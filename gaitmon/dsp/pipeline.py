@@ -122,9 +122,9 @@ def settling_ranges(
 
 
 def butterworth_dc_delay_samples(order: int, cutoff_hz: float, fs_hz: float) -> float:
-    """The DC group delay (samples) of ``scipy.signal.butter(order, cutoff_hz, fs=fs_hz)``,
-    computed with numpy alone: readers (the review window's first view, ``info``) need it, and
-    importing scipy.signal costs ~1.2 s. The digital Butterworth low-pass is the bilinear
+    """The DC group delay (samples) of the Butterworth low-pass (``gaitmon.dsp.iir.butter_lowpass``,
+    scipy.signal.butter's), from its poles alone: readers (the review window's first view,
+    ``info``) need it without designing a filter. The digital Butterworth low-pass is the bilinear
     transform of the analog prototype (cut-off prewarped): n zeros at z = -1 and poles p_k.
     At DC a factor (1 - q / z) delays by -Re(q / (1 - q)) samples in the numerator and by
     +Re(p / (1 - p)) in the denominator: summed over the factors, which stays accurate where
@@ -181,7 +181,7 @@ class PipelineConfig:
 
     def __post_init__(self) -> None:
         # Every value is checked with a message that names it, as the stages check them, but
-        # without designing the filters: a file's recorded settings are read without scipy.
+        # without designing the filters: a file's recorded settings are read cheaply.
         Butterworth.check(self.cutoff_hz, self.fs_hz, self.filter_order)
         TiltKalman.check(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
         GaitEventDetector(self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz)
