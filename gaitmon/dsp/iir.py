@@ -326,7 +326,7 @@ class LinearFilter:
         # the block start states: s_b+1 = A^BLOCK s_b + the block's forced end state
         self._chain = _Chain(powers_x[BLOCK], z0)
         self._start = z0  # the state at the current block's start (the chain's next output)
-        self._forced = [np.zeros(self.channels) for _ in range(p)]  # forced state within it
+        self._forced = np.zeros((p, self.channels))  # the forced state within it
         self._phase = 0  # samples of the current block already filtered
 
     @property
@@ -335,28 +335,29 @@ class LinearFilter:
         if self.order == 0 or self._running_sum:
             return self._z.copy()
         free = np.einsum("ij,jc->ic", self._powers[self._phase], self._start)
-        return free + np.stack(self._forced)
+        return free + self._forced
 
     # ---------------------------------------------------------------- the block arithmetic
-    def _forced_run(self, x: np.ndarray, y: np.ndarray, z: list[np.ndarray]) -> None:
-        """Difference equation along axis 0 of x from the forced state ``z`` (updated in
-        place), writing y: scipy's operations in its order, y = z0 + b0 x,
-        z_i = (z_i+1 + b_i+1 x) - a_i+1 y, z_p-1 = b_p x - a_p y."""
-        b, a, p = self.b, self.a, self.order
+    def _forced_run(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> None:
+        """Difference equation along axis 0 of x from the forced state ``z`` (p, ...; updated
+        in place), writing y, with scipy's operations in its order: y = z0 + b0 x,
+        z_i = (z_i+1 + b_i+1 x) - a_i+1 y (z_p = 0). The p state rows are updated together."""
+        p = self.order
+        shape = (p, *(1,) * (x.ndim - 1))
+        b0 = self.b[0]
+        bs = self.b[1:].reshape(shape)
+        as_ = self.a[1:].reshape(shape)
         bx = np.empty_like(x[0])
-        ay = np.empty_like(x[0])
+        t = np.empty_like(z)
+        u = np.empty_like(z)
         for j in range(x.shape[0]):
             xj, yj = x[j], y[j]
-            np.multiply(xj, b[0], out=bx)
+            np.multiply(xj, b0, out=bx)
             np.add(z[0], bx, out=yj)
-            for i in range(p - 1):
-                np.multiply(xj, b[i + 1], out=bx)
-                np.add(z[i + 1], bx, out=z[i])
-                np.multiply(yj, a[i + 1], out=ay)
-                np.subtract(z[i], ay, out=z[i])
-            np.multiply(xj, b[p], out=bx)
-            np.multiply(yj, a[p], out=ay)
-            np.subtract(bx, ay, out=z[p - 1])
+            np.multiply(bs, xj, out=t)
+            np.add(t[:-1], z[1:], out=t[:-1])
+            np.multiply(as_, yj, out=u)
+            np.subtract(t, u, out=z)
 
     def _add_free(self, y: np.ndarray, rows: np.ndarray, start: np.ndarray) -> None:
         """y += sum_i rows[:, i] start[i] (C A^j z, summed in index order), in place.
@@ -385,10 +386,9 @@ class LinearFilter:
         self._add_free(y, self._free[self._phase : self._phase + n], self._start)
         self._phase += n
         if self._phase == BLOCK:
-            self._chain.run(np.stack(self._forced)[None])
+            self._chain.run(self._forced[None])
             self._start = self._chain.peek()
-            for z in self._forced:
-                z[...] = 0.0
+            self._forced[...] = 0.0
             self._phase = 0
 
     def _blocks(self, xb: np.ndarray, y: np.ndarray) -> None:
@@ -396,9 +396,9 @@ class LinearFilter:
         p, m, c = self.order, xb.shape[1], xb.shape[2]
         xt = np.ascontiguousarray(xb)
         yb = np.empty(xb.shape)
-        forced = [np.zeros((m, c)) for _ in range(p)]
+        forced = np.zeros((p, m, c))
         self._forced_run(xt, yb, forced)
-        starts = self._chain.run(np.stack(forced, axis=1))  # (m, p, C)
+        starts = self._chain.run(forced.transpose(1, 0, 2))  # (m, p, C)
         self._start = self._chain.peek()
         self._add_free(yb, self._free, starts.transpose(1, 0, 2))
         y[...] = yb.swapaxes(0, 1)
