@@ -25,9 +25,10 @@ groups are counted from the start, so a sample's output does not depend on how t
 cut into calls or on how many channels share the call: any chunking gives bit-for-bit the same
 output, and a channel filtered alone gives what it gives among others. The numbers differ from
 scipy's sample-by-sample recursion by rounding only (~1e-15 of the signal's scale for the 4-Hz
-low-pass, ~1e-13 for a 0.25-Hz one; tests). A running sum (``a = [1, -1]``, gyro integration) is
+low-pass, ~1e-13 for a 0.25-Hz one, ~1e-12 where numpy lacks extended precision for the tables;
+tests). A running sum (``a = [1, -1]``, gyro integration) is
 a cumulative sum, scipy's own additions exactly. Cost (CPU, this machine): 6000 x 14 values in
-~3.5 ms, 65536 x 8 in ~11 ms (scipy ~3 ms, but its import costs ~0.8 s).
+~3.5 ms, 65536 x 8 in ~10 ms (scipy ~3 ms, but its import costs ~0.8 s).
 """
 
 from __future__ import annotations
