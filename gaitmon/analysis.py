@@ -31,8 +31,7 @@ from gaitmon.dsp.gait import (
     normalise_strides,
     strides_from_events,
 )
-from gaitmon.dsp.lost_frames import BRIDGE_MAX_S
-from gaitmon.dsp.pipeline import settling_ranges
+from gaitmon.dsp.lost_frames import BRIDGE_MAX_S, settling_ranges
 
 if TYPE_CHECKING:
     from gaitmon.dsp.bilateral import BilateralGait
@@ -79,7 +78,7 @@ def stride_exclusion(
     """Why stride ``s`` (the ``k``-th of ``n``; ``n=None`` live, where the last is not known yet)
     is left out of the statistics, or "" when it counts. ``gap_rows``: see
     :func:`long_gap_rows`; ``settling``: [start, stop) rows after them (see
-    ``gaitmon.dsp.pipeline.settling_ranges``); ``excluded_ranges``: the user's [start, stop)."""
+    ``gaitmon.dsp.lost_frames.settling_ranges``); ``excluded_ranges``: the user's [start, stop)."""
     return stride_exclusions([s.start_idx], [s.end_idx], [k], n, gap_rows, settling,
                              excluded_ranges)[0]  # fmt: skip
 

@@ -131,9 +131,17 @@ def _live_window() -> Callable[..., int]:
     return run
 
 
-def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+# options that print and exit: with only these, the window's simulator options are not needed
+_PRINTING = frozenset({"--version", "--log-path", "--verbose"})
+
+
+def build_parser(
+    command: str | None = None, argv: Sequence[str] | None = None
+) -> argparse.ArgumentParser:
     """The parser. Only ``command``'s module is loaded and its options known; every other
-    subcommand is listed by name and help alone (so ``gaitmon --help`` loads none)."""
+    subcommand is listed by name and help alone (so ``gaitmon --help`` loads none). ``argv``
+    (the words to parse, when known) of only ``--version``/``--log-path``: without the live
+    window's simulator options."""
     parser = argparse.ArgumentParser(
         prog="gaitmon",
         description="Live monitor, recorder and reviewer for a wearable gait-measurement unit.",
@@ -154,7 +162,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         action="store_true",
         help="open the live monitor connected to the simulated unit",
     )
-    if command is None:  # the window's simulator options; a subcommand has its own
+    window = command is None and not (argv and _PRINTING.issuperset(argv))
+    if window:  # the window's simulator options; a subcommand has its own
         from gaitmon.commands.simulate import add_simulator_options
 
         add_simulator_options(parser.add_argument_group("simulated unit (with --simulate)"))
@@ -227,7 +236,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # so that an error while parsing is logged too
     log_path = logs.setup(verbose="--verbose" in argv)
     try:
-        args = build_parser(command).parse_args(argv)
+        args = build_parser(command, argv).parse_args(argv)
         log.info("gaitmon %s (gaitmon %s)", " ".join(argv), __version__)
         run: Run = getattr(args, "_run", None) or open_live_monitor
         rc = int(run(args) or 0)
