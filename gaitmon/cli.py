@@ -171,7 +171,10 @@ def build_parser(
 
         add_pair_options(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    # a command given: its parser alone (each costs argparse ~1 ms); none: all, for the help
     for name, help_text in SUBCOMMANDS.items():
+        if command is not None and name != command:
+            continue
         p = sub.add_parser(name, help=help_text, description=help_text)
         _add_verbose(p, argparse.SUPPRESS)  # also after the command: gaitmon record --verbose
         if name == command:
