@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gaitmon.dsp.bilateral import symmetry_index_pct, symmetry_ratio
 from gaitmon.dsp.gait import (
     GaitSummary,
     Stride,
@@ -186,6 +185,8 @@ def clearance_symmetry_text(left: SpatialSummary, right: SpatialSummary) -> str:
     """Both legs' foot clearance and its symmetry, as the two-leg report and review show it:
     "L 5.2 ± 1.0 cm, R 8.8 ± 1.3 cm; SR 0.591, SI 51.4 %" (SR = L / R, SI = 2 |L − R| /
     (L + R), of the means: ``gaitmon.dsp.bilateral``'s definitions)."""
+    from gaitmon.dsp.bilateral import symmetry_index_pct, symmetry_ratio  # two legs only
+
     lm, rm = left.foot_clearance_mean_m, right.foot_clearance_mean_m
     text = f"L {left.clearance_text()}, R {right.clearance_text()}"
     if np.isfinite(lm) and np.isfinite(rm):

@@ -94,3 +94,4 @@ def test_top_level_help_and_version_load_no_numpy_nor_a_command(argv):
         window = set()
     assert {m for m in modules if m.startswith("gaitmon.commands.")} <= window
     assert _loaded(modules, ("numpy", "h5py", *NEVER)) == []
+    assert "logging.handlers" not in modules  # gaitmon.logs rotates its file itself
