@@ -82,6 +82,7 @@ def test_a_commands_help_loads_no_scipy_numba_or_gui(command):
     assert f"gaitmon.commands.{command}" in modules  # its own options are there
     assert _loaded(modules, NEVER) == []
     assert _loaded(modules, NOT_TO_READ) == []
+    assert _loaded(modules, ("gaitmon.dsp.pipeline", "h5py")) == []  # options read no file
 
 
 @pytest.mark.parametrize("argv", [("--help",), ("--version",)])
