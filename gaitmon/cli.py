@@ -131,8 +131,9 @@ def _live_window() -> Callable[..., int]:
     return run
 
 
-# options that print and exit: with only these, the window's simulator options are not needed
-_PRINTING = frozenset({"--version", "--log-path", "--verbose"})
+# options that print and exit: given with nothing but these (and --verbose), the window's
+# simulator options are not needed (``gaitmon --verbose`` alone opens the window: it needs them)
+_PRINTING = frozenset({"--version", "--log-path"})
 
 
 def build_parser(
@@ -162,7 +163,8 @@ def build_parser(
         action="store_true",
         help="open the live monitor connected to the simulated unit",
     )
-    window = command is None and not (argv and _PRINTING.issuperset(argv))
+    words = set(argv or ())
+    window = command is None and not (words & _PRINTING and words <= _PRINTING | {"--verbose"})
     if window:  # the window's simulator options; a subcommand has its own
         from gaitmon.commands.simulate import add_simulator_options
 

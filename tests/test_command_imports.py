@@ -96,3 +96,13 @@ def test_top_level_help_and_version_load_no_numpy_nor_a_command(argv):
     assert {m for m in modules if m.startswith("gaitmon.commands.")} <= window
     assert _loaded(modules, ("numpy", "h5py", *NEVER)) == []
     assert "logging.handlers" not in modules  # gaitmon.logs rotates its file itself
+
+
+@pytest.mark.parametrize("argv", [[], ["--verbose"], ["--simulate", "--version"]])
+def test_the_live_window_still_gets_its_simulator_options(argv):
+    """Only --version/--log-path (with --verbose) skip the window's simulator options: without
+    a command anything else opens the window, which reads them from the parsed arguments."""
+    from gaitmon.cli import build_parser
+
+    args = build_parser(None, argv).parse_args([a for a in argv if a != "--version"])
+    assert hasattr(args, "cadence") and hasattr(args, "pattern")
