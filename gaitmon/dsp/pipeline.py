@@ -85,17 +85,16 @@ from gaitmon.dsp.filters import Butterworth, GyroIntegrator
 from gaitmon.dsp.fsr_check import FsrFault, FsrMonitor
 from gaitmon.dsp.gait import GaitEventDetector, Stride, StrideTracker
 from gaitmon.dsp.kalman import TiltKalman
+from gaitmon.dsp.lost_frames import SETTLE_S as SETTLE_S
 from gaitmon.dsp.lost_frames import bridged_fill, fill_lost, restart_rows
+from gaitmon.dsp.lost_frames import settling_ranges as settling_ranges
 from gaitmon.dsp.methods import DEFAULT_METHOD, TiltInput, TiltMethod, TiltStage, get_method
+
+# SETTLE_S (the settling after a restart) and settling_ranges live with the losses, so that
+# gaitmon.analysis reads them without the filters; they are named here too, where restarts are made
 
 # long inputs are worked through in sub-blocks that stay in cache (same output, about 2x faster)
 _SUB_BLOCK = 16384
-
-# After a restart the gait-aware filter's angle converges with its exact start-up gain: measured
-# on the simulator, the joint-angle error after a 3 s outage is at its walking level after 3 s
-# (benchmarks/gap_settling.py, docs/gaps-and-time.md).
-SETTLE_S = 3.0
-
 
 def warm_up(config: PipelineConfig, table: ChannelTable = DEFAULT_TABLE) -> None:
     """Run a throwaway pipeline of ``config`` over two still rows, so that its filter's compiled
@@ -103,22 +102,6 @@ def warm_up(config: PipelineConfig, table: ChannelTable = DEFAULT_TABLE) -> None
     loaded from its cache now, not on the first block a unit streams."""
     rows = np.rint(np.tile(table.zero_counts, (2, 1))).astype(np.uint16)
     Pipeline(config, table=table).process(rows)
-
-
-def settling_ranges(
-    restarts: Sequence[int] | np.ndarray, fs_hz: float, n_rows: int | None = None
-) -> list[tuple[int, int]]:
-    """[start, stop) rows during which the filters settle after each restart row (row 0, the
-    start, included when given). Overlapping ranges are merged."""
-    k = round(SETTLE_S * fs_hz)
-    out: list[tuple[int, int]] = []
-    for r in sorted(int(x) for x in restarts):
-        b = r + k if n_rows is None else min(r + k, n_rows)
-        if out and r <= out[-1][1]:
-            out[-1] = (out[-1][0], max(out[-1][1], b))
-        else:
-            out.append((r, b))
-    return out
 
 
 def butterworth_dc_delay_samples(order: int, cutoff_hz: float, fs_hz: float) -> float:
