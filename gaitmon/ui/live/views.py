@@ -72,6 +72,7 @@ class ViewPart:
         self.feed: DisplayFeed | None = None
         self._feed_engine: Engine | None = None
         self.frame_signal = FrameSignal()
+        self.last_frame: DisplayFrame | None = None  # the frame drawn last (tests look at it)
         self._docks_shown = (True, False)  # (gait, raw) while both legs hide them
         self._legend_shown: list[QWidget] = []
         # the one-leg layout (QMainWindow.saveState) as it was when both legs took its place:
@@ -342,6 +343,7 @@ class ViewPart:
     def show_frame(self, frame: DisplayFrame) -> None:
         """One leg's prepared frame drawn (each frame the display is not paused)."""
         snap = frame.snap
+        self.last_frame = frame
         if self.feed is not None:  # the view as it is now, for the next frame
             self.feed.request = self.request()
         self.live.set_angle_method(snap.angle_method)
