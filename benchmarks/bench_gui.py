@@ -298,7 +298,7 @@ def screenshot(path: str) -> int:
         _spin(app, 0.05)
     win.zero()
     _spin(app, 9.0)
-    win.open_session_dialog()
+    win.recording_part.open_session_dialog()
     dlg = win.recording_part.session_dialog
     dlg.patient.setText("P017")
     dlg.side.setCurrentIndex(dlg.side.findData("R"))
@@ -306,7 +306,7 @@ def screenshot(path: str) -> int:
     dlg.accept()
     _spin(app, 2.5)
     win.marker_edit.setText("10 m walk: turn")
-    win.add_marker()
+    win.recording_part.add_marker()
     _spin(app, 2.5)
     win.statusBar().clearMessage()
     _spin(app, 0.3)
