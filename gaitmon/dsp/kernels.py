@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from gaitmon.dsp import loops
-from gaitmon.dsp.kernel_cache import cache_ready, numba_cache_dir, start_fill
+from gaitmon.dsp.kernel_cache import cache_ready, numba_cache_dir, numba_origin, start_fill
 
 __all__ = [
     "BATCH_CALL_ROWS",
@@ -49,9 +49,11 @@ __all__ = [
     "constant_map_solve",
     "gait_aware_update",
     "motion_windows",
+    "numba_available",
     "numba_cache_dir",
     "running_mean",
     "use",
+    "window_groups",
 ]
 
 BATCH_CALL_ROWS = 1024
@@ -75,6 +77,11 @@ def use(form: str) -> Iterator[None]:
         yield
     finally:
         _forced = before
+
+
+def numba_available() -> bool:
+    """Whether numba can be imported here (looked up, not imported)."""
+    return not _unavailable and numba_origin() is not None
 
 
 def compiled_loaded() -> bool:
@@ -124,28 +131,40 @@ def _view(a: np.ndarray) -> memoryview:
 
 
 def _views(args: tuple[Any, ...]) -> list[Any]:
-    return [_view(a) if isinstance(a, np.ndarray) else a for a in args]
+    # (numpy arrays are buffers; the stubs differ)
+    return [memoryview(a) if type(a) is np.ndarray else a for a in args]  # type: ignore[arg-type]
+
+
+def window_groups(n_win: np.ndarray) -> list[tuple[int, slice | np.ndarray]]:
+    """The segments' columns grouped by their motion window (samples), for
+    :func:`motion_windows`: one group of every column (a slice: no copies) when all agree."""
+    sizes = [int(v) for v in n_win]
+    if len(set(sizes)) <= 1:
+        return [(sizes[0] if sizes else 1, slice(None))]
+    return [(v, np.flatnonzero(n_win == v)) for v in sorted(set(sizes))]
 
 
 def motion_windows(
-    tail: np.ndarray, dev: np.ndarray, rate: np.ndarray, n_win: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """(N, S) maxima of ``dev`` and ``rate`` over each segment's last ``n_win`` samples, the
-    samples before the block being ``tail`` ((n_max - 1, 2, S), -inf before the first), which
-    becomes the last n_max - 1 samples of this one. A window's maximum is NaN where its own
-    sample is (an earlier NaN is passed over), as ``max(a, b)`` reads in the loop before."""
+    tail: np.ndarray, dev: np.ndarray, rate: np.ndarray,
+    groups: list[tuple[int, slice | np.ndarray]],
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(N, S) maxima of ``dev`` and ``rate`` over each segment's last n_win samples
+    (``groups``: :func:`window_groups`), the samples before the block being ``tail``
+    ((n_max - 1, 2, S), -inf before the first), which becomes the last n_max - 1 samples of
+    this one. A window's maximum is NaN where its own sample is (an earlier NaN is passed
+    over), as ``max(a, b)`` reads in the loop before."""
     m = tail.shape[0]
     n = len(dev)
     out = []
     for q, x in enumerate((dev, rate)):
         ext = np.concatenate([tail[:, q, :], x]) if m else x
         win = x.copy()
-        for nw in np.unique(n_win):
-            cols = np.flatnonzero(n_win == nw)
+        for nw, cols in groups:
             part = win[:, cols]
-            for j in range(1, int(nw)):
+            for j in range(1, nw):
                 np.fmax(part, ext[m - j : m - j + n, cols], out=part)
-            win[:, cols] = part
+            if not isinstance(cols, slice):
+                win[:, cols] = part
         missing = np.isnan(x)
         if missing.any():
             win[missing] = np.nan

@@ -273,6 +273,7 @@ class GaitAwareKalman:
         self._gated = np.array([t.live_gravity_hz is None and t.r_moving is None for t in tuns],
                                dtype=bool)  # fmt: skip
         self._n_win = np.array([t.window_samples(self.fs_hz) for t in tuns], dtype=np.int64)
+        self._win_groups = kernels.window_groups(self._n_win)
         self._lag = lag
         self._per_segment = {
             name: np.array([float(getattr(t, name) or 0.0) for t in tuns])
@@ -411,7 +412,7 @@ class GaitAwareKalman:
         bias = np.zeros(s) if self._bias is None else self._bias.copy()  # a restart keeps it
         ps = self._per_segment
         w = np.ascontiguousarray(w)
-        win_d, win_r = kernels.motion_windows(self._tail, dev, np.abs(w), self._n_win)
+        win_d, win_r = kernels.motion_windows(self._tail, dev, np.abs(w), self._win_groups)
         kernels.gait_aware_update(
             win_d, win_r, w, z_acc, z_grav, self._gravity_on, self._gated,
             ps["static_acc_ms2"], ps["static_rate_rad_s"], self._k_static, self._k_grav,
