@@ -144,6 +144,10 @@ def test_the_numpy_windows_are_scipys(size):
                 got = kernels.running_mean(x, size)
             np.testing.assert_allclose(got, uniform_filter1d(x, size, axis=-1, mode="constant"),
                                        rtol=1e-13, atol=1e-12)  # fmt: skip
+            with kernels.use(form):  # (one row: the gravity pass of one segment)
+                got = kernels.running_mean(x[0], size)
+            np.testing.assert_allclose(got, uniform_filter1d(x[0], size, mode="constant"),
+                                       rtol=1e-13, atol=1e-12)  # fmt: skip
 
 
 def _run(code: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:

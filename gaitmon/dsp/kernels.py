@@ -211,7 +211,7 @@ def band_solve(cb: np.ndarray, g: np.ndarray) -> None:
 
 
 def running_mean(x: np.ndarray, size: int) -> np.ndarray:
-    """:func:`gaitmon.dsp.loops.running_mean` of the rows of x (R, N), zero outside: compiled
+    """:func:`gaitmon.dsp.loops.running_mean` along the last axis of x, zero outside: compiled
     where the rule picks numba, else :func:`gaitmon.dsp.windows.sliding_mean` (numpy; the
     same to rounding, ~3x slower on a long record than the compiled loop)."""
     module = compiled_for(x.shape[-1], count=False)
@@ -219,6 +219,7 @@ def running_mean(x: np.ndarray, size: int) -> np.ndarray:
         from gaitmon.dsp.windows import sliding_mean
 
         return sliding_mean(x, size, mode="constant")
-    out = np.empty(x.shape)
-    module.running_mean(np.ascontiguousarray(x), size, 0.0, out)
-    return out
+    rows = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, x.shape[-1])
+    out = np.empty(rows.shape)
+    module.running_mean(rows, size, 0.0, out)
+    return out.reshape(x.shape)
