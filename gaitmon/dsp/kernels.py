@@ -12,13 +12,18 @@ smoother's solve:
 
 * live blocks (calls of fewer than :data:`BATCH_CALL_ROWS` rows) always run interpreted: at
   100 Hz that is well under 1 % of a core, and no connect waits for numba;
-* batch work (``process``, recovery, a recording's close) runs interpreted; past
-  :data:`FILL_ROWS` counted rows (5 min at 100 Hz) a background process compiles the loops
-  into numba's cache if they are not there (:func:`gaitmon.dsp.kernel_cache.start_fill`; the
-  live window starts one at its first connect), and past :data:`LOAD_ROWS` (~10 min of a
-  record, filter and smoother) the work goes over to the compiled loops once that cache is
-  ready (:func:`gaitmon.dsp.kernel_cache.cache_ready`): the ~1 s of loading is then paid back
-  by the rest of such a record. Nothing ever compiles in the process that needs the result;
+* batch work that says its size first (:func:`expect`: ``process``, ``batch``, recovery and a
+  recording's close, through ``finish``'s replay and smoother) runs compiled when it is at
+  least :data:`EXPECT_ROWS` rows (10 min at 100 Hz: interpreted, its filter and smoother would
+  cost about what loading numba does) and numba's cache is ready for this install
+  (:func:`gaitmon.dsp.kernel_cache.cache_ready`); when the cache is not ready, a background
+  process compiles the loops into it (:func:`gaitmon.dsp.kernel_cache.start_fill`; the live
+  window starts one at its first connect) and the work goes on interpreted, going over to
+  the compiled loops if the cache is ready before :data:`LOAD_ROWS` rows are done;
+* other batch work (calls of many rows that did not say their size) counts its rows: past
+  :data:`FILL_ROWS` the background fill starts, past :data:`LOAD_ROWS` (counting the filter's
+  and the smoother's rows) the compiled loops serve once the cache is ready. Nothing ever
+  compiles in the process that needs the result;
 * once numba's loops are loaded in a process they serve every call;
 * without numba (not installed, or failing to import) the interpreted loops serve everything.
 
@@ -40,6 +45,7 @@ from gaitmon.dsp.kernel_cache import cache_ready, numba_cache_dir, numba_origin,
 
 __all__ = [
     "BATCH_CALL_ROWS",
+    "EXPECT_ROWS",
     "FILL_ROWS",
     "LOAD_ROWS",
     "band_cholesky",
@@ -47,6 +53,7 @@ __all__ = [
     "compiled_for",
     "compiled_loaded",
     "constant_map_solve",
+    "expect",
     "gait_aware_update",
     "motion_windows",
     "numba_available",
@@ -57,6 +64,7 @@ __all__ = [
 ]
 
 BATCH_CALL_ROWS = 1024
+EXPECT_ROWS = 60_000
 FILL_ROWS = 30_000
 LOAD_ROWS = 120_000
 _COMPILED = "gaitmon.dsp.kernels_numba"
@@ -87,6 +95,18 @@ def numba_available() -> bool:
 def compiled_loaded() -> bool:
     """Whether numba's kernels are imported in this process (they then serve every call)."""
     return _COMPILED in sys.modules
+
+
+def expect(rows: int) -> None:
+    """Batch work of ``rows`` rows (a whole record's replay or smoothing) is about to run in
+    this process: from :data:`EXPECT_ROWS` rows on, load numba's loops now when its cache is
+    ready, else start filling it in the background (module doc)."""
+    if _forced is not None or _unavailable or rows < EXPECT_ROWS or compiled_loaded():
+        return
+    if cache_ready():
+        _load()
+    else:
+        start_fill()
 
 
 def _load() -> ModuleType | None:
