@@ -102,7 +102,8 @@ def gait_aware_update(
             h = 0.0
             r_now = math.inf  # the measurement's R, for the exact start-up gain
             plane = False
-            lp = plane_lp[c] + plane_alpha[c] * (mag[k, c] - plane_lp[c])
+            lp = plane_lp[c]
+            lp = lp + plane_alpha[c] * (mag[k, c] - lp)
             plane_lp[c] = lp
             if lp < plane_thr[c]:
                 k0 = k_plane[c]
@@ -181,7 +182,8 @@ def gait_aware_update(
                 cov[c, 2] = p11
                 if p00 <= p_end[c, 0] and p11 <= p_end[c, 1]:
                     exact[c] = False
-            theta[c] = pred + k0 * e
+            th = pred + k0 * e
+            theta[c] = th
             bias[c] = b + k1 * e
             if ready:
                 mean_w = stride_int[c]
@@ -193,12 +195,13 @@ def gait_aware_update(
                         sv = eb * eb / (huber * huber)
                     g0 = cov[c, 1] / sv
                     g1 = cov[c, 2] / sv
-                    theta[c] += g0 * eb
+                    th += g0 * eb
+                    theta[c] = th
                     bias[c] += g1 * eb
                     cov[c, 0] -= g0 * cov[c, 1]
                     cov[c, 1] -= g0 * cov[c, 2]
                     cov[c, 2] -= g1 * cov[c, 2]
-            theta_out[k, c] = theta[c]
+            theta_out[k, c] = th
 
 
 def constant_map_solve(cb: Array, inv_diag: Array, x: Array) -> None:
