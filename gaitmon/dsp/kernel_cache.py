@@ -11,13 +11,13 @@ install, numba or Python has another name and is not taken as ready.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
 import os
 import subprocess
 import sys
 import time
-from typing import Any
 
 from gaitmon import paths
 from gaitmon.dsp import loops
@@ -106,15 +106,17 @@ def start_fill() -> bool:
             return False
         with open(lock, "w") as f:
             f.write(str(os.getpid()))
-        kwargs: dict[str, Any] = {}
-        if os.name == "posix":
-            kwargs["preexec_fn"] = lambda: os.nice(10)
+    except OSError:  # a read-only cache folder: the loops still run, interpreted
+        return False
+    try:
         _fill = subprocess.Popen(
             [sys.executable, "-m", "gaitmon.dsp.kernel_fill", lock],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            env={**os.environ, "NUMBA_CACHE_DIR": numba_cache_dir()}, **kwargs,
+            env={**os.environ, "NUMBA_CACHE_DIR": numba_cache_dir()},
         )  # fmt: skip
-    except OSError:  # a read-only cache folder, no interpreter to start: the loops still run
+    except OSError:  # no interpreter to start: the loops still run, interpreted
+        with contextlib.suppress(OSError):
+            os.remove(lock)
         return False
     return True
 

@@ -37,6 +37,9 @@ def compile_all() -> None:
 def main(argv: list[str]) -> int:
     from gaitmon.dsp.kernel_cache import mark_ready
 
+    if hasattr(os, "nice"):  # in the background: the live window and the user's work first
+        with contextlib.suppress(OSError):
+            os.nice(10)
     try:
         compile_all()
         mark_ready()
