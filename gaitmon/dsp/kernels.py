@@ -19,11 +19,12 @@ smoother's solve:
   (:func:`gaitmon.dsp.kernel_cache.cache_ready`); when the cache is not ready, a background
   process compiles the loops into it (:func:`gaitmon.dsp.kernel_cache.start_fill`; the live
   window starts one at its first connect) and the work goes on interpreted, going over to
-  the compiled loops if the cache is ready before :data:`LOAD_ROWS` rows are done;
+  the compiled loops if the cache is ready before :data:`LOAD_ROWS` rows are done; only work
+  of :data:`COMPILE_ROWS` rows or more (1 h at 100 Hz, where interpreting would cost more
+  than compiling, ~4 s of CPU) compiles in its own process, right away;
 * other batch work (calls of many rows that did not say their size) counts its rows: past
   :data:`FILL_ROWS` the background fill starts, past :data:`LOAD_ROWS` (counting the filter's
-  and the smoother's rows) the compiled loops serve once the cache is ready. Nothing ever
-  compiles in the process that needs the result;
+  and the smoother's rows) the compiled loops serve once the cache is ready;
 * once numba's loops are loaded in a process they serve every call;
 * without numba (not installed, or failing to import) the interpreted loops serve everything.
 
@@ -45,6 +46,7 @@ from gaitmon.dsp.kernel_cache import cache_ready, numba_cache_dir, numba_origin,
 
 __all__ = [
     "BATCH_CALL_ROWS",
+    "COMPILE_ROWS",
     "EXPECT_ROWS",
     "FILL_ROWS",
     "LOAD_ROWS",
@@ -65,6 +67,7 @@ __all__ = [
 
 BATCH_CALL_ROWS = 1024
 EXPECT_ROWS = 60_000
+COMPILE_ROWS = 360_000
 FILL_ROWS = 30_000
 LOAD_ROWS = 120_000
 _COMPILED = "gaitmon.dsp.kernels_numba"
@@ -100,13 +103,16 @@ def compiled_loaded() -> bool:
 def expect(rows: int) -> None:
     """Batch work of ``rows`` rows (a whole record's replay or smoothing) is about to run in
     this process: from :data:`EXPECT_ROWS` rows on, load numba's loops now when its cache is
-    ready, else start filling it in the background (module doc)."""
+    ready, else start filling it in the background, and from :data:`COMPILE_ROWS` on compile
+    them here too (module doc)."""
     if _forced is not None or _unavailable or rows < EXPECT_ROWS or compiled_loaded():
         return
     if cache_ready():
         _load()
-    else:
-        start_fill()
+        return
+    start_fill()  # (the whole set, marked ready for the next process)
+    if rows >= COMPILE_ROWS:
+        _load()  # compiled on first call, here: cheaper than interpreting such a record
 
 
 def _load() -> ModuleType | None:
