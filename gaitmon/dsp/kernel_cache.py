@@ -42,8 +42,9 @@ def numba_cache_dir() -> str:
 def numba_origin() -> str | None:
     """The file numba would be imported from, or None where it is not installed (or blocked):
     found without importing it."""
-    if "numba" in sys.modules:
-        return getattr(sys.modules["numba"], "__file__", None) or "loaded"
+    if "numba" in sys.modules:  # (None there: blocked on purpose)
+        module = sys.modules["numba"]
+        return None if module is None else (getattr(module, "__file__", None) or "loaded")
     try:
         spec = importlib.util.find_spec("numba")
     except (ImportError, ValueError):  # (sys.modules["numba"] = None: blocked on purpose)
