@@ -97,9 +97,9 @@ from gaitmon.dsp.methods import DEFAULT_METHOD, TiltInput, TiltMethod, TiltStage
 _SUB_BLOCK = 16384
 
 def warm_up(config: PipelineConfig, table: ChannelTable = DEFAULT_TABLE) -> None:
-    """Run a throwaway pipeline of ``config`` over two still rows, so that its filter's compiled
-    loop (gaitmon.dsp.kernels) is compiled (the first run after an install, a few seconds) or
-    loaded from its cache now, not on the first block a unit streams."""
+    """Run a throwaway pipeline of ``config`` over two still rows, so that its filters' tables
+    (gain schedules, coefficients) are built now, not on the first block a unit streams. (Its
+    loops run interpreted for such blocks: nothing is compiled, gaitmon.dsp.kernels.)"""
     rows = np.rint(np.tile(table.zero_counts, (2, 1))).astype(np.uint16)
     Pipeline(config, table=table).process(rows)
 
