@@ -30,7 +30,10 @@ from gaitmon.reprocessing import Reprocessing
 
 FS = 100.0
 N = 1500  # 15 s each: ~10 strides
-N_SESSIONS = 20
+# 7 patients, 3 of them with two sessions, in two sub-folders: every case the tests check (a
+# label shared by a patient's sessions, mirrored folders, a pool of 2 beside Dask); 20 sessions
+# checked nothing more and cost the suite ~70 s (the study, local, de-identified and Dask runs)
+N_SESSIONS = 10
 SETTINGS = Reprocessing.of({"cutoff_hz": 5.0})  # the default is 4 Hz
 
 
@@ -58,7 +61,7 @@ def write_session(path: Path, seed: int, pid: str, *, operator: str = "", notes:
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> Path:
-    """20 sessions in two sub-folders (file names carry the patient id, as clinics do)."""
+    """N_SESSIONS sessions in two sub-folders (file names carry the patient id, as clinics do)."""
     root = tmp_path_factory.mktemp("study")
     for k in range(N_SESSIONS):
         sub = root / ("site-a" if k % 2 else "site-b")
