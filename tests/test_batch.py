@@ -380,8 +380,9 @@ def test_the_command_writes_deidentified_csvs_and_reads_settings_json(study, tmp
     settings = tmp_path / "s.json"
     settings.write_text('{"cutoff-hz": 3.5, "method": "paper"}')
     out = tmp_path / "out"
+    # --jobs 1: the pool is the local run's (2 sessions here need no 2 spawned workers)
     rc = main(["batch", str(sub), "-o", str(out), "--settings", str(settings), "--r", "0.2",
-               "--deidentify", "-q"])  # fmt: skip
+               "--deidentify", "--jobs", "1", "-q"])  # fmt: skip
     assert rc == 0
     with open_session(out / "S0001.h5") as s:  # (named by its label, not its file name)
         assert (s.config.cutoff_hz, s.config.tilt_method, s.config.r) == (3.5, "paper", 0.2)
