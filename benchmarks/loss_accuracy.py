@@ -7,8 +7,9 @@ the live :class:`~gaitmon.dsp.pipeline.Pipeline` with and without seeded frame l
 arrive are given with ``lost_before`` as the recorder gives them. Printed per loss scenario: the
 live (causal) and the offline (smoothed, as a file's ``/smoothed``) hip / knee / ankle RMSE
 (deg) against the simulator's truth over the walking rows that arrived, and the worst joint's
-ratio to the loss-free run; plus the stride count and the
-mean |error| of the stride times against the true time between their heel-strike rows.
+ratio to the loss-free run; plus the stride count and the mean |error| of the stride times
+(the engine's strides of the events, ``GaitEvents``, timed on the rows' true times as live and
+in a file) against the simulator's true stride times.
 
     python benchmarks/loss_accuracy.py [--seeds 3] [--seconds 120] [--method gait-aware]
         [--data DIR]
@@ -33,6 +34,7 @@ from gaitmon.dsp.angles import wrap_angle
 from gaitmon.dsp.calibration import standing_calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+from gaitmon.engine.live_gait import GaitEvents
 from gaitmon.finish.smoothed import smoothed_angles
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
@@ -67,25 +69,30 @@ def lost_frames(n: int, frac: float, lo: int, hi: int, rng: np.random.Generator)
 
 
 def run(
-    counts: np.ndarray, lost: np.ndarray, config: PipelineConfig, cal_rows: slice
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[float]]:
+    counts: np.ndarray, lost: np.ndarray, config: PipelineConfig, cal_rows: slice,
+    true_hs: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[float]]:  # fmt: skip
     """Rows kept, their live and their offline (smoothed, ``gaitmon.finish.smoothed``) joint
-    angles (rad), and each stride's time error (s) against the true time between its
-    heel-strike rows."""
+    angles (rad), and each stride's time error (s) against the true stride (``true_hs``: the
+    simulator's heel strikes, frames) nearest its heel strikes."""
     first = Pipeline(config).process(counts[cal_rows])
     cal = standing_calibration(first.acc_ms2, first.gyro_rad_s)
     keep = np.flatnonzero(~lost)
     steps = np.diff(np.r_[-1, keep])
     lost_before = steps - 1
     p = Pipeline(config, calibration=cal)
+    events = GaitEvents(FS)
     # live-sized blocks (10 rows), as the engine feeds it
     joints, errs = [], []
     for a in range(0, len(keep), 10):
         b = p.process(counts[keep[a : a + 10]], lost_before[a : a + 10])
         joints.append(b.joint_kalman_rad)
-        # the stride time against the true time between the rows its heel strikes are on
-        errs.extend(s.stride_time_s - (keep[s.end_idx] - keep[s.start_idx]) / FS
-                    for s in b.strides)  # fmt: skip
+        for s in events.strides(b.heel_strike_idx, b.toe_off_idx):
+            # timed on the rows' true times (frames), against the true stride nearest it
+            t0, t1 = keep[s.start_idx], keep[s.end_idx]
+            k = int(np.argmin(np.abs(true_hs - t0)))
+            if k + 1 < len(true_hs):
+                errs.append((t1 - t0 - (true_hs[k + 1] - true_hs[k])) / FS)
     smoothed = smoothed_angles(counts[keep], DEFAULT_TABLE, cal, [], lost_before, FS)
     offline = np.radians(smoothed["smoothed/joint_deg"].astype(np.float64))
     return keep, np.concatenate(joints), offline, errs
@@ -113,15 +120,15 @@ def main() -> None:
     sims = []
     for seed in range(args.seeds):
         gait = GaitModel(GaitConfig(seed=100 + seed, cadence_steps_min=110.0))
-        sims.append(simulate(n, gait, SensorConfig(seed=100 + seed)))
+        sims.append((simulate(n, gait, SensorConfig(seed=100 + seed)), gait.events(0, n)[0]))
     base: list[np.ndarray] = []
     for name, frac, lo, hi in SCENARIOS:
         rmse: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
         n_str, t_err = 0, []
-        for seed, sb in enumerate(sims):
+        for seed, (sb, true_hs) in enumerate(sims):
             rng = np.random.default_rng(1000 + seed)
             lost = lost_frames(n, frac, lo, hi, rng) if frac else np.zeros(n, dtype=bool)
-            keep, live, offline, errs = run(sb.counts, lost, config, slice(100, 450))
+            keep, live, offline, errs = run(sb.counts, lost, config, slice(100, 450), true_hs)
             truth = sb.kinematics.joint_rad[keep]
             w = keep >= WALK_FROM
             for out, joint in zip(rmse, (live, offline), strict=True):

@@ -91,6 +91,29 @@ def _digest(p: Path) -> str:
     return hashlib.sha256(p.read_bytes()).hexdigest() if p.exists() else ""
 
 
+def test_kill_9_during_a_bilateral_recording_then_info_recovers_one_file(
+    killed: Path, tmp_path: Path
+) -> None:
+    """``kill -9`` of ``gaitmon record --simulate-bilateral`` (the ``killed`` recording, made
+    once for this module), then ``gaitmon info`` as a process: one file, both legs recovered."""
+    out = _copy_parts(killed, tmp_path)
+    assert not out.exists() and set(parts_of(out)) == {"L", "R"}
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    r = subprocess.run(
+        [sys.executable, "-m", "gaitmon", "info", str(out)],
+        env=env, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "bilateral session" in r.stdout and "recovered and combined" in r.stdout, r.stdout
+    assert "step time" in r.stdout and "SR (L/R)" in r.stdout
+    assert out.exists() and not parts_of(out)
+    assert not list(tmp_path.glob("*.journal")) and not list(tmp_path.glob("*.partial"))
+    with open_bilateral(out) as b:
+        assert b.recovered and not b.complete
+        for s in "LR":
+            assert b.unit(s).n_samples > 100 and b.unit(s).recovered
+
+
 @pytest.mark.parametrize("damage", list(DAMAGE))
 @pytest.mark.parametrize("bad", ["R", "L"])
 def test_a_damaged_part_leaves_the_other_leg_combined(

@@ -44,7 +44,9 @@ def test_a_deidentified_batch_does_not_rewrite_its_own_message(common_word_study
                                                                capsys):  # fmt: skip
     """The file "both.h5" of patient "both" was skipped as "a session of S0002 legs"."""
     out = tmp_path / "out"
-    assert main(["batch", str(common_word_study), "-o", str(out), "--deidentify", "-q"]) == 0
+    # --jobs 1: what is shared is made the same with a pool (test_batch); no 2 spawned workers
+    assert main(["batch", str(common_word_study), "-o", str(out), "--deidentify", "--jobs",
+                 "1", "-q"]) == 0  # fmt: skip
     rows = {r["session"]: r for r in read_csv(out / "summary.csv")}
     assert rows["S0002"]["status"] == "skipped"
     assert rows["S0002"]["reason"].startswith("a session of both legs: gaitmon batch"), rows

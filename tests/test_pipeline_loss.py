@@ -1,5 +1,5 @@
 """Lost frames are time: the pipeline fills bridged losses in (linear between the rows around
-them), so its filters, events and strides see a uniform time base, and reports only rows."""
+them), so its filters and events see a uniform time base, and reports only rows."""
 
 
 import numpy as np
@@ -11,6 +11,7 @@ from gaitmon.dsp.calibration import standing_calibration
 from gaitmon.dsp.channels import FSR_IDX, GYRO_IDX, N_CHANNELS
 from gaitmon.dsp.lost_frames import bridge_max_samples
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock
+from gaitmon.engine.live_gait import GaitEvents
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
 
@@ -94,14 +95,26 @@ def test_events_and_strides_are_rows_and_true_times(sim):
     assert np.abs(lossy.toe_off_idx - want_to).max() <= 1
     gyro = np.searchsorted(keep, np.asarray(clean.gyro_heel_strike_idx))
     assert np.abs(np.asarray(lossy.gyro_heel_strike_idx) - gyro).max() <= 1
-    # stride times are true times, not row counts: the same as the loss-free strides
-    t_lossy = np.array([s.stride_time_s for s in lossy.strides])
-    t_clean = np.array([s.stride_time_s for s in clean.strides])
-    assert len(t_lossy) == len(t_clean)
-    assert np.abs(t_lossy - t_clean).max() <= 0.011
-    lost_in_strides = [lost_before[s.start_idx + 1 : s.end_idx + 1].sum() for s in lossy.strides]
+    # the engine's strides of these events (GaitEvents), timed as the engine and a file time
+    # them, on the rows' true times t_s (StreamPosition.true_times: lost frames count)
+    strides = GaitEvents(FS).strides(lossy.heel_strike_idx, lossy.toe_off_idx)
+    clean_strides = GaitEvents(FS).strides(clean.heel_strike_idx, clean.toe_off_idx)
+    assert len(strides) == len(clean_strides)
+    t_s = keep / FS
+    start = np.array([s.start_idx for s in strides])
+    end = np.array([s.end_idx for s in strides])
+    t_lossy = t_s[end] - t_s[start]
+    t_clean = np.array([s.stride_time_s for s in clean_strides])
+    # true times, not row counts: the loss-free stride's time, but for the frames lost just
+    # before a heel strike's row (a heel strike on a lost frame is on the row after it)
+    err = np.abs(t_lossy - t_clean)
+    assert np.all(err <= (lost_before[start] + lost_before[end] + 1) / FS + 1e-9), err
+    assert np.median(err) < 1e-9
+    t_rows = np.array([s.stride_time_s for s in strides])  # taken as row counts: short
+    assert np.abs(t_rows - t_clean).max() >= 0.1
+    lost_in_strides = [lost_before[s.start_idx + 1 : s.end_idx + 1].sum() for s in strides]
     assert max(lost_in_strides) >= 3  # (strides did lose frames)
-    for s in lossy.strides:
+    for s in strides:
         assert 0 <= s.start_idx < s.toe_off_idx < s.end_idx < len(keep)
 
 

@@ -15,10 +15,12 @@ Per block, in the paper's order:
    exactly as published). The output series keep the name ``tilt_kalman_rad`` /
    ``joint_kalman_rad`` whichever filter made them;
 7. standing offsets removed, tilts wrapped to (-pi, pi], joint angles with clinical signs;
-8. heel/toe contacts, gait phase, heel-strike/toe-off events and strides from the FSRs;
+8. heel/toe contacts, gait phase and heel-strike/toe-off events from the FSRs (strides are
+   made from these events by their readers: live ``gaitmon.engine.live_gait.GaitEvents``, a
+   file's ``gaitmon.analysis``, with ``gaitmon.dsp.gait.strides_from_events``);
 9. with ``fsr_check`` (default): heel strike and toe off from the foot gyro as well
    (gaitmon.dsp.gyro_events, ~0.75 s behind), each FSR checked against the gyro's strides
-   (gaitmon.dsp.fsr_check). Once a sensor is flagged, the events and strides come from the gyro
+   (gaitmon.dsp.fsr_check). Once a sensor is flagged, the events come from the gyro
    from the flag's ``decided_idx`` on (``event_source`` says which), and the flag is reported.
    Both are event sources of the registry (gaitmon.dsp.events: ``PRIMARY`` "fsr", ``FALLBACK``
    "foot gyro"), fed a typed :class:`EventInput` per block.
@@ -34,21 +36,20 @@ delay, rounded to whole samples; the per-sample contact and phase arrays stay ca
 Gaps. ``process(adc, lost_before)`` is told how many frames were lost just before each row
 (the recording's gap table says the same). Losses of up to ``BRIDGE_MAX_S`` (5 frames at 100 Hz)
 are bridged, and lost frames are time: the stateful stages (low-pass filters, gyro integration,
-tilt filter, contact detector, event sources, stride tracker) are fed the lost frames filled in,
+tilt filter, contact detector, event sources) are fed the lost frames filled in,
 linear (in physical units) between the row before the loss (kept across blocks) and the row
 after it, so they all see the unit's uniform time base. Outputs are given for the rows only, and
-every index the pipeline reports (events, strides, gyro events, faults, restarts) is a row: an
-event on a filled-in frame is on the row after it. Stride, stance and swing times are the true
-times between the frames (readers of a file time strides from the rows' ``t_s`` instead). With
+every index the pipeline reports (events, gyro events, faults, restarts) is a row: an
+event on a filled-in frame is on the row after it (strides are timed on the rows' ``t_s``,
+which counts the lost frames, live and in a file). With
 2 % random single-frame loss the live joint RMSE stays within 1.04x of the loss-free run; taking
 each row as the next frame, it was 4.5x (benchmarks/loss_accuracy.py). After a longer loss the
 pipeline *restarts*: the low-pass
 filters and the gyro integration start again from the first sample after the gap, the Kalman
 filter takes its angle from the measurements again (keeping the gyro bias it had learnt; the
 gait-aware filter's exact start-up gain, gaitmon.dsp.motion_kalman), and the contact detector
-and stride tracker forget the open stride, so no
-event or stride spans the outage. The ``SETTLE_S`` after a restart (and after the start) are
-flagged ``settling``: strides overlapping them are left out of the statistics
+forgets the contacts, so no event spans the outage. The ``SETTLE_S`` after a restart (and
+after the start) are flagged ``settling``: strides overlapping them are left out of the statistics
 (:func:`settling_ranges` gives the same ranges from a file's gap table).
 
 Zeroing (``set_calibration``) also restarts the gyro integration from the zeroed pose, so its
@@ -83,7 +84,7 @@ from gaitmon.dsp.channels import (
 from gaitmon.dsp.events import FALLBACK, PRIMARY, EventInput, EventStage, get_event_source
 from gaitmon.dsp.filters import Butterworth, GyroIntegrator
 from gaitmon.dsp.fsr_check import FsrFault, FsrMonitor
-from gaitmon.dsp.gait import GaitEventDetector, Stride, StrideTracker
+from gaitmon.dsp.gait import GaitEventDetector
 from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.lost_frames import SETTLE_S as SETTLE_S
 from gaitmon.dsp.lost_frames import bridged_fill, fill_lost, restart_rows
@@ -230,7 +231,6 @@ class PipelineBlock:
     phase: np.ndarray  # (N,) int8 gaitmon.dsp.gait.Phase
     heel_strike_idx: np.ndarray  # absolute indices confirmed in this block
     toe_off_idx: np.ndarray
-    strides: tuple[Stride, ...] = field(default=())
     kalman_bias_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(N_SEGMENTS))  # after
     # (N,) bool: the filters are settling (the SETTLE_S after the start or a restart)
     settling: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
@@ -296,7 +296,6 @@ class Pipeline:
         self._detector = GaitEventDetector(
             cfg.fsr_threshold, cfg.fsr_hysteresis, cfg.min_contact_s, cfg.fs_hz
         )
-        self._strides = StrideTracker(cfg.fs_hz)
         self._n_seen = 0  # rows (the index space of everything the pipeline reports)
         self._n_fed = 0  # samples the stateful stages have seen: rows + bridged lost frames
         # the bridged losses (see "Gaps" in the module doc): per gap, its row, the sample index
@@ -346,7 +345,6 @@ class Pipeline:
             stage.reset()
         self._kalman.restart()
         self._detector.restart()
-        self._strides.reset()
         self._settle_until = at + self._settle_n
         self._fsr_events.restart(self._n_fed)  # the event stages count samples
         self._gyro_events.restart(self._n_fed)
@@ -430,7 +428,6 @@ class Pipeline:
             start_idx=start,
             heel_strike_idx=np.concatenate(ev.hs) if ev.hs else empty,
             toe_off_idx=np.concatenate(ev.to) if ev.to else empty,
-            strides=tuple(ev.strides),
             kalman_bias_rad_s=np.zeros(4) if bias is None else bias,
             settling=settling,
             restart_idx=restarts + start,
@@ -474,13 +471,6 @@ class Pipeline:
         if not self._gap_rows or not len(samples):
             return np.asarray(samples, dtype=np.int64)
         return np.fromiter((self._row_of(int(x)) for x in samples), np.int64, len(samples))
-
-    def _stride_in_rows(self, s: Stride) -> Stride:
-        """A stride with its indices in rows (its times stay those between its samples)."""
-        if not self._gap_rows:
-            return s
-        return replace(s, start_idx=self._row_of(s.start_idx), end_idx=self._row_of(s.end_idx),
-                       toe_off_idx=self._row_of(s.toe_off_idx))  # fmt: skip
 
     def _fault_in_rows(self, f: FsrFault) -> FsrFault:
         """A fault with its indices in rows. Its decision sample may not have been fed yet: it
@@ -538,14 +528,12 @@ class Pipeline:
             hs_idx, to_idx = self._cross_check(ev_in, hs_idx, to_idx, ev)
         ev.hs.append(self._rows_of(hs_idx))
         ev.to.append(self._rows_of(to_idx))
-        # strides from the samples' indices: their times are true times across filled frames
-        ev.strides.extend(self._stride_in_rows(s) for s in self._strides.process(hs_idx, to_idx))
 
     def _cross_check(
         self, ev_in: EventInput, hs_idx: np.ndarray, to_idx: np.ndarray, ev: _BlockEvents
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Foot-gyro events, the FSR check, and the events the strides are built from (sample
-        indices in and out; the switch to the gyro's events is at a row)."""
+        """Foot-gyro events, the FSR check, and the events reported (sample indices in and
+        out; the switch to the gyro's events is at a row)."""
         g = self._gyro_events.process(ev_in)
         g_hs, g_to = g.heel_strike_idx, g.toe_off_idx
         heel_loaded, toe_loaded = ev_in.contacts.heel_loaded, ev_in.contacts.toe_loaded
@@ -569,11 +557,10 @@ class Pipeline:
 
 @dataclass
 class _BlockEvents:
-    """What one :meth:`Pipeline.process` call found, in rows (strides with true times)."""
+    """What one :meth:`Pipeline.process` call found, in rows."""
 
     hs: list[np.ndarray] = field(default_factory=list)
     to: list[np.ndarray] = field(default_factory=list)
-    strides: list[Stride] = field(default_factory=list)
     gyro_hs: list[int] = field(default_factory=list)
     gyro_to: list[int] = field(default_factory=list)
     faults: list[FsrFault] = field(default_factory=list)

@@ -46,7 +46,7 @@ class GaitEvents:
     ``strides_from_events`` that ``gaitmon.analysis`` applies to a file's events. So a stride
     across a link cut (its opening heel strike and toe off before the cut, its closing heel
     strike after it) is a stride live as in the file, where the one stride rule excludes it
-    ("crosses a gap"); the pipeline's own strides, which end at each restart, are not used."""
+    ("crosses a gap"). The pipeline reports events only; its strides are made here."""
 
     def __init__(self, fs_hz: float) -> None:
         self._edges = ContactEdges()
