@@ -333,7 +333,7 @@ def _run(app: QApplication, args: argparse.Namespace, tmp: str, unit: _Unit) -> 
     win = MainWindow(settings, autoconnect=unit.link_path, mode=args.mode, confirm_close=False)
     win.resize(1400, 860)
     win.show()
-    win.set_window(args.window)
+    win.view_part.set_window(args.window)
     if args.raw_dock:
         win.raw_dock.show()
     deadline = time.monotonic() + 60  # a busy machine starts the simulator slowly
