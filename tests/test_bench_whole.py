@@ -115,3 +115,21 @@ def test_every_row_runs_tiny_and_prints_its_reference_and_ratio(tmp_path: Path) 
         assert cells[5] in ("pass", "FAIL")
         assert re.fullmatch(r"\d+\.\d -> \d+\.\d", cells[6])
     assert re.search(r"at the end: load average \d", r.stdout)
+
+
+@pytest.mark.parametrize(("lengths", "only", "says"), [
+    ("1min,1h", "", "--lengths for --suite whole is SHORT,LONG,LONGEST"),
+    ("1min,1h,9h", "", "got '1min,1h,9h'"),
+    (None, "process,nope", "unknown row 'nope' for --only (choose from process, "),
+])  # fmt: skip
+def test_bad_lengths_or_rows_are_one_line_before_anything_runs(
+    lengths: str | None, only: str, says: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import argparse
+
+    from gaitmon.errors import UserError
+
+    args = argparse.Namespace(lengths=lengths, repeat=1, only=only, gui_seconds=1.0)
+    with pytest.raises(UserError, match=re.escape(says)):
+        bench_whole.suite(args)
+    assert capsys.readouterr().out == ""
