@@ -172,6 +172,25 @@ def drawn_at(idx: np.ndarray, log: list[tuple[float, float]], end_s: float) -> n
     return out
 
 
+def frames_before(written: np.ndarray, eng_idx: np.ndarray, host_s: np.ndarray) -> int:
+    """How many data frames were written before the engine's sample 0 (frames the device
+    dropped while connecting on a busy machine): the largest shift k for which no sample
+    is read before it was written (host >= written[idx + k]). Without it every sample was
+    timed against a frame written k frames earlier (a standing 2-3 s "latency" in some runs
+    on a loaded machine)."""
+    eng_idx = eng_idx.astype(np.int64)
+    lo, hi = 0, len(written) - 1 - (int(eng_idx.max()) if len(eng_idx) else 0)
+    if hi < 0 or not len(eng_idx) or (host_s - written[eng_idx]).min() < 0:
+        return 0
+    while lo < hi:  # host - written[idx + k] falls with k: the last k where it stays >= 0
+        k = (lo + hi + 1) // 2
+        if (host_s - written[eng_idx + k]).min() >= 0:
+            lo = k
+        else:
+            hi = k - 1
+    return lo
+
+
 def _pct(a: np.ndarray, q: float) -> float:
     return float(np.percentile(a, q)) if len(a) else float("nan")
 
@@ -205,15 +224,18 @@ def measure(
             p.wait()
     end = time.monotonic()
     written = unit.frame_times()
-    # engine sample index n = the n-th data frame written (no frame is lost on the pty)
-    idx = np.arange(samples0, samples1)
-    idx = idx[idx < len(written)]
-    t_port = written[idx]
-    lat = (drawn_at(idx, paints.log, end) - t_port) * 1000.0
+    # engine sample index n = the (n + k)-th data frame written: no frame is lost on the pty,
+    # but the k written before the engine's sample 0 (frames_before)
     snap = win.engine.snapshot(min(55.0, seconds + 5.0)).series
     eng_idx, host = snap["idx"], snap["host_time_s"]
+    real = np.isfinite(eng_idx) & (eng_idx < len(written))
+    k = frames_before(written, eng_idx[real], host[real])
+    idx = np.arange(samples0, samples1)
+    idx = idx[idx + k < len(written)]
+    t_port = written[idx + k]
+    lat = (drawn_at(idx, paints.log, end) - t_port) * 1000.0
     have = np.isfinite(eng_idx) & (eng_idx >= samples0) & (eng_idx < samples0 + len(idx))
-    read = (host[have] - written[eng_idx[have].astype(np.int64)]) * 1000.0
+    read = (host[have] - written[eng_idx[have].astype(np.int64) + k]) * 1000.0
     return {
         "gui_cpu_pct": 100.0 * gui / wall,
         "gui_ms_per_frame": 1000.0 * gui / max(1, live.paints - paints0),
@@ -228,6 +250,7 @@ def measure(
         "read_min_ms": float(read.min()) if len(read) else float("nan"),
         "input_hz": (samples1 - samples0) / wall,
         "loadavg": loadavg0,
+        "frames_before": float(k),
     }
 
 
@@ -238,7 +261,7 @@ def _print_segment(label: str, r: dict[str, float]) -> None:
         f" % | {r['fps']:5.1f} fps | input {r['input_hz']:5.1f} Hz | port -> painted, all "
         f"{r['n']:.0f} samples: p50 {r['p50_ms']:5.1f}, p95 {r['p95_ms']:5.1f}, max "
         f"{r['max_ms']:6.1f} ms (port -> read p95 {r['read_p95_ms']:4.1f} ms) | "
-        f"loadavg {r['loadavg']:.1f}",
+        f"loadavg {r['loadavg']:.1f} | frames before sample 0: {r['frames_before']:.0f}",
         flush=True,
     )
     if r["never_drawn"]:
@@ -275,7 +298,7 @@ def screenshot(path: str) -> int:
         _spin(app, 0.05)
     win.zero()
     _spin(app, 9.0)
-    win.open_session_dialog()
+    win.recording_part.open_session_dialog()
     dlg = win.recording_part.session_dialog
     dlg.patient.setText("P017")
     dlg.side.setCurrentIndex(dlg.side.findData("R"))
@@ -283,7 +306,7 @@ def screenshot(path: str) -> int:
     dlg.accept()
     _spin(app, 2.5)
     win.marker_edit.setText("10 m walk: turn")
-    win.add_marker()
+    win.recording_part.add_marker()
     _spin(app, 2.5)
     win.statusBar().clearMessage()
     _spin(app, 0.3)

@@ -2,9 +2,11 @@
 
 Opens the real window twice in one process, first with the simulated unit (one leg), then with
 the simulated pair (both legs), each on pseudo-terminals through the real serial code at 100 Hz
-in real time, and times the window's ~30 Hz tick (pull the snapshots, draw, paint the plots;
-every third tick also the gait panels) after a warm-up: wall time and GUI-thread CPU time
-(``time.thread_time``) per tick, median and p95, and the GUI thread's share of one core.
+in real time, and times the window's ~30 Hz update after a warm-up: for one leg the drawing of
+each frame the engine thread prepared (``_show_frame``: hand the arrays to the curves, paint,
+status; every third also the gait panel), for both legs the tick (pull the snapshots, draw,
+paint): wall time and GUI-thread CPU time (``time.thread_time``) per update, median and p95,
+and the GUI thread's share of one core.
 
     QT_QPA_PLATFORM=offscreen python benchmarks/bench_gui_bilateral.py [--seconds 15]
 """
@@ -16,6 +18,7 @@ import statistics
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from PySide6.QtCore import QSettings
@@ -33,24 +36,32 @@ def measure(app: object, win: MainWindow, ready: object, seconds: float) -> dict
     while not ready() and time.monotonic() < deadline:  # type: ignore[operator]
         app.processEvents()  # type: ignore[attr-defined]
         time.sleep(0.01)
-    walls: list[float] = []
-    cpus: list[float] = []
-    tick = win._tick
+    # one leg: the engine thread prepares the frames and the window draws each in
+    # _show_frame (its tick then only says "frames come"); both legs: the tick draws
+    timed_calls: dict[str, tuple[list[float], list[float]]] = {"tick": ([], []), "frame": ([], [])}
 
-    def timed() -> None:
-        w0, c0 = time.perf_counter(), time.thread_time()
-        tick()
-        cpus.append(time.thread_time() - c0)
-        walls.append(time.perf_counter() - w0)
+    def timer(kind: str, fn: Callable[[], None]) -> Callable[[], None]:
+        walls, cpus = timed_calls[kind]
+
+        def timed() -> None:
+            w0, c0 = time.perf_counter(), time.thread_time()
+            fn()
+            cpus.append(time.thread_time() - c0)
+            walls.append(time.perf_counter() - w0)
+
+        return timed
 
     win.timer.timeout.disconnect()
-    win.timer.timeout.connect(timed)
+    win.timer.timeout.connect(timer("tick", win._tick))
+    win.view_part.frame_signal.ready.disconnect()
+    win.view_part.frame_signal.ready.connect(timer("frame", win._show_frame))
     warm = time.monotonic() + 3.0
     while time.monotonic() < warm:
         app.processEvents()  # type: ignore[attr-defined]
         time.sleep(0.002)
-    walls.clear()
-    cpus.clear()
+    for lists in timed_calls.values():
+        for v in lists:
+            v.clear()
     c0, t0 = time.thread_time(), time.monotonic()
     end = t0 + seconds
     while time.monotonic() < end:
@@ -58,12 +69,13 @@ def measure(app: object, win: MainWindow, ready: object, seconds: float) -> dict
         time.sleep(0.002)
     share = (time.thread_time() - c0) / (time.monotonic() - t0)
     win.close()
+    walls, cpus = timed_calls["frame" if timed_calls["frame"][0] else "tick"]
 
     def pct(v: list[float], q: float) -> float:
         return sorted(v)[min(len(v) - 1, int(q * len(v)))] * 1e3
 
     return {
-        "ticks/s": len(walls) / seconds,
+        "updates/s": len(walls) / seconds,
         "wall ms p50": statistics.median(walls) * 1e3,
         "wall ms p95": pct(walls, 0.95),
         "cpu ms p50": statistics.median(cpus) * 1e3,

@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gaitmon.dsp.bilateral import symmetry_index_pct, symmetry_ratio
 from gaitmon.dsp.gait import (
     GaitSummary,
     Stride,
@@ -31,8 +30,7 @@ from gaitmon.dsp.gait import (
     normalise_strides,
     strides_from_events,
 )
-from gaitmon.dsp.lost_frames import BRIDGE_MAX_S
-from gaitmon.dsp.pipeline import settling_ranges
+from gaitmon.dsp.lost_frames import BRIDGE_MAX_S, settling_ranges
 
 if TYPE_CHECKING:
     from gaitmon.dsp.bilateral import BilateralGait
@@ -79,7 +77,7 @@ def stride_exclusion(
     """Why stride ``s`` (the ``k``-th of ``n``; ``n=None`` live, where the last is not known yet)
     is left out of the statistics, or "" when it counts. ``gap_rows``: see
     :func:`long_gap_rows`; ``settling``: [start, stop) rows after them (see
-    ``gaitmon.dsp.pipeline.settling_ranges``); ``excluded_ranges``: the user's [start, stop)."""
+    ``gaitmon.dsp.lost_frames.settling_ranges``); ``excluded_ranges``: the user's [start, stop)."""
     return stride_exclusions([s.start_idx], [s.end_idx], [k], n, gap_rows, settling,
                              excluded_ranges)[0]  # fmt: skip
 
@@ -187,6 +185,8 @@ def clearance_symmetry_text(left: SpatialSummary, right: SpatialSummary) -> str:
     """Both legs' foot clearance and its symmetry, as the two-leg report and review show it:
     "L 5.2 ± 1.0 cm, R 8.8 ± 1.3 cm; SR 0.591, SI 51.4 %" (SR = L / R, SI = 2 |L − R| /
     (L + R), of the means: ``gaitmon.dsp.bilateral``'s definitions)."""
+    from gaitmon.dsp.bilateral import symmetry_index_pct, symmetry_ratio  # two legs only
+
     lm, rm = left.foot_clearance_mean_m, right.foot_clearance_mean_m
     text = f"L {left.clearance_text()}, R {right.clearance_text()}"
     if np.isfinite(lm) and np.isfinite(rm):

@@ -131,9 +131,18 @@ def _live_window() -> Callable[..., int]:
     return run
 
 
-def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+# options that print and exit: given with nothing but these (and --verbose), the window's
+# simulator options are not needed (``gaitmon --verbose`` alone opens the window: it needs them)
+_PRINTING = frozenset({"--version", "--log-path"})
+
+
+def build_parser(
+    command: str | None = None, argv: Sequence[str] | None = None
+) -> argparse.ArgumentParser:
     """The parser. Only ``command``'s module is loaded and its options known; every other
-    subcommand is listed by name and help alone (so ``gaitmon --help`` loads none)."""
+    subcommand is listed by name and help alone (so ``gaitmon --help`` loads none). ``argv``
+    (the words to parse, when known) of only ``--version``/``--log-path``: without the live
+    window's simulator options."""
     parser = argparse.ArgumentParser(
         prog="gaitmon",
         description="Live monitor, recorder and reviewer for a wearable gait-measurement unit.",
@@ -154,7 +163,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         action="store_true",
         help="open the live monitor connected to the simulated unit",
     )
-    if command is None:  # the window's simulator options; a subcommand has its own
+    words = set(argv or ())
+    window = command is None and not (words & _PRINTING and words <= _PRINTING | {"--verbose"})
+    if window:  # the window's simulator options; a subcommand has its own
         from gaitmon.commands.simulate import add_simulator_options
 
         add_simulator_options(parser.add_argument_group("simulated unit (with --simulate)"))
@@ -162,7 +173,10 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
         add_pair_options(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    # a command given: its parser alone (each costs argparse ~1 ms); none: all, for the help
     for name, help_text in SUBCOMMANDS.items():
+        if command is not None and name != command:
+            continue
         p = sub.add_parser(name, help=help_text, description=help_text)
         _add_verbose(p, argparse.SUPPRESS)  # also after the command: gaitmon record --verbose
         if name == command:
@@ -227,7 +241,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # so that an error while parsing is logged too
     log_path = logs.setup(verbose="--verbose" in argv)
     try:
-        args = build_parser(command).parse_args(argv)
+        args = build_parser(command, argv).parse_args(argv)
         log.info("gaitmon %s (gaitmon %s)", " ".join(argv), __version__)
         run: Run = getattr(args, "_run", None) or open_live_monitor
         rc = int(run(args) or 0)

@@ -12,7 +12,7 @@ traceback: a record that carries one, or that its caller has shown in its own li
 from __future__ import annotations
 
 import logging
-import logging.handlers
+import os
 import sys
 from pathlib import Path
 
@@ -36,6 +36,45 @@ class _Terminal(logging.StreamHandler):  # type: ignore[type-arg]
     def emit(self, record: logging.LogRecord) -> None:
         self.stream = sys.stderr  # under the handler's lock (Handler.handle)
         super().emit(record)
+
+
+class _RotatingFile(logging.FileHandler):
+    """``logging.handlers.RotatingFileHandler``'s rotation (before a record that would take the
+    file to ``max_bytes``: FILE -> FILE.1 -> ... -> FILE.``backups``, the oldest dropped),
+    without importing ``logging.handlers``, whose sockets, queues and pickling cost every
+    command ~4 ms at start-up. Opened on the first record."""
+
+    def __init__(self, path: Path, max_bytes: int, backups: int) -> None:
+        super().__init__(path, encoding="utf-8", delay=True)
+        self.max_bytes, self.backups = max_bytes, backups
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            if self._full(record):
+                self._rotate()
+        except Exception:  # as logging's own handlers do: report, never raise
+            self.handleError(record)
+            return
+        super().emit(record)
+
+    def _full(self, record: logging.LogRecord) -> bool:
+        if not os.path.isfile(self.baseFilename) and os.path.exists(self.baseFilename):
+            return False  # not a regular file (a device, a pipe): never rotated
+        if self.stream is None:
+            self.stream = self._open()
+        self.stream.seek(0, 2)
+        return self.stream.tell() + len(f"{self.format(record)}\n") >= self.max_bytes
+
+    def _rotate(self) -> None:
+        if self.stream:
+            self.stream.close()
+            self.stream = None  # reopened by emit (delay)
+        base = self.baseFilename
+        for i in range(self.backups - 1, 0, -1):
+            if os.path.exists(f"{base}.{i}"):
+                os.replace(f"{base}.{i}", f"{base}.{i + 1}")
+        if os.path.exists(base):
+            os.replace(base, f"{base}.1")
 
 
 class _MessageOnly(logging.Formatter):
@@ -62,9 +101,7 @@ def setup(verbose: bool = False) -> Path | None:
     try:
         path = paths.log_file()
         path.parent.mkdir(parents=True, exist_ok=True)
-        handler = logging.handlers.RotatingFileHandler(
-            path, maxBytes=MAX_BYTES, backupCount=BACKUPS, encoding="utf-8", delay=True
-        )
+        handler = _RotatingFile(path, MAX_BYTES, BACKUPS)
     except (OSError, ModuleNotFoundError):
         return None
     handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))

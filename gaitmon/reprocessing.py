@@ -12,11 +12,13 @@ import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from gaitmon.dsp.methods import get_method, live_names, methods
-from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import UserError
+
+if TYPE_CHECKING:  # applied to a recorded one: the settings and their help need no pipeline
+    from gaitmon.dsp.pipeline import PipelineConfig
 
 # setting (PipelineConfig field; the command-line option is --the-name-with-dashes) -> help
 SETTINGS = {

@@ -24,3 +24,16 @@ def test_every_sample_is_drawn_at_the_first_paint_that_shows_it(qapp):
     got = drawn_at(np.arange(3), [(np.nan, 5.0), (1.0, 8.0), (2.0, 9.0)], end_s=99.0)
     np.testing.assert_array_equal(got, [8, 8, 9])
     assert np.all(drawn_at(idx, [], end_s=7.0) == 7.0)
+
+
+def test_frames_written_before_the_engines_first_sample_are_not_its_samples(qapp):
+    """Frames written every 10 ms; the engine's sample 0 is the 4th frame written (3 dropped
+    while connecting), each read 2 ms after it was written: the shift is 3, so every sample
+    is timed from its own frame (2 ms), not from one written 30 ms earlier."""
+    from bench_gui import frames_before
+
+    written = np.arange(20) * 0.010
+    eng_idx = np.arange(10, dtype=float)
+    host = written[3:13] + 0.002
+    assert frames_before(written, eng_idx, host) == 3
+    assert frames_before(written, eng_idx, written[:10] + 0.002) == 0  # none dropped

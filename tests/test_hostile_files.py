@@ -258,3 +258,22 @@ def test_a_recovery_takes_no_patient_id_from_another_file(hostile, tmp_path):
         assert SECRET not in (s.meta.patient_id, s.meta.notes, s.meta.operator)
         assert "lost" in s.meta.notes  # said, as for a damaged header
     assert SECRET.encode() not in crashed.read_bytes()
+
+
+def test_a_file_changed_after_it_passed_is_checked_again(tmp_path):
+    """check_file walks an unchanged file once per process (gaitmon info opens it twice); a
+    link into another file added since it passed is still refused."""
+    from gaitmon.io.session import trust
+
+    path = tmp_path / "walk.h5"
+    with h5py.File(path, "w") as f:
+        f.create_dataset("x", data=np.arange(10))
+        f.attrs["note"] = "fine"
+    with h5py.File(path, "r") as f:
+        check_file(path, f)
+        stamp = trust._stamp(f)
+    assert stamp is not None and stamp in trust._PASSED
+    with h5py.File(path, "a") as f:
+        f["outside"] = h5py.ExternalLink(str(tmp_path / "other.h5"), "/x")
+    with h5py.File(path, "r") as f, pytest.raises(SessionError, match="link into another file"):
+        check_file(path, f)

@@ -1,7 +1,7 @@
 """numba's compiled loops are cached in the user's cache folder, never in the installed package
-(files pip does not know of, left there, hide a later editable install), and a missing numba is
-one line that says what to install. Each test runs a fresh interpreter: numba picks a cache
-folder once per process."""
+(files pip does not know of, left there, hide a later editable install), and a missing numba
+costs nothing but speed on long records (the loops run interpreted). Each test runs a fresh
+interpreter: numba picks a cache folder once per process."""
 
 import os
 import subprocess
@@ -16,11 +16,9 @@ ROOT = PACKAGE.parent
 
 COMPILE_ONE = """
 import numpy as np
-from gaitmon.dsp import kernels
-x = np.zeros((6, 1))
-kernels.constant_map_solve(np.ones((3, 6)), np.ones(6), np.zeros((3, 1)), np.zeros((3, 1)),
-                           1.0, 1.0, 0.01, np.zeros(1), 1.0, x)
-print(kernels.constant_map_solve._cache._cache_path)
+from gaitmon.dsp import kernels_numba
+kernels_numba.constant_map_solve(np.ones((3, 6)), np.ones(6), np.zeros((6, 1)))
+print(kernels_numba.constant_map_solve._cache._cache_path)
 """
 
 
@@ -54,10 +52,10 @@ def test_compiled_loops_are_cached_in_the_users_cache_folder_not_in_the_package(
 
 
 WHERE = """
-from gaitmon.dsp import kernels
+from gaitmon.dsp import kernels, kernels_numba
 print(kernels.numba_cache_dir())
-print(kernels.gait_aware_update._cache._cache_path)
-print(kernels.constant_map_solve._cache._cache_path)
+print(kernels_numba.gait_aware_update._cache._cache_path)
+print(kernels_numba.constant_map_solve._cache._cache_path)
 """
 
 
@@ -72,18 +70,21 @@ def test_an_explicit_NUMBA_CACHE_DIR_is_kept(tmp_path):
     assert not (tmp_path / "c").exists()
 
 
-def test_without_numba_record_says_in_one_line_what_to_install(tmp_path):
+def test_without_numba_record_works_and_says_nothing_of_it(tmp_path):
+    """Issue 28: numba is a speed-up of long batch work, not a requirement (the old code stopped
+    here with "pip install numba"); a recording's filters run interpreted."""
     hide = tmp_path / "hide"
     hide.mkdir()
     (hide / "sitecustomize.py").write_text("import sys\nsys.modules['numba'] = None\n")
-    out = tmp_path / "never.h5"
-    proc = run(["-m", "gaitmon", "record", "--simulate", "--duration", "2", "--speed", "20",
+    out = tmp_path / "walk.h5"
+    proc = run(["-m", "gaitmon", "record", "--simulate", "--duration", "4", "--speed", "20",
                 "--standing-s", "1", "--quiet", "-o", str(out)],
                clean_env(PYTHONPATH=str(hide), QT_QPA_PLATFORM="offscreen"),
                cwd=str(tmp_path))  # fmt: skip
-    assert proc.returncode == 2
-    lines = proc.stderr.splitlines()
-    assert len(lines) == 1, proc.stderr
-    assert "pip install" in lines[0] and "numba" in lines[0]
-    assert "Traceback" not in proc.stderr
-    assert not out.exists()
+    assert proc.returncode == 0, proc.stderr
+    assert "pip install" not in proc.stderr and "Traceback" not in proc.stderr
+    import h5py
+
+    with h5py.File(out, "r") as f:
+        assert len(f["processed/tilt_deg"]) == 400
+        assert len(f["smoothed/tilt_deg"]) == 400

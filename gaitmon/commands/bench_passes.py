@@ -4,6 +4,8 @@ the pipeline suite (:mod:`gaitmon.commands.bench`) and ``--suite whole``'s pipel
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -47,3 +49,14 @@ def both(counts: np.ndarray) -> None:
     with KeptFirstPass() as kept:
         stream(counts, kept=kept)
         smooth(counts, kept.first_pass)
+
+
+@contextmanager
+def batch_loops() -> Iterator[str]:
+    """The inner loops' form forced to long batch work's (numba's compiled loops where numba
+    is installed, else interpreted: :mod:`gaitmon.dsp.kernels`); yields the form's name."""
+    from gaitmon.dsp import kernels
+
+    form = "compiled" if kernels.numba_available() else "python"
+    with kernels.use(form):
+        yield form

@@ -30,9 +30,11 @@ A new fc applies from the refresh sample on. Note what the paper's rule implies:
 gives a higher fc, i.e. a smaller alpha, i.e. *more* trust in the accelerometer.
 
 Speed: with a fixed alpha the recursion is linear wherever the wrap does nothing, so blocks run
-through ``scipy.signal.lfilter`` on the accelerometer tilt unwrapped to stay within pi of the
-prediction; any sample whose error term would actually need the wrap is taken by an exact step.
-Both paths give the same numbers to rounding (~1e-15 rad).
+through a first-order :class:`gaitmon.dsp.iir.LinearFilter` (numpy alone) on the accelerometer
+tilt unwrapped to stay within pi of the prediction; any sample whose error term would actually
+need the wrap is taken by an exact step. Both paths give the same numbers to rounding (~1e-15
+rad). The linear filter of a segment runs on from call to call (its blocks counted from where it
+started: after the reset, an exact step or a new cut-off), so any chunking gives the same output.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ import numpy as np
 
 from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.filters import as_2d_pair
+from gaitmon.dsp.iir import LinearFilter
 
 # error terms this close to +-pi go through the exact (wrapped) step, not the linear path
 _WRAP_MARGIN_RAD = 1e-9
@@ -135,6 +138,8 @@ class ComplementaryFilter:
         self._alpha: np.ndarray | None = None
         self._step = 0
         self._hist: np.ndarray | None = None
+        # per segment, the linear path's filter while it runs on (None: start from theta)
+        self._linear: list[LinearFilter | None] = []
         self.cutoff_history: list[tuple[int, np.ndarray]] = []  # (sample index, fc per segment)
 
     @property
@@ -153,6 +158,7 @@ class ComplementaryFilter:
             self._fc = np.full(c, self.initial_cutoff_hz)
             self._alpha = complementary_alpha(self._fc, self.dt_s)
             self._hist = np.empty((0, c))
+            self._linear = [None] * c
             self.cutoff_history.append((0, self._fc.copy()))
         elif self._theta.shape[0] != c:
             raise ValueError(f"this filter carries state for {self._theta.shape[0]} segments")
@@ -184,13 +190,15 @@ class ComplementaryFilter:
         fc = self.adaptive.pick(self._hist, 1.0 / self.dt_s)
         new = np.where(np.isnan(fc), self._fc, fc)
         if not np.array_equal(new, self._fc):
+            changed = np.flatnonzero(new != self._fc)
             self._fc = new
             self._alpha = complementary_alpha(new, self.dt_s)
+            for ch in changed:  # a new alpha: that segment's linear path starts again
+                self._linear[ch] = None
             self.cutoff_history.append((k, new.copy()))
 
     # ------------------------------------------------------------------ one segment
     def _run_channel(self, ch: int, z: np.ndarray, w: np.ndarray) -> np.ndarray:
-        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         assert self._theta is not None and self._alpha is not None
         alpha = float(self._alpha[ch])
         dt = self.dt_s
@@ -206,7 +214,11 @@ class ComplementaryFilter:
             turns[1:] = -np.rint(np.diff(zc) / TWO_PI)
             z_unw = zc + TWO_PI * np.cumsum(turns)
             u = alpha * dt * wc + (1.0 - alpha) * z_unw
-            th, _ = signal.lfilter([1.0], [1.0, -alpha], u, zi=[alpha * theta])
+            lin = self._linear[ch]
+            if lin is None:  # lfilter([1], [1, -alpha]) from theta: its state is alpha * theta
+                lin = LinearFilter([1.0], [1.0, -alpha], 1, [[alpha * theta]])
+            th = lin.process(u[:, None])[:, 0]
+            self._linear[ch] = lin
             prev = np.concatenate([[theta], th[:-1]])
             err = z_unw - (prev + wc * dt)
             bad = np.flatnonzero(np.abs(err) >= np.pi - _WRAP_MARGIN_RAD)
@@ -216,6 +228,7 @@ class ComplementaryFilter:
                 theta = float(th[good - 1])
             i += good
             if good < zc.shape[0]:  # an error term needs the real wrap: exact steps for a while
+                self._linear[ch] = None  # (it ran past the wrap; it starts again from theta)
                 for j in range(i, min(n, i + _EXACT_STEPS)):
                     pred = theta + w[j] * dt
                     theta = pred + (1.0 - alpha) * float(wrap_angle(z[j] - pred))

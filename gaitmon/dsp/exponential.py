@@ -15,7 +15,7 @@ In the paper the exponential path only filters; the angle (gyro) or position (ac
 then obtained by integrating with the trapezoid rule, :class:`TrapezoidIntegrator`.
 
 Both classes are streaming stages: (N,) or (N, channels) in, same shape out, state carried across
-blocks (``scipy.signal.lfilter`` with ``zi``), ``reset()``; any chunking gives the same output.
+blocks (:mod:`gaitmon.dsp.iir`, numpy alone), ``reset()``; any chunking gives the same output.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from gaitmon.dsp.filters import ChannelFilter, as_2d
+from gaitmon.dsp.iir import LinearFilter, running_sum
 
 
 def exponential_alpha(cutoff_hz: float, fs_hz: float) -> float:
@@ -69,21 +70,14 @@ class ExponentialFilter(ChannelFilter):
         self.initial = initial
         self._b = np.array([1.0 - self.alpha])
         self._a = np.array([1.0, -self.alpha])
-        # state: (order, channels), each stage's lfilter state (see ChannelFilter)
 
-    def _initial_state(self, first: np.ndarray) -> np.ndarray:
+    def _initial_state(self, first: np.ndarray) -> list[LinearFilter]:
         # lfilter's state for y(-1) = v is alpha * v (y(n) = b x(n) + zi, zi = alpha y(n-1))
         start = first if self.initial == "first" else np.zeros_like(first)
-        return np.tile(self.alpha * start, (self.order, 1))
-
-    def _filter(self, x2: np.ndarray) -> np.ndarray:
-        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
-        assert self._zi is not None
-        y = x2
-        for m in range(self.order):
-            y, zf = signal.lfilter(self._b, self._a, y, axis=0, zi=self._zi[m][None, :])
-            self._zi[m] = zf[0]
-        return y
+        return [
+            LinearFilter(self._b, self._a, first.size, self.alpha * start[None, :])
+            for _ in range(self.order)
+        ]
 
 
 class TrapezoidIntegrator:
@@ -105,7 +99,6 @@ class TrapezoidIntegrator:
 
     def process(self, x: np.ndarray, initial: np.ndarray | float = 0.0) -> np.ndarray:
         """Integrate (N,) or (N, channels). ``initial`` is the output at the very first sample."""
-        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         x2, was_1d = as_2d(x)
         n, c = x2.shape
         if n == 0:
@@ -120,8 +113,8 @@ class TrapezoidIntegrator:
             assert self._x is not None
             prev_y = self._y
             incr[0] = 0.5 * self.dt_s * (x2[0] + self._x)
-        # the running sum through lfilter keeps summation order identical in any chunking
-        y, zf = signal.lfilter([1.0], [1.0, -1.0], incr, axis=0, zi=prev_y[None, :])
-        self._y = zf[0].copy()
+        # one running sum from the carried output: the same additions in any chunking
+        y = running_sum(incr, prev_y)
+        self._y = y[-1].copy()
         self._x = x2[-1].copy()
         return y[:, 0] if was_1d else y

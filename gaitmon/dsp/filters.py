@@ -1,12 +1,15 @@
 """Streaming linear filters of paper 000: the Butterworth low-pass and gyro integration.
 
-Both carry their state across blocks through scipy.signal.lfilter's ``zi``, so a record processed
-in any chunking gives bit-for-bit the output of one call on the whole record.
+Both are designed and run by :mod:`gaitmon.dsp.iir` (numpy alone: no scipy on the live or
+``process`` path) and carry their state across blocks, so a record processed in any chunking
+gives bit-for-bit the output of one call on the whole record.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from gaitmon.dsp.iir import LinearFilter, butter_lowpass, lfilter_zi, running_sum
 
 
 def as_2d(x: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -36,20 +39,25 @@ class ChannelFilter:
 
     ``process`` takes (N,) or (N, channels) and returns the same shape; the state is created from
     the first sample and must keep the same channel count afterwards. Subclasses provide
-    ``_initial_state(first_row)`` and ``_filter(x2)`` (which updates ``self._zi``).
+    ``_initial_state(first_row)``: the stages (:class:`gaitmon.dsp.iir.LinearFilter`, in
+    cascade) started for that first sample.
     """
 
-    _zi: np.ndarray | None = None
+    _stages: list[LinearFilter] | None = None
     _channels = 0
 
     def reset(self) -> None:
-        self._zi = None
+        self._stages = None
 
-    def _initial_state(self, first: np.ndarray) -> np.ndarray:
+    def _initial_state(self, first: np.ndarray) -> list[LinearFilter]:
         raise NotImplementedError
 
     def _filter(self, x2: np.ndarray) -> np.ndarray:
-        raise NotImplementedError
+        assert self._stages is not None
+        y = x2
+        for stage in self._stages:
+            y = stage.process(y)
+        return y
 
     def process(self, x: np.ndarray) -> np.ndarray:
         """Filter (N,) or (N, channels) along time; returns the same shape."""
@@ -57,8 +65,8 @@ class ChannelFilter:
         if x2.shape[0] == 0:
             y = np.empty_like(x2)
         else:
-            if self._zi is None:
-                self._zi = self._initial_state(x2[0])
+            if self._stages is None:
+                self._stages = self._initial_state(x2[0])
                 self._channels = x2.shape[1]
             elif self._channels != x2.shape[1]:
                 raise ValueError(
@@ -86,17 +94,15 @@ class Butterworth(ChannelFilter):
         order: int = 2,
         initial: str = "first",
     ) -> None:
-        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
-
         self.check(cutoff_hz, fs_hz, order, initial)
         self.cutoff_hz = float(cutoff_hz)
         self.fs_hz = float(fs_hz)
         self.order = int(order)
         self.initial = initial
-        b, a = signal.butter(self.order, self.cutoff_hz, btype="low", fs=self.fs_hz)
+        b, a = butter_lowpass(self.order, self.cutoff_hz, self.fs_hz)
         self.b: np.ndarray = b
         self.a: np.ndarray = a
-        self._zi_unit = signal.lfilter_zi(b, a)
+        self._zi_unit = lfilter_zi(b, a)
 
     @staticmethod
     def check(cutoff_hz: float, fs_hz: float, order: int, initial: str = "first") -> None:
@@ -131,14 +137,9 @@ class Butterworth(ChannelFilter):
             "E": float(-self.a[2]),
         }
 
-    def _initial_state(self, first: np.ndarray) -> np.ndarray:
+    def _initial_state(self, first: np.ndarray) -> list[LinearFilter]:
         start = first if self.initial == "first" else np.zeros_like(first)
-        return self._zi_unit[:, None] * start[None, :]
-
-    def _filter(self, x2: np.ndarray) -> np.ndarray:
-        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
-        y, self._zi = signal.lfilter(self.b, self.a, x2, axis=0, zi=self._zi)
-        return y
+        return [LinearFilter(self.b, self.a, first.size, self._zi_unit[:, None] * start[None, :])]
 
 
 class GyroIntegrator:
@@ -159,7 +160,6 @@ class GyroIntegrator:
 
     def process(self, rate_rad_s: np.ndarray, initial_rad: np.ndarray | float = 0.0) -> np.ndarray:
         """(N,) or (N, segments) rate -> integrated tilt (rad). ``initial_rad`` is used once."""
-        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         x2, was_1d = as_2d(rate_rad_s)
         if x2.shape[0] == 0:
             out = np.empty_like(x2)
@@ -167,5 +167,7 @@ class GyroIntegrator:
         if self._zi is None:
             self._zi = np.broadcast_to(np.asarray(initial_rad, dtype=np.float64), (x2.shape[1],))
             self._zi = self._zi.reshape(1, -1).copy()
-        y, self._zi = signal.lfilter([self.dt_s], [1.0, -1.0], x2, axis=0, zi=self._zi)
+        # lfilter([dt], [1, -1]): theta_k = theta_k-1 + dt omega_k, summed in order
+        y = running_sum(x2 * self.dt_s, self._zi[0])
+        self._zi = y[-1:].copy()
         return y[:, 0] if was_1d else y

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from gaitmon.dsp.angles import TWO_PI
+from gaitmon.dsp.iir import LinearFilter, butter_lowpass, lfilter
 
 
 class GravityReference:
@@ -30,10 +31,8 @@ class GravityReference:
     """
 
     def __init__(self, cutoff_hz: float, fs_hz: float, n_segments: int) -> None:
-        from scipy import signal  # lazy: scipy only where a filter is run
-
         self.dt_s = 1.0 / fs_hz
-        b, a = signal.butter(2, cutoff_hz, fs=fs_hz)
+        b, a = butter_lowpass(2, cutoff_hz, fs_hz)
         self._ba = (b, a)
         k = np.arange(len(b))
         # the low-pass's delay at DC: a gyro bias b turns the gyro angle at b, so z~ leads the
@@ -41,12 +40,12 @@ class GravityReference:
         self.lag_s = float((k @ b / b.sum() - k @ a / a.sum()) * self.dt_s)
         # the step response from rest, s_k, and h_k, until s_k is within 1e-12 of 1
         n_h = round(60.0 / cutoff_hz * fs_hz)
-        step = signal.lfilter(b, a, np.ones(n_h))
+        step = lfilter(b, a, np.ones(n_h))
         n_h = int(np.flatnonzero(np.abs(step - 1.0) > 1e-12)[-1]) + 2
         t = np.arange(n_h) * self.dt_s
         self._step = step[:n_h]
         self._step[-1] = 1.0
-        self._h = t - signal.lfilter(b, a, t) / self._step
+        self._h = t - lfilter(b, a, t) / self._step
         self._h[-1] = self.lag_s
         # added to the gyro before it is integrated: undoes shift_bias, so a new calibration
         # does not turn the gyro angle differently from before
@@ -55,7 +54,7 @@ class GravityReference:
 
     def reset(self) -> None:
         self._theta: np.ndarray | None = None  # the gyro angle at the last sample
-        self._zi: np.ndarray | None = None
+        self._lp: LinearFilter | None = None
         self._count = 0  # samples since the reset
 
     @property
@@ -71,8 +70,6 @@ class GravityReference:
         return self._at(self._h, count, n)
 
     def process(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> np.ndarray:
-        from scipy import signal  # lazy
-
         n, s = ax.shape
         if self._theta is None:  # the gyro angle starts at the first accelerometer tilt
             self._theta = np.arctan2(az[0], ax[0]) - (w[0] + self.offset_rad_s) * self.dt_s
@@ -85,9 +82,9 @@ class GravityReference:
         world = np.empty((len(theta), 2 * s))  # (up, fwd) x S
         np.add(ax * c, az * sn, out=world[:, :s])
         np.subtract(az * c, ax * sn, out=world[:, s:])
-        if self._zi is None:  # the low-pass starts from rest
-            self._zi = np.zeros((2, 2 * s))
-        avg, self._zi = signal.lfilter(*self._ba, world, axis=0, zi=self._zi)
+        if self._lp is None:  # the low-pass starts from rest
+            self._lp = LinearFilter(*self._ba, 2 * s)
+        avg = self._lp.process(world)
         if self._count < len(self._step) - 1:  # the start-up's mean (the class doc)
             avg = avg / self._at(self._step, self._count, n)[:, None]
         h = self.bias_gain(self._count, n)[:, None]

@@ -30,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gaitmon.dsp.windows import sliding_max
+
 HS_OFFSET_S = -0.04
 TO_OFFSET_S = 0.05
 SMOOTH_TAPS = 9
@@ -87,15 +89,13 @@ def _events_in(
 
     Reads gf only within [p - lookback, p + latency]: the caller guarantees that range.
     """
-    from scipy.ndimage import maximum_filter1d  # lazy
-
     n = len(gf)
     w, s = rule.half_window, rule.search
     hi = min(hi, n)
     if hi <= lo or gf[lo:hi].max() < rule.peak_min_rad_s:
         return [], [], []
     a0, b0 = max(0, lo - w), min(n, hi + w)
-    local_max = maximum_filter1d(gf[a0:b0], 2 * w + 1, mode="constant", cval=-np.inf)
+    local_max = sliding_max(gf[a0:b0], 2 * w + 1, mode="constant", cval=-np.inf)
     prev = gf[max(lo - 1, 0) : hi - 1] if lo > 0 else np.concatenate([[-np.inf], gf[: hi - 1]])
     pk = np.flatnonzero(
         (gf[lo:hi] >= rule.peak_min_rad_s)

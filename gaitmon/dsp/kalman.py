@@ -19,10 +19,11 @@ innovation is wrapped to (-pi, pi].
 Speed. P and K do not depend on the data: they follow a fixed sequence that reaches a fixed point
 after a few thousand steps. Up to that point the filter runs step by step with the exact gain
 sequence. From there on it is a linear time-invariant system, run as two second-order transfer
-functions (omega -> theta, z -> theta) with scipy.signal.lfilter: mathematically the same filter; it
-agrees with the step-by-step reference to ~1e-12. The innovation's wrap is honoured by unwrapping
-z so that every innovation lies within (-pi, pi); where that cannot be guaranteed (the accelerometer
-tilt more than pi away from the prediction), the filter falls back to exact steps for a while.
+functions (omega -> theta, z -> theta) with :class:`gaitmon.dsp.iir.LinearFilter` (numpy
+alone): mathematically the same filter; it agrees with the step-by-step reference to ~1e-12. The
+innovation's wrap is honoured by unwrapping z so that every innovation lies within (-pi, pi);
+where that cannot be guaranteed (the accelerometer tilt more than pi away from the prediction),
+the filter falls back to exact steps for a while.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ import numpy as np
 
 from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.filters import as_2d_pair
+from gaitmon.dsp.iir import LinearFilter, ss2tf
 
 _MAX_GAIN_STEPS = 50_000
 _RECOVERY_STEPS = 64
@@ -141,7 +143,6 @@ class TiltKalman:
         x_k = F x_{k-1} + G u_k with x = [theta, b], u = [omega, z]; as a standard state-space
         model with s_k = x_{k-1}: s_{k+1} = F s_k + G u_k, y_k = F s_k + G u_k.
         """
-        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
         k0, k1, dt = self._sched.k0_ss, self._sched.k1_ss, self.dt_s
         f = np.array([[1 - k0, -(1 - k0) * dt], [-k1, 1 + k1 * dt]])
         g = np.array([[(1 - k0) * dt, k0], [-k1 * dt, k1]])
@@ -149,7 +150,7 @@ class TiltKalman:
         nums = []
         den = None
         for inp in range(2):  # omega, z -> theta
-            num, den = signal.ss2tf(f, g, f[:1], g[:1], inp)
+            num, den = ss2tf(f, g, f[:1], g[:1], inp)
             nums.append(num[0])
         assert den is not None
         self._den = den
@@ -164,7 +165,8 @@ class TiltKalman:
         self._bias: np.ndarray | None = None
         self._step = 0
         self._recovery_left = 0
-        self._lti_zi: np.ndarray | None = None  # (2 filters, S, 2) lfilter states (LTI path)
+        # the LTI path's two filters (omega -> theta, z -> theta), running on across calls
+        self._lti: tuple[LinearFilter, LinearFilter] | None = None
         self._last_z: np.ndarray | None = None  # (S,) last wrapped measurement (for unwrapping)
         self._turns: np.ndarray | None = None  # (S,) int64 2*pi turns added to the last z
 
@@ -209,8 +211,8 @@ class TiltKalman:
         if self._bias is None:
             return
         self._bias = self._bias + np.asarray(delta_rad_s, dtype=np.float64)
-        if self._lti_zi is not None:
-            self._lti_zi = None
+        if self._lti is not None:
+            self._lti = None
             self._last_z = self._turns = None
             self._recovery_left = max(self._recovery_left, 1)
 
@@ -219,7 +221,7 @@ class TiltKalman:
         the gains (after a link outage the old angle is stale, but the bias and the noise
         levels are not: the filter settles with its steady-state gain, not from P = 0)."""
         self._theta = None
-        self._lti_zi = None
+        self._lti = None
         self._last_z = self._turns = None
         if self._bias is not None:
             self._recovery_left = max(self._recovery_left, 1)
@@ -238,7 +240,7 @@ class TiltKalman:
             self._bias = np.full(s, self.initial_bias_rad_s)
         i = 0
         while i < n:
-            if self._lti_zi is not None:
+            if self._lti is not None:
                 i = self._run_lti(z, w, out, i)
             else:
                 i = self._run_exact(z, w, out, i)
@@ -282,10 +284,14 @@ class TiltKalman:
         fx = self._f @ x
         ffx = self._f @ fx
         # theta's free response (F x)_0, (F^2 x)_0 goes into the state of the z-path filter
-        zi = np.zeros((2, x.shape[1], 2))
-        zi[1, :, 0] = fx[0]
-        zi[1, :, 1] = ffx[0] + self._den[1] * fx[0]
-        self._lti_zi = zi
+        s = x.shape[1]
+        zi = np.zeros((2, s))
+        zi[0] = fx[0]
+        zi[1] = ffx[0] + self._den[1] * fx[0]
+        self._lti = (
+            LinearFilter(self._nums[0], self._den, s),
+            LinearFilter(self._nums[1], self._den, s, zi),
+        )
         self._last_z = None  # re-anchored on the next sample from the prediction
         self._turns = None
 
@@ -299,8 +305,7 @@ class TiltKalman:
         return bias_prev + k1 * (z_unw - pred)
 
     def _run_lti(self, z: np.ndarray, w: np.ndarray, out: np.ndarray, i: int) -> int:
-        from scipy import signal  # lazy: ~1 s to import, and reading a file needs none
-        assert self._lti_zi is not None and self._theta is not None and self._bias is not None
+        assert self._lti is not None and self._theta is not None and self._bias is not None
         zc, wc = z[i : i + _LTI_BLOCK], w[i : i + _LTI_BLOCK]
         n = zc.shape[0]
         dt = self.dt_s
@@ -318,11 +323,7 @@ class TiltKalman:
         turns = np.cumsum(steps, axis=0)
         z_unw = zc + TWO_PI * turns
         z_t = np.ascontiguousarray(z_unw.T)
-        y_w, zf_w = signal.lfilter(
-            self._nums[0], self._den, np.ascontiguousarray(wc.T), axis=1, zi=self._lti_zi[0]
-        )
-        y_z, zf_z = signal.lfilter(self._nums[1], self._den, z_t, axis=1, zi=self._lti_zi[1])
-        theta_t = y_w + y_z  # (S, n)
+        theta_t = (self._lti[0].process(wc) + self._lti[1].process(z_unw)).T  # (S, n)
         # innovation e = z - pred = (z - theta) / (1 - K0); the linear path is exact only while
         # every innovation is inside (-pi, pi), where wrap() does nothing
         innov = (z_t - theta_t) / (1 - self._sched.k0_ss)
@@ -336,12 +337,11 @@ class TiltKalman:
             self._bias = self._state_at(before, theta[good - 1], z_unw[good - 1], wc[good - 1])
             self._theta = theta[good - 1].copy()
         if good == n:
-            self._lti_zi = np.stack([zf_w, zf_z])
             self._last_z = zc[-1].copy()
             self._turns = turns[-1].copy()
             return i + n
         # the sample at `good` needs a real wrap: take exact steps from the state before it
-        self._lti_zi = None
+        self._lti = None
         self._last_z = self._turns = None
         self._recovery_left = _RECOVERY_STEPS
         return i + good

@@ -32,7 +32,8 @@ Paper 000's own tilt filter is :class:`gaitmon.dsp.kalman.TiltKalman`; this modu
   eq. 9 measures the position (H = [1, 0, 0], the H its pole analysis uses); its text feeds the
   accelerometer in as the third state (H = [0, 0, 1]); both are offered. Also the gravity
   compensation from the 3-axis tilt (:func:`gravity_compensate`), the steady-state gain
-  (:func:`steady_state_gain`, scipy's DARE) and observer poles (:func:`observer_poles`).
+  (:func:`steady_state_gain`, the DARE solved by :func:`gaitmon.dsp.iir.solve_discrete_are`,
+  numpy alone) and observer poles (:func:`observer_poles`).
 """
 
 from __future__ import annotations
@@ -42,7 +43,8 @@ from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import linalg
+
+from gaitmon.dsp.iir import solve_discrete_are
 
 # the gain schedule is precomputed this far; a filter whose gain has not settled by then (e.g. an
 # unobservable state whose variance keeps growing) carries on with the Riccati recursion live
@@ -406,15 +408,16 @@ def pva_kalman(
 def steady_state_gain(A: np.ndarray, H: np.ndarray, Q: np.ndarray, R: np.ndarray) -> np.ndarray:
     """The converged (filter-form) Kalman gain from the discrete algebraic Riccati equation.
 
-    P- solves P = A P A^T - A P H^T (H P H^T + R)^-1 H P A^T + Q (scipy's solve_discrete_are on
-    the dual system); K = P- H^T (H P- H^T + R)^-1, the gain of x = x- + K (z - H x-).
+    P- solves P = A P A^T - A P H^T (H P H^T + R)^-1 H P A^T + Q (the DARE of the dual system,
+    as scipy.linalg.solve_discrete_are(A^T, H^T, Q, R)); K = P- H^T (H P- H^T + R)^-1, the gain
+    of x = x- + K (z - H x-).
     """
     a = np.atleast_2d(np.asarray(A, dtype=np.float64))
     h = np.atleast_2d(np.asarray(H, dtype=np.float64))
     q = np.atleast_2d(np.asarray(Q, dtype=np.float64))
     r = np.atleast_2d(np.asarray(R, dtype=np.float64))
     try:
-        p = linalg.solve_discrete_are(a.T, h.T, q, r)
+        p = solve_discrete_are(a.T, h.T, q, r)
     except (np.linalg.LinAlgError, ValueError) as exc:
         raise ValueError(
             "no steady-state gain: the Riccati equation has no stabilising solution "

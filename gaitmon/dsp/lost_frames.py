@@ -10,6 +10,7 @@ decide and fill alike, from here.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -17,6 +18,27 @@ import numpy as np
 # Losses up to this long are bridged (a frame or two on a noisy link); longer ones restart the
 # filters. The same limit decides which gaps a stride may cross (gaitmon.analysis).
 BRIDGE_MAX_S = 0.05
+
+# After a restart the gait-aware filter's angle converges with its exact start-up gain: measured
+# on the simulator, the joint-angle error after a 3 s outage is at its walking level after 3 s
+# (benchmarks/gap_settling.py, docs/gaps-and-time.md).
+SETTLE_S = 3.0
+
+
+def settling_ranges(
+    restarts: Sequence[int] | np.ndarray, fs_hz: float, n_rows: int | None = None
+) -> list[tuple[int, int]]:
+    """[start, stop) rows during which the filters settle after each restart row (row 0, the
+    start, included when given). Overlapping ranges are merged."""
+    k = round(SETTLE_S * fs_hz)
+    out: list[tuple[int, int]] = []
+    for r in sorted(int(x) for x in restarts):
+        b = r + k if n_rows is None else min(r + k, n_rows)
+        if out and r <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((r, b))
+    return out
 
 
 def bridge_max_samples(fs_hz: float) -> int:

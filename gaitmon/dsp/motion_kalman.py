@@ -102,10 +102,13 @@ sample (the tests of the steady-state form use it).
 
 Speed and chunking. The accelerometer tilt, | |a| - g | and the gravity reference are computed
 for a whole block at once (numpy). The motion windows, the choice of measurement and gain and
-the update itself run in one compiled loop in time order
-(:func:`gaitmon.dsp.kernels.gait_aware_update`); the state carried from the previous block (the
-windows' last samples, the angle and the bias) is its start, so any chunking performs the same
-floating-point operations in the same order and gives bit-for-bit the same output.
+the update itself run in time order: the windows' maxima in numpy
+(:func:`gaitmon.dsp.kernels.motion_windows`), the rest in one loop
+(:func:`gaitmon.dsp.loops.gait_aware_update`: compiled by numba for long records, interpreted
+for live blocks and short records, :mod:`gaitmon.dsp.kernels`); the state carried from the
+previous block (the windows' last samples, the angle and the bias) is its start, so any
+chunking performs the same floating-point operations in the same order and gives bit-for-bit
+the same output (and either form of the loop the same, to rounding).
 
 Wrap. The state stays continuous through +-pi; an innovation beyond +-pi (the accelerometer tilt
 jumps by a turn when the board's y axis nears the vertical, and the foot's at impacts) is taken
@@ -118,6 +121,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from gaitmon.dsp import kernels
 from gaitmon.dsp.angles import TWO_PI
 from gaitmon.dsp.channel_table import SEGMENTS, STANDARD_GRAVITY_MS2
 from gaitmon.dsp.gravity_reference import GravityReference
@@ -262,13 +266,14 @@ class GaitAwareKalman:
         lag = np.zeros(len(tuns))
         for grav, cols in self._gravity:
             lag[cols] = grav.lag_s
-        # per segment, what the compiled update reads (gaitmon.dsp.kernels.gait_aware_update)
+        # per segment, what the update reads (gaitmon.dsp.loops.gait_aware_update)
         # while moving: the gravity tilt, or nothing (the foot's gate), or else the
         # accelerometer tilt weighted by the motion
         self._gravity_on = np.array([t.live_gravity_hz is not None for t in tuns], dtype=bool)
         self._gated = np.array([t.live_gravity_hz is None and t.r_moving is None for t in tuns],
                                dtype=bool)  # fmt: skip
         self._n_win = np.array([t.window_samples(self.fs_hz) for t in tuns], dtype=np.int64)
+        self._win_groups = kernels.window_groups(self._n_win)
         self._lag = lag
         self._per_segment = {
             name: np.array([float(getattr(t, name) or 0.0) for t in tuns])
@@ -391,8 +396,6 @@ class GaitAwareKalman:
         out = np.empty((n, s))
         if n == 0:
             return out[:, 0] if was_1d else out
-        from gaitmon.dsp.kernels import gait_aware_update  # lazy: numba only where run
-
         z_acc = np.arctan2(az, ax)
         mag = np.hypot(ax, az)
         dev = np.abs(mag - STANDARD_GRAVITY_MS2)
@@ -408,9 +411,10 @@ class GaitAwareKalman:
         theta = np.zeros(s) if self._theta is None else self._theta.copy()
         bias = np.zeros(s) if self._bias is None else self._bias.copy()  # a restart keeps it
         ps = self._per_segment
-        gait_aware_update(
-            dev, np.ascontiguousarray(w), z_acc, z_grav, self._tail, self._n_win,
-            self._gravity_on, self._gated,
+        w = np.ascontiguousarray(w)
+        win_d, win_r = kernels.motion_windows(self._tail, dev, np.abs(w), self._win_groups)
+        kernels.gait_aware_update(
+            win_d, win_r, w, z_acc, z_grav, self._gravity_on, self._gated,
             ps["static_acc_ms2"], ps["static_rate_rad_s"], self._k_static, self._k_grav,
             ps["r_static"], ps["r_moving"], ps["acc_scale_ms2"],
             ps["moving_rate_scale_rad_s"], self._log_r, self._gains, self.dt_s, start, theta,

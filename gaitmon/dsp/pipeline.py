@@ -85,46 +85,29 @@ from gaitmon.dsp.filters import Butterworth, GyroIntegrator
 from gaitmon.dsp.fsr_check import FsrFault, FsrMonitor
 from gaitmon.dsp.gait import GaitEventDetector, Stride, StrideTracker
 from gaitmon.dsp.kalman import TiltKalman
+from gaitmon.dsp.lost_frames import SETTLE_S as SETTLE_S
 from gaitmon.dsp.lost_frames import bridged_fill, fill_lost, restart_rows
+from gaitmon.dsp.lost_frames import settling_ranges as settling_ranges
 from gaitmon.dsp.methods import DEFAULT_METHOD, TiltInput, TiltMethod, TiltStage, get_method
+
+# SETTLE_S (the settling after a restart) and settling_ranges live with the losses, so that
+# gaitmon.analysis reads them without the filters; they are named here too, where restarts are made
 
 # long inputs are worked through in sub-blocks that stay in cache (same output, about 2x faster)
 _SUB_BLOCK = 16384
 
-# After a restart the gait-aware filter's angle converges with its exact start-up gain: measured
-# on the simulator, the joint-angle error after a 3 s outage is at its walking level after 3 s
-# (benchmarks/gap_settling.py, docs/gaps-and-time.md).
-SETTLE_S = 3.0
-
-
 def warm_up(config: PipelineConfig, table: ChannelTable = DEFAULT_TABLE) -> None:
-    """Run a throwaway pipeline of ``config`` over two still rows, so that its filter's compiled
-    loop (gaitmon.dsp.kernels) is compiled (the first run after an install, a few seconds) or
-    loaded from its cache now, not on the first block a unit streams."""
+    """Run a throwaway pipeline of ``config`` over two still rows, so that its filters' tables
+    (gain schedules, coefficients) are built now, not on the first block a unit streams. (Its
+    loops run interpreted for such blocks: nothing is compiled, gaitmon.dsp.kernels.)"""
     rows = np.rint(np.tile(table.zero_counts, (2, 1))).astype(np.uint16)
     Pipeline(config, table=table).process(rows)
 
 
-def settling_ranges(
-    restarts: Sequence[int] | np.ndarray, fs_hz: float, n_rows: int | None = None
-) -> list[tuple[int, int]]:
-    """[start, stop) rows during which the filters settle after each restart row (row 0, the
-    start, included when given). Overlapping ranges are merged."""
-    k = round(SETTLE_S * fs_hz)
-    out: list[tuple[int, int]] = []
-    for r in sorted(int(x) for x in restarts):
-        b = r + k if n_rows is None else min(r + k, n_rows)
-        if out and r <= out[-1][1]:
-            out[-1] = (out[-1][0], max(out[-1][1], b))
-        else:
-            out.append((r, b))
-    return out
-
-
 def butterworth_dc_delay_samples(order: int, cutoff_hz: float, fs_hz: float) -> float:
-    """The DC group delay (samples) of ``scipy.signal.butter(order, cutoff_hz, fs=fs_hz)``,
-    computed with numpy alone: readers (the review window's first view, ``info``) need it, and
-    importing scipy.signal costs ~1.2 s. The digital Butterworth low-pass is the bilinear
+    """The DC group delay (samples) of the Butterworth low-pass (``gaitmon.dsp.iir.butter_lowpass``,
+    scipy.signal.butter's), from its poles alone: readers (the review window's first view,
+    ``info``) need it without designing a filter. The digital Butterworth low-pass is the bilinear
     transform of the analog prototype (cut-off prewarped): n zeros at z = -1 and poles p_k.
     At DC a factor (1 - q / z) delays by -Re(q / (1 - q)) samples in the numerator and by
     +Re(p / (1 - p)) in the denominator: summed over the factors, which stays accurate where
@@ -181,7 +164,7 @@ class PipelineConfig:
 
     def __post_init__(self) -> None:
         # Every value is checked with a message that names it, as the stages check them, but
-        # without designing the filters: a file's recorded settings are read without scipy.
+        # without designing the filters: a file's recorded settings are read cheaply.
         Butterworth.check(self.cutoff_hz, self.fs_hz, self.filter_order)
         TiltKalman.check(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
         GaitEventDetector(self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz)

@@ -19,10 +19,11 @@ gyro carries scale and axis errors the stationary model does not.
 
 The RTS smoother's mean is the maximiser of the joint Gaussian density of all states given all
 data, i.e. the solution of a linear least-squares problem whose normal matrix is banded (two
-off-diagonals with the unknowns ordered theta_0, b_0, theta_1, ...). It is solved that way, with
-LAPACK's banded Cholesky (``scipy.linalg.solveh_banded``): the same numbers as a forward Kalman
-pass followed by the RTS backward pass (tests/test_accuracy_filters.py checks it against a
-hand-written RTS loop), in O(N) with no Python loop over samples.
+off-diagonals with the unknowns ordered theta_0, b_0, theta_1, ...). It is solved that way, by
+a banded Cholesky factorisation (LAPACK's ``dpbtrf``/``dpbtrs`` as loops,
+:mod:`gaitmon.dsp.loops`; ``scipy.linalg.solveh_banded`` agrees to rounding): the same numbers
+as a forward Kalman pass followed by the RTS backward pass (tests/test_accuracy_filters.py
+checks it against a hand-written RTS loop), in O(N).
 
 Gravity pass. The accelerometer tilt atan2(a_z, a_x) of a walking thigh or shank carries the
 segment's own acceleration, and its weighted mean over a stride is not zero (the weights follow
@@ -66,9 +67,11 @@ instead of running the filter twice.
 
 With constant variances the gravity pass's normal matrix does not depend on the data: every
 segment and every window of one length share it, so its banded Cholesky factor is computed once
-and each solve is two banded substitutions (``smooth_map``), run by a compiled loop for all the
-segments side by side (:func:`gaitmon.dsp.kernels.constant_map_solve`; the same numbers as
-LAPACK's solve, to rounding).
+and each solve is two banded substitutions (``smooth_map``), run by one loop for all the
+segments side by side (:func:`gaitmon.dsp.loops.constant_map_solve`, compiled by numba for long
+records, :mod:`gaitmon.dsp.kernels`; the same numbers as LAPACK's solve, to rounding). The
+windowed means and maxima are numpy's (:mod:`gaitmon.dsp.windows`: scipy.ndimage's filters,
+to rounding), or a compiled loop where numba runs.
 
 Long records are solved in windows of ``window`` samples that overlap by ``overlap`` on each
 side; only each window's centre is kept (with 2 minutes of overlap the result differs from one
@@ -83,6 +86,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from gaitmon.dsp import kernels
 from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import (
@@ -94,6 +98,7 @@ from gaitmon.dsp.channels import (
     ChannelTable,
 )
 from gaitmon.dsp.motion_kalman import SegmentTuning, measurement_variance, tuning_for
+from gaitmon.dsp.windows import sliding_max, sliding_mean
 
 _PRIOR_THETA_VAR = 1.0
 _PRIOR_BIAS_VAR = 0.1**2
@@ -104,9 +109,7 @@ _CAUSAL_BLOCK = 1 << 14  # rows per call of the causal first pass
 
 def centred_max(x: np.ndarray, n: int) -> np.ndarray:
     """Maximum over a window of n samples centred on each sample (shorter at the ends)."""
-    from scipy.ndimage import maximum_filter1d  # lazy: scipy only where a filter is run
-
-    return np.asarray(maximum_filter1d(x, size=n, mode="nearest"))
+    return sliding_max(x, n, mode="nearest")
 
 
 def gravity_tilt(
@@ -120,12 +123,10 @@ def gravity_tilt(
     turn e^(-i theta) is taken in single precision, of the angle reduced first (as the live
     gravity reference does: 12x faster, and within 1e-7 rad).
     """
-    from scipy.ndimage import uniform_filter1d  # lazy
-
     theta = np.asarray(theta_rad, dtype=np.float64)
     # laid out along the last axis for the filters, one buffer per quantity (a 15-min block of
     # 4 segments with its context: 3.6 MB per float64 array)
-    th_t = theta.T
+    th_t = np.ascontiguousarray(theta.T)
     turn = th_t * (1.0 / TWO_PI)
     np.rint(turn, out=turn)
     turn *= -TWO_PI
@@ -134,19 +135,17 @@ def gravity_tilt(
     c, s = np.cos(turn32), np.sin(turn32)
     del turn32
     ax, az = np.asarray(acc_x_ms2).T, np.asarray(acc_z_ms2).T
-    spare = np.empty_like(turn)
+    spare = np.empty_like(turn)  # (C order, as turn: rows along the last axis)
     re = np.multiply(ax, c, out=turn)  # (x + i z) e^(-i theta)
     re += np.multiply(az, s, out=spare)
     im = np.multiply(az, c)
     im -= np.multiply(ax, s, out=spare)
-    del c, s
+    del c, s, spare
     for _ in range(3):
-        uniform_filter1d(re, n, axis=-1, output=spare, mode="constant")
-        re, spare = spare, re
-        uniform_filter1d(im, n, axis=-1, output=spare, mode="constant")
-        im, spare = spare, im
+        re = kernels.running_mean(re, n)
+        im = kernels.running_mean(im, n)
     np.arctan2(im, re, out=re)
-    del im, spare
+    del im
     re += th_t
     return np.asarray(re.T)
 
@@ -195,15 +194,15 @@ def _unwrapped_tilt(acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, ref: np.ndarra
 
 
 def _normal_band(w_meas: np.ndarray, qa: np.ndarray, q_bias: float, dt_s: float) -> np.ndarray:
-    """The normal matrix of the model (upper band form, ab[2 + i - j, j] = A[i, j]; Fortran
-    order, as LAPACK takes it without a copy), unknowns theta_k = 2k, b_k = 2k + 1.
+    """The normal matrix of the model (upper band form, ab[2 + i - j, j] = A[i, j], as LAPACK
+    and :func:`gaitmon.dsp.loops.band_cholesky` take it), unknowns theta_k = 2k, b_k = 2k + 1.
 
     It depends on the variances only, not on the data: the gravity pass's constant variances
     give every segment and every window of a length the same matrix (``_constant_factor``).
     """
     n = len(w_meas)
     m = 2 * n
-    ab = np.zeros((3, m), order="F")
+    ab = np.zeros((3, m))
     # (slices: the same additions as index arrays, several times faster)
     ab[2, 0] += 1.0 / _PRIOR_THETA_VAR  # prior on x_0
     ab[2, 1] += 1.0 / _PRIOR_BIAS_VAR
@@ -256,13 +255,32 @@ def _constant_factor(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The banded Cholesky factor of the normal matrix for constant variances and the
     reciprocal of its diagonal (read-only)."""
-    from scipy.linalg import cholesky_banded  # lazy
-
-    ab = _normal_band(_measurement_weights(np.full(n, r)), np.full(n, qa), q_bias, dt_s)
-    cb = np.ascontiguousarray(cholesky_banded(ab, overwrite_ab=True, check_finite=False))
+    cb = _normal_band(_measurement_weights(np.full(n, r)), np.full(n, qa), q_bias, dt_s)
+    kernels.band_cholesky(cb)
     inv_diag = 1.0 / cb[2]
     cb.flags.writeable = inv_diag.flags.writeable = False
     return cb, inv_diag
+
+
+def _constant_rhs(
+    z: np.ndarray, w: np.ndarray, w_meas: float, v: float, dt_s: float, prior: np.ndarray
+) -> np.ndarray:
+    """(2N, S) the right-hand side of the normal equations (:func:`_normal_rhs`) for constant
+    weights, S segments side by side: the measurement ``w_meas`` z_k on theta_k, each
+    transition's v (w_k dt) on theta_(k-1), b_(k-1) and theta_k (v = 1 / q_angle), and the
+    prior ``prior`` (S,) on theta_0 (weight 1 / _PRIOR_THETA_VAR)."""
+    n = len(z)
+    g = np.empty((2 * n, z.shape[1]))
+    wdt = w * dt_s
+    th = g[0::2]
+    np.multiply(w_meas, z, out=th)
+    th[0] += (1.0 / _PRIOR_THETA_VAR) * prior
+    th[1:] += v * wdt[1:]
+    th[:-1] -= v * wdt[1:]
+    b = g[1::2]
+    np.multiply(v * dt_s, wdt[1:], out=b[:-1])
+    b[-1] = 0.0
+    return g
 
 
 def release_factors() -> None:
@@ -280,36 +298,33 @@ def smooth_map(
     With scalar (constant) ``r`` and ``qa`` the normal matrix does not depend on the data: its
     Cholesky factor is computed once per length and reused (the gravity pass: every segment
     and every window), and ``z``, ``gyro_rad_s`` may be (N, S), S segments solved side by side
-    (:func:`gaitmon.dsp.kernels.constant_map_solve`). Otherwise ``z`` is (N,) and the solve is
-    LAPACK's ``solveh_banded``.
+    (:func:`gaitmon.dsp.loops.constant_map_solve`). Otherwise ``z`` is (N,) and the matrix is
+    factored for the call (:func:`gaitmon.dsp.loops.band_cholesky`, ``band_solve``: LAPACK's
+    ``solveh_banded``, to rounding).
     """
     n = len(z)
     if n == 0:
         return np.empty(np.shape(z)), np.empty(np.shape(z))
     if np.ndim(r) == 0 and np.ndim(qa) == 0:
-        from gaitmon.dsp.kernels import constant_map_solve  # lazy: numba only where run
-
         cb, inv_diag = _constant_factor(n, float(r), float(qa), float(q_bias), float(dt_s))
         # (any layout: the gravity pass's z~ comes segment-major)
         z2 = np.asarray(z, dtype=np.float64).reshape(n, -1)
         w2 = np.asarray(gyro_rad_s, dtype=np.float64).reshape(z2.shape)
         prior = z2[0] if theta_prior is None else np.full(z2.shape[1], float(theta_prior))
-        x = np.empty((2 * n, z2.shape[1]))
         w_meas = 1.0 / float(r) if np.isfinite(r) else 0.0  # (no measurement: weight 0)
-        constant_map_solve(cb, inv_diag, z2, w2, w_meas, 1.0 / float(qa), float(dt_s),
-                           np.ascontiguousarray(prior), 1.0 / _PRIOR_THETA_VAR, x)  # fmt: skip
+        x = _constant_rhs(z2, w2, w_meas, 1.0 / float(qa), float(dt_s), prior)
+        kernels.constant_map_solve(cb, inv_diag, x)
         theta, bias = x[0::2], x[1::2]
         if np.ndim(z) == 1:
             return theta[:, 0], bias[:, 0]
         return theta, bias
-    from scipy.linalg import solveh_banded  # lazy
-
     r_k, qa_k = np.asarray(r, dtype=np.float64), np.asarray(qa, dtype=np.float64)
     w_k = _measurement_weights(r_k)
     ab = _normal_band(w_k, qa_k, q_bias, dt_s)
     g = _normal_rhs(z, gyro_rad_s, w_k, qa_k, dt_s, theta_prior)
-    x = solveh_banded(ab, g, overwrite_ab=True, overwrite_b=True, check_finite=False)
-    return x[0::2], x[1::2]
+    kernels.band_cholesky(ab)
+    kernels.band_solve(ab, g)
+    return g[0::2], g[1::2]
 
 
 def smooth_tilt(
@@ -406,10 +421,8 @@ def out_of_plane(
     test or no sample is out of plane."""
     if tuning.plane_fraction is None:
         return None
-    from scipy.ndimage import uniform_filter1d  # lazy
-
     n = max(1, round(fs_hz / (2.0 * tuning.plane_cutoff_hz)))
-    mean = uniform_filter1d(np.hypot(acc_x_ms2, acc_z_ms2), n, mode="nearest")
+    mean = sliding_mean(np.hypot(acc_x_ms2, acc_z_ms2), n, mode="nearest")
     mask = mean < tuning.plane_fraction * STANDARD_GRAVITY_MS2
     return mask if mask.any() else None
 

@@ -83,8 +83,7 @@ class RingBuffer:
         with self._lock:
             n = int(min(n, self.capacity, self._write))
             end = self._write % self.capacity
-            idx = (np.arange(end - n, end)) % self.capacity
-            return {k: self._data[k][idx] for k in names}
+            return {k: _last_rows(self._data[k], end, n) for k in names}
 
     def times_of(self, engine_idx: np.ndarray) -> np.ndarray:
         """True times (t_s) of the samples with these engine indices (NaN if no longer held)."""
@@ -114,8 +113,16 @@ class RingBuffer:
         with self._lock:
             n = int(min(n, self.capacity, self._write))
             end = self._write % self.capacity
-            idx = (np.arange(end - n, end)) % self.capacity
-            return {k: arr[idx] for k, arr in self._data.items()}
+            return {k: _last_rows(arr, end, n) for k, arr in self._data.items()}
+
+
+def _last_rows(arr: np.ndarray, end: int, n: int) -> np.ndarray:
+    """A copy of the ``n`` rows of a ring ``arr`` before row ``end``, oldest first: one or two
+    slices (a snapshot ~30 times a second; an index array of every row cost ~3x more)."""
+    start = end - n
+    if start >= 0:
+        return arr[start:end].copy()
+    return np.concatenate([arr[start:], arr[:end]])
 
 
 CONTACT_SERIES = ("heel_loaded", "toe_loaded", "phase")

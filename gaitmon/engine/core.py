@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gaitmon.dsp.calibration import Calibration, zero_source
-from gaitmon.dsp.pipeline import Pipeline, PipelineConfig, warm_up
+from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.engine.blocks import BlockHandler
 from gaitmon.engine.buffers import (
     RingBuffer,
@@ -62,6 +62,7 @@ from gaitmon.engine.snapshot import (
 )
 from gaitmon.engine.stream import StreamHealth, StreamPosition, UnitClockMark, stalled_s
 from gaitmon.engine.taps import BlockListener, Taps
+from gaitmon.engine.warmup import prepare_filters
 from gaitmon.engine.zeroing import ZERO_MARGIN_S, ZeroSearch, still_window
 from gaitmon.io.device import Device, DeviceError
 from gaitmon.io.protocol import Identity
@@ -149,9 +150,9 @@ class Engine:
         exist before any data does (a crash can then lose nothing already received)."""
         if self._thread is not None:
             return
-        # the filter's compiled loop, compiled or loaded before any data flows (the first run
-        # after an install compiles for a few seconds: not while the unit's frames queue up)
-        warm_up(self.config, self._pipeline.table)
+        # the filters' tables built before any data flows (their loops run interpreted: no
+        # compile), and numba's cache filled in the background for a long recording's close
+        prepare_filters(self.config, self._pipeline.table)
         try:
             self.device.connect()
             self._identity = self.device.identify()

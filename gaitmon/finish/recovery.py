@@ -19,6 +19,7 @@ from typing import Any, NamedTuple
 import h5py
 import numpy as np
 
+from gaitmon.dsp import kernels
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE, ChannelTable
 from gaitmon.dsp.fsr_check import FsrFault
@@ -105,6 +106,7 @@ def replay_pipeline(
     as the live recorder did.
     """
     n = len(adc)
+    kernels.expect(n)  # a long record runs numba's compiled loops where they are cached
     ordered = sorted(
         ((max(0, int(i)), k, c) for k, (i, c) in enumerate(changes)), key=lambda x: x[:2]
     )

@@ -89,9 +89,11 @@ def smoothed_blocks(
     gives those tilts where they are known already (a replay of the pipeline kept them);
     ``filled``: the bridged losses (gaitmon.dsp.lost_frames.bridged_losses), filled in for the
     first pass and the smoother alike: both step the unit's uniform time base."""
+    from gaitmon.dsp import kernels
     from gaitmon.dsp.lost_frames import fill_lost
     from gaitmon.dsp.smoother import CausalFirstPass, smooth_record_tilts
 
+    kernels.expect(n)  # a long record runs numba's compiled loops where they are cached
     changes = sorted(((max(0, int(r)), c) for r, c in calibration_changes), key=lambda x: x[0])
     if first_pass is None:
         first_pass = CausalFirstPass(table, calibration, changes, restarts, fs_hz, filled).rows

@@ -127,7 +127,9 @@ class StrideInputs:
 
 def heel_strikes_used(heel_strike_idx: np.ndarray, n_rows: int) -> np.ndarray:
     """The heel strikes the measures run between: distinct, sorted, inside the record."""
-    hs = np.unique(np.asarray(heel_strike_idx, dtype=np.int64))
+    # np.unique's values, by a sort: np.unique imports numpy.ma (~20 ms of gaitmon info)
+    hs = np.sort(np.asarray(heel_strike_idx, dtype=np.int64).ravel())
+    hs = hs[np.concatenate(([True], hs[1:] != hs[:-1]))] if len(hs) else hs
     return hs[hs < n_rows]
 
 

@@ -7,6 +7,9 @@ dataclass fields, ``name``, ``label``, a causal pipeline stage, optionally an of
 menu, the review's reprocess dialog and Filters view, the report, ``gaitmon lab accuracy``.
 
 A new method: a file beside these with a :class:`TiltMethod` subclass, and one line below.
+A method's file imports its filter where it builds it (``causal_stage``, ``lab_filter``...),
+so that listing the methods (reading a file's settings, ``gaitmon info``, ``process --help``)
+loads no filter.
 """
 
 from __future__ import annotations

@@ -6,7 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from gaitmon.dsp.complementary import ComplementaryFilter
 from gaitmon.dsp.methods.base import ParamSpec, TiltFilter, TiltMethod
 
 
@@ -22,4 +21,6 @@ class Complementary(TiltMethod):
     )
 
     def lab_filter(self, dt_s: float) -> TiltFilter:
+        from gaitmon.dsp.complementary import ComplementaryFilter
+
         return ComplementaryFilter(dt_s, cutoff_hz=self.cutoff_hz)

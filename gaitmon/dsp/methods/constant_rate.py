@@ -5,13 +5,16 @@ paper 001's R recipe needs a whole record)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
 from gaitmon.dsp.filters import as_2d_pair
-from gaitmon.dsp.kalman_models import LinearKalman, constant_rate_kalman
 from gaitmon.dsp.methods.base import ParamSpec, TiltFilter, TiltMethod
+
+if TYPE_CHECKING:  # the model itself is imported when a record is filtered, not to list the
+    # methods (reading a file, ``gaitmon info``, ``process --help`` read only the registry)
+    from gaitmon.dsp.kalman_models import LinearKalman
 
 
 class ConstantRateTilt:
@@ -27,6 +30,8 @@ class ConstantRateTilt:
             angles = z.copy()
         else:
             if self._kf is None:
+                from gaitmon.dsp.kalman_models import constant_rate_kalman
+
                 x0 = np.zeros(2 * z.shape[1])
                 x0[0::2] = z[0]  # start from the first accelerometer tilt, as paper 000 does
                 self._kf = constant_rate_kalman(

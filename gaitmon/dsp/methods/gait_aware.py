@@ -10,12 +10,14 @@ smoother over the same model (gaitmon.dsp.smoother), whose first pass is this ca
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
 from gaitmon.dsp.methods.base import KalmanStage, TiltInput, TiltMethod, TiltSettings, TiltStage
-from gaitmon.dsp.motion_kalman import GaitAwareKalman
+
+if TYPE_CHECKING:  # imported where a record is filtered: listing the methods reads no filter
+    from gaitmon.dsp.motion_kalman import GaitAwareKalman
 
 
 class GaitAwareStage(KalmanStage):
@@ -40,12 +42,16 @@ class GaitAware(TiltMethod):
                           "foot 3x closer on real walks (docs/filters.md)")  # fmt: skip
 
     def causal_stage(self, settings: TiltSettings) -> TiltStage:
+        from gaitmon.dsp.motion_kalman import GaitAwareKalman
+
         return GaitAwareStage(GaitAwareKalman(settings.fs_hz))
 
     def estimate(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray,
         fs_hz: float, segment: str,
     ) -> np.ndarray:  # fmt: skip
+        from gaitmon.dsp.motion_kalman import GaitAwareKalman
+
         kf = GaitAwareKalman(fs_hz, segments=(segment,))
         return np.asarray(kf.process(acc_x_ms2, acc_z_ms2, gyro_rad_s))
 

@@ -6,18 +6,20 @@ The live writer and the recovery both turn blocks into rows here, so they write 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import h5py
 import numpy as np
 import numpy.typing as npt
 
 from gaitmon.dsp.angles import joint_angles, wrap_angle
-from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.lost_frames import Losses
-from gaitmon.dsp.pipeline import PipelineBlock
-from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session.layout import _F4
+
+if TYPE_CHECKING:  # a reader (the gaps' lost frames) needs neither the pipeline nor the wire
+    from gaitmon.dsp.fsr_check import FsrFault
+    from gaitmon.dsp.pipeline import PipelineBlock
+    from gaitmon.io.protocol import FrameKind
 
 
 def _deg32(x_rad: np.ndarray) -> np.ndarray:
@@ -126,6 +128,8 @@ def _joints_deg_from_tilts_deg(tilt_deg: np.ndarray) -> np.ndarray:
 
 
 def _device_rows(kind: FrameKind, cols: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    from gaitmon.io.protocol import FrameKind
+
     if kind == FrameKind.TILT:
         kal = np.asarray(cols["kalman_tilt_deg"], dtype=np.float64)
         acc = np.asarray(cols["acc_tilt_deg"], dtype=np.float64)

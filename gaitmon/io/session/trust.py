@@ -20,7 +20,9 @@ file-format specification, section IV.A).
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import struct
 from pathlib import Path
 from typing import BinaryIO
@@ -54,11 +56,36 @@ def _mb(n: float) -> str:
     return f"{n / 1e6:,.1f} MB" if n < 1e12 else f"{n / 1e12:,.0f} TB"
 
 
+# The files that passed check_file in this process, by the open file's identity and change
+# stamps: a command that opens one file twice (gaitmon info: is it bilateral, then the reader)
+# walks it once; a file changed since (its size, mtime or ctime) is walked again.
+_PASSED: set[tuple[int, ...]] = set()
+
+
+def _stamp(f: h5py.File) -> tuple[int, ...] | None:
+    """The open file's (device, inode, size, mtime ns, ctime ns), None when its driver has no
+    file descriptor to ask."""
+    with contextlib.suppress(Exception):
+        st = os.fstat(int(f.id.get_vfd_handle()))
+        return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+    return None
+
+
 def check_file(path: Path, f: h5py.File) -> None:
     """Refuse (one :class:`SessionError` line) a file open in ``f`` that reads from outside
     itself (external storage, external or user-defined links, virtual datasets) or declares
     more data than it can hold (see the module's text). Reads no dataset; cheap (one pass over
-    its few dozen objects)."""
+    its few dozen objects), and once per unchanged file in a process (``_PASSED``)."""
+    stamp = _stamp(f)
+    if stamp is not None and stamp in _PASSED:
+        return
+    _walk(path, f)
+    if stamp is not None:
+        _PASSED.add(stamp)
+
+
+def _walk(path: Path, f: h5py.File) -> None:
+    """:func:`check_file`'s walk over every object of ``f``."""
     name = path.name
     file_bytes = int(f.id.get_filesize())
     budget = max(MIN_BUDGET_BYTES, EXPANSION * file_bytes)

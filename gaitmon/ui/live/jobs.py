@@ -7,9 +7,10 @@ cancels what is pending and ends the thread; a connection that finishes opening 
 closed (``on_stale``), so nothing started in the background outlives the window.
 
 A connect says what it is doing: the request writes its step (:class:`ConnectSteps`: the
-filters, their first compile after an install, the unit) and :class:`ConnectNotice` shows it in
-the status bar each quarter second with the seconds waited (:func:`connect_text`), so the first
-connect after an install (numba compiling the filters: 30-40 s on a busy machine) says why.
+filters, the unit) and :class:`ConnectNotice` shows it in the status bar each quarter second
+with the seconds waited (:func:`connect_text`). Preparing the filters compiles nothing (their
+loops run interpreted live; numba's cache is filled in the background for long batch work,
+gaitmon.engine.warmup), so the first connect after an install is as quick as any other.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from gaitmon.live.connection import Connection
 from gaitmon.ui.jobs import QtWorker
 
 # ConnectSteps.step: what a connect is doing
-FILTERS, COMPILING, UNIT = "filters", "compiling", "unit"
+FILTERS, UNIT = "filters", "unit"
 SAY_WAIT_AFTER_S = 2.0  # a connect quicker than this is only "Connecting to X…"
 
 
@@ -41,24 +42,20 @@ class ConnectSteps:
     """What a connect request is doing: written by the worker, read by the GUI's timer (one
     string, replaced whole)."""
 
-    step: str = ""  # "" (not started) | FILTERS | COMPILING | UNIT
+    step: str = ""  # "" (not started) | FILTERS | UNIT
     started_s: float = field(default_factory=time.monotonic)
 
     def prepare(self, config: PipelineConfig) -> None:
-        """The filters first (compiled the first time after an install), then the unit."""
+        """The filters first (their tables; nothing compiles), then the unit."""
         self.step = FILTERS
-        prepare_filters(config, compiling=lambda: setattr(self, "step", COMPILING))
+        prepare_filters(config)
         self.step = UNIT
 
 
 def connect_text(label: str, step: str, waited_s: float) -> str:
-    """The status bar's line while connecting to ``label``: why it waits once it says (the
-    first compile of the filters at once, anything else after :data:`SAY_WAIT_AFTER_S`),
-    with the whole seconds waited."""
+    """The status bar's line while connecting to ``label``: after :data:`SAY_WAIT_AFTER_S`,
+    what it waits for, with the whole seconds waited."""
     n = f" ({math.floor(waited_s)} s)" if waited_s >= SAY_WAIT_AFTER_S else ""
-    if step == COMPILING:
-        return (f"Connecting to {label}: preparing the filters (first run after install, "
-                f"up to a minute)…{n}")  # fmt: skip
     if not n:
         return f"Connecting to {label}…"
     if step == FILTERS:

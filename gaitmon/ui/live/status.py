@@ -14,6 +14,7 @@ import math
 import time
 from pathlib import Path
 
+import numpy as np
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QGridLayout, QLabel, QStatusBar, QVBoxLayout, QWidget
 
@@ -405,7 +406,11 @@ class GaitPanel(QWidget):
         old.deleteLater()
         self._shown_strides = -1
 
-    def show_snapshot(self, snap: Snapshot) -> None:
+    def show_snapshot(
+        self, snap: Snapshot, mean_sd: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> None:
+        """The panel for ``snap``; ``mean_sd``: the cycles' mean and SD prepared off the GUI
+        thread (``DisplayFrame.cycle_mean_sd``)."""
         g = snap.gait
         v = self.values
 
@@ -434,4 +439,4 @@ class GaitPanel(QWidget):
                 else f"No gait events: {none}." if none
                 else "Gait cycle: waiting for complete strides…"
             )  # fmt: skip
-        self.cycles.update_from(snap)
+        self.cycles.update_from(snap, mean_sd)

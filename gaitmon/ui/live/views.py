@@ -12,7 +12,9 @@ and the phases.
 
 from __future__ import annotations
 
-from PySide6.QtCore import QByteArray, Qt
+import dataclasses
+
+from PySide6.QtCore import QByteArray, QObject, Qt, Signal
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import (
     QCheckBox,
@@ -26,7 +28,8 @@ from PySide6.QtWidgets import (
 )
 
 from gaitmon.dsp.gait import PHASE_NAMES
-from gaitmon.engine import Snapshot
+from gaitmon.engine import Engine, Snapshot
+from gaitmon.engine.display import DisplayFeed, DisplayFrame, DisplayRequest, prepare_display
 from gaitmon.review.settings import LiveKey
 from gaitmon.ui.actions import guarded
 from gaitmon.ui.live.actions import METHOD_COLOURS, WINDOWS_S
@@ -37,6 +40,12 @@ from gaitmon.ui.plots import METHOD_LABELS, LivePlots, RawPlots
 from gaitmon.ui.theme import Colours
 
 GAIT_PANEL_EVERY = 3  # ticks between gait-panel updates
+
+
+class FrameSignal(QObject):
+    """Posts "a frame is ready" from the engine thread to the GUI thread (queued)."""
+
+    ready = Signal()
 
 
 def _legend_box(text: str, colour: str, checkable: bool) -> QWidget:
@@ -59,6 +68,11 @@ class ViewPart:
         self.window_actions = {w: actions[f"window_{w:g}"] for w in WINDOWS_S}
         self.method_actions = {key: actions[f"method_{key}"] for key, _ in METHOD_COLOURS}
         self._ticks = 0
+        # frames prepared on the engine thread (attach); None: none come, the tick prepares
+        self.feed: DisplayFeed | None = None
+        self._feed_engine: Engine | None = None
+        self.frame_signal = FrameSignal()
+        self.last_frame: DisplayFrame | None = None  # the frame drawn last (tests look at it)
         self._docks_shown = (True, False)  # (gait, raw) while both legs hide them
         self._legend_shown: list[QWidget] = []
         # the one-leg layout (QMainWindow.saveState) as it was when both legs took its place:
@@ -297,10 +311,43 @@ class ViewPart:
         self.live.clear_data()
         self.raw.clear_data()
 
+    def request(self) -> DisplayRequest | None:
+        """What the engine thread prepares for this view (None while paused: nothing)."""
+        if self.paused:
+            return None
+        req = self.live.request()
+        if self.raw_dock.isVisible():
+            req = dataclasses.replace(req, raw=True)
+        return req
+
+    def attach(self, engine: Engine, refresh_hz: float) -> None:
+        """Have ``engine``'s thread prepare this view's frames right after its blocks (a
+        ``DisplayFeed``); ``frame_signal.ready`` says one is ready."""
+        self.detach()
+        feed = DisplayFeed(engine.snapshot, self.frame_signal.ready.emit, refresh_hz)
+        feed.request = self.request()
+        engine.add_listener(feed)
+        self.feed, self._feed_engine = feed, engine
+
+    def detach(self) -> None:
+        if self.feed is not None and self._feed_engine is not None:
+            self.feed.request = None
+            self._feed_engine.remove_listener(self.feed)
+        self.feed = self._feed_engine = None
+
     def show(self, snap: Snapshot) -> None:
-        """One leg's snapshot drawn (each tick the display is not paused)."""
+        """One leg's snapshot prepared here and drawn (when no frame comes from the engine)."""
+        req = self.request() or self.live.request()
+        self.show_frame(prepare_display(snap, req))
+
+    def show_frame(self, frame: DisplayFrame) -> None:
+        """One leg's prepared frame drawn (each frame the display is not paused)."""
+        snap = frame.snap
+        self.last_frame = frame
+        if self.feed is not None:  # the view as it is now, for the next frame
+            self.feed.request = self.request()
         self.live.set_angle_method(snap.angle_method)
-        self.live.update_from(snap)
+        self.live.show_frame(frame)
         # paint now, not after the rest of this tick and whatever else the event loop holds:
         # the newest samples reach the screen a few ms sooner (the gait panel and the raw
         # plots below do not hold them up). Painting the whole scene instead (not layered),
@@ -311,9 +358,9 @@ class ViewPart:
         self._ticks += 1
         # the gait panel changes slowly: 10 Hz is plenty to read and saves a third of its cost
         if self.gait_dock.isVisible() and self._ticks % GAIT_PANEL_EVERY == 0:
-            self.gait_panel.show_snapshot(snap)
+            self.gait_panel.show_snapshot(snap, frame.cycle_mean_sd)
         if self.raw_dock.isVisible():
-            self.raw.update_from(snap)
+            self.raw.show_frame(frame)
 
     def set_colours(self, colours: Colours) -> LivePlots:
         """A theme change: curves are created once per theme, so new plot widgets in the new

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import time
 from collections.abc import Callable
 from typing import cast
 
@@ -79,6 +80,8 @@ from gaitmon.ui.theme import Colours, configure_pyqtgraph, current_colours
 log = logging.getLogger("gaitmon.ui")
 
 REFRESH_HZ = 30.0
+# no frame from the engine thread for this long: the tick draws (no data comes)
+FRAME_LATE_S = 2.5 / REFRESH_HZ
 PART_TYPES = (DevicePart, RecordingPart, ProcessingPart, LslPart, ViewPart, PairPart)
 
 
@@ -165,6 +168,8 @@ class MainWindow(QMainWindow):
         self.timer.setInterval(round(1000 / REFRESH_HZ))
         self.timer.setTimerType(Qt.TimerType.PreciseTimer)
         self.timer.timeout.connect(self._tick)
+        view.frame_signal.ready.connect(self._show_frame)
+        self._frame_shown_s = 0.0  # when the last frame from the engine thread was shown
         if autoconnect is not None:
             QTimer.singleShot(0, functools.partial(device.connect_device, autoconnect))
         elif pair is not None:
@@ -290,6 +295,9 @@ class MainWindow(QMainWindow):
         self.lsl_part.restore()
 
     def _update_controls(self) -> None:
+        # a frame whose snapshot was taken before this (recording started, say) shows a state
+        # the window has left: its plots are drawn, its status is not (_show_frame)
+        self._controls_changed_s = time.monotonic()
         self.device_part.update_controls()
         self.recording_part.update_controls()
         self.pair_part.update_controls()
@@ -329,6 +337,7 @@ class MainWindow(QMainWindow):
         """A unit (or both legs) connected: the display starts; LSL streams if it is on."""
         if self.ctx.conn is not None:
             self.view_part.clear_data()
+            self.view_part.attach(self.ctx.conn.engine, REFRESH_HZ)
         self._watch_recordings()
         self._update_controls()
         self.timer.start()
@@ -354,6 +363,7 @@ class MainWindow(QMainWindow):
 
     def timer_stop(self) -> None:
         self.timer.stop()
+        self.view_part.detach()
         # disconnected: no stride is in progress any more (the plots keep the last strides)
         self.view_part.gait_panel.cycles.clear_current()
         if self.pair_part.view is not None:
@@ -400,15 +410,39 @@ class MainWindow(QMainWindow):
         if conn is None:
             return
         paused = self.view_part.paused
+        if self.view_part.feed is not None:
+            self.view_part.feed.request = self.view_part.request()
+            if not paused and time.monotonic() - self._frame_shown_s < FRAME_LATE_S:
+                return  # the engine thread's frames show it all (_show_frame)
+        # paused, or no frame comes (no data: a cut link; the plots scroll on with the clock)
         snap = conn.engine.snapshot(0.05 if paused else self.view_part.window_s)
+        if not paused:
+            ctx.last_snapshot = snap
+            self.view_part.show(snap)
+        self._show_status(snap)
+
+    @guarded
+    def _show_frame(self) -> None:
+        """A frame the engine thread prepared (``ViewPart.attach``): painted first, then the
+        status it carries. The GUI thread only hands arrays to the curves here."""
+        feed = self.view_part.feed
+        frame = feed.take() if feed is not None else None
+        ctx = self.ctx
+        if frame is None or ctx.conn is None or ctx.pair is not None or self.view_part.paused:
+            return
+        self._frame_shown_s = time.monotonic()
+        self.view_part.show_frame(frame)
+        if frame.taken_s >= self._controls_changed_s:
+            ctx.last_snapshot = frame.snap
+            self._show_status(frame.snap)
+
+    def _show_status(self, snap: Snapshot) -> None:
+        conn = self.ctx.conn
+        assert conn is not None
         self.status.show_link(snap, "the simulated unit" if conn.simulated else conn.port)
         self.status.show_checks(snap)
         self.recording_part.show_recording({"": snap})
         self._show_guide_state(snap.calibrated, snap.zero_source)
-        if paused:
-            return
-        ctx.last_snapshot = snap
-        self.view_part.show(snap)
 
     # ------------------------------------------------------------------------------------
     # help

@@ -27,20 +27,23 @@ from PySide6.QtGui import QColor, QPainterPath
 from PySide6.QtWidgets import QWidget
 
 from gaitmon.engine import Snapshot
+from gaitmon.engine.display import (
+    MAX_POINTS,
+    STALE_S,
+    decimate_peak,
+    newest_idx,
+    step_band,
+    vertical_lines,
+)
 from gaitmon.live.pair import SIDE_NAMES, SIDES
-from gaitmon.ui.plots.live import SHADING_TIP, STALE_S
+from gaitmon.ui.plots.live import SHADING_TIP
 from gaitmon.ui.plots.traces import (
     JOINTS,
-    MAX_POINTS,
     CountingPlotWidget,
     Label,
     Trace,
     TraceSet,
-    decimate_peak,
-    newest_idx,
-    step_band,
     style_plot,
-    vertical_lines,
 )
 from gaitmon.ui.theme import Colours, pen, side_colours
 

@@ -11,7 +11,8 @@ from PySide6.QtWidgets import QWidget
 
 from gaitmon.dsp.gait import cycle_mean_sd
 from gaitmon.engine import Snapshot
-from gaitmon.ui.plots.traces import JOINTS, CountingPlotWidget, newest_idx, style_plot
+from gaitmon.engine.display import newest_idx
+from gaitmon.ui.plots.traces import JOINTS, CountingPlotWidget, style_plot
 from gaitmon.ui.theme import Colours, pen
 
 # no data for longer than this (the link is down): the stride in progress is broken, its line
@@ -98,14 +99,18 @@ class CyclePlots(CountingPlotWidget):
         for line in self.toe_off_lines:
             line.setVisible(False)
 
-    def update_from(self, snap: Snapshot) -> None:
+    def update_from(
+        self, snap: Snapshot, mean_sd: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> None:
+        """Show ``snap``'s cycles; ``mean_sd``: their mean and SD already computed off the GUI
+        thread (``DisplayFrame.cycle_mean_sd``), else computed here."""
         g = snap.gait
         if g.n_strides != self._shown_strides:
             self._shown_strides = g.n_strides
             cyc = g.cycles_deg
             if len(cyc):
                 # the sample SD, as in the review window and the report; one stride has none
-                mean, sd = cycle_mean_sd(cyc)
+                mean, sd = mean_sd if mean_sd is not None else cycle_mean_sd(cyc)
                 band = bool(np.isfinite(sd).all())
                 for j in range(len(JOINTS)):
                     self.mean_curves[j].setData(self.pct, mean[:, j])

@@ -21,27 +21,26 @@ from PySide6.QtWidgets import QWidget
 
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.engine import Snapshot
+from gaitmon.engine.display import (
+    DisplayFrame,
+    DisplayRequest,
+    PlotRequest,
+    prepare_display,
+)
 from gaitmon.ui.plots.traces import (
     FSR_RANGE,
     JOINTS,
-    MAX_POINTS,
     METHODS,
     TILT_RANGES_DEG,
     CountingPlotWidget,
     Label,
     Trace,
     TraceSet,
-    decimate_peak,
-    newest_idx,
-    on_scale,
-    step_band,
     style_plot,
-    vertical_lines,
 )
 from gaitmon.ui.theme import Colours, pen
 
 CONTACT_STRIP_PX = 110  # the FSR / gait-phase plot's height in the clinical view
-STALE_S = 0.3  # no new data for longer than this: the link is down, time runs on
 SHADING_TIP = (
     "Red shading: data lost (link outage). Faint red: the filters settle after a gap; strides "
     "there are not counted."
@@ -81,6 +80,12 @@ class LivePlots(CountingPlotWidget):
         self._titles: list[tuple[pg.LabelItem, str]] = []
         self.threshold: Trace | None = None  # the FSR contact threshold, dashed
         self.fsr_threshold = 1000.0
+        self._request: DisplayRequest | None = None  # what is shown (request())
+        # the gyro-integration series and the plots of their columns (the off-scale notes)
+        self._gyro_plots = (
+            ("tilt_gyro_deg", tuple(SEGMENTS)),
+            ("joint_gyro_deg", tuple(key for key, _label, _yr in JOINTS)),
+        )
         self.ci.setContentsMargins(2, 2, 8, 2)
         self.ci.layout.setHorizontalSpacing(10)
         self.ci.layout.setVerticalSpacing(3)
@@ -181,6 +186,7 @@ class LivePlots(CountingPlotWidget):
 
     def set_window(self, window_s: float) -> None:
         self.window_s = float(window_s)
+        self._changed()
         for info in self.plots.values():
             info.plot.setXRange(-self.window_s, 0.0, padding=0)
             info.traces.nominal[0] = (-self.window_s, 0.0)
@@ -236,6 +242,7 @@ class LivePlots(CountingPlotWidget):
             if tr.method:
                 clinical = tr.method == "kalman" and tr.series.startswith("joint_")
                 tr.visible = self.methods_on[tr.method] if self.engineering else clinical
+        self._changed()
         self._commit()
 
     def set_four_phases(self, four: bool) -> None:
@@ -246,6 +253,7 @@ class LivePlots(CountingPlotWidget):
     def _set_phase_visibility(self) -> None:
         for tr, phases in self._bands:
             tr.visible = (len(phases) == 1) == self.four_phases
+        self._changed()
 
     def set_fsr_threshold(self, counts: float) -> None:
         self.fsr_threshold = float(counts)
@@ -293,89 +301,78 @@ class LivePlots(CountingPlotWidget):
 
     # -- the per-frame update ------------------------------------------------------------------
 
+    def request(self) -> DisplayRequest:
+        """What this view shows, for :func:`prepare_display` (kept until an option changes)."""
+        if self._request is None:
+            shown = {name for name, info in self.plots.items() if info.plot.isVisible()}
+            series = tuple(dict.fromkeys(tr.series for tr in self.curves if tr.visible))
+            gyro_on = self.methods_on.get("gyro", True) and self.engineering
+            self._request = DisplayRequest(
+                window_s=self.window_s,
+                series=series,
+                plots=tuple(PlotRequest(name, info.yrange, info.events_hs is not None)
+                            for name, info in self.plots.items() if name in shown),
+                gyro=tuple((name, tuple(self.plots[p].yrange for p in plots))
+                           for name, plots in self._gyro_plots if gyro_on),
+                bands=tuple(phases for tr, phases in self._bands if tr.visible),
+                band_range=FSR_RANGE,
+            )  # fmt: skip
+        return self._request
+
+    def _changed(self) -> None:
+        self._request = None
+
     def update_from(self, snap: Snapshot) -> None:
-        s = snap.series
-        t = s["t_s"]
-        if len(t) == 0:
+        """Prepare and show ``snap`` here (the GUI thread): what the window does only when no
+        frame comes from the engine thread (the display paused, tests)."""
+        self.show_frame(prepare_display(snap, self.request()))
+
+    def show_frame(self, frame: DisplayFrame) -> None:
+        """Hand a prepared frame's arrays to the traces (no numpy work on whole series here)."""
+        if frame.empty:
             return
-        # while no data arrives (a cut link) the traces keep scrolling with the clock and the
-        # time without data is shaded as lost, instead of freezing as if nothing had happened
-        stale_s = snap.last_data_age_s if snap.last_data_age_s > STALE_S else 0.0
-        t_now = float(t[-1]) + stale_s
-        x_full = t - t_now
-        gyro_off = self._gyro_on_scale(s)
-        cache: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         for tr in self.curves:
             if not tr.visible:
                 continue
-            got = cache.get(tr.series)
-            if got is None:
-                x, y = decimate_peak(x_full, gyro_off.get(tr.series, s[tr.series]), MAX_POINTS)
-                fin = np.isfinite(y)
-                got = (x, y, fin.all(axis=0), fin.any(axis=0))
-                cache[tr.series] = got
-            x, y, all_finite, any_finite = got
-            if any_finite[tr.column]:
-                tr.set(x, y[:, tr.column], bool(all_finite[tr.column]))
-            else:
+            got = frame.curves.get(tr.series)
+            if got is not None and got.any_finite[tr.column]:
+                tr.set(got.x, got.y[:, tr.column], bool(got.all_finite[tr.column]))
+            else:  # all NaN, or a frame prepared before this trace was shown
                 tr.clear()
-
-        self._update_phases(x_full, s["phase"])
-        lost = s["lost"] > 0
-        x_lost = x_full
-        if stale_s:
-            x_lost = np.append(x_full, [x_full[-1] + 1e-6, 0.0])
-            lost = np.append(lost, [True, True])
-        settling = s["settling"] > 0
-        for info in self.plots.values():
-            lo, hi = info.yrange
-            shades: tuple[tuple[Trace | None, np.ndarray, np.ndarray], ...] = (
-                (info.lost, x_lost, lost),
-                (info.settling, x_full, settling),
-            )
-            for shade, xb, mask in shades:
-                if shade is not None:
-                    if mask.any():
-                        shade.set(*step_band(xb, mask, hi, lo))
-                    else:
-                        shade.clear()
-        hs = snap.heel_strike_t_s - t_now
-        to = snap.toe_off_t_s - t_now
-        marker_x = np.array([m[0] - t_now for m in snap.markers], dtype=float)
-        for info in self.plots.values():
-            lo, hi = info.yrange
-            if info.events_hs is not None and info.events_to is not None:
-                info.events_hs.set(*vertical_lines(hs, lo, hi), connect="pairs")
-                info.events_to.set(*vertical_lines(to, lo, hi), connect="pairs")
-            if info.markers is not None:
-                info.markers.set(*vertical_lines(marker_x, lo, hi), connect="pairs")
-            info.traces.commit()
-        self._update_marker_labels(snap.markers, t_now)
-        fsr_missing = not np.isfinite(s["fsr_counts"]).any()
-        if self._no_fsr_text is not None and self._no_fsr_text.isVisible() != fsr_missing:
-            self._no_fsr_text.setVisible(fsr_missing)
-        self.mark_new_data(newest_idx(s))
-
-    def _gyro_on_scale(self, s: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """The gyro-integration series as drawn (see :func:`on_scale`), and each plot's note."""
-        out: dict[str, np.ndarray] = {}
-        on = self.methods_on.get("gyro", True) and self.engineering
-        for series, names in (
-            ("tilt_gyro_deg", list(SEGMENTS)),
-            ("joint_gyro_deg", [key for key, _label, _yr in JOINTS]),
-        ):
-            y, last_off = on_scale(s[series], [self.plots[n].yrange for n in names])
-            out[series] = y
+        for series, names in self._gyro_plots:
+            last_off = frame.gyro_off.get(series)
             for j, name in enumerate(names):
                 note = self.plots[name].gyro_note
                 if note is None:
                     continue
-                show = on and bool(np.isfinite(last_off[j]))
-                if show:
+                if last_off is not None and np.isfinite(last_off[j]):
                     note.set(f"gyro integration off scale ({last_off[j]:+.0f}°)", note.x, note.y)
                 else:
                     note.hide()
-        return out
+        bands = dict(zip(frame.request.bands, frame.bands, strict=True))
+        for tr, phases in self._bands:
+            band = bands.get(phases)
+            if tr.visible and band is not None:
+                tr.set(*band)
+        for name, info in self.plots.items():
+            pf = frame.plots.get(name)
+            if pf is None:  # not shown: drawn again when it is
+                continue
+            for trace, xy in ((info.lost, pf.lost), (info.settling, pf.settling)):
+                if trace is not None:
+                    if xy is not None:
+                        trace.set(*xy)
+                    else:
+                        trace.clear()
+            for trace, xy in ((info.events_hs, pf.heel_strikes), (info.events_to, pf.toe_offs),
+                              (info.markers, pf.markers)):  # fmt: skip
+                if trace is not None and xy is not None:
+                    trace.set(*xy, connect="pairs")
+            info.traces.commit()
+        self._update_marker_labels(frame.snap.markers, frame.t_now)
+        if self._no_fsr_text is not None and self._no_fsr_text.isVisible() != frame.fsr_missing:
+            self._no_fsr_text.setVisible(frame.fsr_missing)
+        self.mark_new_data(frame.newest_idx)
 
     def gyro_note(self, plot: str) -> str:
         """The off-scale note shown on ``plot`` ("" when none): what the tests look at."""
@@ -393,15 +390,6 @@ class LivePlots(CountingPlotWidget):
     def band_paths(self) -> list[QPainterPath]:
         """The gait-phase shading drawn now (visible bands only)."""
         return [tr.path for tr, _ in self._bands if tr.visible and tr.path is not None]
-
-    def _update_phases(self, x: np.ndarray, phase: np.ndarray) -> None:
-        lo, hi = FSR_RANGE
-        ph = np.nan_to_num(phase, nan=0.0)
-        for tr, phases in self._bands:
-            if not tr.visible:
-                continue
-            mask = ph == phases[0] if len(phases) == 1 else ph > 0
-            tr.set(*step_band(x, mask, hi, lo))
 
     def _update_marker_labels(self, markers: Iterable[tuple[float, str]], t_now: float) -> None:
         shown = [(t - t_now, label) for t, label in markers if t - t_now >= -self.window_s]
@@ -468,23 +456,21 @@ class RawPlots(CountingPlotWidget):
         self.gyro_traces.commit()
 
     def update_from(self, snap: Snapshot) -> None:
-        s = snap.series
-        t = s["t_s"]
-        if len(t) == 0:
+        self.show_frame(prepare_display(snap, DisplayRequest(series=(), raw=True)))
+
+    def show_frame(self, frame: DisplayFrame) -> None:
+        """Hand a prepared frame's raw-sensor arrays (``DisplayRequest.raw``) to the traces."""
+        if frame.empty:
             return
-        x_full = t - t[-1]
-        acc = s["acc_ms2"].reshape(len(t), -1)
-        for name, arr in (("acc_ms2", acc), ("gyro_rad_s", s["gyro_rad_s"])):
-            x, y = decimate_peak(x_full, arr, MAX_POINTS)
-            fin = np.isfinite(y)
-            finite, some = fin.all(axis=0), fin.any(axis=0)
-            for tr in self.curves:
-                if tr.series != name:
-                    continue
-                if some[tr.column]:
-                    tr.set(x, y[:, tr.column], bool(finite[tr.column]))
-                else:
-                    tr.clear()
+        if not frame.raw:  # prepared while this dock was hidden
+            self.update_from(frame.snap)
+            return
+        for tr in self.curves:
+            got = frame.raw[tr.series]
+            if got.any_finite[tr.column]:
+                tr.set(got.x, got.y[:, tr.column], bool(got.all_finite[tr.column]))
+            else:
+                tr.clear()
         self.acc_traces.commit()
         self.gyro_traces.commit()
-        self.mark_new_data(newest_idx(s))
+        self.mark_new_data(frame.newest_idx)

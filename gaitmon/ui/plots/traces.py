@@ -15,15 +15,15 @@ the port by ``benchmarks/bench_gui.py``):
 * series known to be finite skip pyqtgraph's finite check; series with gaps (device modes leave
   some series NaN, the gyro integration off scale) are broken at NaN one polygon per finite
   run (:func:`broken_line_path`) and all-NaN ones are hidden;
-* windows longer than ``MAX_POINTS`` are min/max decimated once per series (all columns in one
-  numpy call) instead of per curve, so peaks stay visible (:func:`decimate_peak`);
-* gait phases are drawn as step polygons through the phase changes only (:func:`step_band`),
-  and events / markers as one ``connect='pairs'`` path per plot (:func:`vertical_lines`).
+* the arrays to draw are prepared by Qt-free code (``gaitmon.engine.display``; in the live
+  window on the engine thread): windows longer than ``MAX_POINTS`` min/max decimated once per
+  series (all columns in one numpy call), so peaks stay visible (``decimate_peak``); gait
+  phases as step polygons through the phase changes only (``step_band``); events / markers
+  as one ``connect='pairs'`` path per plot (``vertical_lines``).
 """
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -66,7 +66,6 @@ METHODS = (
     ("kalman", "Kalman filter", "tilt_kalman_deg", "joint_kalman_deg"),
 )
 METHOD_LABELS = {k: label for k, label, _, _ in METHODS}
-MAX_POINTS = 1400  # per trace; beyond this a window is min/max decimated
 AXIS_WIDTH_PX = 58
 
 if TYPE_CHECKING:
@@ -85,93 +84,6 @@ else:
     _GraphicsObject = pg.GraphicsObject
     _GraphicsLayoutWidget = pg.GraphicsLayoutWidget
     _AxisItem = pg.AxisItem
-
-
-def decimate_peak(x: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
-    """Min/max decimation of (N,) x and (N, ...) y to at most ``max_points`` rows.
-
-    Each group of f consecutive samples becomes two rows (its min and max), so short peaks
-    survive; the oldest N mod f samples are dropped. Returns the inputs when no decimation
-    is needed.
-    """
-    n = len(x)
-    if n <= max_points or max_points < 2:
-        return x, y
-    f = math.ceil(n / (max_points // 2))
-    if n < 2 * f:
-        return x, y
-    m = n // f
-    start = n - m * f
-    xs = x[start:].reshape(m, f)
-    ys = y[start:].reshape(m, f, *y.shape[1:])
-    out_x = np.empty(2 * m)
-    out_x[0::2] = xs[:, 0]
-    out_x[1::2] = xs[:, -1]
-    out_y = np.empty((2 * m, *y.shape[1:]))
-    out_y[0::2] = ys.min(axis=1)
-    out_y[1::2] = ys.max(axis=1)
-    return out_x, out_y
-
-
-def step_band(
-    x: np.ndarray, mask: np.ndarray, top: float, bottom: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """A step outline that is ``top`` where ``mask`` holds and ``bottom`` elsewhere.
-
-    Only the runs' ends become points, so a 10 s window of phases is a few dozen points.
-    """
-    if len(x) == 0:
-        return np.empty(0), np.empty(0)
-    m = np.asarray(mask, dtype=np.int8)
-    change = np.flatnonzero(np.diff(m)) + 1
-    starts = np.concatenate([[0], change])
-    ends_x = np.concatenate([x[change], x[-1:]])
-    out_x = np.empty(2 * len(starts))
-    out_x[0::2] = x[starts]
-    out_x[1::2] = ends_x
-    out_y = np.repeat(np.where(m[starts] > 0, top, bottom), 2)
-    return out_x, out_y
-
-
-def step_runs(x: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The x from and to of each run where ``mask`` holds: the spans :func:`step_band` draws at
-    its top (a run ends at the x of the next run's first sample, the last at ``x[-1]``)."""
-    if len(x) == 0:
-        return np.empty(0), np.empty(0)
-    m = np.asarray(mask, dtype=np.int8)
-    change = np.flatnonzero(np.diff(m)) + 1
-    starts = np.concatenate([[0], change])
-    ends = np.concatenate([change, [len(x) - 1]])
-    on = m[starts] > 0
-    return x[starts[on]], x[ends[on]]
-
-
-def on_scale(
-    y: np.ndarray, ranges: list[tuple[float, float]]
-) -> tuple[np.ndarray, np.ndarray]:
-    """(N, k) angles in degrees -> (the same with NaN where a value lies outside its column's
-    range or jumps by more than 180° from the previous sample (a wrap at +-180°), the newest
-    off-scale value per column (NaN if none is off scale)).
-
-    For the drifting gyro integration: a line never leaves its plot and a wrap is never drawn
-    as a vertical line; the caller says that it is off scale instead.
-    """
-    out = np.array(y, dtype=np.float64, copy=True)
-    if out.size == 0:
-        return out, np.full(out.shape[1:], np.nan)
-    lo = np.array([r[0] for r in ranges])
-    hi = np.array([r[1] for r in ranges])
-    with np.errstate(invalid="ignore"):
-        off = (out < lo) | (out > hi)
-        jump = np.zeros_like(off)
-        jump[1:] = np.abs(np.diff(out, axis=0)) > 180.0
-    last_off = np.full(out.shape[1], np.nan)
-    for j in range(out.shape[1]):
-        rows = np.flatnonzero(off[:, j])
-        if len(rows):
-            last_off[j] = out[rows[-1], j]
-    out[off | jump] = np.nan
-    return out, last_off
 
 
 def broken_line_path(x: np.ndarray, y: np.ndarray) -> QPainterPath:
@@ -205,11 +117,6 @@ def broken_line_path(x: np.ndarray, y: np.ndarray) -> QPainterPath:
             arr[m] = arr[m - 1]
         path.addPolygon(poly)
     return path
-
-
-def vertical_lines(xs: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-    """Points for a ``connect='pairs'`` curve drawing one vertical line per x."""
-    return np.repeat(xs, 2), np.tile(np.array([lo, hi]), len(xs))
 
 
 class Trace:
@@ -399,15 +306,6 @@ class TraceSet(_GraphicsObject):
         for label in self.labels:
             if label.visible:
                 label.draw(p)
-
-
-def newest_idx(series: dict[str, np.ndarray]) -> float:
-    """The engine index of the newest received sample in a snapshot's series (NaN if none)."""
-    idx = series.get("idx")
-    if idx is None:
-        return math.nan
-    real = idx[np.isfinite(idx)]
-    return float(real[-1]) if len(real) else math.nan
 
 
 class LayerAxis(_AxisItem):

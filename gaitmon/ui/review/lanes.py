@@ -38,8 +38,7 @@ from PySide6.QtWidgets import QGraphicsItem
 from gaitmon.dsp.channels import SEGMENTS
 from gaitmon.io.overview import PeakWindow
 from gaitmon.text import num
-from gaitmon.ui.plots import Trace, TraceSet, vertical_lines
-from gaitmon.ui.plots.traces import on_scale
+from gaitmon.ui.plots import Trace, TraceSet, on_scale, vertical_lines
 from gaitmon.ui.theme import Colours, pen
 
 AXIS_WIDTH_PX = 58  # every plot's y axis: the lanes' time axes line up

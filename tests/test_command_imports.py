@@ -1,0 +1,108 @@
+"""A command imports what it uses (issue 28): checked by the modules a whole ``gaitmon`` process
+holds when it ends, never by timing it.
+
+Each command runs in a fresh interpreter (``gaitmon.cli.main``, as ``python -m gaitmon`` runs
+it), which then prints the names in ``sys.modules``. ``gaitmon info`` reads a session and
+computes its measures: numpy, h5py and gaitmon's reader, never scipy (its filters design
+nothing), numba (it compiles no loop), the pipeline's filters, the simulator or a GUI or
+plotting library. ``--help`` of a command loads that command's module and its options only.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+GOLDEN = Path(__file__).parent / "data" / "golden"
+
+# a marker line after whatever the command printed, then the modules as JSON
+_CODE = """\
+import json, sys
+from gaitmon.cli import main
+try:
+    rc = main(sys.argv[1:])
+except SystemExit as exc:  # --help, --version
+    rc = exc.code or 0
+sys.stdout.flush()
+print("\\nMODULES " + json.dumps({"rc": rc, "modules": sorted(sys.modules)}))
+"""
+
+# never for reading a file or printing help (scipy.signal, numba: issue 28's "Done when")
+NEVER = ("scipy", "scipy.signal", "numba", "PySide6", "matplotlib", "pandas", "pyqtgraph")
+# gaitmon's own heavy parts a reader does not need: the filters' models and compiled loops,
+# the simulator (its options' light config module aside), the writer, the engine, the UI
+NOT_TO_READ = ("gaitmon.dsp.kalman_models", "gaitmon.dsp.motion_kalman",
+               "gaitmon.dsp.complementary", "gaitmon.dsp.smoother", "gaitmon.dsp.kernels",
+               "gaitmon.io.sim.unit", "gaitmon.io.sim.sensors", "gaitmon.io.sim.kinematics",
+               "gaitmon.io.session.writer", "gaitmon.engine", "gaitmon.ui")  # fmt: skip
+
+
+def modules_of(*argv: str) -> set[str]:
+    """The modules a ``gaitmon ARGV`` process had imported when it finished (asserting rc 0)."""
+    out = subprocess.run([sys.executable, "-c", _CODE, *argv], capture_output=True, text=True,
+                         check=True, timeout=300)  # fmt: skip
+    line = out.stdout.rstrip().rsplit("\n", 1)[-1]
+    assert line.startswith("MODULES "), out.stdout[-500:] + out.stderr[-2000:]
+    result = json.loads(line.removeprefix("MODULES "))
+    assert result["rc"] == 0, out.stderr[-2000:]
+    return set(result["modules"])
+
+
+def _loaded(modules: set[str], names: tuple[str, ...]) -> list[str]:
+    """Those of ``names`` (a package counts with any module under it) that were imported."""
+    return sorted({n for n in names for m in modules if m == n or m.startswith(n + ".")})
+
+
+@pytest.fixture(scope="module")
+def sessions(tmp_path_factory) -> dict[str, Path]:
+    """The golden one-leg and two-leg sessions, copied (info may write beside a file)."""
+    folder = tmp_path_factory.mktemp("imports")
+    for f in GOLDEN.glob("*.h5*"):
+        shutil.copy(f, folder / f.name)
+    return {"one leg": folder / "one_leg.h5", "two legs": folder / "two_legs.h5"}
+
+
+@pytest.mark.parametrize("which", ["one leg", "two legs"])
+def test_info_reads_a_session_without_scipy_numba_or_the_filters(sessions, which):
+    modules = modules_of("info", str(sessions[which]))
+    assert {"numpy", "h5py", "gaitmon.analysis", "gaitmon.io.session.reader"} <= modules
+    assert _loaded(modules, NEVER) == []
+    assert _loaded(modules, NOT_TO_READ) == []
+    assert "numpy.ma" not in modules  # np.unique imports it (~20 ms): the reader avoids it
+
+
+@pytest.mark.parametrize("command", ["process", "info", "export", "report", "record", "batch"])
+def test_a_commands_help_loads_no_scipy_numba_or_gui(command):
+    modules = modules_of(command, "--help")
+    assert f"gaitmon.commands.{command}" in modules  # its own options are there
+    assert _loaded(modules, NEVER) == []
+    assert _loaded(modules, NOT_TO_READ) == []
+    assert _loaded(modules, ("gaitmon.dsp.pipeline", "h5py")) == []  # options read no file
+
+
+@pytest.mark.parametrize("argv", [("--help",), ("--version",)])
+def test_top_level_help_and_version_load_no_numpy_nor_a_command(argv):
+    """Every command is listed from ``cli.SUBCOMMANDS`` alone; the help adds the live window's
+    simulator options (from the light ``commands.simulate``/``live_pair``), the version not."""
+    modules = modules_of(*argv)
+    window = {"gaitmon.commands.simulate", "gaitmon.commands.live_pair"}
+    if argv != ("--help",):
+        window = set()
+    assert {m for m in modules if m.startswith("gaitmon.commands.")} <= window
+    assert _loaded(modules, ("numpy", "h5py", *NEVER)) == []
+    assert "logging.handlers" not in modules  # gaitmon.logs rotates its file itself
+
+
+@pytest.mark.parametrize("argv", [[], ["--verbose"], ["--simulate", "--version"]])
+def test_the_live_window_still_gets_its_simulator_options(argv):
+    """Only --version/--log-path (with --verbose) skip the window's simulator options: without
+    a command anything else opens the window, which reads them from the parsed arguments."""
+    from gaitmon.cli import build_parser
+
+    args = build_parser(None, argv).parse_args([a for a in argv if a != "--version"])
+    assert hasattr(args, "cadence") and hasattr(args, "pattern")
