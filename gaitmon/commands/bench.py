@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from gaitmon.commands.bench_passes import batch_loops, both, smooth, stream
 from gaitmon.errors import UserError
 
 ALL_LENGTHS = "1min,10min,1h,8h"
@@ -25,27 +26,34 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="best of N runs (default 3; --suite memory: 1)")
     p.add_argument(
         "--suite",
-        choices=("pipeline", "offline", "size", "memory"),
+        choices=("pipeline", "offline", "size", "memory", "whole"),
         default="pipeline",
         help="pipeline: the signal chain (default); offline: info, export and report cost over "
         "1 min .. 8 h sessions beside references (medians of --repeat runs); size: session "
         "file size and write cost, format 1 beside format 2; memory: peak RSS of the review "
-        "window, process, recovery, info, report and the recorder's close beside references",
+        "window, process, recovery, info, report and the recorder's close beside references; "
+        "whole: issue 28's goals, each whole command and its reference alternated",
     )
     p.add_argument(
         "--lengths",
         default=None,
         help="session lengths for --suite offline, size and memory (1min, 10min, 20min, 1h, 2h, "
         "8h; default 1min,10min,1h,8h; "
-        "memory: 1h,8h and one run unless --lengths / --repeat are given)",
+        "memory: 1h,8h and one run unless --lengths / --repeat are given; "
+        "whole: SHORT,LONG,LONGEST, default 1min,1h,8h)",
     )
     p.add_argument(
         "--only",
         default="",
         help="--suite offline: comma-separated of info, csv, mat, c3d, report (each with its "
         "reference); --suite memory: of its tasks (ref_floor, ref_raw, review, process, "
-        "recover, info, report, close, record); default: all",
+        "recover, info, report, close, record); --suite whole: of its rows (process, "
+        "process_short, info, rss_process, rss_process_long, rss_recover, rss_close, "
+        "rss_record, live, first_run, pipeline); default: all",
     )
+    p.add_argument("--gui-seconds", type=float, default=10.0,
+                   help="--suite whole: measured seconds per segment of the live row "
+                   "(benchmarks/bench_gui.py --seconds)")
 
 
 def _best_of(fn: Callable[[], object], repeat: int) -> float:
@@ -70,12 +78,6 @@ def _record(n: int) -> np.ndarray:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gaitmon.dsp.calibration import Calibration
-    from gaitmon.dsp.channels import DEFAULT_TABLE
-    from gaitmon.dsp.kalman import TiltKalman
-    from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
-    from gaitmon.finish.smoothed import FirstPass, KeptFirstPass, smoothed_blocks
-
     if args.suite == "memory":
         from gaitmon.commands.bench_memory import suite as memory_suite
 
@@ -93,6 +95,16 @@ def run(args: argparse.Namespace) -> int:
         from gaitmon.commands.bench_size import suite as size_suite
 
         return size_suite((args.lengths or ALL_LENGTHS).split(","), args.repeat)
+    if args.suite == "whole":
+        from gaitmon.commands.bench_whole import suite as whole_suite
+
+        return whole_suite(args)
+    # stream's and smooth's modules, imported before the clock starts
+    import gaitmon.finish.reprocess
+    import gaitmon.finish.smoothed  # noqa: F401
+    from gaitmon.dsp.kalman import TiltKalman
+    from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
+
     if not 0 < args.hours <= 24:
         raise UserError(f"--hours must be above 0 and at most 24, got {args.hours}")
     if args.repeat < 1:
@@ -104,42 +116,18 @@ def run(args: argparse.Namespace) -> int:
     counts = _record(n)
     print(f"  simulated the record in {time.perf_counter() - t0:.2f} s")
 
-    # batch: offline reprocessing of the whole record, streamed as `process`, `batch` and
-    # recovery replay it (a chunk at a time; any chunking gives the same numbers)
-    from gaitmon.finish.reprocess import REPLAY_CHUNK_ROWS
-
-    def stream(config: PipelineConfig | None = None, kept: KeptFirstPass | None = None) -> None:
-        p = Pipeline(config)
-        for a in range(0, n, REPLAY_CHUNK_ROWS):
-            blk = p.process(counts[a : a + REPLAY_CHUNK_ROWS])
-            if kept is not None:
-                kept.add(a, blk.tilt_kalman_continuous_rad)
-
-    def smooth(first_pass: FirstPass | None = None) -> None:
-        for _ in smoothed_blocks(lambda a, b: counts[a:b], n, DEFAULT_TABLE,
-                                 Calibration.identity(), [], np.empty(0), fs,
-                                 first_pass):  # fmt: skip
-            pass
-
-    def both() -> None:  # what `gaitmon process` computes: the pipeline's filter kept for the
-        with KeptFirstPass() as kept:  # smoother's first pass (in a temporary file, as there)
-            stream(kept=kept)
-            smooth(kept.first_pass)
-
     def rate(t: float) -> str:
         return f"{t:6.2f} s = {n / t / 1e6:5.2f} M frames/s ({t / args.hours:5.2f} s per hour)"
 
     # long batch work runs numba's compiled loops once its cache is ready (gaitmon.dsp.kernels;
     # here compiled or loaded before the timing, by the best-of runs' first)
-    from gaitmon.dsp import kernels
-
-    form = "compiled" if kernels.numba_available() else "python"
-    print(f"  batch loops: {form} (gaitmon.dsp.kernels); live ticks: interpreted")
-    with kernels.use(form):
-        t_paper = _best_of(lambda: stream(PipelineConfig(tilt_method="paper")), args.repeat)
-        t_pipe = _best_of(stream, args.repeat)
-        t_smooth = _best_of(smooth, args.repeat)
-        t_both = _best_of(both, args.repeat)
+    with batch_loops() as form:
+        print(f"  batch loops: {form} (gaitmon.dsp.kernels); live ticks: interpreted")
+        t_paper = _best_of(lambda: stream(counts, PipelineConfig(tilt_method="paper")),
+                           args.repeat)  # fmt: skip
+        t_pipe = _best_of(lambda: stream(counts), args.repeat)
+        t_smooth = _best_of(lambda: smooth(counts, fs=fs), args.repeat)
+        t_both = _best_of(lambda: both(counts), args.repeat)
     print(f"batch  pipeline, gait-aware filter (default):  {rate(t_pipe)}")
     print(f"       reference: the paper's Kalman filter:   {rate(t_paper)}  "
           f"(x{t_pipe / t_paper:.2f})")  # fmt: skip
@@ -151,6 +139,8 @@ def run(args: argparse.Namespace) -> int:
     # live: one 10 ms tick (1 frame), after warm-up; live blocks run the interpreted loops
     p = Pipeline()
     ticks = []
+    from gaitmon.dsp import kernels
+
     with kernels.use("python"):
         p.process(counts[:5000])
         for i in range(5000, 8000):
