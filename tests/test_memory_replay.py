@@ -125,3 +125,25 @@ def test_recovery_replay_holds_one_chunk_at_a_time(tmp_path, monkeypatch):
     assert not journal_path(src).exists()
     assert watch.calls >= 10
     assert not watch.alive, watch.alive[:5]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_stride_positions_from_the_filled_rows_equal_the_per_row_cumsum(seed: int) -> None:
+    """``info`` and the report place the stored strides on the true timeline from the rows
+    that lost frames, not from four per-row arrays of the whole record."""
+    from gaitmon.dsp.calibration import Calibration
+    from gaitmon.dsp.channels import DEFAULT_TABLE
+    from gaitmon.finish.strides import StrideInputs
+
+    rng = np.random.default_rng(seed)
+    n = 4_000
+    per_row = np.zeros(n, np.int64)
+    per_row[rng.choice(n, size=60, replace=False)] = rng.integers(1, 400, size=60)
+    per_row[0] = 2
+    rows = np.sort(rng.choice(n, size=300, replace=False)).astype(np.int64)
+    for lost in (per_row, Losses.of(per_row), None):
+        inputs = StrideInputs(n, 100.0, DEFAULT_TABLE, Calibration.identity(), [], lost)
+        want = (np.arange(n, dtype=np.int64) + np.cumsum(inputs.filled()))[rows]
+        got = inputs.positions(rows)
+        assert got.dtype == np.int64
+        np.testing.assert_array_equal(got, want)
