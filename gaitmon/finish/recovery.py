@@ -24,6 +24,7 @@ from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import DEFAULT_TABLE, ChannelTable
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.gait import ContactEdges
+from gaitmon.dsp.lost_frames import Losses
 from gaitmon.dsp.methods import feeds_smoother
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.errors import Cancelled
@@ -51,6 +52,7 @@ from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _field_names
 from gaitmon.io.session.opening import open_h5
 from gaitmon.io.session.rows import (
     LazyRows,
+    LostRows,
     _device_rows,
     _extrapolated_t,
     _Timeline,
@@ -88,7 +90,7 @@ def replay_pipeline(
     *,
     table: ChannelTable = DEFAULT_TABLE,
     chunk_rows: int = _RECOVERY_CHUNK_ROWS,
-    lost_before: np.ndarray | LazyRows | None = None,
+    lost_before: np.ndarray | LazyRows | LostRows | None = None,
     flagged_at_start: Sequence[tuple[str, str]] = (),
 ) -> Iterator[ReplayChunk]:
     """Run the pipeline over a whole recording from row 0, applying logged changes at their rows.
@@ -134,9 +136,14 @@ def replay_pipeline(
         faults = fault_rows(blk.fsr_faults, blk.start_idx, a)
         if a == 0:
             faults = at_start + faults
-        yield ReplayChunk(a, rows_from_pipeline(blk), blk.heel_strike_idx + base,
-                          blk.toe_off_idx + base, faults,
-                          blk.tilt_kalman_continuous_rad if first_pass else None)  # fmt: skip
+        chunk = ReplayChunk(a, rows_from_pipeline(blk), blk.heel_strike_idx + base,
+                            blk.toe_off_idx + base, faults,
+                            blk.tilt_kalman_continuous_rad if first_pass else None)  # fmt: skip
+        # the block (~740 bytes a row: every stage's series) goes before the next is made,
+        # and the chunk once the caller has it: one chunk's worth alive at a time
+        del blk
+        yield chunk
+        del chunk
 
 
 def flagged_at_start(rows: Iterable[tuple[int, str, str]]) -> tuple[tuple[str, str], ...]:
@@ -422,6 +429,7 @@ def _build_recovered(
             h5.append_table("events/fsr_faults", faults)
             if isinstance(rows, JournalRows):  # rows in order: the map's pages read go
                 rows.release_before(b)
+            del proc, first_pass, cols  # (not alive while the next chunk is replayed)
             report(b)
 
         h5.append_table(
@@ -463,9 +471,10 @@ def _build_recovered(
             # counts back from the new file a block at a time, as a recorder's close does
             contents.rows = None
             del rows, adc, seq, host, chunks, lost_rows, timeline  # (they view the rows)
-            lost = np.zeros(n, dtype=np.int64)
-            for at, count in lost_at:
-                lost[at] = count
+            # sparse: no per-row array (8 bytes a row)
+            lost = Losses(np.concatenate([at for at, _ in lost_at] or [np.empty(0, np.int64)]),
+                          np.concatenate([c for _, c in lost_at] or [np.empty(0, np.int64)]))
+            del lost_at
             h5.drain()
             ds = h5.f["raw/adc"]
             store_smoothed(h5.f, lambda a, b: ds[a:b], n, header.table, header.calibration,

@@ -24,7 +24,7 @@ from gaitmon.dsp.channels import ChannelTable
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import DAMAGE_ERRORS, Cancelled
-from gaitmon.finish.recovery import flags_kept, replay_pipeline
+from gaitmon.finish.recovery import RECOVERY_REPLAY_ROWS, flags_kept, replay_pipeline
 from gaitmon.finish.session import Session, open_session
 from gaitmon.finish.smoothed import KeptFirstPass, store_smoothed
 from gaitmon.finish.strides import store_strides
@@ -32,15 +32,18 @@ from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.codec import encode
 from gaitmon.io.session.h5file import _short_error
 from gaitmon.io.session.header import SessionError
-from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS, _TABLE_CHUNK_ROWS, _TABLES
-from gaitmon.io.session.rows import LazyRows, lost_before_from_gaps
+from gaitmon.io.session.layout import _TABLE_CHUNK_ROWS, _TABLES
+from gaitmon.io.session.rows import LazyRows, LostRows, losses_from_gaps
 from gaitmon.io.session.stored_overview import write_overview
 from gaitmon.io.session.trust import CheckedCounts, full_scale_of
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
 COPY_SHARE = 0.25
 COPY_CHUNK_BYTES = 4 << 20  # an 8-hour session (~400 MB) is ~100 cancel points
-REPLAY_CHUNK_ROWS = _RECOVERY_CHUNK_ROWS  # 65536 rows = 11 min at 100 Hz per cancel point
+# 16384 rows = 2.7 min at 100 Hz per cancel point; the pipeline's block for them is ~12 MB with
+# its temporaries (65536 rows: ~50 MB, twice over while the next was made); chunking does not
+# change the pipeline's output (its contract)
+REPLAY_CHUNK_ROWS = RECOVERY_REPLAY_ROWS
 
 Progress = Callable[[float], object]
 Cancel = Callable[[], bool]
@@ -174,7 +177,7 @@ class UnitInputs:
     calibration: Calibration
     calibration_log: list[tuple[int, Calibration]]
     table: ChannelTable  # the unit's own conversion, as recovery and review use
-    lost: np.ndarray
+    lost: LostRows  # the frames lost before each row (sparse: no per-row array)
     config: PipelineConfig  # the settings it was recorded with
     fsr_faults: tuple[FsrFault, ...] = ()  # those from row 0 stay flagged (flags_kept)
     name: str = ""  # the recording's file name, for messages
@@ -184,7 +187,7 @@ class UnitInputs:
         _check_raw(s)
         n = s.n_samples
         return cls(n, s.calibration, list(s.calibration_changes), s.header.table,
-                   lost_before_from_gaps(s.gaps, n), s.config, tuple(s.fsr_faults),
+                   LostRows(losses_from_gaps(s.gaps, n), n), s.config, tuple(s.fsr_faults),
                    s.path.name)  # fmt: skip
 
 
@@ -239,13 +242,14 @@ def rewrite_unit(
                     f[path][start:stop] = encode(path, data) if v2 else data
             hs.append(hs_rows)
             to.append(to_rows)
+            del rows, data, first_pass  # (not alive while the next chunk is replayed)
             report(stop / max(n, 1))
             check_cancel()
         proc.attrs["reprocessed"] = True
         proc.attrs["source"] = "pc"
         proc.attrs["tilt_method"] = config.tilt_method_label
-        store_smoothed(f, adc.rows, n, table, calibration, calibration_log, lost, config.fs_hz,
-                       kept.first_pass)  # fmt: skip
+        store_smoothed(f, adc.rows, n, table, calibration, calibration_log, lost.losses,
+                       config.fs_hz, kept.first_pass)  # fmt: skip
     ev = f["events"]
     for name, parts in (("heel_strike", hs), ("toe_off", to)):
         data = np.concatenate(parts) if parts else np.empty(0, np.int64)

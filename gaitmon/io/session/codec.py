@@ -113,7 +113,23 @@ def dequantise(stored: np.ndarray, res: float) -> np.ndarray:
     """Integers at resolution ``res`` -> float32 (NaN where the dtype's minimum is stored):
     ``stored / (1 / res)`` correctly rounded, so a value the unit sent at 0.01 deg (-135.35)
     reads back as the float32 it was (a product with float32(0.01) would not). Monotonic, so
-    min and max commute with it."""
+    min and max commute with it. Computed :data:`DECODE_BLOCK_ROWS` rows at a time (the
+    float64 quotient of a whole 8-hour series is 69-92 MB; the values are elementwise, so the
+    same)."""
+    stored = np.asarray(stored)
+    if stored.ndim == 0 or len(stored) <= DECODE_BLOCK_ROWS:
+        return _dequantise(stored, res)
+    out = np.empty(stored.shape, dtype=np.float32)
+    for a in range(0, len(stored), DECODE_BLOCK_ROWS):
+        out[a : a + DECODE_BLOCK_ROWS] = _dequantise(stored[a : a + DECODE_BLOCK_ROWS], res)
+    return out
+
+
+# rows decoded at a time (see dequantise)
+DECODE_BLOCK_ROWS = 1 << 16
+
+
+def _dequantise(stored: np.ndarray, res: float) -> np.ndarray:
     out = (stored / float(round(1.0 / res))).astype(np.float32)
     nan = stored == _nan_code(stored.dtype)
     if nan.any():
@@ -134,13 +150,24 @@ def joint_centideg(tilt_centideg: np.ndarray) -> np.ndarray:
 
 def joints_from_stored_tilts(stored: np.ndarray, tilt_path: str) -> np.ndarray:
     """(N, 3) float32 joint angles from a stored (int16 centidegree) tilt series; NaN where
-    either tilt is NaN."""
+    either tilt is NaN. Computed :data:`DECODE_BLOCK_ROWS` rows at a time (whole, an 8-hour
+    series' int32 and float64 temporaries peaked at ~250 MB; elementwise, so the same values)."""
     stored = np.asarray(stored)
     if stored.dtype.kind == "f":  # (not expected in format 2; kept total)
         from gaitmon.dsp.angles import joint_angles
 
         return np.degrees(joint_angles(np.radians(stored))).astype(np.float32)
-    j = dequantise(joint_centideg(stored), CENTIDEG)
+    if len(stored) <= DECODE_BLOCK_ROWS:
+        return _joints_of_block(stored, tilt_path)
+    out = np.empty((len(stored), len(JOINT_PAIRS)), dtype=np.float32)
+    for a in range(0, len(stored), DECODE_BLOCK_ROWS):
+        out[a : a + DECODE_BLOCK_ROWS] = _joints_of_block(stored[a : a + DECODE_BLOCK_ROWS],
+                                                          tilt_path)  # fmt: skip
+    return out
+
+
+def _joints_of_block(stored: np.ndarray, tilt_path: str) -> np.ndarray:
+    j = _dequantise(joint_centideg(stored), CENTIDEG)
     nan = stored == _nan_code(RESOLUTION[tilt_path][0])
     if nan.any():
         plus = np.array([p for p, _ in JOINT_PAIRS])

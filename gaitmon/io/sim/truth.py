@@ -23,8 +23,7 @@ from gaitmon.io.sim.unit import SimulatedUnit
 
 def row_samples(seq: np.ndarray, unit: SimulatedUnit) -> np.ndarray:
     """Sample index of each recorded row (-1 where the frame is not in the unit's log)."""
-    frame_no, sample_idx, _ = unit.frame_log()
-    return _samples_of(seq, frame_no, sample_idx)
+    return unit.samples_of(seq)
 
 
 # Rows of the per-row truth computed at once, and samples of the events' strides: the
@@ -45,21 +44,19 @@ def attach_ground_truth(path: str | Path, unit: SimulatedUnit,
     maps the rows (the file open to read) and the one that writes them (open to write)."""
     import tempfile
 
-    frame_no, sample_idx, _ = unit.frame_log(copy=False)  # the unit produces no more
     n_valid, lo, hi = 0, 0, 0
     with tempfile.TemporaryFile(dir=Path(path).parent) as tmp:
         with read_stored(Path(path)) as s:
             n = s.n_samples
             for a in range(0, n, block_rows):
                 seq = s.read_range(a, a + block_rows, ["timeline/seq"])["timeline/seq"]
-                got = _samples_of(seq, frame_no, sample_idx)
+                got = unit.samples_of(seq)  # (the frame log's runs: no row per frame)
                 tmp.write(np.ascontiguousarray(got, dtype=np.int64).tobytes())
                 mapped = got[got >= 0]
                 if len(mapped):
                     b_lo, b_hi = int(mapped.min()), int(mapped.max()) + 1
                     lo, hi = (b_lo, b_hi) if not n_valid else (min(lo, b_lo), max(hi, b_hi))
                     n_valid += len(mapped)
-        del frame_no, sample_idx
         if not n_valid:
             return 0
 
@@ -109,17 +106,6 @@ def _first_at(found: np.ndarray, events: np.ndarray, recorded: np.ndarray,
 
 
 _PER_ROW = {"tilt_deg": 4, "joint_deg": 3, "gyro_bias_rad_s": 4}
-
-
-def _samples_of(seq: np.ndarray, frame_no: np.ndarray, sample_idx: np.ndarray) -> np.ndarray:
-    """:func:`row_samples` of rows ``seq`` from the unit's frame log (taken once)."""
-    if len(frame_no) == 0:
-        return np.full(len(seq), -1, dtype=np.int64)
-    if len(frame_no) > 1 and not bool(np.all(frame_no[1:] > frame_no[:-1])):
-        order = np.argsort(frame_no)
-        frame_no, sample_idx = frame_no[order], sample_idx[order]
-    pos = np.clip(np.searchsorted(frame_no, seq), 0, len(frame_no) - 1)
-    return np.where(frame_no[pos] == seq, sample_idx[pos], -1)
 
 
 def _per_row(unit: SimulatedUnit, samples: np.ndarray) -> dict[str, np.ndarray]:

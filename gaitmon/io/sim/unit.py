@@ -350,11 +350,15 @@ class SimulatedUnit:
             self._stall_until = self.sensors.position + round(duration_s * self.fs_hz)
 
     def frame_log(self, copy: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(frame_no, sample_idx, kind) of every data frame produced, delivered or not.
-        ``copy=False``: views of the log itself (no copy of 17 bytes a frame), for a unit that
-        produces no more (its log cannot grow while they are held)."""
+        """(frame_no, sample_idx, kind) of every data frame produced, delivered or not (new
+        arrays, 17 bytes a frame: :meth:`samples_of` maps frames without them)."""
         with self._lock:
             return self._log.arrays(copy)
+
+    def samples_of(self, frame_nos: np.ndarray) -> np.ndarray:
+        """The sample index of each data frame numbered ``frame_nos`` (-1: none such)."""
+        with self._lock:
+            return self._log.samples_of(frame_nos)
 
     def true_events(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, StrideTruth]:
         """(heel strikes, toe-offs, the strides they open) in samples start .. stop-1: the
