@@ -54,12 +54,12 @@ from gaitmon.io.session.series import (
     _sample_rate,
 )
 from gaitmon.io.session.trust import checked_counts, full_scale_of
-from gaitmon.io.session.truth import Truth, truth_from_file
 from gaitmon.text import clean_label
 from gaitmon.values import scalar
 
 if TYPE_CHECKING:
     from gaitmon.io.overview import PeakPyramid
+    from gaitmon.io.session.truth import Truth
 
 __all__ = ["Gap", "Marker", "SeriesView", "StoredSession"]
 
@@ -477,6 +477,8 @@ class StoredSession:
         """The simulator's ground truth of rows ``start:stop`` (see
         :mod:`gaitmon.io.session.truth`): (true tilts in rad, mounting offsets in rad), or
         (None, None) for a session recorded from a real unit."""
+        from gaitmon.io.session.truth import truth_from_file  # simulated sessions only
+
         try:
             return truth_from_file(self._f, start, stop)
         except (OSError, KeyError, ValueError) as e:
