@@ -44,7 +44,7 @@ NOT_TO_READ = ("gaitmon.dsp.kalman_models", "gaitmon.dsp.motion_kalman",
 
 # what reading a finished session does not need (issue 28: gaitmon info <= 1.2x a bare h5py open)
 READ_ONLY_NEEDS_NOT = ("gaitmon.io.journal", "gaitmon.io.session.truth", "gaitmon.dsp.estimate",
-                       "mmap")  # fmt: skip
+                       "mmap", "gaitmon.dsp.pipeline")  # fmt: skip
 
 
 def modules_of(*argv: str) -> set[str]:
@@ -80,7 +80,8 @@ def test_info_reads_a_session_without_scipy_numba_or_the_filters(sessions, which
     assert _loaded(modules, NOT_TO_READ) == []
     assert "numpy.ma" not in modules  # np.unique imports it (~20 ms): the reader avoids it
     # a finished file: no journal's record layout (gaitmon.io.journal_files names and locks
-    # it), no simulator truth, no tilt-method estimation (a writer's label); each ~1-5 ms
+    # it), no simulator truth, no tilt-method estimation (a writer's label), no pipeline stages
+    # (its settings are gaitmon.dsp.pipeline_config's); each ~1-5 ms
     assert _loaded(modules, READ_ONLY_NEEDS_NOT) == []
 
 

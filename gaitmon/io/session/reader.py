@@ -23,7 +23,7 @@ from gaitmon.dsp.calibration import Calibration, zero_source
 from gaitmon.dsp.channels import CHANNELS, GYRO_IDX, ChannelSpec
 from gaitmon.dsp.events import FALLBACK, PRIMARY, get_event_source
 from gaitmon.dsp.fsr_check import FsrFault
-from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.dsp.pipeline_config import PipelineConfig
 from gaitmon.io.session.codec import GYRO, JOINT_OF, decode, derived, gyro_from_counts
 from gaitmon.io.session.codec import joints_from_stored_tilts as _joints_of
 from gaitmon.io.session.exclusions import Exclusion
