@@ -44,7 +44,7 @@ NOT_TO_READ = ("gaitmon.dsp.kalman_models", "gaitmon.dsp.motion_kalman",
 
 # what reading a finished session does not need (issue 28: gaitmon info <= 1.2x a bare h5py open)
 READ_ONLY_NEEDS_NOT = ("gaitmon.io.journal", "gaitmon.io.session.truth", "gaitmon.dsp.estimate",
-                       "mmap", "gaitmon.dsp.pipeline")  # fmt: skip
+                       "mmap", "gaitmon.dsp.pipeline", "numpy.typing")  # fmt: skip
 
 
 def modules_of(*argv: str) -> set[str]:
