@@ -85,6 +85,27 @@ def test_info_reads_a_session_without_scipy_numba_or_the_filters(sessions, which
     assert _loaded(modules, READ_ONLY_NEEDS_NOT) == []
 
 
+def test_info_reads_stored_stride_measures_without_computing_them(sessions, tmp_path):
+    """A file whose ``/strides`` are current (what every close, recovery and ``process`` now
+    store): info checks their stamp (gaitmon.dsp.stride_method) and loads none of the
+    stride-length computation (gaitmon.dsp.stride_length and its steps)."""
+    import h5py
+
+    from gaitmon.finish import open_session
+    from gaitmon.finish.strides import store_strides
+
+    path = tmp_path / "stored.h5"
+    shutil.copy(sessions["one leg"], path)  # golden: /strides of an older method, recomputed
+    with open_session(path) as s:
+        table, cal, fs = s.header.table, s.calibration, s.sample_rate_hz
+    with h5py.File(path, "r+") as f:
+        store_strides(f, table, cal, fs)
+    modules = modules_of("info", str(path))
+    assert "gaitmon.finish.strides" in modules  # the stored measures were read
+    assert _loaded(modules, ("gaitmon.dsp.stride_length", "gaitmon.dsp.stride_anchors",
+                             "gaitmon.dsp.stride_integrate", "gaitmon.dsp.stride_streaming")) == []
+
+
 @pytest.mark.parametrize("command", ["process", "info", "export", "report", "record", "batch"])
 def test_a_commands_help_loads_no_scipy_numba_or_gui(command):
     modules = modules_of(command, "--help")
