@@ -83,6 +83,9 @@ def test_info_reads_a_session_without_scipy_numba_or_the_filters(sessions, which
     # it), no simulator truth, no tilt-method estimation (a writer's label), no pipeline stages
     # (its settings are gaitmon.dsp.pipeline_config's); each ~1-5 ms
     assert _loaded(modules, READ_ONLY_NEEDS_NOT) == []
+    if which == "one leg":  # descriptions of the file's attributes are written, not read;
+        # the review's settings table only for a method that reads settings (not gait-aware)
+        assert _loaded(modules, ("gaitmon.io.session.attributes", "gaitmon.review")) == []
 
 
 def test_info_reads_stored_stride_measures_without_computing_them(sessions, tmp_path):

@@ -41,7 +41,6 @@ from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, GYRO_IDX, SEGMENTS, Chann
 from gaitmon.dsp.lost_frames import Losses, bridged_rows
 from gaitmon.dsp.stride_flags import StrideMeasures
 from gaitmon.dsp.stride_method import METHOD
-from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.codec import COMPRESSION
 from gaitmon.io.session.layout import stored_datasets
 
@@ -192,6 +191,8 @@ def stride_measures_of(
 
 def write_strides(f: h5py.File, inputs: StrideInputs, hs: np.ndarray, m: StrideMeasures) -> None:
     """Store (or replace) ``/strides`` in ``f`` (open for writing)."""
+    from gaitmon.io.session.attributes import describe  # a writer's (readers: ~1 ms saved)
+
     if GROUP in f:
         del f[GROUP]
     g = f.create_group(GROUP)
