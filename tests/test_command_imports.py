@@ -42,6 +42,11 @@ NOT_TO_READ = ("gaitmon.dsp.kalman_models", "gaitmon.dsp.motion_kalman",
                "gaitmon.io.session.writer", "gaitmon.engine", "gaitmon.ui")  # fmt: skip
 
 
+# what reading a finished session does not need (issue 28: gaitmon info <= 1.2x a bare h5py open)
+READ_ONLY_NEEDS_NOT = ("gaitmon.io.journal", "gaitmon.io.session.truth", "gaitmon.dsp.estimate",
+                       "mmap", "gaitmon.dsp.pipeline", "numpy.typing")  # fmt: skip
+
+
 def modules_of(*argv: str) -> set[str]:
     """The modules a ``gaitmon ARGV`` process had imported when it finished (asserting rc 0)."""
     out = subprocess.run([sys.executable, "-c", _CODE, *argv], capture_output=True, text=True,
@@ -74,6 +79,34 @@ def test_info_reads_a_session_without_scipy_numba_or_the_filters(sessions, which
     assert _loaded(modules, NEVER) == []
     assert _loaded(modules, NOT_TO_READ) == []
     assert "numpy.ma" not in modules  # np.unique imports it (~20 ms): the reader avoids it
+    # a finished file: no journal's record layout (gaitmon.io.journal_files names and locks
+    # it), no simulator truth, no tilt-method estimation (a writer's label), no pipeline stages
+    # (its settings are gaitmon.dsp.pipeline_config's); each ~1-5 ms
+    assert _loaded(modules, READ_ONLY_NEEDS_NOT) == []
+    if which == "one leg":  # descriptions of the file's attributes are written, not read;
+        # the review's settings table only for a method that reads settings (not gait-aware)
+        assert _loaded(modules, ("gaitmon.io.session.attributes", "gaitmon.review")) == []
+
+
+def test_info_reads_stored_stride_measures_without_computing_them(sessions, tmp_path):
+    """A file whose ``/strides`` are current (what every close, recovery and ``process`` now
+    store): info checks their stamp (gaitmon.dsp.stride_method) and loads none of the
+    stride-length computation (gaitmon.dsp.stride_length and its steps)."""
+    import h5py
+
+    from gaitmon.finish import open_session
+    from gaitmon.finish.strides import store_strides
+
+    path = tmp_path / "stored.h5"
+    shutil.copy(sessions["one leg"], path)  # golden: /strides of an older method, recomputed
+    with open_session(path) as s:
+        table, cal, fs = s.header.table, s.calibration, s.sample_rate_hz
+    with h5py.File(path, "r+") as f:
+        store_strides(f, table, cal, fs)
+    modules = modules_of("info", str(path))
+    assert "gaitmon.finish.strides" in modules  # the stored measures were read
+    assert _loaded(modules, ("gaitmon.dsp.stride_length", "gaitmon.dsp.stride_anchors",
+                             "gaitmon.dsp.stride_integrate", "gaitmon.dsp.stride_streaming")) == []
 
 
 @pytest.mark.parametrize("command", ["process", "info", "export", "report", "record", "batch"])

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from gaitmon.analysis import BilateralAnalysis, SessionAnalysis
     from gaitmon.finish import Session
     from gaitmon.finish.bilateral import Bilateral
+    from gaitmon.review.settings import PipelineSetting
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -115,8 +116,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
-    from gaitmon.review.settings import PIPELINE_SETTINGS
-
     fs = s.sample_rate_hz
     rows = an.rows
     summ = an.summary()
@@ -192,7 +191,7 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
         lines.append(f"  angles       {s.angle_method}; zero: {s.zero_source}")
     c = s.config
     # a method that reads the Kalman settings is shown by them, the others by their label
-    read = [st for st in PIPELINE_SETTINGS if st.name in c.method.reads_settings]
+    read = _settings_read(c.method.reads_settings)
     kalman = (
         "Kalman " + " ".join(f"{st.short} {getattr(c, st.name):g}" for st in read)
         + f" ({c.kalman_form} form)"
@@ -222,6 +221,16 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
     for p in s.problems:
         lines.append(f"  note         {p}")
     return lines
+
+
+def _settings_read(names: tuple[str, ...]) -> list[PipelineSetting]:
+    """The settings (gaitmon.review.settings, in its order) a method reads; the settings'
+    table is loaded only for such a method (the default reads none)."""
+    if not names:
+        return []
+    from gaitmon.review.settings import PIPELINE_SETTINGS
+
+    return [st for st in PIPELINE_SETTINGS if st.name in names]
 
 
 def _run_units(path: str) -> int:

@@ -63,9 +63,8 @@ from __future__ import annotations
 
 import bisect
 import itertools
-from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, replace
-from typing import Any
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -85,11 +84,12 @@ from gaitmon.dsp.events import FALLBACK, PRIMARY, EventInput, EventStage, get_ev
 from gaitmon.dsp.filters import Butterworth, GyroIntegrator
 from gaitmon.dsp.fsr_check import FsrFault, FsrMonitor
 from gaitmon.dsp.gait import GaitEventDetector
-from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.lost_frames import SETTLE_S as SETTLE_S
 from gaitmon.dsp.lost_frames import bridged_fill, fill_lost, restart_rows
 from gaitmon.dsp.lost_frames import settling_ranges as settling_ranges
-from gaitmon.dsp.methods import DEFAULT_METHOD, TiltInput, TiltMethod, TiltStage, get_method
+from gaitmon.dsp.methods import TiltInput, TiltMethod, TiltStage
+from gaitmon.dsp.pipeline_config import PipelineConfig as PipelineConfig
+from gaitmon.dsp.pipeline_config import butterworth_dc_delay_samples as butterworth_dc_delay_samples
 
 # SETTLE_S (the settling after a restart) and settling_ranges live with the losses, so that
 # gaitmon.analysis reads them without the filters; they are named here too, where restarts are made
@@ -103,113 +103,6 @@ def warm_up(config: PipelineConfig, table: ChannelTable = DEFAULT_TABLE) -> None
     loops run interpreted for such blocks: nothing is compiled, gaitmon.dsp.kernels.)"""
     rows = np.rint(np.tile(table.zero_counts, (2, 1))).astype(np.uint16)
     Pipeline(config, table=table).process(rows)
-
-
-def butterworth_dc_delay_samples(order: int, cutoff_hz: float, fs_hz: float) -> float:
-    """The DC group delay (samples) of the Butterworth low-pass (``gaitmon.dsp.iir.butter_lowpass``,
-    scipy.signal.butter's), from its poles alone: readers (the review window's first view,
-    ``info``) need it without designing a filter. The digital Butterworth low-pass is the bilinear
-    transform of the analog prototype (cut-off prewarped): n zeros at z = -1 and poles p_k.
-    At DC a factor (1 - q / z) delays by -Re(q / (1 - q)) samples in the numerator and by
-    +Re(p / (1 - p)) in the denominator: summed over the factors, which stays accurate where
-    the polynomial's coefficient sums (scipy.signal.group_delay) lose every digit."""
-    n = int(order)
-    k = np.arange(n)
-    wc = 2.0 * fs_hz * np.tan(np.pi * cutoff_hz / fs_hz)  # prewarped analog cut-off, rad/s
-    poles = wc * np.exp(1j * np.pi * (2 * k + n + 1) / (2 * n))
-    z_poles = (2.0 * fs_hz + poles) / (2.0 * fs_hz - poles)
-    return float(0.5 * n + np.sum((z_poles / (1.0 - z_poles)).real))
-
-
-@dataclass(frozen=True)
-class PipelineConfig:
-    """Every tunable of the pipeline, with the paper's values as defaults."""
-
-    fs_hz: float = 100.0
-    cutoff_hz: float = 4.0
-    filter_order: int = 2
-    q_angle: float = 0.001
-    q_gyro: float = 0.003
-    r: float = 0.3
-    kalman_form: str = "paper"
-    fsr_threshold: float = 1000.0
-    fsr_hysteresis: float = 50.0
-    min_contact_s: float = 0.03
-    compensate_event_delay: bool = True
-    tilt_method: str = DEFAULT_METHOD  # an app method of gaitmon.dsp.methods: gait-aware | paper
-    fsr_check: bool = True  # cross-check the FSRs with the foot gyro, fall back to its events
-
-    @classmethod
-    def from_stored(cls, values: Mapping[str, Any]) -> PipelineConfig:
-        """The configuration a session file (or journal) recorded; unknown keys are ignored.
-
-        Files written before ``tilt_method`` existed were processed by the paper's filter and
-        without the FSR check, so those are what a missing value means.
-        """
-        fields = cls.__dataclass_fields__
-        d = {k: v for k, v in values.items() if k in fields}
-        d.setdefault("tilt_method", "paper")
-        d.setdefault("fsr_check", False)
-        d["fsr_check"] = bool(d["fsr_check"])
-        return cls(**d)
-
-    @property
-    def tilt_method_label(self) -> str:
-        """The tilt filter's name for people: "Kalman (paper, seed 000)" or "gait-aware Kalman"."""
-        return self.method.label
-
-    @property
-    def method(self) -> TiltMethod:
-        """The tilt method ``tilt_method`` names (gaitmon.dsp.methods)."""
-        return get_method(self.tilt_method, live=True)
-
-    def __post_init__(self) -> None:
-        # Every value is checked with a message that names it, as the stages check them, but
-        # without designing the filters: a file's recorded settings are read cheaply.
-        Butterworth.check(self.cutoff_hz, self.fs_hz, self.filter_order)
-        TiltKalman.check(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
-        GaitEventDetector(self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz)
-        get_method(self.tilt_method, live=True)
-
-    @property
-    def dt_s(self) -> float:
-        return 1.0 / self.fs_hz
-
-    @property
-    def phase_lag_samples(self) -> int:
-        """How far the per-sample contact and phase arrays lag the event time base.
-
-        Events are dated at the threshold crossing moved back by the filter delay; the
-        debounced contacts change ``min_contact`` - 1 samples after the crossing, at the causal
-        (delayed) sample. Displays and readouts show the phase of row ``i + lag`` at row ``i``
-        so that a heel-strike line and the loading band start at the same instant.
-        """
-        d = GaitEventDetector(
-            self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz
-        ).min_duration_samples
-        return self.event_delay_samples + d - 1
-
-    @property
-    def event_delay_samples(self) -> int:
-        """Samples subtracted from event indices (the low-pass's DC group delay, rounded)."""
-        if not self.compensate_event_delay:
-            return 0
-        return round(butterworth_dc_delay_samples(self.filter_order, self.cutoff_hz, self.fs_hz))
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    def replace(self, **changes: Any) -> PipelineConfig:
-        return replace(self, **changes)
-
-    def reads_fsrs_as(self, other: PipelineConfig) -> bool:
-        """Whether ``other`` reads the force sensors the same way (threshold, hysteresis,
-        low-pass, minimum contact), so that a sensor it flagged as faulty is faulty here too."""
-        return all(getattr(self, k) == getattr(other, k) for k in _FSR_KEYS)
-
-
-_FSR_KEYS = ("fs_hz", "cutoff_hz", "filter_order", "fsr_threshold", "fsr_hysteresis",
-             "min_contact_s")  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -11,14 +11,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from gaitmon.dsp.channels import STANDARD_GRAVITY_MS2
-
-STILL_GYRO_RAD_S = 0.35
-STILL_ACC_MS2 = 0.8
-STILL_HALF_WIDTH = 2  # samples either side that must be still too
-MIN_STILL_SAMPLES = 3
-NEAR_STILL = 5.0  # in units of the still thresholds: the stillest sample is taken below it
-SEARCH_FRACTION = 0.6  # of a stride, after its heel strike (foot-flat ends by ~40 %)
-MAX_STRIDE_S = 3.0
+from gaitmon.dsp.stride_method import MAX_STRIDE_S as MAX_STRIDE_S
+from gaitmon.dsp.stride_method import MIN_STILL_SAMPLES as MIN_STILL_SAMPLES
+from gaitmon.dsp.stride_method import NEAR_STILL as NEAR_STILL
+from gaitmon.dsp.stride_method import SEARCH_FRACTION as SEARCH_FRACTION
+from gaitmon.dsp.stride_method import STILL_ACC_MS2 as STILL_ACC_MS2
+from gaitmon.dsp.stride_method import STILL_GYRO_RAD_S as STILL_GYRO_RAD_S
+from gaitmon.dsp.stride_method import STILL_HALF_WIDTH as STILL_HALF_WIDTH
 
 
 def search_spans(heel_strike_idx: np.ndarray) -> np.ndarray:

@@ -11,14 +11,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from gaitmon.dsp.stride_anchors import _FootFlat
-
-# a stride's own consistency (module doc, step 6): flagged out of plane past either
-OUT_OF_PLANE_PITCH_RAD = float(np.radians(6.0))
-OUT_OF_PLANE_VEL_M_S = 0.5
-ANCHOR_LEVER_M = 0.08  # the board's height above a rolling stance foot's ground pivot
-MOUNT_COS_MIN = float(np.cos(np.radians(40.0)))  # the board's yaw on the foot: at most 40 deg
-MOUNT_MIN_VEL_M_S = 0.05  # ... looked for where the vertical velocity misses 0 by more
-MOUNT_ITERATIONS = 10  # bisection steps for it (to 0.0002 in its cosine)
+from gaitmon.dsp.stride_method import ANCHOR_LEVER_M as ANCHOR_LEVER_M
+from gaitmon.dsp.stride_method import MOUNT_COS_MIN as MOUNT_COS_MIN
+from gaitmon.dsp.stride_method import MOUNT_ITERATIONS as MOUNT_ITERATIONS
+from gaitmon.dsp.stride_method import MOUNT_MIN_VEL_M_S as MOUNT_MIN_VEL_M_S
+from gaitmon.dsp.stride_method import OUT_OF_PLANE_PITCH_RAD as OUT_OF_PLANE_PITCH_RAD
+from gaitmon.dsp.stride_method import OUT_OF_PLANE_VEL_M_S as OUT_OF_PLANE_VEL_M_S
 
 
 def _cumtrapz(y: np.ndarray, dt: float) -> np.ndarray:

@@ -87,7 +87,6 @@ from gaitmon.dsp.channels import (
     ACC_Z_IDX,
     GYRO_IDX,
     SEGMENTS,
-    STANDARD_GRAVITY_MS2,
 )
 from gaitmon.dsp.stride_anchors import (
     MAX_STRIDE_S,
@@ -122,6 +121,8 @@ from gaitmon.dsp.stride_integrate import (
     OUT_OF_PLANE_PITCH_RAD,
     OUT_OF_PLANE_VEL_M_S,
 )
+from gaitmon.dsp.stride_method import METHOD as METHOD
+from gaitmon.dsp.stride_method import METHOD_VERSION as METHOD_VERSION
 from gaitmon.dsp.stride_streaming import (
     STRIDES_PER_BLOCK,
     StrideLengthTracker,
@@ -171,28 +172,6 @@ __all__ = [
     "stride_measures",
 ]
 
-# Raise with any change to the method that changes its numbers (the constants imported above are
-# part of METHOD already): stored measures computed by another version are then recomputed when read
-# (gaitmon.finish.strides).
-METHOD_VERSION = 2
-METHOD: dict[str, float | int | str] = {
-    "method": "foot IMU strapdown with zero-velocity updates",
-    "version": METHOD_VERSION,
-    "still_gyro_rad_s": STILL_GYRO_RAD_S,
-    "still_acc_ms2": STILL_ACC_MS2,
-    "still_half_width": STILL_HALF_WIDTH,
-    "min_still_samples": MIN_STILL_SAMPLES,
-    "search_fraction": SEARCH_FRACTION,
-    "max_stride_s": MAX_STRIDE_S,
-    "near_still": NEAR_STILL,
-    "out_of_plane_pitch_rad": OUT_OF_PLANE_PITCH_RAD,
-    "out_of_plane_vel_m_s": OUT_OF_PLANE_VEL_M_S,
-    "mount_cos_min": MOUNT_COS_MIN,
-    "anchor_lever_m": ANCHOR_LEVER_M,
-    "mount_iterations": MOUNT_ITERATIONS,
-    "mount_min_vel_m_s": MOUNT_MIN_VEL_M_S,
-    "standard_gravity_ms2": STANDARD_GRAVITY_MS2,
-}
 
 
 

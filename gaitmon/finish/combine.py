@@ -25,7 +25,7 @@ import numpy as np
 
 from gaitmon import __version__
 from gaitmon.dsp.clock_fit import WINDOW_S, ClockFit, fit_clock
-from gaitmon.io.journal import journal_path
+from gaitmon.io.journal_files import journal_path
 from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _short_error
 from gaitmon.io.session.header import DamagedSource, SessionError

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import h5py
 import numpy as np
 
-from gaitmon.io.journal import journal_path
+from gaitmon.io.journal_files import journal_path
 from gaitmon.io.session.h5file import _being_recorded, _short_error
 from gaitmon.io.session.header import RecoveryNotSaved, SessionError
 from gaitmon.io.session.opening import open_h5, read_stored, session_of, unit_session_of

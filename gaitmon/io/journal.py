@@ -29,7 +29,6 @@ import mmap
 import os
 import struct
 import zlib
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,14 +36,12 @@ from typing import Any
 import numpy as np
 
 from gaitmon.dsp.channel_table import N_CHANNELS, N_JOINTS, N_SEGMENTS
-
-try:
-    import fcntl
-except ImportError:  # Windows
-    fcntl = None  # type: ignore[assignment]
+from gaitmon.io.journal_files import JOURNAL_SUFFIX as JOURNAL_SUFFIX
+from gaitmon.io.journal_files import _lock
+from gaitmon.io.journal_files import journal_lock as journal_lock
+from gaitmon.io.journal_files import journal_path as journal_path
 
 MAGIC = b"GMJRNL01"
-JOURNAL_SUFFIX = ".journal"
 
 # Who the session is about stays out of the journal: a crash leaves the journal beside the file
 # (possibly for long, on a shared drive), and it is plain bytes. The header record carries these
@@ -105,12 +102,6 @@ _MAX_PAYLOAD = 1 << 30  # a longer length field can only be garbage
 _GATHER_ROWS = 1 << 16  # rows gathered per numpy step (bounds the index array's memory)
 
 
-def journal_path(session_path: str | os.PathLike[str]) -> Path:
-    """``FILE.h5`` -> ``FILE.h5.journal``."""
-    p = Path(session_path)
-    return p.with_name(p.name + JOURNAL_SUFFIX)
-
-
 def without_identity(header: dict[str, Any]) -> dict[str, Any]:
     """The session header as the journal keeps it: the identity fields blank (see
     :data:`IDENTITY_FIELDS`)."""
@@ -133,29 +124,6 @@ def encode_json(rtype: RecordType, obj: Any) -> bytes:
 def encode_block(rtype: RecordType, wall_offset_s: float, rows: np.ndarray) -> bytes:
     """A block record from a structured array of :data:`ROW_DTYPES` ``[rtype]``."""
     return encode_record(rtype, _BLOCK_HEAD.pack(len(rows), wall_offset_s) + rows.tobytes())
-
-
-def _lock(fd: int, *, blocking: bool = False) -> bool:
-    """An exclusive advisory lock on the open file; False if someone else holds one. Where
-    ``fcntl`` is missing (Windows) there is no lock and this says True."""
-    if fcntl is None:
-        return True
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
-    except BlockingIOError:
-        return False
-    return True
-
-
-@contextlib.contextmanager
-def journal_lock(path: str | os.PathLike[str]) -> Iterator[bool]:
-    """Hold the journal's lock while the block runs; yields False if a live recorder (this
-    process or another) holds it. The kernel drops the lock when a recorder dies."""
-    fd = os.open(path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
-    try:
-        yield _lock(fd)
-    finally:
-        os.close(fd)
 
 
 class JournalWriter:

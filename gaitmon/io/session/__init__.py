@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING
 from gaitmon.lazy import keep
 
 if TYPE_CHECKING:
-    from gaitmon.io.journal import journal_path
+    from gaitmon.io.journal_files import journal_path
     from gaitmon.io.session.exclusions import Exclusion
     from gaitmon.io.session.header import SessionError, SessionHeader, SessionMeta, device_info
     from gaitmon.io.session.layout import (
@@ -61,9 +61,9 @@ def __getattr__(name: str) -> object:
     """A name of the package, imported from its module on first use (PEP 562): a plain
     import here, so the layer test sees the arrow; later lookups find it in the package."""
     if name == "journal_path":
-        from gaitmon.io import journal
+        from gaitmon.io import journal_files
 
-        return keep(globals(), name, journal)
+        return keep(globals(), name, journal_files)
     if name == "Exclusion":
         from gaitmon.io.session import exclusions
 

@@ -15,8 +15,7 @@ from typing import Any, TypeAlias, cast
 import h5py
 import numpy as np
 
-from gaitmon.dsp.estimate import method_label
-from gaitmon.io.journal import journal_lock
+from gaitmon.io.journal_files import journal_lock
 from gaitmon.io.session.codec import COMPRESSION, encode
 from gaitmon.io.session.layout import (
     _DEVICE_KEYS,
@@ -87,6 +86,8 @@ class _H5File:
         self._last_event = {"heel_strike": -1, "toe_off": -1}
 
     def _create(self, header: Mapping[str, object], reprocessed: bool) -> None:
+        from gaitmon.dsp.estimate import method_label  # a writer's; readers need no method
+
         # the header is SessionHeader.as_dict()'s form (its nested parts are dicts and lists)
         h = cast("Mapping[str, Any]", header)
         f = self.f

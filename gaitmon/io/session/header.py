@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, TypeAlias, cast
 from gaitmon import __version__
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channels import CHANNELS, DEFAULT_TABLE, ChannelSpec, ChannelTable
-from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.dsp.pipeline_config import PipelineConfig
 from gaitmon.io.session.layout import _DEVICE_KEYS, FORMAT, FORMAT_VERSION, MODES
 
 if TYPE_CHECKING:  # the wire protocol is not needed to read a file

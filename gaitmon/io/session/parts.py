@@ -15,7 +15,7 @@ from pathlib import Path
 import h5py
 
 from gaitmon.errors import DAMAGE_ERRORS
-from gaitmon.io.journal import JOURNAL_SUFFIX, journal_path
+from gaitmon.io.journal_files import JOURNAL_SUFFIX, journal_path
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.trust import check_file
 

@@ -23,7 +23,7 @@ from gaitmon.dsp.calibration import Calibration, zero_source
 from gaitmon.dsp.channels import CHANNELS, GYRO_IDX, ChannelSpec
 from gaitmon.dsp.events import FALLBACK, PRIMARY, get_event_source
 from gaitmon.dsp.fsr_check import FsrFault
-from gaitmon.dsp.pipeline import PipelineConfig
+from gaitmon.dsp.pipeline_config import PipelineConfig
 from gaitmon.io.session.codec import GYRO, JOINT_OF, decode, derived, gyro_from_counts
 from gaitmon.io.session.codec import joints_from_stored_tilts as _joints_of
 from gaitmon.io.session.exclusions import Exclusion
@@ -54,12 +54,12 @@ from gaitmon.io.session.series import (
     _sample_rate,
 )
 from gaitmon.io.session.trust import checked_counts, full_scale_of
-from gaitmon.io.session.truth import Truth, truth_from_file
 from gaitmon.text import clean_label
 from gaitmon.values import scalar
 
 if TYPE_CHECKING:
     from gaitmon.io.overview import PeakPyramid
+    from gaitmon.io.session.truth import Truth
 
 __all__ = ["Gap", "Marker", "SeriesView", "StoredSession"]
 
@@ -477,6 +477,8 @@ class StoredSession:
         """The simulator's ground truth of rows ``start:stop`` (see
         :mod:`gaitmon.io.session.truth`): (true tilts in rad, mounting offsets in rad), or
         (None, None) for a session recorded from a real unit."""
+        from gaitmon.io.session.truth import truth_from_file  # simulated sessions only
+
         try:
             return truth_from_file(self._f, start, stop)
         except (OSError, KeyError, ValueError) as e:

@@ -9,14 +9,16 @@ rows, per-sample dataset shapes).
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, Protocol, TypeAlias, cast
+from typing import TYPE_CHECKING, NamedTuple, Protocol, TypeAlias, cast
 
 import h5py
 import numpy as np
-import numpy.typing as npt
 
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _PER_SAMPLE
+
+if TYPE_CHECKING:  # annotations only: numpy.typing costs ~0.6 ms to import
+    import numpy.typing as npt
 
 # An HDF5 attribute's value as plain Python (strings decoded, numpy scalars as Python ones,
 # arrays as lists).

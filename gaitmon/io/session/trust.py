@@ -178,7 +178,7 @@ def _attribute_bytes(
         if variable:
             if offsets is None:
                 offsets = raw.attribute_data_offsets(addr)
-            n = int(np.prod(aid.shape)) if aid.shape is not None else 0
+            n = math.prod(aid.shape) if aid.shape is not None else 0
             base = 1 if isinstance(tid, h5py.h5t.TypeStringID) else tid.get_super().get_size()
             length = raw.vlen_bytes(offsets.get(key), n, base)
             if length is None:
