@@ -451,7 +451,10 @@ class LinearFilter:
             z = self.state if self._direct is None else self._direct
             self._direct = np.ascontiguousarray(z)
             y = np.empty((n, self.channels))
-            module.lfilter(self.b, self.a, np.ascontiguousarray(x), self._direct, y)
+            xc = np.ascontiguousarray(x)
+            if not xc.flags.writeable:  # (numba compiles read-only arrays apart: not cached)
+                xc = xc.copy()
+            module.lfilter(self.b, self.a, xc, self._direct, y)
             return y
         if self._direct is not None:
             self._block_form(self._direct)
