@@ -19,6 +19,7 @@ def compile_all() -> None:
     """Run each kernel once through its real call site, compiled: numba compiles it for the
     argument types gaitmon calls it with (or loads it from the cache)."""
     from gaitmon.dsp import kernels, smoother
+    from gaitmon.dsp.iir import LinearFilter, butter_lowpass
     from gaitmon.dsp.motion_kalman import GaitAwareKalman
 
     rng = np.random.default_rng(0)
@@ -31,6 +32,7 @@ def compile_all() -> None:
         smoother.smooth_tilts(ax, az, w, 100.0, first_pass=first)  # the constant solve
         smoother.smooth_map(az[:, 0], w[:, 0], np.full(n, 1e-2), np.full(n, 1e-4), 1e-7, 0.01)
         kernels.running_mean(ax.T.copy(), 5)
+        LinearFilter(*butter_lowpass(2, 4.0, 100.0), 4).process(ax)  # (also run by the above)
     smoother.release_factors()
 
 

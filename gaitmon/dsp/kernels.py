@@ -1,7 +1,9 @@
 """Which form of the inner loops runs: numba's compiled one, or the same source interpreted.
 
 The loops (:mod:`gaitmon.dsp.loops`: the gait-aware filter's update, the smoother's banded
-factorisation and substitutions) have one source and two forms: compiled by numba
+factorisation and substitutions; scipy's ``lfilter`` recursion, which
+:class:`gaitmon.dsp.iir.LinearFilter` runs compiled where this rule picks numba and in its numpy
+block form elsewhere, counting no rows) have one source and two forms: compiled by numba
 (:mod:`gaitmon.dsp.kernels_numba`), or run by the interpreter on ``memoryview`` s of the arrays.
 Both give the same numbers (to rounding: tests/test_kernels.py checks 1e-9 on simulated and
 real walks in any chunking). Interpreted, a row of four segments costs ~7 us in the filter and

@@ -308,3 +308,27 @@ def running_mean(x: Array, size: int, cval: float, out: Array) -> None:
             leave = x[r, k] if k >= 0 else cval
             tmp += (enter - leave) / size
             out[r, i] = tmp
+
+
+def lfilter(b: Array, a: Array, x: Array, z: Array, y: Array) -> None:
+    """scipy.signal.lfilter's direct form II transposed along axis 0 of x (N, C) into y (N, C),
+    the C channels side by side, from the state z (p, C) (scipy's ``zi``), left in z (its
+    ``zf``). b, a (p + 1,) with a[0] = 1 (normalised, padded to one length, p >= 1). scipy's
+    operations in its order: y = z_0 + b_0 x, z_i = (z_i+1 + b_i+1 x) - a_i+1 y (z_p = 0), so
+    the numbers are scipy's and any cut of the record into calls gives the same ones.
+
+    Compiled only (gaitmon.dsp.iir's numpy block form serves where numba does not): the
+    interpreted form is the reference the tests read."""
+    n, c = x.shape
+    p = len(b) - 1
+    b0 = b[0]
+    bp = b[p]
+    ap = a[p]
+    for k in range(n):
+        for j in range(c):
+            xk = x[k, j]
+            yk = z[0, j] + b0 * xk
+            for i in range(p - 1):
+                z[i, j] = z[i + 1, j] + b[i + 1] * xk - a[i + 1] * yk
+            z[p - 1, j] = bp * xk - ap * yk
+            y[k, j] = yk

@@ -253,15 +253,15 @@ class GaitAwareKalman:
         self.tunings = tuple(table[s] if s in table else tuning_for(s) for s in self.segments)
         tuns = self.tunings
         dt = self.dt_s
-        # segments that share a live gravity tuning share one gravity reference
-        groups: dict[SegmentTuning, list[int]] = {}
+        # segments whose gravity low-pass has one cut-off share one gravity reference (one
+        # call for them all: its columns do not depend on each other, bit for bit)
+        groups: dict[float, list[int]] = {}
         for j, t in enumerate(tuns):
             if t.live_gravity_hz is not None:
-                groups.setdefault(t, []).append(j)
+                groups.setdefault(t.live_gravity_hz, []).append(j)
         self._gravity = [
-            (GravityReference(t.live_gravity_hz, self.fs_hz, len(cols)), np.array(cols))
-            for t, cols in groups.items()
-            if t.live_gravity_hz is not None
+            (GravityReference(hz, self.fs_hz, len(cols)), np.array(cols))
+            for hz, cols in groups.items()
         ]
         lag = np.zeros(len(tuns))
         for grav, cols in self._gravity:
