@@ -13,10 +13,11 @@ import pytest
 from helpers import HeldClock, wait_for
 from helpers import make_engine as _make_engine
 
-from gaitmon.analysis import FIRST, GAP, SETTLING, analyse_session
+from gaitmon.analysis import FIRST, GAP, SETTLING, analyse_session, stride_exclusion
 from gaitmon.dsp.gait import Phase
 from gaitmon.dsp.pipeline import SETTLE_S, Pipeline, PipelineConfig, settling_ranges
 from gaitmon.engine.buffers import with_gap_rows
+from gaitmon.engine.live_gait import GaitEvents
 from gaitmon.finish import open_session, rewrite_processed
 from gaitmon.io.sim import FaultConfig, GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
@@ -64,8 +65,16 @@ def test_a_long_gap_restarts_the_pipeline_chunk_invariantly_and_flags_the_settli
     settle = np.flatnonzero(whole.settling)
     assert settle[0] == 3000 and len(settle) == round(SETTLE_S * FS)
     assert settling_ranges([3000], FS) == [(3000, 3000 + round(SETTLE_S * FS))]
-    # no stride spans the gap, no event is dated before it was resumed
-    assert not any(s.start_idx < 3000 <= s.end_idx for s in whole.strides)
+    # a stride the engine makes of the events across the gap is excluded by the one stride
+    # rule (the file's and the panel's), and none after it is counted before it settled
+    strides = GaitEvents(FS).strides(whole.heel_strike_idx, whole.toe_off_idx)
+    gaps = np.array([3000])
+    reasons = [stride_exclusion(s, i, None, gaps, settling_ranges(gaps, FS))
+               for i, s in enumerate(strides)]  # fmt: skip
+    spans = [s.start_idx < 3000 <= s.end_idx for s in strides]
+    assert any(spans) and all(r == GAP for r, sp in zip(reasons, spans, strict=True) if sp)
+    assert all(r != "" for r, s in zip(reasons, strides, strict=True)
+               if 3000 <= s.start_idx < 3000 + round(SETTLE_S * FS))  # fmt: skip
     # the gyro integration starts again at the accelerometer's tilt after the gap (one step of
     # integration on)
     step = np.abs(whole.gyro_rad_s[3000]) / FS
@@ -89,7 +98,10 @@ def test_any_chunking_with_many_gaps_gives_the_output_of_one_call(walk):
     for name in ("heel_strike_idx", "toe_off_idx", "restart_idx"):
         np.testing.assert_array_equal(np.concatenate([getattr(b, name) for b in parts]),
                                       getattr(whole, name), err_msg=name)  # fmt: skip
-    assert [s.start_idx for b in parts for s in b.strides] == [s.start_idx for s in whole.strides]
+    # the strides the engine makes of the events (GaitEvents), fed block by block
+    live = GaitEvents(FS)
+    got = [s for b in parts for s in live.strides(b.heel_strike_idx, b.toe_off_idx)]
+    assert got == GaitEvents(FS).strides(whole.heel_strike_idx, whole.toe_off_idx)
 
 
 def test_a_restarted_kalman_keeps_its_bias_and_takes_the_next_angle():
