@@ -50,7 +50,6 @@ import numpy as np
 if TYPE_CHECKING:  # annotations only: numpy.typing costs ~0.6 ms to import
     from numpy.typing import ArrayLike
 
-from gaitmon.dsp import kernels
 
 # samples per block (see the module doc): long enough that the block-to-block step is rare,
 # short enough that the per-position loop stays short
@@ -453,6 +452,8 @@ class LinearFilter:
             if n:
                 self._z = y[-1:].copy()
             return y
+        from gaitmon.dsp import kernels  # lazy: a command that only reads files needs none
+
         module = kernels.compiled_for(n, count=False)
         if module is not None:  # the compiled loop (module doc, "Compiled")
             z = self.state if self._direct is None else self._direct
