@@ -71,6 +71,10 @@ def _published(out: Path) -> set[str]:
     return {p.relative_to(out).as_posix() for p in out.rglob("*.h5")}
 
 
+def _default_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads /proc (Linux)")
 @pytest.mark.parametrize("to", ["batch", "group"])
 def test_a_cancelled_batch_has_stopped_writing_when_it_returns(sessions, tmp_path, to):
@@ -89,7 +93,11 @@ def test_a_cancelled_batch_has_stopped_writing_when_it_returns(sessions, tmp_pat
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     proc = subprocess.Popen([sys.executable, "-m", "gaitmon", "batch", str(study), "-o", str(out),
                              "--jobs", "2", "-q"], env=env, start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            # Ctrl-C as a terminal's foreground command gets it: a test run
+                            # started in the background of a shell without job control
+                            # ignores SIGINT, and its children inherit that
+                            preexec_fn=_default_sigint)  # fmt: skip
     try:
         workers: set[int] = set()
         deadline = time.monotonic() + 120

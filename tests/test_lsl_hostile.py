@@ -265,6 +265,7 @@ writer_module.clean_label = str  # the old code: labels stored as sent
 counts = simulate(600, GaitModel(GaitConfig(seed=3))).counts
 w = SessionWriter({path!r}, SessionHeader("raw", 100.0, config=PipelineConfig(),
                                            calibration=Calibration.identity()))
+w.flush_interval_s = 1e9  # no timed flush: on a busy machine one fell after the marker
 pipe = Pipeline(PipelineConfig())
 for i in range(0, 600, 50):
     seq = np.arange(i, i + 50, dtype=np.int64)
