@@ -237,11 +237,7 @@ def prepare_display(snap: Snapshot, req: DisplayRequest) -> DisplayFrame:
         step_band(x_full, ph == phases[0] if len(phases) == 1 else ph > 0, hi, lo)
         for phases in req.bands
     )
-    lost = s["lost"] > 0
-    x_lost = x_full
-    if stale_s:
-        x_lost = np.append(x_full, [x_full[-1] + 1e-6, 0.0])
-        lost = np.append(lost, [True, True])
+    x_lost, lost = lost_shading(x_full, s["lost"], bool(stale_s))
     settling = s["settling"] > 0
     any_lost, any_settling = bool(lost.any()), bool(settling.any())
     hs = snap.heel_strike_t_s - t_now
@@ -319,3 +315,14 @@ class DisplayFeed:
         with self._lock:
             frame, self._latest = self._latest, None
         return frame
+
+
+def lost_shading(
+    x: np.ndarray, lost_frames: np.ndarray, stale: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """(x, mask) of the lost-data shading: rows that lost frames before them, and while the
+    link is down (``stale``) the time from the last row up to now (x = 0) as lost too."""
+    lost = np.asarray(lost_frames) > 0
+    if not stale or not len(x):
+        return x, lost
+    return np.append(x, [x[-1] + 1e-6, 0.0]), np.append(lost, [True, True])

@@ -31,6 +31,7 @@ from gaitmon.engine.display import (
     MAX_POINTS,
     STALE_S,
     decimate_peak,
+    lost_shading,
     newest_idx,
     step_band,
     vertical_lines,
@@ -233,11 +234,7 @@ class BilateralPlots(CountingPlotWidget):
             else:
                 tr.clear()
         # while a leg's link is down its time runs on, shaded as lost up to now
-        lost = s["lost"] > 0
-        x_lost = x_full
-        if stale:
-            x_lost = np.append(x_full, [x_full[-1] + 1e-6, 0.0])
-            lost = np.append(lost, [True, True])
+        x_lost, lost = lost_shading(x_full, s["lost"], bool(stale))
         settling = s["settling"] > 0
         for name, (lo_full, hi_full) in self.yranges.items():
             lo, hi = _contact_row(side) if name == CONTACT else (lo_full, hi_full)
