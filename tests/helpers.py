@@ -100,3 +100,26 @@ def assert_blocks_equal(parts: list, whole) -> None:  # type: ignore[no-untyped-
     live = GaitEvents(100.0)
     strides = [s for b in parts for s in live.strides(b.heel_strike_idx, b.toe_off_idx)]
     assert strides == GaitEvents(100.0).strides(whole.heel_strike_idx, whole.toe_off_idx)
+
+
+class StalledDisk:
+    """``SessionWriter.append`` waits (as on a stalled disk) until ``go`` is set, once the file
+    holds ``after_rows`` rows (0: from the first block on); ``stalled`` is set when it does."""
+
+    def __init__(self, monkeypatch, after_rows: int = 0) -> None:  # type: ignore[no-untyped-def]
+        import threading
+
+        from gaitmon.io.session import SessionWriter
+
+        self.real = SessionWriter.append
+        self.stalled = threading.Event()
+        self.go = threading.Event()
+        stall = self
+
+        def append(self, *a, **kw):  # type: ignore[no-untyped-def]
+            if not stall.go.is_set() and self.rows >= after_rows:
+                stall.stalled.set()
+                stall.go.wait(30)
+            return stall.real(self, *a, **kw)
+
+        monkeypatch.setattr(SessionWriter, "append", append)

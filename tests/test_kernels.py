@@ -292,3 +292,52 @@ print("loaded", "numba" in sys.modules, kernels.compiled_loaded())
     assert lines[1] == "filling False True"
     assert lines[2] == "filled 0 True"
     assert lines[3] == "loaded True True"
+
+
+def test_a_half_imported_compiled_module_is_not_used(monkeypatch):
+    """While one thread imports numba's kernels (a recording's close), the module is already in
+    ``sys.modules`` without its functions: a live engine in another thread took it from there
+    and failed ("partially initialized module ... has no attribute 'lfilter'")."""
+    import types
+
+    half = types.ModuleType("gaitmon.dsp.kernels_numba")  # (no functions yet)
+    monkeypatch.setitem(sys.modules, "gaitmon.dsp.kernels_numba", half)
+    monkeypatch.setattr(kernels, "_compiled", None, raising=False)
+    monkeypatch.setattr(kernels, "_batch_rows", 0)
+    assert not kernels.compiled_loaded()
+    assert kernels.compiled_for(4000) is None
+    data = _simulated(3000)
+    got = GaitAwareKalman(100.0).process(*data)  # (old code: AttributeError)
+    with kernels.use("python"):
+        assert np.array_equal(got, GaitAwareKalman(100.0).process(*data))
+
+
+def test_a_live_engine_runs_interpreted_after_the_process_loaded_numba():
+    """A recording's close (or any long batch work) may load numba's kernels in a process
+    whose live engine is streaming: the engine's blocks go on interpreted (no switch of form
+    mid-connection, no compile or import on the live path), even big catch-up blocks."""
+    pytest.importorskip("numba")
+    import threading
+
+    from helpers import make_engine, wait_for
+
+    from gaitmon.dsp import kernels_numba
+
+    with kernels.use("compiled"):  # loads numba's kernels in this process
+        GaitAwareKalman(100.0).process(*_simulated(200))
+    assert kernels.compiled_loaded()
+    seen: list[str] = []
+    real = kernels_numba.gait_aware_update
+
+    def recorded(*args):  # type: ignore[no-untyped-def]
+        seen.append(threading.current_thread().name)
+        return real(*args)
+
+    import unittest.mock
+
+    with unittest.mock.patch.object(kernels_numba, "gait_aware_update", recorded):
+        _, eng = make_engine(speed=40.0)
+        with eng:
+            wait_for(lambda: eng.samples_total >= 3000, what="data")
+        assert kernels.compiled_for(5000) is not None  # (other work still takes them)
+    assert seen == []  # (neither the engine nor the unit it reads)

@@ -27,7 +27,13 @@ smoother's solve:
 * other batch work (calls of many rows that did not say their size) counts its rows: past
   :data:`FILL_ROWS` the background fill starts, past :data:`LOAD_ROWS` (counting the filter's
   and the smoother's rows) the compiled loops serve once the cache is ready;
-* once numba's loops are loaded in a process they serve every call;
+* work in a thread that says it is live (:func:`live`: the engine's acquisition thread, and a
+  simulated unit's pipeline when that thread runs it) always runs interpreted, however big its
+  blocks (a simulated unit run faster than real time, or a catch-up after a stall, hands it
+  thousands of rows at once): a live view never switches form mid-connection, and never waits
+  for numba's import or a compile another thread started;
+* once numba's loops are loaded in a process they serve every other call (the module counts
+  as loaded only when its import has finished: another thread may be importing it);
 * without numba (not installed, or failing to import) the interpreted loops serve everything.
 
 :func:`use` forces one form (the tests, the benchmark, and the cache filler, which compiles).
@@ -35,7 +41,7 @@ smoother's solve:
 
 from __future__ import annotations
 
-import sys
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import ModuleType
@@ -59,6 +65,7 @@ __all__ = [
     "constant_map_solve",
     "expect",
     "gait_aware_update",
+    "live",
     "motion_windows",
     "numba_available",
     "numba_cache_dir",
@@ -72,11 +79,24 @@ EXPECT_ROWS = 60_000
 COMPILE_ROWS = 360_000
 FILL_ROWS = 30_000
 LOAD_ROWS = 120_000
-_COMPILED = "gaitmon.dsp.kernels_numba"
-
 _batch_rows = 0  # rows of batch work done in this process
 _forced: str | None = None  # "python" | "compiled" (:func:`use`)
 _unavailable = False  # numba failed to import once: do not try again
+_compiled: ModuleType | None = None  # numba's kernels, once their import has finished
+_load_lock = threading.Lock()
+_thread = threading.local()  # .live: this thread's work is live (:func:`live`)
+
+
+@contextmanager
+def live() -> Iterator[None]:
+    """The calling thread's work within the block is live: the interpreted loops run it,
+    whatever this process has loaded (module doc); :func:`use` still forces a form."""
+    before = getattr(_thread, "live", False)
+    _thread.live = True
+    try:
+        yield
+    finally:
+        _thread.live = before
 
 
 @contextmanager
@@ -99,7 +119,7 @@ def numba_available() -> bool:
 
 def compiled_loaded() -> bool:
     """Whether numba's kernels are imported in this process (they then serve every call)."""
-    return _COMPILED in sys.modules
+    return _compiled is not None
 
 
 def expect(rows: int) -> None:
@@ -118,13 +138,16 @@ def expect(rows: int) -> None:
 
 
 def _load() -> ModuleType | None:
-    global _unavailable
-    try:
-        from gaitmon.dsp import kernels_numba
-    except ImportError:  # numba missing or broken: the interpreted loops serve
-        _unavailable = True
-        return None
-    return kernels_numba
+    global _compiled, _unavailable
+    with _load_lock:  # (one thread imports; the others wait for the whole module)
+        if _compiled is None and not _unavailable:
+            try:
+                from gaitmon.dsp import kernels_numba
+            except ImportError:  # numba missing or broken: the interpreted loops serve
+                _unavailable = True
+                return None
+            _compiled = kernels_numba
+    return _compiled
 
 
 def compiled_for(rows: int, *, count: bool = True) -> ModuleType | None:
@@ -133,14 +156,15 @@ def compiled_for(rows: int, *, count: bool = True) -> ModuleType | None:
     global _batch_rows
     if _forced == "python":
         return None
-    loaded = sys.modules.get(_COMPILED)
-    if loaded is not None:
-        return loaded
     if _forced == "compiled":
         module = _load()
         if module is None:
             raise ImportError("numba's kernels were asked for, and numba cannot be imported")
         return module
+    if getattr(_thread, "live", False):
+        return None
+    if _compiled is not None:
+        return _compiled
     if _unavailable or rows < BATCH_CALL_ROWS:
         return None
     if count:

@@ -34,6 +34,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gaitmon.dsp import kernels
 from gaitmon.dsp.calibration import Calibration, zero_source
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.engine.blocks import BlockHandler
@@ -484,6 +485,10 @@ class Engine:
     # -- the engine thread ------------------------------------------------------------------
 
     def _run(self) -> None:
+        with kernels.live():  # (the interpreted loops, whatever a recording's close loaded)
+            self._acquire()
+
+    def _acquire(self) -> None:
         last_link_push = time.monotonic()
         while not self._stop.is_set():
             try:

@@ -10,6 +10,7 @@ such work finds it ready.
 
 from __future__ import annotations
 
+from gaitmon.dsp import kernels
 from gaitmon.dsp.channels import DEFAULT_TABLE, ChannelTable
 from gaitmon.dsp.kernel_cache import cache_ready, start_fill
 from gaitmon.dsp.pipeline import PipelineConfig, warm_up
@@ -27,5 +28,6 @@ def prepare_filters(config: PipelineConfig, table: ChannelTable = DEFAULT_TABLE)
     """Run a throwaway pipeline of ``config`` (``dsp.pipeline.warm_up``: its tables built,
     interpreted loops, milliseconds) and start filling numba's cache in the background where it
     is not ready (``dsp.kernel_cache.start_fill``): neither waits for a compile."""
-    warm_up(config, table)
+    with kernels.live():  # (the form the live blocks will run)
+        warm_up(config, table)
     start_fill()

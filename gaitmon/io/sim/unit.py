@@ -85,6 +85,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from gaitmon.dsp import kernels
 from gaitmon.dsp.calibration import CalibrationError, standing_calibration
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX
 from gaitmon.dsp.pipeline import Pipeline, PipelineBlock, PipelineConfig
@@ -405,7 +406,8 @@ class SimulatedUnit:
             n -= m
             start = self.sensors.position
             block = self.sensors.next_block(m)
-            pb = self.pipeline.process(block.counts)
+            with kernels.live():  # (the unit's own computing: live, whatever the thread)
+                pb = self.pipeline.process(block.counts)
             if self._zero_left:
                 self._collect_zero(block)
             if not (self._streaming or self._pending_requests):
