@@ -29,12 +29,14 @@ def derive_on_close(f: h5py.File, header: SessionHeader, fs_hz: float) -> None:
     to be computed when read (logged)."""
     from gaitmon.finish.smoothed import smooth_into
     from gaitmon.finish.strides import store_strides
+    from gaitmon.io.session.attributes import described_once
 
-    try:
-        smooth_into(f, header.table, header.calibration, fs_hz)
-    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:
-        log.warning("smoothed angles not stored in %s: %s", Path(f.filename).name, e)
-    store_strides(f, header.table, header.calibration, fs_hz)
+    with described_once(f):
+        try:
+            smooth_into(f, header.table, header.calibration, fs_hz)
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:
+            log.warning("smoothed angles not stored in %s: %s", Path(f.filename).name, e)
+        store_strides(f, header.table, header.calibration, fs_hz)
 
 
 def close_recording(writer: SessionWriter, *, stop_reason: str = "user") -> None:

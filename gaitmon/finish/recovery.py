@@ -477,13 +477,15 @@ def _build_recovered(
             del lost_at
             h5.drain()
             ds = h5.f["raw/adc"]
-            store_smoothed(h5.f, lambda a, b: ds[a:b], n, header.table, header.calibration,
-                           cal_changes, lost, fs,
-                           None if kept is None else kept.first_pass)  # fmt: skip
             from gaitmon.finish.strides import store_strides
+            from gaitmon.io.session.attributes import described_once
 
-            h5.drain()  # the chunk being filled: the stride measures read every row
-            store_strides(h5.f, header.table, header.calibration, fs)
+            with described_once(h5.f):
+                store_smoothed(h5.f, lambda a, b: ds[a:b], n, header.table,
+                               header.calibration, cal_changes, lost, fs,
+                               None if kept is None else kept.first_pass)  # fmt: skip
+                h5.drain()  # the chunk being filled: the stride measures read every row
+                store_strides(h5.f, header.table, header.calibration, fs)
         if imported_from:
             h5.f.attrs["imported_from"] = imported_from
             h5.finish(complete=True, recovered=False, stop_reason=f"imported from {imported_from}",

@@ -28,7 +28,7 @@ from gaitmon.finish.recovery import RECOVERY_REPLAY_ROWS, flags_kept, replay_pip
 from gaitmon.finish.session import Session, open_session
 from gaitmon.finish.smoothed import KeptFirstPass, store_smoothed
 from gaitmon.finish.strides import store_strides
-from gaitmon.io.session.attributes import describe
+from gaitmon.io.session.attributes import described_once
 from gaitmon.io.session.codec import encode
 from gaitmon.io.session.h5file import _short_error
 from gaitmon.io.session.header import SessionError
@@ -212,6 +212,20 @@ def rewrite_unit(
 ) -> None:
     """Reprocess the one unit whose layout is rooted at ``f`` (a one-unit file, or a bilateral
     file's ``/units/<side>``) in place with ``config``."""
+    # the events are made anew, and a file from before the attributes gets them too: described
+    # once at the end (each step alone describes what it wrote)
+    with described_once(f):
+        _rewrite_unit(f, unit, config, report, check_cancel)
+    report(1.0)
+
+
+def _rewrite_unit(
+    f: h5py.Group,
+    unit: UnitInputs,
+    config: PipelineConfig,
+    report: Progress,
+    check_cancel: Callable[[], None],
+) -> None:
     n, calibration, calibration_log = unit.n, unit.calibration, unit.calibration_log
     table, lost = unit.table, unit.lost
     v2 = int(f.attrs.get("format_version", 1)) >= 2
@@ -278,5 +292,3 @@ def rewrite_unit(
     cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
     write_overview(f)  # the joint angles changed: so did their overview
     store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
-    describe(f)  # the events were made anew; a file from before the attributes gets them too
-    report(1.0)

@@ -29,7 +29,9 @@ time: it sets the attributes of whatever the unit's layout holds.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 
 import h5py
@@ -206,10 +208,30 @@ def describe_dataset(ds: h5py.Dataset, path: str, version: int, columns: tuple[s
         _set(ds, "field_units", spec.field_units)
 
 
+_held: ContextVar[bool] = ContextVar("gaitmon_describe_held", default=False)
+
+
+@contextmanager
+def described_once(root: h5py.Group) -> Iterator[None]:
+    """Within the block, :func:`describe` holds off; at its end (not after an error) it
+    describes ``root`` once. A command that adds datasets in steps, each of which describes
+    what it wrote when run alone (the smoothed series, the strides, the overview), pays for one
+    pass over the file's attributes (~15 ms on any file) instead of one a step."""
+    token = _held.set(True)
+    try:
+        yield
+    finally:
+        _held.reset(token)
+    describe(root)
+
+
 def describe(root: h5py.Group) -> None:
     """Set the attributes of every dataset of the unit whose layout is rooted at ``root`` (a
     one-unit file, or a two-leg file's ``/units/<side>``), and of the groups that derive
-    series on read. A two-leg file's root also gets ``/sync``'s and each unit's."""
+    series on read. A two-leg file's root also gets ``/sync``'s and each unit's. Held within
+    :func:`described_once`."""
+    if _held.get():
+        return
     if "units" in root and isinstance(root["units"], h5py.Group):
         for unit in root["units"].values():
             if isinstance(unit, h5py.Group):
