@@ -139,3 +139,42 @@ def test_the_live_window_still_gets_its_simulator_options(argv):
 
     args = build_parser(None, argv).parse_args([a for a in argv if a != "--version"])
     assert hasattr(args, "cadence") and hasattr(args, "pattern")
+
+
+_THREADS = """\
+import os, sys
+{first}
+import numpy
+print(len(os.listdir("/proc/self/task")))
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="threads counted in /proc")
+@pytest.mark.parametrize("users", [None, "2"])
+def test_a_command_starts_one_blas_thread_unless_the_user_chose(users):
+    """Issue 28: OpenBLAS started a thread per core at numpy's import (~35 ms of CPU on two
+    cores, then spinning beside the live view); gaitmon's commands need one. A user's own
+    OPENBLAS_NUM_THREADS is kept, and the benchmark's references run in the user's."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if users is not None:
+        env["OPENBLAS_NUM_THREADS"] = users
+
+    def threads(first: str) -> int:
+        code = _THREADS.format(first=first)
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             env=env, check=True)  # fmt: skip
+        return int(out.stdout.split()[-1])
+
+    plain = threads("")
+    mine = threads("from gaitmon.cli import user_environ\n"
+                   "assert 'numpy' not in sys.modules\n"
+                   "assert ('OPENBLAS_NUM_THREADS' in user_environ()) == "
+                   f"{users is not None}")  # fmt: skip
+    if users is None:
+        assert mine == 1
+        if (os.cpu_count() or 1) > 1:
+            assert plain > 1  # (what the test would see without the setting)
+    else:
+        assert mine == plain == min(int(users), os.cpu_count() or 1)

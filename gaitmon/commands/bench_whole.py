@@ -38,12 +38,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from gaitmon.cli import user_environ
 from gaitmon.commands.bench_offline import LENGTHS_H, _cache_dir, load_average
 
 DEFAULT_LENGTHS = "1min,1h,8h"
 PY = sys.executable
 # the children compile gaitmon's byte code once and keep it, as after ``pip install``
-ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+# (as the user started gaitmon: the references run in it, and gaitmon's children set their own)
+ENV = {k: v for k, v in user_environ().items() if k != "PYTHONDONTWRITEBYTECODE"}
 VQF_SCRIPT = Path(__file__).with_name("bench_vqf.py")
 BENCH_GUI = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_gui.py"
 
