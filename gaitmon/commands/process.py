@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -91,7 +92,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from gaitmon.commands.info import progress_printer
     from gaitmon.finish import open_session
-    from gaitmon.finish.reprocess import recorded_config, rewrite_processed
+    from gaitmon.finish.reprocess import check_raw, rewrite_processed
     from gaitmon.io.session import SessionError
     from gaitmon.io.session.parts import is_bilateral
 
@@ -126,19 +127,22 @@ def run(args: argparse.Namespace) -> int:
                 ) as after:
                     label = f"{dst.name} ({side})"
                     done.append(_done(side + ": ", result.n_frames, after, result.config))
-                    warnings += _warnings(before, after, label, settings_text)
+                    warnings += _warnings(_Contacts.of(before), _Contacts.of(after), label,
+                                          settings_text)  # fmt: skip
         else:
-            recorded = recorded_config(
-                src, progress=None if quiet else progress_printer("recovering")
-            )
+            # (an interrupted recording is recovered first; the settings it was recorded with)
+            with open_session(src, progress=None if quiet else progress_printer("recovering")
+                              ) as s:  # fmt: skip
+                check_raw(s)
+                recorded, contacts = s.config, _Contacts.of(s)
             config = settings.apply(recorded)
             result = rewrite_processed(
                 src, dst, config, progress=None if quiet else progress_printer("reprocessing"),
                 overwrite=args.force,
             )
-            with open_session(src, recover=False) as before, open_session(dst) as after:
+            with open_session(dst) as after:
                 done.append(_done("", result.n_frames, after, config))
-                warnings += _warnings(before, after, dst.name, settings_text)
+                warnings += _warnings(contacts, _Contacts.of(after), dst.name, settings_text)
     except SessionError as exc:
         raise UserError(str(exc)) from None
     if not quiet:
@@ -156,11 +160,25 @@ def _done(label: str, n_frames: int, after: Session, config: PipelineConfig) -> 
             f"{after.angle_method} (live: {config.tilt_method_label})")  # fmt: skip
 
 
-def _warnings(before: Session, after: Session, name: str, settings_text: str) -> list[str]:
+@dataclass(frozen=True)
+class _Contacts:
+    """What :func:`_warnings` compares of a session before and after: its heel strikes, and
+    which force sensors switch between loaded and unloaded as a walking foot's do."""
+
+    heel_strikes: int
+    switching: frozenset[str]
+
+    @classmethod
+    def of(cls, session: Session) -> _Contacts:
+        return cls(len(session.heel_strike_idx),
+                   frozenset(s for s in ("heel", "toe") if _switches(session, s)))  # fmt: skip
+
+
+def _warnings(before: _Contacts, after: _Contacts, name: str, settings_text: str) -> list[str]:
     """Settings that run but leave the events to the foot gyro, or find no strides."""
-    n_before, n_after = len(before.heel_strike_idx), len(after.heel_strike_idx)
-    stuck = [sensor for sensor in ("heel", "toe") if _switches(before, sensor)
-             and not _switches(after, sensor)]  # fmt: skip
+    n_before, n_after = before.heel_strikes, after.heel_strikes
+    stuck = [sensor for sensor in ("heel", "toe") if sensor in before.switching
+             and sensor not in after.switching]  # fmt: skip
     if stuck:  # the FSR check then takes the events from the foot gyro
         return [
             f"with {settings_text} the {' and '.join(stuck)} "

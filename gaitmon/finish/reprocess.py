@@ -62,25 +62,14 @@ def partial_path(dst: str | os.PathLike[str]) -> Path:
     return p.with_name(p.name + ".partial")
 
 
-def _check_raw(s: Session) -> None:
+def check_raw(s: Session) -> None:
+    """:class:`SessionError` unless the open session holds raw counts (what a reprocessing
+    replays)."""
     if s.mode != "raw":
         raise SessionError(
             f"{s.path.name} holds the unit's own {s.mode} angles, not raw counts; only "
             "raw-mode sessions can be reprocessed"
         )
-
-
-def recorded_config(
-    src: str | os.PathLike[str], *, progress: Callable[[float], bool | None] | None = None
-) -> PipelineConfig:
-    """The settings a raw session was recorded with: what a reprocessing starts from.
-
-    Opens (recovering an interrupted recording first, reporting ``progress``); raises
-    :class:`SessionError` for a bad file or a session that holds no raw counts.
-    """
-    with open_session(src, progress=progress) as s:
-        _check_raw(s)
-        return s.config
 
 
 def rewrite_processed(
@@ -184,7 +173,7 @@ class UnitInputs:
 
     @classmethod
     def of(cls, s: Session) -> UnitInputs:
-        _check_raw(s)
+        check_raw(s)
         n = s.n_samples
         return cls(n, s.calibration, list(s.calibration_changes), s.header.table,
                    LostRows(losses_from_gaps(s.gaps, n), n), s.config, tuple(s.fsr_faults),
