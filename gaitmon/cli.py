@@ -19,20 +19,6 @@ from gaitmon.errors import UserError
 
 log = logging.getLogger("gaitmon.cli")
 
-# One BLAS thread, unless the user set their own: gaitmon's arithmetic is its own loops and small
-# matrices, never a BLAS call large enough to share out, and OpenBLAS starts a thread per core
-# at numpy's import (~35 ms of CPU on 2 cores) that then spins beside the live view and the
-# recorder. Set before numpy is imported (nothing above imports it: tests/test_command_imports).
-USER_SET_BLAS_THREADS = "OPENBLAS_NUM_THREADS" in os.environ
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
-
-def user_environ() -> dict[str, str]:
-    """The environment as the user started gaitmon (a benchmark's references run in it)."""
-    env = dict(os.environ)
-    if not USER_SET_BLAS_THREADS:
-        env.pop("OPENBLAS_NUM_THREADS", None)
-    return env
 
 # name -> help. Each module (loaded by _load) defines add_arguments(parser) and run(args) -> int.
 SUBCOMMANDS: dict[str, str] = {

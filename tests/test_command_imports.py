@@ -168,7 +168,8 @@ def test_a_command_starts_one_blas_thread_unless_the_user_chose(users):
         return int(out.stdout.split()[-1])
 
     plain = threads("")
-    mine = threads("from gaitmon.cli import user_environ\n"
+    mine = threads("from gaitmon.cli import main\n"
+                   "from gaitmon.commands import user_environ\n"
                    "assert 'numpy' not in sys.modules\n"
                    "assert ('OPENBLAS_NUM_THREADS' in user_environ()) == "
                    f"{users is not None}")  # fmt: skip

@@ -33,6 +33,23 @@ def add_quiet(p: argparse.ArgumentParser, what: str = "no progress or summary li
     p.add_argument("-q", "--quiet", action="store_true", help=what)
 
 
+# One BLAS thread, unless the user set their own: gaitmon's arithmetic is its own loops and small
+# matrices, never a BLAS call large enough to share out, and OpenBLAS starts a thread per core
+# at numpy's import (~35 ms of CPU on 2 cores) that then spins beside the live view and the
+# recorder. Set before numpy is imported (the command line imports this package first:
+# tests/test_command_imports).
+USER_SET_BLAS_THREADS = "OPENBLAS_NUM_THREADS" in os.environ
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
+def user_environ() -> dict[str, str]:
+    """The environment as the user started gaitmon (a benchmark's references run in it)."""
+    env = dict(os.environ)
+    if not USER_SET_BLAS_THREADS:
+        env.pop("OPENBLAS_NUM_THREADS", None)
+    return env
+
+
 DEBUG_ENV = "GAITMON_DEBUG"  # set to 1: the last resort re-raises, so tests see the real error
 
 

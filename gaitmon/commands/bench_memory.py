@@ -271,7 +271,7 @@ def child(task: str, name: str, outdir: str) -> None:
 
 
 def _run(task: str, name: str, outdir: Path) -> dict[str, float]:
-    from gaitmon.cli import user_environ  # (the references run as the user would run them)
+    from gaitmon.commands import user_environ  # (the references run as the user would run them)
 
     env = dict(user_environ(), QT_QPA_PLATFORM=os.environ.get("QT_QPA_PLATFORM", "offscreen"))
     r = subprocess.run([sys.executable, "-m", "gaitmon.commands.bench_memory", task, name,

@@ -38,7 +38,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from gaitmon.cli import user_environ
+from gaitmon.commands import user_environ
 from gaitmon.commands.bench_offline import LENGTHS_H, _cache_dir, load_average
 
 DEFAULT_LENGTHS = "1min,1h,8h"
