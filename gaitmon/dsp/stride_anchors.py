@@ -52,10 +52,11 @@ def _moving_max(x: np.ndarray, half: int) -> np.ndarray:
     return out
 
 
-def _batches(widths: np.ndarray, cells: int = BATCH_CELLS) -> list[np.ndarray]:
+def _batches(widths: np.ndarray) -> list[np.ndarray]:
     """Indices into ``widths`` in groups of about equal widths (sorted), each group's count
-    times its largest width at most ``cells`` (a group of one where a single width is more):
+    times its largest width at most BATCH_CELLS (a group of one where a single width is more):
     the rows of one padded 2-D array, so that memory stays bounded on any record."""
+    cells = BATCH_CELLS
     order = np.argsort(widths, kind="stable")
     w = np.asarray(widths, dtype=np.int64)[order]
     out = []
