@@ -15,7 +15,7 @@ from gaitmon.dsp.stride_anchors import (
     STILL_ACC_MS2,
     STILL_GYRO_RAD_S,
     STILL_HALF_WIDTH,
-    _FootFlat,
+    _FootFlats,
     _moving_max,
     _rate_at,
 )
@@ -25,7 +25,7 @@ from gaitmon.dsp.stride_flags import (
     FLAG_OUT_OF_PLANE,
     StrideMeasures,
 )
-from gaitmon.dsp.stride_integrate import _stride
+from gaitmon.dsp.stride_integrate import _strides
 
 STANDING_S = 0.3  # a first step's standing: still at least this long
 STANDING_SEARCH_S = 1.5  # ... and ending within this before the step's heel strike
@@ -33,9 +33,10 @@ STANDING_SEARCH_S = 1.5  # ... and ending within this before the step's heel str
 
 def _standing(
     ax: np.ndarray, az: np.ndarray, gy: np.ndarray, start: int, stop: int, fs_hz: float
-) -> _FootFlat | None:
+) -> tuple[int, float, float, float, float] | None:
     """The end of the last standing (still for STANDING_S) in samples [start, stop): the anchor
-    of a first step (module doc, step 7)."""
+    of a first step (module doc, step 7), as (anchor, acc x, acc z, gyro bias, roll) of its
+    foot-flat."""
     start, stop = max(start, 0), min(stop, len(gy))
     if stop - start < MIN_STILL_SAMPLES:
         return None
@@ -51,55 +52,50 @@ def _standing(
         return None
     b = int(runs_b[long_runs[-1]])
     a = b - n_min
-    mx, mz = float(np.mean(x[a:b])), float(np.mean(z[a:b]))
-    return _FootFlat(
-        anchor=start + b - 1,
-        acc_x_ms2=mx,
-        acc_z_ms2=mz,
-        gyro_bias_rad_s=float(np.mean(w[a:b])),
-        roll_rad_s=_rate_at(w, b - 1),
-    )
+    return (start + b - 1, float(np.mean(x[a:b])), float(np.mean(z[a:b])),
+            float(np.mean(w[a:b])), _rate_at(w, b - 1))
 
 
 
 def _with_first_steps(
     ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, hs: np.ndarray,
-    spans: np.ndarray, flats: list[_FootFlat | None], m: StrideMeasures,
+    spans: np.ndarray, flats: _FootFlats, m: StrideMeasures,
 ) -> StrideMeasures:  # fmt: skip
     """``m`` with the first step from standing before each heel strike opening a walk."""
-    rows: list[tuple[int, float, float, float, int, int, int]] = []
     gap = MAX_STRIDE_S * fs_hz
     opens = [j for j in range(len(hs))
-             if (j == 0 or hs[j] - hs[j - 1] > gap) and flats[j] is not None]  # fmt: skip
-    at = []
+             if (j == 0 or hs[j] - hs[j - 1] > gap) and flats.found[j]]  # fmt: skip
+    at, standing = [], []
     for j in opens:
-        f1 = flats[j]
-        assert f1 is not None
         lo = int(hs[j] - STANDING_SEARCH_S * fs_hz)
         if j > 0:
             lo = max(lo, int(hs[j - 1] + spans[j - 1]))
         f0 = _standing(ax, az, gy, lo, int(hs[j]), fs_hz)
-        if f0 is None or not 0 < f1.anchor - f0.anchor <= MAX_STRIDE_S * fs_hz:
+        if f0 is None or not 0 < flats.anchor[j] - f0[0] <= MAX_STRIDE_S * fs_hz:
             continue
-        length, clearance, out_of_plane = _stride(ax, az, gy, fs_hz, f0, f1)
-        fl = FLAG_FIRST_STEP | (FLAG_OUT_OF_PLANE if out_of_plane else 0) | (
-            FLAG_NEAR_STILL if f1.near_still else 0)  # fmt: skip
-        rows.append((f0.anchor, length, clearance, float(hs[j] - f0.anchor) / fs_hz,
-                     f0.anchor, f1.anchor, fl))  # fmt: skip
         at.append(j)
-    if not rows:
+        standing.append(f0)
+    if not at:
         return m
     pos = np.asarray(at, dtype=np.int64)
-    r = list(zip(*rows, strict=True))
+    s = list(zip(*standing, strict=True))
+    n = len(pos)
+    f0s = _FootFlats(np.ones(n, bool), np.asarray(s[0], dtype=np.int64), np.asarray(s[1]),
+                     np.asarray(s[2]), np.asarray(s[3]), np.asarray(s[4]),
+                     np.zeros(n, bool))  # fmt: skip
+    f1s = flats.take(pos)
+    length, clearance, out_of_plane = _strides(ax, az, gy, fs_hz, f0s, f1s)
+    fl = FLAG_FIRST_STEP | np.where(out_of_plane, FLAG_OUT_OF_PLANE, 0) | np.where(
+        f1s.near_still, FLAG_NEAR_STILL, 0)  # fmt: skip
 
     def ins(old: np.ndarray, new: np.ndarray) -> np.ndarray:
         return np.insert(old, pos, new, axis=0)
 
     return StrideMeasures(
-        heel_strike_idx=ins(m.heel_strike_idx, np.asarray(r[0], dtype=np.int64)),
-        stride_length_m=ins(m.stride_length_m, np.asarray(r[1])),
-        foot_clearance_m=ins(m.foot_clearance_m, np.asarray(r[2])),
-        stride_time_s=ins(m.stride_time_s, np.asarray(r[3])),
-        foot_flat_idx=ins(m.foot_flat_idx, np.stack([r[4], r[5]], axis=1).astype(np.int64)),
-        flag=ins(m.flags, np.asarray(r[6], dtype=np.int64)),
+        heel_strike_idx=ins(m.heel_strike_idx, f0s.anchor),
+        stride_length_m=ins(m.stride_length_m, length),
+        foot_clearance_m=ins(m.foot_clearance_m, clearance),
+        stride_time_s=ins(m.stride_time_s, (hs[pos] - f0s.anchor).astype(np.float64) / fs_hz),
+        foot_flat_idx=ins(m.foot_flat_idx, np.stack([f0s.anchor, f1s.anchor], axis=1)),
+        flag=ins(m.flags, fl.astype(np.int64)),
     )

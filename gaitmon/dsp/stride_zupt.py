@@ -10,7 +10,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from gaitmon.dsp.stride_anchors import MAX_STRIDE_S, _foot_flat, search_spans
+from gaitmon.dsp.stride_anchors import MAX_STRIDE_S, _foot_flats, search_spans
 from gaitmon.dsp.stride_first_steps import _with_first_steps
 from gaitmon.dsp.stride_flags import (
     FLAG_NEAR_STILL,
@@ -19,7 +19,7 @@ from gaitmon.dsp.stride_flags import (
     FLAG_PAUSE,
     StrideMeasures,
 )
-from gaitmon.dsp.stride_integrate import _stride
+from gaitmon.dsp.stride_integrate import _strides
 
 
 def _check(acc_x: np.ndarray, acc_z: np.ndarray, gyro: np.ndarray, fs_hz: float) -> None:
@@ -129,30 +129,22 @@ def stride_measures(
         raise ValueError("heel strikes must be a 1-D increasing array of sample indices")
     n_strides = max(len(hs) - 1, 0)
     spans = search_spans(hs)
-    flats = [
-        _foot_flat(ax, az, gy, int(h), int(h + sp)) if 0 <= h < len(gy) else None
-        for h, sp in zip(hs, spans, strict=True)
-    ]
+    # every heel strike's foot-flat, then every stride between two of them, a batch at a time
+    flats = _foot_flats(ax, az, gy, hs, spans)
+    f0, f1 = flats.take(np.arange(n_strides)), flats.take(np.arange(1, n_strides + 1))
+    anchors = np.stack([f0.anchor, f1.anchor], axis=1).reshape(n_strides, 2)
+    found = f0.found & f1.found
+    # (the same foot-flat for both heel strikes: no stride between them)
+    gap = f1.anchor - f0.anchor
+    pause = found & ~((gap > 0) & (gap <= MAX_STRIDE_S * fs_hz))
+    ok = np.flatnonzero(found & ~pause)
     length = np.full(n_strides, np.nan)
     clearance = np.full(n_strides, np.nan)
-    anchors = np.full((n_strides, 2), -1, dtype=np.int64)
-    flag = np.zeros(n_strides, dtype=np.int64)
-    for j in range(n_strides):
-        f0, f1 = flats[j], flats[j + 1]
-        if f0 is not None:
-            anchors[j, 0] = f0.anchor
-        if f1 is not None:
-            anchors[j, 1] = f1.anchor
-        if f0 is None or f1 is None:
-            flag[j] = FLAG_NO_FOOT_FLAT
-            continue
-        if not 0 < f1.anchor - f0.anchor <= MAX_STRIDE_S * fs_hz:
-            # (the same foot-flat for both heel strikes: no stride between them)
-            flag[j] = FLAG_PAUSE
-            continue
-        length[j], clearance[j], out_of_plane = _stride(ax, az, gy, fs_hz, f0, f1)
-        flag[j] = (FLAG_OUT_OF_PLANE if out_of_plane else 0) | (
-            FLAG_NEAR_STILL if f0.near_still or f1.near_still else 0)  # fmt: skip
+    flag = np.where(found, np.where(pause, FLAG_PAUSE, 0), FLAG_NO_FOOT_FLAT).astype(np.int64)
+    length[ok], clearance[ok], out_of_plane = _strides(ax, az, gy, fs_hz, f0.take(ok),
+                                                       f1.take(ok))  # fmt: skip
+    flag[ok] = np.where(out_of_plane, FLAG_OUT_OF_PLANE, 0) | np.where(
+        f0.near_still[ok] | f1.near_still[ok], FLAG_NEAR_STILL, 0)  # fmt: skip
     m = StrideMeasures(
         heel_strike_idx=hs[:n_strides],
         stride_length_m=length,
