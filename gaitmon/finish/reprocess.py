@@ -35,7 +35,7 @@ from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.rows import LazyRows, LostRows, losses_from_gaps
 from gaitmon.io.session.stored_overview import write_overview
-from gaitmon.io.session.trust import CheckedCounts, full_scale_of
+from gaitmon.io.session.trust import CheckedCounts, full_scale_of, written_here
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
 COPY_SHARE = 0.25
@@ -103,6 +103,7 @@ def rewrite_processed(
                          check_cancel)  # fmt: skip
         check_cancel()
         os.replace(tmp, dst)
+    written_here(dst)  # (read back next: the summary)
     report(1.0)
     return RewriteResult(dst, unit.n, config)
 

@@ -37,6 +37,7 @@ from gaitmon.finish.reprocess import (
 from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.parts import SIDE_NAMES
+from gaitmon.io.session.trust import written_here
 
 Configure = Callable[[PipelineConfig], PipelineConfig]  # a unit's recorded settings -> new
 
@@ -89,6 +90,7 @@ def rewrite_bilateral(
             describe(f)  # /sync too (a file from before the attributes gets them)
         check_cancel()
         os.replace(tmp, dst)
+    written_here(dst)  # (read back next: the summary)
     report(1.0)
     return {s: RewriteResult(dst, u.n, configs[s]) for s, u in units.items()}
 
