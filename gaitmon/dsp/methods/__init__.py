@@ -6,31 +6,17 @@ dataclass fields, ``name``, ``label``, a causal pipeline stage, optionally an of
 (``PipelineConfig.tilt_method``), ``estimate_tilt``, ``gaitmon process --method``, the live
 menu, the review's reprocess dialog and Filters view, the report, ``gaitmon lab accuracy``.
 
-A new method: a file beside these with a :class:`TiltMethod` subclass, and one line below.
-A method's file imports its filter where it builds it (``causal_stage``, ``lab_filter``...),
-so that listing the methods (reading a file's settings, ``gaitmon info``, ``process --help``)
-loads no filter.
+A new method: a file beside these with a :class:`TiltMethod` subclass, and its builder below.
+The built-in methods are registered by name, each module imported when its method is first
+asked for (``get_method``), and a method's file imports its filter where it builds it
+(``causal_stage``, ``lab_filter``...): reading a file's settings (``gaitmon info``) loads the
+one method it names and no filter; listing the methods (``methods()``, menus) builds them all.
 """
 
 from __future__ import annotations
 
-from gaitmon.dsp.methods.accelerometer import Accelerometer
-from gaitmon.dsp.methods.base import (
-    NoOfflinePass,
-    NoStage,
-    ParamSpec,
-    TiltFilter,
-    TiltInput,
-    TiltMethod,
-    TiltSettings,
-    TiltStage,
-)
-from gaitmon.dsp.methods.complementary import Complementary
-from gaitmon.dsp.methods.complementary_adaptive import ComplementaryAdaptive
-from gaitmon.dsp.methods.constant_rate import ConstantRate
-from gaitmon.dsp.methods.gait_aware import GaitAware
-from gaitmon.dsp.methods.gyro import Gyro
-from gaitmon.dsp.methods.paper import PaperKalman
+from typing import TYPE_CHECKING
+
 from gaitmon.dsp.methods.registry import (
     DEFAULT_METHOD,
     REGISTRY,
@@ -41,21 +27,92 @@ from gaitmon.dsp.methods.registry import (
     method_label,
     methods,
     register,
+    register_lazy,
     smoothing_method,
     unregister,
 )
+from gaitmon.lazy import keep
 
-# the built-in methods, in the lab's order (the app lists its own with the default first)
-for _method in (
-    Accelerometer(),
-    Gyro(),
-    Complementary(),
-    ComplementaryAdaptive(),
-    PaperKalman(),
-    ConstantRate(),
-    GaitAware(),
+if TYPE_CHECKING:
+    from gaitmon.dsp.methods.base import (
+        NoOfflinePass,
+        NoStage,
+        ParamSpec,
+        TiltFilter,
+        TiltInput,
+        TiltMethod,
+        TiltSettings,
+        TiltStage,
+    )
+
+
+def _accelerometer() -> TiltMethod:
+    from gaitmon.dsp.methods.accelerometer import Accelerometer
+
+    return Accelerometer()
+
+
+def _gyro() -> TiltMethod:
+    from gaitmon.dsp.methods.gyro import Gyro
+
+    return Gyro()
+
+
+def _complementary() -> TiltMethod:
+    from gaitmon.dsp.methods.complementary import Complementary
+
+    return Complementary()
+
+
+def _complementary_adaptive() -> TiltMethod:
+    from gaitmon.dsp.methods.complementary_adaptive import ComplementaryAdaptive
+
+    return ComplementaryAdaptive()
+
+
+def _paper() -> TiltMethod:
+    from gaitmon.dsp.methods.paper import PaperKalman
+
+    return PaperKalman()
+
+
+def _constant_rate() -> TiltMethod:
+    from gaitmon.dsp.methods.constant_rate import ConstantRate
+
+    return ConstantRate()
+
+
+def _gait_aware() -> TiltMethod:
+    from gaitmon.dsp.methods.gait_aware import GaitAware
+
+    return GaitAware()
+
+
+# the built-in methods, in the lab's order (the app lists its own with the default first):
+# name, builder, offered by the app (the class's ``live``, checked when it is built)
+for _name, _build, _live in (
+    ("accelerometer", _accelerometer, False),
+    ("gyro", _gyro, False),
+    ("complementary", _complementary, False),
+    ("complementary-adaptive", _complementary_adaptive, False),
+    ("paper", _paper, True),
+    ("constant-rate", _constant_rate, False),
+    ("gait-aware", _gait_aware, True),
 ):
-    register(_method)
+    register_lazy(_name, _build, _live)
+
+
+def __getattr__(name: str) -> object:
+    """The base's names (:mod:`gaitmon.dsp.methods.base`), imported on first use (PEP 562)."""
+    if name in _BASE_NAMES:
+        from gaitmon.dsp.methods import base
+
+        return keep(globals(), name, base)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+_BASE_NAMES = ("NoOfflinePass", "NoStage", "ParamSpec", "TiltFilter", "TiltInput",
+               "TiltMethod", "TiltSettings", "TiltStage")  # fmt: skip
 
 __all__ = [
     "DEFAULT_METHOD",
@@ -75,6 +132,7 @@ __all__ = [
     "method_label",
     "methods",
     "register",
+    "register_lazy",
     "smoothing_method",
     "unregister",
 ]

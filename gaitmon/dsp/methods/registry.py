@@ -1,16 +1,25 @@
 """The one list of tilt methods: every menu, CLI choice, report and lab table reads it.
 
 ``register(method)`` adds a method (gaitmon.dsp.methods registers the built-in ones, in
-order), ``get_method(name)`` finds one, ``methods(live=True)`` lists those the app offers (the
+order, by name: :func:`register_lazy`, each built when first asked for), ``get_method(name)``
+finds one (building it alone), ``methods(live=True)`` lists those the app offers (the
 default first, then in registration order) and ``methods(live=False)`` the lab-only ones.
 """
 
 from __future__ import annotations
 
-from gaitmon.dsp.methods.base import TiltMethod
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 from gaitmon.dsp.registry import Registry
 
+if TYPE_CHECKING:  # a method's module imports it when it is built
+    from gaitmon.dsp.methods.base import TiltMethod
+
 REGISTRY: Registry[TiltMethod] = Registry("tilt method")
+# whether the app offers each method registered by name and not built yet (its class's ``live``,
+# checked when it is built): the app's names are listed without building any method
+_LIVE: dict[str, bool] = {}
 # the app's default tilt method (PipelineConfig, new recordings); its offline pass computes the
 # files' smoothed angles (/smoothed)
 DEFAULT_METHOD = "gait-aware"
@@ -21,9 +30,25 @@ def register(method: TiltMethod) -> TiltMethod:
     return REGISTRY.add(method)
 
 
+def register_lazy(name: str, build: Callable[[], TiltMethod], live: bool) -> None:
+    """Add the method called ``name``, built by ``build()`` when first asked for (its module
+    imported then); ``live``: whether the app offers it (its class must say the same)."""
+
+    def checked() -> TiltMethod:
+        method = build()
+        if method.live != live:
+            raise ValueError(f"tilt method {name!r} is registered with live={live}, its class "
+                             f"says {method.live}")  # fmt: skip
+        return method
+
+    REGISTRY.add_lazy(name, checked)
+    _LIVE[name] = live
+
+
 def unregister(name: str) -> None:
     """Remove a method (tests that register a throw-away one)."""
     REGISTRY.remove(name)
+    _LIVE.pop(name, None)
 
 
 def methods(live: bool | None = None) -> tuple[TiltMethod, ...]:
@@ -36,8 +61,15 @@ def methods(live: bool | None = None) -> tuple[TiltMethod, ...]:
 
 
 def live_names() -> tuple[str, ...]:
-    """The names the app offers (``process --method``, ``PipelineConfig.tilt_method``)."""
-    return tuple(m.name for m in methods(live=True))
+    """The names the app offers (``process --method``, ``PipelineConfig.tilt_method``), as
+    :func:`methods` orders them, without building a method."""
+
+    def offered(name: str) -> bool:
+        method = REGISTRY.built(name)
+        return method.live if method is not None else _LIVE[name]
+
+    chosen = [name for name in REGISTRY if offered(name)]
+    return tuple(sorted(chosen, key=lambda name: name != DEFAULT_METHOD))
 
 
 def get_method(name: str, offline: bool = False, *, live: bool = False) -> TiltMethod:
