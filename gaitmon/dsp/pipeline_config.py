@@ -14,7 +14,13 @@ import numpy as np
 from gaitmon.dsp.filters import Butterworth
 from gaitmon.dsp.gait import GaitEventDetector
 from gaitmon.dsp.kalman import TiltKalman
-from gaitmon.dsp.methods import DEFAULT_METHOD, get_method
+from gaitmon.dsp.methods import (
+    DEFAULT_METHOD,
+    check_method,
+    get_method,
+    method_label,
+    settings_read_by,
+)
 
 if TYPE_CHECKING:
     from gaitmon.dsp.methods import TiltMethod
@@ -70,8 +76,15 @@ class PipelineConfig:
 
     @property
     def tilt_method_label(self) -> str:
-        """The tilt filter's name for people: "Kalman (paper, seed 000)" or "gait-aware Kalman"."""
-        return self.method.label
+        """The tilt filter's name for people: "Kalman (paper, seed 000)" or "gait-aware Kalman"
+        (without building the method)."""
+        return method_label(self.tilt_method)
+
+    @property
+    def settings_read(self) -> tuple[str, ...]:
+        """The settings the tilt method reads beyond ``fs_hz`` (``TiltMethod.reads_settings``),
+        without building it."""
+        return settings_read_by(self.tilt_method)
 
     @property
     def method(self) -> TiltMethod:
@@ -84,7 +97,7 @@ class PipelineConfig:
         Butterworth.check(self.cutoff_hz, self.fs_hz, self.filter_order)
         TiltKalman.check(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
         GaitEventDetector(self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz)
-        get_method(self.tilt_method, live=True)
+        check_method(self.tilt_method, live=True)
 
     @property
     def dt_s(self) -> float:

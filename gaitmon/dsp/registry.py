@@ -69,11 +69,16 @@ class Registry(Generic[P]):
         self._by_name.pop(name, None)
         self._lazy.pop(name, None)
 
-    def get(self, name: str, among: Iterable[str] | None = None) -> P:
-        """The plugin called ``name``, which must be one of ``among`` (default: any)."""
+    def check(self, name: str, among: Iterable[str] | None = None) -> None:
+        """Refuse (ValueError naming the choices) a ``name`` that is not registered or not one
+        of ``among`` (default: any), without building it."""
         pool = tuple(self._by_name) if among is None else tuple(among)
         if name not in pool or name not in self._by_name:
             raise ValueError(f"unknown {self.noun} {name!r}; use one of {sorted(pool)}")
+
+    def get(self, name: str, among: Iterable[str] | None = None) -> P:
+        """The plugin called ``name``, which must be one of ``among`` (default: any)."""
+        self.check(name, among)
         return self._built(name)
 
     def all(self) -> tuple[P, ...]:

@@ -21,6 +21,7 @@ from gaitmon.dsp.methods.registry import (
     DEFAULT_METHOD,
     REGISTRY,
     by_lab_name,
+    check_method,
     feeds_smoother,
     get_method,
     live_names,
@@ -28,6 +29,7 @@ from gaitmon.dsp.methods.registry import (
     methods,
     register,
     register_lazy,
+    settings_read_by,
     smoothing_method,
     unregister,
 )
@@ -89,17 +91,16 @@ def _gait_aware() -> TiltMethod:
 
 
 # the built-in methods, in the lab's order (the app lists its own with the default first):
-# name, builder, offered by the app (the class's ``live``, checked when it is built)
-for _name, _build, _live in (
-    ("accelerometer", _accelerometer, False),
-    ("gyro", _gyro, False),
-    ("complementary", _complementary, False),
-    ("complementary-adaptive", _complementary_adaptive, False),
-    ("paper", _paper, True),
-    ("constant-rate", _constant_rate, False),
-    ("gait-aware", _gait_aware, True),
-):
-    register_lazy(_name, _build, _live)
+# name, builder, and what its class says of it (offered by the app, label, the pipeline
+# settings it reads), which building it checks
+register_lazy("accelerometer", _accelerometer, False, "accelerometer tilt")
+register_lazy("gyro", _gyro, False, "gyro integration")
+register_lazy("complementary", _complementary, False, "complementary filter (paper 003)")
+register_lazy("complementary-adaptive", _complementary_adaptive, False,
+              "complementary filter, adaptive cut-off (paper 003)")  # fmt: skip
+register_lazy("paper", _paper, True, "Kalman (paper, seed 000)", ("q_angle", "q_gyro", "r"))
+register_lazy("constant-rate", _constant_rate, False, "Kalman, constant-rate model (paper 001)")
+register_lazy("gait-aware", _gait_aware, True, "gait-aware Kalman")
 
 
 def __getattr__(name: str) -> object:
@@ -126,6 +127,7 @@ __all__ = [
     "TiltSettings",
     "TiltStage",
     "by_lab_name",
+    "check_method",
     "feeds_smoother",
     "get_method",
     "live_names",
@@ -133,6 +135,7 @@ __all__ = [
     "methods",
     "register",
     "register_lazy",
+    "settings_read_by",
     "smoothing_method",
     "unregister",
 ]
