@@ -47,12 +47,12 @@ READ_ONLY_NEEDS_NOT = ("gaitmon.io.journal", "gaitmon.io.session.truth", "gaitmo
                        "mmap", "gaitmon.dsp.pipeline", "numpy.typing")  # fmt: skip
 # no tilt method nor event source built (their registries say their names, labels and the
 # settings a method reads unbuilt), no platformdirs (gaitmon.paths applies the XDG rule on
-# Linux): ~20 ms of info's imports
+# Linux), no shutil (argparse's help width: gaitmon.cli.terminal_columns): ~20 ms of imports
 NOT_BUILT_TO_READ = ("gaitmon.dsp.methods.base", "gaitmon.dsp.methods.gait_aware",
                      "gaitmon.dsp.methods.paper", "gaitmon.dsp.methods.accelerometer",
                      "gaitmon.dsp.events.base", "gaitmon.dsp.events.fsr",
                      "gaitmon.dsp.events.foot_gyro", "gaitmon.dsp.gyro_events",
-                     "platformdirs", "tempfile")  # fmt: skip
+                     "platformdirs", "tempfile", "shutil")  # fmt: skip
 
 
 def modules_of(*argv: str) -> set[str]:
@@ -163,3 +163,27 @@ def test_the_live_window_still_gets_its_simulator_options(argv):
 
     args = build_parser(None, argv).parse_args([a for a in argv if a != "--version"])
     assert hasattr(args, "cadence") and hasattr(args, "pattern")
+
+
+@pytest.mark.parametrize("columns", ["40", "97", "not a number", None])
+def test_the_help_is_wrapped_as_argparse_wraps_it(monkeypatch, columns):
+    """gaitmon.cli.HelpFormatter asks the width without shutil: the same help, word for word,
+    as argparse's own formatter gives (``$COLUMNS`` set, not a number, or unset: no terminal
+    here, so 80)."""
+    import argparse
+
+    from gaitmon.cli import HelpFormatter, build_parser
+
+    if columns is None:
+        monkeypatch.delenv("COLUMNS", raising=False)
+    else:
+        monkeypatch.setenv("COLUMNS", columns)
+    for command in (None, "info", "process"):
+        parser = build_parser(command, [command] if command else ["--version"])
+        sub = parser._subparsers._group_actions[0].choices  # type: ignore[union-attr]
+        shown = [parser, *([sub[command]] if command else [])]
+        for p in shown:
+            assert p.formatter_class is HelpFormatter
+            ours = p.format_help()
+            p.formatter_class = argparse.HelpFormatter
+            assert p.format_help() == ours
