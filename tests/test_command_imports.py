@@ -46,12 +46,14 @@ NOT_TO_READ = ("gaitmon.dsp.kalman_models", "gaitmon.dsp.motion_kalman",
 READ_ONLY_NEEDS_NOT = ("gaitmon.io.journal", "gaitmon.io.session.truth", "gaitmon.dsp.estimate",
                        "mmap", "gaitmon.dsp.pipeline", "numpy.typing")  # fmt: skip
 # no tilt method nor event source built (their registries say their names, labels and the
-# settings a method reads unbuilt), no platformdirs (gaitmon.paths applies the XDG rule on
-# Linux), no shutil (argparse's help width: gaitmon.cli.terminal_columns): ~20 ms of imports
+# settings a method reads unbuilt), no filter (gaitmon.dsp.setting_checks checks settings), no
+# platformdirs (gaitmon.paths applies the XDG rule on Linux), no shutil (argparse's help width:
+# gaitmon.cli.terminal_columns): ~20 ms of imports
 NOT_BUILT_TO_READ = ("gaitmon.dsp.methods.base", "gaitmon.dsp.methods.gait_aware",
                      "gaitmon.dsp.methods.paper", "gaitmon.dsp.methods.accelerometer",
                      "gaitmon.dsp.events.base", "gaitmon.dsp.events.fsr",
                      "gaitmon.dsp.events.foot_gyro", "gaitmon.dsp.gyro_events",
+                     "gaitmon.dsp.kalman", "gaitmon.dsp.filters", "gaitmon.dsp.iir",
                      "platformdirs", "tempfile", "shutil")  # fmt: skip
 
 

@@ -11,9 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gaitmon.dsp.filters import Butterworth
 from gaitmon.dsp.gait import GaitEventDetector
-from gaitmon.dsp.kalman import TiltKalman
 from gaitmon.dsp.methods import (
     DEFAULT_METHOD,
     check_method,
@@ -21,6 +19,7 @@ from gaitmon.dsp.methods import (
     method_label,
     settings_read_by,
 )
+from gaitmon.dsp.setting_checks import check_lowpass, check_tilt_kalman
 
 if TYPE_CHECKING:
     from gaitmon.dsp.methods import TiltMethod
@@ -94,8 +93,8 @@ class PipelineConfig:
     def __post_init__(self) -> None:
         # Every value is checked with a message that names it, as the stages check them, but
         # without designing the filters: a file's recorded settings are read cheaply.
-        Butterworth.check(self.cutoff_hz, self.fs_hz, self.filter_order)
-        TiltKalman.check(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
+        check_lowpass(self.cutoff_hz, self.fs_hz, self.filter_order)
+        check_tilt_kalman(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
         GaitEventDetector(self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz)
         check_method(self.tilt_method, live=True)
 
