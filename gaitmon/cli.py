@@ -132,6 +132,32 @@ def _live_window() -> Callable[..., int]:
     return run
 
 
+def terminal_columns() -> int:
+    """``shutil.get_terminal_size().columns``, the width argparse's help is wrapped to, without
+    importing shutil (with bz2 and lzma ~2 ms of every command: argparse makes a formatter for
+    each option it adds): ``$COLUMNS``, else the terminal of standard output, else 80."""
+    try:
+        columns = int(os.environ["COLUMNS"])
+    except (KeyError, ValueError):
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(sys.__stdout__.fileno()).columns  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+        columns = columns or 80
+    return columns
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """argparse's formatter, its default width from :func:`terminal_columns` (the same)."""
+
+    def __init__(self, prog: str, indent_increment: int = 2, max_help_position: int = 24,
+                 width: int | None = None) -> None:  # fmt: skip
+        width = terminal_columns() - 2 if width is None else width
+        super().__init__(prog, indent_increment, max_help_position, width)
+
+
 # options that print and exit: given with nothing but these (and --verbose), the window's
 # simulator options are not needed (``gaitmon --verbose`` alone opens the window: it needs them)
 _PRINTING = frozenset({"--version", "--log-path"})
@@ -147,6 +173,7 @@ def build_parser(
     parser = argparse.ArgumentParser(
         prog="gaitmon",
         description="Live monitor, recorder and reviewer for a wearable gait-measurement unit.",
+        formatter_class=HelpFormatter,
     )
     parser.add_argument(
         "--version", action=_Print, nargs=0, const=_version_text, help="print the version and "
@@ -178,7 +205,8 @@ def build_parser(
     for name, help_text in SUBCOMMANDS.items():
         if command is not None and name != command:
             continue
-        p = sub.add_parser(name, help=help_text, description=help_text)
+        p = sub.add_parser(name, help=help_text, description=help_text,
+                           formatter_class=HelpFormatter)  # fmt: skip
         _add_verbose(p, argparse.SUPPRESS)  # also after the command: gaitmon record --verbose
         if name == command:
             add_arguments, run = _load(name)

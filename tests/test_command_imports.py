@@ -45,6 +45,16 @@ NOT_TO_READ = ("gaitmon.dsp.kalman_models", "gaitmon.dsp.motion_kalman",
 # what reading a finished session does not need (issue 28: gaitmon info <= 1.2x a bare h5py open)
 READ_ONLY_NEEDS_NOT = ("gaitmon.io.journal", "gaitmon.io.session.truth", "gaitmon.dsp.estimate",
                        "mmap", "gaitmon.dsp.pipeline", "numpy.typing")  # fmt: skip
+# no tilt method nor event source built (their registries say their names, labels and the
+# settings a method reads unbuilt), no filter (gaitmon.dsp.setting_checks checks settings), no
+# platformdirs (gaitmon.paths applies the XDG rule on Linux), no shutil (argparse's help width:
+# gaitmon.cli.terminal_columns): ~20 ms of imports
+NOT_BUILT_TO_READ = ("gaitmon.dsp.methods.base", "gaitmon.dsp.methods.gait_aware",
+                     "gaitmon.dsp.methods.paper", "gaitmon.dsp.methods.accelerometer",
+                     "gaitmon.dsp.events.base", "gaitmon.dsp.events.fsr",
+                     "gaitmon.dsp.events.foot_gyro", "gaitmon.dsp.gyro_events",
+                     "gaitmon.dsp.kalman", "gaitmon.dsp.filters", "gaitmon.dsp.iir",
+                     "platformdirs", "tempfile", "shutil")  # fmt: skip
 
 
 def modules_of(*argv: str) -> set[str]:
@@ -83,9 +93,25 @@ def test_info_reads_a_session_without_scipy_numba_or_the_filters(sessions, which
     # it), no simulator truth, no tilt-method estimation (a writer's label), no pipeline stages
     # (its settings are gaitmon.dsp.pipeline_config's); each ~1-5 ms
     assert _loaded(modules, READ_ONLY_NEEDS_NOT) == []
+    if sys.platform == "linux":
+        assert _loaded(modules, NOT_BUILT_TO_READ) == []
     if which == "one leg":  # descriptions of the file's attributes are written, not read;
         # the review's settings table only for a method that reads settings (not gait-aware)
         assert _loaded(modules, ("gaitmon.io.session.attributes", "gaitmon.review")) == []
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="platformdirs decides the folders elsewhere")
+def test_info_of_a_file_without_lost_frames_or_user_store_hashes_nothing(tmp_path, monkeypatch):
+    """hashlib (~3 ms) only where a hash is taken: the user store of exclusions when its
+    folder exists (the path's hash names the file), a /strides stamp when lost frames were
+    filled in; a simulated walk has neither."""
+    from conftest import write_simulated_session
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "no-store-yet"))
+    path = write_simulated_session(tmp_path / "walk.h5", n=1500)
+    modules = modules_of("info", str(path))
+    assert "gaitmon.finish.strides" in modules  # its stored measures were read
+    assert _loaded(modules, ("hashlib",)) == []
 
 
 def test_info_reads_stored_stride_measures_without_computing_them(sessions, tmp_path):
@@ -179,3 +205,27 @@ def test_a_command_starts_one_blas_thread_unless_the_user_chose(users):
             assert plain > 1  # (what the test would see without the setting)
     else:
         assert mine == plain == min(int(users), os.cpu_count() or 1)
+
+
+@pytest.mark.parametrize("columns", ["40", "97", "not a number", None])
+def test_the_help_is_wrapped_as_argparse_wraps_it(monkeypatch, columns):
+    """gaitmon.cli.HelpFormatter asks the width without shutil: the same help, word for word,
+    as argparse's own formatter gives (``$COLUMNS`` set, not a number, or unset: no terminal
+    here, so 80)."""
+    import argparse
+
+    from gaitmon.cli import HelpFormatter, build_parser
+
+    if columns is None:
+        monkeypatch.delenv("COLUMNS", raising=False)
+    else:
+        monkeypatch.setenv("COLUMNS", columns)
+    for command in (None, "info", "process"):
+        parser = build_parser(command, [command] if command else ["--version"])
+        sub = parser._subparsers._group_actions[0].choices  # type: ignore[union-attr]
+        shown = [parser, *([sub[command]] if command else [])]
+        for p in shown:
+            assert p.formatter_class is HelpFormatter
+            ours = p.format_help()
+            p.formatter_class = argparse.HelpFormatter
+            assert p.format_help() == ours

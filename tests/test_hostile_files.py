@@ -303,3 +303,45 @@ def test_a_reprocessed_copy_is_read_back_without_a_second_walk(tmp_path, monkeyp
     with h5py.File(dst, "r") as f, pytest.raises(SessionError, match="link into another file"):
         check_file(dst, f)
     assert walked == ["new.h5"]
+
+
+@pytest.mark.parametrize(
+    ("kind", "refused"),
+    [("vlen in a compound", True), ("vlen in an array", True),
+     ("vlen in an array in a compound", True), ("enum", False),
+     ("fixed text, numbers and a plain compound", False)],
+)  # fmt: skip
+def test_variable_length_data_nested_in_an_attribute_is_refused(tmp_path, kind, refused):
+    """check_file looks for a variable-length member (whose length it cannot bound before
+    reading) in every type that can nest one, compound, enum or array, and only there (issue
+    28: the others cannot hold one), also variable-length text in an array, which HDF5's
+    detect_class does not report; text and numbers of gaitmon's own pass."""
+    path = tmp_path / "f.h5"
+    text = h5py.string_dtype()
+    with h5py.File(path, "w") as f:
+        a = f.create_group("g").attrs
+        if kind == "vlen in a compound":
+            a["x"] = np.array([(1, "x")], dtype=[("n", "i4"), ("t", text)])
+        elif kind == "vlen in an array":  # an HDF5 array type (h5py writes a 2-D vlen text)
+            tid = h5py.h5t.array_create(h5py.h5t.py_create(text, logical=True), (2,))
+            space = h5py.h5s.create(h5py.h5s.SCALAR)
+            h5py.h5a.create(f["g"].id, b"x", tid, space).close()
+        elif kind == "vlen in an array in a compound":
+            arr = h5py.h5t.array_create(h5py.h5t.py_create(text, logical=True), (2,))
+            tid = h5py.h5t.create(h5py.h5t.COMPOUND, 4 + arr.get_size())
+            tid.insert(b"n", 0, h5py.h5t.NATIVE_INT32)
+            tid.insert(b"t", 4, arr)
+            space = h5py.h5s.create(h5py.h5s.SCALAR)
+            h5py.h5a.create(f["g"].id, b"x", tid, space).close()
+        elif kind == "enum":
+            a.create("x", data=np.int8(1), dtype=h5py.enum_dtype({"a": 0, "b": 1}, basetype="i1"))
+        else:
+            a["x"] = np.bytes_("fixed")
+            a["n"] = np.arange(3.0)
+            a["c"] = np.array([(1, 2.0)], dtype=[("n", "i4"), ("v", "f8")])
+    with h5py.File(path, "r") as f:
+        if refused:
+            with pytest.raises(SessionError, match="attribute 'x' of /g holds variable-length"):
+                check_file(path, f)
+        else:
+            check_file(path, f)

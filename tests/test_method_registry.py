@@ -452,3 +452,85 @@ def test_the_plugin_registry_keeps_order_refuses_a_second_name_and_names_the_cho
     reg.remove("b-first")
     reg.remove("b-first")  # removing twice is harmless
     assert reg.all() == (b,)
+
+
+def test_a_plugin_registered_by_name_is_built_once_when_first_asked_for_in_its_place():
+    """Registry.add_lazy (issue 28: a reader naming one method loads that one alone): built
+    on the first get (once), listed in its registration place, a builder of another name
+    refused."""
+    from gaitmon.dsp.registry import Registry
+
+    class Plugin:
+        def __init__(self, name: str) -> None:
+            self.name = name
+
+    built: list[str] = []
+
+    def build(name: str, bears: str | None = None):
+        def make() -> Plugin:
+            built.append(name)
+            return Plugin(bears or name)
+
+        return make
+
+    reg: Registry[Plugin] = Registry("widget")
+    reg.add_lazy("first", build("first"))
+    eager = reg.add(Plugin("second"))
+    reg.add_lazy("third", build("third"))
+    assert list(reg) == ["first", "second", "third"] and "third" in reg and built == []
+    assert reg.built("first") is None
+    reg.check("third")  # a name is checked without building it
+    with pytest.raises(ValueError, match=r"unknown widget 'x'; use one of \['first', 'second'"):
+        reg.check("x")
+    third = reg.get("third")
+    assert built == ["third"] and reg.get("third") is third and built == ["third"]
+    assert [p.name for p in reg.all()] == ["first", "second", "third"] and built[-1] == "first"
+    assert reg.all()[1] is eager
+    reg.add_lazy("fourth", build("fourth", bears="other"))
+    with pytest.raises(ValueError, match="the widget registered as 'fourth' is 'other'"):
+        reg.get("fourth")
+
+
+def test_the_built_in_methods_say_before_they_are_built_what_their_classes_say():
+    """The registration lines of gaitmon.dsp.methods declare each built-in method's live
+    flag, label and settings read (what info, the settings' checks and the app's lists read
+    unbuilt): a fresh interpreter reads them, then builds every method and compares."""
+    import json
+    import subprocess
+    import sys
+
+    code = (
+        "import json, sys\n"
+        "from gaitmon.dsp import methods as m\n"
+        "names = list(m.REGISTRY)\n"
+        "before = [m.live_names()] + [[m.method_label(n), list(m.settings_read_by(n))] "
+        "for n in names]\n"
+        "built = sorted(k for k in sys.modules if k.startswith('gaitmon.dsp.methods.'))\n"
+        "after = [list(m.live_names())] + [[x.label, list(x.reads_settings)] "
+        "for x in m.methods()]\n"
+        "print(json.dumps([[list(before[0])] + before[1:], after, built]))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120).stdout  # fmt: skip
+    before, after, built = json.loads(out)
+    assert before == after
+    assert built == ["gaitmon.dsp.methods.registry"]  # nothing built to say it
+    assert after[0] == ["gait-aware", "paper"]
+    assert ["Kalman (paper, seed 000)", ["q_angle", "q_gyro", "r"]] in after[1:]
+
+
+def test_a_method_whose_class_disagrees_with_its_registration_is_refused_when_built():
+    from gaitmon.dsp.methods import register_lazy
+
+    register_lazy("test-misnamed", AccOnly, True, LABEL)  # AccOnly is NAME
+    try:
+        with pytest.raises(ValueError, match="registered as 'test-misnamed' is 'test-acc-only'"):
+            get_method("test-misnamed")
+        unregister("test-misnamed")
+        register_lazy(NAME, AccOnly, True, "another label")
+        assert NAME in live_names()  # declared, unbuilt
+        with pytest.raises(ValueError, match="its class says \\(True, 'accelerometer only"):
+            get_method(NAME)
+    finally:
+        unregister("test-misnamed")
+        unregister(NAME)

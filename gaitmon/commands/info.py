@@ -191,7 +191,7 @@ def _lines(s: Session, an: SessionAnalysis, interrupted: bool) -> list[str]:
         lines.append(f"  angles       {s.angle_method}; zero: {s.zero_source}")
     c = s.config
     # a method that reads the Kalman settings is shown by them, the others by their label
-    read = _settings_read(c.method.reads_settings)
+    read = _settings_read(c.settings_read)
     kalman = (
         "Kalman " + " ".join(f"{st.short} {getattr(c, st.name):g}" for st in read)
         + f" ({c.kalman_form} form)"

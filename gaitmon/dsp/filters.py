@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from gaitmon.dsp.iir import LinearFilter, butter_lowpass, lfilter_zi, running_sum
+from gaitmon.dsp.setting_checks import check_lowpass
 
 
 def as_2d(x: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -107,17 +108,7 @@ class Butterworth(ChannelFilter):
     @staticmethod
     def check(cutoff_hz: float, fs_hz: float, order: int, initial: str = "first") -> None:
         """Raise ValueError naming the first bad setting (no filter is designed)."""
-        if not fs_hz > 0:
-            raise ValueError(f"sample rate must be positive, got {fs_hz} Hz")
-        if not 0 < cutoff_hz < fs_hz / 2:
-            raise ValueError(
-                f"cut-off {cutoff_hz} Hz must be above 0 and below the Nyquist frequency "
-                f"{fs_hz / 2} Hz"
-            )
-        if int(order) != order or order < 1 or order > 8:
-            raise ValueError(f"filter order must be a whole number from 1 to 8, got {order}")
-        if initial not in ("first", "zero"):
-            raise ValueError(f"initial must be 'first' or 'zero', got {initial!r}")
+        check_lowpass(cutoff_hz, fs_hz, order, initial)
 
     @property
     def coefficients(self) -> tuple[np.ndarray, np.ndarray]:

@@ -36,6 +36,7 @@ import numpy as np
 from gaitmon.dsp.angles import TWO_PI, wrap_angle
 from gaitmon.dsp.filters import as_2d_pair
 from gaitmon.dsp.iir import LinearFilter, ss2tf
+from gaitmon.dsp.setting_checks import check_tilt_kalman
 
 _MAX_GAIN_STEPS = 50_000
 _RECOVERY_STEPS = 64
@@ -127,14 +128,7 @@ class TiltKalman:
     @staticmethod
     def check(dt_s: float, q_angle: float, q_gyro: float, r: float, form: str) -> None:
         """Raise ValueError naming the first bad setting (nothing is computed)."""
-        for name, value in (("dt_s", dt_s), ("r", r)):
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value}")
-        for name, value in (("q_angle", q_angle), ("q_gyro", q_gyro)):
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be zero or positive, got {value}")
-        if form not in ("paper", "discrete"):
-            raise ValueError(f"form must be 'paper' or 'discrete', got {form!r}")
+        check_tilt_kalman(dt_s, q_angle, q_gyro, r, form)
 
     # ------------------------------------------------------------------ set-up
     def _setup_lti(self) -> None:

@@ -11,10 +11,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gaitmon.dsp.filters import Butterworth
 from gaitmon.dsp.gait import GaitEventDetector
-from gaitmon.dsp.kalman import TiltKalman
-from gaitmon.dsp.methods import DEFAULT_METHOD, get_method
+from gaitmon.dsp.methods import (
+    DEFAULT_METHOD,
+    check_method,
+    get_method,
+    method_label,
+    settings_read_by,
+)
+from gaitmon.dsp.setting_checks import check_lowpass, check_tilt_kalman
 
 if TYPE_CHECKING:
     from gaitmon.dsp.methods import TiltMethod
@@ -70,8 +75,15 @@ class PipelineConfig:
 
     @property
     def tilt_method_label(self) -> str:
-        """The tilt filter's name for people: "Kalman (paper, seed 000)" or "gait-aware Kalman"."""
-        return self.method.label
+        """The tilt filter's name for people: "Kalman (paper, seed 000)" or "gait-aware Kalman"
+        (without building the method)."""
+        return method_label(self.tilt_method)
+
+    @property
+    def settings_read(self) -> tuple[str, ...]:
+        """The settings the tilt method reads beyond ``fs_hz`` (``TiltMethod.reads_settings``),
+        without building it."""
+        return settings_read_by(self.tilt_method)
 
     @property
     def method(self) -> TiltMethod:
@@ -81,10 +93,10 @@ class PipelineConfig:
     def __post_init__(self) -> None:
         # Every value is checked with a message that names it, as the stages check them, but
         # without designing the filters: a file's recorded settings are read cheaply.
-        Butterworth.check(self.cutoff_hz, self.fs_hz, self.filter_order)
-        TiltKalman.check(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
+        check_lowpass(self.cutoff_hz, self.fs_hz, self.filter_order)
+        check_tilt_kalman(1.0 / self.fs_hz, self.q_angle, self.q_gyro, self.r, self.kalman_form)
         GaitEventDetector(self.fsr_threshold, self.fsr_hysteresis, self.min_contact_s, self.fs_hz)
-        get_method(self.tilt_method, live=True)
+        check_method(self.tilt_method, live=True)
 
     @property
     def dt_s(self) -> float:

@@ -19,8 +19,6 @@ file, so the command line still sees what the review window kept.
 from __future__ import annotations
 
 import contextlib
-import hashlib
-import json
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -102,17 +100,26 @@ def subtract(ranges: list[Exclusion], start: int, stop: int) -> list[Exclusion]:
 
 def user_store_path(path: str | os.PathLike[str]) -> Path:
     """Where the exclusions go when the recording's folder cannot be written."""
+    import hashlib  # only here (~3 ms): a reader of a recording without a user store needs none
+
     p = Path(path)
     key = hashlib.sha256(str(p.resolve()).encode("utf-8")).hexdigest()[:16]
-    return paths.user_data_dir() / "exclusions" / f"{p.name}.{key}.review.json"
+    return _user_store() / f"{p.name}.{key}.review.json"
+
+
+def _user_store() -> Path:
+    return paths.user_data_dir() / "exclusions"
 
 
 def stored_path(path: str | os.PathLike[str]) -> Path:
     """The file the recording's exclusions are read from: the user store when it holds them
     (it exists only while it is newer than the side file: writing the side file removes it),
-    else the side file."""
-    up = user_store_path(path)
-    return up if up.exists() else side_path(path)
+    else the side file. Without a user store folder there is nothing to look up there."""
+    if _user_store().is_dir():
+        up = user_store_path(path)
+        if up.exists():
+            return up
+    return side_path(path)
 
 
 def load(
@@ -121,10 +128,16 @@ def load(
     """(exclusions, problem): none stored is no exclusions and no problem."""
     sp = stored_path(path)
     try:
-        doc = json.loads(sp.read_text(encoding="utf-8"))
+        text = sp.read_text(encoding="utf-8")
     except FileNotFoundError:
         return [], ""
     except (OSError, ValueError) as e:
+        return [], f"{sp.name} is unreadable ({e}); exclusions not loaded"
+    import json  # a side file to read (most recordings have none)
+
+    try:
+        doc = json.loads(text)
+    except ValueError as e:
         return [], f"{sp.name} is unreadable ({e}); exclusions not loaded"
     try:
         if doc.get("format") != FORMAT:
@@ -168,6 +181,8 @@ def save(
         "recording": {"file": Path(path).name, "created_utc": created_utc, "n_samples": n_samples},
         "excluded_ranges": items,
     }
+    import json
+
     text = json.dumps(doc, indent=1) + "\n"
     sp, up = side_path(path), user_store_path(path)
     try:

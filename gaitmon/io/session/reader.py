@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import contextlib
 import copy
-import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,7 +20,7 @@ import numpy as np
 
 from gaitmon.dsp.calibration import Calibration, zero_source
 from gaitmon.dsp.channels import CHANNELS, GYRO_IDX, ChannelSpec
-from gaitmon.dsp.events import FALLBACK, PRIMARY, get_event_source
+from gaitmon.dsp.events import FALLBACK, PRIMARY, event_source_label
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline_config import PipelineConfig
 from gaitmon.io.session.codec import GYRO, JOINT_OF, decode, derived, gyro_from_counts
@@ -67,6 +66,13 @@ __all__ = ["Gap", "Marker", "SeriesView", "StoredSession"]
 _CODED = frozenset(("processed/tilt_deg", "processed/tilt_acc_deg", "processed/tilt_gyro_deg",
                     "processed/joint_deg", "processed/joint_acc_deg", "processed/acc_ms2",
                     "processed/fsr_counts", "smoothed/tilt_deg", "smoothed/joint_deg"))
+
+
+def _json(value: object) -> Any:
+    """A change's settings, stored as JSON text (json imported only for a file with changes)."""
+    import json
+
+    return json.loads(_s(value))
 
 
 _DECODE_ROWS = 1 << 18  # rows decoded at a time (64 chunks; ~4 MB of int16 tilts)
@@ -141,7 +147,7 @@ class StoredSession:
         self.event_delay_samples = int(scalar(cfg_attrs.pop("event_delay_samples", 0)))
         self.config = PipelineConfig.from_stored(cfg_attrs)
         self.config_changes: list[tuple[int, PipelineConfig]] = [
-            (int(r["sample_idx"]), PipelineConfig.from_stored(json.loads(_s(r["json"]))))
+            (int(r["sample_idx"]), PipelineConfig.from_stored(_json(r["json"])))
             for r in f["config/changes"][()]
         ]
         cal = f["calibration"].attrs
@@ -149,7 +155,7 @@ class StoredSession:
             np.asarray(cal["tilt_offset_rad"]), np.asarray(cal["gyro_bias_rad_s"])
         )
         self.calibration_changes: list[tuple[int, Calibration]] = [
-            (int(r["sample_idx"]), Calibration.from_dict(json.loads(_s(r["json"]))))
+            (int(r["sample_idx"]), Calibration.from_dict(_json(r["json"])))
             for r in f["calibration/changes"][()]
         ]
         self.heel_strike_idx: np.ndarray = _event_rows(name, f, "heel_strike")
@@ -186,11 +192,12 @@ class StoredSession:
         missing = sorted(p for p in stored if p not in f)
         if missing:
             raise SessionError(f"{name} is damaged: missing {missing[0]}")
-        for p in stored:
-            _check_per_sample(name, p, f[p])
+        opened = {p: f[p] for p in stored}  # each opened once (~60 us an object)
+        for p, ds in opened.items():
+            _check_per_sample(name, p, ds)
         # every series readers get, stored or derived (see gaitmon.io.session.codec)
         self.dataset_names: tuple[str, ...] = per_sample_datasets(self.mode)
-        lengths = {p: f[p].shape[0] for p in stored}
+        lengths = {p: ds.shape[0] for p, ds in opened.items()}
         self.n_samples = min(lengths.values())
         if len(set(lengths.values())) > 1:
             self.problems.append(
@@ -262,7 +269,7 @@ class StoredSession:
         if self.mode == "joint":
             return "the unit's force sensors"
         # the pipeline's event sources, as the registry names them (gaitmon.dsp.events)
-        primary, fallback = get_event_source(PRIMARY).label, get_event_source(FALLBACK).label
+        primary, fallback = event_source_label(PRIMARY), event_source_label(FALLBACK)
         if not self.config.fsr_check:
             return f"{primary} (not cross-checked with {fallback})"
         if not self.fsr_faults:
