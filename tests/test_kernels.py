@@ -341,3 +341,37 @@ def test_a_live_engine_runs_interpreted_after_the_process_loaded_numba():
             wait_for(lambda: eng.samples_total >= 3000, what="data")
         assert kernels.compiled_for(5000) is not None  # (other work still takes them)
     assert seen == []  # (neither the engine nor the unit it reads)
+
+
+def test_a_numba_that_cannot_cache_leaves_the_interpreted_loops_serving(monkeypatch, caplog):
+    """numba raises RuntimeError ("cannot cache function ... no locator available"), not an
+    ImportError, where it cannot write its cache folder or make a temporary file to test it: a
+    long ``process`` failed with that line; now the interpreted loops serve, and it is logged."""
+    import importlib.abc
+    import logging
+
+    name = "gaitmon.dsp.kernels_numba"
+
+    class Unwritable(importlib.abc.MetaPathFinder):
+        def find_spec(self, fullname, path, target=None):  # type: ignore[no-untyped-def]
+            if fullname == name:
+                raise RuntimeError("cannot cache function 'gait_aware_update': no locator "
+                                   "available for file 'loops.py'")  # fmt: skip
+            return None
+
+    import gaitmon.dsp
+
+    monkeypatch.delitem(sys.modules, name, raising=False)
+    monkeypatch.delattr(gaitmon.dsp, "kernels_numba", raising=False)  # (imported before)
+    monkeypatch.setattr(sys, "meta_path", [Unwritable(), *sys.meta_path])
+    monkeypatch.setattr(kernels, "_compiled", None)
+    monkeypatch.setattr(kernels, "_unavailable", False)
+    monkeypatch.setattr(kernels, "_batch_rows", kernels.LOAD_ROWS)
+    monkeypatch.setattr(kernels, "cache_ready", lambda: True)
+    data = _simulated(3000)
+    with caplog.at_level(logging.WARNING, logger="gaitmon.dsp"):
+        got = GaitAwareKalman(100.0).process(*data)  # (the old code: RuntimeError)
+    assert not kernels.numba_available() and not kernels.compiled_loaded()
+    assert "cannot cache function" in caplog.text
+    with kernels.use("python"):
+        assert np.array_equal(got, GaitAwareKalman(100.0).process(*data))

@@ -41,6 +41,7 @@ smoother's solve:
 
 from __future__ import annotations
 
+import logging
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -79,6 +80,8 @@ EXPECT_ROWS = 60_000
 COMPILE_ROWS = 360_000
 FILL_ROWS = 30_000
 LOAD_ROWS = 120_000
+log = logging.getLogger("gaitmon.dsp")
+
 _batch_rows = 0  # rows of batch work done in this process
 _forced: str | None = None  # "python" | "compiled" (:func:`use`)
 _unavailable = False  # numba failed to import once: do not try again
@@ -143,8 +146,14 @@ def _load() -> ModuleType | None:
         if _compiled is None and not _unavailable:
             try:
                 from gaitmon.dsp import kernels_numba
-            except ImportError:  # numba missing or broken: the interpreted loops serve
+            except Exception as exc:  # the interpreted loops serve (the same numbers)
+                # numba missing or broken (ImportError), or its cache unusable: it raises
+                # RuntimeError "cannot cache function ... no locator available" where it cannot
+                # write its cache folder or make a temporary file to test it
                 _unavailable = True
+                if not isinstance(exc, ImportError):
+                    log.warning("numba's compiled loops are not used (%s): the interpreted "
+                                "loops serve, with the same numbers", exc)  # fmt: skip
                 return None
             _compiled = kernels_numba
     return _compiled
