@@ -30,7 +30,7 @@ from gaitmon.batch import OK, Outcome, run_batch
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.finish import open_session
-from gaitmon.finish.recovery import replay_pipeline
+from gaitmon.finish.replay import replay_pipeline
 from gaitmon.finish.reprocess import REPLAY_CHUNK_ROWS
 from gaitmon.finish.smoothed import smoothed_angles
 from gaitmon.io.device import SampleBlock

@@ -229,3 +229,14 @@ def test_the_help_is_wrapped_as_argparse_wraps_it(monkeypatch, columns):
             ours = p.format_help()
             p.formatter_class = argparse.HelpFormatter
             assert p.format_help() == ours
+
+
+def test_process_of_a_finished_file_loads_no_journal_nor_link_protocol(sessions, tmp_path):
+    """The replay is its own module (gaitmon.finish.replay): reprocessing a finished file loads
+    neither the journal's record layout nor the link protocol a recovery needs (~7 ms of a
+    1-min ``process``; it loaded both through gaitmon.finish.recovery)."""
+    modules = modules_of("process", str(sessions["one leg"]), "-o", str(tmp_path / "new.h5"),
+                         "--quiet")  # fmt: skip
+    assert "gaitmon.finish.replay" in modules
+    assert _loaded(modules, ("gaitmon.io.journal", "gaitmon.io.protocol", "gaitmon.io.wire",
+                             "gaitmon.finish.recovery")) == []  # fmt: skip

@@ -18,7 +18,7 @@ from gaitmon.dsp.lost_frames import bridged_losses, restart_rows
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.dsp.smoother import CausalFirstPass
 from gaitmon.finish import close_recording
-from gaitmon.finish.recovery import replay_pipeline
+from gaitmon.finish.replay import replay_pipeline
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
 

@@ -146,7 +146,7 @@ def test_any_chunking_with_losses_gives_the_whole_record_output(sim, heel_dead):
 
 def test_the_offline_replay_fills_in_the_same_frames_as_live(sim):
     from gaitmon.dsp.pipeline import PipelineConfig
-    from gaitmon.finish.recovery import replay_pipeline
+    from gaitmon.finish.replay import replay_pipeline
     from gaitmon.io.session.rows import rows_from_pipeline
 
     _, sb, cal = sim

@@ -5,9 +5,9 @@ runs the pipeline and the offline methods over what a file stores.
   :class:`Session` (a stored session that computes what the file does not store);
 * :mod:`.closing` - :func:`close_recording`, a recording closed with ``/smoothed`` and
   ``/strides`` stored;
-* :mod:`.recovery` - :func:`replay_pipeline`, :func:`recover_session` (an interrupted file
-  rebuilt from its journal), :func:`build_session` (a whole file from rows in memory: the XDF
-  import);
+* :mod:`.replay` - :func:`replay_pipeline`, the pipeline over a recording's raw counts;
+* :mod:`.recovery` - :func:`recover_session` (an interrupted file rebuilt from its journal),
+  :func:`build_session` (a whole file from rows in memory: the XDF import);
 * :mod:`.reprocess`, :mod:`.reprocess_both` - :func:`rewrite_processed`, a raw session re-run
   into a new file (one unit, both legs);
 * :mod:`.smoothed` - ``/smoothed``, the zero-lag angles of raw sessions (the readers' default);
@@ -26,13 +26,8 @@ from gaitmon.lazy import keep
 if TYPE_CHECKING:
     from gaitmon.finish.bilateral import Bilateral, open_bilateral
     from gaitmon.finish.closing import close_recording
-    from gaitmon.finish.recovery import (
-        build_session,
-        flagged_at_start,
-        flags_kept,
-        recover_session,
-        replay_pipeline,
-    )
+    from gaitmon.finish.recovery import build_session, recover_session
+    from gaitmon.finish.replay import flagged_at_start, flags_kept, replay_pipeline
     from gaitmon.finish.reprocess import RewriteResult, rewrite_processed
     from gaitmon.finish.session import Session, open_session
 
@@ -47,11 +42,14 @@ def __getattr__(name: str) -> object:
         from gaitmon.finish import closing
 
         return keep(globals(), name, closing)
-    if name in ("build_session", "flagged_at_start", "flags_kept", "recover_session",
-                "replay_pipeline"):  # fmt: skip
+    if name in ("build_session", "recover_session"):
         from gaitmon.finish import recovery
 
         return keep(globals(), name, recovery)
+    if name in ("flagged_at_start", "flags_kept", "replay_pipeline"):
+        from gaitmon.finish import replay
+
+        return keep(globals(), name, replay)
     if name in ("RewriteResult", "rewrite_processed"):
         from gaitmon.finish import reprocess
 

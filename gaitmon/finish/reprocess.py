@@ -24,7 +24,7 @@ from gaitmon.dsp.channels import ChannelTable
 from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.pipeline import PipelineConfig
 from gaitmon.errors import DAMAGE_ERRORS, Cancelled
-from gaitmon.finish.recovery import RECOVERY_REPLAY_ROWS, flags_kept, replay_pipeline
+from gaitmon.finish.replay import RECOVERY_REPLAY_ROWS, flags_kept, replay_pipeline
 from gaitmon.finish.session import Session, open_session
 from gaitmon.finish.smoothed import KeptFirstPass, store_smoothed
 from gaitmon.finish.strides import store_strides
