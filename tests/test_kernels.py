@@ -375,3 +375,31 @@ def test_a_numba_that_cannot_cache_leaves_the_interpreted_loops_serving(monkeypa
     assert "cannot cache function" in caplog.text
     with kernels.use("python"):
         assert np.array_equal(got, GaitAwareKalman(100.0).process(*data))
+
+
+NO_BLAS_CHECK = """
+import sys
+import numpy as np
+from gaitmon.dsp import kernels
+from gaitmon.dsp.motion_kalman import GaitAwareKalman
+rng = np.random.default_rng(1)
+data = [9.81 + 0.1 * rng.standard_normal((300, 4)), 0.1 * rng.standard_normal((300, 4)),
+        0.1 * rng.standard_normal((300, 4))]
+with kernels.use("compiled"):
+    got = GaitAwareKalman(100.0).process(*data)
+print("linalg", "scipy.linalg" in sys.modules, "numpy.f2py" in sys.modules)
+import scipy.linalg  # (still there for whoever wants it)
+with kernels.use("python"):
+    print("same", np.allclose(got, GaitAwareKalman(100.0).process(*data), rtol=0, atol=1e-9))
+"""
+
+
+def test_numbas_first_call_loads_no_scipy_linalg():
+    """numba checks for a BLAS at its first compiled call by importing scipy.linalg (with
+    scipy's array API layer and numpy.f2py: ~0.14 s of CPU and ~12 MB in every long
+    ``process``, recovery and close); gaitmon's loops call no BLAS, so the check is made
+    with scipy out of reach, and scipy.linalg stays importable after."""
+    pytest.importorskip("numba")
+    run = _run(NO_BLAS_CHECK)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.split("\n")[:2] == ["linalg False False", "same True"], run.stdout
