@@ -200,6 +200,36 @@ def test_the_loops_smoother_and_gyro_events_import_no_scipy():
         assert not [m for m in found if (m or "").startswith("scipy")], (name, found)
 
 
+def test_loading_the_compiled_loops_imports_no_scipy_linalg(tmp_path):
+    """numba's numpy registry, loaded with the first compiled loop, imported scipy.linalg
+    (~24 MB resident, in every long ``process``, recovery and close) only to ask whether BLAS
+    is there for ``np.convolve``; the loops use none. numba's own linear algebra still works
+    in that process (it imports scipy.linalg when a function of it is compiled)."""
+    pytest.importorskip("numba")
+    code = """
+import sys
+import numpy as np
+from gaitmon.dsp import kernels
+from gaitmon.dsp.smoother import smooth_map
+z = np.sin(np.linspace(0, 20, 3000))[:, None].repeat(2, axis=1)
+with kernels.use("compiled"):
+    a = smooth_map(z, 0.1 * z, 0.01, 1e-4, 1e-6, 0.01)[0]
+with kernels.use("python"):
+    b = smooth_map(z, 0.1 * z, 0.01, 1e-4, 1e-6, 0.01)[0]
+print("linalg after the loops", "scipy.linalg" in sys.modules, float(np.max(np.abs(a - b))))
+import numba
+x = np.arange(6.0).reshape(2, 3)
+print("numba's dot", numba.njit(lambda p, q: np.dot(p, q))(x, x.T).tolist())
+"""
+    run = _run(code, {"NUMBA_CACHE_DIR": str(tmp_path / "cache")})
+    assert run.returncode == 0, run.stderr[-2000:]
+    first, dot = run.stdout.strip().splitlines()[-2:]
+    what, loaded, diff = first.rsplit(" ", 2)
+    assert (what, loaded) == ("linalg after the loops", "False")
+    assert float(diff) < 1e-9
+    assert dot == "numba's dot [[5.0, 14.0], [14.0, 50.0]]"
+
+
 # numba (and llvmlite) cannot be imported in the child: a finder that refuses them
 NO_NUMBA = """
 import importlib.abc, sys

@@ -26,6 +26,39 @@ from numba.core.config import reload_config
 
 reload_config()  # type: ignore[no-untyped-call]  # (numba may have been imported before)
 
+
+def _registry_without_blas() -> None:
+    """Load numba's numpy registry without scipy.linalg. When its first kernel is loaded,
+    numba imports ``numba.np.arraymath``, which imports scipy.linalg (~24 MB of resident
+    memory, a fifth of numba's own) only to learn whether ``np.convolve`` and
+    ``np.correlate`` may call BLAS; gaitmon's loops call neither, nor anything of BLAS. So
+    that check is told "no BLAS" while the module loads, and numba's linear algebra is left as
+    it was (it imports scipy.linalg itself if ever compiled). Where scipy.linalg is loaded
+    already, or numba's modules are laid out otherwise, nothing changes."""
+    import sys
+
+    if "scipy.linalg" in sys.modules or "numba.np.arraymath" in sys.modules:
+        return
+    try:
+        from numba.np import linalg
+    except ImportError:
+        return
+    ensure_blas = getattr(linalg, "ensure_blas", None)
+    if ensure_blas is None:
+        return
+
+    def no_blas() -> None:
+        raise ImportError("gaitmon's compiled loops use no BLAS")
+
+    linalg.ensure_blas = no_blas
+    try:
+        import numba.np.arraymath  # noqa: F401
+    finally:
+        linalg.ensure_blas = ensure_blas
+
+
+_registry_without_blas()
+
 _jit = njit(cache=True, nogil=True)
 gait_aware_update = _jit(loops.gait_aware_update)
 constant_map_solve = _jit(loops.constant_map_solve)
