@@ -249,7 +249,9 @@ def _measurement_weights(r: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(r), 1.0 / np.where(np.isfinite(r), r, 1.0), 0.0)
 
 
-@lru_cache(maxsize=2)  # a long record's windows have one or two lengths: ~10 MB per 100 k rows
+# one factor is kept (~7 MB per 100 k rows): a long record's blocks have one length but the
+# first and last; the one kept is let go before another is built (``_factor``)
+@lru_cache(maxsize=1)
 def _constant_factor(
     n: int, r: float, qa: float, q_bias: float, dt_s: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -275,17 +277,36 @@ def _constant_rhs(
     th = g[0::2]
     np.multiply(w_meas, z, out=th)
     th[0] += (1.0 / _PRIOR_THETA_VAR) * prior
-    th[1:] += v * wdt[1:]
-    th[:-1] -= v * wdt[1:]
     b = g[1::2]
     np.multiply(v * dt_s, wdt[1:], out=b[:-1])
     b[-1] = 0.0
+    # v (w_k dt), in place (the same products as v * wdt: no second (N, S) temporary)
+    vw = wdt[1:]
+    vw *= v
+    th[1:] += vw
+    th[:-1] -= vw
     return g
 
 
+_factor_key: list[tuple[int, float, float, float, float]] = []  # the one cached, if any
+
+
+def _factor(
+    n: int, r: float, qa: float, q_bias: float, dt_s: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """``_constant_factor``, the one it keeps dropped first when another is asked for (so
+    two are never held at once)."""
+    key = (n, r, qa, q_bias, dt_s)
+    if _factor_key != [key]:
+        _constant_factor.cache_clear()
+        _factor_key[:] = [key]
+    return _constant_factor(*key)
+
+
 def release_factors() -> None:
-    """Drop the cached factors (``_constant_factor``) once a record is smoothed."""
+    """Drop the cached factor (``_constant_factor``) once a record is smoothed."""
     _constant_factor.cache_clear()
+    _factor_key.clear()
 
 
 def smooth_map(
@@ -306,7 +327,7 @@ def smooth_map(
     if n == 0:
         return np.empty(np.shape(z)), np.empty(np.shape(z))
     if np.ndim(r) == 0 and np.ndim(qa) == 0:
-        cb, inv_diag = _constant_factor(n, float(r), float(qa), float(q_bias), float(dt_s))
+        cb, inv_diag = _factor(n, float(r), float(qa), float(q_bias), float(dt_s))
         # (any layout: the gravity pass's z~ comes segment-major)
         z2 = np.asarray(z, dtype=np.float64).reshape(n, -1)
         w2 = np.asarray(gyro_rad_s, dtype=np.float64).reshape(z2.shape)
