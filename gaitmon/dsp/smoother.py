@@ -125,9 +125,12 @@ def gravity_tilt(
     """
     theta = np.asarray(theta_rad, dtype=np.float64)
     # laid out along the last axis for the filters, one buffer per quantity (a 15-min block of
-    # 4 segments with its context: 3.6 MB per float64 array)
-    th_t = np.ascontiguousarray(theta.T)
-    turn = th_t * (1.0 / TWO_PI)
+    # 4 segments with its context: 3.6 MB per float64 array); theta's transpose is read as a
+    # view (elementwise, any layout gives the same numbers), products of a row at a time go
+    # through one row's spare: the block's peak holds no copies of either
+    th_t = theta.T
+    turn = np.empty(th_t.shape)
+    np.multiply(th_t, 1.0 / TWO_PI, out=turn)
     np.rint(turn, out=turn)
     turn *= -TWO_PI
     turn += th_t
@@ -135,11 +138,12 @@ def gravity_tilt(
     c, s = np.cos(turn32), np.sin(turn32)
     del turn32
     ax, az = np.asarray(acc_x_ms2).T, np.asarray(acc_z_ms2).T
-    spare = np.empty_like(turn)  # (C order, as turn: rows along the last axis)
     re = np.multiply(ax, c, out=turn)  # (x + i z) e^(-i theta)
-    re += np.multiply(az, s, out=spare)
     im = np.multiply(az, c)
-    im -= np.multiply(ax, s, out=spare)
+    spare = np.empty(re.shape[-1])
+    for r, i, x, z, sk in zip(*map(np.atleast_2d, (re, im, ax, az, s)), strict=True):
+        r += np.multiply(z, sk, out=spare)
+        i -= np.multiply(x, sk, out=spare)
     del c, s, spare
     for _ in range(3):
         re = kernels.running_mean(re, n)
@@ -374,24 +378,42 @@ def smooth_tilts(
     factor, one solve) for the segments whose gravity tunings agree. ``first_pass`` (N, S):
     the causal filter's tilts when they are known already (:class:`CausalFirstPass`).
     """
-    if not (np.isfinite(fs_hz) and fs_hz > 0):
-        raise ValueError(f"fs_hz must be a positive number, got {fs_hz}")
     ax, az, w = (np.asarray(a, dtype=np.float64) for a in (acc_x_ms2, acc_z_ms2, gyro_rad_s))
     s = len(segments)
     if not (ax.shape == az.shape == w.shape and ax.ndim == 2 and ax.shape[1] == s):
         raise ValueError(f"acc_x, acc_z and gyro must be (N, {s}) arrays")
     table = tunings or {}
     tuns = [table[seg] if seg in table else tuning_for(seg) for seg in segments]
+    return _smooth_tilts([ax, az, w, first_pass], fs_hz, segments, tuns, window, overlap)
+
+
+def _smooth_tilts(
+    held: list[np.ndarray | None], fs_hz: float, segments: tuple[str, ...],
+    tuns: list[SegmentTuning], window: int, overlap: int,
+) -> np.ndarray:  # fmt: skip
+    """:func:`smooth_tilts` of ``held`` = [acc_x, acc_z, gyro (N, S) float64, first pass or
+    None], which it empties: where the caller keeps no other reference, the accelerometer
+    and the first pass are let go before the last solve (an 8-hour record's smoother block:
+    ~10 MB of its peak)."""
+    if not (np.isfinite(fs_hz) and fs_hz > 0):
+        raise ValueError(f"fs_hz must be a positive number, got {fs_hz}")
+    ax, az, w, first_pass = held
+    held.clear()
+    assert ax is not None and az is not None and w is not None
+    s = len(segments)
     dt = 1.0 / fs_hz
-    out = np.empty(ax.shape)
+    shape = ax.shape
     if len(ax) == 0:
-        return out
+        return np.empty(shape)
+    out: np.ndarray | None = None  # made once a column is solved (not held through solves)
     plain = [j for j, t in enumerate(tuns) if t.gravity_window_s is None]
     for j in plain:  # no gravity pass: the smoother on the accelerometer tilt
         z, r, qa = smoother_inputs(ax[:, j], az[:, j], w[:, j], fs_hz, tuns[j])
+        out = np.empty(shape) if out is None else out
         out[:, j] = _solve_windows(z, w[:, j], r, qa, tuns[j].q_bias, dt, window, overlap)
     grav = [j for j in range(s) if j not in plain]
     if not grav:
+        assert out is not None
         return out
 
     def cols(a: np.ndarray, idx: list[int]) -> np.ndarray:  # a view where that is all of a
@@ -399,6 +421,7 @@ def smooth_tilts(
 
     if first_pass is not None:
         theta = cols(np.asarray(first_pass, dtype=np.float64), grav)
+        del first_pass
     else:
         theta = _causal_tilt(cols(ax, grav), cols(az, grav), cols(w, grav), fs_hz,
                              tuple(segments[j] for j in grav), [tuns[j] for j in grav])  # fmt: skip
@@ -408,7 +431,7 @@ def smooth_tilts(
         assert t.gravity_window_s is not None
         key = (t.gravity_window_s, t.r_gravity, t.q_angle, t.q_bias, t.gravity_passes)
         groups.setdefault(key, []).append(i)
-    for (window_s, r_grav, q_angle, q_bias, passes), members in groups.items():
+    for k, ((window_s, r_grav, q_angle, q_bias, passes), members) in enumerate(groups.items()):
         cg = [grav[i] for i in members]
         th = cols(theta, members)
         n_grav = max(1, round(window_s * fs_hz))
@@ -418,6 +441,8 @@ def smooth_tilts(
             z_grav = gravity_tilt(cols(ax, cg), cols(az, cg), th, n_grav)
             prev = th if p == passes - 1 and planes else None
             del th
+            if k == len(groups) - 1 and p == passes - 1 and not planes:
+                del ax, az, theta  # (used no more: not held through the last solve)
             th = _solve_windows(z_grav, cols(w, cg), r_grav, q_angle, q_bias, dt, window,
                                 overlap)  # fmt: skip
             if prev is not None:  # out of plane: the accelerometer tilt there, one more solve
@@ -429,7 +454,9 @@ def smooth_tilts(
                     th[:, i] = _solve_windows(z, w[:, j], r, np.full(len(z), q_angle), q_bias,
                                               dt, window, overlap)  # fmt: skip
             del z_grav, prev
+        out = np.empty(shape) if out is None else out
         out[:, cg] = th
+    assert out is not None
     return out
 
 
@@ -489,8 +516,12 @@ def smooth_record_tilts(
     gyro = table.to_physical(counts, GYRO_IDX)
     for (_, cal), a, b in ranges:
         gyro[a:b] -= cal.gyro_bias_rad_s
-    ax, az = table.to_physical(counts, ACC_X_IDX), table.to_physical(counts, ACC_Z_IDX)
-    out = smooth_tilts(ax, az, gyro, fs_hz, SEGMENTS, first_pass=first_pass)
+    held = [table.to_physical(counts, ACC_X_IDX), table.to_physical(counts, ACC_Z_IDX), gyro,
+            None if first_pass is None else np.asarray(first_pass, dtype=np.float64)]  # fmt: skip
+    # the smoother lets go of what it no longer needs: this frame keeps no reference
+    del gyro, first_pass, counts, adc_counts
+    out = _smooth_tilts(held, fs_hz, SEGMENTS, [tuning_for(seg) for seg in SEGMENTS], WINDOW,
+                        OVERLAP)  # fmt: skip
     for (_, cal), a, b in ranges:
         out[a:b] -= cal.tilt_offset_rad
     return np.asarray(wrap_angle(out))

@@ -115,7 +115,10 @@ def smoothed_blocks(
         lo, hi = np.searchsorted(fill_rows, [a, b])
         fill[fill_rows[lo:hi] - a] = fill_n[lo:hi]
         if not fill.any():
-            return smooth_record_tilts(rows, table, cals, fs_hz, theta)
+            # handed over, not kept here: the smoother lets go of them before its last solve
+            held = [rows, theta]
+            del rows, theta
+            return smooth_record_tilts(held.pop(0), table, cals, fs_hz, held.pop())
         prev = counts(a - 1, a)[0].astype(np.float64) if fill[0] and a > 0 else None
         if prev is None:
             fill[0] = 0
@@ -152,27 +155,27 @@ def trim_heap() -> None:
     its heap, and the holes a block's arrays leave there stay resident until trimmed: the
     smoother's blocks on an 8-hour record (~3.5 MB arrays) left ~30 MB of such holes beside
     the live ones, in each long process, recovery and close. A trim costs well under 1 ms."""
-    global _malloc_trim
-    if _malloc_trim is None:
-        _malloc_trim = _find_malloc_trim()
-    if _malloc_trim:
-        _malloc_trim(0)
+    if not _malloc_trim:
+        _malloc_trim.append(_find_malloc_trim())
+    trim = _malloc_trim[0]
+    if trim is not None:
+        trim(0)
 
 
-def _find_malloc_trim() -> Callable[[int], int] | bool:
+def _find_malloc_trim() -> Callable[[int], int] | None:
     import ctypes
     import sys
 
     if not sys.platform.startswith("linux"):
-        return False
+        return None
     try:
         trim: Callable[[int], int] = ctypes.CDLL("libc.so.6").malloc_trim
     except (OSError, AttributeError):  # not glibc (musl has no malloc_trim)
-        return False
+        return None
     return trim
 
 
-_malloc_trim: Callable[[int], int] | bool | None = None
+_malloc_trim: list[Callable[[int], int] | None] = []  # looked up once
 
 
 class KeptFirstPass:
