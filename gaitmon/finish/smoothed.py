@@ -115,6 +115,7 @@ def smoothed_blocks(
         lo, hi = np.searchsorted(fill_rows, [a, b])
         fill[fill_rows[lo:hi] - a] = fill_n[lo:hi]
         if not fill.any():
+            del fill
             # handed over, not kept here: the smoother lets go of them before its last solve
             held = [rows, theta]
             del rows, theta
@@ -132,14 +133,14 @@ def smoothed_blocks(
 
     cuts = sorted({0, n, *(int(r) for r in restarts if 0 < r < n)})
     block, overlap = SMOOTH_BLOCK_ROWS, SMOOTH_OVERLAP_ROWS
+    if n >= block:
+        trim_heap()  # (the holes a replay or a recording left; once: a trim a block cost ~8 %)
     try:
         for a, b in itertools.pairwise(cuts):
             step = b - a if b - a <= block + 2 * overlap else block
             for s0 in range(a, b, step):
                 s1 = min(b, s0 + step)
                 r0, r1 = max(a, s0 - overlap), min(b, s1 + overlap)
-                if n >= block:
-                    trim_heap()  # (the replay's and the block before's holes)
                 yield s0, smooth(r0, r1)[s0 - r0 : s1 - r0]
     finally:
         # the smoother's cached factors (~10 MB each) serve this record's blocks; a review
@@ -152,9 +153,9 @@ def smoothed_blocks(
 def trim_heap() -> None:
     """Give the free pages of the C heap back to the system (glibc's ``malloc_trim``; nothing
     elsewhere). Once glibc has seen a few-MB array freed it serves arrays of that size from
-    its heap, and the holes a block's arrays leave there stay resident until trimmed: the
-    smoother's blocks on an 8-hour record (~3.5 MB arrays) left ~30 MB of such holes beside
-    the live ones, in each long process, recovery and close. A trim costs well under 1 ms."""
+    its heap, and the holes they leave there stay resident until trimmed: an 8-hour replay
+    left ~20 MB of them under the smoother's blocks. The pages given back are faulted in again
+    when used: a trim before each block cost ~8 % of a close's CPU for ~4 MB of its peak."""
     if not _malloc_trim:
         _malloc_trim.append(_find_malloc_trim())
     trim = _malloc_trim[0]
@@ -335,6 +336,7 @@ def store_smoothed(
         for path, data in (("smoothed/tilt_deg", tilt), ("smoothed/joint_deg", joint)):
             if path in writers:
                 writers[path].write(s0, data)
+        del part, tilt, joint, data  # (not alive while the next block is smoothed)
     for w in writers.values():
         w.finish()
     grp.attrs["method"] = smoothed_method_label()
