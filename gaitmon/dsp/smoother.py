@@ -125,26 +125,25 @@ def gravity_tilt(
     """
     theta = np.asarray(theta_rad, dtype=np.float64)
     # laid out along the last axis for the filters, one buffer per quantity (a 15-min block of
-    # 4 segments with its context: 3.6 MB per float64 array); theta's transpose is read as a
-    # view (elementwise, any layout gives the same numbers), products of a row at a time go
-    # through one row's spare: the block's peak holds no copies of either
+    # 4 segments with its context: 3.6 MB per float64 array), computed a row (a segment) at a
+    # time: elementwise, the same numbers as whole arrays, without their temporaries
     th_t = theta.T
-    turn = np.empty(th_t.shape)
-    np.multiply(th_t, 1.0 / TWO_PI, out=turn)
-    np.rint(turn, out=turn)
-    turn *= -TWO_PI
-    turn += th_t
-    turn32 = turn.astype(np.float32)
-    c, s = np.cos(turn32), np.sin(turn32)
-    del turn32
     ax, az = np.asarray(acc_x_ms2).T, np.asarray(acc_z_ms2).T
-    re = np.multiply(ax, c, out=turn)  # (x + i z) e^(-i theta)
-    im = np.multiply(az, c)
-    spare = np.empty(re.shape[-1])
-    for r, i, x, z, sk in zip(*map(np.atleast_2d, (re, im, ax, az, s)), strict=True):
-        r += np.multiply(z, sk, out=spare)
-        i -= np.multiply(x, sk, out=spare)
-    del c, s, spare
+    re, im = np.empty(th_t.shape), np.empty(th_t.shape)
+    spare = np.empty(th_t.shape[-1])
+    for r, i, th, x, z in zip(*map(np.atleast_2d, (re, im, th_t, ax, az)), strict=True):
+        turn = np.multiply(th, 1.0 / TWO_PI, out=r)
+        np.rint(turn, out=turn)
+        turn *= -TWO_PI
+        turn += th
+        turn32 = turn.astype(np.float32)
+        c, s = np.cos(turn32), np.sin(turn32)
+        del turn32, turn
+        np.multiply(x, c, out=r)  # (x + i z) e^(-i theta)
+        r += np.multiply(z, s, out=spare)
+        np.multiply(z, c, out=i)
+        i -= np.multiply(x, s, out=spare)
+    del spare
     for _ in range(3):
         re = kernels.running_mean(re, n)
         im = kernels.running_mean(im, n)
