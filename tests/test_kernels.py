@@ -200,6 +200,36 @@ def test_the_loops_smoother_and_gyro_events_import_no_scipy():
         assert not [m for m in found if (m or "").startswith("scipy")], (name, found)
 
 
+def test_loading_the_compiled_loops_imports_no_scipy_linalg(tmp_path):
+    """numba's numpy registry, loaded with the first compiled loop, imported scipy.linalg
+    (~24 MB resident, in every long ``process``, recovery and close) only to ask whether BLAS
+    is there for ``np.convolve``; the loops use none. numba's own linear algebra still works
+    in that process (it imports scipy.linalg when a function of it is compiled)."""
+    pytest.importorskip("numba")
+    code = """
+import sys
+import numpy as np
+from gaitmon.dsp import kernels
+from gaitmon.dsp.smoother import smooth_map
+z = np.sin(np.linspace(0, 20, 3000))[:, None].repeat(2, axis=1)
+with kernels.use("compiled"):
+    a = smooth_map(z, 0.1 * z, 0.01, 1e-4, 1e-6, 0.01)[0]
+with kernels.use("python"):
+    b = smooth_map(z, 0.1 * z, 0.01, 1e-4, 1e-6, 0.01)[0]
+print("linalg after the loops", "scipy.linalg" in sys.modules, float(np.max(np.abs(a - b))))
+import numba
+x = np.arange(6.0).reshape(2, 3)
+print("numba's dot", numba.njit(lambda p, q: np.dot(p, q))(x, x.T).tolist())
+"""
+    run = _run(code, {"NUMBA_CACHE_DIR": str(tmp_path / "cache")})
+    assert run.returncode == 0, run.stderr[-2000:]
+    first, dot = run.stdout.strip().splitlines()[-2:]
+    what, loaded, diff = first.rsplit(" ", 2)
+    assert (what, loaded) == ("linalg after the loops", "False")
+    assert float(diff) < 1e-9
+    assert dot == "numba's dot [[5.0, 14.0], [14.0, 50.0]]"
+
+
 # numba (and llvmlite) cannot be imported in the child: a finder that refuses them
 NO_NUMBA = """
 import importlib.abc, sys
@@ -376,30 +406,3 @@ def test_a_numba_that_cannot_cache_leaves_the_interpreted_loops_serving(monkeypa
     with kernels.use("python"):
         assert np.array_equal(got, GaitAwareKalman(100.0).process(*data))
 
-
-NO_BLAS_CHECK = """
-import sys
-import numpy as np
-from gaitmon.dsp import kernels
-from gaitmon.dsp.motion_kalman import GaitAwareKalman
-rng = np.random.default_rng(1)
-data = [9.81 + 0.1 * rng.standard_normal((300, 4)), 0.1 * rng.standard_normal((300, 4)),
-        0.1 * rng.standard_normal((300, 4))]
-with kernels.use("compiled"):
-    got = GaitAwareKalman(100.0).process(*data)
-print("linalg", "scipy.linalg" in sys.modules, "numpy.f2py" in sys.modules)
-import scipy.linalg  # (still there for whoever wants it)
-with kernels.use("python"):
-    print("same", np.allclose(got, GaitAwareKalman(100.0).process(*data), rtol=0, atol=1e-9))
-"""
-
-
-def test_numbas_first_call_loads_no_scipy_linalg():
-    """numba checks for a BLAS at its first compiled call by importing scipy.linalg (with
-    scipy's array API layer and numpy.f2py: ~0.14 s of CPU and ~12 MB in every long
-    ``process``, recovery and close); gaitmon's loops call no BLAS, so the check is made
-    with scipy out of reach, and scipy.linalg stays importable after."""
-    pytest.importorskip("numba")
-    run = _run(NO_BLAS_CHECK)
-    assert run.returncode == 0, run.stderr[-2000:]
-    assert run.stdout.split("\n")[:2] == ["linalg False False", "same True"], run.stdout

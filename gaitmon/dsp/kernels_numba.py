@@ -13,7 +13,6 @@ package's ``__pycache__``, outlive its uninstall and hide a later editable insta
 from __future__ import annotations
 
 import os
-import sys
 
 from gaitmon.dsp import loops
 from gaitmon.dsp.kernel_cache import numba_cache_dir
@@ -28,28 +27,37 @@ from numba.core.config import reload_config
 reload_config()  # type: ignore[no-untyped-call]  # (numba may have been imported before)
 
 
-def _registries_without_scipy() -> None:
-    """Load numba's registries of compiled functions now, with scipy out of reach.
+def _registry_without_blas() -> None:
+    """Load numba's numpy registry without scipy.linalg. When its first kernel is loaded,
+    numba imports ``numba.np.arraymath``, which imports scipy.linalg (~24 MB of resident
+    memory, a fifth of numba's own) only to learn whether ``np.convolve`` and
+    ``np.correlate`` may call BLAS; gaitmon's loops call neither, nor anything of BLAS. So
+    that check is told "no BLAS" while the module loads, and numba's linear algebra is left as
+    it was (it imports scipy.linalg itself if ever compiled). Where scipy.linalg is loaded
+    already, or numba's modules are laid out otherwise, nothing changes."""
+    import sys
 
-    numba loads them at its first compiled call (cached or not), and checks there for a BLAS
-    by importing scipy.linalg (numba.np.arraymath's ``_check_blas``), which imports scipy's
-    array API layer and numpy.f2py: ~0.14 s of CPU and ~12 MB that gaitmon's loops never use
-    (they call no BLAS; numba then only refuses np.dot and the like in compiled code, which
-    none of them has). Where scipy is imported already, nothing is saved or changed.
-    """
-    from numba.core.registry import cpu_target
-
-    blocked = next((m for m in ("scipy", "scipy.linalg") if m not in sys.modules), None)
-    if blocked is not None:
-        sys.modules[blocked] = None  # type: ignore[assignment]  # (import refused: ImportError)
+    if "scipy.linalg" in sys.modules or "numba.np.arraymath" in sys.modules:
+        return
     try:
-        cpu_target.target_context.refresh()
+        from numba.np import linalg
+    except ImportError:
+        return
+    ensure_blas = getattr(linalg, "ensure_blas", None)
+    if ensure_blas is None:
+        return
+
+    def no_blas() -> None:
+        raise ImportError("gaitmon's compiled loops use no BLAS")
+
+    linalg.ensure_blas = no_blas
+    try:
+        import numba.np.arraymath  # noqa: F401
     finally:
-        if blocked is not None and sys.modules.get(blocked, False) is None:
-            del sys.modules[blocked]
+        linalg.ensure_blas = ensure_blas
 
 
-_registries_without_scipy()
+_registry_without_blas()
 
 _jit = njit(cache=True, nogil=True)
 gait_aware_update = _jit(loops.gait_aware_update)

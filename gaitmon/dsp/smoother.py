@@ -125,22 +125,25 @@ def gravity_tilt(
     """
     theta = np.asarray(theta_rad, dtype=np.float64)
     # laid out along the last axis for the filters, one buffer per quantity (a 15-min block of
-    # 4 segments with its context: 3.6 MB per float64 array)
-    th_t = np.ascontiguousarray(theta.T)
-    turn = th_t * (1.0 / TWO_PI)
-    np.rint(turn, out=turn)
-    turn *= -TWO_PI
-    turn += th_t
-    turn32 = turn.astype(np.float32)
-    c, s = np.cos(turn32), np.sin(turn32)
-    del turn32
+    # 4 segments with its context: 3.6 MB per float64 array), computed a row (a segment) at a
+    # time: elementwise, the same numbers as whole arrays, without their temporaries
+    th_t = theta.T
     ax, az = np.asarray(acc_x_ms2).T, np.asarray(acc_z_ms2).T
-    spare = np.empty_like(turn)  # (C order, as turn: rows along the last axis)
-    re = np.multiply(ax, c, out=turn)  # (x + i z) e^(-i theta)
-    re += np.multiply(az, s, out=spare)
-    im = np.multiply(az, c)
-    im -= np.multiply(ax, s, out=spare)
-    del c, s, spare
+    re, im = np.empty(th_t.shape), np.empty(th_t.shape)
+    spare = np.empty(th_t.shape[-1])
+    for r, i, th, x, z in zip(*map(np.atleast_2d, (re, im, th_t, ax, az)), strict=True):
+        turn = np.multiply(th, 1.0 / TWO_PI, out=r)
+        np.rint(turn, out=turn)
+        turn *= -TWO_PI
+        turn += th
+        turn32 = turn.astype(np.float32)
+        c, s = np.cos(turn32), np.sin(turn32)
+        del turn32, turn
+        np.multiply(x, c, out=r)  # (x + i z) e^(-i theta)
+        r += np.multiply(z, s, out=spare)
+        np.multiply(z, c, out=i)
+        i -= np.multiply(x, s, out=spare)
+    del spare
     for _ in range(3):
         re = kernels.running_mean(re, n)
         im = kernels.running_mean(im, n)
@@ -249,7 +252,9 @@ def _measurement_weights(r: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(r), 1.0 / np.where(np.isfinite(r), r, 1.0), 0.0)
 
 
-@lru_cache(maxsize=2)  # a long record's windows have one or two lengths: ~10 MB per 100 k rows
+# one factor is kept (~7 MB per 100 k rows): a long record's blocks have one length but the
+# first and last; the one kept is let go before another is built (``_factor``)
+@lru_cache(maxsize=1)
 def _constant_factor(
     n: int, r: float, qa: float, q_bias: float, dt_s: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -275,17 +280,36 @@ def _constant_rhs(
     th = g[0::2]
     np.multiply(w_meas, z, out=th)
     th[0] += (1.0 / _PRIOR_THETA_VAR) * prior
-    th[1:] += v * wdt[1:]
-    th[:-1] -= v * wdt[1:]
     b = g[1::2]
     np.multiply(v * dt_s, wdt[1:], out=b[:-1])
     b[-1] = 0.0
+    # v (w_k dt), in place (the same products as v * wdt: no second (N, S) temporary)
+    vw = wdt[1:]
+    vw *= v
+    th[1:] += vw
+    th[:-1] -= vw
     return g
 
 
+_factor_key: list[tuple[int, float, float, float, float]] = []  # the one cached, if any
+
+
+def _factor(
+    n: int, r: float, qa: float, q_bias: float, dt_s: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """``_constant_factor``, the one it keeps dropped first when another is asked for (so
+    two are never held at once)."""
+    key = (n, r, qa, q_bias, dt_s)
+    if _factor_key != [key]:
+        _constant_factor.cache_clear()
+        _factor_key[:] = [key]
+    return _constant_factor(*key)
+
+
 def release_factors() -> None:
-    """Drop the cached factors (``_constant_factor``) once a record is smoothed."""
+    """Drop the cached factor (``_constant_factor``) once a record is smoothed."""
     _constant_factor.cache_clear()
+    _factor_key.clear()
 
 
 def smooth_map(
@@ -306,7 +330,7 @@ def smooth_map(
     if n == 0:
         return np.empty(np.shape(z)), np.empty(np.shape(z))
     if np.ndim(r) == 0 and np.ndim(qa) == 0:
-        cb, inv_diag = _constant_factor(n, float(r), float(qa), float(q_bias), float(dt_s))
+        cb, inv_diag = _factor(n, float(r), float(qa), float(q_bias), float(dt_s))
         # (any layout: the gravity pass's z~ comes segment-major)
         z2 = np.asarray(z, dtype=np.float64).reshape(n, -1)
         w2 = np.asarray(gyro_rad_s, dtype=np.float64).reshape(z2.shape)
@@ -353,24 +377,42 @@ def smooth_tilts(
     factor, one solve) for the segments whose gravity tunings agree. ``first_pass`` (N, S):
     the causal filter's tilts when they are known already (:class:`CausalFirstPass`).
     """
-    if not (np.isfinite(fs_hz) and fs_hz > 0):
-        raise ValueError(f"fs_hz must be a positive number, got {fs_hz}")
     ax, az, w = (np.asarray(a, dtype=np.float64) for a in (acc_x_ms2, acc_z_ms2, gyro_rad_s))
     s = len(segments)
     if not (ax.shape == az.shape == w.shape and ax.ndim == 2 and ax.shape[1] == s):
         raise ValueError(f"acc_x, acc_z and gyro must be (N, {s}) arrays")
     table = tunings or {}
     tuns = [table[seg] if seg in table else tuning_for(seg) for seg in segments]
+    return _smooth_tilts([ax, az, w, first_pass], fs_hz, segments, tuns, window, overlap)
+
+
+def _smooth_tilts(
+    held: list[np.ndarray | None], fs_hz: float, segments: tuple[str, ...],
+    tuns: list[SegmentTuning], window: int, overlap: int,
+) -> np.ndarray:  # fmt: skip
+    """:func:`smooth_tilts` of ``held`` = [acc_x, acc_z, gyro (N, S) float64, first pass or
+    None], which it empties: where the caller keeps no other reference, the accelerometer
+    and the first pass are let go before the last solve (an 8-hour record's smoother block:
+    ~10 MB of its peak)."""
+    if not (np.isfinite(fs_hz) and fs_hz > 0):
+        raise ValueError(f"fs_hz must be a positive number, got {fs_hz}")
+    ax, az, w, first_pass = held
+    held.clear()
+    assert ax is not None and az is not None and w is not None
+    s = len(segments)
     dt = 1.0 / fs_hz
-    out = np.empty(ax.shape)
+    shape = ax.shape
     if len(ax) == 0:
-        return out
+        return np.empty(shape)
+    out: np.ndarray | None = None  # made once a column is solved (not held through solves)
     plain = [j for j, t in enumerate(tuns) if t.gravity_window_s is None]
     for j in plain:  # no gravity pass: the smoother on the accelerometer tilt
         z, r, qa = smoother_inputs(ax[:, j], az[:, j], w[:, j], fs_hz, tuns[j])
+        out = np.empty(shape) if out is None else out
         out[:, j] = _solve_windows(z, w[:, j], r, qa, tuns[j].q_bias, dt, window, overlap)
     grav = [j for j in range(s) if j not in plain]
     if not grav:
+        assert out is not None
         return out
 
     def cols(a: np.ndarray, idx: list[int]) -> np.ndarray:  # a view where that is all of a
@@ -378,6 +420,7 @@ def smooth_tilts(
 
     if first_pass is not None:
         theta = cols(np.asarray(first_pass, dtype=np.float64), grav)
+        del first_pass
     else:
         theta = _causal_tilt(cols(ax, grav), cols(az, grav), cols(w, grav), fs_hz,
                              tuple(segments[j] for j in grav), [tuns[j] for j in grav])  # fmt: skip
@@ -387,7 +430,7 @@ def smooth_tilts(
         assert t.gravity_window_s is not None
         key = (t.gravity_window_s, t.r_gravity, t.q_angle, t.q_bias, t.gravity_passes)
         groups.setdefault(key, []).append(i)
-    for (window_s, r_grav, q_angle, q_bias, passes), members in groups.items():
+    for k, ((window_s, r_grav, q_angle, q_bias, passes), members) in enumerate(groups.items()):
         cg = [grav[i] for i in members]
         th = cols(theta, members)
         n_grav = max(1, round(window_s * fs_hz))
@@ -397,6 +440,8 @@ def smooth_tilts(
             z_grav = gravity_tilt(cols(ax, cg), cols(az, cg), th, n_grav)
             prev = th if p == passes - 1 and planes else None
             del th
+            if k == len(groups) - 1 and p == passes - 1 and not planes:
+                del ax, az, theta  # (used no more: not held through the last solve)
             th = _solve_windows(z_grav, cols(w, cg), r_grav, q_angle, q_bias, dt, window,
                                 overlap)  # fmt: skip
             if prev is not None:  # out of plane: the accelerometer tilt there, one more solve
@@ -408,7 +453,9 @@ def smooth_tilts(
                     th[:, i] = _solve_windows(z, w[:, j], r, np.full(len(z), q_angle), q_bias,
                                               dt, window, overlap)  # fmt: skip
             del z_grav, prev
+        out = np.empty(shape) if out is None else out
         out[:, cg] = th
+    assert out is not None
     return out
 
 
@@ -468,8 +515,12 @@ def smooth_record_tilts(
     gyro = table.to_physical(counts, GYRO_IDX)
     for (_, cal), a, b in ranges:
         gyro[a:b] -= cal.gyro_bias_rad_s
-    ax, az = table.to_physical(counts, ACC_X_IDX), table.to_physical(counts, ACC_Z_IDX)
-    out = smooth_tilts(ax, az, gyro, fs_hz, SEGMENTS, first_pass=first_pass)
+    held = [table.to_physical(counts, ACC_X_IDX), table.to_physical(counts, ACC_Z_IDX), gyro,
+            None if first_pass is None else np.asarray(first_pass, dtype=np.float64)]  # fmt: skip
+    # the smoother lets go of what it no longer needs: this frame keeps no reference
+    del gyro, first_pass, counts, adc_counts
+    out = _smooth_tilts(held, fs_hz, SEGMENTS, [tuning_for(seg) for seg in SEGMENTS], WINDOW,
+                        OVERLAP)  # fmt: skip
     for (_, cal), a, b in ranges:
         out[a:b] -= cal.tilt_offset_rad
     return np.asarray(wrap_angle(out))
