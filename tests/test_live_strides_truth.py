@@ -89,7 +89,10 @@ def cut_unit(monkeypatch):
     from gaitmon.io.sim.config import SimConfig
 
     config = SimConfig(standing_s=2.0, speed=5.0, stride_cv=0.005, seed=5)
-    at = cut_in_stance(config.gait_config())
+    # the 20th stride (~24 s of the unit's clock, ~5 s of wall time from the unit's start): the
+    # recording must have started before it, however long a busy machine takes to connect (at
+    # the 12th, 3 s of wall time, it once had not)
+    at = cut_in_stance(config.gait_config(), k=20)
 
     def faults(self: SimConfig) -> FaultConfig:
         return FaultConfig(seed=self.seed, link_drops=((at, CUT_S),))
@@ -115,7 +118,7 @@ def test_the_gait_panel_counts_the_stride_across_a_cut(qtbot, tmp_path, cut_unit
         win.conn.engine.start_recording(path)
         qtbot.waitUntil(lambda: panel.strides_name.text() == "Strides (this recording)",
                         timeout=60_000)  # fmt: skip
-        qtbot.waitUntil(lambda: win.engine.samples_total >= 3000, timeout=120_000)
+        qtbot.waitUntil(lambda: win.engine.samples_total >= 3800, timeout=120_000)
         win.conn.unit.stand_still()  # the subject stops: the count is final before Stop
         qtbot.waitUntil(lambda: panel.stale_text().startswith("⚠ stale: last stride"),
                         timeout=60_000)  # fmt: skip

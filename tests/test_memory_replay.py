@@ -60,7 +60,7 @@ class _ChunkWatch:
     has written them)."""
 
     def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
-        import gaitmon.finish.recovery as rec
+        import gaitmon.finish.replay as rec
         from gaitmon.dsp.pipeline import Pipeline
 
         self.calls = 0
