@@ -8,9 +8,9 @@ block form elsewhere, counting no rows) have one source and two forms: compiled 
 Both give the same numbers (to rounding: tests/test_kernels.py checks 1e-9 on simulated and
 real walks in any chunking). Interpreted, a row of four segments costs ~7 us in the filter and
 ~8 us in the smoother; compiled, well under 1 us, but importing numba and loading the cached
-loops costs ~1 s of CPU (and ~55 MB), and compiling them ~4 s more on a quiet machine (30-40 s
-on a busy one). So the rule, per process, counting the rows run by the filter and the
-smoother's solve:
+loops costs ~0.5 s of CPU (and ~100 MB, LLVM's runtime), and compiling them ~4 s more on a
+quiet machine (30-40 s on a busy one). So the rule, per process, counting the rows run by the
+filter and the smoother's solve:
 
 * live blocks (calls of fewer than :data:`BATCH_CALL_ROWS` rows) always run interpreted: at
   100 Hz that is well under 1 % of a core, and no connect waits for numba;
