@@ -202,7 +202,7 @@ def test_constant_variance_smoother_reuses_one_factor_and_is_the_rts_smoother():
     every segment and window; the numbers are the hand-written RTS loop's, and the per-sample
     path's (LAPACK's factorisation and solve) to rounding (the substitutions are compiled
     loops with the right-hand side built on the fly)."""
-    from gaitmon.dsp import smoother
+    from gaitmon.dsp import smoother_map as smoother
 
     rng = np.random.default_rng(8)
     n = 700
@@ -395,7 +395,7 @@ def test_live_peak_swing_knee_flexion_is_within_the_goal_with_the_standing_zero(
 def test_smoothing_a_record_leaves_no_factor_cached():
     """The constant-variance factors serve one record's blocks, then are let go (a review
     window living on would otherwise keep ~10 MB each)."""
-    from gaitmon.dsp import smoother
+    from gaitmon.dsp import smoother_map as smoother
     from gaitmon.dsp.calibration import Calibration
     from gaitmon.finish.smoothed import smoothed_blocks
 

@@ -114,7 +114,7 @@ def test_both_forms_give_the_same_tilts_on_real_recordings(shared_data, dataset,
 def test_the_banded_solve_is_lapacks_in_both_forms():
     from scipy.linalg import solveh_banded
 
-    from gaitmon.dsp.smoother import _measurement_weights, _normal_band, _normal_rhs
+    from gaitmon.dsp.smoother_map import _measurement_weights, _normal_band, _normal_rhs
 
     rng = np.random.default_rng(3)
     n = 3000
