@@ -98,7 +98,9 @@ def rewrite_processed(
         with open_session(src) as s:
             unit = UnitInputs.of(s)
             _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
-        with h5py.File(tmp, "r+") as f:
+        # the events are made anew, and a file from before the attributes gets them too:
+        # described once, when it is whole
+        with h5py.File(tmp, "r+") as f, described_once(f):
             rewrite_unit(f, unit, config, lambda f: report(COPY_SHARE + (1.0 - COPY_SHARE) * f),
                          check_cancel)  # fmt: skip
         check_cancel()
@@ -201,21 +203,8 @@ def rewrite_unit(
     check_cancel: Callable[[], None],
 ) -> None:
     """Reprocess the one unit whose layout is rooted at ``f`` (a one-unit file, or a bilateral
-    file's ``/units/<side>``) in place with ``config``."""
-    # the events are made anew, and a file from before the attributes gets them too: described
-    # once at the end (each step alone describes what it wrote)
-    with described_once(f):
-        _rewrite_unit(f, unit, config, report, check_cancel)
-    report(1.0)
-
-
-def _rewrite_unit(
-    f: h5py.Group,
-    unit: UnitInputs,
-    config: PipelineConfig,
-    report: Progress,
-    check_cancel: Callable[[], None],
-) -> None:
+    file's ``/units/<side>``) in place with ``config``. Its steps describe what they write;
+    callers hold that until the file is whole (``attributes.described_once``: one pass)."""
     n, calibration, calibration_log = unit.n, unit.calibration, unit.calibration_log
     table, lost = unit.table, unit.lost
     v2 = int(f.attrs.get("format_version", 1)) >= 2
@@ -282,3 +271,4 @@ def _rewrite_unit(
     cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
     write_overview(f)  # the joint angles changed: so did their overview
     store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
+    report(1.0)

@@ -34,7 +34,7 @@ from gaitmon.finish.reprocess import (
     partial_path,
     rewrite_unit,
 )
-from gaitmon.io.session.attributes import describe
+from gaitmon.io.session.attributes import described_once
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.parts import SIDE_NAMES
 from gaitmon.io.session.trust import written_here
@@ -78,7 +78,8 @@ def rewrite_bilateral(
             _copy_unit(src, tmp, side)
         total = max(1, sum(u.n for u in units.values()))
         done = 0
-        with h5py.File(tmp, "r+") as f:
+        # described once when whole: the units, and /sync (a file from before the attributes)
+        with h5py.File(tmp, "r+") as f, described_once(f):
             for s, unit in units.items():
                 root = f if side is not None else f[f"units/{s}"]
 
@@ -87,7 +88,6 @@ def rewrite_bilateral(
 
                 rewrite_unit(root, unit, configs[s], sub, check_cancel)
                 done += unit.n
-            describe(f)  # /sync too (a file from before the attributes gets them)
         check_cancel()
         os.replace(tmp, dst)
     written_here(dst)  # (read back next: the summary)
