@@ -66,9 +66,12 @@ def _stamp(f: h5py.File) -> tuple[int, ...] | None:
     """The open file's (device, inode, size, mtime ns, ctime ns), None when its driver has no
     file descriptor to ask."""
     with contextlib.suppress(Exception):
-        st = os.fstat(int(f.id.get_vfd_handle()))
-        return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+        return _stamp_of(os.fstat(int(f.id.get_vfd_handle())))
     return None
+
+
+def _stamp_of(st: os.stat_result) -> tuple[int, ...]:
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
 
 
 def check_file(path: Path, f: h5py.File) -> None:
@@ -89,8 +92,7 @@ def written_here(path: Path) -> None:
     copy: what passed :func:`check_file` in its source, and what gaitmon wrote), so that reading
     it back does not walk it again (~12 ms); any later change of the file changes its stamp."""
     with contextlib.suppress(OSError):
-        st = os.stat(path)
-        _PASSED.add((st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
+        _PASSED.add(_stamp_of(os.stat(path)))
 
 
 def _walk(path: Path, f: h5py.File) -> None:
