@@ -208,3 +208,36 @@ def test_stamps_always_increase(speed):
         i += m
     t = np.concatenate(stamps)
     assert np.all(np.diff(t) > 0.25 * period)
+
+
+@pytest.mark.parametrize("speed", [1.0, 4.0])
+def test_a_backlog_at_the_start_is_not_stamped_in_the_future(speed):
+    """The link opens on a backlog: the unit had been sampling for 1.28 s, and its first 128
+    frames are read at one moment, in blocks of 4 (as the engine hands them on), before the
+    frames come as they are made. Those frames were all made before that moment; the map must
+    not stamp them later than it at the nominal rate (it did: up to 1.3 s, and at speed 4 it
+    took 1,100 more samples to come back), and within a second of samples after the backlog
+    it is on the truth. The stamps still increase throughout."""
+    rng = np.random.default_rng(21)
+    period = 1.0 / (FS * speed * (1 + 400e-6))
+    backlog = 128
+    k_all = np.arange(backlog + int(20 * FS * speed), dtype=np.float64)
+    made = 7.0 + k_all * period
+    arrive = made + FLOOR_S + rng.exponential(0.002, len(k_all))
+    arrive[:backlog] = made[backlog - 1] + FLOOR_S  # the backlog, read at once
+    clock = SampleClock(FS)
+    ks, stamps = [], []
+    for a in range(0, len(k_all), 4):
+        k, h = k_all[a : a + 4], arrive[a : a + 4]
+        clock.update(k, np.full(len(k), h.max()))
+        ks.append(k)
+        stamps.append(clock.map(k))
+    k, t = np.concatenate(ks), np.concatenate(stamps)
+    assert np.all(np.diff(t) > 0)
+    # a sample is made before it is read: the backlog's stamps stay near the moment it was
+    # read (they must still increase, by a tenth of a period at least, hence not at it)
+    assert (t[:backlog] - arrive[:backlog]).max() < 0.2
+    err = t - (7.0 + FLOOR_S + k * period)
+    after = k >= backlog + FS * speed  # a second of samples after the backlog
+    assert np.abs(err[after]).max() < 1e-3, np.abs(err[after]).max()
+    assert clock.rate_error_ppm == pytest.approx((1 + 400e-6) * speed * 1e6 - 1e6, abs=20)

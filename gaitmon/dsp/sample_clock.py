@@ -45,14 +45,19 @@ The first seconds. Until the points span ``trust_s`` (10 s) of samples the line 
 with every block, and its rate is held within ``rate_prior_ppm`` (1000 ppm, a crystal's
 tolerance) of the nominal one, unless the fit is more than 10 % off it (a simulator running
 faster than real time): a short span says little about the rate. Before two samples with
-different receive times, the nominal rate is used.
+different receive times (a link that opens on a backlog reads every frame of it at one
+moment), the fit is the nominal rate through the least-delayed sample, refitted with each
+block like any fit: the backlog's later frames pull the map down (they were all made before
+that moment), instead of the map running on at the nominal rate above them (it ran 1.3 s
+ahead on a 1.3-s backlog, and at speed 4 took 1,100 samples to come back).
 
 The map. Timestamps must not jump when the fit changes: the map in force (``map``) is a line
 that, at each refit, starts from its own value at the last sample stamped and meets the new
 fit some time later (a slew, never a step), unless the fit is more than ``step_s`` ahead
 (or it is the first fit, or a restart), when it takes the fit at once. The stamps never go
 back (an XDF reader drops a sample stamped before its predecessor): a slew back advances at
-half the sample period at least. Down (a sample met less delay
+a tenth of the sample period at least (``_MIN_ADVANCE``; half of it took seconds to undo a
+map that was far ahead). Down (a sample met less delay
 than any before: certain, delays are never negative) the slew takes 0.1 s while the rate is
 being learnt; up (no sample came near the line for a while: the floor may have moved, or the
 host was busy) 0.5 s; once the rate is learnt, ``horizon_s`` (2 s) either way.
@@ -78,6 +83,9 @@ _FREE_BEYOND = 0.1
 # a sample this far below the line is news worth a refit at once (less is left to the next
 # scheduled one: a refit costs ~1 ms, and near-floor samples graze the line all the time)
 _NEWS_S = 50e-6
+# a map that must come back (it stamps samples later than they were read) still advances at
+# this fraction of the sample period: the stamps increase, and it is back within a few periods
+_MIN_ADVANCE = 0.1
 
 
 class SampleClock:
@@ -240,13 +248,12 @@ class SampleClock:
             self._restarted = False
         # after a restart, until the new points span enough to trust their own rate
         fit = self._learnt_rate_fit() if self._restarted else self._envelope()
-        if fit is None:
-            if self._map is None:  # no rate yet: the nominal one through the lowest point
-                period = 1.0 / self.fs_hz
-                i = int(np.argmin(self._bh - period * self._bk))
-                self._map = ClockLine(float(self._bk[i]), float(self._bh[i]), period)
-            return
-        self.fit = fit
+        if fit is not None:
+            self.fit = fit
+        else:  # no rate yet (every sample read at one time: a backlog): the nominal rate
+            period = 1.0 / self.fs_hz
+            i = int(np.argmin(self._bh - period * self._bk))
+            fit = ClockLine(float(self._bk[i]), float(self._bh[i]), period)
         m = self._map
         now = float(m.at(k_anchor)) if m is not None else 0.0
         err = float(fit.at(k_anchor)) - now
@@ -270,7 +277,7 @@ class SampleClock:
         k_aim = self._aim_k
         period = (float(fit.at(k_aim)) - now) / (k_aim - k_anchor)
         # going back, the stamps still advance at half the sample period at least
-        self._map = ClockLine(k_anchor, now, max(period, 0.5 * fit.period_s))
+        self._map = ClockLine(k_anchor, now, max(period, _MIN_ADVANCE * fit.period_s))
 
     def _learnt_rate_fit(self) -> ClockLine:
         """The rate learnt before a restart, through the new points' least-delayed one."""
