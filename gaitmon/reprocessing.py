@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from gaitmon.dsp.methods import get_method, live_names, methods
+from gaitmon.dsp.methods import get_method, live_names, settings_read_by
 from gaitmon.errors import UserError
 
 if TYPE_CHECKING:  # applied to a recorded one: the settings and their help need no pipeline
@@ -29,16 +29,17 @@ SETTINGS = {
     "fsr_threshold": "FSR contact threshold (ADC counts)",
 }
 # settings that only the paper's filter reads: given with the gait-aware filter they would
-# silently change nothing (each method says which settings it reads: gaitmon.dsp.methods)
-PAPER_ONLY = get_method("paper").reads_settings
+# silently change nothing (each method says which settings it reads: gaitmon.dsp.methods;
+# the registry's declaration, so that building the options imports no method's filter)
+PAPER_ONLY = settings_read_by("paper")
 
 
 def method_only_settings() -> dict[str, tuple[str, ...]]:
     """Settings that only some of the app's tilt methods read -> the methods that read them."""
     out: dict[str, tuple[str, ...]] = {}
-    for m in methods(live=True):
-        for name in m.reads_settings:
-            out[name] = (*out.get(name, ()), m.name)
+    for method in live_names():
+        for name in settings_read_by(method):
+            out[name] = (*out.get(name, ()), method)
     return out
 
 # The FSR channels are 12-bit ADC counts: a threshold at or above the top is never crossed.

@@ -246,3 +246,15 @@ def test_process_of_a_finished_file_loads_no_journal_nor_link_protocol(sessions,
     assert "gaitmon.finish.replay" in modules
     assert _loaded(modules, ("gaitmon.io.journal", "gaitmon.io.protocol", "gaitmon.io.wire",
                              "gaitmon.finish.recovery")) == []  # fmt: skip
+
+
+def test_process_with_the_gait_aware_filter_loads_no_other_methods_filter(sessions, tmp_path):
+    """The settings options (``--method``'s choices and help, the paper-only settings) come
+    from the registry's declarations: a gait-aware reprocessing imports neither the paper's
+    method nor its Kalman filter (~13 ms of a 1-min ``process``; both were imported to read
+    a class attribute), while the gait-aware method it runs is loaded."""
+    modules = modules_of("process", str(sessions["one leg"]), "-o", str(tmp_path / "new.h5"),
+                         "--quiet", "--method", "gait-aware")  # fmt: skip
+    assert "gaitmon.dsp.methods.gait_aware" in modules
+    assert _loaded(modules, ("gaitmon.dsp.methods.paper", "gaitmon.dsp.kalman",
+                             "gaitmon.dsp.methods.complementary")) == []  # fmt: skip

@@ -49,16 +49,16 @@ def add_settings_arguments(p: argparse.ArgumentParser, default: str = "as record
             default=None,
             help=f"{help_text}; default: {default}",
         )
-    from gaitmon.dsp.methods import DEFAULT_METHOD, methods
+    from gaitmon.dsp.methods import DEFAULT_METHOD, live_names, method_label
 
-    offered = methods(live=True)
+    offered = live_names()  # (the registry's declarations: no method's module is imported)
     p.add_argument(
         "--method",
-        choices=tuple(m.name for m in offered),
+        choices=offered,
         default=None,
         help="tilt filter: " + " or ".join(
-            f"{m.name} (default for new recordings)" if m.name == DEFAULT_METHOD
-            else f"{m.name} ('{m.label}')" for m in offered
+            f"{name} (default for new recordings)" if name == DEFAULT_METHOD
+            else f"{name} ('{method_label(name)}')" for name in offered
         ) + f"; default: {default}",
     )  # fmt: skip
 
@@ -92,7 +92,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from gaitmon.commands.info import progress_printer
     from gaitmon.finish import open_session
-    from gaitmon.finish.reprocess import check_raw, rewrite_processed
+    from gaitmon.finish.reprocess import UnitInputs, rewrite_processed
     from gaitmon.io.session import SessionError
     from gaitmon.io.session.parts import is_bilateral
 
@@ -133,12 +133,11 @@ def run(args: argparse.Namespace) -> int:
             # (an interrupted recording is recovered first; the settings it was recorded with)
             with open_session(src, progress=None if quiet else progress_printer("recovering")
                               ) as s:  # fmt: skip
-                check_raw(s)
-                recorded, contacts = s.config, _Contacts.of(s)
-            config = settings.apply(recorded)
+                unit, contacts = UnitInputs.of(s), _Contacts.of(s)  # (checks the raw counts)
+            config = settings.apply(unit.config)
             result = rewrite_processed(
                 src, dst, config, progress=None if quiet else progress_printer("reprocessing"),
-                overwrite=args.force,
+                overwrite=args.force, unit=unit,
             )
             with open_session(dst) as after:
                 done.append(_done("", result.n_frames, after, config))

@@ -80,8 +80,11 @@ def rewrite_processed(
     progress: Progress | None = None,
     cancel: Cancel | None = None,
     overwrite: bool = False,
+    unit: UnitInputs | None = None,
 ) -> RewriteResult:
     """Write ``dst``: a copy of the raw session ``src`` reprocessed with ``config``.
+    ``unit``: what the replay takes from ``src``, where the caller has read it already
+    (``gaitmon process``: it read the settings from the same open); else read here.
 
     ``progress(fraction)`` goes from 0 to 1 (the copy, then the replay); ``cancel()`` is asked
     between chunks, and when it answers True the partial file is deleted and
@@ -95,9 +98,10 @@ def rewrite_processed(
     report(0.0)
     tmp = partial_path(dst)
     with _building(tmp, dst, src):
-        with open_session(src) as s:
-            unit = UnitInputs.of(s)
-            _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
+        if unit is None:
+            with open_session(src) as s:
+                unit = UnitInputs.of(s)
+        _copy(src, tmp, lambda f: report(COPY_SHARE * f), check_cancel)
         # the events are made anew, and a file from before the attributes gets them too:
         # described once, when it is whole
         with h5py.File(tmp, "r+") as f, described_once(f):
