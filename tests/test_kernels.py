@@ -296,7 +296,8 @@ sys.exit(rc)
 def test_long_batch_work_goes_over_to_the_cached_compiled_loops(tmp_path):
     """The rule (gaitmon.dsp.kernels): short work stays interpreted and imports no numba; past
     FILL_ROWS a background process fills an empty cache (nothing compiles in this one), and
-    once it is ready, work past LOAD_ROWS runs compiled."""
+    once it is ready, work past LOAD_ROWS runs compiled: the loops the filler built ahead of
+    time where it could (then numba is not even imported), else numba's cached ones."""
     code = """
 import sys
 import numpy as np
@@ -314,6 +315,8 @@ print("filling", "numba" in sys.modules, kernel_cache._fill is not None)
 print("filled", kernel_cache.wait_fill(240), kernel_cache.cache_ready())
 kf.process(*block(kernels.LOAD_ROWS))
 print("loaded", "numba" in sys.modules, kernels.compiled_loaded())
+import os
+print("aot", os.path.exists(kernel_cache.aot_file()), type(kernels._compiled).__name__)
 """
     run = _run(code, {"NUMBA_CACHE_DIR": str(tmp_path / "cache")})
     assert run.returncode == 0, run.stderr[-2000:]
@@ -321,7 +324,9 @@ print("loaded", "numba" in sys.modules, kernels.compiled_loaded())
     assert lines[0] == "short False False"
     assert lines[1] == "filling False True"
     assert lines[2] == "filled 0 True"
-    assert lines[3] == "loaded True True"
+    aot = lines[4].split()[1] == "True"
+    assert lines[3] == f"loaded {not aot} True"
+    assert lines[4].split()[2] == ("Loops" if aot else "module")
 
 
 def test_a_half_imported_compiled_module_is_not_used(monkeypatch):
@@ -333,6 +338,7 @@ def test_a_half_imported_compiled_module_is_not_used(monkeypatch):
     half = types.ModuleType("gaitmon.dsp.kernels_numba")  # (no functions yet)
     monkeypatch.setitem(sys.modules, "gaitmon.dsp.kernels_numba", half)
     monkeypatch.setattr(kernels, "_compiled", None, raising=False)
+    monkeypatch.setattr(kernels, "_aot_file", [None])  # (no module built ahead of time)
     monkeypatch.setattr(kernels, "_batch_rows", 0)
     assert not kernels.compiled_loaded()
     assert kernels.compiled_for(4000) is None
@@ -395,6 +401,8 @@ def test_a_numba_that_cannot_cache_leaves_the_interpreted_loops_serving(monkeypa
     monkeypatch.delattr(gaitmon.dsp, "kernels_numba", raising=False)  # (imported before)
     monkeypatch.setattr(sys, "meta_path", [Unwritable(), *sys.meta_path])
     monkeypatch.setattr(kernels, "_compiled", None)
+    monkeypatch.setattr(kernels, "_jit", None)
+    monkeypatch.setattr(kernels, "_aot_file", [None])  # (no module built ahead of time)
     monkeypatch.setattr(kernels, "_unavailable", False)
     monkeypatch.setattr(kernels, "_batch_rows", kernels.LOAD_ROWS)
     monkeypatch.setattr(kernels, "cache_ready", lambda: True)

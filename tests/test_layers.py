@@ -212,9 +212,20 @@ def test_the_import_reader_resolves_relative_and_from_imports(tmp_path: Path) ->
                    "gaitmon.engine"}  # fmt: skip
 
 
+# the one load by name that is no arrow: the loops compiled ahead of time, a C extension built
+# into the user's cache folder (gaitmon.dsp.kernel_aot), imports nothing of gaitmon's
+NOT_AN_ARROW = frozenset({"kernel_aot.py: exec_module()"})
+
+
 def test_no_module_imports_by_name() -> None:
     found = [hit for path in module_names().values() for hit in imports_by_name(path)]
-    assert found == []
+    assert [hit for hit in found if _without_line(hit) not in NOT_AN_ARROW] == []
+    assert {_without_line(hit) for hit in found} <= NOT_AN_ARROW
+
+
+def _without_line(hit: str) -> str:
+    name, _line, call = hit.split(":")
+    return f"{name}:{call}"
 
 
 def test_the_by_name_reader_finds_every_spelling(tmp_path: Path) -> None:

@@ -3,8 +3,9 @@
 numba caches a compiled function in the user's cache folder (:func:`numba_cache_dir`) and
 drops that cache when the function's source file changes (a new install). Whether the cache is
 ready is asked before numba is imported (importing it costs ~0.4 s of CPU), so the answer is a
-mark of our own, written once every kernel is compiled or loaded (:func:`mark_ready`), named by
-what numba's own check reads: the stamp (modification time, size) of the kernels' source
+mark of our own, written once every kernel is compiled or loaded and the filler has tried to
+build them ahead of time too (:func:`mark_ready`, :func:`aot_file`), named by what numba's own
+check reads: the stamp (modification time, size) of the kernels' source
 (``gaitmon/dsp/loops.py``), of numba's and the interpreter's version. A cache made by another
 install, numba or Python has another name and is not taken as ready.
 """
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib.machinery
 import importlib.util
 import os
 import subprocess
@@ -66,7 +68,8 @@ def ready_mark() -> str | None:
         numba_stamp = _stamp(origin)
     except OSError:
         numba_stamp = origin
-    key = "|".join([_stamp(loops.__file__), numba_stamp, sys.version, sys.platform])
+    # ("aot": a cache made before the filler also built the ahead-of-time module is not ready)
+    key = "|".join([_stamp(loops.__file__), numba_stamp, sys.version, sys.platform, "aot"])
     digest = hashlib.sha1(key.encode(), usedforsecurity=False).hexdigest()[:16]
     return os.path.join(numba_cache_dir(), f"gaitmon-ready-{digest}")
 
@@ -90,6 +93,17 @@ def mark_ready() -> None:
 
 _FILL_STALE_S = 900.0  # a filler's lock older than this is from one that died
 _fill: subprocess.Popen[bytes] | None = None  # the filler this process started
+
+
+def aot_file() -> str | None:
+    """Where the loops compiled ahead of time are for this install (:mod:`gaitmon.dsp.kernel_aot`;
+    the file may not exist); None without numba."""
+    mark = ready_mark()
+    if mark is None:
+        return None
+    digest = os.path.basename(mark).rsplit("-", 1)[-1]  # (the same key as the mark's)
+    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+    return os.path.join(os.path.dirname(mark), f"gaitmon_loops_{digest}{suffix}")
 
 
 def start_fill() -> bool:

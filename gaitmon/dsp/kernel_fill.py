@@ -1,5 +1,6 @@
-"""``python -m gaitmon.dsp.kernel_fill [LOCK]``: compile every kernel into numba's cache and mark
-it ready for this install (:mod:`gaitmon.dsp.kernel_cache`), then remove ``LOCK``.
+"""``python -m gaitmon.dsp.kernel_fill [LOCK]``: compile every kernel into numba's cache, build
+them ahead of time into a module that loads without numba (:mod:`gaitmon.dsp.kernel_aot`), mark
+the cache ready for this install (:mod:`gaitmon.dsp.kernel_cache`), then remove ``LOCK``.
 
 Started in the background (:func:`gaitmon.dsp.kernel_cache.start_fill`) by the live window's
 first connect and by batch work long enough to want the compiled loops, so that nobody waits
@@ -36,6 +37,16 @@ def compile_all() -> None:
     smoother.release_factors()
 
 
+def build_aot() -> bool:
+    """The loops compiled ahead of time (:mod:`gaitmon.dsp.kernel_aot`), with the signatures
+    :func:`compile_all` compiled them for; False where they cannot be."""
+    from gaitmon.dsp import kernel_aot
+    from gaitmon.dsp.kernel_cache import aot_file
+
+    path = aot_file()
+    return path is not None and kernel_aot.build(path)
+
+
 def main(argv: list[str]) -> int:
     from gaitmon.dsp.kernel_cache import mark_ready
 
@@ -44,6 +55,7 @@ def main(argv: list[str]) -> int:
             os.nice(10)
     try:
         compile_all()
+        build_aot()
         mark_ready()
     finally:
         if argv:

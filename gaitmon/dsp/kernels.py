@@ -1,29 +1,36 @@
-"""Which form of the inner loops runs: numba's compiled one, or the same source interpreted.
+"""Which form of the inner loops runs: compiled (ahead of time, or by numba), or the same source
+interpreted.
 
 The loops (:mod:`gaitmon.dsp.loops`: the gait-aware filter's update, the smoother's banded
 factorisation and substitutions; scipy's ``lfilter`` recursion, which
-:class:`gaitmon.dsp.iir.LinearFilter` runs compiled where this rule picks numba and in its numpy
-block form elsewhere, counting no rows) have one source and two forms: compiled by numba
-(:mod:`gaitmon.dsp.kernels_numba`), or run by the interpreter on ``memoryview`` s of the arrays.
+:class:`gaitmon.dsp.iir.LinearFilter` runs compiled where this rule picks a compiled form and in
+its numpy block form elsewhere, counting no rows) have one source and two forms: compiled
+(:mod:`gaitmon.dsp.kernel_aot`, :mod:`gaitmon.dsp.kernels_numba`), or run by the interpreter on
+``memoryview`` s of the arrays.
 Both give the same numbers (to rounding: tests/test_kernels.py checks 1e-9 on simulated and
 real walks in any chunking). Interpreted, a row of four segments costs ~7 us in the filter and
-~8 us in the smoother; compiled, well under 1 us, but importing numba and loading the cached
-loops costs ~0.5 s of CPU (and ~100 MB, LLVM's runtime), and compiling them ~4 s more on a
-quiet machine (30-40 s on a busy one). So the rule, per process, counting the rows run by the
-filter and the smoother's solve:
+~8 us in the smoother; compiled, well under 1 us. The compiled form comes two ways: the module
+the cache filler builds ahead of time (:mod:`gaitmon.dsp.kernel_aot`: it loads in well under a
+millisecond and needs no numba), or numba's own cached loops, whose import and loading cost
+~0.5 s of CPU (and ~100 MB, LLVM's runtime), and whose compile costs ~4 s more on a quiet
+machine (30-40 s on a busy one). So the rule, per process, counting the rows run by the filter
+and the smoother's solve:
 
 * live blocks (calls of fewer than :data:`BATCH_CALL_ROWS` rows) always run interpreted: at
-  100 Hz that is well under 1 % of a core, and no connect waits for numba;
-* batch work that says its size first (:func:`expect`: ``process``, ``batch``, recovery and a
-  recording's close, through ``finish``'s replay and smoother) runs compiled when it is at
-  least :data:`EXPECT_ROWS` rows (10 min at 100 Hz: interpreted, its filter and smoother would
-  cost about what loading numba does) and numba's cache is ready for this install
-  (:func:`gaitmon.dsp.kernel_cache.cache_ready`); when the cache is not ready, a background
-  process compiles the loops into it (:func:`gaitmon.dsp.kernel_cache.start_fill`; the live
-  window starts one at its first connect) and the work goes on interpreted, going over to
-  the compiled loops if the cache is ready before :data:`LOAD_ROWS` rows are done; only work
-  of :data:`COMPILE_ROWS` rows or more (1 h at 100 Hz, where interpreting would cost more
-  than compiling, ~4 s of CPU) compiles in its own process, right away;
+  100 Hz that is well under 1 % of a core, and no connect waits for a load;
+* where the module built ahead of time is there, every other call runs in it (a call whose
+  arguments do not fit the types it was built for runs in numba's loops, or interpreted);
+* otherwise, batch work that says its size first (:func:`expect`: ``process``, ``batch``,
+  recovery and a recording's close, through ``finish``'s replay and smoother) runs compiled
+  when it is at least :data:`EXPECT_ROWS` rows (10 min at 100 Hz: interpreted, its filter and
+  smoother would cost about what loading numba does) and numba's cache is ready for this
+  install (:func:`gaitmon.dsp.kernel_cache.cache_ready`: the filler has compiled numba's loops
+  and tried to build the module); when the cache is not ready, a background process fills it
+  (:func:`gaitmon.dsp.kernel_cache.start_fill`; the live window starts one at its first
+  connect) and the work goes on interpreted, going over to the compiled loops if the cache is
+  ready before :data:`LOAD_ROWS` rows are done; only work of :data:`COMPILE_ROWS` rows or more
+  (1 h at 100 Hz, where interpreting would cost more than compiling, ~4 s of CPU) compiles in
+  its own process, right away;
 * other batch work (calls of many rows that did not say their size) counts its rows: past
   :data:`FILL_ROWS` the background fill starts, past :data:`LOAD_ROWS` (counting the filter's
   and the smoother's rows) the compiled loops serve once the cache is ready;
@@ -32,16 +39,18 @@ filter and the smoother's solve:
   blocks (a simulated unit run faster than real time, or a catch-up after a stall, hands it
   thousands of rows at once): a live view never switches form mid-connection, and never waits
   for numba's import or a compile another thread started;
-* once numba's loops are loaded in a process they serve every other call (the module counts
-  as loaded only when its import has finished: another thread may be importing it);
+* once compiled loops are loaded in a process they serve every other call (numba's count as
+  loaded only when their import has finished: another thread may be importing them);
 * without numba (not installed, or failing to import) the interpreted loops serve everything.
 
-:func:`use` forces one form (the tests, the benchmark, and the cache filler, which compiles).
+:func:`use` forces one form (the tests, the benchmark, and the cache filler, which compiles);
+its "compiled" is numba's own loops.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -50,8 +59,14 @@ from typing import Any
 
 import numpy as np
 
-from gaitmon.dsp import loops
-from gaitmon.dsp.kernel_cache import cache_ready, numba_cache_dir, numba_origin, start_fill
+from gaitmon.dsp import kernel_aot, loops
+from gaitmon.dsp.kernel_cache import (
+    aot_file,
+    cache_ready,
+    numba_cache_dir,
+    numba_origin,
+    start_fill,
+)
 
 __all__ = [
     "BATCH_CALL_ROWS",
@@ -85,7 +100,11 @@ log = logging.getLogger("gaitmon.dsp")
 _batch_rows = 0  # rows of batch work done in this process
 _forced: str | None = None  # "python" | "compiled" (:func:`use`)
 _unavailable = False  # numba failed to import once: do not try again
-_compiled: ModuleType | None = None  # numba's kernels, once their import has finished
+# the compiled loops serving the rule, once loaded whole: the ahead-of-time module where it is
+# built, else numba's kernels (``_jit``, once their import has finished)
+_compiled: ModuleType | kernel_aot.Loops | None = None
+_jit: ModuleType | None = None
+_aot_file: list[str | None] = []  # aot_file(), looked up once per process
 _load_lock = threading.Lock()
 _thread = threading.local()  # .live: this thread's work is live (:func:`live`)
 
@@ -121,7 +140,8 @@ def numba_available() -> bool:
 
 
 def compiled_loaded() -> bool:
-    """Whether numba's kernels are imported in this process (they then serve every call)."""
+    """Whether compiled loops are loaded in this process (ahead-of-time or numba's: they then
+    serve every call)."""
     return _compiled is not None
 
 
@@ -130,7 +150,12 @@ def expect(rows: int) -> None:
     this process: from :data:`EXPECT_ROWS` rows on, load numba's loops now when its cache is
     ready, else start filling it in the background, and from :data:`COMPILE_ROWS` on compile
     them here too (module doc)."""
-    if _forced is not None or _unavailable or rows < EXPECT_ROWS or compiled_loaded():
+    if _forced is not None or _unavailable or compiled_loaded():
+        return
+    if _aot_ready():  # (~1 ms to load: worth it for any batch work)
+        _load()
+        return
+    if rows < EXPECT_ROWS:
         return
     if cache_ready():
         _load()
@@ -140,33 +165,72 @@ def expect(rows: int) -> None:
         _load()  # compiled on first call, here: cheaper than interpreting such a record
 
 
-def _load() -> ModuleType | None:
-    global _compiled, _unavailable
+def _aot_ready() -> bool:
+    """Whether the loops compiled ahead of time are built for this install (a file's test;
+    its path is looked up once per process)."""
+    if not _aot_file:
+        _aot_file.append(None if _unavailable else aot_file())
+    path = _aot_file[0]
+    return path is not None and os.path.exists(path)
+
+
+def _load(jit: bool = False) -> ModuleType | kernel_aot.Loops | None:
+    """The compiled loops the rule serves (the ahead-of-time module where built, else
+    numba's), loading them once; ``jit``: numba's own (:func:`use`'s "compiled")."""
+    global _compiled
     with _load_lock:  # (one thread imports; the others wait for the whole module)
-        if _compiled is None and not _unavailable:
-            try:
-                from gaitmon.dsp import kernels_numba
-            except Exception as exc:  # the interpreted loops serve (the same numbers)
-                # numba missing or broken (ImportError), or its cache unusable: it raises
-                # RuntimeError "cannot cache function ... no locator available" where it cannot
-                # write its cache folder or make a temporary file to test it
-                _unavailable = True
-                if not isinstance(exc, ImportError):
-                    log.warning("numba's compiled loops are not used (%s): the interpreted "
-                                "loops serve, with the same numbers", exc)  # fmt: skip
-                return None
-            _compiled = kernels_numba
-    return _compiled
+        if not jit and _compiled is not None:
+            return _compiled
+        if not jit and _aot_ready():
+            path = _aot_file[0]
+            assert path is not None
+            aot = kernel_aot.load(path, _refused)
+            if aot is not None:
+                _compiled = aot
+                return aot
+        module = _load_jit()
+        if _compiled is None:
+            _compiled = module
+        return module
 
 
-def compiled_for(rows: int, *, count: bool = True) -> ModuleType | None:
+def _load_jit() -> ModuleType | None:
+    global _jit, _unavailable
+    if _jit is None and not _unavailable:
+        try:
+            from gaitmon.dsp import kernels_numba
+        except Exception as exc:  # the interpreted loops serve (the same numbers)
+            # numba missing or broken (ImportError), or its cache unusable: it raises
+            # RuntimeError "cannot cache function ... no locator available" where it cannot
+            # write its cache folder or make a temporary file to test it
+            _unavailable = True
+            if not isinstance(exc, ImportError):
+                log.warning("numba's compiled loops are not used (%s): the interpreted "
+                            "loops serve, with the same numbers", exc)  # fmt: skip
+            return None
+        _jit = kernels_numba
+    return _jit
+
+
+def _refused(name: str) -> Any:
+    """The loop ``name`` for a call the ahead-of-time module's signature refused: numba's,
+    else interpreted."""
+    log.info("a call of %s did not match the loops compiled ahead of time", name)
+    with _load_lock:
+        module = _load_jit()
+    if module is not None:
+        return getattr(module, name)
+    return lambda *args: getattr(loops, name)(*_views(args))
+
+
+def compiled_for(rows: int, *, count: bool = True) -> ModuleType | kernel_aot.Loops | None:
     """numba's kernels when they should run a call of ``rows`` rows (module doc), else None;
     ``count``: the call's rows are new batch work (not a second look at rows counted)."""
     global _batch_rows
     if _forced == "python":
         return None
     if _forced == "compiled":
-        module = _load()
+        module = _load(jit=True)
         if module is None:
             raise ImportError("numba's kernels were asked for, and numba cannot be imported")
         return module
@@ -176,6 +240,8 @@ def compiled_for(rows: int, *, count: bool = True) -> ModuleType | None:
         return _compiled
     if _unavailable or rows < BATCH_CALL_ROWS:
         return None
+    if _aot_ready():
+        return _load()
     if count:
         _batch_rows += rows
     if _batch_rows < FILL_ROWS:
