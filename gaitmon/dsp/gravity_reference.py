@@ -5,6 +5,8 @@ describes the filter ("the module doc" below).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from gaitmon.dsp.angles import TWO_PI
@@ -69,16 +71,52 @@ class GravityReference:
         """h_k (s) of the ``n`` samples from ``count`` samples after the reset on."""
         return self._at(self._h, count, n)
 
-    def process(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> np.ndarray:
-        n, s = ax.shape
+    def _turn(self, ax: np.ndarray, az: np.ndarray,
+              w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+        """(the gyro angle, the cosine and sine of its turn) of the block's samples."""
         if self._theta is None:  # the gyro angle starts at the first accelerometer tilt
             self._theta = np.arctan2(az[0], ax[0]) - (w[0] + self.offset_rad_s) * self.dt_s
         # one cumulative sum from the carried angle: the same additions in any chunking
-        rate = (w + self.offset_rad_s) * self.dt_s
-        theta = np.cumsum(np.vstack([self._theta, rate]), axis=0)[1:]
+        rate = np.empty((len(w) + 1, w.shape[1]))
+        rate[0] = self._theta
+        np.add(w, self.offset_rad_s, out=rate[1:])
+        rate[1:] *= self.dt_s
+        theta = np.cumsum(rate, axis=0)[1:]
         # the turn in single precision (20x faster; 1e-7 rad), of the angle reduced first
-        turn = (theta - TWO_PI * np.rint(theta * (1.0 / TWO_PI))).astype(np.float32)
-        c, sn = np.cos(turn), np.sin(turn)
+        turn = np.multiply(theta, 1.0 / TWO_PI, out=rate[1:])
+        np.rint(turn, out=turn)
+        turn *= -TWO_PI
+        turn += theta
+        turn32 = turn.astype(np.float32)
+        return theta, np.cos(turn32), np.sin(turn32)
+
+    def process_compiled(
+        self, module: Any, ax: np.ndarray, az: np.ndarray, w: np.ndarray, cols: np.ndarray,
+        h_out: np.ndarray, r_out: np.ndarray, r0: np.ndarray, start_c: np.ndarray,
+    ) -> np.ndarray:  # fmt: skip
+        """:meth:`process` by numba's compiled loop (``module``: gaitmon.dsp.kernels_numba;
+        :func:`gaitmon.dsp.loops.gravity_average`), which also writes the filter's bias gain
+        and gravity R into the columns ``cols`` of h_out, r_out (N, S) (r0, start_c (S,):
+        gaitmon.dsp.motion_kalman, "Start-up"). The same numbers as :meth:`process`, to
+        rounding (its low-pass in the compiled form: scipy's recursion)."""
+        n, s = ax.shape
+        theta, c, sn = self._turn(ax, az, w)
+        if self._lp is None:  # the low-pass starts from rest
+            self._lp = LinearFilter(*self._ba, 2 * s)
+        avg = np.empty((2, n, s))
+        module.gravity_average(ax, az, c, sn, self._lp.b, self._lp.a, self._lp.direct_state(),
+                               self._step, self._count, self._h, r0, start_c, self.dt_s, cols,
+                               avg, h_out, r_out)  # fmt: skip
+        self._count += n
+        self._theta = theta[-1].copy()
+        tilt = np.arctan2(avg[1], avg[0], out=avg[1])
+        tilt += theta
+        tilt -= h_out[:, cols] * self.offset_rad_s
+        return tilt
+
+    def process(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> np.ndarray:
+        n, s = ax.shape
+        theta, c, sn = self._turn(ax, az, w)
         world = np.empty((len(theta), 2 * s))  # (up, fwd) x S
         np.add(ax * c, az * sn, out=world[:, :s])
         np.subtract(az * c, ax * sn, out=world[:, s:])

@@ -332,3 +332,160 @@ def lfilter(b: Array, a: Array, x: Array, z: Array, y: Array) -> None:
                 z[i, j] = z[i + 1, j] + b[i + 1] * xk - a[i + 1] * yk
             z[p - 1, j] = bp * xk - ap * yk
             y[k, j] = yk
+
+
+def physical(counts: Array, cols: Array, zero: Array, scale: Array, out: Array) -> None:
+    """Raw counts (N, C) to physical units: out[k, i] = (counts[k, cols[i]] - zero[i]) *
+    scale[i] (:meth:`gaitmon.dsp.channels.ChannelTable.to_physical`'s operations, in its
+    order: the same numbers)."""
+    n = counts.shape[0]
+    m = len(cols)
+    for k in range(n):
+        for i in range(m):
+            out[k, i] = (float(counts[k, cols[i]]) - zero[i]) * scale[i]
+
+
+def constant_rhs(
+    zt: Array, w: Array, w_meas: float, v: float, dt_s: float, prior: Array, g: Array
+) -> None:  # fmt: skip
+    """The smoother's right-hand side for constant weights into g (2N, S), S segments side by
+    side, from z~ laid out segment-major (``zt`` (S, N)) and the gyro w (N, S)
+    (:func:`gaitmon.dsp.smoother_map._constant_rhs`'s operations in its order): on theta_k
+    ((w_meas z_k [+ prior (S,), weighted, on k = 0]) + (w_k dt) v) - (w_k+1 dt) v, on b_k
+    (v dt) (w_k+1 dt), 0 on the last bias."""
+    n, s = w.shape
+    vdt = v * dt_s
+    for k in range(n):
+        for c in range(s):
+            t = w_meas * zt[c, k]
+            if k == 0:
+                t += prior[c]
+            else:
+                t += (w[k, c] * dt_s) * v
+            if k + 1 < n:
+                wn = w[k + 1, c] * dt_s
+                t -= wn * v
+                g[2 * k + 1, c] = vdt * wn
+            else:
+                g[2 * k + 1, c] = 0.0
+            g[2 * k, c] = t
+
+
+def zeroed_tilts(
+    tilt: Array, offset: Array, plus: Array, minus: Array, out_tilt: Array, out_joint: Array
+) -> None:  # fmt: skip
+    """Zeroed tilts out_tilt (N, S) = wrap(tilt - offset) and joint angles out_joint (N, J) =
+    wrap(zeroed[plus] - zeroed[minus]), wrap to (-pi, pi] as
+    :func:`gaitmon.dsp.angles.wrap_angle` does it (x - 2 pi rint(x / 2 pi), + 2 pi at -pi;
+    NaN where x is not finite): :meth:`gaitmon.dsp.calibration.Calibration.apply_tilt` and
+    :func:`gaitmon.dsp.angles.joint_angles`, the same operations."""
+    n, s = tilt.shape
+    m = len(plus)
+    for k in range(n):
+        for c in range(s + m):
+            if c < s:
+                x = tilt[k, c] - offset[c]
+            else:
+                x = out_tilt[k, plus[c - s]] - out_tilt[k, minus[c - s]]
+            if math.isfinite(x):
+                y = x - float(round(x * (1.0 / _TWO_PI))) * _TWO_PI
+                if y <= -math.pi:
+                    y += _TWO_PI
+            else:
+                y = math.nan
+            if c < s:
+                out_tilt[k, c] = y
+            else:
+                out_joint[k, c - s] = y
+
+
+def gravity_average(
+    ax: Array, az: Array, c: Array, sn: Array, b: Array, a: Array, z: Array, step: Array,
+    count: int, h_table: Array, r0: Array, start_c: Array, dt_s: float, cols: Array,
+    avg: Array, h_out: Array, r_out: Array,
+) -> None:  # fmt: skip
+    """The gravity reference's low-passed world-frame specific force (gaitmon.dsp.
+    gravity_reference.GravityReference.process, one pass for what it did in several): per
+    sample and segment j of the group (N, G inputs), up = ax c + az sn and fwd = az c - ax sn
+    (c, sn the turn's cosine and sine), each low-passed by scipy's recursion (:func:`lfilter`'s
+    operations: b, a (p + 1,), the state z (p, 2G): the up channels, then the fwd), divided by
+    the step response ``step`` at the sample's count since the reset (``count`` at the first;
+    not past the table's end, where it is 1), into avg (2, N, G). With it, the filter's inputs
+    for the group's columns ``cols`` of h_out, r_out (N, S): the bias gain h_k (``h_table`` at
+    the count, its last entry beyond) and the gravity tilt's R, r0 + (start_c / t)^2 at
+    t = (count + k + 1) dt_s (gaitmon.dsp.motion_kalman, "Start-up")."""
+    n, g = ax.shape
+    p = len(b) - 1
+    b0 = b[0]
+    bp = b[p]
+    ap = a[p]
+    n_step = len(step)
+    n_h = len(h_table)
+    for k in range(n):
+        at = count + k
+        s_k = step[min(at, n_step - 1)]
+        h_k = h_table[min(at, n_h - 1)]
+        age = float(at + 1) * dt_s
+        for j in range(g):
+            col = cols[j]
+            h_out[k, col] = h_k
+            t = start_c[col] / age
+            r_out[k, col] = r0[col] + t * t
+            for q in range(2):
+                if q == 0:
+                    x = ax[k, j] * c[k, j] + az[k, j] * sn[k, j]
+                else:
+                    x = az[k, j] * c[k, j] - ax[k, j] * sn[k, j]
+                ch = q * g + j
+                y = z[0, ch] + b0 * x
+                for i in range(p - 1):
+                    z[i, ch] = z[i + 1, ch] + b[i + 1] * x - a[i + 1] * y
+                z[p - 1, ch] = bp * x - ap * y
+                if at < n_step - 1:
+                    y = y / s_k
+                avg[q, k, j] = y
+
+
+def gait_aware_inputs(
+    ax: Array, az: Array, w: Array, n_win: Array, g: float, tail: Array,
+    mag: Array, win_d: Array, win_r: Array,
+) -> None:  # fmt: skip
+    """The gait-aware filter's motion inputs (N, S) of one block (gaitmon.dsp.motion_kalman,
+    what numpy did in several passes): mag = |a| of the two axes (sqrt(ax^2 + az^2)), and the
+    maxima of dev = | mag - g | and of |w| over each segment's last ``n_win`` samples, the
+    samples before the block read from ``tail`` ((M, 2, S), M = max n_win - 1: dev and |w| of
+    the last M samples, -inf before the first), which becomes this block's last M. A window's
+    maximum is NaN where its own sample is (an earlier NaN is passed over):
+    :func:`gaitmon.dsp.kernels.motion_windows`' numbers."""
+    n, s = ax.shape
+    m = tail.shape[0]
+    for k in range(n):
+        for c in range(s):
+            mg = math.sqrt(ax[k, c] * ax[k, c] + az[k, c] * az[k, c])
+            mag[k, c] = mg
+            for q in range(2):
+                v = abs(mg - g) if q == 0 else abs(w[k, c])
+                if v == v:  # (not NaN)
+                    for j in range(1, n_win[c]):
+                        i = k - j
+                        if i >= 0:
+                            u = abs(mag[i, c] - g) if q == 0 else abs(w[i, c])
+                        else:
+                            u = tail[m + i, q, c]
+                        if u > v:
+                            v = u
+                if q == 0:
+                    win_d[k, c] = v
+                else:
+                    win_r[k, c] = v
+    # the tail: dev and |w| of the last m samples (of the tail before, then of the block)
+    for i in range(m):
+        src = n - m + i
+        if src >= 0:
+            for c in range(s):
+                tail[i, 0, c] = abs(mag[src, c] - g)
+                tail[i, 1, c] = abs(w[src, c])
+        else:
+            for c in range(s):
+                tail[i, 0, c] = tail[i + n, 0, c]
+                tail[i, 1, c] = tail[i + n, 1, c]

@@ -143,9 +143,11 @@ def gravity_tilt(
         np.multiply(z, c, out=i)
         i -= np.multiply(x, s, out=spare)
     del spare
-    for _ in range(3):
-        re = kernels.running_mean(re, n)
-        im = kernels.running_mean(im, n)
+    # (compiled: from buffer to buffer, one spare passed on from the real part to the
+    # imaginary: three arrays at most, as in numpy)
+    re, buffer = kernels.running_means(re, n, 3)
+    im, buffer = kernels.running_means(im, n, 3, buffer)
+    del buffer
     np.arctan2(im, re, out=re)
     del im
     re += th_t
@@ -356,10 +358,11 @@ def smooth_record_tilts(
     starts = [max(0, int(r)) for r, _ in calibrations] + [n]
 
     ranges = list(zip(calibrations, starts[:-1], starts[1:], strict=True))
-    gyro = table.to_physical(counts, GYRO_IDX)
+    gyro = kernels.to_physical(table, counts, GYRO_IDX)
     for (_, cal), a, b in ranges:
         gyro[a:b] -= cal.gyro_bias_rad_s
-    held = [table.to_physical(counts, ACC_X_IDX), table.to_physical(counts, ACC_Z_IDX), gyro,
+    held = [kernels.to_physical(table, counts, ACC_X_IDX),
+            kernels.to_physical(table, counts, ACC_Z_IDX), gyro,
             None if first_pass is None else np.asarray(first_pass, dtype=np.float64)]  # fmt: skip
     # the smoother lets go of what it no longer needs: this frame keeps no reference
     del gyro, first_pass, counts, adc_counts
@@ -436,7 +439,7 @@ class CausalFirstPass:
                 self._in_force = cal
             if row in self._restarts:
                 self._kf.restart()
-            phys = self._table.to_physical(counts[a:b])
+            phys = kernels.to_physical(self._table, counts[a:b])
             fill = np.zeros(b - a, dtype=np.int64)
             lo, hi = np.searchsorted(self._fill_rows, [row, first + b])
             fill[self._fill_rows[lo:hi] - row] = self._fill_n[lo:hi]
