@@ -104,6 +104,7 @@ class GravityReference:
         if self._lp is None:  # the low-pass starts from rest
             self._lp = LinearFilter(*self._ba, 2 * s)
         avg = np.empty((2, n, s))
+        assert self._lp.order == 2  # (the loop is scipy's second-order recursion)
         module.gravity_average(ax, az, c, sn, self._lp.b, self._lp.a, self._lp.direct_state(),
                                self._step, self._count, self._h, r0, start_c, self.dt_s, cols,
                                avg, h_out, r_out)  # fmt: skip
@@ -111,7 +112,8 @@ class GravityReference:
         self._theta = theta[-1].copy()
         tilt = np.arctan2(avg[1], avg[0], out=avg[1])
         tilt += theta
-        tilt -= h_out[:, cols] * self.offset_rad_s
+        if self.offset_rad_s.any():  # (- h x 0 changes no number)
+            tilt -= h_out[:, cols] * self.offset_rad_s
         return tilt
 
     def process(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> np.ndarray:

@@ -387,7 +387,9 @@ def zeroed_tilts(
                 x = tilt[k, c] - offset[c]
             else:
                 x = out_tilt[k, plus[c - s]] - out_tilt[k, minus[c - s]]
-            if math.isfinite(x):
+            if -math.pi < x <= math.pi:  # (x / 2 pi rounds to 0: x itself)
+                y = x
+            elif math.isfinite(x):
                 y = x - float(round(x * (1.0 / _TWO_PI))) * _TWO_PI
                 if y <= -math.pi:
                     y += _TWO_PI
@@ -407,43 +409,44 @@ def gravity_average(
     """The gravity reference's low-passed world-frame specific force (gaitmon.dsp.
     gravity_reference.GravityReference.process, one pass for what it did in several): per
     sample and segment j of the group (N, G inputs), up = ax c + az sn and fwd = az c - ax sn
-    (c, sn the turn's cosine and sine), each low-passed by scipy's recursion (:func:`lfilter`'s
-    operations: b, a (p + 1,), the state z (p, 2G): the up channels, then the fwd), divided by
-    the step response ``step`` at the sample's count since the reset (``count`` at the first;
-    not past the table's end, where it is 1), into avg (2, N, G). With it, the filter's inputs
-    for the group's columns ``cols`` of h_out, r_out (N, S): the bias gain h_k (``h_table`` at
-    the count, its last entry beyond) and the gravity tilt's R, r0 + (start_c / t)^2 at
-    t = (count + k + 1) dt_s (gaitmon.dsp.motion_kalman, "Start-up")."""
+    (c, sn the turn's cosine and sine), each low-passed by scipy's second-order recursion
+    (:func:`lfilter`'s operations: b, a (3,), the state z (2, 2G): the up channels, then the
+    fwd), divided by the step response ``step`` at the sample's count since the reset
+    (``count`` at the first; not past the table's end, where it is 1), into avg (2, N, G).
+    With it, the filter's inputs for the group's columns ``cols`` of h_out, r_out (N, S): the
+    bias gain h_k (``h_table`` at the count, its last entry beyond) and the gravity tilt's R,
+    r0 + (start_c / t)^2 at t = (count + k + 1) dt_s (gaitmon.dsp.motion_kalman,
+    "Start-up"). A segment's two channels run side by side, their states in registers."""
     n, g = ax.shape
-    p = len(b) - 1
-    b0 = b[0]
-    bp = b[p]
-    ap = a[p]
+    b0, b1, b2 = b[0], b[1], b[2]
+    a1, a2 = a[1], a[2]
     n_step = len(step)
     n_h = len(h_table)
-    for k in range(n):
-        at = count + k
-        s_k = step[min(at, n_step - 1)]
-        h_k = h_table[min(at, n_h - 1)]
-        age = float(at + 1) * dt_s
-        for j in range(g):
-            col = cols[j]
-            h_out[k, col] = h_k
-            t = start_c[col] / age
+    for j in range(g):
+        col = cols[j]
+        u0, u1 = z[0, j], z[1, j]  # the up channel's state
+        f0, f1 = z[0, g + j], z[1, g + j]  # the fwd channel's
+        for k in range(n):
+            at = count + k
+            h_out[k, col] = h_table[min(at, n_h - 1)]
+            t = start_c[col] / (float(at + 1) * dt_s)
             r_out[k, col] = r0[col] + t * t
-            for q in range(2):
-                if q == 0:
-                    x = ax[k, j] * c[k, j] + az[k, j] * sn[k, j]
-                else:
-                    x = az[k, j] * c[k, j] - ax[k, j] * sn[k, j]
-                ch = q * g + j
-                y = z[0, ch] + b0 * x
-                for i in range(p - 1):
-                    z[i, ch] = z[i + 1, ch] + b[i + 1] * x - a[i + 1] * y
-                z[p - 1, ch] = bp * x - ap * y
-                if at < n_step - 1:
-                    y = y / s_k
-                avg[q, k, j] = y
+            x_up = ax[k, j] * c[k, j] + az[k, j] * sn[k, j]
+            x_fwd = az[k, j] * c[k, j] - ax[k, j] * sn[k, j]
+            y_up = u0 + b0 * x_up
+            u0 = u1 + b1 * x_up - a1 * y_up
+            u1 = b2 * x_up - a2 * y_up
+            y_fwd = f0 + b0 * x_fwd
+            f0 = f1 + b1 * x_fwd - a1 * y_fwd
+            f1 = b2 * x_fwd - a2 * y_fwd
+            if at < n_step - 1:
+                s_k = step[at]
+                y_up = y_up / s_k
+                y_fwd = y_fwd / s_k
+            avg[0, k, j] = y_up
+            avg[1, k, j] = y_fwd
+        z[0, j], z[1, j] = u0, u1
+        z[0, g + j], z[1, g + j] = f0, f1
 
 
 def gait_aware_inputs(
@@ -489,3 +492,14 @@ def gait_aware_inputs(
             for c in range(s):
                 tail[i, 0, c] = tail[i + n, 0, c]
                 tail[i, 1, c] = tail[i + n, 1, c]
+
+
+def turned(ax: Array, az: Array, col: int, c: Array, sn: Array, re: Array, im: Array) -> None:
+    """Column ``col`` of the specific force (ax, az (N, S)) turned into the world frame by the
+    turn's cosine and sine (N,): re = ax c + az sn, im = az c - ax sn (N,)
+    (:func:`gaitmon.dsp.smoother.gravity_tilt`'s numpy operations, in their order)."""
+    for k in range(len(c)):
+        x = ax[k, col]
+        z = az[k, col]
+        re[k] = x * c[k] + z * sn[k]
+        im[k] = z * c[k] - x * sn[k]

@@ -130,7 +130,13 @@ def gravity_tilt(
     ax, az = np.asarray(acc_x_ms2).T, np.asarray(acc_z_ms2).T
     re, im = np.empty(th_t.shape), np.empty(th_t.shape)
     spare = np.empty(th_t.shape[-1])
-    for r, i, th, x, z in zip(*map(np.atleast_2d, (re, im, th_t, ax, az)), strict=True):
+    # (x + i z) e^(-i theta) in one compiled pass per segment where numba serves
+    module = kernels.compiled_for(th_t.shape[-1], count=False)
+    whole = [np.asarray(acc_x_ms2), np.asarray(acc_z_ms2)]
+    if module is None or whole[0].ndim != 2 or not all(kernels.plain(a) for a in whole):
+        module = None
+    for col, (r, i, th, x, z) in enumerate(zip(*map(np.atleast_2d, (re, im, th_t, ax, az)),
+                                               strict=True)):  # fmt: skip
         turn = np.multiply(th, 1.0 / TWO_PI, out=r)
         np.rint(turn, out=turn)
         turn *= -TWO_PI
@@ -138,7 +144,10 @@ def gravity_tilt(
         turn32 = turn.astype(np.float32)
         c, s = np.cos(turn32), np.sin(turn32)
         del turn32, turn
-        np.multiply(x, c, out=r)  # (x + i z) e^(-i theta)
+        if module is not None:
+            module.turned(whole[0], whole[1], col, c, s, r, i)
+            continue
+        np.multiply(x, c, out=r)
         r += np.multiply(z, s, out=spare)
         np.multiply(z, c, out=i)
         i -= np.multiply(x, s, out=spare)
