@@ -5,12 +5,38 @@ describes the filter ("the module doc" below).
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
 from gaitmon.dsp.angles import TWO_PI
 from gaitmon.dsp.iir import LinearFilter, butter_lowpass, lfilter
+
+
+@lru_cache(maxsize=16)
+def _tables(
+    cutoff_hz: float, fs_hz: float
+) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
+    """(b, a, lag_s, the step response s_k, h_k) of the low-pass (the class doc); kept, as
+    the filter's gain table is: a reference of these settings made again (the next record or
+    connect) does not filter its tables again. Callers copy the arrays they keep."""
+    dt_s = 1.0 / fs_hz
+    b, a = butter_lowpass(2, cutoff_hz, fs_hz)
+    k = np.arange(len(b))
+    # the low-pass's delay at DC: a gyro bias b turns the gyro angle at b, so z~ leads the
+    # tilt by lag_s * b (the filter's measurement model, z~ = theta + lag_s b)
+    lag_s = float((k @ b / b.sum() - k @ a / a.sum()) * dt_s)
+    # the step response from rest, s_k, and h_k, until s_k is within 1e-12 of 1
+    n_h = round(60.0 / cutoff_hz * fs_hz)
+    step = lfilter(b, a, np.ones(n_h))
+    n_h = int(np.flatnonzero(np.abs(step - 1.0) > 1e-12)[-1]) + 2
+    t = np.arange(n_h) * dt_s
+    step = step[:n_h]
+    step[-1] = 1.0
+    h = t - lfilter(b, a, t) / step
+    h[-1] = lag_s
+    return b, a, lag_s, step, h
 
 
 class GravityReference:
@@ -34,21 +60,9 @@ class GravityReference:
 
     def __init__(self, cutoff_hz: float, fs_hz: float, n_segments: int) -> None:
         self.dt_s = 1.0 / fs_hz
-        b, a = butter_lowpass(2, cutoff_hz, fs_hz)
-        self._ba = (b, a)
-        k = np.arange(len(b))
-        # the low-pass's delay at DC: a gyro bias b turns the gyro angle at b, so z~ leads the
-        # tilt by lag_s * b (the filter's measurement model, z~ = theta + lag_s b)
-        self.lag_s = float((k @ b / b.sum() - k @ a / a.sum()) * self.dt_s)
-        # the step response from rest, s_k, and h_k, until s_k is within 1e-12 of 1
-        n_h = round(60.0 / cutoff_hz * fs_hz)
-        step = lfilter(b, a, np.ones(n_h))
-        n_h = int(np.flatnonzero(np.abs(step - 1.0) > 1e-12)[-1]) + 2
-        t = np.arange(n_h) * self.dt_s
-        self._step = step[:n_h]
-        self._step[-1] = 1.0
-        self._h = t - lfilter(b, a, t) / self._step
-        self._h[-1] = self.lag_s
+        b, a, self.lag_s, step, h = _tables(float(cutoff_hz), float(fs_hz))
+        self._ba = (b.copy(), a.copy())
+        self._step, self._h = step.copy(), h.copy()
         # added to the gyro before it is integrated: undoes shift_bias, so a new calibration
         # does not turn the gyro angle differently from before
         self.offset_rad_s = np.zeros(n_segments)
@@ -71,11 +85,17 @@ class GravityReference:
         """h_k (s) of the ``n`` samples from ``count`` samples after the reset on."""
         return self._at(self._h, count, n)
 
-    def _turn(self, ax: np.ndarray, az: np.ndarray,
-              w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-        """(the gyro angle, the cosine and sine of its turn) of the block's samples."""
+    def _turn(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray,
+              module: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+        """(the gyro angle, the cosine and sine of its turn) of the block's samples; summed
+        and reduced by numba's compiled loop where ``module`` is given (the same numbers)."""
         if self._theta is None:  # the gyro angle starts at the first accelerometer tilt
             self._theta = np.arctan2(az[0], ax[0]) - (w[0] + self.offset_rad_s) * self.dt_s
+        if module is not None:
+            theta, turn = np.empty(w.shape), np.empty(w.shape)
+            module.gyro_angle(w, self.offset_rad_s, self.dt_s, self._theta, theta, turn)
+            turn32 = turn.astype(np.float32)
+            return theta, np.cos(turn32), np.sin(turn32)
         # one cumulative sum from the carried angle: the same additions in any chunking
         rate = np.empty((len(w) + 1, w.shape[1]))
         rate[0] = self._theta
@@ -100,7 +120,7 @@ class GravityReference:
         gaitmon.dsp.motion_kalman, "Start-up"). The same numbers as :meth:`process`, to
         rounding (its low-pass in the compiled form: scipy's recursion)."""
         n, s = ax.shape
-        theta, c, sn = self._turn(ax, az, w)
+        theta, c, sn = self._turn(ax, az, w, module)
         if self._lp is None:  # the low-pass starts from rest
             self._lp = LinearFilter(*self._ba, 2 * s)
         avg = np.empty((2, n, s))

@@ -321,6 +321,28 @@ def lfilter(b: Array, a: Array, x: Array, z: Array, y: Array) -> None:
     interpreted form is the reference the tests read."""
     n, c = x.shape
     p = len(b) - 1
+    if p == 2:  # the pipeline's low-passes: a pair of channels at a time, their states in
+        # registers (the two recursions overlap in the CPU), the same operations
+        b0, b1, b2 = b[0], b[1], b[2]
+        a1, a2 = a[1], a[2]
+        for j in range(0, c, 2):
+            v = min(j + 1, c - 1)  # (an odd last channel runs twice: the same numbers)
+            u0, u1 = z[0, j], z[1, j]
+            v0, v1 = z[0, v], z[1, v]
+            for k in range(n):
+                xu = x[k, j]
+                xv = x[k, v]
+                yu = u0 + b0 * xu
+                yv = v0 + b0 * xv
+                u0 = u1 + b1 * xu - a1 * yu
+                v0 = v1 + b1 * xv - a1 * yv
+                u1 = b2 * xu - a2 * yu
+                v1 = b2 * xv - a2 * yv
+                y[k, j] = yu
+                y[k, v] = yv
+            z[0, j], z[1, j] = u0, u1
+            z[0, v], z[1, v] = v0, v1
+        return
     b0 = b[0]
     bp = b[p]
     ap = a[p]
@@ -503,3 +525,27 @@ def turned(ax: Array, az: Array, col: int, c: Array, sn: Array, re: Array, im: A
         z = az[k, col]
         re[k] = x * c[k] + z * sn[k]
         im[k] = z * c[k] - x * sn[k]
+
+
+def gyro_angle(w: Array, offset: Array, dt_s: float, start: Array, theta: Array,
+               turn: Array) -> None:  # fmt: skip
+    """The gravity reference's gyro angle theta (N, S), summed in order from ``start`` (S,)
+    (the angle before the block): theta_k = theta_k-1 + (w_k + offset) dt_s, and its turn
+    reduced to about (-pi, pi]: theta - 2 pi rint(theta / 2 pi) (gaitmon.dsp.gravity_reference
+    .GravityReference, numpy's operations in their order: the cumulative sum's additions)."""
+    n, s = w.shape
+    for c in range(s):
+        t = start[c]
+        for k in range(n):
+            t = t + (w[k, c] + offset[c]) * dt_s
+            theta[k, c] = t
+            turn[k, c] = t - float(round(t * (1.0 / _TWO_PI))) * _TWO_PI
+
+
+def reduced(theta: Array, col: int, turn: Array) -> None:
+    """Column ``col`` of theta (N, S) reduced to about (-pi, pi] into turn (N,):
+    theta - 2 pi rint(theta / 2 pi) (:func:`gaitmon.dsp.smoother.gravity_tilt`'s numpy
+    operations)."""
+    for k in range(len(turn)):
+        t = theta[k, col]
+        turn[k] = t - float(round(t * (1.0 / _TWO_PI))) * _TWO_PI

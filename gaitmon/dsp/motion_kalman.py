@@ -224,9 +224,26 @@ def gravity_gain(
     r: float, dt_s: float, q_angle: float, q_bias: float, h_bias: float
 ) -> np.ndarray:
     """[K0, K1], the steady-state gain for a measurement z = theta + h_bias b of variance r."""
-    p = prior_covariance(dt_s, q_angle, q_bias, np.array([float(r)]), h_bias)[0]
+    return np.array(_gravity_gain(float(r), float(dt_s), float(q_angle), float(q_bias),
+                                  float(h_bias)))  # fmt: skip
+
+
+@lru_cache(maxsize=64)
+def _gravity_gain(
+    r: float, dt_s: float, q_angle: float, q_bias: float, h_bias: float
+) -> tuple[float, float]:
+    # (kept, as the gain table: a filter of the same tuning made again, the next record or
+    # the next connect, does not solve its Riccati equations again)
+    p = prior_covariance(dt_s, q_angle, q_bias, np.array([r]), h_bias)[0]
     ph = p @ np.array([1.0, h_bias])
-    return np.asarray(ph / (ph[0] + h_bias * ph[1] + r))
+    k = ph / (ph[0] + h_bias * ph[1] + r)
+    return float(k[0]), float(k[1])
+
+
+@lru_cache(maxsize=64)
+def _steady_bias_var(dt_s: float, q_angle: float, q_bias: float, r: float, h_bias: float) -> float:
+    """The steady prior's bias variance for a measurement of variance r (kept, as above)."""
+    return float(prior_covariance(dt_s, q_angle, q_bias, np.array([r]), h_bias)[0, 1, 1])
 
 
 
@@ -310,12 +327,13 @@ class GaitAwareKalman:
             self.segments.index("foot") if "foot" in self.segments and self._stride_r.any() else -1
         )
         self._p_end = np.array([
-            (END_ANGLE_RAD**2, END_FACTOR * prior_covariance(
-                dt, t.q_angle, t.q_bias,
-                t.start_r_factor
-                * np.array([t.r_live_gravity if t.live_gravity_hz is not None else t.r_static]),
-                lag[j],
-            )[0, 1, 1])
+            (END_ANGLE_RAD**2, END_FACTOR * _steady_bias_var(
+                dt, float(t.q_angle), float(t.q_bias),
+                float(t.start_r_factor
+                      * np.array([t.r_live_gravity if t.live_gravity_hz is not None
+                                  else t.r_static])[0]),
+                float(lag[j]),
+            ))
             for j, t in enumerate(tuns)
         ]).reshape(len(tuns), 2)  # fmt: skip
         self._gains = np.ascontiguousarray(

@@ -132,15 +132,19 @@ def gravity_tilt(
     spare = np.empty(th_t.shape[-1])
     # (x + i z) e^(-i theta) in one compiled pass per segment where numba serves
     module = kernels.compiled_for(th_t.shape[-1], count=False)
-    whole = [np.asarray(acc_x_ms2), np.asarray(acc_z_ms2)]
-    if module is None or whole[0].ndim != 2 or not all(kernels.plain(a) for a in whole):
+    whole = [np.asarray(acc_x_ms2), np.asarray(acc_z_ms2), theta]
+    if module is None or theta.ndim != 2 or not all(kernels.plain(a) for a in whole):
         module = None
     for col, (r, i, th, x, z) in enumerate(zip(*map(np.atleast_2d, (re, im, th_t, ax, az)),
                                                strict=True)):  # fmt: skip
-        turn = np.multiply(th, 1.0 / TWO_PI, out=r)
-        np.rint(turn, out=turn)
-        turn *= -TWO_PI
-        turn += th
+        if module is not None:
+            turn = r
+            module.reduced(theta, col, turn)
+        else:
+            turn = np.multiply(th, 1.0 / TWO_PI, out=r)
+            np.rint(turn, out=turn)
+            turn *= -TWO_PI
+            turn += th
         turn32 = turn.astype(np.float32)
         c, s = np.cos(turn32), np.sin(turn32)
         del turn32, turn
