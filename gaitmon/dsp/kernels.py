@@ -361,21 +361,25 @@ def to_physical(table: ChannelTable, counts: np.ndarray,
 
 
 def zeroed_tilts(tilt: np.ndarray, offset: np.ndarray, out_tilt: np.ndarray,
-                 out_joint: np.ndarray) -> None:  # fmt: skip
-    """``out_tilt[:] = wrap_angle(tilt - offset)`` and ``out_joint[:] = joint_angles(out_tilt)``
+                 out_joint: np.ndarray | None = None) -> None:  # fmt: skip
+    """``out_tilt[:] = wrap_angle(tilt - offset)`` (it may be ``tilt``) and, given
+    ``out_joint``, ``out_joint[:] = joint_angles(out_tilt)``
     (:meth:`gaitmon.dsp.calibration.Calibration.apply_tilt`, :func:`gaitmon.dsp.angles.
     joint_angles`): in one compiled pass (:func:`gaitmon.dsp.loops.zeroed_tilts`) where the
     rule picks numba, else numpy; the same numbers."""
-    from gaitmon.dsp.angles import joint_angles, wrap_angle
+    from gaitmon.dsp.angles import JOINT_MINUS, JOINT_PLUS, joint_angles, wrap_angle
 
     module = compiled_for(len(tilt), count=False)
-    if (module is None or tilt.dtype != np.float64 or not plain(tilt)
-            or not plain(out_tilt) or not plain(out_joint)):  # fmt: skip
+    if (module is None or tilt.dtype != np.float64 or not plain(tilt) or not plain(out_tilt)
+            or (out_joint is not None and not plain(out_joint))):  # fmt: skip
         out_tilt[...] = wrap_angle(np.asarray(tilt, dtype=np.float64) - offset)
-        out_joint[...] = joint_angles(out_tilt)
+        if out_joint is not None:
+            out_joint[...] = joint_angles(out_tilt)
         return
-    from gaitmon.dsp.angles import JOINT_MINUS, JOINT_PLUS
-
+    plus, minus = (JOINT_PLUS, JOINT_MINUS) if out_joint is not None else (_NO_JOINT, _NO_JOINT)
     # (a calibration's offsets are read-only: a copy, as numba caches writeable arrays only)
-    module.zeroed_tilts(tilt, np.array(offset, dtype=np.float64), JOINT_PLUS, JOINT_MINUS,
-                        out_tilt, out_joint)  # fmt: skip
+    module.zeroed_tilts(tilt, np.array(offset, dtype=np.float64), plus, minus, out_tilt,
+                        np.empty((len(tilt), 0)) if out_joint is None else out_joint)  # fmt: skip
+
+
+_NO_JOINT = np.empty(0, dtype=np.intp)
