@@ -467,10 +467,8 @@ class LinearFilter:
             z = self.state if self._direct is None else self._direct
             self._direct = np.ascontiguousarray(z)
             y = np.empty((n, self.channels))
-            # (column-major as the pipeline's columns come, or row-major: numba has both;
-            # read-only arrays it compiles apart, uncached)
-            xc = x if x.flags.f_contiguous else np.ascontiguousarray(x)
-            if not xc.flags.writeable:
+            xc = np.ascontiguousarray(x)
+            if not xc.flags.writeable:  # (numba compiles read-only arrays apart: not cached)
                 xc = xc.copy()
             module.lfilter(self.b, self.a, xc, self._direct, y)
             return y

@@ -459,11 +459,11 @@ class GaitAwareKalman:
         out = np.empty((n, s))
         if n == 0:
             return out[:, 0] if was_1d else out
+        # (the pipeline's columns come column-major: row-major copies, so that every compiled
+        # loop sees one layout, the one the cache holds)
+        ax, az, w = np.ascontiguousarray(ax), np.ascontiguousarray(az), np.ascontiguousarray(w)
         z_acc = np.arctan2(az, ax)
-        w = np.ascontiguousarray(w)
         module = kernels.compiled_for(n, count=False)
-        if module is not None:  # (the pipeline's columns come column-major: copied)
-            ax, az = np.ascontiguousarray(ax), np.ascontiguousarray(az)
         if module is not None and all(kernels.plain(a) for a in (ax, az, w)):
             z_grav, h_grav, r_grav, mag, win_d, win_r = self._inputs_compiled(module, ax, az, w)
         else:
