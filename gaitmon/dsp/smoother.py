@@ -328,7 +328,9 @@ def out_of_plane(
     if tuning.plane_fraction is None:
         return None
     n = max(1, round(fs_hz / (2.0 * tuning.plane_cutoff_hz)))
-    mean = sliding_mean(np.hypot(acc_x_ms2, acc_z_ms2), n, mode="nearest")
+    mag = np.multiply(acc_x_ms2, acc_x_ms2)  # |a| = sqrt(ax^2 + az^2), as the causal filter's
+    mag += np.multiply(acc_z_ms2, acc_z_ms2)
+    mean = sliding_mean(np.sqrt(mag, out=mag), n, mode="nearest")
     mask = mean < tuning.plane_fraction * STANDARD_GRAVITY_MS2
     return mask if mask.any() else None
 
