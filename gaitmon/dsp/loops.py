@@ -396,31 +396,35 @@ def constant_rhs(
 def zeroed_tilts(
     tilt: Array, offset: Array, plus: Array, minus: Array, out_tilt: Array, out_joint: Array
 ) -> None:  # fmt: skip
-    """Zeroed tilts out_tilt (N, S) = wrap(tilt - offset) and joint angles out_joint (N, J) =
-    wrap(zeroed[plus] - zeroed[minus]), wrap to (-pi, pi] as
+    """Zeroed tilts out_tilt (N, S) = wrap(tilt - offset) (out_tilt may be tilt) and joint
+    angles out_joint (N, J) = wrap(zeroed[plus] - zeroed[minus]), wrap to (-pi, pi] as
     :func:`gaitmon.dsp.angles.wrap_angle` does it (x - 2 pi rint(x / 2 pi), + 2 pi at -pi;
-    NaN where x is not finite): :meth:`gaitmon.dsp.calibration.Calibration.apply_tilt` and
+    an x in (-pi, pi] is itself; NaN where x is not finite):
+    :meth:`gaitmon.dsp.calibration.Calibration.apply_tilt` and
     :func:`gaitmon.dsp.angles.joint_angles`, the same operations."""
     n, s = tilt.shape
     m = len(plus)
     for k in range(n):
-        for c in range(s + m):
-            if c < s:
-                x = tilt[k, c] - offset[c]
-            else:
-                x = out_tilt[k, plus[c - s]] - out_tilt[k, minus[c - s]]
-            if -math.pi < x <= math.pi:  # (x / 2 pi rounds to 0: x itself)
-                y = x
-            elif math.isfinite(x):
-                y = x - float(round(x * (1.0 / _TWO_PI))) * _TWO_PI
-                if y <= -math.pi:
-                    y += _TWO_PI
-            else:
-                y = math.nan
-            if c < s:
-                out_tilt[k, c] = y
-            else:
-                out_joint[k, c - s] = y
+        for c in range(s):
+            x = tilt[k, c] - offset[c]
+            if not -math.pi < x <= math.pi:
+                if math.isfinite(x):
+                    x = x - float(round(x * (1.0 / _TWO_PI))) * _TWO_PI
+                    if x <= -math.pi:
+                        x += _TWO_PI
+                else:
+                    x = math.nan
+            out_tilt[k, c] = x
+        for j in range(m):
+            x = out_tilt[k, plus[j]] - out_tilt[k, minus[j]]
+            if not -math.pi < x <= math.pi:
+                if math.isfinite(x):
+                    x = x - float(round(x * (1.0 / _TWO_PI))) * _TWO_PI
+                    if x <= -math.pi:
+                        x += _TWO_PI
+                else:
+                    x = math.nan
+            out_joint[k, j] = x
 
 
 def gravity_average(
@@ -481,28 +485,34 @@ def gait_aware_inputs(
     samples before the block read from ``tail`` ((M, 2, S), M = max n_win - 1: dev and |w| of
     the last M samples, -inf before the first), which becomes this block's last M. A window's
     maximum is NaN where its own sample is (an earlier NaN is passed over):
-    :func:`gaitmon.dsp.kernels.motion_windows`' numbers."""
+    :func:`gaitmon.dsp.kernels.motion_windows`' numbers. (dev and |w| first, then each
+    window's maximum from the last sample back, in place.)"""
     n, s = ax.shape
     m = tail.shape[0]
     for k in range(n):
         for c in range(s):
             mg = math.sqrt(ax[k, c] * ax[k, c] + az[k, c] * az[k, c])
             mag[k, c] = mg
-            for q in range(2):
-                v = abs(mg - g) if q == 0 else abs(w[k, c])
-                if v == v:  # (not NaN)
-                    for j in range(1, n_win[c]):
-                        i = k - j
-                        if i >= 0:
-                            u = abs(mag[i, c] - g) if q == 0 else abs(w[i, c])
-                        else:
-                            u = tail[m + i, q, c]
-                        if u > v:
-                            v = u
-                if q == 0:
-                    win_d[k, c] = v
+            win_d[k, c] = abs(mg - g)
+            win_r[k, c] = abs(w[k, c])
+    for k in range(n - 1, -1, -1):  # (the samples before k still hold dev and |w|)
+        for c in range(s):
+            vd = win_d[k, c]
+            vr = win_r[k, c]
+            for j in range(1, n_win[c]):
+                i = k - j
+                if i >= 0:
+                    ud = win_d[i, c]
+                    ur = win_r[i, c]
                 else:
-                    win_r[k, c] = v
+                    ud = tail[m + i, 0, c]
+                    ur = tail[m + i, 1, c]
+                if ud > vd:  # (False for NaN: passed over; a NaN sample keeps its NaN)
+                    vd = ud
+                if ur > vr:
+                    vr = ur
+            win_d[k, c] = vd
+            win_r[k, c] = vr
     # the tail: dev and |w| of the last m samples (of the tail before, then of the block)
     for i in range(m):
         src = n - m + i
