@@ -1,7 +1,10 @@
 """Which form of the inner loops runs: numba's compiled one, or the same source interpreted.
 
 The loops (:mod:`gaitmon.dsp.loops`: the gait-aware filter's update, the smoother's banded
-factorisation and substitutions; scipy's ``lfilter`` recursion, which
+factorisation and substitutions, the per-block passes batch work runs in one sweep (counts to
+units, the gravity reference, the motion inputs, the zeroed tilts, the smoother's turn and
+right-hand side: :func:`to_physical`, :func:`zeroed_tilts` here, the others at their call
+sites, which run numpy where the rule picks no numba); scipy's ``lfilter`` recursion, which
 :class:`gaitmon.dsp.iir.LinearFilter` runs compiled where this rule picks numba and in its numpy
 block form elsewhere, counting no rows) have one source and two forms: compiled by numba
 (:mod:`gaitmon.dsp.kernels_numba`), or run by the interpreter on ``memoryview`` s of the arrays.

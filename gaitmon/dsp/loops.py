@@ -1,18 +1,28 @@
 """The inner loops of the gait-aware filter and the smoother, as plain Python: the one source.
 
-Only loops that numpy cannot do in a few passes live here: the gait-aware filter's update is a
+The recursions numpy cannot do in a few passes live here: the gait-aware filter's update is a
 two-state recursion whose wrap rule depends on the state before each sample (and its per-sample
 choice of measurement and gain, fused into the same loop); the smoother's banded factorisation
-and substitutions are recursions too. What vectorises (the motion windows, the accelerometer
-tilt, the gravity reference) stays in numpy.
+and substitutions are recursions too. So do, since issue 28, the per-block passes long batch
+work runs compiled in one sweep instead of numpy's several (each with its temporaries): counts
+to physical units (:func:`physical`), the gravity reference's gyro angle and its low-passed
+world-frame force (:func:`gyro_angle`, :func:`gravity_average`), the filter's motion inputs
+(:func:`gait_aware_inputs`), the zeroed tilts and joints (:func:`zeroed_tilts`), and the
+smoother's turn and right-hand side (:func:`reduced`, :func:`turned`, :func:`constant_rhs`).
+Each does numpy's operations in numpy's order, so it gives the numpy path's numbers (bit for
+bit on the bench's hour against the code before); numpy keeps the live blocks, short records
+and processes without numba (:mod:`gaitmon.dsp.kernels`), and what numpy does best stays
+there (the arctangents and the single-precision sines and cosines: SIMD, and the loops would
+not round the single-precision turn as numpy does).
 
 Each function here runs two ways from this one source (:mod:`gaitmon.dsp.kernels` chooses):
 compiled by numba (``gaitmon.dsp.kernels_numba``: ``njit`` applied to these very functions,
 cached in the user's cache folder), or as it stands in the interpreter, given
 ``memoryview`` s of the arrays (``mv[k, c]`` reads a Python float, several times faster than
 indexing a numpy array). So the code here uses only what both understand: indexing, ``len``,
-``.shape``, ``math`` and the builtins ``abs``, ``min``, ``max``, ``int``, ``range``. This module
-imports neither numba nor numpy.
+``.shape``, ``math`` and the builtins ``abs``, ``min``, ``max``, ``int``, ``float``, ``round``
+(half to even, as ``np.rint``) and ``range``; a loop calls no other (numba would not compile
+the call). This module imports neither numba nor numpy.
 """
 
 from __future__ import annotations
