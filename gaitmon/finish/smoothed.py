@@ -216,7 +216,7 @@ class KeptFirstPass:
         data = np.ascontiguousarray(tilt_rad, dtype=np.float64)
         try:
             self._file.seek(self._n * _ROW_BYTES)
-            self._file.write(memoryview(data).cast("B"))  # (no copy)
+            self._file.write(memoryview(data).cast("B"))  # type: ignore[arg-type]  # (no copy)
         except OSError as e:
             log.info("the smoother's first pass is computed again (temporary file: %s)", e)
             self.close()
@@ -233,7 +233,8 @@ class KeptFirstPass:
         self._file.seek(a * _ROW_BYTES)
         # read into a writeable array (the compiled loops take those: gaitmon.dsp.kernels)
         out = np.empty((b - a, N_SEGMENTS))
-        if self._file.readinto(memoryview(out).cast("B")) != out.nbytes:
+        view = memoryview(out).cast("B")  # type: ignore[arg-type]  # (numpy arrays are buffers)
+        if self._file.readinto(view) != out.nbytes:  # type: ignore[attr-defined]  # (a file)
             raise ValueError(f"first-pass rows {a}:{b}: the temporary file is short")
         return out
 
