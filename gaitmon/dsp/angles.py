@@ -21,8 +21,9 @@ from gaitmon.dsp.channel_table import JOINT_PAIRS as JOINT_PAIRS  # re-exported
 TWO_PI = 2.0 * np.pi
 
 # JOINT_PAIRS: (plus, minus) index into SEGMENTS per joint, from the channel table's joints
-_PLUS = np.array([p for p, _ in JOINT_PAIRS])
-_MINUS = np.array([m for _, m in JOINT_PAIRS])
+_PLUS = np.array([p for p, _ in JOINT_PAIRS], dtype=np.intp)
+_MINUS = np.array([m for _, m in JOINT_PAIRS], dtype=np.intp)
+JOINT_PLUS, JOINT_MINUS = _PLUS, _MINUS  # (the compiled loops take them: gaitmon.dsp.kernels)
 
 
 def wrap_angle(x: np.ndarray | float) -> np.ndarray:

@@ -371,6 +371,14 @@ class LinearFilter:
         free = np.einsum("ij,jc->ic", self._powers[self._phase], self._start)
         return free + self._forced
 
+    def direct_state(self) -> np.ndarray:
+        """scipy's state (p, channels), held by the filter from here on as its compiled form
+        holds it: a compiled loop that runs scipy's recursion (:func:`gaitmon.dsp.loops.
+        gravity_average`) carries it in place (orders >= 1, not a running sum)."""
+        z = self.state if self._direct is None else self._direct
+        self._direct = np.ascontiguousarray(z)
+        return self._direct
+
     # ---------------------------------------------------------------- the block arithmetic
     def _forced_run(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> None:
         """Difference equation along axis 0 of x from the forced state ``z`` (p, ...; updated

@@ -20,8 +20,10 @@ def compile_all() -> None:
     """Run each kernel once through its real call site, compiled: numba compiles it for the
     argument types gaitmon calls it with (or loads it from the cache)."""
     from gaitmon.dsp import kernels, smoother
+    from gaitmon.dsp.channels import DEFAULT_TABLE, GYRO_IDX
     from gaitmon.dsp.iir import LinearFilter, butter_lowpass
     from gaitmon.dsp.motion_kalman import GaitAwareKalman
+    from gaitmon.dsp.pipeline import Pipeline
 
     rng = np.random.default_rng(0)
     n = 64
@@ -34,6 +36,10 @@ def compile_all() -> None:
         smoother.smooth_map(az[:, 0], w[:, 0], np.full(n, 1e-2), np.full(n, 1e-4), 1e-7, 0.01)
         kernels.running_mean(ax.T.copy(), 5)
         LinearFilter(*butter_lowpass(2, 4.0, 100.0), 4).process(ax)  # (also run by the above)
+        # the pipeline's own passes (counts to physical units, the zeroed tilts and joints)
+        counts = np.rint(np.tile(DEFAULT_TABLE.zero_counts, (n, 1))).astype(np.uint16)
+        Pipeline().process(counts)
+        kernels.to_physical(DEFAULT_TABLE, counts, GYRO_IDX)  # (the smoother's columns)
     smoother.release_factors()
 
 

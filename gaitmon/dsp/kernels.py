@@ -2,11 +2,14 @@
 interpreted.
 
 The loops (:mod:`gaitmon.dsp.loops`: the gait-aware filter's update, the smoother's banded
-factorisation and substitutions; scipy's ``lfilter`` recursion, which
-:class:`gaitmon.dsp.iir.LinearFilter` runs compiled where this rule picks a compiled form and in
-its numpy block form elsewhere, counting no rows) have one source and two forms: compiled
-(:mod:`gaitmon.dsp.kernel_aot`, :mod:`gaitmon.dsp.kernels_numba`), or run by the interpreter on
-``memoryview`` s of the arrays.
+factorisation and substitutions, the per-block passes batch work runs in one sweep (counts to
+units, the gravity reference, the motion inputs, the zeroed tilts, the smoother's turn and
+right-hand side: :func:`to_physical`, :func:`zeroed_tilts` here, the others at their call
+sites, which run numpy where the rule picks no compiled form); scipy's ``lfilter`` recursion,
+which :class:`gaitmon.dsp.iir.LinearFilter` runs compiled where this rule picks a compiled form
+and in its numpy block form elsewhere, counting no rows) have one source and two forms:
+compiled (:mod:`gaitmon.dsp.kernel_aot`, :mod:`gaitmon.dsp.kernels_numba`), or run by the
+interpreter on ``memoryview`` s of the arrays.
 Both give the same numbers (to rounding: tests/test_kernels.py checks 1e-9 on simulated and
 real walks in any chunking). Interpreted, a row of four segments costs ~7 us in the filter and
 ~8 us in the smoother; compiled, well under 1 us. The compiled form comes two ways: the module
@@ -55,7 +58,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -67,6 +70,9 @@ from gaitmon.dsp.kernel_cache import (
     numba_origin,
     start_fill,
 )
+
+if TYPE_CHECKING:
+    from gaitmon.dsp.channels import ChannelTable
 
 __all__ = [
     "BATCH_CALL_ROWS",
@@ -85,9 +91,13 @@ __all__ = [
     "motion_windows",
     "numba_available",
     "numba_cache_dir",
+    "plain",
     "running_mean",
+    "running_means",
+    "to_physical",
     "use",
     "window_groups",
+    "zeroed_tilts",
 ]
 
 BATCH_CALL_ROWS = 1024
@@ -149,7 +159,11 @@ def expect(rows: int) -> None:
     """Batch work of ``rows`` rows (a whole record's replay or smoothing) is about to run in
     this process: from :data:`EXPECT_ROWS` rows on, load numba's loops now when its cache is
     ready, else start filling it in the background, and from :data:`COMPILE_ROWS` on compile
-    them here too (module doc)."""
+    them here too (module doc); where the loops compiled ahead of time are built, load them for
+    any size. From :data:`BATCH_CALL_ROWS` rows on, the C heap is readied for batch work first
+    (:func:`batch_heap`)."""
+    if rows >= BATCH_CALL_ROWS:
+        batch_heap()
     if _forced is not None or _unavailable or compiled_loaded():
         return
     if _aot_ready():  # (~1 ms to load: worth it for any batch work)
@@ -163,6 +177,29 @@ def expect(rows: int) -> None:
     start_fill()  # (the whole set, marked ready for the next process)
     if rows >= COMPILE_ROWS:
         _load()  # compiled on first call, here: cheaper than interpreting such a record
+
+
+HEAP_BYTES = 1 << 24
+_heap_ready = False
+
+
+def batch_heap() -> None:
+    """Have the C heap serve batch work's arrays, once per process: one array of
+    :data:`HEAP_BYTES` (16 MB) made and let go, untouched. glibc's malloc maps each block
+    above its threshold (128 kB at the start) afresh and unmaps it when freed, and gives the
+    heap's free top back to the system beyond twice that: a replay's and a smoother's
+    arrays (0.2-8 MB each, made and freed per chunk) were faulted in anew every chunk, ~100 000
+    page faults and ~0.15 s of system CPU for a 1-h record, a quarter of its pipeline and
+    smoother. Freeing a mapped block raises both thresholds to its size (up to 32 MB), as the
+    first smoother block did by itself: from the start, these arrays come from the heap, and
+    freed pages stay for the next chunk. The peak is what the work holds at once, as before;
+    resident memory between chunks keeps up to 32 MB more. Elsewhere (not glibc, or thresholds
+    set by ``MALLOC_*`` variables) nothing changes."""
+    global _heap_ready
+    if not _heap_ready:
+        _heap_ready = True
+        block = np.empty(HEAP_BYTES, dtype=np.uint8)  # (made and freed: no page touched)
+        del block
 
 
 def _aot_ready() -> bool:
@@ -337,16 +374,82 @@ def band_solve(cb: np.ndarray, g: np.ndarray) -> None:
         loops.band_solve(_view(cb), _view(g))
 
 
-def running_mean(x: np.ndarray, size: int) -> np.ndarray:
+def running_mean(x: np.ndarray, size: int, out: np.ndarray | None = None) -> np.ndarray:
     """:func:`gaitmon.dsp.loops.running_mean` along the last axis of x, zero outside: compiled
-    where the rule picks numba, else :func:`gaitmon.dsp.windows.sliding_mean` (numpy; the
-    same to rounding, ~3x slower on a long record than the compiled loop)."""
+    where the rule picks numba (into ``out`` when given: float64, C-contiguous, x's shape), else
+    :func:`gaitmon.dsp.windows.sliding_mean` (numpy; the same to rounding, ~3x slower on a long
+    record than the compiled loop)."""
     module = compiled_for(x.shape[-1], count=False)
     if module is None:
         from gaitmon.dsp.windows import sliding_mean
 
         return sliding_mean(x, size, mode="constant")
     rows = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, x.shape[-1])
-    out = np.empty(rows.shape)
-    module.running_mean(rows, size, 0.0, out)
-    return out.reshape(x.shape)
+    dest = np.empty(rows.shape) if out is None else out.reshape(rows.shape)
+    module.running_mean(rows, size, 0.0, dest)
+    return dest.reshape(x.shape)
+
+
+def running_means(
+    x: np.ndarray, size: int, passes: int, spare: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`running_mean` applied ``passes`` times to x (R, N) float64 C-contiguous, which
+    it may overwrite; (the result, a spare buffer of its shape or None). Compiled, the passes
+    go from buffer to buffer (x, then ``spare`` or one new array): no temporaries."""
+    module = compiled_for(x.shape[-1], count=False)
+    if module is None or not plain(x) or x.ndim != 2:
+        for _ in range(passes):
+            x = running_mean(x, size)
+        return x, None
+    for _ in range(passes):
+        dest = np.empty(x.shape) if spare is None else spare
+        module.running_mean(x, size, 0.0, dest)
+        x, spare = dest, x
+    return x, spare
+
+
+def plain(a: np.ndarray) -> bool:
+    """Whether ``a`` is what the compiled loops are cached for: C-contiguous and writeable (numba
+    compiles other layouts apart, at the call, and does not cache read-only arrays)."""
+    return bool(a.flags.c_contiguous and a.flags.writeable)
+
+
+def to_physical(table: ChannelTable, counts: np.ndarray,
+                channels: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    """``table.to_physical(counts, channels)``: compiled (:func:`gaitmon.dsp.loops.physical`,
+    one pass, no temporaries) where the rule picks numba for (N, C) uint16 counts; the same
+    numbers."""
+    module = compiled_for(len(counts), count=False)
+    if module is None or counts.dtype != np.uint16 or counts.ndim != 2 or not plain(counts):
+        return table.to_physical(counts, channels)
+    cols = np.arange(counts.shape[1]) if channels is None else np.asarray(channels, np.intp)
+    zero = np.asarray(table.zero_counts, dtype=np.float64)[cols]
+    scale = np.asarray(table.units_per_count, dtype=np.float64)[cols]
+    out = np.empty((len(counts), len(cols)))
+    module.physical(counts, cols.astype(np.intp), zero, scale, out)
+    return out
+
+
+def zeroed_tilts(tilt: np.ndarray, offset: np.ndarray, out_tilt: np.ndarray,
+                 out_joint: np.ndarray | None = None) -> None:  # fmt: skip
+    """``out_tilt[:] = wrap_angle(tilt - offset)`` (it may be ``tilt``) and, given
+    ``out_joint``, ``out_joint[:] = joint_angles(out_tilt)``
+    (:meth:`gaitmon.dsp.calibration.Calibration.apply_tilt`, :func:`gaitmon.dsp.angles.
+    joint_angles`): in one compiled pass (:func:`gaitmon.dsp.loops.zeroed_tilts`) where the
+    rule picks numba, else numpy; the same numbers."""
+    from gaitmon.dsp.angles import JOINT_MINUS, JOINT_PLUS, joint_angles, wrap_angle
+
+    module = compiled_for(len(tilt), count=False)
+    if (module is None or tilt.dtype != np.float64 or not plain(tilt) or not plain(out_tilt)
+            or (out_joint is not None and not plain(out_joint))):  # fmt: skip
+        out_tilt[...] = wrap_angle(np.asarray(tilt, dtype=np.float64) - offset)
+        if out_joint is not None:
+            out_joint[...] = joint_angles(out_tilt)
+        return
+    plus, minus = (JOINT_PLUS, JOINT_MINUS) if out_joint is not None else (_NO_JOINT, _NO_JOINT)
+    # (a calibration's offsets are read-only: a copy, as numba caches writeable arrays only)
+    module.zeroed_tilts(tilt, np.array(offset, dtype=np.float64), plus, minus, out_tilt,
+                        np.empty((len(tilt), 0)) if out_joint is None else out_joint)  # fmt: skip
+
+
+_NO_JOINT = np.empty(0, dtype=np.intp)

@@ -1,18 +1,28 @@
 """The inner loops of the gait-aware filter and the smoother, as plain Python: the one source.
 
-Only loops that numpy cannot do in a few passes live here: the gait-aware filter's update is a
+The recursions numpy cannot do in a few passes live here: the gait-aware filter's update is a
 two-state recursion whose wrap rule depends on the state before each sample (and its per-sample
 choice of measurement and gain, fused into the same loop); the smoother's banded factorisation
-and substitutions are recursions too. What vectorises (the motion windows, the accelerometer
-tilt, the gravity reference) stays in numpy.
+and substitutions are recursions too. So do, since issue 28, the per-block passes long batch
+work runs compiled in one sweep instead of numpy's several (each with its temporaries): counts
+to physical units (:func:`physical`), the gravity reference's gyro angle and its low-passed
+world-frame force (:func:`gyro_angle`, :func:`gravity_average`), the filter's motion inputs
+(:func:`gait_aware_inputs`), the zeroed tilts and joints (:func:`zeroed_tilts`), and the
+smoother's turn and right-hand side (:func:`reduced`, :func:`turned`, :func:`constant_rhs`).
+Each does numpy's operations in numpy's order, so it gives the numpy path's numbers (bit for
+bit on the bench's hour against the code before); numpy keeps the live blocks, short records
+and processes without numba (:mod:`gaitmon.dsp.kernels`), and what numpy does best stays
+there (the arctangents and the single-precision sines and cosines: SIMD, and the loops would
+not round the single-precision turn as numpy does).
 
 Each function here runs two ways from this one source (:mod:`gaitmon.dsp.kernels` chooses):
 compiled by numba (``gaitmon.dsp.kernels_numba``: ``njit`` applied to these very functions,
 cached in the user's cache folder), or as it stands in the interpreter, given
 ``memoryview`` s of the arrays (``mv[k, c]`` reads a Python float, several times faster than
 indexing a numpy array). So the code here uses only what both understand: indexing, ``len``,
-``.shape``, ``math`` and the builtins ``abs``, ``min``, ``max``, ``int``, ``range``. This module
-imports neither numba nor numpy.
+``.shape``, ``math`` and the builtins ``abs``, ``min``, ``max``, ``int``, ``float``, ``round``
+(half to even, as ``np.rint``) and ``range``; a loop calls no other (numba would not compile
+the call). This module imports neither numba nor numpy.
 """
 
 from __future__ import annotations
@@ -321,6 +331,28 @@ def lfilter(b: Array, a: Array, x: Array, z: Array, y: Array) -> None:
     interpreted form is the reference the tests read."""
     n, c = x.shape
     p = len(b) - 1
+    if p == 2:  # the pipeline's low-passes: a pair of channels at a time, their states in
+        # registers (the two recursions overlap in the CPU), the same operations
+        b0, b1, b2 = b[0], b[1], b[2]
+        a1, a2 = a[1], a[2]
+        for j in range(0, c, 2):
+            v = min(j + 1, c - 1)  # (an odd last channel runs twice: the same numbers)
+            u0, u1 = z[0, j], z[1, j]
+            v0, v1 = z[0, v], z[1, v]
+            for k in range(n):
+                xu = x[k, j]
+                xv = x[k, v]
+                yu = u0 + b0 * xu
+                yv = v0 + b0 * xv
+                u0 = u1 + b1 * xu - a1 * yu
+                v0 = v1 + b1 * xv - a1 * yv
+                u1 = b2 * xu - a2 * yu
+                v1 = b2 * xv - a2 * yv
+                y[k, j] = yu
+                y[k, v] = yv
+            z[0, j], z[1, j] = u0, u1
+            z[0, v], z[1, v] = v0, v1
+        return
     b0 = b[0]
     bp = b[p]
     ap = a[p]
@@ -332,3 +364,208 @@ def lfilter(b: Array, a: Array, x: Array, z: Array, y: Array) -> None:
                 z[i, j] = z[i + 1, j] + b[i + 1] * xk - a[i + 1] * yk
             z[p - 1, j] = bp * xk - ap * yk
             y[k, j] = yk
+
+
+def physical(counts: Array, cols: Array, zero: Array, scale: Array, out: Array) -> None:
+    """Raw counts (N, C) to physical units: out[k, i] = (counts[k, cols[i]] - zero[i]) *
+    scale[i] (:meth:`gaitmon.dsp.channels.ChannelTable.to_physical`'s operations, in its
+    order: the same numbers)."""
+    n = counts.shape[0]
+    m = len(cols)
+    for k in range(n):
+        for i in range(m):
+            out[k, i] = (float(counts[k, cols[i]]) - zero[i]) * scale[i]
+
+
+def constant_rhs(
+    zt: Array, w: Array, w_meas: float, v: float, dt_s: float, prior: Array, g: Array
+) -> None:  # fmt: skip
+    """The smoother's right-hand side for constant weights into g (2N, S), S segments side by
+    side, from z~ laid out segment-major (``zt`` (S, N)) and the gyro w (N, S)
+    (:func:`gaitmon.dsp.smoother_map._constant_rhs`'s operations in its order): on theta_k
+    ((w_meas z_k [+ prior (S,), weighted, on k = 0]) + (w_k dt) v) - (w_k+1 dt) v, on b_k
+    (v dt) (w_k+1 dt), 0 on the last bias."""
+    n, s = w.shape
+    vdt = v * dt_s
+    for k in range(n):
+        for c in range(s):
+            t = w_meas * zt[c, k]
+            if k == 0:
+                t += prior[c]
+            else:
+                t += (w[k, c] * dt_s) * v
+            if k + 1 < n:
+                wn = w[k + 1, c] * dt_s
+                t -= wn * v
+                g[2 * k + 1, c] = vdt * wn
+            else:
+                g[2 * k + 1, c] = 0.0
+            g[2 * k, c] = t
+
+
+def zeroed_tilts(
+    tilt: Array, offset: Array, plus: Array, minus: Array, out_tilt: Array, out_joint: Array
+) -> None:  # fmt: skip
+    """Zeroed tilts out_tilt (N, S) = wrap(tilt - offset) (out_tilt may be tilt) and joint
+    angles out_joint (N, J) = wrap(zeroed[plus] - zeroed[minus]), wrap to (-pi, pi] as
+    :func:`gaitmon.dsp.angles.wrap_angle` does it (x - 2 pi rint(x / 2 pi), + 2 pi at -pi;
+    an x in (-pi, pi] is itself; NaN where x is not finite):
+    :meth:`gaitmon.dsp.calibration.Calibration.apply_tilt` and
+    :func:`gaitmon.dsp.angles.joint_angles`, the same operations."""
+    n, s = tilt.shape
+    m = len(plus)
+    for k in range(n):
+        for c in range(s):
+            x = tilt[k, c] - offset[c]
+            if not -math.pi < x <= math.pi:
+                if math.isfinite(x):
+                    x = x - float(round(x * (1.0 / _TWO_PI))) * _TWO_PI
+                    if x <= -math.pi:
+                        x += _TWO_PI
+                else:
+                    x = math.nan
+            out_tilt[k, c] = x
+        for j in range(m):
+            x = out_tilt[k, plus[j]] - out_tilt[k, minus[j]]
+            if not -math.pi < x <= math.pi:
+                if math.isfinite(x):
+                    x = x - float(round(x * (1.0 / _TWO_PI))) * _TWO_PI
+                    if x <= -math.pi:
+                        x += _TWO_PI
+                else:
+                    x = math.nan
+            out_joint[k, j] = x
+
+
+def gravity_average(
+    ax: Array, az: Array, c: Array, sn: Array, b: Array, a: Array, z: Array, step: Array,
+    count: int, h_table: Array, r0: Array, start_c: Array, dt_s: float, cols: Array,
+    avg: Array, h_out: Array, r_out: Array,
+) -> None:  # fmt: skip
+    """The gravity reference's low-passed world-frame specific force (gaitmon.dsp.
+    gravity_reference.GravityReference.process, one pass for what it did in several): per
+    sample and segment j of the group (N, G inputs), up = ax c + az sn and fwd = az c - ax sn
+    (c, sn the turn's cosine and sine), each low-passed by scipy's second-order recursion
+    (:func:`lfilter`'s operations: b, a (3,), the state z (2, 2G): the up channels, then the
+    fwd), divided by the step response ``step`` at the sample's count since the reset
+    (``count`` at the first; not past the table's end, where it is 1), into avg (2, N, G).
+    With it, the filter's inputs for the group's columns ``cols`` of h_out, r_out (N, S): the
+    bias gain h_k (``h_table`` at the count, its last entry beyond) and the gravity tilt's R,
+    r0 + (start_c / t)^2 at t = (count + k + 1) dt_s (gaitmon.dsp.motion_kalman,
+    "Start-up"). A segment's two channels run side by side, their states in registers."""
+    n, g = ax.shape
+    b0, b1, b2 = b[0], b[1], b[2]
+    a1, a2 = a[1], a[2]
+    n_step = len(step)
+    n_h = len(h_table)
+    for j in range(g):
+        col = cols[j]
+        u0, u1 = z[0, j], z[1, j]  # the up channel's state
+        f0, f1 = z[0, g + j], z[1, g + j]  # the fwd channel's
+        for k in range(n):
+            at = count + k
+            h_out[k, col] = h_table[min(at, n_h - 1)]
+            t = start_c[col] / (float(at + 1) * dt_s)
+            r_out[k, col] = r0[col] + t * t
+            x_up = ax[k, j] * c[k, j] + az[k, j] * sn[k, j]
+            x_fwd = az[k, j] * c[k, j] - ax[k, j] * sn[k, j]
+            y_up = u0 + b0 * x_up
+            u0 = u1 + b1 * x_up - a1 * y_up
+            u1 = b2 * x_up - a2 * y_up
+            y_fwd = f0 + b0 * x_fwd
+            f0 = f1 + b1 * x_fwd - a1 * y_fwd
+            f1 = b2 * x_fwd - a2 * y_fwd
+            if at < n_step - 1:
+                s_k = step[at]
+                y_up = y_up / s_k
+                y_fwd = y_fwd / s_k
+            avg[0, k, j] = y_up
+            avg[1, k, j] = y_fwd
+        z[0, j], z[1, j] = u0, u1
+        z[0, g + j], z[1, g + j] = f0, f1
+
+
+def gait_aware_inputs(
+    ax: Array, az: Array, w: Array, n_win: Array, g: float, tail: Array,
+    mag: Array, win_d: Array, win_r: Array,
+) -> None:  # fmt: skip
+    """The gait-aware filter's motion inputs (N, S) of one block (gaitmon.dsp.motion_kalman,
+    what numpy did in several passes): mag = |a| of the two axes (sqrt(ax^2 + az^2)), and the
+    maxima of dev = | mag - g | and of |w| over each segment's last ``n_win`` samples, the
+    samples before the block read from ``tail`` ((M, 2, S), M = max n_win - 1: dev and |w| of
+    the last M samples, -inf before the first), which becomes this block's last M. A window's
+    maximum is NaN where its own sample is (an earlier NaN is passed over):
+    :func:`gaitmon.dsp.kernels.motion_windows`' numbers. (dev and |w| first, then each
+    window's maximum from the last sample back, in place.)"""
+    n, s = ax.shape
+    m = tail.shape[0]
+    for k in range(n):
+        for c in range(s):
+            mg = math.sqrt(ax[k, c] * ax[k, c] + az[k, c] * az[k, c])
+            mag[k, c] = mg
+            win_d[k, c] = abs(mg - g)
+            win_r[k, c] = abs(w[k, c])
+    for k in range(n - 1, -1, -1):  # (the samples before k still hold dev and |w|)
+        for c in range(s):
+            vd = win_d[k, c]
+            vr = win_r[k, c]
+            for j in range(1, n_win[c]):
+                i = k - j
+                if i >= 0:
+                    ud = win_d[i, c]
+                    ur = win_r[i, c]
+                else:
+                    ud = tail[m + i, 0, c]
+                    ur = tail[m + i, 1, c]
+                if ud > vd:  # (False for NaN: passed over; a NaN sample keeps its NaN)
+                    vd = ud
+                if ur > vr:
+                    vr = ur
+            win_d[k, c] = vd
+            win_r[k, c] = vr
+    # the tail: dev and |w| of the last m samples (of the tail before, then of the block)
+    for i in range(m):
+        src = n - m + i
+        if src >= 0:
+            for c in range(s):
+                tail[i, 0, c] = abs(mag[src, c] - g)
+                tail[i, 1, c] = abs(w[src, c])
+        else:
+            for c in range(s):
+                tail[i, 0, c] = tail[i + n, 0, c]
+                tail[i, 1, c] = tail[i + n, 1, c]
+
+
+def turned(ax: Array, az: Array, col: int, c: Array, sn: Array, re: Array, im: Array) -> None:
+    """Column ``col`` of the specific force (ax, az (N, S)) turned into the world frame by the
+    turn's cosine and sine (N,): re = ax c + az sn, im = az c - ax sn (N,)
+    (:func:`gaitmon.dsp.smoother.gravity_tilt`'s numpy operations, in their order)."""
+    for k in range(len(c)):
+        x = ax[k, col]
+        z = az[k, col]
+        re[k] = x * c[k] + z * sn[k]
+        im[k] = z * c[k] - x * sn[k]
+
+
+def gyro_angle(w: Array, offset: Array, dt_s: float, start: Array, theta: Array,
+               turn: Array) -> None:  # fmt: skip
+    """The gravity reference's gyro angle theta (N, S), summed in order from ``start`` (S,)
+    (the angle before the block): theta_k = theta_k-1 + (w_k + offset) dt_s, and its turn
+    reduced to about (-pi, pi]: theta - 2 pi rint(theta / 2 pi) (gaitmon.dsp.gravity_reference
+    .GravityReference, numpy's operations in their order: the cumulative sum's additions)."""
+    n, s = w.shape
+    for c in range(s):
+        t = start[c]
+        for k in range(n):
+            t = t + (w[k, c] + offset[c]) * dt_s
+            theta[k, c] = t
+            turn[k, c] = t - float(round(t * (1.0 / _TWO_PI))) * _TWO_PI
+
+
+def reduced(theta: Array, col: int, turn: Array) -> None:
+    """Column ``col`` of theta (N, S) reduced to about (-pi, pi] into turn (N,):
+    theta - 2 pi rint(theta / 2 pi) (:func:`gaitmon.dsp.smoother.gravity_tilt`'s numpy
+    operations)."""
+    for k in range(len(turn)):
+        t = theta[k, col]
+        turn[k] = t - float(round(t * (1.0 / _TWO_PI))) * _TWO_PI

@@ -118,6 +118,7 @@ modulo 2 pi, which is paper 000's wrap(z - theta-).
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -223,9 +224,26 @@ def gravity_gain(
     r: float, dt_s: float, q_angle: float, q_bias: float, h_bias: float
 ) -> np.ndarray:
     """[K0, K1], the steady-state gain for a measurement z = theta + h_bias b of variance r."""
-    p = prior_covariance(dt_s, q_angle, q_bias, np.array([float(r)]), h_bias)[0]
+    return np.array(_gravity_gain(float(r), float(dt_s), float(q_angle), float(q_bias),
+                                  float(h_bias)))  # fmt: skip
+
+
+@lru_cache(maxsize=64)
+def _gravity_gain(
+    r: float, dt_s: float, q_angle: float, q_bias: float, h_bias: float
+) -> tuple[float, float]:
+    # (kept, as the gain table: a filter of the same tuning made again, the next record or
+    # the next connect, does not solve its Riccati equations again)
+    p = prior_covariance(dt_s, q_angle, q_bias, np.array([r]), h_bias)[0]
     ph = p @ np.array([1.0, h_bias])
-    return np.asarray(ph / (ph[0] + h_bias * ph[1] + r))
+    k = ph / (ph[0] + h_bias * ph[1] + r)
+    return float(k[0]), float(k[1])
+
+
+@lru_cache(maxsize=64)
+def _steady_bias_var(dt_s: float, q_angle: float, q_bias: float, r: float, h_bias: float) -> float:
+    """The steady prior's bias variance for a measurement of variance r (kept, as above)."""
+    return float(prior_covariance(dt_s, q_angle, q_bias, np.array([r]), h_bias)[0, 1, 1])
 
 
 
@@ -260,7 +278,7 @@ class GaitAwareKalman:
             if t.live_gravity_hz is not None:
                 groups.setdefault(t.live_gravity_hz, []).append(j)
         self._gravity = [
-            (GravityReference(hz, self.fs_hz, len(cols)), np.array(cols))
+            (GravityReference(hz, self.fs_hz, len(cols)), np.array(cols, dtype=np.intp))
             for hz, cols in groups.items()
         ]
         lag = np.zeros(len(tuns))
@@ -309,12 +327,13 @@ class GaitAwareKalman:
             self.segments.index("foot") if "foot" in self.segments and self._stride_r.any() else -1
         )
         self._p_end = np.array([
-            (END_ANGLE_RAD**2, END_FACTOR * prior_covariance(
-                dt, t.q_angle, t.q_bias,
-                t.start_r_factor
-                * np.array([t.r_live_gravity if t.live_gravity_hz is not None else t.r_static]),
-                lag[j],
-            )[0, 1, 1])
+            (END_ANGLE_RAD**2, END_FACTOR * _steady_bias_var(
+                dt, float(t.q_angle), float(t.q_bias),
+                float(t.start_r_factor
+                      * np.array([t.r_live_gravity if t.live_gravity_hz is not None
+                                  else t.r_static])[0]),
+                float(lag[j]),
+            ))
             for j, t in enumerate(tuns)
         ]).reshape(len(tuns), 2)  # fmt: skip
         self._gains = np.ascontiguousarray(
@@ -382,6 +401,50 @@ class GaitAwareKalman:
         if self._stride_state[0] > 0.0:
             self._stride_int = self._stride_int + delta * self._stride_state[0]
 
+    def _inputs(self, ax: np.ndarray, az: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The update's per-sample inputs (N, S) in numpy: the gravity tilt, its bias gain
+        and R, |a| and the motion windows (dev, rate)."""
+        n, s = ax.shape
+        mag = ax * ax
+        mag += az * az
+        np.sqrt(mag, out=mag)  # (|a|: sqrt(ax^2 + az^2), as the compiled loop)
+        dev = np.abs(mag - STANDARD_GRAVITY_MS2)
+        z_grav = np.zeros((n, s))
+        h_grav = np.zeros((n, s))
+        r_grav = np.broadcast_to(self._r_grav, (n, s)).copy()
+        for grav, cols in self._gravity:
+            h_grav[:, cols] = grav.bias_gain(grav.count, n)[:, None]
+            age_s = (grav.count + np.arange(1, n + 1)) * self.dt_s
+            r_grav[:, cols] += (self._start_c[cols][None, :] / age_s[:, None]) ** 2
+            z_grav[:, cols] = grav.process(ax[:, cols], az[:, cols], w[:, cols])
+        win_d, win_r = kernels.motion_windows(self._tail, dev, np.abs(w), self._win_groups)
+        return z_grav, h_grav, r_grav, mag, win_d, win_r
+
+    def _inputs_compiled(
+        self, module: Any, ax: np.ndarray, az: np.ndarray, w: np.ndarray
+    ) -> tuple[np.ndarray, ...]:
+        """:meth:`_inputs` by numba's compiled loops (gaitmon.dsp.loops.gravity_average and
+        gait_aware_inputs: one pass each, no temporaries); the same numbers, to rounding."""
+        n, s = ax.shape
+        covered = sum(len(cols) for _, cols in self._gravity) == s
+        z_grav = np.empty((n, s)) if covered else np.zeros((n, s))
+        h_grav = np.empty((n, s)) if covered else np.zeros((n, s))
+        r_grav = np.empty((n, s))
+        if not covered:
+            r_grav[...] = self._r_grav
+        for grav, cols in self._gravity:
+            if len(cols) == s:  # every column (the default tunings): no copies
+                z_grav = grav.process_compiled(module, ax, az, w, cols, h_grav, r_grav,
+                                               self._r_grav, self._start_c)  # fmt: skip
+                continue
+            z_grav[:, cols] = grav.process_compiled(module, ax[:, cols], az[:, cols], w[:, cols],
+                                                    cols, h_grav, r_grav, self._r_grav,
+                                                    self._start_c)  # fmt: skip
+        mag, win_d, win_r = np.empty((n, s)), np.empty((n, s)), np.empty((n, s))
+        module.gait_aware_inputs(ax, az, w, self._n_win, STANDARD_GRAVITY_MS2, self._tail, mag,
+                                 win_d, win_r)  # fmt: skip
+        return z_grav, h_grav, r_grav, mag, win_d, win_r
+
     def process(
         self, acc_x_ms2: np.ndarray, acc_z_ms2: np.ndarray, gyro_rad_s: np.ndarray
     ) -> np.ndarray:
@@ -396,23 +459,19 @@ class GaitAwareKalman:
         out = np.empty((n, s))
         if n == 0:
             return out[:, 0] if was_1d else out
+        # (the pipeline's columns come column-major: row-major copies, so that every compiled
+        # loop sees one layout, the one the cache holds)
+        ax, az, w = np.ascontiguousarray(ax), np.ascontiguousarray(az), np.ascontiguousarray(w)
         z_acc = np.arctan2(az, ax)
-        mag = np.hypot(ax, az)
-        dev = np.abs(mag - STANDARD_GRAVITY_MS2)
-        z_grav = np.zeros((n, s))
-        h_grav = np.zeros((n, s))
-        r_grav = np.broadcast_to(self._r_grav, (n, s)).copy()
-        for grav, cols in self._gravity:
-            h_grav[:, cols] = grav.bias_gain(grav.count, n)[:, None]
-            age_s = (grav.count + np.arange(1, n + 1)) * self.dt_s
-            r_grav[:, cols] += (self._start_c[cols][None, :] / age_s[:, None]) ** 2
-            z_grav[:, cols] = grav.process(ax[:, cols], az[:, cols], w[:, cols])
+        module = kernels.compiled_for(n, count=False)
+        if module is not None and all(kernels.plain(a) for a in (ax, az, w)):
+            z_grav, h_grav, r_grav, mag, win_d, win_r = self._inputs_compiled(module, ax, az, w)
+        else:
+            z_grav, h_grav, r_grav, mag, win_d, win_r = self._inputs(ax, az, w)
         start = self._theta is None
         theta = np.zeros(s) if self._theta is None else self._theta.copy()
         bias = np.zeros(s) if self._bias is None else self._bias.copy()  # a restart keeps it
         ps = self._per_segment
-        w = np.ascontiguousarray(w)
-        win_d, win_r = kernels.motion_windows(self._tail, dev, np.abs(w), self._win_groups)
         kernels.gait_aware_update(
             win_d, win_r, w, z_acc, z_grav, self._gravity_on, self._gated,
             ps["static_acc_ms2"], ps["static_rate_rad_s"], self._k_static, self._k_grav,

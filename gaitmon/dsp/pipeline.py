@@ -68,7 +68,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from gaitmon.dsp.angles import accel_tilt, joint_angles
+from gaitmon.dsp import kernels
+from gaitmon.dsp.angles import accel_tilt
 from gaitmon.dsp.calibration import Calibration
 from gaitmon.dsp.channel_table import N_FSR, N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import (
@@ -337,7 +338,7 @@ class Pipeline:
         """The rows in physical units with the bridged lost frames filled in (module doc,
         "Gaps"), and where the rows are among those samples (None: no frame filled in).
         Records the row <-> sample map of the filled frames."""
-        phys = self.table.to_physical(adc)
+        phys = kernels.to_physical(self.table, adc)
         ext, pos = fill_lost(phys, fill, self._last_phys)
         if pos is not None:
             filled = self._gap_filled[-1] if self._gap_filled else 0
@@ -407,10 +408,9 @@ class Pipeline:
             ("acc", tilt_acc),
             ("gyro", tilt_gyro),
             ("kalman", tilt_kalman),
-        ):
-            zeroed = cal.apply_tilt(tilt[rows])
-            o[f"tilt_{name}_rad"][sl] = zeroed
-            o[f"joint_{name}_rad"][sl] = joint_angles(zeroed)
+        ):  # cal.apply_tilt and joint_angles, into the block's rows
+            kernels.zeroed_tilts(tilt if pick is None else tilt[pick], cal.tilt_offset_rad,
+                                 o[f"tilt_{name}_rad"][sl], o[f"joint_{name}_rad"][sl])  # fmt: skip
         o["heel_loaded"][sl] = gait.heel_loaded[rows]
         o["toe_loaded"][sl] = gait.toe_loaded[rows]
         o["phase"][sl] = gait.phase[rows]

@@ -130,22 +130,37 @@ def gravity_tilt(
     ax, az = np.asarray(acc_x_ms2).T, np.asarray(acc_z_ms2).T
     re, im = np.empty(th_t.shape), np.empty(th_t.shape)
     spare = np.empty(th_t.shape[-1])
-    for r, i, th, x, z in zip(*map(np.atleast_2d, (re, im, th_t, ax, az)), strict=True):
-        turn = np.multiply(th, 1.0 / TWO_PI, out=r)
-        np.rint(turn, out=turn)
-        turn *= -TWO_PI
-        turn += th
+    # (x + i z) e^(-i theta) in one compiled pass per segment where numba serves
+    module = kernels.compiled_for(th_t.shape[-1], count=False)
+    whole = [np.asarray(acc_x_ms2), np.asarray(acc_z_ms2), theta]
+    if module is None or theta.ndim != 2 or not all(kernels.plain(a) for a in whole):
+        module = None
+    for col, (r, i, th, x, z) in enumerate(zip(*map(np.atleast_2d, (re, im, th_t, ax, az)),
+                                               strict=True)):  # fmt: skip
+        if module is not None:
+            turn = r
+            module.reduced(theta, col, turn)
+        else:
+            turn = np.multiply(th, 1.0 / TWO_PI, out=r)
+            np.rint(turn, out=turn)
+            turn *= -TWO_PI
+            turn += th
         turn32 = turn.astype(np.float32)
         c, s = np.cos(turn32), np.sin(turn32)
         del turn32, turn
-        np.multiply(x, c, out=r)  # (x + i z) e^(-i theta)
+        if module is not None:
+            module.turned(whole[0], whole[1], col, c, s, r, i)
+            continue
+        np.multiply(x, c, out=r)
         r += np.multiply(z, s, out=spare)
         np.multiply(z, c, out=i)
         i -= np.multiply(x, s, out=spare)
     del spare
-    for _ in range(3):
-        re = kernels.running_mean(re, n)
-        im = kernels.running_mean(im, n)
+    # (compiled: from buffer to buffer, one spare passed on from the real part to the
+    # imaginary: three arrays at most, as in numpy)
+    re, buffer = kernels.running_means(re, n, 3)
+    im, buffer = kernels.running_means(im, n, 3, buffer)
+    del buffer
     np.arctan2(im, re, out=re)
     del im
     re += th_t
@@ -313,7 +328,9 @@ def out_of_plane(
     if tuning.plane_fraction is None:
         return None
     n = max(1, round(fs_hz / (2.0 * tuning.plane_cutoff_hz)))
-    mean = sliding_mean(np.hypot(acc_x_ms2, acc_z_ms2), n, mode="nearest")
+    mag = np.multiply(acc_x_ms2, acc_x_ms2)  # |a| = sqrt(ax^2 + az^2), as the causal filter's
+    mag += np.multiply(acc_z_ms2, acc_z_ms2)
+    mean = sliding_mean(np.sqrt(mag, out=mag), n, mode="nearest")
     mask = mean < tuning.plane_fraction * STANDARD_GRAVITY_MS2
     return mask if mask.any() else None
 
@@ -356,15 +373,20 @@ def smooth_record_tilts(
     starts = [max(0, int(r)) for r, _ in calibrations] + [n]
 
     ranges = list(zip(calibrations, starts[:-1], starts[1:], strict=True))
-    gyro = table.to_physical(counts, GYRO_IDX)
+    gyro = kernels.to_physical(table, counts, GYRO_IDX)
     for (_, cal), a, b in ranges:
         gyro[a:b] -= cal.gyro_bias_rad_s
-    held = [table.to_physical(counts, ACC_X_IDX), table.to_physical(counts, ACC_Z_IDX), gyro,
+    held = [kernels.to_physical(table, counts, ACC_X_IDX),
+            kernels.to_physical(table, counts, ACC_Z_IDX), gyro,
             None if first_pass is None else np.asarray(first_pass, dtype=np.float64)]  # fmt: skip
     # the smoother lets go of what it no longer needs: this frame keeps no reference
     del gyro, first_pass, counts, adc_counts
     out = _smooth_tilts(held, fs_hz, SEGMENTS, [tuning_for(seg) for seg in SEGMENTS], WINDOW,
                         OVERLAP)  # fmt: skip
+    if kernels.compiled_for(n, count=False) is not None and kernels.plain(out):
+        for (_, cal), a, b in ranges:  # (in place, one compiled pass: the same numbers)
+            kernels.zeroed_tilts(out[a:b], cal.tilt_offset_rad, out[a:b])
+        return out
     for (_, cal), a, b in ranges:
         out[a:b] -= cal.tilt_offset_rad
     return np.asarray(wrap_angle(out))
@@ -436,7 +458,7 @@ class CausalFirstPass:
                 self._in_force = cal
             if row in self._restarts:
                 self._kf.restart()
-            phys = self._table.to_physical(counts[a:b])
+            phys = kernels.to_physical(self._table, counts[a:b])
             fill = np.zeros(b - a, dtype=np.int64)
             lo, hi = np.searchsorted(self._fill_rows, [row, first + b])
             fill[self._fill_rows[lo:hi] - row] = self._fill_n[lo:hi]

@@ -88,14 +88,24 @@ def _constant_factor(
 
 
 def _constant_rhs(
-    z: np.ndarray, w: np.ndarray, w_meas: float, v: float, dt_s: float, prior: np.ndarray
-) -> np.ndarray:
+    z: np.ndarray, w: np.ndarray, w_meas: float, v: float, dt_s: float, prior: np.ndarray,
+    rows: int | None = None,
+) -> np.ndarray:  # fmt: skip
     """(2N, S) the right-hand side of the normal equations (:func:`_normal_rhs`) for constant
     weights, S segments side by side: the measurement ``w_meas`` z_k on theta_k, each
     transition's v (w_k dt) on theta_(k-1), b_(k-1) and theta_k (v = 1 / q_angle), and the
-    prior ``prior`` (S,) on theta_0 (weight 1 / _PRIOR_THETA_VAR)."""
+    prior ``prior`` (S,) on theta_0 (weight 1 / _PRIOR_THETA_VAR). In one compiled pass
+    (:func:`gaitmon.dsp.loops.constant_rhs`) where the rule picks numba for ``rows`` (the
+    solve's), else numpy; the same numbers."""
     n = len(z)
     g = np.empty((2 * n, z.shape[1]))
+    module = None if rows is None else kernels.compiled_for(rows, count=False)
+    if module is not None and w.dtype == np.float64 and z.dtype == np.float64:
+        zt = np.ascontiguousarray(z.T)  # (the gravity pass's z~ is segment-major: no copy)
+        wc = w if kernels.plain(w) else np.array(w, order="C")
+        module.constant_rhs(zt, wc, float(w_meas), float(v), float(dt_s),
+                            (1.0 / _PRIOR_THETA_VAR) * np.asarray(prior, dtype=np.float64), g)
+        return g
     wdt = w * dt_s
     th = g[0::2]
     np.multiply(w_meas, z, out=th)
@@ -156,7 +166,7 @@ def smooth_map(
         w2 = np.asarray(gyro_rad_s, dtype=np.float64).reshape(z2.shape)
         prior = z2[0] if theta_prior is None else np.full(z2.shape[1], float(theta_prior))
         w_meas = 1.0 / float(r) if np.isfinite(r) else 0.0  # (no measurement: weight 0)
-        x = _constant_rhs(z2, w2, w_meas, 1.0 / float(qa), float(dt_s), prior)
+        x = _constant_rhs(z2, w2, w_meas, 1.0 / float(qa), float(dt_s), prior, n)
         kernels.constant_map_solve(cb, inv_diag, x)
         theta, bias = x[0::2], x[1::2]
         if np.ndim(z) == 1:

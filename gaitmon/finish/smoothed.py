@@ -216,7 +216,7 @@ class KeptFirstPass:
         data = np.ascontiguousarray(tilt_rad, dtype=np.float64)
         try:
             self._file.seek(self._n * _ROW_BYTES)
-            self._file.write(data.tobytes())
+            self._file.write(memoryview(data).cast("B"))  # type: ignore[arg-type]  # (no copy)
         except OSError as e:
             log.info("the smoother's first pass is computed again (temporary file: %s)", e)
             self.close()
@@ -231,7 +231,12 @@ class KeptFirstPass:
         if self._file is None or not 0 <= a <= b <= self._n:
             raise ValueError(f"first-pass rows {a}:{b} asked of {self._n} kept")
         self._file.seek(a * _ROW_BYTES)
-        return np.frombuffer(self._file.read((b - a) * _ROW_BYTES)).reshape(b - a, N_SEGMENTS)
+        # read into a writeable array (the compiled loops take those: gaitmon.dsp.kernels)
+        out = np.empty((b - a, N_SEGMENTS))
+        view = memoryview(out).cast("B")  # type: ignore[arg-type]  # (numpy arrays are buffers)
+        if self._file.readinto(view) != out.nbytes:  # type: ignore[attr-defined]  # (a file)
+            raise ValueError(f"first-pass rows {a}:{b}: the temporary file is short")
+        return out
 
     def close(self) -> None:
         if self._file is not None:
