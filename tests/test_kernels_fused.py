@@ -84,7 +84,7 @@ def _run(counts: np.ndarray, block: int, module: Any) -> dict[str, np.ndarray]:
     form = "python" if module is None else "compiled"
     saved = kernels._load
     if module is not None:
-        kernels._load = lambda: module  # type: ignore[assignment]
+        kernels._load = lambda jit=False: module  # type: ignore[assignment]
     try:
         with kernels.use(form):
             p = Pipeline()
