@@ -9,6 +9,10 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
+
+import h5py
+import numpy as np
 
 from gaitmon.engine import Engine
 from gaitmon.io.device import Device
@@ -123,3 +127,14 @@ class StalledDisk:
             return stall.real(self, *a, **kw)
 
         monkeypatch.setattr(SessionWriter, "append", append)
+
+
+def numeric_datasets(path: Path) -> dict[str, np.ndarray]:
+    """Every numeric dataset of an HDF5 file, by its path (two runs' files compared)."""
+    out: dict[str, np.ndarray] = {}
+    with h5py.File(path, "r") as f:
+        def keep(name: str, obj: object) -> None:
+            if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "fiu":
+                out[name] = obj[()]
+        f.visititems(keep)
+    return out

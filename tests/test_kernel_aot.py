@@ -16,11 +16,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 
 pytest.importorskip("numba")
+
+from helpers import numeric_datasets
 
 from gaitmon.dsp import kernel_aot, loops
 
@@ -48,16 +49,6 @@ def built(tmp_path_factory) -> tuple[Path, Path]:
                     "headers): numba's cached loops serve")  # fmt: skip
     assert os.path.exists(path + ".json")  # (the types each call is checked against)
     return cache, Path(path)
-
-
-def _datasets(path: Path) -> dict[str, np.ndarray]:
-    out: dict[str, np.ndarray] = {}
-    with h5py.File(path, "r") as f:
-        def keep(name: str, obj: object) -> None:
-            if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "fiu":
-                out[name] = obj[()]
-        f.visititems(keep)
-    return out
 
 
 def test_process_runs_the_built_loops_without_numba_and_writes_the_interpreted_numbers(
@@ -89,7 +80,7 @@ sys.exit(rc)
 """
     run = _run(code, cache)
     assert run.returncode == 0, run.stderr[-2000:]
-    a, b = _datasets(fast), _datasets(plain)
+    a, b = numeric_datasets(fast), numeric_datasets(plain)
     assert a.keys() == b.keys()
     assert {"processed/tilt_deg", "smoothed/tilt_deg", "strides/stride_length_m"} <= a.keys()
     for name in a:

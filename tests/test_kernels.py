@@ -14,9 +14,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
+from helpers import numeric_datasets
 
 from gaitmon.dsp import kernels
 from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX, SEGMENTS
@@ -242,16 +242,6 @@ sys.meta_path.insert(0, _Refuse())
 """
 
 
-def _datasets(path: Path) -> dict[str, np.ndarray]:
-    out: dict[str, np.ndarray] = {}
-    with h5py.File(path, "r") as f:
-        def keep(name: str, obj: object) -> None:
-            if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "fiu":
-                out[name] = obj[()]
-        f.visititems(keep)
-    return out
-
-
 @pytest.fixture(scope="module")
 def walk_file(tmp_path_factory, record_simulated) -> Path:
     return record_simulated(tmp_path_factory.mktemp("walk") / "walk.h5", duration_s=40)
@@ -281,7 +271,7 @@ sys.exit(rc)
 """
     run = _run(code)
     assert run.returncode == 0, run.stderr[-2000:]
-    a, b = _datasets(plain), _datasets(compiled)
+    a, b = numeric_datasets(plain), numeric_datasets(compiled)
     assert a.keys() == b.keys()
     # (format 2 stores the angles quantised: equal within 1e-9 is equal)
     assert {"processed/tilt_deg", "smoothed/tilt_deg", "strides/stride_length_m"} <= a.keys()
