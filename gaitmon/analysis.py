@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from gaitmon.finish import Session
     from gaitmon.finish.bilateral import Bilateral
     from gaitmon.io.session import Exclusion
+    from gaitmon.io.session.row_times import RowValues
 
 MAX_GAP_S = BRIDGE_MAX_S  # gaps up to 5 frames at 100 Hz are bridged and leave a stride usable
 
@@ -297,13 +298,14 @@ def analyse_strides(
     joint_deg: np.ndarray | None = None,
     gaps: Sequence[tuple[int, float]] = (),
     excluded_ranges: Sequence[tuple[int, int]] = (),
-    t_s: np.ndarray | None = None,
+    t_s: np.ndarray | RowValues | None = None,
 ) -> list[StrideRow]:
     """One row per stride, in time order.
 
     ``gaps``: (row where data resumed, gap duration in s); ``excluded_ranges``: (start, stop)
     row ranges the user excluded; ``t_s``: the true time of each row (stride, stance and swing
-    times are taken from it when given, so lost frames do not shorten a stride).
+    times are taken from it when given, so lost frames do not shorten a stride; a
+    :class:`~gaitmon.io.session.row_times.RowValues` of it at the events serves as well).
     """
     strides = strides_from_events(heel_strike_idx, toe_off_idx, fs_hz)
     if t_s is not None:
@@ -355,18 +357,18 @@ def _stride_extremes(
     return peak.tolist(), [(h, k, a) for h, k, a in rom.tolist()]
 
 
-def _retime_all(strides: list[Stride], t_s: np.ndarray) -> list[Stride]:
+def _retime_all(strides: list[Stride], t_s: np.ndarray | RowValues) -> list[Stride]:
     """Stride, stance and swing times from the rows' true times (``_retime`` for every stride
     inside ``t_s``, as plain float arithmetic on arrays: same values, no per-stride numpy)."""
     inside = [k for k, s in enumerate(strides) if s.end_idx < len(t_s)]
     if not inside:
         return strides
-    t = np.asarray(t_s)
-    a = t[[strides[k].start_idx for k in inside]]
+    t = t_s if hasattr(t_s, "take") else np.asarray(t_s)  # (an array, or RowValues)
+    a = t.take([strides[k].start_idx for k in inside])
     # differences in t_s's own dtype, as _retime takes them
-    strides_s = (t[[strides[k].end_idx for k in inside]] - a).tolist()
-    stances_s = (t[[strides[k].toe_off_idx for k in inside]] - a).tolist()
-    out = list(strides)
+    strides_s = (t.take([strides[k].end_idx for k in inside]) - a).tolist()
+    stances_s = (t.take([strides[k].toe_off_idx for k in inside]) - a).tolist()
+    out = strides  # replaced in place (analyse_strides's own list): the old go as the new come
     for k, stride, stance in zip(inside, strides_s, stances_s, strict=True):
         s = strides[k]
         out[k] = Stride(s.start_idx, s.end_idx, s.toe_off_idx, stride, stance, stride - stance,
@@ -508,9 +510,13 @@ def analyse_session(
         # float32 as read (not a float64 copy, 8 bytes a value): the figures take their
         # samples exactly (gaitmon.dsp.gait computes in float64 from them)
         joints = session.read("processed/joint_deg")
-    if t_s is None and session.n_samples:
-        t_s = session.read("timeline/t_s")
     hs, to = events if events is not None else (session.heel_strike_idx, session.toe_off_idx)
+    times: np.ndarray | RowValues | None = t_s
+    if times is None and session.n_samples:
+        # the times at the events only (the strides' ends), not the whole series
+        from gaitmon.io.session.row_times import RowValues
+
+        times = RowValues.read(session, "timeline/t_s", np.concatenate([hs, to]))
     ranges = tuple(exclusions)
     rows = analyse_strides(
         hs,
@@ -519,7 +525,7 @@ def analyse_session(
         joints,
         session_gaps(session),
         [(r.start_idx, r.stop_idx) for r in ranges],
-        t_s=t_s,
+        t_s=times,
     )
     rows = with_stride_measures(rows, session.foot_stride_measures(hs))
     return SessionAnalysis(rows, joints, ranges, stored_path(session.exclusions_key), problem)
