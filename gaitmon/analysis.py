@@ -31,6 +31,7 @@ from gaitmon.dsp.gait import (
     strides_from_events,
 )
 from gaitmon.dsp.lost_frames import BRIDGE_MAX_S, settling_ranges
+from gaitmon.dsp.stride_extremes import stride_extremes, stride_extremes_sliced
 
 if TYPE_CHECKING:
     from gaitmon.dsp.bilateral import BilateralGait
@@ -291,11 +292,20 @@ def stride_cells(row: StrideRow, number: int, start_t_s: float) -> list[str]:
     return out
 
 
+@dataclass(frozen=True)
+class JointSlices:
+    """A record's joint angles (``n_rows`` of them) read a slice at a time: ``read(a, b)`` gives
+    rows a:b (the stride figures without the whole series in memory)."""
+
+    n_rows: int
+    read: Callable[[int, int], np.ndarray]
+
+
 def analyse_strides(
     heel_strike_idx: np.ndarray,
     toe_off_idx: np.ndarray,
     fs_hz: float,
-    joint_deg: np.ndarray | None = None,
+    joint_deg: np.ndarray | JointSlices | None = None,
     gaps: Sequence[tuple[int, float]] = (),
     excluded_ranges: Sequence[tuple[int, int]] = (),
     t_s: np.ndarray | RowValues | None = None,
@@ -316,45 +326,14 @@ def analyse_strides(
     start = np.fromiter((s.start_idx for s in strides), np.int64, n)
     end = np.fromiter((s.end_idx for s in strides), np.int64, n)
     toe = np.fromiter((s.toe_off_idx for s in strides), np.int64, n)
-    peak, rom = _stride_extremes(joint_deg, start, end, toe)
+    if isinstance(joint_deg, JointSlices):
+        peak, rom = stride_extremes_sliced(joint_deg.n_rows, joint_deg.read, start, end, toe)
+    else:
+        peak, rom = stride_extremes(joint_deg, start, end, toe)
     reasons = stride_exclusions(start, end, np.arange(n), n, long_gaps, settling,
                                 excluded_ranges)  # fmt: skip
     rows = [StrideRow(s, reasons[k], peak[k], rom[k]) for k, s in enumerate(strides)]
     return rows
-
-
-def _stride_extremes(
-    joint_deg: np.ndarray | None, start: np.ndarray, end: np.ndarray, toe: np.ndarray
-) -> tuple[list[float], list[tuple[float, float, float]]]:
-    """Per stride: the peak knee flexion from toe off to the end, and each joint's range of
-    motion over [start, end] (both ends included; NaN when the stride is not in the data).
-    One reduceat per figure instead of numpy calls per stride (26 000 strides in 8 hours)."""
-    n = len(start)
-    peak = np.full(n, np.nan)
-    rom = np.full((n, 3), np.nan)
-    if joint_deg is not None and n:
-        # float32 angles (as read) are not copied to float64: max and min pick samples, and
-        # the ranges are taken in float64 from them, so the figures are the same
-        a = np.asarray(joint_deg)
-        if a.dtype.kind != "f":
-            a = a.astype(np.float64)
-        ok = end < len(a)
-        # reduceat over [s, e + 1) pairs (the odd results, from e + 1 on, are not used) needs
-        # e + 1 to be a row: a stride ending on the last row is reduced on its own
-        bulk = ok & (end + 1 < len(a))
-        if bulk.any():
-            s0, e1, t0 = start[bulk], end[bulk] + 1, toe[bulk]
-            idx = np.column_stack([s0, e1]).ravel()
-            hi = np.maximum.reduceat(a, idx, axis=0)[::2].astype(np.float64)
-            lo = np.minimum.reduceat(a, idx, axis=0)[::2].astype(np.float64)
-            rom[bulk] = (hi - lo)[:, :3]
-            kidx = np.column_stack([t0, e1]).ravel()
-            peak[bulk] = np.maximum.reduceat(a[:, 1], kidx)[::2]
-        for k in np.flatnonzero(ok & ~bulk):
-            seg = a[start[k] :]
-            rom[k] = (seg.max(axis=0).astype(np.float64) - seg.min(axis=0))[:3]
-            peak[k] = a[toe[k] :, 1].max()
-    return peak.tolist(), [(h, k, a) for h, k, a in rom.tolist()]
 
 
 def _retime_all(strides: list[Stride], t_s: np.ndarray | RowValues) -> list[Stride]:
@@ -456,7 +435,8 @@ class SessionAnalysis:
     """The strides of one session with the exclusions in force, and where those came from."""
 
     rows: list[StrideRow]
-    joints_deg: np.ndarray | None  # (n, 3) hip/knee/ankle as read (float32), None if empty
+    # (n, 3) hip/knee/ankle as read (float32), None if empty or not kept (analyse_session)
+    joints_deg: np.ndarray | None
     exclusions: tuple[Exclusion, ...]  # the user's ranges applied
     side_file: Path  # where stored exclusions live (FILE.review.json, or the user store)
     problem: str = ""  # one line when the stored exclusions could not be used, else ""
@@ -492,13 +472,16 @@ def analyse_session(
     joints: np.ndarray | None = None,
     events: tuple[np.ndarray, np.ndarray] | None = None,
     t_s: np.ndarray | None = None,
+    keep_joints: bool = True,
 ) -> SessionAnalysis:
     """The stride analysis of ``session`` as ``gaitmon info``, the report and review show it.
 
     ``exclusions=None`` means the ranges stored for this session (the review window's side
     file; an unusable side file applies none and says why in ``problem``). ``joints``,
     ``events`` (heel strike, toe off rows) and ``t_s`` default to the recorded ones; review
-    passes a reprocessed source's joints and events instead.
+    passes a reprocessed source's joints and events instead. ``keep_joints=False`` (``gaitmon
+    info``, which shows no cycles): the recorded joint angles are read a slice at a time for
+    the stride figures, the same figures, and not kept (``joints_deg`` is None).
     """
     from gaitmon.io.session.exclusions import stored_path
 
@@ -506,10 +489,15 @@ def analyse_session(
     if exclusions is None:
         found, problem = session.exclusions()
         exclusions = found
+    source: np.ndarray | JointSlices | None = joints
     if joints is None and session.n_samples:
         # float32 as read (not a float64 copy, 8 bytes a value): the figures take their
         # samples exactly (gaitmon.dsp.gait computes in float64 from them)
-        joints = session.read("processed/joint_deg")
+        if keep_joints:
+            joints = source = session.read("processed/joint_deg")
+        else:
+            source = JointSlices(session.n_samples, lambda a, b: session.read_range(
+                a, b, ["processed/joint_deg"])["processed/joint_deg"])  # fmt: skip
     hs, to = events if events is not None else (session.heel_strike_idx, session.toe_off_idx)
     times: np.ndarray | RowValues | None = t_s
     if times is None and session.n_samples:
@@ -522,7 +510,7 @@ def analyse_session(
         hs,
         to,
         session.sample_rate_hz,
-        joints,
+        source,
         session_gaps(session),
         [(r.start_idx, r.stop_idx) for r in ranges],
         t_s=times,

@@ -86,3 +86,44 @@ def test_row_values_are_the_series_at_the_rows_asked_and_refuse_others() -> None
         got.take([6])
     empty = RowValues.read(src, "timeline/t_s", np.array([], np.int64))
     assert len(empty) == 10_000 and len(empty.take([])) == 0
+
+
+def test_info_reads_the_joint_angles_in_bounded_slices_with_the_same_figures(walk, monkeypatch):
+    """``gaitmon info``'s analysis (keep_joints=False) reads the joint angles a slice at a
+    time and gives every stride the figures of the whole series (the report's analysis)."""
+    from gaitmon.dsp import stride_extremes
+    from gaitmon.finish import open_session
+
+    monkeypatch.setattr(stride_extremes, "SLICE_ROWS", 700)
+    with open_session(walk) as s:
+        whole = analyse_session(s)
+        reads: list[tuple[int, int, tuple[str, ...]]] = []
+        read_range = s.read_range
+
+        def logged(a, b, names=None):
+            reads.append((int(a), int(b), tuple(names or ())))
+            return read_range(a, b, names)
+
+        monkeypatch.setattr(s, "read_range", logged)
+        sliced = analyse_session(s, keep_joints=False)
+    joints = [(a, b) for a, b, names in reads if "processed/joint_deg" in names]
+    assert len(joints) > 3 and max(b - a for a, b in joints) <= 700
+    assert sliced.joints_deg is None and whole.joints_deg is not None
+    assert len(whole.rows) > 20
+    assert repr(sliced.rows) == repr(whole.rows)  # every figure to the bit (NaN included)
+
+
+def test_stride_extremes_in_slices_equal_those_of_the_whole_series() -> None:
+    from gaitmon.dsp.stride_extremes import stride_extremes, stride_extremes_sliced
+
+    rng = np.random.default_rng(7)
+    n = 5000
+    a = rng.normal(0, 30, (n, 3)).astype(np.float32)
+    hs = np.array([0, 90, 200, 260, 1500, 1610, 4880, 4999, 5100])  # one stride past the end
+    start, end = hs[:-1], hs[1:]
+    toe = start + (end - start) // 2
+    want = stride_extremes(a, start, end, toe)
+    for step in (50, 111, 1000, 10**6):  # one stride longer than a slice, one ending last
+        got = stride_extremes_sliced(n, lambda x, y: a[x:y], start, end, toe, step)
+        assert repr(got) == repr(want), step
+    assert np.isnan(want[0][-1]) and np.isfinite(want[0][-2])

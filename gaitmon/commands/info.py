@@ -109,7 +109,9 @@ def run(args: argparse.Namespace) -> int:
             open_session(args.file, progress=progress_printer("recovering")) as s,
             damaged_file_guard(args.file),
         ):
-            print("\n".join(_lines(s, analyse_session(s), interrupted)))
+            # (no cycles shown: the joint angles are read a slice at a time, not kept)
+            an = analyse_session(s, keep_joints=False)
+            print("\n".join(_lines(s, an, interrupted)))
     except SessionError as exc:
         raise UserError(str(exc)) from None
     return 0
