@@ -17,17 +17,9 @@ from gaitmon.io.session.row_times import RowValues
 
 
 @pytest.fixture(scope="module")
-def walk(tmp_path_factory) -> Path:
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).parent))
-    from test_closing_apart import _record
-
-    from gaitmon.finish import close_recording
-
-    path = tmp_path_factory.mktemp("rows") / "walk.h5"
-    close_recording(_record(path, 6000))
-    return path
+def walk(tmp_path_factory, record_simulated) -> Path:
+    """A 60-s recording of the simulated unit walking (6000 rows)."""
+    return record_simulated(tmp_path_factory.mktemp("rows") / "walk.h5", duration_s=60)
 
 
 def test_the_analysis_reads_the_timeline_in_bounded_slices_with_the_same_strides(
