@@ -181,7 +181,7 @@ def test_cycles_and_stride_figures_from_float32_angles_in_blocks_equal_the_float
     resamples the cycles a block of strides at a time: every figure is the same to the bit
     as the previous whole-array float64 computation."""
     import gaitmon.dsp.gait as gait
-    from gaitmon.analysis import _stride_extremes
+    from gaitmon.dsp.stride_extremes import stride_extremes
 
     rng = np.random.default_rng(3)
     n = 20_000
@@ -209,7 +209,7 @@ def test_cycles_and_stride_figures_from_float32_angles_in_blocks_equal_the_float
     assert got.dtype == np.float64 and len(got) == len(strides) > 150
     assert np.array_equal(got, want_cycles)
     assert np.array_equal(gait.normalise_strides(a64, strides), want_cycles)
-    peak, rom = _stride_extremes(joints32, start, end, toe)
+    peak, rom = stride_extremes(joints32, start, end, toe)
     assert np.array_equal(np.array(rom), want_rom)
     assert np.array_equal(np.array(peak), want_peak)
     assert np.isfinite(want_rom[-1]).all()  # (the stride on the last row has its figures)
