@@ -22,6 +22,19 @@ def walk(tmp_path_factory, record_simulated) -> Path:
     return record_simulated(tmp_path_factory.mktemp("rows") / "walk.h5", duration_s=60)
 
 
+def _logged_reads(s, monkeypatch) -> list[tuple[int, int, tuple[str, ...]]]:
+    """Every ``s.read_range`` from now on, as (first row, end row, datasets)."""
+    reads: list[tuple[int, int, tuple[str, ...]]] = []
+    read_range = s.read_range
+
+    def logged(a, b, names=None):
+        reads.append((int(a), int(b), tuple(names or ())))
+        return read_range(a, b, names)
+
+    monkeypatch.setattr(s, "read_range", logged)
+    return reads
+
+
 def test_the_analysis_reads_the_timeline_in_bounded_slices_with_the_same_strides(
     walk, monkeypatch
 ):
@@ -30,16 +43,9 @@ def test_the_analysis_reads_the_timeline_in_bounded_slices_with_the_same_strides
     monkeypatch.setattr(row_times, "SLICE_ROWS", 500)
     with open_session(walk) as s:
         whole_t = s.read("timeline/t_s")
-        reads: list[tuple[int, int, tuple[str, ...]]] = []
-        read_range = s.read_range
-
-        def logged(a, b, names=None):
-            reads.append((int(a), int(b), tuple(names or ())))
-            return read_range(a, b, names)
-
-        monkeypatch.setattr(s, "read_range", logged)
+        reads = _logged_reads(s, monkeypatch)
         an = analyse_session(s)
-        monkeypatch.setattr(s, "read_range", read_range)
+        monkeypatch.undo()  # (the reference below reads as before)
         # what the analysis computed before: the strides timed from the whole series
         want = analyse_strides(s.heel_strike_idx, s.toe_off_idx, s.sample_rate_hz,
                                an.joints_deg, session_gaps(s), [], t_s=whole_t)  # fmt: skip
@@ -89,14 +95,7 @@ def test_info_reads_the_joint_angles_in_bounded_slices_with_the_same_figures(wal
     monkeypatch.setattr(stride_extremes, "SLICE_ROWS", 700)
     with open_session(walk) as s:
         whole = analyse_session(s)
-        reads: list[tuple[int, int, tuple[str, ...]]] = []
-        read_range = s.read_range
-
-        def logged(a, b, names=None):
-            reads.append((int(a), int(b), tuple(names or ())))
-            return read_range(a, b, names)
-
-        monkeypatch.setattr(s, "read_range", logged)
+        reads = _logged_reads(s, monkeypatch)
         sliced = analyse_session(s, keep_joints=False)
     joints = [(a, b) for a, b, names in reads if "processed/joint_deg" in names]
     assert len(joints) > 3 and max(b - a for a, b in joints) <= 700
