@@ -152,6 +152,7 @@ class Loops:
                  fallback: Callable[[str], Any]) -> None:  # fmt: skip
         self.__file__ = module.__file__
         self._fallback = fallback
+        self._elsewhere: dict[str, Any] = {}  # the fallback's loop by name, once asked for
         for name, spec in specs.items():
             fn = getattr(module, name, None)
             if callable(fn):
@@ -160,13 +161,19 @@ class Loops:
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):
             raise AttributeError(name)
-        return self._fallback(name)
+        return self._other(name)
+
+    def _other(self, name: str) -> Any:
+        """The fallback's loop ``name``, looked up (and said in the log) once."""
+        if name not in self._elsewhere:
+            self._elsewhere[name] = self._fallback(name)
+        return self._elsewhere[name]
 
     def _guarded(self, name: str, fn: Any, spec: list[list[Any]]) -> Any:
         def call(*args: Any) -> Any:
             if _fits(args, spec):
                 return fn(*args)
-            return self._fallback(name)(*args)
+            return self._other(name)(*args)
 
         call.__name__ = name
         return call
