@@ -74,6 +74,9 @@ def test_a_cut_link_clears_the_current_stride_and_nothing_older_than_the_gap_ret
         win.close()
 
 
+DECIDED_WITHIN_S = 1.0  # a heel strike is in the file's events once this much follows it
+
+
 def strides_shown(win):
     return int(win.gait_panel.values["strides"].text())
 
@@ -113,11 +116,16 @@ def test_while_recording_the_panel_counts_the_recordings_strides_and_marks_stale
             file_starts = np.array([r.stride.start_idx for r in an.rows]) + row0
         # the file's strides are the live ones that lie in it: the same opening heel strikes
         # (within 2 samples: the file's detector starts afresh at row 0), one for one
+        # A live stride that ends near the file's end may be missing from the file: its
+        # closing heel strike is decided a little after it, from rows the live engine read
+        # after Stop. One that ended a second before the file's end is in it.
         in_file = live[(live >= row0) & (live < row0 + rows)]
+        ends = np.append(live[1:], np.iinfo(np.int64).max)  # a stride closes at the next start
+        settled = live[(live >= row0) & (ends < row0 + rows - round(DECIDED_WITHIN_S * 100))]
         assert len(file_starts) >= 5
-        assert abs(len(in_file) - len(file_starts)) <= 1  # the last one may end after Stop
-        k = min(len(in_file), len(file_starts))
-        assert np.abs(in_file[:k] - file_starts[:k]).max() <= 2
+        assert len(settled) <= len(file_starts) <= len(in_file)
+        k = len(file_starts)
+        assert np.abs(in_file[:k] - file_starts).max() <= 2
         assert len(file_starts) - 1 <= shown + 3  # shown a moment before Stop
         assert panel.strides_name.text() == "Strides (since connect)"  # recording over
         # a cut link: cadence and speed are greyed and said to be stale while no data comes
