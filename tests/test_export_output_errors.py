@@ -17,6 +17,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from test_export import write_session
 
@@ -169,3 +170,46 @@ def test_a_report_or_comparison_into_a_read_only_drive_is_one_line(tmp_path):
         assert len(lines) == 1, r.stderr  # no Qt warning before it
         assert "QPainter" not in r.stderr and ".tmp" not in r.stderr, r.stderr
         assert f"cannot write {out}: the drive is read-only (errno 30)" in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("fmt", ["csv", "strides"])
+def test_a_damaged_source_read_while_writing_is_called_damage(tmp_path, capsys, monkeypatch, fmt):
+    """An HDF5 library error met while the writer reads the source (a damaged heap or chunk the
+    reader's checks at the file's edge could not see) is the source's damage, not a problem
+    of the output's folder (it was called "cannot write out.csv: Can't synchronously read
+    data ...; choose another folder or name")."""
+    import h5py
+
+    from gaitmon.export.registry import FORMATS
+
+    src = tmp_path / "walk.h5"
+    write_session(src, "raw")
+    broken = tmp_path / "broken.h5"  # a real HDF5 file with a damaged chunk
+    with h5py.File(broken, "w") as f:
+        f.create_dataset("x", data=np.arange(4096, dtype=np.int32), chunks=(1024,),
+                         compression="gzip")  # fmt: skip
+        info = f["x"].id.get_chunk_info(1)
+    with open(broken, "r+b") as fh:
+        fh.seek(info.byte_offset + 8)
+        fh.write(b"\xff" * 64)
+    form = type(FORMATS[fmt])
+    made = form.unit_writer
+
+    def unit_writer(self, options):  # type: ignore[no-untyped-def]
+        writer = made(self, options)
+        write = writer.write
+
+        def reading_damage(*args, **kwargs):  # type: ignore[no-untyped-def]
+            with h5py.File(broken, "r") as f:
+                f["x"][()]  # raises the HDF5 library's OSError, as a damaged source does
+            return write(*args, **kwargs)
+
+        writer.write = reading_damage
+        return writer
+
+    monkeypatch.setattr(form, "unit_writer", unit_writer)
+    out = tmp_path / f"out.{fmt}"
+    msg = _error(capsys, ["export", str(src), "--format", fmt, "-o", str(out)])
+    assert "walk.h5 is damaged and cannot be exported" in msg, msg
+    assert "cannot write" not in msg and "synchronously" not in msg, msg
+    assert not out.exists() and not list(tmp_path.glob("out*"))

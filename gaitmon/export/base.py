@@ -160,6 +160,14 @@ def write_atomic(request: ExportRequest, finals: list[Path],
         return atomic.commit()
     except OSError as exc:
         atomic.discard(folders)
+        if exc.errno is None:  # the HDF5 library's, reading the source: never a file written
+            from gaitmon.io.session.h5file import _short_error
+
+            raise ExportError(
+                f"{request.src_path.name} is damaged and cannot be exported "
+                f"({_short_error(exc)}); the recording's own journal or a backup may hold a "
+                "good copy"
+            ) from None
         raise ExportError(output_error_text(exc, atomic.final_of(exc.filename, request.out))
                           ) from None
     except BaseException:
