@@ -76,8 +76,8 @@ class _ChunkWatch:
                 self._refs.append((self.calls, f"block.{name}", weakref.ref(getattr(blk, name))))
             return blk
 
-        def watched_rows(blk: object) -> dict[str, np.ndarray]:
-            rows = to_rows(blk)  # type: ignore[arg-type]
+        def watched_rows(blk: object, only: object = None) -> dict[str, np.ndarray]:
+            rows = to_rows(blk, only)  # type: ignore[arg-type]
             for name, arr in rows.items():
                 self._refs.append((self.calls, name, weakref.ref(arr)))
             return rows

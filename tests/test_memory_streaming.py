@@ -20,7 +20,8 @@ from gaitmon.finish import close_recording, open_session
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
-from gaitmon.io.session.codec import encode
+from gaitmon.io.session.chunk_write import write_rows
+from gaitmon.io.session.codec import COMPRESSION, encode
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
 
@@ -89,37 +90,33 @@ def test_smoothed_angles_stored_block_by_block_equal_the_whole_series_written_at
                                   encode("smoothed/tilt_deg", want["smoothed/tilt_deg"]))
 
 
-class _Recorder:
-    """A stand-in dataset that records the row ranges written to it."""
-
-    def __init__(self, n: int, chunk: int) -> None:
-        self.chunks = (chunk, 2)
-        self.name = "/smoothed/joint_deg"  # (float32, no resolution: written as given)
-        self.data = np.full((n, 2), np.nan, np.float32)
-        self.writes: list[tuple[int, int]] = []
-
-    def __setitem__(self, key: slice, value: np.ndarray) -> None:
-        self.writes.append((key.start, key.stop))
-        self.data[key] = value
-
-
-def test_the_smoothed_angles_are_written_in_whole_chunks():
+def test_the_smoothed_angles_are_written_in_whole_chunks(monkeypatch):
     """A compressed chunk written twice is decompressed and compressed again: the writer holds
     the rows of a chunk split between two blocks until it is full."""
-    from gaitmon.finish.smoothed import _AlignedWriter
+    import gaitmon.finish.smoothed as sm
 
     n, chunk = 10_000, 512
-    ds = _Recorder(n, chunk)
-    w = _AlignedWriter(ds, encoded=False)  # type: ignore[arg-type]
-    want = np.arange(2 * n, dtype=np.float32).reshape(n, 2)
-    for a, b in [(0, 700), (700, 1024), (1024, 5000), (5000, 5001), (5001, n)]:
-        w.write(a, want[a:b])
-    w.finish()
-    assert np.array_equal(ds.data, want)
-    for a, b in ds.writes[:-1]:
+    writes: list[tuple[int, int]] = []
+
+    def recorded(dsid: h5py.h5d.DatasetID, start: int, data: np.ndarray) -> None:
+        writes.append((start, start + len(data)))
+        write_rows(dsid, start, data)
+
+    monkeypatch.setattr(sm, "write_rows", recorded)
+    with h5py.File("in-memory.h5", "w", driver="core", backing_store=False) as f:
+        # (float32, no resolution: written as given)
+        ds = f.create_dataset("smoothed/joint_deg", shape=(n, 2), dtype=np.float32,
+                              chunks=(chunk, 2), **COMPRESSION)  # fmt: skip
+        w = sm._AlignedWriter(ds, encoded=False)
+        want = np.arange(2 * n, dtype=np.float32).reshape(n, 2)
+        for a, b in [(0, 700), (700, 1024), (1024, 5000), (5000, 5001), (5001, n)]:
+            w.write(a, want[a:b])
+        w.finish()
+        assert np.array_equal(ds[()], want)
+    for a, b in writes[:-1]:
         assert a % chunk == 0 and b % chunk == 0 and b > a
-    assert ds.writes[-1][1] == n
-    assert [a for a, _ in ds.writes] == sorted({a for a, _ in ds.writes})  # each row once
+    assert writes[-1][1] == n
+    assert [a for a, _ in writes] == sorted({a for a, _ in writes})  # each row once
 
 
 def _write(path: Path, counts: np.ndarray, *, calibrate_at: tuple[int, ...] = ()) -> None:

@@ -7,7 +7,7 @@ layout or the link protocol (~7 ms of a short ``process``).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Collection, Iterable, Iterator, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -51,6 +51,7 @@ def replay_pipeline(
     chunk_rows: int = _RECOVERY_CHUNK_ROWS,
     lost_before: np.ndarray | LazyRows | LostRows | None = None,
     flagged_at_start: Sequence[tuple[str, str]] = (),
+    only: Collection[str] | None = None,
 ) -> Iterator[ReplayChunk]:
     """Run the pipeline over a whole recording from row 0, applying logged changes at their rows.
 
@@ -64,7 +65,8 @@ def replay_pipeline(
     (a :class:`gaitmon.io.session.rows.LazyRows` reads each from the file or journal then).
     ``flagged_at_start``: force sensors (sensor, reason) known faulty when the recording started
     (:func:`flagged_at_start`): flagged from row 0 and listed among the first chunk's faults,
-    as the live recorder did.
+    as the live recorder did. ``only``: the ``/processed`` rows wanted (default all of
+    :data:`gaitmon.io.session.rows.PIPELINE_ROWS`).
     """
     n = len(adc)
     kernels.expect(n)  # a long record runs numba's compiled loops where they are cached
@@ -95,7 +97,7 @@ def replay_pipeline(
         faults = fault_rows(blk.fsr_faults, blk.start_idx, a)
         if a == 0:
             faults = at_start + faults
-        chunk = ReplayChunk(a, rows_from_pipeline(blk), blk.heel_strike_idx + base,
+        chunk = ReplayChunk(a, rows_from_pipeline(blk, only), blk.heel_strike_idx + base,
                             blk.toe_off_idx + base, faults,
                             blk.tilt_kalman_continuous_rad if first_pass else None)  # fmt: skip
         # the block (~740 bytes a row: every stage's series) goes before the next is made,

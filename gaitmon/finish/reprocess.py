@@ -29,11 +29,12 @@ from gaitmon.finish.session import Session, open_session
 from gaitmon.finish.smoothed import KeptFirstPass, store_smoothed
 from gaitmon.finish.strides import store_strides
 from gaitmon.io.session.attributes import described_once
+from gaitmon.io.session.chunk_write import write_rows
 from gaitmon.io.session.codec import encode
-from gaitmon.io.session.h5file import _short_error
+from gaitmon.io.session.h5file import _short_error, open_cached
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _TABLE_CHUNK_ROWS, _TABLES
-from gaitmon.io.session.rows import LazyRows, LostRows, losses_from_gaps
+from gaitmon.io.session.rows import PIPELINE_ROWS, LazyRows, LostRows, losses_from_gaps
 from gaitmon.io.session.stored_overview import write_overview
 from gaitmon.io.session.trust import CheckedCounts, full_scale_of, written_here
 
@@ -44,6 +45,9 @@ COPY_CHUNK_BYTES = 4 << 20  # an 8-hour session (~400 MB) is ~100 cancel points
 # its temporaries (65536 rows: ~50 MB, twice over while the next was made); chunking does not
 # change the pipeline's output (its contract)
 REPLAY_CHUNK_ROWS = RECOVERY_REPLAY_ROWS
+# The raw counts are read three times (the replay, the smoother, the stride measures): held
+# decoded in HDF5's chunk cache up to this size (~6 h of record), they are decompressed once
+RAW_CACHE_MAX_BYTES = 64 << 20
 
 Progress = Callable[[float], object]
 Cancel = Callable[[], bool]
@@ -214,7 +218,8 @@ def rewrite_unit(
     v2 = int(f.attrs.get("format_version", 1)) >= 2
     proc = f["processed"]
     # the raw counts are read a chunk at a time (the copy holds the recording's own)
-    adc = LazyRows(CheckedCounts(unit.name, full_scale_of(table), f["raw/adc"]), n)
+    raw = open_cached(f, "raw/adc", RAW_CACHE_MAX_BYTES)  # (store_strides' open shares it)
+    adc = LazyRows(CheckedCounts(unit.name, full_scale_of(table), raw), n)
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
     replay = replay_pipeline(
@@ -226,17 +231,17 @@ def rewrite_unit(
         chunk_rows=REPLAY_CHUNK_ROWS,
         lost_before=lost,
         flagged_at_start=flags_kept(unit.fsr_faults, unit.config, config),
+        only=[p for p in PIPELINE_ROWS if p in f],  # (format 2 derives joints, gyro rates)
     )
     faults: list[tuple[int, int, str, str]] = []
     # the pipeline's filter is the smoother's first pass: kept, so it runs once
     with KeptFirstPass(os.path.dirname(f.file.filename) or None) as kept:
         for start, rows, hs_rows, to_rows, found, first_pass in replay:
             faults += found
-            stop = start + len(rows["processed/joint_deg"])
+            stop = start + len(rows["processed/tilt_deg"])
             kept.add(start, first_pass)
             for path, data in rows.items():
-                if path in f:  # (format 2 derives the joints and gyro rates on read)
-                    f[path][start:stop] = encode(path, data) if v2 else data
+                write_rows(f[path].id, start, encode(path, data) if v2 else data)
             hs.append(hs_rows)
             to.append(to_rows)
             del rows, data, first_pass  # (not alive while the next chunk is replayed)

@@ -33,6 +33,7 @@ from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import ChannelTable
 from gaitmon.dsp.lost_frames import Losses
 from gaitmon.io.session.attributes import describe
+from gaitmon.io.session.chunk_write import write_rows
 from gaitmon.io.session.layout import CHUNK_ROWS
 from gaitmon.io.session.rows import losses_from_gaps, lost_before_from_gaps
 
@@ -379,14 +380,14 @@ class _AlignedWriter:
         if cut > self._start:
             rows = np.concatenate(self._pending) if len(self._pending) > 1 else self._pending[0]
             k = cut - self._start
-            self._ds[self._start : cut] = rows[:k]
+            write_rows(self._ds.id, self._start, rows[:k])
             self._pending = [rows[k:]] if k < len(rows) else []
             self._start = cut
 
     def finish(self) -> None:
         if self._pending:
             rows = np.concatenate(self._pending)
-            self._ds[self._start : self._start + len(rows)] = rows
+            write_rows(self._ds.id, self._start, rows)
             self._start += len(rows)
             self._pending = []
 

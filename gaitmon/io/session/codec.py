@@ -100,11 +100,16 @@ def decode(path: str, stored: np.ndarray) -> np.ndarray:
 
 def quantise(data: np.ndarray, dtype: np.dtype, res: float) -> np.ndarray:
     """``round(x / res)`` as ``dtype`` (saturated), NaN as the dtype's minimum."""
-    x = np.asarray(data, dtype=np.float64) / res
+    x = np.array(data, dtype=np.float64)  # a copy, worked on in place (fewer temporaries)
+    np.divide(x, res, out=x)
     info = np.iinfo(dtype)
     bad = ~np.isfinite(x)
-    q = np.rint(np.clip(np.where(bad, 0.0, x), info.min + 1, info.max)).astype(dtype)
-    if bad.any():
+    any_bad = bool(bad.any())
+    if any_bad:
+        x[bad] = 0.0
+    np.clip(x, info.min + 1, info.max, out=x)
+    q = np.rint(x, out=x).astype(dtype)
+    if any_bad:
         q[bad] = info.min
     return q
 

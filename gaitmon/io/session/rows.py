@@ -5,7 +5,7 @@ The live writer and the recovery both turn blocks into rows here, so they write 
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import TYPE_CHECKING, Protocol
 
 import h5py
@@ -27,22 +27,31 @@ def _deg32(x_rad: np.ndarray) -> np.ndarray:
     return np.degrees(x_rad).astype(_F4)
 
 
-def rows_from_pipeline(block: PipelineBlock) -> dict[str, np.ndarray]:
-    """The ``/processed`` rows of a raw-mode block (angles in degrees, float32)."""
-    return {
-        "processed/tilt_deg": _deg32(block.tilt_kalman_rad),
-        "processed/tilt_acc_deg": _deg32(block.tilt_acc_rad),
-        "processed/tilt_gyro_deg": _deg32(block.tilt_gyro_rad),
-        "processed/joint_deg": _deg32(block.joint_kalman_rad),
-        "processed/joint_acc_deg": _deg32(block.joint_acc_rad),
-        "processed/joint_gyro_deg": _deg32(block.joint_gyro_rad),
-        "processed/acc_ms2": block.acc_ms2.astype(_F4),
-        "processed/gyro_rad_s": block.gyro_rad_s.astype(_F4),
-        "processed/fsr_counts": block.fsr_counts.astype(_F4),
-        "processed/heel_loaded": block.heel_loaded.astype(np.uint8),
-        "processed/toe_loaded": block.toe_loaded.astype(np.uint8),
-        "processed/phase": block.phase.astype(np.int8),
-    }
+# the ``/processed`` rows of a raw-mode pipeline block: path -> its value from the block
+_PIPELINE_ROWS: dict[str, Callable[[PipelineBlock], np.ndarray]] = {
+    "processed/tilt_deg": lambda b: _deg32(b.tilt_kalman_rad),
+    "processed/tilt_acc_deg": lambda b: _deg32(b.tilt_acc_rad),
+    "processed/tilt_gyro_deg": lambda b: _deg32(b.tilt_gyro_rad),
+    "processed/joint_deg": lambda b: _deg32(b.joint_kalman_rad),
+    "processed/joint_acc_deg": lambda b: _deg32(b.joint_acc_rad),
+    "processed/joint_gyro_deg": lambda b: _deg32(b.joint_gyro_rad),
+    "processed/acc_ms2": lambda b: b.acc_ms2.astype(_F4),
+    "processed/gyro_rad_s": lambda b: b.gyro_rad_s.astype(_F4),
+    "processed/fsr_counts": lambda b: b.fsr_counts.astype(_F4),
+    "processed/heel_loaded": lambda b: b.heel_loaded.astype(np.uint8),
+    "processed/toe_loaded": lambda b: b.toe_loaded.astype(np.uint8),
+    "processed/phase": lambda b: b.phase.astype(np.int8),
+}
+PIPELINE_ROWS = tuple(_PIPELINE_ROWS)
+
+
+def rows_from_pipeline(
+    block: PipelineBlock, only: Collection[str] | None = None
+) -> dict[str, np.ndarray]:
+    """The ``/processed`` rows of a raw-mode block (angles in degrees, float32); ``only``
+    those of these paths (a file that derives some on read stores the others)."""
+    return {path: row(block) for path, row in _PIPELINE_ROWS.items()
+            if only is None or path in only}  # fmt: skip
 
 
 def fault_rows(
