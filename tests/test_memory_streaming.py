@@ -20,7 +20,7 @@ from gaitmon.finish import close_recording, open_session
 from gaitmon.io.device import SampleBlock
 from gaitmon.io.protocol import FrameKind
 from gaitmon.io.session import SessionHeader, SessionMeta, SessionWriter
-from gaitmon.io.session.chunk_write import write_rows
+from gaitmon.io.session.chunk_write import RowWriter
 from gaitmon.io.session.codec import COMPRESSION, encode
 from gaitmon.io.sim import GaitConfig, GaitModel, SensorConfig
 from gaitmon.io.sim.sensors import simulate
@@ -97,12 +97,13 @@ def test_the_smoothed_angles_are_written_in_whole_chunks(monkeypatch):
 
     n, chunk = 10_000, 512
     writes: list[tuple[int, int]] = []
+    write = RowWriter.write
 
-    def recorded(dsid: h5py.h5d.DatasetID, start: int, data: np.ndarray) -> None:
+    def recorded(self: RowWriter, start: int, data: np.ndarray) -> None:
         writes.append((start, start + len(data)))
-        write_rows(dsid, start, data)
+        write(self, start, data)
 
-    monkeypatch.setattr(sm, "write_rows", recorded)
+    monkeypatch.setattr(RowWriter, "write", recorded)
     with h5py.File("in-memory.h5", "w", driver="core", backing_store=False) as f:
         # (float32, no resolution: written as given)
         ds = f.create_dataset("smoothed/joint_deg", shape=(n, 2), dtype=np.float32,

@@ -134,6 +134,38 @@ def test_the_stored_overview_is_the_pyramid_of_the_rows_read(walk):
         assert s.stored_pyramid("processed/tilt_deg") is None  # only the joints are stored
 
 
+def test_the_stored_overview_skips_nan_rows_as_the_pyramid_of_the_rows_read(walk, tmp_path):
+    """NaN tilts (a bin partly NaN, a bin all NaN, the record's short last bin) in the stored
+    overview, computed from the stored codes, as the pyramid of the angles as read."""
+    from gaitmon.io.session.stored_overview import write_overview
+
+    path = tmp_path / "nan.h5"
+    shutil.copy(walk[0], path)
+    nan_code = np.iinfo(np.int16).min
+    with h5py.File(path, "r+") as f:
+        n = f["processed/tilt_deg"].shape[0]
+        for name, rows, cols in (("processed/tilt_deg", slice(35, 40), [1]),  # part of a bin
+                                 ("processed/tilt_deg", slice(64, 96), [0, 1, 2, 3]),  # 2 bins
+                                 ("smoothed/tilt_deg", slice(n - 3, n), [2]),  # the last bin
+                                 ("smoothed/tilt_deg", slice(160, 200), [3])):  # fmt: skip
+            stored = f[name][()]
+            stored[rows, cols] = nan_code
+            f[name][()] = stored
+        write_overview(f)
+    with open_session(path) as s:
+        for source in s.angle_sources:
+            s.use_angles(source)
+            joints = s.read("processed/joint_deg")
+            assert np.isnan(joints).any(), source
+            stored = s.stored_pyramid("processed/joint_deg")
+            assert stored is not None, source
+            lo, hi = stored.levels[0]
+            lo2, hi2 = PeakPyramid.from_array(joints.reshape(N, -1)).levels[0]
+            np.testing.assert_array_equal(lo, lo2)
+            np.testing.assert_array_equal(hi, hi2)
+            assert np.isnan(lo).any() or source != "live"  # (an all-NaN bin stays NaN)
+
+
 def test_the_review_document_takes_the_stored_overview_without_reading_the_rows(walk):
     from gaitmon.review.model import OVERVIEW_SERIES, open_document
 

@@ -29,7 +29,7 @@ from gaitmon.finish.session import Session, open_session
 from gaitmon.finish.smoothed import KeptFirstPass, store_smoothed
 from gaitmon.finish.strides import store_strides
 from gaitmon.io.session.attributes import described_once
-from gaitmon.io.session.chunk_write import write_rows
+from gaitmon.io.session.chunk_write import RowWriter
 from gaitmon.io.session.codec import encode
 from gaitmon.io.session.h5file import _short_error, open_cached
 from gaitmon.io.session.header import SessionError
@@ -222,6 +222,8 @@ def rewrite_unit(
     adc = LazyRows(CheckedCounts(unit.name, full_scale_of(table), raw), n)
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
+    stored = [p for p in PIPELINE_ROWS if p in f]  # (format 2 derives joints, gyro rates)
+    writers = {p: RowWriter(f[p].id) for p in stored}
     replay = replay_pipeline(
         adc,
         config,
@@ -231,7 +233,7 @@ def rewrite_unit(
         chunk_rows=REPLAY_CHUNK_ROWS,
         lost_before=lost,
         flagged_at_start=flags_kept(unit.fsr_faults, unit.config, config),
-        only=[p for p in PIPELINE_ROWS if p in f],  # (format 2 derives joints, gyro rates)
+        only=stored,
     )
     faults: list[tuple[int, int, str, str]] = []
     # the pipeline's filter is the smoother's first pass: kept, so it runs once
@@ -241,7 +243,7 @@ def rewrite_unit(
             stop = start + len(rows["processed/tilt_deg"])
             kept.add(start, first_pass)
             for path, data in rows.items():
-                write_rows(f[path].id, start, encode(path, data) if v2 else data)
+                writers[path].write(start, encode(path, data) if v2 else data)
             hs.append(hs_rows)
             to.append(to_rows)
             del rows, data, first_pass  # (not alive while the next chunk is replayed)

@@ -33,7 +33,7 @@ from gaitmon.dsp.channel_table import N_JOINTS, N_SEGMENTS
 from gaitmon.dsp.channels import ChannelTable
 from gaitmon.dsp.lost_frames import Losses
 from gaitmon.io.session.attributes import describe
-from gaitmon.io.session.chunk_write import write_rows
+from gaitmon.io.session.chunk_write import RowWriter
 from gaitmon.io.session.layout import CHUNK_ROWS
 from gaitmon.io.session.rows import losses_from_gaps, lost_before_from_gaps
 
@@ -269,12 +269,16 @@ def _filled(lost_before: np.ndarray | Losses, n: int, fs_hz: float) -> dict[int,
     return bridged_losses(_losses(lost_before, n), fs_hz)
 
 
-def _tilt_joint_deg(part_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One block's tilts and joint angles in degrees, float32 (as stored and read)."""
+def _tilt_deg(part_rad: np.ndarray) -> np.ndarray:
+    """One block's tilts in degrees, float32 (as stored and read)."""
+    return np.degrees(part_rad).astype(np.float32)
+
+
+def _joint_deg(part_rad: np.ndarray) -> np.ndarray:
+    """One block's joint angles in degrees, float32 (as stored and read)."""
     from gaitmon.dsp.angles import joint_angles
 
-    return (np.degrees(part_rad).astype(np.float32),
-            np.degrees(joint_angles(part_rad)).astype(np.float32))  # fmt: skip
+    return np.degrees(joint_angles(part_rad)).astype(np.float32)
 
 
 def smoothed_angles(
@@ -296,7 +300,7 @@ def smoothed_angles(
                                     calibration_changes, _restarts(lost_before, n, fs_hz),
                                     fs_hz, filled=_filled(lost_before, n, fs_hz)):  # fmt: skip
         s1 = s0 + len(part)
-        tilt_deg[s0:s1], joint_deg[s0:s1] = _tilt_joint_deg(part)
+        tilt_deg[s0:s1], joint_deg[s0:s1] = _tilt_deg(part), _joint_deg(part)
     return {"smoothed/tilt_deg": tilt_deg, "smoothed/joint_deg": joint_deg}
 
 
@@ -338,11 +342,10 @@ def store_smoothed(
     for s0, part in smoothed_blocks(counts, n, table, calibration, calibration_changes,
                                     _restarts(lost_before, n, fs_hz), fs_hz,
                                     first_pass, _filled(lost_before, n, fs_hz)):  # fmt: skip
-        tilt, joint = _tilt_joint_deg(part)
-        for path, data in (("smoothed/tilt_deg", tilt), ("smoothed/joint_deg", joint)):
-            if path in writers:
-                writers[path].write(s0, data)
-        del part, tilt, joint, data  # (not alive while the next block is smoothed)
+        for path, deg in (("smoothed/tilt_deg", _tilt_deg), ("smoothed/joint_deg", _joint_deg)):
+            if path in writers:  # (format 2 derives the joints on read: not made)
+                writers[path].write(s0, deg(part))
+        del part  # (not alive while the next block is smoothed)
     for w in writers.values():
         w.finish()
     grp.attrs["method"] = smoothed_method_label()
@@ -361,7 +364,7 @@ class _AlignedWriter:
     split between two blocks wait for the next one): a compressed chunk is written once."""
 
     def __init__(self, ds: h5py.Dataset, encoded: bool, path: str = "") -> None:
-        self._ds = ds
+        self._writer = RowWriter(ds.id)
         # the codec's name of the series: relative to the unit's root (a bilateral file's
         # /units/<side>/smoothed/... is smoothed/...)
         self._path = path or ds.name.lstrip("/")
@@ -380,14 +383,14 @@ class _AlignedWriter:
         if cut > self._start:
             rows = np.concatenate(self._pending) if len(self._pending) > 1 else self._pending[0]
             k = cut - self._start
-            write_rows(self._ds.id, self._start, rows[:k])
+            self._writer.write(self._start, rows[:k])
             self._pending = [rows[k:]] if k < len(rows) else []
             self._start = cut
 
     def finish(self) -> None:
         if self._pending:
             rows = np.concatenate(self._pending)
-            write_rows(self._ds.id, self._start, rows)
+            self._writer.write(self._start, rows)
             self._start += len(rows)
             self._pending = []
 

@@ -6,7 +6,7 @@ HDF5, each chunk is compressed by the zlib HDF5 was built with: at level 6, ~0.3
 the same format (a zlib stream, which HDF5's built-in deflate filter reads: any HDF5 tool reads
 the file as before) at the same level in ~2/3 of the CPU, to within 0.5 % of the size.
 
-:func:`write_rows` writes rows that start on a chunk boundary and fill whole chunks (or end at
+:class:`RowWriter` writes rows that start on a chunk boundary and fill whole chunks (or end at
 the dataset's last row: that chunk is padded, as HDF5 stores an edge chunk whole) by shuffling
 and compressing each chunk here and handing HDF5 the bytes (``H5Dwrite_chunk``, which replaces
 a cached copy of the chunk). Any other write, a dataset with other filters, or a machine
@@ -61,32 +61,46 @@ def _chunked(dsid: h5py.h5d.DatasetID) -> _Chunked | None:
     return _Chunked(chunk[0], chunk, level, shuffle)
 
 
+class RowWriter:
+    """Writes rows of one dataset (module doc); its chunking is looked up once."""
+
+    def __init__(self, dsid: h5py.h5d.DatasetID) -> None:
+        self.dsid = dsid
+        self._compress = _compress
+        self._chunked = _chunked(dsid) if self._compress is not None else None
+
+    def write(self, start: int, data: np.ndarray) -> None:
+        """``dataset[start : start + len(data)] = data`` (within the dataset's current
+        extent), whole chunks compressed by libdeflate where they can be."""
+        dsid = self.dsid
+        data = np.ascontiguousarray(data, dtype=dsid.dtype)
+        n = len(data)
+        if n == 0:
+            return
+        stop = start + n
+        c, compress = self._chunked, self._compress
+        if (compress is None or c is None or start % c.rows
+                or (stop % c.rows and stop != int(dsid.shape[0]))
+                or data.shape[1:] != c.shape[1:]):  # fmt: skip
+            _write_through_hdf5(dsid, start, data)
+            return
+        zero = (0,) * (len(c.shape) - 1)
+        size = data.dtype.itemsize
+        for a in range(0, n, c.rows):
+            block = data[a : a + c.rows]
+            if len(block) < c.rows:  # the dataset's last chunk: stored whole, padded
+                padded = np.zeros(c.shape, dtype=data.dtype)
+                padded[: len(block)] = block
+                block = padded
+            raw = block.reshape(-1).view(np.uint8)
+            if c.shuffle and size > 1:  # byte k of every value, k = 0, 1, ...
+                raw = np.ascontiguousarray(raw.reshape(-1, size).T)
+            dsid.write_direct_chunk((start + a, *zero), compress(raw, c.level))
+
+
 def write_rows(dsid: h5py.h5d.DatasetID, start: int, data: np.ndarray) -> None:
-    """``dataset[start : start + len(data)] = data`` (within the dataset's current extent),
-    whole chunks compressed by libdeflate where they can be (module doc)."""
-    data = np.ascontiguousarray(data, dtype=dsid.dtype)
-    n = len(data)
-    if n == 0:
-        return
-    stop = start + n
-    extent = int(dsid.shape[0])
-    compress = _compress
-    c = _chunked(dsid) if compress is not None else None
-    if (compress is None or c is None or start % c.rows or (stop % c.rows and stop != extent)
-            or data.shape[1:] != c.shape[1:]):  # fmt: skip
-        _write_through_hdf5(dsid, start, data)
-        return
-    zero = (0,) * (len(c.shape) - 1)
-    for a in range(0, n, c.rows):
-        block = data[a : a + c.rows]
-        if len(block) < c.rows:  # the dataset's last chunk: stored whole, padded
-            padded = np.zeros(c.shape, dtype=data.dtype)
-            padded[: len(block)] = block
-            block = padded
-        raw = block.reshape(-1).view(np.uint8)
-        if c.shuffle and data.dtype.itemsize > 1:  # byte k of every value, k = 0, 1, ...
-            raw = np.ascontiguousarray(raw.reshape(-1, data.dtype.itemsize).T)
-        dsid.write_direct_chunk((start + a, *zero), compress(raw, c.level))
+    """One write of :class:`RowWriter` (a dataset written many times: keep a RowWriter)."""
+    RowWriter(dsid).write(start, data)
 
 
 def _write_through_hdf5(dsid: h5py.h5d.DatasetID, start: int, data: np.ndarray) -> None:

@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 
 from gaitmon.io.journal_files import journal_lock
-from gaitmon.io.session.chunk_write import write_rows
+from gaitmon.io.session.chunk_write import RowWriter
 from gaitmon.io.session.codec import COMPRESSION, encode
 from gaitmon.io.session.layout import (
     _DEVICE_KEYS,
@@ -93,7 +93,7 @@ class _H5File:
         if not in_memory:
             _write_new(path, image, exclusive=mode == "x")
             self.f = h5py.File(path, "r+", rdcc_nbytes=WRITER_CHUNK_CACHE_BYTES)
-        self._ids: dict[str, h5py.h5d.DatasetID] = {}
+        self._writers: dict[str, RowWriter] = {}
         self.rows = 0  # rows appended (format 2: some still staged in memory)
         # format 2: the chunk being filled, per dataset, written whole once full (a compressed
         # chunk rewritten on every flush would cost its compression each time)
@@ -213,13 +213,13 @@ class _H5File:
             return
         if self.version < 2:  # uncompressed: every flush writes its rows in place
             for path, data in cols.items():
-                _append_low_level(self._dsid(path), self.rows, data)
+                _append_low_level(self._writer(path), self.rows, data)
             self.rows += n
             return
         enc = {p: encode(p, d) for p, d in cols.items() if p in self.f}
         if not self._stage:
             self._stage = {
-                p: np.empty((CHUNK_ROWS, *d.shape[1:]), dtype=self._dsid(p).dtype)
+                p: np.empty((CHUNK_ROWS, *d.shape[1:]), dtype=self._writer(p).dsid.dtype)
                 for p, d in enc.items()
             }
         done = 0
@@ -238,7 +238,7 @@ class _H5File:
 
     def _write_chunk(self, k: int) -> None:
         for p, buf in self._stage.items():
-            _append_low_level(self._dsid(p), self._aligned, buf[:k])
+            _append_low_level(self._writer(p), self._aligned, buf[:k])
 
     def drain(self) -> None:
         """Write the rows of the chunk being filled (at the end of a recording; they stay
@@ -253,11 +253,11 @@ class _H5File:
             return self._stage[path][idx - self._aligned]
         return None
 
-    def _dsid(self, path: str) -> h5py.h5d.DatasetID:
-        dsid = self._ids.get(path)
-        if dsid is None:
-            dsid = self._ids[path] = self.f[path].id
-        return dsid
+    def _writer(self, path: str) -> RowWriter:
+        w = self._writers.get(path)
+        if w is None:
+            w = self._writers[path] = RowWriter(self.f[path].id)
+        return w
 
     def append_events(self, name: str, rows: np.ndarray) -> None:
         if len(rows) == 0:
@@ -334,13 +334,13 @@ def _write_new(path: Path, image: bytes, *, exclusive: bool) -> None:
     os.close(fd)
 
 
-def _append_low_level(dsid: h5py.h5d.DatasetID, start: int, data: np.ndarray) -> None:
+def _append_low_level(writer: RowWriter, start: int, data: np.ndarray) -> None:
     """Grow a dataset along axis 0 and write ``data`` at ``start``: the same as h5py's
     ``resize`` + slice assignment, at a fraction of its per-call cost (it runs ~17 times per
-    flush, 10 flushes a second)."""
-    data = np.ascontiguousarray(data, dtype=dsid.dtype)
-    dsid.set_extent((start + data.shape[0], *data.shape[1:]))
-    write_rows(dsid, start, data)  # (whole chunks compressed by libdeflate)
+    flush, 10 flushes a second); whole chunks compressed by libdeflate."""
+    data = np.ascontiguousarray(data, dtype=writer.dsid.dtype)
+    writer.dsid.set_extent((start + data.shape[0], *data.shape[1:]))
+    writer.write(start, data)
 
 
 def _fsync_path(path: Path, directory: bool = False) -> None:

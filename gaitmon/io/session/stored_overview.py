@@ -23,12 +23,14 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
+from gaitmon.dsp.angles import JOINT_PAIRS
 from gaitmon.io.session.codec import (
     CENTIDEG,
     COMPRESSION,
     JOINT_OF,
     dequantise,
     derived,
+    joint_centideg,
     joints_from_stored_tilts,
     quantise,
 )
@@ -36,6 +38,10 @@ from gaitmon.io.session.codec import (
 BASE_STEP = 16  # rows per bin (gaitmon.io.overview.BASE_STEP)
 _READ_ROWS = 1 << 16  # rows per read while building (a whole number of bins)
 _DTYPE = np.dtype("<i2")
+_NAN = int(np.iinfo(_DTYPE).min)  # the stored NaN code (gaitmon.io.session.codec.quantise)
+_NONE_LOW = 1 << 20  # above every code: a bin's min where all its rows are NaN
+_PLUS = [p for p, _ in JOINT_PAIRS]
+_MINUS = [m for _, m in JOINT_PAIRS]
 SERIES = ("processed/joint_deg", "smoothed/joint_deg")
 
 
@@ -47,8 +53,11 @@ def _version(f: h5py.File) -> int:
     return int(f.attrs.get("format_version", 1))
 
 
-def _read_joint(f: h5py.File, path: str, a: int, b: int) -> np.ndarray | None:
-    """Rows a:b of a joint series as the reader decodes it, or None if the file has none."""
+def _joint_codes(f: h5py.File, path: str, a: int, b: int) -> np.ndarray | None:
+    """Rows a:b of a joint series in stored centidegree codes (int32; the int16 NaN code where
+    the reader gives NaN), or None if the file has none. The reader's float32 value of a code
+    c is c / 100 correctly rounded, which quantises back to c: the bins of the codes are the
+    quantised bins of the angles as read, computed without the float round trip."""
     mode = str(f.attrs.get("mode", ""))
     if isinstance(mode, bytes):
         mode = mode.decode()
@@ -56,12 +65,21 @@ def _read_joint(f: h5py.File, path: str, a: int, b: int) -> np.ndarray | None:
         tilt = JOINT_OF[path]
         if tilt not in f:
             return None
-        return joints_from_stored_tilts(f[tilt][a:b], tilt)
+        stored = f[tilt][a:b]
+        if stored.dtype.kind == "f":  # (not expected in format 2; kept total)
+            return quantise(joints_from_stored_tilts(stored, tilt), _DTYPE, CENTIDEG).astype(
+                np.int32
+            )
+        codes = joint_centideg(stored)
+        nan = stored == _NAN
+        codes[nan[:, _PLUS] | nan[:, _MINUS]] = _NAN
+        return codes
     if path not in f:
         return None
-    ds = f[path]
-    stored = ds[a:b]
-    return stored if stored.dtype.kind == "f" else dequantise(stored, CENTIDEG)
+    stored = f[path][a:b]
+    if stored.dtype.kind == "f":
+        return quantise(stored, _DTYPE, CENTIDEG).astype(np.int32)
+    return stored.astype(np.int32)
 
 
 def write_overview(f: h5py.File) -> None:
@@ -85,22 +103,29 @@ def write_overview(f: h5py.File) -> None:
                                         chunks=(min(m, 1 << 14), 3), **COMPRESSION)
                for name in ("min", "max")}  # fmt: skip
         for a in range(0, n, _READ_ROWS):
-            y = _read_joint(f, path, a, min(n, a + _READ_ROWS))
-            if y is None or len(y) < min(n, a + _READ_ROWS) - a:
+            codes = _joint_codes(f, path, a, min(n, a + _READ_ROWS))
+            if codes is None or len(codes) < min(n, a + _READ_ROWS) - a:
                 del g[_key(path)]  # a series not stored whole: none of it
                 break
             k = a // BASE_STEP
-            for name, bins in zip(("min", "max"), _bins(y), strict=True):
-                out[name][k : k + len(bins)] = quantise(bins, _DTYPE, CENTIDEG)
+            for name, bins in zip(("min", "max"), _code_bins(codes), strict=True):
+                out[name][k : k + len(bins)] = bins
     from gaitmon.io.session.attributes import describe
 
     describe(f)
 
 
-def _bins(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    from gaitmon.io.overview import _minmax_bins
-
-    return _minmax_bins(np.asarray(y), BASE_STEP)
+def _code_bins(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """int16 min and max of the codes over each BASE_STEP rows (the last bin may be short),
+    NaN codes skipped; an all-NaN bin is the NaN code (as gaitmon.io.overview's bins of the
+    angles: fmin/fmax)."""
+    starts = np.arange(0, len(codes), BASE_STEP)
+    nan = codes == _NAN
+    lo = np.minimum.reduceat(np.where(nan, _NONE_LOW, codes), starts, axis=0)
+    hi = np.maximum.reduceat(np.where(nan, -_NONE_LOW, codes), starts, axis=0)
+    lo[lo == _NONE_LOW] = _NAN
+    hi[hi == -_NONE_LOW] = _NAN
+    return lo.astype(_DTYPE), hi.astype(_DTYPE)
 
 
 def read_overview(f: h5py.File, path: str, n_rows: int) -> tuple[np.ndarray, np.ndarray] | None:
