@@ -126,7 +126,10 @@ def test_a_call_the_built_types_do_not_fit_runs_in_another_form(built):
     mod.band_cholesky(frozen)
     mod.band_cholesky(_spd_band(40)[None])  # (another number of dimensions)
     mod.band_cholesky(_spd_band(40), 1)  # (another number of arguments)
-    assert refused == ["band_cholesky"] * 4
+    swapped = _spd_band(40).astype(">f8")  # float64, but big-endian: other bytes
+    mod.band_cholesky(swapped)
+    assert refused == ["band_cholesky"] * 5
+    assert np.array_equal(swapped, _spd_band(40))  # (untouched)
     assert np.array_equal(single, _spd_band(40).astype(np.float32))  # (untouched)
 
 

@@ -123,21 +123,35 @@ _SCALARS: dict[str, tuple[type, ...]] = {
 }
 
 
-def _fits(args: tuple[Any, ...], spec: list[list[Any]]) -> bool:
-    """Whether ``args`` are what the module's loop was built for: its wrapper converts without
-    checking (an array of another dtype would be read as raw memory)."""
+def _prepared(spec: list[list[Any]]) -> list[tuple[Any, ...]]:
+    """A loop's argument spec as :func:`_fits` checks it (dtypes as numpy's, made once)."""
+    out: list[tuple[Any, ...]] = []
+    for s in spec:
+        if s[0] == "array":
+            out.append((True, np.dtype(s[1]), int(s[2]), bool(s[3])))
+        else:
+            out.append((False, _SCALARS.get(s[1]), s[1] == "bool"))
+    return out
+
+
+def _fits(args: tuple[Any, ...], spec: list[tuple[Any, ...]]) -> bool:
+    """Whether ``args`` are what the module's loop was built for (``spec``: :func:`_prepared`):
+    its wrapper converts without checking (an array of another dtype would be read as raw
+    memory)."""
     if len(args) != len(spec):
         return False
     for a, s in zip(args, spec, strict=True):
-        if s[0] == "array":
-            if (type(a) is not np.ndarray or a.dtype.name != s[1] or a.ndim != s[2]
-                    or not a.flags.aligned or (s[3] and not a.flags.writeable)):  # fmt: skip
+        if s[0]:
+            if type(a) is not np.ndarray or a.dtype != s[1] or a.ndim != s[2]:
+                return False
+            flags = a.flags
+            if not flags.aligned or (s[3] and not flags.writeable):
                 return False
         else:
-            kinds = _SCALARS.get(s[1])
+            kinds = s[1]
             if kinds is None or not isinstance(a, kinds):
                 return False
-            if s[1] != "bool" and isinstance(a, (bool, np.bool_)):
+            if not s[2] and isinstance(a, (bool, np.bool_)):
                 return False
     return True
 
@@ -169,7 +183,9 @@ class Loops:
             self._elsewhere[name] = self._fallback(name)
         return self._elsewhere[name]
 
-    def _guarded(self, name: str, fn: Any, spec: list[list[Any]]) -> Any:
+    def _guarded(self, name: str, fn: Any, spec_json: list[list[Any]]) -> Any:
+        spec = _prepared(spec_json)
+
         def call(*args: Any) -> Any:
             if _fits(args, spec):
                 return fn(*args)
