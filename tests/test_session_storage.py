@@ -4,6 +4,7 @@ view; and format 1 files (tests/data, written by the format-1 writer) still open
 
 from __future__ import annotations
 
+import itertools
 import shutil
 from pathlib import Path
 
@@ -164,6 +165,43 @@ def test_the_stored_overview_skips_nan_rows_as_the_pyramid_of_the_rows_read(walk
             np.testing.assert_array_equal(lo, lo2)
             np.testing.assert_array_equal(hi, hi2)
             assert np.isnan(lo).any() or source != "live"  # (an all-NaN bin stays NaN)
+
+
+@pytest.mark.parametrize("in_order", [True, False])
+def test_the_overview_of_the_rows_as_written_equals_it_read_back(walk, tmp_path, monkeypatch,
+                                                                 in_order):  # fmt: skip
+    """OverviewBuilder (``gaitmon process`` feeds it the tilts as it writes them, in pieces of
+    any length) gives the overview read back from the rows; fed out of order, the rows are
+    read back instead."""
+    from gaitmon.io.session import stored_overview as so
+
+    whole, built = tmp_path / "whole.h5", tmp_path / "built.h5"
+    shutil.copy(walk[0], whole)
+    shutil.copy(walk[0], built)
+    with h5py.File(whole, "r+") as f:
+        so.write_overview(f)
+    rng = np.random.default_rng(5)
+    builder = so.OverviewBuilder()
+    with h5py.File(built, "r+") as f:
+        for tilt in ("processed/tilt_deg", "smoothed/tilt_deg"):
+            rows = f[tilt][()]
+            cuts = sorted({0, len(rows), *rng.integers(0, len(rows), 40).tolist(), 7, 9})
+            pieces = list(itertools.pairwise(cuts))
+            if not in_order:
+                pieces[1], pieces[2] = pieces[2], pieces[1]
+            for a, b in pieces:
+                builder.add(tilt, a, rows[a:b])
+        reads: list[str] = []
+        joint_codes = so._joint_codes
+        monkeypatch.setattr(so, "_joint_codes", lambda f, path, a, b: reads.append(path)
+                            or joint_codes(f, path, a, b))  # fmt: skip
+        so.write_overview(f, builder)
+    assert bool(reads) is not in_order
+    with h5py.File(whole, "r") as a, h5py.File(built, "r") as b:
+        for series in ("processed_joint_deg", "smoothed_joint_deg"):
+            for m in ("min", "max"):
+                np.testing.assert_array_equal(a["overview"][series][m][()],
+                                              b["overview"][series][m][()])  # fmt: skip
 
 
 def test_the_review_document_takes_the_stored_overview_without_reading_the_rows(walk):

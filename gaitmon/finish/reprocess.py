@@ -35,7 +35,7 @@ from gaitmon.io.session.h5file import _short_error, open_cached
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _TABLE_CHUNK_ROWS, _TABLES
 from gaitmon.io.session.rows import PIPELINE_ROWS, LazyRows, LostRows, losses_from_gaps
-from gaitmon.io.session.stored_overview import write_overview
+from gaitmon.io.session.stored_overview import OverviewBuilder, write_overview
 from gaitmon.io.session.trust import CheckedCounts, full_scale_of, written_here
 
 # the copy is this share of the progress bar, the replay the rest (both are I/O bound)
@@ -222,8 +222,9 @@ def rewrite_unit(
     adc = LazyRows(CheckedCounts(unit.name, full_scale_of(table), raw), n)
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
-    stored = [p for p in PIPELINE_ROWS if p in f]  # (format 2 derives joints, gyro rates)
-    writers = {p: RowWriter(f[p].id) for p in stored}
+    paths = [p for p in PIPELINE_ROWS if p in f]  # (format 2 derives joints, gyro rates)
+    overview = OverviewBuilder()  # the joints' overview, of the tilts as written
+    writers = {p: RowWriter(f[p].id) for p in paths}
     replay = replay_pipeline(
         adc,
         config,
@@ -233,7 +234,7 @@ def rewrite_unit(
         chunk_rows=REPLAY_CHUNK_ROWS,
         lost_before=lost,
         flagged_at_start=flags_kept(unit.fsr_faults, unit.config, config),
-        only=stored,
+        only=paths,
     )
     faults: list[tuple[int, int, str, str]] = []
     # the pipeline's filter is the smoother's first pass: kept, so it runs once
@@ -243,17 +244,19 @@ def rewrite_unit(
             stop = start + len(rows["processed/tilt_deg"])
             kept.add(start, first_pass)
             for path, data in rows.items():
-                writers[path].write(start, encode(path, data) if v2 else data)
+                stored = encode(path, data) if v2 else data
+                writers[path].write(start, stored)
+                overview.add(path, start, stored)
             hs.append(hs_rows)
             to.append(to_rows)
-            del rows, data, first_pass  # (not alive while the next chunk is replayed)
+            del rows, data, stored, first_pass  # (not alive while the next chunk is replayed)
             report(stop / max(n, 1))
             check_cancel()
         proc.attrs["reprocessed"] = True
         proc.attrs["source"] = "pc"
         proc.attrs["tilt_method"] = config.tilt_method_label
         store_smoothed(f, adc.rows, n, table, calibration, calibration_log, lost.losses,
-                       config.fs_hz, kept.first_pass)  # fmt: skip
+                       config.fs_hz, kept.first_pass, overview)  # fmt: skip
     ev = f["events"]
     for name, parts in (("heel_strike", hs), ("toe_off", to)):
         data = np.concatenate(parts) if parts else np.empty(0, np.int64)
@@ -280,6 +283,6 @@ def rewrite_unit(
         chunks=(_TABLE_CHUNK_ROWS,),
     )
     cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
-    write_overview(f)  # the joint angles changed: so did their overview
+    write_overview(f, overview)  # the joint angles changed: so did their overview
     store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
     report(1.0)

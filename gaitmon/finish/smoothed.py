@@ -23,7 +23,7 @@ import itertools
 import json
 import logging
 from collections.abc import Callable, Iterator, Mapping
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 import h5py
 import numpy as np
@@ -36,6 +36,9 @@ from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.chunk_write import RowWriter
 from gaitmon.io.session.layout import CHUNK_ROWS
 from gaitmon.io.session.rows import losses_from_gaps, lost_before_from_gaps
+
+if TYPE_CHECKING:  # (the overview's builder comes from the caller)
+    from gaitmon.io.session.stored_overview import OverviewBuilder
 
 
 def smoothed_method_label() -> str:
@@ -314,6 +317,7 @@ def store_smoothed(
     lost_before: np.ndarray | Losses,
     fs_hz: float,
     first_pass: FirstPass | None = None,
+    overview: OverviewBuilder | None = None,
 ) -> None:
     """Compute and store (or replace) ``/smoothed`` of a raw record of ``n`` rows in a file open
     for writing, a block at a time (``counts(a, b)``: rows a:b of the raw counts): the same
@@ -321,7 +325,8 @@ def store_smoothed(
     the whole series in memory (an 8-hour record: ~80 MB of angles, several times that while
     they were quantised at once). ``lost_before``: the frames lost before each row, or only
     the rows that lost some (:class:`~gaitmon.dsp.lost_frames.Losses`, as the close passes
-    them: no per-row array). ``first_pass``: see :func:`smoothed_blocks`."""
+    them: no per-row array). ``first_pass``: see :func:`smoothed_blocks`. ``overview``: given
+    the rows as stored (the joints' overview is made of them)."""
     from gaitmon.io.session.codec import COMPRESSION, JOINT_OF, RESOLUTION
 
     v2 = int(f.attrs.get("format_version", 1)) >= 2
@@ -344,7 +349,10 @@ def store_smoothed(
                                     first_pass, _filled(lost_before, n, fs_hz)):  # fmt: skip
         for path, deg in (("smoothed/tilt_deg", _tilt_deg), ("smoothed/joint_deg", _joint_deg)):
             if path in writers:  # (format 2 derives the joints on read: not made)
-                writers[path].write(s0, deg(part))
+                stored = writers[path].write(s0, deg(part))
+                if overview is not None:
+                    overview.add(path, s0, stored)
+                del stored
         del part  # (not alive while the next block is smoothed)
     for w in writers.values():
         w.finish()
@@ -373,11 +381,13 @@ class _AlignedWriter:
         self._start = 0  # first row not yet written
         self._pending: list[np.ndarray] = []
 
-    def write(self, s0: int, data: np.ndarray) -> None:
+    def write(self, s0: int, data: np.ndarray) -> np.ndarray:
+        """Rows ``s0:`` (after those given before); returns them as stored."""
         from gaitmon.io.session.codec import encode
 
         assert s0 == self._start + sum(len(p) for p in self._pending)
-        self._pending.append(encode(self._path, data) if self._encoded else data)
+        stored = encode(self._path, data) if self._encoded else data
+        self._pending.append(stored)
         end = s0 + len(data)
         cut = end - end % self._rows  # rows up to here fill whole chunks
         if cut > self._start:
@@ -386,6 +396,7 @@ class _AlignedWriter:
             self._writer.write(self._start, rows[:k])
             self._pending = [rows[k:]] if k < len(rows) else []
             self._start = cut
+        return stored
 
     def finish(self) -> None:
         if self._pending:

@@ -43,6 +43,7 @@ _NONE_LOW = 1 << 20  # above every code: a bin's min where all its rows are NaN
 _PLUS = [p for p, _ in JOINT_PAIRS]
 _MINUS = [m for _, m in JOINT_PAIRS]
 SERIES = ("processed/joint_deg", "smoothed/joint_deg")
+_JOINT_OF_TILT = {JOINT_OF[p]: p for p in SERIES}
 
 
 def _key(path: str) -> str:
@@ -63,17 +64,7 @@ def _joint_codes(f: h5py.File, path: str, a: int, b: int) -> np.ndarray | None:
         mode = mode.decode()
     if path in derived(mode, _version(f)):
         tilt = JOINT_OF[path]
-        if tilt not in f:
-            return None
-        stored = f[tilt][a:b]
-        if stored.dtype.kind == "f":  # (not expected in format 2; kept total)
-            return quantise(joints_from_stored_tilts(stored, tilt), _DTYPE, CENTIDEG).astype(
-                np.int32
-            )
-        codes = joint_centideg(stored)
-        nan = stored == _NAN
-        codes[nan[:, _PLUS] | nan[:, _MINUS]] = _NAN
-        return codes
+        return _codes_of_tilts(f[tilt][a:b], tilt) if tilt in f else None
     if path not in f:
         return None
     stored = f[path][a:b]
@@ -82,8 +73,59 @@ def _joint_codes(f: h5py.File, path: str, a: int, b: int) -> np.ndarray | None:
     return stored.astype(np.int32)
 
 
-def write_overview(f: h5py.File) -> None:
-    """Compute and store (or replace) ``/overview`` of a format-2 file open for writing."""
+def _codes_of_tilts(stored: np.ndarray, tilt_path: str) -> np.ndarray:
+    """The joint codes (:func:`_joint_codes`) of stored tilt rows."""
+    if stored.dtype.kind == "f":  # (not expected in format 2; kept total)
+        joints = joints_from_stored_tilts(stored, tilt_path)
+        return quantise(joints, _DTYPE, CENTIDEG).astype(np.int32)
+    codes = joint_centideg(stored)
+    nan = stored == _NAN
+    codes[nan[:, _PLUS] | nan[:, _MINUS]] = _NAN
+    return codes
+
+
+class OverviewBuilder:
+    """The bins of a format-2 file's derived joint series (:data:`SERIES`), made from their
+    stored tilt rows as a writer writes them, in order from row 0: :func:`write_overview`
+    takes them instead of reading the rows back. A series whose rows did not all come in
+    order is read back as usual."""
+
+    def __init__(self) -> None:
+        self._parts: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+        self._tail: dict[str, np.ndarray] = {}  # rows of a bin not yet whole
+        self._rows: dict[str, int] = {}  # rows taken; -1: not in order (not used)
+
+    def add(self, tilt_path: str, start: int, stored: np.ndarray) -> None:
+        """Stored tilt rows ``start:`` of ``tilt_path`` (e.g. ``processed/tilt_deg``)."""
+        path = _JOINT_OF_TILT.get(tilt_path)
+        if path is None:
+            return
+        if self._rows.get(path, 0) != start:
+            self._rows[path] = -1
+            return
+        tail = self._tail.get(path)
+        rows = stored if tail is None or not len(tail) else np.concatenate([tail, stored])
+        k = len(rows) - len(rows) % BASE_STEP
+        if k:
+            self._parts.setdefault(path, []).append(_code_bins(_codes_of_tilts(rows[:k],
+                                                                               tilt_path)))
+        self._tail[path] = rows[k:]
+        self._rows[path] = start + len(stored)
+
+    def bins(self, path: str, n: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """(mins, maxs) of all ``n`` rows of ``path``, or None if they did not all come."""
+        if self._rows.get(path) != n or n == 0:
+            return None
+        parts = list(self._parts.get(path, []))
+        tail = self._tail.get(path)
+        if tail is not None and len(tail):
+            parts.append(_code_bins(_codes_of_tilts(tail, JOINT_OF[path])))
+        return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+
+
+def write_overview(f: h5py.File, built: OverviewBuilder | None = None) -> None:
+    """Compute and store (or replace) ``/overview`` of a format-2 file open for writing;
+    ``built``: the bins a writer made of the rows it wrote (any series it lacks is read)."""
     if _version(f) < 2:
         return
     n = min((f[p].shape[0] for p in ("timeline/t_s",) if p in f), default=0)
@@ -102,6 +144,10 @@ def write_overview(f: h5py.File) -> None:
         out = {name: grp.create_dataset(name, shape=(m, 3), dtype=_DTYPE,
                                         chunks=(min(m, 1 << 14), 3), **COMPRESSION)
                for name in ("min", "max")}  # fmt: skip
+        made = built.bins(path, n) if built is not None and path in JOINT_OF else None
+        if made is not None and _derived_here(f, path):
+            out["min"][()], out["max"][()] = made
+            continue
         for a in range(0, n, _READ_ROWS):
             codes = _joint_codes(f, path, a, min(n, a + _READ_ROWS))
             if codes is None or len(codes) < min(n, a + _READ_ROWS) - a:
@@ -113,6 +159,13 @@ def write_overview(f: h5py.File) -> None:
     from gaitmon.io.session.attributes import describe
 
     describe(f)
+
+
+def _derived_here(f: h5py.File, path: str) -> bool:
+    """Whether ``f`` derives ``path`` from its stored tilts (what OverviewBuilder bins)."""
+    mode = f.attrs.get("mode", "")
+    mode = mode.decode() if isinstance(mode, bytes) else str(mode)
+    return path in derived(mode, _version(f)) and f[JOINT_OF[path]].dtype == _DTYPE
 
 
 def _code_bins(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
