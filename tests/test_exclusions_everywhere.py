@@ -231,3 +231,36 @@ def test_rewrite_processed_errors_are_one_line_session_errors(walk, tmp_path, re
         rewrite_processed(joint, tmp_path / "y.h5", PipelineConfig())
     assert not (tmp_path / "y.h5").exists() and not partial_path(tmp_path / "y.h5").exists()
 
+
+
+@pytest.mark.parametrize("kernel", ["whole", "fails midway", "absent"])
+def test_the_recordings_copy_is_byte_for_byte_however_it_is_made(walk, tmp_path, monkeypatch,
+                                                                 kernel):  # fmt: skip
+    """``process`` copies the recording in the kernel (os.copy_file_range) where it can; a
+    file system that refuses it midway, or a platform without it, copies in this process."""
+    import errno
+    import os
+
+    import gaitmon.finish.reprocess as rp
+
+    monkeypatch.setattr(rp, "COPY_CHUNK_BYTES", 64 << 10)
+    calls: list[int] = []
+    real = getattr(os, "copy_file_range", None)
+    if kernel == "absent" or real is None:
+        monkeypatch.delattr(os, "copy_file_range", raising=False)
+    elif kernel == "fails midway":
+        def refusing(src: int, dst: int, count: int) -> int:
+            calls.append(count)
+            if len(calls) > 2:
+                raise OSError(errno.EXDEV, "Invalid cross-device link")
+            return real(src, dst, count)
+
+        monkeypatch.setattr(os, "copy_file_range", refusing)
+    seen: list[float] = []
+    out = tmp_path / "copy.h5"
+    rp._copy(walk, out, seen.append, lambda: None)
+    assert out.read_bytes() == walk.read_bytes()
+    assert len(seen) > 3 and seen[-1] == 1.0
+    assert all(b >= a for a, b in itertools.pairwise(seen))
+    if kernel == "fails midway":
+        assert len(calls) == 3

@@ -196,9 +196,23 @@ def _copy(src: Path, tmp: Path, report: Progress, check_cancel: Callable[[], Non
     total = max(1, src.stat().st_size)
     done = 0
     with open(src, "rb") as fin, open(tmp, "wb") as fout:
-        while chunk := fin.read(COPY_CHUNK_BYTES):
-            fout.write(chunk)
-            done += len(chunk)
+        # in the kernel where it can (no copy through this process: ~1/3 of the CPU)
+        in_kernel = hasattr(os, "copy_file_range")
+        while True:
+            if in_kernel:
+                try:
+                    k = os.copy_file_range(fin.fileno(), fout.fileno(), COPY_CHUNK_BYTES)
+                except OSError:  # (a file system or kernel without it: copied here)
+                    in_kernel = False
+                    fin.seek(done)
+                    fout.seek(done)
+                    continue
+            else:
+                chunk = fin.read(COPY_CHUNK_BYTES)
+                k = fout.write(chunk)
+            if not k:
+                break
+            done += k
             report(done / total)
             check_cancel()
 
