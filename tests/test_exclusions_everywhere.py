@@ -264,3 +264,52 @@ def test_the_recordings_copy_is_byte_for_byte_however_it_is_made(walk, tmp_path,
     assert all(b >= a for a, b in itertools.pairwise(seen))
     if kernel == "fails midway":
         assert len(calls) == 3
+
+
+@pytest.mark.parametrize("change", [None, "paper", 600.0])
+def test_process_keeps_the_stride_measures_of_the_same_heel_strikes_and_computes_others(
+    walk, tmp_path, monkeypatch, change
+):
+    """``process`` keeps the recording's stored stride measures when its heel strikes and
+    stamped inputs are the same (another tilt filter), and computes them
+    for other heel strikes (another force threshold): either way they are the measures
+    computed from the new file's heel strikes."""
+    import gaitmon.finish.strides as st
+
+    calls: list[int] = []
+    compute = st.compute
+    monkeypatch.setattr(st, "compute", lambda read, inputs, hs: calls.append(len(hs))
+                        or compute(read, inputs, hs))  # fmt: skip
+    with open_session(walk) as s:
+        config = s.config
+        before = s.heel_strike_idx
+    if change == "paper":
+        config = config.replace(tilt_method="paper")
+    elif change == 600.0:
+        config = config.replace(fsr_threshold=600.0)
+    out = tmp_path / "new.h5"
+    rewrite_processed(walk, out, config)
+    with open_session(out) as s:
+        after = s.heel_strike_idx
+        stored = s.foot_stride_measures(after)  # what the file holds, stamp checked
+    same = np.array_equal(before, after)
+    assert same is (change != 600.0)  # (the threshold moves the heel strikes)
+    assert (calls == []) is same
+    with h5py.File(out, "r") as f:
+        inputs = st.StrideInputs(len(f["raw/adc"]), float(f.attrs["sample_rate_hz"]),
+                                 *_stride_inputs(out))  # fmt: skip
+        hs = st.heel_strikes_used(f["events/heel_strike"][()], inputs.n_rows)
+        adc = f["raw/adc"]
+        want = compute(lambda a, b: adc[a:b], inputs, hs)
+    np.testing.assert_array_equal(stored.stride_length_m, want.stride_length_m)
+    np.testing.assert_array_equal(stored.foot_clearance_m, want.foot_clearance_m)
+    np.testing.assert_array_equal(stored.heel_strike_idx, want.heel_strike_idx)
+
+
+def _stride_inputs(path):  # type: ignore[no-untyped-def]
+    """(table, calibration, calibration changes, lost frames) of a session file."""
+    with open_session(path) as s:
+        from gaitmon.io.session.rows import lost_before_from_gaps
+
+        return (s.header.table, s.calibration, list(s.calibration_changes),
+                lost_before_from_gaps(s.gaps, s.n_samples))  # fmt: skip

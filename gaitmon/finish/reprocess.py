@@ -298,5 +298,7 @@ def rewrite_unit(
     )
     cfg.attrs["reprocessed_from"] = json.dumps({"settings": config.as_dict()})
     write_overview(f, overview)  # the joint angles changed: so did their overview
-    store_strides(f, table, calibration, config.fs_hz)  # so did the heel strikes
+    # so may have the heel strikes (the measures of the same ones are kept: other tilt
+    # settings leave them as they were)
+    store_strides(f, table, calibration, config.fs_hz, keep_valid=True)
     report(1.0)

@@ -222,13 +222,16 @@ def _text(x: object) -> str:
 
 
 def store_strides(
-    f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float
-) -> None:
+    f: h5py.File, table: ChannelTable, calibration: Calibration, fs_hz: float,
+    *, keep_valid: bool = False,
+) -> None:  # fmt: skip
     """Compute and store ``/strides`` of the raw-mode session open (writable) in ``f``, from
     what the file holds: called where a session is finished (close, recovery, ``gaitmon
     process``) once its raw counts, events and calibration changes are all written. Data the
     method rejects only leave the measures to be computed when read (logged); a write error
-    raises as any write of the close does."""
+    raises as any write of the close does. ``keep_valid`` (``gaitmon process``, whose copy
+    holds the recording's own): measures stored from the same inputs and heel strikes (their
+    ``computed_from`` stamp, :func:`read_stored`) are kept, not computed again."""
     if _text(f.attrs.get("mode", "")) != "raw" or "raw/adc" not in f:
         return
     try:
@@ -243,6 +246,8 @@ def store_strides(
         lost = losses_from_gaps(f["gaps"][()], n) if "gaps" in f else None
         inputs = StrideInputs(n, float(fs_hz), table, calibration, changes, lost)
         hs = heel_strikes_used(f["events/heel_strike"][()], n)
+        if keep_valid and read_stored(f, inputs, hs) is not None:
+            return  # (the same numbers: a function of the stamped inputs and the heel strikes)
         adc = f["raw/adc"]
         m = compute(lambda a, b: adc[a:b], inputs, hs)
     except (ValueError, FloatingPointError, KeyError, TypeError) as e:
