@@ -125,3 +125,36 @@ def test_without_libdeflate_hdf5_writes_every_chunk(tmp_path, monkeypatch):
     with h5py.File(tmp_path / "x.h5", "r") as f:
         assert np.array_equal(f["here"][()], data)
         assert _direct(f["here"]) == []
+
+
+@pytest.mark.parametrize("fits", [True, False])
+def test_a_dataset_that_fits_is_read_from_its_chunk_cache_after_the_first_pass(tmp_path, fits):
+    """open_cached (``gaitmon process`` reads the raw counts in two or three passes): a dataset
+    that fits in the cache is decompressed once, so a second pass reads the cache, not the
+    file (shown by damaging the file's chunks between the passes); one that does not fit is
+    opened as usual (a partial cache would hold nothing a pass in order reads again)."""
+    from gaitmon.io.session.h5file import open_cached
+
+    data = (1000 * np.sin(np.arange(80_000 * 14) / 77.0)).astype(np.uint16).reshape(-1, 14)
+    path = tmp_path / "raw.h5"
+    with h5py.File(path, "w") as f:
+        f.create_dataset("raw/adc", data=data, chunks=(4096, 14), shuffle=True,
+                         compression="gzip")  # fmt: skip
+    with h5py.File(path, "r") as f:
+        where = [f["raw/adc"].id.get_chunk_info(i) for i in range(f["raw/adc"].id.get_num_chunks())]
+    with h5py.File(path, "r", rdcc_nbytes=1 << 20) as f:  # (the file's default: 1 MiB)
+        ds = open_cached(f, "raw/adc", (64 << 20) if fits else (1 << 21))
+        nbytes = ds.id.get_access_plist().get_chunk_cache()[1]
+        assert nbytes >= data.nbytes if fits else nbytes == 1 << 20  # (not enlarged for part)
+        assert np.array_equal(np.concatenate([ds[a : a + 5000] for a in range(0, len(data), 5000)]),
+                              data)  # fmt: skip
+        with open(path, "r+b") as raw:  # every chunk's bytes damaged on disk
+            for info in where:
+                raw.seek(info.byte_offset + 4)
+                raw.write(b"\x00" * 32)
+        if fits:
+            again = f["raw/adc"]  # (another open of the same dataset shares the cache)
+            assert np.array_equal(again[()], data)
+        else:
+            with pytest.raises(OSError):
+                ds[()]

@@ -45,8 +45,9 @@ COPY_CHUNK_BYTES = 4 << 20  # an 8-hour session (~400 MB) is ~100 cancel points
 # its temporaries (65536 rows: ~50 MB, twice over while the next was made); chunking does not
 # change the pipeline's output (its contract)
 REPLAY_CHUNK_ROWS = RECOVERY_REPLAY_ROWS
-# The raw counts are read three times (the replay, the smoother, the stride measures): held
-# decoded in HDF5's chunk cache up to this size (~6 h of record), they are decompressed once
+# The raw counts are read two or three times (the replay, the smoother, the stride measures):
+# held decoded in HDF5's chunk cache when they fit in this (~6 h of record), they are
+# decompressed once
 RAW_CACHE_MAX_BYTES = 64 << 20
 
 Progress = Callable[[float], object]

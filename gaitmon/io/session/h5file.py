@@ -44,16 +44,18 @@ WRITER_CHUNK_CACHE_BYTES = 0
 
 
 def open_cached(group: h5py.Group, path: str, max_bytes: int) -> h5py.Dataset:
-    """``group[path]`` opened with a chunk cache that holds the whole dataset as decoded, up to
-    ``max_bytes``: a dataset read in several passes is decompressed once. The cache lives while
-    the returned object (or another open of the same dataset, which shares it) is alive."""
+    """``group[path]`` opened with a chunk cache that holds the whole dataset as decoded, if
+    that is at most ``max_bytes``: a dataset read in several passes is decompressed once. (A
+    larger one is opened as usual: a cache of part of it holds nothing a pass in order would
+    read again.) The cache lives while the returned object (or another open of the same
+    dataset, which shares it) is alive."""
     ds = group[path]
     chunks = ds.chunks
     if chunks is None:
         return ds
     n_chunks = int(np.prod([-(-n // c) for n, c in zip(ds.shape, chunks, strict=True)]))
-    nbytes = min(int(max_bytes), n_chunks * int(np.prod(chunks)) * ds.dtype.itemsize)
-    if nbytes <= 1 << 20:  # HDF5's own default holds it
+    nbytes = n_chunks * int(np.prod(chunks)) * ds.dtype.itemsize
+    if nbytes <= 1 << 20 or nbytes > max_bytes:  # HDF5's own default holds it; too big
         return ds
     dapl = h5py.h5p.create(h5py.h5p.DATASET_ACCESS)
     # hash slots: ~10 per cached chunk keeps collisions (which evict) rare
