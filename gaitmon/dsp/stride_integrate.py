@@ -2,21 +2,26 @@
 batch of strides at once: each stride's samples one row of a padded 2-D array, every step
 taken along the rows with the numbers it gives on the stride's own 1-D slice.
 
-Cost (issue 28): the pitch's sines and cosines (the C library's, as numpy calls them: about
-half of a pass) are the floor; the rest is one pass per operation into a batch's own buffers,
-reused from step to step, and a pass computes only what is read of it: the first pass of
-every stride (the board along the foot: no division by a cosine of 1, which would change no
-bit) everything, a step of the yaw bisection (step 5) only the vertical velocity at the second
-anchor, whose sign is all it needs. The strides that take the bisection are gathered from
-every batch of a call and bisected together, its ten passes once a call, not once a batch.
-Every number is the one the per-stride form's operations give, in their order
-(tests/test_stride_batched.py compares them to the bit).
+Cost (issue 28): where the compiled loops serve (a batch job that loaded them: ``process``, a
+close, recovery; :mod:`gaitmon.dsp.kernels`' rule), each pass over a batch is one sweep per
+stride (:func:`gaitmon.dsp.loops.stride_pass`: ~3x less CPU than numpy's ~40 passes); else
+numpy does it, one pass per operation into a batch's own buffers, reused from step to step.
+Either computes only what is read: the first pass of every stride (the board along the foot;
+numpy divides by no cosine of 1, which would change no bit) everything, a step of the yaw
+bisection (step 5) only the vertical velocity at the second anchor, whose sign is all it
+needs. The strides that take the bisection are gathered from every batch of a call and
+bisected together, its ten passes once a call, not once a batch. Every number is the one the
+per-stride form's operations give, in their order, in each form (tests/test_stride_batched.py
+and tests/test_stride_pass_forms.py compare them to the bit).
 
 Part of the stride-length method: the method is the module doc of
 :mod:`gaitmon.dsp.stride_length` (its steps, which "module doc, step N" below refers to).
 """
 
 from __future__ import annotations
+
+import sys
+from typing import Any
 
 import numpy as np
 
@@ -49,23 +54,44 @@ def _cumtrapz(y: np.ndarray, dt: float, out: np.ndarray, tmp: np.ndarray) -> np.
 class _Batch:
     """Strides' samples from the first anchor to the second, one row each (past its last
     sample a row repeats it: never read), what every pass over them shares, and the buffers
-    a pass works in."""
+    a numpy pass works in; ``loops``: the compiled loops to run the passes in
+    (:func:`gaitmon.dsp.loops.stride_pass`), None: numpy."""
 
     def __init__(
         self, x: np.ndarray, z: np.ndarray, w_less_bias: np.ndarray, d: np.ndarray,
         f0: _FootFlats, f1: _FootFlats, bias: np.ndarray, u: np.ndarray, dt: float,
+        loops: Any = None,
     ) -> None:  # fmt: skip
         self.x, self.z, self.w, self.d, self.f0, self.f1 = x, z, w_less_bias, d, f0, f1
-        self.bias, self.u, self.dt = bias, u, dt
+        self.bias, self.u, self.dt, self.loops = bias, u, dt, loops
         self.rows = np.arange(len(d))
-        self.past = np.arange(x.shape[1]) > d[:, None]
-        self.buf = [np.empty_like(x) for _ in range(5)]
-        self.tmp = np.empty((x.shape[0], x.shape[1] - 1))
+        self._buffers: tuple[list[np.ndarray], np.ndarray, np.ndarray] | None = None
+
+    @property
+    def buf(self) -> list[np.ndarray]:
+        return self._scratch()[0]
+
+    @property
+    def tmp(self) -> np.ndarray:
+        return self._scratch()[1]
+
+    @property
+    def past(self) -> np.ndarray:
+        return self._scratch()[2]
+
+    def _scratch(self) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+        """(five (S, W) buffers, an (S, W - 1) one, the samples past each second anchor): a
+        numpy pass's, made at its first."""
+        if self._buffers is None:
+            n, width = self.x.shape
+            self._buffers = ([np.empty_like(self.x) for _ in range(5)],
+                             np.empty((n, width - 1)), np.arange(width) > self.d[:, None])
+        return self._buffers
 
     @classmethod
     def gather(
         cls, ax: np.ndarray, az: np.ndarray, gy: np.ndarray, f0: _FootFlats, f1: _FootFlats,
-        fs_hz: float,
+        fs_hz: float, loops: Any = None,
     ) -> _Batch:  # fmt: skip
         d = f1.anchor - f0.anchor
         idx = f0.anchor[:, None] + np.minimum(np.arange(int(d.max()) + 1), d[:, None])
@@ -73,11 +99,28 @@ class _Batch:
         w = np.take(gy, idx)  # (np.take: the values of gy[idx], in less time)
         w -= bias[:, None]
         u = np.arange(idx.shape[1]) / d[:, None]  # 0 at the first anchor, 1 at the second
-        return cls(np.take(ax, idx), np.take(az, idx), w, d, f0, f1, bias, u, 1.0 / fs_hz)
+        return cls(np.take(ax, idx), np.take(az, idx), w, d, f0, f1, bias, u,
+                   float(1.0 / fs_hz), loops)  # fmt: skip
 
     def take(self, i: np.ndarray) -> _Batch:
         return _Batch(self.x[i], self.z[i], self.w[i], self.d[i], self.f0.take(i),
-                      self.f1.take(i), self.bias[i], self.u[i], self.dt)  # fmt: skip
+                      self.f1.take(i), self.bias[i], self.u[i], self.dt, self.loops)  # fmt: skip
+
+    def _looped(self, mount_cos: np.ndarray | None, full: bool) -> np.ndarray:
+        """(S, 5) what :meth:`full` gives (``full`` False: only its last column), by the
+        compiled loop, from the per-stride values the numpy pass computes (dividing by a
+        cosine of 1 changes no bit)."""
+        n = len(self.d)
+        c = np.ones(n) if mount_cos is None else np.ascontiguousarray(mount_cos, np.float64)
+        f0, f1 = self.f0, self.f1
+        out = np.empty((n, 5))
+        self.loops.stride_pass(
+            self.x, self.z, self.w, np.ascontiguousarray(self.d, np.int64), c,
+            f0.pitch_rad(c), f1.pitch_rad(c), self.bias / c,
+            0.5 * (f0.g_ms2(c) + f1.g_ms2(c)), -ANCHOR_LEVER_M * f0.roll_rad_s / c,
+            -ANCHOR_LEVER_M * f1.roll_rad_s / c, self.dt, full, out,
+            np.empty((4, self.x.shape[1])))  # fmt: skip
+        return out
 
     def _pitch(self, mount_cos: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """Step 2 with the board's forward axis and gyro read as ``mount_cos`` ((S,); None:
@@ -124,6 +167,8 @@ class _Batch:
     def vertical_misfit(self, mount_cos: np.ndarray) -> np.ndarray:
         """(S,) the upward velocity at the second anchor, integrated from 0 at the first (what
         the yaw bisection reads of a pass)."""
+        if self.loops is not None:
+            return self._looped(mount_cos, False)[:, 4]
         _, z = self._pitch(mount_cos)
         run = _running_trapz(self._up(z, mount_cos), self.tmp)
         zero = np.zeros(len(self.d))
@@ -132,6 +177,8 @@ class _Batch:
     def full(self, mount_cos: np.ndarray | None) -> tuple[np.ndarray, ...]:
         """Steps 2-4: (forward displacement, clearance, pitch misfit, forward velocity misfit,
         upward velocity misfit) of each stride."""
+        if self.loops is not None:
+            return tuple(np.ascontiguousarray(col) for col in self._looped(mount_cos, True).T)
         pitch_misfit, z = self._pitch(mount_cos)
         _, sin, cos, fwd, _ = self.buf
         rows, d, u, dt, tmp = self.rows, self.d, self.u, self.dt, self.tmp
@@ -163,6 +210,16 @@ class _Batch:
         return forward, np.max(height, axis=1), pitch_misfit, misfit_f, misfit_u
 
 
+def _compiled_loops(rows: int) -> Any:
+    """The compiled loops where :mod:`gaitmon.dsp.kernels`' rule picks them for work on a
+    record of ``rows`` samples (its rows counted already, by the replay that found the heel
+    strikes), else None: numpy (live work, short records, no numba). A process that has not
+    loaded the rule (a reader computing the measures of a file: ``gaitmon info``, a report)
+    runs numpy, and imports none of it."""
+    kernels = sys.modules.get("gaitmon.dsp.kernels")
+    return None if kernels is None else kernels.compiled_for(rows, count=False)
+
+
 def _strides(
     ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlats,
     f1: _FootFlats,
@@ -171,10 +228,11 @@ def _strides(
     and f1[k] (found, f0's anchor before f1's; module doc, steps 2-6), a batch at a time."""
     d = f1.anchor - f0.anchor
     n = len(d)
+    loops = _compiled_loops(len(gy)) if n else None
     length, clearance = np.full(n, np.nan), np.full(n, np.nan)
     pitch_misfit, vel_f, vel_u = np.empty(n), np.empty(n), np.empty(n)
     for k in _batches(d + 1):  # steps 2-4, the board along the foot
-        b = _Batch.gather(ax, az, gy, f0.take(k), f1.take(k), fs_hz)
+        b = _Batch.gather(ax, az, gy, f0.take(k), f1.take(k), fs_hz, loops)
         length[k], clearance[k], pitch_misfit[k], vel_f[k], vel_u[k] = b.full(None)
     # a board yawed on the foot sees only cos(yaw) of the pitch rate and forward acceleration
     # (step 5): the cosine in [MOUNT_COS_MIN, 1] at which the foot ends the stride with no
@@ -184,7 +242,7 @@ def _strides(
     sub = np.flatnonzero(np.abs(vel_u) > MOUNT_MIN_VEL_M_S)
     for k in _batches(d[sub] + 1) if len(sub) else []:
         j = sub[k]
-        b = _Batch.gather(ax, az, gy, f0.take(j), f1.take(j), fs_hz)
+        b = _Batch.gather(ax, az, gy, f0.take(j), f1.take(j), fs_hz, loops)
         flips = np.sign(b.vertical_misfit(np.full(len(j), MOUNT_COS_MIN))) == -hi_sign[j]
         if not flips.any():
             continue
