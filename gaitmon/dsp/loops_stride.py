@@ -7,8 +7,9 @@ It does, one stride at a time in one sweep over its samples, the operations
 :class:`gaitmon.dsp.stride_integrate._Batch` does with numpy a batch of strides at a time, each
 in numpy's order (the trapezoids' running sums added in order as ``np.cumsum`` adds them, the
 sines and cosines the C library's, as numpy calls them), so that it gives numpy's numbers:
-where numpy makes ~40 passes over a batch, each with its own loop and memory traffic, this
-makes one (issue 28: ~3x less CPU for the stride measures' integration).
+where numpy gathers a batch's samples into padded 2-D arrays and makes ~40 passes over them,
+each with its own loop and memory traffic, this reads each stride's samples where they lie,
+once (issue 28: ~3x less CPU for the stride measures' integration).
 """
 
 from __future__ import annotations
@@ -20,33 +21,37 @@ Array = Any  # a numpy array (compiled) or a memoryview of one (interpreted)
 
 
 def stride_pass(
-    x: Array, z: Array, w: Array, d: Array, c: Array, p0: Array, p1: Array, bias: Array,
-    g: Array, v0: Array, v1: Array, dt: float, full: bool, out: Array, buf: Array,
+    ax: Array, az: Array, gy: Array, start: Array, d: Array, c: Array, p0: Array, p1: Array,
+    bias: Array, bias_c: Array, g: Array, v0: Array, v1: Array, dt: float, full: bool,
+    out: Array, buf: Array,
 ) -> None:  # fmt: skip
-    """Steps 2-4 of :mod:`gaitmon.dsp.stride_length`'s method for S strides: row k of ``x``,
-    ``z``, ``w`` (S, W) holds stride k's acc x, acc z and gyro less its bias from its first
-    anchor on, ``d[k]`` (S,) samples to its second; per stride (S,): the mounting cosine ``c``,
-    the pitch at the two anchors ``p0``, ``p1`` (at that cosine), the bias over the cosine
-    ``bias``, the local gravity ``g``, the forward velocity at the two anchors ``v0``, ``v1``.
-    Writes ``out[k]`` = (forward displacement, clearance, pitch misfit, forward velocity misfit,
-    upward velocity misfit); with ``full`` False only the last (the yaw bisection's). ``buf``
-    (4, W): scratch."""
-    for k in range(x.shape[0]):
+    """Steps 2-4 of :mod:`gaitmon.dsp.stride_length`'s method for S strides: stride k runs
+    from sample ``start[k]`` (its first anchor) of the foot board's acc x ``ax``, acc z ``az``
+    and gyro ``gy`` (N,) ``d[k]`` (S,) samples to its second; per stride (S,): the mounting
+    cosine ``c``, the pitch at the two anchors ``p0``, ``p1`` (at that cosine), the gyro bias
+    ``bias`` (the two foot-flats' mean) and it over the cosine ``bias_c``, the local gravity
+    ``g``, the forward velocity at the two anchors ``v0``, ``v1``. Writes ``out[k]`` = (forward
+    displacement, clearance, pitch misfit, forward velocity misfit, upward velocity misfit);
+    with ``full`` False only the last (the yaw bisection's). ``buf`` (4, max(d) + 1):
+    scratch."""
+    for k in range(start.shape[0]):
+        a = start[k]
         n = d[k]
         fn = float(n)
         ck = c[k]
+        bk = bias[k]
         # the pitch: p0 + the gyro's running trapezoids (over the cosine)
-        prev = w[k, 0] / ck
+        prev = (gy[a] - bk) / ck
         run = 0.0
         buf[0, 0] = p0[k] + 0.0
         for i in range(1, n + 1):
-            r = w[k, i] / ck
+            r = (gy[a + i] - bk) / ck
             t = 0.5 * (r + prev)
             run = t if i == 1 else run + t
             buf[0, i] = p0[k] + run * dt
             prev = r
         end = buf[0, n]
-        out[k, 2] = end + bias[k] * fn * dt - p1[k]
+        out[k, 2] = end + bias_c[k] * fn * dt - p1[k]
         corr = end - p1[k]
         # its misfit at the second anchor spread linearly; the specific force in the world; the
         # velocities from v0 and 0
@@ -59,8 +64,8 @@ def stride_pass(
             p = buf[0, i] - corr * (float(i) / fn)
             s = math.sin(p)
             co = math.cos(p)
-            zc = z[k, i] / ck
-            xi = x[k, i]
+            zc = az[a + i] / ck
+            xi = ax[a + i]
             up = xi * co + zc * s - gk
             if i == 0:
                 buf[1, 0] = v0[k] + 0.0

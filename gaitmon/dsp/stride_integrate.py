@@ -3,14 +3,14 @@ batch of strides at once: each stride's samples one row of a padded 2-D array, e
 taken along the rows with the numbers it gives on the stride's own 1-D slice.
 
 Cost (issue 28): where the compiled loops serve (a batch job that loaded them: ``process``, a
-close, recovery; :mod:`gaitmon.dsp.kernels`' rule), each pass over a batch is one sweep per
-stride (:func:`gaitmon.dsp.loops.stride_pass`: ~3x less CPU than numpy's ~40 passes); else
-numpy does it, one pass per operation into a batch's own buffers, reused from step to step.
-Either computes only what is read: the first pass of every stride (the board along the foot;
-numpy divides by no cosine of 1, which would change no bit) everything, a step of the yaw
-bisection (step 5) only the vertical velocity at the second anchor, whose sign is all it
-needs. The strides that take the bisection are gathered from every batch of a call and
-bisected together, its ten passes once a call, not once a batch. Every number is the one the
+close, recovery; :mod:`gaitmon.dsp.kernels`' rule), each pass is one sweep per stride over its
+samples where they lie (:func:`gaitmon.dsp.loops.stride_pass`: no padded batch, ~3x less CPU
+than numpy's ~40 passes); else numpy does it a batch at a time, one pass per operation into
+the batch's own buffers, reused from step to step. Either computes only what is read: the
+first pass of every stride (the board along the foot; numpy divides by no cosine of 1, which
+would change no bit) everything, a step of the yaw bisection (step 5) only the vertical
+velocity at the second anchor, whose sign is all it needs, for the strides of all batches
+together (its ten passes once a call, not once a batch). Every number is the one the
 per-stride form's operations give, in their order, in each form (tests/test_stride_batched.py
 and tests/test_stride_pass_forms.py compare them to the bit).
 
@@ -54,44 +54,23 @@ def _cumtrapz(y: np.ndarray, dt: float, out: np.ndarray, tmp: np.ndarray) -> np.
 class _Batch:
     """Strides' samples from the first anchor to the second, one row each (past its last
     sample a row repeats it: never read), what every pass over them shares, and the buffers
-    a numpy pass works in; ``loops``: the compiled loops to run the passes in
-    (:func:`gaitmon.dsp.loops.stride_pass`), None: numpy."""
+    a pass works in."""
 
     def __init__(
         self, x: np.ndarray, z: np.ndarray, w_less_bias: np.ndarray, d: np.ndarray,
         f0: _FootFlats, f1: _FootFlats, bias: np.ndarray, u: np.ndarray, dt: float,
-        loops: Any = None,
     ) -> None:  # fmt: skip
         self.x, self.z, self.w, self.d, self.f0, self.f1 = x, z, w_less_bias, d, f0, f1
-        self.bias, self.u, self.dt, self.loops = bias, u, dt, loops
+        self.bias, self.u, self.dt = bias, u, dt
         self.rows = np.arange(len(d))
-        self._buffers: tuple[list[np.ndarray], np.ndarray, np.ndarray] | None = None
-
-    @property
-    def buf(self) -> list[np.ndarray]:
-        return self._scratch()[0]
-
-    @property
-    def tmp(self) -> np.ndarray:
-        return self._scratch()[1]
-
-    @property
-    def past(self) -> np.ndarray:
-        return self._scratch()[2]
-
-    def _scratch(self) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
-        """(five (S, W) buffers, an (S, W - 1) one, the samples past each second anchor): a
-        numpy pass's, made at its first."""
-        if self._buffers is None:
-            n, width = self.x.shape
-            self._buffers = ([np.empty_like(self.x) for _ in range(5)],
-                             np.empty((n, width - 1)), np.arange(width) > self.d[:, None])
-        return self._buffers
+        self.past = np.arange(x.shape[1]) > d[:, None]
+        self.buf = [np.empty_like(x) for _ in range(5)]
+        self.tmp = np.empty((x.shape[0], x.shape[1] - 1))
 
     @classmethod
     def gather(
         cls, ax: np.ndarray, az: np.ndarray, gy: np.ndarray, f0: _FootFlats, f1: _FootFlats,
-        fs_hz: float, loops: Any = None,
+        fs_hz: float,
     ) -> _Batch:  # fmt: skip
         d = f1.anchor - f0.anchor
         idx = f0.anchor[:, None] + np.minimum(np.arange(int(d.max()) + 1), d[:, None])
@@ -99,28 +78,11 @@ class _Batch:
         w = np.take(gy, idx)  # (np.take: the values of gy[idx], in less time)
         w -= bias[:, None]
         u = np.arange(idx.shape[1]) / d[:, None]  # 0 at the first anchor, 1 at the second
-        return cls(np.take(ax, idx), np.take(az, idx), w, d, f0, f1, bias, u,
-                   float(1.0 / fs_hz), loops)  # fmt: skip
+        return cls(np.take(ax, idx), np.take(az, idx), w, d, f0, f1, bias, u, 1.0 / fs_hz)
 
     def take(self, i: np.ndarray) -> _Batch:
         return _Batch(self.x[i], self.z[i], self.w[i], self.d[i], self.f0.take(i),
-                      self.f1.take(i), self.bias[i], self.u[i], self.dt, self.loops)  # fmt: skip
-
-    def _looped(self, mount_cos: np.ndarray | None, full: bool) -> np.ndarray:
-        """(S, 5) what :meth:`full` gives (``full`` False: only its last column), by the
-        compiled loop, from the per-stride values the numpy pass computes (dividing by a
-        cosine of 1 changes no bit)."""
-        n = len(self.d)
-        c = np.ones(n) if mount_cos is None else np.ascontiguousarray(mount_cos, np.float64)
-        f0, f1 = self.f0, self.f1
-        out = np.empty((n, 5))
-        self.loops.stride_pass(
-            self.x, self.z, self.w, np.ascontiguousarray(self.d, np.int64), c,
-            f0.pitch_rad(c), f1.pitch_rad(c), self.bias / c,
-            0.5 * (f0.g_ms2(c) + f1.g_ms2(c)), -ANCHOR_LEVER_M * f0.roll_rad_s / c,
-            -ANCHOR_LEVER_M * f1.roll_rad_s / c, self.dt, full, out,
-            np.empty((4, self.x.shape[1])))  # fmt: skip
-        return out
+                      self.f1.take(i), self.bias[i], self.u[i], self.dt)  # fmt: skip
 
     def _pitch(self, mount_cos: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """Step 2 with the board's forward axis and gyro read as ``mount_cos`` ((S,); None:
@@ -167,8 +129,6 @@ class _Batch:
     def vertical_misfit(self, mount_cos: np.ndarray) -> np.ndarray:
         """(S,) the upward velocity at the second anchor, integrated from 0 at the first (what
         the yaw bisection reads of a pass)."""
-        if self.loops is not None:
-            return self._looped(mount_cos, False)[:, 4]
         _, z = self._pitch(mount_cos)
         run = _running_trapz(self._up(z, mount_cos), self.tmp)
         zero = np.zeros(len(self.d))
@@ -177,8 +137,6 @@ class _Batch:
     def full(self, mount_cos: np.ndarray | None) -> tuple[np.ndarray, ...]:
         """Steps 2-4: (forward displacement, clearance, pitch misfit, forward velocity misfit,
         upward velocity misfit) of each stride."""
-        if self.loops is not None:
-            return tuple(np.ascontiguousarray(col) for col in self._looped(mount_cos, True).T)
         pitch_misfit, z = self._pitch(mount_cos)
         _, sin, cos, fwd, _ = self.buf
         rows, d, u, dt, tmp = self.rows, self.d, self.u, self.dt, self.tmp
@@ -225,14 +183,17 @@ def _strides(
     f1: _FootFlats,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """(forward displacement, clearance, out of plane) of each stride between foot-flats f0[k]
-    and f1[k] (found, f0's anchor before f1's; module doc, steps 2-6), a batch at a time."""
+    and f1[k] (found, f0's anchor before f1's; module doc, steps 2-6): by the compiled loop
+    where it serves, else with numpy a batch at a time."""
+    loops = _compiled_loops(len(gy)) if len(f0.anchor) else None
+    if loops is not None:
+        return _looped(loops, ax, az, gy, fs_hz, f0, f1)
     d = f1.anchor - f0.anchor
     n = len(d)
-    loops = _compiled_loops(len(gy)) if n else None
     length, clearance = np.full(n, np.nan), np.full(n, np.nan)
     pitch_misfit, vel_f, vel_u = np.empty(n), np.empty(n), np.empty(n)
     for k in _batches(d + 1):  # steps 2-4, the board along the foot
-        b = _Batch.gather(ax, az, gy, f0.take(k), f1.take(k), fs_hz, loops)
+        b = _Batch.gather(ax, az, gy, f0.take(k), f1.take(k), fs_hz)
         length[k], clearance[k], pitch_misfit[k], vel_f[k], vel_u[k] = b.full(None)
     # a board yawed on the foot sees only cos(yaw) of the pitch rate and forward acceleration
     # (step 5): the cosine in [MOUNT_COS_MIN, 1] at which the foot ends the stride with no
@@ -242,7 +203,7 @@ def _strides(
     sub = np.flatnonzero(np.abs(vel_u) > MOUNT_MIN_VEL_M_S)
     for k in _batches(d[sub] + 1) if len(sub) else []:
         j = sub[k]
-        b = _Batch.gather(ax, az, gy, f0.take(j), f1.take(j), fs_hz, loops)
+        b = _Batch.gather(ax, az, gy, f0.take(j), f1.take(j), fs_hz)
         flips = np.sign(b.vertical_misfit(np.full(len(j), MOUNT_COS_MIN))) == -hi_sign[j]
         if not flips.any():
             continue
@@ -253,6 +214,64 @@ def _strides(
             high = np.sign(b.vertical_misfit(mid)) == hi_sign[j]
             hi, lo = np.where(high, mid, hi), np.where(high, lo, mid)
         length[j], clearance[j], pitch_misfit[j], vel_f[j], _ = b.full(0.5 * (lo + hi))
-    out_of_plane = (np.abs(pitch_misfit) > OUT_OF_PLANE_PITCH_RAD) | (
+    return length, clearance, _out_of_plane(pitch_misfit, vel_f)
+
+
+def _out_of_plane(pitch_misfit: np.ndarray, vel_f: np.ndarray) -> np.ndarray:
+    return (np.abs(pitch_misfit) > OUT_OF_PLANE_PITCH_RAD) | (
         np.abs(vel_f) > OUT_OF_PLANE_VEL_M_S)  # fmt: skip
-    return length, clearance, out_of_plane
+
+
+def _plain(a: np.ndarray, dtype: type) -> np.ndarray:
+    """``a`` as the compiled loop is built for (C-contiguous, writeable, of ``dtype``: a call
+    of other types would compile another form, or be refused by the module built ahead of
+    time), copied only if it is not."""
+    a = np.asarray(a)
+    ok = a.dtype == dtype and a.flags.c_contiguous and a.flags.writeable
+    return a if ok else np.array(a, dtype=dtype)
+
+
+def _looped(
+    loops: Any, ax: np.ndarray, az: np.ndarray, gy: np.ndarray, fs_hz: float, f0: _FootFlats,
+    f1: _FootFlats,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """:func:`_strides` by the compiled loop (:func:`gaitmon.dsp.loops.stride_pass`), which
+    reads each stride's samples where they lie: no padded batch, no gathered copy. The same
+    steps, each stride's per-stride values computed as the numpy pass computes them (dividing
+    by a cosine of 1 changes no bit), the same bisection."""
+    ax, az, gy = (_plain(a, np.float64) for a in (ax, az, gy))
+    start = _plain(f0.anchor, np.int64)
+    d = _plain(f1.anchor - f0.anchor, np.int64)
+    bias = 0.5 * (f0.gyro_bias_rad_s + f1.gyro_bias_rad_s)
+    dt = float(1.0 / fs_hz)
+    buf = np.empty((4, int(d.max()) + 1))
+
+    def run(j: np.ndarray | None, c: np.ndarray, full: bool) -> np.ndarray:
+        """(len(c), 5) the pass of strides ``j`` (None: all) at cosines ``c``."""
+        g0, g1 = (f0, f1) if j is None else (f0.take(j), f1.take(j))
+        b = bias if j is None else bias[j]
+        out = np.empty((len(c), 5))
+        loops.stride_pass(
+            ax, az, gy, start if j is None else start[j], d if j is None else d[j], c,
+            g0.pitch_rad(c), g1.pitch_rad(c), b, b / c, 0.5 * (g0.g_ms2(c) + g1.g_ms2(c)),
+            -ANCHOR_LEVER_M * g0.roll_rad_s / c, -ANCHOR_LEVER_M * g1.roll_rad_s / c, dt,
+            full, out, buf)  # fmt: skip
+        return out
+
+    first = run(None, np.ones(len(d)), True)
+    length, clearance = first[:, 0].copy(), first[:, 1].copy()
+    pitch_misfit, vel_f, vel_u = first[:, 2].copy(), first[:, 3].copy(), first[:, 4]
+    # step 5, as _strides
+    hi_sign = np.sign(vel_u)
+    j = np.flatnonzero(np.abs(vel_u) > MOUNT_MIN_VEL_M_S)
+    if len(j):
+        j = j[np.sign(run(j, np.full(len(j), MOUNT_COS_MIN), False)[:, 4]) == -hi_sign[j]]
+    if len(j):
+        lo, hi = np.full(len(j), MOUNT_COS_MIN), np.ones(len(j))
+        for _ in range(MOUNT_ITERATIONS):
+            mid = 0.5 * (lo + hi)
+            high = np.sign(run(j, mid, False)[:, 4]) == hi_sign[j]
+            hi, lo = np.where(high, mid, hi), np.where(high, lo, mid)
+        q = run(j, 0.5 * (lo + hi), True)
+        length[j], clearance[j], pitch_misfit[j], vel_f[j] = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return length, clearance, _out_of_plane(pitch_misfit, vel_f)
