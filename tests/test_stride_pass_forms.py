@@ -1,16 +1,16 @@
 """Issue 28, the stride measures' cost: the strapdown pass in its three forms gives the same
-numbers to the bit, and the foot board's units come from the raw counts as before.
+numbers (to the bit where numpy's sines are the C library's, as on Linux; else to 1e-9), and
+the foot board's units come from the raw counts as before.
 
 The numpy pass (gaitmon.dsp.stride_integrate ``_Batch``, itself pinned to the per-stride spec
-by tests/test_stride_batched.py), the loop gaitmon.dsp.loops.stride_pass run by the interpreter
-on memoryviews (at the very call site: ``_compiled_loops`` hands it over, as the rule hands
-over numba's module) and compiled by numba, on a simulated walk in every variant of
+by tests/test_stride_batched.py) and the loop gaitmon.dsp.loops.stride_pass, run by the
+interpreter on memoryviews (at the very call site: ``_compiled_loops`` hands it over, as the
+rule hands over numba's module) and compiled by numba, on a simulated walk in every variant of
 test_stride_batched (the board yawed 30 deg on the foot: the bisection; pauses, first steps,
 near-still stances, lost frames) and on the real foot-IMU walks (gdins, three with the board
 yawed ~25 deg; the x-io loops). And ``foot_imu_from_counts`` (each foot column on its own, the
 bias subtracted a run of rows at a time) against the formula it had, with calibration changes
-before, inside and after the block, two at one row.
-"""
+before, inside and after the block, two at one row."""
 
 from __future__ import annotations
 
@@ -25,6 +25,28 @@ from gaitmon.dsp.channels import ACC_X_IDX, ACC_Z_IDX, DEFAULT_TABLE, GYRO_IDX, 
 from gaitmon.dsp.gyro_events import gyro_gait_events
 from gaitmon.dsp.stride_length import foot_imu_from_counts, stride_measures
 from tests.test_stride_batched import _assert_same, _variants, _walk
+
+
+def _numpy_sines_are_the_c_librarys() -> bool:
+    """Whether numpy's float64 sine and cosine give the C library's bits (math.sin, what the
+    loop calls in both forms): then every form gives numpy's numbers to the bit; where numpy
+    has sines of its own (another platform's build), to rounding (1e-9)."""
+    import math
+
+    x = np.linspace(-2.0, 2.0, 20001)
+    return (np.sin(x).tobytes() == np.array([math.sin(v) for v in x]).tobytes()
+            and np.cos(x).tobytes() == np.array([math.cos(v) for v in x]).tobytes())
+
+
+def _assert_form(got, want):
+    if _numpy_sines_are_the_c_librarys():
+        _assert_same(got, want)
+        return
+    for name in ("heel_strike_idx", "foot_flat_idx", "flags"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
+    for name in ("stride_length_m", "foot_clearance_m", "stride_time_s"):
+        np.testing.assert_allclose(getattr(got, name), getattr(want, name), rtol=1e-9,
+                                   atol=1e-12, err_msg=name)  # fmt: skip
 
 
 def _interpreted(*args):
@@ -64,7 +86,7 @@ def test_the_pass_gives_numpys_numbers_in_every_form_on_simulated_walks(monkeypa
     for args, kwargs in _variants(ax, az, gy, hs, seed):
         got = _measures_in_each_form(monkeypatch, args, kwargs, _forms())
         for name in got:
-            _assert_same(got[name], got["numpy"])
+            _assert_form(got[name], got["numpy"])
         n += int(np.isfinite(got["numpy"].stride_length_m).sum())
     assert n >= 200
 
@@ -90,7 +112,7 @@ def test_the_pass_gives_numpys_numbers_on_real_walks(monkeypatch, shared_data):
                                                            t.fs_hz, hs)):  # fmt: skip
             got = _measures_in_each_form(monkeypatch, args, {"first_steps": True}, use)
             for name in got:
-                _assert_same(got[name], got["numpy"])
+                _assert_form(got[name], got["numpy"])
             n += int(np.isfinite(got["numpy"].stride_length_m).sum())
     assert n >= 2000
 
