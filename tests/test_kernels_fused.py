@@ -30,7 +30,8 @@ TOL = 1e-9
 # the loops numba compiles (gaitmon.dsp.kernels_numba), by name
 COMPILED = ("gait_aware_update", "constant_map_solve", "band_cholesky", "band_solve",
             "running_mean", "lfilter", "physical", "constant_rhs", "zeroed_tilts",
-            "gravity_average", "gait_aware_inputs", "turned", "gyro_angle", "reduced")  # fmt: skip
+            "gravity_average", "gait_aware_inputs", "turned", "gyro_angle", "reduced",
+            "stride_pass")  # fmt: skip
 
 
 def _interpreted_module() -> SimpleNamespace:

@@ -6,8 +6,8 @@ ready is asked before numba is imported (importing it costs ~0.4 s of CPU), so t
 mark of our own, written once every kernel is compiled or loaded and the filler has tried to
 build them ahead of time too (:func:`mark_ready`, :func:`aot_file`), named by what numba's own
 check reads: the stamp (modification time, size) of the kernels' source
-(``gaitmon/dsp/loops.py``), of numba's and the interpreter's version. A cache made by another
-install, numba or Python has another name and is not taken as ready.
+(``gaitmon/dsp/loops.py`` and ``loops_stride.py``), of numba's and the interpreter's version. A
+cache made by another install, numba or Python has another name and is not taken as ready.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import sys
 import time
 
 from gaitmon import paths
-from gaitmon.dsp import loops
+from gaitmon.dsp import loops, loops_stride
 
 
 def numba_cache_dir() -> str:
@@ -69,7 +69,8 @@ def ready_mark() -> str | None:
     except OSError:
         numba_stamp = origin
     # ("aot": a cache made before the filler also built the ahead-of-time module is not ready)
-    key = "|".join([_stamp(loops.__file__), numba_stamp, sys.version, sys.platform, "aot"])
+    key = "|".join([_stamp(loops.__file__), numba_stamp, sys.version, sys.platform, "aot",
+                    _stamp(loops_stride.__file__)])  # (the loops' second file)
     digest = hashlib.sha1(key.encode(), usedforsecurity=False).hexdigest()[:16]
     return os.path.join(numba_cache_dir(), f"gaitmon-ready-{digest}")
 

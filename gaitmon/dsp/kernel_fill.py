@@ -40,6 +40,11 @@ def compile_all() -> None:
         counts = np.rint(np.tile(DEFAULT_TABLE.zero_counts, (n, 1))).astype(np.uint16)
         Pipeline().process(counts)
         kernels.to_physical(DEFAULT_TABLE, counts, GYRO_IDX)  # (the smoother's columns)
+        # the stride measures' pass (a foot standing still between three heel strikes)
+        from gaitmon.dsp.stride_length import stride_measures
+
+        still = np.zeros(200)
+        stride_measures(still + 9.81, still, still, 100.0, np.array([10, 80, 150]))
     smoother.release_factors()
 
 

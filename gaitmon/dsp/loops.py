@@ -7,8 +7,10 @@ and substitutions are recursions too. So do, since issue 28, the per-block passe
 work runs compiled in one sweep instead of numpy's several (each with its temporaries): counts
 to physical units (:func:`physical`), the gravity reference's gyro angle and its low-passed
 world-frame force (:func:`gyro_angle`, :func:`gravity_average`), the filter's motion inputs
-(:func:`gait_aware_inputs`), the zeroed tilts and joints (:func:`zeroed_tilts`), and the
-smoother's turn and right-hand side (:func:`reduced`, :func:`turned`, :func:`constant_rhs`).
+(:func:`gait_aware_inputs`), the zeroed tilts and joints (:func:`zeroed_tilts`), the
+smoother's turn and right-hand side (:func:`reduced`, :func:`turned`, :func:`constant_rhs`),
+and the stride measures' strapdown pass (:func:`stride_pass`, in :mod:`gaitmon.dsp.loops_stride`
+for this file's size, re-exported here).
 Each does numpy's operations in numpy's order, so it gives the numpy path's numbers (bit for
 bit on the bench's hour against the code before); numpy keeps the live blocks, short records
 and processes without numba (:mod:`gaitmon.dsp.kernels`), and what numpy does best stays
@@ -29,6 +31,8 @@ from __future__ import annotations
 
 import math
 from typing import Any
+
+from gaitmon.dsp.loops_stride import stride_pass as stride_pass
 
 Array = Any  # a float64 numpy array (compiled) or a memoryview of one (interpreted)
 

@@ -80,9 +80,11 @@ def _window_means(
     order = np.argsort(count, kind="stable")
     groups = np.split(order, np.flatnonzero(np.diff(count[order])) + 1) if len(order) else []
     for g in groups:
-        idx = first[g, None] + np.arange(int(count[g[0]]))
+        n = int(count[g[0]])
+        idx = first[g, None] + np.arange(n)
         for o, arr in zip(out, arrays, strict=True):
-            o[g] = np.mean(arr[idx], axis=1)
+            # np.mean's own sum and division (np.take: arr[idx], in less time)
+            o[g] = np.add.reduce(np.take(arr, idx), axis=1) / n
     return out
 
 
@@ -136,8 +138,15 @@ def _foot_flats(
         return out
     # each sample's deviation from rest (elementwise: the same numbers on the whole array as on
     # a span's slice)
-    dev = np.maximum(np.abs(gy) / STILL_GYRO_RAD_S,
-                     np.abs(np.hypot(ax, az) - STANDARD_GRAVITY_MS2) / STILL_ACC_MS2)  # fmt: skip
+    # maximum(|gy| / STILL_GYRO_RAD_S, ||a| - g| / STILL_ACC_MS2), each step in place
+    dev = np.hypot(ax, az)
+    dev -= STANDARD_GRAVITY_MS2
+    np.abs(dev, out=dev)
+    dev /= STILL_ACC_MS2
+    rate = np.abs(gy)
+    rate /= STILL_GYRO_RAD_S
+    np.maximum(rate, dev, out=dev)
+    del rate
     h = STILL_HALF_WIDTH
     for rows in _batches(size[cand] + 2 * h):
         j = cand[rows]
@@ -146,7 +155,8 @@ def _foot_flats(
         col = np.arange(width)
         inside = col < size_j[:, None]
         # the max over +-h samples within the span: its end samples repeated past its ends
-        pad = dev[start[:, None] + np.clip(np.arange(-h, width + h), 0, size_j[:, None] - 1)]
+        pad = np.take(dev, start[:, None] + np.clip(np.arange(-h, width + h), 0,
+                                                    size_j[:, None] - 1))  # fmt: skip
         mdev = pad[:, :width]
         for s in range(1, 2 * h + 1):
             mdev = np.maximum(mdev, pad[:, s : s + width])

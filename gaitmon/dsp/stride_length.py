@@ -184,13 +184,20 @@ def foot_imu_from_counts(
     of the raw counts ``adc`` (M, 14) of rows ``first_row`` .. ``first_row + M``, as the live
     pipeline sees them."""
     foot = SEGMENTS.index("foot")
-    cols = [int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])]
-    counts = np.asarray(adc)[:, cols].astype(np.float64)
-    phys = (counts - table.zero_counts[cols]) * table.units_per_count[cols]
-    bias = np.full(len(phys), float(calibration.gyro_bias_rad_s[foot]))
-    for row, cal in sorted(calibration_changes, key=lambda x: x[0]):
-        bias[max(0, row - first_row):] = float(cal.gyro_bias_rad_s[foot])
-    return phys[:, 0], phys[:, 1], phys[:, 2] - bias
+    counts = np.asarray(adc)
+    # each column on its own (contiguous), (count - zero) * scale in place
+    ax, az, gy = (np.subtract(counts[:, c], table.zero_counts[c], dtype=np.float64)
+                  for c in (int(ACC_X_IDX[foot]), int(ACC_Z_IDX[foot]), int(GYRO_IDX[foot])))
+    for x, c in ((ax, ACC_X_IDX[foot]), (az, ACC_Z_IDX[foot]), (gy, GYRO_IDX[foot])):
+        x *= table.units_per_count[int(c)]
+    # the bias in force from each row on: the calibration's, then each change's in row order
+    # (of two at one row, the later), subtracted a run of rows at a time
+    changes = sorted(calibration_changes, key=lambda x: x[0])
+    starts = [0] + [max(0, row - first_row) for row, _ in changes] + [len(gy)]
+    biases = [calibration, *(cal for _, cal in changes)]
+    for a, b, cal in zip(starts[:-1], starts[1:], biases, strict=True):
+        gy[a:b] -= float(cal.gyro_bias_rad_s[foot])
+    return ax, az, gy
 
 
 def stride_lengths(
