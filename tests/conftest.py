@@ -55,7 +55,9 @@ TIMEOUT_FLOOR_S = 300.0
 # 3x real time) came third from last, so one worker ran it alone at the end of the run, a
 # minute or two after the others had finished. First, the other workers' short tests fill
 # that time. (The order within a module is kept: its module fixtures are made once.)
-RUN_FIRST = ("test_walkthrough.py",)
+# test_ui_first_connect.py waits 20-90 s for numba's background cache filler (at a lower
+# priority, it gets the CPU last): near the end of the collection, it was the run's last test.
+RUN_FIRST = ("test_walkthrough.py", "test_ui_first_connect.py")
 
 
 def pytest_collection_modifyitems(items):
