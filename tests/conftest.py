@@ -55,7 +55,9 @@ TIMEOUT_FLOOR_S = 300.0
 # 3x real time) came third from last, so one worker ran it alone at the end of the run, a
 # minute or two after the others had finished. First, the other workers' short tests fill
 # that time. (The order within a module is kept: its module fixtures are made once.)
-RUN_FIRST = ("test_walkthrough.py",)
+# test_ui_first_connect.py waits 20-90 s for numba's background cache filler (at a lower
+# priority, it gets the CPU last): near the end of the collection, it was the run's last test.
+RUN_FIRST = ("test_walkthrough.py", "test_ui_first_connect.py")
 
 
 def pytest_collection_modifyitems(items):
@@ -112,23 +114,34 @@ def shared_data() -> pathlib.Path:
 
 
 @pytest.fixture(scope="session")
-def record_simulated() -> Callable[..., pathlib.Path]:
+def record_simulated(tmp_path_factory) -> Callable[..., pathlib.Path]:
     """``record_simulated(path, *options, duration_s=30, standing_s=2)`` records a session from
     the simulator with ``gaitmon record --simulate`` in-process (quiet, 20x real time) into
     ``path``, asserts the command succeeded and returns ``path``. ``options`` are further
     ``gaitmon record`` options (patient, losses, mode...). Session-scoped so module-scoped
-    fixtures can record once per module with it."""
+    fixtures can record once per module with it.
+
+    A recording is made once per test process for each set of options, duration and standing
+    time; a later call with the same ones gets a copy of that file at its own ``path`` (a
+    40-s recording costs ~8 s of CPU, and several modules record the same walk). The copy is
+    the test's own: changing it changes no other test's file."""
+    made: dict[tuple[object, ...], pathlib.Path] = {}
 
     def record(
         path: pathlib.Path, *options: str, duration_s: float = 30, standing_s: float = 2
     ) -> pathlib.Path:
         from gaitmon.cli import main
 
-        rc = main(
-            ["record", "--simulate", "--duration", f"{duration_s:g}", "-o", str(path),
-             "--speed", "20", "--standing-s", f"{standing_s:g}", "--quiet", *options]
-        )  # fmt: skip
-        assert rc == 0
+        key = (options, float(duration_s), float(standing_s))
+        if key not in made:
+            first = tmp_path_factory.mktemp("recorded") / "walk.h5"
+            rc = main(
+                ["record", "--simulate", "--duration", f"{duration_s:g}", "-o", str(first),
+                 "--speed", "20", "--standing-s", f"{standing_s:g}", "--quiet", *options]
+            )  # fmt: skip
+            assert rc == 0
+            made[key] = first
+        shutil.copyfile(made[key], path)
         return path
 
     return record
