@@ -250,11 +250,14 @@ def _record(
             signal.signal(s, h)
     from gaitmon.io.sim.truth import attach_ground_truth
 
-    for side, unit in units.truth.items():
-        if statuses[side].rows and not statuses[side].error:
-            attach_ground_truth(group.recording_path(side), unit)
     # one message per unit: the writer's, which states the rows a reader gets
     errors = [f"{s}: {st.error}" if s else st.error for s, st in statuses.items() if st.error]
+    for side, unit in units.truth.items():
+        if statuses[side].rows and not statuses[side].error:
+            try:  # a full disk now: the recording is complete, only /truth is left out
+                attach_ground_truth(group.recording_path(side), unit)
+            except SessionError as exc:
+                errors.append(f"{side}: {exc}" if side else str(exc))
     try:
         group.finish()  # a pair's parts combined into the file
     except SessionError as exc:

@@ -8,6 +8,8 @@ or :meth:`gaitmon.io.session.StoredSession.truth`.
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -69,15 +71,52 @@ class _TruthGroup:
 
 @contextmanager
 def truth_writer(
-    path: str | os.PathLike[str], mount_offset_deg: np.ndarray
+    path: str | os.PathLike[str], mount_offset_deg: np.ndarray, reserve_bytes: int = 0
 ) -> Iterator[_TruthGroup]:
-    """``/truth`` of a finished session file, to write (or replace). Raises OSError."""
-    with h5py.File(path, "r+") as f:
+    """``/truth`` of a finished session file, to write (or replace). Raises OSError.
+
+    ``reserve_bytes`` (what the writing adds, with room to spare) is claimed on the disk first
+    (:func:`reserve_space`): a full disk then raises the OSError before HDF5 has written a
+    byte. HDF5 meeting a full disk itself fails inside its own close and leaves the library
+    in a state that crashed the process at exit (a segmentation fault after the message)."""
+    if reserve_bytes > 0:
+        reserve_space(path, reserve_bytes)
+    with h5py.File(path, "r+") as f:  # its close gives back what it did not use (to its EOA)
         g = f.require_group(GROUP)
         g.attrs["description"] = DESCRIPTION
         g.attrs["mount_offset_deg"] = mount_offset_deg
         yield _TruthGroup(g)
         describe(f)  # units, long names and columns on what was written (attributes.py)
+
+
+RESERVE_BLOCK_BYTES = 1 << 20
+
+
+def reserve_space(path: str | os.PathLike[str], nbytes: int) -> None:
+    """Claim ``nbytes`` of disk past the end of the file at ``path`` (blocks allocated, not a
+    sparse hole): OSError (ENOSPC, EFBIG, EDQUOT) if the disk cannot give them, the file as
+    before then. An HDF5 file may be longer than its data: HDF5 writes its next objects from
+    where its data end, into the claimed blocks, and its close cuts the file to its data."""
+    with open(path, "r+b") as fh:
+        size = fh.seek(0, os.SEEK_END)
+        try:
+            try:
+                os.posix_fallocate(fh.fileno(), size, nbytes)
+                return
+            except AttributeError:  # Windows: zeros written claim the blocks
+                pass
+            except OSError as e:
+                if e.errno not in (errno.EOPNOTSUPP, errno.EINVAL, errno.ENOSYS):
+                    raise
+            left = nbytes
+            while left > 0:
+                left -= fh.write(bytes(min(left, RESERVE_BLOCK_BYTES)))
+            fh.flush()
+            os.fsync(fh.fileno())
+        except BaseException:
+            with contextlib.suppress(OSError):
+                fh.truncate(size)
+            raise
 
 
 def truth_from_file(f: h5py.File, start: int, stop: int) -> Truth:

@@ -12,10 +12,14 @@ Besides the per-row truth and the events, ``stride_length_m``, ``stride_time_s``
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import numpy as np
 
+from gaitmon.errors import DAMAGE_ERRORS
+from gaitmon.io.session.h5file import _short_error
+from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.opening import read_stored
 from gaitmon.io.session.truth import truth_writer
 from gaitmon.io.sim.unit import SimulatedUnit
@@ -36,12 +40,44 @@ def row_samples(seq: np.ndarray, unit: SimulatedUnit) -> np.ndarray:
 TRUTH_BLOCK_ROWS = 10_000
 
 
+# Bytes of /truth a row takes (sample_idx int64; tilt, joint, gyro bias: 11 float32), of an
+# event (its row, int64) and of a stride (3 float64); and room for HDF5's own (object headers,
+# the attributes `describe` adds: ~10 kB measured) claimed on top.
+_ROW_BYTES = 8 + 4 * 11
+_EVENT_BYTES = 8
+_STRIDE_BYTES = 3 * 8
+TRUTH_HEADROOM_BYTES = 256 * 1024
+
+
 def attach_ground_truth(path: str | Path, unit: SimulatedUnit,
                         block_rows: int = TRUTH_BLOCK_ROWS) -> int:  # fmt: skip
     """Write ``/truth`` into a finished session file, ``block_rows`` rows at a time; returns
     the number of rows mapped. Nothing of a row's is held for the whole record (issue 26):
     each row's sample waits in an unnamed temporary file (8 bytes a row) between the pass that
-    maps the rows (the file open to read) and the one that writes them (open to write)."""
+    maps the rows (the file open to read) and the one that writes them (open to write).
+
+    A full disk (or any write error) raises :class:`SessionError` with one line: the
+    recording itself is complete and stays as it was, without ``/truth`` (its space is claimed
+    before HDF5 writes: ``truth_writer``)."""
+    try:
+        return _attach(Path(path), unit, block_rows)
+    except (OSError, RuntimeError) as e:  # h5py's write errors can be RuntimeError, no errno
+        raise SessionError(_truth_error(Path(path), e)) from e
+
+
+def _truth_error(path: Path, e: BaseException) -> str:
+    """The one line for a ground truth that could not be written: the recording's words for
+    a write error (``SessionWriter``), and what the file still holds."""
+    what = "the recording is complete and saved"
+    with contextlib.suppress(SessionError, *DAMAGE_ERRORS), read_stored(path) as s:
+        what = (f"the recording is complete and saved ({s.n_samples} rows, "
+                f"{s.duration_s:.1f} s)")  # fmt: skip
+    return (f"disk full or write error while storing the simulator's ground truth in "
+            f"{path.name}: {_short_error(e)}; {what}, without /truth; free some space to record "
+            "one with it")  # fmt: skip
+
+
+def _attach(path: Path, unit: SimulatedUnit, block_rows: int) -> int:
     import tempfile
 
     n_valid, lo, hi = 0, 0, 0
@@ -75,7 +111,10 @@ def attach_ground_truth(path: str | Path, unit: SimulatedUnit,
         # each event's row: the first recorded row at/after it (-1: after the last one)
         at = {"heel_strike": np.full(len(hs), -1, np.int64),
               "toe_off": np.full(len(to), -1, np.int64)}  # fmt: skip
-        with truth_writer(path, np.degrees(unit.truth(0, 0).mount_offset_rad)) as g:
+        reserve = (n * _ROW_BYTES + (len(hs) + len(to)) * _EVENT_BYTES
+                   + len(hs) * _STRIDE_BYTES + TRUTH_HEADROOM_BYTES)  # fmt: skip
+        mount_deg = np.degrees(unit.truth(0, 0).mount_offset_rad)
+        with truth_writer(path, mount_deg, reserve_bytes=reserve) as g:
             column = g.column("sample_idx", n, np.int64)
             out = {name: g.rows(name, n, cols) for name, cols in _PER_ROW.items()}
             for a in range(0, n, block_rows):
