@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import gaitmon.io.session.chunk_write as cw
-from gaitmon.io.session.chunk_write import write_rows
+from gaitmon.io.session.chunk_write import RowWriter
 
 CASES = [  # dtype, width, rows per chunk, filters
     (np.int16, (4, 2), 256, {"shuffle": True, "compression": "gzip", "compression_opts": 6}),
@@ -30,8 +30,9 @@ def _write_both(path: Path, data: np.ndarray, chunk: int, filters: dict, cuts: l
                                 chunks=(chunk, *data.shape[1:]), **filters)  # fmt: skip
         hdf5 = f.create_dataset("hdf5", shape=data.shape, dtype=data.dtype,
                                 chunks=(chunk, *data.shape[1:]), **filters)  # fmt: skip
+        writer = RowWriter(here.id)
         for a, b in itertools.pairwise(cuts):
-            write_rows(here.id, a, data[a:b])
+            writer.write(a, data[a:b])
             hdf5[a:b] = data[a:b]
 
 
@@ -59,7 +60,7 @@ def test_a_whole_chunk_is_stored_as_the_dataset_filter_would_decode_it(tmp_path)
     with h5py.File(tmp_path / "x.h5", "w") as f:
         ds = f.create_dataset("x", shape=data.shape, dtype=data.dtype, chunks=(512, 4),
                               shuffle=True, compression="gzip", compression_opts=6)  # fmt: skip
-        write_rows(ds.id, 0, data)
+        RowWriter(ds.id).write(0, data)
         mask, stored = ds.id.read_direct_chunk((512, 0))
     assert mask == 0  # every filter applied
     chunk = data[512:1024]
@@ -76,10 +77,10 @@ def test_the_last_partial_chunk_and_a_later_overwrite(tmp_path):
                               chunks=(chunk, 2), shuffle=True, compression="gzip")  # fmt: skip
         first = np.full((100, 2), -5, np.int32)
         ds.resize((768 + 100, 2))
-        write_rows(ds.id, 768, first)  # (rows 0:768 never written: the fill value, 0)
+        RowWriter(ds.id).write(768, first)  # (rows 0:768 never written: the fill value, 0)
         ds.resize((n, 2))
         last = np.arange(2 * (n - 768), dtype=np.int32).reshape(-1, 2)
-        write_rows(ds.id, 768, last)
+        RowWriter(ds.id).write(768, last)
     with h5py.File(tmp_path / "x.h5", "r") as f:
         got = f["x"][()]
     assert np.array_equal(got[768:], last)

@@ -4,7 +4,7 @@ A format-2 per-sample series is stored shuffle + gzip (``codec.COMPRESSION``). W
 HDF5, each chunk is compressed by the zlib HDF5 was built with: at level 6, ~0.3 CPU s for the
 ~20 MB of series a 1-h ``gaitmon process`` writes, a third of the command. libdeflate writes
 the same format (a zlib stream, which HDF5's built-in deflate filter reads: any HDF5 tool reads
-the file as before) at the same level in ~2/3 of the CPU, to within 0.5 % of the size.
+the file as before) at the same level in ~2/3 of the CPU, to within ~1 % of the size.
 
 :class:`RowWriter` writes rows that start on a chunk boundary and fill whole chunks (or end at
 the dataset's last row: that chunk is padded, as HDF5 stores an edge chunk whole) by shuffling
@@ -108,11 +108,6 @@ def _shuffled(raw: np.ndarray, size: int) -> np.ndarray:
         out[v.size :] = (v >> 8).astype(np.uint8)
         return out
     return np.ascontiguousarray(raw.reshape(-1, size).T).reshape(-1)
-
-
-def write_rows(dsid: h5py.h5d.DatasetID, start: int, data: np.ndarray) -> None:
-    """One write of :class:`RowWriter` (a dataset written many times: keep a RowWriter)."""
-    RowWriter(dsid).write(start, data)
 
 
 def _write_through_hdf5(dsid: h5py.h5d.DatasetID, start: int, data: np.ndarray) -> None:
