@@ -196,6 +196,7 @@ def test_a_damaged_source_read_while_writing_is_called_damage(tmp_path, capsys, 
     made = form.unit_writer
 
     def unit_writer(self, options):  # type: ignore[no-untyped-def]
+        # (csv's writer is a module: its write is patched through monkeypatch, so undone)
         writer = made(self, options)
         write = writer.write
 
@@ -204,7 +205,7 @@ def test_a_damaged_source_read_while_writing_is_called_damage(tmp_path, capsys, 
                 f["x"][()]  # raises the HDF5 library's OSError, as a damaged source does
             return write(*args, **kwargs)
 
-        writer.write = reading_damage
+        monkeypatch.setattr(writer, "write", reading_damage)
         return writer
 
     monkeypatch.setattr(form, "unit_writer", unit_writer)
@@ -213,3 +214,17 @@ def test_a_damaged_source_read_while_writing_is_called_damage(tmp_path, capsys, 
     assert "walk.h5 is damaged and cannot be exported" in msg, msg
     assert "cannot write" not in msg and "synchronously" not in msg, msg
     assert not out.exists() and not list(tmp_path.glob("out*"))
+
+
+def test_after_the_damaged_source_test_an_export_of_a_good_file_works(tmp_path, monkeypatch,
+                                                                      capsys):  # fmt: skip
+    """The test above patches the csv writer (a module): once it is over, csv writes again
+    (it once left the module's write patched, and every later csv export in that worker
+    process read the damaged file)."""
+    (tmp_path / "a").mkdir()
+    test_a_damaged_source_read_while_writing_is_called_damage(tmp_path / "a", capsys,
+                                                              monkeypatch, "csv")  # fmt: skip
+    monkeypatch.undo()
+    src = tmp_path / "walk.h5"
+    write_session(src, "raw")
+    assert main(["export", str(src), "--format", "csv", "-q", "-o", str(tmp_path / "w.csv")]) == 0
