@@ -119,7 +119,8 @@ def test_the_live_panel_reads_the_true_stride_length_with_frame_loss():
     from gaitmon.io.transport import InProcessTransport
 
     faults = FaultConfig(seed=9, loss_pct=2.0)
-    unit = SimulatedUnit(GaitConfig(seed=5, standing_s=1.0), faults=faults, speed=20.0)
+    # (5x: at 20x, on a loaded CI machine, the panel read 1.40 m against the true 1.36 m)
+    unit = SimulatedUnit(GaitConfig(seed=5, standing_s=1.0), faults=faults, speed=5.0)
     eng = Engine(Device(InProcessTransport(unit)), "raw", transport_label="simulated")
     with eng:
         wait_for(lambda: eng.snapshot(0.1).gait.n_strides >= 14, what="14 strides")
