@@ -419,8 +419,13 @@ def zeroed_tilts(
     n, s = tilt.shape
     m = len(plus)
     for k in range(n):
-        for c in range(s):
-            x = tilt[k, c] - offset[c]
+        # a row's s tilts, then its m joints of those tilts: one wrap for both (a shared
+        # helper would have to be compiled on its own for numba and for the built module)
+        for q in range(s + m):
+            if q < s:
+                x = tilt[k, q] - offset[q]
+            else:
+                x = out_tilt[k, plus[q - s]] - out_tilt[k, minus[q - s]]
             if not -math.pi < x <= math.pi:
                 if math.isfinite(x):
                     x = x - float(round(x * (1.0 / _TWO_PI))) * _TWO_PI
@@ -428,17 +433,10 @@ def zeroed_tilts(
                         x += _TWO_PI
                 else:
                     x = math.nan
-            out_tilt[k, c] = x
-        for j in range(m):
-            x = out_tilt[k, plus[j]] - out_tilt[k, minus[j]]
-            if not -math.pi < x <= math.pi:
-                if math.isfinite(x):
-                    x = x - float(round(x * (1.0 / _TWO_PI))) * _TWO_PI
-                    if x <= -math.pi:
-                        x += _TWO_PI
-                else:
-                    x = math.nan
-            out_joint[k, j] = x
+            if q < s:
+                out_tilt[k, q] = x
+            else:
+                out_joint[k, q - s] = x
 
 
 def gravity_average(
