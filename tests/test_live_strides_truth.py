@@ -9,14 +9,17 @@ now made from the engine's events by the file's function, and the one stride rul
 (``analysis.stride_exclusion``) gives each the file's reason.
 
 The cut is placed by the simulated unit's fault (``FaultConfig.link_drops``, in the unit's own
-time) inside the stance of a known stride (the simulator's truth), so the case is the same on
-any machine. References: the recorded file read back by ``analysis.analyse_session``.
+time) inside the stance of a known stride (the simulator's truth), a few seconds of the unit's
+time after the recording has started, so the case is the same on any machine however late a busy
+one starts recording. References: the recorded file read back by ``analysis.analyse_session``.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 from helpers import wait_for
 from PySide6.QtCore import QSettings
@@ -26,18 +29,42 @@ from gaitmon.engine import Engine
 from gaitmon.engine.live_gait import RecordingStart
 from gaitmon.finish import open_session
 from gaitmon.io.device import Device
-from gaitmon.io.sim import FaultConfig, GaitConfig, GaitModel, SimulatedUnit
+from gaitmon.io.sim import FaultConfig, GaitConfig, SimulatedUnit
 from gaitmon.io.transport import InProcessTransport
 
 FS = 100.0
 CUT_S = 3.0
 
 
-def cut_in_stance(gait: GaitConfig, k: int = 12) -> float:
-    """A device time 0.2 s before the ``k``-th true toe off: the stride open when the cut
-    begins has its closing heel strike after the cut (the file keeps it, "crosses a gap")."""
-    _hs, to = GaitModel(gait).events(0, 4000)
-    return float(to[k]) / FS - 0.2
+def cut_in_swing(unit: SimulatedUnit, lead_s: float = 4.0) -> float:
+    """Schedule the link's cut (``CUT_S`` long) 0.1 s before the first true heel strike at least
+    ``lead_s`` of the unit's time from now, and return its device time: the stride open when
+    the cut begins has its heel strike and toe off before it and closes after it (the file
+    keeps it, "crosses a gap").
+
+    - A cut scheduled at a fixed time (the 12th, then the 20th stride from the unit's start)
+      came before the recording's start when a busy machine was slow to start it (CI, twice).
+    - Late in swing, not in stance: a cut 0.2 s before a toe off left the open stride's toe
+      off to the first rows after the cut, and a reconnection that took 0.47 s of the unit's
+      time (under load) lost it too; with no toe off the file has no stride across the cut."""
+    while True:
+        now = unit.device_time_s
+        hs, _to, _ = unit.true_events(round(now * FS), round((now + 30.0) * FS))
+        at = float(hs[hs / FS - 0.1 > now + lead_s][0]) / FS - 0.1
+        unit.faults = replace(unit.faults, link_drops=((at, CUT_S),))
+        if unit.device_time_s < at - 1.0:  # scheduled in time (else: the next stride's swing)
+            return at
+
+
+def assert_the_open_stride_toed_off_before_the_cut(path: Path) -> None:
+    """The case's premise, in the file: one gap, and the last heel strike before it has its
+    toe off before it too."""
+    with open_session(path) as s:
+        assert len(s.gaps) == 1, s.gaps
+        gap_row = s.gaps[0].sample_idx
+        hs = s.heel_strike_idx[s.heel_strike_idx < gap_row]
+        to = s.toe_off_idx
+        assert len(hs) and np.any((to > hs[-1]) & (to < gap_row)), (gap_row, hs, to)
 
 
 def file_rows(path: Path) -> list[tuple[int, str]]:
@@ -48,10 +75,7 @@ def file_rows(path: Path) -> list[tuple[int, str]]:
 
 def test_live_strides_and_their_reasons_are_the_recordings_across_a_cut(tmp_path):
     gait = GaitConfig(seed=5, standing_s=2.0, stride_cv=0.005)
-    faults = FaultConfig(seed=5, link_drops=((cut_in_stance(gait), CUT_S),))
-    # the unit's clock starts when the engine first asks (not at its creation, which a busy
-    # machine's first imports may leave seconds behind)
-    unit = SimulatedUnit(gait, faults=faults, speed=10.0, start_on_request=True)
+    unit = SimulatedUnit(gait, faults=FaultConfig(seed=5), speed=4.0, start_on_request=True)
     eng = Engine(Device(InProcessTransport(unit)), "raw", transport_label="simulated")
     start = RecordingStart()
     eng.add_listener(start)
@@ -59,7 +83,8 @@ def test_live_strides_and_their_reasons_are_the_recordings_across_a_cut(tmp_path
     with eng:
         wait_for(lambda: eng.samples_total >= 200, what="samples")
         eng.start_recording(path)
-        wait_for(lambda: eng.samples_total >= 3000, what="the walk after the cut")
+        at = cut_in_swing(unit)
+        wait_for(lambda: eng.samples_total >= (at + 6.0) * FS, what="the walk after the cut")
         gait_now = eng.snapshot(0.1).gait
         n_live = start.strides(gait_now)
         row0 = start.start_idx
@@ -67,6 +92,7 @@ def test_live_strides_and_their_reasons_are_the_recordings_across_a_cut(tmp_path
             live_excluded = {s.start_idx: why for s, why in eng._gait.excluded}
         eng.stop_recording()
     assert row0 is not None and n_live is not None
+    assert_the_open_stride_toed_off_before_the_cut(path)
     rows = file_rows(path)
     reasons = [why for _, why in rows]
     assert reasons.count(GAP) == 1, reasons  # the case: a stride across the cut
@@ -84,21 +110,11 @@ def test_live_strides_and_their_reasons_are_the_recordings_across_a_cut(tmp_path
 
 
 @pytest.fixture
-def cut_unit(monkeypatch):
-    """The window's simulated unit (``SimConfig``) with a cut inside a stride's stance."""
+def cut_unit():
+    """The window's simulated unit (``SimConfig``); the test schedules the cut."""
     from gaitmon.io.sim.config import SimConfig
 
-    config = SimConfig(standing_s=2.0, speed=5.0, stride_cv=0.005, seed=5)
-    # the 20th stride (~24 s of the unit's clock, ~5 s of wall time from the unit's start): the
-    # recording must have started before it, however long a busy machine takes to connect (at
-    # the 12th, 3 s of wall time, it once had not)
-    at = cut_in_stance(config.gait_config(), k=20)
-
-    def faults(self: SimConfig) -> FaultConfig:
-        return FaultConfig(seed=self.seed, link_drops=((at, CUT_S),))
-
-    monkeypatch.setattr(SimConfig, "fault_config", faults)
-    return config
+    return SimConfig(standing_s=2.0, speed=3.0, stride_cv=0.005, seed=5)
 
 
 def test_the_gait_panel_counts_the_stride_across_a_cut(qtbot, tmp_path, cut_unit,
@@ -118,7 +134,8 @@ def test_the_gait_panel_counts_the_stride_across_a_cut(qtbot, tmp_path, cut_unit
         win.conn.engine.start_recording(path)
         qtbot.waitUntil(lambda: panel.strides_name.text() == "Strides (this recording)",
                         timeout=60_000)  # fmt: skip
-        qtbot.waitUntil(lambda: win.engine.samples_total >= 3800, timeout=120_000)
+        at = cut_in_swing(win.conn.unit)
+        qtbot.waitUntil(lambda: win.engine.samples_total >= (at + 6.0) * FS, timeout=120_000)
         win.conn.unit.stand_still()  # the subject stops: the count is final before Stop
         qtbot.waitUntil(lambda: panel.stale_text().startswith("⚠ stale: last stride"),
                         timeout=60_000)  # fmt: skip
@@ -126,6 +143,7 @@ def test_the_gait_panel_counts_the_stride_across_a_cut(qtbot, tmp_path, cut_unit
         assert not win.conn.engine.stop_recording().error
     finally:
         win.close()
+    assert_the_open_stride_toed_off_before_the_cut(path)
     reasons = [why for _, why in file_rows(path)]
     assert reasons.count(GAP) == 1, reasons
     assert shown == len(reasons), (shown, reasons)
