@@ -172,10 +172,15 @@ class Pipeline:
         config: PipelineConfig | None = None,
         calibration: Calibration | None = None,
         table: ChannelTable = DEFAULT_TABLE,
+        *,
+        joints: bool = True,
     ) -> None:
+        """``joints=False``: the blocks' joint angles are not computed (each ``joint_*_rad`` is
+        (N, 0)), for a caller that stores none (``gaitmon process`` of a format-2 file)."""
         self.config = config or PipelineConfig()
         self.calibration = calibration or Calibration.identity()
         self.table = table
+        self.joints = joints
         self.reset()
 
     def reset(self) -> None:
@@ -219,7 +224,7 @@ class Pipeline:
         flagged (events from the foot gyro at once) when the new settings read the FSRs the
         same way; new FSR settings (threshold, hysteresis, low-pass, minimum contact) are
         checked from scratch, since they may be what made a sensor look faulty."""
-        new = Pipeline(config, self.calibration, self.table)
+        new = Pipeline(config, self.calibration, self.table, joints=self.joints)
         if config.reads_fsrs_as(self.config):
             new.flag_fsr_faults([(f.sensor, f.reason) for f in self.fsr_faults])
         return new
@@ -303,7 +308,9 @@ class Pipeline:
             fill = bridged_fill(np.r_[0, lost], self.config.fs_hz)[1:]
             if start == 0 and n:
                 fill[0] = 0  # nothing to interpolate from
-        out = {name: np.empty((n, *shape), dtype=dt) for name, shape, dt in _PER_SAMPLE}
+        out = {name: np.empty((n, *(shape if self.joints or not name.startswith("joint_")
+                                    else (0,))), dtype=dt)
+               for name, shape, dt in _PER_SAMPLE}  # fmt: skip
         settling = np.empty(n, dtype=bool)
         ev = _BlockEvents()
         cuts = sorted({*range(0, n, _SUB_BLOCK), *restarts.tolist(), n})
@@ -410,7 +417,8 @@ class Pipeline:
             ("kalman", tilt_kalman),
         ):  # cal.apply_tilt and joint_angles, into the block's rows
             kernels.zeroed_tilts(tilt if pick is None else tilt[pick], cal.tilt_offset_rad,
-                                 o[f"tilt_{name}_rad"][sl], o[f"joint_{name}_rad"][sl])  # fmt: skip
+                                 o[f"tilt_{name}_rad"][sl],
+                                 o[f"joint_{name}_rad"][sl] if self.joints else None)  # fmt: skip
         o["heel_loaded"][sl] = gait.heel_loaded[rows]
         o["toe_loaded"][sl] = gait.toe_loaded[rows]
         o["phase"][sl] = gait.phase[rows]
