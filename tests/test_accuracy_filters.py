@@ -208,7 +208,7 @@ def test_constant_variance_smoother_reuses_one_factor_and_is_the_rts_smoother():
     n = 700
     t = np.arange(n) * DT
     true = 0.4 * np.sin(2 * np.pi * 1.1 * t)
-    smoother._constant_factor.cache_clear()
+    smoother.release_factors()
     for k in range(3):  # three "segments" with their own data, one matrix
         w = np.gradient(true, DT) + 0.02 * k + 0.01 * rng.standard_normal(n)
         z = true + 0.05 * rng.standard_normal(n)
@@ -219,8 +219,32 @@ def test_constant_variance_smoother_reuses_one_factor_and_is_the_rts_smoother():
         general = smooth_map(z, w, np.full(n, 3e-4), np.full(n, 1e-7), 1e-8, DT)
         np.testing.assert_allclose(theta, general[0], rtol=0, atol=1e-12)
         np.testing.assert_allclose(bias, general[1], rtol=0, atol=1e-12)
-    info = smoother._constant_factor.cache_info()
-    assert (info.misses, info.hits) == (1, 2)
+    assert (smoother._factors.misses, smoother._factors.hits) == (1, 2)
+
+
+def test_two_factors_are_kept_and_three_never_held(monkeypatch):
+    """A long record's smoother blocks have two lengths (the first and last, the others): each
+    length's factor is built once, the older let go before a third is built; the factors
+    solve as freshly built ones do."""
+    from gaitmon.dsp import smoother_map as smoother
+
+    smoother.release_factors()
+    held_at_build: list[int] = []
+    build = smoother._constant_factor
+    monkeypatch.setattr(smoother, "_constant_factor",
+                        lambda *k: (held_at_build.append(len(smoother._factors)), build(*k))[1])
+    keys = [(n, 3e-4, 1e-7, 1e-8, DT) for n in (50, 60, 60, 60, 50, 70, 50, 60)]
+    got = [smoother._factor(*k) for k in keys]
+    # 50, 60 built; 60, 60, 50 kept; 70 built (60 let go first); 50 kept; 60 built again
+    assert (smoother._factors.misses, smoother._factors.hits) == (4, 4)
+    assert held_at_build == [0, 1, 1, 1] and len(smoother._factors) == 2
+    for k, (cb, inv) in zip(keys, got, strict=True):
+        fresh_cb, fresh_inv = build(*k)
+        np.testing.assert_array_equal(cb, fresh_cb)
+        np.testing.assert_array_equal(inv, fresh_inv)
+        assert not cb.flags.writeable and not inv.flags.writeable
+    smoother.release_factors()
+    assert len(smoother._factors) == 0
 
 
 def test_smoother_windows_agree_with_one_solve():
@@ -403,4 +427,4 @@ def test_smoothing_a_record_leaves_no_factor_cached():
     blocks = list(smoothed_blocks(lambda a, b: counts[a:b], len(counts), DEFAULT_TABLE,
                                   Calibration.identity(), [], np.empty(0), FS))  # fmt: skip
     assert [a for a, _t in blocks] == [0] and blocks[0][1].shape == (3000, 4)
-    assert smoother._constant_factor.cache_info().currsize == 0
+    assert len(smoother._factors) == 0

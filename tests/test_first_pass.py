@@ -131,6 +131,10 @@ def test_process_without_a_temporary_file_computes_the_first_pass_to_the_same_nu
     def no_temp(*a, **k):
         raise OSError(28, "No space left on device")
 
+    import gaitmon.finish.smoothed as smoothed_module
+
+    # (a record this short is kept in memory: the file is made at once when none is allowed)
+    monkeypatch.setattr(smoothed_module, "KEPT_IN_MEMORY_MAX_BYTES", 0)
     with monkeypatch.context() as mp:
         mp.setattr(tempfile, "TemporaryFile", no_temp)
         rewrite_processed(src, tmp_path / "none.h5", PipelineConfig())
@@ -155,3 +159,29 @@ def test_process_without_a_temporary_file_computes_the_first_pass_to_the_same_nu
         mp.setattr(tempfile, "TemporaryFile", lambda *a, **k: FillsUp(real(*a, **k)))
         rewrite_processed(src, tmp_path / "full.h5", PipelineConfig())
     np.testing.assert_array_equal(smoothed(tmp_path / "full.h5"), want)
+
+
+@pytest.mark.parametrize("memory_max_bytes", [1 << 30, 40_000, 0])
+def test_kept_rows_read_back_from_memory_from_the_file_and_after_the_move(memory_max_bytes):
+    """Rows held in memory, moved to the file part-way (40 kB: after the 2nd chunk), or in the
+    file from the first: any window of them reads back as added, into a new writeable array."""
+    from gaitmon.finish.smoothed import KeptFirstPass
+
+    rng = np.random.default_rng(1)
+    chunks = [rng.standard_normal((n, 4)) for n in (700, 1234, 1, 3000, 66)]
+    whole = np.concatenate(chunks)
+    with KeptFirstPass(memory_max_bytes=memory_max_bytes) as kept:
+        at = 0
+        for c in chunks:
+            kept.add(at, c)
+            at += len(c)
+        assert (kept._file is not None) == (memory_max_bytes < whole.nbytes)
+        rows = kept.first_pass
+        assert rows is not None
+        for a, b in [(0, len(whole)), (650, 2000), (1934, 1935), (1935, 1935), (4000, 5001)]:
+            got = rows(a, b)
+            np.testing.assert_array_equal(got, whole[a:b])
+            assert got.flags.c_contiguous and got.flags.writeable and got.base is None
+        with pytest.raises(ValueError, match="asked of 5001 kept"):
+            rows(0, 5002)
+    assert kept.first_pass is None  # closed: nothing kept

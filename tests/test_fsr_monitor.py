@@ -54,3 +54,60 @@ def test_a_heel_that_never_unloads_is_flagged_on_its_third_failing_stride(step) 
     first = BROKEN_FROM * STRIDE
     closing = (BROKEN_FROM + 3) * STRIDE
     assert faults == [FsrFault("heel", "never unloads", first, closing + 7)]
+
+
+def _strides_by_the_loop(hs: list[int], to: list[int], seen_at: list[int], tol: int):
+    """The strides (HS_k, its toe-off, HS_k+1) checked after each block, by the per-stride loop
+    the monitor ran before it took them in whole arrays (its reference): a stride is checked
+    once the flags reach 2 tol past its closing heel strike; its toe-off is the first after
+    HS_k (toe-offs passed are never counted again), if before HS_k+1."""
+    out: list[list[tuple[int, int, int]]] = []
+    h: list[int] = []
+    t_left: list[int] = []
+    for hs_new, to_new, seen in zip(hs, to, seen_at, strict=True):
+        h += hs_new
+        t_left = sorted(t_left + to_new)
+        strides = []
+        k = t = 0
+        while len(h) - k >= 2 and h[k + 1] + 2 * tol <= seen:
+            while t < len(t_left) and t_left[t] <= h[k]:
+                t += 1
+            if t < len(t_left) and t_left[t] < h[k + 1]:
+                strides.append((h[k], t_left[t], h[k + 1]))
+            k += 1
+        del h[:k], t_left[:t]
+        out.append(strides)
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_strides_checked_are_the_per_stride_loops(seed, monkeypatch) -> None:
+    """Random gyro events (missed toe-offs, two in one stride, toe-offs late in another block)
+    fed in random blocks: the strides the monitor checks after each block are the loop's."""
+    rng = np.random.default_rng(seed)
+    n = 6000
+    hs = np.cumsum(rng.integers(60, 160, size=60))
+    hs = hs[hs < n]
+    to = np.concatenate([h + rng.integers(20, 80, size=rng.integers(0, 3)) for h in hs])
+    cuts = np.unique(np.r_[0, np.sort(rng.integers(1, n, size=12)), n])
+    mon = FsrMonitor(100.0)
+    checked: list[list[tuple[int, int, int]]] = []
+    real_check = FsrMonitor._check
+    monkeypatch.setattr(FsrMonitor, "_check",
+                        lambda self, st: (checked[-1].extend(map(tuple, st.tolist())),
+                                          real_check(self, st))[1])  # fmt: skip
+    blocks_hs, blocks_to, seen_at = [], [], []
+    for a, b in itertools.pairwise(cuts):
+        # events arrive with a block once the detector has decided them (some blocks later)
+        hi = b - 40 if b < n else n
+        h = [int(x) for x in hs if a - 40 <= x < hi]
+        t = sorted(int(x) for x in to if a - 40 <= x < hi)
+        blocks_hs.append(h)
+        blocks_to.append(t)
+        seen_at.append(int(b))
+        checked.append([])
+        loaded = np.ones(b - a, dtype=bool)
+        mon.process(loaded, loaded, np.array(h, dtype=np.int64), np.array(t, dtype=np.int64))
+    want = _strides_by_the_loop(blocks_hs, blocks_to, seen_at, mon.tol)
+    assert checked == want
+    assert sum(map(len, want)) > 20

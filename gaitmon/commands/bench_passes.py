@@ -18,13 +18,15 @@ if TYPE_CHECKING:
 def stream(counts: np.ndarray, config: PipelineConfig | None = None,
            kept: KeptFirstPass | None = None) -> None:
     """The pipeline over the whole record, streamed as `process`, `batch` and recovery replay
-    it (a chunk at a time; any chunking gives the same numbers); its filter kept in ``kept``."""
+    it (a chunk at a time; any chunking gives the same numbers); its filter kept in ``kept``.
+    As `process` runs it for a format-2 file: without the joint angles, which the file
+    derives on read (``Pipeline(joints=False)``)."""
     from gaitmon.dsp import kernels
     from gaitmon.dsp.pipeline import Pipeline
     from gaitmon.finish.reprocess import REPLAY_CHUNK_ROWS
 
     kernels.expect(len(counts))  # (as the replay, gaitmon.finish.replay.replay_pipeline)
-    p = Pipeline(config)
+    p = Pipeline(config, joints=False)
     for a in range(0, len(counts), REPLAY_CHUNK_ROWS):
         blk = p.process(counts[a : a + REPLAY_CHUNK_ROWS])
         if kept is not None:

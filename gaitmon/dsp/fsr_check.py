@@ -20,7 +20,6 @@ any chunking.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,8 +57,8 @@ class FsrMonitor:
         self._loaded = np.zeros((0, 2), dtype=bool)  # from absolute index self._start
         self._start = 0
         self._seen = 0
-        self._hs: list[int] = []
-        self._to: list[int] = []
+        self._hs = np.empty(0, dtype=np.int64)  # the gyro's heel strikes and toe offs to come
+        self._to = np.empty(0, dtype=np.int64)
         self._runs = {(s, r): 0 for s in SENSORS for r in _REASONS}
         self.faults: list[FsrFault] = []
         self._first_fail: dict[tuple[str, str], int] = {}
@@ -76,24 +75,25 @@ class FsrMonitor:
         block = np.stack([np.asarray(heel_loaded, bool), np.asarray(toe_loaded, bool)], axis=1)
         self._loaded = np.concatenate([self._loaded, block.reshape(-1, 2)])
         self._seen += len(block)
-        self._hs.extend(int(i) for i in gyro_hs_idx)
-        self._to.extend(int(i) for i in gyro_to_idx)
-        if any(a > b for a, b in itertools.pairwise(self._to[-len(gyro_to_idx) - 1 :])):
-            self._to.sort()  # (the detector gives them in time order)
+        self._hs = np.concatenate([self._hs, np.asarray(gyro_hs_idx, dtype=np.int64)])
+        self._to = np.concatenate([self._to, np.asarray(gyro_to_idx, dtype=np.int64)])
+        if np.any(self._to[1:] < self._to[:-1]):
+            self._to = np.sort(self._to)  # (the detector gives them in time order)
         # a stride HS_k .. HS_k+1 is checked once the loaded flags reach its closing heel strike
-        strides: list[tuple[int, int, int]] = []
-        n_hs = len(self._hs)
-        k = t = 0  # the strides' first heel strike; the first toe-off not yet passed
-        while n_hs - k >= 2 and self._hs[k + 1] + 2 * self.tol <= self._seen:
-            hs0, hs1 = self._hs[k], self._hs[k + 1]
-            while t < len(self._to) and self._to[t] <= hs0:
-                t += 1
-            if t < len(self._to) and self._to[t] < hs1:  # its toe-off: the first after hs0
-                strides.append((hs0, self._to[t], hs1))
-            k += 1
-        del self._hs[:k], self._to[:t]
-        new = self._check(np.array(strides, dtype=np.int64).reshape(-1, 3)) if strides else []
-        keep = max(self._start, (self._hs[0] if self._hs else self._seen) - 3 * self.tol)
+        # (the first k in order); its toe-off: the first after HS_k (the toe-offs passed so far
+        # never counted again), if before HS_k+1
+        hs = self._hs
+        waiting = hs[1:] + 2 * self.tol > self._seen
+        k = int(np.argmax(waiting)) if waiting.any() else len(waiting)
+        t = np.maximum.accumulate(np.searchsorted(self._to, hs[:k], side="right"))
+        has = t < len(self._to)
+        to = self._to[np.minimum(t, len(self._to) - 1)] if len(self._to) else t
+        found = has & (to < hs[1 : k + 1])
+        strides = np.stack([hs[:k][found], to[found], hs[1 : k + 1][found]], axis=1)
+        passed = int(t[-1]) if k else 0  # the toe-offs up to the last stride's first heel strike
+        self._hs, self._to = hs[k:], self._to[passed:]
+        new = self._check(strides) if len(strides) else []
+        keep = max(self._start, (int(self._hs[0]) if len(self._hs) else self._seen) - 3 * self.tol)
         self._loaded = self._loaded[keep - self._start :]
         self._start = keep
         return new

@@ -65,6 +65,7 @@ import bisect
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -172,16 +173,23 @@ class Pipeline:
         config: PipelineConfig | None = None,
         calibration: Calibration | None = None,
         table: ChannelTable = DEFAULT_TABLE,
+        *,
+        joints: bool = True,
     ) -> None:
+        """``joints=False``: the blocks' joint angles are not computed (each ``joint_*_rad`` is
+        (N, 0)), for a caller that stores none (``gaitmon process`` of a format-2 file)."""
         self.config = config or PipelineConfig()
         self.calibration = calibration or Calibration.identity()
         self.table = table
+        self.joints = joints
         self.reset()
 
     def reset(self) -> None:
         """Back to the just-constructed state (the calibration is kept)."""
         cfg = self.config
-        self._acc_lp = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
+        # (the two accelerometer axes apart: each block's axes arrive as arrays of their own)
+        self._acc_x_lp = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
+        self._acc_z_lp = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
         self._fsr_lp = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
         self._gyro_tilt_lp = Butterworth(cfg.cutoff_hz, cfg.fs_hz, cfg.filter_order)
         self._integrator = GyroIntegrator(1.0 / cfg.fs_hz)
@@ -198,7 +206,8 @@ class Pipeline:
         self._gap_rows: list[int] = []
         self._gap_samples: list[int] = []
         self._gap_filled: list[int] = []
-        self._last_phys: np.ndarray | None = None  # the last row, physical units (interpolation)
+        # the last row of each channel group (_GROUPS), physical units (interpolation)
+        self._last_phys: list[np.ndarray] | None = None
         self._settle_n = round(SETTLE_S * self.config.fs_hz)
         self._settle_until = 0  # the start-up is the first stride's exclusion (gaitmon.analysis)
         # the event sources (gaitmon.dsp.events): the force sensors, and the foot gyro that
@@ -219,7 +228,7 @@ class Pipeline:
         flagged (events from the foot gyro at once) when the new settings read the FSRs the
         same way; new FSR settings (threshold, hysteresis, low-pass, minimum contact) are
         checked from scratch, since they may be what made a sensor look faulty."""
-        new = Pipeline(config, self.calibration, self.table)
+        new = Pipeline(config, self.calibration, self.table, joints=self.joints)
         if config.reads_fsrs_as(self.config):
             new.flag_fsr_faults([(f.sensor, f.reason) for f in self.fsr_faults])
         return new
@@ -235,7 +244,8 @@ class Pipeline:
 
     def _restart(self, at: int) -> None:
         """A long gap ends at absolute index ``at``: see the module doc."""
-        for stage in (self._acc_lp, self._fsr_lp, self._gyro_tilt_lp, self._integrator):
+        for stage in (self._acc_x_lp, self._acc_z_lp, self._fsr_lp, self._gyro_tilt_lp,
+                      self._integrator):  # fmt: skip
             stage.reset()
         self._kalman.restart()
         self._detector.restart()
@@ -303,7 +313,9 @@ class Pipeline:
             fill = bridged_fill(np.r_[0, lost], self.config.fs_hz)[1:]
             if start == 0 and n:
                 fill[0] = 0  # nothing to interpolate from
-        out = {name: np.empty((n, *shape), dtype=dt) for name, shape, dt in _PER_SAMPLE}
+        out = {name: np.empty((n, *(shape if self.joints or not name.startswith("joint_")
+                                    else (0,))), dtype=dt)
+               for name, shape, dt in _PER_SAMPLE}  # fmt: skip
         settling = np.empty(n, dtype=bool)
         ev = _BlockEvents()
         cuts = sorted({*range(0, n, _SUB_BLOCK), *restarts.tolist(), n})
@@ -334,12 +346,19 @@ class Pipeline:
 
     def _samples(
         self, adc: np.ndarray, fill: np.ndarray, first_row: int
-    ) -> tuple[np.ndarray, np.ndarray | None]:
+    ) -> tuple[_Samples, np.ndarray | None]:
         """The rows in physical units with the bridged lost frames filled in (module doc,
-        "Gaps"), and where the rows are among those samples (None: no frame filled in).
-        Records the row <-> sample map of the filled frames."""
-        phys = kernels.to_physical(self.table, adc)
-        ext, pos = fill_lost(phys, fill, self._last_phys)
+        "Gaps"), a C-contiguous array per channel group (the stages take them without a copy),
+        and where the rows are among those samples (None: no frame filled in). Records the row
+        <-> sample map of the filled frames."""
+        groups = []
+        pos = None
+        last: Sequence[np.ndarray | None] = (
+            [None] * len(_GROUPS) if self._last_phys is None else self._last_phys
+        )
+        for cols, prev in zip(_GROUPS, last, strict=True):
+            ext, pos = fill_lost(kernels.to_physical(self.table, adc, cols), fill, prev)
+            groups.append(ext)
         if pos is not None:
             filled = self._gap_filled[-1] if self._gap_filled else 0
             for i in np.flatnonzero(fill):
@@ -347,10 +366,10 @@ class Pipeline:
                 self._gap_rows.append(first_row + int(i))
                 self._gap_samples.append(first_row + int(i) + filled)
                 self._gap_filled.append(filled)
-        if len(phys):
-            self._last_phys = phys[-1].copy()
-        self._n_fed += len(ext)
-        return ext, pos
+        if len(adc):  # (a row's samples end with the row itself)
+            self._last_phys = [x[-1].copy() for x in groups]
+        self._n_fed += len(groups[0])
+        return _Samples(*groups), pos
 
     def _row_of(self, sample: int) -> int:
         """The row of a sample index: a filled-in frame maps to the row after it."""
@@ -376,7 +395,7 @@ class Pipeline:
 
     def _process_into(
         self,
-        phys: np.ndarray,
+        phys: _Samples,
         pick: np.ndarray | None,
         out: dict[str, np.ndarray],
         sl: slice,
@@ -385,16 +404,16 @@ class Pipeline:
         """Run the stages over ``phys`` (samples) and write the rows ``pick`` of them (all when
         None) into ``out[sl]``; the events found, in rows, into ``ev``."""
         cal = self.calibration
-        acc = self._acc_lp.process(phys[:, np.concatenate([ACC_X_IDX, ACC_Z_IDX])])
-        ax, az = acc[:, :N_SEGMENTS], acc[:, N_SEGMENTS:]
-        fsr = self._fsr_lp.process(phys[:, FSR_IDX])
-        gyro = cal.apply_gyro(phys[:, GYRO_IDX])
+        ax = self._acc_x_lp.process(phys.acc_x)
+        az = self._acc_z_lp.process(phys.acc_z)
+        fsr = self._fsr_lp.process(phys.fsr)
+        gyro = cal.apply_gyro(phys.gyro)
         tilt_acc = accel_tilt(ax, az)
         tilt_gyro = self._gyro_tilt_lp.process(
             self._integrator.process(gyro, initial_rad=tilt_acc[0])
         )
         tilt_kalman = self._kalman.process(
-            TiltInput(phys[:, ACC_X_IDX], phys[:, ACC_Z_IDX], tilt_acc, gyro)
+            TiltInput(phys.acc_x, phys.acc_z, tilt_acc, gyro)
         )
         gait = self._detector.process(fsr)
         rows = slice(None) if pick is None else pick
@@ -410,7 +429,8 @@ class Pipeline:
             ("kalman", tilt_kalman),
         ):  # cal.apply_tilt and joint_angles, into the block's rows
             kernels.zeroed_tilts(tilt if pick is None else tilt[pick], cal.tilt_offset_rad,
-                                 o[f"tilt_{name}_rad"][sl], o[f"joint_{name}_rad"][sl])  # fmt: skip
+                                 o[f"tilt_{name}_rad"][sl],
+                                 o[f"joint_{name}_rad"][sl] if self.joints else None)  # fmt: skip
         o["heel_loaded"][sl] = gait.heel_loaded[rows]
         o["toe_loaded"][sl] = gait.toe_loaded[rows]
         o["phase"][sl] = gait.phase[rows]
@@ -446,6 +466,19 @@ class Pipeline:
             np.concatenate([hs_idx[self._rows_of(hs_idx) < k], g_hs[self._rows_of(g_hs) >= k]]),
             np.concatenate([to_idx[self._rows_of(to_idx) < k], g_to[self._rows_of(g_to) >= k]]),
         )
+
+
+# the channel groups the stages take, each as an array of its own
+_GROUPS = (ACC_X_IDX, ACC_Z_IDX, GYRO_IDX, FSR_IDX)
+
+
+class _Samples(NamedTuple):
+    """A block's samples in physical units, per channel group (C-contiguous (N, k) each)."""
+
+    acc_x: np.ndarray
+    acc_z: np.ndarray
+    gyro: np.ndarray
+    fsr: np.ndarray
 
 
 @dataclass

@@ -6,7 +6,7 @@ the two substitutions, run by :mod:`gaitmon.dsp.kernels`' loops.
 
 from __future__ import annotations
 
-from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -72,9 +72,6 @@ def _measurement_weights(r: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(r), 1.0 / np.where(np.isfinite(r), r, 1.0), 0.0)
 
 
-# one factor is kept (~7 MB per 100 k rows): a long record's blocks have one length but the
-# first and last; the one kept is let go before another is built (``_factor``)
-@lru_cache(maxsize=1)
 def _constant_factor(
     n: int, r: float, qa: float, q_bias: float, dt_s: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -121,25 +118,51 @@ def _constant_rhs(
     return g
 
 
-_factor_key: list[tuple[int, float, float, float, float]] = []  # the one cached, if any
+class _Factors:
+    """The factors kept (~7 MB per 100 k rows each): two, as a long record's smoother blocks
+    have two lengths (the first and last block, the others: gaitmon.finish.smoothed; 102 k and
+    114 k rows), so each is built once. The older is let go before a third is built: three
+    are never held at once."""
+
+    KEEP = 2
+
+    def __init__(self) -> None:
+        self._kept: dict[tuple[int, float, float, float, float], tuple[np.ndarray, ...]] = {}
+        self.hits = self.misses = 0
+
+    def get(self, *key: Any) -> tuple[np.ndarray, np.ndarray]:
+        factor = self._kept.pop(key, None)  # (put back last: the most recently used)
+        if factor is None:
+            self.misses += 1
+            while len(self._kept) >= self.KEEP:
+                del self._kept[next(iter(self._kept))]
+            factor = _constant_factor(*key)
+        else:
+            self.hits += 1
+        self._kept[key] = factor
+        return factor[0], factor[1]
+
+    def __len__(self) -> int:
+        return len(self._kept)
+
+    def clear(self) -> None:
+        self._kept.clear()
+        self.hits = self.misses = 0
+
+
+_factors = _Factors()
 
 
 def _factor(
     n: int, r: float, qa: float, q_bias: float, dt_s: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``_constant_factor``, the one it keeps dropped first when another is asked for (so
-    two are never held at once)."""
-    key = (n, r, qa, q_bias, dt_s)
-    if _factor_key != [key]:
-        _constant_factor.cache_clear()
-        _factor_key[:] = [key]
-    return _constant_factor(*key)
+    """The constant-variance factor (``_constant_factor``) of these, kept (:class:`_Factors`)."""
+    return _factors.get(n, r, qa, q_bias, dt_s)
 
 
 def release_factors() -> None:
-    """Drop the cached factor (``_constant_factor``) once a record is smoothed."""
-    _constant_factor.cache_clear()
-    _factor_key.clear()
+    """Drop the kept factors once a record is smoothed."""
+    _factors.clear()
 
 
 def smooth_map(

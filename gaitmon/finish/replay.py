@@ -19,7 +19,13 @@ from gaitmon.dsp.fsr_check import FsrFault
 from gaitmon.dsp.methods import feeds_smoother
 from gaitmon.dsp.pipeline import Pipeline, PipelineConfig
 from gaitmon.io.session.layout import _RECOVERY_CHUNK_ROWS
-from gaitmon.io.session.rows import LazyRows, LostRows, fault_rows, rows_from_pipeline
+from gaitmon.io.session.rows import (
+    JOINT_ROWS,
+    LazyRows,
+    LostRows,
+    fault_rows,
+    rows_from_pipeline,
+)
 
 # rows replayed at a time by a recovery: the pipeline's block for 65 536 rows (the default,
 # ``gaitmon process``'s cancel points) is ~50 MB with its temporaries; chunking does not change
@@ -77,7 +83,9 @@ def replay_pipeline(
     cuts.update(range(0, n, chunk_rows))
     cuts.update(i for i, _, _ in ordered if i < n)
     bounds = sorted(cuts)
-    pipeline = Pipeline(config, calibration, table)
+    # (joint angles only for a caller that stores them: a format-2 file derives its own)
+    joints = only is None or any(path in only for path in JOINT_ROWS)
+    pipeline = Pipeline(config, calibration, table, joints=joints)
     pipeline.flag_fsr_faults(flagged_at_start)
     first_pass = feeds_smoother(pipeline.method.name)  # until new settings start
     at_start = [(0, 0, f.sensor, f.reason) for f in pipeline.fsr_faults]  # (as seeded)

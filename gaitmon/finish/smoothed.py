@@ -183,24 +183,30 @@ def _find_malloc_trim() -> Callable[[int], int] | None:
 _malloc_trim: list[Callable[[int], int] | None] = []  # looked up once
 
 
+# the first pass of a record up to this size is held in memory, a longer one's in a file
+KEPT_IN_MEMORY_MAX_BYTES = 16 << 20
+
+
 class KeptFirstPass:
     """The smoother's first pass kept from a replay of the pipeline (``ReplayChunk.first_pass_rad``,
     bit for bit what :class:`gaitmon.dsp.smoother.CausalFirstPass` computes), so the smoother
-    does not run the filter again. The rows wait in an unnamed temporary file in ``directory``
-    (float64: 32 bytes a row, 92 MB for 8 hours), not in memory; it is gone once closed (a
-    context manager). A replay chunk without it (another filter, new settings), or a temporary
-    file that cannot be made or written (a full disk), ends the keeping: :attr:`first_pass` is
-    then None and the smoother runs its own, to the same numbers."""
+    does not run the filter again. The replay's own arrays are held (no copy) while they take
+    at most ``memory_max_bytes`` (:data:`KEPT_IN_MEMORY_MAX_BYTES`: 1.4 hours); a longer
+    record's rows wait in an unnamed temporary file in ``directory`` (float64: 32 bytes a row,
+    92 MB for 8 hours), which is gone once closed (a context manager). A replay chunk without
+    it (another filter, new settings), or a temporary file that cannot be made or written (a
+    full disk), ends the keeping: :attr:`first_pass` is then None and the smoother runs its
+    own, to the same numbers. The arrays given to :meth:`add` must not change afterwards."""
 
-    def __init__(self, directory: str | None = None) -> None:
-        import tempfile
-
+    def __init__(
+        self, directory: str | None = None, memory_max_bytes: int | None = None
+    ) -> None:  # fmt: skip
         self._n = 0
+        self._directory = directory
+        self._memory_max_bytes = (KEPT_IN_MEMORY_MAX_BYTES if memory_max_bytes is None
+                                  else memory_max_bytes)  # fmt: skip
+        self._held: list[np.ndarray] | None = []  # (None: in the file, or nothing kept)
         self._file: IO[bytes] | None = None
-        try:
-            self._file = tempfile.TemporaryFile(dir=directory)  # noqa: SIM115 (closed by close)
-        except OSError as e:
-            log.info("the smoother's first pass is computed again (no temporary file: %s)", e)
 
     def __enter__(self) -> KeptFirstPass:
         return self
@@ -210,7 +216,7 @@ class KeptFirstPass:
 
     def add(self, start: int, tilt_rad: np.ndarray | None) -> None:
         """Rows ``start:start + len(tilt_rad)`` (start = the rows kept so far)."""
-        if self._file is None:
+        if self._held is None and self._file is None:
             return
         if tilt_rad is None:
             self.close()
@@ -218,31 +224,72 @@ class KeptFirstPass:
         if start != self._n:
             raise ValueError(f"first-pass rows from {start} given after {self._n} rows")
         data = np.ascontiguousarray(tilt_rad, dtype=np.float64)
+        if self._held is not None:
+            self._held.append(data)
+            self._n += len(data)
+            if self._n * _ROW_BYTES > self._memory_max_bytes:
+                self._spill()
+            return
+        if self._write(data):
+            self._n += len(data)
+
+    def _spill(self) -> None:
+        """Move the rows held in memory to the temporary file (made now)."""
+        import tempfile
+
+        held, self._held = self._held or [], None
+        try:
+            self._file = tempfile.TemporaryFile(dir=self._directory)  # noqa: SIM115 (close)
+        except OSError as e:
+            log.info("the smoother's first pass is computed again (no temporary file: %s)", e)
+            return
+        at = 0
+        for data in held:
+            self._n = at
+            if not self._write(data):
+                return
+            at += len(data)
+        self._n = at
+
+    def _write(self, data: np.ndarray) -> bool:
+        assert self._file is not None
         try:
             self._file.seek(self._n * _ROW_BYTES)
             self._file.write(memoryview(data).cast("B"))  # type: ignore[arg-type]  # (no copy)
         except OSError as e:
             log.info("the smoother's first pass is computed again (temporary file: %s)", e)
             self.close()
-            return
-        self._n += len(data)
+            return False
+        return True
 
     @property
     def first_pass(self) -> FirstPass | None:
-        return None if self._file is None else self._rows
+        return None if self._held is None and self._file is None else self._rows
 
     def _rows(self, a: int, b: int, counts: np.ndarray | None = None) -> np.ndarray:
-        if self._file is None or not 0 <= a <= b <= self._n:
+        if (self._held is None and self._file is None) or not 0 <= a <= b <= self._n:
             raise ValueError(f"first-pass rows {a}:{b} asked of {self._n} kept")
-        self._file.seek(a * _ROW_BYTES)
-        # read into a writeable array (the compiled loops take those: gaitmon.dsp.kernels)
+        # a new writeable array (the compiled loops take those: gaitmon.dsp.kernels)
         out = np.empty((b - a, N_SEGMENTS))
+        if a == b:
+            return out  # (an empty buffer cannot be read into)
+        if self._held is not None:
+            at = 0
+            for data in self._held:
+                lo, hi = max(a, at), min(b, at + len(data))
+                if lo < hi:
+                    out[lo - a : hi - a] = data[lo - at : hi - at]
+                at += len(data)
+            return out
+        assert self._file is not None
+        self._file.seek(a * _ROW_BYTES)
         view = memoryview(out).cast("B")  # type: ignore[arg-type]  # (numpy arrays are buffers)
         if self._file.readinto(view) != out.nbytes:  # type: ignore[attr-defined]  # (a file)
             raise ValueError(f"first-pass rows {a}:{b}: the temporary file is short")
         return out
 
     def close(self) -> None:
+        self._held = None
         if self._file is not None:
             with contextlib.suppress(OSError):
                 self._file.close()

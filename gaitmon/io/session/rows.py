@@ -43,6 +43,7 @@ _PIPELINE_ROWS: dict[str, Callable[[PipelineBlock], np.ndarray]] = {
     "processed/phase": lambda b: b.phase.astype(np.int8),
 }
 PIPELINE_ROWS = tuple(_PIPELINE_ROWS)
+JOINT_ROWS = tuple(p for p in PIPELINE_ROWS if p.startswith("processed/joint_"))
 
 
 def rows_from_pipeline(
