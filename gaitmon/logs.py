@@ -11,6 +11,7 @@ traceback: a record that carries one, or that its caller has shown in its own li
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import sys
@@ -47,6 +48,35 @@ class _RotatingFile(logging.FileHandler):
     def __init__(self, path: Path, max_bytes: int, backups: int) -> None:
         super().__init__(path, encoding="utf-8", delay=True)
         self.max_bytes, self.backups = max_bytes, backups
+        self.write_failed = False  # said once on the terminal
+
+    def handleError(self, record: logging.LogRecord) -> None:
+        """A write that fails (a full disk, a file no longer writable) is said once, as one
+        line on the terminal, and the command carries on (logging's own handler printed
+        "--- Logging error ---" and a traceback for every record)."""
+        err = sys.exc_info()[1]
+        if not isinstance(err, OSError):
+            super().handleError(record)  # a record that cannot be formatted: a program error
+            return
+        if self.write_failed:
+            return
+        self.write_failed = True
+        why = err.strerror or str(err) or type(err).__name__
+        with contextlib.suppress(OSError, ValueError):  # no terminal either
+            sys.stderr.write(f"gaitmon: cannot write the log file {self.baseFilename} (disk "
+                             f"full or not writable: {why}); carrying on\n")  # fmt: skip
+
+    def flush(self) -> None:
+        try:
+            super().flush()
+        except OSError:  # at shutdown, after the last record
+            self.handleError(logging.makeLogRecord({}))
+
+    def close(self) -> None:
+        try:
+            super().close()  # the file's close writes what it still holds, and fails again
+        except OSError:
+            self.handleError(logging.makeLogRecord({}))
 
     def emit(self, record: logging.LogRecord) -> None:
         try:

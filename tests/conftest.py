@@ -154,8 +154,13 @@ CUT_MARKER = "walk start"
 def cut_recording(tmp_path_factory) -> pathlib.Path:
     """A recording with a real link cut: the simulated unit over a pty drops the link for 3 s
     of device time (the engine reconnects into the same file: one gap, one reconnect), and a
-    marker labelled ``CUT_MARKER`` before the cut. Read-only: copy it before changing it."""
+    marker labelled ``CUT_MARKER`` before the cut. Read-only: copy it before changing it.
+
+    The cut is scheduled once the marker is placed, 2 s of the unit's time ahead: a cut at a
+    fixed time of the unit's clock (12 s from its creation) came while a busy machine was
+    still connecting (IDENTIFY then failed: "link lost")."""
     import time
+    from dataclasses import replace
 
     from gaitmon.engine import Engine
     from gaitmon.io.device import Device
@@ -165,8 +170,7 @@ def cut_recording(tmp_path_factory) -> pathlib.Path:
     from gaitmon.io.transport import SerialTransport
 
     out = tmp_path_factory.mktemp("cut") / "cut.h5"
-    faults = FaultConfig(link_drops=((12.0, 3.0),))
-    unit = SimulatedUnit(GaitConfig(seed=3, standing_s=2.0), faults=faults, speed=5.0)
+    unit = SimulatedUnit(GaitConfig(seed=3, standing_s=2.0), faults=FaultConfig(), speed=5.0)
     with PtySimulator(unit) as sim:
         eng = Engine(Device(SerialTransport(str(sim.link_path))), "raw", transport_label="pty")
         with eng:
@@ -175,6 +179,11 @@ def cut_recording(tmp_path_factory) -> pathlib.Path:
             while eng.recording.rows < 400 and time.monotonic() < deadline:
                 time.sleep(0.01)
             eng.add_marker(CUT_MARKER)
+            while True:  # scheduled in time, else again from the unit's time now
+                at = unit.device_time_s + 2.0
+                unit.faults = replace(unit.faults, link_drops=((at, 3.0),))
+                if unit.device_time_s < at - 1.0:
+                    break
             while eng.recording.rows < 2700 and time.monotonic() < deadline:
                 time.sleep(0.02)
             eng.stop_recording()

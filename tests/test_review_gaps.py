@@ -159,9 +159,43 @@ def test_review_shades_the_settling_time_after_the_cut(qtbot, review, cut_file) 
         assert spans[0, 1] - spans[0, 0] == pytest.approx(SETTLE_S, abs=0.02)
     settling = [r for r in review.analysis.rows if r.excluded == SETTLING]
     assert settling
+    # (a stride may start on the last settling row: where the cut fell in the stride's cycle
+    # is the machine's timing; the shade ends at the first row after the settling)
     for r in settling:
         a, b = doc.t_s[r.stride.start_idx], doc.t_s[r.stride.end_idx]
-        assert a < spans[0, 1] and b > spans[0, 0]
+        rows = (r.stride.start_idx, r.stride.end_idx, resumed[0])
+        assert a < spans[0, 1] and b > spans[0, 0], (a, b, spans[0], rows)
+
+
+def test_the_settling_shade_covers_every_row_whose_stride_is_excluded_for_settling(
+    gap_recording,
+) -> None:
+    """The review's settling shade is the ``SETTLE_S`` of rows [a, b) after the gap: from row a
+    to row b, as the live view's band draws it. It ended at row b - 1 (2.99 s), so a stride
+    starting on the last settling row, excluded for settling, started where the shade ended
+    (the real-cut test above failed so, "18.01 < 18.01", when a machine's timing put a heel
+    strike on that row). Checked for a stride starting on every row around the shade's ends."""
+    from gaitmon.analysis import SETTLING, session_settling, stride_exclusions
+    from gaitmon.dsp.pipeline import SETTLE_S
+    from gaitmon.review.model import open_document
+
+    doc = open_document(gap_recording)
+    try:
+        t_s, s = doc.t_s, doc.session
+        [resumed] = [g.sample_idx for g in s.gaps if g.n_lost >= 100]
+        [(a, b)] = session_settling(s)
+        assert a == resumed and b - a == round(SETTLE_S * s.sample_rate_hz)
+        [(t0, t1)] = doc.settling_spans_s
+        assert (t0, t1) == (t_s[a], t_s[b])
+        assert t1 - t0 == pytest.approx(SETTLE_S, abs=1e-6)  # no frame lost inside it
+        # a 1.1 s stride starting on each row from the gap to just after the settling
+        starts = np.arange(a, b + 5)
+        why = stride_exclusions(starts, starts + 110, np.arange(1, len(starts) + 1), None,
+                                np.array([resumed]), [(a, b)])  # fmt: skip
+        for r, reason in zip(starts, why, strict=True):
+            assert (reason == SETTLING) == (t_s[r] < t1), (r, t_s[r], t1, reason)
+    finally:
+        doc.close()
 
 
 def _click_lane(qtbot, tl, t_s: float) -> None:

@@ -435,7 +435,11 @@ def open_document(
                        side=s.unit_side, sides=sides_of(path) if s.unit_side else ())
         build_overview(doc, doc.angle_source, progress=part(0.72, 1.0))
         doc.gap_spans_s = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
-        settle = [(t_s[a], t_s[b - 1]) for a, b in session_settling(s) if 0 <= a < b <= n]
+        # rows [a, b) settle: shaded from row a to the first row after them (to the last row
+        # at the file's end), as the live view's step band draws them; a stride that starts
+        # on the last settling row (excluded: it overlaps it) starts inside the shade
+        settle = [(t_s[a], t_s[min(b, n - 1)]) for a, b in session_settling(s)
+                  if 0 <= a < b <= n]  # fmt: skip
         doc.settling_spans_s = np.asarray(settle, dtype=np.float64).reshape(-1, 2)
         return doc
     except Cancelled:

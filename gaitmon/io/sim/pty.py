@@ -41,6 +41,11 @@ class PtySimulator:
     """Serve ``unit`` on a pty until ``stop()``. Also a context manager."""
 
     def __init__(self, unit: SimulatedUnit, link_path: str | os.PathLike[str] | None = None):
+        # the unit's first samples need scipy's interpolator (io.sim.kinematics imports it on
+        # first use: ~1 s, more on a busy machine): imported here, before the port exists, not
+        # in the thread that must answer the client's first command (3 attempts of 0.5 s)
+        import scipy.interpolate  # noqa: F401
+
         self.unit = unit
         self._tmpdir: str | None = None
         if link_path is None:
