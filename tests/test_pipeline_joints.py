@@ -99,3 +99,52 @@ def test_the_stages_take_the_samples_as_they_are_made(monkeypatch):
     counts, lost, cal = _record()
     Pipeline(PipelineConfig(), cal).process(counts[:3000], lost[:3000])
     assert len(seen) >= 7 and all(seen), seen
+
+
+def test_process_and_recovery_of_a_format_2_recording_make_no_joint_angles(
+    gap_recording, tmp_path, monkeypatch
+):
+    """Both replays that write a format-2 file (``process``, a recovery) run the pipeline
+    without joint angles (the file derives them on read), and the file reads the same joints
+    as the recording's own."""
+    import shutil
+    import subprocess
+    import sys
+
+    import h5py
+
+    import gaitmon.dsp.pipeline as pipeline_module
+    from gaitmon.finish import open_session
+    from gaitmon.finish.reprocess import rewrite_processed
+    from gaitmon.io.journal import journal_path
+
+    made: list[bool] = []
+    init = pipeline_module.Pipeline.__init__
+
+    def recorded(self, *a, **k):
+        init(self, *a, **k)
+        made.append(self.joints)
+
+    with h5py.File(gap_recording) as f:
+        assert int(f.attrs["format_version"]) == 2
+    with open_session(gap_recording) as s:
+        config, want = s.config, s.read("processed/joint_deg")
+    monkeypatch.setattr(pipeline_module.Pipeline, "__init__", recorded)
+    rewrite_processed(gap_recording, tmp_path / "new.h5", config)
+    assert made and not any(made)
+    with open_session(tmp_path / "new.h5") as s:
+        np.testing.assert_array_equal(s.read("processed/joint_deg"), want)
+
+    killed = tmp_path / "killed.h5"
+    argv = [sys.executable, "-m", "gaitmon.commands.bench_memory", "_killed", "1min", str(killed)]
+    r = subprocess.run(argv, capture_output=True, text=True, check=False)
+    assert journal_path(killed).exists(), r.stderr[-500:]
+    src = tmp_path / "copy.h5"
+    shutil.copyfile(killed, src)
+    shutil.copyfile(journal_path(killed), journal_path(src))
+    made.clear()
+    with open_session(src) as s:
+        assert s.recovered and s.n_samples == 6_000
+        joints = s.read("processed/joint_deg")
+    assert made and not any(made)
+    assert joints.shape == (6_000, 3) and np.isfinite(joints).all()

@@ -57,6 +57,7 @@ from gaitmon.io.session.rows import (
     _device_rows,
     _extrapolated_t,
     _Timeline,
+    stored_pipeline_rows,
 )
 from gaitmon.text import clean_label
 from gaitmon.values import JsonValue, scalar
@@ -299,6 +300,7 @@ def _build_recovered(
                     flagged_at_start=flagged_at_start(
                         (f["sample_idx"], f["sensor"], f["reason"]) for f in contents.fsr_faults
                     ),
+                    only=stored_pipeline_rows(h5.f),  # (not the rows a format-2 file derives)
                 )
             )
         else:
@@ -308,7 +310,7 @@ def _build_recovered(
         if mode == "raw" and n and not in_memory and header.config.fs_hz == fs:
             kept = KeptFirstPass(str(Path(tmp).parent))
         for a, proc, hs, to, faults, first_pass in chunks:
-            b = a + len(proc["processed/joint_deg"])
+            b = a + len(next(iter(proc.values())))
             if kept is not None:
                 kept.add(a, first_pass)
             cols = {

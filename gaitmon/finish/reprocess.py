@@ -34,7 +34,12 @@ from gaitmon.io.session.codec import encode
 from gaitmon.io.session.h5file import _short_error, open_cached
 from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import _TABLE_CHUNK_ROWS, _TABLES
-from gaitmon.io.session.rows import PIPELINE_ROWS, LazyRows, LostRows, losses_from_gaps
+from gaitmon.io.session.rows import (
+    LazyRows,
+    LostRows,
+    losses_from_gaps,
+    stored_pipeline_rows,
+)
 from gaitmon.io.session.stored_overview import OverviewBuilder, write_overview
 from gaitmon.io.session.trust import CheckedCounts, full_scale_of, written_here
 
@@ -237,7 +242,7 @@ def rewrite_unit(
     adc = LazyRows(CheckedCounts(unit.name, full_scale_of(table), raw), n)
     hs: list[np.ndarray] = []
     to: list[np.ndarray] = []
-    paths = [p for p in PIPELINE_ROWS if p in f]  # (format 2 derives joints, gyro rates)
+    paths = stored_pipeline_rows(f)
     overview = OverviewBuilder()  # the joints' overview, of the tilts as written
     writers = {p: RowWriter(f[p].id) for p in paths}
     replay = replay_pipeline(

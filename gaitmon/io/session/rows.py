@@ -46,6 +46,13 @@ PIPELINE_ROWS = tuple(_PIPELINE_ROWS)
 JOINT_ROWS = tuple(p for p in PIPELINE_ROWS if p.startswith("processed/joint_"))
 
 
+def stored_pipeline_rows(group: h5py.Group) -> list[str]:
+    """The ``/processed`` rows of :data:`PIPELINE_ROWS` that ``group`` (a session file, or a
+    unit of one) stores: a format-2 file derives the joint angles and gyro rates on read, so
+    a replay that writes it need not make them (``replay_pipeline(only=...)``)."""
+    return [p for p in PIPELINE_ROWS if p in group]
+
+
 def rows_from_pipeline(
     block: PipelineBlock, only: Collection[str] | None = None
 ) -> dict[str, np.ndarray]:
