@@ -21,6 +21,7 @@ Part of the stride-length method: the method is the module doc of
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -208,13 +209,23 @@ def _strides(
         if not flips.any():
             continue
         j, b = j[flips], b.take(flips)
-        lo, hi = np.full(len(j), MOUNT_COS_MIN), np.ones(len(j))
-        for _ in range(MOUNT_ITERATIONS):
-            mid = 0.5 * (lo + hi)
-            high = np.sign(b.vertical_misfit(mid)) == hi_sign[j]
-            hi, lo = np.where(high, mid, hi), np.where(high, lo, mid)
-        length[j], clearance[j], pitch_misfit[j], vel_f[j], _ = b.full(0.5 * (lo + hi))
+        cos = _mount_cos(b.vertical_misfit, hi_sign[j])
+        length[j], clearance[j], pitch_misfit[j], vel_f[j], _ = b.full(cos)
     return length, clearance, _out_of_plane(pitch_misfit, vel_f)
+
+
+def _mount_cos(
+    vertical_misfit: Callable[[np.ndarray], np.ndarray], hi_sign: np.ndarray
+) -> np.ndarray:  # fmt: skip
+    """Step 5's bisection: the mounting cosine in [MOUNT_COS_MIN, 1] of each stride at which
+    its upward velocity misfit (``vertical_misfit(cos)``) changes sign, from ``hi_sign`` (the
+    misfit's sign at a cosine of 1; -hi_sign at MOUNT_COS_MIN), each stride its own bounds."""
+    lo, hi = np.full(len(hi_sign), MOUNT_COS_MIN), np.ones(len(hi_sign))
+    for _ in range(MOUNT_ITERATIONS):
+        mid = 0.5 * (lo + hi)
+        high = np.sign(vertical_misfit(mid)) == hi_sign
+        hi, lo = np.where(high, mid, hi), np.where(high, lo, mid)
+    return 0.5 * (lo + hi)
 
 
 def _out_of_plane(pitch_misfit: np.ndarray, vel_f: np.ndarray) -> np.ndarray:
@@ -267,11 +278,6 @@ def _looped(
     if len(j):
         j = j[np.sign(run(j, np.full(len(j), MOUNT_COS_MIN), False)[:, 4]) == -hi_sign[j]]
     if len(j):
-        lo, hi = np.full(len(j), MOUNT_COS_MIN), np.ones(len(j))
-        for _ in range(MOUNT_ITERATIONS):
-            mid = 0.5 * (lo + hi)
-            high = np.sign(run(j, mid, False)[:, 4]) == hi_sign[j]
-            hi, lo = np.where(high, mid, hi), np.where(high, lo, mid)
-        q = run(j, 0.5 * (lo + hi), True)
+        q = run(j, _mount_cos(lambda c: run(j, c, False)[:, 4], hi_sign[j]), True)
         length[j], clearance[j], pitch_misfit[j], vel_f[j] = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     return length, clearance, _out_of_plane(pitch_misfit, vel_f)
