@@ -163,3 +163,27 @@ def test_exclusions_merge_subtract_and_round_trip(tmp_path):
     assert bad == [] and "unreadable" in problem
     excl.save(f, [], "x", 100)
     assert not sp.exists()
+
+
+def test_the_stored_overview_of_a_file_whose_mode_is_stored_as_bytes(gap_recording, tmp_path):
+    """A file whose ``mode`` attribute is bytes (another writer's choice) gets the same joint
+    overview as one whose mode is text: the mode was read as ``str(b'raw')`` ("b'raw'"), so
+    the derived joints were looked for as stored, not found, and their overview left out."""
+    import shutil
+
+    import h5py
+
+    from gaitmon.io.session.stored_overview import read_overview, write_overview
+
+    path = tmp_path / "bytes.h5"
+    shutil.copyfile(gap_recording, path)
+    with h5py.File(path, "r+") as f:
+        n = f["timeline/t_s"].shape[0]
+        want = read_overview(f, "processed/joint_deg", n)
+        assert want is not None
+        f.attrs["mode"] = np.bytes_(b"raw")
+        write_overview(f)
+        got = read_overview(f, "processed/joint_deg", n)
+    assert got is not None
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])

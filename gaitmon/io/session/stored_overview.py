@@ -34,6 +34,7 @@ from gaitmon.io.session.codec import (
     joints_from_stored_tilts,
     quantise,
 )
+from gaitmon.io.session.series import _s
 
 BASE_STEP = 16  # rows per bin (gaitmon.io.overview.BASE_STEP)
 _READ_ROWS = 1 << 16  # rows per read while building (a whole number of bins)
@@ -50,6 +51,10 @@ def _key(path: str) -> str:
     return path.replace("/", "_")
 
 
+def _mode(f: h5py.File) -> str:
+    return _s(f.attrs.get("mode", ""))  # (a bytes attribute decoded, not "b'raw'")
+
+
 def _version(f: h5py.File) -> int:
     return int(f.attrs.get("format_version", 1))
 
@@ -59,10 +64,7 @@ def _joint_codes(f: h5py.File, path: str, a: int, b: int) -> np.ndarray | None:
     the reader gives NaN), or None if the file has none. The reader's float32 value of a code
     c is c / 100 correctly rounded, which quantises back to c: the bins of the codes are the
     quantised bins of the angles as read, computed without the float round trip."""
-    mode = str(f.attrs.get("mode", ""))
-    if isinstance(mode, bytes):
-        mode = mode.decode()
-    if path in derived(mode, _version(f)):
+    if path in derived(_mode(f), _version(f)):
         tilt = JOINT_OF[path]
         return _codes_of_tilts(f[tilt][a:b], tilt) if tilt in f else None
     if path not in f:
@@ -163,9 +165,7 @@ def write_overview(f: h5py.File, built: OverviewBuilder | None = None) -> None:
 
 def _derived_here(f: h5py.File, path: str) -> bool:
     """Whether ``f`` derives ``path`` from its stored tilts (what OverviewBuilder bins)."""
-    mode = f.attrs.get("mode", "")
-    mode = mode.decode() if isinstance(mode, bytes) else str(mode)
-    return path in derived(mode, _version(f)) and f[JOINT_OF[path]].dtype == _DTYPE
+    return path in derived(_mode(f), _version(f)) and f[JOINT_OF[path]].dtype == _DTYPE
 
 
 def _code_bins(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
