@@ -230,7 +230,7 @@ class KeptFirstPass:
             if self._n * _ROW_BYTES > self._memory_max_bytes:
                 self._spill()
             return
-        if self._write(data):
+        if self._write(self._n, data):
             self._n += len(data)
 
     def _spill(self) -> None:
@@ -245,16 +245,15 @@ class KeptFirstPass:
             return
         at = 0
         for data in held:
-            self._n = at
-            if not self._write(data):
+            if not self._write(at, data):
                 return
             at += len(data)
-        self._n = at
 
-    def _write(self, data: np.ndarray) -> bool:
+    def _write(self, at: int, data: np.ndarray) -> bool:
+        """Rows ``at:`` into the file; False (and nothing kept) where that fails."""
         assert self._file is not None
         try:
-            self._file.seek(self._n * _ROW_BYTES)
+            self._file.seek(at * _ROW_BYTES)
             self._file.write(memoryview(data).cast("B"))  # type: ignore[arg-type]  # (no copy)
         except OSError as e:
             log.info("the smoother's first pass is computed again (temporary file: %s)", e)
