@@ -174,3 +174,36 @@ def test_the_gravity_reference_takes_every_segment_in_one_call_with_the_same_num
             for c, ref in enumerate(alone):
                 one = ref.process(ax[lo:hi, c : c + 1], az[lo:hi, c : c + 1], w[lo:hi, c : c + 1])
                 np.testing.assert_array_equal(got[:, c], one[:, 0])
+
+
+def test_the_gravity_references_tables_are_the_same_numbers_with_the_compiled_loops_loaded(
+    tmp_path,
+):
+    """The gravity reference's step-response tables are filtered by the interpreted loops
+    whatever the process has loaded: with the compiled loops loaded (a batch job) they were
+    the compiled recursion's, cut at another length, and a recording processed differed from
+    the same recording made live by ~1e-12 rad. In a child process (loading the compiled
+    loops there leaves this one as it is); numba's cache in ``tmp_path``."""
+    import os
+    import subprocess
+    import sys
+
+    if not kernels.numba_available():
+        pytest.skip("numba is not installed")
+    code = (
+        "import numpy as np\n"
+        "from gaitmon.dsp import kernels\n"
+        "import gaitmon.dsp.gravity_reference as g\n"
+        "with kernels.use('python'):\n"
+        "    want = g._tables(0.5, 100.0)\n"
+        "kernels._load()\n"
+        "assert kernels.compiled_loaded()\n"
+        "g._tables.cache_clear()\n"
+        "got = g._tables(0.5, 100.0)\n"
+        "print(all(np.array_equal(a, b) for a, b in zip(want, got)))\n"
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                       check=False, timeout=600)  # fmt: skip
+    assert r.returncode == 0, r.stderr[-800:]
+    assert r.stdout.strip() == "True"

@@ -20,7 +20,21 @@ def _tables(
 ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
     """(b, a, lag_s, the step response s_k, h_k) of the low-pass (the class doc); kept, as
     the filter's gain table is: a reference of these settings made again (the next record or
-    connect) does not filter its tables again. Callers copy the arrays they keep."""
+    connect) does not filter its tables again. Callers copy the arrays they keep.
+
+    Filtered by the interpreted loops (as live work is), whatever loops the process has
+    loaded: the compiled recursion rounds differently and cut the step response at another
+    length (1,220 samples against numpy's, for 0.5 Hz), so a recording made live and the
+    same recording processed differed by ~1e-12 rad in the filter's tilts."""
+    from gaitmon.dsp import kernels
+
+    with kernels.live():
+        return _filtered_tables(cutoff_hz, fs_hz)
+
+
+def _filtered_tables(
+    cutoff_hz: float, fs_hz: float
+) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
     dt_s = 1.0 / fs_hz
     b, a = butter_lowpass(2, cutoff_hz, fs_hz)
     k = np.arange(len(b))
