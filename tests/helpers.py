@@ -138,3 +138,22 @@ def numeric_datasets(path: Path) -> dict[str, np.ndarray]:
                 out[name] = obj[()]
         f.visititems(keep)
     return out
+
+
+def killed_recording(folder: Path) -> Path:
+    """A 1-min raw recording killed (SIGKILL) before its close, in a child process, copied
+    with its journal into ``folder`` as ``copy.h5``: the first open recovers it."""
+    import shutil
+    import subprocess
+    import sys
+
+    from gaitmon.io.journal import journal_path
+
+    killed = folder / "killed.h5"
+    argv = [sys.executable, "-m", "gaitmon.commands.bench_memory", "_killed", "1min", str(killed)]
+    r = subprocess.run(argv, capture_output=True, text=True, check=False)
+    assert journal_path(killed).exists(), r.stderr[-500:]
+    src = folder / "copy.h5"
+    shutil.copyfile(killed, src)
+    shutil.copyfile(journal_path(killed), journal_path(src))
+    return src

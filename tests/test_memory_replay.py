@@ -9,14 +9,12 @@ and the sparse losses give the per-row array's slices exactly."""
 
 from __future__ import annotations
 
-import shutil
-import subprocess
-import sys
 import weakref
 from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import killed_recording
 
 from gaitmon.dsp.lost_frames import Losses
 from gaitmon.io.session.rows import LostRows, losses_from_gaps, lost_before_from_gaps
@@ -111,13 +109,7 @@ def test_recovery_replay_holds_one_chunk_at_a_time(tmp_path, monkeypatch):
     from gaitmon.finish import open_session
     from gaitmon.io.journal import journal_path
 
-    killed = tmp_path / "killed.h5"
-    argv = [sys.executable, "-m", "gaitmon.commands.bench_memory", "_killed", "1min", str(killed)]
-    r = subprocess.run(argv, capture_output=True, text=True, check=False)
-    assert journal_path(killed).exists(), r.stderr[-500:]
-    src = tmp_path / "copy.h5"
-    shutil.copyfile(killed, src)
-    shutil.copyfile(journal_path(killed), journal_path(src))
+    src = killed_recording(tmp_path)
     monkeypatch.setattr(rec, "RECOVERY_REPLAY_ROWS", 500)
     watch = _ChunkWatch(monkeypatch)
     with open_session(src) as s:

@@ -9,6 +9,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from helpers import killed_recording
 
 from gaitmon.dsp import kernels
 from gaitmon.dsp.calibration import Calibration
@@ -107,16 +108,11 @@ def test_process_and_recovery_of_a_format_2_recording_make_no_joint_angles(
     """Both replays that write a format-2 file (``process``, a recovery) run the pipeline
     without joint angles (the file derives them on read), and the file reads the same joints
     as the recording's own."""
-    import shutil
-    import subprocess
-    import sys
-
     import h5py
 
     import gaitmon.dsp.pipeline as pipeline_module
     from gaitmon.finish import open_session
     from gaitmon.finish.reprocess import rewrite_processed
-    from gaitmon.io.journal import journal_path
 
     made: list[bool] = []
     init = pipeline_module.Pipeline.__init__
@@ -135,13 +131,7 @@ def test_process_and_recovery_of_a_format_2_recording_make_no_joint_angles(
     with open_session(tmp_path / "new.h5") as s:
         np.testing.assert_array_equal(s.read("processed/joint_deg"), want)
 
-    killed = tmp_path / "killed.h5"
-    argv = [sys.executable, "-m", "gaitmon.commands.bench_memory", "_killed", "1min", str(killed)]
-    r = subprocess.run(argv, capture_output=True, text=True, check=False)
-    assert journal_path(killed).exists(), r.stderr[-500:]
-    src = tmp_path / "copy.h5"
-    shutil.copyfile(killed, src)
-    shutil.copyfile(journal_path(killed), journal_path(src))
+    src = killed_recording(tmp_path)
     made.clear()
     with open_session(src) as s:
         assert s.recovered and s.n_samples == 6_000
