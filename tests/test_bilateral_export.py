@@ -180,9 +180,14 @@ def test_symmetry_csv_is_gaitmon_infos(
         assert float(r["right_mean_s"]) == pytest.approx(right, abs=5e-4 + 5e-7 + 1e-12)
         assert float(r["symmetry_ratio"]) == pytest.approx(sr, abs=5e-4 + 5e-7 + 1e-12)
         assert float(r["symmetry_index_pct"]) == pytest.approx(si, abs=0.05 + 5e-5 + 1e-12)
-        # and by hand from the means
-        assert float(r["symmetry_ratio"]) == pytest.approx(
-            float(r["left_mean_s"]) / float(r["right_mean_s"]), rel=1e-5)
+        # and by hand from the means: each of the three cells is rounded to 6 decimals, so the
+        # ratio lies within half a unit of the ratio of any means within half a unit of the
+        # cells. (rel=1e-5 was not that: with a right mean of 0.061 s, initial double
+        # support, the three half-units reach 1.06e-5 of the ratio.)
+        h = 0.5e-6
+        lo_l, hi_l = float(r["left_mean_s"]) - h, float(r["left_mean_s"]) + h
+        lo_r, hi_r = float(r["right_mean_s"]) - h, float(r["right_mean_s"]) + h
+        assert lo_l / hi_r - h - 1e-12 <= float(r["symmetry_ratio"]) <= hi_l / lo_r + h + 1e-12
     # hemiparetic: the affected (left) leg's step is about 0.85 of the other's
     assert 0.78 < float(rows["step_s"]["symmetry_ratio"]) < 0.92
     hs = _rows(csv_out.with_name("walk_bilateral.csv"))
