@@ -37,7 +37,7 @@ from gaitmon.io.session.parts import (
     part_path,
     parts_of,
 )
-from gaitmon.io.session.series import AttrValue, _py
+from gaitmon.io.session.series import AttrValue, _py, attr_text
 
 __all__ = [
     "SIDES",
@@ -153,8 +153,8 @@ def open_bilateral(
 
 def missing_of(attrs: Mapping[str, object]) -> dict[str, str]:
     """``{side: why}`` of a bilateral file's root attributes (``missing``, ``missing_<side>``)."""
-    sides = _text(attrs.get("missing", "")).split()
-    return {s: _text(attrs.get(f"missing_{s}", "")) for s in sides if s in SIDES}
+    sides = attr_text(attrs.get("missing", "")).split()
+    return {s: attr_text(attrs.get(f"missing_{s}", "")) for s in sides if s in SIDES}
 
 
 def missing_lines(path: str | os.PathLike[str], missing: dict[str, str]) -> list[str]:
@@ -173,8 +173,6 @@ def missing_legs(path: str | os.PathLike[str]) -> list[str]:
         return []
 
 
-def _text(x: object) -> str:
-    return x.decode("utf-8", "replace") if isinstance(x, bytes) else str(x)
 
 
 def pick_side_message(path: str | os.PathLike[str]) -> str:

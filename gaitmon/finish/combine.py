@@ -31,6 +31,7 @@ from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _short_error
 from gaitmon.io.session.header import DamagedSource, SessionError
 from gaitmon.io.session.layout import FORMAT, FORMAT_VERSION
 from gaitmon.io.session.parts import PROBE_ERRORS, SIDE_NAMES, SIDES, damaged_path, parts_of
+from gaitmon.io.session.series import attr_text
 
 SYNC_METHOD = (
     "host receive time against the unit's /timeline/t_s: one lower-envelope line per window "
@@ -44,8 +45,6 @@ SEGMENT_DTYPE = np.dtype([
 Progress = Callable[[float], bool | None] | None
 
 
-def _s(x: object) -> str:
-    return x.decode("utf-8", "replace") if isinstance(x, bytes) else str(x)
 
 
 def _ready(part: Path, progress: Progress) -> None:
@@ -90,9 +89,9 @@ def _part_info(part: Path) -> tuple[dict[str, Any], ClockFit]:
             info = {
                 "complete": bool(a.get("complete", False)),
                 "recovered": bool(a.get("recovered", False)),
-                "created": _s(a.get("created_utc", "")),
+                "created": attr_text(a.get("created_utc", "")),
                 "fs": float(a["sample_rate_hz"]),
-                "mode": _s(a.get("mode", "")),
+                "mode": attr_text(a.get("mode", "")),
                 "first": float(t[0]) if n else np.nan,
                 "last": float(t[-1]) if n else np.nan,
                 "serial": f["device"].attrs.get("serial", ""),

@@ -59,6 +59,7 @@ from gaitmon.io.session.rows import (
     _Timeline,
     stored_pipeline_rows,
 )
+from gaitmon.io.session.series import attr_text
 from gaitmon.text import clean_label
 from gaitmon.values import JsonValue, scalar
 
@@ -157,7 +158,7 @@ def _with_identity(path: Path, header: dict[str, Any]) -> dict[str, Any]:
             attrs = f["session"].attrs
             for k in IDENTITY_FIELDS:
                 v = attrs.get(k, "")
-                session[k] = v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+                session[k] = attr_text(v)
     except Exception:  # any damage (h5py raises many kinds): recover the data without them
         session["notes"] = IDENTITY_LOST
     return {k: v for k, v in header.items() if k != IDENTITY_IN_FILE} | {"session": session}

@@ -36,6 +36,7 @@ from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.chunk_write import RowWriter
 from gaitmon.io.session.layout import CHUNK_ROWS
 from gaitmon.io.session.rows import losses_from_gaps, lost_before_from_gaps
+from gaitmon.io.session.series import attr_text
 
 if TYPE_CHECKING:  # (the overview's builder comes from the caller)
     from gaitmon.io.session.stored_overview import OverviewBuilder
@@ -464,13 +465,11 @@ def _rows(f: h5py.File) -> int:
 
 def _changes(f: h5py.File) -> list[tuple[int, Calibration]]:
     return [
-        (int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
+        (int(r["sample_idx"]), Calibration.from_dict(json.loads(attr_text(r["json"]))))
         for r in f["calibration/changes"][()]
     ]
 
 
-def _text(x: object) -> str:
-    return x.decode("utf-8") if isinstance(x, bytes) else str(x)
 
 
 def smoothed_from_file(

@@ -42,6 +42,7 @@ from gaitmon.dsp.stride_flags import StrideMeasures
 from gaitmon.dsp.stride_method import METHOD
 from gaitmon.io.session.codec import COMPRESSION
 from gaitmon.io.session.layout import stored_datasets
+from gaitmon.io.session.series import attr_text
 
 log = logging.getLogger("gaitmon.session")
 
@@ -164,7 +165,7 @@ def read_stored(f: h5py.File, inputs: StrideInputs, hs: np.ndarray) -> StrideMea
         return None
     try:
         stamp = g.attrs.get("computed_from", "")
-        if (stamp.decode() if isinstance(stamp, bytes) else str(stamp)) != inputs.stamp():
+        if attr_text(stamp) != inputs.stamp():
             return None
         stored_hs = np.asarray(g["heel_strike_idx"][()], dtype=np.int64)
         if not np.array_equal(stored_hs, hs):
@@ -217,8 +218,6 @@ def write_strides(f: h5py.File, inputs: StrideInputs, hs: np.ndarray, m: StrideM
     describe(f)
 
 
-def _text(x: object) -> str:
-    return x.decode("utf-8") if isinstance(x, bytes) else str(x)
 
 
 def store_strides(
@@ -232,13 +231,13 @@ def store_strides(
     raises as any write of the close does. ``keep_valid`` (``gaitmon process``, whose copy
     holds the recording's own): measures stored from the same inputs and heel strikes (their
     ``computed_from`` stamp, :func:`read_stored`) are kept, not computed again."""
-    if _text(f.attrs.get("mode", "")) != "raw" or "raw/adc" not in f:
+    if attr_text(f.attrs.get("mode", "")) != "raw" or "raw/adc" not in f:
         return
     try:
         # the rows every per-sample dataset has: what the reader will call the record
         version = int(f.attrs.get("format_version", 1))
         n = min(f[p].shape[0] for p in stored_datasets("raw", version))
-        changes = [(int(r["sample_idx"]), Calibration.from_dict(json.loads(_text(r["json"]))))
+        changes = [(int(r["sample_idx"]), Calibration.from_dict(json.loads(attr_text(r["json"]))))
                    for r in f["calibration/changes"][()]]  # fmt: skip
         from gaitmon.io.session.rows import losses_from_gaps
 

@@ -41,6 +41,7 @@ from gaitmon.dsp.channel_table import FSR_SENSORS, JOINT_TABLE, SEGMENTS
 from gaitmon.dsp.gait import PHASE_NAMES
 from gaitmon.dsp.stride_flags import FLAG_REASONS
 from gaitmon.io.session.codec import CENTIDEG, JOINT_OF, RESOLUTION, derived
+from gaitmon.io.session.series import attr_text
 
 JOINTS = tuple(f"{j.name}_{j.motion}" for j in JOINT_TABLE)  # hip_flexion, ...
 _ROW_INDEX = "row index (0-based) into the per-sample datasets"
@@ -247,7 +248,7 @@ def describe(root: h5py.Group) -> None:
     adc_columns: tuple[str, ...] = ()
     if "device/channels" in root:
         names = root["device/channels"].fields("name")[()] if len(root["device/channels"]) else []
-        adc_columns = tuple(n.decode() if isinstance(n, bytes) else str(n) for n in names)
+        adc_columns = tuple(attr_text(n) for n in names)
     for path in SPECS:
         obj = root.get(path)
         if isinstance(obj, h5py.Dataset):

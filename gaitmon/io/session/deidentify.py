@@ -35,6 +35,7 @@ from gaitmon.io.deidentify import (
     scrub_free_text,
 )
 from gaitmon.io.session.layout import _STR
+from gaitmon.io.session.series import attr_text
 
 # texts that may hold an identifying value: (dataset, field, typed by a person?), and root
 # attributes gaitmon composed (they may quote a file name)
@@ -44,15 +45,13 @@ _ROOT_TEXTS: tuple[str, ...] = ("stop_reason",)
 WALL_OFFSET_ATTR = "wall_offset_s"
 
 
-def _text(value: object) -> str:
-    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
 
 
 def secrets_of(f: h5py.File) -> list[str]:
     """The identifying values of a session (longest first, so one containing another goes
     whole)."""
     attrs = f["session"].attrs if "session" in f else {}
-    values = {_text(attrs.get(k, "")).strip() for k in IDENTIFYING_FIELDS}
+    values = {attr_text(attrs.get(k, "")).strip() for k in IDENTIFYING_FIELDS}
     return sorted((v for v in values if v), key=len, reverse=True)
 
 
@@ -63,7 +62,7 @@ def _clean_in_place(f: h5py.File) -> None:
             del f.attrs[key]
     for key in _ROOT_TEXTS:
         if key in f.attrs:
-            f.attrs[key] = scrub_file_names(_text(f.attrs[key]), secrets)
+            f.attrs[key] = scrub_file_names(attr_text(f.attrs[key]), secrets)
     if "session" in f:
         for key in IDENTIFYING_FIELDS:
             f["session"].attrs.create(key, "", dtype=_STR)
@@ -82,7 +81,7 @@ def _clean_in_place(f: h5py.File) -> None:
         if path not in f or f[path].shape == (0,):
             continue
         rows = f[path][...]
-        texts = [_text(t) for t in rows[field]]
+        texts = [attr_text(t) for t in rows[field]]
         scrub = scrub_free_text if typed else scrub_file_names
         cleaned = [scrub(t, secrets) for t in texts]
         if cleaned != texts:

@@ -20,7 +20,7 @@ from gaitmon.io.session.header import SessionError
 from gaitmon.io.session.layout import READER_CHUNK_CACHE_BYTES
 from gaitmon.io.session.parts import SIDE_NAMES
 from gaitmon.io.session.reader import StoredSession
-from gaitmon.io.session.series import _s
+from gaitmon.io.session.series import attr_text
 from gaitmon.io.session.trust import check_file
 
 S = TypeVar("S", bound=StoredSession)
@@ -93,7 +93,7 @@ def unit_session_of(path: Path, f: h5py.File, side: str, cls: type[S]) -> S:
         if not bool(f.attrs.get("bilateral", False)):
             raise SessionError(f"{path.name} holds one unit, not both legs; open it without a side")
         if f"units/{side}" not in f:
-            sides = [s for s in str(_s(f.attrs.get("sides", ""))).split() if s in SIDE_NAMES]
+            sides = [s for s in str(attr_text(f.attrs.get("sides", ""))).split() if s in SIDE_NAMES]
             raise SessionError(
                 f"{path.name} has no {SIDE_NAMES[side]} leg (it has "
                 f"{' and '.join(SIDE_NAMES[s] for s in sides) or 'none'})"

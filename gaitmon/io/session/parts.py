@@ -17,6 +17,7 @@ import h5py
 from gaitmon.errors import DAMAGE_ERRORS
 from gaitmon.io.journal_files import JOURNAL_SUFFIX, journal_path
 from gaitmon.io.session.header import SessionError
+from gaitmon.io.session.series import attr_text
 from gaitmon.io.session.trust import check_file
 
 SIDES = ("L", "R")
@@ -76,8 +77,7 @@ def sides_of(path: str | os.PathLike[str]) -> tuple[str, ...]:
             check_file(Path(path), f)
             if not bool(f.attrs.get("bilateral", False)):
                 return ()
-            sides = f.attrs.get("sides", "")
-            text = sides.decode() if isinstance(sides, bytes) else str(sides)
+            text = attr_text(f.attrs.get("sides", ""))
             return tuple(s for s in text.split() if s in SIDES and f"units/{s}" in f)
     except PROBE_ERRORS:
         return ()

@@ -49,8 +49,8 @@ from gaitmon.io.session.series import (
     _check_per_sample,
     _event_rows,
     _py,
-    _s,
     _sample_rate,
+    attr_text,
 )
 from gaitmon.io.session.trust import checked_counts, full_scale_of
 from gaitmon.text import clean_label
@@ -72,7 +72,7 @@ def _json(value: object) -> Any:
     """A change's settings, stored as JSON text (json imported only for a file with changes)."""
     import json
 
-    return json.loads(_s(value))
+    return json.loads(attr_text(value))
 
 
 _DECODE_ROWS = 1 << 18  # rows decoded at a time (64 chunks; ~4 MB of int16 tilts)
@@ -106,9 +106,9 @@ class StoredSession:
                 f"{name} is not a gaitmon session (no 'format' attribute); "
                 "pick a file recorded by gaitmon"
             )
-        if _s(a["format"]) != FORMAT:
+        if attr_text(a["format"]) != FORMAT:
             raise SessionError(
-                f"{name} is not a gaitmon session (format is {_s(a['format'])!r}); "
+                f"{name} is not a gaitmon session (format is {attr_text(a['format'])!r}); "
                 "pick a file recorded by gaitmon"
             )
         if bool(a.get("bilateral", False)) and not side:
@@ -133,7 +133,7 @@ class StoredSession:
         self.stop_reason = str(self.attrs.get("stop_reason", ""))
         self.software_version = str(self.attrs.get("software_version", ""))
 
-        sess = {k: _s(v) for k, v in f["session"].attrs.items()}
+        sess = {k: attr_text(v) for k, v in f["session"].attrs.items()}
         self.meta = SessionMeta(
             **{k: sess.get(k, "") for k in ("patient_id", "side", "operator", "notes")}
         )
@@ -163,20 +163,20 @@ class StoredSession:
         self.markers: list[Marker] = [
             # a label cleaned again: a file written before labels were cleaned at entry may
             # hold ANSI escapes or a megabyte of text
-            Marker(int(r["sample_idx"]), float(r["t_s"]), clean_label(_s(r["label"])))
+            Marker(int(r["sample_idx"]), float(r["t_s"]), clean_label(attr_text(r["label"])))
             for r in f["markers"][()]
         ]
         faults = f["events/fsr_faults"][()] if "events/fsr_faults" in f else []
         # force sensors the foot-gyro cross-check flagged, in rows (decided_idx: from there
         # on the events come from the foot gyro)
         self.fsr_faults: list[FsrFault] = [
-            FsrFault(_s(r["sensor"]), _s(r["reason"]), int(r["stride_start_idx"]),
+            FsrFault(attr_text(r["sensor"]), attr_text(r["reason"]), int(r["stride_start_idx"]),
                      int(r["sample_idx"]))
             for r in faults
         ]  # fmt: skip
         self.gaps: list[Gap] = [
             Gap(int(r["sample_idx"]), int(r["n_lost"]), float(r["duration_s"]),
-                clean_label(_s(r["reason"])))
+                clean_label(attr_text(r["reason"])))
             for r in f["gaps"][()]
         ]
         self.link: dict[str, int] = {k: int(v) for k, v in f["link"].attrs.items()}
@@ -184,7 +184,7 @@ class StoredSession:
             (int(r["sample_idx"]), int(r["count"])) for r in f["link/crc_failures"][()]
         ]
         proc = f["processed"].attrs
-        self.processed_source = _s(proc.get("source", ""))
+        self.processed_source = attr_text(proc.get("source", ""))
         self.reprocessed = bool(proc.get("reprocessed", False))
         self.wall_offset_s = float(f["timeline/host_time_s"].attrs.get("wall_offset_s", 0.0))
 
@@ -216,7 +216,7 @@ class StoredSession:
             self.problems.append("the recording was not stopped cleanly")
         # the angles every reader gets: the zero-lag smoother's (raw mode; stored in /smoothed,
         # or computed on first read), or the live filter's (see gaitmon.finish.smoothed)
-        self.live_angle_method = _s(proc.get("tilt_method", "")) or (
+        self.live_angle_method = attr_text(proc.get("tilt_method", "")) or (
             self.config.tilt_method_label if self.mode == "raw" else "the unit's own"
         )
         self.angle_sources: tuple[str, ...] = (
@@ -230,7 +230,7 @@ class StoredSession:
         sm = f.get("smoothed")
         # the stored method's name; a file without /smoothed: the finishing layer's
         self._smoothed_method = (
-            _s(sm.attrs.get("method", "")) if self.smoothed_stored and sm is not None else ""
+            attr_text(sm.attrs.get("method", "")) if self.smoothed_stored and sm is not None else ""
         )
 
     # -- access ----------------------------------------------------------------------------------

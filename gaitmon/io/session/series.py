@@ -82,11 +82,13 @@ class Gap(NamedTuple):
     reason: str
 
 
-def _s(x: object) -> str:
+def attr_text(x: object) -> str:
+    """An HDF5 string attribute or field as text, however h5py hands it over: str, bytes
+    (decoded as UTF-8, a damaged byte replaced rather than raised) or a 0-d array of either."""
     if isinstance(x, bytes):
         return x.decode("utf-8", errors="replace")
     if isinstance(x, np.ndarray) and x.shape == ():
-        return _s(x[()])
+        return attr_text(x[()])
     return str(x)
 
 

@@ -34,7 +34,7 @@ from gaitmon.io.session.codec import (
     joints_from_stored_tilts,
     quantise,
 )
-from gaitmon.io.session.series import _s
+from gaitmon.io.session.series import attr_text
 
 BASE_STEP = 16  # rows per bin (gaitmon.io.overview.BASE_STEP)
 _READ_ROWS = 1 << 16  # rows per read while building (a whole number of bins)
@@ -52,7 +52,7 @@ def _key(path: str) -> str:
 
 
 def _mode(f: h5py.File) -> str:
-    return _s(f.attrs.get("mode", ""))  # (a bytes attribute decoded, not "b'raw'")
+    return attr_text(f.attrs.get("mode", ""))  # (a bytes attribute decoded, not "b'raw'")
 
 
 def _version(f: h5py.File) -> int:
