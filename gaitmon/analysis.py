@@ -27,6 +27,7 @@ from gaitmon.dsp.gait import (
     GaitSummary,
     Stride,
     gait_summary,
+    mean_sd,
     normalise_strides,
     strides_from_events,
 )
@@ -161,10 +162,7 @@ class SpatialSummary:
 
 
 def _mean_sd_cv(v: np.ndarray) -> tuple[float, float, float]:
-    if len(v) == 0:
-        return (float("nan"),) * 3
-    mean = float(v.mean())
-    sd = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
+    mean, sd, _ = mean_sd(v)
     return mean, sd, 100.0 * sd / mean
 
 

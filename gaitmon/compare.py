@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gaitmon.dsp.channel_table import JOINTS as TABLE_JOINTS
+from gaitmon.dsp.gait import mean_sd
 from gaitmon.errors import Cancelled, UserError
 from gaitmon.text import count, no_gait_events, num, side_text
 
@@ -260,11 +261,7 @@ class Comparison:
 
 
 def _stat(values: Sequence[float] | np.ndarray) -> Value:
-    v = np.asarray(values, dtype=np.float64).reshape(-1)
-    v = v[np.isfinite(v)]
-    n = len(v)
-    return Value(float(v.mean()) if n else math.nan, float(v.std(ddof=1)) if n > 1 else math.nan,
-                 n)  # fmt: skip
+    return Value(*mean_sd(values))
 
 
 def parse_utc(created_utc: str) -> _dt.datetime | None:
@@ -310,10 +307,10 @@ def session_values(an: SessionAnalysis, cyc: np.ndarray) -> dict[str, Value]:
         "swing_pct": Value(s.swing_pct_mean, _stat([r.stride.swing_pct for r in inc]).sd, n),
         "stance_time": _stat([r.stride.stance_time_s for r in inc]),
         "swing_time": _stat([r.stride.swing_time_s for r in inc]),
-        # from the foot IMU; NaN (a dash) for a session without raw counts
-        "stride_length": _stat([r.stride_length_m for r in inc]),
-        "speed": _stat([r.speed_m_s for r in inc]),
-        # the figures of gaitmon.analysis.spatial_summary, in cm (as info, review and report)
+        # the figures of gaitmon.analysis.spatial_summary (as info, review and report): from
+        # the foot IMU, NaN (a dash) for a session without raw counts; clearance in cm
+        "stride_length": Value(sp.stride_length_mean_m, sp.stride_length_sd_m, sp.n_strides),
+        "speed": Value(sp.speed_mean_m_s, sp.speed_sd_m_s, sp.n_strides),
         "foot_clearance": Value(sp.foot_clearance_mean_m * 100.0,
                                 sp.foot_clearance_sd_m * 100.0, sp.foot_clearance_n),
         "knee_peak_swing": _stat([r.knee_peak_swing_deg for r in inc]),

@@ -40,7 +40,7 @@ from gaitmon.analysis import (
     summary,
 )
 from gaitmon.dsp.channel_table import JOINT_TABLE, JOINTS, SEGMENTS
-from gaitmon.dsp.gait import cycle_mean_sd
+from gaitmon.dsp.gait import cycle_mean_sd, mean_sd
 from gaitmon.finish import Session, open_session
 from gaitmon.finish.bilateral import Bilateral, open_bilateral
 from gaitmon.io.session import ANGLE_CONVENTION, Exclusion
@@ -84,13 +84,8 @@ def _recorded(created_utc: str) -> str:
     return t.astimezone(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
 
 
-def _stat(name: str, values: Sequence[float]) -> JointStat:
-    v = np.asarray(values, dtype=np.float64).reshape(-1)
-    v = v[np.isfinite(v)]
-    n = len(v)
-    mean = float(v.mean()) if n else float("nan")
-    sd = float(v.std(ddof=1)) if n > 1 else float("nan")
-    return JointStat(name, mean, sd, n)
+def _stat(name: str, values: Sequence[float] | np.ndarray) -> JointStat:
+    return JointStat(name, *mean_sd(values))
 
 
 def _tilt_method(session: Session) -> str:

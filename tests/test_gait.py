@@ -422,3 +422,21 @@ def test_contact_edges_from_unit_contacts_by_hand_and_in_chunks():
     parts = [edges.process(heel[a:b], toe[a:b], 100 + a) for a, b in bounds]
     np.testing.assert_array_equal(np.concatenate([p[0] for p in parts]), hs)
     np.testing.assert_array_equal(np.concatenate([p[1] for p in parts]), to)
+
+
+def test_mean_sd_is_the_standard_librarys_over_the_finite_values() -> None:
+    import math
+    import statistics
+
+    from gaitmon.dsp.gait import mean_sd
+
+    v = [1.25, float("nan"), 0.5, 2.0, float("inf"), 1.0]
+    finite = [x for x in v if math.isfinite(x)]
+    m, sd, n = mean_sd(v)
+    assert n == 4
+    assert m == pytest.approx(statistics.fmean(finite), rel=1e-15)
+    assert sd == pytest.approx(statistics.stdev(finite), rel=1e-14)  # sample SD (n - 1)
+    m1, sd1, n1 = mean_sd([3.5, float("nan")])
+    assert (m1, n1) == (3.5, 1) and math.isnan(sd1)  # no SD from one value
+    m0, sd0, n0 = mean_sd([])
+    assert n0 == 0 and math.isnan(m0) and math.isnan(sd0)

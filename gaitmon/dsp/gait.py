@@ -506,6 +506,17 @@ def cycle_mean_sd(cycles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return mean, sd
 
 
+def mean_sd(values: Sequence[float] | np.ndarray) -> tuple[float, float, int]:
+    """(mean, sample SD (ddof=1), n) of the finite values: every per-stride "mean ± SD" in
+    gaitmon (info, review, report, compare, exports) is taken here. NaN mean with none, NaN SD
+    with one, without warnings."""
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    v = v[np.isfinite(v)]
+    n = len(v)
+    return (float(v.mean()) if n else float("nan"), float(v.std(ddof=1)) if n > 1 else float("nan"),
+            n)  # fmt: skip
+
+
 # --------------------------------------------------------------------------------------------
 # summary
 
@@ -529,9 +540,7 @@ def gait_summary(strides: Sequence[Stride]) -> GaitSummary:
     if n == 0:
         nan = float("nan")
         return GaitSummary(0, nan, nan, nan, nan, nan, nan)
-    t = np.array([s.stride_time_s for s in strides])
-    mean_t = float(t.mean())
-    sd_t = float(t.std(ddof=1)) if n > 1 else float("nan")
+    mean_t, sd_t, _ = mean_sd([s.stride_time_s for s in strides])
     return GaitSummary(
         n_strides=n,
         stride_time_mean_s=mean_t,
