@@ -57,7 +57,11 @@ TIMEOUT_FLOOR_S = 300.0
 # that time. (The order within a module is kept: its module fixtures are made once.)
 # test_ui_first_connect.py waits 20-90 s for numba's background cache filler (at a lower
 # priority, it gets the CPU last): near the end of the collection, it was the run's last test.
-RUN_FIRST = ("test_walkthrough.py", "test_ui_first_connect.py")
+# The other modules holding a test of 30 s or more (--durations: a cache filled from empty, the
+# loops built ahead of time, an hour of pacing, two units recorded) follow them.
+RUN_FIRST = ("test_walkthrough.py", "test_ui_first_connect.py", "test_kernels.py",
+             "test_kernel_aot.py", "test_sim_unit.py", "test_engine.py",
+             "test_bilateral_record.py")  # fmt: skip
 
 
 def pytest_collection_modifyitems(items):
