@@ -8,6 +8,7 @@ exactly as before.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import h5py
@@ -240,3 +241,111 @@ def test_bilateral_record_options_are_checked(
     err = capsys.readouterr().err.strip()
     assert words in err and err.count("\n") == 0
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+# ---- a fit bent by late receive times ---------------------------------------------------------
+
+
+def _true_common_s(f: h5py.File, side: str) -> np.ndarray:
+    """The simulator's common time of each row of that leg (its crystal clock: the truth)."""
+    from gaitmon.io.sim.bilateral import DEFAULT_LEFT, DEFAULT_RIGHT
+
+    clock = (DEFAULT_LEFT if side == "L" else DEFAULT_RIGHT).clock
+    n = f[f"units/{side}/truth/sample_idx"][()].astype(np.float64)
+    return np.asarray([clock.common_time_s(k, 100.0) for k in n])
+
+
+def _parts_with_late_rows(both: Path, target: Path, side: str, shift_s: float = 0.0) -> None:
+    """``both``'s legs as the parts of ``target``, with receive times made from the truth (each
+    row's common time at 4x real time, plus a link's usual few ms) rather than this machine's
+    load; ``side``'s late by 50 ms to 0.3 s (growing) from its second second on: a host that
+    fell behind that unit's link. ``shift_s``: the right unit's rows taken that many common
+    seconds later (it started later)."""
+    from gaitmon.finish.bilateral import part_path
+
+    rng = np.random.default_rng(5)
+    with h5py.File(both, "r") as f:
+        for s in ("L", "R"):
+            with h5py.File(part_path(target, s), "w") as g:
+                u = f[f"units/{s}"]
+                g.attrs.update(dict(u.attrs))
+                for name in u:
+                    f.copy(u[name], g, name=name)
+                t = g["timeline/t_s"][()]
+                usual = np.where(rng.random(len(t)) < 0.3, 0.0, rng.exponential(0.004, len(t)))
+                host = 500.0 + (_true_common_s(f, s) + (shift_s if s == "R" else 0.0)) / 4.0
+                host += usual
+                if s == side:
+                    host += np.where(t > 1.0, 0.05 + 0.25 * (t - 1.0) / (t[-1] - 1.0), 0.0)
+                g["timeline/host_time_s"][...] = host
+
+
+def test_a_fit_bent_by_late_rows_takes_the_other_legs_rate_and_says_so(
+    both: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A loaded host (`--speed 12`) read one unit's link late for most of a recording: the lower
+    # envelope of its receive times then ran from its prompt first second to the late end,
+    # a clock 20 % slow against the other's; its leg stretched on the common time line by up
+    # to a second and the bilateral measures were wrong with no word said (SI 19 % between
+    # equal stride times)
+    from gaitmon.finish.combine import combine_parts
+
+    out = tmp_path / "late.h5"
+    _parts_with_late_rows(both, out, "R")
+    combine_parts(out)
+    with open_bilateral(out) as b, h5py.File(out, "r") as f:
+        # the right leg's data was late: it is the one refitted, at the left leg's rate
+        assert b.sync["R"].mean_slope == pytest.approx(b.sync["L"].mean_slope, rel=1e-12)
+        assert "right unit's data arrived late" in b.clock_warning
+        assert f["sync"].attrs["warning"] == b.clock_warning
+        err = {}
+        for s in ("L", "R"):
+            t = b.unit(s).read("timeline/t_s")
+            err[s] = np.asarray(b.common_s(s, t)) - _true_common_s(f, s)
+        # both legs on the simulator's common time line (one offset for both, as the line's 0
+        # is the first sample): within 2 ms of the truth (the old fit: 0.1 to 0.8 s off)
+        off = np.median(err["L"])
+        assert np.abs(err["L"] - off).max() < 2e-3
+        assert np.abs(err["R"] - off).max() < 2e-3
+    assert main(["info", str(out)]) == 0
+    assert "  warning      the units' clock fits disagreed by" in capsys.readouterr().out
+
+
+def test_two_units_clocks_disagree_by_their_crystals_only() -> None:
+    from gaitmon.dsp.clock_fit import MAX_PAIR_PPM, pair_disagreement_ppm
+
+    xl, hl = _stamps(100 * 120, 100.0, 1.0 / (1.0 + 37e-6), 10.0, seed=3)
+    xr, hr = _stamps(100 * 120, 100.0, 1.0 / (1.0 - 22e-6), 10.3, seed=4)
+    ppm = pair_disagreement_ppm(fit_clock(xl, hl), fit_clock(xr, hr))
+    assert ppm == pytest.approx(59.0, abs=5.0)  # the left unit runs 37 + 22 ppm faster
+    assert abs(ppm) < MAX_PAIR_PPM
+
+
+def test_info_says_when_the_legs_were_recorded_together_briefly(
+    both: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Each unit's recording starts as its unit is started, one after the other, and holds
+    # --duration of its own clock: at --speed 12 on a loaded machine the right leg started
+    # 6-18 s after the left of 12 s, and info printed blank step and support cells unexplained
+    from gaitmon.finish.combine import combine_parts
+
+    out = tmp_path / "apart.h5"
+    _parts_with_late_rows(both, out, "", shift_s=8.0)
+    combine_parts(out)
+    with open_bilateral(out) as b, h5py.File(out, "r") as f:
+        assert b.clock_warning == ""
+        truth = {s: _true_common_s(f, s) for s in ("L", "R")}
+        together = min(truth["L"][-1], truth["R"][-1] + 8.0) - max(truth["L"][0],
+                                                                  truth["R"][0] + 8.0)
+        assert b.together_s() == pytest.approx(together, abs=2e-3)
+        late = truth["R"][0] + 8.0 - truth["L"][0]
+        assert b.span_s("R")[0] - b.span_s("L")[0] == pytest.approx(late, abs=2e-3)
+    assert 0.0 < together < 5.0
+    assert main(["info", str(out)]) == 0
+    text = capsys.readouterr().out
+    got = re.search(r"  together     both legs recorded together for ([\d.]+) s only: the right "
+                    r"unit's recording started ([\d.]+) s after the left unit's", text)
+    assert got is not None, text
+    # info's 1 decimal: half its last digit, plus the 2 ms above
+    assert float(got[1]) == pytest.approx(together, abs=0.05 + 2e-3)
+    assert float(got[2]) == pytest.approx(late, abs=0.05 + 2e-3)

@@ -28,6 +28,11 @@ import numpy as np
 MIN_FIT_SPAN_S = 1.0
 WINDOW_S = 60.0  # offline: one segment per this much of the unit's clock
 CONTEXT = 1  # ... fitted over its window and this many windows either side (3 minutes)
+# Two units' crystals differ by tens of ppm (a real unit's is within +-50 ppm); two fits of one
+# session that differ by more were bent by receive times late for much of the recording
+# (a host that fell behind the link: a busy machine, a simulator many times faster than real
+# time): :func:`pair_disagreement_ppm`, ``finish.combine``
+MAX_PAIR_PPM = 1000.0
 _BIN = 8  # points per bin of which only the quickest can be on the envelope (long fits)
 
 
@@ -165,13 +170,15 @@ class ClockFit:
 
 
 def fit_clock(
-    x_s: np.ndarray, host_s: np.ndarray, *, window_s: float = WINDOW_S, context: int = CONTEXT
+    x_s: np.ndarray, host_s: np.ndarray, *, window_s: float = WINDOW_S, context: int = CONTEXT,
+    slope_s_per_s: float | None = None,
 ) -> ClockFit:
     """Fit host receive times ``host_s`` against the unit's clock ``x_s`` (seconds, ascending):
     one segment per ``window_s`` of the unit's clock (the last window takes up a remainder
     shorter than half a window), each the lower-envelope line of its window and ``context``
     windows either side (its centre is the window's: the fit is best there), used over its own
-    window. Points whose host time is not finite are skipped."""
+    window. Points whose host time is not finite are skipped. ``slope_s_per_s``: every
+    segment's slope (host s per unit s, e.g. the other leg's rate), only the offsets fitted."""
     x = np.asarray(x_s, np.float64)
     h = np.asarray(host_s, np.float64)
     ok = np.isfinite(x) & np.isfinite(h)
@@ -186,13 +193,16 @@ def fit_clock(
     x0, x1, a0, sl = [], [], [], []
     resid = []
     slope = float((h[-1] - h[0]) / (x[-1] - x[0])) if x[-1] > x[0] else 1.0
+    min_span = MIN_FIT_SPAN_S
+    if slope_s_per_s is not None:
+        slope, min_span = float(slope_s_per_s), math.inf
     for w in range(n_win):
         own = slice(cut[w], cut[w + 1])
         if cut[w + 1] <= cut[w]:
             continue
         near = slice(cut[max(0, w - context)], cut[min(n_win, w + 1 + context)])
         ref_x, ref_h = float(x[own][0]), float(h[own][0])
-        a, b = envelope_line(x[near] - ref_x, h[near] - ref_h, slope, MIN_FIT_SPAN_S)
+        a, b = envelope_line(x[near] - ref_x, h[near] - ref_h, slope, min_span)
         x0.append(ref_x)
         x1.append(float(x[own][-1]))
         a0.append(ref_h + a)
@@ -203,3 +213,9 @@ def fit_clock(
         np.array(x0), np.array(x1), np.array(a0), np.array(sl),
         float(np.median(r)), float(np.percentile(r, 95)),
     )  # fmt: skip
+
+
+def pair_disagreement_ppm(a: ClockFit, b: ClockFit) -> float:
+    """How much faster ``a``'s unit runs than ``b``'s by their fits, in ppm (two units of one
+    session: tens of ppm; beyond :data:`MAX_PAIR_PPM` a fit is bent)."""
+    return (b.mean_slope / a.mean_slope - 1.0) * 1e6

@@ -76,6 +76,8 @@ class Bilateral:
     host_t0_s: float
     host_s_per_common_s: float
     attrs: dict[str, AttrValue]  # the file's root attributes
+    # why the clock fits may be off ("" if they agreed: ``finish.combine._agreed``)
+    clock_warning: str = ""
 
     @property
     def sides(self) -> tuple[str, ...]:
@@ -89,6 +91,23 @@ class Bilateral:
     def common_s(self, side: str, unit_s: np.ndarray | float) -> np.ndarray:
         host = self.sync[side].host_at(unit_s)
         return np.asarray((host - self.host_t0_s) / self.host_s_per_common_s)
+
+    def span_s(self, side: str) -> tuple[float, float]:
+        """(first, last) row of that leg on the common time line (NaN for a leg of no rows)."""
+        u = self.unit(side)
+        n = u.n_samples
+        if not n:
+            return float("nan"), float("nan")
+        t = [u.read_range(i, i + 1, ["timeline/t_s"])["timeline/t_s"][0] for i in (0, n - 1)]
+        first, last = self.common_s(side, np.asarray(t, np.float64))
+        return float(first), float(last)
+
+    def together_s(self) -> float:
+        """Seconds of the common time line that every leg recorded (<= 0: none; one leg: its
+        own). The units' recordings start one after the other (each as its unit is started)
+        and each holds its own duration, so they are offset by that start's delay."""
+        spans = [self.span_s(s) for s in self.sides]
+        return min(b for _, b in spans) - max(a for a, _ in spans)
 
     @property
     def missing(self) -> dict[str, str]:
@@ -130,6 +149,7 @@ def open_bilateral(
         sync = {s: _read_fit(f[f"sync/{s}"]) for s in sides}
         t0 = float(f["sync"].attrs["host_t0_s"])
         scale = float(f["sync"].attrs["host_s_per_common_s"])
+        warning = attr_text(f["sync"].attrs.get("warning", ""))
         attrs = {k: _py(v) for k, v in f.attrs.items()}
     except SessionError:
         raise
@@ -148,7 +168,7 @@ def open_bilateral(
             with contextlib.suppress(Exception):
                 u.close()
         raise
-    return Bilateral(path, units, sync, t0, scale, attrs)
+    return Bilateral(path, units, sync, t0, scale, attrs, warning)
 
 
 def missing_of(attrs: Mapping[str, object]) -> dict[str, str]:

@@ -24,7 +24,13 @@ import h5py
 import numpy as np
 
 from gaitmon import __version__
-from gaitmon.dsp.clock_fit import WINDOW_S, ClockFit, fit_clock
+from gaitmon.dsp.clock_fit import (
+    MAX_PAIR_PPM,
+    WINDOW_S,
+    ClockFit,
+    fit_clock,
+    pair_disagreement_ppm,
+)
 from gaitmon.io.journal_files import journal_path
 from gaitmon.io.session.attributes import describe
 from gaitmon.io.session.h5file import _being_recorded, _fsync_path, _short_error
@@ -76,16 +82,23 @@ def _touch(_name: str, obj: Any) -> None:
     dict(obj.attrs)
 
 
+def _stamps(f: h5py.File) -> tuple[np.ndarray, np.ndarray]:
+    """A part's (unit time, host receive time) of each row it holds."""
+    a = f.attrs
+    t = f["timeline/t_s"]
+    h = f["timeline/host_time_s"]
+    n = min(t.shape[0], h.shape[0])
+    if a.get("complete", False) or a.get("recovered", False):
+        n = min(n, int(a.get("n_samples", n)))
+    return t[:n], h[:n]
+
+
 def _part_info(part: Path) -> tuple[dict[str, Any], ClockFit]:
     try:
         with h5py.File(part, "r") as f:
             a = f.attrs
-            t = f["timeline/t_s"]
-            h = f["timeline/host_time_s"]
-            n = min(t.shape[0], h.shape[0])
-            if a.get("complete", False) or a.get("recovered", False):
-                n = min(n, int(a.get("n_samples", n)))
-            t, h = t[:n], h[:n]
+            t, h = _stamps(f)
+            n = len(t)
             info = {
                 "complete": bool(a.get("complete", False)),
                 "recovered": bool(a.get("recovered", False)),
@@ -104,6 +117,34 @@ def _part_info(part: Path) -> tuple[dict[str, Any], ClockFit]:
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as e:
         raise DamagedSource(f"{part.name} is damaged ({_short_error(e)})") from e
     return info, fit_clock(t, h)
+
+
+def _agreed(parts: dict[str, Path], fits: dict[str, ClockFit]) -> str:
+    """Two fits that disagree beyond two crystals (``MAX_PAIR_PPM``) were bent by receive
+    times late for much of the recording (a host that fell behind): the leg whose times sat
+    further above its line (median) is fitted again at the other's rate, only its offsets
+    from its data. ``fits`` is changed in place; the warning the file keeps ("" if none)."""
+    if len(fits) != 2 or not all(len(f.x0_s) for f in fits.values()):
+        return ""
+    (sa, fa), (sb, fb) = fits.items()
+    ppm = pair_disagreement_ppm(fa, fb)
+    if not abs(ppm) > MAX_PAIR_PPM:
+        return ""
+    bad, good = (sa, sb) if fa.residual_p50_ms > fb.residual_p50_ms else (sb, sa)
+    late = fits[bad].residual_p50_ms
+    try:
+        with h5py.File(parts[bad], "r") as f:
+            t, h = _stamps(f)
+        fits[bad] = fit_clock(t, h, slope_s_per_s=fits[good].mean_slope)
+    except (OSError, RuntimeError, ValueError, KeyError, TypeError) as e:  # read a moment ago
+        raise SessionError(f"cannot read {parts[bad].name} ({_short_error(e)})") from e
+    return (
+        f"the units' clock fits disagreed by {abs(ppm):.0f} ppm (two units differ by less than "
+        f"{MAX_PAIR_PPM:.0f}): the {SIDE_NAMES[bad]} unit's data arrived late for much of the "
+        f"recording (median {late:.0f} ms above its line), so its clock runs at the "
+        f"{SIDE_NAMES[good]} unit's rate, only its offset fitted; the legs' relative timing "
+        "may be off by the late data's delay"
+    )
 
 
 def _usable(
@@ -165,6 +206,7 @@ def combine_parts(path: str | os.PathLike[str], progress: Progress = None) -> Pa
     if not parts:
         raise SessionError(f"{path.name} has no recorded parts to combine")
     info, fits, missing = _usable(path, parts, progress)
+    clock_warning = _agreed(parts, fits)
     usable = {side: fit for side, fit in fits.items() if len(fit.x0_s)}
     if usable:
         # common time 0: the first sample of the unit that started first; its seconds are the
@@ -206,6 +248,7 @@ def combine_parts(path: str | os.PathLike[str], progress: Progress = None) -> Pa
             sync.attrs["host_s_per_common_s"] = scale
             sync.attrs["window_s"] = WINDOW_S
             sync.attrs["method"] = SYNC_METHOD
+            sync.attrs["warning"] = clock_warning  # "" when the fits agree (_agreed)
             for side, fit in fits.items():
                 seg = np.zeros(len(fit.x0_s), SEGMENT_DTYPE)
                 seg["unit_start_s"], seg["unit_stop_s"] = fit.x0_s, fit.x1_s
