@@ -171,3 +171,33 @@ def test_a_bilateral_file_opens_one_side_at_a_time(tmp_path: Path) -> None:
         assert s.meta.side == "L" and s.device["serial"] == 1001 and s.n_samples > 1000
     with open_session(out, side="R") as s:
         assert s.meta.side == "R" and s.device["serial"] == 1002
+
+
+def test_both_parts_cover_the_same_time_when_one_unit_connects_slowly(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`gaitmon record` of two units starts both recordings once both stream: the right unit
+    here takes 1.5 s to connect (a Bluetooth unit takes seconds). Each part holds --duration
+    of its own rows, so when each started as its unit came up, the right part began and
+    ended 3 s of the units' clocks (1.5 s at 2x) after the left one."""
+    from gaitmon.cli import main
+    from gaitmon.io.transport import InProcessTransport
+
+    connect = InProcessTransport.open
+
+    def slow_right(self: InProcessTransport) -> None:
+        if self.name == "simulated R" and self._connections == 0:
+            time.sleep(1.5)
+        connect(self)
+
+    monkeypatch.setattr(InProcessTransport, "open", slow_right)
+    out = tmp_path / "both.h5"
+    assert main(["record", "--simulate-bilateral", "--duration", "6", "--speed", "2", "-q",
+                 "-o", str(out)]) == 0  # fmt: skip
+    with open_bilateral(out) as b:
+        (l0, l1), (r0, r1) = b.span_s("L"), b.span_s("R")
+        together = b.together_s()
+    # on the common time line (the clock fits): the two parts start and end together, within
+    # the time the second part's file takes to open (old code: 3.0 s apart)
+    assert abs(r0 - l0) < 0.75 and abs(r1 - l1) < 0.75, (l0, l1, r0, r1)
+    assert together > 6.0 - 0.75 - 0.05

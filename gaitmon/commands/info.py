@@ -307,7 +307,8 @@ def _units_header_lines(b: Bilateral, interrupted: bool) -> list[str]:
 
 def _together_lines(b: Bilateral) -> list[str]:
     """A line when the legs were recorded together for much less than each leg holds (the
-    second unit's recording started late; at a simulator's --speed F, F times its delay): the
+    second unit's recording started late, e.g. a file of a version that started each part as its
+    unit connected; at a simulator's --speed F, F times its delay): the
     measures of both legs come from that stretch alone."""
     from gaitmon.io.session.parts import SIDE_NAMES
 

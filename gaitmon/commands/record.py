@@ -195,8 +195,11 @@ def _record(
     # crash during start-up lost everything received until the file existed: seconds on a
     # loaded machine). With --zero the units stream first (zeroing needs data), and the
     # recording starts after it, with each unit's calibration in its header; with
-    # --lsl-control once the start word arrives.
-    later = args.zero or control is not None
+    # --lsl-control once the start word arrives. Two units stream first too, and both
+    # recordings start once both stream: the units connect one after the other (a Bluetooth
+    # unit takes seconds), and each part holds --duration from its own first row, so parts
+    # started as each unit came up covered times that differed by the second unit's connect.
+    later = args.zero or control is not None or group.in_parts
     outlets: dict[str, LslOutlets] = {}
     opener = record_lsl.outlet_opener(args, meta, outlets) if args.lsl else None
 

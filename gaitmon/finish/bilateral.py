@@ -104,8 +104,8 @@ class Bilateral:
 
     def together_s(self) -> float:
         """Seconds of the common time line that every leg recorded (<= 0: none; one leg: its
-        own). The units' recordings start one after the other (each as its unit is started)
-        and each holds its own duration, so they are offset by that start's delay."""
+        own). Each part holds its own duration from its own first row; `gaitmon record` starts
+        both once both units stream, so they are offset by one file's opening."""
         spans = [self.span_s(s) for s in self.sides]
         return min(b for _, b in spans) - max(a for a, _ in spans)
 
