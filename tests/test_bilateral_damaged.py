@@ -43,14 +43,18 @@ def killed(tmp_path_factory: pytest.TempPathFactory) -> Path:
          "600", "--speed", "4", "-o", str(out), "-q"],
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
+    # killed once each journal holds ~2,000 rows (48 bytes a raw row; the tests want more than
+    # 500 recovered on each leg): waiting for the parts' size and then a second held only the
+    # first flush's 500 rows on a loaded machine
+    def journal_bytes(side: str) -> int:
+        j = journal_path(part_path(out, side))
+        return j.stat().st_size if j.exists() else 0
+
     try:
-        deadline = time.monotonic() + 60.0
-        while not all(
-            part_path(out, s).exists() and part_path(out, s).stat().st_size > 50_000 for s in "LR"
-        ):
+        deadline = time.monotonic() + 120.0
+        while not all(journal_bytes(s) > 100_000 for s in "LR"):
             assert proc.poll() is None and time.monotonic() < deadline
             time.sleep(0.1)
-        time.sleep(1.0)
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait(10)
