@@ -157,3 +157,51 @@ def killed_recording(folder: Path) -> Path:
     shutil.copyfile(killed, src)
     shutil.copyfile(journal_path(killed), journal_path(src))
     return src
+
+
+# ---- two-leg files whose clock fits disagree (a host that read one link late) ------------------
+
+TWO_LEGS = Path(__file__).resolve().parent / "data" / "golden" / "two_legs.h5"  # kept, real
+
+
+def parts_with_late_rows(
+    both: Path, target: Path, side: str, shift_s: float = 0.0,
+    common_s: Callable[[h5py.File, str], np.ndarray] | None = None,
+) -> None:
+    """``both``'s legs as the parts of ``target``, with receive times made from each row's
+    common time (``common_s(f, side)``; default: the unit's own clock ``t_s``) at 4x real time,
+    plus a link's usual few ms, rather than this machine's load; ``side``'s late by 50 ms to 0.3
+    s (growing) from its second second on: a host that fell behind that unit's link (its clock
+    fit is bent by far more than two crystals differ). ``shift_s``: the right unit's rows taken
+    that many common seconds later (it started later)."""
+    from gaitmon.finish.bilateral import part_path
+
+    rng = np.random.default_rng(5)
+    with h5py.File(both, "r") as f:
+        for s in ("L", "R"):
+            with h5py.File(part_path(target, s), "w") as g:
+                u = f[f"units/{s}"]
+                g.attrs.update(dict(u.attrs))
+                for name in u:
+                    f.copy(u[name], g, name=name)
+                t = g["timeline/t_s"][()]
+                usual = np.where(rng.random(len(t)) < 0.3, 0.0, rng.exponential(0.004, len(t)))
+                common = t if common_s is None else common_s(f, s)
+                host = 500.0 + (common + (shift_s if s == "R" else 0.0)) / 4.0
+                host += usual
+                if s == side:
+                    host += np.where(t > 1.0, 0.05 + 0.25 * (t - 1.0) / (t[-1] - 1.0), 0.0)
+                g["timeline/host_time_s"][...] = host
+
+
+def two_legs_with_caveat(folder: Path, late_side: str = "R", shift_s: float = 0.0) -> Path:
+    """The kept two-leg recording (``TWO_LEGS``) combined again from parts with late receive
+    times (:func:`parts_with_late_rows`): with ``late_side`` its clock fits disagree and the
+    file's ``/sync`` warning says so; with ``late_side=""`` and ``shift_s`` seconds the legs
+    were recorded together briefly."""
+    from gaitmon.finish.combine import combine_parts
+
+    out = folder / ("late.h5" if late_side else "apart.h5")
+    parts_with_late_rows(TWO_LEGS, out, late_side, shift_s)
+    combine_parts(out)
+    return out

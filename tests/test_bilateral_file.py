@@ -14,6 +14,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from helpers import parts_with_late_rows
 
 from gaitmon.cli import main
 from gaitmon.dsp.clock_fit import envelope_line, fit_clock
@@ -259,28 +260,9 @@ def _true_common_s(f: h5py.File, side: str) -> np.ndarray:
 
 
 def _parts_with_late_rows(both: Path, target: Path, side: str, shift_s: float = 0.0) -> None:
-    """``both``'s legs as the parts of ``target``, with receive times made from the truth (each
-    row's common time at 4x real time, plus a link's usual few ms) rather than this machine's
-    load; ``side``'s late by 50 ms to 0.3 s (growing) from its second second on: a host that
-    fell behind that unit's link. ``shift_s``: the right unit's rows taken that many common
-    seconds later (it started later)."""
-    from gaitmon.finish.bilateral import part_path
-
-    rng = np.random.default_rng(5)
-    with h5py.File(both, "r") as f:
-        for s in ("L", "R"):
-            with h5py.File(part_path(target, s), "w") as g:
-                u = f[f"units/{s}"]
-                g.attrs.update(dict(u.attrs))
-                for name in u:
-                    f.copy(u[name], g, name=name)
-                t = g["timeline/t_s"][()]
-                usual = np.where(rng.random(len(t)) < 0.3, 0.0, rng.exponential(0.004, len(t)))
-                host = 500.0 + (_true_common_s(f, s) + (shift_s if s == "R" else 0.0)) / 4.0
-                host += usual
-                if s == side:
-                    host += np.where(t > 1.0, 0.05 + 0.25 * (t - 1.0) / (t[-1] - 1.0), 0.0)
-                g["timeline/host_time_s"][...] = host
+    """``helpers.parts_with_late_rows`` with receive times made from the truth (each row's
+    simulated common time)."""
+    parts_with_late_rows(both, target, side, shift_s, _true_common_s)
 
 
 def test_a_fit_bent_by_late_rows_takes_the_other_legs_rate_and_says_so(

@@ -299,33 +299,9 @@ def _units_header_lines(b: Bilateral, interrupted: bool) -> list[str]:
         f"({count(len(b.sync[b.sides[0]].x0_s), 'segment')}); receive delay above the fit, "
         f"p95: {delay} ms"
     )
-    if b.clock_warning:
-        lines.append(f"  warning      {b.clock_warning}")
-    lines += _together_lines(b)
+    # the clock fits' warning and a brief time together (one wording: finish.bilateral.caveats)
+    lines += [f"  {c.key:<12s} {c.text}" for c in b.caveats()]
     return lines
-
-
-def _together_lines(b: Bilateral) -> list[str]:
-    """A line when the legs were recorded together for much less than each leg holds (the
-    second unit's recording started late, e.g. a file of a version that started each part as its
-    unit connected; at a simulator's --speed F, F times its delay): the
-    measures of both legs come from that stretch alone."""
-    from gaitmon.io.session.parts import SIDE_NAMES
-
-    if len(b.sides) != 2:
-        return []
-    spans = {s: b.span_s(s) for s in b.sides}
-    together = b.together_s()
-    shorter = min(last - first for first, last in spans.values())
-    if not together < 0.9 * shorter:  # (NaN: a leg of no rows says so elsewhere)
-        return []
-    early, late = sorted(b.sides, key=lambda s: spans[s][0])
-    return [
-        f"  together     both legs recorded together for {max(together, 0.0):.1f} s only: the "
-        f"{SIDE_NAMES[late]} unit's recording started "
-        f"{spans[late][0] - spans[early][0]:.1f} s after the {SIDE_NAMES[early]} unit's; the "
-        "measures of both legs come from that stretch"
-    ]
 
 
 def _both_legs_lines(an: BilateralAnalysis, missing: Iterable[str] = ()) -> list[str]:

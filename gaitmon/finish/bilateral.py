@@ -39,9 +39,16 @@ from gaitmon.io.session.parts import (
 )
 from gaitmon.io.session.series import AttrValue, _py, attr_text
 
+# under this share of the shorter leg, the legs were recorded together "briefly": said wherever
+# the two-leg measures are shown (:func:`caveats`)
+TOGETHER_SHARE = 0.9
+
 __all__ = [
     "SIDES",
+    "TOGETHER_SHARE",
     "Bilateral",
+    "Caveat",
+    "caveats",
     "combine_parts",
     "is_bilateral",
     "missing_legs",
@@ -109,6 +116,10 @@ class Bilateral:
         spans = [self.span_s(s) for s in self.sides]
         return min(b for _, b in spans) - max(a for a, _ in spans)
 
+    def caveats(self) -> tuple[Caveat, ...]:
+        """What a reader of this session's two-leg measures must be told (:func:`caveats`)."""
+        return caveats(self)
+
     @property
     def missing(self) -> dict[str, str]:
         """The legs missing from the file (a part that could not be recovered), and why."""
@@ -131,6 +142,49 @@ class Bilateral:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+@dataclass(frozen=True)
+class Caveat:
+    """Something a reader of a two-leg session's measures must be told, said the same way by
+    ``gaitmon info`` (a line labelled ``key``), the report and review (``sentence``) and the
+    exports' metadata (``key``'s fields)."""
+
+    key: str  # "warning" (the clock fits disagreed) | "together" (recorded together briefly)
+    text: str  # info's wording: lower case, no full stop
+    together_s: float = float("nan")  # "together": seconds both legs were recorded together
+
+    @property
+    def sentence(self) -> str:
+        """``text`` as a sentence (capital first letter, full stop)."""
+        return self.text[:1].upper() + self.text[1:] + "."
+
+
+def caveats(b: Bilateral) -> tuple[Caveat, ...]:
+    """The one place that decides and words what may make a two-leg session's relative timing
+    or its measures misleading: the clock fits' warning (``/sync``'s, ``finish.combine.
+    _agreed``), then, when both legs were recorded together for less than
+    :data:`TOGETHER_SHARE` of the shorter leg (the second unit's recording started late, e.g. a
+    file of a version that started each part as its unit connected; at a simulator's --speed F,
+    F times its delay), how long and how late: the measures of both legs come from that
+    stretch alone. Empty when there is nothing to say."""
+    out = [Caveat("warning", b.clock_warning)] if b.clock_warning else []
+    if len(b.sides) != 2:
+        return tuple(out)
+    spans = {s: b.span_s(s) for s in b.sides}
+    together = b.together_s()
+    shorter = min(last - first for first, last in spans.values())
+    if together < TOGETHER_SHARE * shorter:  # (NaN: a leg of no rows says so elsewhere)
+        early, late = sorted(b.sides, key=lambda s: spans[s][0])
+        out.append(Caveat(
+            "together",
+            f"both legs recorded together for {max(together, 0.0):.1f} s only: the "
+            f"{SIDE_NAMES[late]} unit's recording started "
+            f"{spans[late][0] - spans[early][0]:.1f} s after the {SIDE_NAMES[early]} unit's; "
+            "the measures of both legs come from that stretch",
+            max(together, 0.0),
+        ))  # fmt: skip
+    return tuple(out)
 
 
 def open_bilateral(
