@@ -419,6 +419,7 @@ def gather_bilateral_report(
         generated_utc="" if deidentify else now.strftime("%Y-%m-%d %H:%M UTC"),
         notes=() if counted["L"] and counted["R"] else
         ("Too few strides on both legs to compare: the symmetry table is empty.",),
+        caveats=tuple(c.sentence for c in b.caveats()),
     )
 
 

@@ -207,6 +207,9 @@ class BilateralReportData:
     generated_utc: str = ""
     software: str = f"gaitmon {__version__}"
     notes: tuple[str, ...] = field(default=())
+    # what may make the two-leg measures misleading, as sentences: the clock fits' warning, a
+    # brief time together (``gaitmon.finish.bilateral.caveats``, as ``gaitmon info`` says it)
+    caveats: tuple[str, ...] = field(default=())
 
     @property
     def left(self) -> ReportData:

@@ -86,6 +86,7 @@ STYLES = {
                     RIGHT_INK, "R toe off"),
 }  # fmt: skip
 INKS = {"L": LEFT_INK, "R": RIGHT_INK}
+CAUTION = QColor("#a4261b")  # the caveats over the symmetry table (dark red: not a side's hue)
 
 
 def paint_bilateral_report(
@@ -101,7 +102,8 @@ def paint_bilateral_report(
     painter.fillRect(p.rect(0, 0, PAGE_W_MM, PAGE_H_MM), QColor("#ffffff"))
     y = title(p, data.software, data.generated_utc, "both legs")
     y = header_grid(p, _header_cells(data), y)
-    y = _cycle_plots(p, data, y)
+    # the caveats over the symmetry table take their room from the plots: page 1 keeps its end
+    y = _cycle_plots(p, data, y, sum(_caveat_h(p, c) for c in data.caveats))
     y = _symmetry(p, data, y)
     y = _legs(p, data, y)
     left, right = data.left, data.right
@@ -152,7 +154,16 @@ def _swatch(p: Page, x: float, y: float, colour: QColor, band: QColor) -> None:
     p.hline(x, x + 8.0, y, colour, 0.45)
 
 
-def _cycle_plots(p: Page, data: BilateralReportData, y: float) -> float:
+def _caution(c: str) -> str:
+    return f"Caution: {c}"
+
+
+def _caveat_h(p: Page, c: str) -> float:
+    return p.wrapped_height(WIDTH_MM, _caution(c), 7.5, bold=True) + 0.8
+
+
+def _cycle_plots(p: Page, data: BilateralReportData, y: float, shorter_mm: float = 0.0) -> float:
+    """The plots, ``shorter_mm`` less tall than usual (to make room below them)."""
     y = p.section(LEFT_MM, y, WIDTH_MM, "Joint kinematics over the gait cycle, left and right")
     nl, nr = data.curves[0].n, data.curves[1].n
     sub = (f"Mean ± 1 SD of each leg's included strides (left {nl}, right {nr}), up to "
@@ -173,7 +184,7 @@ def _cycle_plots(p: Page, data: BilateralReportData, y: float) -> float:
     y += 5.0
     gap = 5.0
     pw = (WIDTH_MM - 2 * gap) / 3
-    ph = 62.0 if data.normative is None else 58.0
+    ph = (62.0 if data.normative is None else 58.0) - shorter_mm
     sets = [(c, STYLES[s]) for s, c in zip(("L", "R"), data.curves, strict=True)]
     for j in range(3):
         draw_cycles(p, sets, data.normative, j, LEFT_MM + j * (pw + gap), y, pw, ph,
@@ -189,6 +200,9 @@ def _cycle_plots(p: Page, data: BilateralReportData, y: float) -> float:
 
 def _symmetry(p: Page, data: BilateralReportData, y: float) -> float:
     y = p.section(LEFT_MM, y, WIDTH_MM, "Steps, support and symmetry (both legs)")
+    for c in data.caveats:  # what may make these figures misleading, before them
+        p.wrapped(LEFT_MM, y, WIDTH_MM, _caution(c), 7.5, bold=True, colour=CAUTION)
+        y += _caveat_h(p, c)
     widths = (46.0, 20.0, 20.0, 20.0, 20.0, 28.0, WIDTH_MM - 154.0)
     rows = [line.cells() for line in data.symmetry]
     y = table(p, LEFT_MM, y, widths, TABLE_HEADER, rows)
