@@ -93,6 +93,9 @@ class BothLegs:
     # as a line, to show the other leg at the same moment (its wander is well under a ms)
     clock: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
     cycles: dict[str, SideCycles] = field(default_factory=dict)  # by side
+    # what may make these measures misleading, as sentences (the clock fits' warning, a brief
+    # time together: ``gaitmon.finish.bilateral.caveats``, as info and the report say them)
+    caveats: tuple[str, ...] = ()
 
     @property
     def n_strides(self) -> dict[str, int]:
@@ -179,4 +182,4 @@ def both_legs(
                 clock[s] = (float(ends[0]), float(ends[1]), float(c[0]), float(c[1]))
         an = analyse_bilateral(b, exclusions=given)
         cycles = {s: side_cycles(b.unit(s), a, angles) for s, a in an.sides.items()}
-        return BothLegs(path, an, clock, cycles)
+        return BothLegs(path, an, clock, cycles, tuple(c.sentence for c in b.caveats()))

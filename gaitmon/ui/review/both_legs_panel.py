@@ -13,11 +13,14 @@ from __future__ import annotations
 
 import html
 
-from PySide6.QtCore import Qt
+from PySide6.QtCore import QSize, Qt
+from PySide6.QtGui import QResizeEvent
 from PySide6.QtWidgets import (
     QAbstractItemView,
+    QFrame,
     QHeaderView,
     QLabel,
+    QScrollArea,
     QSplitter,
     QTableWidget,
     QTableWidgetItem,
@@ -91,20 +94,58 @@ def _fit_rows(t: QTableWidget) -> None:
     t.setVerticalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
 
 
+class _WrappedLine(QLabel):
+    """A word-wrapped label at least as tall as its lines at its width, which does not ask its
+    layout for height-for-width: a scroll area gives such a layout its preferred height (here
+    twice the room there was, and a scroll bar), not the room there is; and a layout that
+    knows its labels' heights does not squeeze them over the table."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.setWordWrap(True)
+        self.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        self._fit()
+
+    def resizeEvent(self, event: QResizeEvent) -> None:
+        super().resizeEvent(event)
+        self._fit()
+
+    def setText(self, text: str) -> None:
+        super().setText(text)
+        self._fit()
+
+    def sizeHint(self) -> QSize:  # as tall as its lines (QLabel's: as at a narrow width)
+        return QSize(super().sizeHint().width(), self.minimumHeight())
+
+    def _fit(self) -> None:
+        policy = self.sizePolicy()  # (QLabel sets height-for-width again with each text)
+        if policy.hasHeightForWidth():
+            policy.setHeightForWidth(False)
+            self.setSizePolicy(policy)
+        h = self.heightForWidth(self.width()) if self.text() else 0
+        if h != self.minimumHeight():
+            self.setMinimumHeight(h)
+
+
 class BothLegsPanel(QWidget):
     """The tab's widgets; :meth:`set_result` fills them, :meth:`show_message` says why not."""
 
     def __init__(self, colours: Colours | None = None, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.result: BothLegs | None = None
-        self.headline = QLabel()
-        self.headline.setWordWrap(True)
+        colours = colours or current_colours()
+        # what may make the figures misleading (BothLegs.caveats), above them all, the tab's
+        # width (fewer lines); hidden if none
+        self.caveats = _WrappedLine()
+        self.caveats.setStyleSheet(f"color: {colours.alert}; font-weight: bold")
+        self.caveats.setVisible(False)
+        self.headline = _WrappedLine()
         self.headline.setTextFormat(Qt.TextFormat.RichText)
         self.table = _table(COLUMNS, TIPS)
-        self.note = QLabel(NOTE)
-        self.note.setWordWrap(True)
+        self.note = _WrappedLine()
+        self.note.setText(NOTE)
         self.note.setStyleSheet("color: gray")
-        self.cycles = BothLegsCycles(colours or current_colours())
+        self.cycles = BothLegsCycles(colours)
         self.cycles.setMinimumWidth(240)
         measures = QWidget()
         v = QVBoxLayout(measures)
@@ -119,14 +160,26 @@ class BothLegsPanel(QWidget):
         self.splitter.setStretchFactor(0, 0)
         self.splitter.setStretchFactor(1, 1)
         self.splitter.setChildrenCollapsible(False)
+        inner = QWidget()
+        v = QVBoxLayout(inner)
+        v.setContentsMargins(2, 2, 2, 2)
+        v.addWidget(self.caveats)
+        v.addWidget(self.splitter, 1)
+        # when the tab is lower than its content (the caveats' lines, a small window) it
+        # scrolls: squeezed, the note was drawn over the table's last rows
+        self.area = QScrollArea()
+        self.area.setWidgetResizable(True)
+        self.area.setFrameShape(QFrame.Shape.NoFrame)
+        self.area.setWidget(inner)
         outer = QVBoxLayout(self)
-        outer.setContentsMargins(2, 2, 2, 2)
-        outer.addWidget(self.splitter)
+        outer.setContentsMargins(0, 0, 0, 0)
+        outer.addWidget(self.area)
         self.show_message("")
 
     def show_message(self, text: str) -> None:
         """No figures: empty tables and ``text`` (computing, a failure, a one-unit file)."""
         self.result = None
+        self._show_caveats(())
         self.headline.setText(html.escape(text))
         _fill(self.table, [])
         self.cycles.clear_data()
@@ -140,7 +193,9 @@ class BothLegsPanel(QWidget):
                 f"right {n['R']})."
             )
             self.result = both
+            self._show_caveats(both.caveats)
             return
+        self._show_caveats(both.caveats)
         user = both.excluded_by_user()
         excluded = ", ".join(f"{'left' if s == 'L' else 'right'} {k}"
                              for s, k in user.items() if k)  # fmt: skip
@@ -157,6 +212,10 @@ class BothLegsPanel(QWidget):
         _fit_columns(self.table)
         _fit_rows(self.table)
         self.cycles.set_cycles(both.cycles)
+
+    def _show_caveats(self, caveats: tuple[str, ...]) -> None:
+        self.caveats.setText("\n".join(f"Caution: {c}" for c in caveats))
+        self.caveats.setVisible(bool(caveats))
 
     def cell(self, measure: str, column: str) -> str:
         """The text shown for ``measure`` (e.g. "step time") in ``column`` (e.g. "SR (L/R)")."""

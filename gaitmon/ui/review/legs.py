@@ -153,6 +153,7 @@ class LegsControl(QObject):
         # the cycles are of the angles shown: switched, they are computed again
         doc.events.angles.connect(lambda _e: self.exclusions_changed(doc))
         self.panel.show_message("Computing both legs' measures…")
+        self._mark_tab()
         carry, self._carry = self._carry, None
         if carry is not None and carry[0] == doc.path:
             self.timeline.set_view(*carry[2])
@@ -199,7 +200,15 @@ class LegsControl(QObject):
                                     f"{one_line(response.error)}")  # fmt: skip
         else:
             self.panel.set_result(response.result())
+        self._mark_tab()
         self.computed.emit()
+
+    def _mark_tab(self) -> None:
+        """The tab says there is a caution inside (the Strides tab may be the one in view)."""
+        caveats = self.panel.result.caveats if self.panel.result is not None else ()
+        index = self.tabs.indexOf(self.panel)
+        self.tabs.setTabText(index, "Both legs (caution)" if caveats else "Both legs")
+        self.tabs.setTabToolTip(index, "\n".join(caveats))
 
     def drop(self) -> None:
         """Before the document closes: no answer for it is wanted any more."""
