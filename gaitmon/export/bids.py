@@ -116,7 +116,7 @@ def _events_tsv(evs: list[Event]) -> str:
 def export_bids(job: ExportRequest) -> ExportResult:
     """One recording with two tracking systems on the common grid."""
     from gaitmon.export.grid import grid_of, on_grid
-    from gaitmon.export.legs import analysed, leg_sources, meta_header
+    from gaitmon.export.legs import analysed, leg_sources, meta_header, problems_of
     from gaitmon.export.writers.bids import (
         EVENTS_JSON,
         TSV_CHUNK_FRAMES,
@@ -187,7 +187,7 @@ def export_bids(job: ExportRequest) -> ExportResult:
                            or p.name in ("participants.tsv", "README", ".bidsignore"))
         written = write_atomic(job, finals, write, folders, shared)
         n = sum(src.n for src in srcs.values())
-        problems = tuple(dict.fromkeys(p for src in srcs.values() for p in src.problems))
+        problems = problems_of(b, (p for src in srcs.values() for p in src.problems))
         mode = srcs["L"].mode
     step(job.progress, job.cancel, 1.0)
     return ExportResult(tuple(written), n, mode, problems)

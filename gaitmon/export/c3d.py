@@ -12,6 +12,7 @@ them), at their exact common times (``analyse_bilateral``'s); clinician markers 
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -74,7 +75,7 @@ def events(an_hs: dict[str, np.ndarray], an_to: dict[str, np.ndarray], grid: Com
 
 def _part_spec(job: ExportRequest, grid: CommonGrid, srcs: dict[str, Source],
                part: tuple[int, int], part_no: int, n_parts: int, evs: list[Event],
-               scrub: Scrubber) -> C3dSpec:
+               scrub: Scrubber, caveats: tuple[str, ...] = ()) -> C3dSpec:
     import numpy as np
 
     from gaitmon.export.grid import on_grid
@@ -116,6 +117,9 @@ def _part_spec(job: ExportRequest, grid: CommonGrid, srcs: dict[str, Source],
                 (part_no, n_parts, t0))
     c.add_parameter("GAITMON", "TIME_LINE", "common: frame 1 at PART_START_S; each unit "
                     "resampled linearly by its clock fit (docs/bilateral.md)")
+    if caveats:  # what may make the legs' relative timing misleading (Bilateral.caveats)
+        c.add_parameter("GAITMON", "CAUTION", [ln for s in caveats for ln in textwrap.wrap(s, 80)],
+                        "may make the two legs' figures misleading (docs/bilateral.md)")
     return c
 
 
@@ -124,7 +128,7 @@ def export_c3d(job: ExportRequest) -> ExportResult:
     import numpy as np
 
     from gaitmon.export.grid import grid_of
-    from gaitmon.export.legs import analysed, leg_sources
+    from gaitmon.export.legs import analysed, leg_sources, problems_of
     from gaitmon.export.writers.c3d import part_frames, split_parts, write_c3d_parts
     from gaitmon.export.writers.outputs import c3d_part_path
     from gaitmon.io.deidentify import Scrubber
@@ -138,16 +142,18 @@ def export_c3d(job: ExportRequest) -> ExportResult:
         finals = ([job.out] if len(parts) == 1
                   else [c3d_part_path(job.out, k + 1) for k in range(len(parts))])
 
+        caveats = tuple(c.sentence for c in b.caveats())
+
         def specs() -> Iterator[C3dSpec]:
             for k, part in enumerate(parts):
-                yield _part_spec(job, grid, srcs, part, k, len(parts), evs, scrub)
+                yield _part_spec(job, grid, srcs, part, k, len(parts), evs, scrub, caveats)
 
         def write(tmps: list[Path]) -> None:
             write_c3d_parts(specs(), tmps, job.progress, job.cancel)
 
         written = write_atomic(job, finals, write)
         n = sum(src.n for src in srcs.values())
-        problems = tuple(dict.fromkeys(p for src in srcs.values() for p in src.problems))
+        problems = problems_of(b, (p for src in srcs.values() for p in src.problems))
         mode = srcs["L"].mode
     step(job.progress, job.cancel, 1.0)
     return ExportResult(tuple(written), n, mode, problems)

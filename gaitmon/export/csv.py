@@ -50,7 +50,7 @@ def table_paths(request: ExportRequest) -> list[Path]:
 
 def export_legs_and_tables(request: ExportRequest) -> ExportResult:
     """Each leg as its one-unit export, then the two-leg tables (csv and strides)."""
-    from gaitmon.export.legs import analysed, meta_header
+    from gaitmon.export.legs import analysed, meta_header, problems_of
     from gaitmon.export.tables import (
         HEEL_STRIKE_COLUMNS,
         SYMMETRY_COLUMNS,
@@ -90,6 +90,7 @@ def export_legs_and_tables(request: ExportRequest) -> ExportResult:
                     f.write("\n")
 
             written = write_atomic(request, tables, write)
+            problems = problems_of(b, (p for r in results for p in r.problems))
     except BaseException:
         for r in results:  # the legs already in place: not without the tables
             for p in r.paths:
@@ -100,7 +101,7 @@ def export_legs_and_tables(request: ExportRequest) -> ExportResult:
     return ExportResult(
         tuple(p for r in results for p in r.paths) + tuple(written),
         sum(r.n_samples for r in results), results[0].mode,
-        tuple(dict.fromkeys(p for r in results for p in r.problems)),
+        problems,
         None if any(r.n_strides is None for r in results) else sum(
             r.n_strides or 0 for r in results),
     )

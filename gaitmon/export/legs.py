@@ -12,6 +12,8 @@ from gaitmon.export.base import ExportRequest
 from gaitmon.export.writers.errors import ExportError
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable
+
     from gaitmon.analysis import BilateralAnalysis
     from gaitmon.export.tables import BilateralTables
     from gaitmon.export.writers.source import Source
@@ -60,7 +62,7 @@ def meta_header(job: ExportRequest, b: Bilateral) -> JsonObject:
     head = export_header_fields(f"bilateral-{job.fmt}", job.deidentify)
     if not job.deidentify:
         head["source_file"] = job.src_path.name
-    head["common_time"] = {
+    common: JsonObject = {
         "definition": "common_s = (host(side, t_s) - host_t0_s) / host_s_per_common_s: each "
                       "unit's clock fit (/sync) mapped onto one time line, 0 at the first "
                       "sample of the unit that started first (docs/bilateral.md)",
@@ -68,5 +70,28 @@ def meta_header(job: ExportRequest, b: Bilateral) -> JsonObject:
         "clock_ppm": {s: (b.host_s_per_common_s / b.sync[s].mean_slope - 1.0) * 1e6
                       for s in b.sides},
         "receive_delay_p95_ms": {s: b.sync[s].residual_p95_ms for s in b.sides},
+        **caveat_fields(b),
     }  # fmt: skip
+    head["common_time"] = common
     return head
+
+
+def caveat_fields(b: Bilateral) -> JsonObject:
+    """What may make the two-leg figures misleading (``Bilateral.caveats``: the sentences the
+    report and review show), as fields of ``common_time``; none when there is nothing to say
+    (so an ordinary session's metadata is as it was): ``clock_warning`` (the clock fits
+    disagreed), ``together_s`` and ``together`` (both legs recorded together briefly)."""
+    out: JsonObject = {}
+    for c in b.caveats():
+        if c.key == "warning":
+            out["clock_warning"] = c.sentence
+        else:
+            out["together_s"] = round(c.together_s, 3)
+            out["together"] = c.sentence
+    return out
+
+
+def problems_of(b: Bilateral, legs: Iterable[str]) -> tuple[str, ...]:
+    """The export's notes (``ExportResult.problems``: ``gaitmon export`` warns of each, the
+    export dialog shows them): the caveats' sentences, then the legs' own problems, once each."""
+    return tuple(dict.fromkeys([*(c.sentence for c in b.caveats()), *legs]))

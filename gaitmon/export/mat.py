@@ -104,7 +104,7 @@ def export_mat(job: ExportRequest) -> ExportResult:
     import numpy as np
     from scipy.io import savemat
 
-    from gaitmon.export.legs import analysed, leg_sources, meta_header
+    from gaitmon.export.legs import analysed, leg_sources, meta_header, problems_of
     from gaitmon.export.writers.mat import session_struct, write_struct
     from gaitmon.io.deidentify import Scrubber
 
@@ -137,6 +137,6 @@ def export_mat(job: ExportRequest) -> ExportResult:
         written = write_atomic(job, [job.out], write)
         n = sum(src.n for src in srcs.values())
         mode = srcs["L"].mode
-        problems = tuple(dict.fromkeys(p for src in srcs.values() for p in src.problems))
+        problems = problems_of(b, (p for src in srcs.values() for p in src.problems))
     step(job.progress, job.cancel, 1.0)
     return ExportResult(tuple(written), n, mode, problems)
