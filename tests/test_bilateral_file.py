@@ -17,7 +17,7 @@ import pytest
 from helpers import parts_with_late_rows
 
 from gaitmon.cli import main
-from gaitmon.dsp.clock_fit import envelope_line, fit_clock
+from gaitmon.dsp.clock_fit import ClockFit, envelope_line, fit_clock
 from gaitmon.engine.markers import RecentEnvelope
 from gaitmon.finish import open_session
 from gaitmon.finish.bilateral import open_bilateral, parts_of
@@ -334,3 +334,44 @@ def test_info_says_when_the_legs_were_recorded_together_briefly(
     # info's 1 decimal: half its last digit, plus the 2 ms above
     assert float(got[1]) == pytest.approx(together, abs=0.05 + 2e-3)
     assert float(got[2]) == pytest.approx(late, abs=0.05 + 2e-3)
+
+
+def test_a_unit_whose_rows_were_all_read_at_once_is_combined(tmp_path: Path) -> None:
+    """A unit's rows all stamped with one receive time (a short recording read in one burst
+    on a loaded machine): its end-to-end rate is 0, which was its fit's slope, and the combine
+    then divided by it (CI: "cannot write a.h5 (float division by zero)" from a 1-s
+    `record --simulate-bilateral`). Its fit now runs at the other leg's rate."""
+    from helpers import TWO_LEGS
+
+    from gaitmon.finish.bilateral import part_path
+    from gaitmon.finish.combine import combine_parts
+
+    out = tmp_path / "burst.h5"
+    parts_with_late_rows(TWO_LEGS, out, "")
+    with h5py.File(part_path(out, "L"), "r+") as g:
+        h = g["timeline/host_time_s"]
+        h[...] = np.full(h.shape, float(h[-1]))
+    x = np.arange(500) / 100.0
+    assert fit_clock(x, np.full(500, 7.0)).mean_slope > 0  # (old: 0.0)
+    combine_parts(out)
+    with open_bilateral(out) as b:
+        assert b.sync["L"].mean_slope == pytest.approx(b.sync["R"].mean_slope, rel=1e-12)
+        assert "left unit's data arrived late" in b.clock_warning
+
+
+def test_fits_shorter_than_10_s_are_not_judged_and_longer_ones_allow_for_the_reads() -> None:
+    """Two 1-s recordings at 1x, both links working, gave fits 2e5 ppm apart (their slopes are
+    their first reads'): such fits are not judged. Over longer spans the limit is two crystals
+    plus what 20 ms of read floor can tilt two fits over the host's span."""
+    from gaitmon.dsp.clock_fit import MAX_PAIR_PPM, READ_FLOOR_S, bent_pair_ppm
+
+    def fit(seconds: float, host_per_unit: float) -> ClockFit:
+        x, h = _stamps(round(100 * seconds), 100.0, host_per_unit, 10.0, seed=2)
+        return fit_clock(x, h)
+
+    assert np.isnan(bent_pair_ppm(fit(5.0, 1.0), fit(60.0, 1.0)))
+    assert bent_pair_ppm(fit(20.0, 1.0), fit(60.0, 1.0)) == pytest.approx(
+        MAX_PAIR_PPM + 4 * READ_FLOOR_S / 19.99 * 1e6, rel=1e-2)  # fmt: skip
+    # a simulator at 4x: 20 s of its clock is 5 s of the host's
+    assert bent_pair_ppm(fit(20.0, 0.25), fit(60.0, 0.25)) == pytest.approx(
+        MAX_PAIR_PPM + 4 * READ_FLOOR_S / (19.99 / 4) * 1e6, rel=1e-2)  # fmt: skip

@@ -33,6 +33,15 @@ CONTEXT = 1  # ... fitted over its window and this many windows either side (3 m
 # (a host that fell behind the link: a busy machine, a simulator many times faster than real
 # time): :func:`pair_disagreement_ppm`, ``finish.combine``
 MAX_PAIR_PPM = 1000.0
+# ... judged only on fits over this much of the unit's clock (too few strides for two-leg
+# measures below it): a shorter one's slope is set by its first reads, and a recording's start
+# is its slowest (the file opened, the reader catching up): two 1-s fits at 1x differed by
+# 2e5 ppm with both links working
+MIN_JUDGED_SPAN_S = 10.0
+# the quickest reads of a link sit up to this far above the true line at either end of a fit
+# (Bluetooth's bursts, a loaded host's scheduling): two fits over T s of the host's clock can
+# differ by 2 * 2 * this / T from it alone, which the limit adds (:func:`bent_pair_ppm`)
+READ_FLOOR_S = 0.02
 _BIN = 8  # points per bin of which only the quickest can be on the envelope (long fits)
 
 
@@ -161,6 +170,11 @@ class ClockFit:
         return np.asarray(self.host_s[i] + self.slope[i] * (x - self.x0_s[i]))
 
     @property
+    def span_s(self) -> float:
+        """Seconds of the unit's clock the fit covers (0 with no segment)."""
+        return float(self.x1_s[-1] - self.x0_s[0]) if len(self.x0_s) else 0.0
+
+    @property
     def mean_slope(self) -> float:
         """Host seconds per unit second over the whole fit (weighted by the segments' span)."""
         span = self.x1_s - self.x0_s
@@ -193,6 +207,8 @@ def fit_clock(
     x0, x1, a0, sl = [], [], [], []
     resid = []
     slope = float((h[-1] - h[0]) / (x[-1] - x[0])) if x[-1] > x[0] else 1.0
+    if not slope > 0:  # every row read at once (a short recording's one burst): no rate seen
+        slope = 1.0
     min_span = MIN_FIT_SPAN_S
     if slope_s_per_s is not None:
         slope, min_span = float(slope_s_per_s), math.inf
@@ -217,5 +233,20 @@ def fit_clock(
 
 def pair_disagreement_ppm(a: ClockFit, b: ClockFit) -> float:
     """How much faster ``a``'s unit runs than ``b``'s by their fits, in ppm (two units of one
-    session: tens of ppm; beyond :data:`MAX_PAIR_PPM` a fit is bent)."""
-    return (b.mean_slope / a.mean_slope - 1.0) * 1e6
+    session: tens of ppm; beyond :func:`bent_pair_ppm` a fit is bent). NaN if either has no
+    rate."""
+    sa, sb = a.mean_slope, b.mean_slope
+    if not (sa > 0 and sb > 0):  # (NaN: no segment)
+        return math.nan
+    return (sb / sa - 1.0) * 1e6
+
+
+def bent_pair_ppm(a: ClockFit, b: ClockFit) -> float:
+    """The disagreement (ppm) beyond which one of two units' fits is bent (NaN: too short to
+    judge, under :data:`MIN_JUDGED_SPAN_S` of a unit's clock): two crystals'
+    :data:`MAX_PAIR_PPM` plus what the reads' floor (:data:`READ_FLOOR_S`) can tilt two fits
+    over the shorter one's span of host time (a simulator at --speed F: 1/F of its own)."""
+    if not min(a.span_s, b.span_s) >= MIN_JUDGED_SPAN_S:
+        return math.nan
+    host_span = min(a.span_s * a.mean_slope, b.span_s * b.mean_slope)
+    return MAX_PAIR_PPM + 4.0 * READ_FLOOR_S / host_span * 1e6

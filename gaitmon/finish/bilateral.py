@@ -42,6 +42,9 @@ from gaitmon.io.session.series import AttrValue, _py, attr_text
 # under this share of the shorter leg, the legs were recorded together "briefly": said wherever
 # the two-leg measures are shown (:func:`caveats`)
 TOGETHER_SHARE = 0.9
+# ... and by more than about a stride apart: a 1-s recording's parts 0.2 s apart (one file's
+# opening, its crude 1-s clock fits) lose no stride
+TOGETHER_APART_S = 1.0
 
 __all__ = [
     "SIDES",
@@ -164,17 +167,19 @@ def caveats(b: Bilateral) -> tuple[Caveat, ...]:
     """The one place that decides and words what may make a two-leg session's relative timing
     or its measures misleading: the clock fits' warning (``/sync``'s, ``finish.combine.
     _agreed``), then, when both legs were recorded together for less than
-    :data:`TOGETHER_SHARE` of the shorter leg (the second unit's recording started late, e.g. a
-    file of a version that started each part as its unit connected; at a simulator's --speed F,
-    F times its delay), how long and how late: the measures of both legs come from that
-    stretch alone. Empty when there is nothing to say."""
+    :data:`TOGETHER_SHARE` of the shorter leg and more than :data:`TOGETHER_APART_S` short of
+    it (the second unit's recording started late, e.g. a file of a version that started each
+    part as its unit connected; at a simulator's --speed F, F times its delay), how long and
+    how late: the measures of both legs come from that stretch alone. Empty when there is
+    nothing to say."""
     out = [Caveat("warning", b.clock_warning)] if b.clock_warning else []
     if len(b.sides) != 2:
         return tuple(out)
     spans = {s: b.span_s(s) for s in b.sides}
     together = b.together_s()
     shorter = min(last - first for first, last in spans.values())
-    if together < TOGETHER_SHARE * shorter:  # (NaN: a leg of no rows says so elsewhere)
+    # (NaN: a leg of no rows says so elsewhere)
+    if together < TOGETHER_SHARE * shorter and shorter - together > TOGETHER_APART_S:
         early, late = sorted(b.sides, key=lambda s: spans[s][0])
         out.append(Caveat(
             "together",

@@ -28,6 +28,7 @@ from gaitmon.dsp.clock_fit import (
     MAX_PAIR_PPM,
     WINDOW_S,
     ClockFit,
+    bent_pair_ppm,
     fit_clock,
     pair_disagreement_ppm,
 )
@@ -120,7 +121,7 @@ def _part_info(part: Path) -> tuple[dict[str, Any], ClockFit]:
 
 
 def _agreed(parts: dict[str, Path], fits: dict[str, ClockFit]) -> str:
-    """Two fits that disagree beyond two crystals (``MAX_PAIR_PPM``) were bent by receive
+    """Two fits that disagree beyond two crystals (``bent_pair_ppm``) were bent by receive
     times late for much of the recording (a host that fell behind): the leg whose times sat
     further above its line (median) is fitted again at the other's rate, only its offsets
     from its data. ``fits`` is changed in place; the warning the file keeps ("" if none)."""
@@ -128,7 +129,7 @@ def _agreed(parts: dict[str, Path], fits: dict[str, ClockFit]) -> str:
         return ""
     (sa, fa), (sb, fb) = fits.items()
     ppm = pair_disagreement_ppm(fa, fb)
-    if not abs(ppm) > MAX_PAIR_PPM:
+    if not abs(ppm) > bent_pair_ppm(fa, fb):  # (NaN: too short to judge, or no rate)
         return ""
     bad, good = (sa, sb) if fa.residual_p50_ms > fb.residual_p50_ms else (sb, sa)
     late = fits[bad].residual_p50_ms
