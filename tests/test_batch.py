@@ -465,6 +465,18 @@ def test_a_both_legs_session_is_skipped_with_the_reason_not_called_damaged(study
     assert by_rel[src.name].status == OK
 
 
+def _workers(pid: int) -> set[int]:
+    """The batch's pool workers now (a child gone between the listing and the read is not)."""
+    out = set()
+    for c in _children(pid):
+        try:
+            if b"spawn_main" in Path(f"/proc/{c}/cmdline").read_bytes():
+                out.add(c)
+        except OSError:  # it ended a moment ago (CI: FileNotFoundError for /proc/PID/cmdline)
+            continue
+    return out
+
+
 def _children(pid: int) -> set[int]:
     out = set()
     for d in Path("/proc").iterdir():
@@ -511,8 +523,7 @@ def test_a_killed_batch_takes_its_workers_with_it(study, tmp_path):
         deadline = time.monotonic() + 120
         # wait until two workers run and one is writing (a .partial output exists)
         while time.monotonic() < deadline and proc.poll() is None:
-            workers = {c for c in _children(proc.pid)
-                       if b"spawn_main" in Path(f"/proc/{c}/cmdline").read_bytes()}
+            workers = _workers(proc.pid)
             if len(workers) >= 2 and list(out.rglob("*.partial")):
                 break
             time.sleep(0.01)
