@@ -60,6 +60,34 @@ def test_overview_reads_break_the_line_at_every_gap_at_every_zoom(max_points: in
     assert np.isnan(w.y[:, 0]).any()
 
 
+def test_a_short_series_envelope_is_its_rows() -> None:
+    """The whole-session strip of a 20-s walk: 2,000 rows on a 1,300-pixel strip are drawn as
+    they are, and 10,000 rows in bins of 8; from the pyramid's 16-row bins its knee was a
+    sawtooth. A long series still comes from the pyramid, reading no row."""
+    y = np.sin(np.arange(40_000) / 20.0).reshape(-1, 1)
+    reads: list[tuple[int, int]] = []
+
+    def read(_n: str, a: int, b: int) -> np.ndarray:
+        reads.append((a, b))
+        return y[a:b]
+
+    for n, step in [(2_000, 1), (10_000, 8)]:
+        ov = SessionOverview(read, n)
+        ov.pyramid("s")
+        w = ov.envelope("s", 2 * 1_300)
+        assert w.step == step and w.start == 0 and w.stop == n
+        if step == 1:
+            np.testing.assert_array_equal(w.y[:, 0], y[:n, 0])
+        else:  # min then max of each 8-row bin, by hand
+            bins = y[:n, 0].reshape(-1, step)
+            np.testing.assert_array_equal(w.y[0::2, 0], bins.min(axis=1))
+            np.testing.assert_array_equal(w.y[1::2, 0], bins.max(axis=1))
+    ov = SessionOverview(read, 40_000)
+    ov.pyramid("s")
+    reads.clear()
+    assert ov.envelope("s", 2 * 1_300).step >= 16 and reads == []
+
+
 def test_a_window_without_gaps_is_unchanged() -> None:
     y = np.arange(10_000, dtype=np.float64).reshape(-1, 1)
     plain = SessionOverview(lambda _n, a, b: y[a:b], len(y))

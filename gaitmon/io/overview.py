@@ -340,6 +340,11 @@ class SessionOverview:
         return break_at_gaps(w, self.breaks, self.break_lost)
 
     def envelope(self, name: str, max_points: int) -> PeakWindow:
-        """The whole series from its (already built) pyramid, broken at the gaps."""
+        """The whole series from its (already built) pyramid, broken at the gaps; a series
+        shorter than ``max_points / 2`` bins of the pyramid's finest level (a few minutes) from
+        its rows, as :meth:`window` reads them: drawn from 16-row bins, a 20-s walk's knee
+        was a sawtooth of min-max strokes 10 pixels apart, not its curve."""
+        if math.ceil(self.n_rows / max(1, max_points // 2)) < self.base_step:
+            return self.window(name, 0, self.n_rows, max_points)
         w = self.pyramid(name).query(0, self.n_rows, max_points)
         return break_at_gaps(w, self.breaks, self.break_lost)
