@@ -127,9 +127,14 @@ def test_the_live_panel_reads_the_true_stride_length_with_frame_loss():
         g = eng.snapshot(0.1).gait
         truth = unit.truth(0, unit.samples_produced)
     assert len(unit.ledger.dropped) > 20  # frames were lost
-    assert g.stride_length_mean_m == pytest.approx(np.median(truth.stride_length_m[2:]), rel=0.01)
+    # The panel shows the mean of its last 10 strides, and which frames the link loses depends
+    # on its timing (36 or 37 of them here, run to run). One stride whose lost frame falls where
+    # the foot is integrated is off by up to 8 %: in 60-s recordings with 2 % lost, the mean of
+    # 10 consecutive strides was up to 1.2 % off, and CI's loaded run read 1.382 m against the
+    # true 1.36 m (1.6 %). The per-stride median is held to 1 % in the file test below.
+    assert g.stride_length_mean_m == pytest.approx(np.median(truth.stride_length_m[2:]), rel=0.02)
     assert g.speed_mean_m_s == pytest.approx(
-        np.median(truth.stride_length_m[2:] / truth.stride_time_s[2:]), rel=0.015)
+        np.median(truth.stride_length_m[2:] / truth.stride_time_s[2:]), rel=0.025)
 
 
 def test_a_recorded_file_reads_the_true_stride_lengths_with_frame_loss(tmp_path,
