@@ -198,6 +198,7 @@ def test_both_parts_cover_the_same_time_when_one_unit_connects_slowly(
         (l0, l1), (r0, r1) = b.span_s("L"), b.span_s("R")
         together = b.together_s()
     # on the common time line (the clock fits): the two parts start and end together, within
-    # the time the second part's file takes to open (old code: 3.0 s apart)
-    assert abs(r0 - l0) < 0.75 and abs(r1 - l1) < 0.75, (l0, l1, r0, r1)
-    assert together > 6.0 - 0.75 - 0.05
+    # one file's opening and how far each engine is behind its unit, at 2x on a busy machine
+    # (old code: 3.3 s apart, the right unit's connect at 2x)
+    assert abs(r0 - l0) < 1.5 and abs(r1 - l1) < 1.5, (l0, l1, r0, r1)
+    assert together > 6.0 - 1.5 - 0.05
