@@ -20,7 +20,7 @@ from pathlib import Path
 import h5py
 from PySide6.QtCore import QSettings
 from PySide6.QtWidgets import QApplication, QLabel
-from walkthrough_checks import cut_text, message_room
+from walkthrough_checks import message_room, settled_cut_text
 
 from gaitmon.io.sim.config import SimConfig
 from gaitmon.live.connection import SIMULATED_PORT
@@ -75,11 +75,11 @@ def test_the_zero_is_said_once_and_a_message_has_room_at_1400_px(qtbot, tmp_path
         assert message_room(bar) >= MESSAGE_AT_1400_PX, (message_room(bar), bar_texts(win))
         win.notify("The simulated subject stands still within 3 s: zero then.")
         QApplication.processEvents()
-        assert cut_text(win) == []
+        assert settled_cut_text(win) == []
         # the long path of "Recording to ..." is elided in the middle; the tooltip has it all
         win.notify(f"Recording to {long_path(tmp_path).parent / 'x' / 'y' / 'z.h5'}")
         QApplication.processEvents()
-        assert cut_text(win) == []
+        assert settled_cut_text(win) == []
         win.act_record.trigger()
         qtbot.waitUntil(lambda: not win.saving, timeout=WAIT_MS)
     finally:
@@ -97,7 +97,7 @@ def test_nothing_is_cut_at_854_by_774_one_leg(qtbot, tmp_path, no_leaked_threads
         assert win.width() == 854  # nothing forces a wider window
         msg = win.statusBar().currentMessage()
         assert msg == f"Recording to {path}"
-        assert cut_text(win) == []
+        assert settled_cut_text(win) == []
         # the message is read with its path elided in the middle, whole in the tooltip
         drawn = win.statusBar().drawn_message()
         assert drawn != msg and drawn.startswith("Recording to /") and drawn.endswith(".h5")
@@ -108,7 +108,7 @@ def test_nothing_is_cut_at_854_by_774_one_leg(qtbot, tmp_path, no_leaked_threads
         win.act_record.trigger()
         qtbot.waitUntil(lambda: not win.saving, timeout=WAIT_MS)
         QApplication.processEvents()
-        assert cut_text(win) == []  # "Recording saved: ... (N frames, size, duration)"
+        assert settled_cut_text(win) == []  # "Recording saved: ... (N frames, size, duration)"
     finally:
         win.close()
 
@@ -134,7 +134,7 @@ def test_nothing_is_cut_at_854_by_774_both_legs(qtbot, tmp_path, no_leaked_threa
                         >= 300, timeout=WAIT_MS)  # fmt: skip
         qtbot.wait(100)
         assert win.statusBar().currentMessage() == f"Recording both legs to {path}"
-        assert cut_text(win) == []
+        assert settled_cut_text(win) == []
         assert win.statusBar().toolTip() == f"Recording both legs to {path}"
         win.act_record.trigger()
         qtbot.waitUntil(lambda: not win.saving, timeout=WAIT_MS)

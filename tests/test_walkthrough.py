@@ -40,13 +40,13 @@ from walkthrough_checks import (
     WAIT_S,
     Truth,
     current_points,
-    cut_text,
     drawn_after_gap,
     gaitmon_threads,
     keep,
     number,
     pdf_text,
     record_dialog,
+    settled_cut_text,
     shot,
     show_at_default_size,
     sim_action,
@@ -89,8 +89,7 @@ class OneLeg:
 
 
 def look(seen: Seen, window: QWidget, name: str) -> None:
-    QApplication.processEvents()
-    seen.cut[name] = cut_text(window)
+    seen.cut[name] = settled_cut_text(window)
     shot(window, name)
 
 
@@ -371,7 +370,7 @@ def check_review_and_its_report_say_the_same(one_leg: OneLeg, truth: Truth, revi
     assert w.table.model().rowCount() == t.n_total
     qtbot.wait(100)
     shot(w, "review-1-walk")
-    assert cut_text(w) == []
+    assert settled_cut_text(w) == []
     # File ▸ Report from the review: the PDF says the same
     pdf = tmp_path / "walk.pdf"
     with qtbot.waitSignal(w.report_written, timeout=WAIT_S * 1000):
@@ -493,7 +492,7 @@ def check_both_legs_review_and_report_say_what_info_says(two_legs: TwoLegs, revi
     qtbot.waitUntil(lambda: w.both_legs.isVisible())
     qtbot.wait(100)
     shot(w, "review-2-both-legs")
-    assert cut_text(w) == []
+    assert settled_cut_text(w) == []
     doc = QTextDocument()
     doc.setHtml(w.both_legs.headline.text())
     head = " ".join(doc.toPlainText().split())
@@ -536,7 +535,7 @@ def check_one_leg_again_in_a_fresh_window(settings: Path, qtbot) -> None:
         assert not win.pair_part.view.isVisible() if win.pair_part.view else True
         qtbot.wait(100)
         shot(win, "live-10-one-leg-again")
-        assert cut_text(win) == []
+        assert settled_cut_text(win) == []
         assert win.errors == []
     finally:
         win.close()

@@ -186,6 +186,21 @@ def cut_text(window: QWidget) -> list[str]:
     return out
 
 
+def settled_cut_text(window: QWidget, timeout_s: float = 3.0) -> list[str]:
+    """:func:`cut_text` once the layout has caught up with the texts: a label given a longer
+    text gets its height at the next layout pass, and a live window sets texts at every
+    snapshot, so one look can fall between the two (CI, loaded: a gait-cycle title that had
+    just wrapped to a second line, 42 px against 28). What stays cut for ``timeout_s`` is
+    returned."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        QApplication.processEvents()
+        out = cut_text(window)
+        if not out or time.monotonic() > deadline:
+            return out
+        QTest.qWait(30)
+
+
 def number(text: str, pattern: str) -> str:
     """The first group of ``pattern`` in ``text`` (the test fails naming the text if none)."""
     found = re.search(pattern, text)
