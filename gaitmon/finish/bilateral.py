@@ -17,7 +17,7 @@ from __future__ import annotations
 import contextlib
 import os
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import h5py
@@ -88,6 +88,7 @@ class Bilateral:
     attrs: dict[str, AttrValue]  # the file's root attributes
     # why the clock fits may be off ("" if they agreed: ``finish.combine._agreed``)
     clock_warning: str = ""
+    _caveats: tuple[Caveat, ...] | None = field(default=None, init=False, repr=False)
 
     @property
     def sides(self) -> tuple[str, ...]:
@@ -115,13 +116,16 @@ class Bilateral:
     def together_s(self) -> float:
         """Seconds of the common time line that every leg recorded (<= 0: none; one leg: its
         own). Each part holds its own duration from its own first row; `gaitmon record` starts
-        both once both units stream, so they are offset by one file's opening."""
-        spans = [self.span_s(s) for s in self.sides]
-        return min(b for _, b in spans) - max(a for a, _ in spans)
+        both once both units stream, so they are offset by one file's opening at 1x (at a
+        simulator's speed on a busy machine, by how far each engine is behind its unit)."""
+        return _together({s: self.span_s(s) for s in self.sides})
 
     def caveats(self) -> tuple[Caveat, ...]:
-        """What a reader of this session's two-leg measures must be told (:func:`caveats`)."""
-        return caveats(self)
+        """What a reader of this session's two-leg measures must be told (:func:`caveats`),
+        decided once per open file: info, the report, review and every export ask for them."""
+        if self._caveats is None:
+            self._caveats = caveats(self)
+        return self._caveats
 
     @property
     def missing(self) -> dict[str, str]:
@@ -176,7 +180,7 @@ def caveats(b: Bilateral) -> tuple[Caveat, ...]:
     if len(b.sides) != 2:
         return tuple(out)
     spans = {s: b.span_s(s) for s in b.sides}
-    together = b.together_s()
+    together = _together(spans)
     shorter = min(last - first for first, last in spans.values())
     # (NaN: a leg of no rows says so elsewhere)
     if together < TOGETHER_SHARE * shorter and shorter - together > TOGETHER_APART_S:
@@ -190,6 +194,10 @@ def caveats(b: Bilateral) -> tuple[Caveat, ...]:
             max(together, 0.0),
         ))  # fmt: skip
     return tuple(out)
+
+
+def _together(spans: Mapping[str, tuple[float, float]]) -> float:
+    return min(b for _, b in spans.values()) - max(a for a, _ in spans.values())
 
 
 def open_bilateral(
@@ -250,8 +258,6 @@ def missing_legs(path: str | os.PathLike[str]) -> list[str]:
             return missing_lines(path, missing_of(f.attrs))
     except PROBE_ERRORS:
         return []
-
-
 
 
 def pick_side_message(path: str | os.PathLike[str]) -> str:
